@@ -1,0 +1,47 @@
+/* Error codes shared by every vcmfarm module.
+ *
+ * Functions that can fail return a negative int from the table below (0 on success).
+ * A failing function may also record a detail sentence with vf_error_set(); the detail is
+ * thread-local and names what was wrong ("scene.json: shapes[2].material: unknown material
+ * 'gold'"). Errors from Embree, OpenEXR, nanomsg, libuv and protobuf-c are translated into
+ * these codes once, where they enter our code. */
+#ifndef VF_ERROR_H
+#define VF_ERROR_H
+
+#define VF_ERRNO_MAP(XX)                                                   \
+  XX(EINVAL, "invalid argument")                                           \
+  XX(ENOMEM, "out of memory")                                              \
+  XX(EIO, "input/output error")                                            \
+  XX(ENOENT, "no such file")                                               \
+  XX(EUSAGE, "bad command line")                                           \
+  XX(ESCENE, "invalid scene")                                              \
+  XX(EMESH, "invalid mesh file")                                           \
+  XX(EEXR, "invalid or unreadable EXR file")                               \
+  XX(EFILM, "invalid film")                                                \
+  XX(EMISMATCH, "films or inputs do not match")                            \
+  XX(EOVERLAP, "iteration ranges overlap")                                 \
+  XX(EEMBREE, "Embree error")                                              \
+  XX(ENONFINITE, "non-finite value")
+
+enum {
+  VF_OK = 0,
+#define XX(code, _) VF_##code,
+  VF_ERRNO_FIRST_ = -1000,
+  VF_ERRNO_MAP(XX)
+#undef XX
+};
+
+/* The fixed message of an error code ("invalid scene"); never NULL. */
+const char *vf_strerror(int err);
+
+/* Records a detail message for the calling thread and returns err, so a failing
+ * function can write `return vf_error_set(VF_ESCENE, "%s: ...", path);`. */
+int vf_error_set(int err, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
+
+/* The last detail recorded by this thread, or the code's fixed message when none was
+ * recorded since vf_error_clear(). Valid until the next vf_error_set on this thread. */
+const char *vf_error_detail(int err);
+
+void vf_error_clear(void);
+
+#endif

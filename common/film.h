@@ -1,0 +1,68 @@
+/* The film: what a render accumulates, what users keep, merge and continue.
+ *
+ * Per pixel, in double precision:
+ *   camera_sum   sum over camera sub-paths of their estimate (RGB)
+ *   camera_count number of camera sub-paths accumulated
+ *   light_sum    sum over light-tracing frames of the light-tracing image (RGB); the
+ *                light-to-camera technique splats anywhere in the image, so it is kept as
+ *                whole frames with one global frame count
+ *   square_sum   sum over iterations of the square of that iteration's pixel estimate
+ *                (camera + light), RGB: with the means it gives each pixel's variance and
+ *                so an error estimate without a reference
+ * The mean radiance of a pixel is camera_sum / camera_count + light_sum / light_frames.
+ *
+ * Beside the pixels the film carries the scene content hash, the canonical settings text,
+ * the set of global iterations it contains and the render time; two films merge only when
+ * scene hash and settings text agree and their iteration sets are disjoint.
+ *
+ * On disk (docs/FILM.md): a tiled OpenEXR (64x64 tiles) whose R, G, B channels hold the
+ * mean (any viewer shows the image) and whose other channels and "vcmfarm:" attributes
+ * hold the accumulation exactly. */
+#ifndef VF_FILM_H
+#define VF_FILM_H
+
+#include "iterset.h"
+
+#include <stdint.h>
+
+#define VF_FILM_FORMAT_VERSION 1
+#define VF_FILM_TILE 64
+
+typedef struct {
+  int width, height;
+  double *camera_sum;   /* 3 per pixel, owned */
+  double *camera_count; /* 1 per pixel, owned; whole numbers */
+  double *light_sum;    /* 3 per pixel, owned */
+  double *square_sum;   /* 3 per pixel, owned */
+  uint64_t light_frames;
+  vf_iterset iterations;
+  uint8_t scene_hash[32];
+  char settings_text[512];
+  double render_seconds;      /* wall-clock time spent rendering the iterations it holds */
+  uint64_t nonfinite_samples; /* samples refused because they were NaN or Inf */
+} vf_film;
+
+/* Allocates a zeroed film; *out is written only on success. */
+int vf_film_create(int width, int height, vf_film **out);
+void vf_film_destroy(vf_film *film);
+
+/* Adds one iteration: camera_rgb holds one camera-path estimate per pixel, light_rgb the
+ * iteration's light-tracing frame (both 3 floats per pixel, top row first). Adds the
+ * iteration index to the set (VF_EOVERLAP, film unchanged, if it is already there). */
+int vf_film_add_iteration(vf_film *film, uint64_t iteration, const float *camera_rgb, const float *light_rgb);
+
+/* Mean radiance, 3 floats per pixel, into rgb. Pixels without samples are 0. */
+void vf_film_mean(const vf_film *film, float *rgb);
+
+/* Atomic write (temporary file, fsync, rename). Never leaves a partial file at path. */
+int vf_film_write(const vf_film *film, const char *path);
+
+/* Reads and validates a film. VF_ENOENT, or VF_EEXR / VF_EFILM with a detail naming the file
+ * and the problem (not a film, missing channel, negative or NaN counts, bad attribute...). */
+int vf_film_read(const char *path, vf_film **out);
+
+/* dst += src. VF_EMISMATCH (size, scene hash, settings) or VF_EOVERLAP (iteration sets),
+ * with dst unchanged, when they cannot be merged. */
+int vf_film_merge(vf_film *dst, const vf_film *src);
+
+#endif

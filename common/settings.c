@@ -1,0 +1,103 @@
+#include "settings.h"
+
+#include "error.h"
+
+#include <inttypes.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+static const char *const algorithm_names[VF_ALGO_COUNT_] = {"vcm", "bpt", "pt", "lt", "ppm", "bpm"};
+
+void vf_settings_default(vf_settings *s) {
+  s->algorithm = VF_ALGO_VCM;
+  s->max_path_length = 10;
+  s->radius_factor = 0.003;
+  s->alpha = 0.75;
+  s->seed = 1;
+  s->width = 512;
+  s->height = 512;
+}
+
+const char *vf_algorithm_name(vf_algorithm a) {
+  return (unsigned)a < VF_ALGO_COUNT_ ? algorithm_names[a] : "unknown";
+}
+
+int vf_algorithm_parse(const char *name, vf_algorithm *out) {
+  for (int i = 0; i < VF_ALGO_COUNT_; i++)
+    if (strcmp(name, algorithm_names[i]) == 0) {
+      *out = (vf_algorithm)i;
+      return VF_OK;
+    }
+  return vf_error_set(VF_EUSAGE, "unknown algorithm '%s' (expected vcm, bpt, pt, lt, ppm or bpm)", name);
+}
+
+int vf_settings_validate(const vf_settings *s) {
+  if ((unsigned)s->algorithm >= VF_ALGO_COUNT_) return vf_error_set(VF_EINVAL, "unknown algorithm");
+  if (s->max_path_length < 1 || s->max_path_length > 1000)
+    return vf_error_set(VF_EINVAL, "max path length %d is outside [1, 1000]", s->max_path_length);
+  if (!(s->radius_factor > 0.0) || !isfinite(s->radius_factor))
+    return vf_error_set(VF_EINVAL, "radius factor %g must be a positive number", s->radius_factor);
+  if (!(s->alpha > 0.0 && s->alpha <= 1.0))
+    return vf_error_set(VF_EINVAL, "alpha %g is outside (0, 1]", s->alpha);
+  if (s->width < 1 || s->height < 1 || s->width > 65536 || s->height > 65536 ||
+      (int64_t)s->width * s->height > (int64_t)1 << 28)
+    return vf_error_set(VF_EINVAL, "resolution %dx%d is outside 1x1 .. 65536x65536 (at most 2^28 pixels)",
+                        s->width, s->height);
+  return VF_OK;
+}
+
+int vf_settings_format(const vf_settings *s, char *buf, size_t n) {
+  /* %.17g round-trips a double exactly, so parse(format(s)) == s. */
+  int w = snprintf(buf, n,
+                   "algorithm=%s max_path_length=%d radius_factor=%.17g alpha=%.17g seed=%" PRIu64
+                   " resolution=%dx%d",
+                   vf_algorithm_name(s->algorithm), s->max_path_length, s->radius_factor, s->alpha, s->seed,
+                   s->width, s->height);
+  if (w < 0 || (size_t)w >= n) return vf_error_set(VF_EINVAL, "settings text too long");
+  return VF_OK;
+}
+
+int vf_settings_parse(vf_settings *s, const char *text) {
+  vf_settings out;
+  vf_settings_default(&out);
+  unsigned seen = 0;
+  char key[64], value[128];
+  const char *p = text;
+  int used;
+  while (sscanf(p, " %63[^=]=%127s%n", key, value, &used) == 2) {
+    char *end = NULL;
+    if (strcmp(key, "algorithm") == 0) {
+      if (vf_algorithm_parse(value, &out.algorithm) != VF_OK) goto bad;
+      seen |= 1;
+    } else if (strcmp(key, "max_path_length") == 0) {
+      out.max_path_length = (int)strtol(value, &end, 10);
+      seen |= 2;
+    } else if (strcmp(key, "radius_factor") == 0) {
+      out.radius_factor = strtod(value, &end);
+      seen |= 4;
+    } else if (strcmp(key, "alpha") == 0) {
+      out.alpha = strtod(value, &end);
+      seen |= 8;
+    } else if (strcmp(key, "seed") == 0) {
+      out.seed = strtoull(value, &end, 10);
+      seen |= 16;
+    } else if (strcmp(key, "resolution") == 0) {
+      if (sscanf(value, "%dx%d", &out.width, &out.height) != 2) goto bad;
+      seen |= 32;
+    } else {
+      return vf_error_set(VF_EINVAL, "settings: unknown key '%s'", key);
+    }
+    if (end != NULL && *end != '\0') goto bad;
+    p += used;
+  }
+  while (*p == ' ') p++;
+  if (*p != '\0' || seen != 63) return vf_error_set(VF_EINVAL, "settings: malformed or incomplete text \"%.60s\"", text);
+  int err = vf_settings_validate(&out);
+  if (err != VF_OK) return err;
+  *s = out;
+  return VF_OK;
+bad:
+  return vf_error_set(VF_EINVAL, "settings: bad value '%s' for '%s'", value, key);
+}

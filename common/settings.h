@@ -1,0 +1,47 @@
+/* Render settings: everything besides the scene that determines a film's content.
+ *
+ * Two films can be merged only if their settings text is identical (and their scenes
+ * hash equal). The text form is canonical: fixed key order, fixed number formats, so the
+ * same settings always give the same bytes. */
+#ifndef VF_SETTINGS_H
+#define VF_SETTINGS_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+typedef enum {
+  VF_ALGO_VCM, /* vertex connection and merging: every technique */
+  VF_ALGO_BPT, /* bidirectional path tracing: connections only (tech. rep. 5.5) */
+  VF_ALGO_PT,  /* path tracing with next-event estimation and MIS */
+  VF_ALGO_LT,  /* light tracing to the camera alone */
+  VF_ALGO_PPM, /* progressive photon mapping: merge at the first non-specular camera vertex */
+  VF_ALGO_BPM, /* bidirectional photon mapping: merging only, MIS-weighted (tech. rep. 5.6) */
+  VF_ALGO_COUNT_
+} vf_algorithm;
+
+typedef struct {
+  vf_algorithm algorithm;
+  int max_path_length;  /* path segments (edges), >= 1 */
+  double radius_factor; /* r_1 = radius_factor * scene bounding-sphere radius */
+  double alpha;         /* radius reduction exponent, r_i = r_1 sqrt(i^(alpha-1)) */
+  uint64_t seed;
+  int width, height;    /* film resolution in pixels */
+} vf_settings;
+
+/* Defaults: vcm, path length 10, radius factor 0.003, alpha 0.75, seed 1, 512x512. */
+void vf_settings_default(vf_settings *s);
+
+const char *vf_algorithm_name(vf_algorithm a);
+/* VF_EUSAGE with a detail listing the valid names when `name` is not one. */
+int vf_algorithm_parse(const char *name, vf_algorithm *out);
+
+/* Checks ranges (path length, radius factor > 0, 0 < alpha <= 1, resolution). */
+int vf_settings_validate(const vf_settings *s);
+
+/* Canonical text, e.g. "algorithm=vcm max_path_length=10 radius_factor=0.003 alpha=0.75
+ * seed=1 resolution=512x512". VF_EINVAL if it does not fit in n bytes. */
+int vf_settings_format(const vf_settings *s, char *buf, size_t n);
+/* Parses the canonical text (keys in any order, all required). */
+int vf_settings_parse(vf_settings *s, const char *text);
+
+#endif

@@ -1,0 +1,33 @@
+#!/usr/bin/env bash
+# Installs everything vcmfarm needs to build and test, from Debian 12's packages.
+# Idempotent: packages already present are left as they are, and apt-get update runs
+# only when something is missing.
+set -euo pipefail
+
+packages=(
+  build-essential cmake ninja-build pkg-config
+  libembree-dev        # Embree 3: ray intersection
+  libopenexr-dev       # OpenEXRCore: films, references, environment maps
+  libuv1-dev           # coordinator event loop
+  libnanomsg-dev       # coordinator <-> worker messaging
+  libprotobuf-c-dev protobuf-c-compiler   # wire messages
+  libcjson-dev         # scene files and --json output
+  libassimp-dev        # mesh files (OBJ, PLY, glTF)
+  libpng-dev           # previews and plots
+  libsodium-dev        # content hashes and message authentication
+)
+
+missing=()
+for p in "${packages[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if [ ${#missing[@]} -eq 0 ]; then
+  echo "install-deps: all ${#packages[@]} packages present"
+  exit 0
+fi
+
+sudo=""
+[ "$(id -u)" -eq 0 ] || sudo="sudo"
+echo "install-deps: installing ${missing[*]}"
+$sudo apt-get update -qq
+DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}"

@@ -1,0 +1,46 @@
+/* Fixed-radius range search over light vertices for vertex merging: a hashed uniform grid
+ * (thesis 004, section 2.4.9), rebuilt every iteration.
+ *
+ * The grid sorts point indices by hashed cell; a query visits the cells that can hold
+ * points within the radius. The sorted order is a pure function of the points (a stable
+ * sort by cell, ties by point index), so queries visit points in the same order whatever
+ * the number of threads that built the grid: renders stay reproducible bit for bit. */
+#ifndef VF_HASHGRID_H
+#define VF_HASHGRID_H
+
+#include "../common/pool.h"
+#include "../common/vec3.h"
+
+#include <stddef.h>
+#include <stdint.h>
+
+typedef struct vf_hashgrid vf_hashgrid;
+
+/* A run of the sorted index array: indices[begin .. end). */
+typedef struct {
+  uint32_t begin, end;
+} vf_index_range;
+
+#define VF_HASHGRID_MAX_RANGES 27
+
+int vf_hashgrid_create(vf_hashgrid **out);
+void vf_hashgrid_destroy(vf_hashgrid *grid);
+
+/* Builds over n points, positions read at base + i * stride (a vf_vec3 at offset 0 of each
+ * record), for queries of the given radius. Reuses the grid's memory between builds.
+ * Parallel over the pool's threads. */
+int vf_hashgrid_build(vf_hashgrid *grid, const void *base, size_t stride, uint32_t n, float radius,
+                      vf_pool *pool);
+
+/* The candidate ranges for a query at q: every point within the radius of q lies in one
+ * of them (others may too: callers test the distance). Returns the number of ranges
+ * written to out (<= VF_HASHGRID_MAX_RANGES). */
+int vf_hashgrid_candidates(const vf_hashgrid *grid, vf_vec3 q, vf_index_range out[VF_HASHGRID_MAX_RANGES]);
+
+/* The sorted point indices that candidate ranges refer to. */
+const uint32_t *vf_hashgrid_indices(const vf_hashgrid *grid);
+
+/* Calls visit(ctx, i) for every point i with |p_i - q|^2 <= radius^2. */
+void vf_hashgrid_query(const vf_hashgrid *grid, vf_vec3 q, void (*visit)(void *ctx, uint32_t i), void *ctx);
+
+#endif

@@ -1,0 +1,101 @@
+/* The scene description: camera, shapes with materials and emission, lights, and the
+ * render settings the scene asks for. Independent of Embree (worker/accel.h builds the
+ * ray-tracing structures from it) so it can be hashed, validated and shipped.
+ *
+ * Scenes come from a JSON file (docs/SCENES.md) whose meshes are loaded through Assimp, or
+ * from a built-in name (vf_scene_builtin_names()). All geometry is stored in world space:
+ * per-shape transforms are applied at load. */
+#ifndef VF_SCENE_H
+#define VF_SCENE_H
+
+#include "../common/image.h"
+#include "../common/settings.h"
+#include "../common/vec3.h"
+#include "material.h"
+
+#include <stdint.h>
+
+typedef struct {
+  vf_vec3 position;
+  vf_vec3 forward; /* unit */
+  vf_vec3 up;      /* unit, orthogonal to forward */
+  float vertical_fov_degrees;
+} vf_camera_desc;
+
+typedef enum { VF_SHAPE_MESH, VF_SHAPE_SPHERE } vf_shape_kind;
+
+typedef struct {
+  vf_shape_kind kind;
+  char name[64];
+  int material;     /* index into vf_scene.materials */
+  vf_vec3 emission; /* emitted radiance (both sides of a triangle, outside of a sphere); zero: not a light */
+  /* VF_SHAPE_MESH: world-space triangles. Arrays owned by the scene. */
+  uint32_t num_vertices, num_triangles;
+  float *positions;  /* 3 per vertex */
+  uint32_t *indices; /* 3 per triangle */
+  /* VF_SHAPE_SPHERE */
+  vf_vec3 center;
+  float radius;
+} vf_shape;
+
+typedef struct {
+  vf_vec3 position;
+  vf_vec3 intensity; /* radiant intensity, W/sr per channel */
+} vf_point_light_desc;
+
+typedef struct {
+  vf_vec3 direction;  /* unit, the direction the light travels (from the sun towards the scene) */
+  vf_vec3 irradiance; /* irradiance on a surface facing the sun, per channel */
+} vf_directional_light_desc;
+
+/* Bits of vf_scene.settings_given: which settings the scene file sets explicitly. */
+enum {
+  VF_SET_ALGORITHM = 1u << 0,
+  VF_SET_MAX_PATH_LENGTH = 1u << 1,
+  VF_SET_RADIUS_FACTOR = 1u << 2,
+  VF_SET_ALPHA = 1u << 3,
+  VF_SET_SEED = 1u << 4,
+  VF_SET_RESOLUTION = 1u << 5,
+};
+
+typedef struct {
+  char source[512]; /* file path, or "builtin:NAME" */
+  vf_camera_desc camera;
+  vf_material *materials;
+  int num_materials;
+  vf_shape *shapes;
+  int num_shapes;
+  vf_point_light_desc *point_lights;
+  int num_point_lights;
+  vf_directional_light_desc *directional_lights;
+  int num_directional_lights;
+  vf_vec3 background;     /* constant background radiance; zero = none */
+  vf_image envmap;        /* latitude-longitude radiance map; width 0 = none */
+  vf_vec3 envmap_scale;   /* multiplies the map */
+  /* Render settings: defaults (vf_settings_default, resolution from the scene) overridden
+   * by the scene's "render" object; settings_given says which the file set. */
+  vf_settings settings;
+  unsigned settings_given;
+  uint8_t hash[32];       /* BLAKE2b-256 of the loaded content (see vf_scene_hash) */
+  vf_vec3 bounds_min, bounds_max; /* of all shapes */
+} vf_scene;
+
+/* Loads a built-in scene by name, or else a JSON scene file. On failure returns VF_ENOENT,
+ * VF_ESCENE or VF_EMESH with a detail naming the file, the field and the problem, e.g.
+ * "box.json: shapes[2].material: unknown material 'gold'". *out is written only on success. */
+int vf_scene_load(const char *name_or_path, vf_scene **out);
+void vf_scene_destroy(vf_scene *scene);
+
+/* NULL-terminated list of built-in scene names. */
+const char *const *vf_scene_builtin_names(void);
+
+/* Bounding sphere of all shapes: center of the bounding box and half its diagonal. */
+void vf_scene_bounding_sphere(const vf_scene *scene, vf_vec3 *center, float *radius);
+
+/* Recomputes scene->hash from the content (camera, materials, shapes, lights, environment,
+ * settings the file set), in a canonical order: equal content gives equal hashes. */
+void vf_scene_hash(vf_scene *scene);
+/* Lower-case hex of the hash into out (65 bytes with the NUL). */
+void vf_scene_hash_hex(const vf_scene *scene, char out[65]);
+
+#endif
