@@ -28,7 +28,8 @@ typedef struct {
   vf_shape_kind kind;
   char name[64];
   int material;     /* index into vf_scene.materials */
-  vf_vec3 emission; /* emitted radiance (both sides of a triangle, outside of a sphere); zero: not a light */
+  vf_vec3 emission; /* emitted radiance, on the side a triangle faces (counter-clockwise
+                     * winding, right-hand rule) and outward from a sphere; zero: not a light */
   /* VF_SHAPE_MESH: world-space triangles. Arrays owned by the scene. */
   uint32_t num_vertices, num_triangles;
   float *positions;  /* 3 per vertex */
