@@ -7,8 +7,8 @@
  *   dielectric  smooth dielectric interface with index of refraction `ior` (inside over
  *               outside), Fresnel reflection and refraction, tinted by `dielectric`
  *
- * A scattering event picks a lobe with probability proportional to the luminance of its
- * albedo. Every channel of the sum of albedos must be <= 1 (no surface reflects more
+ * A scattering event picks a lobe with probability proportional to its albedo (the mean of
+ * its RGB weights). Every channel of the sum of albedos must be <= 1 (no surface reflects more
  * energy than it receives); the scene loader enforces it. */
 #ifndef VF_MATERIAL_H
 #define VF_MATERIAL_H

@@ -1,0 +1,23 @@
+/* Command-line helpers shared by the subcommands: strict number parsing with ranges and
+ * the exit-status convention (0 success, 1 failure while working, 2 bad input: command
+ * line, scene, EXR file or film). */
+#ifndef VF_CLI_H
+#define VF_CLI_H
+
+#include <stdint.h>
+
+enum { VF_EXIT_OK = 0, VF_EXIT_FAILURE = 1, VF_EXIT_BAD_INPUT = 2 };
+
+/* Each parses the whole of text or fails with VF_EUSAGE and a detail naming the option. */
+int vf_cli_int(const char *option, const char *text, long long min, long long max, long long *out);
+int vf_cli_u64(const char *option, const char *text, uint64_t *out);
+int vf_cli_double(const char *option, const char *text, double min, double max, double *out);
+int vf_cli_resolution(const char *option, const char *text, int *width, int *height);
+
+/* Exit status for an error code: 2 for bad input, 1 otherwise. */
+int vf_cli_exit_status(int err);
+
+/* Prints "vcmfarm CMD: detail" to stderr and returns vf_cli_exit_status(err). */
+int vf_cli_fail(const char *command, int err);
+
+#endif

@@ -1,0 +1,42 @@
+/* vcmfarm: one executable, one subcommand per task. */
+#include "../worker/render_cmd.h"
+
+#include <stdio.h>
+#include <string.h>
+
+typedef struct {
+  const char *name;
+  int (*run)(int argc, char **argv);
+  const char *summary;
+} command;
+
+static const command commands[] = {
+    {"render", vf_cmd_render, "render global iterations of a scene into a film"},
+};
+
+static void print_usage(FILE *out) {
+  fprintf(out, "usage: vcmfarm COMMAND [options]   (vcmfarm COMMAND --help for its options)\n\ncommands:\n");
+  for (size_t i = 0; i < sizeof commands / sizeof *commands; i++)
+    fprintf(out, "  %-12s %s\n", commands[i].name, commands[i].summary);
+  fprintf(out, "\n  --version    print the version\n  --help       this text\n");
+}
+
+int main(int argc, char **argv) {
+  if (argc < 2) {
+    print_usage(stderr);
+    return 2;
+  }
+  if (strcmp(argv[1], "--version") == 0) {
+    printf("vcmfarm %s\n", VF_VERSION);
+    return 0;
+  }
+  if (strcmp(argv[1], "--help") == 0 || strcmp(argv[1], "-h") == 0) {
+    print_usage(stdout);
+    return 0;
+  }
+  for (size_t i = 0; i < sizeof commands / sizeof *commands; i++)
+    if (strcmp(argv[1], commands[i].name) == 0) return commands[i].run(argc - 1, argv + 1);
+  fprintf(stderr, "vcmfarm: unknown command '%s'\n", argv[1]);
+  print_usage(stderr);
+  return 2;
+}

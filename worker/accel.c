@@ -1,0 +1,180 @@
+#include "accel.h"
+
+#include "../common/error.h"
+
+#include <embree3/rtcore.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+struct vf_accel {
+  RTCDevice device;
+  RTCScene scene;
+  const vf_scene *source; /* borrowed: positions and spheres for hit reconstruction */
+};
+
+static void device_error(void *user, enum RTCError code, const char *msg) {
+  (void)user;
+  vf_error_set(VF_EEMBREE, "Embree error %d: %s", (int)code, msg ? msg : "");
+}
+
+static int add_mesh(vf_accel *a, const vf_shape *s, unsigned id) {
+  RTCGeometry g = rtcNewGeometry(a->device, RTC_GEOMETRY_TYPE_TRIANGLE);
+  if (g == NULL) return VF_EEMBREE;
+  /* Embree reads vertex buffers with 16-byte loads: the new buffer it allocates is padded. */
+  float *v = rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float),
+                                     s->num_vertices);
+  uint32_t *idx = rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(uint32_t),
+                                          s->num_triangles);
+  if (v == NULL || idx == NULL) {
+    rtcReleaseGeometry(g);
+    return VF_EEMBREE;
+  }
+  memcpy(v, s->positions, (size_t)s->num_vertices * 3 * sizeof(float));
+  memcpy(idx, s->indices, (size_t)s->num_triangles * 3 * sizeof(uint32_t));
+  rtcCommitGeometry(g);
+  rtcAttachGeometryByID(a->scene, g, id);
+  rtcReleaseGeometry(g);
+  return VF_OK;
+}
+
+static int add_sphere(vf_accel *a, const vf_shape *s, unsigned id) {
+  RTCGeometry g = rtcNewGeometry(a->device, RTC_GEOMETRY_TYPE_SPHERE_POINT);
+  if (g == NULL) return VF_EEMBREE;
+  float *v = rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT4, 4 * sizeof(float), 1);
+  if (v == NULL) {
+    rtcReleaseGeometry(g);
+    return VF_EEMBREE;
+  }
+  v[0] = s->center.x;
+  v[1] = s->center.y;
+  v[2] = s->center.z;
+  v[3] = s->radius;
+  rtcCommitGeometry(g);
+  rtcAttachGeometryByID(a->scene, g, id);
+  rtcReleaseGeometry(g);
+  return VF_OK;
+}
+
+int vf_accel_create(const vf_scene *scene, vf_accel **out) {
+  vf_accel *a = calloc(1, sizeof *a);
+  if (a == NULL) return VF_ENOMEM;
+  a->source = scene;
+  a->device = rtcNewDevice("threads=1,set_affinity=0");
+  if (a->device == NULL) {
+    free(a);
+    return vf_error_set(VF_EEMBREE, "cannot create the Embree device (error %d)", (int)rtcGetDeviceError(NULL));
+  }
+  rtcSetDeviceErrorFunction(a->device, device_error, NULL);
+  a->scene = rtcNewScene(a->device);
+  if (a->scene == NULL) goto fail;
+  rtcSetSceneBuildQuality(a->scene, RTC_BUILD_QUALITY_HIGH);
+  rtcSetSceneFlags(a->scene, RTC_SCENE_FLAG_ROBUST);
+  for (int i = 0; i < scene->num_shapes; i++) {
+    const vf_shape *s = &scene->shapes[i];
+    int err = s->kind == VF_SHAPE_SPHERE ? add_sphere(a, s, (unsigned)i) : add_mesh(a, s, (unsigned)i);
+    if (err != VF_OK) goto fail;
+  }
+  rtcCommitScene(a->scene);
+  if (rtcGetDeviceError(a->device) != RTC_ERROR_NONE) goto fail;
+  *out = a;
+  return VF_OK;
+fail:
+  vf_accel_destroy(a);
+  return vf_error_set(VF_EEMBREE, "cannot build the Embree scene");
+}
+
+void vf_accel_destroy(vf_accel *a) {
+  if (a == NULL) return;
+  if (a->scene) rtcReleaseScene(a->scene);
+  if (a->device) rtcReleaseDevice(a->device);
+  free(a);
+}
+
+int vf_accel_intersect(const vf_accel *a, vf_vec3 org, vf_vec3 dir, float tfar, vf_hit *hit) {
+  struct RTCIntersectContext ctx;
+  rtcInitIntersectContext(&ctx);
+  ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT;
+  struct RTCRayHit rh;
+  rh.ray.org_x = org.x;
+  rh.ray.org_y = org.y;
+  rh.ray.org_z = org.z;
+  rh.ray.dir_x = dir.x;
+  rh.ray.dir_y = dir.y;
+  rh.ray.dir_z = dir.z;
+  rh.ray.tnear = 0.0f;
+  rh.ray.tfar = tfar;
+  rh.ray.time = 0.0f;
+  rh.ray.mask = 0xFFFFFFFFu;
+  rh.ray.id = 0;
+  rh.ray.flags = 0;
+  rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+  rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+  rtcIntersect1(a->scene, &ctx, &rh);
+  if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return 0;
+  const vf_shape *s = &a->source->shapes[rh.hit.geomID];
+  hit->t = rh.ray.tfar;
+  hit->shape = rh.hit.geomID;
+  hit->primitive = rh.hit.primID;
+  if (s->kind == VF_SHAPE_SPHERE) {
+    vf_vec3 p = vf_add(org, vf_scale(dir, rh.ray.tfar));
+    vf_vec3 n = vf_normalize(vf_sub(p, s->center));
+    hit->normal = n;
+    /* Project back onto the sphere: removes the error of org + t dir along the normal. */
+    hit->position = vf_add(s->center, vf_scale(n, s->radius));
+  } else {
+    const uint32_t *t = &s->indices[3 * (size_t)rh.hit.primID];
+    const float *p0 = &s->positions[3 * (size_t)t[0]];
+    const float *p1 = &s->positions[3 * (size_t)t[1]];
+    const float *p2 = &s->positions[3 * (size_t)t[2]];
+    float u = rh.hit.u, v = rh.hit.v, w = 1.0f - u - v;
+    hit->position = vf_vec3_make(w * p0[0] + u * p1[0] + v * p2[0], w * p0[1] + u * p1[1] + v * p2[1],
+                                 w * p0[2] + u * p1[2] + v * p2[2]);
+    vf_vec3 ng = vf_vec3_make(rh.hit.Ng_x, rh.hit.Ng_y, rh.hit.Ng_z);
+    float len = vf_length(ng);
+    if (!(len > 0.0f)) return 0; /* degenerate triangle: Embree should not report it */
+    hit->normal = vf_scale(ng, 1.0f / len);
+  }
+  return 1;
+}
+
+int vf_accel_occluded(const vf_accel *a, vf_vec3 org, vf_vec3 dir, float tfar) {
+  struct RTCIntersectContext ctx;
+  rtcInitIntersectContext(&ctx);
+  ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT;
+  struct RTCRay r;
+  r.org_x = org.x;
+  r.org_y = org.y;
+  r.org_z = org.z;
+  r.dir_x = dir.x;
+  r.dir_y = dir.y;
+  r.dir_z = dir.z;
+  r.tnear = 0.0f;
+  r.tfar = tfar;
+  r.time = 0.0f;
+  r.mask = 0xFFFFFFFFu;
+  r.id = 0;
+  r.flags = 0;
+  rtcOccluded1(a->scene, &ctx, &r);
+  return r.tfar < 0.0f;
+}
+
+static float int_bits_offset(float p, int delta) {
+  union {
+    float f;
+    int32_t i;
+  } u = {p};
+  u.i += p < 0.0f ? -delta : delta;
+  return u.f;
+}
+
+vf_vec3 vf_offset_ray_origin(vf_vec3 p, vf_vec3 n) {
+  /* Constants of the paper: below |p| = origin the float spacing is too fine for an ulp
+   * offset, so a tiny absolute offset along n is used there instead. */
+  const float origin = 1.0f / 32.0f, float_scale = 1.0f / 65536.0f, int_scale = 256.0f;
+  int ox = (int)(int_scale * n.x), oy = (int)(int_scale * n.y), oz = (int)(int_scale * n.z);
+  vf_vec3 pi = vf_vec3_make(int_bits_offset(p.x, ox), int_bits_offset(p.y, oy), int_bits_offset(p.z, oz));
+  return vf_vec3_make(fabsf(p.x) < origin ? p.x + float_scale * n.x : pi.x,
+                      fabsf(p.y) < origin ? p.y + float_scale * n.y : pi.y,
+                      fabsf(p.z) < origin ? p.z + float_scale * n.z : pi.z);
+}

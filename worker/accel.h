@@ -1,0 +1,39 @@
+/* Ray queries against the scene through Embree 3, and the ray-origin offset that keeps
+ * secondary rays from re-hitting the surface they leave.
+ *
+ * Geometry IDs equal shape indices in the vf_scene. Triangle meshes are Embree triangle
+ * geometry; spheres are Embree's own sphere-point geometry. */
+#ifndef VF_ACCEL_H
+#define VF_ACCEL_H
+
+#include "../common/vec3.h"
+#include "scene.h"
+
+#include <stdint.h>
+
+typedef struct vf_accel vf_accel;
+
+typedef struct {
+  float t;
+  uint32_t shape;     /* index into vf_scene.shapes */
+  uint32_t primitive; /* triangle index within the shape (0 for spheres) */
+  vf_vec3 position;   /* recomputed from the primitive, not org + t dir, for precision */
+  vf_vec3 normal;     /* unit geometric normal (triangle winding / sphere outward) */
+} vf_hit;
+
+/* Builds the Embree device and scene. VF_EEMBREE with a detail on failure. */
+int vf_accel_create(const vf_scene *scene, vf_accel **out);
+void vf_accel_destroy(vf_accel *accel);
+
+/* Closest hit along org + t dir for t in (0, tfar). Returns 1 and fills *hit on a hit. */
+int vf_accel_intersect(const vf_accel *accel, vf_vec3 org, vf_vec3 dir, float tfar, vf_hit *hit);
+
+/* 1 if anything blocks org + t dir for t in (0, tfar). dir need not be unit. */
+int vf_accel_occluded(const vf_accel *accel, vf_vec3 org, vf_vec3 dir, float tfar);
+
+/* Moves p off its surface towards the side n points to, by a few units in the last place of
+ * p's coordinates (Waechter and Binder, "A Fast and Robust Method for Avoiding
+ * Self-Intersection", Ray Tracing Gems, 2019): scale invariant, unlike a fixed epsilon. */
+vf_vec3 vf_offset_ray_origin(vf_vec3 p, vf_vec3 n);
+
+#endif

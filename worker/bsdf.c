@@ -1,0 +1,152 @@
+#include "bsdf.h"
+
+#include "sampling.h"
+
+#include <math.h>
+#include <stddef.h>
+
+static float mean3(vf_vec3 c) { return (c.x + c.y + c.z) * (1.0f / 3.0f); }
+
+float vf_fresnel_dielectric(float cos_i, float eta) {
+  if (eta == 1.0f) return 0.0f;
+  if (cos_i < 0.0f) {
+    eta = 1.0f / eta;
+    cos_i = -cos_i;
+  }
+  float sin_t2 = (1.0f - cos_i * cos_i) / (eta * eta);
+  if (sin_t2 >= 1.0f) return 1.0f; /* total internal reflection */
+  float cos_t = sqrtf(1.0f - sin_t2);
+  float rs = (cos_i - eta * cos_t) / (cos_i + eta * cos_t);
+  float rp = (eta * cos_i - cos_t) / (eta * cos_i + cos_t);
+  return 0.5f * (rs * rs + rp * rp);
+}
+
+int vf_bsdf_init(vf_bsdf *b, const vf_material *m, vf_vec3 normal, vf_vec3 world_fix) {
+  float cos_fix = vf_dot(normal, world_fix);
+  if (!(fabsf(cos_fix) > 1e-7f)) return 0;
+  /* The shading frame faces the arriving path, so local_fix.z > 0 always. */
+  vf_vec3 n = cos_fix > 0.0f ? normal : vf_neg(normal);
+  b->material = m;
+  b->frame = vf_frame_from_normal(n);
+  b->local_fix = vf_frame_to_local(&b->frame, world_fix);
+  if (!(b->local_fix.z > 0.0f)) return 0;
+
+  float albedo[VF_LOBE_COUNT] = {mean3(m->diffuse), mean3(m->glossy), mean3(m->mirror), mean3(m->dielectric)};
+  b->eta = 1.0f;
+  b->fresnel = 0.0f;
+  if (albedo[VF_LOBE_DIELECTRIC] > 0.0f) {
+    /* Arriving on the front of the geometric normal means entering the medium. */
+    b->eta = cos_fix > 0.0f ? m->ior : 1.0f / m->ior;
+    b->fresnel = vf_fresnel_dielectric(b->local_fix.z, b->eta);
+  }
+  float total = albedo[0] + albedo[1] + albedo[2] + albedo[3];
+  if (!(total > 0.0f)) return 0;
+  for (int i = 0; i < VF_LOBE_COUNT; i++) b->lobe_probability[i] = albedo[i] / total;
+  vf_vec3 sum = vf_add(vf_add(m->diffuse, m->glossy), vf_add(m->mirror, m->dielectric));
+  b->continuation = fminf(1.0f, vf_max_component(sum));
+  b->is_delta = b->lobe_probability[VF_LOBE_DIFFUSE] == 0.0f && b->lobe_probability[VF_LOBE_GLOSSY] == 0.0f;
+  return 1;
+}
+
+static vf_vec3 reflect_local(vf_vec3 v) { return vf_vec3_make(-v.x, -v.y, v.z); }
+
+/* f and both densities of the non-specular lobes, in the local frame. */
+static vf_vec3 eval_local(const vf_bsdf *b, vf_vec3 gen, float *direct_pdf, float *reverse_pdf) {
+  vf_vec3 f = vf_vec3_splat(0.0f);
+  float dpdf = 0.0f, rpdf = 0.0f;
+  const vf_vec3 fix = b->local_fix;
+  if (gen.z > 0.0f) { /* both lobes reflect only */
+    float pd = b->lobe_probability[VF_LOBE_DIFFUSE];
+    if (pd > 0.0f) {
+      f = vf_add(f, vf_scale(b->material->diffuse, VF_INV_PI));
+      dpdf += pd * gen.z * VF_INV_PI;
+      rpdf += pd * fix.z * VF_INV_PI;
+    }
+    float pg = b->lobe_probability[VF_LOBE_GLOSSY];
+    if (pg > 0.0f) {
+      float n = b->material->phong_exponent;
+      /* cos of the angle between gen and fix's mirror direction; symmetric in fix and gen. */
+      float cos_a = vf_dot(reflect_local(fix), gen);
+      if (cos_a > 0.0f) {
+        float lobe = powf(cos_a, n);
+        f = vf_add(f, vf_scale(b->material->glossy, (n + 2.0f) * (0.5f * VF_INV_PI) * lobe));
+        float p = pg * (n + 1.0f) * (0.5f * VF_INV_PI) * lobe;
+        dpdf += p;
+        rpdf += p;
+      }
+    }
+  }
+  *direct_pdf = dpdf * b->continuation;
+  *reverse_pdf = rpdf * b->continuation;
+  return f;
+}
+
+vf_vec3 vf_bsdf_evaluate(const vf_bsdf *b, vf_vec3 world_gen, float *cos_gen, float *direct_pdf_w,
+                         float *reverse_pdf_w) {
+  vf_vec3 gen = vf_frame_to_local(&b->frame, world_gen);
+  float d, r;
+  vf_vec3 f = eval_local(b, gen, &d, &r);
+  if (cos_gen) *cos_gen = fabsf(gen.z);
+  if (direct_pdf_w) *direct_pdf_w = d;
+  if (reverse_pdf_w) *reverse_pdf_w = r;
+  return f;
+}
+
+vf_vec3 vf_bsdf_sample(const vf_bsdf *b, const float rnd[3], vf_vec3 *world_gen, float *pdf_w,
+                       float *reverse_pdf_w, float *cos_gen, unsigned *event) {
+  const float *p = b->lobe_probability;
+  float u = rnd[2];
+  vf_vec3 gen;
+  *event = 0;
+  if (u < p[VF_LOBE_DIFFUSE] + p[VF_LOBE_GLOSSY]) {
+    if (u < p[VF_LOBE_DIFFUSE]) {
+      gen = vf_sample_cosine_hemisphere(rnd[0], rnd[1], NULL);
+    } else {
+      vf_vec3 axis = reflect_local(b->local_fix);
+      vf_frame lobe = vf_frame_from_normal(axis);
+      gen = vf_frame_to_world(&lobe, vf_sample_power_cosine(rnd[0], rnd[1], b->material->phong_exponent));
+    }
+    float d, r;
+    vf_vec3 f = eval_local(b, gen, &d, &r);
+    if (!(d > 0.0f)) return vf_vec3_splat(0.0f);
+    *world_gen = vf_frame_to_world(&b->frame, gen);
+    *pdf_w = d;
+    *reverse_pdf_w = r;
+    *cos_gen = gen.z;
+    return f;
+  }
+  *event = VF_BSDF_SPECULAR;
+  float choice_pdf;
+  vf_vec3 weight;
+  u -= p[VF_LOBE_DIFFUSE] + p[VF_LOBE_GLOSSY];
+  if (u < p[VF_LOBE_MIRROR] || p[VF_LOBE_DIELECTRIC] == 0.0f) {
+    gen = reflect_local(b->local_fix);
+    choice_pdf = p[VF_LOBE_MIRROR];
+    weight = b->material->mirror;
+  } else {
+    /* Within the dielectric lobe, reflect with probability F: the throughput factor is
+     * then tint * F / (p_lobe * F), the same for refraction with 1 - F. */
+    u = (u - p[VF_LOBE_MIRROR]) / p[VF_LOBE_DIELECTRIC];
+    const vf_vec3 fix = b->local_fix;
+    if (u < b->fresnel) {
+      gen = reflect_local(fix);
+      choice_pdf = p[VF_LOBE_DIELECTRIC] * b->fresnel;
+      weight = vf_scale(b->material->dielectric, b->fresnel);
+    } else {
+      float eta = b->eta;
+      float sin_t2 = (1.0f - fix.z * fix.z) / (eta * eta);
+      float cos_t = sqrtf(fmaxf(0.0f, 1.0f - sin_t2));
+      gen = vf_vec3_make(-fix.x / eta, -fix.y / eta, -cos_t);
+      choice_pdf = p[VF_LOBE_DIELECTRIC] * (1.0f - b->fresnel);
+      weight = vf_scale(b->material->dielectric, 1.0f - b->fresnel);
+    }
+  }
+  if (!(choice_pdf > 0.0f) || gen.z == 0.0f) return vf_vec3_splat(0.0f);
+  float c = fabsf(gen.z);
+  *world_gen = vf_frame_to_world(&b->frame, gen);
+  *pdf_w = choice_pdf * b->continuation;
+  *reverse_pdf_w = *pdf_w;
+  *cos_gen = c;
+  /* f such that f * cos / pdf = weight / (choice_pdf * continuation). */
+  return vf_scale(weight, 1.0f / c);
+}

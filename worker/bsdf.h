@@ -1,0 +1,64 @@
+/* Scattering at a surface vertex: evaluation, sampling and the forward and reverse
+ * solid-angle densities that the MIS quantities need (tech. rep. sec. 3-5).
+ *
+ * Conventions (those of the technical report and SmallVCM):
+ * - "fix" is the direction from the vertex towards the previous vertex of the sub-path
+ *   (where the path came from); "gen" is the direction being generated or connected.
+ * - evaluate() returns f(fix, gen) of the non-specular lobes and both densities:
+ *   direct = pdf of sampling gen given fix (the random walk's own direction), reverse = pdf
+ *   of sampling fix given gen (the same edge walked the other way). Both include the lobe
+ *   selection probability and the Russian-roulette continuation probability, so they are
+ *   the exact densities of vf_bsdf_sample() for that direction.
+ * - Specular lobes (mirror, dielectric) are Dirac deltas: evaluate() ignores them, sample()
+ *   may pick them and then reports VF_BSDF_SPECULAR with pdf = probability of that choice
+ *   (tech. rep. eq. 52).
+ * - Opaque lobes are two-sided: the shading frame faces the side the path arrives from.
+ *   The dielectric uses the geometric orientation to tell entering from leaving.
+ * - Transmission is kept symmetric (no 1/eta^2 radiance scaling): light and camera
+ *   sub-paths then carry the same quantity, and with camera and lights outside every
+ *   dielectric, the factors would cancel anyway. */
+#ifndef VF_BSDF_H
+#define VF_BSDF_H
+
+#include "../common/vec3.h"
+#include "material.h"
+
+enum { VF_LOBE_DIFFUSE, VF_LOBE_GLOSSY, VF_LOBE_MIRROR, VF_LOBE_DIELECTRIC, VF_LOBE_COUNT };
+enum { VF_BSDF_SPECULAR = 1u };
+
+typedef struct {
+  const vf_material *material; /* borrowed from the scene */
+  vf_frame frame;              /* shading frame; z faces the side the path arrives from */
+  vf_vec3 local_fix;           /* unit, towards the previous vertex, local (z > 0) */
+  float lobe_probability[VF_LOBE_COUNT];
+  float continuation;          /* Russian-roulette survival probability */
+  float fresnel;               /* dielectric reflection probability for this fix direction */
+  float eta;                   /* ior of the side being entered over the side of fix */
+  int is_delta;                /* only specular lobes: no connection or merging here */
+} vf_bsdf;
+
+/* Sets up the BSDF at a vertex with geometric normal `normal` (unit) for a path arriving
+ * from direction `world_fix` (unit, towards the previous vertex). Returns 0 when the vertex
+ * cannot scatter (black material, fix in the tangent plane); 1 otherwise. */
+int vf_bsdf_init(vf_bsdf *bsdf, const vf_material *material, vf_vec3 normal, vf_vec3 world_fix);
+
+/* f of the non-specular lobes for gen (unit, world); |cos| of gen against the shading
+ * normal into *cos_gen; densities as described above (either may be NULL). Zero when gen is
+ * not reachable by the non-specular lobes. */
+vf_vec3 vf_bsdf_evaluate(const vf_bsdf *bsdf, vf_vec3 world_gen, float *cos_gen, float *direct_pdf_w,
+                         float *reverse_pdf_w);
+
+/* Samples gen with three uniform numbers. Returns f (for specular lobes: the weight such that
+ * f * cos / pdf is the throughput factor), and writes gen, its |cos|, the direct and reverse
+ * densities (with the continuation probability; equal for a specular choice) and
+ * VF_BSDF_SPECULAR when a delta lobe was chosen. Returns zero (and nothing else is
+ * meaningful) when the sample failed. The caller plays Russian roulette with
+ * vf_bsdf.continuation before calling. */
+vf_vec3 vf_bsdf_sample(const vf_bsdf *bsdf, const float rnd[3], vf_vec3 *world_gen, float *pdf_w,
+                       float *reverse_pdf_w, float *cos_gen, unsigned *event);
+
+/* Fresnel reflectance of a smooth dielectric for cos_i (of the incident side, may be
+ * negative meaning from inside) and eta = ior inside / outside. */
+float vf_fresnel_dielectric(float cos_i, float eta);
+
+#endif

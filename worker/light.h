@@ -1,0 +1,88 @@
+/* Light sources as the VCM estimator sees them (tech. rep. sections 4-5): each can emit a
+ * light sub-path's first vertex (emit), be sampled from a surface point for next-event
+ * estimation (illuminate), and report the radiance a camera ray finds on it (radiance).
+ * Every call returns the densities the MIS weights need:
+ *   emission_pdf_w  density of emitting that (position, direction) from the light: area
+ *                   density times solid-angle density (for infinite lights: the direction's
+ *                   solid-angle density times the density on the scene's disk);
+ *   direct_pdf_a    density of picking that position by illuminate, in area measure (for
+ *                   infinite lights: of picking the direction, in solid angle; 1 for delta
+ *                   lights, which illuminate picks deterministically);
+ *   direct_pdf_w    direct_pdf_a converted to solid angle at the receiving point.
+ * None of them include the light-selection probability (vf_light.pick_probability).
+ *
+ * Kinds: area lights (emissive triangle meshes and spheres, one-sided, cosine emission),
+ * point lights (delta position), directional lights (delta direction, infinite), and one
+ * environment light (infinite) that unites the constant background and the
+ * latitude-longitude map: radiance(d) = background + scale * map(d), importance sampled by
+ * the map's luminance when there is a map. */
+#ifndef VF_LIGHT_H
+#define VF_LIGHT_H
+
+#include "../common/vec3.h"
+#include "scene.h"
+
+typedef enum {
+  VF_LIGHT_AREA_MESH,
+  VF_LIGHT_AREA_SPHERE,
+  VF_LIGHT_POINT,
+  VF_LIGHT_DIRECTIONAL,
+  VF_LIGHT_ENVIRONMENT
+} vf_light_kind;
+
+typedef struct vf_envmap vf_envmap;
+
+typedef struct {
+  vf_light_kind kind;
+  float pick_probability;
+  vf_vec3 radiance;          /* area: Le; point: intensity; directional: irradiance */
+  const vf_shape *shape;     /* area lights; borrowed from the scene */
+  float *triangle_cdf;       /* area meshes: cumulative triangle areas / total, owned */
+  float area, inv_area;
+  vf_vec3 position;          /* point */
+  vf_vec3 direction;         /* directional: direction of travel */
+  vf_frame frame;            /* directional: frame around direction */
+  const vf_envmap *envmap;   /* environment: NULL for a constant background */
+  int is_delta, is_finite;
+} vf_light;
+
+typedef struct {
+  vf_light *lights;
+  int count;
+  int *shape_light;          /* per scene shape: its light index, or -1 */
+  int environment;           /* index of the environment light, or -1 */
+  vf_vec3 scene_center;
+  float scene_radius;
+  float *pick_cdf;           /* count entries */
+  vf_envmap *envmap;         /* owned */
+} vf_lights;
+
+/* Builds the lights of a scene, with selection probabilities half uniform and half in
+ * proportion to estimated power (so neither a dim nearby light nor a bright sun starves). */
+int vf_lights_create(const vf_scene *scene, vf_lights **out);
+void vf_lights_destroy(vf_lights *lights);
+
+/* Picks a light with one uniform number. */
+const vf_light *vf_lights_pick(const vf_lights *lights, float u);
+
+vf_vec3 vf_light_emit(const vf_lights *ls, const vf_light *l, const float rnd[4], vf_vec3 *position,
+                      vf_vec3 *direction, vf_vec3 *normal, float *emission_pdf_w, float *direct_pdf_a,
+                      float *cos_light);
+
+/* Samples the light from `receiver`. *distance is the distance to the sampled point (INFINITY
+ * for infinite lights); *light_point is that point (area and point lights). */
+vf_vec3 vf_light_illuminate(const vf_lights *ls, const vf_light *l, vf_vec3 receiver, const float rnd[2],
+                            vf_vec3 *dir_to_light, float *distance, vf_vec3 *light_point,
+                            vf_vec3 *light_normal, float *direct_pdf_w, float *emission_pdf_w,
+                            float *cos_at_light);
+
+/* Radiance of an area light hit at `point` with unit geometric normal `normal` by a ray of
+ * direction ray_dir; zero from behind. */
+vf_vec3 vf_light_radiance_area(const vf_light *l, vf_vec3 ray_dir, vf_vec3 normal, float *direct_pdf_a,
+                               float *emission_pdf_w);
+
+/* Radiance of the environment seen along ray_dir (a ray that left the scene). */
+vf_vec3 vf_light_radiance_environment(const vf_lights *ls, const vf_light *l, vf_vec3 ray_dir,
+                                      float *direct_pdf_w, float *emission_pdf_w);
+
+#endif

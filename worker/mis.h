@@ -1,0 +1,126 @@
+/* The recursive MIS quantities of vertex connection and merging.
+ *
+ * Every sub-path vertex carries three numbers, d_vcm, d_vc and d_vm (tech. rep. sec. 4,
+ * eq. 31-36). They hold the partial sums of pdf ratios of every technique that could have
+ * produced the sub-path up to that vertex, so that when a light vertex y_{s-1} and a camera
+ * vertex z_{t-1} are connected or merged, the full path's balance-heuristic weight
+ *   w = 1 / (w_light + 1 + w_camera)                                        (eq. 37)
+ * follows from the two vertices alone, without walking the paths again.
+ *
+ * The quantities are updated in two steps per vertex, both here:
+ *   - when a ray of length dist hits vertex i with |cos| cos_fix, the forward area density
+ *     1 / p_i gains dist^2 / cos_fix (the first factor of eq. 34-36);
+ *   - when direction i -> i+1 is sampled with solid-angle density pdf_w and reverse density
+ *     rev_pdf_w, the bracketed terms of eq. 35-36 are formed and d_vcm becomes 1 / pdf_w;
+ *     a specular choice instead zeroes d_vcm and scales the others by cos (eq. 53-55).
+ * The techniques an algorithm lacks are removed by zeroing their factors: BPT sets the
+ * merging factor eta_VCM to zero (sec. 5.5), BPM the connection factor 1 / eta_VCM (5.6),
+ * and path tracing keeps only emission hits and next-event estimation.
+ *
+ * mis() is the heuristic's exponent applied to each density ratio; we use the balance
+ * heuristic (beta = 1), as the report's derivation does. All functions are pure, so the
+ * test suite drives the same code over hand-built paths (tests/test_mis.c). */
+#ifndef VF_MIS_H
+#define VF_MIS_H
+
+typedef struct {
+  float d_vcm, d_vc, d_vm;
+} vf_mis;
+
+typedef struct {
+  float vm_weight; /* mis(eta_VCM) when merging takes part in the weights, else 0 */
+  float vc_weight; /* mis(1 / eta_VCM) when connections take part, else 0 */
+  float light_paths; /* n_light: light sub-paths per iteration (one per pixel) */
+  int pt;          /* path tracing: only emission hits (s = 0) and light sampling (s = 1) */
+} vf_mis_config;
+
+static inline float vf_mis_h(float x) { return x; }
+
+/* Light sub-path start, y0 (eq. 31-33; point and directional lights eq. 48-50; infinite
+ * lights sec. 5.1). Densities include the light-selection probability. */
+static inline void vf_mis_light_start(vf_mis *m, const vf_mis_config *c, float direct_pdf_a, float emission_pdf_w,
+                                      float cos_light, int is_delta, int is_finite) {
+  m->d_vcm = vf_mis_h(direct_pdf_a / emission_pdf_w);
+  m->d_vc = is_delta ? 0.0f : vf_mis_h((is_finite ? cos_light : 1.0f) / emission_pdf_w);
+  m->d_vm = m->d_vc * c->vc_weight;
+}
+
+/* Camera sub-path start, z0 (eq. 31-33, eye side): d_vcm = n_light / p(z1) in solid angle. */
+static inline void vf_mis_camera_start(vf_mis *m, const vf_mis_config *c, float camera_pdf_w) {
+  m->d_vcm = vf_mis_h(c->light_paths / camera_pdf_w);
+  m->d_vc = 0.0f;
+  m->d_vm = 0.0f;
+}
+
+/* A sub-path's ray of length dist found vertex i with |cos| cos_fix against its normal.
+ * Infinite lights have no distance factor on their first segment (sec. 5.1). */
+static inline void vf_mis_hit(vf_mis *m, float dist, float cos_fix, int apply_distance) {
+  if (apply_distance) m->d_vcm *= vf_mis_h(dist * dist);
+  float inv = 1.0f / vf_mis_h(cos_fix);
+  m->d_vcm *= inv;
+  m->d_vc *= inv;
+  m->d_vm *= inv;
+}
+
+/* Direction sampled at vertex i (eq. 34-36, or 53-55 for a specular choice). */
+static inline void vf_mis_scatter(vf_mis *m, const vf_mis_config *c, float cos_gen, float pdf_w, float rev_pdf_w,
+                                  int specular) {
+  if (specular) {
+    m->d_vcm = 0.0f;
+    m->d_vc *= vf_mis_h(cos_gen);
+    m->d_vm *= vf_mis_h(cos_gen);
+    return;
+  }
+  float g = vf_mis_h(cos_gen / pdf_w);
+  m->d_vc = c->pt ? 0.0f : g * (m->d_vc * vf_mis_h(rev_pdf_w) + m->d_vcm + c->vm_weight);
+  m->d_vm = c->pt ? 0.0f : g * (m->d_vm * vf_mis_h(rev_pdf_w) + m->d_vcm * c->vc_weight + 1.0f);
+  m->d_vcm = vf_mis_h(1.0f / pdf_w);
+}
+
+/* s = 0: the camera sub-path hit a light (eq. 42-43). Densities include light selection. */
+static inline float vf_mis_weight_emission(const vf_mis *cam, float direct_pdf_a, float emission_pdf_w) {
+  float w_camera = vf_mis_h(direct_pdf_a) * cam->d_vcm + vf_mis_h(emission_pdf_w) * cam->d_vc;
+  return 1.0f / (1.0f + w_camera);
+}
+
+/* s = 1: next-event estimation from camera vertex z_{t-1} (eq. 44-45). bsdf_dir_pdf_w must
+ * be 0 for delta lights (they cannot be hit); light densities include light selection. */
+static inline float vf_mis_weight_light_sample(const vf_mis *cam, const vf_mis_config *c, float bsdf_dir_pdf_w,
+                                               float bsdf_rev_pdf_w, float direct_pdf_w, float emission_pdf_w,
+                                               float cos_to_light, float cos_at_light) {
+  float w_light = vf_mis_h(bsdf_dir_pdf_w / direct_pdf_w);
+  float w_camera = c->pt ? 0.0f
+                         : vf_mis_h(emission_pdf_w * cos_to_light / (direct_pdf_w * cos_at_light)) *
+                               (c->vm_weight + cam->d_vcm + cam->d_vc * vf_mis_h(bsdf_rev_pdf_w));
+  return 1.0f / (w_light + 1.0f + w_camera);
+}
+
+/* t = 1: light vertex y_{s-1} projected onto the camera (eq. 46-47). camera_pdf_a is the
+ * camera's density of generating y_{s-1}, in area measure at y_{s-1}. */
+static inline float vf_mis_weight_camera_connection(const vf_mis *light, const vf_mis_config *c, float camera_pdf_a,
+                                                    float bsdf_rev_pdf_w) {
+  float w_light = vf_mis_h(camera_pdf_a / c->light_paths) *
+                  (c->vm_weight + light->d_vcm + light->d_vc * vf_mis_h(bsdf_rev_pdf_w));
+  return 1.0f / (w_light + 1.0f);
+}
+
+/* s > 1, t > 1: connection of y_{s-1} and z_{t-1} (eq. 40-41). *_dir_pdf_a are each side's
+ * density of sampling the other vertex, converted to area measure there. */
+static inline float vf_mis_weight_connection(const vf_mis *light, const vf_mis *cam, const vf_mis_config *c,
+                                             float camera_dir_pdf_a, float light_dir_pdf_a, float light_rev_pdf_w,
+                                             float camera_rev_pdf_w) {
+  float w_light = vf_mis_h(camera_dir_pdf_a) * (c->vm_weight + light->d_vcm + light->d_vc * vf_mis_h(light_rev_pdf_w));
+  float w_camera = vf_mis_h(light_dir_pdf_a) * (c->vm_weight + cam->d_vcm + cam->d_vc * vf_mis_h(camera_rev_pdf_w));
+  return 1.0f / (w_light + 1.0f + w_camera);
+}
+
+/* s > 1, t > 1: merging y_{s-1} into z_{t-1} (eq. 38-39). camera_dir_pdf_w: the camera
+ * BSDF's density of the light vertex's incoming direction; camera_rev_pdf_w the reverse. */
+static inline float vf_mis_weight_merge(const vf_mis *light, const vf_mis *cam, const vf_mis_config *c,
+                                        float camera_dir_pdf_w, float camera_rev_pdf_w) {
+  float w_light = light->d_vcm * c->vc_weight + light->d_vm * vf_mis_h(camera_dir_pdf_w);
+  float w_camera = cam->d_vcm * c->vc_weight + cam->d_vm * vf_mis_h(camera_rev_pdf_w);
+  return 1.0f / (w_light + 1.0f + w_camera);
+}
+
+#endif

@@ -1,0 +1,94 @@
+#include "render.h"
+
+#include "../common/error.h"
+#include "../common/pool.h"
+#include "accel.h"
+
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+struct vf_renderer {
+  const vf_scene *scene; /* borrowed */
+  vf_settings settings;
+  vf_accel *accel;
+  vf_pool *pool;
+  vf_vcm *vcm;
+  float *camera_rgb, *light_rgb; /* one iteration's output */
+};
+
+double vf_seconds_now(void) {
+  struct timespec ts;
+  clock_gettime(CLOCK_MONOTONIC, &ts);
+  return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+int vf_renderer_create(const vf_scene *scene, const vf_settings *settings, int threads, vf_renderer **out) {
+  int err = vf_settings_validate(settings);
+  if (err != VF_OK) return err;
+  vf_renderer *r = calloc(1, sizeof *r);
+  if (r == NULL) return VF_ENOMEM;
+  r->scene = scene;
+  r->settings = *settings;
+  size_t n = 3 * (size_t)settings->width * (size_t)settings->height;
+  err = VF_ENOMEM;
+  r->camera_rgb = malloc(n * sizeof(float));
+  r->light_rgb = malloc(n * sizeof(float));
+  if (r->camera_rgb == NULL || r->light_rgb == NULL) goto fail;
+  if ((err = vf_accel_create(scene, &r->accel)) != VF_OK) goto fail;
+  if ((err = vf_pool_create(threads, &r->pool)) != VF_OK) goto fail;
+  if ((err = vf_vcm_create(scene, r->accel, settings, r->pool, &r->vcm)) != VF_OK) goto fail;
+  *out = r;
+  return VF_OK;
+fail:
+  vf_renderer_destroy(r);
+  return err;
+}
+
+void vf_renderer_destroy(vf_renderer *r) {
+  if (r == NULL) return;
+  vf_vcm_destroy(r->vcm);
+  vf_pool_destroy(r->pool);
+  vf_accel_destroy(r->accel);
+  free(r->camera_rgb);
+  free(r->light_rgb);
+  free(r);
+}
+
+const vf_vcm *vf_renderer_vcm(const vf_renderer *r) { return r->vcm; }
+
+int vf_renderer_stamp(const vf_renderer *r, vf_film *film) {
+  memcpy(film->scene_hash, r->scene->hash, sizeof film->scene_hash);
+  return vf_settings_format(&r->settings, film->settings_text, sizeof film->settings_text);
+}
+
+int vf_render_range(vf_renderer *r, vf_film *film, uint64_t begin, uint64_t end, const vf_render_control *control,
+                    vf_render_status *status) {
+  if (film->width != r->settings.width || film->height != r->settings.height)
+    return vf_error_set(VF_EMISMATCH, "film is %dx%d but the settings say %dx%d", film->width, film->height,
+                        r->settings.width, r->settings.height);
+  vf_render_status st;
+  memset(&st, 0, sizeof st);
+  st.iterations_total = end - begin;
+  double start = vf_seconds_now();
+  int err = VF_OK;
+  for (uint64_t k = begin; k < end; k++) {
+    if (control && control->interrupt && *control->interrupt) break;
+    if (control && control->time_limit > 0.0 && vf_seconds_now() - start >= control->time_limit) break;
+    if (vf_iterset_contains(&film->iterations, k)) {
+      err = vf_error_set(VF_EOVERLAP, "iteration %llu is already in the film", (unsigned long long)k);
+      break;
+    }
+    double t0 = vf_seconds_now();
+    if ((err = vf_vcm_iteration(r->vcm, k, r->camera_rgb, r->light_rgb, &st.stats)) != VF_OK) break;
+    if ((err = vf_film_add_iteration(film, k, r->camera_rgb, r->light_rgb)) != VF_OK) break;
+    film->render_seconds += vf_seconds_now() - t0;
+    st.iterations_done++;
+    st.seconds = vf_seconds_now() - start;
+    if (control && control->progress) control->progress(control->ctx, &st);
+  }
+  film->nonfinite_samples += st.stats.nonfinite;
+  st.seconds = vf_seconds_now() - start;
+  if (status) *status = st;
+  return err;
+}

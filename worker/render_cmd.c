@@ -1,0 +1,208 @@
+#include "render_cmd.h"
+
+#include "../common/cli.h"
+#include "../common/error.h"
+#include "../common/film.h"
+#include "../common/image.h"
+#include "render.h"
+
+#include <getopt.h>
+#include <signal.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+static const char usage[] =
+    "usage: vcmfarm render SCENE [options] -o FILM.exr\n"
+    "\n"
+    "Renders global iterations [K, K+N) of SCENE (a built-in name or a JSON scene file,\n"
+    "see docs/SCENES.md) into FILM.exr, an OpenEXR film that any viewer opens and that\n"
+    "`vcmfarm merge` and `continue` extend exactly.\n"
+    "\n"
+    "  -a, --algorithm A        vcm (default), bpt, pt, lt, ppm or bpm\n"
+    "  -n, --iterations N       number of iterations (default: the scene's, else 16)\n"
+    "  -t, --time S             render for S seconds instead (no new iteration after S)\n"
+    "  -k, --start-iteration K  first global iteration index (default 0)\n"
+    "  -s, --seed S             job seed (default: the scene's, else 1)\n"
+    "  -j, --threads T          render threads (default: one per CPU)\n"
+    "  -l, --max-path-length L  maximum path segments (default 10)\n"
+    "  -r, --radius-factor F    initial merge radius / scene radius (default 0.003)\n"
+    "      --alpha A            radius reduction exponent in (0, 1] (default 0.75)\n"
+    "  -R, --resolution WxH     image size (default: the scene camera's)\n"
+    "  -o, --output FILM.exr    the film to write (required)\n"
+    "  -p, --preview IMAGE.png  also write a tone-mapped sRGB preview\n"
+    "  -e, --exposure E         preview exposure in stops (default 0)\n"
+    "  -q, --quiet              no progress line or summary\n"
+    "  -h, --help               this text\n"
+    "\n"
+    "The random numbers of an iteration depend only on (seed, iteration index, pixel), so\n"
+    "renders of disjoint iteration ranges merge into exactly the render of their union.\n"
+    "Exit status: 0 done, 1 failure while rendering, 2 bad input (nothing is written).\n";
+
+static volatile sig_atomic_t interrupted;
+static void on_interrupt(int sig) {
+  (void)sig;
+  interrupted = 1;
+}
+
+typedef struct {
+  int tty;
+  uint64_t rays_per_iteration_hint;
+} progress_ctx;
+
+static void progress(void *ctx, const vf_render_status *st) {
+  progress_ctx *p = ctx;
+  if (!p->tty) return;
+  double rate = st->seconds > 0.0 ? (double)st->iterations_done / st->seconds : 0.0;
+  if (st->iterations_total != UINT64_MAX && rate > 0.0) {
+    double eta = (double)(st->iterations_total - st->iterations_done) / rate;
+    fprintf(stderr, "\r  iteration %llu/%llu  %.2f it/s  %.1f Mrays/s  elapsed %.1f s  ETA %.1f s   ",
+            (unsigned long long)st->iterations_done, (unsigned long long)st->iterations_total, rate,
+            (double)st->stats.rays / st->seconds * 1e-6, st->seconds, eta);
+  } else {
+    fprintf(stderr, "\r  iteration %llu  %.2f it/s  %.1f Mrays/s  elapsed %.1f s   ",
+            (unsigned long long)st->iterations_done, rate, (double)st->stats.rays / st->seconds * 1e-6,
+            st->seconds);
+  }
+}
+
+int vf_cmd_render(int argc, char **argv) {
+  static const struct option options[] = {
+      {"algorithm", required_argument, 0, 'a'},   {"iterations", required_argument, 0, 'n'},
+      {"time", required_argument, 0, 't'},        {"start-iteration", required_argument, 0, 'k'},
+      {"seed", required_argument, 0, 's'},        {"threads", required_argument, 0, 'j'},
+      {"max-path-length", required_argument, 0, 'l'}, {"radius-factor", required_argument, 0, 'r'},
+      {"alpha", required_argument, 0, 'A'},       {"resolution", required_argument, 0, 'R'},
+      {"output", required_argument, 0, 'o'},      {"preview", required_argument, 0, 'p'},
+      {"exposure", required_argument, 0, 'e'},    {"quiet", no_argument, 0, 'q'},
+      {"help", no_argument, 0, 'h'},              {0, 0, 0, 0}};
+  const char *cmd = "render";
+  const char *output = NULL, *preview = NULL;
+  const char *algorithm = NULL;
+  long long iterations = -1, threads = 0, max_path_length = -1;
+  uint64_t start = 0, seed = 0;
+  int have_seed = 0, have_resolution = 0, quiet = 0, width = 0, height = 0;
+  double time_limit = 0.0, radius_factor = -1.0, alpha = -1.0, exposure = 0.0;
+  int err = VF_OK, c;
+  optind = 1;
+  opterr = 0;
+  while ((c = getopt_long(argc, argv, "a:n:t:k:s:j:l:r:R:o:p:e:qh", options, NULL)) != -1) {
+    switch (c) {
+    case 'a': algorithm = optarg; break;
+    case 'n': err = vf_cli_int("--iterations", optarg, 1, 1000000000LL, &iterations); break;
+    case 't': err = vf_cli_double("--time", optarg, 1e-3, 1e9, &time_limit); break;
+    case 'k': err = vf_cli_u64("--start-iteration", optarg, &start); break;
+    case 's':
+      err = vf_cli_u64("--seed", optarg, &seed);
+      have_seed = 1;
+      break;
+    case 'j': err = vf_cli_int("--threads", optarg, 1, 1024, &threads); break;
+    case 'l': err = vf_cli_int("--max-path-length", optarg, 1, 1000, &max_path_length); break;
+    case 'r': err = vf_cli_double("--radius-factor", optarg, 1e-12, 1.0, &radius_factor); break;
+    case 'A': err = vf_cli_double("--alpha", optarg, 1e-6, 1.0, &alpha); break;
+    case 'R':
+      err = vf_cli_resolution("--resolution", optarg, &width, &height);
+      have_resolution = 1;
+      break;
+    case 'o': output = optarg; break;
+    case 'p': preview = optarg; break;
+    case 'e': err = vf_cli_double("--exposure", optarg, -64.0, 64.0, &exposure); break;
+    case 'q': quiet = 1; break;
+    case 'h': fputs(usage, stdout); return VF_EXIT_OK;
+    default:
+      fprintf(stderr, "vcmfarm render: unknown or incomplete option '%s'\n%s", argv[optind - 1], usage);
+      return VF_EXIT_BAD_INPUT;
+    }
+    if (err != VF_OK) return vf_cli_fail(cmd, err);
+  }
+  if (optind != argc - 1) {
+    fprintf(stderr, "vcmfarm render: expected exactly one SCENE\n%s", usage);
+    return VF_EXIT_BAD_INPUT;
+  }
+  if (output == NULL) {
+    fprintf(stderr, "vcmfarm render: missing -o FILM.exr\n");
+    return VF_EXIT_BAD_INPUT;
+  }
+  if (iterations > 0 && time_limit > 0.0) {
+    fprintf(stderr, "vcmfarm render: give --iterations or --time, not both\n");
+    return VF_EXIT_BAD_INPUT;
+  }
+
+  vf_scene *scene = NULL;
+  vf_renderer *renderer = NULL;
+  vf_film *film = NULL;
+  if ((err = vf_scene_load(argv[optind], &scene)) != VF_OK) return vf_cli_fail(cmd, err);
+
+  /* Settings: defaults, then the scene's "render" object, then the command line. */
+  vf_settings settings = scene->settings;
+  if (algorithm && (err = vf_algorithm_parse(algorithm, &settings.algorithm)) != VF_OK) goto done;
+  if (have_seed) settings.seed = seed;
+  if (max_path_length > 0) settings.max_path_length = (int)max_path_length;
+  if (radius_factor > 0.0) settings.radius_factor = radius_factor;
+  if (alpha > 0.0) settings.alpha = alpha;
+  if (have_resolution) {
+    settings.width = width;
+    settings.height = height;
+  }
+  if ((err = vf_settings_validate(&settings)) != VF_OK) goto done;
+  uint64_t count = iterations > 0 ? (uint64_t)iterations : (time_limit > 0.0 ? UINT64_MAX - start : 16);
+  if (count > UINT64_MAX - start) {
+    err = vf_error_set(VF_EUSAGE, "--start-iteration %llu + --iterations overflows", (unsigned long long)start);
+    goto done;
+  }
+
+  if ((err = vf_renderer_create(scene, &settings, (int)threads, &renderer)) != VF_OK) goto done;
+  if ((err = vf_film_create(settings.width, settings.height, &film)) != VF_OK) goto done;
+  if ((err = vf_renderer_stamp(renderer, film)) != VF_OK) goto done;
+  if (!quiet) {
+    char text[512];
+    vf_settings_format(&settings, text, sizeof text);
+    fprintf(stderr, "vcmfarm render: %s, %s\n", scene->source, text);
+    vf_vcm_describe(vf_renderer_vcm(renderer), stderr);
+  }
+
+  progress_ctx pc = {!quiet && isatty(STDERR_FILENO), 0};
+  vf_render_control control = {time_limit, progress, &pc, &interrupted};
+  struct sigaction sa, old_int, old_term;
+  memset(&sa, 0, sizeof sa);
+  sa.sa_handler = on_interrupt;
+  sigaction(SIGINT, &sa, &old_int);
+  sigaction(SIGTERM, &sa, &old_term);
+  vf_render_status st;
+  err = vf_render_range(renderer, film, start, start + count, &control, &st);
+  sigaction(SIGINT, &old_int, NULL);
+  sigaction(SIGTERM, &old_term, NULL);
+  if (pc.tty) fputc('\n', stderr);
+  if (err != VF_OK) goto done;
+  if (st.iterations_done == 0) {
+    err = vf_error_set(VF_EINVAL, "no iteration finished; nothing written");
+    goto done;
+  }
+  if ((err = vf_film_write(film, output)) != VF_OK) goto done;
+  if (preview) {
+    vf_image img;
+    if ((err = vf_image_alloc(&img, film->width, film->height)) != VF_OK) goto done;
+    vf_film_mean(film, img.rgb);
+    err = vf_image_write_png(preview, &img, (float)exposure);
+    vf_image_destroy(&img);
+    if (err != VF_OK) goto done;
+  }
+  if (!quiet) {
+    char set[256];
+    if (vf_iterset_format(&film->iterations, set, sizeof set) != VF_OK) snprintf(set, sizeof set, "(long)");
+    double rate = (double)st.iterations_done / st.seconds;
+    fprintf(stderr,
+            "rendered %llu iteration(s) %s in %.2f s: %.3f it/s, %.2f Mrays/s, %llu light vertices/it, "
+            "%llu non-finite sample(s)%s\nwrote %s%s%s\n",
+            (unsigned long long)st.iterations_done, set, st.seconds, rate, (double)st.stats.rays / st.seconds * 1e-6,
+            (unsigned long long)(st.stats.light_vertices / st.iterations_done),
+            (unsigned long long)st.stats.nonfinite, interrupted ? " (interrupted)" : "", output,
+            preview ? " and " : "", preview ? preview : "");
+  }
+done:
+  vf_film_destroy(film);
+  vf_renderer_destroy(renderer);
+  vf_scene_destroy(scene);
+  return err == VF_OK ? VF_EXIT_OK : vf_cli_fail(cmd, err);
+}

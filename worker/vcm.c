@@ -1,0 +1,666 @@
+#include "vcm.h"
+
+#include "../common/error.h"
+#include "../common/rng.h"
+#include "bsdf.h"
+#include "camera.h"
+#include "hashgrid.h"
+#include "light.h"
+#include "mis.h"
+#include "sampling.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* Light sub-paths are traced in fixed chunks, each writing its own vertex and splat lists;
+ * the lists are then joined in chunk order. Results therefore do not depend on which
+ * thread traced which chunk. */
+#define LIGHT_CHUNK 1024u
+#define CAMERA_CHUNK 1024u
+
+typedef struct {
+  vf_vec3 position; /* first: the hash grid reads it at offset 0 */
+  vf_vec3 throughput;
+  int path_length;  /* segments from the light */
+  vf_mis mis;
+  vf_bsdf bsdf;
+} light_vertex;
+
+typedef struct {
+  uint32_t pixel;
+  vf_vec3 rgb;
+} splat;
+
+typedef struct {
+  light_vertex *vertices;
+  uint32_t num_vertices, vertex_capacity;
+  splat *splats;
+  uint32_t num_splats, splat_capacity;
+  int out_of_memory;
+} light_chunk;
+
+/* A sub-path's state between vertices. */
+typedef struct {
+  vf_vec3 origin, direction;
+  vf_vec3 throughput;
+  int path_length;
+  int is_finite_light; /* light sub-paths: whether the first segment has a distance */
+  int specular_path;   /* camera sub-paths: every scattering so far was specular */
+  vf_mis mis;
+} path_state;
+
+typedef struct {
+  int light_paths;       /* trace light sub-paths at all */
+  int store_vertices;    /* keep light vertices for connection or merging */
+  int camera_paths;
+  int light_to_camera;   /* t = 1 */
+  int emission;          /* s = 0 */
+  int emission_specular_only; /* ppm and bpm: s = 0 only along purely specular camera paths */
+  int light_sample;      /* s = 1 */
+  int connection;        /* s > 1, t > 1 */
+  int merging;
+  int ppm;               /* merge once, at the first non-specular camera vertex, unweighted */
+  int lt;                /* light tracing alone: unweighted, includes y0 */
+} techniques;
+
+typedef struct {
+  uint64_t rays, nonfinite;
+  char pad[48]; /* keep each thread's counters on their own cache line */
+} thread_stats;
+
+struct vf_vcm {
+  const vf_scene *scene;
+  const vf_accel *accel;
+  vf_settings settings;
+  vf_pool *pool;
+  vf_camera camera;
+  vf_lights *lights;
+  techniques t;
+  vf_vec3 scene_center;
+  float scene_radius;
+  uint32_t num_pixels;
+  int has_specular, has_glossy, has_diffuse;
+
+  /* Per iteration. */
+  uint64_t iteration;
+  float radius, radius_sq, vm_normalization;
+  vf_mis_config mis;
+  light_chunk *chunks;
+  uint32_t num_chunks;
+  light_vertex *vertices; /* all chunks joined */
+  uint32_t num_vertices, vertex_capacity;
+  uint32_t *path_begin, *path_end; /* per light sub-path, into vertices */
+  vf_hashgrid *grid;
+  float *camera_rgb, *light_rgb;
+  thread_stats *stats;
+};
+
+/* ---------------------------------------------------------------------------------------- */
+/* Ray queries and small helpers                                                             */
+
+static int intersect(vf_vcm *v, int thread, vf_vec3 org, vf_vec3 dir, vf_hit *hit) {
+  v->stats[thread].rays++;
+  return vf_accel_intersect(v->accel, org, dir, INFINITY, hit);
+}
+
+/* Whether the segment from p (normal n) to q (normal nq; zero vector: a point in space) is
+ * blocked. Both ends are moved off their surfaces towards each other. */
+static int segment_occluded(vf_vcm *v, int thread, vf_vec3 p, vf_vec3 n, vf_vec3 q, vf_vec3 nq) {
+  vf_vec3 d = vf_sub(q, p);
+  vf_vec3 o = vf_offset_ray_origin(p, vf_dot(n, d) > 0.0f ? n : vf_neg(n));
+  vf_vec3 e = vf_is_zero(nq) ? q : vf_offset_ray_origin(q, vf_dot(nq, d) < 0.0f ? nq : vf_neg(nq));
+  v->stats[thread].rays++;
+  return vf_accel_occluded(v->accel, o, vf_sub(e, o), 1.0f);
+}
+
+static int direction_occluded(vf_vcm *v, int thread, vf_vec3 p, vf_vec3 n, vf_vec3 dir) {
+  vf_vec3 o = vf_offset_ray_origin(p, vf_dot(n, dir) > 0.0f ? n : vf_neg(n));
+  v->stats[thread].rays++;
+  return vf_accel_occluded(v->accel, o, dir, INFINITY);
+}
+
+static void rnd2(vf_rng *r, float out[2]) {
+  out[0] = vf_rng_float(r);
+  out[1] = vf_rng_float(r);
+}
+
+static const vf_material *material_of(const vf_vcm *v, const vf_hit *hit) {
+  return &v->scene->materials[v->scene->shapes[hit->shape].material];
+}
+
+/* Continues a sub-path from vertex `hit` with BSDF b: Russian roulette, direction sampling,
+ * throughput and MIS update. Returns 0 when the path ends. */
+static int scatter(vf_vcm *v, const vf_bsdf *b, const vf_hit *hit, path_state *s, vf_rng *rng) {
+  if (vf_rng_float(rng) >= b->continuation) return 0;
+  float rnd[3] = {vf_rng_float(rng), vf_rng_float(rng), vf_rng_float(rng)};
+  vf_vec3 gen;
+  float pdf, rev_pdf, cos_gen;
+  unsigned event;
+  vf_vec3 f = vf_bsdf_sample(b, rnd, &gen, &pdf, &rev_pdf, &cos_gen, &event);
+  if (vf_is_zero(f) || !(pdf > 0.0f)) return 0;
+  int specular = (event & VF_BSDF_SPECULAR) != 0;
+  vf_mis_scatter(&s->mis, &v->mis, cos_gen, pdf, rev_pdf, specular);
+  s->throughput = vf_mul(s->throughput, vf_scale(f, cos_gen / pdf));
+  s->specular_path &= specular;
+  s->origin = vf_offset_ray_origin(hit->position, vf_dot(hit->normal, gen) > 0.0f ? hit->normal : vf_neg(hit->normal));
+  s->direction = gen;
+  return 1;
+}
+
+/* ---------------------------------------------------------------------------------------- */
+/* Light sub-paths                                                                           */
+
+static int push_vertex(light_chunk *c, const light_vertex *lv) {
+  if (c->num_vertices == c->vertex_capacity) {
+    uint32_t cap = c->vertex_capacity ? 2 * c->vertex_capacity : 4 * LIGHT_CHUNK;
+    light_vertex *p = realloc(c->vertices, (size_t)cap * sizeof *p);
+    if (p == NULL) return 0;
+    c->vertices = p;
+    c->vertex_capacity = cap;
+  }
+  c->vertices[c->num_vertices++] = *lv;
+  return 1;
+}
+
+static void push_splat(light_chunk *c, uint32_t pixel, vf_vec3 rgb) {
+  if (c->num_splats == c->splat_capacity) {
+    uint32_t cap = c->splat_capacity ? 2 * c->splat_capacity : 4 * LIGHT_CHUNK;
+    splat *p = realloc(c->splats, (size_t)cap * sizeof *p);
+    if (p == NULL) {
+      c->out_of_memory = 1;
+      return;
+    }
+    c->splats = p;
+    c->splat_capacity = cap;
+  }
+  c->splats[c->num_splats++] = (splat){pixel, rgb};
+}
+
+/* Camera's area density of generating point p (normal n) seen along -dir_to_camera, and the
+ * raster pixel; 0 when p is behind the camera or outside the image. */
+static float camera_pdf_a(const vf_vcm *v, vf_vec3 p, vf_vec3 dir_to_camera, float dist, float cos_at_p,
+                          uint32_t *pixel) {
+  float x, y;
+  if (!vf_camera_raster(&v->camera, p, &x, &y)) return 0.0f;
+  float cos_at_camera = -vf_dot(v->camera.forward, dir_to_camera);
+  if (!(cos_at_camera > 0.0f)) return 0.0f;
+  *pixel = (uint32_t)y * (uint32_t)v->camera.width + (uint32_t)x;
+  float image_to_camera = v->camera.image_plane_distance / cos_at_camera;
+  float image_to_solid_angle = image_to_camera * image_to_camera / cos_at_camera;
+  return image_to_solid_angle * cos_at_p / (dist * dist);
+}
+
+/* t = 1: projects light vertex (hit, b) onto the image. */
+static void connect_to_camera(vf_vcm *v, int thread, light_chunk *c, const vf_hit *hit, const vf_bsdf *b,
+                              const path_state *s) {
+  vf_vec3 to_camera = vf_sub(v->camera.position, hit->position);
+  float dist = vf_length(to_camera);
+  if (!(dist > 0.0f)) return;
+  to_camera = vf_scale(to_camera, 1.0f / dist);
+  float cos_to_camera, dir_pdf, rev_pdf;
+  vf_vec3 f = vf_bsdf_evaluate(b, to_camera, &cos_to_camera, &dir_pdf, &rev_pdf);
+  if (vf_is_zero(f)) return;
+  uint32_t pixel;
+  float pdf_a = camera_pdf_a(v, hit->position, to_camera, dist, cos_to_camera, &pixel);
+  if (!(pdf_a > 0.0f)) return;
+  float w = v->t.lt ? 1.0f : vf_mis_weight_camera_connection(&s->mis, &v->mis, pdf_a, rev_pdf);
+  /* Importance of the pinhole camera over the light sub-path density n_light. */
+  vf_vec3 contrib = vf_scale(vf_mul(s->throughput, f), w * pdf_a / v->mis.light_paths);
+  if (vf_is_zero(contrib)) return;
+  if (segment_occluded(v, thread, hit->position, hit->normal, v->camera.position, vf_vec3_splat(0.0f))) return;
+  if (!vf_is_finite(contrib)) {
+    v->stats[thread].nonfinite++;
+    return;
+  }
+  push_splat(c, pixel, contrib);
+}
+
+/* Light tracing alone also projects the light's own point y0 (the s = 1, t = 1 technique,
+ * which the full estimator leaves to emission hits). */
+static void connect_emitter_to_camera(vf_vcm *v, int thread, light_chunk *c, const vf_light *l, vf_vec3 p,
+                                      vf_vec3 n, float pick_and_area_pdf) {
+  vf_vec3 to_camera = vf_sub(v->camera.position, p);
+  float dist = vf_length(to_camera);
+  if (!(dist > 0.0f)) return;
+  to_camera = vf_scale(to_camera, 1.0f / dist);
+  float cos_out = vf_dot(n, to_camera);
+  if (!(cos_out > 0.0f)) return;
+  uint32_t pixel;
+  float pdf_a = camera_pdf_a(v, p, to_camera, dist, cos_out, &pixel);
+  if (!(pdf_a > 0.0f)) return;
+  vf_vec3 contrib = vf_scale(l->radiance, pdf_a / (v->mis.light_paths * pick_and_area_pdf));
+  if (segment_occluded(v, thread, p, n, v->camera.position, vf_vec3_splat(0.0f))) return;
+  if (!vf_is_finite(contrib)) {
+    v->stats[thread].nonfinite++;
+    return;
+  }
+  push_splat(c, pixel, contrib);
+}
+
+static void trace_light_path(vf_vcm *v, int thread, light_chunk *c, uint32_t path) {
+  vf_rng rng = vf_rng_for_path(v->settings.seed, v->iteration, path, VF_STREAM_LIGHT);
+  const vf_light *l = vf_lights_pick(v->lights, vf_rng_float(&rng));
+  float rnd[4] = {vf_rng_float(&rng), vf_rng_float(&rng), vf_rng_float(&rng), vf_rng_float(&rng)};
+  path_state s;
+  vf_vec3 normal;
+  float emission_pdf, direct_pdf, cos_light;
+  vf_vec3 energy = vf_light_emit(v->lights, l, rnd, &s.origin, &s.direction, &normal, &emission_pdf, &direct_pdf,
+                                 &cos_light);
+  if (vf_is_zero(energy) || !(emission_pdf > 0.0f)) return;
+  if (v->t.lt && l->is_finite && !l->is_delta)
+    connect_emitter_to_camera(v, thread, c, l, s.origin, normal, l->pick_probability * direct_pdf);
+  emission_pdf *= l->pick_probability;
+  direct_pdf *= l->pick_probability;
+  s.throughput = vf_scale(energy, 1.0f / emission_pdf);
+  s.path_length = 0;
+  s.is_finite_light = l->is_finite;
+  s.specular_path = 1;
+  vf_mis_light_start(&s.mis, &v->mis, direct_pdf, emission_pdf, cos_light, l->is_delta, l->is_finite);
+  if (l->kind == VF_LIGHT_AREA_MESH || l->kind == VF_LIGHT_AREA_SPHERE)
+    s.origin = vf_offset_ray_origin(s.origin, normal);
+
+  for (;;) {
+    vf_hit hit;
+    if (!intersect(v, thread, s.origin, s.direction, &hit)) break;
+    vf_bsdf b;
+    if (!vf_bsdf_init(&b, material_of(v, &hit), hit.normal, vf_neg(s.direction))) break;
+    s.path_length++;
+    vf_mis_hit(&s.mis, hit.t, b.local_fix.z, s.path_length > 1 || s.is_finite_light);
+    if (!b.is_delta) {
+      if (v->t.store_vertices) {
+        light_vertex lv = {hit.position, s.throughput, s.path_length, s.mis, b};
+        if (!push_vertex(c, &lv)) {
+          c->out_of_memory = 1;
+          break;
+        }
+      }
+      if (v->t.light_to_camera) connect_to_camera(v, thread, c, &hit, &b, &s);
+    }
+    if (s.path_length + 2 > v->settings.max_path_length) break;
+    if (!scatter(v, &b, &hit, &s, &rng)) break;
+  }
+}
+
+typedef struct {
+  vf_vcm *v;
+} pass_ctx;
+
+static void light_task(void *ctx, size_t task, int thread) {
+  vf_vcm *v = ((pass_ctx *)ctx)->v;
+  light_chunk *c = &v->chunks[task];
+  c->num_vertices = c->num_splats = 0;
+  c->out_of_memory = 0;
+  uint32_t begin = (uint32_t)task * LIGHT_CHUNK;
+  uint32_t end = begin + LIGHT_CHUNK < v->num_pixels ? begin + LIGHT_CHUNK : v->num_pixels;
+  for (uint32_t p = begin; p < end; p++) {
+    v->path_begin[p] = c->num_vertices; /* chunk-relative until joined */
+    if (v->t.light_paths) trace_light_path(v, thread, c, p);
+    v->path_end[p] = c->num_vertices;
+  }
+}
+
+/* Joins the chunks' vertex lists into one array, chunk by chunk. */
+static void join_task(void *ctx, size_t task, int thread) {
+  vf_vcm *v = ((pass_ctx *)ctx)->v;
+  light_chunk *c = &v->chunks[task];
+  uint32_t offset = v->path_begin[task * LIGHT_CHUNK]; /* set to the chunk's global offset */
+  if (c->num_vertices) memcpy(&v->vertices[offset], c->vertices, (size_t)c->num_vertices * sizeof *c->vertices);
+  uint32_t begin = (uint32_t)task * LIGHT_CHUNK;
+  uint32_t end = begin + LIGHT_CHUNK < v->num_pixels ? begin + LIGHT_CHUNK : v->num_pixels;
+  for (uint32_t p = begin + 1; p < end; p++) v->path_begin[p] += offset;
+  for (uint32_t p = begin; p < end; p++) v->path_end[p] += offset;
+}
+
+/* ---------------------------------------------------------------------------------------- */
+/* Camera sub-paths                                                                          */
+
+/* s = 0: radiance of a light found by the camera sub-path, weighted. */
+static vf_vec3 emission_weighted(const vf_vcm *v, const vf_light *l, const path_state *s, vf_vec3 radiance,
+                                 float direct_pdf, float emission_pdf) {
+  if (vf_is_zero(radiance)) return radiance;
+  if (s->path_length == 1) return radiance; /* seen directly: no other technique can */
+  if (v->t.emission_specular_only) return s->specular_path ? radiance : vf_vec3_splat(0.0f);
+  float w = vf_mis_weight_emission(&s->mis, direct_pdf * l->pick_probability, emission_pdf * l->pick_probability);
+  return vf_scale(radiance, w);
+}
+
+/* s = 1: next-event estimation. */
+static vf_vec3 light_sample(vf_vcm *v, int thread, const vf_hit *hit, const vf_bsdf *b, const path_state *s,
+                            vf_rng *rng) {
+  vf_vec3 zero = vf_vec3_splat(0.0f);
+  const vf_light *l = vf_lights_pick(v->lights, vf_rng_float(rng));
+  float rnd[2];
+  rnd2(rng, rnd);
+  vf_vec3 dir, lp, ln;
+  float dist, direct_pdf, emission_pdf, cos_at_light;
+  vf_vec3 radiance = vf_light_illuminate(v->lights, l, hit->position, rnd, &dir, &dist, &lp, &ln, &direct_pdf,
+                                         &emission_pdf, &cos_at_light);
+  if (vf_is_zero(radiance) || !(direct_pdf > 0.0f)) return zero;
+  float cos_to_light, bsdf_pdf, bsdf_rev_pdf;
+  vf_vec3 f = vf_bsdf_evaluate(b, dir, &cos_to_light, &bsdf_pdf, &bsdf_rev_pdf);
+  if (vf_is_zero(f)) return zero;
+  if (l->is_delta) bsdf_pdf = 0.0f; /* a delta light cannot be hit by a sampled direction */
+  float pick = l->pick_probability;
+  float w = vf_mis_weight_light_sample(&s->mis, &v->mis, bsdf_pdf, bsdf_rev_pdf, direct_pdf * pick,
+                                       emission_pdf * pick, cos_to_light, cos_at_light);
+  vf_vec3 contrib = vf_scale(vf_mul(radiance, f), w * cos_to_light / (pick * direct_pdf));
+  if (vf_is_zero(contrib)) return zero;
+  int blocked = isinf(dist) ? direction_occluded(v, thread, hit->position, hit->normal, dir)
+                            : segment_occluded(v, thread, hit->position, hit->normal, lp,
+                                               l->kind == VF_LIGHT_POINT ? zero : ln);
+  return blocked ? zero : contrib;
+}
+
+/* s > 1, t > 1: connection of camera vertex (hit, b) to light vertex lv. */
+static vf_vec3 connect_vertices(vf_vcm *v, int thread, const vf_hit *hit, const vf_bsdf *b, const path_state *s,
+                                const light_vertex *lv) {
+  vf_vec3 zero = vf_vec3_splat(0.0f);
+  vf_vec3 d = vf_sub(lv->position, hit->position);
+  float dist2 = vf_length_sq(d);
+  if (!(dist2 > 0.0f)) return zero;
+  float dist = sqrtf(dist2);
+  d = vf_scale(d, 1.0f / dist);
+  float cos_camera, camera_pdf, camera_rev_pdf;
+  vf_vec3 fc = vf_bsdf_evaluate(b, d, &cos_camera, &camera_pdf, &camera_rev_pdf);
+  if (vf_is_zero(fc)) return zero;
+  float cos_light, light_pdf, light_rev_pdf;
+  vf_vec3 fl = vf_bsdf_evaluate(&lv->bsdf, vf_neg(d), &cos_light, &light_pdf, &light_rev_pdf);
+  if (vf_is_zero(fl)) return zero;
+  /* Each side's density of sampling the other vertex, in area measure there. */
+  float camera_pdf_a = camera_pdf * cos_light / dist2;
+  float light_pdf_a = light_pdf * cos_camera / dist2;
+  float w = vf_mis_weight_connection(&lv->mis, &s->mis, &v->mis, camera_pdf_a, light_pdf_a, light_rev_pdf,
+                                     camera_rev_pdf);
+  vf_vec3 contrib = vf_scale(vf_mul(vf_mul(fc, fl), lv->throughput), w * cos_camera * cos_light / dist2);
+  if (vf_is_zero(contrib)) return zero;
+  if (segment_occluded(v, thread, hit->position, hit->normal, lv->position, lv->bsdf.frame.n)) return zero;
+  return contrib;
+}
+
+/* Vertex merging at camera vertex (hit, b) with every light vertex within the radius. */
+static vf_vec3 merge_vertices(const vf_vcm *v, const vf_hit *hit, const vf_bsdf *b, const path_state *s) {
+  vf_vec3 sum = vf_vec3_splat(0.0f);
+  vf_index_range ranges[VF_HASHGRID_MAX_RANGES];
+  int n = vf_hashgrid_candidates(v->grid, hit->position, ranges);
+  const uint32_t *indices = vf_hashgrid_indices(v->grid);
+  for (int r = 0; r < n; r++) {
+    for (uint32_t k = ranges[r].begin; k < ranges[r].end; k++) {
+      const light_vertex *lv = &v->vertices[indices[k]];
+      if (vf_length_sq(vf_sub(lv->position, hit->position)) > v->radius_sq) continue;
+      if (lv->path_length + s->path_length > v->settings.max_path_length) continue;
+      vf_vec3 light_dir = vf_frame_to_world(&lv->bsdf.frame, lv->bsdf.local_fix);
+      float cos_camera, camera_pdf, camera_rev_pdf;
+      vf_vec3 f = vf_bsdf_evaluate(b, light_dir, &cos_camera, &camera_pdf, &camera_rev_pdf);
+      if (vf_is_zero(f)) continue;
+      float w = 1.0f;
+      if (!v->t.ppm) {
+        /* The reverse step is taken at the light vertex: its Russian roulette applies. */
+        camera_rev_pdf *= lv->bsdf.continuation / b->continuation;
+        w = vf_mis_weight_merge(&lv->mis, &s->mis, &v->mis, camera_pdf, camera_rev_pdf);
+      }
+      sum = vf_add(sum, vf_scale(vf_mul(f, lv->throughput), w));
+    }
+  }
+  return vf_scale(sum, v->vm_normalization);
+}
+
+static vf_vec3 trace_camera_path(vf_vcm *v, int thread, uint32_t pixel) {
+  vf_rng rng = vf_rng_for_path(v->settings.seed, v->iteration, pixel, VF_STREAM_CAMERA);
+  uint32_t px = pixel % (uint32_t)v->camera.width, py = pixel / (uint32_t)v->camera.width;
+  float jx = vf_rng_float(&rng), jy = vf_rng_float(&rng);
+  path_state s;
+  s.origin = v->camera.position;
+  s.direction = vf_camera_direction(&v->camera, (float)px + jx, (float)py + jy);
+  s.throughput = vf_vec3_splat(1.0f);
+  s.path_length = 1;
+  s.specular_path = 1;
+  vf_mis_camera_start(&s.mis, &v->mis, vf_camera_pdf_w(&v->camera, s.direction));
+  vf_vec3 color = vf_vec3_splat(0.0f);
+
+  for (;;) {
+    vf_hit hit;
+    if (!intersect(v, thread, s.origin, s.direction, &hit)) {
+      if (v->lights->environment >= 0 && v->t.emission) {
+        const vf_light *l = &v->lights->lights[v->lights->environment];
+        float direct_pdf, emission_pdf;
+        vf_vec3 le = vf_light_radiance_environment(v->lights, l, s.direction, &direct_pdf, &emission_pdf);
+        color = vf_add(color, vf_mul(s.throughput, emission_weighted(v, l, &s, le, direct_pdf, emission_pdf)));
+      }
+      break;
+    }
+    float cos_fix = fabsf(vf_dot(hit.normal, s.direction));
+    if (!(cos_fix > 1e-7f)) break; /* grazing: no emission or scattering to speak of */
+    vf_mis_hit(&s.mis, hit.t, cos_fix, 1);
+    int light_index = v->lights->shape_light[hit.shape];
+    if (light_index >= 0 && v->t.emission) {
+      const vf_light *l = &v->lights->lights[light_index];
+      float direct_pdf, emission_pdf;
+      vf_vec3 le = vf_light_radiance_area(l, s.direction, hit.normal, &direct_pdf, &emission_pdf);
+      color = vf_add(color, vf_mul(s.throughput, emission_weighted(v, l, &s, le, direct_pdf, emission_pdf)));
+    }
+    if (s.path_length >= v->settings.max_path_length) break;
+    vf_bsdf b;
+    if (!vf_bsdf_init(&b, material_of(v, &hit), hit.normal, vf_neg(s.direction))) break;
+    if (!b.is_delta) {
+      if (v->t.light_sample)
+        color = vf_add(color, vf_mul(s.throughput, light_sample(v, thread, &hit, &b, &s, &rng)));
+      if (v->t.connection) {
+        for (uint32_t i = v->path_begin[pixel]; i < v->path_end[pixel]; i++) {
+          const light_vertex *lv = &v->vertices[i];
+          if (lv->path_length + 1 + s.path_length > v->settings.max_path_length) break;
+          color = vf_add(color, vf_mul(s.throughput, connect_vertices(v, thread, &hit, &b, &s, lv)));
+        }
+      }
+      if (v->t.merging && v->num_vertices > 0) {
+        color = vf_add(color, vf_mul(s.throughput, merge_vertices(v, &hit, &b, &s)));
+        if (v->t.ppm) break;
+      }
+    }
+    if (!scatter(v, &b, &hit, &s, &rng)) break;
+    s.path_length++;
+  }
+  return color;
+}
+
+static void camera_task(void *ctx, size_t task, int thread) {
+  vf_vcm *v = ((pass_ctx *)ctx)->v;
+  uint32_t begin = (uint32_t)task * CAMERA_CHUNK;
+  uint32_t end = begin + CAMERA_CHUNK < v->num_pixels ? begin + CAMERA_CHUNK : v->num_pixels;
+  for (uint32_t p = begin; p < end; p++) {
+    vf_vec3 c = v->t.camera_paths ? trace_camera_path(v, thread, p) : vf_vec3_splat(0.0f);
+    if (!vf_is_finite(c)) {
+      v->stats[thread].nonfinite++;
+      c = vf_vec3_splat(0.0f);
+    }
+    v->camera_rgb[3 * (size_t)p + 0] = c.x;
+    v->camera_rgb[3 * (size_t)p + 1] = c.y;
+    v->camera_rgb[3 * (size_t)p + 2] = c.z;
+  }
+}
+
+/* ---------------------------------------------------------------------------------------- */
+/* The iteration                                                                             */
+
+double vf_vcm_merge_radius(const vf_vcm *v, uint64_t iteration) {
+  double i = (double)iteration + 1.0;
+  return v->settings.radius_factor * v->scene_radius * sqrt(pow(i, v->settings.alpha - 1.0));
+}
+
+static void setup_iteration(vf_vcm *v, uint64_t iteration) {
+  v->iteration = iteration;
+  double r = vf_vcm_merge_radius(v, iteration);
+  double eta = M_PI * r * r * (double)v->num_pixels; /* n_VM / n_VC * pi r^2 (eq. 20), n_VC = 1 */
+  v->radius = (float)r;
+  v->radius_sq = (float)(r * r);
+  v->vm_normalization = (float)(1.0 / eta);
+  int vc_in_weights = v->settings.algorithm == VF_ALGO_VCM || v->settings.algorithm == VF_ALGO_BPT;
+  int vm_in_weights = v->settings.algorithm == VF_ALGO_VCM || v->settings.algorithm == VF_ALGO_BPM;
+  v->mis.vm_weight = vm_in_weights ? vf_mis_h((float)eta) : 0.0f;
+  v->mis.vc_weight = vc_in_weights ? vf_mis_h((float)(1.0 / eta)) : 0.0f;
+  v->mis.light_paths = (float)v->num_pixels;
+  v->mis.pt = v->settings.algorithm == VF_ALGO_PT;
+}
+
+int vf_vcm_iteration(vf_vcm *v, uint64_t iteration, float *camera_rgb, float *light_rgb, vf_vcm_stats *stats) {
+  setup_iteration(v, iteration);
+  v->camera_rgb = camera_rgb;
+  v->light_rgb = light_rgb;
+  int threads = vf_pool_threads(v->pool);
+  memset(v->stats, 0, (size_t)threads * sizeof *v->stats);
+  pass_ctx ctx = {v};
+
+  /* 1. Light sub-paths, their vertices and their projections onto the camera. */
+  vf_pool_run(v->pool, v->num_chunks, light_task, &ctx);
+  uint64_t total = 0;
+  for (uint32_t c = 0; c < v->num_chunks; c++) {
+    if (v->chunks[c].out_of_memory) return vf_error_set(VF_ENOMEM, "out of memory storing light vertices");
+    v->path_begin[c * LIGHT_CHUNK] = (uint32_t)total; /* chunk offset, read by join_task */
+    total += v->chunks[c].num_vertices;
+  }
+  if (total > UINT32_MAX) return vf_error_set(VF_ENOMEM, "more than 2^32 light vertices in one iteration");
+  if (total > v->vertex_capacity) {
+    light_vertex *p = realloc(v->vertices, (size_t)total * sizeof *p);
+    if (p == NULL) return VF_ENOMEM;
+    v->vertices = p;
+    v->vertex_capacity = (uint32_t)total;
+  }
+  v->num_vertices = (uint32_t)total;
+  if (v->t.store_vertices) vf_pool_run(v->pool, v->num_chunks, join_task, &ctx);
+  memset(light_rgb, 0, 3 * sizeof(float) * v->num_pixels);
+  for (uint32_t c = 0; c < v->num_chunks; c++) /* in chunk order: reproducible sums */
+    for (uint32_t i = 0; i < v->chunks[c].num_splats; i++) {
+      const splat *sp = &v->chunks[c].splats[i];
+      light_rgb[3 * (size_t)sp->pixel + 0] += sp->rgb.x;
+      light_rgb[3 * (size_t)sp->pixel + 1] += sp->rgb.y;
+      light_rgb[3 * (size_t)sp->pixel + 2] += sp->rgb.z;
+    }
+
+  /* 2. The range-search grid, only when merging. */
+  if (v->t.merging && v->num_vertices > 0) {
+    int err = vf_hashgrid_build(v->grid, v->vertices, sizeof *v->vertices, v->num_vertices, v->radius, v->pool);
+    if (err != VF_OK) return err;
+  }
+
+  /* 3. Camera sub-paths. */
+  vf_pool_run(v->pool, (v->num_pixels + CAMERA_CHUNK - 1) / CAMERA_CHUNK, camera_task, &ctx);
+
+  for (int t = 0; t < threads; t++) {
+    stats->rays += v->stats[t].rays;
+    stats->nonfinite += v->stats[t].nonfinite;
+  }
+  stats->light_vertices += v->num_vertices;
+  return VF_OK;
+}
+
+/* ---------------------------------------------------------------------------------------- */
+/* Set-up                                                                                    */
+
+static void choose_techniques(vf_vcm *v) {
+  techniques *t = &v->t;
+  memset(t, 0, sizeof *t);
+  switch (v->settings.algorithm) {
+  case VF_ALGO_VCM:
+    t->light_paths = t->camera_paths = t->light_to_camera = t->emission = t->light_sample = 1;
+    t->connection = t->merging = 1;
+    break;
+  case VF_ALGO_BPT:
+    t->light_paths = t->camera_paths = t->light_to_camera = t->emission = t->light_sample = t->connection = 1;
+    break;
+  case VF_ALGO_PT: t->camera_paths = t->emission = t->light_sample = 1; break;
+  case VF_ALGO_LT: t->light_paths = t->light_to_camera = t->lt = 1; break;
+  case VF_ALGO_PPM:
+    t->light_paths = t->camera_paths = t->emission = t->merging = t->ppm = 1;
+    t->emission_specular_only = 1;
+    break;
+  case VF_ALGO_BPM:
+    t->light_paths = t->camera_paths = t->emission = t->merging = 1;
+    t->emission_specular_only = 1;
+    break;
+  default: break;
+  }
+  t->store_vertices = t->connection || t->merging;
+}
+
+static void analyse_scene(vf_vcm *v) {
+  const vf_scene *sc = v->scene;
+  for (int i = 0; i < sc->num_materials; i++) {
+    const vf_material *m = &sc->materials[i];
+    if (!vf_is_zero(m->mirror) || !vf_is_zero(m->dielectric)) v->has_specular = 1;
+    if (!vf_is_zero(m->glossy)) v->has_glossy = 1;
+    if (!vf_is_zero(m->diffuse)) v->has_diffuse = 1;
+  }
+}
+
+void vf_vcm_describe(const vf_vcm *v, FILE *out) {
+  const techniques *t = &v->t;
+  int area = 0, point = 0, directional = 0;
+  for (int i = 0; i < v->lights->count; i++) {
+    vf_light_kind k = v->lights->lights[i].kind;
+    area += k == VF_LIGHT_AREA_MESH || k == VF_LIGHT_AREA_SPHERE;
+    point += k == VF_LIGHT_POINT;
+    directional += k == VF_LIGHT_DIRECTIONAL;
+  }
+  int sds = v->has_specular && (v->has_diffuse || v->has_glossy);
+  fprintf(out, "scene: %d area, %d point, %d directional light(s)%s; %s%s%s surfaces; SDS paths %s\n", area, point,
+          directional, v->lights->environment >= 0 ? ", environment" : "", v->has_diffuse ? "diffuse " : "",
+          v->has_glossy ? "glossy " : "", v->has_specular ? "specular" : "",
+          sds ? "possible" : "impossible");
+  fprintf(out,
+          "techniques (%s): emission hits %s, light sampling %s, light tracing %s, connections %s, merging %s\n",
+          vf_algorithm_name(v->settings.algorithm), t->emission ? (t->emission_specular_only ? "specular paths" : "on") : "off",
+          t->light_sample ? "on" : "off", t->light_to_camera ? "on" : "off", t->connection ? "on" : "off",
+          t->merging ? (t->ppm ? "first diffuse vertex" : "on") : "off");
+  fprintf(out, "skipped: %s%s%s%s\n", t->store_vertices ? "" : "light-vertex storage, ",
+          t->merging ? "" : "range-search grid, ", v->lights->environment >= 0 ? "" : "environment lookups, ",
+          "connections at specular vertices, shadow rays for zero contributions");
+  if (t->merging && sds == 0 && v->settings.algorithm == VF_ALGO_VCM)
+    fprintf(out, "note: no specular surfaces, so merging only adds to paths connections already cover\n");
+}
+
+int vf_vcm_create(const vf_scene *scene, const vf_accel *accel, const vf_settings *settings, vf_pool *pool,
+                  vf_vcm **out) {
+  int err = VF_ENOMEM;
+  vf_vcm *v = calloc(1, sizeof *v);
+  if (v == NULL) return VF_ENOMEM;
+  v->scene = scene;
+  v->accel = accel;
+  v->settings = *settings;
+  v->pool = pool;
+  vf_camera_init(&v->camera, &scene->camera, settings->width, settings->height);
+  vf_scene_bounding_sphere(scene, &v->scene_center, &v->scene_radius);
+  v->num_pixels = (uint32_t)settings->width * (uint32_t)settings->height;
+  choose_techniques(v);
+  analyse_scene(v);
+  if ((err = vf_lights_create(scene, &v->lights)) != VF_OK) goto fail;
+  err = VF_ENOMEM;
+  v->num_chunks = (v->num_pixels + LIGHT_CHUNK - 1) / LIGHT_CHUNK;
+  v->chunks = calloc(v->num_chunks, sizeof *v->chunks);
+  v->path_begin = calloc(v->num_pixels, sizeof(uint32_t));
+  v->path_end = calloc(v->num_pixels, sizeof(uint32_t));
+  v->stats = calloc((size_t)vf_pool_threads(pool), sizeof *v->stats);
+  if (!v->chunks || !v->path_begin || !v->path_end || !v->stats) goto fail;
+  if (v->t.merging && (err = vf_hashgrid_create(&v->grid)) != VF_OK) goto fail;
+  *out = v;
+  return VF_OK;
+fail:
+  vf_vcm_destroy(v);
+  return err;
+}
+
+void vf_vcm_destroy(vf_vcm *v) {
+  if (v == NULL) return;
+  if (v->chunks)
+    for (uint32_t c = 0; c < v->num_chunks; c++) {
+      free(v->chunks[c].vertices);
+      free(v->chunks[c].splats);
+    }
+  free(v->chunks);
+  free(v->vertices);
+  free(v->path_begin);
+  free(v->path_end);
+  free(v->stats);
+  vf_hashgrid_destroy(v->grid);
+  vf_lights_destroy(v->lights);
+  free(v);
+}

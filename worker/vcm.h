@@ -1,0 +1,52 @@
+/* One progressive VCM iteration, and the whole technique family built from it.
+ *
+ * An iteration with global index k (tech. rep. sec. 2.3, paper fig. 6):
+ *   1. trace one light sub-path per pixel; store its non-specular vertices and project
+ *      each onto the camera (light tracing, t = 1);
+ *   2. build the range-search grid over the stored light vertices, radius r_k;
+ *   3. trace one camera sub-path per pixel; at each vertex: emission hit (s = 0), light
+ *      sampling (s = 1), connection to the vertices of the pixel's own light sub-path, and
+ *      merging with every light vertex within r_k; then continue.
+ * Each technique is weighted by the recursive MIS scheme of worker/mis.h. The algorithms
+ * bpt, pt, lt, ppm and bpm are this same iteration with techniques switched off.
+ *
+ * The merge radius of iteration k is r_1 sqrt(i^(alpha - 1)), i = k + 1 (paper sec. 6.1),
+ * r_1 = radius_factor x the scene's bounding-sphere radius. Random numbers of light
+ * sub-path p and camera sub-path p come from streams keyed by (seed, k, p): any iteration
+ * can be rendered anywhere, in any order, on any number of threads, with the same result. */
+#ifndef VF_VCM_H
+#define VF_VCM_H
+
+#include "../common/pool.h"
+#include "../common/settings.h"
+#include "accel.h"
+#include "scene.h"
+
+#include <stdint.h>
+#include <stdio.h>
+
+typedef struct vf_vcm vf_vcm;
+
+typedef struct {
+  uint64_t rays;            /* closest-hit and occlusion queries */
+  uint64_t light_vertices;  /* stored for connection and merging */
+  uint64_t nonfinite;       /* NaN or Inf samples refused (never accumulated) */
+} vf_vcm_stats;
+
+/* Prepares a renderer for the scene (borrowed, must outlive it) with the given settings.
+ * The accel, pool and scene are borrowed. */
+int vf_vcm_create(const vf_scene *scene, const vf_accel *accel, const vf_settings *settings, vf_pool *pool,
+                  vf_vcm **out);
+void vf_vcm_destroy(vf_vcm *vcm);
+
+/* Renders global iteration `iteration`: writes one camera-path estimate per pixel into
+ * camera_rgb and the light-tracing frame into light_rgb (3 floats per pixel each, top row
+ * first, overwritten). Adds to *stats. */
+int vf_vcm_iteration(vf_vcm *vcm, uint64_t iteration, float *camera_rgb, float *light_rgb, vf_vcm_stats *stats);
+
+double vf_vcm_merge_radius(const vf_vcm *vcm, uint64_t iteration);
+
+/* Prints which techniques and scene features are enabled and which work is skipped. */
+void vf_vcm_describe(const vf_vcm *vcm, FILE *out);
+
+#endif
