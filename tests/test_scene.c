@@ -1,2 +1,560 @@
-/* placeholder: being written */
-int main(void) { return 77; }
+#include "check.h"
+#include "common/error.h"
+#include "common/image.h"
+#include "worker/scene.h"
+
+#include <dirent.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#define SCENES VF_SOURCE_DIR "/tests/scenes"
+
+/* ---- helpers ------------------------------------------------------------------------------ */
+
+static vf_scene *load_ok(const char *name) {
+  vf_scene *s = NULL;
+  int err = vf_scene_load(name, &s);
+  if (err != VF_OK) CHECK_FAIL_("loading %s: %s", name, vf_error_detail(err));
+  return s;
+}
+
+static vf_vec3 vertex(const vf_shape *s, uint32_t v) {
+  return vf_vec3_make(s->positions[3 * v], s->positions[3 * v + 1], s->positions[3 * v + 2]);
+}
+
+/* Unnormalised geometric normal (counter-clockwise front) and centroid of triangle t. */
+static vf_vec3 triangle_normal(const vf_shape *s, uint32_t t, vf_vec3 *centroid) {
+  vf_vec3 a = vertex(s, s->indices[3 * t]), b = vertex(s, s->indices[3 * t + 1]), c = vertex(s, s->indices[3 * t + 2]);
+  if (centroid) *centroid = vf_scale(vf_add(vf_add(a, b), c), 1.0f / 3.0f);
+  return vf_cross(vf_sub(b, a), vf_sub(c, a));
+}
+
+/* Six times the signed volume enclosed: positive when a closed mesh faces outwards. */
+static double signed_volume6(const vf_shape *s) {
+  double v = 0.0;
+  for (uint32_t t = 0; t < s->num_triangles; t++) {
+    vf_vec3 a = vertex(s, s->indices[3 * t]), b = vertex(s, s->indices[3 * t + 1]), c = vertex(s, s->indices[3 * t + 2]);
+    v += vf_dot(a, vf_cross(b, c));
+  }
+  return v;
+}
+
+static const vf_shape *shape_named(const vf_scene *s, const char *name) {
+  for (int i = 0; i < s->num_shapes; i++)
+    if (strcmp(s->shapes[i].name, name) == 0) return &s->shapes[i];
+  CHECK_FAIL_("no shape named '%s'", name);
+  return NULL;
+}
+
+static int has_vertex(const vf_shape *s, float x, float y, float z) {
+  for (uint32_t v = 0; v < s->num_vertices; v++)
+    if (fabsf(s->positions[3 * v] - x) < 1e-5f && fabsf(s->positions[3 * v + 1] - y) < 1e-5f &&
+        fabsf(s->positions[3 * v + 2] - z) < 1e-5f)
+      return 1;
+  return 0;
+}
+
+static char *read_all(const char *path) {
+  FILE *f = fopen(path, "rb");
+  if (f == NULL) return NULL;
+  char *buf = calloc(1, 1 << 20);
+  size_t n = fread(buf, 1, (1 << 20) - 1, f);
+  buf[n] = '\0';
+  fclose(f);
+  return buf;
+}
+
+static void write_all(const char *path, const char *text) {
+  FILE *f = fopen(path, "wb");
+  CHECK(f != NULL);
+  if (f == NULL) return;
+  fputs(text, f);
+  fclose(f);
+}
+
+static void copy_file(const char *from, const char *to) {
+  char *text = read_all(from);
+  CHECK(text != NULL);
+  if (text) write_all(to, text);
+  free(text);
+}
+
+/* Replaces the first occurrence of `from` in text (in place when lengths match). */
+static void replace_once(char *text, const char *from, const char *to) {
+  char *p = strstr(text, from);
+  CHECK(p != NULL && strlen(from) == strlen(to));
+  if (p) memcpy(p, to, strlen(to));
+}
+
+/* A fresh directory under /tmp; removed by remove_tree. */
+static void make_temp_dir(char dir[64]) {
+  snprintf(dir, 64, "/tmp/test_scene.XXXXXX");
+  CHECK(mkdtemp(dir) != NULL);
+}
+
+static void remove_tree(const char *dir) {
+  char cmd[256];
+  snprintf(cmd, sizeof cmd, "rm -rf '%s'", dir);
+  CHECK_INT_EQ(system(cmd), 0);
+}
+
+/* ---- built-in scenes ---------------------------------------------------------------------- */
+
+static void test_every_builtin_loads_with_sane_bounds(void) {
+  for (const char *const *name = vf_scene_builtin_names(); *name; name++) {
+    vf_scene *s = load_ok(*name);
+    if (s == NULL) continue;
+    char source[80];
+    snprintf(source, sizeof source, "builtin:%s", *name);
+    CHECK_STR_CONTAINS(s->source, source);
+    vf_vec3 center;
+    float radius;
+    vf_scene_bounding_sphere(s, &center, &radius);
+    /* Every built-in lives in the box [-1,1]^3. */
+    CHECK_NEAR(vf_length(center), 0.0, 1e-5);
+    CHECK_NEAR(radius, sqrtf(3.0f), 1e-5);
+    CHECK(s->num_shapes >= 1 && s->num_materials >= 1);
+    CHECK_NEAR(vf_length(s->camera.forward), 1.0, 1e-6);
+    CHECK_NEAR(vf_dot(s->camera.forward, s->camera.up), 0.0, 1e-6);
+    CHECK_INT_EQ(vf_settings_validate(&s->settings), VF_OK);
+    for (int m = 0; m < s->num_materials; m++) {
+      const vf_material *mt = &s->materials[m];
+      vf_vec3 sum = vf_add(vf_add(mt->diffuse, mt->glossy), vf_add(mt->mirror, mt->dielectric));
+      CHECK(vf_max_component(sum) <= 1.0f);
+    }
+    vf_scene_destroy(s);
+  }
+}
+
+static void test_cornell_walls_face_inwards_and_light_faces_down(void) {
+  vf_scene *s = load_ok("cornell");
+  if (s == NULL) return;
+  CHECK_INT_EQ(s->num_shapes, 8); /* 5 walls, 2 spheres, 1 light */
+  CHECK_INT_EQ(s->num_point_lights + s->num_directional_lights, 0);
+  const char *walls[] = {"floor", "ceiling", "back", "left", "right"};
+  for (int w = 0; w < 5; w++) {
+    const vf_shape *sh = shape_named(s, walls[w]);
+    if (sh == NULL) continue;
+    CHECK_INT_EQ(sh->num_triangles, 2);
+    for (uint32_t t = 0; t < sh->num_triangles; t++) {
+      vf_vec3 centroid, n = triangle_normal(sh, t, &centroid);
+      CHECK(vf_dot(n, vf_neg(centroid)) > 0.0f);
+    }
+  }
+  /* The front, z = +1, is open: no vertex of any wall is there except on its edges. */
+  const vf_shape *back = shape_named(s, "back");
+  if (back) CHECK_NEAR(back->positions[2], -1.0, 0.0);
+  const vf_shape *light = shape_named(s, "light");
+  if (light) {
+    CHECK(!vf_is_zero(light->emission));
+    for (uint32_t t = 0; t < light->num_triangles; t++) {
+      vf_vec3 n = vf_normalize(triangle_normal(light, t, NULL));
+      CHECK_NEAR(n.y, -1.0, 1e-6);
+    }
+    CHECK_NEAR(light->positions[1], 0.98, 1e-6);
+  }
+  const vf_shape *mirror = shape_named(s, "mirror ball"), *glass = shape_named(s, "glass ball");
+  if (mirror && glass) {
+    CHECK_INT_EQ(mirror->kind, VF_SHAPE_SPHERE);
+    CHECK_NEAR(mirror->radius, 0.35, 1e-6);
+    CHECK_NEAR(mirror->center.x, -0.45, 1e-6);
+    CHECK_NEAR(s->materials[mirror->material].mirror.x, 0.95, 1e-6);
+    CHECK_NEAR(glass->center.z, 0.25, 1e-6);
+    CHECK_NEAR(s->materials[glass->material].ior, 1.6, 1e-6);
+    CHECK_NEAR(s->materials[glass->material].dielectric.y, 1.0, 0.0);
+  }
+  const vf_shape *floor_ = shape_named(s, "floor");
+  if (floor_) CHECK_NEAR(s->materials[floor_->material].phong_exponent, 40.0, 0.0);
+  CHECK_NEAR(s->camera.position.z, 3.6, 1e-6);
+  CHECK_NEAR(s->camera.forward.z, -1.0, 1e-6);
+  CHECK_NEAR(s->camera.up.y, 1.0, 1e-6);
+  CHECK_NEAR(s->camera.vertical_fov_degrees, 38.0, 0.0);
+  CHECK_INT_EQ(s->settings.width, 512);
+  CHECK_INT_EQ(s->settings.height, 512);
+  CHECK_INT_EQ(s->settings_given, VF_SET_RESOLUTION);
+  vf_scene_destroy(s);
+}
+
+static void test_cornell_variants_have_their_lights(void) {
+  vf_scene *s = load_ok("cornell-point");
+  if (s) {
+    CHECK_INT_EQ(s->num_point_lights, 1);
+    CHECK_NEAR(s->point_lights[0].position.y, 0.85, 1e-6);
+    for (int i = 0; i < s->num_shapes; i++) CHECK(vf_is_zero(s->shapes[i].emission));
+    vf_scene_destroy(s);
+  }
+  if ((s = load_ok("cornell-sun")) != NULL) {
+    CHECK_INT_EQ(s->num_directional_lights, 1);
+    vf_vec3 expect = vf_normalize(vf_vec3_make(-0.35f, -0.55f, -0.75f)), d = s->directional_lights[0].direction;
+    CHECK_NEAR(vf_dot(d, expect), 1.0, 1e-6);
+    CHECK(d.z < 0.0f); /* travels into the box through the open front */
+    CHECK_NEAR(s->directional_lights[0].irradiance.x, 3.0, 0.0);
+    vf_scene_destroy(s);
+  }
+  if ((s = load_ok("cornell-env")) != NULL) {
+    CHECK_NEAR(s->background.x + s->background.y + s->background.z, 3.0, 0.0);
+    CHECK_INT_EQ(s->envmap.width, 0);
+    vf_scene_destroy(s);
+  }
+}
+
+static void test_furnace_is_a_closed_inward_emitting_cube(void) {
+  vf_scene *s = load_ok("furnace");
+  if (s == NULL) return;
+  CHECK_INT_EQ(s->num_shapes, 1);
+  const vf_shape *cube = &s->shapes[0];
+  CHECK_INT_EQ(cube->num_triangles, 12);
+  CHECK_NEAR(cube->emission.x, 0.5, 0.0);
+  CHECK_NEAR(s->materials[cube->material].diffuse.y, 0.5, 0.0);
+  double area = 0.0;
+  for (uint32_t t = 0; t < cube->num_triangles; t++) {
+    vf_vec3 centroid, n = triangle_normal(cube, t, &centroid);
+    CHECK(vf_dot(n, vf_neg(centroid)) > 0.0f); /* towards the origin */
+    area += 0.5 * vf_length(n);
+  }
+  CHECK_NEAR(area, 24.0, 1e-5);
+  CHECK(signed_volume6(cube) < 0.0); /* closed and inward: the enclosed volume counts negative */
+  CHECK_NEAR(signed_volume6(cube), -6.0 * 8.0, 1e-4);
+  CHECK_NEAR(vf_length(s->camera.position), 0.0, 0.0);
+  CHECK_NEAR(s->camera.forward.z, -1.0, 0.0);
+  CHECK_NEAR(s->camera.vertical_fov_degrees, 60.0, 0.0);
+  CHECK_INT_EQ(s->settings.width, 128);
+  CHECK_INT_EQ(s->settings.max_path_length, 64);
+  CHECK(s->settings_given & VF_SET_MAX_PATH_LENGTH);
+  vf_scene_destroy(s);
+}
+
+static void test_knot_is_a_large_outward_tube_inside_the_box(void) {
+  vf_scene *s = load_ok("knot");
+  if (s == NULL) return;
+  const vf_shape *knot = shape_named(s, "knot");
+  if (knot) {
+    CHECK(knot->num_triangles >= 100000);
+    CHECK_INT_EQ(knot->num_triangles, 115200);
+    CHECK(signed_volume6(knot) > 0.0);
+    for (uint32_t v = 0; v < knot->num_vertices; v++)
+      for (int k = 0; k < 3; k++) CHECK(fabsf(knot->positions[3 * v + k]) < 0.99f);
+    CHECK_NEAR(s->materials[knot->material].phong_exponent, 80.0, 0.0);
+  }
+  CHECK_INT_EQ(s->num_shapes, 7); /* walls, knot, light: no spheres */
+  for (int i = 0; i < s->num_shapes; i++) CHECK_INT_EQ(s->shapes[i].kind, VF_SHAPE_MESH);
+  vf_scene_destroy(s);
+}
+
+static void test_builtin_hashes_are_stable_and_distinct(void) {
+  const char *const *names = vf_scene_builtin_names();
+  uint8_t first[8][32];
+  int n = 0;
+  for (; names[n] && n < 8; n++) {
+    vf_scene *a = load_ok(names[n]), *b = load_ok(names[n]);
+    if (a && b) CHECK(memcmp(a->hash, b->hash, 32) == 0);
+    if (a) memcpy(first[n], a->hash, 32);
+    vf_scene_destroy(a);
+    vf_scene_destroy(b);
+  }
+  for (int i = 0; i < n; i++)
+    for (int j = i + 1; j < n; j++) CHECK(memcmp(first[i], first[j], 32) != 0);
+}
+
+/* ---- scene files ---------------------------------------------------------------------------- */
+
+static void test_file_scene_loads_meshes_and_applies_transforms(void) {
+  vf_scene *s = load_ok(SCENES "/good/meshes.json");
+  if (s == NULL) return;
+  CHECK_INT_EQ(s->num_shapes, 4);
+  CHECK_INT_EQ(s->num_materials, 3);
+  /* OBJ unit square, scaled by 2 and moved by (-1, 0, -1). */
+  const vf_shape *quad = shape_named(s, "quad");
+  if (quad) {
+    CHECK_INT_EQ(quad->num_triangles, 2);
+    CHECK_INT_EQ(quad->num_vertices, 4);
+    CHECK(has_vertex(quad, -1, 0, -1) && has_vertex(quad, 1, 0, -1) && has_vertex(quad, 1, 2, -1) &&
+          has_vertex(quad, -1, 2, -1));
+    vf_vec3 n = triangle_normal(quad, 0, NULL);
+    CHECK(n.z > 0.0f);
+  }
+  /* PLY triangle: scale (1,2,3), then 90 degrees about +z, then up by 2 in z. */
+  const vf_shape *tri = shape_named(s, "tri");
+  if (tri) {
+    CHECK_INT_EQ(tri->num_triangles, 1);
+    CHECK(has_vertex(tri, 0, 0, 2));
+    CHECK(has_vertex(tri, 0, 1, 2));
+    CHECK(has_vertex(tri, -2, 0, 2));
+    CHECK(triangle_normal(tri, 0, NULL).z > 0.0f);
+    CHECK_NEAR(s->materials[tri->material].glossy.x, 0.5, 1e-6);
+  }
+  /* A mirroring matrix keeps the triangle facing the way it faced in the file. */
+  const vf_shape *mirrored = shape_named(s, "mirrored");
+  if (mirrored) {
+    CHECK(has_vertex(mirrored, -1, 0, 0));
+    CHECK(triangle_normal(mirrored, 0, NULL).z > 0.0f);
+  }
+  const vf_shape *bulb = shape_named(s, "bulb");
+  if (bulb) {
+    CHECK_NEAR(bulb->center.y, 3.0, 1e-6);
+    CHECK_NEAR(bulb->radius, 0.25, 1e-6);
+    CHECK_NEAR(bulb->emission.x, 4.0, 0.0);
+  }
+  CHECK_NEAR(s->bounds_max.y, 3.25, 1e-6);
+  CHECK_NEAR(s->bounds_min.x, -2.0, 1e-6);
+  CHECK_NEAR(s->camera.forward.z, -1.0, 1e-6);
+  CHECK_INT_EQ(s->settings.algorithm, VF_ALGO_BPT);
+  CHECK_INT_EQ(s->settings.max_path_length, 8);
+  CHECK_INT_EQ(s->settings.seed, 42);
+  CHECK_INT_EQ(s->settings.width, 320);
+  CHECK_INT_EQ(s->settings.height, 240);
+  CHECK_INT_EQ(s->settings_given, VF_SET_ALGORITHM | VF_SET_MAX_PATH_LENGTH | VF_SET_SEED | VF_SET_RESOLUTION);
+  CHECK_NEAR(s->settings.alpha, 0.75, 0.0); /* default kept */
+  CHECK_INT_EQ(s->num_point_lights, 1);
+  vf_scene_destroy(s);
+}
+
+static void test_gltf_node_transform_and_scene_transform_compose(void) {
+  vf_scene *s = load_ok(SCENES "/good/gltf.json");
+  if (s == NULL) return;
+  const vf_shape *tri = &s->shapes[0];
+  CHECK_INT_EQ(tri->num_triangles, 1);
+  /* The file's node moves the triangle to z = 5, the scene's transform by +1 in x. */
+  CHECK(has_vertex(tri, 1, 0, 5) && has_vertex(tri, 2, 0, 5) && has_vertex(tri, 1, 1, 5));
+  CHECK(triangle_normal(tri, 0, NULL).z > 0.0f);
+  CHECK_INT_EQ(s->settings_given, 0);
+  CHECK_INT_EQ(s->settings.width, 512);
+  CHECK_STR_CONTAINS(s->shapes[0].name, "tri");
+  vf_scene_destroy(s);
+}
+
+static void test_hash_ignores_path_and_layout_but_sees_one_value(void) {
+  char dir[64], path[256];
+  make_temp_dir(dir);
+  snprintf(path, sizeof path, "%s/meshes", dir);
+  CHECK_INT_EQ(mkdir(path, 0700), 0);
+  snprintf(path, sizeof path, "%s/meshes/quad.obj", dir);
+  copy_file(SCENES "/good/meshes/quad.obj", path);
+  snprintf(path, sizeof path, "%s/meshes/tri.ply", dir);
+  copy_file(SCENES "/good/meshes/tri.ply", path);
+  snprintf(path, sizeof path, "%s/copy.json", dir);
+  copy_file(SCENES "/good/meshes.json", path);
+
+  vf_scene *original = load_ok(SCENES "/good/meshes.json"), *copy = load_ok(path);
+  char *text = read_all(SCENES "/good/meshes.json");
+  if (original && copy && text) {
+    char a[65], b[65];
+    vf_scene_hash_hex(original, a);
+    vf_scene_hash_hex(copy, b);
+    CHECK_INT_EQ(strlen(a), 64);
+    CHECK_STR_CONTAINS(a, b);
+    CHECK(strcmp(original->source, copy->source) != 0);
+
+    /* Other whitespace and another field order inside an object: same content. */
+    char *reordered = strdup(text), *relaid = malloc(strlen(text) * 2 + 1), *o = relaid;
+    replace_once(reordered, "\"target\": [0, 1, 0], \"up\": [0, 1, 0]", "\"up\": [0, 1, 0], \"target\": [0, 1, 0]");
+    for (const char *p = reordered; *p; p++) {
+      *o++ = *p;
+      if (*p == ',') *o++ = '\n';
+    }
+    *o = '\0';
+    free(reordered);
+    snprintf(path, sizeof path, "%s/relaid.json", dir);
+    write_all(path, relaid);
+    vf_scene *r = load_ok(path);
+    if (r) CHECK(memcmp(r->hash, original->hash, 32) == 0);
+    vf_scene_destroy(r);
+    free(relaid);
+
+    /* One albedo channel changed. */
+    replace_once(text, "[0.8, 0.8, 0.8]", "[0.8, 0.8, 0.7]");
+    snprintf(path, sizeof path, "%s/changed.json", dir);
+    write_all(path, text);
+    vf_scene *changed = load_ok(path);
+    if (changed) CHECK(memcmp(changed->hash, original->hash, 32) != 0);
+    vf_scene_destroy(changed);
+
+    /* A mesh file's content is part of the scene too. */
+    snprintf(path, sizeof path, "%s/meshes/tri.ply", dir);
+    char *ply = read_all(SCENES "/good/meshes/tri.ply");
+    replace_once(ply, "\n0 1 0\n", "\n0 2 0\n");
+    write_all(path, ply);
+    free(ply);
+    snprintf(path, sizeof path, "%s/copy.json", dir);
+    vf_scene *moved = load_ok(path);
+    if (moved) CHECK(memcmp(moved->hash, original->hash, 32) != 0);
+    vf_scene_destroy(moved);
+
+    /* Recomputing gives the stored hash. */
+    uint8_t before[32];
+    memcpy(before, original->hash, 32);
+    vf_scene_hash(original);
+    CHECK(memcmp(before, original->hash, 32) == 0);
+  }
+  free(text);
+  vf_scene_destroy(original);
+  vf_scene_destroy(copy);
+  remove_tree(dir);
+}
+
+static void test_environment_map_is_loaded_and_hashed(void) {
+  char dir[64], exr[256], json[256];
+  make_temp_dir(dir);
+  vf_image img = {0, 0, NULL};
+  CHECK_INT_EQ(vf_image_alloc(&img, 8, 4), VF_OK);
+  for (int i = 0; i < 3 * 8 * 4; i++) img.rgb[i] = 0.25f * (float)(i % 5);
+  snprintf(exr, sizeof exr, "%s/sky.exr", dir);
+  CHECK_INT_EQ(vf_image_write_exr(exr, &img), VF_OK);
+  const char *scene =
+      "{\"camera\": {\"position\": [0, 0, 3], \"forward\": [0, 0, -1], \"fov\": 40},\n"
+      " \"materials\": {\"white\": {\"diffuse\": [0.5, 0.5, 0.5]}},\n"
+      " \"shapes\": [{\"type\": \"sphere\", \"center\": [0, 0, 0], \"radius\": 1, \"material\": \"white\"}],\n"
+      " \"lights\": [{\"type\": \"environment\", \"file\": \"sky.exr\", \"scale\": [2, 2, 2]}]}\n";
+  snprintf(json, sizeof json, "%s/env.json", dir);
+  write_all(json, scene);
+  vf_scene *s = load_ok(json);
+  if (s) {
+    CHECK_INT_EQ(s->envmap.width, 8);
+    CHECK_INT_EQ(s->envmap.height, 4);
+    CHECK_NEAR(s->envmap.rgb[7], img.rgb[7], 1e-6);
+    CHECK_NEAR(s->envmap_scale.y, 2.0, 0.0);
+    CHECK_INT_EQ(s->settings_given, 0);
+    CHECK_INT_EQ(s->settings.width, 512); /* default resolution */
+    uint8_t before[32];
+    memcpy(before, s->hash, 32);
+    s->envmap.rgb[0] += 1.0f; /* the pixels are hashed */
+    vf_scene_hash(s);
+    CHECK(memcmp(before, s->hash, 32) != 0);
+    vf_scene_destroy(s);
+  }
+  img.rgb[5] = -1.0f;
+  CHECK_INT_EQ(vf_image_write_exr(exr, &img), VF_OK);
+  s = NULL;
+  int err = vf_scene_load(json, &s);
+  CHECK_INT_EQ(err, VF_ESCENE);
+  CHECK_STR_CONTAINS(vf_error_detail(err), "env.json: lights[0].file: pixel (1, 0) of 'sky.exr' is negative");
+  CHECK(unlink(exr) == 0);
+  err = vf_scene_load(json, &s);
+  CHECK_INT_EQ(err, VF_ENOENT);
+  CHECK_STR_CONTAINS(vf_error_detail(err), "env.json: lights[0].file: cannot open 'sky.exr'");
+  CHECK(s == NULL);
+  vf_image_destroy(&img);
+  remove_tree(dir);
+}
+
+/* ---- bad scenes ----------------------------------------------------------------------------- */
+
+/* Codes other than VF_ESCENE: mesh content is VF_EMESH, missing files VF_ENOENT. */
+static int expected_code(const char *file) {
+  static const struct {
+    const char *file;
+    int code;
+  } codes[] = {{"missing_mesh.json", VF_ENOENT},
+               {"nan_vertex.json", VF_EMESH},
+               {"corrupt_mesh.json", VF_EMESH},
+               {"out_of_range_obj.json", VF_EMESH}};
+  for (size_t i = 0; i < sizeof codes / sizeof codes[0]; i++)
+    if (strcmp(codes[i].file, file) == 0) return codes[i].code;
+  return VF_ESCENE;
+}
+
+static void test_every_bad_scene_fails_naming_file_and_field(void) {
+  FILE *f = fopen(SCENES "/bad/EXPECTED.txt", "r");
+  CHECK(f != NULL);
+  if (f == NULL) return;
+  char line[512];
+  int count = 0;
+  while (fgets(line, sizeof line, f)) {
+    line[strcspn(line, "\n")] = '\0';
+    char *tab = strchr(line, '\t');
+    CHECK(tab != NULL);
+    if (tab == NULL) continue;
+    *tab = '\0';
+    char path[1024];
+    snprintf(path, sizeof path, "%s/bad/%s", SCENES, line);
+    vf_scene *s = (vf_scene *)&count; /* must stay untouched on failure */
+    vf_error_clear();
+    int err = vf_scene_load(path, &s);
+    if (err != expected_code(line))
+      CHECK_FAIL_("%s: code %d (%s) != expected %d (%s)", line, err, vf_strerror(err), expected_code(line),
+                  vf_strerror(expected_code(line)));
+    CHECK(s == (vf_scene *)&count);
+    if (err == VF_OK) vf_scene_destroy(s);
+    CHECK_STR_CONTAINS(vf_error_detail(err), tab + 1);
+    count++;
+  }
+  fclose(f);
+  CHECK(count >= 20);
+
+  /* Every .json in bad/ has its line in EXPECTED.txt. */
+  char *expected = read_all(SCENES "/bad/EXPECTED.txt");
+  DIR *d = opendir(SCENES "/bad");
+  CHECK(d != NULL && expected != NULL);
+  for (struct dirent *e; d && expected && (e = readdir(d)) != NULL;) {
+    size_t n = strlen(e->d_name);
+    if (n < 5 || strcmp(e->d_name + n - 5, ".json") != 0) continue;
+    char key[300];
+    snprintf(key, sizeof key, "%s\t", e->d_name);
+    CHECK_STR_CONTAINS(expected, key);
+  }
+  if (d) closedir(d);
+  free(expected);
+}
+
+static void test_named_bad_cases_return_their_codes(void) {
+  static const struct {
+    const char *file;
+    int code;
+    const char *detail;
+  } cases[] = {
+      {"syntax.json", VF_ESCENE, "syntax.json: line 3: JSON syntax error near"},
+      {"unknown_field.json", VF_ESCENE, "unknown_field.json: camera.positon: unknown field"},
+      {"missing_mesh.json", VF_ENOENT, "missing_mesh.json: shapes[0].file: cannot open 'missing.obj'"},
+      {"nan_vertex.json", VF_EMESH, "nan_vertex.json: shapes[0] (nan_vertex.ply): vertex 2 has a non-finite"},
+      {"zero_area_light.json", VF_ESCENE, "zero_area_light.json: shapes[1]: emissive shape has zero area"},
+      {"negative_radiance.json", VF_ESCENE, "negative_radiance.json: shapes[0].emission: negative radiance"},
+      {"ior_zero.json", VF_ESCENE, "ior_zero.json: materials.glass.ior: must be > 0"},
+      {"resolution_zero.json", VF_ESCENE, "resolution_zero.json: camera.resolution: must be positive"},
+      {"index_out_of_range.json", VF_ESCENE, "index_out_of_range.json: shapes[0].indices[2]: index 3 out of range"},
+      {"out_of_range_obj.json", VF_EMESH, "out_of_range_obj.json: shapes[0].file: cannot read 'out_of_range.obj'"},
+      {"albedo_sum.json", VF_ESCENE, "albedo_sum.json: materials.hot: albedo sum of the lobes exceeds 1"},
+      {"no_light.json", VF_ESCENE, "no_light.json: the scene has no light"},
+      {"infinite_number.json", VF_ESCENE, "infinite_number.json: camera.fov: not a finite number"},
+  };
+  for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+    char path[512];
+    snprintf(path, sizeof path, "%s/bad/%s", SCENES, cases[i].file);
+    vf_scene *s = NULL;
+    int err = vf_scene_load(path, &s);
+    CHECK_INT_EQ(err, cases[i].code);
+    CHECK(s == NULL);
+    CHECK_STR_CONTAINS(vf_error_detail(err), cases[i].detail);
+  }
+}
+
+static void test_missing_scene_file_and_unknown_builtin(void) {
+  vf_scene *s = NULL;
+  int err = vf_scene_load(SCENES "/no/such/scene.json", &s);
+  CHECK_INT_EQ(err, VF_ENOENT);
+  CHECK_STR_CONTAINS(vf_error_detail(err), "scene.json: cannot open");
+  err = vf_scene_load("cornel", &s); /* a typo of a built-in is looked up as a file */
+  CHECK_INT_EQ(err, VF_ENOENT);
+  CHECK(s == NULL);
+  vf_scene_destroy(NULL);
+}
+
+int main(void) {
+  RUN(test_every_builtin_loads_with_sane_bounds);
+  RUN(test_cornell_walls_face_inwards_and_light_faces_down);
+  RUN(test_cornell_variants_have_their_lights);
+  RUN(test_furnace_is_a_closed_inward_emitting_cube);
+  RUN(test_knot_is_a_large_outward_tube_inside_the_box);
+  RUN(test_builtin_hashes_are_stable_and_distinct);
+  RUN(test_file_scene_loads_meshes_and_applies_transforms);
+  RUN(test_gltf_node_transform_and_scene_transform_compose);
+  RUN(test_hash_ignores_path_and_layout_but_sees_one_value);
+  RUN(test_environment_map_is_loaded_and_hashed);
+  RUN(test_every_bad_scene_fails_naming_file_and_field);
+  RUN(test_named_bad_cases_return_their_codes);
+  RUN(test_missing_scene_file_and_unknown_builtin);
+  return check_finish();
+}

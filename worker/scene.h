@@ -26,11 +26,13 @@ typedef enum { VF_SHAPE_MESH, VF_SHAPE_SPHERE } vf_shape_kind;
 
 typedef struct {
   vf_shape_kind kind;
-  char name[64];
+  char name[64];    /* from the file, else the mesh file name or "shapes[i]"; not hashed */
   int material;     /* index into vf_scene.materials */
   vf_vec3 emission; /* emitted radiance, on the side a triangle faces (counter-clockwise
                      * winding, right-hand rule) and outward from a sphere; zero: not a light */
-  /* VF_SHAPE_MESH: world-space triangles. Arrays owned by the scene. */
+  /* VF_SHAPE_MESH: world-space triangles, at least one; degenerate ones may occur (except in
+   * emitters, whose total area is > 0). A mirroring transform has already had its winding
+   * reversed, so fronts are the fronts of the file. Arrays owned by the scene. */
   uint32_t num_vertices, num_triangles;
   float *positions;  /* 3 per vertex */
   uint32_t *indices; /* 3 per triangle */
@@ -71,8 +73,10 @@ typedef struct {
   vf_directional_light_desc *directional_lights;
   int num_directional_lights;
   vf_vec3 background;     /* constant background radiance; zero = none */
-  vf_image envmap;        /* latitude-longitude radiance map; width 0 = none */
-  vf_vec3 envmap_scale;   /* multiplies the map */
+  vf_image envmap;        /* latitude-longitude radiance map, +y up, top row first, pixel
+                           * for direction d at u = 0.5 + atan2(d.x, -d.z) / 2pi,
+                           * v = acos(d.y) / pi (docs/SCENES.md); width 0 = none */
+  vf_vec3 envmap_scale;   /* multiplies the map; zero when there is no map */
   /* Render settings: defaults (vf_settings_default, resolution from the scene) overridden
    * by the scene's "render" object; settings_given says which the file set. */
   vf_settings settings;
@@ -81,9 +85,13 @@ typedef struct {
   vf_vec3 bounds_min, bounds_max; /* of all shapes */
 } vf_scene;
 
-/* Loads a built-in scene by name, or else a JSON scene file. On failure returns VF_ENOENT,
- * VF_ESCENE or VF_EMESH with a detail naming the file, the field and the problem, e.g.
- * "box.json: shapes[2].material: unknown material 'gold'". *out is written only on success. */
+/* Loads a built-in scene by name, or else a JSON scene file (docs/SCENES.md). On failure
+ * returns VF_ENOENT (scene, mesh or map file missing), VF_EMESH (a mesh file's content),
+ * VF_ESCENE (anything else wrong with the scene, including unreadable EXR maps) or
+ * VF_ENOMEM, with a detail naming the file, the field and the problem, e.g.
+ * "box.json: shapes[2].material: unknown material 'gold'". *out is written only on success
+ * and the caller owns the scene (vf_scene_destroy). Thread-safe apart from Assimp's
+ * process-global error text, which concurrent failing imports may mix up. */
 int vf_scene_load(const char *name_or_path, vf_scene **out);
 void vf_scene_destroy(vf_scene *scene);
 
@@ -94,7 +102,9 @@ const char *const *vf_scene_builtin_names(void);
 void vf_scene_bounding_sphere(const vf_scene *scene, vf_vec3 *center, float *radius);
 
 /* Recomputes scene->hash from the content (camera, materials, shapes, lights, environment,
- * settings the file set), in a canonical order: equal content gives equal hashes. */
+ * settings the file set), in a canonical order: equal content gives equal hashes. Names,
+ * the source path and the JSON layout are not part of it; material order is. Call it after
+ * changing a loaded scene. */
 void vf_scene_hash(vf_scene *scene);
 /* Lower-case hex of the hash into out (65 bytes with the NUL). */
 void vf_scene_hash_hex(const vf_scene *scene, char out[65]);

@@ -1,0 +1,67 @@
+/* Shared by the renderer's tests: render iterations in-process and reduce them to
+ * statistics, so that tests compare physics (analytic values, independent algorithms)
+ * with error bars estimated from the data itself. */
+#ifndef VF_TEST_RENDER_UTIL_H
+#define VF_TEST_RENDER_UTIL_H
+
+#include "common/error.h"
+#include "common/pool.h"
+#include "worker/accel.h"
+#include "worker/scene.h"
+#include "worker/vcm.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+
+/* Per-iteration estimates of the mean radiance over each of blocks x blocks image blocks
+ * (RGB averaged to one number), for iterations [first, first + n). out has n * blocks^2
+ * entries, iteration-major. Returns 0 on success. */
+static int render_block_means(const vf_scene *scene, const vf_settings *settings, int threads, uint64_t first, int n,
+                              int blocks, double *out, vf_vcm_stats *stats) {
+  vf_accel *accel = NULL;
+  vf_pool *pool = NULL;
+  vf_vcm *vcm = NULL;
+  size_t pixels = (size_t)settings->width * settings->height;
+  float *cam = malloc(3 * pixels * sizeof(float)), *light = malloc(3 * pixels * sizeof(float));
+  int err = VF_ENOMEM;
+  if (!cam || !light) goto done;
+  if ((err = vf_accel_create(scene, &accel)) != VF_OK) goto done;
+  if ((err = vf_pool_create(threads, &pool)) != VF_OK) goto done;
+  if ((err = vf_vcm_create(scene, accel, settings, pool, &vcm)) != VF_OK) goto done;
+  for (int i = 0; i < n; i++) {
+    if ((err = vf_vcm_iteration(vcm, first + (uint64_t)i, cam, light, stats)) != VF_OK) goto done;
+    double *m = &out[(size_t)i * blocks * blocks];
+    for (int b = 0; b < blocks * blocks; b++) m[b] = 0.0;
+    for (int y = 0; y < settings->height; y++)
+      for (int x = 0; x < settings->width; x++) {
+        size_t p = (size_t)y * settings->width + x;
+        int b = (y * blocks / settings->height) * blocks + x * blocks / settings->width;
+        m[b] += (cam[3 * p] + cam[3 * p + 1] + cam[3 * p + 2] + light[3 * p] + light[3 * p + 1] + light[3 * p + 2]) / 3.0;
+      }
+    for (int b = 0; b < blocks * blocks; b++) m[b] /= (double)pixels / (blocks * blocks);
+  }
+done:
+  if (err != VF_OK) fprintf(stderr, "render failed: %s\n", vf_error_detail(err));
+  vf_vcm_destroy(vcm);
+  vf_pool_destroy(pool);
+  vf_accel_destroy(accel);
+  free(cam);
+  free(light);
+  return err;
+}
+
+/* Mean and standard error of the mean of column `col` of an n x stride table. */
+static void mean_and_standard_error(const double *v, int n, int stride, int col, double *mean, double *se) {
+  double s = 0.0, s2 = 0.0;
+  for (int i = 0; i < n; i++) s += v[(size_t)i * stride + col];
+  double m = s / n;
+  for (int i = 0; i < n; i++) {
+    double d = v[(size_t)i * stride + col] - m;
+    s2 += d * d;
+  }
+  *mean = m;
+  *se = sqrt(s2 / (n - 1) / n);
+}
+
+#endif
