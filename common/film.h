@@ -65,4 +65,13 @@ int vf_film_read(const char *path, vf_film **out);
  * with dst unchanged, when they cannot be merged. */
 int vf_film_merge(vf_film *dst, const vf_film *src);
 
+/* A deep copy of film into *out (written only on success); VF_EINVAL or VF_ENOMEM. */
+int vf_film_clone(const vf_film *film, vf_film **out);
+
+/* Checks the invariants every film built by this module keeps: counts whole, >= 0 and at
+ * most the number of iterations, sums finite, square sums >= 0, light_frames equal to the
+ * number of iterations, render time finite and >= 0, settings text terminated. VF_EFILM
+ * with a detail "NAME: problem" (name is e.g. the file path) when one does not hold. */
+int vf_film_validate(const vf_film *film, const char *name);
+
 #endif

@@ -1,0 +1,98 @@
+/* Private to common/: the OpenEXRCore plumbing that film.c and image.c share, and the
+ * atomic-file rule every writer follows.
+ *
+ * OpenEXR errors are translated into VF_EEXR here, once, with a detail "FILE: problem
+ * (library message)". The library's own messages are captured per thread instead of being
+ * printed to stderr. Files are untrusted: the reader refuses multi-part and deep files,
+ * absurd sizes and files too short for their chunk table before it allocates anything,
+ * and hands pixels to its caller one decoded chunk at a time, converted to float.
+ *
+ * Atomic writes: the bytes go to "PATH.tmp.<pid>" in the same directory, are fsync'ed, and
+ * the file is renamed over PATH; on any failure the temporary file is unlinked and an
+ * existing file at PATH is left untouched. */
+#ifndef VF_EXR_UTIL_H
+#define VF_EXR_UTIL_H
+
+#include <openexr.h>
+
+#include <stdint.h>
+
+/* Refuse data windows above this many pixels before allocating anything. */
+#define VF_EXR_MAX_PIXELS ((int64_t)1 << 28)
+#define VF_EXR_MAX_SIDE 65536
+
+/* ---- atomic files ---- */
+
+typedef struct {
+  char *path;     /* owned copy of the final path */
+  char *tmp_path; /* owned: PATH.tmp.<pid> */
+  int fd;         /* open on tmp_path, or -1 */
+} vf_atomic_file;
+
+/* Creates the temporary file. VF_EINVAL / VF_EIO with a detail naming the path. */
+int vf_atomic_open(vf_atomic_file *file, const char *path);
+/* Writes all of buf at offset (pwrite loop). VF_EIO with a detail on failure. */
+int vf_atomic_pwrite(vf_atomic_file *file, const void *buf, uint64_t size, uint64_t offset);
+/* fsync, close, rename over the final path, fsync the directory. On failure the temporary
+ * file is removed. Releases the file either way. */
+int vf_atomic_commit(vf_atomic_file *file);
+/* Closes and removes the temporary file; releases the file. No-op on a released file. */
+void vf_atomic_abort(vf_atomic_file *file);
+
+/* ---- reading ---- */
+
+typedef struct {
+  exr_context_t ctx;
+  const char *path; /* borrowed from the caller for error details */
+  int width, height; /* the data window, which is "the image" */
+  int min_x, min_y;
+  int tiled;
+} vf_exr_in;
+
+/* Opens path and checks it is a single-part, flat (not deep), scanline or tiled image of a
+ * sane size. VF_ENOENT, VF_EIO, or VF_EEXR with a detail. in->ctx is set only on success. */
+int vf_exr_open(const char *path, vf_exr_in *in);
+void vf_exr_close(vf_exr_in *in);
+
+/* 1 if the file has a channel with this exact name (any sampling), else 0. */
+int vf_exr_has_channel(const vf_exr_in *in, const char *name);
+
+/* Receives one decoded chunk: planes[i] holds w*h floats (rows of w, top row first) of
+ * channel names[i] for the data-window rectangle at (x0, y0), relative to the window's
+ * top-left corner. Returns VF_OK or an error that stops the read. */
+typedef int (*vf_exr_store_fn)(void *user, int x0, int y0, int w, int h, const float *const *planes);
+
+/* Decodes channels `names` (which must all exist, unsubsampled) over the whole data
+ * window, level 0 of a tiled file, calling store once per chunk. VF_EEXR with a detail
+ * naming the chunk on corrupt data; store's error is passed through. */
+int vf_exr_read_channels(vf_exr_in *in, int n, const char *const *names, vf_exr_store_fn store, void *user);
+
+/* ---- writing ---- */
+
+typedef struct {
+  exr_context_t ctx;
+  vf_atomic_file file;
+  int width, height, tile; /* tile 0: scanline */
+} vf_exr_out;
+
+/* Starts an atomic write of a FLOAT, ZIP-compressed, one-part image with channels `names`,
+ * in tile x tile tiles, or scanlines when tile is 0. Attributes may be added with the
+ * exr_attr_set_* functions on out->ctx until vf_exr_write_pixels. */
+int vf_exr_create(const char *path, int width, int height, int tile, int n, const char *const *names,
+                  vf_exr_out *out);
+
+/* Fills one chunk: planes[i] receives w*h floats of channel names[i] at (x0, y0). */
+typedef void (*vf_exr_fill_fn)(void *user, int x0, int y0, int w, int h, float *const *planes);
+
+/* Writes the header and every chunk, asking fill for the pixels. */
+int vf_exr_write_pixels(vf_exr_out *out, int n, const char *const *names, vf_exr_fill_fn fill, void *user);
+
+/* Finishes the file and renames it into place. Releases out either way. */
+int vf_exr_commit(vf_exr_out *out);
+/* Drops the half-written file. No-op on a released writer. */
+void vf_exr_abort(vf_exr_out *out);
+
+/* Translates an OpenEXRCore result into VF_EEXR with "PATH: what (library message)". */
+int vf_exr_error(const char *path, exr_result_t rv, const char *what);
+
+#endif
