@@ -1,0 +1,54 @@
+#!/usr/bin/env bash
+# The command line as a user meets it: every broken scene is refused with exit status 2, a
+# message naming the file, the field and the problem, and no output file; bad options
+# likewise; --help and --version work.
+set -u
+vcmfarm="$1"
+scenes="$2"
+tmp=$(mktemp -d)
+trap 'rm -rf "$tmp"' EXIT
+passed=0
+failed=0
+
+check() { # name, condition result (0 = pass)
+  if [ "$2" -eq 0 ]; then passed=$((passed + 1)); echo "ok   $1"; else failed=$((failed + 1)); echo "FAIL $1"; fi
+}
+
+expect_refusal() { # name, expected substring, command...
+  local name="$1" expected="$2"
+  shift 2
+  rm -f "$tmp/out.exr"
+  "$@" >"$tmp/stdout" 2>"$tmp/stderr"
+  local status=$?
+  local ok=0
+  [ "$status" -eq 2 ] || { echo "  exit status $status, expected 2"; ok=1; }
+  grep -qF -- "$expected" "$tmp/stderr" || { echo "  stderr lacks '$expected':"; sed 's/^/    /' "$tmp/stderr"; ok=1; }
+  [ ! -e "$tmp/out.exr" ] || { echo "  an output file was written"; ok=1; }
+  check "$name" $ok
+}
+
+while IFS=$'\t' read -r file expected; do
+  [ -n "$file" ] || continue
+  expect_refusal "bad scene $file" "$expected" "$vcmfarm" render "$scenes/bad/$file" -n 1 -R 8x8 -o "$tmp/out.exr"
+done <"$scenes/bad/EXPECTED.txt"
+
+expect_refusal "missing scene file" "no-such-scene.json" "$vcmfarm" render no-such-scene.json -n 1 -o "$tmp/out.exr"
+expect_refusal "unknown algorithm" "unknown algorithm 'mlt'" "$vcmfarm" render furnace -a mlt -o "$tmp/out.exr"
+expect_refusal "zero resolution" "--resolution" "$vcmfarm" render furnace -R 0x10 -o "$tmp/out.exr"
+expect_refusal "negative iterations" "--iterations" "$vcmfarm" render furnace -n -3 -o "$tmp/out.exr"
+expect_refusal "iterations and time" "not both" "$vcmfarm" render furnace -n 3 -t 2 -o "$tmp/out.exr"
+expect_refusal "alpha out of range" "--alpha" "$vcmfarm" render furnace --alpha 1.5 -o "$tmp/out.exr"
+expect_refusal "unknown option" "unknown or incomplete option" "$vcmfarm" render furnace --frobnicate -o "$tmp/out.exr"
+expect_refusal "missing output" "missing -o" "$vcmfarm" render furnace -n 1
+expect_refusal "unknown command" "unknown command" "$vcmfarm" frobnicate
+
+"$vcmfarm" --version | grep -q '^vcmfarm [0-9]'
+check "--version" $?
+"$vcmfarm" render --help | grep -q 'usage: vcmfarm render'
+check "render --help" $?
+
+"$vcmfarm" render furnace -n 2 -R 16x16 -q -o "$tmp/ok.exr" -p "$tmp/ok.png"
+check "good render writes film and preview" $([ -s "$tmp/ok.exr" ] && [ -s "$tmp/ok.png" ]; echo $?)
+
+echo "$passed passed, $failed failed"
+[ "$failed" -eq 0 ]
