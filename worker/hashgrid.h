@@ -23,12 +23,21 @@ typedef struct {
 
 #define VF_HASHGRID_MAX_RANGES 27
 
+/* A point as the grid stores it, in sorted order: its position and its index in the
+ * caller's array. Candidate ranges index these, so a query's distance tests read
+ * contiguous memory instead of the caller's large records. */
+typedef struct {
+  float x, y, z;
+  uint32_t index;
+} vf_grid_point;
+
 int vf_hashgrid_create(vf_hashgrid **out);
 void vf_hashgrid_destroy(vf_hashgrid *grid);
 
 /* Builds over n points, positions read at base + i * stride (a vf_vec3 at offset 0 of each
  * record), for queries of the given radius. Reuses the grid's memory between builds.
- * Parallel over the pool's threads. */
+ * Parallel over the pool's threads (pool NULL: serial). Non-finite points are left out.
+ * On failure (VF_EINVAL for a bad radius, base or stride; VF_ENOMEM) the grid is empty. */
 int vf_hashgrid_build(vf_hashgrid *grid, const void *base, size_t stride, uint32_t n, float radius,
                       vf_pool *pool);
 
@@ -39,6 +48,12 @@ int vf_hashgrid_candidates(const vf_hashgrid *grid, vf_vec3 q, vf_index_range ou
 
 /* The sorted point indices that candidate ranges refer to. */
 const uint32_t *vf_hashgrid_indices(const vf_hashgrid *grid);
+
+/* The sorted points that candidate ranges refer to (vf_hashgrid_count of them). */
+const vf_grid_point *vf_hashgrid_points(const vf_hashgrid *grid);
+
+/* Number of points indexed by the last build (the finite ones). */
+uint32_t vf_hashgrid_count(const vf_hashgrid *grid);
 
 /* Calls visit(ctx, i) for every point i with |p_i - q|^2 <= radius^2. */
 void vf_hashgrid_query(const vf_hashgrid *grid, vf_vec3 q, void (*visit)(void *ctx, uint32_t i), void *ctx);

@@ -378,16 +378,21 @@ static vf_vec3 connect_vertices(vf_vcm *v, int thread, const vf_hit *hit, const 
   return contrib;
 }
 
-/* Vertex merging at camera vertex (hit, b) with every light vertex within the radius. */
+/* Vertex merging at camera vertex (hit, b) with every light vertex within the radius. The
+ * distance tests read the grid's compact sorted copy of the positions; only the vertices
+ * that pass touch their full records. */
 static vf_vec3 merge_vertices(const vf_vcm *v, const vf_hit *hit, const vf_bsdf *b, const path_state *s) {
   vf_vec3 sum = vf_vec3_splat(0.0f);
   vf_index_range ranges[VF_HASHGRID_MAX_RANGES];
   int n = vf_hashgrid_candidates(v->grid, hit->position, ranges);
-  const uint32_t *indices = vf_hashgrid_indices(v->grid);
+  const vf_grid_point *points = vf_hashgrid_points(v->grid);
+  const vf_vec3 q = hit->position;
   for (int r = 0; r < n; r++) {
     for (uint32_t k = ranges[r].begin; k < ranges[r].end; k++) {
-      const light_vertex *lv = &v->vertices[indices[k]];
-      if (vf_length_sq(vf_sub(lv->position, hit->position)) > v->radius_sq) continue;
+      const vf_grid_point *gp = &points[k];
+      float dx = gp->x - q.x, dy = gp->y - q.y, dz = gp->z - q.z;
+      if (dx * dx + dy * dy + dz * dz > v->radius_sq) continue;
+      const light_vertex *lv = &v->vertices[gp->index];
       if (lv->path_length + s->path_length > v->settings.max_path_length) continue;
       vf_vec3 light_dir = vf_frame_to_world(&lv->bsdf.frame, lv->bsdf.local_fix);
       float cos_camera, camera_pdf, camera_rev_pdf;

@@ -1,0 +1,688 @@
+/* The MIS identity: for a full path x_0 .. x_k (x_0 on the area light, x_k the pinhole),
+ * the recursive weights of worker/mis.h, driven exactly as worker/vcm.c drives them, must
+ * (1) sum to 1 over every technique the renderer uses to sample that path, and
+ * (2) each equal a direct evaluation of the balance heuristic, tech. rep. eq. (12), from
+ *     the path's vertex densities computed one by one in double precision (eq. 2-8, 10).
+ *
+ * Paths come from random walks in the built-in "cornell": from the light, closed by a
+ * connection to the camera, and from the camera, closed by a light sample or by hitting
+ * the light. The first family has no specular vertex; the second has exactly one (a
+ * reflection off the mirror or glass ball), where eq. (51) removes three techniques and
+ * the rest must still sum to 1.
+ *
+ * Which techniques exist (mirrors choose_techniques() and the guards of vcm.c):
+ *   VC, s = 0 (t = k + 1): emission hit; a path of one segment has only this technique.
+ *   VC, s = 1 (t = k):     light sampling from x_1, unless x_1 is specular.
+ *   VC, 2 <= s <= k - 1:   connection of x_{s-1} and x_s, both non-specular.
+ *   VC, s = k (t = 1):     x_{k-1} projected onto the camera, one per light sub-path,
+ *                          so n = n_light; the light's own point x_0 is never projected
+ *                          (s = 1, t = 1 exists only in pure light tracing, unweighted).
+ *   VM, 2 <= s <= k:       merging at x_{s-1} (t = k + 2 - s), non-specular; n = n_light.
+ * BPT drops VM, BPM drops VC (its emission hits count only along purely specular camera
+ * paths, unweighted), PT keeps s = 0 and s = 1. */
+#include "check.h"
+
+#include "common/error.h"
+#include "common/rng.h"
+#include "worker/accel.h"
+#include "worker/bsdf.h"
+#include "worker/camera.h"
+#include "worker/light.h"
+#include "worker/mis.h"
+#include "worker/sampling.h"
+#include "worker/scene.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+enum { MAX_SEGMENTS = 6, MAX_VERTICES = MAX_SEGMENTS + 1, MAX_PATHS = 3000, WALKS = 6000 };
+
+/* A full path: position[0] on the light, position[k] the camera position. */
+typedef struct {
+  int k;
+  vf_vec3 position[MAX_VERTICES];
+  vf_vec3 normal[MAX_VERTICES];              /* geometric; [0] the light's, [k] unused */
+  const vf_material *material[MAX_VERTICES]; /* interior vertices 1 .. k-1 */
+  int specular[MAX_VERTICES];                /* interior vertex with only delta lobes */
+} full_path;
+
+typedef struct {
+  full_path paths[MAX_PATHS];
+  int count;
+} path_set;
+
+typedef struct {
+  vf_scene *scene;
+  vf_accel *accel;
+  vf_lights *lights;
+  const vf_light *light; /* the area light */
+  vf_camera camera;
+  double n_light;        /* light sub-paths per iteration: one per pixel */
+} test_scene;
+
+/* ---------------------------------------------------------------------------------------- */
+/* Geometry helpers                                                                          */
+
+static vf_vec3 direction_between(vf_vec3 from, vf_vec3 to, float *dist) {
+  vf_vec3 d = vf_sub(to, from);
+  *dist = vf_length(d);
+  return vf_scale(d, 1.0f / *dist);
+}
+
+static double dist_sq_d(vf_vec3 a, vf_vec3 b) {
+  double dx = (double)a.x - b.x, dy = (double)a.y - b.y, dz = (double)a.z - b.z;
+  return dx * dx + dy * dy + dz * dz;
+}
+
+/* |cos| at p (normal n) of the direction towards q, in double. */
+static double abs_cos_d(vf_vec3 p, vf_vec3 n, vf_vec3 q) {
+  double dx = (double)q.x - p.x, dy = (double)q.y - p.y, dz = (double)q.z - p.z;
+  return fabs((dx * n.x + dy * n.y + dz * n.z) / sqrt(dx * dx + dy * dy + dz * dz));
+}
+
+/* As segment_occluded() in vcm.c: both ends moved off their surfaces (nq zero: a point). */
+static int occluded(const test_scene *ts, vf_vec3 p, vf_vec3 n, vf_vec3 q, vf_vec3 nq) {
+  vf_vec3 d = vf_sub(q, p);
+  vf_vec3 o = vf_offset_ray_origin(p, vf_dot(n, d) > 0.0f ? n : vf_neg(n));
+  vf_vec3 e = vf_is_zero(nq) ? q : vf_offset_ray_origin(q, vf_dot(nq, d) < 0.0f ? nq : vf_neg(nq));
+  return vf_accel_occluded(ts->accel, o, vf_sub(e, o), 1.0f);
+}
+
+static const vf_material *material_of(const test_scene *ts, uint32_t shape) {
+  return &ts->scene->materials[ts->scene->shapes[shape].material];
+}
+
+/* Density of the specular reflection of fix (tech. rep. eq. 52: the probability of
+ * picking that delta component), with the continuation, as vf_bsdf_sample() reports it.
+ * Mirror and dielectric reflection give the same direction, so both choices count. The
+ * paths here never refract: past a refraction the next vertex is inside the glass ball. */
+static float specular_reflection_pdf(const vf_bsdf *b) {
+  return (b->lobe_probability[VF_LOBE_MIRROR] + b->lobe_probability[VF_LOBE_DIELECTRIC] * b->fresnel) *
+         b->continuation;
+}
+
+/* ---------------------------------------------------------------------------------------- */
+/* Per-path data: the BSDFs in both walking directions and the vertex densities             */
+
+typedef struct {
+  vf_bsdf from_light[MAX_VERTICES];  /* at x_i, fix towards x_{i-1} (light sub-path) */
+  vf_bsdf from_camera[MAX_VERTICES]; /* at x_i, fix towards x_{i+1} (camera sub-path) */
+  double cos_light;                  /* at x_0 towards x_1 */
+  double p_light[MAX_VERTICES];      /* pL(x_i): area density of the light walk sampling x_i */
+  double p_camera[MAX_VERTICES];     /* pC(x_i): the same for the camera walk */
+} path_data;
+
+/* Builds the BSDFs and densities; 0 when the path cannot carry light (a vertex that cannot
+ * scatter, a zero density, a specular vertex that is not a reflection, a grazing angle). */
+static int prepare_path(const test_scene *ts, const full_path *x, path_data *pd) {
+  const int k = x->k;
+  const double min_cos = 1e-3; /* keeps float round-off of cos far below the tolerance */
+  pd->cos_light = (double)vf_dot(x->normal[0], vf_sub(x->position[1], x->position[0])) /
+                  sqrt(dist_sq_d(x->position[0], x->position[1]));
+  if (!(pd->cos_light > min_cos)) return 0;
+  for (int i = 1; i < k; i++) {
+    float d;
+    vf_vec3 to_prev = direction_between(x->position[i], x->position[i - 1], &d);
+    vf_vec3 to_next = direction_between(x->position[i], x->position[i + 1], &d);
+    if (!vf_bsdf_init(&pd->from_light[i], x->material[i], x->normal[i], to_prev)) return 0;
+    if (!vf_bsdf_init(&pd->from_camera[i], x->material[i], x->normal[i], to_next)) return 0;
+    if (pd->from_light[i].is_delta != x->specular[i]) return 0;
+    if (abs_cos_d(x->position[i], x->normal[i], x->position[i - 1]) < min_cos ||
+        abs_cos_d(x->position[i], x->normal[i], x->position[i + 1]) < min_cos)
+      return 0;
+    if (x->specular[i]) {
+      /* A reflection, and one that float positions resolve: where a ball touches the floor
+       * the segment after it is short and its direction known to ~1e-4 rad only, which at
+       * grazing angles shows up as a cosine and Fresnel mismatch between the two walking
+       * directions (weights off by ~3e-4), not as an error of the weights. */
+      double cos_prev = abs_cos_d(x->position[i], x->normal[i], x->position[i - 1]);
+      double cos_next = abs_cos_d(x->position[i], x->normal[i], x->position[i + 1]);
+      vf_vec3 mirrored = vf_frame_to_world(&pd->from_light[i].frame,
+                                           vf_vec3_make(-pd->from_light[i].local_fix.x,
+                                                        -pd->from_light[i].local_fix.y, pd->from_light[i].local_fix.z));
+      if (!(vf_dot(mirrored, to_next) > 0.9999f) || !(fabs(cos_prev - cos_next) <= 1e-4 * cos_prev)) return 0;
+    } else {
+      float c, p, r;
+      if (vf_is_zero(vf_bsdf_evaluate(&pd->from_light[i], to_next, &c, &p, &r)) || !(p > 0.0f) || !(r > 0.0f))
+        return 0;
+    }
+  }
+
+  /* Light side (eq. 2-4): x_0 by area, x_1 by cosine emission, then BSDF sampling. */
+  pd->p_light[0] = (double)ts->light->pick_probability / (double)ts->light->area;
+  pd->p_light[1] = pd->cos_light / M_PI * (k > 1 ? abs_cos_d(x->position[1], x->normal[1], x->position[0]) : 1.0) /
+                   dist_sq_d(x->position[0], x->position[1]);
+  for (int i = 2; i <= k; i++) {
+    const vf_bsdf *b = &pd->from_light[i - 1];
+    float c, pdf_w, rev;
+    if (x->specular[i - 1]) {
+      pdf_w = specular_reflection_pdf(b);
+    } else {
+      float d;
+      vf_bsdf_evaluate(b, direction_between(x->position[i - 1], x->position[i], &d), &c, &pdf_w, &rev);
+    }
+    double cos_i = i < k ? abs_cos_d(x->position[i], x->normal[i], x->position[i - 1]) : 1.0;
+    pd->p_light[i] = (double)pdf_w * cos_i / dist_sq_d(x->position[i - 1], x->position[i]);
+  }
+
+  /* Camera side (eq. 6-8 read from the eye): the pinhole is deterministic, x_{k-1} through
+   * the image, then BSDF sampling; at x_0 the light's emitting cosine converts the measure. */
+  pd->p_camera[k] = 1.0;
+  float d;
+  vf_vec3 view = direction_between(x->position[k], x->position[k - 1], &d);
+  double cos_k1 = k > 1 ? abs_cos_d(x->position[k - 1], x->normal[k - 1], x->position[k]) : pd->cos_light;
+  pd->p_camera[k - 1] =
+      (double)vf_camera_pdf_w(&ts->camera, view) * cos_k1 / dist_sq_d(x->position[k], x->position[k - 1]);
+  for (int i = k - 2; i >= 0; i--) {
+    const vf_bsdf *b = &pd->from_camera[i + 1];
+    float c, pdf_w, rev;
+    if (x->specular[i + 1]) {
+      pdf_w = specular_reflection_pdf(b);
+    } else {
+      vf_bsdf_evaluate(b, direction_between(x->position[i + 1], x->position[i], &d), &c, &pdf_w, &rev);
+    }
+    double cos_i = i > 0 ? abs_cos_d(x->position[i], x->normal[i], x->position[i + 1]) : pd->cos_light;
+    pd->p_camera[i] = (double)pdf_w * cos_i / dist_sq_d(x->position[i + 1], x->position[i]);
+  }
+  for (int i = 0; i <= k; i++)
+    if (!(pd->p_light[i] > 0.0) || !(pd->p_camera[i] > 0.0)) return 0;
+  return 1;
+}
+
+/* ---------------------------------------------------------------------------------------- */
+/* Techniques and configurations                                                             */
+
+typedef struct {
+  int vc[MAX_VERTICES + 1]; /* VC with s light vertices, s = 0 .. k */
+  int vm[MAX_VERTICES + 1]; /* VM with s light vertices, s = 2 .. k */
+  int emission_unweighted;  /* BPM: s = 0 along a purely specular camera path, weight 1 */
+} technique_set;
+
+/* The techniques vcm.c uses for this path under algorithm a (see the top of the file). */
+static void implemented_techniques(const full_path *x, vf_algorithm a, technique_set *t) {
+  const int k = x->k;
+  memset(t, 0, sizeof *t);
+  int vc = a == VF_ALGO_VCM || a == VF_ALGO_BPT, vm = a == VF_ALGO_VCM || a == VF_ALGO_BPM;
+  int all_specular = 1;
+  for (int i = 1; i < k; i++) all_specular &= x->specular[i];
+  if (k == 1) {
+    t->vc[0] = 1; /* seen directly: emission_weighted() returns it unweighted */
+    t->emission_unweighted = 1;
+    return;
+  }
+  if (a == VF_ALGO_BPM) {
+    t->vc[0] = t->emission_unweighted = all_specular;
+  } else {
+    t->vc[0] = 1;
+    t->vc[1] = !x->specular[1];
+  }
+  if (vc) {
+    for (int s = 2; s <= k - 1; s++) t->vc[s] = !x->specular[s - 1] && !x->specular[s];
+    t->vc[k] = !x->specular[k - 1];
+  }
+  if (vm)
+    for (int s = 2; s <= k; s++) t->vm[s] = !x->specular[s - 1];
+}
+
+/* vf_mis_config as setup_iteration() builds it for eta = pi r^2 n_light. */
+static vf_mis_config config_for(vf_algorithm a, double eta, double n_light) {
+  vf_mis_config c;
+  int vc_in_weights = a == VF_ALGO_VCM || a == VF_ALGO_BPT;
+  int vm_in_weights = a == VF_ALGO_VCM || a == VF_ALGO_BPM;
+  c.vm_weight = vm_in_weights ? vf_mis_h((float)eta) : 0.0f;
+  c.vc_weight = vc_in_weights ? vf_mis_h((float)(1.0 / eta)) : 0.0f;
+  c.light_paths = (float)n_light;
+  c.pt = a == VF_ALGO_PT;
+  return c;
+}
+
+/* ---------------------------------------------------------------------------------------- */
+/* Direct evaluation of eq. (12), beta = 1, in double                                       */
+
+static void direct_weights(const full_path *x, const path_data *pd, const technique_set *t, double eta,
+                           double n_light, double w_vc[], double w_vm[]) {
+  const int k = x->k;
+  double p_vc[MAX_VERTICES + 1] = {0}, p_vm[MAX_VERTICES + 1] = {0}, total = 0.0;
+  for (int s = 0; s <= k; s++) {
+    double p = 1.0;
+    for (int i = 0; i < s; i++) p *= pd->p_light[i];
+    for (int i = s; i <= k; i++) p *= pd->p_camera[i];
+    /* n_VC = 1, except the camera connection: every light sub-path projects onto the image. */
+    p_vc[s] = (s == k && k > 1 ? n_light : 1.0) * p; /* eq. (10) */
+    if (s >= 2) {
+      double q = pd->p_camera[s - 1];
+      for (int i = 0; i < s; i++) q *= pd->p_light[i];
+      for (int i = s; i <= k; i++) q *= pd->p_camera[i];
+      /* n_VM pi r^2 = eta_VCM with n_VC = 1 (eq. 10, 20). */
+      p_vm[s] = eta * q;
+    }
+  }
+  for (int s = 0; s <= k; s++) total += (t->vc[s] ? p_vc[s] : 0.0) + (t->vm[s] ? p_vm[s] : 0.0);
+  for (int s = 0; s <= k; s++) {
+    w_vc[s] = t->vc[s] ? p_vc[s] / total : 0.0;
+    w_vm[s] = t->vm[s] ? p_vm[s] / total : 0.0;
+  }
+  if (t->emission_unweighted) w_vc[0] = 1.0;
+}
+
+/* ---------------------------------------------------------------------------------------- */
+/* The recursive weights, with the call sequence of vcm.c                                   */
+
+/* camera_pdf_a() of vcm.c: the camera's area density of generating p seen along
+ * -dir_to_camera; 0 off the image. */
+static float camera_pdf_a(const vf_camera *cam, vf_vec3 p, vf_vec3 dir_to_camera, float dist, float cos_at_p) {
+  float rx, ry;
+  if (!vf_camera_raster(cam, p, &rx, &ry)) return 0.0f;
+  float cos_at_camera = -vf_dot(cam->forward, dir_to_camera);
+  if (!(cos_at_camera > 0.0f)) return 0.0f;
+  float image_to_camera = cam->image_plane_distance / cos_at_camera;
+  float image_to_solid_angle = image_to_camera * image_to_camera / cos_at_camera;
+  return image_to_solid_angle * cos_at_p / (dist * dist);
+}
+
+/* The sub-path quantities at every vertex: light[i] at y_i = x_i after its hit (i >= 1),
+ * camera[j] at z_j = x_{k-j} after its hit (j >= 1). */
+static void trace_quantities(const test_scene *ts, const full_path *x, const path_data *pd, const vf_mis_config *c,
+                             vf_mis light[], vf_mis camera[]) {
+  const int k = x->k;
+  const float pick = ts->light->pick_probability;
+  float cos0 = (float)pd->cos_light;
+  vf_mis m;
+  /* trace_light_path(): densities times the pick probability, then hit and scatter. */
+  vf_mis_light_start(&m, c, ts->light->inv_area * pick, ts->light->inv_area * cos0 * VF_INV_PI * pick, cos0,
+                     ts->light->is_delta, ts->light->is_finite);
+  for (int i = 1; i < k; i++) {
+    const vf_bsdf *b = &pd->from_light[i];
+    float dist;
+    direction_between(x->position[i - 1], x->position[i], &dist);
+    vf_mis_hit(&m, dist, b->local_fix.z, 1);
+    light[i] = m;
+    if (i == k - 1) break;
+    vf_vec3 gen = direction_between(x->position[i], x->position[i + 1], &dist);
+    float cos_gen, pdf, rev;
+    if (x->specular[i]) {
+      cos_gen = fabsf(vf_dot(b->frame.n, gen));
+      pdf = rev = specular_reflection_pdf(b);
+    } else {
+      vf_bsdf_evaluate(b, gen, &cos_gen, &pdf, &rev);
+    }
+    vf_mis_scatter(&m, c, cos_gen, pdf, rev, x->specular[i]);
+  }
+  /* trace_camera_path(): the pinhole's density of the first direction, then the same. */
+  float dist;
+  vf_mis_camera_start(&m, c, vf_camera_pdf_w(&ts->camera, direction_between(x->position[k], x->position[k - 1], &dist)));
+  for (int j = 1; j <= k; j++) {
+    int i = k - j;
+    vf_vec3 dir = direction_between(x->position[i + 1], x->position[i], &dist);
+    vf_mis_hit(&m, dist, fabsf(vf_dot(x->normal[i], dir)), 1);
+    camera[j] = m;
+    if (j == k) break;
+    const vf_bsdf *b = &pd->from_camera[i];
+    vf_vec3 gen = direction_between(x->position[i], x->position[i - 1], &dist);
+    float cos_gen, pdf, rev;
+    if (x->specular[i]) {
+      cos_gen = fabsf(vf_dot(b->frame.n, gen));
+      pdf = rev = specular_reflection_pdf(b);
+    } else {
+      vf_bsdf_evaluate(b, gen, &cos_gen, &pdf, &rev);
+    }
+    vf_mis_scatter(&m, c, cos_gen, pdf, rev, x->specular[i]);
+  }
+}
+
+/* Each used technique's weight as emission_weighted(), light_sample(), connect_vertices(),
+ * connect_to_camera() and merge_vertices() compute it. */
+static void recursive_weights(const test_scene *ts, const full_path *x, const path_data *pd, const vf_mis_config *c,
+                              const technique_set *t, double w_vc[], double w_vm[]) {
+  const int k = x->k;
+  const float pick = ts->light->pick_probability, inv_area = ts->light->inv_area;
+  const float cos0 = (float)pd->cos_light;
+  vf_mis light[MAX_VERTICES], camera[MAX_VERTICES + 1];
+  trace_quantities(ts, x, pd, c, light, camera);
+  for (int s = 0; s <= k; s++) w_vc[s] = w_vm[s] = 0.0;
+
+  if (t->vc[0]) /* s = 0 */
+    w_vc[0] = t->emission_unweighted
+                  ? 1.0
+                  : vf_mis_weight_emission(&camera[k], inv_area * pick, cos0 * VF_INV_PI * inv_area * pick);
+  if (t->vc[1]) { /* s = 1: x_1 sees x_0 as a light sample */
+    float dist, cos_to_light, bsdf_pdf, bsdf_rev_pdf;
+    vf_vec3 dir = direction_between(x->position[1], x->position[0], &dist);
+    vf_bsdf_evaluate(&pd->from_camera[1], dir, &cos_to_light, &bsdf_pdf, &bsdf_rev_pdf);
+    float direct_pdf_w = inv_area * dist * dist / cos0, emission_pdf_w = inv_area * cos0 * VF_INV_PI;
+    w_vc[1] = vf_mis_weight_light_sample(&camera[k - 1], c, bsdf_pdf, bsdf_rev_pdf, direct_pdf_w * pick,
+                                         emission_pdf_w * pick, cos_to_light, cos0);
+  }
+  for (int s = 2; s <= k - 1; s++) { /* light vertex x_{s-1}, camera vertex x_s = z_{k-s} */
+    if (!t->vc[s]) continue;
+    float dist;
+    vf_vec3 d = direction_between(x->position[s], x->position[s - 1], &dist);
+    float dist2 = dist * dist;
+    float cos_camera, camera_pdf, camera_rev_pdf, cos_light, light_pdf, light_rev_pdf;
+    vf_bsdf_evaluate(&pd->from_camera[s], d, &cos_camera, &camera_pdf, &camera_rev_pdf);
+    vf_bsdf_evaluate(&pd->from_light[s - 1], vf_neg(d), &cos_light, &light_pdf, &light_rev_pdf);
+    w_vc[s] = vf_mis_weight_connection(&light[s - 1], &camera[k - s], c, camera_pdf * cos_light / dist2,
+                                       light_pdf * cos_camera / dist2, light_rev_pdf, camera_rev_pdf);
+  }
+  if (k > 1 && t->vc[k]) { /* t = 1 */
+    float dist, cos_to_camera, dir_pdf, rev_pdf;
+    vf_vec3 to_camera = direction_between(x->position[k - 1], x->position[k], &dist);
+    vf_bsdf_evaluate(&pd->from_light[k - 1], to_camera, &cos_to_camera, &dir_pdf, &rev_pdf);
+    float pdf_a = camera_pdf_a(&ts->camera, x->position[k - 1], to_camera, dist, cos_to_camera);
+    w_vc[k] = vf_mis_weight_camera_connection(&light[k - 1], c, pdf_a, rev_pdf);
+  }
+  for (int s = 2; s <= k; s++) { /* merging y_{s-1} into z_{k+1-s}, both at x_{s-1} */
+    if (!t->vm[s]) continue;
+    const vf_bsdf *lb = &pd->from_light[s - 1], *cb = &pd->from_camera[s - 1];
+    vf_vec3 light_dir = vf_frame_to_world(&lb->frame, lb->local_fix);
+    float cos_camera, camera_pdf, camera_rev_pdf;
+    vf_bsdf_evaluate(cb, light_dir, &cos_camera, &camera_pdf, &camera_rev_pdf);
+    camera_rev_pdf *= lb->continuation / cb->continuation;
+    w_vm[s] = vf_mis_weight_merge(&light[s - 1], &camera[k + 1 - s], c, camera_pdf, camera_rev_pdf);
+  }
+}
+
+/* ---------------------------------------------------------------------------------------- */
+/* Path generation                                                                           */
+
+static int load_test_scene(test_scene *ts) {
+  memset(ts, 0, sizeof *ts);
+  int err = vf_scene_load("cornell", &ts->scene);
+  if (err == VF_OK) err = vf_accel_create(ts->scene, &ts->accel);
+  if (err == VF_OK) err = vf_lights_create(ts->scene, &ts->lights);
+  if (err != VF_OK) {
+    fprintf(stderr, "cornell: %s\n", vf_error_detail(err));
+    return err;
+  }
+  for (int i = 0; i < ts->lights->count; i++)
+    if (ts->lights->lights[i].kind == VF_LIGHT_AREA_MESH) ts->light = &ts->lights->lights[i];
+  vf_camera_init(&ts->camera, &ts->scene->camera, ts->scene->settings.width, ts->scene->settings.height);
+  ts->n_light = (double)ts->scene->settings.width * ts->scene->settings.height;
+  return ts->light ? VF_OK : VF_ESCENE;
+}
+
+static void destroy_test_scene(test_scene *ts) {
+  vf_lights_destroy(ts->lights);
+  vf_accel_destroy(ts->accel);
+  vf_scene_destroy(ts->scene);
+}
+
+static void add_path(const test_scene *ts, const full_path *x, path_set *diffuse, path_set *specular) {
+  int n = 0;
+  for (int i = 1; i < x->k; i++) n += x->specular[i];
+  path_set *set = n == 0 ? diffuse : n == 1 ? specular : NULL;
+  path_data pd;
+  float rx, ry;
+  if (set == NULL || set->count == MAX_PATHS) return;
+  if (!vf_camera_raster(&ts->camera, x->position[x->k - 1], &rx, &ry)) return;
+  if (!prepare_path(ts, x, &pd)) return;
+  set->paths[set->count++] = *x;
+}
+
+/* From the light: every non-specular vertex that sees the camera closes a path. */
+static void walk_from_light(const test_scene *ts, vf_rng *rng, path_set *diffuse, path_set *specular) {
+  full_path x = {0};
+  float rnd[4] = {vf_rng_float(rng), vf_rng_float(rng), vf_rng_float(rng), vf_rng_float(rng)};
+  vf_vec3 dir, n;
+  float emission_pdf, direct_pdf, cos_light;
+  vf_light_emit(ts->lights, ts->light, rnd, &x.position[0], &dir, &n, &emission_pdf, &direct_pdf, &cos_light);
+  x.normal[0] = n;
+  vf_vec3 origin = vf_offset_ray_origin(x.position[0], n);
+  for (int m = 1; m < MAX_SEGMENTS; m++) {
+    vf_hit hit;
+    vf_bsdf b;
+    if (!vf_accel_intersect(ts->accel, origin, dir, INFINITY, &hit)) return;
+    if (ts->lights->shape_light[hit.shape] >= 0) return;
+    if (!vf_bsdf_init(&b, material_of(ts, hit.shape), hit.normal, vf_neg(dir))) return;
+    x.position[m] = hit.position;
+    x.normal[m] = hit.normal;
+    x.material[m] = b.material;
+    x.specular[m] = b.is_delta;
+    if (!b.is_delta && !occluded(ts, hit.position, hit.normal, ts->camera.position, vf_vec3_splat(0.0f))) {
+      x.k = m + 1;
+      x.position[m + 1] = ts->camera.position;
+      add_path(ts, &x, diffuse, specular);
+    }
+    float srnd[3] = {vf_rng_float(rng), vf_rng_float(rng), vf_rng_float(rng)};
+    float pdf, rev, cos_gen;
+    unsigned event;
+    if (vf_is_zero(vf_bsdf_sample(&b, srnd, &dir, &pdf, &rev, &cos_gen, &event))) return;
+    origin = vf_offset_ray_origin(hit.position, vf_dot(hit.normal, dir) > 0.0f ? hit.normal : vf_neg(hit.normal));
+  }
+}
+
+/* From the camera: every non-specular vertex closes a path with a point sampled on the
+ * light, and hitting the light closes one too (camera vertices are reversed into x). */
+static void walk_from_camera(const test_scene *ts, vf_rng *rng, path_set *diffuse, path_set *specular) {
+  full_path z = {0}; /* z.position[j] = z_j, z_0 the camera */
+  full_path x = {0};
+  z.position[0] = ts->camera.position;
+  vf_vec3 dir = vf_camera_direction(&ts->camera, vf_rng_float(rng) * (float)ts->camera.width,
+                                    vf_rng_float(rng) * (float)ts->camera.height);
+  vf_vec3 origin = ts->camera.position;
+  for (int m = 1; m < MAX_SEGMENTS; m++) {
+    vf_hit hit;
+    vf_bsdf b;
+    if (!vf_accel_intersect(ts->accel, origin, dir, INFINITY, &hit)) return;
+    /* Closes the path x_0 = z_m .. x_m = z_0. */
+    int close_at_light = ts->lights->shape_light[hit.shape] >= 0;
+    z.position[m] = hit.position;
+    z.normal[m] = hit.normal;
+    if (close_at_light) {
+      if (!(vf_dot(hit.normal, dir) < 0.0f)) return; /* the back of the one-sided light */
+      x.k = m;
+      for (int j = 0; j <= m; j++) {
+        x.position[m - j] = z.position[j];
+        x.normal[m - j] = z.normal[j];
+        x.material[m - j] = z.material[j];
+        x.specular[m - j] = z.specular[j];
+      }
+      add_path(ts, &x, diffuse, specular);
+      return;
+    }
+    if (!vf_bsdf_init(&b, material_of(ts, hit.shape), hit.normal, vf_neg(dir))) return;
+    z.material[m] = b.material;
+    z.specular[m] = b.is_delta;
+    if (!b.is_delta) {
+      float rnd[2] = {vf_rng_float(rng), vf_rng_float(rng)};
+      vf_vec3 to_light, lp, ln;
+      float dist, direct_pdf_w, emission_pdf_w, cos_at_light;
+      vf_vec3 le = vf_light_illuminate(ts->lights, ts->light, hit.position, rnd, &to_light, &dist, &lp, &ln,
+                                       &direct_pdf_w, &emission_pdf_w, &cos_at_light);
+      if (!vf_is_zero(le) && !vf_is_zero(vf_bsdf_evaluate(&b, to_light, NULL, NULL, NULL)) &&
+          !occluded(ts, hit.position, hit.normal, lp, ln)) {
+        x.k = m + 1;
+        x.position[0] = lp;
+        x.normal[0] = ln;
+        for (int j = 0; j <= m; j++) {
+          x.position[m + 1 - j] = z.position[j];
+          x.normal[m + 1 - j] = z.normal[j];
+          x.material[m + 1 - j] = z.material[j];
+          x.specular[m + 1 - j] = z.specular[j];
+        }
+        add_path(ts, &x, diffuse, specular);
+      }
+    }
+    float srnd[3] = {vf_rng_float(rng), vf_rng_float(rng), vf_rng_float(rng)};
+    float pdf, rev, cos_gen;
+    unsigned event;
+    if (vf_is_zero(vf_bsdf_sample(&b, srnd, &dir, &pdf, &rev, &cos_gen, &event))) return;
+    origin = vf_offset_ray_origin(hit.position, vf_dot(hit.normal, dir) > 0.0f ? hit.normal : vf_neg(hit.normal));
+  }
+}
+
+/* ---------------------------------------------------------------------------------------- */
+/* The checks                                                                                */
+
+static test_scene g_scene;
+static path_set g_diffuse, g_specular; /* no specular vertex; exactly one */
+
+typedef struct {
+  double max_rel_dev;   /* over every used technique: |recursive - direct| / direct */
+  double max_sum_dev;   /* |sum of recursive weights - 1| */
+  double vm_share;      /* mean over paths of the total VM weight */
+  int paths, worst_path, worst_s, worst_is_vm;
+  double worst_rec, worst_dir;
+} deviation;
+
+static const char *technique_label(int is_vm) { return is_vm ? "VM" : "VC"; }
+
+static void print_path(const full_path *x, const technique_set *t, const double rec_vc[],
+                       const double rec_vm[], const double dir_vc[], const double dir_vm[]) {
+  printf("    k = %d: light", x->k);
+  for (int i = 1; i < x->k; i++) printf(" -> %s%s", x->material[i]->name, x->specular[i] ? "(S)" : "");
+  printf(" -> camera\n");
+  for (int s = 0; s <= x->k; s++) {
+    if (t->vc[s]) printf("      VC s=%d t=%d  recursive %.6f  eq.12 %.6f\n", s, x->k + 1 - s, rec_vc[s], dir_vc[s]);
+    if (t->vm[s]) printf("      VM s=%d t=%d  recursive %.6f  eq.12 %.6f\n", s, x->k + 2 - s, rec_vm[s], dir_vm[s]);
+  }
+}
+
+/* Checks every path of a set under one algorithm and eta; prints `examples` paths. */
+static deviation check_set(const path_set *set, vf_algorithm a, double eta, int examples) {
+  deviation dev = {0};
+  vf_mis_config c = config_for(a, eta, g_scene.n_light);
+  for (int p = 0; p < set->count; p++) {
+    const full_path *x = &set->paths[p];
+    path_data pd;
+    technique_set t;
+    double rec_vc[MAX_VERTICES + 1], rec_vm[MAX_VERTICES + 1], dir_vc[MAX_VERTICES + 1], dir_vm[MAX_VERTICES + 1];
+    if (!prepare_path(&g_scene, x, &pd)) continue;
+    implemented_techniques(x, a, &t);
+    recursive_weights(&g_scene, x, &pd, &c, &t, rec_vc, rec_vm);
+    direct_weights(x, &pd, &t, eta, g_scene.n_light, dir_vc, dir_vm);
+    double sum = 0.0, vm = 0.0;
+    int used = 0;
+    for (int s = 0; s <= x->k; s++)
+      for (int is_vm = 0; is_vm < 2; is_vm++) {
+        if (!(is_vm ? t.vm[s] : t.vc[s])) continue;
+        double r = is_vm ? rec_vm[s] : rec_vc[s], d = is_vm ? dir_vm[s] : dir_vc[s];
+        double rel = fabs(r - d) / d;
+        if (!(rel <= dev.max_rel_dev)) { /* NaN lands here too */
+          dev.max_rel_dev = isnan(rel) ? INFINITY : rel;
+          dev.worst_path = p, dev.worst_s = s, dev.worst_is_vm = is_vm, dev.worst_rec = r, dev.worst_dir = d;
+        }
+        sum += r;
+        if (is_vm) vm += r;
+        used++;
+      }
+    if (used == 0) continue; /* e.g. BPM on a path whose only merge vertex is specular */
+    dev.paths++;
+    dev.vm_share += vm;
+    double sd = fabs(sum - 1.0);
+    if (!(sd <= dev.max_sum_dev)) dev.max_sum_dev = isnan(sd) ? INFINITY : sd;
+    if (p < examples) print_path(x, &t, rec_vc, rec_vm, dir_vc, dir_vm);
+  }
+  if (dev.paths) dev.vm_share /= dev.paths;
+  return dev;
+}
+
+static const double weight_tolerance = 1e-3; /* relative, per weight: float recursion */
+static const double sum_tolerance = 1e-4;
+
+static void check_algorithm(const path_set *set, const char *family, vf_algorithm a, const double *etas, int num_etas,
+                            int examples) {
+  for (int e = 0; e < num_etas; e++) {
+    deviation dev = check_set(set, a, etas[e], e == 0 ? examples : 0);
+    printf("  %-4s %-9s eta %-6g: %4d paths, max |sum - 1| %.2e, max rel. weight deviation %.2e, mean VM share %.3f\n",
+           vf_algorithm_name(a), family, etas[e], dev.paths, dev.max_sum_dev, dev.max_rel_dev, dev.vm_share);
+    CHECK(dev.paths > 100);
+    CHECK_NEAR(dev.max_sum_dev, 0.0, sum_tolerance);
+    if (!(dev.max_rel_dev <= weight_tolerance)) {
+      const full_path *x = &set->paths[dev.worst_path];
+      printf("  worst: path %d (k = %d), %s s = %d: recursive %.9g, eq. 12 %.9g\n", dev.worst_path, x->k,
+             technique_label(dev.worst_is_vm), dev.worst_s, dev.worst_rec, dev.worst_dir);
+      path_data pd;
+      technique_set t;
+      double rv[MAX_VERTICES + 1], rm[MAX_VERTICES + 1], dv[MAX_VERTICES + 1], dm[MAX_VERTICES + 1];
+      vf_mis_config c = config_for(a, etas[e], g_scene.n_light);
+      prepare_path(&g_scene, x, &pd);
+      implemented_techniques(x, a, &t);
+      recursive_weights(&g_scene, x, &pd, &c, &t, rv, rm);
+      direct_weights(x, &pd, &t, etas[e], g_scene.n_light, dv, dm);
+      print_path(x, &t, rv, rm, dv, dm);
+    }
+    CHECK_NEAR(dev.max_rel_dev, 0.0, weight_tolerance);
+  }
+}
+
+/* eta_VCM = pi r^2 n_light spans the range where merging and connections trade places:
+ * r = sqrt(eta / (pi n_light)), about 1e-4 .. 1e-2 scene units at 512 x 512. */
+static const double etas[] = {1.0, 0.01, 100.0};
+#define NUM_ETAS ((int)(sizeof etas / sizeof *etas))
+
+static void test_path_sets_are_large_enough(void) {
+  printf("  %d paths without specular vertices, %d with one\n", g_diffuse.count, g_specular.count);
+  CHECK(g_diffuse.count >= 1000);
+  CHECK(g_specular.count >= 200);
+  int by_length[MAX_VERTICES] = {0};
+  for (int p = 0; p < g_diffuse.count; p++) by_length[g_diffuse.paths[p].k]++;
+  for (int k = 2; k <= MAX_SEGMENTS; k++) CHECK(by_length[k] >= 50);
+  /* The specular vertex next to the light, next to the camera, and in between. */
+  int at_light = 0, at_camera = 0, inside = 0, camera_sees_light_via_mirror = 0;
+  for (int p = 0; p < g_specular.count; p++) {
+    const full_path *x = &g_specular.paths[p];
+    at_light += x->specular[1];
+    at_camera += x->specular[x->k - 1];
+    inside += !x->specular[1] && !x->specular[x->k - 1];
+    camera_sees_light_via_mirror += x->k == 2;
+  }
+  printf("  specular vertex at x_1: %d, at x_{k-1}: %d, elsewhere: %d; light seen in a ball: %d\n", at_light,
+         at_camera, inside, camera_sees_light_via_mirror);
+  CHECK(at_light >= 50 && at_camera >= 50 && inside >= 50);
+}
+
+static void test_vcm_weights_match_eq12_without_specular_vertices(void) {
+  check_algorithm(&g_diffuse, "diffuse", VF_ALGO_VCM, etas, NUM_ETAS, 2);
+}
+
+static void test_vcm_weights_match_eq12_with_one_specular_vertex(void) {
+  check_algorithm(&g_specular, "specular", VF_ALGO_VCM, etas, NUM_ETAS, 2);
+}
+
+static void test_bpt_weights_match_eq12(void) {
+  check_algorithm(&g_diffuse, "diffuse", VF_ALGO_BPT, etas, 1, 0);
+  check_algorithm(&g_specular, "specular", VF_ALGO_BPT, etas, 1, 0);
+}
+
+static void test_bpm_weights_match_eq12(void) {
+  check_algorithm(&g_diffuse, "diffuse", VF_ALGO_BPM, etas, NUM_ETAS, 0);
+  check_algorithm(&g_specular, "specular", VF_ALGO_BPM, etas, 1, 0);
+}
+
+static void test_pt_weights_match_eq12(void) {
+  check_algorithm(&g_diffuse, "diffuse", VF_ALGO_PT, etas, 1, 0);
+  check_algorithm(&g_specular, "specular", VF_ALGO_PT, etas, 1, 0);
+}
+
+/* With one light the selection probability is 1; it enters every technique but emission
+ * hits (p(x_0) = pick / area for emission and light sampling alike), so make it matter. */
+static void test_vcm_weights_match_eq12_with_light_selection(void) {
+  vf_light *l = &g_scene.lights->lights[g_scene.light - g_scene.lights->lights];
+  float pick = l->pick_probability;
+  l->pick_probability = 0.2f;
+  check_algorithm(&g_diffuse, "diffuse", VF_ALGO_VCM, etas, 1, 0);
+  check_algorithm(&g_specular, "specular", VF_ALGO_VCM, etas, 1, 0);
+  check_algorithm(&g_diffuse, "diffuse", VF_ALGO_PT, etas, 1, 0);
+  l->pick_probability = pick;
+}
+
+int main(void) {
+  if (load_test_scene(&g_scene) != VF_OK) return 1;
+  for (uint64_t w = 0; w < WALKS; w++) {
+    vf_rng rng = vf_rng_for_path(20240611u, 0, w, VF_STREAM_TEST);
+    if (w % 2 == 0) walk_from_light(&g_scene, &rng, &g_diffuse, &g_specular);
+    else walk_from_camera(&g_scene, &rng, &g_diffuse, &g_specular);
+  }
+  RUN(test_path_sets_are_large_enough);
+  RUN(test_vcm_weights_match_eq12_without_specular_vertices);
+  RUN(test_vcm_weights_match_eq12_with_one_specular_vertex);
+  RUN(test_bpt_weights_match_eq12);
+  RUN(test_bpm_weights_match_eq12);
+  RUN(test_pt_weights_match_eq12);
+  RUN(test_vcm_weights_match_eq12_with_light_selection);
+  destroy_test_scene(&g_scene);
+  return check_finish();
+}
