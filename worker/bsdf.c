@@ -9,16 +9,19 @@ static float mean3(vf_vec3 c) { return (c.x + c.y + c.z) * (1.0f / 3.0f); }
 
 float vf_fresnel_dielectric(float cos_i, float eta) {
   if (eta == 1.0f) return 0.0f;
-  if (cos_i < 0.0f) {
-    eta = 1.0f / eta;
-    cos_i = -cos_i;
+  /* In double: 1 - sin_t^2 cancels badly both for an index near 1 at grazing angles and
+   * near the critical angle, and this runs once per dielectric vertex, not per sample. */
+  double e = eta, ci = cos_i;
+  if (ci < 0.0) {
+    e = 1.0 / e;
+    ci = -ci;
   }
-  float sin_t2 = (1.0f - cos_i * cos_i) / (eta * eta);
-  if (sin_t2 >= 1.0f) return 1.0f; /* total internal reflection */
-  float cos_t = sqrtf(1.0f - sin_t2);
-  float rs = (cos_i - eta * cos_t) / (cos_i + eta * cos_t);
-  float rp = (eta * cos_i - cos_t) / (eta * cos_i + cos_t);
-  return 0.5f * (rs * rs + rp * rp);
+  double sin_t2 = (1.0 - ci * ci) / (e * e);
+  if (sin_t2 >= 1.0) return 1.0f; /* total internal reflection */
+  double ct = sqrt(1.0 - sin_t2);
+  double rs = (ci - e * ct) / (ci + e * ct);
+  double rp = (e * ci - ct) / (e * ci + ct);
+  return (float)(0.5 * (rs * rs + rp * rp));
 }
 
 int vf_bsdf_init(vf_bsdf *b, const vf_material *m, vf_vec3 normal, vf_vec3 world_fix) {
@@ -106,13 +109,16 @@ vf_vec3 vf_bsdf_sample(const vf_bsdf *b, const float rnd[3], vf_vec3 *world_gen,
       vf_frame lobe = vf_frame_from_normal(axis);
       gen = vf_frame_to_world(&lobe, vf_sample_power_cosine(rnd[0], rnd[1], b->material->phong_exponent));
     }
-    float d, r;
-    vf_vec3 f = eval_local(b, gen, &d, &r);
-    if (!(d > 0.0f)) return vf_vec3_splat(0.0f);
+    /* Evaluate the direction that is returned, after its round trip through the world
+     * frame, so that sample and evaluate agree even for a Phong exponent of 1e5, where
+     * cos^n magnifies the frames' rounding 2n times. */
     *world_gen = vf_frame_to_world(&b->frame, gen);
+    float d, r, c;
+    vf_vec3 f = vf_bsdf_evaluate(b, *world_gen, &c, &d, &r);
+    if (!(d > 0.0f)) return vf_vec3_splat(0.0f);
     *pdf_w = d;
     *reverse_pdf_w = r;
-    *cos_gen = gen.z;
+    *cos_gen = c;
     return f;
   }
   *event = VF_BSDF_SPECULAR;
@@ -133,10 +139,9 @@ vf_vec3 vf_bsdf_sample(const vf_bsdf *b, const float rnd[3], vf_vec3 *world_gen,
       choice_pdf = p[VF_LOBE_DIELECTRIC] * b->fresnel;
       weight = vf_scale(b->material->dielectric, b->fresnel);
     } else {
-      float eta = b->eta;
-      float sin_t2 = (1.0f - fix.z * fix.z) / (eta * eta);
-      float cos_t = sqrtf(fmaxf(0.0f, 1.0f - sin_t2));
-      gen = vf_vec3_make(-fix.x / eta, -fix.y / eta, -cos_t);
+      double eta = b->eta, ci = fix.z;
+      float cos_t = (float)sqrt(fmax(0.0, 1.0 - (1.0 - ci * ci) / (eta * eta)));
+      gen = vf_vec3_make(-fix.x / b->eta, -fix.y / b->eta, -cos_t);
       choice_pdf = p[VF_LOBE_DIELECTRIC] * (1.0f - b->fresnel);
       weight = vf_scale(b->material->dielectric, 1.0f - b->fresnel);
     }

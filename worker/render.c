@@ -1,12 +1,12 @@
 #include "render.h"
 
+#include "../common/clock.h"
 #include "../common/error.h"
 #include "../common/pool.h"
 #include "accel.h"
 
 #include <stdlib.h>
 #include <string.h>
-#include <time.h>
 
 struct vf_renderer {
   const vf_scene *scene; /* borrowed */
@@ -16,12 +16,6 @@ struct vf_renderer {
   vf_vcm *vcm;
   float *camera_rgb, *light_rgb; /* one iteration's output */
 };
-
-double vf_seconds_now(void) {
-  struct timespec ts;
-  clock_gettime(CLOCK_MONOTONIC, &ts);
-  return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
 
 int vf_renderer_create(const vf_scene *scene, const vf_settings *settings, int threads, vf_renderer **out) {
   int err = vf_settings_validate(settings);

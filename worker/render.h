@@ -7,6 +7,7 @@
 #ifndef VF_RENDER_H
 #define VF_RENDER_H
 
+#include "../common/clock.h"
 #include "../common/film.h"
 #include "../common/settings.h"
 #include "scene.h"
@@ -45,7 +46,5 @@ int vf_render_range(vf_renderer *r, vf_film *film, uint64_t begin, uint64_t end,
 
 /* Writes the renderer's scene hash and settings text into an empty film. */
 int vf_renderer_stamp(const vf_renderer *r, vf_film *film);
-
-double vf_seconds_now(void);
 
 #endif

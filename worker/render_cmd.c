@@ -192,11 +192,14 @@ int vf_cmd_render(int argc, char **argv) {
     char set[256];
     if (vf_iterset_format(&film->iterations, set, sizeof set) != VF_OK) snprintf(set, sizeof set, "(long)");
     double rate = (double)st.iterations_done / st.seconds;
+    double per = 1000.0 / (double)st.iterations_done;
     fprintf(stderr,
-            "rendered %llu iteration(s) %s in %.2f s: %.3f it/s, %.2f Mrays/s, %llu light vertices/it, "
+            "rendered %llu iteration(s) %s in %.2f s: %.3f it/s, %.2f Mrays/s, %llu light vertices/it\n"
+            "per iteration: light sub-paths %.1f ms, grid %.1f ms, camera sub-paths %.1f ms; "
             "%llu non-finite sample(s)%s\nwrote %s%s%s\n",
             (unsigned long long)st.iterations_done, set, st.seconds, rate, (double)st.stats.rays / st.seconds * 1e-6,
-            (unsigned long long)(st.stats.light_vertices / st.iterations_done),
+            (unsigned long long)(st.stats.light_vertices / st.iterations_done), st.stats.light_seconds * per,
+            st.stats.grid_seconds * per, st.stats.camera_seconds * per,
             (unsigned long long)st.stats.nonfinite, interrupted ? " (interrupted)" : "", output,
             preview ? " and " : "", preview ? preview : "");
   }

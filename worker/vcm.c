@@ -1,6 +1,7 @@
 #include "vcm.h"
 
 #include "../common/error.h"
+#include "../common/clock.h"
 #include "../common/rng.h"
 #include "bsdf.h"
 #include "camera.h"
@@ -17,7 +18,10 @@
  * the lists are then joined in chunk order. Results therefore do not depend on which
  * thread traced which chunk. */
 #define LIGHT_CHUNK 1024u
-#define CAMERA_CHUNK 1024u
+/* Camera sub-paths are traced in square tiles: neighbouring pixels query neighbouring grid
+ * cells at their first hit, so a tile reuses what its previous rows brought into cache. */
+#define CAMERA_TILE 32u
+#define GATHER_CHUNK 16384u
 
 typedef struct {
   vf_vec3 position; /* first: the hash grid reads it at offset 0 */
@@ -26,6 +30,16 @@ typedef struct {
   vf_mis mis;
   vf_bsdf bsdf;
 } light_vertex;
+
+/* What merging needs of a light vertex, kept in the grid's order: a third of a
+ * light_vertex, so the vertices a query accepts cost one cache line, not two. */
+typedef struct {
+  vf_vec3 throughput;
+  vf_vec3 direction; /* world, towards the previous light vertex */
+  float d_vcm, d_vm;
+  float continuation;
+  int path_length;
+} photon;
 
 typedef struct {
   uint32_t pixel;
@@ -88,8 +102,10 @@ struct vf_vcm {
   vf_mis_config mis;
   light_chunk *chunks;
   uint32_t num_chunks;
-  light_vertex *vertices; /* all chunks joined */
+  light_vertex *vertices; /* all chunks joined, in sub-path order (for connections) */
   uint32_t num_vertices, vertex_capacity;
+  photon *photons; /* the same in the grid's order (for merging), or NULL */
+  uint32_t photon_capacity;
   uint32_t *path_begin, *path_end; /* per light sub-path, into vertices */
   vf_hashgrid *grid;
   float *camera_rgb, *light_rgb;
@@ -312,6 +328,25 @@ static void join_task(void *ctx, size_t task, int thread) {
   for (uint32_t p = begin; p < end; p++) v->path_end[p] += offset;
 }
 
+/* Copies what merging needs of the light vertices into the grid's order, so that the
+ * vertices a query accepts lie next to each other in memory. */
+static void gather_task(void *ctx, size_t task, int thread) {
+  vf_vcm *v = ((pass_ctx *)ctx)->v;
+  const vf_grid_point *points = vf_hashgrid_points(v->grid);
+  uint32_t n = vf_hashgrid_count(v->grid);
+  uint32_t begin = (uint32_t)task * GATHER_CHUNK, end = begin + GATHER_CHUNK < n ? begin + GATHER_CHUNK : n;
+  for (uint32_t k = begin; k < end; k++) {
+    const light_vertex *lv = &v->vertices[points[k].index];
+    photon *ph = &v->photons[k];
+    ph->throughput = lv->throughput;
+    ph->direction = vf_frame_to_world(&lv->bsdf.frame, lv->bsdf.local_fix);
+    ph->d_vcm = lv->mis.d_vcm;
+    ph->d_vm = lv->mis.d_vm;
+    ph->continuation = lv->bsdf.continuation;
+    ph->path_length = lv->path_length;
+  }
+}
+
 /* ---------------------------------------------------------------------------------------- */
 /* Camera sub-paths                                                                          */
 
@@ -387,24 +422,32 @@ static vf_vec3 merge_vertices(const vf_vcm *v, const vf_hit *hit, const vf_bsdf 
   int n = vf_hashgrid_candidates(v->grid, hit->position, ranges);
   const vf_grid_point *points = vf_hashgrid_points(v->grid);
   const vf_vec3 q = hit->position;
+  /* Each range is a cache miss in both arrays: request them all at once, so the misses
+   * overlap instead of following one another. */
+  for (int r = 0; r < n; r++) {
+    const char *p0 = (const char *)&points[ranges[r].begin], *p1 = (const char *)&points[ranges[r].end];
+    for (; p0 < p1; p0 += 64) __builtin_prefetch(p0);
+    const char *h0 = (const char *)&v->photons[ranges[r].begin], *h1 = (const char *)&v->photons[ranges[r].end];
+    for (; h0 < h1; h0 += 64) __builtin_prefetch(h0);
+  }
   for (int r = 0; r < n; r++) {
     for (uint32_t k = ranges[r].begin; k < ranges[r].end; k++) {
       const vf_grid_point *gp = &points[k];
       float dx = gp->x - q.x, dy = gp->y - q.y, dz = gp->z - q.z;
       if (dx * dx + dy * dy + dz * dz > v->radius_sq) continue;
-      const light_vertex *lv = &v->vertices[gp->index];
-      if (lv->path_length + s->path_length > v->settings.max_path_length) continue;
-      vf_vec3 light_dir = vf_frame_to_world(&lv->bsdf.frame, lv->bsdf.local_fix);
+      const photon *ph = &v->photons[k];
+      if (ph->path_length + s->path_length > v->settings.max_path_length) continue;
       float cos_camera, camera_pdf, camera_rev_pdf;
-      vf_vec3 f = vf_bsdf_evaluate(b, light_dir, &cos_camera, &camera_pdf, &camera_rev_pdf);
+      vf_vec3 f = vf_bsdf_evaluate(b, ph->direction, &cos_camera, &camera_pdf, &camera_rev_pdf);
       if (vf_is_zero(f)) continue;
       float w = 1.0f;
       if (!v->t.ppm) {
         /* The reverse step is taken at the light vertex: its Russian roulette applies. */
-        camera_rev_pdf *= lv->bsdf.continuation / b->continuation;
-        w = vf_mis_weight_merge(&lv->mis, &s->mis, &v->mis, camera_pdf, camera_rev_pdf);
+        camera_rev_pdf *= ph->continuation / b->continuation;
+        vf_mis light = {ph->d_vcm, 0.0f, ph->d_vm};
+        w = vf_mis_weight_merge(&light, &s->mis, &v->mis, camera_pdf, camera_rev_pdf);
       }
-      sum = vf_add(sum, vf_scale(vf_mul(f, lv->throughput), w));
+      sum = vf_add(sum, vf_scale(vf_mul(f, ph->throughput), w));
     }
   }
   return vf_scale(sum, v->vm_normalization);
@@ -470,18 +513,23 @@ static vf_vec3 trace_camera_path(vf_vcm *v, int thread, uint32_t pixel) {
 
 static void camera_task(void *ctx, size_t task, int thread) {
   vf_vcm *v = ((pass_ctx *)ctx)->v;
-  uint32_t begin = (uint32_t)task * CAMERA_CHUNK;
-  uint32_t end = begin + CAMERA_CHUNK < v->num_pixels ? begin + CAMERA_CHUNK : v->num_pixels;
-  for (uint32_t p = begin; p < end; p++) {
-    vf_vec3 c = v->t.camera_paths ? trace_camera_path(v, thread, p) : vf_vec3_splat(0.0f);
-    if (!vf_is_finite(c)) {
-      v->stats[thread].nonfinite++;
-      c = vf_vec3_splat(0.0f);
+  uint32_t width = (uint32_t)v->camera.width, height = (uint32_t)v->camera.height;
+  uint32_t tiles_x = (width + CAMERA_TILE - 1) / CAMERA_TILE;
+  uint32_t x0 = (uint32_t)(task % tiles_x) * CAMERA_TILE, y0 = (uint32_t)(task / tiles_x) * CAMERA_TILE;
+  uint32_t x1 = x0 + CAMERA_TILE < width ? x0 + CAMERA_TILE : width;
+  uint32_t y1 = y0 + CAMERA_TILE < height ? y0 + CAMERA_TILE : height;
+  for (uint32_t y = y0; y < y1; y++)
+    for (uint32_t x = x0; x < x1; x++) {
+      uint32_t p = y * width + x;
+      vf_vec3 c = v->t.camera_paths ? trace_camera_path(v, thread, p) : vf_vec3_splat(0.0f);
+      if (!vf_is_finite(c)) {
+        v->stats[thread].nonfinite++;
+        c = vf_vec3_splat(0.0f);
+      }
+      v->camera_rgb[3 * (size_t)p + 0] = c.x;
+      v->camera_rgb[3 * (size_t)p + 1] = c.y;
+      v->camera_rgb[3 * (size_t)p + 2] = c.z;
     }
-    v->camera_rgb[3 * (size_t)p + 0] = c.x;
-    v->camera_rgb[3 * (size_t)p + 1] = c.y;
-    v->camera_rgb[3 * (size_t)p + 2] = c.z;
-  }
 }
 
 /* ---------------------------------------------------------------------------------------- */
@@ -516,6 +564,7 @@ int vf_vcm_iteration(vf_vcm *v, uint64_t iteration, float *camera_rgb, float *li
   pass_ctx ctx = {v};
 
   /* 1. Light sub-paths, their vertices and their projections onto the camera. */
+  double t0 = vf_seconds_now();
   vf_pool_run(v->pool, v->num_chunks, light_task, &ctx);
   uint64_t total = 0;
   for (uint32_t c = 0; c < v->num_chunks; c++) {
@@ -541,14 +590,30 @@ int vf_vcm_iteration(vf_vcm *v, uint64_t iteration, float *camera_rgb, float *li
       light_rgb[3 * (size_t)sp->pixel + 2] += sp->rgb.z;
     }
 
+  double t1 = vf_seconds_now();
   /* 2. The range-search grid, only when merging. */
   if (v->t.merging && v->num_vertices > 0) {
     int err = vf_hashgrid_build(v->grid, v->vertices, sizeof *v->vertices, v->num_vertices, v->radius, v->pool);
     if (err != VF_OK) return err;
+    uint32_t n = vf_hashgrid_count(v->grid);
+    if (n > v->photon_capacity) {
+      photon *p = realloc(v->photons, (size_t)n * sizeof *p);
+      if (p == NULL) return VF_ENOMEM;
+      v->photons = p;
+      v->photon_capacity = n;
+    }
+    vf_pool_run(v->pool, (n + GATHER_CHUNK - 1) / GATHER_CHUNK, gather_task, &ctx);
   }
 
+  double t2 = vf_seconds_now();
   /* 3. Camera sub-paths. */
-  vf_pool_run(v->pool, (v->num_pixels + CAMERA_CHUNK - 1) / CAMERA_CHUNK, camera_task, &ctx);
+  uint32_t tiles = ((uint32_t)v->camera.width + CAMERA_TILE - 1) / CAMERA_TILE *
+                   (((uint32_t)v->camera.height + CAMERA_TILE - 1) / CAMERA_TILE);
+  vf_pool_run(v->pool, tiles, camera_task, &ctx);
+  double t3 = vf_seconds_now();
+  stats->light_seconds += t1 - t0;
+  stats->grid_seconds += t2 - t1;
+  stats->camera_seconds += t3 - t2;
 
   for (int t = 0; t < threads; t++) {
     stats->rays += v->stats[t].rays;
@@ -662,6 +727,7 @@ void vf_vcm_destroy(vf_vcm *v) {
     }
   free(v->chunks);
   free(v->vertices);
+  free(v->photons);
   free(v->path_begin);
   free(v->path_end);
   free(v->stats);

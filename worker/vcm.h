@@ -31,6 +31,9 @@ typedef struct {
   uint64_t rays;            /* closest-hit and occlusion queries */
   uint64_t light_vertices;  /* stored for connection and merging */
   uint64_t nonfinite;       /* NaN or Inf samples refused (never accumulated) */
+  double light_seconds;     /* wall time of the three phases: light sub-paths, */
+  double grid_seconds;      /* range-search grid, */
+  double camera_seconds;    /* camera sub-paths */
 } vf_vcm_stats;
 
 /* Prepares a renderer for the scene (borrowed, must outlive it) with the given settings.
