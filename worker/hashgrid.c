@@ -338,15 +338,16 @@ int vf_hashgrid_build(vf_hashgrid *g, const void *base, size_t stride, uint32_t 
 
 /* ---- queries ---- */
 
-int vf_hashgrid_candidates(const vf_hashgrid *g, vf_vec3 q, vf_index_range out[VF_HASHGRID_MAX_RANGES]) {
-  if (g->count == 0 || !vf_is_finite(q)) return 0;
+void vf_hashgrid_cells(const vf_hashgrid *g, vf_vec3 q, vf_grid_cells *cells) {
+  cells->count = 0;
+  if (g->count == 0 || !vf_is_finite(q)) return;
   int64_t xs[AXIS_CELLS_MAX], ys[AXIS_CELLS_MAX], zs[AXIS_CELLS_MAX];
   int nx = axis_cells(q.x, g->search_radius, g->inv_cell, xs);
   int ny = axis_cells(q.y, g->search_radius, g->inv_cell, ys);
   int nz = axis_cells(q.z, g->search_radius, g->inv_cell, zs);
 
   /* At most 27 buckets, 8 in practice; insertion-sorted as they come. */
-  uint32_t buckets[AXIS_CELLS_MAX * AXIS_CELLS_MAX * AXIS_CELLS_MAX];
+  uint32_t *buckets = cells->bucket;
   int nb = 0;
   for (int z = 0; z < nz; z++)
     for (int y = 0; y < ny; y++) {
@@ -359,9 +360,13 @@ int vf_hashgrid_candidates(const vf_hashgrid *g, vf_vec3 q, vf_index_range out[V
         buckets[k] = b;
       }
     }
+  cells->count = nb;
+}
 
+int vf_hashgrid_ranges(const vf_hashgrid *g, const vf_grid_cells *cells, vf_index_range out[VF_HASHGRID_MAX_RANGES]) {
   /* Runs of equal or consecutive buckets become one range: disjoint, no point twice. */
-  int nr = 0;
+  const uint32_t *buckets = cells->bucket;
+  int nb = cells->count, nr = 0;
   for (int k = 0; k < nb;) {
     uint32_t first = buckets[k], last = first;
     for (k++; k < nb && buckets[k] <= last + 1; k++) last = buckets[k];
@@ -369,6 +374,12 @@ int vf_hashgrid_candidates(const vf_hashgrid *g, vf_vec3 q, vf_index_range out[V
     if (begin < end) out[nr++] = (vf_index_range){begin, end};
   }
   return nr;
+}
+
+int vf_hashgrid_candidates(const vf_hashgrid *g, vf_vec3 q, vf_index_range out[VF_HASHGRID_MAX_RANGES]) {
+  vf_grid_cells cells;
+  vf_hashgrid_cells(g, q, &cells);
+  return vf_hashgrid_ranges(g, &cells, out);
 }
 
 const uint32_t *vf_hashgrid_indices(const vf_hashgrid *g) { return g->indices; }

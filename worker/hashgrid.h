@@ -46,6 +46,16 @@ int vf_hashgrid_build(vf_hashgrid *grid, const void *base, size_t stride, uint32
  * written to out (<= VF_HASHGRID_MAX_RANGES). */
 int vf_hashgrid_candidates(const vf_hashgrid *grid, vf_vec3 q, vf_index_range out[VF_HASHGRID_MAX_RANGES]);
 
+/* The same in two steps, for callers that overlap the memory latency of many queries:
+ * vf_hashgrid_cells computes the buckets of q and prefetches their table entries;
+ * vf_hashgrid_ranges, called later, reads them. */
+typedef struct {
+  uint32_t bucket[VF_HASHGRID_MAX_RANGES];
+  int count;
+} vf_grid_cells;
+void vf_hashgrid_cells(const vf_hashgrid *grid, vf_vec3 q, vf_grid_cells *cells);
+int vf_hashgrid_ranges(const vf_hashgrid *grid, const vf_grid_cells *cells, vf_index_range out[VF_HASHGRID_MAX_RANGES]);
+
 /* The sorted point indices that candidate ranges refer to. */
 const uint32_t *vf_hashgrid_indices(const vf_hashgrid *grid);
 

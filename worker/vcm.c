@@ -78,9 +78,23 @@ typedef struct {
   int lt;                /* light tracing alone: unweighted, includes y0 */
 } techniques;
 
+/* A camera vertex waiting to be merged: merging is deferred to the end of each camera
+ * tile, where the queries of the whole tile run as a software pipeline that keeps several
+ * grid lookups in flight (section "Merging" below). */
+typedef struct {
+  vf_bsdf bsdf;
+  vf_vec3 position;
+  vf_vec3 throughput;
+  vf_mis mis;
+  int path_length;
+  uint32_t tile_pixel; /* index into the tile's color buffer */
+} merge_query;
+
 typedef struct {
   uint64_t rays, nonfinite;
-  char pad[48]; /* keep each thread's counters on their own cache line */
+  merge_query *queries; /* this thread's pending merges, owned */
+  uint32_t num_queries, query_capacity;
+  char pad[32]; /* keep each thread's counters on their own cache line */
 } thread_stats;
 
 struct vf_vcm {
@@ -413,47 +427,138 @@ static vf_vec3 connect_vertices(vf_vcm *v, int thread, const vf_hit *hit, const 
   return contrib;
 }
 
-/* Vertex merging at camera vertex (hit, b) with every light vertex within the radius. The
- * distance tests read the grid's compact sorted copy of the positions; only the vertices
- * that pass touch their full records. */
-static vf_vec3 merge_vertices(const vf_vcm *v, const vf_hit *hit, const vf_bsdf *b, const path_state *s) {
-  vf_vec3 sum = vf_vec3_splat(0.0f);
-  vf_index_range ranges[VF_HASHGRID_MAX_RANGES];
-  int n = vf_hashgrid_candidates(v->grid, hit->position, ranges);
-  const vf_grid_point *points = vf_hashgrid_points(v->grid);
-  const vf_vec3 q = hit->position;
-  /* Each range is a cache miss in both arrays: request them all at once, so the misses
-   * overlap instead of following one another. */
-  for (int r = 0; r < n; r++) {
-    const char *p0 = (const char *)&points[ranges[r].begin], *p1 = (const char *)&points[ranges[r].end];
-    for (; p0 < p1; p0 += 64) __builtin_prefetch(p0);
-    const char *h0 = (const char *)&v->photons[ranges[r].begin], *h1 = (const char *)&v->photons[ranges[r].end];
-    for (; h0 < h1; h0 += 64) __builtin_prefetch(h0);
+/* ---------------------------------------------------------------------------------------- */
+/* Merging                                                                                   */
+
+/* Merges camera vertex q with light vertex k (an index into the grid's order), which lies
+ * within the radius: the vertex merging estimate with its MIS weight (eq. 38-39). */
+static vf_vec3 merge_one(const vf_vcm *v, const merge_query *q, uint32_t k) {
+  const photon *ph = &v->photons[k];
+  if (ph->path_length + q->path_length > v->settings.max_path_length) return vf_vec3_splat(0.0f);
+  float cos_camera, camera_pdf, camera_rev_pdf;
+  vf_vec3 f = vf_bsdf_evaluate(&q->bsdf, ph->direction, &cos_camera, &camera_pdf, &camera_rev_pdf);
+  if (vf_is_zero(f)) return f;
+  float w = 1.0f;
+  if (!v->t.ppm) {
+    /* The reverse step is taken at the light vertex: its Russian roulette applies. */
+    camera_rev_pdf *= ph->continuation / q->bsdf.continuation;
+    vf_mis light = {ph->d_vcm, 0.0f, ph->d_vm};
+    w = vf_mis_weight_merge(&light, &q->mis, &v->mis, camera_pdf, camera_rev_pdf);
   }
-  for (int r = 0; r < n; r++) {
+  return vf_scale(vf_mul(f, ph->throughput), w);
+}
+
+/* The light vertices of the candidate ranges within the radius of x, in grid order: up to
+ * max of them into hits. Returns their number, which may exceed max. The distance tests
+ * read the grid's compact sorted positions, not the photon records. */
+static int find_hits(const vf_vcm *v, vf_vec3 x, const vf_index_range *ranges, int n, uint32_t *hits, int max) {
+  const vf_grid_point *points = vf_hashgrid_points(v->grid);
+  int found = 0;
+  for (int r = 0; r < n; r++)
     for (uint32_t k = ranges[r].begin; k < ranges[r].end; k++) {
       const vf_grid_point *gp = &points[k];
-      float dx = gp->x - q.x, dy = gp->y - q.y, dz = gp->z - q.z;
+      float dx = gp->x - x.x, dy = gp->y - x.y, dz = gp->z - x.z;
       if (dx * dx + dy * dy + dz * dz > v->radius_sq) continue;
-      const photon *ph = &v->photons[k];
-      if (ph->path_length + s->path_length > v->settings.max_path_length) continue;
-      float cos_camera, camera_pdf, camera_rev_pdf;
-      vf_vec3 f = vf_bsdf_evaluate(b, ph->direction, &cos_camera, &camera_pdf, &camera_rev_pdf);
-      if (vf_is_zero(f)) continue;
-      float w = 1.0f;
-      if (!v->t.ppm) {
-        /* The reverse step is taken at the light vertex: its Russian roulette applies. */
-        camera_rev_pdf *= ph->continuation / b->continuation;
-        vf_mis light = {ph->d_vcm, 0.0f, ph->d_vm};
-        w = vf_mis_weight_merge(&light, &s->mis, &v->mis, camera_pdf, camera_rev_pdf);
-      }
-      sum = vf_add(sum, vf_scale(vf_mul(f, ph->throughput), w));
+      if (found < max) hits[found] = k;
+      found++;
     }
-  }
+  return found;
+}
+
+static vf_vec3 merge_all(const vf_vcm *v, const merge_query *q, const vf_index_range *ranges, int n) {
+  vf_vec3 sum = vf_vec3_splat(0.0f);
+  const vf_grid_point *points = vf_hashgrid_points(v->grid);
+  for (int r = 0; r < n; r++)
+    for (uint32_t k = ranges[r].begin; k < ranges[r].end; k++) {
+      const vf_grid_point *gp = &points[k];
+      float dx = gp->x - q->position.x, dy = gp->y - q->position.y, dz = gp->z - q->position.z;
+      if (dx * dx + dy * dy + dz * dz <= v->radius_sq) sum = vf_add(sum, merge_one(v, q, k));
+    }
   return vf_scale(sum, v->vm_normalization);
 }
 
-static vf_vec3 trace_camera_path(vf_vcm *v, int thread, uint32_t pixel) {
+/* Merges a camera vertex at once: the path when a query cannot be queued. */
+static vf_vec3 merge_now(const vf_vcm *v, const merge_query *q) {
+  vf_index_range ranges[VF_HASHGRID_MAX_RANGES];
+  int n = vf_hashgrid_candidates(v->grid, q->position, ranges);
+  return merge_all(v, q, ranges, n);
+}
+
+/* Queues a camera vertex for merging at the end of the tile; returns 0 if the queue cannot
+ * grow (the caller then merges at once). */
+static int queue_merge(vf_vcm *v, int thread, const merge_query *q) {
+  thread_stats *ts = &v->stats[thread];
+  if (ts->num_queries == ts->query_capacity) {
+    uint32_t cap = ts->query_capacity ? 2 * ts->query_capacity : 4096;
+    merge_query *p = realloc(ts->queries, (size_t)cap * sizeof *p);
+    if (p == NULL) return 0;
+    ts->queries = p;
+    ts->query_capacity = cap;
+  }
+  ts->queries[ts->num_queries++] = *q;
+  return 1;
+}
+
+/* Runs the tile's queued merges as a four-stage software pipeline, each stage AHEAD
+ * queries behind the previous one:
+ *   A. compute the query's grid cells, prefetching their cell-table entries;
+ *   B. read its candidate ranges, prefetching their sorted positions;
+ *   C. test distances, prefetching the photon records of the hits;
+ *   D. evaluate the hits (BSDF and MIS weight) and add them to the pixel.
+ * Every miss of a query is then in flight while other queries compute, instead of each
+ * query waiting for its own misses in turn. Results are added in queue order, so they do
+ * not depend on the thread. */
+#define AHEAD 4
+#define RING (4 * AHEAD)
+#define MAX_HITS 24
+static void run_merges(vf_vcm *v, int thread, float *tile_rgb) {
+  thread_stats *ts = &v->stats[thread];
+  int n = (int)ts->num_queries;
+  if (n == 0) return; /* nothing queued: no merging, or no grid this iteration */
+  const merge_query *q = ts->queries;
+  const vf_grid_point *points = vf_hashgrid_points(v->grid);
+  vf_grid_cells cells[RING];
+  vf_index_range ranges[RING][VF_HASHGRID_MAX_RANGES];
+  int num_ranges[RING], num_hits[RING];
+  uint32_t hits[RING][MAX_HITS];
+  for (int i = 0; i < n + 3 * AHEAD; i++) {
+    int a = i, b = i - AHEAD, c = i - 2 * AHEAD, d = i - 3 * AHEAD;
+    if (a < n) vf_hashgrid_cells(v->grid, q[a].position, &cells[a % RING]);
+    if (b >= 0 && b < n) {
+      int m = num_ranges[b % RING] = vf_hashgrid_ranges(v->grid, &cells[b % RING], ranges[b % RING]);
+      for (int r = 0; r < m; r++) {
+        const char *p0 = (const char *)&points[ranges[b % RING][r].begin];
+        const char *p1 = (const char *)&points[ranges[b % RING][r].end];
+        for (; p0 < p1; p0 += 64) __builtin_prefetch(p0);
+      }
+    }
+    if (c >= 0 && c < n) {
+      int h = num_hits[c % RING] =
+          find_hits(v, q[c].position, ranges[c % RING], num_ranges[c % RING], hits[c % RING], MAX_HITS);
+      for (int k = 0; k < h && k < MAX_HITS; k++) __builtin_prefetch(&v->photons[hits[c % RING][k]]);
+    }
+    if (d >= 0 && d < n) {
+      vf_vec3 sum;
+      if (num_hits[d % RING] > MAX_HITS) {
+        sum = merge_all(v, &q[d], ranges[d % RING], num_ranges[d % RING]);
+      } else {
+        sum = vf_vec3_splat(0.0f);
+        for (int k = 0; k < num_hits[d % RING]; k++) sum = vf_add(sum, merge_one(v, &q[d], hits[d % RING][k]));
+        sum = vf_scale(sum, v->vm_normalization);
+      }
+      vf_vec3 contrib = vf_mul(q[d].throughput, sum);
+      float *rgb = &tile_rgb[3 * (size_t)q[d].tile_pixel];
+      rgb[0] += contrib.x;
+      rgb[1] += contrib.y;
+      rgb[2] += contrib.z;
+    }
+  }
+  ts->num_queries = 0;
+}
+
+/* Traces the camera sub-path of `pixel`, returning its estimate except for merging, which
+ * it queues under tile_pixel (or adds at once when the queue cannot grow). */
+static vf_vec3 trace_camera_path(vf_vcm *v, int thread, uint32_t pixel, uint32_t tile_pixel) {
   vf_rng rng = vf_rng_for_path(v->settings.seed, v->iteration, pixel, VF_STREAM_CAMERA);
   uint32_t px = pixel % (uint32_t)v->camera.width, py = pixel / (uint32_t)v->camera.width;
   float jx = vf_rng_float(&rng), jy = vf_rng_float(&rng);
@@ -501,7 +606,8 @@ static vf_vec3 trace_camera_path(vf_vcm *v, int thread, uint32_t pixel) {
         }
       }
       if (v->t.merging && v->num_vertices > 0) {
-        color = vf_add(color, vf_mul(s.throughput, merge_vertices(v, &hit, &b, &s)));
+        merge_query q = {b, hit.position, s.throughput, s.mis, s.path_length, tile_pixel};
+        if (!queue_merge(v, thread, &q)) color = vf_add(color, vf_mul(s.throughput, merge_now(v, &q)));
         if (v->t.ppm) break;
       }
     }
@@ -518,17 +624,29 @@ static void camera_task(void *ctx, size_t task, int thread) {
   uint32_t x0 = (uint32_t)(task % tiles_x) * CAMERA_TILE, y0 = (uint32_t)(task / tiles_x) * CAMERA_TILE;
   uint32_t x1 = x0 + CAMERA_TILE < width ? x0 + CAMERA_TILE : width;
   uint32_t y1 = y0 + CAMERA_TILE < height ? y0 + CAMERA_TILE : height;
+  uint32_t tw = x1 - x0;
+  float tile_rgb[3 * CAMERA_TILE * CAMERA_TILE];
   for (uint32_t y = y0; y < y1; y++)
     for (uint32_t x = x0; x < x1; x++) {
-      uint32_t p = y * width + x;
-      vf_vec3 c = v->t.camera_paths ? trace_camera_path(v, thread, p) : vf_vec3_splat(0.0f);
-      if (!vf_is_finite(c)) {
+      uint32_t t = (y - y0) * tw + (x - x0);
+      vf_vec3 c = v->t.camera_paths ? trace_camera_path(v, thread, y * width + x, t) : vf_vec3_splat(0.0f);
+      tile_rgb[3 * t + 0] = c.x;
+      tile_rgb[3 * t + 1] = c.y;
+      tile_rgb[3 * t + 2] = c.z;
+    }
+  run_merges(v, thread, tile_rgb);
+  for (uint32_t y = y0; y < y1; y++)
+    for (uint32_t x = x0; x < x1; x++) {
+      const float *c = &tile_rgb[3 * ((y - y0) * tw + (x - x0))];
+      float *out = &v->camera_rgb[3 * ((size_t)y * width + x)];
+      if (isfinite(c[0]) && isfinite(c[1]) && isfinite(c[2])) {
+        out[0] = c[0];
+        out[1] = c[1];
+        out[2] = c[2];
+      } else {
         v->stats[thread].nonfinite++;
-        c = vf_vec3_splat(0.0f);
+        out[0] = out[1] = out[2] = 0.0f;
       }
-      v->camera_rgb[3 * (size_t)p + 0] = c.x;
-      v->camera_rgb[3 * (size_t)p + 1] = c.y;
-      v->camera_rgb[3 * (size_t)p + 2] = c.z;
     }
 }
 
@@ -560,7 +678,7 @@ int vf_vcm_iteration(vf_vcm *v, uint64_t iteration, float *camera_rgb, float *li
   v->camera_rgb = camera_rgb;
   v->light_rgb = light_rgb;
   int threads = vf_pool_threads(v->pool);
-  memset(v->stats, 0, (size_t)threads * sizeof *v->stats);
+  for (int t = 0; t < threads; t++) v->stats[t].rays = v->stats[t].nonfinite = 0;
   pass_ctx ctx = {v};
 
   /* 1. Light sub-paths, their vertices and their projections onto the camera. */
@@ -730,6 +848,8 @@ void vf_vcm_destroy(vf_vcm *v) {
   free(v->photons);
   free(v->path_begin);
   free(v->path_end);
+  if (v->stats)
+    for (int t = 0; t < vf_pool_threads(v->pool); t++) free(v->stats[t].queries);
   free(v->stats);
   vf_hashgrid_destroy(v->grid);
   vf_lights_destroy(v->lights);
