@@ -2,6 +2,9 @@
 #include "check.h"
 #include "render_util.h"
 
+#include <stdlib.h>
+#include <unistd.h>
+
 static const vf_algorithm all_algorithms[] = {VF_ALGO_VCM, VF_ALGO_BPT, VF_ALGO_PT, VF_ALGO_LT, VF_ALGO_PPM, VF_ALGO_BPM};
 
 /* A closed enclosure of albedo a whose walls all emit Le: every path of up to L segments
@@ -111,9 +114,60 @@ static void test_delta_light_variants_agree(void) {
   }
 }
 
+/* An environment map with a small bright region (importance sampling must find it), an
+ * emissive sphere, a glossy and a glass sphere on a floor: every path can end on a light by
+ * an emission hit, so path tracing, BPT and VCM estimate the same image. */
+static void test_environment_map_and_sphere_light_agree(void) {
+  char dir[] = "/tmp/vf_test_env_XXXXXX";
+  CHECK(mkdtemp(dir) != NULL);
+  char map_path[256], scene_path[256];
+  snprintf(map_path, sizeof map_path, "%s/sky.exr", dir);
+  snprintf(scene_path, sizeof scene_path, "%s/scene.json", dir);
+  vf_image sky;
+  CHECK_INT_EQ(vf_image_alloc(&sky, 64, 32), VF_OK);
+  for (int y = 0; y < 32; y++)
+    for (int x = 0; x < 64; x++) {
+      float *p = &sky.rgb[3 * (y * 64 + x)];
+      float up = 1.0f - (float)y / 32.0f;
+      p[0] = 0.2f + 0.3f * up;
+      p[1] = 0.3f + 0.3f * up;
+      p[2] = 0.5f + 0.4f * up;
+      if (y >= 6 && y < 8 && x >= 40 && x < 42) p[0] = p[1] = p[2] = 400.0f; /* a small sun */
+    }
+  CHECK_INT_EQ(vf_image_write_exr(map_path, &sky), VF_OK);
+  vf_image_destroy(&sky);
+  FILE *f = fopen(scene_path, "w");
+  CHECK(f != NULL);
+  if (f == NULL) return;
+  fputs("{\"camera\": {\"position\": [0, 1.2, 4], \"target\": [0, 0.4, 0], \"fov\": 45, \"resolution\": [128, 128]},\n"
+        " \"materials\": {\"floor\": {\"diffuse\": [0.6, 0.6, 0.6]},\n"
+        "   \"shiny\": {\"diffuse\": [0.2, 0.1, 0.1], \"glossy\": [0.6, 0.6, 0.6], \"exponent\": 30},\n"
+        "   \"glass\": {\"dielectric\": [1, 1, 1], \"ior\": 1.5}, \"lamp\": {}},\n"
+        " \"shapes\": [\n"
+        "   {\"type\": \"mesh\", \"material\": \"floor\", \"positions\": [-3,0,-3, 3,0,-3, 3,0,3, -3,0,3],\n"
+        "    \"indices\": [0,2,1, 0,3,2]},\n"
+        "   {\"type\": \"sphere\", \"material\": \"shiny\", \"center\": [-0.7, 0.5, 0], \"radius\": 0.5},\n"
+        "   {\"type\": \"sphere\", \"material\": \"glass\", \"center\": [0.6, 0.45, 0.4], \"radius\": 0.45},\n"
+        "   {\"type\": \"sphere\", \"material\": \"lamp\", \"center\": [0.2, 1.6, -0.8], \"radius\": 0.15,\n"
+        "    \"emission\": [20, 16, 12]}],\n"
+        " \"lights\": [{\"type\": \"environment\", \"file\": \"sky.exr\"}]}\n",
+        f);
+  fclose(f);
+  vf_scene *scene;
+  CHECK_INT_EQ(vf_scene_load(scene_path, &scene), VF_OK);
+  if (check_failed_in_case) return;
+  const vf_algorithm algorithms[] = {VF_ALGO_PT, VF_ALGO_BPT, VF_ALGO_VCM};
+  check_agreement("environment", scene, algorithms, 3);
+  vf_scene_destroy(scene);
+  unlink(map_path);
+  unlink(scene_path);
+  rmdir(dir);
+}
+
 int main(void) {
   RUN(test_furnace_every_algorithm_gives_the_analytic_value);
   RUN(test_pt_bpt_vcm_agree_on_cornell_and_cornell_env);
   RUN(test_delta_light_variants_agree);
+  RUN(test_environment_map_and_sphere_light_agree);
   return check_finish();
 }
