@@ -15,6 +15,7 @@ packages=(
   libassimp-dev        # mesh files (OBJ, PLY, glTF)
   libpng-dev           # previews and plots
   libsodium-dev        # content hashes and message authentication
+  libcairo2-dev        # plots and legends (PNG with text)
 )
 
 missing=()
