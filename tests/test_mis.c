@@ -85,8 +85,8 @@ static double abs_cos_d(vf_vec3 p, vf_vec3 n, vf_vec3 q) {
 /* As segment_occluded() in vcm.c: both ends moved off their surfaces (nq zero: a point). */
 static int occluded(const test_scene *ts, vf_vec3 p, vf_vec3 n, vf_vec3 q, vf_vec3 nq) {
   vf_vec3 d = vf_sub(q, p);
-  vf_vec3 o = vf_offset_ray_origin(p, vf_dot(n, d) > 0.0f ? n : vf_neg(n));
-  vf_vec3 e = vf_is_zero(nq) ? q : vf_offset_ray_origin(q, vf_dot(nq, d) < 0.0f ? nq : vf_neg(nq));
+  vf_vec3 o = vf_offset_ray_origin(p, vf_dot(n, d) > 0.0f ? n : vf_neg(n), vf_accel_scale(ts->accel));
+  vf_vec3 e = vf_is_zero(nq) ? q : vf_offset_ray_origin(q, vf_dot(nq, d) < 0.0f ? nq : vf_neg(nq), vf_accel_scale(ts->accel));
   return vf_accel_occluded(ts->accel, o, vf_sub(e, o), 1.0f);
 }
 
@@ -429,7 +429,7 @@ static void walk_from_light(const test_scene *ts, vf_rng *rng, path_set *diffuse
   float emission_pdf, direct_pdf, cos_light;
   vf_light_emit(ts->lights, ts->light, rnd, &x.position[0], &dir, &n, &emission_pdf, &direct_pdf, &cos_light);
   x.normal[0] = n;
-  vf_vec3 origin = vf_offset_ray_origin(x.position[0], n);
+  vf_vec3 origin = vf_offset_ray_origin(x.position[0], n, vf_accel_scale(ts->accel));
   for (int m = 1; m < MAX_SEGMENTS; m++) {
     vf_hit hit;
     vf_bsdf b;
@@ -449,7 +449,7 @@ static void walk_from_light(const test_scene *ts, vf_rng *rng, path_set *diffuse
     float pdf, rev, cos_gen;
     unsigned event;
     if (vf_is_zero(vf_bsdf_sample(&b, srnd, &dir, &pdf, &rev, &cos_gen, &event))) return;
-    origin = vf_offset_ray_origin(hit.position, vf_dot(hit.normal, dir) > 0.0f ? hit.normal : vf_neg(hit.normal));
+    origin = vf_offset_ray_origin(hit.position, vf_dot(hit.normal, dir) > 0.0f ? hit.normal : vf_neg(hit.normal), vf_accel_scale(ts->accel));
   }
 }
 
@@ -509,7 +509,7 @@ static void walk_from_camera(const test_scene *ts, vf_rng *rng, path_set *diffus
     float pdf, rev, cos_gen;
     unsigned event;
     if (vf_is_zero(vf_bsdf_sample(&b, srnd, &dir, &pdf, &rev, &cos_gen, &event))) return;
-    origin = vf_offset_ray_origin(hit.position, vf_dot(hit.normal, dir) > 0.0f ? hit.normal : vf_neg(hit.normal));
+    origin = vf_offset_ray_origin(hit.position, vf_dot(hit.normal, dir) > 0.0f ? hit.normal : vf_neg(hit.normal), vf_accel_scale(ts->accel));
   }
 }
 

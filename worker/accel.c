@@ -11,6 +11,7 @@ struct vf_accel {
   RTCDevice device;
   RTCScene scene;
   const vf_scene *source; /* borrowed: positions and spheres for hit reconstruction */
+  float scale;            /* bounding-sphere radius, for ray offsets */
 };
 
 static void device_error(void *user, enum RTCError code, const char *msg) {
@@ -60,6 +61,9 @@ int vf_accel_create(const vf_scene *scene, vf_accel **out) {
   vf_accel *a = calloc(1, sizeof *a);
   if (a == NULL) return VF_ENOMEM;
   a->source = scene;
+  vf_vec3 center;
+  vf_scene_bounding_sphere(scene, &center, &a->scale);
+  if (!(a->scale > 0.0f)) a->scale = 1.0f; /* a single point or sphere of radius 0: any unit */
   a->device = rtcNewDevice("threads=1,set_affinity=0");
   if (a->device == NULL) {
     free(a);
@@ -168,10 +172,12 @@ static float int_bits_offset(float p, int delta) {
   return u.f;
 }
 
-vf_vec3 vf_offset_ray_origin(vf_vec3 p, vf_vec3 n) {
-  /* Constants of the paper: below |p| = origin the float spacing is too fine for an ulp
-   * offset, so a tiny absolute offset along n is used there instead. */
-  const float origin = 1.0f / 32.0f, float_scale = 1.0f / 65536.0f, int_scale = 256.0f;
+float vf_accel_scale(const vf_accel *a) { return a->scale; }
+
+vf_vec3 vf_offset_ray_origin(vf_vec3 p, vf_vec3 n, float scale) {
+  /* Constants of the paper, for a scene of size 1: below |p| = origin the float spacing is
+   * too fine for an ulp offset, so a small offset along n is used there instead. */
+  const float origin = scale * (1.0f / 32.0f), float_scale = scale * (1.0f / 65536.0f), int_scale = 256.0f;
   int ox = (int)(int_scale * n.x), oy = (int)(int_scale * n.y), oz = (int)(int_scale * n.z);
   vf_vec3 pi = vf_vec3_make(int_bits_offset(p.x, ox), int_bits_offset(p.y, oy), int_bits_offset(p.z, oz));
   return vf_vec3_make(fabsf(p.x) < origin ? p.x + float_scale * n.x : pi.x,

@@ -33,7 +33,12 @@ int vf_accel_occluded(const vf_accel *accel, vf_vec3 org, vf_vec3 dir, float tfa
 
 /* Moves p off its surface towards the side n points to, by a few units in the last place of
  * p's coordinates (Waechter and Binder, "A Fast and Robust Method for Avoiding
- * Self-Intersection", Ray Tracing Gems, 2019): scale invariant, unlike a fixed epsilon. */
-vf_vec3 vf_offset_ray_origin(vf_vec3 p, vf_vec3 n);
+ * Self-Intersection", Ray Tracing Gems, 2019). Near the origin, where the ulps of p are too
+ * fine, it moves by a small fraction of `scale` (the scene's size) instead; the paper's
+ * constants assume scale 1. Both regimes scale with the scene, unlike a fixed epsilon. */
+vf_vec3 vf_offset_ray_origin(vf_vec3 p, vf_vec3 n, float scale);
+
+/* The scene size that ray offsets are relative to: its bounding-sphere radius. */
+float vf_accel_scale(const vf_accel *accel);
 
 #endif

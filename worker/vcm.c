@@ -107,6 +107,7 @@ struct vf_vcm {
   techniques t;
   vf_vec3 scene_center;
   float scene_radius;
+  float offset_scale; /* for vf_offset_ray_origin */
   uint32_t num_pixels;
   int has_specular, has_glossy, has_diffuse;
 
@@ -138,14 +139,14 @@ static int intersect(vf_vcm *v, int thread, vf_vec3 org, vf_vec3 dir, vf_hit *hi
  * blocked. Both ends are moved off their surfaces towards each other. */
 static int segment_occluded(vf_vcm *v, int thread, vf_vec3 p, vf_vec3 n, vf_vec3 q, vf_vec3 nq) {
   vf_vec3 d = vf_sub(q, p);
-  vf_vec3 o = vf_offset_ray_origin(p, vf_dot(n, d) > 0.0f ? n : vf_neg(n));
-  vf_vec3 e = vf_is_zero(nq) ? q : vf_offset_ray_origin(q, vf_dot(nq, d) < 0.0f ? nq : vf_neg(nq));
+  vf_vec3 o = vf_offset_ray_origin(p, vf_dot(n, d) > 0.0f ? n : vf_neg(n), v->offset_scale);
+  vf_vec3 e = vf_is_zero(nq) ? q : vf_offset_ray_origin(q, vf_dot(nq, d) < 0.0f ? nq : vf_neg(nq), v->offset_scale);
   v->stats[thread].rays++;
   return vf_accel_occluded(v->accel, o, vf_sub(e, o), 1.0f);
 }
 
 static int direction_occluded(vf_vcm *v, int thread, vf_vec3 p, vf_vec3 n, vf_vec3 dir) {
-  vf_vec3 o = vf_offset_ray_origin(p, vf_dot(n, dir) > 0.0f ? n : vf_neg(n));
+  vf_vec3 o = vf_offset_ray_origin(p, vf_dot(n, dir) > 0.0f ? n : vf_neg(n), v->offset_scale);
   v->stats[thread].rays++;
   return vf_accel_occluded(v->accel, o, dir, INFINITY);
 }
@@ -173,7 +174,7 @@ static int scatter(vf_vcm *v, const vf_bsdf *b, const vf_hit *hit, path_state *s
   vf_mis_scatter(&s->mis, &v->mis, cos_gen, pdf, rev_pdf, specular);
   s->throughput = vf_mul(s->throughput, vf_scale(f, cos_gen / pdf));
   s->specular_path &= specular;
-  s->origin = vf_offset_ray_origin(hit->position, vf_dot(hit->normal, gen) > 0.0f ? hit->normal : vf_neg(hit->normal));
+  s->origin = vf_offset_ray_origin(hit->position, vf_dot(hit->normal, gen) > 0.0f ? hit->normal : vf_neg(hit->normal), v->offset_scale);
   s->direction = gen;
   return 1;
 }
@@ -288,7 +289,7 @@ static void trace_light_path(vf_vcm *v, int thread, light_chunk *c, uint32_t pat
   s.specular_path = 1;
   vf_mis_light_start(&s.mis, &v->mis, direct_pdf, emission_pdf, cos_light, l->is_delta, l->is_finite);
   if (l->kind == VF_LIGHT_AREA_MESH || l->kind == VF_LIGHT_AREA_SPHERE)
-    s.origin = vf_offset_ray_origin(s.origin, normal);
+    s.origin = vf_offset_ray_origin(s.origin, normal, v->offset_scale);
 
   for (;;) {
     vf_hit hit;
@@ -817,6 +818,7 @@ int vf_vcm_create(const vf_scene *scene, const vf_accel *accel, const vf_setting
   v->pool = pool;
   vf_camera_init(&v->camera, &scene->camera, settings->width, settings->height);
   vf_scene_bounding_sphere(scene, &v->scene_center, &v->scene_radius);
+  v->offset_scale = vf_accel_scale(accel);
   v->num_pixels = (uint32_t)settings->width * (uint32_t)settings->height;
   choose_techniques(v);
   analyse_scene(v);

@@ -86,7 +86,7 @@ int main(int argc, char **argv) {
     vf_hit h;
     if (vf_accel_intersect(accel, primary[i].org, primary[i].dir, INFINITY, &h)) {
       vf_vec3 nn = vf_dot(h.normal, primary[i].dir) < 0.0f ? h.normal : vf_neg(h.normal);
-      points[m] = vf_offset_ray_origin(h.position, nn);
+      points[m] = vf_offset_ray_origin(h.position, nn, vf_accel_scale(accel));
       normals[m++] = nn;
     }
   }
