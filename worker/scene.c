@@ -999,6 +999,29 @@ void vf_scene_destroy(vf_scene *scene) {
   free(scene);
 }
 
+int vf_scene_scale(vf_scene *s, double factor) {
+  if (!(factor > 0.0) || !isfinite(factor))
+    return vf_error_set(VF_EINVAL, "scene scale %g must be a positive number", factor);
+  float f = (float)factor;
+  for (int i = 0; i < s->num_shapes; i++) {
+    vf_shape *sh = &s->shapes[i];
+    for (uint32_t k = 0; k < 3 * sh->num_vertices; k++) sh->positions[k] *= f;
+    sh->center = vf_scale(sh->center, f);
+    sh->radius *= f;
+  }
+  s->camera.position = vf_scale(s->camera.position, f);
+  /* Irradiance from a point light falls with the square of the distance: its intensity
+   * grows with the square of the scale. Area lights keep their radiance, directional lights
+   * their irradiance, the environment its radiance: none depends on distance. */
+  for (int i = 0; i < s->num_point_lights; i++) {
+    s->point_lights[i].position = vf_scale(s->point_lights[i].position, f);
+    s->point_lights[i].intensity = vf_scale(s->point_lights[i].intensity, (float)(factor * factor));
+  }
+  compute_bounds(s);
+  vf_scene_hash(s);
+  return VF_OK;
+}
+
 void vf_scene_bounding_sphere(const vf_scene *scene, vf_vec3 *center, float *radius) {
   *center = vf_scale(vf_add(scene->bounds_min, scene->bounds_max), 0.5f);
   *radius = 0.5f * vf_length(vf_sub(scene->bounds_max, scene->bounds_min));

@@ -98,6 +98,11 @@ void vf_scene_destroy(vf_scene *scene);
 /* NULL-terminated list of built-in scene names. */
 const char *const *vf_scene_builtin_names(void);
 
+/* Scales the whole scene, camera and lights by factor about the origin so that the exact
+ * image is unchanged: point-light intensities grow with factor^2, radiances and directional
+ * irradiances stay. Recomputes bounds and hash. For numerical stress tests (issue 5). */
+int vf_scene_scale(vf_scene *scene, double factor);
+
 /* Bounding sphere of all shapes: center of the bounding box and half its diagonal. */
 void vf_scene_bounding_sphere(const vf_scene *scene, vf_vec3 *center, float *radius);
 
