@@ -1,0 +1,102 @@
+/* Ray queries and the ray-origin offset: without an offset, rays leaving a surface hit it
+ * again (acne), worst far from the origin where float spacing is coarse; with the offset,
+ * never, at any scale; and no ray leaving the inside of a closed box escapes it. */
+#include "check.h"
+#include "common/error.h"
+#include "common/rng.h"
+#include "worker/accel.h"
+#include "worker/sampling.h"
+#include "worker/scene.h"
+#include "worker/scene_builtin.h"
+
+#include <stdio.h>
+#include <string.h>
+
+/* A closed cube of 12 inward-facing triangles, edge 2 * size, centred at c. */
+static vf_scene *cube(double c, double size) {
+  char text[2048];
+  double a = c - size, b = c + size;
+  snprintf(text, sizeof text,
+           "{\"camera\": {\"position\": [%.17g, %.17g, %.17g], \"forward\": [0, 0, -1], \"fov\": 60},"
+           " \"materials\": {\"m\": {\"diffuse\": [0.5, 0.5, 0.5]}},"
+           " \"shapes\": [{\"type\": \"mesh\", \"material\": \"m\", \"emission\": [1, 1, 1],"
+           "  \"positions\": [%.17g,%.17g,%.17g, %.17g,%.17g,%.17g, %.17g,%.17g,%.17g, %.17g,%.17g,%.17g,"
+           "                 %.17g,%.17g,%.17g, %.17g,%.17g,%.17g, %.17g,%.17g,%.17g, %.17g,%.17g,%.17g],"
+           "  \"indices\": [0,1,2, 0,2,3, 4,6,5, 4,7,6, 0,4,5, 0,5,1, 3,2,6, 3,6,7, 0,3,7, 0,7,4, 1,5,6, 1,6,2]}]}",
+           c, c, c, a, a, a, b, a, a, b, b, a, a, b, a, a, a, b, b, a, b, b, b, b, a, b, b);
+  vf_scene *s = NULL;
+  CHECK_INT_EQ(vf_scene_parse(text, strlen(text), "cube", ".", NULL, 0, &s), VF_OK);
+  return s;
+}
+
+typedef struct {
+  int self_hits, escapes, rays;
+} counts;
+
+/* From random points on the cube's walls, rays into the cube: a hit on the starting
+ * triangle is acne; no hit at all is a leak. */
+static counts shoot(const vf_scene *s, const vf_accel *a, int use_offset, int rays) {
+  counts result = {0, 0, rays};
+  vf_rng rng = vf_rng_for_path(9, 0, 0, VF_STREAM_TEST);
+  const vf_shape *sh = &s->shapes[0];
+  for (int i = 0; i < rays; i++) {
+    uint32_t t = vf_rng_next(&rng) % sh->num_triangles;
+    const uint32_t *idx = &sh->indices[3 * t];
+    vf_vec3 p[3];
+    for (int k = 0; k < 3; k++)
+      p[k] = vf_vec3_make(sh->positions[3 * idx[k]], sh->positions[3 * idx[k] + 1], sh->positions[3 * idx[k] + 2]);
+    float u, v;
+    vf_sample_triangle(vf_rng_float(&rng), vf_rng_float(&rng), &u, &v);
+    vf_vec3 x = vf_add(vf_add(vf_scale(p[0], 1.0f - u - v), vf_scale(p[1], u)), vf_scale(p[2], v));
+    vf_vec3 n = vf_normalize(vf_cross(vf_sub(p[1], p[0]), vf_sub(p[2], p[0]))); /* inward */
+    vf_frame f = vf_frame_from_normal(n);
+    vf_vec3 d = vf_frame_to_world(&f, vf_sample_cosine_hemisphere(vf_rng_float(&rng), vf_rng_float(&rng), NULL));
+    vf_vec3 o = use_offset ? vf_offset_ray_origin(x, n, vf_accel_scale(a)) : x;
+    vf_hit h;
+    if (!vf_accel_intersect(a, o, d, INFINITY, &h)) result.escapes++;
+    else if (h.primitive == t) result.self_hits++;
+  }
+  return result;
+}
+
+static void test_offset_prevents_acne_and_leaks_at_every_scale(void) {
+  /* Centres in units of the cube's size: at the origin, and 100 and 3000 sizes away, where
+   * float spacing is 2^-17 and 2^-12 of the size. */
+  const double centres[] = {0.0, 1e2, -3e3};
+  const double sizes[] = {1e-4, 1.0, 1e3};
+  for (int c = 0; c < 3; c++)
+    for (int z = 0; z < 3; z++) {
+      vf_scene *s = cube(centres[c] * sizes[z], sizes[z]);
+      vf_accel *a = NULL;
+      if (s == NULL) return;
+      CHECK_INT_EQ(vf_accel_create(s, &a), VF_OK);
+      if (a == NULL) return;
+      counts with = shoot(s, a, 1, 20000), without = shoot(s, a, 0, 20000);
+      printf("  cube at %-7g size %-6g: offset %d self-hits %d escapes; none %5d self-hits %d escapes\n", centres[c] * sizes[z],
+             sizes[z], with.self_hits, with.escapes, without.self_hits, without.escapes);
+      CHECK_INT_EQ(with.self_hits, 0);
+      CHECK_INT_EQ(with.escapes, 0);
+      vf_accel_destroy(a);
+      vf_scene_destroy(s);
+    }
+}
+
+/* The problem the offset solves is real: far from the origin, where a float's spacing is
+ * large against the cube, rays started on the surface itself hit it again. */
+static void test_without_offset_rays_hit_their_own_surface(void) {
+  vf_scene *s = cube(1e4, 1.0);
+  vf_accel *a = NULL;
+  if (s == NULL) return;
+  CHECK_INT_EQ(vf_accel_create(s, &a), VF_OK);
+  counts without = shoot(s, a, 0, 20000);
+  printf("  without an offset: %d of %d rays hit their own triangle\n", without.self_hits, without.rays);
+  CHECK(without.self_hits > without.rays / 100);
+  vf_accel_destroy(a);
+  vf_scene_destroy(s);
+}
+
+int main(void) {
+  RUN(test_offset_prevents_acne_and_leaks_at_every_scale);
+  RUN(test_without_offset_rays_hit_their_own_surface);
+  return check_finish();
+}
