@@ -23,6 +23,10 @@
 #define ATTR_LIGHT_FRAMES "vcmfarm:light_frames"
 #define ATTR_SECONDS "vcmfarm:render_seconds"
 #define ATTR_NONFINITE "vcmfarm:nonfinite_samples"
+/* Optional: films written before they existed read as "unknown" (0, "", an empty log). */
+#define ATTR_CPU_SECONDS "vcmfarm:cpu_seconds"
+#define ATTR_SCENE_NAME "vcmfarm:scene"
+#define ATTR_CONVERGENCE "vcmfarm:convergence"
 
 /* The four accumulated quantities, in the order of accum_names below. */
 enum { Q_CAMERA, Q_COUNT, Q_LIGHT, Q_SQUARE, Q_COUNT_ };
@@ -64,6 +68,7 @@ int vf_film_create(int width, int height, vf_film **out) {
   film->width = width;
   film->height = height;
   vf_iterset_init(&film->iterations);
+  vf_convergence_init(&film->convergence);
   *out = film;
   return VF_OK;
 fail_square:
@@ -81,6 +86,7 @@ fail_film:
 void vf_film_destroy(vf_film *film) {
   if (film == NULL) return;
   vf_iterset_destroy(&film->iterations);
+  vf_convergence_destroy(&film->convergence);
   free(film->square_sum);
   free(film->light_sum);
   free(film->camera_count);
@@ -93,7 +99,8 @@ int vf_film_clone(const vf_film *film, vf_film **out) {
   vf_film *copy;
   int err = vf_film_create(film->width, film->height, &copy);
   if (err != VF_OK) return err;
-  if ((err = vf_iterset_copy(&copy->iterations, &film->iterations)) != VF_OK) {
+  if ((err = vf_iterset_copy(&copy->iterations, &film->iterations)) != VF_OK ||
+      (err = vf_convergence_copy(&copy->convergence, &film->convergence)) != VF_OK) {
     vf_film_destroy(copy);
     return err;
   }
@@ -106,7 +113,9 @@ int vf_film_clone(const vf_film *film, vf_film **out) {
   memcpy(copy->scene_hash, film->scene_hash, sizeof copy->scene_hash);
   memcpy(copy->settings_text, film->settings_text, sizeof copy->settings_text);
   copy->render_seconds = film->render_seconds;
+  copy->cpu_seconds = film->cpu_seconds;
   copy->nonfinite_samples = film->nonfinite_samples;
+  memcpy(copy->scene_name, film->scene_name, sizeof copy->scene_name);
   *out = copy;
   return VF_OK;
 }
@@ -173,9 +182,13 @@ int vf_film_merge(vf_film *dst, const vf_film *src) {
                         dst->settings_text, src->settings_text);
   if (vf_iterset_intersects(&dst->iterations, &src->iterations))
     return vf_error_set(VF_EOVERLAP, "films share iterations: merging would count samples twice");
-  /* The union is the only step that can fail, so it goes first and leaves dst unchanged. */
-  int err = vf_iterset_union(&dst->iterations, &src->iterations);
+  /* Reserving room for the log and the union are the only steps that can fail, so they go
+   * first; spare log capacity leaves dst unchanged in every way that matters. */
+  int err = vf_convergence_reserve(&dst->convergence, src->convergence.count);
+  if (err == VF_OK) err = vf_iterset_union(&dst->iterations, &src->iterations);
   if (err != VF_OK) return err;
+  vf_convergence_append_runs(&dst->convergence, &src->convergence);
+  if (dst->scene_name[0] == '\0') memcpy(dst->scene_name, src->scene_name, sizeof dst->scene_name);
   size_t n = (size_t)dst->width * (size_t)dst->height;
   for (size_t i = 0; i < 3 * n; i++) {
     dst->camera_sum[i] += src->camera_sum[i];
@@ -185,8 +198,32 @@ int vf_film_merge(vf_film *dst, const vf_film *src) {
   for (size_t p = 0; p < n; p++) dst->camera_count[p] += src->camera_count[p];
   dst->light_frames += src->light_frames;
   dst->render_seconds += src->render_seconds;
+  dst->cpu_seconds += src->cpu_seconds;
   dst->nonfinite_samples += src->nonfinite_samples;
   return VF_OK;
+}
+
+/* Per pixel and channel, with n iterations and X_i the pixel's estimate of iteration i
+ * (camera + light), mean m = sum X_i / n: the sample variance (sum X_i^2 - n m^2) / (n - 1)
+ * estimates Var X, and Var X / n is the mean squared error of m if the X_i are
+ * independent, which they are (each iteration has its own random streams). The average
+ * over pixels and channels is the expected squared error of the image, RMSE its root. It
+ * leaves out bias (vertex merging's, which shrinks with the radius). */
+double vf_film_estimate_rmse(const vf_film *film) {
+  double n = (double)film->light_frames;
+  if (film->light_frames < 2) return NAN;
+  size_t pixels = (size_t)film->width * (size_t)film->height;
+  double total = 0.0;
+  for (size_t p = 0; p < pixels; p++) {
+    double count = film->camera_count[p];
+    for (int c = 0; c < 3; c++) {
+      double m = film->light_sum[3 * p + c] / n;
+      if (count > 0) m += film->camera_sum[3 * p + c] / count;
+      double variance = (film->square_sum[3 * p + c] - n * m * m) / (n - 1.0);
+      if (variance > 0) total += variance / n; /* < 0 only through rounding */
+    }
+  }
+  return sqrt(total / (3.0 * (double)pixels));
 }
 
 int vf_film_validate(const vf_film *film, const char *name) {
@@ -197,6 +234,8 @@ int vf_film_validate(const vf_film *film, const char *name) {
     return vf_error_set(VF_EFILM, "%s: film has no pixels or an absurd size", name);
   if (memchr(film->settings_text, '\0', sizeof film->settings_text) == NULL)
     return vf_error_set(VF_EFILM, "%s: settings text is not terminated", name);
+  if (memchr(film->scene_name, '\0', sizeof film->scene_name) == NULL)
+    return vf_error_set(VF_EFILM, "%s: scene name is not terminated", name);
   uint64_t iterations = vf_iterset_count(&film->iterations);
   if (film->light_frames != iterations)
     return vf_error_set(VF_EFILM, "%s: %" PRIu64 " light frames but %" PRIu64 " iterations", name,
@@ -204,6 +243,11 @@ int vf_film_validate(const vf_film *film, const char *name) {
   if (!isfinite(film->render_seconds) || film->render_seconds < 0)
     return vf_error_set(VF_EFILM, "%s: render time %g is not a finite, non-negative number", name,
                         film->render_seconds);
+  if (!isfinite(film->cpu_seconds) || film->cpu_seconds < 0)
+    return vf_error_set(VF_EFILM, "%s: attribute " ATTR_CPU_SECONDS " %g is not a finite, non-negative number", name,
+                        film->cpu_seconds);
+  int err = vf_convergence_validate(&film->convergence, name);
+  if (err != VF_OK) return err;
   double n = (double)film->width * (double)film->height;
   /* each iteration refuses at most one camera and one light sample per pixel */
   if ((double)film->nonfinite_samples > 2.0 * n * (double)iterations)
@@ -265,7 +309,7 @@ static int check_float_range(const vf_film *film, const char *path) {
   return VF_OK;
 }
 
-static int set_attributes(exr_context_t ctx, const vf_film *film, const char *iterations) {
+static int set_attributes(exr_context_t ctx, const vf_film *film, const char *iterations, const char *convergence) {
   char hex[65], number[32];
   for (int i = 0; i < 32; i++) snprintf(hex + 2 * i, 3, "%02x", film->scene_hash[i]);
   exr_result_t rv = exr_attr_set_int(ctx, 0, ATTR_VERSION, VF_FILM_FORMAT_VERSION);
@@ -277,6 +321,9 @@ static int set_attributes(exr_context_t ctx, const vf_film *film, const char *it
   if (rv == EXR_ERR_SUCCESS) rv = exr_attr_set_double(ctx, 0, ATTR_SECONDS, film->render_seconds);
   snprintf(number, sizeof number, "%" PRIu64, film->nonfinite_samples);
   if (rv == EXR_ERR_SUCCESS) rv = exr_attr_set_string(ctx, 0, ATTR_NONFINITE, number);
+  if (rv == EXR_ERR_SUCCESS) rv = exr_attr_set_double(ctx, 0, ATTR_CPU_SECONDS, film->cpu_seconds);
+  if (rv == EXR_ERR_SUCCESS) rv = exr_attr_set_string(ctx, 0, ATTR_SCENE_NAME, film->scene_name);
+  if (rv == EXR_ERR_SUCCESS) rv = exr_attr_set_string(ctx, 0, ATTR_CONVERGENCE, convergence);
   return rv;
 }
 
@@ -287,14 +334,15 @@ int vf_film_write(const vf_film *film, const char *path) {
   if (err != VF_OK) return err;
   /* "[b,e)" with two 20-digit numbers and a separator is at most 45 bytes per range. */
   size_t text_size = film->iterations.count * 46 + 1;
-  char *iterations = malloc(text_size);
+  char *iterations = malloc(text_size), *convergence = NULL;
   if (iterations == NULL) return VF_ENOMEM;
   if ((err = vf_iterset_format(&film->iterations, iterations, text_size)) != VF_OK) goto free_text;
+  if ((err = vf_convergence_format(&film->convergence, &convergence)) != VF_OK) goto free_text;
 
   vf_exr_out out;
   if ((err = vf_exr_create(path, film->width, film->height, VF_FILM_TILE, 3 + ACCUM_PLANES, file_channels, &out)) != VF_OK)
     goto free_text;
-  exr_result_t rv = set_attributes(out.ctx, film, iterations);
+  exr_result_t rv = set_attributes(out.ctx, film, iterations, convergence);
   if (rv != EXR_ERR_SUCCESS) {
     err = vf_exr_error(path, rv, "cannot set the film attributes");
     goto abort;
@@ -302,11 +350,13 @@ int vf_film_write(const vf_film *film, const char *path) {
   if ((err = vf_exr_write_pixels(&out, 3 + ACCUM_PLANES, file_channels, fill_film, (void *)film)) != VF_OK)
     goto abort;
   err = vf_exr_commit(&out);
+  free(convergence);
   free(iterations);
   return err;
 abort:
   vf_exr_abort(&out);
 free_text:
+  free(convergence);
   free(iterations);
   return err;
 }
@@ -389,6 +439,40 @@ static int hex_digit(char c) {
   return -1;
 }
 
+static int get_double(const vf_exr_in *in, const char *name, double *out) {
+  const exr_attribute_t *attr = find_attr(in, name);
+  if (attr == NULL) return vf_error_set(VF_EFILM, "%s: missing attribute %s", in->path, name);
+  if (attr->type != EXR_ATTR_DOUBLE) return vf_error_set(VF_EFILM, "%s: attribute %s is not a double", in->path, name);
+  *out = attr->d;
+  return VF_OK;
+}
+
+/* The attributes added after version 1 first shipped: absent means unknown, present
+ * means checked like any other. */
+static int read_optional_attributes(const vf_exr_in *in, vf_film *film) {
+  int err = VF_OK;
+  char *text = NULL;
+  if (find_attr(in, ATTR_CPU_SECONDS) && (err = get_double(in, ATTR_CPU_SECONDS, &film->cpu_seconds)) != VF_OK)
+    return err;
+  if (!isfinite(film->cpu_seconds) || film->cpu_seconds < 0)
+    return vf_error_set(VF_EFILM, "%s: attribute " ATTR_CPU_SECONDS " is not a finite number >= 0", in->path);
+  if (find_attr(in, ATTR_SCENE_NAME)) {
+    if ((err = get_string(in, ATTR_SCENE_NAME, &text)) != VF_OK) return err;
+    if (strlen(text) >= sizeof film->scene_name)
+      err = vf_error_set(VF_EFILM, "%s: attribute " ATTR_SCENE_NAME " is longer than %zu bytes", in->path,
+                         sizeof film->scene_name - 1);
+    else memcpy(film->scene_name, text, strlen(text) + 1);
+    free(text);
+    if (err != VF_OK) return err;
+  }
+  if (find_attr(in, ATTR_CONVERGENCE)) {
+    if ((err = get_string(in, ATTR_CONVERGENCE, &text)) != VF_OK) return err;
+    err = vf_convergence_parse(&film->convergence, text, in->path);
+    free(text);
+  }
+  return err;
+}
+
 /* Reads every attribute into film, which has no pixels yet. */
 static int read_attributes(const vf_exr_in *in, vf_film *film) {
   const exr_attribute_t *attr = find_attr(in, ATTR_VERSION);
@@ -431,7 +515,7 @@ static int read_attributes(const vf_exr_in *in, vf_film *film) {
   if (attr->type != EXR_ATTR_DOUBLE)
     return vf_error_set(VF_EFILM, "%s: attribute " ATTR_SECONDS " is not a double", in->path);
   film->render_seconds = attr->d;
-  return VF_OK;
+  return read_optional_attributes(in, film);
 }
 
 static int store_film(void *user, int x0, int y0, int w, int h, const float *const *planes) {
@@ -461,6 +545,7 @@ int vf_film_read(const char *path, vf_film **out) {
   vf_film header = {0};
   vf_film *film = NULL;
   vf_iterset_init(&header.iterations);
+  vf_convergence_init(&header.convergence);
   if ((err = read_attributes(&in, &header)) != VF_OK) goto fail;
   for (int k = 0; k < ACCUM_PLANES; k++)
     if (!vf_exr_has_channel(&in, accum_names[k])) {
@@ -479,7 +564,11 @@ int vf_film_read(const char *path, vf_film **out) {
   memcpy(film->scene_hash, header.scene_hash, sizeof film->scene_hash);
   memcpy(film->settings_text, header.settings_text, sizeof film->settings_text);
   film->render_seconds = header.render_seconds;
+  film->cpu_seconds = header.cpu_seconds;
   film->nonfinite_samples = header.nonfinite_samples;
+  memcpy(film->scene_name, header.scene_name, sizeof film->scene_name);
+  film->convergence = header.convergence; /* moved, like the iterations */
+  vf_convergence_init(&header.convergence);
 
   if ((err = vf_exr_read_channels(&in, ACCUM_PLANES, accum_names, store_film, film)) != VF_OK) goto fail;
   if ((err = vf_film_validate(film, path)) != VF_OK) goto fail;
@@ -489,6 +578,7 @@ int vf_film_read(const char *path, vf_film **out) {
 fail:
   vf_film_destroy(film);
   vf_iterset_destroy(&header.iterations);
+  vf_convergence_destroy(&header.convergence);
   vf_exr_close(&in);
   return err;
 }

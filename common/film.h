@@ -12,8 +12,9 @@
  * The mean radiance of a pixel is camera_sum / camera_count + light_sum / light_frames.
  *
  * Beside the pixels the film carries the scene content hash, the canonical settings text,
- * the set of global iterations it contains and the render time; two films merge only when
- * scene hash and settings text agree and their iteration sets are disjoint.
+ * the set of global iterations it contains, the render time, the scene's name and the
+ * convergence log (common/convergence.h); two films merge only when scene hash and settings
+ * text agree and their iteration sets are disjoint.
  *
  * On disk (docs/FILM.md): a tiled OpenEXR (64x64 tiles) whose R, G, B channels hold the
  * mean (any viewer shows the image) and whose other channels and "vcmfarm:" attributes
@@ -21,6 +22,7 @@
 #ifndef VF_FILM_H
 #define VF_FILM_H
 
+#include "convergence.h"
 #include "iterset.h"
 
 #include <stdint.h>
@@ -39,7 +41,11 @@ typedef struct {
   uint8_t scene_hash[32];
   char settings_text[512];
   double render_seconds;      /* wall-clock time spent rendering the iterations it holds */
+  double cpu_seconds;         /* process CPU time (all threads) spent rendering them */
   uint64_t nonfinite_samples; /* samples refused because they were NaN or Inf */
+  char scene_name[512];       /* what to load to continue: a built-in name or a scene file's
+                               * absolute path; "" when unknown. Informative: the hash decides */
+  vf_convergence_log convergence; /* owned */
 } vf_film;
 
 /* Allocates a zeroed film; *out is written only on success. */
@@ -62,15 +68,25 @@ int vf_film_write(const vf_film *film, const char *path);
 int vf_film_read(const char *path, vf_film **out);
 
 /* dst += src. VF_EMISMATCH (size, scene hash, settings) or VF_EOVERLAP (iteration sets),
- * with dst unchanged, when they cannot be merged. */
+ * with dst unchanged, when they cannot be merged. Times add up; dst keeps its scene name
+ * (src's if dst has none); src's convergence log is appended to dst's as further runs
+ * (common/convergence.h). */
 int vf_film_merge(vf_film *dst, const vf_film *src);
 
 /* A deep copy of film into *out (written only on success); VF_EINVAL or VF_ENOMEM. */
 int vf_film_clone(const vf_film *film, vf_film **out);
 
+/* The estimated RMSE of the film's mean image, without a reference (docs/FILM.md): per pixel
+ * and channel, the sample variance of the per-iteration estimates (camera + light) from
+ * square_sum and the sums, divided by the number of iterations, averaged over pixels and
+ * channels, square-rooted. NaN when the film holds fewer than 2 iterations. Uses only sums,
+ * so it is the same for a merged or continued film as for one rendered in one go. */
+double vf_film_estimate_rmse(const vf_film *film);
+
 /* Checks the invariants every film built by this module keeps: counts whole, >= 0 and at
  * most the number of iterations, sums finite, square sums >= 0, light_frames equal to the
- * number of iterations, render time finite and >= 0, settings text terminated. VF_EFILM
+ * number of iterations, times finite and >= 0, texts terminated, the convergence log
+ * valid (vf_convergence_validate). VF_EFILM
  * with a detail "NAME: problem" (name is e.g. the file path) when one does not hold. */
 int vf_film_validate(const vf_film *film, const char *name);
 

@@ -1,5 +1,10 @@
 /* vcmfarm: one executable, one subcommand per task. */
+#include "../worker/continue_cmd.h"
 #include "../worker/render_cmd.h"
+#include "compare_cmd.h"
+#include "film_tools.h"
+#include "info.h"
+#include "plot.h"
 
 #include <stdio.h>
 #include <string.h>
@@ -12,6 +17,13 @@ typedef struct {
 
 static const command commands[] = {
     {"render", vf_cmd_render, "render global iterations of a scene into a film"},
+    {"continue", vf_cmd_continue, "render a film's next unused iterations into it"},
+    {"info", vf_cmd_info, "a film's attributes, estimated error and convergence log"},
+    {"plot", vf_cmd_plot, "log-log plot of films' error against time and iterations"},
+    {"merge", vf_cmd_merge, "add films of disjoint iterations into one film"},
+    {"bake", vf_cmd_bake, "write a film's mean as a clean EXR or an sRGB PNG"},
+    {"errors", vf_cmd_errors, "RMSE, relative MSE and MAE of an image against a reference"},
+    {"diff", vf_cmd_diff, "false-colour relative difference of two images, with a legend"},
 };
 
 static void print_usage(FILE *out) {

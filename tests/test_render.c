@@ -77,8 +77,8 @@ static long file_bytes(const char *path, char **out) {
   return n;
 }
 
-/* The film records the wall-clock render time, which no two runs share; with that one
- * attribute set equal, two renders of the same seed are the same file byte for byte. */
+/* The film records the wall-clock and CPU render times, which no two runs share; with those
+ * two attributes set equal, two renders of the same seed are the same file byte for byte. */
 static void test_same_seed_twice_gives_identical_files(void) {
   char a_path[] = "/tmp/vf_test_render_a_XXXXXX.exr", b_path[] = "/tmp/vf_test_render_b_XXXXXX.exr";
   close(mkstemps(a_path, 4));
@@ -87,6 +87,7 @@ static void test_same_seed_twice_gives_identical_files(void) {
   vf_film *b = render("cornell", VF_ALGO_VCM, 11, 2, 0, 2);
   if (!a || !b) return;
   a->render_seconds = b->render_seconds = 0.0;
+  a->cpu_seconds = b->cpu_seconds = 0.0;
   CHECK_INT_EQ(vf_film_write(a, a_path), VF_OK);
   CHECK_INT_EQ(vf_film_write(b, b_path), VF_OK);
   char *da = NULL, *db = NULL;

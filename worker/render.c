@@ -5,8 +5,11 @@
 #include "../common/pool.h"
 #include "accel.h"
 
+#include <limits.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 
 struct vf_renderer {
   const vf_scene *scene; /* borrowed */
@@ -51,8 +54,26 @@ void vf_renderer_destroy(vf_renderer *r) {
 
 const vf_vcm *vf_renderer_vcm(const vf_renderer *r) { return r->vcm; }
 
+/* Process CPU time of all threads: with the wall time it shows how well threads were used. */
+static double cpu_seconds_now(void) {
+  struct timespec ts;
+  if (clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts) != 0) return 0.0;
+  return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+/* "builtin:cornell" is stored as "cornell", the name vf_scene_load takes; a file as its
+ * absolute path, so that `continue` finds it from another working directory. */
+static void scene_name(const char *source, char *out, size_t n) {
+  static const char prefix[] = "builtin:";
+  char resolved[PATH_MAX];
+  if (strncmp(source, prefix, sizeof prefix - 1) == 0) snprintf(out, n, "%s", source + sizeof prefix - 1);
+  else if (realpath(source, resolved) != NULL && strlen(resolved) < n) snprintf(out, n, "%s", resolved);
+  else snprintf(out, n, "%s", source);
+}
+
 int vf_renderer_stamp(const vf_renderer *r, vf_film *film) {
   memcpy(film->scene_hash, r->scene->hash, sizeof film->scene_hash);
+  scene_name(r->scene->source, film->scene_name, sizeof film->scene_name);
   return vf_settings_format(&r->settings, film->settings_text, sizeof film->settings_text);
 }
 
@@ -64,25 +85,49 @@ int vf_render_range(vf_renderer *r, vf_film *film, uint64_t begin, uint64_t end,
   vf_render_status st;
   memset(&st, 0, sizeof st);
   st.iterations_total = end - begin;
-  double start = vf_seconds_now();
-  int err = VF_OK;
-  for (uint64_t k = begin; k < end; k++) {
+  double start = vf_seconds_now(), last_checkpoint = start;
+  int err = VF_OK, stop = 0, since_checkpoint = 0;
+  for (uint64_t k = begin; k < end && !stop; k++) {
     if (control && control->interrupt && *control->interrupt) break;
     if (control && control->time_limit > 0.0 && vf_seconds_now() - start >= control->time_limit) break;
     if (vf_iterset_contains(&film->iterations, k)) {
       err = vf_error_set(VF_EOVERLAP, "iteration %llu is already in the film", (unsigned long long)k);
       break;
     }
-    double t0 = vf_seconds_now();
+    double t0 = vf_seconds_now(), cpu0 = cpu_seconds_now();
+    uint64_t nonfinite0 = st.stats.nonfinite;
     if ((err = vf_vcm_iteration(r->vcm, k, r->camera_rgb, r->light_rgb, &st.stats)) != VF_OK) break;
     if ((err = vf_film_add_iteration(film, k, r->camera_rgb, r->light_rgb)) != VF_OK) break;
+    /* Counted per iteration so that a checkpoint writes a consistent film. */
+    film->nonfinite_samples += st.stats.nonfinite - nonfinite0;
     film->render_seconds += vf_seconds_now() - t0;
+    film->cpu_seconds += cpu_seconds_now() - cpu0;
     st.iterations_done++;
-    st.seconds = vf_seconds_now() - start;
+    since_checkpoint = 1;
+    double now = vf_seconds_now();
+    st.seconds = now - start;
+    if (control && control->checkpoint) {
+      st.checkpoint_due = control->checkpoint_interval > 0.0 && now - last_checkpoint >= control->checkpoint_interval;
+      int rc = control->checkpoint(control->ctx, film, &st);
+      if (rc < 0) {
+        err = rc;
+        break;
+      }
+      if (st.checkpoint_due) {
+        last_checkpoint = vf_seconds_now();
+        since_checkpoint = 0;
+      }
+      stop = rc == VF_RENDER_STOP;
+      st.checkpoint_due = 0;
+    }
     if (control && control->progress) control->progress(control->ctx, &st);
   }
-  film->nonfinite_samples += st.stats.nonfinite;
   st.seconds = vf_seconds_now() - start;
+  if (err == VF_OK && since_checkpoint && control && control->checkpoint) {
+    st.checkpoint_due = st.final = 1;
+    int rc = control->checkpoint(control->ctx, film, &st);
+    if (rc < 0) err = rc;
+  }
   if (status) *status = st;
   return err;
 }

@@ -23,13 +23,28 @@ typedef struct {
   uint64_t iterations_total; /* requested in this call (UINT64_MAX when open-ended) */
   double seconds;           /* wall time of this call so far */
   vf_vcm_stats stats;       /* of this call so far */
+  int checkpoint_due;       /* for the checkpoint callback: a checkpoint is due (below) */
+  int final;                /* for the checkpoint callback: the call after the last iteration */
 } vf_render_status;
+
+/* A checkpoint callback's "stop rendering" answer (a target error was reached). */
+#define VF_RENDER_STOP 1
 
 typedef struct {
   double time_limit; /* > 0: no new iteration starts after this many seconds */
   void (*progress)(void *ctx, const vf_render_status *status); /* after each iteration, or NULL */
   void *ctx;
   volatile sig_atomic_t *interrupt; /* when it becomes non-zero, stop after the current iteration */
+  /* Checkpoints: called after every iteration, before progress, with the film holding it,
+   * and once more after the last iteration of the call with status->final set. Its
+   * status->checkpoint_due is set every checkpoint_interval seconds of this call (> 0; else
+   * never) and on the final call, which happens only if an iteration entered the film since
+   * the last due checkpoint. Cheap work (a target test) may run at every call, expensive
+   * work (writing the film) only when due. Returns VF_OK to go on, VF_RENDER_STOP to stop
+   * (a last, final call follows), or a negative error, which stops the loop without a final
+   * call and is returned. NULL: none. */
+  double checkpoint_interval;
+  int (*checkpoint)(void *ctx, vf_film *film, const vf_render_status *status);
 } vf_render_control;
 
 /* The scene is borrowed and must outlive the renderer. threads <= 0: one per CPU. */
@@ -44,7 +59,8 @@ const vf_vcm *vf_renderer_vcm(const vf_renderer *r);
 int vf_render_range(vf_renderer *r, vf_film *film, uint64_t begin, uint64_t end, const vf_render_control *control,
                     vf_render_status *status);
 
-/* Writes the renderer's scene hash and settings text into an empty film. */
+/* Writes the renderer's scene hash, settings text and scene name (a built-in name, or the
+ * scene file's absolute path) into an empty film. */
 int vf_renderer_stamp(const vf_renderer *r, vf_film *film);
 
 #endif

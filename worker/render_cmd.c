@@ -4,6 +4,7 @@
 #include "../common/error.h"
 #include "../common/film.h"
 #include "../common/image.h"
+#include "checkpoint.h"
 #include "render.h"
 
 #include <getopt.h>
@@ -23,6 +24,13 @@ static const char usage[] =
     "  -a, --algorithm A        vcm (default), bpt, pt, lt, ppm or bpm\n"
     "  -n, --iterations N       number of iterations (default: the scene's, else 16)\n"
     "  -t, --time S             render for S seconds instead (no new iteration after S)\n"
+    "      --reference REF      reference image (a film or an RGB EXR of the same size):\n"
+    "                           the convergence log records the RMSE against it\n"
+    "      --target-rmse X      stop once the RMSE against the reference is <= X\n"
+    "      --target-error E     stop once the estimated RMSE (no reference) is <= E\n"
+    "      --checkpoint-interval S  every S seconds (default 10) append an entry to the\n"
+    "                           film's convergence log and write the film, so a killed\n"
+    "                           render keeps its work; 0: only at the end\n"
     "  -k, --start-iteration K  first global iteration index (default 0)\n"
     "  -s, --seed S             job seed (default: the scene's, else 1)\n"
     "  -j, --threads T          render threads (default: one per CPU)\n"
@@ -38,33 +46,13 @@ static const char usage[] =
     "\n"
     "The random numbers of an iteration depend only on (seed, iteration index, pixel), so\n"
     "renders of disjoint iteration ranges merge into exactly the render of their union.\n"
+    "With a target and neither --iterations nor --time, it renders until the target is met.\n"
     "Exit status: 0 done, 1 failure while rendering, 2 bad input (nothing is written).\n";
 
 static volatile sig_atomic_t interrupted;
 static void on_interrupt(int sig) {
   (void)sig;
   interrupted = 1;
-}
-
-typedef struct {
-  int tty;
-  uint64_t rays_per_iteration_hint;
-} progress_ctx;
-
-static void progress(void *ctx, const vf_render_status *st) {
-  progress_ctx *p = ctx;
-  if (!p->tty) return;
-  double rate = st->seconds > 0.0 ? (double)st->iterations_done / st->seconds : 0.0;
-  if (st->iterations_total != UINT64_MAX && rate > 0.0) {
-    double eta = (double)(st->iterations_total - st->iterations_done) / rate;
-    fprintf(stderr, "\r  iteration %llu/%llu  %.2f it/s  %.1f Mrays/s  elapsed %.1f s  ETA %.1f s   ",
-            (unsigned long long)st->iterations_done, (unsigned long long)st->iterations_total, rate,
-            (double)st->stats.rays / st->seconds * 1e-6, st->seconds, eta);
-  } else {
-    fprintf(stderr, "\r  iteration %llu  %.2f it/s  %.1f Mrays/s  elapsed %.1f s   ",
-            (unsigned long long)st->iterations_done, rate, (double)st->stats.rays / st->seconds * 1e-6,
-            st->seconds);
-  }
 }
 
 int vf_cmd_render(int argc, char **argv) {
@@ -76,10 +64,13 @@ int vf_cmd_render(int argc, char **argv) {
       {"alpha", required_argument, 0, 'A'},       {"resolution", required_argument, 0, 'R'},
       {"output", required_argument, 0, 'o'},      {"preview", required_argument, 0, 'p'},
       {"exposure", required_argument, 0, 'e'},    {"quiet", no_argument, 0, 'q'},
-      {"help", no_argument, 0, 'h'},              {0, 0, 0, 0}};
+      {"help", no_argument, 0, 'h'},              {"reference", required_argument, 0, 'F'},
+      {"target-rmse", required_argument, 0, 'X'}, {"target-error", required_argument, 0, 'E'},
+      {"checkpoint-interval", required_argument, 0, 'C'}, {0, 0, 0, 0}};
   const char *cmd = "render";
   const char *output = NULL, *preview = NULL;
-  const char *algorithm = NULL;
+  const char *algorithm = NULL, *reference_path = NULL;
+  double target_rmse = 0.0, target_error = 0.0, checkpoint_interval = 10.0;
   long long iterations = -1, threads = 0, max_path_length = -1;
   uint64_t start = 0, seed = 0;
   int have_seed = 0, have_resolution = 0, quiet = 0, width = 0, height = 0;
@@ -109,6 +100,10 @@ int vf_cmd_render(int argc, char **argv) {
     case 'p': preview = optarg; break;
     case 'e': err = vf_cli_double("--exposure", optarg, -64.0, 64.0, &exposure); break;
     case 'q': quiet = 1; break;
+    case 'F': reference_path = optarg; break;
+    case 'X': err = vf_cli_double("--target-rmse", optarg, 1e-300, 1e300, &target_rmse); break;
+    case 'E': err = vf_cli_double("--target-error", optarg, 1e-300, 1e300, &target_error); break;
+    case 'C': err = vf_cli_double("--checkpoint-interval", optarg, 0.0, 1e9, &checkpoint_interval); break;
     case 'h': fputs(usage, stdout); return VF_EXIT_OK;
     default:
       fprintf(stderr, "vcmfarm render: unknown or incomplete option '%s'\n%s", argv[optind - 1], usage);
@@ -128,10 +123,16 @@ int vf_cmd_render(int argc, char **argv) {
     fprintf(stderr, "vcmfarm render: give --iterations or --time, not both\n");
     return VF_EXIT_BAD_INPUT;
   }
+  if (target_rmse > 0.0 && reference_path == NULL) {
+    fprintf(stderr, "vcmfarm render: --target-rmse needs --reference\n");
+    return VF_EXIT_BAD_INPUT;
+  }
 
   vf_scene *scene = NULL;
   vf_renderer *renderer = NULL;
   vf_film *film = NULL;
+  vf_image reference = {0};
+  vf_checkpointer cp = {0};
   if ((err = vf_scene_load(argv[optind], &scene)) != VF_OK) return vf_cli_fail(cmd, err);
 
   /* Settings: defaults, then the scene's "render" object, then the command line. */
@@ -146,7 +147,10 @@ int vf_cmd_render(int argc, char **argv) {
     settings.height = height;
   }
   if ((err = vf_settings_validate(&settings)) != VF_OK) goto done;
-  uint64_t count = iterations > 0 ? (uint64_t)iterations : (time_limit > 0.0 ? UINT64_MAX - start : 16);
+  if (reference_path && (err = vf_reference_load(reference_path, settings.width, settings.height, &reference)) != VF_OK)
+    goto done;
+  int open_ended = time_limit > 0.0 || target_rmse > 0.0 || target_error > 0.0;
+  uint64_t count = iterations > 0 ? (uint64_t)iterations : (open_ended ? UINT64_MAX - start : 16);
   if (count > UINT64_MAX - start) {
     err = vf_error_set(VF_EUSAGE, "--start-iteration %llu + --iterations overflows", (unsigned long long)start);
     goto done;
@@ -162,8 +166,12 @@ int vf_cmd_render(int argc, char **argv) {
     vf_vcm_describe(vf_renderer_vcm(renderer), stderr);
   }
 
-  progress_ctx pc = {!quiet && isatty(STDERR_FILENO), 0};
-  vf_render_control control = {time_limit, progress, &pc, &interrupted};
+  int tty = !quiet && isatty(STDERR_FILENO);
+  if ((err = vf_checkpointer_init(&cp, film, output, reference_path ? &reference : NULL, target_rmse, target_error,
+                                  tty)) != VF_OK)
+    goto done;
+  vf_render_control control = {time_limit, NULL, NULL, &interrupted, 0.0, NULL};
+  vf_checkpointer_attach(&cp, &control, checkpoint_interval);
   struct sigaction sa, old_int, old_term;
   memset(&sa, 0, sizeof sa);
   sa.sa_handler = on_interrupt;
@@ -173,13 +181,13 @@ int vf_cmd_render(int argc, char **argv) {
   err = vf_render_range(renderer, film, start, start + count, &control, &st);
   sigaction(SIGINT, &old_int, NULL);
   sigaction(SIGTERM, &old_term, NULL);
-  if (pc.tty) fputc('\n', stderr);
+  if (tty) fputc('\n', stderr);
   if (err != VF_OK) goto done;
   if (st.iterations_done == 0) {
     err = vf_error_set(VF_EINVAL, "no iteration finished; nothing written");
     goto done;
   }
-  if ((err = vf_film_write(film, output)) != VF_OK) goto done;
+  /* The final checkpoint wrote the film. */
   if (preview) {
     vf_image img;
     if ((err = vf_image_alloc(&img, film->width, film->height)) != VF_OK) goto done;
@@ -196,14 +204,19 @@ int vf_cmd_render(int argc, char **argv) {
     fprintf(stderr,
             "rendered %llu iteration(s) %s in %.2f s: %.3f it/s, %.2f Mrays/s, %llu light vertices/it\n"
             "per iteration: light sub-paths %.1f ms, grid %.1f ms, camera sub-paths %.1f ms; "
-            "%llu non-finite sample(s)%s\nwrote %s%s%s\n",
+            "%llu non-finite sample(s)%s\n",
             (unsigned long long)st.iterations_done, set, st.seconds, rate, (double)st.stats.rays / st.seconds * 1e-6,
             (unsigned long long)(st.stats.light_vertices / st.iterations_done), st.stats.light_seconds * per,
             st.stats.grid_seconds * per, st.stats.camera_seconds * per,
-            (unsigned long long)st.stats.nonfinite, interrupted ? " (interrupted)" : "", output,
+            (unsigned long long)st.stats.nonfinite, interrupted ? " (interrupted)" : "");
+    fprintf(stderr, "estimated RMSE %.4g", cp.last.estimated_rmse);
+    if (reference_path) fprintf(stderr, ", RMSE %.4g against %s", cp.last.rmse, reference_path);
+    fprintf(stderr, "%s\nwrote %s%s%s\n", cp.target_reached ? " (target reached)" : "", output,
             preview ? " and " : "", preview ? preview : "");
   }
 done:
+  vf_checkpointer_destroy(&cp);
+  vf_image_destroy(&reference);
   vf_film_destroy(film);
   vf_renderer_destroy(renderer);
   vf_scene_destroy(scene);

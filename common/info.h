@@ -1,0 +1,7 @@
+/* `vcmfarm info FILM [--json]`: everything a film knows about itself. */
+#ifndef VF_INFO_H
+#define VF_INFO_H
+
+int vf_cmd_info(int argc, char **argv);
+
+#endif
