@@ -21,7 +21,13 @@
   XX(EMISMATCH, "films or inputs do not match")                            \
   XX(EOVERLAP, "iteration ranges overlap")                                 \
   XX(EEMBREE, "Embree error")                                              \
-  XX(ENONFINITE, "non-finite value")
+  XX(ENONFINITE, "non-finite value")                                       \
+  XX(EPROTO, "malformed message")                                          \
+  XX(EVERSION, "protocol version mismatch")                                \
+  XX(EAUTH, "message authentication failed")                               \
+  XX(ETIMEDOUT, "timed out")                                               \
+  XX(ENET, "network error")                                                \
+  XX(EREFUSED, "refused by the peer")
 
 enum {
   VF_OK = 0,

@@ -1,6 +1,9 @@
 /* vcmfarm: one executable, one subcommand per task. */
 #include "../worker/continue_cmd.h"
+#include "../coordinator/client_cmd.h"
+#include "../coordinator/coordinator_cmd.h"
 #include "../worker/render_cmd.h"
+#include "../worker/worker_cmd.h"
 #include "compare_cmd.h"
 #include "film_tools.h"
 #include "info.h"
@@ -24,6 +27,13 @@ static const command commands[] = {
     {"bake", vf_cmd_bake, "write a film's mean as a clean EXR or an sRGB PNG"},
     {"errors", vf_cmd_errors, "RMSE, relative MSE and MAE of an image against a reference"},
     {"diff", vf_cmd_diff, "false-colour relative difference of two images, with a legend"},
+    {"coordinator", vf_cmd_coordinator, "serve a render farm: jobs, leases, merging, checkpoints"},
+    {"worker", vf_cmd_worker, "render leases for a coordinator"},
+    {"submit", vf_cmd_submit, "submit a job to a coordinator; prints the job id"},
+    {"status", vf_cmd_status, "jobs and workers of a coordinator"},
+    {"fetch", vf_cmd_fetch, "write a job's current film"},
+    {"cancel", vf_cmd_cancel, "cancel a job"},
+    {"keygen", vf_cmd_keygen, "write a new farm key file"},
 };
 
 static void print_usage(FILE *out) {

@@ -16,6 +16,11 @@ readers=(
   "bake BAD -o OUT.png"
   "errors GOOD BAD"
   "diff BAD GOOD -o OUT.png"
+  "continue BAD -n 1 -q -o OUT.exr"
+  "continue GOOD --reference BAD -n 1 -q -o OUT.exr"
+  "info BAD"
+  "info --json BAD"
+  "plot BAD -o OUT.png"
 )
 algorithms="vcm bpt pt lt ppm bpm"
 corrupted_copies=100

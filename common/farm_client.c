@@ -1,0 +1,111 @@
+#include "farm_client.h"
+
+#include "error.h"
+
+#include <errno.h>
+#include <nanomsg/nn.h>
+#include <nanomsg/reqrep.h>
+#include <stdlib.h>
+#include <string.h>
+
+struct vf_farm_client {
+  int socket;
+  vf_wire_key key;
+  char *url; /* owned */
+};
+
+int vf_farm_client_open(const char *url, const vf_wire_key *key, vf_farm_client **out) {
+  int err;
+  vf_farm_client *c = calloc(1, sizeof *c);
+  if (c == NULL) return vf_error_set(VF_ENOMEM, "out of memory");
+  if ((c->url = strdup(url)) == NULL) {
+    err = vf_error_set(VF_ENOMEM, "out of memory");
+    goto free_client;
+  }
+  c->key = *key;
+  if ((c->socket = nn_socket(AF_SP, NN_REQ)) < 0) {
+    err = vf_error_set(VF_ENET, "nanomsg socket: %s", nn_strerror(nn_errno()));
+    goto free_url;
+  }
+  int max_size = (int)VF_WIRE_MAX_FRAME, ivl_max = 5000, resend = 3600 * 1000, linger = 1000;
+  nn_setsockopt(c->socket, NN_SOL_SOCKET, NN_RCVMAXSIZE, &max_size, sizeof max_size);
+  nn_setsockopt(c->socket, NN_SOL_SOCKET, NN_RECONNECT_IVL_MAX, &ivl_max, sizeof ivl_max);
+  nn_setsockopt(c->socket, NN_SOL_SOCKET, NN_LINGER, &linger, sizeof linger);
+  /* We resend ourselves after a timeout; nanomsg's own resend would only duplicate. */
+  nn_setsockopt(c->socket, NN_REQ, NN_REQ_RESEND_IVL, &resend, sizeof resend);
+  if (nn_connect(c->socket, url) < 0) {
+    err = vf_error_set(VF_ENET, "%s: %s", url, nn_strerror(nn_errno()));
+    goto close_socket;
+  }
+  *out = c;
+  return VF_OK;
+close_socket:
+  nn_close(c->socket);
+free_url:
+  free(c->url);
+free_client:
+  free(c);
+  return err;
+}
+
+void vf_farm_client_close(vf_farm_client *client) {
+  if (client == NULL) return;
+  nn_close(client->socket);
+  free(client->url);
+  free(client);
+}
+
+const char *vf_farm_client_url(const vf_farm_client *client) { return client->url; }
+
+int vf_farm_call(vf_farm_client *c, Vcmfarm__Envelope *request, int timeout_ms, Vcmfarm__Envelope **reply) {
+  uint8_t *frame;
+  size_t len;
+  int err = vf_message_pack(&c->key, request, &frame, &len);
+  if (err != VF_OK) return err;
+  nn_setsockopt(c->socket, NN_SOL_SOCKET, NN_SNDTIMEO, &timeout_ms, sizeof timeout_ms);
+  nn_setsockopt(c->socket, NN_SOL_SOCKET, NN_RCVTIMEO, &timeout_ms, sizeof timeout_ms);
+  int sent = nn_send(c->socket, frame, len, 0);
+  free(frame);
+  if (sent < 0) {
+    int e = nn_errno();
+    if (e == ETIMEDOUT || e == EAGAIN) return vf_error_set(VF_ETIMEDOUT, "%s: could not send within %d ms", c->url, timeout_ms);
+    return vf_error_set(VF_ENET, "%s: send: %s", c->url, nn_strerror(e));
+  }
+  void *buf = NULL;
+  int n = nn_recv(c->socket, &buf, NN_MSG, 0);
+  if (n < 0) {
+    int e = nn_errno();
+    if (e == ETIMEDOUT || e == EAGAIN || e == EINTR)
+      return vf_error_set(e == EINTR ? VF_ENET : VF_ETIMEDOUT,
+                          "%s: no reply within %d ms (is the coordinator running, with the same key file?)",
+                          c->url, timeout_ms);
+    return vf_error_set(VF_ENET, "%s: receive: %s", c->url, nn_strerror(e));
+  }
+  Vcmfarm__Envelope *env;
+  err = vf_message_unpack(&c->key, buf, (size_t)n, &env);
+  nn_freemsg(buf);
+  if (err != VF_OK) return err;
+  *reply = env;
+  return VF_OK;
+}
+
+int vf_farm_request(vf_farm_client *c, Vcmfarm__Envelope *request, Vcmfarm__Envelope__BodyCase expected,
+                    int timeout_ms, Vcmfarm__Envelope **reply) {
+  Vcmfarm__Envelope *env = NULL;
+  int err = vf_farm_call(c, request, timeout_ms, &env);
+  if (err != VF_OK) return err;
+  if (env->body_case == VCMFARM__ENVELOPE__BODY_ERROR) {
+    int code = env->error->code == VCMFARM__ERROR_CODE__ERROR_VERSION ? VF_EVERSION : VF_EREFUSED;
+    err = vf_error_set(code, "%s: coordinator refused the %s: %s", c->url, vf_message_name(request),
+                       env->error->message);
+  } else if (env->body_case != expected) {
+    err = vf_error_set(VF_EPROTO, "%s: coordinator answered the %s with a %s", c->url, vf_message_name(request),
+                       vf_message_name(env));
+  }
+  if (err != VF_OK) {
+    vf_message_free(env);
+    return err;
+  }
+  *reply = env;
+  return VF_OK;
+}

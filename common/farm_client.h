@@ -1,0 +1,36 @@
+/* The connecting side of the farm protocol: a nanomsg REQ socket to the coordinator's REP
+ * socket, used by workers and by the submit/status/fetch/cancel commands.
+ *
+ * nanomsg errors enter our code here and become VF_ENET. Each call sends one request and
+ * waits for its reply; nanomsg reconnects by itself (with backoff up to 5 s) when the
+ * coordinator goes away, and a call that gets no valid reply in time fails with
+ * VF_ETIMEDOUT, after which the next call may simply be made (a REQ socket drops the
+ * outstanding request when a new one is sent). Not thread-safe: one client per thread. */
+#ifndef VF_FARM_CLIENT_H
+#define VF_FARM_CLIENT_H
+
+#include "message.h"
+
+typedef struct vf_farm_client vf_farm_client;
+
+/* Connects (asynchronously: no error when nobody listens yet). The key is copied.
+ * *out is written only on success; VF_ENET with a detail naming the URL otherwise. */
+int vf_farm_client_open(const char *url, const vf_wire_key *key, vf_farm_client **out);
+void vf_farm_client_close(vf_farm_client *client);
+
+/* Sends request (its protocol_version is set here) and waits up to timeout_ms for the
+ * reply, which *reply receives (free with vf_message_free) on success, whatever its body,
+ * Error included. VF_ETIMEDOUT when no reply came, VF_EVERSION / VF_EAUTH / VF_EPROTO
+ * when the reply was refused (see vf_message_unpack). */
+int vf_farm_call(vf_farm_client *client, Vcmfarm__Envelope *request, int timeout_ms, Vcmfarm__Envelope **reply);
+
+/* vf_farm_call that also insists on a reply with body `expected`: a reply of type Error
+ * becomes VF_EREFUSED (VF_EVERSION for a version refusal) with the coordinator's message
+ * as detail, any other unexpected body VF_EPROTO; *reply is written only on success. */
+int vf_farm_request(vf_farm_client *client, Vcmfarm__Envelope *request, Vcmfarm__Envelope__BodyCase expected,
+                    int timeout_ms, Vcmfarm__Envelope **reply);
+
+/* The URL given to vf_farm_client_open (borrowed). */
+const char *vf_farm_client_url(const vf_farm_client *client);
+
+#endif

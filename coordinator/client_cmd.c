@@ -1,0 +1,399 @@
+#include "client_cmd.h"
+
+#include "../common/cli.h"
+#include "../common/error.h"
+#include "../common/farm_client.h"
+#include "../common/file.h"
+#include "../common/film_wire.h"
+#include "../worker/job_scene.h"
+
+#include <cjson/cJSON.h>
+#include <getopt.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* Options every client command shares. */
+typedef struct {
+  const char *url, *secret;
+  double timeout;
+} connection;
+
+#define CONNECTION_HELP                                                                    \
+  "  -c, --coordinator URL  the coordinator: tcp://HOST:PORT or ipc://PATH (required)\n"  \
+  "  -k, --secret FILE      the farm's key file (required)\n"                              \
+  "      --timeout S        give up after S seconds without an answer (default 10)\n"     \
+  "  -h, --help             this text\n"
+
+static int connection_option(connection *conn, int c, int *err) {
+  switch (c) {
+  case 'c': conn->url = optarg; return 1;
+  case 'k': conn->secret = optarg; return 1;
+  case 'T': *err = vf_cli_double("--timeout", optarg, 0.01, 86400.0, &conn->timeout); return 1;
+  default: return 0;
+  }
+}
+
+/* One request, one reply of the expected kind. */
+static int request(const connection *conn, Vcmfarm__Envelope *q, Vcmfarm__Envelope__BodyCase expected,
+                   Vcmfarm__Envelope **reply) {
+  if (conn->url == NULL || conn->secret == NULL)
+    return vf_error_set(VF_EUSAGE, "--coordinator URL and --secret FILE are required");
+  vf_wire_key key;
+  vf_farm_client *client;
+  int err = vf_wire_key_load(conn->secret, &key);
+  if (err != VF_OK) return err;
+  if ((err = vf_farm_client_open(conn->url, &key, &client)) != VF_OK) return err;
+  err = vf_farm_request(client, q, expected, (int)(conn->timeout * 1000.0), reply);
+  vf_farm_client_close(client);
+  return err;
+}
+
+static int bad_option(const char *cmd, char **argv, const char *usage) {
+  fprintf(stderr, "vcmfarm %s: unknown or incomplete option '%s'\n%s", cmd, argv[optind - 1], usage);
+  return VF_EXIT_BAD_INPUT;
+}
+
+static int parse_job_id(const char *text, uint64_t *id) {
+  int err = vf_cli_u64("JOB", text, id);
+  if (err == VF_OK && *id == 0) err = vf_error_set(VF_EUSAGE, "JOB: job ids start at 1");
+  return err;
+}
+
+/* ---- submit ---- */
+
+static const char submit_usage[] =
+    "usage: vcmfarm submit SCENE --coordinator URL --secret FILE [options]\n"
+    "\n"
+    "Submits a job rendering global iterations [0, N) of SCENE (a built-in name or a JSON\n"
+    "scene without mesh or map files) and prints the job id as the last line.\n"
+    "\n"
+    "  -n, --iterations N       iterations (default 16)\n"
+    "  -P, --priority P         higher runs first (default 0)\n"
+    "  -N, --name NAME          a name for status (default: SCENE)\n"
+    "  -a, --algorithm A        vcm (default), bpt, pt, lt, ppm or bpm\n"
+    "  -s, --seed S             job seed (default: the scene's, else 1)\n"
+    "  -l, --max-path-length L  maximum path segments (default 10)\n"
+    "  -r, --radius-factor F    initial merge radius / scene radius (default 0.003)\n"
+    "      --alpha A            radius reduction exponent in (0, 1] (default 0.75)\n"
+    "  -R, --resolution WxH     image size (default: the scene camera's)\n" CONNECTION_HELP;
+
+int vf_cmd_submit(int argc, char **argv) {
+  static const struct option options[] = {
+      {"iterations", required_argument, 0, 'n'}, {"priority", required_argument, 0, 'P'},
+      {"name", required_argument, 0, 'N'},       {"algorithm", required_argument, 0, 'a'},
+      {"seed", required_argument, 0, 's'},       {"max-path-length", required_argument, 0, 'l'},
+      {"radius-factor", required_argument, 0, 'r'}, {"alpha", required_argument, 0, 'A'},
+      {"resolution", required_argument, 0, 'R'}, {"coordinator", required_argument, 0, 'c'},
+      {"secret", required_argument, 0, 'k'},     {"timeout", required_argument, 0, 'T'},
+      {"help", no_argument, 0, 'h'},             {0, 0, 0, 0}};
+  const char *cmd = "submit", *name = NULL, *algorithm = NULL;
+  connection conn = {NULL, NULL, 10.0};
+  long long iterations = 16, priority = 0, max_path_length = -1;
+  uint64_t seed = 0;
+  int have_seed = 0, have_resolution = 0, width = 0, height = 0, err = VF_OK, c;
+  double radius_factor = -1.0, alpha = -1.0;
+  optind = 1;
+  opterr = 0;
+  while ((c = getopt_long(argc, argv, "n:P:N:a:s:l:r:R:c:k:h", options, NULL)) != -1) {
+    if (connection_option(&conn, c, &err)) {
+      if (err != VF_OK) return vf_cli_fail(cmd, err);
+      continue;
+    }
+    switch (c) {
+    case 'n': err = vf_cli_int("--iterations", optarg, 1, 1000000000LL, &iterations); break;
+    case 'P': err = vf_cli_int("--priority", optarg, -1000000, 1000000, &priority); break;
+    case 'N': name = optarg; break;
+    case 'a': algorithm = optarg; break;
+    case 's': err = vf_cli_u64("--seed", optarg, &seed); have_seed = 1; break;
+    case 'l': err = vf_cli_int("--max-path-length", optarg, 1, 1000, &max_path_length); break;
+    case 'r': err = vf_cli_double("--radius-factor", optarg, 1e-12, 1.0, &radius_factor); break;
+    case 'A': err = vf_cli_double("--alpha", optarg, 1e-6, 1.0, &alpha); break;
+    case 'R': err = vf_cli_resolution("--resolution", optarg, &width, &height); have_resolution = 1; break;
+    case 'h': fputs(submit_usage, stdout); return VF_EXIT_OK;
+    default: return bad_option(cmd, argv, submit_usage);
+    }
+    if (err != VF_OK) return vf_cli_fail(cmd, err);
+  }
+  if (optind != argc - 1) {
+    fprintf(stderr, "vcmfarm submit: expected exactly one SCENE\n%s", submit_usage);
+    return VF_EXIT_BAD_INPUT;
+  }
+  const char *source = argv[optind];
+  int builtin = vf_job_scene_is_builtin(source);
+  uint8_t *text = NULL;
+  size_t len = 0;
+  vf_scene *scene = NULL;
+  Vcmfarm__Envelope *reply = NULL;
+  if (builtin) {
+    len = strlen(source);
+  } else if ((err = vf_file_read_all(source, 16u << 20, &text, &len)) != VF_OK) {
+    return vf_cli_fail(cmd, err);
+  }
+  /* Load it as the workers will, to refuse a broken scene here and learn its hash. */
+  if ((err = vf_job_scene_load(builtin, builtin ? source : (const char *)text, len, source, &scene)) != VF_OK)
+    goto done;
+  vf_settings settings = scene->settings;
+  if (algorithm && (err = vf_algorithm_parse(algorithm, &settings.algorithm)) != VF_OK) goto done;
+  if (have_seed) settings.seed = seed;
+  if (max_path_length > 0) settings.max_path_length = (int)max_path_length;
+  if (radius_factor > 0.0) settings.radius_factor = radius_factor;
+  if (alpha > 0.0) settings.alpha = alpha;
+  if (have_resolution) {
+    settings.width = width;
+    settings.height = height;
+  }
+  char settings_text[512];
+  if ((err = vf_settings_validate(&settings)) != VF_OK ||
+      (err = vf_settings_format(&settings, settings_text, sizeof settings_text)) != VF_OK)
+    goto done;
+  Vcmfarm__Scene s = VCMFARM__SCENE__INIT;
+  if (builtin) {
+    s.source_case = VCMFARM__SCENE__SOURCE_BUILTIN;
+    s.builtin = (char *)source;
+  } else {
+    s.source_case = VCMFARM__SCENE__SOURCE_JSON;
+    s.json = (char *)text;
+  }
+  Vcmfarm__SubmitJob m = VCMFARM__SUBMIT_JOB__INIT;
+  m.name = (char *)(name ? name : source);
+  m.scene = &s;
+  m.scene_hash.data = scene->hash;
+  m.scene_hash.len = 32;
+  m.settings = settings_text;
+  m.iterations = (uint64_t)iterations;
+  m.priority = (int32_t)priority;
+  Vcmfarm__Envelope q = VCMFARM__ENVELOPE__INIT;
+  q.body_case = VCMFARM__ENVELOPE__BODY_SUBMIT;
+  q.submit = &m;
+  if ((err = request(&conn, &q, VCMFARM__ENVELOPE__BODY_SUBMITTED, &reply)) != VF_OK) goto done;
+  fprintf(stderr, "vcmfarm submit: %s, %s, %lld iterations\n", source, settings_text, iterations);
+  printf("%llu\n", (unsigned long long)reply->submitted->job_id);
+done:
+  vf_message_free(reply);
+  vf_scene_destroy(scene);
+  free(text);
+  return err == VF_OK ? VF_EXIT_OK : vf_cli_fail(cmd, err);
+}
+
+/* ---- status ---- */
+
+static const char status_usage[] =
+    "usage: vcmfarm status [JOB] --coordinator URL --secret FILE [--json]\n"
+    "\n"
+    "Shows every job (or JOB) and every worker. A job's state is one of queued, running,\n"
+    "done, cancelled, failed; with --json it is the field \"state\".\n"
+    "\n"
+    "  -J, --json             JSON on stdout instead of text\n" CONNECTION_HELP;
+
+static void print_json(const Vcmfarm__Status *st) {
+  cJSON *root = cJSON_CreateObject(), *jobs = cJSON_AddArrayToObject(root, "jobs"),
+        *workers = cJSON_AddArrayToObject(root, "workers");
+  for (size_t i = 0; i < st->n_jobs; i++) {
+    const Vcmfarm__JobStatus *j = st->jobs[i];
+    cJSON *o = cJSON_CreateObject();
+    cJSON_AddItemToArray(jobs, o);
+    cJSON_AddNumberToObject(o, "id", (double)j->job_id);
+    cJSON_AddStringToObject(o, "name", j->name);
+    cJSON_AddStringToObject(o, "state", j->state);
+    cJSON_AddNumberToObject(o, "priority", j->priority);
+    cJSON_AddNumberToObject(o, "iterations", (double)j->iterations_total);
+    cJSON_AddNumberToObject(o, "iterations_done", (double)j->iterations_done);
+    cJSON_AddNumberToObject(o, "iterations_leased", (double)j->iterations_leased);
+    cJSON_AddNumberToObject(o, "progress",
+                            j->iterations_total ? (double)j->iterations_done / (double)j->iterations_total : 0.0);
+    cJSON_AddNumberToObject(o, "iterations_per_second", j->iterations_per_second);
+    cJSON_AddNumberToObject(o, "results_refused", (double)j->results_refused);
+    cJSON_AddStringToObject(o, "settings", j->settings);
+    cJSON_AddStringToObject(o, "message", j->message);
+  }
+  for (size_t i = 0; i < st->n_workers; i++) {
+    const Vcmfarm__WorkerStatus *w = st->workers[i];
+    cJSON *o = cJSON_CreateObject();
+    char id[17];
+    snprintf(id, sizeof id, "%016llx", (unsigned long long)w->worker_id);
+    cJSON_AddItemToArray(workers, o);
+    cJSON_AddStringToObject(o, "id", id);
+    cJSON_AddStringToObject(o, "name", w->name);
+    cJSON_AddNumberToObject(o, "threads", w->threads);
+    if (w->lease_job) {
+      cJSON *l = cJSON_AddObjectToObject(o, "lease");
+      cJSON_AddNumberToObject(l, "job", (double)w->lease_job);
+      cJSON_AddNumberToObject(l, "begin", (double)w->lease_begin);
+      cJSON_AddNumberToObject(l, "end", (double)w->lease_end);
+    } else {
+      cJSON_AddNullToObject(o, "lease");
+    }
+    cJSON_AddNumberToObject(o, "iterations_per_second", w->iterations_per_second);
+    cJSON_AddNumberToObject(o, "last_seen_seconds", w->last_seen_seconds);
+  }
+  char *text = cJSON_Print(root);
+  if (text) puts(text);
+  free(text);
+  cJSON_Delete(root);
+}
+
+static void print_text(const Vcmfarm__Status *st) {
+  for (size_t i = 0; i < st->n_jobs; i++) {
+    const Vcmfarm__JobStatus *j = st->jobs[i];
+    printf("job %llu '%s': %s, %llu/%llu iterations (%.0f%%), %llu leased, priority %d, %.2f it/s per worker%s%s\n",
+           (unsigned long long)j->job_id, j->name, j->state, (unsigned long long)j->iterations_done,
+           (unsigned long long)j->iterations_total,
+           j->iterations_total ? 100.0 * (double)j->iterations_done / (double)j->iterations_total : 0.0,
+           (unsigned long long)j->iterations_leased, j->priority, j->iterations_per_second,
+           j->message[0] ? ": " : "", j->message);
+  }
+  for (size_t i = 0; i < st->n_workers; i++) {
+    const Vcmfarm__WorkerStatus *w = st->workers[i];
+    printf("worker %s (%u threads): ", w->name, w->threads);
+    if (w->lease_job)
+      printf("job %llu [%llu,%llu)", (unsigned long long)w->lease_job, (unsigned long long)w->lease_begin,
+             (unsigned long long)w->lease_end);
+    else
+      printf("idle");
+    printf(", %.2f it/s, seen %.1f s ago\n", w->iterations_per_second, w->last_seen_seconds);
+  }
+  if (st->n_jobs == 0 && st->n_workers == 0) printf("no jobs, no workers\n");
+}
+
+int vf_cmd_status(int argc, char **argv) {
+  static const struct option options[] = {
+      {"json", no_argument, 0, 'J'},       {"coordinator", required_argument, 0, 'c'},
+      {"secret", required_argument, 0, 'k'}, {"timeout", required_argument, 0, 'T'},
+      {"help", no_argument, 0, 'h'},       {0, 0, 0, 0}};
+  const char *cmd = "status";
+  connection conn = {NULL, NULL, 10.0};
+  int json = 0, err = VF_OK, c;
+  optind = 1;
+  opterr = 0;
+  while ((c = getopt_long(argc, argv, "Jc:k:h", options, NULL)) != -1) {
+    if (connection_option(&conn, c, &err)) {
+      if (err != VF_OK) return vf_cli_fail(cmd, err);
+      continue;
+    }
+    if (c == 'J') json = 1;
+    else if (c == 'h') return fputs(status_usage, stdout), VF_EXIT_OK;
+    else return bad_option(cmd, argv, status_usage);
+  }
+  Vcmfarm__StatusRequest m = VCMFARM__STATUS_REQUEST__INIT;
+  if (optind == argc - 1) {
+    if ((err = parse_job_id(argv[optind], &m.job_id)) != VF_OK) return vf_cli_fail(cmd, err);
+  } else if (optind != argc) {
+    fprintf(stderr, "vcmfarm status: at most one JOB\n%s", status_usage);
+    return VF_EXIT_BAD_INPUT;
+  }
+  Vcmfarm__Envelope q = VCMFARM__ENVELOPE__INIT, *reply;
+  q.body_case = VCMFARM__ENVELOPE__BODY_STATUS_REQUEST;
+  q.status_request = &m;
+  if ((err = request(&conn, &q, VCMFARM__ENVELOPE__BODY_STATUS, &reply)) != VF_OK) return vf_cli_fail(cmd, err);
+  if (json) print_json(reply->status);
+  else print_text(reply->status);
+  vf_message_free(reply);
+  return VF_EXIT_OK;
+}
+
+/* ---- fetch ---- */
+
+static const char fetch_usage[] =
+    "usage: vcmfarm fetch JOB -o FILM.exr --coordinator URL --secret FILE\n"
+    "\n"
+    "Writes the current film of JOB (a valid film at any moment, holding the iterations\n"
+    "merged so far) to FILM.exr, atomically.\n"
+    "\n"
+    "  -o, --output FILM.exr  the film to write (required)\n" CONNECTION_HELP;
+
+int vf_cmd_fetch(int argc, char **argv) {
+  static const struct option options[] = {
+      {"output", required_argument, 0, 'o'}, {"coordinator", required_argument, 0, 'c'},
+      {"secret", required_argument, 0, 'k'}, {"timeout", required_argument, 0, 'T'},
+      {"help", no_argument, 0, 'h'},         {0, 0, 0, 0}};
+  const char *cmd = "fetch", *output = NULL;
+  connection conn = {NULL, NULL, 60.0};
+  int err = VF_OK, c;
+  optind = 1;
+  opterr = 0;
+  while ((c = getopt_long(argc, argv, "o:c:k:h", options, NULL)) != -1) {
+    if (connection_option(&conn, c, &err)) {
+      if (err != VF_OK) return vf_cli_fail(cmd, err);
+      continue;
+    }
+    if (c == 'o') output = optarg;
+    else if (c == 'h') return fputs(fetch_usage, stdout), VF_EXIT_OK;
+    else return bad_option(cmd, argv, fetch_usage);
+  }
+  Vcmfarm__FetchRequest m = VCMFARM__FETCH_REQUEST__INIT;
+  if (optind != argc - 1 || output == NULL) {
+    fprintf(stderr, "vcmfarm fetch: expected one JOB and -o FILM.exr\n%s", fetch_usage);
+    return VF_EXIT_BAD_INPUT;
+  }
+  if ((err = parse_job_id(argv[optind], &m.job_id)) != VF_OK) return vf_cli_fail(cmd, err);
+  Vcmfarm__Envelope q = VCMFARM__ENVELOPE__INIT, *reply;
+  q.body_case = VCMFARM__ENVELOPE__BODY_FETCH;
+  q.fetch = &m;
+  if ((err = request(&conn, &q, VCMFARM__ENVELOPE__BODY_FILM, &reply)) != VF_OK) return vf_cli_fail(cmd, err);
+  vf_film *film = NULL;
+  /* Decoded before it is written: what lands at FILM.exr is a checked film. */
+  err = vf_film_from_bytes(reply->film->film_exr.data, reply->film->film_exr.len, "fetched film", &film);
+  vf_message_free(reply);
+  if (err == VF_OK) err = vf_film_write(film, output);
+  vf_film_destroy(film);
+  return err == VF_OK ? VF_EXIT_OK : vf_cli_fail(cmd, err);
+}
+
+/* ---- cancel ---- */
+
+static const char cancel_usage[] =
+    "usage: vcmfarm cancel JOB --coordinator URL --secret FILE\n"
+    "\n"
+    "Cancels JOB: no new leases, results refused; its film so far stays fetchable.\n\n" CONNECTION_HELP;
+
+int vf_cmd_cancel(int argc, char **argv) {
+  static const struct option options[] = {{"coordinator", required_argument, 0, 'c'},
+                                          {"secret", required_argument, 0, 'k'},
+                                          {"timeout", required_argument, 0, 'T'},
+                                          {"help", no_argument, 0, 'h'},
+                                          {0, 0, 0, 0}};
+  const char *cmd = "cancel";
+  connection conn = {NULL, NULL, 10.0};
+  int err = VF_OK, c;
+  optind = 1;
+  opterr = 0;
+  while ((c = getopt_long(argc, argv, "c:k:h", options, NULL)) != -1) {
+    if (connection_option(&conn, c, &err)) {
+      if (err != VF_OK) return vf_cli_fail(cmd, err);
+      continue;
+    }
+    if (c == 'h') return fputs(cancel_usage, stdout), VF_EXIT_OK;
+    return bad_option(cmd, argv, cancel_usage);
+  }
+  Vcmfarm__CancelRequest m = VCMFARM__CANCEL_REQUEST__INIT;
+  if (optind != argc - 1) {
+    fprintf(stderr, "vcmfarm cancel: expected one JOB\n%s", cancel_usage);
+    return VF_EXIT_BAD_INPUT;
+  }
+  if ((err = parse_job_id(argv[optind], &m.job_id)) != VF_OK) return vf_cli_fail(cmd, err);
+  Vcmfarm__Envelope q = VCMFARM__ENVELOPE__INIT, *reply;
+  q.body_case = VCMFARM__ENVELOPE__BODY_CANCEL;
+  q.cancel = &m;
+  if ((err = request(&conn, &q, VCMFARM__ENVELOPE__BODY_RESULT_ACK, &reply)) != VF_OK) return vf_cli_fail(cmd, err);
+  int accepted = reply->result_ack->accepted;
+  fprintf(stderr, "vcmfarm cancel: %s\n", reply->result_ack->message);
+  vf_message_free(reply);
+  return accepted ? VF_EXIT_OK : VF_EXIT_FAILURE;
+}
+
+/* ---- keygen ---- */
+
+int vf_cmd_keygen(int argc, char **argv) {
+  if (argc == 2 && (strcmp(argv[1], "--help") == 0 || strcmp(argv[1], "-h") == 0)) {
+    printf("usage: vcmfarm keygen FILE\n\nWrites a new random farm key (64 hex digits) to FILE with permissions 0600;\n"
+           "coordinator, workers and clients all need a copy. Never replaces an existing file.\n");
+    return VF_EXIT_OK;
+  }
+  if (argc != 2) {
+    fprintf(stderr, "usage: vcmfarm keygen FILE\n");
+    return VF_EXIT_BAD_INPUT;
+  }
+  int err = vf_wire_key_generate(argv[1]);
+  return err == VF_OK ? VF_EXIT_OK : vf_cli_fail("keygen", err);
+}

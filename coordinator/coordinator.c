@@ -1,0 +1,211 @@
+#include "coordinator.h"
+
+#include "../common/clock.h"
+#include "../common/error.h"
+#include "../common/message.h"
+#include "farm.h"
+#include "log.h"
+#include "state.h"
+
+#include <errno.h>
+#include <nanomsg/nn.h>
+#include <nanomsg/reqrep.h>
+#include <signal.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+#include <uv.h>
+
+#define TICK_MS 200
+#define MESSAGES_PER_WAKEUP 32
+#define REPLY_GIVE_UP_SECONDS 30.0
+
+typedef struct {
+  uv_loop_t loop;
+  uv_poll_t recv_poll, send_poll;
+  uv_timer_t tick;
+  uv_signal_t sigint, sigterm;
+  int socket;
+  vf_wire_key key;
+  vf_farm farm;
+  double checkpoint_interval, last_checkpoint;
+  uint8_t *pending;     /* a packed reply waiting for room, owned */
+  size_t pending_len;
+  double pending_since;
+} coordinator;
+
+static void on_readable(uv_poll_t *handle, int status, int events);
+
+static void resume_receiving(coordinator *c) {
+  uv_poll_stop(&c->send_poll);
+  uv_poll_start(&c->recv_poll, UV_READABLE, on_readable);
+}
+
+static void on_writable(uv_poll_t *handle, int status, int events) {
+  coordinator *c = handle->data;
+  if (c->pending == NULL) return resume_receiving(c);
+  if (nn_send(c->socket, c->pending, c->pending_len, NN_DONTWAIT) < 0) {
+    int e = nn_errno();
+    if (e == EAGAIN) return;
+    vf_log("reply dropped: %s", nn_strerror(e));
+  }
+  free(c->pending);
+  c->pending = NULL;
+  resume_receiving(c);
+}
+
+static void send_reply(coordinator *c, vf_farm_reply *reply) {
+  uint8_t *frame;
+  size_t len;
+  int err = vf_message_pack(&c->key, &reply->env, &frame, &len);
+  if (err != VF_OK) {
+    vf_log("cannot encode the %s reply: %s", vf_message_name(&reply->env), vf_error_detail(err));
+    vf_farm_reply_release(reply);
+    vf_farm_reply_error(reply, VCMFARM__ERROR_CODE__ERROR_INTERNAL, "reply could not be encoded");
+    if (vf_message_pack(&c->key, &reply->env, &frame, &len) != VF_OK) return;
+  }
+  if (nn_send(c->socket, frame, len, NN_DONTWAIT) >= 0) {
+    free(frame);
+    return;
+  }
+  int e = nn_errno();
+  if (e != EAGAIN) {
+    vf_log("reply dropped: %s", nn_strerror(e));
+    free(frame);
+    return;
+  }
+  c->pending = frame;
+  c->pending_len = len;
+  c->pending_since = vf_seconds_now();
+  uv_poll_stop(&c->recv_poll);
+  uv_poll_start(&c->send_poll, UV_READABLE, on_writable);
+}
+
+static void serve(coordinator *c, const uint8_t *frame, size_t len) {
+  Vcmfarm__Envelope *request;
+  vf_farm_reply reply;
+  int err = vf_message_unpack(&c->key, frame, len, &request);
+  if (err == VF_EVERSION) {
+    vf_log("refused a message: %s", vf_error_detail(err));
+    vf_farm_reply_error(&reply, VCMFARM__ERROR_CODE__ERROR_VERSION, vf_error_detail(err));
+    send_reply(c, &reply);
+    vf_farm_reply_release(&reply);
+    return;
+  }
+  if (err != VF_OK) {
+    /* No answer: a peer without the key learns nothing from us. */
+    vf_log("ignored a message of %zu bytes: %s", len, vf_error_detail(err));
+    return;
+  }
+  vf_farm_handle(&c->farm, request, vf_seconds_now(), &reply);
+  send_reply(c, &reply);
+  vf_farm_reply_release(&reply);
+  vf_message_free(request);
+}
+
+static void on_readable(uv_poll_t *handle, int status, int events) {
+  coordinator *c = handle->data;
+  for (int i = 0; i < MESSAGES_PER_WAKEUP && c->pending == NULL; i++) {
+    void *buf = NULL;
+    int n = nn_recv(c->socket, &buf, NN_MSG, NN_DONTWAIT);
+    if (n < 0) {
+      int e = nn_errno();
+      if (e != EAGAIN && e != EINTR) vf_log("receive: %s", nn_strerror(e));
+      return;
+    }
+    serve(c, buf, (size_t)n);
+    nn_freemsg(buf);
+  }
+}
+
+static void on_tick(uv_timer_t *timer) {
+  coordinator *c = timer->data;
+  double now = vf_seconds_now();
+  vf_farm_expire(&c->farm, now);
+  if (c->pending != NULL && now - c->pending_since > REPLY_GIVE_UP_SECONDS) {
+    vf_log("reply dropped: the peer did not take it within %.0f s", REPLY_GIVE_UP_SECONDS);
+    free(c->pending);
+    c->pending = NULL;
+    resume_receiving(c);
+  }
+  if (now - c->last_checkpoint >= c->checkpoint_interval) {
+    vf_farm_checkpoint(&c->farm, 0);
+    c->last_checkpoint = now;
+  }
+}
+
+static void on_signal(uv_signal_t *handle, int signum) {
+  coordinator *c = handle->data;
+  vf_log("%s: checkpointing and stopping", signum == SIGTERM ? "SIGTERM" : "SIGINT");
+  uv_stop(&c->loop);
+}
+
+static int socket_fd(int socket, int option, int *fd) {
+  size_t size = sizeof *fd;
+  if (nn_getsockopt(socket, NN_SOL_SOCKET, option, fd, &size) < 0)
+    return vf_error_set(VF_ENET, "nanomsg: cannot get the socket's descriptor: %s", nn_strerror(nn_errno()));
+  return VF_OK;
+}
+
+static void close_handle(uv_handle_t *h, void *arg) {
+  if (!uv_is_closing(h)) uv_close(h, NULL);
+}
+
+int vf_coordinator_run(const vf_coordinator_config *config) {
+  coordinator *c = calloc(1, sizeof *c);
+  if (c == NULL) return vf_error_set(VF_ENOMEM, "out of memory");
+  vf_farm_config fc = {config->state_dir, config->worker_timeout, config->lease_seconds};
+  vf_farm_init(&c->farm, &fc);
+  c->checkpoint_interval = config->checkpoint_interval;
+  int err, lock_fd = -1, recv_fd, send_fd;
+  signal(SIGPIPE, SIG_IGN);
+  if ((err = vf_wire_key_load(config->secret_path, &c->key)) != VF_OK) goto free_farm;
+  if ((err = vf_state_lock(config->state_dir, &lock_fd)) != VF_OK) goto free_farm;
+  if ((err = vf_state_load(&c->farm)) != VF_OK) goto unlock;
+  if ((c->socket = nn_socket(AF_SP, NN_REP)) < 0) {
+    err = vf_error_set(VF_ENET, "nanomsg socket: %s", nn_strerror(nn_errno()));
+    goto unlock;
+  }
+  int max_size = (int)VF_WIRE_MAX_FRAME;
+  nn_setsockopt(c->socket, NN_SOL_SOCKET, NN_RCVMAXSIZE, &max_size, sizeof max_size);
+  if (nn_bind(c->socket, config->listen_url) < 0) {
+    err = vf_error_set(VF_ENET, "cannot listen on %s: %s", config->listen_url, nn_strerror(nn_errno()));
+    goto close_socket;
+  }
+  if ((err = socket_fd(c->socket, NN_RCVFD, &recv_fd)) != VF_OK ||
+      (err = socket_fd(c->socket, NN_SNDFD, &send_fd)) != VF_OK)
+    goto close_socket;
+  if (uv_loop_init(&c->loop) != 0) {
+    err = vf_error_set(VF_ENOMEM, "libuv: cannot create the loop");
+    goto close_socket;
+  }
+  uv_poll_init(&c->loop, &c->recv_poll, recv_fd);
+  uv_poll_init(&c->loop, &c->send_poll, send_fd);
+  uv_timer_init(&c->loop, &c->tick);
+  uv_signal_init(&c->loop, &c->sigint);
+  uv_signal_init(&c->loop, &c->sigterm);
+  c->recv_poll.data = c->send_poll.data = c->tick.data = c->sigint.data = c->sigterm.data = c;
+  uv_poll_start(&c->recv_poll, UV_READABLE, on_readable);
+  uv_timer_start(&c->tick, on_tick, TICK_MS, TICK_MS);
+  uv_signal_start(&c->sigint, on_signal, SIGINT);
+  uv_signal_start(&c->sigterm, on_signal, SIGTERM);
+  c->last_checkpoint = vf_seconds_now();
+  vf_log("listening on %s, state in %s, %zu job(s), worker timeout %.1f s", config->listen_url, config->state_dir,
+         c->farm.num_jobs, config->worker_timeout);
+
+  uv_run(&c->loop, UV_RUN_DEFAULT);
+
+  if ((err = vf_farm_checkpoint(&c->farm, 1)) == VF_OK) vf_log("checkpoint written; bye");
+  uv_walk(&c->loop, close_handle, NULL);
+  uv_run(&c->loop, UV_RUN_DEFAULT);
+  uv_loop_close(&c->loop);
+close_socket:
+  nn_close(c->socket);
+  free(c->pending);
+unlock:
+  close(lock_fd);
+free_farm:
+  vf_farm_destroy(&c->farm);
+  free(c);
+  return err;
+}

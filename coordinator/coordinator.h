@@ -1,0 +1,29 @@
+/* The coordinator's event loop: one libuv loop on one thread owns a nanomsg REP socket,
+ * the farm (coordinator/farm.h), a tick timer and the termination signals.
+ *
+ * nanomsg sockets are not file descriptors, but they expose two (NN_RCVFD, NN_SNDFD) that
+ * become readable when a message can be received or sent; uv_poll watches them and the
+ * socket is then used with NN_DONTWAIT, so the loop never blocks on the network. A REP
+ * socket answers one request at a time: while a reply waits for room to be sent, the loop
+ * stops receiving (backpressure instead of an unbounded queue).
+ *
+ * Messages that fail authentication or decoding are logged and get no answer; an
+ * authentic message of another protocol version gets an Error saying so. */
+#ifndef VF_COORDINATOR_H
+#define VF_COORDINATOR_H
+
+typedef struct {
+  const char *listen_url;      /* nanomsg URL: tcp://HOST:PORT or ipc://PATH */
+  const char *state_dir;
+  const char *secret_path;     /* key file (vcmfarm keygen) */
+  double worker_timeout;       /* seconds; default 15 */
+  double lease_seconds;        /* target lease duration; default 20 */
+  double checkpoint_interval;  /* seconds between film checkpoints; default 10 */
+} vf_coordinator_config;
+
+/* Resumes the jobs of the state directory and serves until SIGINT or SIGTERM, then writes
+ * a final checkpoint. Returns VF_OK after a clean shutdown, or the error that prevented
+ * starting (key, state directory, bind) or the final checkpoint, with a detail. */
+int vf_coordinator_run(const vf_coordinator_config *config);
+
+#endif

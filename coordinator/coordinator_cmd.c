@@ -1,0 +1,60 @@
+#include "coordinator_cmd.h"
+
+#include "../common/cli.h"
+#include "../common/error.h"
+#include "coordinator.h"
+
+#include <getopt.h>
+#include <stdio.h>
+
+static const char usage[] =
+    "usage: vcmfarm coordinator --listen URL --state DIR --secret FILE [options]\n"
+    "\n"
+    "Serves a render farm: accepts jobs (vcmfarm submit), hands out leases of global\n"
+    "iterations to workers (vcmfarm worker), merges their films, and checkpoints every\n"
+    "job to DIR so that a restart on the same DIR resumes them. See docs/PROTOCOL.md.\n"
+    "\n"
+    "  -l, --listen URL             nanomsg URL to listen on: tcp://HOST:PORT or ipc://PATH\n"
+    "  -d, --state DIR              state directory (created if missing; one coordinator at a time)\n"
+    "  -k, --secret FILE            the farm's key file (vcmfarm keygen FILE); required\n"
+    "  -w, --worker-timeout S       a worker silent for S seconds is lost (default 15)\n"
+    "      --lease-seconds S        target duration of a lease (default 20)\n"
+    "      --checkpoint-interval S  seconds between film checkpoints (default 10)\n"
+    "  -h, --help                   this text\n"
+    "\n"
+    "Stops on SIGINT or SIGTERM after a final checkpoint. Exit status: 0 after a clean stop,\n"
+    "1 failure, 2 bad input.\n";
+
+int vf_cmd_coordinator(int argc, char **argv) {
+  static const struct option options[] = {
+      {"listen", required_argument, 0, 'l'},         {"state", required_argument, 0, 'd'},
+      {"secret", required_argument, 0, 'k'},         {"worker-timeout", required_argument, 0, 'w'},
+      {"lease-seconds", required_argument, 0, 'L'},  {"checkpoint-interval", required_argument, 0, 'C'},
+      {"help", no_argument, 0, 'h'},                 {0, 0, 0, 0}};
+  const char *cmd = "coordinator";
+  vf_coordinator_config config = {NULL, NULL, NULL, 15.0, 20.0, 10.0};
+  int err = VF_OK, c;
+  optind = 1;
+  opterr = 0;
+  while ((c = getopt_long(argc, argv, "l:d:k:w:h", options, NULL)) != -1) {
+    switch (c) {
+    case 'l': config.listen_url = optarg; break;
+    case 'd': config.state_dir = optarg; break;
+    case 'k': config.secret_path = optarg; break;
+    case 'w': err = vf_cli_double("--worker-timeout", optarg, 0.1, 86400.0, &config.worker_timeout); break;
+    case 'L': err = vf_cli_double("--lease-seconds", optarg, 0.01, 86400.0, &config.lease_seconds); break;
+    case 'C': err = vf_cli_double("--checkpoint-interval", optarg, 0.1, 86400.0, &config.checkpoint_interval); break;
+    case 'h': fputs(usage, stdout); return VF_EXIT_OK;
+    default:
+      fprintf(stderr, "vcmfarm coordinator: unknown or incomplete option '%s'\n%s", argv[optind - 1], usage);
+      return VF_EXIT_BAD_INPUT;
+    }
+    if (err != VF_OK) return vf_cli_fail(cmd, err);
+  }
+  if (optind != argc || !config.listen_url || !config.state_dir || !config.secret_path) {
+    fprintf(stderr, "vcmfarm coordinator: --listen, --state and --secret are required, nothing else\n%s", usage);
+    return VF_EXIT_BAD_INPUT;
+  }
+  err = vf_coordinator_run(&config);
+  return err == VF_OK ? VF_EXIT_OK : vf_cli_fail(cmd, err);
+}

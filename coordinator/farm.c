@@ -1,0 +1,525 @@
+#include "farm.h"
+
+#include "../common/error.h"
+#include "../common/film_wire.h"
+#include "../common/wire.h"
+#include "log.h"
+#include "state.h"
+
+#include <sodium.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+void vf_farm_init(vf_farm *farm, const vf_farm_config *config) {
+  memset(farm, 0, sizeof *farm);
+  farm->config = *config;
+  farm->next_job_id = 1;
+  vf_lease_table_init(&farm->leases);
+}
+
+void vf_farm_destroy(vf_farm *farm) {
+  for (size_t i = 0; i < farm->num_jobs; i++) vf_job_destroy(farm->jobs[i]);
+  free(farm->jobs);
+  free(farm->workers);
+  vf_lease_table_destroy(&farm->leases);
+  memset(farm, 0, sizeof *farm);
+}
+
+vf_job *vf_farm_job(const vf_farm *farm, uint64_t id) {
+  for (size_t i = 0; i < farm->num_jobs; i++)
+    if (farm->jobs[i]->id == id) return farm->jobs[i];
+  return NULL;
+}
+
+static vf_farm_worker *find_worker(vf_farm *farm, uint64_t id) {
+  for (size_t i = 0; i < farm->num_workers; i++)
+    if (farm->workers[i].id == id) return &farm->workers[i];
+  return NULL;
+}
+
+static vf_farm_worker *worker_of_lease(vf_farm *farm, const vf_lease *lease) {
+  vf_farm_worker *w = find_worker(farm, lease->worker_id);
+  return w != NULL && w->lease_id == lease->id ? w : NULL;
+}
+
+/* The lease stops being active (expired: a late result may still be checked against it). */
+static void end_lease(vf_farm *farm, vf_lease *lease, int keep) {
+  vf_farm_worker *w = worker_of_lease(farm, lease);
+  if (w) w->lease_id = 0;
+  if (keep) vf_lease_expire(&farm->leases, lease->id);
+  else vf_lease_remove(&farm->leases, lease->id);
+}
+
+/* The job takes no more results from its active leases' workers; the leases are kept as
+ * expired, so results still on their way are checked against them and refused by the
+ * job's state or by vf_film_merge, and logged as such. */
+static void end_job_leases(vf_farm *farm, uint64_t job_id) {
+  for (size_t i = 0; i < farm->leases.count;) {
+    vf_lease *l = &farm->leases.leases[i];
+    if (l->job_id == job_id && l->state == VF_LEASE_ACTIVE) {
+      end_lease(farm, l, 1);
+      i = 0;
+    } else {
+      i++;
+    }
+  }
+}
+
+/* ---- replies ---- */
+
+static void reply_init(vf_farm_reply *r) {
+  memset(r, 0, sizeof *r);
+  vcmfarm__envelope__init(&r->env);
+}
+
+void vf_farm_reply_error(vf_farm_reply *r, Vcmfarm__ErrorCode code, const char *message) {
+  char text[sizeof r->text];
+  snprintf(text, sizeof text, "%s", message);
+  reply_init(r);
+  vcmfarm__error__init(&r->error);
+  memcpy(r->text, text, sizeof text);
+  r->error.code = code;
+  r->error.message = r->text;
+  r->env.body_case = VCMFARM__ENVELOPE__BODY_ERROR;
+  r->env.error = &r->error;
+}
+
+static void reply_errorf(vf_farm_reply *r, Vcmfarm__ErrorCode code, const char *fmt, ...)
+    __attribute__((format(printf, 3, 4)));
+static void reply_errorf(vf_farm_reply *r, Vcmfarm__ErrorCode code, const char *fmt, ...) {
+  char text[1024];
+  va_list ap;
+  va_start(ap, fmt);
+  vsnprintf(text, sizeof text, fmt, ap);
+  va_end(ap);
+  vf_farm_reply_error(r, code, text);
+}
+
+static void reply_ack(vf_farm_reply *r, int accepted, const char *message) {
+  vcmfarm__result_ack__init(&r->result_ack);
+  if (message != r->text) snprintf(r->text, sizeof r->text, "%s", message);
+  r->result_ack.accepted = accepted;
+  r->result_ack.message = r->text;
+  r->env.body_case = VCMFARM__ENVELOPE__BODY_RESULT_ACK;
+  r->env.result_ack = &r->result_ack;
+}
+
+void vf_farm_reply_release(vf_farm_reply *r) {
+  free(r->job_status);
+  free(r->job_status_ptrs);
+  free(r->worker_status);
+  free(r->worker_status_ptrs);
+  free(r->film_bytes);
+  reply_init(r);
+}
+
+/* ---- workers ---- */
+
+static void handle_register(vf_farm *farm, const Vcmfarm__Register *m, double now, vf_farm_reply *r) {
+  if (farm->num_workers == farm->workers_capacity) {
+    size_t cap = farm->workers_capacity ? 2 * farm->workers_capacity : 8;
+    vf_farm_worker *grown = realloc(farm->workers, cap * sizeof *grown);
+    if (grown == NULL) return vf_farm_reply_error(r, VCMFARM__ERROR_CODE__ERROR_INTERNAL, "out of memory");
+    farm->workers = grown;
+    farm->workers_capacity = cap;
+  }
+  vf_farm_worker *w = &farm->workers[farm->num_workers++];
+  memset(w, 0, sizeof *w);
+  do {
+    randombytes_buf(&w->id, sizeof w->id);
+  } while (w->id == 0 || find_worker(farm, w->id) != w);
+  snprintf(w->name, sizeof w->name, "%s", m->name);
+  for (char *c = w->name; *c; c++)
+    if ((unsigned char)*c < 0x20) *c = '?';
+  w->cores = m->cores;
+  w->threads = m->threads;
+  w->last_seen = now;
+  vf_log("worker %s registered (%u cores, %u threads, vcmfarm %.32s) as %016llx", w->name, w->cores, w->threads,
+         m->software_version, (unsigned long long)w->id);
+  vcmfarm__registered__init(&r->registered);
+  r->registered.worker_id = w->id;
+  double hb = farm->config.worker_timeout / 5.0;
+  r->registered.heartbeat_ms = (uint32_t)(hb * 1000.0 < 50.0 ? 50.0 : hb * 1000.0);
+  r->registered.timeout_ms = (uint32_t)(farm->config.worker_timeout * 1000.0);
+  r->env.body_case = VCMFARM__ENVELOPE__BODY_REGISTERED;
+  r->env.registered = &r->registered;
+}
+
+static vf_job *pick_job(vf_farm *farm) {
+  vf_job *best = NULL;
+  for (size_t i = 0; i < farm->num_jobs; i++) {
+    vf_job *j = farm->jobs[i];
+    if (!vf_job_runnable(j)) continue;
+    uint64_t b, e, free_count;
+    if (vf_lease_free_range(&farm->leases, j->id, &j->film->iterations, j->iterations, 1, &b, &e, &free_count) != 1)
+      continue;
+    if (best == NULL || j->priority > best->priority) best = j;
+  }
+  return best;
+}
+
+static void handle_lease_request(vf_farm *farm, vf_farm_worker *w, double now, vf_farm_reply *r) {
+  vf_lease *old = vf_lease_find(&farm->leases, w->lease_id);
+  if (old != NULL) {
+    vf_log("worker %s asks for work while holding lease %016llx; that lease returns to the pool", w->name,
+           (unsigned long long)old->id);
+    end_lease(farm, old, 1);
+  }
+  w->lease_id = 0;
+  vf_job *job = pick_job(farm);
+  if (job == NULL) {
+    vcmfarm__idle__init(&r->idle);
+    /* Often enough that a new job starts within half a second; cheap for the coordinator. */
+    double retry = farm->config.worker_timeout / 4.0;
+    r->idle.retry_ms = (uint32_t)(retry > 0.5 ? 500.0 : retry * 1000.0);
+    r->env.body_case = VCMFARM__ENVELOPE__BODY_IDLE;
+    r->env.idle = &r->idle;
+    return;
+  }
+  uint64_t b, e, free_count;
+  vf_lease_free_range(&farm->leases, job->id, &job->film->iterations, job->iterations, UINT64_MAX, &b, &e, &free_count);
+  uint64_t size = vf_lease_size(w->rate, farm->config.lease_seconds, free_count, farm->num_workers);
+  if (vf_lease_free_range(&farm->leases, job->id, &job->film->iterations, job->iterations, size, &b, &e,
+                          &free_count) != 1 ||
+      vf_lease_add(&farm->leases, job->id, w->id, b, e, now, &w->lease_id) != VF_OK)
+    return vf_farm_reply_error(r, VCMFARM__ERROR_CODE__ERROR_INTERNAL, "out of memory for leases");
+  vf_log("lease %016llx: job %llu iterations [%llu,%llu) to worker %s", (unsigned long long)w->lease_id,
+         (unsigned long long)job->id, (unsigned long long)b, (unsigned long long)e, w->name);
+  vcmfarm__lease__init(&r->lease);
+  vcmfarm__scene__init(&r->scene);
+  if (job->scene_builtin) {
+    r->scene.source_case = VCMFARM__SCENE__SOURCE_BUILTIN;
+    r->scene.builtin = job->scene_text;
+  } else {
+    r->scene.source_case = VCMFARM__SCENE__SOURCE_JSON;
+    r->scene.json = job->scene_text;
+  }
+  r->lease.lease_id = w->lease_id;
+  r->lease.job_id = job->id;
+  r->lease.scene = &r->scene;
+  r->lease.scene_hash.data = job->scene_hash;
+  r->lease.scene_hash.len = 32;
+  r->lease.settings = job->settings_text;
+  r->lease.begin = b;
+  r->lease.end = e;
+  r->env.body_case = VCMFARM__ENVELOPE__BODY_LEASE;
+  r->env.lease = &r->lease;
+}
+
+static void handle_heartbeat(vf_farm *farm, vf_farm_worker *w, const Vcmfarm__Heartbeat *m, vf_farm_reply *r) {
+  vf_lease *l = vf_lease_find(&farm->leases, m->lease_id);
+  vf_job *job = l ? vf_farm_job(farm, l->job_id) : NULL;
+  vcmfarm__heartbeat_ack__init(&r->heartbeat_ack);
+  r->heartbeat_ack.lease_valid = l != NULL && l->state == VF_LEASE_ACTIVE && l->worker_id == w->id &&
+                                 w->lease_id == l->id && job != NULL && vf_job_runnable(job);
+  r->env.body_case = VCMFARM__ENVELOPE__BODY_HEARTBEAT_ACK;
+  r->env.heartbeat_ack = &r->heartbeat_ack;
+}
+
+static void refuse_result(vf_job *job, vf_farm_reply *r, const char *fmt, ...) __attribute__((format(printf, 3, 4)));
+static void refuse_result(vf_job *job, vf_farm_reply *r, const char *fmt, ...) {
+  char text[1024];
+  va_list ap;
+  va_start(ap, fmt);
+  vsnprintf(text, sizeof text, fmt, ap);
+  va_end(ap);
+  if (job) job->results_refused++;
+  vf_log("refused result: %s", text);
+  reply_ack(r, 0, text);
+}
+
+static void handle_result(vf_farm *farm, const Vcmfarm__LeaseResult *m, double now, vf_farm_reply *r) {
+  unsigned long long lid = (unsigned long long)m->lease_id, jid = (unsigned long long)m->job_id;
+  unsigned long long b = (unsigned long long)m->begin, e = (unsigned long long)m->end;
+  vf_job *job = vf_farm_job(farm, m->job_id);
+  vf_lease *l = vf_lease_find(&farm->leases, m->lease_id);
+  if (l == NULL)
+    return refuse_result(job, r, "lease %016llx (job %llu [%llu,%llu)) is unknown: expired long ago or granted "
+                         "before a coordinator restart", lid, jid, b, e);
+  if (l->job_id != m->job_id || l->begin != m->begin || l->end != m->end)
+    return refuse_result(job, r, "lease %016llx is job %llu [%llu,%llu), the result claims job %llu [%llu,%llu)",
+                         lid, (unsigned long long)l->job_id, (unsigned long long)l->begin,
+                         (unsigned long long)l->end, jid, b, e);
+  if (job == NULL) return refuse_result(NULL, r, "job %llu does not exist", jid);
+  if (job->end != VF_JOB_ACTIVE)
+    return refuse_result(job, r, "job %llu is %s", jid, vf_job_state(job, 0));
+  char name[96];
+  snprintf(name, sizeof name, "result of lease %016llx", lid);
+  vf_film *film = NULL;
+  int err = vf_film_from_bytes(m->film_exr.data, m->film_exr.len, name, &film);
+  if (err == VF_OK) err = vf_job_check_result(job, film, m->begin, m->end);
+  if (err != VF_OK) {
+    vf_film_destroy(film);
+    return refuse_result(job, r, "job %llu [%llu,%llu): %s", jid, b, e, vf_error_detail(err));
+  }
+  int late = l->state == VF_LEASE_EXPIRED;
+  err = vf_job_merge(job, film, now);
+  if (err != VF_OK) {
+    vf_film_destroy(film);
+    if (err == VF_EOVERLAP)
+      return refuse_result(job, r, "job %llu [%llu,%llu): %s lease %016llx: some of these iterations are already "
+                           "counted, nothing merged", jid, b, e, late ? "late result of expired" : "duplicate result of",
+                           lid);
+    return refuse_result(job, r, "job %llu [%llu,%llu): %s", jid, b, e, vf_error_detail(err));
+  }
+  vf_farm_worker *w = find_worker(farm, l->worker_id);
+  if (w && film->render_seconds > 0.0) {
+    double rate = (double)(m->end - m->begin) / film->render_seconds;
+    w->rate = w->rate > 0.0 ? 0.5 * w->rate + 0.5 * rate : rate;
+  }
+  vf_film_destroy(film);
+  end_lease(farm, l, 0);
+  /* A late result may cover iterations reassigned since: those leases are moot now. */
+  for (size_t i = 0; i < farm->leases.count;) {
+    vf_lease *o = &farm->leases.leases[i];
+    if (o->job_id == m->job_id && o->state == VF_LEASE_ACTIVE && o->begin < m->end && m->begin < o->end) {
+      vf_log("lease %016llx revoked: a late result covered it", (unsigned long long)o->id);
+      end_lease(farm, o, 1);
+      i = 0;
+    } else {
+      i++;
+    }
+  }
+  uint64_t done = vf_job_done(job);
+  vf_log("merged job %llu [%llu,%llu)%s: %llu/%llu iterations", jid, b, e, late ? " (late result)" : "",
+         (unsigned long long)done, (unsigned long long)job->iterations);
+  if (vf_job_complete(job)) {
+    vf_log("job %llu done", jid);
+    end_job_leases(farm, job->id);
+    if ((err = vf_state_save_film(farm->config.state_dir, job)) != VF_OK)
+      vf_log("job %llu: checkpoint failed: %s", jid, vf_error_detail(err));
+  }
+  reply_ack(r, 1, "merged");
+}
+
+static void handle_release(vf_farm *farm, vf_farm_worker *w, const Vcmfarm__LeaseRelease *m, vf_farm_reply *r) {
+  vf_lease *l = vf_lease_find(&farm->leases, m->lease_id);
+  if (l == NULL || l->worker_id != w->id || l->state != VF_LEASE_ACTIVE) {
+    reply_ack(r, 0, "no such active lease of this worker");
+    return;
+  }
+  vf_job *job = vf_farm_job(farm, l->job_id);
+  if (m->failure[0] != '\0' && job != NULL && job->end == VF_JOB_ACTIVE) {
+    job->end = VF_JOB_FAILED;
+    snprintf(job->message, sizeof job->message, "worker %s: %s", w->name, m->failure);
+    for (char *c = job->message; *c; c++)
+      if ((unsigned char)*c < 0x20) *c = '?';
+    vf_log("job %llu failed: %s", (unsigned long long)job->id, job->message);
+    end_job_leases(farm, job->id);
+    farm->state_dirty = 1;
+  } else {
+    vf_log("worker %s handed back lease %016llx", w->name, (unsigned long long)l->id);
+    end_lease(farm, l, 0);
+  }
+  reply_ack(r, 1, "released");
+}
+
+/* ---- clients ---- */
+
+static int add_job(vf_farm *farm, vf_job *job) {
+  if (farm->num_jobs == farm->jobs_capacity) {
+    size_t cap = farm->jobs_capacity ? 2 * farm->jobs_capacity : 8;
+    vf_job **grown = realloc(farm->jobs, cap * sizeof *grown);
+    if (grown == NULL) return vf_error_set(VF_ENOMEM, "out of memory for jobs");
+    farm->jobs = grown;
+    farm->jobs_capacity = cap;
+  }
+  farm->jobs[farm->num_jobs++] = job;
+  return VF_OK;
+}
+
+static void handle_submit(vf_farm *farm, const Vcmfarm__SubmitJob *m, vf_farm_reply *r) {
+  if (m->scene == NULL || m->scene->source_case == VCMFARM__SCENE__SOURCE__NOT_SET)
+    return vf_farm_reply_error(r, VCMFARM__ERROR_CODE__ERROR_BAD_REQUEST, "submit without a scene");
+  int builtin = m->scene->source_case == VCMFARM__SCENE__SOURCE_BUILTIN;
+  const char *text = builtin ? m->scene->builtin : m->scene->json;
+  vf_job *job;
+  int err = vf_job_create(farm->next_job_id, m->name, m->priority, builtin, text, strlen(text), m->scene_hash.data,
+                          m->scene_hash.len, m->settings, m->iterations, &job);
+  if (err != VF_OK) return vf_farm_reply_error(r, VCMFARM__ERROR_CODE__ERROR_BAD_REQUEST, vf_error_detail(err));
+  /* Durable before acknowledged: scene text first, then the job list naming it. */
+  if ((err = vf_state_save_scene(farm->config.state_dir, job)) != VF_OK || (err = add_job(farm, job)) != VF_OK) {
+    vf_job_destroy(job);
+    return vf_farm_reply_error(r, VCMFARM__ERROR_CODE__ERROR_INTERNAL, vf_error_detail(err));
+  }
+  if ((err = vf_state_save_index(farm)) != VF_OK) {
+    farm->num_jobs--;
+    vf_job_destroy(job);
+    return vf_farm_reply_error(r, VCMFARM__ERROR_CODE__ERROR_INTERNAL, vf_error_detail(err));
+  }
+  farm->next_job_id++;
+  vf_log("job %llu '%s' submitted: %s %s, %llu iterations, priority %d", (unsigned long long)job->id, job->name,
+         builtin ? "built-in" : "JSON scene", builtin ? job->scene_text : "", (unsigned long long)job->iterations,
+         job->priority);
+  vcmfarm__submitted__init(&r->submitted);
+  r->submitted.job_id = job->id;
+  r->env.body_case = VCMFARM__ENVELOPE__BODY_SUBMITTED;
+  r->env.submitted = &r->submitted;
+}
+
+static void handle_status(vf_farm *farm, const Vcmfarm__StatusRequest *m, double now, vf_farm_reply *r) {
+  size_t nj = 0;
+  for (size_t i = 0; i < farm->num_jobs; i++) nj += m->job_id == 0 || farm->jobs[i]->id == m->job_id;
+  if (m->job_id != 0 && nj == 0)
+    return reply_errorf(r, VCMFARM__ERROR_CODE__ERROR_UNKNOWN_JOB, "no job %llu", (unsigned long long)m->job_id);
+  size_t nw = farm->num_workers;
+  r->job_status = calloc(nj ? nj : 1, sizeof *r->job_status);
+  r->job_status_ptrs = calloc(nj ? nj : 1, sizeof *r->job_status_ptrs);
+  r->worker_status = calloc(nw ? nw : 1, sizeof *r->worker_status);
+  r->worker_status_ptrs = calloc(nw ? nw : 1, sizeof *r->worker_status_ptrs);
+  if (!r->job_status || !r->job_status_ptrs || !r->worker_status || !r->worker_status_ptrs)
+    return vf_farm_reply_error(r, VCMFARM__ERROR_CODE__ERROR_INTERNAL, "out of memory");
+  size_t k = 0;
+  for (size_t i = 0; i < farm->num_jobs; i++) {
+    vf_job *j = farm->jobs[i];
+    if (m->job_id != 0 && j->id != m->job_id) continue;
+    Vcmfarm__JobStatus *s = &r->job_status[k];
+    vcmfarm__job_status__init(s);
+    uint64_t leased = vf_lease_active_iterations(&farm->leases, j->id);
+    s->job_id = j->id;
+    s->name = j->name;
+    s->state = (char *)vf_job_state(j, leased);
+    s->priority = j->priority;
+    s->iterations_total = j->iterations;
+    s->iterations_done = vf_job_done(j);
+    s->iterations_leased = leased;
+    s->settings = j->settings_text;
+    s->message = j->message;
+    s->results_refused = j->results_refused;
+    s->iterations_per_second = j->rate;
+    r->job_status_ptrs[k++] = s;
+  }
+  for (size_t i = 0; i < nw; i++) {
+    vf_farm_worker *w = &farm->workers[i];
+    Vcmfarm__WorkerStatus *s = &r->worker_status[i];
+    vcmfarm__worker_status__init(s);
+    s->worker_id = w->id;
+    s->name = w->name;
+    s->threads = w->threads;
+    vf_lease *l = vf_lease_find(&farm->leases, w->lease_id);
+    if (l) {
+      s->lease_job = l->job_id;
+      s->lease_begin = l->begin;
+      s->lease_end = l->end;
+    }
+    s->iterations_per_second = w->rate;
+    s->last_seen_seconds = now - w->last_seen;
+    r->worker_status_ptrs[i] = s;
+  }
+  vcmfarm__status__init(&r->status);
+  r->status.n_jobs = k;
+  r->status.jobs = r->job_status_ptrs;
+  r->status.n_workers = nw;
+  r->status.workers = r->worker_status_ptrs;
+  r->env.body_case = VCMFARM__ENVELOPE__BODY_STATUS;
+  r->env.status = &r->status;
+}
+
+static void handle_fetch(vf_farm *farm, const Vcmfarm__FetchRequest *m, vf_farm_reply *r) {
+  vf_job *job = vf_farm_job(farm, m->job_id);
+  if (job == NULL)
+    return reply_errorf(r, VCMFARM__ERROR_CODE__ERROR_UNKNOWN_JOB, "no job %llu", (unsigned long long)m->job_id);
+  size_t len;
+  int err = vf_film_to_bytes(job->film, VF_WIRE_MAX_PAYLOAD - 64, &r->film_bytes, &len);
+  if (err != VF_OK) return vf_farm_reply_error(r, VCMFARM__ERROR_CODE__ERROR_INTERNAL, vf_error_detail(err));
+  vcmfarm__film__init(&r->film);
+  r->film.film_exr.data = r->film_bytes;
+  r->film.film_exr.len = len;
+  r->env.body_case = VCMFARM__ENVELOPE__BODY_FILM;
+  r->env.film = &r->film;
+}
+
+static void handle_cancel(vf_farm *farm, const Vcmfarm__CancelRequest *m, vf_farm_reply *r) {
+  vf_job *job = vf_farm_job(farm, m->job_id);
+  if (job == NULL)
+    return reply_errorf(r, VCMFARM__ERROR_CODE__ERROR_UNKNOWN_JOB, "no job %llu", (unsigned long long)m->job_id);
+  if (!vf_job_runnable(job)) {
+    snprintf(r->text, sizeof r->text, "job %llu is %s already", (unsigned long long)job->id, vf_job_state(job, 0));
+    return reply_ack(r, 0, r->text);
+  }
+  job->end = VF_JOB_CANCELLED;
+  end_job_leases(farm, job->id);
+  farm->state_dirty = 1;
+  int err = vf_state_save_index(farm);
+  vf_log("job %llu cancelled", (unsigned long long)job->id);
+  if (err != VF_OK) return vf_farm_reply_error(r, VCMFARM__ERROR_CODE__ERROR_INTERNAL, vf_error_detail(err));
+  reply_ack(r, 1, "cancelled");
+}
+
+void vf_farm_handle(vf_farm *farm, const Vcmfarm__Envelope *q, double now, vf_farm_reply *r) {
+  reply_init(r);
+  uint64_t worker_id = 0;
+  switch (q->body_case) {
+  case VCMFARM__ENVELOPE__BODY_REGISTER: return handle_register(farm, q->register_, now, r);
+  case VCMFARM__ENVELOPE__BODY_RESULT: {
+    vf_farm_worker *w = find_worker(farm, q->result->worker_id);
+    if (w) w->last_seen = now;
+    return handle_result(farm, q->result, now, r);
+  }
+  case VCMFARM__ENVELOPE__BODY_LEASE_REQUEST: worker_id = q->lease_request->worker_id; break;
+  case VCMFARM__ENVELOPE__BODY_HEARTBEAT: worker_id = q->heartbeat->worker_id; break;
+  case VCMFARM__ENVELOPE__BODY_RELEASE: worker_id = q->release->worker_id; break;
+  case VCMFARM__ENVELOPE__BODY_SUBMIT: return handle_submit(farm, q->submit, r);
+  case VCMFARM__ENVELOPE__BODY_STATUS_REQUEST: return handle_status(farm, q->status_request, now, r);
+  case VCMFARM__ENVELOPE__BODY_FETCH: return handle_fetch(farm, q->fetch, r);
+  case VCMFARM__ENVELOPE__BODY_CANCEL: return handle_cancel(farm, q->cancel, r);
+  default:
+    return reply_errorf(r, VCMFARM__ERROR_CODE__ERROR_BAD_REQUEST, "a coordinator does not accept a %s message",
+                        vf_message_name(q));
+  }
+  vf_farm_worker *w = find_worker(farm, worker_id);
+  if (w == NULL)
+    return reply_errorf(r, VCMFARM__ERROR_CODE__ERROR_UNKNOWN_WORKER, "unknown worker %016llx: register again",
+                        (unsigned long long)worker_id);
+  w->last_seen = now;
+  switch (q->body_case) {
+  case VCMFARM__ENVELOPE__BODY_LEASE_REQUEST: return handle_lease_request(farm, w, now, r);
+  case VCMFARM__ENVELOPE__BODY_HEARTBEAT: return handle_heartbeat(farm, w, q->heartbeat, r);
+  default: return handle_release(farm, w, q->release, r);
+  }
+}
+
+int vf_farm_expire(vf_farm *farm, double now) {
+  int lost = 0;
+  for (size_t i = 0; i < farm->num_workers;) {
+    vf_farm_worker *w = &farm->workers[i];
+    if (now - w->last_seen <= farm->config.worker_timeout) {
+      i++;
+      continue;
+    }
+    vf_lease *l = vf_lease_find(&farm->leases, w->lease_id);
+    if (l) {
+      vf_log("worker %s lost (silent for %.1f s); lease %016llx of job %llu [%llu,%llu) returns to the pool", w->name,
+             now - w->last_seen, (unsigned long long)l->id, (unsigned long long)l->job_id,
+             (unsigned long long)l->begin, (unsigned long long)l->end);
+      end_lease(farm, l, 1);
+    } else {
+      vf_log("worker %s lost (silent for %.1f s)", w->name, now - w->last_seen);
+    }
+    farm->workers[i] = farm->workers[--farm->num_workers];
+    lost++;
+  }
+  return lost;
+}
+
+int vf_farm_checkpoint(vf_farm *farm, int all) {
+  int first = VF_OK;
+  for (size_t i = 0; i < farm->num_jobs; i++) {
+    vf_job *j = farm->jobs[i];
+    if (!j->film_dirty && !all) continue;
+    int err = vf_state_save_film(farm->config.state_dir, j);
+    if (err != VF_OK) {
+      vf_log("checkpoint of job %llu failed: %s", (unsigned long long)j->id, vf_error_detail(err));
+      if (first == VF_OK) first = err;
+    }
+  }
+  if (farm->state_dirty || all) {
+    int err = vf_state_save_index(farm);
+    if (err != VF_OK) {
+      vf_log("writing the job list failed: %s", vf_error_detail(err));
+      if (first == VF_OK) first = err;
+    }
+  }
+  return first;
+}

@@ -1,0 +1,88 @@
+/* The coordinator's state and its answers: jobs, registered workers, leases, and one
+ * handler per request of proto/vcmfarm.proto. No I/O besides the state directory
+ * (coordinator/state.h): the event loop (coordinator/coordinator.c) feeds it decoded,
+ * authenticated requests and sends back the reply it builds. Single-threaded.
+ *
+ * Requests are untrusted even when authenticated: every id, range, size and text is
+ * checked, and a bad one is answered with an Error naming it; nothing a peer sends can
+ * make the farm count an iteration twice (see coordinator/job.h). */
+#ifndef VF_FARM_H
+#define VF_FARM_H
+
+#include "../common/message.h"
+#include "job.h"
+#include "lease.h"
+
+#include <stddef.h>
+#include <stdint.h>
+
+typedef struct {
+  uint64_t id;        /* random */
+  char name[128];
+  unsigned cores, threads;
+  double last_seen;   /* vf_seconds_now() of its last message */
+  double rate;        /* iterations per second, smoothed over its results; 0 unknown */
+  uint64_t lease_id;  /* its active lease, 0 none */
+} vf_farm_worker;
+
+typedef struct {
+  const char *state_dir;   /* borrowed */
+  double worker_timeout;   /* seconds of silence after which a worker is lost */
+  double lease_seconds;    /* target duration of a lease */
+} vf_farm_config;
+
+typedef struct {
+  vf_farm_config config;
+  vf_job **jobs;           /* owned, by increasing id */
+  size_t num_jobs, jobs_capacity;
+  uint64_t next_job_id;
+  vf_farm_worker *workers; /* owned */
+  size_t num_workers, workers_capacity;
+  vf_lease_table leases;
+  int state_dirty;         /* the job list changed since state.json was written */
+} vf_farm;
+
+/* The reply being built: the envelope and storage for every body. Packed by the caller,
+ * then released with vf_farm_reply_release. */
+typedef struct {
+  Vcmfarm__Envelope env;
+  Vcmfarm__Registered registered;
+  Vcmfarm__Lease lease;
+  Vcmfarm__Scene scene;
+  Vcmfarm__Idle idle;
+  Vcmfarm__HeartbeatAck heartbeat_ack;
+  Vcmfarm__ResultAck result_ack;
+  Vcmfarm__Submitted submitted;
+  Vcmfarm__Status status;
+  Vcmfarm__Film film;
+  Vcmfarm__Error error;
+  char text[1024];
+  /* owned by the reply */
+  Vcmfarm__JobStatus *job_status, **job_status_ptrs;
+  Vcmfarm__WorkerStatus *worker_status, **worker_status_ptrs;
+  uint8_t *film_bytes;
+} vf_farm_reply;
+
+/* An empty farm; then vf_state_load fills in the jobs of a state directory. */
+void vf_farm_init(vf_farm *farm, const vf_farm_config *config);
+void vf_farm_destroy(vf_farm *farm);
+
+/* Answers one authenticated request received at time `now` into *reply (always filled:
+ * an Error when the request is refused). */
+void vf_farm_handle(vf_farm *farm, const Vcmfarm__Envelope *request, double now, vf_farm_reply *reply);
+/* An Error reply with this code and message (for requests refused before decoding). */
+void vf_farm_reply_error(vf_farm_reply *reply, Vcmfarm__ErrorCode code, const char *message);
+void vf_farm_reply_release(vf_farm_reply *reply);
+
+/* Declares workers silent for longer than the timeout lost and returns their leases to
+ * the pool. Returns the number of workers lost. */
+int vf_farm_expire(vf_farm *farm, double now);
+
+/* Writes the film of every job merged into since the last checkpoint, then state.json if
+ * the job list changed; with `all`, every film and the state. Logs and returns the first
+ * error, carrying on with the other jobs. */
+int vf_farm_checkpoint(vf_farm *farm, int all);
+
+vf_job *vf_farm_job(const vf_farm *farm, uint64_t id);
+
+#endif

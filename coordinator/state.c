@@ -1,0 +1,215 @@
+#include "state.h"
+
+#include "../common/error.h"
+#include "../common/file.h"
+#include "log.h"
+
+#include <cjson/cJSON.h>
+#include <errno.h>
+#include <fcntl.h>
+#include <sodium.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/file.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#define STATE_FORMAT 1
+#define MAX_STATE_BYTES ((size_t)64 << 20)
+
+static int path_of(char *buf, size_t n, const char *dir, const char *name, uint64_t id, const char *ext) {
+  int len = id ? snprintf(buf, n, "%s/%s%llu%s", dir, name, (unsigned long long)id, ext)
+               : snprintf(buf, n, "%s/%s", dir, name);
+  if (len < 0 || (size_t)len >= n) return vf_error_set(VF_EINVAL, "%s: state directory path too long", dir);
+  return VF_OK;
+}
+
+int vf_state_lock(const char *dir, int *fd) {
+  if (mkdir(dir, 0700) != 0 && errno != EEXIST) return vf_error_set(VF_EIO, "%s: %s", dir, strerror(errno));
+  char path[4096];
+  int err = path_of(path, sizeof path, dir, "lock", 0, "");
+  if (err != VF_OK) return err;
+  int f = open(path, O_RDWR | O_CREAT | O_CLOEXEC, 0600);
+  if (f < 0) return vf_error_set(VF_EIO, "%s: %s", path, strerror(errno));
+  if (flock(f, LOCK_EX | LOCK_NB) != 0) {
+    close(f);
+    return vf_error_set(VF_EIO, "%s: another coordinator uses this state directory", dir);
+  }
+  *fd = f;
+  return VF_OK;
+}
+
+int vf_state_save_scene(const char *dir, const vf_job *job) {
+  char path[4096];
+  int err = path_of(path, sizeof path, dir, "job-", job->id, ".scene");
+  if (err != VF_OK) return err;
+  return vf_file_write_atomic(path, job->scene_text, strlen(job->scene_text), 0600);
+}
+
+int vf_state_save_film(const char *dir, vf_job *job) {
+  char path[4096];
+  int err = path_of(path, sizeof path, dir, "job-", job->id, ".exr");
+  if (err != VF_OK) return err;
+  if ((err = vf_film_write(job->film, path)) == VF_OK) job->film_dirty = 0;
+  return err;
+}
+
+static const char *end_name(vf_job_end e) {
+  return e == VF_JOB_CANCELLED ? "cancelled" : e == VF_JOB_FAILED ? "failed" : "active";
+}
+
+int vf_state_save_index(vf_farm *farm) {
+  int err = vf_error_set(VF_ENOMEM, "out of memory writing state.json");
+  cJSON *root = cJSON_CreateObject(), *jobs = cJSON_AddArrayToObject(root, "jobs");
+  if (root == NULL || jobs == NULL) goto done;
+  cJSON_AddNumberToObject(root, "format", STATE_FORMAT);
+  cJSON_AddNumberToObject(root, "next_job_id", (double)farm->next_job_id);
+  for (size_t i = 0; i < farm->num_jobs; i++) {
+    const vf_job *j = farm->jobs[i];
+    cJSON *o = cJSON_CreateObject();
+    if (o == NULL || !cJSON_AddItemToArray(jobs, o)) goto done;
+    char hex[65];
+    sodium_bin2hex(hex, sizeof hex, j->scene_hash, 32);
+    cJSON_AddNumberToObject(o, "id", (double)j->id);
+    cJSON_AddStringToObject(o, "name", j->name);
+    cJSON_AddNumberToObject(o, "priority", j->priority);
+    cJSON_AddBoolToObject(o, "scene_builtin", j->scene_builtin);
+    cJSON_AddStringToObject(o, "scene_hash", hex);
+    cJSON_AddStringToObject(o, "settings", j->settings_text);
+    cJSON_AddNumberToObject(o, "iterations", (double)j->iterations);
+    cJSON_AddStringToObject(o, "end", end_name(j->end));
+    if (cJSON_AddStringToObject(o, "message", j->message) == NULL) goto done;
+  }
+  char *text = cJSON_Print(root);
+  if (text == NULL) goto done;
+  char path[4096];
+  if ((err = path_of(path, sizeof path, farm->config.state_dir, "state.json", 0, "")) == VF_OK)
+    err = vf_file_write_atomic(path, text, strlen(text), 0600);
+  free(text);
+  if (err == VF_OK) farm->state_dirty = 0;
+done:
+  cJSON_Delete(root);
+  return err;
+}
+
+/* ---- loading ---- */
+
+static int get_u64(const cJSON *o, const char *key, uint64_t max, uint64_t *out, const char *path) {
+  const cJSON *v = cJSON_GetObjectItemCaseSensitive(o, key);
+  if (!cJSON_IsNumber(v) || v->valuedouble < 0 || v->valuedouble > (double)max ||
+      v->valuedouble != (double)(uint64_t)v->valuedouble)
+    return vf_error_set(VF_EINVAL, "%s: \"%s\" missing or not a whole number in [0, %llu]", path, key,
+                        (unsigned long long)max);
+  *out = (uint64_t)v->valuedouble;
+  return VF_OK;
+}
+
+static const char *get_str(const cJSON *o, const char *key) {
+  const cJSON *v = cJSON_GetObjectItemCaseSensitive(o, key);
+  return cJSON_IsString(v) ? v->valuestring : NULL;
+}
+
+static int load_job(vf_farm *farm, const cJSON *o, const char *state_path) {
+  const char *dir = farm->config.state_dir;
+  uint64_t id = 0, iterations = 0;
+  int err;
+  if ((err = get_u64(o, "id", (1ull << 53), &id, state_path)) != VF_OK ||
+      (err = get_u64(o, "iterations", VF_JOB_MAX_ITERATIONS, &iterations, state_path)) != VF_OK)
+    return err;
+  const cJSON *pr = cJSON_GetObjectItemCaseSensitive(o, "priority");
+  if (!cJSON_IsNumber(pr) || pr->valuedouble < -2147483648.0 || pr->valuedouble > 2147483647.0)
+    return vf_error_set(VF_EINVAL, "%s: job %llu: bad \"priority\"", state_path, (unsigned long long)id);
+  const char *name = get_str(o, "name"), *hex = get_str(o, "scene_hash"), *settings = get_str(o, "settings");
+  const char *end = get_str(o, "end"), *message = get_str(o, "message");
+  const cJSON *builtin = cJSON_GetObjectItemCaseSensitive(o, "scene_builtin");
+  uint8_t hash[32];
+  size_t hash_len = 0;
+  if (!name || !hex || !settings || !end || !message || !cJSON_IsBool(builtin) ||
+      sodium_hex2bin(hash, sizeof hash, hex, strlen(hex), NULL, &hash_len, NULL) != 0 || hash_len != 32)
+    return vf_error_set(VF_EINVAL, "%s: job %llu: a field is missing or malformed", state_path, (unsigned long long)id);
+  char path[4096];
+  uint8_t *scene;
+  size_t scene_len;
+  if ((err = path_of(path, sizeof path, dir, "job-", id, ".scene")) != VF_OK ||
+      (err = vf_file_read_all(path, VF_JOB_MAX_SCENE, &scene, &scene_len)) != VF_OK)
+    return err;
+  vf_job *job;
+  err = vf_job_create(id, name, (int)pr->valuedouble, cJSON_IsTrue(builtin), (const char *)scene, scene_len, hash, 32,
+                      settings, iterations, &job);
+  free(scene);
+  if (err != VF_OK) return vf_error_set(err, "%s: job %llu: %s", state_path, (unsigned long long)id, vf_error_detail(err));
+  job->end = strcmp(end, "cancelled") == 0 ? VF_JOB_CANCELLED : strcmp(end, "failed") == 0 ? VF_JOB_FAILED : VF_JOB_ACTIVE;
+  snprintf(job->message, sizeof job->message, "%s", message);
+  vf_film *film = NULL;
+  if ((err = path_of(path, sizeof path, dir, "job-", id, ".exr")) != VF_OK) goto destroy_job;
+  err = vf_film_read(path, &film);
+  if (err == VF_ENOENT) {
+    err = VF_OK;
+  } else if (err != VF_OK) {
+    goto destroy_job;
+  } else {
+    err = vf_job_check_film(job, film);
+    if (err != VF_OK) {
+      err = vf_error_set(VF_EFILM, "%s: does not belong to job %llu: %s", path, (unsigned long long)id,
+                         vf_error_detail(err));
+      goto destroy_film;
+    }
+    vf_film_destroy(job->film);
+    job->film = film;
+  }
+  if (farm->num_jobs == farm->jobs_capacity) {
+    size_t cap = farm->jobs_capacity ? 2 * farm->jobs_capacity : 8;
+    vf_job **grown = realloc(farm->jobs, cap * sizeof *grown);
+    if (grown == NULL) {
+      err = vf_error_set(VF_ENOMEM, "out of memory for jobs");
+      goto destroy_job;
+    }
+    farm->jobs = grown;
+    farm->jobs_capacity = cap;
+  }
+  farm->jobs[farm->num_jobs++] = job;
+  vf_log("resumed job %llu '%s': %llu/%llu iterations done%s%s", (unsigned long long)id, job->name,
+         (unsigned long long)vf_job_done(job), (unsigned long long)iterations, job->end != VF_JOB_ACTIVE ? ", " : "",
+         job->end != VF_JOB_ACTIVE ? end_name(job->end) : "");
+  return VF_OK;
+destroy_film:
+  vf_film_destroy(film);
+destroy_job:
+  vf_job_destroy(job);
+  return err;
+}
+
+int vf_state_load(vf_farm *farm) {
+  char path[4096];
+  int err = path_of(path, sizeof path, farm->config.state_dir, "state.json", 0, "");
+  if (err != VF_OK) return err;
+  uint8_t *text;
+  size_t len;
+  if ((err = vf_file_read_all(path, MAX_STATE_BYTES, &text, &len)) == VF_ENOENT) return VF_OK;
+  if (err != VF_OK) return err;
+  cJSON *root = cJSON_ParseWithLength((const char *)text, len);
+  free(text);
+  if (root == NULL) return vf_error_set(VF_EINVAL, "%s: not valid JSON", path);
+  uint64_t format = 0, next_id = 0;
+  const cJSON *jobs = cJSON_GetObjectItemCaseSensitive(root, "jobs"), *o;
+  if ((err = get_u64(root, "format", 1000, &format, path)) != VF_OK) goto done;
+  if (format != STATE_FORMAT) {
+    err = vf_error_set(VF_EINVAL, "%s: state format %llu, this coordinator reads %d", path,
+                       (unsigned long long)format, STATE_FORMAT);
+    goto done;
+  }
+  if ((err = get_u64(root, "next_job_id", (1ull << 53), &next_id, path)) != VF_OK) goto done;
+  if (!cJSON_IsArray(jobs)) {
+    err = vf_error_set(VF_EINVAL, "%s: \"jobs\" is not an array", path);
+    goto done;
+  }
+  cJSON_ArrayForEach(o, jobs) {
+    if ((err = load_job(farm, o, path)) != VF_OK) goto done;
+    if (farm->jobs[farm->num_jobs - 1]->id >= next_id) next_id = farm->jobs[farm->num_jobs - 1]->id + 1;
+  }
+  farm->next_job_id = next_id < 1 ? 1 : next_id;
+done:
+  cJSON_Delete(root);
+  return err;
+}

@@ -1,0 +1,31 @@
+/* The coordinator's state directory, enough to resume every job after any crash:
+ *
+ *   DIR/state.json     format version, next job id, and per job: id, name, priority,
+ *                      scene kind and hash, settings, iterations, cancelled/failed + why
+ *   DIR/job-ID.scene   the job's scene (built-in name or JSON text), written at submit
+ *   DIR/job-ID.exr     the job's film, checkpointed (docs/FILM.md)
+ *   DIR/lock           held (flock) by the running coordinator
+ *
+ * Every file is replaced atomically (temporary, fsync, rename), so a SIGKILL at any moment
+ * leaves each file either old or new. A job's film is the truth about its progress: after
+ * a restart, iterations in the film are done and everything else goes back to the pool
+ * (leases are not persisted). Files are untrusted input when read back. */
+#ifndef VF_STATE_H
+#define VF_STATE_H
+
+#include "farm.h"
+
+/* Creates DIR if needed and takes its lock; VF_EIO with a detail if another process
+ * holds it. *fd (the lock's descriptor, closed at exit) is written on success only. */
+int vf_state_lock(const char *dir, int *fd);
+
+/* Loads DIR/state.json (if present) and each job's scene and film into an empty farm.
+ * A missing film means no iteration done; a film that does not match its job, or any
+ * malformed file, is an error naming the file (VF_EINVAL, VF_EFILM...). */
+int vf_state_load(vf_farm *farm);
+
+int vf_state_save_index(vf_farm *farm);          /* state.json; clears farm->state_dirty */
+int vf_state_save_scene(const char *dir, const vf_job *job);
+int vf_state_save_film(const char *dir, vf_job *job); /* clears job->film_dirty */
+
+#endif

@@ -1,0 +1,63 @@
+/* Helper of test_farm.sh (not a test by itself): compares a farm's film with a
+ * single-process render of the same iterations.
+ *
+ *   farm_compare FARM.exr REFERENCE.exr EXPECTED_ITERATIONS
+ *
+ * Passes (exit 0) when both films hold exactly the expected iteration set (e.g.
+ * "[0,24)": none missing, none counted twice) and the largest difference of their mean
+ * radiance over all pixels and channels is at most 1e-5 times the reference's image mean.
+ * Prints what it found either way. */
+#include "common/film.h"
+#include "common/error.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+static int load(const char *path, vf_film **film) {
+  int err = vf_film_read(path, film);
+  if (err != VF_OK) fprintf(stderr, "farm_compare: %s\n", vf_error_detail(err));
+  return err;
+}
+
+int main(int argc, char **argv) {
+  if (argc != 4) {
+    fprintf(stderr, "usage: farm_compare FARM.exr REFERENCE.exr EXPECTED_ITERATIONS\n");
+    return 2;
+  }
+  vf_film *farm = NULL, *ref = NULL;
+  if (load(argv[1], &farm) != VF_OK || load(argv[2], &ref) != VF_OK) return 1;
+  int ok = 1;
+  char farm_set[256], ref_set[256];
+  vf_iterset_format(&farm->iterations, farm_set, sizeof farm_set);
+  vf_iterset_format(&ref->iterations, ref_set, sizeof ref_set);
+  if (strcmp(farm_set, argv[3]) != 0 || strcmp(ref_set, argv[3]) != 0) {
+    printf("iteration sets: farm %s, reference %s, expected %s\n", farm_set, ref_set, argv[3]);
+    ok = 0;
+  }
+  if (farm->width != ref->width || farm->height != ref->height) {
+    printf("sizes differ: %dx%d vs %dx%d\n", farm->width, farm->height, ref->width, ref->height);
+    return 1;
+  }
+  size_t n = (size_t)farm->width * (size_t)farm->height * 3;
+  float *a = malloc(n * sizeof *a), *b = malloc(n * sizeof *b);
+  if (a == NULL || b == NULL) return 1;
+  vf_film_mean(farm, a);
+  vf_film_mean(ref, b);
+  double mean = 0.0, max_diff = 0.0;
+  for (size_t i = 0; i < n; i++) {
+    mean += b[i];
+    double d = fabs((double)a[i] - (double)b[i]);
+    if (!(d <= max_diff)) max_diff = d; /* NaN propagates as a failure */
+  }
+  mean /= (double)n;
+  int close = max_diff <= 1e-5 * mean && mean > 0.0;
+  printf("farm %s, reference %s: max |difference| %.3g, image mean %.6g, limit %.3g: %s\n", farm_set, ref_set,
+         max_diff, mean, 1e-5 * mean, close && ok ? "equal" : "DIFFERENT");
+  free(a);
+  free(b);
+  vf_film_destroy(farm);
+  vf_film_destroy(ref);
+  return close && ok ? 0 : 1;
+}
