@@ -47,6 +47,19 @@ int vf_cli_resolution(const char *option, const char *text, int *width, int *hei
   return VF_OK;
 }
 
+const char *vf_parse_u64(const char *s, uint64_t *out) {
+  uint64_t v = 0;
+  const char *p = s;
+  for (; *p >= '0' && *p <= '9'; p++) {
+    unsigned d = (unsigned)(*p - '0');
+    if (v > (UINT64_MAX - d) / 10) return NULL;
+    v = v * 10 + d;
+  }
+  if (p == s) return NULL;
+  *out = v;
+  return p;
+}
+
 int vf_cli_exit_status(int err) {
   switch (err) {
   case VF_OK: return VF_EXIT_OK;

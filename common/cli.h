@@ -14,6 +14,11 @@ int vf_cli_u64(const char *option, const char *text, uint64_t *out);
 int vf_cli_double(const char *option, const char *text, double min, double max, double *out);
 int vf_cli_resolution(const char *option, const char *text, int *width, int *height);
 
+/* Strict decimal: digits only, no sign or blanks, no overflow. Parses the longest run of
+ * digits at s into *out and returns the first character after it, or NULL when there is
+ * no digit or the value overflows 64 bits. For text from files and the network. */
+const char *vf_parse_u64(const char *s, uint64_t *out);
+
 /* Exit status for an error code: 2 for bad input, 1 otherwise. */
 int vf_cli_exit_status(int err);
 

@@ -1,5 +1,6 @@
 #include "convergence.h"
 
+#include "cli.h"
 #include "error.h"
 
 #include <inttypes.h>
@@ -108,20 +109,6 @@ int vf_convergence_format(const vf_convergence_log *log, char **out) {
   return VF_OK;
 }
 
-/* Strict decimal, no sign or blanks. Returns the end or NULL. */
-static const char *parse_u64(const char *s, uint64_t *out) {
-  uint64_t v = 0;
-  const char *p = s;
-  for (; *p >= '0' && *p <= '9'; p++) {
-    unsigned d = (unsigned)(*p - '0');
-    if (v > (UINT64_MAX - d) / 10) return NULL;
-    v = v * 10 + d;
-  }
-  if (p == s) return NULL;
-  *out = v;
-  return p;
-}
-
 /* A double as strtod reads it, but without leading blanks (fields are separated by exactly
  * one space). Returns the end or NULL. */
 static const char *parse_double(const char *s, double *out) {
@@ -137,11 +124,11 @@ static const char *parse_line(const char *p, vf_convergence_entry *e) {
   uint64_t run;
   double *doubles_a[] = {&e->wall_seconds, &e->cpu_seconds};
   double *doubles_b[] = {&e->rmse, &e->rel_mse, &e->estimated_rmse};
-  if ((p = parse_u64(p, &run)) == NULL || run > UINT32_MAX) return NULL;
+  if ((p = vf_parse_u64(p, &run)) == NULL || run > UINT32_MAX) return NULL;
   e->run = (uint32_t)run;
   for (int k = 0; k < 2; k++)
     if (*p++ != ' ' || (p = parse_double(p, doubles_a[k])) == NULL) return NULL;
-  if (*p++ != ' ' || (p = parse_u64(p, &e->iterations)) == NULL) return NULL;
+  if (*p++ != ' ' || (p = vf_parse_u64(p, &e->iterations)) == NULL) return NULL;
   for (int k = 0; k < 3; k++)
     if (*p++ != ' ' || (p = parse_double(p, doubles_b[k])) == NULL) return NULL;
   return *p == '\n' ? p + 1 : NULL;

@@ -7,6 +7,7 @@
  * differs from the one written by a relative ~4e-15 at most (counts below 2^48 exactly). */
 #include "film.h"
 
+#include "cli.h"
 #include "error.h"
 #include "exr_util.h"
 
@@ -387,48 +388,20 @@ static int get_string(const vf_exr_in *in, const char *name, char **out) {
   return VF_OK;
 }
 
-/* Strict decimal: digits only, no sign or blanks, no overflow. Returns the end or NULL. */
-static const char *parse_u64(const char *s, uint64_t *out) {
-  uint64_t v = 0;
-  const char *p = s;
-  for (; *p >= '0' && *p <= '9'; p++) {
-    unsigned d = (unsigned)(*p - '0');
-    if (v > (UINT64_MAX - d) / 10) return NULL;
-    v = v * 10 + d;
-  }
-  if (p == s) return NULL;
-  *out = v;
-  return p;
-}
-
 static int get_u64(const vf_exr_in *in, const char *name, uint64_t *out) {
-  char *text;
+  char *text = NULL;
   int err = get_string(in, name, &text);
   if (err != VF_OK) return err;
-  const char *end = parse_u64(text, out);
+  const char *end = vf_parse_u64(text, out);
   if (end == NULL || *end != '\0')
     err = vf_error_set(VF_EFILM, "%s: attribute %s is not a decimal count: \"%.40s\"", in->path, name, text);
   free(text);
   return err;
 }
 
-/* The iteration-set text "[0,16) [32,64)" parsed in one linear pass: this text comes from
- * the file and may be long, and a parser that rescans the rest of the string per range
- * (sscanf does) would let a crafted file take quadratic time. Ranges must be sorted and
- * non-adjacent, as vf_iterset_format writes them. */
 static int parse_iterations(const vf_exr_in *in, const char *text, vf_iterset *set) {
-  uint64_t prev_end = 0;
-  for (const char *p = text; *p != '\0';) {
-    const char *start = p;
-    uint64_t b = 0, e = 0;
-    int ok = (start == text || *p++ == ' ') && *p++ == '[' && (p = parse_u64(p, &b)) != NULL && *p++ == ',' &&
-             (p = parse_u64(p, &e)) != NULL && *p++ == ')' && b < e && (start == text || b > prev_end);
-    if (!ok)
-      return vf_error_set(VF_EFILM, "%s: attribute " ATTR_ITERATIONS " is malformed near \"%.40s\"", in->path, start);
-    int err = vf_iterset_add(set, b, e);
-    if (err != VF_OK) return err;
-    prev_end = e;
-  }
+  if (vf_iterset_parse(set, text) != VF_OK)
+    return vf_error_set(VF_EFILM, "%s: attribute " ATTR_ITERATIONS " is malformed: %s", in->path, vf_error_detail(VF_EINVAL));
   return VF_OK;
 }
 

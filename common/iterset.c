@@ -1,5 +1,6 @@
 #include "iterset.h"
 
+#include "cli.h"
 #include "error.h"
 
 #include <inttypes.h>
@@ -138,30 +139,24 @@ int vf_iterset_format(const vf_iterset *set, char *buf, size_t n) {
   return VF_OK;
 }
 
+/* One linear pass: the text comes from files and messages and may be long, and a parser
+ * that rescans the rest of the string per range (sscanf does) would let a crafted input
+ * take quadratic time. */
 int vf_iterset_parse(vf_iterset *set, const char *text) {
   vf_iterset tmp;
   vf_iterset_init(&tmp);
-  const char *p = text;
   uint64_t prev_end = 0;
-  int first = 1;
-  for (;;) {
-    while (*p == ' ') p++;
-    if (*p == '\0') break;
-    uint64_t b, e;
-    int consumed = 0;
-    if (sscanf(p, "[%" SCNu64 ",%" SCNu64 ")%n", &b, &e, &consumed) != 2 || consumed == 0 || b >= e ||
-        (!first && b <= prev_end)) {
-      vf_iterset_destroy(&tmp);
-      return vf_error_set(VF_EINVAL, "malformed iteration set near \"%.40s\"", p);
-    }
-    int err = vf_iterset_add(&tmp, b, e);
+  for (const char *p = text; *p != '\0';) {
+    const char *start = p;
+    uint64_t b = 0, e = 0;
+    int ok = (start == text || *p++ == ' ') && *p++ == '[' && (p = vf_parse_u64(p, &b)) != NULL && *p++ == ',' &&
+             (p = vf_parse_u64(p, &e)) != NULL && *p++ == ')' && b < e && (start == text || b > prev_end);
+    int err = ok ? vf_iterset_add(&tmp, b, e) : vf_error_set(VF_EINVAL, "malformed iteration set near \"%.40s\"", start);
     if (err != VF_OK) {
       vf_iterset_destroy(&tmp);
       return err;
     }
     prev_end = e;
-    first = 0;
-    p += consumed;
   }
   vf_iterset_destroy(set);
   *set = tmp;

@@ -34,8 +34,9 @@ uint64_t vf_iterset_next_free(const vf_iterset *set, uint64_t from);
 
 /* Writes the text form, NUL-terminated; VF_EINVAL if it does not fit in n bytes. */
 int vf_iterset_format(const vf_iterset *set, char *buf, size_t n);
-/* Parses the text form into an empty set; VF_EINVAL with a detail on malformed text,
- * unsorted or overlapping ranges. */
+/* Parses the text form (ranges separated by single spaces, sorted, not adjacent: as
+ * vf_iterset_format writes them) in linear time. VF_EINVAL with a detail on anything else;
+ * the set is replaced only on success. */
 int vf_iterset_parse(vf_iterset *set, const char *text);
 
 #endif
