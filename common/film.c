@@ -12,6 +12,7 @@
 #include "exr_util.h"
 
 #include <inttypes.h>
+#include <sodium.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -28,6 +29,7 @@
 #define ATTR_CPU_SECONDS "vcmfarm:cpu_seconds"
 #define ATTR_SCENE_NAME "vcmfarm:scene"
 #define ATTR_CONVERGENCE "vcmfarm:convergence"
+#define ATTR_SETTINGS_HASH "vcmfarm:settings_hash"
 
 /* The four accumulated quantities, in the order of accum_names below. */
 enum { Q_CAMERA, Q_COUNT, Q_LIGHT, Q_SQUARE, Q_COUNT_ };
@@ -310,12 +312,22 @@ static int check_float_range(const vf_film *film, const char *path) {
   return VF_OK;
 }
 
+/* BLAKE2b-256 of the settings text, in hex: lets a person or a script see at a glance that
+ * two films were rendered with identical settings. */
+static void settings_hash_hex(const char *settings_text, char hex[65]) {
+  uint8_t h[32];
+  crypto_generichash(h, sizeof h, (const unsigned char *)settings_text, strlen(settings_text), NULL, 0);
+  for (int i = 0; i < 32; i++) snprintf(hex + 2 * i, 3, "%02x", h[i]);
+}
+
 static int set_attributes(exr_context_t ctx, const vf_film *film, const char *iterations, const char *convergence) {
-  char hex[65], number[32];
+  char hex[65], settings_hex[65], number[32];
   for (int i = 0; i < 32; i++) snprintf(hex + 2 * i, 3, "%02x", film->scene_hash[i]);
+  settings_hash_hex(film->settings_text, settings_hex);
   exr_result_t rv = exr_attr_set_int(ctx, 0, ATTR_VERSION, VF_FILM_FORMAT_VERSION);
   if (rv == EXR_ERR_SUCCESS) rv = exr_attr_set_string(ctx, 0, ATTR_SCENE, hex);
   if (rv == EXR_ERR_SUCCESS) rv = exr_attr_set_string(ctx, 0, ATTR_SETTINGS, film->settings_text);
+  if (rv == EXR_ERR_SUCCESS) rv = exr_attr_set_string(ctx, 0, ATTR_SETTINGS_HASH, settings_hex);
   if (rv == EXR_ERR_SUCCESS) rv = exr_attr_set_string(ctx, 0, ATTR_ITERATIONS, iterations);
   snprintf(number, sizeof number, "%" PRIu64, film->light_frames);
   if (rv == EXR_ERR_SUCCESS) rv = exr_attr_set_string(ctx, 0, ATTR_LIGHT_FRAMES, number);
@@ -435,6 +447,15 @@ static int read_optional_attributes(const vf_exr_in *in, vf_film *film) {
       err = vf_error_set(VF_EFILM, "%s: attribute " ATTR_SCENE_NAME " is longer than %zu bytes", in->path,
                          sizeof film->scene_name - 1);
     else memcpy(film->scene_name, text, strlen(text) + 1);
+    free(text);
+    if (err != VF_OK) return err;
+  }
+  if (find_attr(in, ATTR_SETTINGS_HASH)) {
+    char expected[65];
+    settings_hash_hex(film->settings_text, expected);
+    if ((err = get_string(in, ATTR_SETTINGS_HASH, &text)) != VF_OK) return err;
+    if (strcmp(text, expected) != 0)
+      err = vf_error_set(VF_EFILM, "%s: attribute " ATTR_SETTINGS_HASH " does not match the settings text", in->path);
     free(text);
     if (err != VF_OK) return err;
   }
