@@ -132,8 +132,11 @@ static vf_vec3 environment_lookup(const vf_lights *ls, const vf_light *l, vf_vec
   return e->radiance[(size_t)y * e->width + x];
 }
 
-/* Samples a sky direction d (pointing away from the scene) with its solid-angle density. */
-static vf_vec3 environment_sample(const vf_light *l, float u1, float u2, vf_vec3 *d, float *pdf_w) {
+/* Samples a sky direction d (pointing away from the scene) with its solid-angle density.
+ * The density and radiance are those of the returned direction as environment_lookup sees
+ * it, so sampling and lookup agree exactly even where rounding moves d across a texel edge. */
+static vf_vec3 environment_sample(const vf_lights *ls, const vf_light *l, float u1, float u2, vf_vec3 *d,
+                                  float *pdf_w) {
   const vf_envmap *e = l->envmap;
   if (e == NULL) {
     *d = vf_sample_uniform_sphere(u1, u2);
@@ -149,9 +152,7 @@ static vf_vec3 environment_sample(const vf_light *l, float u1, float u2, vf_vec3
   float u = ((float)x + fminf(fx, 0.999f)) / (float)e->width;
   float v = ((float)y + fminf(fy, 0.999f)) / (float)e->height;
   *d = direction_of_uv(u, v);
-  float sin_theta = sinf(v * VF_PI);
-  *pdf_w = sin_theta > 0.0f ? envmap_pdf_uv(e, x, y) / (2.0f * VF_PI * VF_PI * sin_theta) : 0.0f;
-  return e->radiance[(size_t)y * e->width + x];
+  return environment_lookup(ls, l, *d, pdf_w);
 }
 
 static float estimated_power(const vf_lights *ls, const vf_light *l) {
@@ -357,7 +358,7 @@ vf_vec3 vf_light_emit(const vf_lights *ls, const vf_light *l, const float rnd[4]
   case VF_LIGHT_ENVIRONMENT: {
     vf_vec3 sky;
     float pdf_w;
-    vf_vec3 radiance = environment_sample(l, rnd[0], rnd[1], &sky, &pdf_w);
+    vf_vec3 radiance = environment_sample(ls, l, rnd[0], rnd[1], &sky, &pdf_w);
     vf_vec3 dir = vf_neg(sky);
     vf_frame f = vf_frame_from_normal(dir);
     float x, y, r = ls->scene_radius;
@@ -425,7 +426,7 @@ vf_vec3 vf_light_illuminate(const vf_lights *ls, const vf_light *l, vf_vec3 rece
   case VF_LIGHT_ENVIRONMENT: {
     vf_vec3 sky;
     float pdf_w;
-    vf_vec3 radiance = environment_sample(l, rnd[0], rnd[1], &sky, &pdf_w);
+    vf_vec3 radiance = environment_sample(ls, l, rnd[0], rnd[1], &sky, &pdf_w);
     if (!(pdf_w > 0.0f)) return zero;
     *dir_to_light = sky;
     *distance = INFINITY;
