@@ -8,7 +8,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-static const char *const algorithm_names[VF_ALGO_COUNT_] = {"vcm", "bpt", "pt", "lt", "ppm", "bpm"};
+static const char *const algorithm_names[VF_ALGO_COUNT_] = {"vcm", "bpt", "pt", "lt", "ppm", "bpm", "auto"};
 
 void vf_settings_default(vf_settings *s) {
   s->algorithm = VF_ALGO_VCM;
@@ -30,7 +30,7 @@ int vf_algorithm_parse(const char *name, vf_algorithm *out) {
       *out = (vf_algorithm)i;
       return VF_OK;
     }
-  return vf_error_set(VF_EUSAGE, "unknown algorithm '%s' (expected vcm, bpt, pt, lt, ppm or bpm)", name);
+  return vf_error_set(VF_EUSAGE, "unknown algorithm '%s' (expected vcm, bpt, pt, lt, ppm, bpm or auto)", name);
 }
 
 int vf_settings_validate(const vf_settings *s) {

@@ -5,10 +5,14 @@
 #include "../common/farm_client.h"
 #include "../common/file.h"
 #include "../common/film_wire.h"
+#include "../common/image.h"
 #include "../worker/job_scene.h"
+#include "job.h"
+#include "schedule.h"
 
 #include <cjson/cJSON.h>
 #include <getopt.h>
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -65,11 +69,19 @@ static int parse_job_id(const char *text, uint64_t *id) {
 static const char submit_usage[] =
     "usage: vcmfarm submit SCENE --coordinator URL --secret FILE [options]\n"
     "\n"
-    "Submits a job rendering global iterations [0, N) of SCENE (a built-in name or a JSON\n"
-    "scene without mesh or map files) and prints the job id as the last line.\n"
+    "Submits a job rendering global iterations 0, 1, 2... of SCENE (a built-in name or a\n"
+    "JSON scene without mesh or map files) and prints the job id as the last line. The job\n"
+    "stops at the first stop condition that holds.\n"
     "\n"
-    "  -n, --iterations N       iterations (default 16)\n"
-    "  -P, --priority P         higher runs first (default 0)\n"
+    "  -n, --iterations N       at most N iterations (default 16, or 10^9 when another stop\n"
+    "                           condition is given)\n"
+    "  -t, --time S             stop after S seconds of running (from the first lease)\n"
+    "      --target-rmse X      stop once the RMSE against --reference is at most X\n"
+    "      --reference REF      reference image (a film or RGB EXR of the job's size); sent\n"
+    "                           with the job, its RMSE is tracked in the job's log\n"
+    "      --target-error E     stop once the estimated RMSE (no reference) is at most E\n"
+    "  -P, --priority P         weight 1 to 1000 (default 1): jobs share the workers' time in\n"
+    "                           proportion to their priorities\n"
     "  -N, --name NAME          a name for status (default: SCENE)\n"
     "  -a, --algorithm A        vcm (default), bpt, pt, lt, ppm or bpm\n"
     "  -s, --seed S             job seed (default: the scene's, else 1)\n"
@@ -86,23 +98,30 @@ int vf_cmd_submit(int argc, char **argv) {
       {"radius-factor", required_argument, 0, 'r'}, {"alpha", required_argument, 0, 'A'},
       {"resolution", required_argument, 0, 'R'}, {"coordinator", required_argument, 0, 'c'},
       {"secret", required_argument, 0, 'k'},     {"timeout", required_argument, 0, 'T'},
+      {"time", required_argument, 0, 't'},     {"target-rmse", required_argument, 0, 'X'},
+      {"reference", required_argument, 0, 'F'}, {"target-error", required_argument, 0, 'E'},
       {"help", no_argument, 0, 'h'},             {0, 0, 0, 0}};
-  const char *cmd = "submit", *name = NULL, *algorithm = NULL;
+  const char *cmd = "submit", *name = NULL, *algorithm = NULL, *reference = NULL;
   connection conn = {NULL, NULL, 10.0};
-  long long iterations = 16, priority = 0, max_path_length = -1;
+  long long iterations = 0, priority = 1, max_path_length = -1;
+  double time_limit = 0.0, target_rmse = 0.0, target_error = 0.0;
   uint64_t seed = 0;
   int have_seed = 0, have_resolution = 0, width = 0, height = 0, err = VF_OK, c;
   double radius_factor = -1.0, alpha = -1.0;
   optind = 1;
   opterr = 0;
-  while ((c = getopt_long(argc, argv, "n:P:N:a:s:l:r:R:c:k:h", options, NULL)) != -1) {
+  while ((c = getopt_long(argc, argv, "n:t:P:N:a:s:l:r:R:c:k:h", options, NULL)) != -1) {
     if (connection_option(&conn, c, &err)) {
       if (err != VF_OK) return vf_cli_fail(cmd, err);
       continue;
     }
     switch (c) {
     case 'n': err = vf_cli_int("--iterations", optarg, 1, 1000000000LL, &iterations); break;
-    case 'P': err = vf_cli_int("--priority", optarg, -1000000, 1000000, &priority); break;
+    case 'P': err = vf_cli_int("--priority", optarg, VF_PRIORITY_MIN, VF_PRIORITY_MAX, &priority); break;
+    case 't': err = vf_cli_double("--time", optarg, 1e-3, 366.0 * 86400.0, &time_limit); break;
+    case 'X': err = vf_cli_double("--target-rmse", optarg, 1e-30, 1e30, &target_rmse); break;
+    case 'E': err = vf_cli_double("--target-error", optarg, 1e-30, 1e30, &target_error); break;
+    case 'F': reference = optarg; break;
     case 'N': name = optarg; break;
     case 'a': algorithm = optarg; break;
     case 's': err = vf_cli_u64("--seed", optarg, &seed); have_seed = 1; break;
@@ -119,11 +138,18 @@ int vf_cmd_submit(int argc, char **argv) {
     fprintf(stderr, "vcmfarm submit: expected exactly one SCENE\n%s", submit_usage);
     return VF_EXIT_BAD_INPUT;
   }
+  if (target_rmse > 0.0 && reference == NULL) {
+    fprintf(stderr, "vcmfarm submit: --target-rmse needs --reference\n%s", submit_usage);
+    return VF_EXIT_BAD_INPUT;
+  }
+  if (iterations == 0)
+    iterations = time_limit > 0.0 || target_rmse > 0.0 || target_error > 0.0 ? (long long)VF_JOB_MAX_ITERATIONS : 16;
   const char *source = argv[optind];
   int builtin = vf_job_scene_is_builtin(source);
-  uint8_t *text = NULL;
-  size_t len = 0;
+  uint8_t *text = NULL, *reference_bytes = NULL;
+  size_t len = 0, reference_len = 0;
   vf_scene *scene = NULL;
+  vf_image reference_image = {0};
   Vcmfarm__Envelope *reply = NULL;
   if (builtin) {
     len = strlen(source);
@@ -147,6 +173,18 @@ int vf_cmd_submit(int argc, char **argv) {
   if ((err = vf_settings_validate(&settings)) != VF_OK ||
       (err = vf_settings_format(&settings, settings_text, sizeof settings_text)) != VF_OK)
     goto done;
+  /* The reference is read here too, so a wrong one is refused before anything is sent. */
+  if (reference) {
+    if ((err = vf_image_read_exr(reference, &reference_image)) != VF_OK) goto done;
+    if (reference_image.width != settings.width || reference_image.height != settings.height) {
+      err = vf_error_set(VF_EMISMATCH, "reference %s is %dx%d, the job renders %dx%d", reference,
+                         reference_image.width, reference_image.height, settings.width, settings.height);
+      goto done;
+    }
+    if ((err = vf_file_read_all(reference, VF_WIRE_MAX_PAYLOAD - (16u << 20) - (1u << 20), &reference_bytes,
+                                &reference_len)) != VF_OK)
+      goto done;
+  }
   Vcmfarm__Scene s = VCMFARM__SCENE__INIT;
   if (builtin) {
     s.source_case = VCMFARM__SCENE__SOURCE_BUILTIN;
@@ -163,15 +201,23 @@ int vf_cmd_submit(int argc, char **argv) {
   m.settings = settings_text;
   m.iterations = (uint64_t)iterations;
   m.priority = (int32_t)priority;
+  m.time_limit = time_limit;
+  m.target_rmse = target_rmse;
+  m.target_error = target_error;
+  m.reference_exr.data = reference_bytes;
+  m.reference_exr.len = reference_len;
   Vcmfarm__Envelope q = VCMFARM__ENVELOPE__INIT;
   q.body_case = VCMFARM__ENVELOPE__BODY_SUBMIT;
   q.submit = &m;
   if ((err = request(&conn, &q, VCMFARM__ENVELOPE__BODY_SUBMITTED, &reply)) != VF_OK) goto done;
-  fprintf(stderr, "vcmfarm submit: %s, %s, %lld iterations\n", source, settings_text, iterations);
+  fprintf(stderr, "vcmfarm submit: %s, %s, at most %lld iterations, priority %lld\n", source, settings_text,
+          iterations, priority);
   printf("%llu\n", (unsigned long long)reply->submitted->job_id);
 done:
   vf_message_free(reply);
   vf_scene_destroy(scene);
+  vf_image_destroy(&reference_image);
+  free(reference_bytes);
   free(text);
   return err == VF_OK ? VF_EXIT_OK : vf_cli_fail(cmd, err);
 }
@@ -181,10 +227,17 @@ done:
 static const char status_usage[] =
     "usage: vcmfarm status [JOB] --coordinator URL --secret FILE [--json]\n"
     "\n"
-    "Shows every job (or JOB) and every worker. A job's state is one of queued, running,\n"
-    "done, cancelled, failed; with --json it is the field \"state\".\n"
+    "Shows the farm's rate, every job (or JOB) and every worker. A job's state is one of\n"
+    "queued, running, done, cancelled, failed; with --json it is the field \"state\". A job\n"
+    "shows its rate, ETA and latest error; with JOB, its convergence log too.\n"
     "\n"
     "  -J, --json             JSON on stdout instead of text\n" CONNECTION_HELP;
+
+/* JSON has no NaN: unknown values are null. */
+static void add_number_or_null(cJSON *o, const char *key, double v) {
+  if (isfinite(v)) cJSON_AddNumberToObject(o, key, v);
+  else cJSON_AddNullToObject(o, key);
+}
 
 static void print_json(const Vcmfarm__Status *st) {
   cJSON *root = cJSON_CreateObject(), *jobs = cJSON_AddArrayToObject(root, "jobs"),
@@ -203,10 +256,39 @@ static void print_json(const Vcmfarm__Status *st) {
     cJSON_AddNumberToObject(o, "progress",
                             j->iterations_total ? (double)j->iterations_done / (double)j->iterations_total : 0.0);
     cJSON_AddNumberToObject(o, "iterations_per_second", j->iterations_per_second);
+    cJSON_AddNumberToObject(o, "workers", j->workers);
+    cJSON_AddNumberToObject(o, "seconds", j->seconds);
+    add_number_or_null(o, "eta_seconds", j->eta_seconds >= 0.0 ? j->eta_seconds : NAN);
+    add_number_or_null(o, "rmse", j->rmse);
+    add_number_or_null(o, "estimated_rmse", j->estimated_rmse);
+    cJSON *stop = cJSON_AddObjectToObject(o, "stop");
+    cJSON_AddNumberToObject(stop, "iterations", (double)j->iterations_total);
+    add_number_or_null(stop, "time", j->time_limit > 0.0 ? j->time_limit : NAN);
+    add_number_or_null(stop, "target_rmse", j->target_rmse > 0.0 ? j->target_rmse : NAN);
+    add_number_or_null(stop, "target_error", j->target_error > 0.0 ? j->target_error : NAN);
+    cJSON_AddBoolToObject(o, "reference", j->has_reference);
+    cJSON_AddStringToObject(o, "stop_reason", j->stop_reason);
     cJSON_AddNumberToObject(o, "results_refused", (double)j->results_refused);
     cJSON_AddStringToObject(o, "settings", j->settings);
     cJSON_AddStringToObject(o, "message", j->message);
+    if (j->n_convergence > 0) {
+      cJSON *log = cJSON_AddArrayToObject(o, "convergence");
+      for (size_t k = 0; k < j->n_convergence; k++) {
+        const Vcmfarm__ConvergenceEntry *e = j->convergence[k];
+        cJSON *c = cJSON_CreateObject();
+        cJSON_AddItemToArray(log, c);
+        cJSON_AddNumberToObject(c, "run", e->run);
+        cJSON_AddNumberToObject(c, "wall_seconds", e->wall_seconds);
+        cJSON_AddNumberToObject(c, "cpu_seconds", e->cpu_seconds);
+        cJSON_AddNumberToObject(c, "iterations", (double)e->iterations);
+        add_number_or_null(c, "rmse", e->rmse);
+        add_number_or_null(c, "rel_mse", e->rel_mse);
+        add_number_or_null(c, "estimated_rmse", e->estimated_rmse);
+      }
+    }
   }
+  cJSON_AddNumberToObject(root, "iterations_per_second", st->iterations_per_second);
+  cJSON_AddNumberToObject(root, "workers_busy", st->workers_busy);
   for (size_t i = 0; i < st->n_workers; i++) {
     const Vcmfarm__WorkerStatus *w = st->workers[i];
     cJSON *o = cJSON_CreateObject();
@@ -233,15 +315,48 @@ static void print_json(const Vcmfarm__Status *st) {
   cJSON_Delete(root);
 }
 
+/* "1h02m", "3m05s", "12.3 s" */
+static void format_duration(char *buf, size_t n, double s) {
+  if (s < 0.0 || !isfinite(s)) snprintf(buf, n, "unknown");
+  else if (s < 60.0) snprintf(buf, n, "%.1f s", s);
+  else if (s < 3600.0) snprintf(buf, n, "%dm%02ds", (int)(s / 60.0), (int)fmod(s, 60.0));
+  else snprintf(buf, n, "%dh%02dm", (int)(s / 3600.0), (int)fmod(s / 60.0, 60.0));
+}
+
 static void print_text(const Vcmfarm__Status *st) {
+  printf("farm: %.2f iterations/s, %u of %zu workers busy\n", st->iterations_per_second, st->workers_busy,
+         st->n_workers);
   for (size_t i = 0; i < st->n_jobs; i++) {
     const Vcmfarm__JobStatus *j = st->jobs[i];
-    printf("job %llu '%s': %s, %llu/%llu iterations (%.0f%%), %llu leased, priority %d, %.2f it/s per worker%s%s\n",
+    char ran[32], eta[32], stop[256] = "", *p = stop;
+    format_duration(ran, sizeof ran, j->seconds);
+    format_duration(eta, sizeof eta, j->eta_seconds);
+    size_t left = sizeof stop;
+    int n = snprintf(p, left, "%llu iterations", (unsigned long long)j->iterations_total);
+    if (j->time_limit > 0.0 && n > 0 && (size_t)n < left) p += n, left -= (size_t)n, n = snprintf(p, left, ", %g s", j->time_limit);
+    if (j->target_rmse > 0.0 && n > 0 && (size_t)n < left)
+      p += n, left -= (size_t)n, n = snprintf(p, left, ", RMSE %g", j->target_rmse);
+    if (j->target_error > 0.0 && n > 0 && (size_t)n < left)
+      p += n, left -= (size_t)n, n = snprintf(p, left, ", est. RMSE %g", j->target_error);
+    printf("job %llu '%s': %s, %llu iterations done, %llu leased, priority %d; stops at %s\n",
            (unsigned long long)j->job_id, j->name, j->state, (unsigned long long)j->iterations_done,
-           (unsigned long long)j->iterations_total,
-           j->iterations_total ? 100.0 * (double)j->iterations_done / (double)j->iterations_total : 0.0,
-           (unsigned long long)j->iterations_leased, j->priority, j->iterations_per_second,
-           j->message[0] ? ": " : "", j->message);
+           (unsigned long long)j->iterations_leased, j->priority, stop);
+    printf("  ran %s, %.2f it/s on %u workers, ETA %s, est. RMSE %.4g", ran, j->iterations_per_second, j->workers,
+           strcmp(j->state, "done") == 0 ? "done" : eta, j->estimated_rmse);
+    if (j->has_reference) printf(", RMSE %.4g", j->rmse);
+    if (j->results_refused) printf(", %llu results refused", (unsigned long long)j->results_refused);
+    printf("\n");
+    if (j->stop_reason[0]) printf("  stopped: %s\n", j->stop_reason);
+    if (j->message[0]) printf("  %s\n", j->message);
+    if (j->n_convergence > 0) {
+      printf("  %4s %12s %12s %10s %12s %12s %12s\n", "run", "worker s", "cpu s", "iterations", "RMSE", "rel. MSE",
+             "est. RMSE");
+      for (size_t k = 0; k < j->n_convergence; k++) {
+        const Vcmfarm__ConvergenceEntry *e = j->convergence[k];
+        printf("  %4u %12.2f %12.2f %10llu %12.5g %12.5g %12.5g\n", e->run, e->wall_seconds, e->cpu_seconds,
+               (unsigned long long)e->iterations, e->rmse, e->rel_mse, e->estimated_rmse);
+      }
+    }
   }
   for (size_t i = 0; i < st->n_workers; i++) {
     const Vcmfarm__WorkerStatus *w = st->workers[i];

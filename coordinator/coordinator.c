@@ -122,6 +122,7 @@ static void on_tick(uv_timer_t *timer) {
   coordinator *c = timer->data;
   double now = vf_seconds_now();
   vf_farm_expire(&c->farm, now);
+  vf_farm_tick(&c->farm, now);
   if (c->pending != NULL && now - c->pending_since > REPLY_GIVE_UP_SECONDS) {
     vf_log("reply dropped: the peer did not take it within %.0f s", REPLY_GIVE_UP_SECONDS);
     free(c->pending);

@@ -4,8 +4,10 @@
 #include "../common/film_wire.h"
 #include "../common/wire.h"
 #include "log.h"
+#include "schedule.h"
 #include "state.h"
 
+#include <math.h>
 #include <sodium.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -43,10 +45,13 @@ static vf_farm_worker *worker_of_lease(vf_farm *farm, const vf_lease *lease) {
   return w != NULL && w->lease_id == lease->id ? w : NULL;
 }
 
-/* The lease stops being active (expired: a late result may still be checked against it). */
-static void end_lease(vf_farm *farm, vf_lease *lease, int keep) {
+/* The lease stops being active (expired: a late result may still be checked against it).
+ * Its job is charged the worker time it really took, grant to now. */
+static void end_lease(vf_farm *farm, vf_lease *lease, int keep, double now) {
   vf_farm_worker *w = worker_of_lease(farm, lease);
   if (w) w->lease_id = 0;
+  vf_job *job = vf_farm_job(farm, lease->job_id);
+  if (job && lease->state == VF_LEASE_ACTIVE) vf_schedule_charge(job, (now - lease->granted) - lease->charged);
   if (keep) vf_lease_expire(&farm->leases, lease->id);
   else vf_lease_remove(&farm->leases, lease->id);
 }
@@ -54,11 +59,11 @@ static void end_lease(vf_farm *farm, vf_lease *lease, int keep) {
 /* The job takes no more results from its active leases' workers; the leases are kept as
  * expired, so results still on their way are checked against them and refused by the
  * job's state or by vf_film_merge, and logged as such. */
-static void end_job_leases(vf_farm *farm, uint64_t job_id) {
+static void end_job_leases(vf_farm *farm, uint64_t job_id, double now) {
   for (size_t i = 0; i < farm->leases.count;) {
     vf_lease *l = &farm->leases.leases[i];
     if (l->job_id == job_id && l->state == VF_LEASE_ACTIVE) {
-      end_lease(farm, l, 1);
+      end_lease(farm, l, 1, now);
       i = 0;
     } else {
       i++;
@@ -111,6 +116,8 @@ void vf_farm_reply_release(vf_farm_reply *r) {
   free(r->worker_status);
   free(r->worker_status_ptrs);
   free(r->film_bytes);
+  free(r->log);
+  free(r->log_ptrs);
   reply_init(r);
 }
 
@@ -146,17 +153,11 @@ static void handle_register(vf_farm *farm, const Vcmfarm__Register *m, double no
   r->env.registered = &r->registered;
 }
 
-static vf_job *pick_job(vf_farm *farm) {
-  vf_job *best = NULL;
-  for (size_t i = 0; i < farm->num_jobs; i++) {
-    vf_job *j = farm->jobs[i];
-    if (!vf_job_runnable(j)) continue;
-    uint64_t b, e, free_count;
-    if (vf_lease_free_range(&farm->leases, j->id, &j->film->iterations, j->iterations, 1, &b, &e, &free_count) != 1)
-      continue;
-    if (best == NULL || j->priority > best->priority) best = j;
-  }
-  return best;
+static int has_free_range(void *ctx, const vf_job *j) {
+  vf_farm *farm = ctx;
+  uint64_t b, e, free_count;
+  return vf_job_runnable(j) &&
+         vf_lease_free_range(&farm->leases, j->id, &j->film->iterations, j->iterations, 1, &b, &e, &free_count) == 1;
 }
 
 static void handle_lease_request(vf_farm *farm, vf_farm_worker *w, double now, vf_farm_reply *r) {
@@ -164,10 +165,10 @@ static void handle_lease_request(vf_farm *farm, vf_farm_worker *w, double now, v
   if (old != NULL) {
     vf_log("worker %s asks for work while holding lease %016llx; that lease returns to the pool", w->name,
            (unsigned long long)old->id);
-    end_lease(farm, old, 1);
+    end_lease(farm, old, 1, now);
   }
   w->lease_id = 0;
-  vf_job *job = pick_job(farm);
+  vf_job *job = vf_schedule_pick(farm->jobs, farm->num_jobs, has_free_range, farm);
   if (job == NULL) {
     vcmfarm__idle__init(&r->idle);
     /* Often enough that a new job starts within half a second; cheap for the coordinator. */
@@ -184,6 +185,9 @@ static void handle_lease_request(vf_farm *farm, vf_farm_worker *w, double now, v
                           &free_count) != 1 ||
       vf_lease_add(&farm->leases, job->id, w->id, b, e, now, &w->lease_id) != VF_OK)
     return vf_farm_reply_error(r, VCMFARM__ERROR_CODE__ERROR_INTERNAL, "out of memory for leases");
+  vf_lease *granted = vf_lease_find(&farm->leases, w->lease_id);
+  granted->charged = vf_schedule_estimate(e - b, w->rate, job->rate, farm->config.lease_seconds);
+  vf_schedule_charge(job, granted->charged);
   vf_log("lease %016llx: job %llu iterations [%llu,%llu) to worker %s", (unsigned long long)w->lease_id,
          (unsigned long long)job->id, (unsigned long long)b, (unsigned long long)e, w->name);
   vcmfarm__lease__init(&r->lease);
@@ -229,6 +233,23 @@ static void refuse_result(vf_job *job, vf_farm_reply *r, const char *fmt, ...) {
   reply_ack(r, 0, text);
 }
 
+/* A job that just completed or stopped: no more leases, a last convergence entry, and its
+ * film and the job list written at once. */
+static void finish_job(vf_farm *farm, vf_job *job, double now) {
+  unsigned long long jid = (unsigned long long)job->id;
+  if (job->end == VF_JOB_STOPPED) {
+    vf_log("job %llu done: %s", jid, job->message);
+    farm->state_dirty = 1;
+  } else {
+    vf_log("job %llu done", jid);
+  }
+  end_job_leases(farm, job->id, now);
+  int err = vf_job_log(job);
+  if (err == VF_OK) err = vf_state_save_film(farm->config.state_dir, job);
+  if (err == VF_OK && farm->state_dirty) err = vf_state_save_index(farm);
+  if (err != VF_OK) vf_log("job %llu: checkpoint failed: %s", jid, vf_error_detail(err));
+}
+
 static void handle_result(vf_farm *farm, const Vcmfarm__LeaseResult *m, double now, vf_farm_reply *r) {
   unsigned long long lid = (unsigned long long)m->lease_id, jid = (unsigned long long)m->job_id;
   unsigned long long b = (unsigned long long)m->begin, e = (unsigned long long)m->end;
@@ -269,13 +290,13 @@ static void handle_result(vf_farm *farm, const Vcmfarm__LeaseResult *m, double n
     w->rate = w->rate > 0.0 ? 0.5 * w->rate + 0.5 * rate : rate;
   }
   vf_film_destroy(film);
-  end_lease(farm, l, 0);
+  end_lease(farm, l, 0, now);
   /* A late result may cover iterations reassigned since: those leases are moot now. */
   for (size_t i = 0; i < farm->leases.count;) {
     vf_lease *o = &farm->leases.leases[i];
     if (o->job_id == m->job_id && o->state == VF_LEASE_ACTIVE && o->begin < m->end && m->begin < o->end) {
       vf_log("lease %016llx revoked: a late result covered it", (unsigned long long)o->id);
-      end_lease(farm, o, 1);
+      end_lease(farm, o, 1, now);
       i = 0;
     } else {
       i++;
@@ -284,16 +305,13 @@ static void handle_result(vf_farm *farm, const Vcmfarm__LeaseResult *m, double n
   uint64_t done = vf_job_done(job);
   vf_log("merged job %llu [%llu,%llu)%s: %llu/%llu iterations", jid, b, e, late ? " (late result)" : "",
          (unsigned long long)done, (unsigned long long)job->iterations);
-  if (vf_job_complete(job)) {
-    vf_log("job %llu done", jid);
-    end_job_leases(farm, job->id);
-    if ((err = vf_state_save_film(farm->config.state_dir, job)) != VF_OK)
-      vf_log("job %llu: checkpoint failed: %s", jid, vf_error_detail(err));
-  }
+  if ((err = vf_job_check_stop(job)) < 0) vf_log("job %llu: measuring failed: %s", jid, vf_error_detail(err));
+  if (vf_job_complete(job)) finish_job(farm, job, now);
   reply_ack(r, 1, "merged");
 }
 
-static void handle_release(vf_farm *farm, vf_farm_worker *w, const Vcmfarm__LeaseRelease *m, vf_farm_reply *r) {
+static void handle_release(vf_farm *farm, vf_farm_worker *w, const Vcmfarm__LeaseRelease *m, double now,
+                           vf_farm_reply *r) {
   vf_lease *l = vf_lease_find(&farm->leases, m->lease_id);
   if (l == NULL || l->worker_id != w->id || l->state != VF_LEASE_ACTIVE) {
     reply_ack(r, 0, "no such active lease of this worker");
@@ -306,11 +324,11 @@ static void handle_release(vf_farm *farm, vf_farm_worker *w, const Vcmfarm__Leas
     for (char *c = job->message; *c; c++)
       if ((unsigned char)*c < 0x20) *c = '?';
     vf_log("job %llu failed: %s", (unsigned long long)job->id, job->message);
-    end_job_leases(farm, job->id);
+    end_job_leases(farm, job->id, now);
     farm->state_dirty = 1;
   } else {
     vf_log("worker %s handed back lease %016llx", w->name, (unsigned long long)l->id);
-    end_lease(farm, l, 0);
+    end_lease(farm, l, 0, now);
   }
   reply_ack(r, 1, "released");
 }
@@ -338,8 +356,22 @@ static void handle_submit(vf_farm *farm, const Vcmfarm__SubmitJob *m, vf_farm_re
   int err = vf_job_create(farm->next_job_id, m->name, m->priority, builtin, text, strlen(text), m->scene_hash.data,
                           m->scene_hash.len, m->settings, m->iterations, &job);
   if (err != VF_OK) return vf_farm_reply_error(r, VCMFARM__ERROR_CODE__ERROR_BAD_REQUEST, vf_error_detail(err));
+  /* The reference is checked by reading it back from where it is kept. */
+  if (m->reference_exr.len > 0 &&
+      (err = vf_state_save_reference(farm->config.state_dir, job, m->reference_exr.data, m->reference_exr.len)) !=
+          VF_OK) {
+    vf_job_destroy(job);
+    return vf_farm_reply_error(r, err == VF_EIO ? VCMFARM__ERROR_CODE__ERROR_INTERNAL : VCMFARM__ERROR_CODE__ERROR_BAD_REQUEST,
+                               vf_error_detail(err));
+  }
+  if ((err = vf_job_set_stop(job, m->time_limit, m->target_rmse, m->target_error)) != VF_OK) {
+    vf_state_remove_job_files(farm->config.state_dir, job->id);
+    vf_job_destroy(job);
+    return vf_farm_reply_error(r, VCMFARM__ERROR_CODE__ERROR_BAD_REQUEST, vf_error_detail(err));
+  }
   /* Durable before acknowledged: scene text first, then the job list naming it. */
   if ((err = vf_state_save_scene(farm->config.state_dir, job)) != VF_OK || (err = add_job(farm, job)) != VF_OK) {
+    vf_state_remove_job_files(farm->config.state_dir, job->id);
     vf_job_destroy(job);
     return vf_farm_reply_error(r, VCMFARM__ERROR_CODE__ERROR_INTERNAL, vf_error_detail(err));
   }
@@ -349,13 +381,43 @@ static void handle_submit(vf_farm *farm, const Vcmfarm__SubmitJob *m, vf_farm_re
     return vf_farm_reply_error(r, VCMFARM__ERROR_CODE__ERROR_INTERNAL, vf_error_detail(err));
   }
   farm->next_job_id++;
-  vf_log("job %llu '%s' submitted: %s %s, %llu iterations, priority %d", (unsigned long long)job->id, job->name,
-         builtin ? "built-in" : "JSON scene", builtin ? job->scene_text : "", (unsigned long long)job->iterations,
-         job->priority);
+  vf_log("job %llu '%s' submitted: %s %s, at most %llu iterations, time limit %g s, target RMSE %g%s, target "
+         "error %g, priority %d", (unsigned long long)job->id, job->name, builtin ? "built-in" : "JSON scene",
+         builtin ? job->scene_text : "", (unsigned long long)job->iterations, job->time_limit, job->target_rmse,
+         job->reference.rgb ? " (with a reference)" : "", job->target_error, job->priority);
   vcmfarm__submitted__init(&r->submitted);
   r->submitted.job_id = job->id;
   r->env.body_case = VCMFARM__ENVELOPE__BODY_SUBMITTED;
   r->env.submitted = &r->submitted;
+}
+
+/* The status of one job carries its convergence log (the last entries of a long one). */
+#define STATUS_LOG_ENTRIES 1000
+static void attach_log(vf_farm_reply *r, Vcmfarm__JobStatus *s, const vf_convergence_log *log) {
+  size_t n = log->count < STATUS_LOG_ENTRIES ? log->count : STATUS_LOG_ENTRIES, first = log->count - n;
+  if (n == 0 || (r->log = calloc(n, sizeof *r->log)) == NULL || (r->log_ptrs = calloc(n, sizeof *r->log_ptrs)) == NULL)
+    return;
+  for (size_t i = 0; i < n; i++) {
+    const vf_convergence_entry *e = &log->entries[first + i];
+    Vcmfarm__ConvergenceEntry *c = &r->log[i];
+    vcmfarm__convergence_entry__init(c);
+    c->run = e->run;
+    c->wall_seconds = e->wall_seconds;
+    c->cpu_seconds = e->cpu_seconds;
+    c->iterations = e->iterations;
+    c->rmse = e->rmse;
+    c->rel_mse = e->rel_mse;
+    c->estimated_rmse = e->estimated_rmse;
+    r->log_ptrs[i] = c;
+  }
+  s->n_convergence = n;
+  s->convergence = r->log_ptrs;
+}
+
+/* The window over which rates are measured: several leases long. */
+static double rate_window(const vf_farm *farm) {
+  double w = 3.0 * farm->config.lease_seconds;
+  return w < 30.0 ? 30.0 : w;
 }
 
 static void handle_status(vf_farm *farm, const Vcmfarm__StatusRequest *m, double now, vf_farm_reply *r) {
@@ -370,6 +432,10 @@ static void handle_status(vf_farm *farm, const Vcmfarm__StatusRequest *m, double
   r->worker_status_ptrs = calloc(nw ? nw : 1, sizeof *r->worker_status_ptrs);
   if (!r->job_status || !r->job_status_ptrs || !r->worker_status || !r->worker_status_ptrs)
     return vf_farm_reply_error(r, VCMFARM__ERROR_CODE__ERROR_INTERNAL, "out of memory");
+  vcmfarm__status__init(&r->status);
+  for (size_t i = 0; i < farm->num_jobs; i++)
+    r->status.iterations_per_second += vf_job_farm_rate(farm->jobs[i], now, rate_window(farm));
+  for (size_t i = 0; i < nw; i++) r->status.workers_busy += vf_lease_find(&farm->leases, farm->workers[i].lease_id) != NULL;
   size_t k = 0;
   for (size_t i = 0; i < farm->num_jobs; i++) {
     vf_job *j = farm->jobs[i];
@@ -387,7 +453,24 @@ static void handle_status(vf_farm *farm, const Vcmfarm__StatusRequest *m, double
     s->settings = j->settings_text;
     s->message = j->message;
     s->results_refused = j->results_refused;
-    s->iterations_per_second = j->rate;
+    if (vf_job_runnable(j) && j->measured_iterations != vf_job_done(j)) vf_job_measure(j);
+    double rate = vf_job_runnable(j) ? vf_job_farm_rate(j, now, rate_window(farm)) : 0.0;
+    s->iterations_per_second = rate;
+    s->seconds = j->seconds;
+    s->eta_seconds = vf_job_eta(j, rate);
+    s->time_limit = j->time_limit;
+    s->target_rmse = j->target_rmse;
+    s->target_error = j->target_error;
+    s->has_reference = j->reference.rgb != NULL;
+    s->rmse = j->measured_iterations != UINT64_MAX ? j->measured.rmse : NAN;
+    s->estimated_rmse = j->measured_iterations != UINT64_MAX ? j->measured.estimated_rmse : NAN;
+    s->stop_reason = j->end == VF_JOB_STOPPED ? j->message : "";
+    if (j->end == VF_JOB_STOPPED) s->message = "";
+    for (size_t w = 0; w < nw; w++) {
+      vf_lease *l = vf_lease_find(&farm->leases, farm->workers[w].lease_id);
+      s->workers += l != NULL && l->job_id == j->id;
+    }
+    if (m->job_id != 0) attach_log(r, s, &j->film->convergence);
     r->job_status_ptrs[k++] = s;
   }
   for (size_t i = 0; i < nw; i++) {
@@ -407,7 +490,6 @@ static void handle_status(vf_farm *farm, const Vcmfarm__StatusRequest *m, double
     s->last_seen_seconds = now - w->last_seen;
     r->worker_status_ptrs[i] = s;
   }
-  vcmfarm__status__init(&r->status);
   r->status.n_jobs = k;
   r->status.jobs = r->job_status_ptrs;
   r->status.n_workers = nw;
@@ -430,7 +512,7 @@ static void handle_fetch(vf_farm *farm, const Vcmfarm__FetchRequest *m, vf_farm_
   r->env.film = &r->film;
 }
 
-static void handle_cancel(vf_farm *farm, const Vcmfarm__CancelRequest *m, vf_farm_reply *r) {
+static void handle_cancel(vf_farm *farm, const Vcmfarm__CancelRequest *m, double now, vf_farm_reply *r) {
   vf_job *job = vf_farm_job(farm, m->job_id);
   if (job == NULL)
     return reply_errorf(r, VCMFARM__ERROR_CODE__ERROR_UNKNOWN_JOB, "no job %llu", (unsigned long long)m->job_id);
@@ -439,7 +521,7 @@ static void handle_cancel(vf_farm *farm, const Vcmfarm__CancelRequest *m, vf_far
     return reply_ack(r, 0, r->text);
   }
   job->end = VF_JOB_CANCELLED;
-  end_job_leases(farm, job->id);
+  end_job_leases(farm, job->id, now);
   farm->state_dirty = 1;
   int err = vf_state_save_index(farm);
   vf_log("job %llu cancelled", (unsigned long long)job->id);
@@ -463,7 +545,7 @@ void vf_farm_handle(vf_farm *farm, const Vcmfarm__Envelope *q, double now, vf_fa
   case VCMFARM__ENVELOPE__BODY_SUBMIT: return handle_submit(farm, q->submit, r);
   case VCMFARM__ENVELOPE__BODY_STATUS_REQUEST: return handle_status(farm, q->status_request, now, r);
   case VCMFARM__ENVELOPE__BODY_FETCH: return handle_fetch(farm, q->fetch, r);
-  case VCMFARM__ENVELOPE__BODY_CANCEL: return handle_cancel(farm, q->cancel, r);
+  case VCMFARM__ENVELOPE__BODY_CANCEL: return handle_cancel(farm, q->cancel, now, r);
   default:
     return reply_errorf(r, VCMFARM__ERROR_CODE__ERROR_BAD_REQUEST, "a coordinator does not accept a %s message",
                         vf_message_name(q));
@@ -476,7 +558,7 @@ void vf_farm_handle(vf_farm *farm, const Vcmfarm__Envelope *q, double now, vf_fa
   switch (q->body_case) {
   case VCMFARM__ENVELOPE__BODY_LEASE_REQUEST: return handle_lease_request(farm, w, now, r);
   case VCMFARM__ENVELOPE__BODY_HEARTBEAT: return handle_heartbeat(farm, w, q->heartbeat, r);
-  default: return handle_release(farm, w, q->release, r);
+  default: return handle_release(farm, w, q->release, now, r);
   }
 }
 
@@ -493,7 +575,7 @@ int vf_farm_expire(vf_farm *farm, double now) {
       vf_log("worker %s lost (silent for %.1f s); lease %016llx of job %llu [%llu,%llu) returns to the pool", w->name,
              now - w->last_seen, (unsigned long long)l->id, (unsigned long long)l->job_id,
              (unsigned long long)l->begin, (unsigned long long)l->end);
-      end_lease(farm, l, 1);
+      end_lease(farm, l, 1, now);
     } else {
       vf_log("worker %s lost (silent for %.1f s)", w->name, now - w->last_seen);
     }
@@ -503,12 +585,27 @@ int vf_farm_expire(vf_farm *farm, double now) {
   return lost;
 }
 
+void vf_farm_tick(vf_farm *farm, double now) {
+  double dt = farm->last_tick > 0.0 ? now - farm->last_tick : 0.0;
+  farm->last_tick = now;
+  for (size_t i = 0; i < farm->num_jobs; i++) {
+    vf_job *j = farm->jobs[i];
+    if (!vf_job_runnable(j)) continue;
+    /* Running from its first lease: a queued job's clock has not started. */
+    if (vf_job_done(j) > 0 || vf_lease_active_iterations(&farm->leases, j->id) > 0) j->seconds += dt;
+    if (j->time_limit > 0.0 && vf_job_check_stop(j) == 1) finish_job(farm, j, now);
+  }
+}
+
 int vf_farm_checkpoint(vf_farm *farm, int all) {
   int first = VF_OK;
   for (size_t i = 0; i < farm->num_jobs; i++) {
     vf_job *j = farm->jobs[i];
+    int err = vf_job_log(j);
+    if (err != VF_OK) vf_log("job %llu: convergence entry: %s", (unsigned long long)j->id, vf_error_detail(err));
+    if (j->seconds != j->seconds_saved) farm->state_dirty = 1;
     if (!j->film_dirty && !all) continue;
-    int err = vf_state_save_film(farm->config.state_dir, j);
+    err = vf_state_save_film(farm->config.state_dir, j);
     if (err != VF_OK) {
       vf_log("checkpoint of job %llu failed: %s", (unsigned long long)j->id, vf_error_detail(err));
       if (first == VF_OK) first = err;

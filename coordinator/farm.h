@@ -40,6 +40,7 @@ typedef struct {
   size_t num_workers, workers_capacity;
   vf_lease_table leases;
   int state_dirty;         /* the job list changed since state.json was written */
+  double last_tick;        /* of vf_farm_tick; 0 before the first */
 } vf_farm;
 
 /* The reply being built: the envelope and storage for every body. Packed by the caller,
@@ -61,6 +62,7 @@ typedef struct {
   Vcmfarm__JobStatus *job_status, **job_status_ptrs;
   Vcmfarm__WorkerStatus *worker_status, **worker_status_ptrs;
   uint8_t *film_bytes;
+  Vcmfarm__ConvergenceEntry *log, **log_ptrs;
 } vf_farm_reply;
 
 /* An empty farm; then vf_state_load fills in the jobs of a state directory. */
@@ -78,9 +80,15 @@ void vf_farm_reply_release(vf_farm_reply *reply);
  * the pool. Returns the number of workers lost. */
 int vf_farm_expire(vf_farm *farm, double now);
 
-/* Writes the film of every job merged into since the last checkpoint, then state.json if
- * the job list changed; with `all`, every film and the state. Logs and returns the first
- * error, carrying on with the other jobs. */
+/* Advances the running time of every running job to `now` and stops those whose time
+ * limit it reaches (revoking their leases, writing their film and the job list). Call it
+ * often (the coordinator does every 200 ms): a time limit is honoured to one call. */
+void vf_farm_tick(vf_farm *farm, double now);
+
+/* Appends a convergence entry to the film of every job merged into since its last entry,
+ * then writes the film of every job changed since the last checkpoint, then state.json if
+ * the job list or a running time changed; with `all`, every film and the state. Logs and
+ * returns the first error, carrying on with the other jobs. */
 int vf_farm_checkpoint(vf_farm *farm, int all);
 
 vf_job *vf_farm_job(const vf_farm *farm, uint64_t id);

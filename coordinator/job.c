@@ -1,7 +1,10 @@
 #include "job.h"
 
 #include "../common/error.h"
+#include "../common/metrics.h"
+#include "schedule.h"
 
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -35,6 +38,8 @@ int vf_job_create(uint64_t id, const char *name, int priority, int scene_builtin
     return vf_error_set(VF_EINVAL, "scene: JSON text of %zu bytes, must be 1 to %zu", scene_len, VF_JOB_MAX_SCENE);
   if (memchr(scene_text, '\0', scene_len) != NULL) return vf_error_set(VF_EINVAL, "scene: text contains a NUL byte");
   if (hash_len != 32) return vf_error_set(VF_EINVAL, "scene_hash: %zu bytes, expected 32", hash_len);
+  if (priority < VF_PRIORITY_MIN || priority > VF_PRIORITY_MAX)
+    return vf_error_set(VF_EINVAL, "priority: %d, must be %d to %d", priority, VF_PRIORITY_MIN, VF_PRIORITY_MAX);
   if (iterations < 1 || iterations > VF_JOB_MAX_ITERATIONS)
     return vf_error_set(VF_EINVAL, "iterations: %llu, must be 1 to %llu", (unsigned long long)iterations,
                         VF_JOB_MAX_ITERATIONS);
@@ -67,6 +72,7 @@ int vf_job_create(uint64_t id, const char *name, int priority, int scene_builtin
   snprintf(job->settings_text, sizeof job->settings_text, "%s", canonical);
   job->settings = settings;
   job->iterations = iterations;
+  job->measured_iterations = job->logged_iterations = UINT64_MAX;
   *out = job;
   return VF_OK;
 free_text:
@@ -79,19 +85,21 @@ free_job:
 void vf_job_destroy(vf_job *job) {
   if (job == NULL) return;
   vf_film_destroy(job->film);
+  vf_image_destroy(&job->reference);
   free(job->scene_text);
   free(job);
 }
 
 uint64_t vf_job_done(const vf_job *job) { return vf_iterset_count(&job->film->iterations); }
 
-int vf_job_complete(const vf_job *job) { return vf_job_done(job) >= job->iterations; }
+int vf_job_complete(const vf_job *job) { return job->end == VF_JOB_STOPPED || vf_job_done(job) >= job->iterations; }
 
 int vf_job_runnable(const vf_job *job) { return job->end == VF_JOB_ACTIVE && !vf_job_complete(job); }
 
 const char *vf_job_state(const vf_job *job, uint64_t leased) {
   if (job->end == VF_JOB_CANCELLED) return "cancelled";
   if (job->end == VF_JOB_FAILED) return "failed";
+  if (job->end == VF_JOB_STOPPED) return "done";
   if (vf_job_complete(job)) return "done";
   return vf_job_done(job) > 0 || leased > 0 ? "running" : "queued";
 }
@@ -129,10 +137,152 @@ int vf_job_merge(vf_job *job, const vf_film *film, double now) {
   int err = vf_film_merge(job->film, film);
   if (err != VF_OK) return err;
   job->film_dirty = 1;
+  job->merges[job->merges_next].time = now;
+  job->merges[job->merges_next].iterations = vf_iterset_count(&film->iterations);
+  job->merges_next = (job->merges_next + 1) % VF_JOB_RATE_SAMPLES;
+  if (job->merges_count < VF_JOB_RATE_SAMPLES) job->merges_count++;
   if (film->render_seconds > 0.0) {
     double r = (double)vf_iterset_count(&film->iterations) / film->render_seconds;
     job->rate = job->rate > 0.0 ? 0.7 * job->rate + 0.3 * r : r;
   }
   job->last_merge_time = now;
   return VF_OK;
+}
+
+int vf_job_set_stop(vf_job *job, double time_limit, double target_rmse, double target_error) {
+  const struct {
+    const char *name;
+    double value, max;
+  } fields[] = {{"time_limit", time_limit, 366.0 * 86400.0}, {"target_rmse", target_rmse, 1e30},
+                {"target_error", target_error, 1e30}};
+  for (size_t i = 0; i < sizeof fields / sizeof *fields; i++)
+    if (!(fields[i].value >= 0.0 && fields[i].value <= fields[i].max))
+      return vf_error_set(VF_EINVAL, "%s: %g, must be 0 (none) or positive, at most %g", fields[i].name,
+                          fields[i].value, fields[i].max);
+  if (target_rmse > 0.0 && job->reference.rgb == NULL)
+    return vf_error_set(VF_EINVAL, "target_rmse: needs a reference image");
+  job->time_limit = time_limit;
+  job->target_rmse = target_rmse;
+  job->target_error = target_error;
+  return VF_OK;
+}
+
+int vf_job_load_reference(vf_job *job, const char *path) {
+  vf_image img = {0};
+  int err = vf_image_read_exr(path, &img);
+  if (err != VF_OK) return err;
+  if (img.width != job->film->width || img.height != job->film->height) {
+    err = vf_error_set(VF_EMISMATCH, "reference is %dx%d, job %llu renders %dx%d", img.width, img.height,
+                       (unsigned long long)job->id, job->film->width, job->film->height);
+    vf_image_destroy(&img);
+    return err;
+  }
+  vf_image_destroy(&job->reference);
+  job->reference = img;
+  return VF_OK;
+}
+
+int vf_job_measure(vf_job *job) {
+  const vf_film *film = job->film;
+  uint64_t n = vf_job_done(job);
+  vf_convergence_entry e = {0, film->render_seconds, film->cpu_seconds, n, NAN, NAN, vf_film_estimate_rmse(film)};
+  if (job->reference.rgb != NULL && n > 0) {
+    size_t count = 3 * (size_t)film->width * (size_t)film->height;
+    float *mean = malloc(count * sizeof *mean);
+    if (mean == NULL) return vf_error_set(VF_ENOMEM, "out of memory measuring job %llu", (unsigned long long)job->id);
+    vf_film_mean(film, mean);
+    vf_error_metrics m;
+    if (vf_metrics_compute(mean, job->reference.rgb, film->width, film->height, NULL, &m) == VF_OK && m.pixels > 0) {
+      e.rmse = m.rmse_all;
+      e.rel_mse = m.rel_mse_all;
+    }
+    free(mean);
+  }
+  job->measured = e;
+  job->measured_iterations = n;
+  return VF_OK;
+}
+
+int vf_job_log(vf_job *job) {
+  uint64_t n = vf_job_done(job);
+  if (n == 0 || n == job->logged_iterations) return VF_OK;
+  const vf_convergence_log *log = &job->film->convergence;
+  if (log->count > 0 && log->entries[log->count - 1].iterations == n) {
+    job->logged_iterations = n;
+    return VF_OK;
+  }
+  int err;
+  if (job->measured_iterations != n && (err = vf_job_measure(job)) != VF_OK) return err;
+  vf_convergence_entry e = job->measured;
+  e.run = log->count > 0 ? log->entries[log->count - 1].run : 0;
+  if ((err = vf_convergence_append(&job->film->convergence, &e)) != VF_OK) return err;
+  job->logged_iterations = n;
+  job->film_dirty = 1;
+  return VF_OK;
+}
+
+int vf_job_check_stop(vf_job *job) {
+  if (job->end != VF_JOB_ACTIVE || vf_job_complete(job)) return 0;
+  if (job->time_limit > 0.0 && job->seconds >= job->time_limit) {
+    job->end = VF_JOB_STOPPED;
+    snprintf(job->message, sizeof job->message, "time limit of %g s reached", job->time_limit);
+    return 1;
+  }
+  if (job->target_rmse <= 0.0 && job->target_error <= 0.0) return 0;
+  uint64_t n = vf_job_done(job);
+  int err;
+  if (job->measured_iterations != n && (err = vf_job_measure(job)) != VF_OK) return err;
+  const vf_convergence_entry *e = &job->measured;
+  if (job->target_rmse > 0.0 && e->rmse <= job->target_rmse) {
+    job->end = VF_JOB_STOPPED;
+    snprintf(job->message, sizeof job->message, "target RMSE %g reached: %.6g at %llu iterations", job->target_rmse,
+             e->rmse, (unsigned long long)n);
+    return 1;
+  }
+  if (job->target_error > 0.0 && e->estimated_rmse <= job->target_error) {
+    job->end = VF_JOB_STOPPED;
+    snprintf(job->message, sizeof job->message, "target estimated error %g reached: %.6g at %llu iterations",
+             job->target_error, e->estimated_rmse, (unsigned long long)n);
+    return 1;
+  }
+  return 0;
+}
+
+double vf_job_farm_rate(const vf_job *job, double now, double window) {
+  uint64_t iterations = 0;
+  double oldest = now;
+  for (unsigned i = 0; i < job->merges_count; i++) {
+    if (now - job->merges[i].time > window) continue;
+    iterations += job->merges[i].iterations;
+    if (job->merges[i].time < oldest) oldest = job->merges[i].time;
+  }
+  /* The span covers the whole window, or the job's running time when shorter: merges come
+   * in bursts, and the burst itself is no measure of the time it took. */
+  double span = job->seconds < window ? job->seconds : window;
+  if (span < now - oldest) span = now - oldest;
+  return iterations > 0 && span > 0.0 ? (double)iterations / span : 0.0;
+}
+
+/* Iterations needed for an error falling as 1/sqrt(iterations) to reach target. */
+static double iterations_for(double error, double target, uint64_t n) {
+  if (!(error > 0.0) || !isfinite(error) || n < 2) return NAN;
+  double r = error / target;
+  return (double)n * r * r;
+}
+
+double vf_job_eta(const vf_job *job, double rate) {
+  if (job->end != VF_JOB_ACTIVE || vf_job_complete(job)) return 0.0;
+  double eta = INFINITY;
+  if (job->time_limit > 0.0) eta = fmax(job->time_limit - job->seconds, 0.0);
+  if (rate > 0.0) {
+    uint64_t n = vf_job_done(job);
+    double need[3] = {(double)job->iterations, NAN, NAN};
+    if (job->target_rmse > 0.0 && job->measured_iterations == n)
+      need[1] = iterations_for(job->measured.rmse, job->target_rmse, n);
+    if (job->target_error > 0.0 && job->measured_iterations == n)
+      need[2] = iterations_for(job->measured.estimated_rmse, job->target_error, n);
+    for (int i = 0; i < 3; i++)
+      if (isfinite(need[i])) eta = fmin(eta, fmax(need[i] - (double)n, 0.0) / rate);
+  }
+  return isfinite(eta) ? eta : -1.0;
 }

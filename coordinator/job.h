@@ -1,5 +1,7 @@
-/* A job of the farm: a scene, its settings, the stop condition (global iterations
- * [0, iterations)), a priority, and the film the accepted results have been merged into.
+/* A job of the farm: a scene, its settings, its stop conditions (global iterations
+ * [0, iterations), a time limit, a target RMSE against a reference, a target estimated
+ * error), a priority (its weight, coordinator/schedule.h), and the film the accepted
+ * results have been merged into, whose convergence log the coordinator extends.
  *
  * The film is the truth about progress: an iteration is done exactly when it is in the
  * film's iteration set, and vf_film_merge refusing overlap is what makes a result count
@@ -8,6 +10,7 @@
 #define VF_JOB_H
 
 #include "../common/film.h"
+#include "../common/image.h"
 #include "../common/settings.h"
 
 #include <stddef.h>
@@ -17,25 +20,48 @@
 #define VF_JOB_MAX_SCENE ((size_t)16 << 20) /* bytes of JSON scene text */
 #define VF_JOB_MAX_ITERATIONS 1000000000ull
 
-typedef enum { VF_JOB_ACTIVE, VF_JOB_CANCELLED, VF_JOB_FAILED } vf_job_end;
+/* A job ends cancelled, failed, or stopped by its time limit or a target error (shown as
+ * "done" with the reason); reaching its iterations needs no mark: the film says so. */
+typedef enum { VF_JOB_ACTIVE, VF_JOB_CANCELLED, VF_JOB_FAILED, VF_JOB_STOPPED } vf_job_end;
+
+/* Recent merges, for the job's rate. */
+#define VF_JOB_RATE_SAMPLES 64
 
 typedef struct {
   uint64_t id;
   char name[VF_JOB_MAX_NAME + 1];
-  int priority; /* higher first */
+  int priority; /* weight, VF_PRIORITY_MIN..VF_PRIORITY_MAX (coordinator/schedule.h) */
   int scene_builtin;    /* 1: scene_text is a built-in scene name; 0: JSON scene text */
   char *scene_text;     /* owned, NUL-terminated */
   uint8_t scene_hash[32];
   char settings_text[512];
   vf_settings settings;
   uint64_t iterations;  /* the job is done when the film holds [0, iterations) */
-  vf_job_end end;       /* cancelled or failed, else active */
-  char message[256];    /* why it failed */
+  double time_limit;    /* > 0: stop after this many seconds of running */
+  double target_rmse;   /* > 0: stop once the RMSE against the reference is at most this */
+  double target_error;  /* > 0: stop once the estimated RMSE is at most this */
+  vf_image reference;   /* owned; rgb NULL when the job has none */
+  vf_job_end end;       /* cancelled, failed or stopped, else active */
+  char message[256];    /* why it failed or stopped */
   vf_film *film;        /* owned; every accepted result merged */
   int film_dirty;       /* merged into since the last checkpoint */
   uint64_t results_refused;
-  double rate;          /* iterations per second of the farm on this job, smoothed; 0 unknown */
+  double rate;          /* iterations per second of one worker on this job, smoothed; 0 unknown */
   double last_merge_time;
+  double seconds;       /* running so far: wall-clock seconds since its first lease */
+  double seconds_saved; /* `seconds` as last written to state.json */
+  struct {
+    double time;
+    uint64_t iterations;
+  } merges[VF_JOB_RATE_SAMPLES]; /* ring of the latest merges */
+  unsigned merges_count, merges_next;
+  /* the latest measurement of the film (vf_job_measure) */
+  vf_convergence_entry measured;
+  uint64_t measured_iterations; /* iterations when measured; UINT64_MAX never */
+  uint64_t logged_iterations;   /* iterations of the log's last entry; UINT64_MAX none */
+  /* scheduling (coordinator/schedule.h) */
+  double service;       /* worker-seconds charged */
+  int schedule_idle;    /* had nothing to lease when last looked at */
 } vf_job;
 
 /* Creates a job with an empty film stamped with scene hash and settings. Takes no
@@ -47,10 +73,44 @@ int vf_job_create(uint64_t id, const char *name, int priority, int scene_builtin
                   uint64_t iterations, vf_job **out);
 void vf_job_destroy(vf_job *job);
 
+/* Sets the stop conditions besides the iterations, checked as untrusted input: each is 0
+ * (none) or finite and positive, time at most a year; target_rmse needs a reference.
+ * VF_EINVAL with a detail naming the field. */
+int vf_job_set_stop(vf_job *job, double time_limit, double target_rmse, double target_error);
+
+/* Reads the job's reference image from path (any RGB EXR, a film's mean included) and
+ * checks its size is the film's. VF_ENOENT, VF_EEXR, VF_EMISMATCH with a detail; the job
+ * keeps no reference then. */
+int vf_job_load_reference(vf_job *job, const char *path);
+
+/* Measures the film now into job->measured: its estimated RMSE, and RMSE and relative
+ * MSE against the reference when there is one (else NaN). VF_ENOMEM. */
+int vf_job_measure(vf_job *job);
+
+/* Appends the latest measurement (measuring first if the film changed since) to the film's
+ * convergence log, in the log's last run (0 for the first entry): a farm job is one
+ * history. Nothing when the log's last entry already has this many iterations.
+ * VF_ENOMEM. */
+int vf_job_log(vf_job *job);
+
+/* Checks the stop conditions other than the iterations, measuring when a target error
+ * needs it; when one holds the job is marked stopped with the reason in job->message and
+ * 1 is returned, else 0 (or a negative error of vf_job_measure). */
+int vf_job_check_stop(vf_job *job);
+
+/* Iterations per second of the whole farm on this job, over the merges of the last
+ * `window` seconds; 0 when unknown. */
+double vf_job_farm_rate(const vf_job *job, double now, double window);
+
+/* Seconds until the first stop condition is expected to hold at `rate` iterations per
+ * second (targets extrapolated by error ~ 1 / sqrt(iterations)); < 0 unknown, 0 when done. */
+double vf_job_eta(const vf_job *job, double rate);
+
 /* "queued", "running", "done", "cancelled" or "failed"; `leased` is the number of
  * iterations currently leased out. */
 const char *vf_job_state(const vf_job *job, uint64_t leased);
 uint64_t vf_job_done(const vf_job *job);
+/* Its film holds [0, iterations), or it was stopped by another condition. */
 int vf_job_complete(const vf_job *job);
 /* Active and not complete: leases may be handed out. */
 int vf_job_runnable(const vf_job *job);

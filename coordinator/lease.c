@@ -26,7 +26,7 @@ int vf_lease_add(vf_lease_table *t, uint64_t job_id, uint64_t worker_id, uint64_
   do {
     randombytes_buf(&new_id, sizeof new_id);
   } while (new_id == 0 || vf_lease_find(t, new_id) != NULL);
-  t->leases[t->count++] = (vf_lease){new_id, job_id, worker_id, begin, end, VF_LEASE_ACTIVE, now};
+  t->leases[t->count++] = (vf_lease){new_id, job_id, worker_id, begin, end, VF_LEASE_ACTIVE, now, 0.0};
   *id = new_id;
   return VF_OK;
 }

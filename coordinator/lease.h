@@ -21,6 +21,7 @@ typedef struct {
   uint64_t begin, end;
   vf_lease_state state;
   double granted;     /* vf_seconds_now() */
+  double charged;     /* worker-seconds charged to the job when granted (coordinator/schedule.h) */
 } vf_lease;
 
 /* Expired leases kept for checking late results; the oldest are forgotten beyond this. */

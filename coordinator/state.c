@@ -7,6 +7,7 @@
 #include <cjson/cJSON.h>
 #include <errno.h>
 #include <fcntl.h>
+#include <math.h>
 #include <sodium.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -15,7 +16,9 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
-#define STATE_FORMAT 1
+/* Format 2 (protocol 2) added stop conditions, running time and references, and made
+ * the priority a weight of at least 1; format 1 reads with priorities below 1 raised to 1. */
+#define STATE_FORMAT 2
 #define MAX_STATE_BYTES ((size_t)64 << 20)
 
 static int path_of(char *buf, size_t n, const char *dir, const char *name, uint64_t id, const char *ext) {
@@ -55,8 +58,31 @@ int vf_state_save_film(const char *dir, vf_job *job) {
   return err;
 }
 
+int vf_state_save_reference(const char *dir, vf_job *job, const uint8_t *data, size_t len) {
+  char path[4096];
+  int err = path_of(path, sizeof path, dir, "job-", job->id, ".reference.exr");
+  if (err != VF_OK) return err;
+  if ((err = vf_file_write_atomic(path, data, len, 0600)) != VF_OK) return err;
+  if ((err = vf_job_load_reference(job, path)) != VF_OK) {
+    /* Name what was sent, not where we kept it. */
+    const char *detail = vf_error_detail(err), *at = strstr(detail, path);
+    char rest[1024];
+    snprintf(rest, sizeof rest, "%s", at ? at + strlen(path) : detail);
+    unlink(path);
+    return vf_error_set(err == VF_EIO ? VF_EINVAL : err, "reference%s%s", at ? "" : ": ", rest);
+  }
+  return VF_OK;
+}
+
+void vf_state_remove_job_files(const char *dir, uint64_t id) {
+  const char *ext[] = {".scene", ".exr", ".reference.exr"};
+  char path[4096];
+  for (size_t i = 0; i < sizeof ext / sizeof *ext; i++)
+    if (path_of(path, sizeof path, dir, "job-", id, ext[i]) == VF_OK) unlink(path);
+}
+
 static const char *end_name(vf_job_end e) {
-  return e == VF_JOB_CANCELLED ? "cancelled" : e == VF_JOB_FAILED ? "failed" : "active";
+  return e == VF_JOB_CANCELLED ? "cancelled" : e == VF_JOB_FAILED ? "failed" : e == VF_JOB_STOPPED ? "stopped" : "active";
 }
 
 int vf_state_save_index(vf_farm *farm) {
@@ -78,6 +104,11 @@ int vf_state_save_index(vf_farm *farm) {
     cJSON_AddStringToObject(o, "scene_hash", hex);
     cJSON_AddStringToObject(o, "settings", j->settings_text);
     cJSON_AddNumberToObject(o, "iterations", (double)j->iterations);
+    cJSON_AddNumberToObject(o, "time_limit", j->time_limit);
+    cJSON_AddNumberToObject(o, "target_rmse", j->target_rmse);
+    cJSON_AddNumberToObject(o, "target_error", j->target_error);
+    cJSON_AddBoolToObject(o, "reference", j->reference.rgb != NULL);
+    cJSON_AddNumberToObject(o, "seconds", j->seconds);
     cJSON_AddStringToObject(o, "end", end_name(j->end));
     if (cJSON_AddStringToObject(o, "message", j->message) == NULL) goto done;
   }
@@ -87,7 +118,10 @@ int vf_state_save_index(vf_farm *farm) {
   if ((err = path_of(path, sizeof path, farm->config.state_dir, "state.json", 0, "")) == VF_OK)
     err = vf_file_write_atomic(path, text, strlen(text), 0600);
   free(text);
-  if (err == VF_OK) farm->state_dirty = 0;
+  if (err == VF_OK) {
+    farm->state_dirty = 0;
+    for (size_t i = 0; i < farm->num_jobs; i++) farm->jobs[i]->seconds_saved = farm->jobs[i]->seconds;
+  }
 done:
   cJSON_Delete(root);
   return err;
@@ -110,7 +144,17 @@ static const char *get_str(const cJSON *o, const char *key) {
   return cJSON_IsString(v) ? v->valuestring : NULL;
 }
 
-static int load_job(vf_farm *farm, const cJSON *o, const char *state_path) {
+/* A number >= 0 or absent (0); false when present and not such a number. */
+static int get_nonneg(const cJSON *o, const char *key, double *out) {
+  const cJSON *v = cJSON_GetObjectItemCaseSensitive(o, key);
+  *out = 0.0;
+  if (v == NULL) return 1;
+  if (!cJSON_IsNumber(v) || !(v->valuedouble >= 0.0) || !isfinite(v->valuedouble)) return 0;
+  *out = v->valuedouble;
+  return 1;
+}
+
+static int load_job(vf_farm *farm, const cJSON *o, const char *state_path, uint64_t format) {
   const char *dir = farm->config.state_dir;
   uint64_t id = 0, iterations = 0;
   int err;
@@ -134,14 +178,37 @@ static int load_job(vf_farm *farm, const cJSON *o, const char *state_path) {
   if ((err = path_of(path, sizeof path, dir, "job-", id, ".scene")) != VF_OK ||
       (err = vf_file_read_all(path, VF_JOB_MAX_SCENE, &scene, &scene_len)) != VF_OK)
     return err;
+  double time_limit, target_rmse, target_error, seconds;
+  const cJSON *has_reference = cJSON_GetObjectItemCaseSensitive(o, "reference");
+  if (!get_nonneg(o, "time_limit", &time_limit) || !get_nonneg(o, "target_rmse", &target_rmse) ||
+      !get_nonneg(o, "target_error", &target_error) || !get_nonneg(o, "seconds", &seconds) ||
+      (has_reference != NULL && !cJSON_IsBool(has_reference))) {
+    free(scene);
+    return vf_error_set(VF_EINVAL, "%s: job %llu: a stop condition is malformed", state_path, (unsigned long long)id);
+  }
+  int priority = (int)pr->valuedouble;
+  if (format == 1 && priority < 1) priority = 1; /* format 1: "higher first", any integer */
   vf_job *job;
-  err = vf_job_create(id, name, (int)pr->valuedouble, cJSON_IsTrue(builtin), (const char *)scene, scene_len, hash, 32,
-                      settings, iterations, &job);
+  err = vf_job_create(id, name, priority, cJSON_IsTrue(builtin), (const char *)scene, scene_len, hash, 32, settings,
+                      iterations, &job);
   free(scene);
   if (err != VF_OK) return vf_error_set(err, "%s: job %llu: %s", state_path, (unsigned long long)id, vf_error_detail(err));
-  job->end = strcmp(end, "cancelled") == 0 ? VF_JOB_CANCELLED : strcmp(end, "failed") == 0 ? VF_JOB_FAILED : VF_JOB_ACTIVE;
+  job->end = strcmp(end, "cancelled") == 0 ? VF_JOB_CANCELLED
+             : strcmp(end, "failed") == 0  ? VF_JOB_FAILED
+             : strcmp(end, "stopped") == 0 ? VF_JOB_STOPPED
+                                           : VF_JOB_ACTIVE;
   snprintf(job->message, sizeof job->message, "%s", message);
+  job->seconds = job->seconds_saved = seconds;
   vf_film *film = NULL;
+  if (cJSON_IsTrue(has_reference)) {
+    if ((err = path_of(path, sizeof path, dir, "job-", id, ".reference.exr")) != VF_OK ||
+        (err = vf_job_load_reference(job, path)) != VF_OK)
+      goto destroy_job;
+  }
+  if ((err = vf_job_set_stop(job, time_limit, target_rmse, target_error)) != VF_OK) {
+    err = vf_error_set(err, "%s: job %llu: %s", state_path, (unsigned long long)id, vf_error_detail(err));
+    goto destroy_job;
+  }
   if ((err = path_of(path, sizeof path, dir, "job-", id, ".exr")) != VF_OK) goto destroy_job;
   err = vf_film_read(path, &film);
   if (err == VF_ENOENT) {
@@ -194,8 +261,8 @@ int vf_state_load(vf_farm *farm) {
   uint64_t format = 0, next_id = 0;
   const cJSON *jobs = cJSON_GetObjectItemCaseSensitive(root, "jobs"), *o;
   if ((err = get_u64(root, "format", 1000, &format, path)) != VF_OK) goto done;
-  if (format != STATE_FORMAT) {
-    err = vf_error_set(VF_EINVAL, "%s: state format %llu, this coordinator reads %d", path,
+  if (format != STATE_FORMAT && format != 1) {
+    err = vf_error_set(VF_EINVAL, "%s: state format %llu, this coordinator reads 1 to %d", path,
                        (unsigned long long)format, STATE_FORMAT);
     goto done;
   }
@@ -205,7 +272,7 @@ int vf_state_load(vf_farm *farm) {
     goto done;
   }
   cJSON_ArrayForEach(o, jobs) {
-    if ((err = load_job(farm, o, path)) != VF_OK) goto done;
+    if ((err = load_job(farm, o, path, format)) != VF_OK) goto done;
     if (farm->jobs[farm->num_jobs - 1]->id >= next_id) next_id = farm->jobs[farm->num_jobs - 1]->id + 1;
   }
   farm->next_job_id = next_id < 1 ? 1 : next_id;

@@ -1,9 +1,11 @@
 /* The coordinator's state directory, enough to resume every job after any crash:
  *
  *   DIR/state.json     format version, next job id, and per job: id, name, priority,
- *                      scene kind and hash, settings, iterations, cancelled/failed + why
+ *                      scene kind and hash, settings, stop conditions, running time,
+ *                      whether it has a reference, cancelled/failed/stopped + why
  *   DIR/job-ID.scene   the job's scene (built-in name or JSON text), written at submit
- *   DIR/job-ID.exr     the job's film, checkpointed (docs/FILM.md)
+ *   DIR/job-ID.exr     the job's film, checkpointed (docs/FILM.md), with its convergence log
+ *   DIR/job-ID.reference.exr  the job's reference image, if it has one, written at submit
  *   DIR/lock           held (flock) by the running coordinator
  *
  * Every file is replaced atomically (temporary, fsync, rename), so a SIGKILL at any moment
@@ -27,5 +29,10 @@ int vf_state_load(vf_farm *farm);
 int vf_state_save_index(vf_farm *farm);          /* state.json; clears farm->state_dirty */
 int vf_state_save_scene(const char *dir, const vf_job *job);
 int vf_state_save_film(const char *dir, vf_job *job); /* clears job->film_dirty */
+/* Writes DIR/job-ID.reference.exr and loads it into the job (vf_job_load_reference);
+ * on failure removes it again: VF_EIO (writing), or the reading error of a bad image. */
+int vf_state_save_reference(const char *dir, vf_job *job, const uint8_t *data, size_t len);
+/* Removes the files of a job that was refused after they were written. */
+void vf_state_remove_job_files(const char *dir, uint64_t id);
 
 #endif

@@ -16,6 +16,8 @@ packages=(
   libpng-dev           # previews and plots
   libsodium-dev        # content hashes and message authentication
   libcairo2-dev        # plots and legends (PNG with text)
+  slurm-wlm munge      # tests/test_slurm.sh: a one-node Slurm cluster (deploy/slurm)
+  systemd              # tests/test_systemd.sh: systemd-analyze verify (deploy/systemd)
 )
 
 missing=()

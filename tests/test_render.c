@@ -129,7 +129,29 @@ static void test_split_ranges_merge_into_the_whole(void) {
   }
 }
 
+/* `auto` renders exactly what it chose (same random streams, same techniques), and its
+ * films say "auto": the choice is made again from the scene wherever the film goes. */
+static void test_auto_renders_exactly_its_choice(void) {
+  static const struct {
+    const char *scene;
+    vf_algorithm chosen;
+  } cases[] = {{"cornell", VF_ALGO_VCM}, {"cornell-diffuse", VF_ALGO_PT}};
+  for (size_t c = 0; c < sizeof cases / sizeof *cases; c++) {
+    vf_film *chosen = render(cases[c].scene, cases[c].chosen, 5, 2, 0, 2);
+    vf_film *automatic = render(cases[c].scene, VF_ALGO_AUTO, 5, 2, 0, 2);
+    if (!chosen || !automatic) return;
+    CHECK_STR_CONTAINS(automatic->settings_text, "algorithm=auto ");
+    size_t n = 3 * (size_t)chosen->width * chosen->height;
+    CHECK(same_doubles(chosen->camera_sum, automatic->camera_sum, n));
+    CHECK(same_doubles(chosen->light_sum, automatic->light_sum, n));
+    CHECK(same_doubles(chosen->square_sum, automatic->square_sum, n));
+    vf_film_destroy(chosen);
+    vf_film_destroy(automatic);
+  }
+}
+
 int main(void) {
+  RUN(test_auto_renders_exactly_its_choice);
   RUN(test_one_and_two_threads_give_bitwise_identical_films);
   RUN(test_same_seed_twice_gives_identical_files);
   RUN(test_split_ranges_merge_into_the_whole);

@@ -247,9 +247,9 @@ static void test_knot_is_a_large_outward_tube_inside_the_box(void) {
 
 static void test_builtin_hashes_are_stable_and_distinct(void) {
   const char *const *names = vf_scene_builtin_names();
-  uint8_t first[8][32];
+  uint8_t first[16][32];
   int n = 0;
-  for (; names[n] && n < 8; n++) {
+  for (; names[n] && n < 16; n++) {
     vf_scene *a = load_ok(names[n]), *b = load_ok(names[n]);
     if (a && b) CHECK(memcmp(a->hash, b->hash, 32) == 0);
     if (a) memcpy(first[n], a->hash, 32);

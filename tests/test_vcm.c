@@ -5,7 +5,8 @@
 #include <stdlib.h>
 #include <unistd.h>
 
-static const vf_algorithm all_algorithms[] = {VF_ALGO_VCM, VF_ALGO_BPT, VF_ALGO_PT, VF_ALGO_LT, VF_ALGO_PPM, VF_ALGO_BPM};
+static const vf_algorithm all_algorithms[] = {VF_ALGO_VCM, VF_ALGO_BPT, VF_ALGO_PT, VF_ALGO_LT,
+                                             VF_ALGO_PPM, VF_ALGO_BPM, VF_ALGO_AUTO};
 
 /* A closed enclosure of albedo a whose walls all emit Le: every path of up to L segments
  * sees Le (1 + a + ... + a^(L-1)) = Le (1 - a^L) / (1 - a), which is 1 - 0.5^L here. */
@@ -164,7 +165,43 @@ static void test_environment_map_and_sphere_light_agree(void) {
   rmdir(dir);
 }
 
+/* `auto` picks vcm where specular surfaces meet non-specular ones (SDS paths possible) and
+ * pt where they do not (docs/BENCHMARKS.md, "Time against error"). */
+static void test_auto_chooses_by_the_scene(void) {
+  static const struct {
+    const char *scene;
+    vf_algorithm chosen;
+  } cases[] = {{"cornell", VF_ALGO_VCM},      {"cornell-point", VF_ALGO_VCM},  {"cornell-sun", VF_ALGO_VCM},
+               {"cornell-env", VF_ALGO_VCM},  {"cornell-bulb", VF_ALGO_VCM},   {"knot", VF_ALGO_PT},
+               {"cornell-diffuse", VF_ALGO_PT}, {"cornell-glossy", VF_ALGO_PT}, {"furnace", VF_ALGO_PT}};
+  for (size_t c = 0; c < sizeof cases / sizeof *cases; c++) {
+    vf_scene *scene = NULL;
+    vf_accel *accel = NULL;
+    vf_pool *pool = NULL;
+    vf_vcm *vcm = NULL;
+    CHECK_INT_EQ(vf_scene_load(cases[c].scene, &scene), VF_OK);
+    if (scene == NULL) return;
+    vf_settings s = scene->settings;
+    s.algorithm = VF_ALGO_AUTO;
+    s.width = s.height = 8;
+    CHECK_INT_EQ(vf_accel_create(scene, &accel), VF_OK);
+    CHECK_INT_EQ(vf_pool_create(1, &pool), VF_OK);
+    if (accel && pool) CHECK_INT_EQ(vf_vcm_create(scene, accel, &s, pool, &vcm), VF_OK);
+    if (vcm) {
+      if (vf_vcm_algorithm(vcm) != cases[c].chosen)
+        printf("  %s: auto chose %s, expected %s\n", cases[c].scene, vf_algorithm_name(vf_vcm_algorithm(vcm)),
+               vf_algorithm_name(cases[c].chosen));
+      CHECK_INT_EQ(vf_vcm_algorithm(vcm), cases[c].chosen);
+    }
+    vf_vcm_destroy(vcm);
+    vf_pool_destroy(pool);
+    vf_accel_destroy(accel);
+    vf_scene_destroy(scene);
+  }
+}
+
 int main(void) {
+  RUN(test_auto_chooses_by_the_scene);
   RUN(test_furnace_every_algorithm_gives_the_analytic_value);
   RUN(test_pt_bpt_vcm_agree_on_cornell_and_cornell_env);
   RUN(test_delta_light_variants_agree);

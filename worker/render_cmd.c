@@ -21,7 +21,7 @@ static const char usage[] =
     "see docs/SCENES.md) into FILM.exr, an OpenEXR film that any viewer opens and that\n"
     "`vcmfarm merge` and `continue` extend exactly.\n"
     "\n"
-    "  -a, --algorithm A        vcm (default), bpt, pt, lt, ppm or bpm\n"
+    "  -a, --algorithm A        vcm (default), bpt, pt, lt, ppm, bpm or auto\n"
     "  -n, --iterations N       number of iterations (default: the scene's, else 16)\n"
     "  -t, --time S             render for S seconds instead (no new iteration after S)\n"
     "      --reference REF      reference image (a film or an RGB EXR of the same size):\n"

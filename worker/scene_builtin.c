@@ -1,4 +1,5 @@
-/* Built-in scenes: the Cornell box family, the white furnace and the 100k-triangle knot.
+/* Built-in scenes: the Cornell box family (with the benchmark suite's SDS, diffuse-only and
+ * glossy members), the white furnace and the 100k-triangle knot.
  *
  * Each one is written out as JSON in the documented format (docs/SCENES.md) and parsed by
  * vf_scene_parse, so a built-in is validated, bounded and hashed exactly like a file, and
@@ -19,7 +20,8 @@
 #include <string.h>
 
 static const char *const builtin_names[] = {"cornell", "cornell-point", "cornell-sun", "cornell-env",
-                                            "furnace", "knot", NULL};
+                                            "furnace", "knot", "cornell-bulb", "cornell-diffuse",
+                                            "cornell-glossy", NULL};
 
 const char *const *vf_scene_builtin_names(void) { return builtin_names; }
 
@@ -179,38 +181,84 @@ static int knot_ply(unsigned char **out, size_t *size) {
 /* ---- scenes ------------------------------------------------------------------------------ */
 
 enum {
-  WITH_SPHERES = 1 << 0,
-  WITH_AREA_LIGHT = 1 << 1,
-  WITH_POINT_LIGHT = 1 << 2,
-  WITH_SUN = 1 << 3,
-  WITH_BACKGROUND = 1 << 4,
-  WITH_KNOT = 1 << 5,
+  WITH_AREA_LIGHT = 1 << 0,
+  WITH_POINT_LIGHT = 1 << 1,
+  WITH_SUN = 1 << 2,
+  WITH_BACKGROUND = 1 << 3,
+  WITH_KNOT = 1 << 4,
+  WITH_BULB = 1 << 5, /* a small spherical lamp inside a glass sphere: all light leaves through glass */
+};
+
+/* A member of the Cornell family: the box with its floor and back wall, two balls on the
+ * floor (or none), and its lights. Materials are JSON objects in the scene format. */
+typedef struct {
+  const char *name;
+  unsigned with;
+  const char *floor_material;
+  const char *back_material;            /* NULL: the white of the ceiling */
+  const char *left_ball, *left_material;  /* name and material; NULL: no balls */
+  const char *right_ball, *right_material;
+} cornell_variant;
+
+#define FLOOR_GLOSSY "{'diffuse':[0.45,0.45,0.45],'glossy':[0.3,0.3,0.3],'exponent':40}"
+#define MIRROR "{'mirror':[0.95,0.95,0.95]}"
+#define GLASS "{'dielectric':[1,1,1],'ior':1.6}"
+
+static const cornell_variant cornells[] = {
+    {"cornell", WITH_AREA_LIGHT, FLOOR_GLOSSY, NULL, "mirror", MIRROR, "glass", GLASS},
+    {"cornell-point", WITH_POINT_LIGHT, FLOOR_GLOSSY, NULL, "mirror", MIRROR, "glass", GLASS},
+    {"cornell-sun", WITH_SUN, FLOOR_GLOSSY, NULL, "mirror", MIRROR, "glass", GLASS},
+    {"cornell-env", WITH_BACKGROUND, FLOOR_GLOSSY, NULL, "mirror", MIRROR, "glass", GLASS},
+    {"knot", WITH_KNOT | WITH_AREA_LIGHT, FLOOR_GLOSSY, NULL, NULL, NULL, NULL, NULL},
+    /* SDS: every light path leaves the lamp through glass, so a diffuse point is lit only
+     * along L S S D, and the room seen in the mirror ball (E S D S S L) is reached by
+     * neither light sampling nor connections: only by merging or by chance emission hits. */
+    {"cornell-bulb", WITH_BULB, FLOOR_GLOSSY, NULL, "mirror", MIRROR, "glass", GLASS},
+    /* Lambertian everywhere: no specular or glossy vertex anywhere. */
+    {"cornell-diffuse", WITH_AREA_LIGHT, "{'diffuse':[0.6,0.6,0.6]}", NULL, "white ball",
+     "{'diffuse':[0.75,0.75,0.75]}", "blue ball", "{'diffuse':[0.2,0.3,0.75]}"},
+    /* Sharp Phong lobes on floor, back wall and balls (exponents 150 to 5000), no perfect
+     * specular: SDS paths do not exist, near-SDS (glossy-diffuse-glossy) ones abound. */
+    {"cornell-glossy", WITH_AREA_LIGHT, "{'diffuse':[0.1,0.1,0.1],'glossy':[0.8,0.8,0.8],'exponent':800}",
+     "{'diffuse':[0.25,0.25,0.25],'glossy':[0.6,0.6,0.6],'exponent':150}", "chrome ball",
+     "{'glossy':[0.9,0.9,0.9],'exponent':5000}", "blue glossy ball",
+     "{'diffuse':[0.1,0.1,0.3],'glossy':[0.7,0.7,0.7],'exponent':200}"},
 };
 
 /* The shared box: [-1,1]^3 open at z = +1, walls facing inwards. */
-static void put_cornell(text_buf *t, unsigned with) {
+static void put_cornell(text_buf *t, const cornell_variant *c) {
   const vf_vec3 zero = vf_vec3_splat(0.0f), ex = vf_vec3_make(1, 0, 0), ey = vf_vec3_make(0, 1, 0),
                 ez = vf_vec3_make(0, 0, 1);
+  const unsigned with = c->with;
   put(t, "{'camera':{'position':[0,0,3.6],'target':[0,0,0],'up':[0,1,0],'fov':38,'resolution':[512,512]},"
          "'materials':{'white':{'diffuse':[0.75,0.75,0.75]},'red':{'diffuse':[0.75,0.15,0.15]},"
-         "'green':{'diffuse':[0.15,0.75,0.15]},"
-         "'floor':{'diffuse':[0.45,0.45,0.45],'glossy':[0.3,0.3,0.3],'exponent':40}");
-  if (with & WITH_SPHERES) put(t, ",'mirror':{'mirror':[0.95,0.95,0.95]},'glass':{'dielectric':[1,1,1],'ior':1.6}");
+         "'green':{'diffuse':[0.15,0.75,0.15]},'floor':%s",
+      c->floor_material);
+  if (c->back_material) put(t, ",'back':%s", c->back_material);
+  if (c->left_ball) put(t, ",'%s':%s,'%s':%s", c->left_ball, c->left_material, c->right_ball, c->right_material);
   if (with & WITH_KNOT) put(t, ",'knot':{'diffuse':[0.3,0.3,0.3],'glossy':[0.4,0.4,0.4],'exponent':80}");
-  if (with & WITH_AREA_LIGHT) put(t, ",'emitter':{}"); /* black: the light only emits */
+  if (with & WITH_BULB) put(t, ",'bulb glass':{'dielectric':[1,1,1],'ior':1.5}");
+  if (with & (WITH_AREA_LIGHT | WITH_BULB)) put(t, ",'emitter':{}"); /* black: the light only emits */
   put(t, "},'shapes':[");
   put_wall(t, "floor", "floor", vf_neg(ey), ex, ez, ey, zero);
   put_wall(t, "ceiling", "white", ey, ex, ez, vf_neg(ey), zero);
-  put_wall(t, "back", "white", vf_neg(ez), ex, ey, ez, zero);
+  put_wall(t, "back", c->back_material ? "back" : "white", vf_neg(ez), ex, ey, ez, zero);
   put_wall(t, "left", "red", vf_neg(ex), ey, ez, ex, zero);
   put_wall(t, "right", "green", ex, ey, ez, vf_neg(ex), zero);
-  if (with & WITH_SPHERES)
-    put(t, "{'type':'sphere','name':'mirror ball','material':'mirror','center':[-0.45,-0.65,-0.35],'radius':0.35},"
-           "{'type':'sphere','name':'glass ball','material':'glass','center':[0.45,-0.65,0.25],'radius':0.35},");
+  if (c->left_ball)
+    put(t, "{'type':'sphere','name':'%s ball','material':'%s','center':[-0.45,-0.65,-0.35],'radius':0.35},"
+           "{'type':'sphere','name':'%s ball','material':'%s','center':[0.45,-0.65,0.25],'radius':0.35},",
+        c->left_ball, c->left_ball, c->right_ball, c->right_ball);
   if (with & WITH_KNOT) put(t, "{'type':'mesh','name':'knot','material':'knot','file':'knot.ply'},");
   if (with & WITH_AREA_LIGHT)
     put_wall(t, "light", "emitter", vf_vec3_make(0, 0.98f, 0), vf_scale(ex, 0.3f), vf_scale(ez, 0.3f), vf_neg(ey),
              vf_vec3_splat(12.0f));
+  /* The lamp sits off the glass sphere's centre, so the glass focuses it into caustics; its
+   * power (radiance x pi x area) is about the area light's. */
+  if (with & WITH_BULB)
+    put(t, "{'type':'sphere','name':'bulb glass','material':'bulb glass','center':[0,0.6,0],'radius':0.25},"
+           "{'type':'sphere','name':'lamp','material':'emitter','center':[0,0.66,0],'radius':0.06,"
+           "'emission':[100,100,100]},");
   if (t->len > 0) t->len--; /* the last shape's comma */
   put(t, "],'lights':[");
   /* Exposures roughly match the area light's: the point light's downward hemisphere
@@ -243,16 +291,6 @@ static void put_furnace(text_buf *t) {
 }
 
 int vf_scene_builtin_load(const char *name, vf_scene **out) {
-  static const struct {
-    const char *name;
-    unsigned with;
-  } cornells[] = {
-      {"cornell", WITH_SPHERES | WITH_AREA_LIGHT},
-      {"cornell-point", WITH_SPHERES | WITH_POINT_LIGHT},
-      {"cornell-sun", WITH_SPHERES | WITH_SUN},
-      {"cornell-env", WITH_SPHERES | WITH_BACKGROUND},
-      {"knot", WITH_KNOT | WITH_AREA_LIGHT},
-  };
   text_buf t = {NULL, 0, 0, 0};
   unsigned char *ply = NULL;
   vf_scene_memfile knot = {"knot.ply", NULL, 0};
@@ -262,7 +300,7 @@ int vf_scene_builtin_load(const char *name, vf_scene **out) {
   for (size_t i = 0; !found && i < sizeof cornells / sizeof cornells[0]; i++)
     if (strcmp(name, cornells[i].name) == 0) {
       found = 1;
-      put_cornell(&t, cornells[i].with);
+      put_cornell(&t, &cornells[i]);
       if ((cornells[i].with & WITH_KNOT) && (err = knot_ply(&ply, &knot.size)) < 0) goto done;
       knot.data = ply;
     }

@@ -110,6 +110,8 @@ struct vf_vcm {
   float offset_scale; /* for vf_offset_ray_origin */
   uint32_t num_pixels;
   int has_specular, has_glossy, has_diffuse;
+  vf_algorithm requested;    /* settings.algorithm as given; settings.algorithm is what runs */
+  const char *auto_reason;   /* why auto chose settings.algorithm, NULL unless requested auto */
 
   /* Per iteration. */
   uint64_t iteration;
@@ -781,6 +783,35 @@ static void analyse_scene(vf_vcm *v) {
   }
 }
 
+/* --algorithm auto: the cheapest technique set that covers the scene's light transport
+ * (docs/BENCHMARKS.md, "Time against error", has the measurements behind each branch).
+ *
+ * - Specular surfaces next to diffuse or glossy ones: SDS paths can exist. Of our
+ *   techniques only merging samples them when they start at a point or directional light
+ *   (paper sec. 6.1, "Limitations"), and with area lights connections see them only
+ *   through chance emission hits: vcm.
+ * - Otherwise every path has two consecutive non-specular vertices somewhere, so the
+ *   unbiased techniques reach all of them and merging adds only a higher-variance
+ *   duplicate of what connections already sample (its weight shrinks to nothing as the
+ *   radius does). Of the unbiased sets, path tracing with light sampling reached every
+ *   error target first on all such scenes of the suite (diffuse, knot, sharp glossy up to
+ *   exponent 5000): light sub-paths cost more per iteration than they save: pt.
+ * The choice reads only the scene's materials, so it is a pure function of scene and
+ * settings: every worker and every `continue` makes the same one, and films keep "auto"
+ * in their settings text. It cannot tell how much light the SDS paths carry: with area
+ * lights in view of the light sampler (`cornell`) pt would be faster than the vcm chosen. */
+static vf_algorithm resolve_auto(vf_vcm *v) {
+  if (v->has_specular && (v->has_diffuse || v->has_glossy)) {
+    v->auto_reason = "specular next to non-specular surfaces: SDS paths possible";
+    return VF_ALGO_VCM;
+  }
+  v->auto_reason = v->has_specular ? "only specular surfaces: emission hits along specular chains suffice"
+                                   : "no specular surfaces, so no SDS paths: light sampling suffices";
+  return VF_ALGO_PT;
+}
+
+vf_algorithm vf_vcm_algorithm(const vf_vcm *v) { return v->settings.algorithm; }
+
 void vf_vcm_describe(const vf_vcm *v, FILE *out) {
   const techniques *t = &v->t;
   int area = 0, point = 0, directional = 0;
@@ -795,6 +826,8 @@ void vf_vcm_describe(const vf_vcm *v, FILE *out) {
           directional, v->lights->environment >= 0 ? ", environment" : "", v->has_diffuse ? "diffuse " : "",
           v->has_glossy ? "glossy " : "", v->has_specular ? "specular" : "",
           sds ? "possible" : "impossible");
+  if (v->requested == VF_ALGO_AUTO)
+    fprintf(out, "auto: %s (%s)\n", vf_algorithm_name(v->settings.algorithm), v->auto_reason);
   fprintf(out,
           "techniques (%s): emission hits %s, light sampling %s, light tracing %s, connections %s, merging %s\n",
           vf_algorithm_name(v->settings.algorithm), t->emission ? (t->emission_specular_only ? "specular paths" : "on") : "off",
@@ -820,8 +853,10 @@ int vf_vcm_create(const vf_scene *scene, const vf_accel *accel, const vf_setting
   vf_scene_bounding_sphere(scene, &v->scene_center, &v->scene_radius);
   v->offset_scale = vf_accel_scale(accel);
   v->num_pixels = (uint32_t)settings->width * (uint32_t)settings->height;
-  choose_techniques(v);
   analyse_scene(v);
+  v->requested = settings->algorithm;
+  if (v->requested == VF_ALGO_AUTO) v->settings.algorithm = resolve_auto(v);
+  choose_techniques(v);
   if ((err = vf_lights_create(scene, &v->lights)) != VF_OK) goto fail;
   err = VF_ENOMEM;
   v->num_chunks = (v->num_pixels + LIGHT_CHUNK - 1) / LIGHT_CHUNK;

@@ -47,6 +47,10 @@ void vf_vcm_destroy(vf_vcm *vcm);
  * first, overwritten). Adds to *stats. */
 int vf_vcm_iteration(vf_vcm *vcm, uint64_t iteration, float *camera_rgb, float *light_rgb, vf_vcm_stats *stats);
 
+/* The algorithm this renderer runs: the settings' one, or for VF_ALGO_AUTO the one chosen
+ * from the scene at vf_vcm_create (never VF_ALGO_AUTO). */
+vf_algorithm vf_vcm_algorithm(const vf_vcm *vcm);
+
 double vf_vcm_merge_radius(const vf_vcm *vcm, uint64_t iteration);
 
 /* Prints which techniques and scene features are enabled and which work is skipped. */
