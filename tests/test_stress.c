@@ -4,6 +4,7 @@
  * benign setting, never against stored pixels. */
 #include "check.h"
 #include "render_util.h"
+#include "worker/scene_builtin.h"
 
 #include <string.h>
 
@@ -135,10 +136,102 @@ static void test_path_length_100_in_the_furnace(void) {
   vf_scene_destroy(s);
 }
 
+/* A small open scene: a floor, a patch lying on it `gap` above (nearly coincident when the
+ * gap is tiny), two spheres touching each other and the floor's patch, an area light,
+ * degenerate and sliver triangles in the floor mesh, and a camera placed by the caller. */
+static vf_scene *extreme_scene(double gap, const char *camera, const char *floor_material) {
+  char text[4096];
+  double y = gap;
+  snprintf(text, sizeof text,
+           "{\"camera\": %s,"
+           " \"materials\": {\"floor\": %s, \"patch\": {\"diffuse\": [0.7, 0.2, 0.2]},"
+           "   \"ball\": {\"diffuse\": [0.2, 0.5, 0.7], \"glossy\": [0.3, 0.3, 0.3], \"exponent\": 100000},"
+           "   \"lamp\": {}},"
+           " \"shapes\": ["
+           "  {\"type\": \"mesh\", \"material\": \"floor\", \"positions\": [-2,0,-2, 2,0,-2, 2,0,2, -2,0,2,"
+           "    0,0,0, 1,0,0, 2,0,0, -2,0,1, 2,0,1.00001, 2,0,1.00002],"
+           "   \"indices\": [0,2,1, 0,3,2, 4,5,6, 7,9,8]},"
+           "  {\"type\": \"mesh\", \"material\": \"patch\", \"positions\": [-1,%.17g,-1, 0,%.17g,-1, 0,%.17g,0, -1,%.17g,0],"
+           "   \"indices\": [0,2,1, 0,3,2]},"
+           "  {\"type\": \"sphere\", \"material\": \"ball\", \"center\": [0.5, 0.4, -0.5], \"radius\": 0.4},"
+           "  {\"type\": \"sphere\", \"material\": \"ball\", \"center\": [1.3, 0.4, -0.5], \"radius\": 0.4},"
+           "  {\"type\": \"mesh\", \"material\": \"lamp\", \"emission\": [6, 6, 6],"
+           "   \"positions\": [-0.5,2.5,-0.5, 0.5,2.5,-0.5, 0.5,2.5,0.5, -0.5,2.5,0.5, 0,2.5,0, 0.1,2.5,0, 0.2,2.5,0],"
+           "   \"indices\": [0,1,2, 0,2,3, 4,5,6]}],"
+           " \"lights\": [{\"type\": \"background\", \"radiance\": [0.2, 0.2, 0.25]}]}",
+           camera, floor_material, y, y, y, y);
+  vf_scene *scene = NULL;
+  CHECK_INT_EQ(vf_scene_parse(text, strlen(text), "extreme", ".", NULL, 0, &scene), VF_OK);
+  return scene;
+}
+
+static const char *front_camera = "{\"position\": [0, 1.5, 4], \"target\": [0, 0.2, 0], \"fov\": 50}";
+
+/* A patch 1e-6 of the scene's size above the floor renders as a patch 1e-3 above it does:
+ * no floor showing through (z-fighting), no light leaking through the gap, no acne. The
+ * same scene holds touching spheres, Phong exponent 1e5, a zero-area triangle in the
+ * emitter, zero-area and sliver triangles in the floor. */
+static void test_nearly_coincident_surfaces_and_degenerate_geometry(void) {
+  const char *diffuse_floor = "{\"diffuse\": [0.6, 0.6, 0.6]}";
+  vf_scene *near = extreme_scene(4e-6, front_camera, diffuse_floor);
+  vf_scene *far = extreme_scene(4e-3, front_camera, diffuse_floor);
+  if (near == NULL || far == NULL) return;
+  const vf_algorithm some[] = {VF_ALGO_VCM, VF_ALGO_BPT, VF_ALGO_PT};
+  for (int a = 0; a < 3; a++) {
+    estimate e_near, e_far;
+    CHECK_INT_EQ(render_estimate(near, some[a], 21, 0, 0, &e_near), VF_OK);
+    CHECK_INT_EQ(render_estimate(far, some[a], 22, 0, 0, &e_far), VF_OK);
+    char what[96];
+    snprintf(what, sizeof what, "gap 1e-6 vs 1e-3, %s", vf_algorithm_name(some[a]));
+    check_same_image(what, &e_near, &e_far, 1.0);
+  }
+  vf_scene_destroy(near);
+  vf_scene_destroy(far);
+}
+
+/* A camera 1e-4 above the floor looking along it: nearly every hit is at a grazing angle.
+ * The algorithms must agree with each other, and nothing may be NaN or Inf. */
+static void test_grazing_camera(void) {
+  vf_scene *s = extreme_scene(1e-3, "{\"position\": [-1.9, 0.0001, 1.9], \"target\": [1.9, 0.0001, -1.9], \"fov\": 30}",
+                              "{\"diffuse\": [0.3, 0.3, 0.3], \"glossy\": [0.5, 0.5, 0.5], \"exponent\": 20}");
+  if (s == NULL) return;
+  estimate pt, vcm;
+  CHECK_INT_EQ(render_estimate(s, VF_ALGO_PT, 31, 0, 0, &pt), VF_OK);
+  CHECK_INT_EQ(render_estimate(s, VF_ALGO_VCM, 32, 0, 0, &vcm), VF_OK);
+  check_same_image("grazing camera, vcm vs pt", &vcm, &pt, 1.0);
+  vf_scene_destroy(s);
+}
+
+/* Glass of index 1.0001 (almost invisible) and 3.0 (strong reflection, total internal
+ * reflection): every algorithm agrees with path tracing on cornell with either glass. */
+static void test_extreme_indices_of_refraction(void) {
+  const float iors[] = {1.0001f, 3.0f};
+  for (int i = 0; i < 2; i++) {
+    vf_scene *s;
+    CHECK_INT_EQ(vf_scene_load("cornell", &s), VF_OK);
+    if (check_failed_in_case) return;
+    for (int m = 0; m < s->num_materials; m++)
+      if (!vf_is_zero(s->materials[m].dielectric)) s->materials[m].ior = iors[i];
+    estimate pt, vcm, bpt;
+    CHECK_INT_EQ(render_estimate(s, VF_ALGO_PT, 41, 0, 0, &pt), VF_OK);
+    CHECK_INT_EQ(render_estimate(s, VF_ALGO_VCM, 42, 0, 0, &vcm), VF_OK);
+    CHECK_INT_EQ(render_estimate(s, VF_ALGO_BPT, 43, 0, 0, &bpt), VF_OK);
+    char what[96];
+    snprintf(what, sizeof what, "cornell glass ior %g, vcm vs pt", iors[i]);
+    check_same_image(what, &vcm, &pt, 1.0);
+    snprintf(what, sizeof what, "cornell glass ior %g, bpt vs pt", iors[i]);
+    check_same_image(what, &bpt, &pt, 1.0);
+    vf_scene_destroy(s);
+  }
+}
+
 int main(void) {
   RUN(test_scene_scale_leaves_the_image_unchanged);
   RUN(test_light_power_extremes_scale_the_image_linearly);
   RUN(test_iteration_1e9_merges_vanish_gracefully);
   RUN(test_path_length_100_in_the_furnace);
+  RUN(test_nearly_coincident_surfaces_and_degenerate_geometry);
+  RUN(test_grazing_camera);
+  RUN(test_extreme_indices_of_refraction);
   return check_finish();
 }
