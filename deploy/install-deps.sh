@@ -18,6 +18,7 @@ packages=(
   libcairo2-dev        # plots and legends (PNG with text)
   slurm-wlm munge      # tests/test_slurm.sh: a one-node Slurm cluster (deploy/slurm)
   systemd              # tests/test_systemd.sh: systemd-analyze verify (deploy/systemd)
+  python3              # tests/bench/convergence_report.py (standard library only)
 )
 
 missing=()
