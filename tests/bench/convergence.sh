@@ -24,6 +24,7 @@ set -euo pipefail
 
 size=${1:-}
 build=${2:-build}
+[ -d "$build" ] && build=$(cd "$build" && pwd) # absolute: the references are linked from $out
 here=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
 root=$(cd "$here/../.." && pwd)
 vcmfarm=$build/vcmfarm
