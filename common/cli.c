@@ -60,6 +60,39 @@ const char *vf_parse_u64(const char *s, uint64_t *out) {
   return p;
 }
 
+void vf_cli_settings_init(vf_cli_settings *o) {
+  *o = (vf_cli_settings){NULL, 0, 0, 0, 0, 0, -1, -1.0, -1.0};
+}
+
+int vf_cli_settings_option(vf_cli_settings *o, int c, const char *arg, int *err) {
+  switch (c) {
+  case 'a': o->algorithm = arg; *err = VF_OK; return 1;
+  case 's': o->have_seed = 1; *err = vf_cli_u64("--seed", arg, &o->seed); return 1;
+  case 'l': *err = vf_cli_int("--max-path-length", arg, 1, 1000, &o->max_path_length); return 1;
+  case 'r': *err = vf_cli_double("--radius-factor", arg, 1e-12, 1.0, &o->radius_factor); return 1;
+  case 'A': *err = vf_cli_double("--alpha", arg, 1e-6, 1.0, &o->alpha); return 1;
+  case 'R':
+    o->have_resolution = 1;
+    *err = vf_cli_resolution("--resolution", arg, &o->width, &o->height);
+    return 1;
+  default: return 0;
+  }
+}
+
+int vf_cli_settings_apply(const vf_cli_settings *o, vf_settings *settings) {
+  int err;
+  if (o->algorithm && (err = vf_algorithm_parse(o->algorithm, &settings->algorithm)) != VF_OK) return err;
+  if (o->have_seed) settings->seed = o->seed;
+  if (o->max_path_length > 0) settings->max_path_length = (int)o->max_path_length;
+  if (o->radius_factor > 0.0) settings->radius_factor = o->radius_factor;
+  if (o->alpha > 0.0) settings->alpha = o->alpha;
+  if (o->have_resolution) {
+    settings->width = o->width;
+    settings->height = o->height;
+  }
+  return VF_OK;
+}
+
 int vf_cli_exit_status(int err) {
   switch (err) {
   case VF_OK: return VF_EXIT_OK;

@@ -4,6 +4,8 @@
 #ifndef VF_CLI_H
 #define VF_CLI_H
 
+#include "settings.h"
+
 #include <stdint.h>
 
 enum { VF_EXIT_OK = 0, VF_EXIT_FAILURE = 1, VF_EXIT_BAD_INPUT = 2 };
@@ -18,6 +20,25 @@ int vf_cli_resolution(const char *option, const char *text, int *width, int *hei
  * digits at s into *out and returns the first character after it, or NULL when there is
  * no digit or the value overflows 64 bits. For text from files and the network. */
 const char *vf_parse_u64(const char *s, uint64_t *out);
+
+/* The render settings a command line may override (render, submit): -a/--algorithm,
+ * -s/--seed, -l/--max-path-length, -r/--radius-factor, --alpha (option value 'A'),
+ * -R/--resolution. Unset fields leave the scene's settings as they are. */
+typedef struct {
+  const char *algorithm; /* borrowed from argv, or NULL */
+  uint64_t seed;
+  int have_seed, have_resolution, width, height;
+  long long max_path_length; /* <= 0: unset */
+  double radius_factor, alpha; /* <= 0: unset */
+} vf_cli_settings;
+
+void vf_cli_settings_init(vf_cli_settings *o);
+/* If option c is one of the settings options, parses arg into o, stores the result code
+ * in *err and returns 1; otherwise returns 0. */
+int vf_cli_settings_option(vf_cli_settings *o, int c, const char *arg, int *err);
+
+/* Applies the overrides to *settings (an algorithm name is checked here). */
+int vf_cli_settings_apply(const vf_cli_settings *o, vf_settings *settings);
 
 /* Exit status for an error code: 2 for bad input, 1 otherwise. */
 int vf_cli_exit_status(int err);

@@ -101,17 +101,17 @@ int vf_cmd_submit(int argc, char **argv) {
       {"time", required_argument, 0, 't'},     {"target-rmse", required_argument, 0, 'X'},
       {"reference", required_argument, 0, 'F'}, {"target-error", required_argument, 0, 'E'},
       {"help", no_argument, 0, 'h'},             {0, 0, 0, 0}};
-  const char *cmd = "submit", *name = NULL, *algorithm = NULL, *reference = NULL;
+  const char *cmd = "submit", *name = NULL, *reference = NULL;
+  vf_cli_settings overrides;
   connection conn = {NULL, NULL, 10.0};
-  long long iterations = 0, priority = 1, max_path_length = -1;
+  long long iterations = 0, priority = 1;
   double time_limit = 0.0, target_rmse = 0.0, target_error = 0.0;
-  uint64_t seed = 0;
-  int have_seed = 0, have_resolution = 0, width = 0, height = 0, err = VF_OK, c;
-  double radius_factor = -1.0, alpha = -1.0;
+  int err = VF_OK, c;
+  vf_cli_settings_init(&overrides);
   optind = 1;
   opterr = 0;
   while ((c = getopt_long(argc, argv, "n:t:P:N:a:s:l:r:R:c:k:h", options, NULL)) != -1) {
-    if (connection_option(&conn, c, &err)) {
+    if (connection_option(&conn, c, &err) || vf_cli_settings_option(&overrides, c, optarg, &err)) {
       if (err != VF_OK) return vf_cli_fail(cmd, err);
       continue;
     }
@@ -123,12 +123,6 @@ int vf_cmd_submit(int argc, char **argv) {
     case 'E': err = vf_cli_double("--target-error", optarg, 1e-30, 1e30, &target_error); break;
     case 'F': reference = optarg; break;
     case 'N': name = optarg; break;
-    case 'a': algorithm = optarg; break;
-    case 's': err = vf_cli_u64("--seed", optarg, &seed); have_seed = 1; break;
-    case 'l': err = vf_cli_int("--max-path-length", optarg, 1, 1000, &max_path_length); break;
-    case 'r': err = vf_cli_double("--radius-factor", optarg, 1e-12, 1.0, &radius_factor); break;
-    case 'A': err = vf_cli_double("--alpha", optarg, 1e-6, 1.0, &alpha); break;
-    case 'R': err = vf_cli_resolution("--resolution", optarg, &width, &height); have_resolution = 1; break;
     case 'h': fputs(submit_usage, stdout); return VF_EXIT_OK;
     default: return bad_option(cmd, argv, submit_usage);
     }
@@ -160,15 +154,7 @@ int vf_cmd_submit(int argc, char **argv) {
   if ((err = vf_job_scene_load(builtin, builtin ? source : (const char *)text, len, source, &scene)) != VF_OK)
     goto done;
   vf_settings settings = scene->settings;
-  if (algorithm && (err = vf_algorithm_parse(algorithm, &settings.algorithm)) != VF_OK) goto done;
-  if (have_seed) settings.seed = seed;
-  if (max_path_length > 0) settings.max_path_length = (int)max_path_length;
-  if (radius_factor > 0.0) settings.radius_factor = radius_factor;
-  if (alpha > 0.0) settings.alpha = alpha;
-  if (have_resolution) {
-    settings.width = width;
-    settings.height = height;
-  }
+  if ((err = vf_cli_settings_apply(&overrides, &settings)) != VF_OK) goto done;
   char settings_text[512];
   if ((err = vf_settings_validate(&settings)) != VF_OK ||
       (err = vf_settings_format(&settings, settings_text, sizeof settings_text)) != VF_OK)

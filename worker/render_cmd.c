@@ -69,33 +69,27 @@ int vf_cmd_render(int argc, char **argv) {
       {"checkpoint-interval", required_argument, 0, 'C'}, {0, 0, 0, 0}};
   const char *cmd = "render";
   const char *output = NULL, *preview = NULL;
-  const char *algorithm = NULL, *reference_path = NULL;
+  const char *reference_path = NULL;
+  vf_cli_settings overrides;
   double target_rmse = 0.0, target_error = 0.0, checkpoint_interval = 10.0;
-  long long iterations = -1, threads = 0, max_path_length = -1;
-  uint64_t start = 0, seed = 0;
-  int have_seed = 0, have_resolution = 0, quiet = 0, width = 0, height = 0;
-  double time_limit = 0.0, radius_factor = -1.0, alpha = -1.0, exposure = 0.0;
+  long long iterations = -1, threads = 0;
+  uint64_t start = 0;
+  int quiet = 0;
+  double time_limit = 0.0, exposure = 0.0;
   int err = VF_OK, c;
+  vf_cli_settings_init(&overrides);
   optind = 1;
   opterr = 0;
   while ((c = getopt_long(argc, argv, "a:n:t:k:s:j:l:r:R:o:p:e:qh", options, NULL)) != -1) {
+    if (vf_cli_settings_option(&overrides, c, optarg, &err)) {
+      if (err != VF_OK) return vf_cli_fail(cmd, err);
+      continue;
+    }
     switch (c) {
-    case 'a': algorithm = optarg; break;
     case 'n': err = vf_cli_int("--iterations", optarg, 1, 1000000000LL, &iterations); break;
     case 't': err = vf_cli_double("--time", optarg, 1e-3, 1e9, &time_limit); break;
     case 'k': err = vf_cli_u64("--start-iteration", optarg, &start); break;
-    case 's':
-      err = vf_cli_u64("--seed", optarg, &seed);
-      have_seed = 1;
-      break;
     case 'j': err = vf_cli_int("--threads", optarg, 1, 1024, &threads); break;
-    case 'l': err = vf_cli_int("--max-path-length", optarg, 1, 1000, &max_path_length); break;
-    case 'r': err = vf_cli_double("--radius-factor", optarg, 1e-12, 1.0, &radius_factor); break;
-    case 'A': err = vf_cli_double("--alpha", optarg, 1e-6, 1.0, &alpha); break;
-    case 'R':
-      err = vf_cli_resolution("--resolution", optarg, &width, &height);
-      have_resolution = 1;
-      break;
     case 'o': output = optarg; break;
     case 'p': preview = optarg; break;
     case 'e': err = vf_cli_double("--exposure", optarg, -64.0, 64.0, &exposure); break;
@@ -137,15 +131,7 @@ int vf_cmd_render(int argc, char **argv) {
 
   /* Settings: defaults, then the scene's "render" object, then the command line. */
   vf_settings settings = scene->settings;
-  if (algorithm && (err = vf_algorithm_parse(algorithm, &settings.algorithm)) != VF_OK) goto done;
-  if (have_seed) settings.seed = seed;
-  if (max_path_length > 0) settings.max_path_length = (int)max_path_length;
-  if (radius_factor > 0.0) settings.radius_factor = radius_factor;
-  if (alpha > 0.0) settings.alpha = alpha;
-  if (have_resolution) {
-    settings.width = width;
-    settings.height = height;
-  }
+  if ((err = vf_cli_settings_apply(&overrides, &settings)) != VF_OK) goto done;
   if ((err = vf_settings_validate(&settings)) != VF_OK) goto done;
   if (reference_path && (err = vf_reference_load(reference_path, settings.width, settings.height, &reference)) != VF_OK)
     goto done;
