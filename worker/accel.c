@@ -72,7 +72,12 @@ int vf_accel_create(const vf_scene *scene, vf_accel **out) {
   rtcSetDeviceErrorFunction(a->device, device_error, NULL);
   a->scene = rtcNewScene(a->device);
   if (a->scene == NULL) goto fail;
-  rtcSetSceneBuildQuality(a->scene, RTC_BUILD_QUALITY_HIGH);
+  /* Robust mode: watertight edges, or about 1.5e-4 of the rays leaving the inside of a
+   * closed mesh escape between its triangles (tests/test_accel.c fails without it).
+   * Low build quality: with robust mode, measured faster to trace than medium or high on
+   * every scene we have (Embree 3.13, bench_embree, one thread: cornell 10.1 against 7.4
+   * Mrays/s, the 115k-triangle knot 4.8 against 4.3), and the build is cheaper too. */
+  rtcSetSceneBuildQuality(a->scene, RTC_BUILD_QUALITY_LOW);
   rtcSetSceneFlags(a->scene, RTC_SCENE_FLAG_ROBUST);
   for (int i = 0; i < scene->num_shapes; i++) {
     const vf_shape *s = &scene->shapes[i];

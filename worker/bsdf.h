@@ -37,10 +37,27 @@ typedef struct {
   int is_delta;                /* only specular lobes: no connection or merging here */
 } vf_bsdf;
 
+/* What of a BSDF depends on its material only: the lobe selection probabilities (in
+ * proportion to the lobes' albedos), the Russian-roulette continuation probability and
+ * whether every lobe is specular. The renderer computes it once per material. */
+typedef struct {
+  float lobe_probability[VF_LOBE_COUNT];
+  float continuation;
+  int is_delta;
+  int black; /* no lobe reflects anything: nothing scatters */
+} vf_bsdf_lobes;
+
+void vf_bsdf_lobes_of(const vf_material *material, vf_bsdf_lobes *lobes);
+
 /* Sets up the BSDF at a vertex with geometric normal `normal` (unit) for a path arriving
  * from direction `world_fix` (unit, towards the previous vertex). Returns 0 when the vertex
  * cannot scatter (black material, fix in the tangent plane); 1 otherwise. */
 int vf_bsdf_init(vf_bsdf *bsdf, const vf_material *material, vf_vec3 normal, vf_vec3 world_fix);
+
+/* The same with the material's lobes computed beforehand (vf_bsdf_lobes_of); the result is
+ * bit for bit that of vf_bsdf_init. */
+int vf_bsdf_setup(vf_bsdf *bsdf, const vf_material *material, const vf_bsdf_lobes *lobes, vf_vec3 normal,
+                  vf_vec3 world_fix);
 
 /* f of the non-specular lobes for gen (unit, world); |cos| of gen against the shading
  * normal into *cos_gen; densities as described above (either may be NULL). Zero when gen is

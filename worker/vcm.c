@@ -23,13 +23,27 @@
 #define CAMERA_TILE 32u
 #define GATHER_CHUNK 16384u
 
+/* A stored light vertex: one cache line. Its BSDF is not stored but set up again from
+ * material, normal and fix when a connection needs it (vf_bsdf_setup is a pure function
+ * of them, so it is the BSDF the light sub-path had): rebuilding a frame costs less than
+ * moving twice the bytes through the light pass, the join and the gather. */
 typedef struct {
   vf_vec3 position; /* first: the hash grid reads it at offset 0 */
   vf_vec3 throughput;
-  int path_length;  /* segments from the light */
+  vf_vec3 fix;      /* world, unit, towards the previous light vertex */
+  vf_vec3 normal;   /* geometric normal at the vertex, as the hit reported it */
   vf_mis mis;
-  vf_bsdf bsdf;
+  uint32_t path_length_material; /* segments from the light (low bits) and material index */
 } light_vertex;
+_Static_assert(sizeof(light_vertex) == 64, "a light vertex is one cache line");
+
+/* Path lengths are at most 1000 (common/settings.c): 10 bits. */
+#define VERTEX_LENGTH_BITS 10u
+#define VERTEX_MAX_MATERIALS (1u << (32u - VERTEX_LENGTH_BITS))
+static int vertex_path_length(const light_vertex *lv) {
+  return (int)(lv->path_length_material & ((1u << VERTEX_LENGTH_BITS) - 1u));
+}
+static uint32_t vertex_material(const light_vertex *lv) { return lv->path_length_material >> VERTEX_LENGTH_BITS; }
 
 /* What merging needs of a light vertex, kept in the grid's order: a third of a
  * light_vertex, so the vertices a query accepts cost one cache line, not two. */
@@ -105,6 +119,7 @@ struct vf_vcm {
   vf_camera camera;
   vf_lights *lights;
   techniques t;
+  vf_bsdf_lobes *lobes; /* per material, owned */
   vf_vec3 scene_center;
   float scene_radius;
   float offset_scale; /* for vf_offset_ray_origin */
@@ -158,8 +173,16 @@ static void rnd2(vf_rng *r, float out[2]) {
   out[1] = vf_rng_float(r);
 }
 
-static const vf_material *material_of(const vf_vcm *v, const vf_hit *hit) {
-  return &v->scene->materials[v->scene->shapes[hit->shape].material];
+/* The BSDF at a hit for a path arriving from world_fix; 0 when nothing scatters there. */
+static int bsdf_at(const vf_vcm *v, vf_bsdf *b, const vf_hit *hit, vf_vec3 world_fix) {
+  int m = v->scene->shapes[hit->shape].material;
+  return vf_bsdf_setup(b, &v->scene->materials[m], &v->lobes[m], hit->normal, world_fix);
+}
+
+/* The BSDF a stored light vertex had. */
+static void bsdf_of_vertex(const vf_vcm *v, vf_bsdf *b, const light_vertex *lv) {
+  uint32_t m = vertex_material(lv);
+  vf_bsdf_setup(b, &v->scene->materials[m], &v->lobes[m], lv->normal, lv->fix);
 }
 
 /* Continues a sub-path from vertex `hit` with BSDF b: Russian roulette, direction sampling,
@@ -297,12 +320,14 @@ static void trace_light_path(vf_vcm *v, int thread, light_chunk *c, uint32_t pat
     vf_hit hit;
     if (!intersect(v, thread, s.origin, s.direction, &hit)) break;
     vf_bsdf b;
-    if (!vf_bsdf_init(&b, material_of(v, &hit), hit.normal, vf_neg(s.direction))) break;
+    if (!bsdf_at(v, &b, &hit, vf_neg(s.direction))) break;
     s.path_length++;
     vf_mis_hit(&s.mis, hit.t, b.local_fix.z, s.path_length > 1 || s.is_finite_light);
     if (!b.is_delta) {
       if (v->t.store_vertices) {
-        light_vertex lv = {hit.position, s.throughput, s.path_length, s.mis, b};
+        uint32_t material = (uint32_t)v->scene->shapes[hit.shape].material;
+        light_vertex lv = {hit.position, s.throughput, vf_neg(s.direction), hit.normal, s.mis,
+                           (uint32_t)s.path_length | material << VERTEX_LENGTH_BITS};
         if (!push_vertex(c, &lv)) {
           c->out_of_memory = 1;
           break;
@@ -356,11 +381,11 @@ static void gather_task(void *ctx, size_t task, int thread) {
     const light_vertex *lv = &v->vertices[points[k].index];
     photon *ph = &v->photons[k];
     ph->throughput = lv->throughput;
-    ph->direction = vf_frame_to_world(&lv->bsdf.frame, lv->bsdf.local_fix);
+    ph->direction = lv->fix;
     ph->d_vcm = lv->mis.d_vcm;
     ph->d_vm = lv->mis.d_vm;
-    ph->continuation = lv->bsdf.continuation;
-    ph->path_length = lv->path_length;
+    ph->continuation = v->lobes[vertex_material(lv)].continuation;
+    ph->path_length = vertex_path_length(lv);
   }
 }
 
@@ -416,8 +441,10 @@ static vf_vec3 connect_vertices(vf_vcm *v, int thread, const vf_hit *hit, const 
   float cos_camera, camera_pdf, camera_rev_pdf;
   vf_vec3 fc = vf_bsdf_evaluate(b, d, &cos_camera, &camera_pdf, &camera_rev_pdf);
   if (vf_is_zero(fc)) return zero;
+  vf_bsdf light_bsdf;
+  bsdf_of_vertex(v, &light_bsdf, lv);
   float cos_light, light_pdf, light_rev_pdf;
-  vf_vec3 fl = vf_bsdf_evaluate(&lv->bsdf, vf_neg(d), &cos_light, &light_pdf, &light_rev_pdf);
+  vf_vec3 fl = vf_bsdf_evaluate(&light_bsdf, vf_neg(d), &cos_light, &light_pdf, &light_rev_pdf);
   if (vf_is_zero(fl)) return zero;
   /* Each side's density of sampling the other vertex, in area measure there. */
   float camera_pdf_a = camera_pdf * cos_light / dist2;
@@ -426,7 +453,7 @@ static vf_vec3 connect_vertices(vf_vcm *v, int thread, const vf_hit *hit, const 
                                      camera_rev_pdf);
   vf_vec3 contrib = vf_scale(vf_mul(vf_mul(fc, fl), lv->throughput), w * cos_camera * cos_light / dist2);
   if (vf_is_zero(contrib)) return zero;
-  if (segment_occluded(v, thread, hit->position, hit->normal, lv->position, lv->bsdf.frame.n)) return zero;
+  if (segment_occluded(v, thread, hit->position, hit->normal, lv->position, lv->normal)) return zero;
   return contrib;
 }
 
@@ -597,14 +624,14 @@ static vf_vec3 trace_camera_path(vf_vcm *v, int thread, uint32_t pixel, uint32_t
     }
     if (s.path_length >= v->settings.max_path_length) break;
     vf_bsdf b;
-    if (!vf_bsdf_init(&b, material_of(v, &hit), hit.normal, vf_neg(s.direction))) break;
+    if (!bsdf_at(v, &b, &hit, vf_neg(s.direction))) break;
     if (!b.is_delta) {
       if (v->t.light_sample)
         color = vf_add(color, vf_mul(s.throughput, light_sample(v, thread, &hit, &b, &s, &rng)));
       if (v->t.connection) {
         for (uint32_t i = v->path_begin[pixel]; i < v->path_end[pixel]; i++) {
           const light_vertex *lv = &v->vertices[i];
-          if (lv->path_length + 1 + s.path_length > v->settings.max_path_length) break;
+          if (vertex_path_length(lv) + 1 + s.path_length > v->settings.max_path_length) break;
           color = vf_add(color, vf_mul(s.throughput, connect_vertices(v, thread, &hit, &b, &s, lv)));
         }
       }
@@ -695,10 +722,15 @@ int vf_vcm_iteration(vf_vcm *v, uint64_t iteration, float *camera_rgb, float *li
   }
   if (total > UINT32_MAX) return vf_error_set(VF_ENOMEM, "more than 2^32 light vertices in one iteration");
   if (total > v->vertex_capacity) {
-    light_vertex *p = realloc(v->vertices, (size_t)total * sizeof *p);
+    /* Aligned to the cache line, so that each vertex is one line (the old ones are copied
+     * again by the join). A little slack keeps a slowly growing count from reallocating
+     * every iteration. */
+    size_t capacity = total + total / 8 < UINT32_MAX ? (size_t)(total + total / 8) : UINT32_MAX;
+    light_vertex *p = aligned_alloc(64, capacity * sizeof *p);
     if (p == NULL) return VF_ENOMEM;
+    free(v->vertices);
     v->vertices = p;
-    v->vertex_capacity = (uint32_t)total;
+    v->vertex_capacity = (uint32_t)capacity;
   }
   v->num_vertices = (uint32_t)total;
   if (v->t.store_vertices) vf_pool_run(v->pool, v->num_chunks, join_task, &ctx);
@@ -853,6 +885,11 @@ int vf_vcm_create(const vf_scene *scene, const vf_accel *accel, const vf_setting
   vf_scene_bounding_sphere(scene, &v->scene_center, &v->scene_radius);
   v->offset_scale = vf_accel_scale(accel);
   v->num_pixels = (uint32_t)settings->width * (uint32_t)settings->height;
+  if ((uint32_t)scene->num_materials > VERTEX_MAX_MATERIALS) {
+    free(v);
+    return vf_error_set(VF_ESCENE, "the scene has %d materials; the renderer handles at most %u",
+                        scene->num_materials, VERTEX_MAX_MATERIALS);
+  }
   analyse_scene(v);
   v->requested = settings->algorithm;
   if (v->requested == VF_ALGO_AUTO) v->settings.algorithm = resolve_auto(v);
@@ -864,7 +901,9 @@ int vf_vcm_create(const vf_scene *scene, const vf_accel *accel, const vf_setting
   v->path_begin = calloc(v->num_pixels, sizeof(uint32_t));
   v->path_end = calloc(v->num_pixels, sizeof(uint32_t));
   v->stats = calloc((size_t)vf_pool_threads(pool), sizeof *v->stats);
-  if (!v->chunks || !v->path_begin || !v->path_end || !v->stats) goto fail;
+  v->lobes = calloc(scene->num_materials > 0 ? (size_t)scene->num_materials : 1, sizeof *v->lobes);
+  if (!v->chunks || !v->path_begin || !v->path_end || !v->stats || !v->lobes) goto fail;
+  for (int m = 0; m < scene->num_materials; m++) vf_bsdf_lobes_of(&scene->materials[m], &v->lobes[m]);
   if (v->t.merging && (err = vf_hashgrid_create(&v->grid)) != VF_OK) goto fail;
   *out = v;
   return VF_OK;
@@ -888,6 +927,7 @@ void vf_vcm_destroy(vf_vcm *v) {
   if (v->stats)
     for (int t = 0; t < vf_pool_threads(v->pool); t++) free(v->stats[t].queries);
   free(v->stats);
+  free(v->lobes);
   vf_hashgrid_destroy(v->grid);
   vf_lights_destroy(v->lights);
   free(v);
