@@ -68,7 +68,7 @@ int vf_cli_settings_option(vf_cli_settings *o, int c, const char *arg, int *err)
   switch (c) {
   case 'a': o->algorithm = arg; *err = VF_OK; return 1;
   case 's': o->have_seed = 1; *err = vf_cli_u64("--seed", arg, &o->seed); return 1;
-  case 'l': *err = vf_cli_int("--max-path-length", arg, 1, 1000, &o->max_path_length); return 1;
+  case 'l': *err = vf_cli_int("--max-path-length", arg, 1, VF_MAX_PATH_LENGTH, &o->max_path_length); return 1;
   case 'r': *err = vf_cli_double("--radius-factor", arg, 1e-12, 1.0, &o->radius_factor); return 1;
   case 'A': *err = vf_cli_double("--alpha", arg, 1e-6, 1.0, &o->alpha); return 1;
   case 'R':

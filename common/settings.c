@@ -35,8 +35,8 @@ int vf_algorithm_parse(const char *name, vf_algorithm *out) {
 
 int vf_settings_validate(const vf_settings *s) {
   if ((unsigned)s->algorithm >= VF_ALGO_COUNT_) return vf_error_set(VF_EINVAL, "unknown algorithm");
-  if (s->max_path_length < 1 || s->max_path_length > 1000)
-    return vf_error_set(VF_EINVAL, "max path length %d is outside [1, 1000]", s->max_path_length);
+  if (s->max_path_length < 1 || s->max_path_length > VF_MAX_PATH_LENGTH)
+    return vf_error_set(VF_EINVAL, "max path length %d is outside [1, %d]", s->max_path_length, VF_MAX_PATH_LENGTH);
   if (!(s->radius_factor > 0.0) || !isfinite(s->radius_factor))
     return vf_error_set(VF_EINVAL, "radius factor %g must be a positive number", s->radius_factor);
   if (!(s->alpha > 0.0 && s->alpha <= 1.0))

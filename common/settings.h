@@ -23,6 +23,9 @@ typedef enum {
   VF_ALGO_COUNT_
 } vf_algorithm;
 
+/* The longest path a render may ask for, in segments. */
+#define VF_MAX_PATH_LENGTH 1000
+
 typedef struct {
   vf_algorithm algorithm;
   int max_path_length;  /* path segments (edges), >= 1 */

@@ -37,8 +37,9 @@ typedef struct {
 } light_vertex;
 _Static_assert(sizeof(light_vertex) == 64, "a light vertex is one cache line");
 
-/* Path lengths are at most 1000 (common/settings.c): 10 bits. */
+/* Path lengths are at most VF_MAX_PATH_LENGTH (common/settings.h): 10 bits. */
 #define VERTEX_LENGTH_BITS 10u
+_Static_assert(VF_MAX_PATH_LENGTH < (1 << VERTEX_LENGTH_BITS), "path lengths fit their bits");
 #define VERTEX_MAX_MATERIALS (1u << (32u - VERTEX_LENGTH_BITS))
 static int vertex_path_length(const light_vertex *lv) {
   return (int)(lv->path_length_material & ((1u << VERTEX_LENGTH_BITS) - 1u));
