@@ -1,6 +1,7 @@
 /* The film: accumulation arithmetic, exact merging, the file format round trip, atomic
  * writes, and reading damaged files (corrupted copies of a film and the OpenEXR corpus). */
 #include "check.h"
+#include "exr_corpus.h"
 #include "common/error.h"
 #include "common/exr_util.h"
 #include "common/film.h"
@@ -13,21 +14,11 @@
 #include <sys/resource.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
-#include <time.h>
 #include <unistd.h>
-
-#define CORPUS VF_SOURCE_DIR "/../shared/exr-corpus"
-#define MAX_SECONDS_PER_FILE 5.0
 
 static char scratch_dir[256];
 
 static void scratch_path(char *buf, size_t n, const char *name) { snprintf(buf, n, "%s/%s", scratch_dir, name); }
-
-static double now_seconds(void) {
-  struct timespec t;
-  clock_gettime(CLOCK_MONOTONIC, &t);
-  return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
-}
 
 static uint64_t xorshift(uint64_t *s) {
   *s ^= *s << 13;
@@ -512,28 +503,17 @@ static void test_read_refuses_missing_channel_and_unknown_version(void) {
 /* Outcome of a child that reads one damaged file. */
 enum { CHILD_REFUSED = 0, CHILD_READ_VALID = 1, CHILD_READ_INVALID = 2, CHILD_BAD_ERROR = 3 };
 
-static int read_in_child(const char *path, double *seconds, int *signal_number) {
-  fflush(stdout);
-  fflush(stderr);
-  double t0 = now_seconds();
-  pid_t pid = fork();
-  if (pid == 0) {
-    alarm(30); /* a hang becomes a signal the parent reports */
-    vf_film *f = NULL;
-    int err = vf_film_read(path, &f);
-    if (err == VF_OK) {
-      int valid = vf_film_validate(f, path) == VF_OK;
-      vf_film_destroy(f);
-      exit(valid ? CHILD_READ_VALID : CHILD_READ_INVALID);
-    }
-    int named = strstr(vf_error_detail(err), path) != NULL;
-    exit((err == VF_EFILM || err == VF_EEXR) && named ? CHILD_REFUSED : CHILD_BAD_ERROR);
+/* Runs in the child of exr_corpus_read_in_child(): its return value is the exit status. */
+static int read_film_outcome(const char *path) {
+  vf_film *f = NULL;
+  int err = vf_film_read(path, &f);
+  if (err == VF_OK) {
+    int valid = vf_film_validate(f, path) == VF_OK;
+    vf_film_destroy(f);
+    return valid ? CHILD_READ_VALID : CHILD_READ_INVALID;
   }
-  int status = 0;
-  waitpid(pid, &status, 0);
-  *seconds = now_seconds() - t0;
-  *signal_number = WIFSIGNALED(status) ? WTERMSIG(status) : 0;
-  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  int named = strstr(vf_error_detail(err), path) != NULL;
+  return (err == VF_EFILM || err == VF_EEXR) && named ? CHILD_REFUSED : CHILD_BAD_ERROR;
 }
 
 static void test_corrupted_copies_never_crash(void) {
@@ -562,13 +542,13 @@ static void test_corrupted_copies_never_crash(void) {
     spill(bad, copy, n);
     double dt;
     int sig;
-    int outcome = read_in_child(bad, &dt, &sig);
+    int outcome = exr_corpus_read_in_child(read_film_outcome, bad, &dt, &sig);
     if (dt > slowest) slowest = dt;
     if (sig) CHECK_FAIL_("case %d: reader died with signal %d", c, sig);
     else if (outcome == CHILD_REFUSED) refused++;
     else if (outcome == CHILD_READ_VALID) read++;
     else CHECK_FAIL_("case %d: outcome %d", c, outcome);
-    if (dt > MAX_SECONDS_PER_FILE) CHECK_FAIL_("case %d took %.2f s", c, dt);
+    if (dt > EXR_CORPUS_MAX_SECONDS_PER_FILE) CHECK_FAIL_("case %d took %.2f s", c, dt);
   }
   printf("  300 corrupted copies: %d refused, %d read as valid films, slowest %.3f s\n", refused, read, slowest);
   free(copy);
@@ -576,28 +556,21 @@ static void test_corrupted_copies_never_crash(void) {
 }
 
 static void test_damaged_corpus_is_refused(void) {
-  DIR *d = opendir(CORPUS "/Damaged");
-  if (d == NULL) {
-    printf("  note: %s not found, corpus case skipped\n", CORPUS);
-    return;
-  }
-  struct dirent *e;
-  int files = 0;
+  if (!exr_corpus_present()) return;
+  char **paths = NULL;
+  int files = exr_corpus_list(EXR_CORPUS "/Damaged", 1, &paths);
   double slowest = 0;
-  while ((e = readdir(d)) != NULL) {
-    if (e->d_name[0] == '.') continue;
-    char path[1024];
-    snprintf(path, sizeof path, "%s/Damaged/%s", CORPUS, e->d_name);
+  for (int i = 0; i < files; i++) {
+    const char *name = exr_corpus_name(paths[i]);
     double dt;
     int sig;
-    int outcome = read_in_child(path, &dt, &sig);
-    files++;
+    int outcome = exr_corpus_read_in_child(read_film_outcome, paths[i], &dt, &sig);
     if (dt > slowest) slowest = dt;
-    if (sig) CHECK_FAIL_("%s: reader died with signal %d", e->d_name, sig);
-    else if (outcome != CHILD_REFUSED) CHECK_FAIL_("%s: outcome %d", e->d_name, outcome);
-    if (dt > MAX_SECONDS_PER_FILE) CHECK_FAIL_("%s took %.2f s", e->d_name, dt);
+    if (sig) CHECK_FAIL_("%s: reader died with signal %d", name, sig);
+    else if (outcome != CHILD_REFUSED) CHECK_FAIL_("%s: outcome %d", name, outcome);
+    if (dt > EXR_CORPUS_MAX_SECONDS_PER_FILE) CHECK_FAIL_("%s took %.2f s", name, dt);
   }
-  closedir(d);
+  exr_corpus_list_free(paths, files);
   CHECK(files >= 185);
   printf("  %d damaged files refused as films, slowest %.3f s\n", files, slowest);
 }

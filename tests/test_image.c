@@ -2,6 +2,7 @@
  * robustness corpus (shared/exr-corpus beside the checkout): every valid RGB image reads,
  * every damaged file is refused quickly and without crashing. */
 #include "check.h"
+#include "exr_corpus.h"
 #include "common/error.h"
 #include "common/image.h"
 
@@ -14,11 +15,7 @@
 #include <sys/resource.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
-#include <time.h>
 #include <unistd.h>
-
-#define CORPUS VF_SOURCE_DIR "/../shared/exr-corpus"
-#define MAX_SECONDS_PER_FILE 5.0
 
 static char scratch_dir[256];
 
@@ -28,12 +25,6 @@ static void make_scratch_dir(void) {
 }
 
 static void scratch_path(char *buf, size_t n, const char *name) { snprintf(buf, n, "%s/%s", scratch_dir, name); }
-
-static double now_seconds(void) {
-  struct timespec t;
-  clock_gettime(CLOCK_MONOTONIC, &t);
-  return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
-}
 
 static uint64_t rng_state = 0x9e3779b97f4a7c15ULL;
 static double uniform(void) {
@@ -184,63 +175,25 @@ static void test_writes_are_atomic(void) {
   vf_image_destroy(&img);
 }
 
-/* ---- the corpus ---- */
-
-static int corpus_present(void) {
-  struct stat st;
-  if (stat(CORPUS "/Damaged", &st) == 0 && S_ISDIR(st.st_mode)) return 1;
-  printf("  note: %s not found, corpus cases skipped\n", CORPUS);
-  return 0;
-}
-
-/* Sorted regular files of one corpus folder, README excluded when asked. */
-static int list_files(const char *dir, char ***out, int include_readme) {
-  DIR *d = opendir(dir);
-  if (d == NULL) return 0;
-  char **names = NULL;
-  int n = 0;
-  struct dirent *e;
-  while ((e = readdir(d)) != NULL) {
-    if (e->d_name[0] == '.') continue;
-    if (!include_readme && strstr(e->d_name, "README")) continue;
-    names = realloc(names, (size_t)(n + 1) * sizeof *names);
-    names[n] = malloc(strlen(dir) + strlen(e->d_name) + 2);
-    sprintf(names[n], "%s/%s", dir, e->d_name);
-    n++;
-  }
-  closedir(d);
-  for (int i = 1; i < n; i++)
-    for (int j = i; j > 0 && strcmp(names[j - 1], names[j]) > 0; j--) {
-      char *t = names[j];
-      names[j] = names[j - 1];
-      names[j - 1] = t;
-    }
-  *out = names;
-  return n;
-}
-
-static void free_list(char **names, int n) {
-  for (int i = 0; i < n; i++) free(names[i]);
-  free(names);
-}
+/* ---- the corpus (exr_corpus.h) ---- */
 
 static void test_corpus_valid_images_read(void) {
-  if (!corpus_present()) return;
+  if (!exr_corpus_present()) return;
   static const char *const dirs[] = {"TestImages", "Tiles", "DisplayWindow", "ScanLines"};
   vf_image reference = {0};
   for (size_t d = 0; d < sizeof dirs / sizeof dirs[0]; d++) {
     char dir[512];
-    snprintf(dir, sizeof dir, "%s/%s", CORPUS, dirs[d]);
+    snprintf(dir, sizeof dir, "%s/%s", EXR_CORPUS, dirs[d]);
     char **files = NULL;
-    int n = list_files(dir, &files, 0);
+    int n = exr_corpus_list(dir, 0, &files);
     for (int i = 0; i < n; i++) {
       vf_image img = {0};
-      double t0 = now_seconds();
+      double t0 = exr_corpus_seconds();
       int err = vf_image_read_exr(files[i], &img);
-      double dt = now_seconds() - t0;
-      printf("  %-60s %s %dx%d %.3fs\n", files[i] + strlen(CORPUS) + 1, err ? "refused" : "read", img.width,
+      double dt = exr_corpus_seconds() - t0;
+      printf("  %-60s %s %dx%d %.3fs\n", exr_corpus_name(files[i]), err ? "refused" : "read", img.width,
              img.height, dt);
-      CHECK(dt < MAX_SECONDS_PER_FILE);
+      CHECK(dt < EXR_CORPUS_MAX_SECONDS_PER_FILE);
       if (strstr(files[i], "WideFloatRange")) {
         /* a lone G channel is not an RGB image */
         CHECK_INT_EQ(err, VF_EEXR);
@@ -261,7 +214,7 @@ static void test_corpus_valid_images_read(void) {
       }
       vf_image_destroy(&img);
     }
-    free_list(files, n);
+    exr_corpus_list_free(files, n);
   }
   vf_image_destroy(&reference);
 }
@@ -269,41 +222,38 @@ static void test_corpus_valid_images_read(void) {
 /* Exit codes of the child that reads one damaged file. */
 enum { CHILD_REFUSED = 0, CHILD_READ = 1, CHILD_BAD_ERROR = 2 };
 
+/* Runs in the child of exr_corpus_read_in_child(): its return value is the exit status. */
+static int read_image_outcome(const char *path) {
+  vf_image img = {0};
+  int err = vf_image_read_exr(path, &img);
+  if (err == VF_OK) {
+    vf_image_destroy(&img);
+    return CHILD_READ;
+  }
+  /* the detail names the file */
+  return err == VF_EEXR && strstr(vf_error_detail(err), path) ? CHILD_REFUSED : CHILD_BAD_ERROR;
+}
+
 static void test_corpus_damaged_files_are_refused(void) {
-  if (!corpus_present()) return;
+  if (!exr_corpus_present()) return;
   char **files = NULL;
-  int n = list_files(CORPUS "/Damaged", &files, 1);
+  int n = exr_corpus_list(EXR_CORPUS "/Damaged", 1, &files);
   CHECK(n >= 185);
   double slowest = 0;
   for (int i = 0; i < n; i++) {
-    fflush(stdout);
-    fflush(stderr);
-    double t0 = now_seconds();
-    pid_t pid = fork();
-    if (pid == 0) {
-      alarm(30); /* a hang becomes a signal the parent reports */
-      vf_image img = {0};
-      int err = vf_image_read_exr(files[i], &img);
-      if (err == VF_OK) {
-        vf_image_destroy(&img);
-        exit(CHILD_READ);
-      }
-      /* the detail names the file */
-      exit(err == VF_EEXR && strstr(vf_error_detail(err), files[i]) ? CHILD_REFUSED : CHILD_BAD_ERROR);
-    }
-    int status = 0;
-    waitpid(pid, &status, 0);
-    double dt = now_seconds() - t0;
+    double dt;
+    int sig;
+    int outcome = exr_corpus_read_in_child(read_image_outcome, files[i], &dt, &sig);
     if (dt > slowest) slowest = dt;
-    const char *name = files[i] + strlen(CORPUS) + 1;
-    if (WIFSIGNALED(status)) CHECK_FAIL_("%s: reader died with signal %d", name, WTERMSIG(status));
-    else if (WEXITSTATUS(status) == CHILD_READ) CHECK_FAIL_("%s: damaged file was read", name);
-    else if (WEXITSTATUS(status) != CHILD_REFUSED)
-      CHECK_FAIL_("%s: refused with the wrong code or detail (exit %d)", name, WEXITSTATUS(status));
-    if (dt > MAX_SECONDS_PER_FILE) CHECK_FAIL_("%s: took %.2f s", name, dt);
+    const char *name = exr_corpus_name(files[i]);
+    if (sig) CHECK_FAIL_("%s: reader died with signal %d", name, sig);
+    else if (outcome == CHILD_READ) CHECK_FAIL_("%s: damaged file was read", name);
+    else if (outcome != CHILD_REFUSED)
+      CHECK_FAIL_("%s: refused with the wrong code or detail (exit %d)", name, outcome);
+    if (dt > EXR_CORPUS_MAX_SECONDS_PER_FILE) CHECK_FAIL_("%s: took %.2f s", name, dt);
   }
   printf("  %d damaged files refused, slowest %.3f s\n", n, slowest);
-  free_list(files, n);
+  exr_corpus_list_free(files, n);
 }
 
 int main(void) {
