@@ -1,5 +1,7 @@
-/* Films as bytes, for messages: the film file format (docs/FILM.md) held in memory.
+/* Films in messages: whole films as the bytes of their EXR file (fetch, tests), and a
+ * lease's result as 64x64 tiles (the film's EXR tiling, VF_FILM_TILE) of raw sums.
  *
+ * Whole films: the film file format (docs/FILM.md) held in memory,
  * Built on the public film API through a private temporary file in $TMPDIR (or /tmp),
  * removed before returning: the bytes are exactly what vf_film_write puts on disk and
  * vf_film_read's checks apply unchanged to what arrives from the network. */
@@ -7,6 +9,7 @@
 #define VF_FILM_WIRE_H
 
 #include "film.h"
+#include "message.h"
 
 #include <stddef.h>
 #include <stdint.h>
@@ -19,5 +22,32 @@ int vf_film_to_bytes(const vf_film *film, size_t max_len, uint8_t **data, size_t
  * success. Fails like vf_film_read (VF_EEXR / VF_EFILM with a detail), the file name in
  * details being `name`. */
 int vf_film_from_bytes(const uint8_t *data, size_t len, const char *name, vf_film **out);
+
+/* Tiles, numbered row-major from the top left: tile (x, y) holds pixels
+ * [64 x, min(64 x + 64, width)) x [64 y, min(64 y + 64, height)). */
+uint32_t vf_film_tiles_across(int width);
+uint32_t vf_film_tile_count(int width, int height);
+
+/* Fills *tile with tile (x, y) of film, its arrays in one malloc'ed block written to
+ * *storage (the caller frees it after packing). VF_EINVAL for a tile outside the film,
+ * VF_ENOMEM. */
+int vf_film_tile_encode(const vf_film *film, uint32_t x, uint32_t y, Vcmfarm__Tile *tile, double **storage);
+
+/* Checks an untrusted tile for a film of width x height holding `iterations` iterations:
+ * coordinates inside the film, every array of exactly the tile's size, sums finite,
+ * counts whole in [0, iterations], squares >= 0. VF_EINVAL with a detail naming the tile
+ * and what is wrong. */
+int vf_film_tile_check(const Vcmfarm__Tile *tile, int width, int height, uint64_t iterations);
+
+/* Copies a checked tile into its place in film (of the size it was checked for). */
+void vf_film_tile_store(vf_film *film, const Vcmfarm__Tile *tile);
+
+/* A film as the LeaseResult messages of a part [m->begin, m->begin + its iterations): the
+ * caller sets worker_id, lease_id, job_id and begin in *m; this fills in the rest of the
+ * header and, message after message, up to tiles_per_message tiles, calling
+ * send(ctx, m) for each. Stops at the first send that does not return 1 and returns its
+ * value; 1 when every message was sent and accepted, or a negative encoding error. */
+int vf_film_send_tiles(const vf_film *film, Vcmfarm__LeaseResult *m, size_t tiles_per_message,
+                       int (*send)(void *ctx, Vcmfarm__LeaseResult *m), void *ctx);
 
 #endif

@@ -16,14 +16,21 @@
 #include <stddef.h>
 #include <stdint.h>
 
-#define VF_PROTOCOL_VERSION 2u
+#define VF_PROTOCOL_VERSION 3u
 #define VF_WIRE_MAGIC "VCMF"
 #define VF_WIRE_HEADER_SIZE 12u
 #define VF_WIRE_TAG_SIZE 32u
 /* Payloads above this are refused by both sides (and by nanomsg's NN_RCVMAXSIZE before
- * they are buffered): whole films travel in one message until results come as tiles. */
+ * they are buffered). Only a coordinator's reply to `fetch` (a whole job film) needs it. */
 #define VF_WIRE_MAX_PAYLOAD ((size_t)128 << 20)
 #define VF_WIRE_MAX_FRAME (VF_WIRE_MAX_PAYLOAD + VF_WIRE_HEADER_SIZE + VF_WIRE_TAG_SIZE)
+/* What the coordinator receives: results travel as tiles in messages of at most
+ * VF_WIRE_MAX_RESULT, so the largest request is a submission (a JSON scene of at most
+ * 16 MiB and a reference image). The coordinator's NN_RCVMAXSIZE. */
+#define VF_WIRE_MAX_REQUEST ((size_t)64 << 20)
+#define VF_WIRE_MAX_REQUEST_FRAME (VF_WIRE_MAX_REQUEST + VF_WIRE_HEADER_SIZE + VF_WIRE_TAG_SIZE)
+/* A LeaseResult's payload: a dozen 64x64 tiles (328 KiB each). Larger ones are refused. */
+#define VF_WIRE_MAX_RESULT ((size_t)4 << 20)
 
 typedef struct {
   uint8_t bytes[32];

@@ -167,7 +167,7 @@ int vf_cmd_submit(int argc, char **argv) {
                          reference_image.width, reference_image.height, settings.width, settings.height);
       goto done;
     }
-    if ((err = vf_file_read_all(reference, VF_WIRE_MAX_PAYLOAD - (16u << 20) - (1u << 20), &reference_bytes,
+    if ((err = vf_file_read_all(reference, VF_WIRE_MAX_REQUEST - (16u << 20) - (1u << 20), &reference_bytes,
                                 &reference_len)) != VF_OK)
       goto done;
   }

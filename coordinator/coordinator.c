@@ -6,6 +6,7 @@
 #include "farm.h"
 #include "log.h"
 #include "state.h"
+#include "writer.h"
 
 #include <errno.h>
 #include <nanomsg/nn.h>
@@ -28,6 +29,7 @@ typedef struct {
   int socket;
   vf_wire_key key;
   vf_farm farm;
+  vf_writer *writer;   /* films are checkpointed through it, off the loop */
   double checkpoint_interval, last_checkpoint;
   uint8_t *pending;     /* a packed reply waiting for room, owned */
   size_t pending_len;
@@ -167,7 +169,7 @@ int vf_coordinator_run(const vf_coordinator_config *config) {
     err = vf_error_set(VF_ENET, "nanomsg socket: %s", nn_strerror(nn_errno()));
     goto unlock;
   }
-  int max_size = (int)VF_WIRE_MAX_FRAME;
+  int max_size = (int)VF_WIRE_MAX_REQUEST_FRAME; /* nanomsg drops larger messages unread */
   nn_setsockopt(c->socket, NN_SOL_SOCKET, NN_RCVMAXSIZE, &max_size, sizeof max_size);
   if (nn_bind(c->socket, config->listen_url) < 0) {
     err = vf_error_set(VF_ENET, "cannot listen on %s: %s", config->listen_url, nn_strerror(nn_errno()));
@@ -180,6 +182,9 @@ int vf_coordinator_run(const vf_coordinator_config *config) {
     err = vf_error_set(VF_ENOMEM, "libuv: cannot create the loop");
     goto close_socket;
   }
+  if ((err = vf_writer_create(&c->loop, &c->farm, &c->writer)) != VF_OK) goto close_loop;
+  c->farm.write_film = vf_writer_start;
+  c->farm.write_ctx = c->writer;
   uv_poll_init(&c->loop, &c->recv_poll, recv_fd);
   uv_poll_init(&c->loop, &c->send_poll, send_fd);
   uv_timer_init(&c->loop, &c->tick);
@@ -196,9 +201,18 @@ int vf_coordinator_run(const vf_coordinator_config *config) {
 
   uv_run(&c->loop, UV_RUN_DEFAULT);
 
+  /* Stopping: answer nobody any more, let the checkpoints in flight land, then write every
+   * film and the job list here, on this thread, as the last word. */
+  uv_poll_stop(&c->recv_poll);
+  uv_poll_stop(&c->send_poll);
+  uv_timer_stop(&c->tick);
+  while (vf_farm_writes_pending(&c->farm) > 0) uv_run(&c->loop, UV_RUN_ONCE);
+  c->farm.write_film = NULL;
   if ((err = vf_farm_checkpoint(&c->farm, 1)) == VF_OK) vf_log("checkpoint written; bye");
   uv_walk(&c->loop, close_handle, NULL);
   uv_run(&c->loop, UV_RUN_DEFAULT);
+  vf_writer_destroy(c->writer);
+close_loop:
   uv_loop_close(&c->loop);
 close_socket:
   nn_close(c->socket);

@@ -1,5 +1,6 @@
 /* The coordinator's event loop: one libuv loop on one thread owns a nanomsg REP socket,
- * the farm (coordinator/farm.h), a tick timer and the termination signals.
+ * the farm (coordinator/farm.h), a tick timer and the termination signals. Film
+ * checkpoints are written beside it by libuv's thread pool (coordinator/writer.h).
  *
  * nanomsg sockets are not file descriptors, but they expose two (NN_RCVFD, NN_SNDFD) that
  * become readable when a message can be received or sent; uv_poll watches them and the
@@ -21,8 +22,8 @@ typedef struct {
   double checkpoint_interval;  /* seconds between film checkpoints; default 10 */
 } vf_coordinator_config;
 
-/* Resumes the jobs of the state directory and serves until SIGINT or SIGTERM, then writes
- * a final checkpoint. Returns VF_OK after a clean shutdown, or the error that prevented
+/* Resumes the jobs of the state directory and serves until SIGINT or SIGTERM, then stops
+ * answering, waits for the checkpoints in flight and writes a final one. Returns VF_OK after a clean shutdown, or the error that prevented
  * starting (key, state directory, bind) or the final checkpoint, with a detail. */
 int vf_coordinator_run(const vf_coordinator_config *config);
 

@@ -4,6 +4,7 @@
 #include "../common/film_wire.h"
 #include "../common/wire.h"
 #include "log.h"
+#include "partial.h"
 #include "schedule.h"
 #include "state.h"
 
@@ -233,8 +234,58 @@ static void refuse_result(vf_job *job, vf_farm_reply *r, const char *fmt, ...) {
   reply_ack(r, 0, text);
 }
 
+/* Starts the checkpoint of one film: written here without a film writer, else a snapshot
+ * handed to it (the job's film keeps changing meanwhile). A job whose write is in flight is
+ * left dirty: vf_farm_film_written or the next checkpoint takes it. */
+static int save_film(vf_farm *farm, vf_job *job) {
+  if (job->film_writing) return VF_OK;
+  if (farm->write_film == NULL) return vf_state_save_film(farm->config.state_dir, job);
+  char path[4096];
+  int err = vf_state_film_path(farm->config.state_dir, job->id, path, sizeof path);
+  vf_film *snapshot;
+  if (err != VF_OK || (err = vf_film_clone(job->film, &snapshot)) != VF_OK) return err;
+  if ((err = farm->write_film(farm->write_ctx, job->id, snapshot, path)) != VF_OK) {
+    vf_film_destroy(snapshot);
+    return err;
+  }
+  job->film_writing = 1;
+  job->writing_generation = job->film_generation;
+  farm->writes_pending++;
+  return VF_OK;
+}
+
+void vf_farm_film_written(vf_farm *farm, uint64_t job_id, int err, double seconds) {
+  if (farm->writes_pending > 0) farm->writes_pending--;
+  vf_job *job = vf_farm_job(farm, job_id);
+  if (job == NULL) return;
+  unsigned long long jid = (unsigned long long)job_id;
+  job->film_writing = 0;
+  if (err != VF_OK) {
+    vf_log("checkpoint of job %llu failed: %s", jid, vf_error_detail(err));
+    return; /* still dirty: the next checkpoint tries again */
+  }
+  if (seconds >= 1.0) vf_log("job %llu: film checkpoint written in %.2f s (off the event loop)", jid, seconds);
+  if (job->writing_generation != job->film_generation) {
+    /* Changed while being written; a final film is written again at once. */
+    if (job->final_pending && (err = save_film(farm, job)) != VF_OK)
+      vf_log("checkpoint of job %llu failed: %s", jid, vf_error_detail(err));
+    return;
+  }
+  job->film_dirty = 0;
+  if (job->final_pending) {
+    job->final_pending = 0;
+    farm->state_dirty = 1;
+    if ((err = vf_state_save_index(farm)) != VF_OK) vf_log("writing the job list failed: %s", vf_error_detail(err));
+  }
+}
+
+size_t vf_farm_writes_pending(const vf_farm *farm) { return farm->writes_pending; }
+
 /* A job that just completed or stopped: no more leases, a last convergence entry, and its
- * film and the job list written at once. */
+ * film and the job list written at once. Until the final film is durable, state.json
+ * records a stopped job as still active (coordinator/state.c): a crash in between resumes
+ * it from its last film and it stops again, rather than staying stopped short of the
+ * iterations it had merged. */
 static void finish_job(vf_farm *farm, vf_job *job, double now) {
   unsigned long long jid = (unsigned long long)job->id;
   if (job->end == VF_JOB_STOPPED) {
@@ -244,31 +295,66 @@ static void finish_job(vf_farm *farm, vf_job *job, double now) {
     vf_log("job %llu done", jid);
   }
   end_job_leases(farm, job->id, now);
+  job->final_pending = 1;
   int err = vf_job_log(job);
-  if (err == VF_OK) err = vf_state_save_film(farm->config.state_dir, job);
+  if (err == VF_OK) err = save_film(farm, job);
   if (err == VF_OK && farm->state_dirty) err = vf_state_save_index(farm);
   if (err != VF_OK) vf_log("job %llu: checkpoint failed: %s", jid, vf_error_detail(err));
 }
 
+/* One message of a lease's result (coordinator/partial.h): tiles of the part
+ * [m->begin, m->end) that starts where the lease's unmerged iterations do. The part is
+ * merged when its last tile arrives; the lease then starts at m->end, and ends when
+ * nothing of it is left. */
 static void handle_result(vf_farm *farm, const Vcmfarm__LeaseResult *m, double now, vf_farm_reply *r) {
   unsigned long long lid = (unsigned long long)m->lease_id, jid = (unsigned long long)m->job_id;
   unsigned long long b = (unsigned long long)m->begin, e = (unsigned long long)m->end;
   vf_job *job = vf_farm_job(farm, m->job_id);
   vf_lease *l = vf_lease_find(&farm->leases, m->lease_id);
   if (l == NULL)
-    return refuse_result(job, r, "lease %016llx (job %llu [%llu,%llu)) is unknown: expired long ago or granted "
-                         "before a coordinator restart", lid, jid, b, e);
-  if (l->job_id != m->job_id || l->begin != m->begin || l->end != m->end)
-    return refuse_result(job, r, "lease %016llx is job %llu [%llu,%llu), the result claims job %llu [%llu,%llu)",
-                         lid, (unsigned long long)l->job_id, (unsigned long long)l->begin,
-                         (unsigned long long)l->end, jid, b, e);
+    return refuse_result(job, r, "lease %016llx (job %llu [%llu,%llu)) is unknown: expired long ago, finished, or "
+                         "granted before a coordinator restart", lid, jid, b, e);
+  if (l->job_id != m->job_id)
+    return refuse_result(job, r, "lease %016llx is of job %llu, the result claims job %llu", lid,
+                         (unsigned long long)l->job_id, jid);
   if (job == NULL) return refuse_result(NULL, r, "job %llu does not exist", jid);
   if (job->end != VF_JOB_ACTIVE)
     return refuse_result(job, r, "job %llu is %s", jid, vf_job_state(job, 0));
-  char name[96];
-  snprintf(name, sizeof name, "result of lease %016llx", lid);
+  size_t size = vcmfarm__lease_result__get_packed_size(m);
+  if (size > VF_WIRE_MAX_RESULT)
+    return refuse_result(job, r, "job %llu [%llu,%llu): a result message of %zu bytes, at most %zu", jid, b, e, size,
+                         VF_WIRE_MAX_RESULT);
+  /* Sent again because the acknowledgement of its last tiles was lost: nothing to do. */
+  if (m->begin >= l->first && m->begin < m->end && m->end <= l->begin) {
+    reply_ack(r, 1, "already merged");
+    return;
+  }
+  if (m->begin != l->begin || m->end <= m->begin || m->end > l->end)
+    return refuse_result(job, r, "lease %016llx holds job %llu [%llu,%llu) unmerged, the result claims [%llu,%llu)",
+                         lid, jid, (unsigned long long)l->begin, (unsigned long long)l->end, b, e);
+  int err;
+  if (l->partial != NULL && !vf_partial_same(l->partial, m)) {
+    vf_log("lease %016llx: a new part [%llu,%llu) replaces the one being received", lid, b, e);
+    vf_partial_destroy(l->partial);
+    l->partial = NULL;
+  }
+  if (l->partial == NULL && (err = vf_partial_create(job, m, &l->partial)) != VF_OK)
+    return refuse_result(job, r, "job %llu [%llu,%llu): %s", jid, b, e, vf_error_detail(err));
+  vf_partial_touch(l->partial, now);
+  if ((err = vf_partial_add(l->partial, m)) != VF_OK) {
+    vf_partial_destroy(l->partial);
+    l->partial = NULL;
+    return refuse_result(job, r, "job %llu [%llu,%llu): %s; the part is dropped", jid, b, e, vf_error_detail(err));
+  }
+  if (vf_partial_received(l->partial) < vf_partial_total(l->partial)) {
+    snprintf(r->text, sizeof r->text, "tiles %u/%u of [%llu,%llu) received", vf_partial_received(l->partial),
+             vf_partial_total(l->partial), b, e);
+    return reply_ack(r, 1, r->text);
+  }
   vf_film *film = NULL;
-  int err = vf_film_from_bytes(m->film_exr.data, m->film_exr.len, name, &film);
+  err = vf_partial_take(l->partial, &film);
+  vf_partial_destroy(l->partial);
+  l->partial = NULL;
   if (err == VF_OK) err = vf_job_check_result(job, film, m->begin, m->end);
   if (err != VF_OK) {
     vf_film_destroy(film);
@@ -290,11 +376,17 @@ static void handle_result(vf_farm *farm, const Vcmfarm__LeaseResult *m, double n
     w->rate = w->rate > 0.0 ? 0.5 * w->rate + 0.5 * rate : rate;
   }
   vf_film_destroy(film);
-  end_lease(farm, l, 0, now);
+  l->begin = m->end;
+  if (l->begin == l->end)
+    end_lease(farm, l, 0, now);
+  else
+    vf_log("lease %016llx: part [%llu,%llu) merged, [%llu,%llu) to go", lid, b, e, (unsigned long long)l->begin,
+           (unsigned long long)l->end);
   /* A late result may cover iterations reassigned since: those leases are moot now. */
   for (size_t i = 0; i < farm->leases.count;) {
     vf_lease *o = &farm->leases.leases[i];
-    if (o->job_id == m->job_id && o->state == VF_LEASE_ACTIVE && o->begin < m->end && m->begin < o->end) {
+    if (o->id != m->lease_id && o->job_id == m->job_id && o->state == VF_LEASE_ACTIVE && o->begin < m->end &&
+        m->begin < o->end) {
       vf_log("lease %016llx revoked: a late result covered it", (unsigned long long)o->id);
       end_lease(farm, o, 1, now);
       i = 0;
@@ -564,6 +656,18 @@ void vf_farm_handle(vf_farm *farm, const Vcmfarm__Envelope *q, double now, vf_fa
 
 int vf_farm_expire(vf_farm *farm, double now) {
   int lost = 0;
+  /* A part whose sender went silent will not be completed: its staged film (as large as
+   * the job's) is dropped rather than kept as long as its lease is remembered. */
+  for (size_t i = 0; i < farm->leases.count; i++) {
+    vf_lease *l = &farm->leases.leases[i];
+    if (l->partial != NULL && now - vf_partial_updated(l->partial) > farm->config.worker_timeout) {
+      vf_log("lease %016llx: part [%llu,...) incomplete (%u/%u tiles) and silent for %.1f s; dropped",
+             (unsigned long long)l->id, (unsigned long long)l->begin, vf_partial_received(l->partial),
+             vf_partial_total(l->partial), now - vf_partial_updated(l->partial));
+      vf_partial_destroy(l->partial);
+      l->partial = NULL;
+    }
+  }
   for (size_t i = 0; i < farm->num_workers;) {
     vf_farm_worker *w = &farm->workers[i];
     if (now - w->last_seen <= farm->config.worker_timeout) {
@@ -605,7 +709,7 @@ int vf_farm_checkpoint(vf_farm *farm, int all) {
     if (err != VF_OK) vf_log("job %llu: convergence entry: %s", (unsigned long long)j->id, vf_error_detail(err));
     if (j->seconds != j->seconds_saved) farm->state_dirty = 1;
     if (!j->film_dirty && !all) continue;
-    err = vf_state_save_film(farm->config.state_dir, j);
+    err = save_film(farm, j);
     if (err != VF_OK) {
       vf_log("checkpoint of job %llu failed: %s", (unsigned long long)j->id, vf_error_detail(err));
       if (first == VF_OK) first = err;

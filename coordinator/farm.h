@@ -31,6 +31,11 @@ typedef struct {
   double lease_seconds;    /* target duration of a lease */
 } vf_farm_config;
 
+/* Writes a snapshot of a job's film to path off the farm's thread (coordinator/writer.h).
+ * On VF_OK it owns the snapshot and later calls vf_farm_film_written, on the farm's
+ * thread, once the file is durable or the write failed; on an error it took nothing. */
+typedef int (*vf_farm_film_writer)(void *ctx, uint64_t job_id, vf_film *snapshot, const char *path);
+
 typedef struct {
   vf_farm_config config;
   vf_job **jobs;           /* owned, by increasing id */
@@ -41,6 +46,11 @@ typedef struct {
   vf_lease_table leases;
   int state_dirty;         /* the job list changed since state.json was written */
   double last_tick;        /* of vf_farm_tick; 0 before the first */
+  /* NULL: films are written synchronously, on the caller's thread (tests, benchmarks,
+   * the coordinator's final checkpoint); else checkpoints hand snapshots to it. */
+  vf_farm_film_writer write_film;
+  void *write_ctx;
+  size_t writes_pending;   /* started, not yet reported by vf_farm_film_written */
 } vf_farm;
 
 /* The reply being built: the envelope and storage for every body. Packed by the caller,
@@ -77,7 +87,8 @@ void vf_farm_reply_error(vf_farm_reply *reply, Vcmfarm__ErrorCode code, const ch
 void vf_farm_reply_release(vf_farm_reply *reply);
 
 /* Declares workers silent for longer than the timeout lost and returns their leases to
- * the pool. Returns the number of workers lost. */
+ * the pool, and drops parts of results (coordinator/partial.h) that received nothing for
+ * that long. Returns the number of workers lost. */
 int vf_farm_expire(vf_farm *farm, double now);
 
 /* Advances the running time of every running job to `now` and stops those whose time
@@ -88,8 +99,22 @@ void vf_farm_tick(vf_farm *farm, double now);
 /* Appends a convergence entry to the film of every job merged into since its last entry,
  * then writes the film of every job changed since the last checkpoint, then state.json if
  * the job list or a running time changed; with `all`, every film and the state. Logs and
- * returns the first error, carrying on with the other jobs. */
+ * returns the first error, carrying on with the other jobs.
+ *
+ * With a film writer set, a film's checkpoint is a snapshot (a copy, made here) handed to
+ * it; the film counts as written only when vf_farm_film_written says so, and a job whose
+ * write is still in flight is skipped (it stays changed, so the next checkpoint takes it):
+ * never two writes of one film at once. Without one, films are written here. */
 int vf_farm_checkpoint(vf_farm *farm, int all);
+
+/* The film writer's report on the farm's thread: the snapshot of job_id's film taken at
+ * the last start is durable (err VF_OK) or failed (err, with its detail set), after
+ * `seconds`. Marks the film clean unless it changed meanwhile; a completed job whose final
+ * film landed gets its end written to state.json (coordinator/state.h). */
+void vf_farm_film_written(vf_farm *farm, uint64_t job_id, int err, double seconds);
+
+/* Film writes in flight (0 without a film writer). */
+size_t vf_farm_writes_pending(const vf_farm *farm);
 
 vf_job *vf_farm_job(const vf_farm *farm, uint64_t id);
 

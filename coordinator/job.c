@@ -137,6 +137,7 @@ int vf_job_merge(vf_job *job, const vf_film *film, double now) {
   int err = vf_film_merge(job->film, film);
   if (err != VF_OK) return err;
   job->film_dirty = 1;
+  job->film_generation++;
   job->merges[job->merges_next].time = now;
   job->merges[job->merges_next].iterations = vf_iterset_count(&film->iterations);
   job->merges_next = (job->merges_next + 1) % VF_JOB_RATE_SAMPLES;
@@ -218,6 +219,7 @@ int vf_job_log(vf_job *job) {
   if ((err = vf_convergence_append(&job->film->convergence, &e)) != VF_OK) return err;
   job->logged_iterations = n;
   job->film_dirty = 1;
+  job->film_generation++;
   return VF_OK;
 }
 

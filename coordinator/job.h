@@ -45,6 +45,13 @@ typedef struct {
   char message[256];    /* why it failed or stopped */
   vf_film *film;        /* owned; every accepted result merged */
   int film_dirty;       /* merged into since the last checkpoint */
+  /* Checkpoints run off the event loop (coordinator/writer.h) on a snapshot of the film:
+   * film_generation counts changes of the film, so that a write that lands after further
+   * merges does not clear film_dirty; at most one write of a job is in flight. */
+  uint64_t film_generation;
+  uint64_t writing_generation; /* of the snapshot being written */
+  int film_writing;            /* a write of this film is in flight */
+  int final_pending;           /* completed or stopped, its final film not yet durable */
   uint64_t results_refused;
   double rate;          /* iterations per second of one worker on this job, smoothed; 0 unknown */
   double last_merge_time;

@@ -1,6 +1,7 @@
 #include "lease.h"
 
 #include "../common/error.h"
+#include "partial.h"
 
 #include <sodium.h>
 #include <stdlib.h>
@@ -9,6 +10,7 @@
 void vf_lease_table_init(vf_lease_table *t) { memset(t, 0, sizeof *t); }
 
 void vf_lease_table_destroy(vf_lease_table *t) {
+  for (size_t i = 0; i < t->count; i++) vf_partial_destroy(t->leases[i].partial);
   free(t->leases);
   memset(t, 0, sizeof *t);
 }
@@ -26,7 +28,7 @@ int vf_lease_add(vf_lease_table *t, uint64_t job_id, uint64_t worker_id, uint64_
   do {
     randombytes_buf(&new_id, sizeof new_id);
   } while (new_id == 0 || vf_lease_find(t, new_id) != NULL);
-  t->leases[t->count++] = (vf_lease){new_id, job_id, worker_id, begin, end, VF_LEASE_ACTIVE, now, 0.0};
+  t->leases[t->count++] = (vf_lease){new_id, job_id, worker_id, begin, end, begin, VF_LEASE_ACTIVE, now, 0.0, NULL};
   *id = new_id;
   return VF_OK;
 }
@@ -38,6 +40,7 @@ vf_lease *vf_lease_find(vf_lease_table *t, uint64_t id) {
 }
 
 static void remove_at(vf_lease_table *t, size_t i) {
+  vf_partial_destroy(t->leases[i].partial);
   memmove(&t->leases[i], &t->leases[i + 1], (t->count - i - 1) * sizeof *t->leases);
   t->count--;
 }

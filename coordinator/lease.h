@@ -4,7 +4,8 @@
  * (silent for the worker timeout); then it is removed, or kept as expired so that a late
  * result can still be checked against the range it was for. The free iterations of a job
  * are those neither in its film nor in an active lease; ranges are always cut from them,
- * so active leases never overlap each other or the film. */
+ * so active leases never overlap each other or the film. A lease's result arrives in parts
+ * (coordinator/partial.h); each merged part [begin, c) moves its begin to c. */
 #ifndef VF_LEASE_H
 #define VF_LEASE_H
 
@@ -18,10 +19,12 @@ typedef enum { VF_LEASE_ACTIVE, VF_LEASE_EXPIRED } vf_lease_state;
 typedef struct {
   uint64_t id;        /* random, so ids never repeat across coordinator restarts */
   uint64_t job_id, worker_id;
-  uint64_t begin, end;
+  uint64_t begin, end; /* what is not merged yet: begin moves up as parts are merged */
+  uint64_t first;      /* begin when granted */
   vf_lease_state state;
   double granted;     /* vf_seconds_now() */
   double charged;     /* worker-seconds charged to the job when granted (coordinator/schedule.h) */
+  struct vf_partial *partial; /* owned: tiles of the part [begin, ...) arriving, or NULL */
 } vf_lease;
 
 /* Expired leases kept for checking late results; the oldest are forgotten beyond this. */

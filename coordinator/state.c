@@ -50,11 +50,15 @@ int vf_state_save_scene(const char *dir, const vf_job *job) {
   return vf_file_write_atomic(path, job->scene_text, strlen(job->scene_text), 0600);
 }
 
+int vf_state_film_path(const char *dir, uint64_t id, char *buf, size_t n) {
+  return path_of(buf, n, dir, "job-", id, ".exr");
+}
+
 int vf_state_save_film(const char *dir, vf_job *job) {
   char path[4096];
   int err = path_of(path, sizeof path, dir, "job-", job->id, ".exr");
   if (err != VF_OK) return err;
-  if ((err = vf_film_write(job->film, path)) == VF_OK) job->film_dirty = 0;
+  if ((err = vf_film_write(job->film, path)) == VF_OK) job->film_dirty = job->final_pending = 0;
   return err;
 }
 
@@ -93,6 +97,8 @@ int vf_state_save_index(vf_farm *farm) {
   cJSON_AddNumberToObject(root, "next_job_id", (double)farm->next_job_id);
   for (size_t i = 0; i < farm->num_jobs; i++) {
     const vf_job *j = farm->jobs[i];
+    /* A stopped job whose final film is not durable yet is still active on disk. */
+    int unsettled = j->end == VF_JOB_STOPPED && j->final_pending;
     cJSON *o = cJSON_CreateObject();
     if (o == NULL || !cJSON_AddItemToArray(jobs, o)) goto done;
     char hex[65];
@@ -109,8 +115,8 @@ int vf_state_save_index(vf_farm *farm) {
     cJSON_AddNumberToObject(o, "target_error", j->target_error);
     cJSON_AddBoolToObject(o, "reference", j->reference.rgb != NULL);
     cJSON_AddNumberToObject(o, "seconds", j->seconds);
-    cJSON_AddStringToObject(o, "end", end_name(j->end));
-    if (cJSON_AddStringToObject(o, "message", j->message) == NULL) goto done;
+    cJSON_AddStringToObject(o, "end", end_name(unsettled ? VF_JOB_ACTIVE : j->end));
+    if (cJSON_AddStringToObject(o, "message", unsettled ? "" : j->message) == NULL) goto done;
   }
   char *text = cJSON_Print(root);
   if (text == NULL) goto done;

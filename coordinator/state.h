@@ -11,7 +11,12 @@
  * Every file is replaced atomically (temporary, fsync, rename), so a SIGKILL at any moment
  * leaves each file either old or new. A job's film is the truth about its progress: after
  * a restart, iterations in the film are done and everything else goes back to the pool
- * (leases are not persisted). Files are untrusted input when read back. */
+ * (leases are not persisted). Files are untrusted input when read back.
+ *
+ * Films are written off the event loop (coordinator/writer.h), so state.json may be
+ * written while a job's final film is still on its way: until it lands, a stopped job is
+ * recorded as active, so that a crash in between cannot leave it stopped short of the
+ * iterations it had merged (it resumes from its last film and stops again). */
 #ifndef VF_STATE_H
 #define VF_STATE_H
 
@@ -28,7 +33,10 @@ int vf_state_load(vf_farm *farm);
 
 int vf_state_save_index(vf_farm *farm);          /* state.json; clears farm->state_dirty */
 int vf_state_save_scene(const char *dir, const vf_job *job);
-int vf_state_save_film(const char *dir, vf_job *job); /* clears job->film_dirty */
+/* Writes the job's film on the calling thread; clears job->film_dirty and final_pending. */
+int vf_state_save_film(const char *dir, vf_job *job);
+/* DIR/job-ID.exr into buf (n bytes); VF_EINVAL when it does not fit. */
+int vf_state_film_path(const char *dir, uint64_t id, char *buf, size_t n);
 /* Writes DIR/job-ID.reference.exr and loads it into the job (vf_job_load_reference);
  * on failure removes it again: VF_EIO (writing), or the reading error of a bad image. */
 int vf_state_save_reference(const char *dir, vf_job *job, const uint8_t *data, size_t len);

@@ -5,8 +5,9 @@
  * Run while the coordinator at URL has one queued job and no worker. Sends a frame under
  * another key, a frame of another protocol version, garbage, a frame whose header claims
  * an oversized payload, raw bytes below the nanomsg protocol (ipc:// only), and then, as
- * a registered worker holding a lease, results that do not match it (garbage film, wrong
- * size, wrong settings, wrong iterations, wrong range). Checks each is refused as
+ * a registered worker holding a lease, results that do not match it (tiles with arrays of
+ * the wrong length, a NaN, or outside the film; another film size, other settings,
+ * another range; a message above the result size cap). Checks each is refused as
  * docs/PROTOCOL.md says, hands the lease back, and that the coordinator still answers.
  * Exit status 0 when every expectation held. */
 #include "common/error.h"
@@ -16,6 +17,7 @@
 #include "common/settings.h"
 
 #include <errno.h>
+#include <math.h>
 #include <nanomsg/nn.h>
 #include <nanomsg/reqrep.h>
 #include <sodium.h>
@@ -119,40 +121,75 @@ static void test_frames(const char *url, const vf_wire_key *key) {
   }
 }
 
-static int film_bytes(const Vcmfarm__Lease *l, int width, int height, const char *settings, uint64_t begin,
-                      uint64_t end, uint8_t **data, size_t *len) {
+/* A film of the lease's job holding [begin, end), black. */
+static vf_film *lease_film(const Vcmfarm__Lease *l, int width, int height, uint64_t begin, uint64_t end) {
   vf_film *film;
-  int err = vf_film_create(width, height, &film);
-  if (err != VF_OK) return err;
+  if (vf_film_create(width, height, &film) != VF_OK) return NULL;
   memcpy(film->scene_hash, l->scene_hash.data, 32);
-  snprintf(film->settings_text, sizeof film->settings_text, "%s", settings);
-  size_t n = (size_t)width * (size_t)height * 3;
-  float *zeros = calloc(n, sizeof *zeros);
-  for (uint64_t k = begin; k < end && err == VF_OK; k++) err = vf_film_add_iteration(film, k, zeros, zeros);
-  if (err == VF_OK) err = vf_film_to_bytes(film, VF_WIRE_MAX_PAYLOAD, data, len);
+  snprintf(film->settings_text, sizeof film->settings_text, "%s", l->settings);
+  float *zeros = calloc((size_t)width * (size_t)height * 3, sizeof *zeros);
+  for (uint64_t k = begin; k < end; k++) vf_film_add_iteration(film, k, zeros, zeros);
   free(zeros);
-  vf_film_destroy(film);
-  return err;
+  return film;
 }
 
-static int send_result(vf_farm_client *c, uint64_t worker_id, const Vcmfarm__Lease *l, uint64_t begin, uint64_t end,
-                       const uint8_t *data, size_t len, char *message, size_t message_len) {
+/* How a result is spoiled before it is sent. */
+typedef enum { GOOD, SHORT_ARRAY, HALF_WIDTH, OTHER_SETTINGS, NAN_VALUE, TILE_OUTSIDE, OTHER_RANGE, OVERSIZED } spoil;
+
+typedef struct {
+  vf_farm_client *c;
+  spoil how;
+  const char *other_settings;
+  char message[1024];
+} sender;
+
+static int send_spoiled(void *ctx, Vcmfarm__LeaseResult *m) {
+  sender *s = ctx;
+  Vcmfarm__Tile *t = m->n_tiles ? m->tiles[0] : NULL;
+  double saved = 0.0, *big = NULL;
+  size_t saved_n = 0;
+  switch (s->how) {
+  case SHORT_ARRAY: saved_n = t->n_count; t->n_count = 5; break;
+  case HALF_WIDTH: m->width /= 2; break;
+  case OTHER_SETTINGS: m->settings = (char *)s->other_settings; break;
+  case NAN_VALUE: saved = t->light[7]; t->light[7] = NAN; break;
+  case TILE_OUTSIDE: t->x = 1; break;
+  case OTHER_RANGE: m->begin = m->end; m->end++; break;
+  case OVERSIZED:
+    big = calloc(600000, sizeof *big);
+    saved_n = t->n_camera;
+    t->camera = big; /* the block's other arrays stay where they were */
+    t->n_camera = 600000;
+    break;
+  default: break;
+  }
+  Vcmfarm__Envelope q = VCMFARM__ENVELOPE__INIT, *reply;
+  q.body_case = VCMFARM__ENVELOPE__BODY_RESULT;
+  q.result = m;
+  int accepted = -1;
+  if (vf_farm_request(s->c, &q, VCMFARM__ENVELOPE__BODY_RESULT_ACK, 10000, &reply) == VF_OK) {
+    accepted = reply->result_ack->accepted;
+    snprintf(s->message, sizeof s->message, "%s", reply->result_ack->message);
+    vf_message_free(reply);
+  }
+  if (s->how == SHORT_ARRAY) t->n_count = saved_n;
+  if (s->how == NAN_VALUE) t->light[7] = saved;
+  if (s->how == OVERSIZED) t->n_camera = saved_n;
+  free(big);
+  return accepted;
+}
+
+static int send_result(vf_farm_client *c, uint64_t worker_id, const Vcmfarm__Lease *l, const vf_film *film, spoil how,
+                       const char *other_settings, char *message, size_t message_len) {
   Vcmfarm__LeaseResult m = VCMFARM__LEASE_RESULT__INIT;
   m.worker_id = worker_id;
   m.lease_id = l->lease_id;
   m.job_id = l->job_id;
-  m.begin = begin;
-  m.end = end;
-  m.film_exr.data = (uint8_t *)data;
-  m.film_exr.len = len;
-  Vcmfarm__Envelope q = VCMFARM__ENVELOPE__INIT, *reply;
-  q.body_case = VCMFARM__ENVELOPE__BODY_RESULT;
-  q.result = &m;
-  if (vf_farm_request(c, &q, VCMFARM__ENVELOPE__BODY_RESULT_ACK, 10000, &reply) != VF_OK) return -1;
-  int accepted = reply->result_ack->accepted;
-  snprintf(message, message_len, "%s", reply->result_ack->message);
-  vf_message_free(reply);
-  return accepted;
+  m.begin = l->begin;
+  sender s = {c, how, other_settings, ""};
+  int rc = vf_film_send_tiles(film, &m, 10, send_spoiled, &s);
+  snprintf(message, message_len, "%s", s.message);
+  return rc;
 }
 
 static void test_results(vf_farm_client *c) {
@@ -179,35 +216,27 @@ static void test_results(vf_farm_client *c) {
   vf_settings s;
   vf_settings_parse(&s, l->settings);
   char message[1024], other_settings[512];
-  uint8_t *data;
-  size_t len;
-  uint8_t junk[4000];
-  randombytes_buf(junk, sizeof junk);
-  expect(send_result(c, worker_id, l, l->begin, l->end, junk, sizeof junk, message, sizeof message) == 0,
-         "a result whose film is garbage is refused");
-  printf("     %s\n", message);
-  film_bytes(l, s.width / 2, s.height, l->settings, l->begin, l->end, &data, &len);
-  expect(send_result(c, worker_id, l, l->begin, l->end, data, len, message, sizeof message) == 0,
-         "a result film of the wrong size is refused");
-  printf("     %s\n", message);
-  free(data);
   s.seed += 1;
   vf_settings_format(&s, other_settings, sizeof other_settings);
-  film_bytes(l, s.width, s.height, other_settings, l->begin, l->end, &data, &len);
-  expect(send_result(c, worker_id, l, l->begin, l->end, data, len, message, sizeof message) == 0,
-         "a result film with other settings is refused");
-  printf("     %s\n", message);
-  free(data);
-  film_bytes(l, s.width, s.height, l->settings, l->end, l->end + 1, &data, &len);
-  expect(send_result(c, worker_id, l, l->begin, l->end, data, len, message, sizeof message) == 0,
-         "a result film holding other iterations than it claims is refused");
-  printf("     %s\n", message);
-  free(data);
-  film_bytes(l, s.width, s.height, l->settings, l->end, l->end + 1, &data, &len);
-  expect(send_result(c, worker_id, l, l->end, l->end + 1, data, len, message, sizeof message) == 0,
-         "a result for another range than its lease is refused");
-  printf("     %s\n", message);
-  free(data);
+  vf_film *film = lease_film(l, s.width, s.height, l->begin, l->end);
+  static const struct {
+    spoil how;
+    const char *what;
+  } cases[] = {
+      {SHORT_ARRAY, "a result whose tile arrays have the wrong length is refused"},
+      {HALF_WIDTH, "a result claiming another film size is refused"},
+      {OTHER_SETTINGS, "a result with other settings is refused"},
+      {NAN_VALUE, "a result with a NaN in a tile is refused"},
+      {TILE_OUTSIDE, "a result with a tile outside the film is refused"},
+      {OTHER_RANGE, "a result for another range than its lease is refused"},
+      {OVERSIZED, "a result message above the size cap is refused"},
+  };
+  for (size_t i = 0; i < sizeof cases / sizeof *cases; i++) {
+    expect(film && send_result(c, worker_id, l, film, cases[i].how, other_settings, message, sizeof message) == 0,
+           cases[i].what);
+    printf("     %s\n", message);
+  }
+  vf_film_destroy(film);
 
   Vcmfarm__LeaseRelease rel = VCMFARM__LEASE_RELEASE__INIT;
   rel.worker_id = worker_id;
@@ -239,8 +268,8 @@ int main(int argc, char **argv) {
   q.status_request = &sr;
   int alive = vf_farm_request(c, &q, VCMFARM__ENVELOPE__BODY_STATUS, 10000, &reply) == VF_OK;
   expect(alive && reply->status->n_jobs == 1 && reply->status->jobs[0]->iterations_done == 0 &&
-             reply->status->jobs[0]->results_refused == 5,
-         "the coordinator still answers; its job has no iteration and 5 refused results");
+             reply->status->jobs[0]->results_refused == 7,
+         "the coordinator still answers; its job has no iteration and 7 refused results");
   if (alive) vf_message_free(reply);
   vf_farm_client_close(c);
   return failures ? 1 : 0;

@@ -7,7 +7,7 @@
 #
 #   test_farm.sh CASE VCMFARM FARM_COMPARE FARM_PEER
 #
-# CASE: three_workers, worker_killed, worker_terminated, coordinator_killed, hostile_peers, late_duplicate,
+# CASE: three_workers, worker_killed, worker_killed_after_parts, worker_terminated, coordinator_killed, hostile_peers, late_duplicate,
 # priorities, stop_conditions.
 # No fixed sleeps synchronise anything: the script polls `vcmfarm status` (or a file) with
 # a deadline, and every process it starts is killed on exit. KEEP_TMP=1 keeps the logs.
@@ -123,6 +123,26 @@ worker_killed)
   start_worker rescuer
   wait_until 60 "job $job done" job_done
   grep -q "worker victim lost.*returns to the pool" "$tmp/coordinator.log" || fail "the victim's lease was not reclaimed"
+  check_film
+  ;;
+worker_killed_after_parts)
+  # A worker ships the iterations it has rendered every 0.5 s during a lease; it is
+  # killed after at least one part of a long lease was merged. The merged part counts
+  # once, the rest of the lease goes back to the pool, and the film is exact.
+  start_coordinator --worker-timeout 1.5 --lease-seconds 5
+  start_worker victim --test-iteration-delay 300 --ship-interval 0.5
+  victim=$last_worker
+  submit 24
+  part_merged() { grep -q "part \[[0-9]*,[0-9]*) merged, \[[0-9]*,[0-9]*) to go" "$tmp/coordinator.log"; }
+  wait_until 60 "a part of the victim's lease to be merged mid-lease" part_merged
+  kill -9 "$victim"
+  merged_before=$(job_number iterations_done)
+  echo "victim killed with $merged_before iterations merged: $(grep -m1 "to go" "$tmp/coordinator.log" | sed 's/.*coordinator: //')"
+  [ "$merged_before" -ge 2 ] || fail "expected the victim's first lease and a part of its second merged, got $merged_before"
+  start_worker rescuer
+  wait_until 60 "job $job done" job_done
+  grep -q "worker victim lost.*returns to the pool" "$tmp/coordinator.log" || fail "the victim's lease was not reclaimed"
+  [ "$(job_number results_refused)" = 0 ] || fail "$(job_number results_refused) results refused"
   check_film
   ;;
 worker_terminated)

@@ -27,6 +27,14 @@
 #define RESULT_TIMEOUT_MS 60000
 #define BACKOFF_MAX_MS 5000
 #define RESULT_ATTEMPTS 8
+/* Tiles per LeaseResult: about 3.3 MB of a 64x64 tile's 10 doubles per pixel, under the
+ * coordinator's VF_WIRE_MAX_RESULT. */
+#define TILES_PER_MESSAGE 10
+#define SHIP_SECONDS 5.0
+/* Parts are shipped from the render thread, which waits meanwhile (a 1920x1080 part: about
+ * 0.4 s of encoding and framing, plus the coordinator's 0.5 s). The wait is kept to about
+ * 2% of the rendering by shipping no more often than 50 times the last part's cost. */
+#define SHIP_COST_FACTOR 50.0
 
 static const char usage[] =
     "usage: vcmfarm worker --connect URL --secret FILE [options]\n"
@@ -39,6 +47,9 @@ static const char usage[] =
     "  -k, --secret FILE     the farm's key file (vcmfarm keygen); required\n"
     "  -j, --threads T       render threads (default: one per CPU)\n"
     "  -n, --name NAME       name shown in status (default HOST/PID)\n"
+    "      --ship-interval S  send the iterations rendered so far every S seconds during\n"
+    "                        a lease (default 5; longer when sending takes more than 2%\n"
+    "                        of the time), and the rest at its end\n"
     "  -h, --help            this text\n"
     "\n"
     "For tests only:\n"
@@ -69,6 +80,14 @@ typedef struct {
   char job_settings[512];
   vf_scene *scene;
   vf_renderer *renderer;
+  double ship_interval;
+  /* the lease being rendered */
+  const Vcmfarm__Lease *lease;
+  uint64_t shipped;    /* iterations [lease begin, shipped) are merged */
+  double shipped_at;   /* vf_render_status.seconds of the last part's end, this lease */
+  double ship_cost;    /* seconds the last part took to ship (kept across leases) */
+  int part_merged;     /* the last acknowledgement said the part was merged */
+  int dropped;         /* a part was refused or could not be sent: stop, send nothing more */
   /* test hooks */
   int iteration_delay_ms;
   const char *stall_file;
@@ -190,38 +209,92 @@ static void stall(worker *w) {
   w->stalled = 1;
 }
 
-static void send_result(worker *w, const Vcmfarm__Lease *l, const vf_film *film) {
-  uint8_t *bytes;
-  size_t len;
-  int err = vf_film_to_bytes(film, VF_WIRE_MAX_PAYLOAD - 1024, &bytes, &len);
-  if (err != VF_OK) return release_lease(w, l->lease_id, vf_error_detail(err));
-  Vcmfarm__LeaseResult m = VCMFARM__LEASE_RESULT__INIT;
-  m.worker_id = w->worker_id;
-  m.lease_id = l->lease_id;
-  m.job_id = l->job_id;
-  m.begin = l->begin;
-  m.end = l->end;
-  m.film_exr.data = bytes;
-  m.film_exr.len = len;
+/* Sends the tiles of one LeaseResult message; 1 accepted, 0 refused (logged), < 0 not
+ * sent. A message whose reply was lost is sent again; the coordinator takes it once. */
+static int send_tiles(worker *w, Vcmfarm__LeaseResult *m) {
   Vcmfarm__Envelope q = VCMFARM__ENVELOPE__INIT, *reply;
   q.body_case = VCMFARM__ENVELOPE__BODY_RESULT;
-  q.result = &m;
-  /* A result whose reply was lost may be sent twice; the coordinator counts it once. */
+  q.result = m;
+  int err = VF_OK;
   for (int attempt = 0; attempt < RESULT_ATTEMPTS; attempt++) {
     err = vf_farm_request(w->client, &q, VCMFARM__ENVELOPE__BODY_RESULT_ACK, RESULT_TIMEOUT_MS, &reply);
     if (err == VF_OK) {
-      log_line("job %llu [%llu,%llu): %s%s", (unsigned long long)l->job_id, (unsigned long long)l->begin,
-               (unsigned long long)l->end, reply->result_ack->accepted ? "accepted" : "refused: ",
-               reply->result_ack->accepted ? "" : reply->result_ack->message);
+      int accepted = reply->result_ack->accepted;
+      w->part_merged = accepted && (strcmp(reply->result_ack->message, "merged") == 0 ||
+                                    strcmp(reply->result_ack->message, "already merged") == 0);
+      if (!accepted)
+        log_line("job %llu [%llu,%llu): refused: %s", (unsigned long long)m->job_id, (unsigned long long)m->begin,
+                 (unsigned long long)m->end, reply->result_ack->message);
       vf_message_free(reply);
-      break;
+      return accepted;
     }
-    log_line("sending job %llu [%llu,%llu): %s", (unsigned long long)l->job_id, (unsigned long long)l->begin,
-             (unsigned long long)l->end, vf_error_detail(err));
+    log_line("sending job %llu [%llu,%llu): %s", (unsigned long long)m->job_id, (unsigned long long)m->begin,
+             (unsigned long long)m->end, vf_error_detail(err));
     if (fatal(err) || err == VF_EREFUSED || terminating) break;
     back_off(w);
   }
-  free(bytes);
+  return err < 0 ? err : VF_ETIMEDOUT;
+}
+
+static int send_tiles_cb(void *ctx, Vcmfarm__LeaseResult *m) { return send_tiles(ctx, m); }
+
+/* Ships the film of [w->shipped, ...) as tiles (docs/PROTOCOL.md). Returns 1 when the
+ * coordinator merged it; otherwise the lease is dropped (w->dropped). */
+static int ship(worker *w, const vf_film *film) {
+  Vcmfarm__LeaseResult m = VCMFARM__LEASE_RESULT__INIT;
+  m.worker_id = w->worker_id;
+  m.lease_id = w->lease->lease_id;
+  m.job_id = w->lease->job_id;
+  m.begin = w->shipped;
+  w->part_merged = 0;
+  int rc = vf_film_send_tiles(film, &m, TILES_PER_MESSAGE, send_tiles_cb, w);
+  /* Every tile taken, yet not merged: the coordinator lost tiles of it (it dropped the
+   * part, or restarted); the lease cannot go on from here. */
+  if (rc == 1 && !w->part_merged) {
+    log_line("job %llu [%llu,%llu): sent but not merged; dropping the lease", (unsigned long long)m.job_id,
+             (unsigned long long)m.begin, (unsigned long long)m.end);
+    rc = 0;
+  }
+  if (rc == 1) {
+    w->shipped = m.end;
+    return 1;
+  }
+  if (rc < 0 && rc != VF_ETIMEDOUT) log_line("sending tiles: %s", vf_error_detail(rc));
+  w->dropped = 1;
+  render_stop = 1;
+  return 0;
+}
+
+/* The film after its iterations were shipped: empty again, ready for the next part. */
+static void film_reset(vf_film *film) {
+  size_t n = (size_t)film->width * (size_t)film->height;
+  memset(film->camera_sum, 0, 3 * n * sizeof *film->camera_sum);
+  memset(film->camera_count, 0, n * sizeof *film->camera_count);
+  memset(film->light_sum, 0, 3 * n * sizeof *film->light_sum);
+  memset(film->square_sum, 0, 3 * n * sizeof *film->square_sum);
+  vf_iterset_destroy(&film->iterations);
+  vf_iterset_init(&film->iterations);
+  film->light_frames = 0;
+  film->render_seconds = film->cpu_seconds = 0.0;
+  film->nonfinite_samples = 0;
+}
+
+/* The render loop's checkpoint, after every iteration: once the ship interval (or 50
+ * times the last part's cost, if more) has passed since the last part, the iterations so
+ * far go to the coordinator and the film starts again empty. The end of the lease is
+ * shipped by run_lease, after the loop. */
+static int on_checkpoint(void *ctx, vf_film *film, const vf_render_status *st) {
+  worker *w = ctx;
+  if (st->final || w->dropped || vf_heartbeat_revoked(w->heartbeat)) return VF_OK;
+  double interval = w->ship_interval > SHIP_COST_FACTOR * w->ship_cost ? w->ship_interval
+                                                                       : SHIP_COST_FACTOR * w->ship_cost;
+  if (st->seconds - w->shipped_at < interval) return VF_OK;
+  if (w->shipped + vf_iterset_count(&film->iterations) >= w->lease->end) return VF_OK; /* the last: after the loop */
+  double t0 = vf_seconds_now();
+  if (ship(w, film)) film_reset(film);
+  w->ship_cost = vf_seconds_now() - t0;
+  w->shipped_at = st->seconds + w->ship_cost;
+  return VF_OK;
 }
 
 static void run_lease(worker *w, const Vcmfarm__Lease *l) {
@@ -241,21 +314,37 @@ static void run_lease(worker *w, const Vcmfarm__Lease *l) {
     vf_film_destroy(film);
     return release_lease(w, l->lease_id, vf_error_detail(err));
   }
+  w->lease = l;
+  w->shipped = l->begin;
+  w->shipped_at = 0.0;
+  w->dropped = 0;
   vf_heartbeat_set_lease(w->heartbeat, w->worker_id, l->lease_id, w->heartbeat_ms);
   render_stop = terminating;
-  vf_render_control control = {.progress = on_progress, .ctx = w, .interrupt = &render_stop};
+  vf_render_control control = {.progress = on_progress, .ctx = w, .interrupt = &render_stop,
+                               .checkpoint = on_checkpoint};
   vf_render_status st;
   memset(&st, 0, sizeof st);
   err = vf_render_range(w->renderer, film, l->begin, l->end, &control, &st);
   int revoked = vf_heartbeat_revoked(w->heartbeat);
   vf_heartbeat_clear_lease(w->heartbeat);
-  if (err != VF_OK) release_lease(w, l->lease_id, vf_error_detail(err));
-  else if (revoked) log_line("lease %016llx revoked by the coordinator; dropped", (unsigned long long)l->lease_id);
-  else if (st.iterations_done < l->end - l->begin) release_lease(w, l->lease_id, "");
-  else {
-    if (w->stall_file && !w->stalled) stall(w);
-    send_result(w, l, film);
+  uint64_t rendered = l->begin + st.iterations_done;
+  if (err != VF_OK) {
+    release_lease(w, l->lease_id, vf_error_detail(err));
+  } else if (revoked) {
+    log_line("lease %016llx revoked by the coordinator; dropped", (unsigned long long)l->lease_id);
+  } else if (!w->dropped) {
+    /* What is rendered is shipped, also when stopping early (SIGTERM): then the rest of
+     * the lease is handed back. */
+    if (vf_iterset_count(&film->iterations) > 0) {
+      if (w->stall_file && !w->stalled) stall(w);
+      ship(w, film);
+    }
+    if (!w->dropped && rendered < l->end) release_lease(w, l->lease_id, "");
+    else if (!w->dropped)
+      log_line("job %llu [%llu,%llu): merged", (unsigned long long)l->job_id, (unsigned long long)l->begin,
+               (unsigned long long)l->end);
   }
+  w->lease = NULL;
   vf_film_destroy(film);
 }
 
@@ -299,10 +388,12 @@ int vf_cmd_worker(int argc, char **argv) {
       {"connect", required_argument, 0, 'c'}, {"secret", required_argument, 0, 'k'},
       {"threads", required_argument, 0, 'j'}, {"name", required_argument, 0, 'n'},
       {"test-iteration-delay", required_argument, 0, 'D'}, {"test-stall-file", required_argument, 0, 'S'},
+      {"ship-interval", required_argument, 0, 'I'},
       {"help", no_argument, 0, 'h'},          {0, 0, 0, 0}};
   const char *cmd = "worker", *secret = NULL, *name = NULL;
   worker w;
   memset(&w, 0, sizeof w);
+  w.ship_interval = SHIP_SECONDS;
   long long threads = 0, delay = 0;
   int err = VF_OK, c;
   optind = 1;
@@ -315,6 +406,7 @@ int vf_cmd_worker(int argc, char **argv) {
     case 'n': name = optarg; break;
     case 'D': err = vf_cli_int("--test-iteration-delay", optarg, 0, 60000, &delay); break;
     case 'S': w.stall_file = optarg; break;
+    case 'I': err = vf_cli_double("--ship-interval", optarg, 0.01, 86400.0, &w.ship_interval); break;
     case 'h': fputs(usage, stdout); return VF_EXIT_OK;
     default:
       fprintf(stderr, "vcmfarm worker: unknown or incomplete option '%s'\n%s", argv[optind - 1], usage);

@@ -1,14 +1,16 @@
 /* The coordinator's costs, for docs/BENCHMARKS.md ("Farm").
  *
- *   bench_farm merge [RUNS]
- *       CPU and wall time of the coordinator's handler for one LeaseResult (decode the
- *       EXR bytes, check, merge) of a 64x64 film and of a 1920x1080 film, one iteration
- *       each, in process (coordinator/farm.h); median of RUNS (default 9 and 5), and the
- *       checkpoint write of the 1920x1080 job film.
+ *   bench_farm merge [RUNS [WxH]]
+ *       CPU and wall time of the coordinator's handlers for the LeaseResult messages of
+ *       one result (check the tiles, stage them, merge) of a 64x64 film (one tile) and of
+ *       a 1920x1080 film (510 tiles), one iteration each, in process (coordinator/farm.h);
+ *       median of RUNS (default 9 and 5), and the checkpoint write of the job film; with
+ *       WxH, that size only. The messages are framed and opened as on the wire.
  *   bench_farm simulate VCMFARM WORKERS THINK_MS RESULTS
  *       A real coordinator process (VCMFARM coordinator over ipc://) and WORKERS fake
  *       workers (threads of this process, one REQ socket each) that take leases and,
- *       after THINK_MS of pretend rendering, send precomputed 64x64 one-iteration films,
+ *       after THINK_MS of pretend rendering, send precomputed 64x64 one-iteration films
+ *       (one tile each),
  *       until RESULTS results are merged. Prints the round trip of results (median, 90th,
  *       99th percentile), the results merged per second and the coordinator's CPU time
  *       per result (from /proc).
@@ -60,8 +62,8 @@ static void settings_text(int width, int height, char *buf, size_t n) {
   vf_settings_format(&s, buf, n);
 }
 
-/* A film holding iteration k only, with noisy pixels like a render's, as EXR bytes. */
-static int film_bytes(int width, int height, const char *settings, uint64_t k, uint8_t **data, size_t *len) {
+/* A film holding iteration k only, with noisy pixels like a render's. */
+static int noisy_film(int width, int height, const char *settings, uint64_t k, vf_film **out) {
   vf_film *f;
   int err = vf_film_create(width, height, &f);
   if (err != VF_OK) return err;
@@ -75,10 +77,11 @@ static int film_bytes(int width, int height, const char *settings, uint64_t k, u
   memcpy(f->scene_hash, scene_hash, 32);
   snprintf(f->settings_text, sizeof f->settings_text, "%s", settings);
   f->render_seconds = 1000.0; /* a slow worker: every lease is one iteration */
-  if ((err = vf_film_add_iteration(f, k, cam, light)) == VF_OK) err = vf_film_to_bytes(f, VF_WIRE_MAX_PAYLOAD, data, len);
+  err = vf_film_add_iteration(f, k, cam, light);
   free(cam);
   free(light);
-  vf_film_destroy(f);
+  if (err == VF_OK) *out = f;
+  else vf_film_destroy(f);
   return err;
 }
 
@@ -101,6 +104,41 @@ static Vcmfarm__Envelope submit_envelope(Vcmfarm__SubmitJob *m, Vcmfarm__Scene *
 }
 
 /* ---- merge ---- */
+
+typedef struct {
+  vf_farm *farm;
+  vf_wire_key key;
+  double cpu, wall; /* the coordinator's: opening the frame, decoding, handling */
+  size_t bytes;
+} in_process;
+
+/* One message of tiles framed as a worker does, then opened and handled as the
+ * coordinator does; the coordinator's part timed. */
+static int handle_tiles(void *ctx, Vcmfarm__LeaseResult *m) {
+  in_process *ip = ctx;
+  Vcmfarm__Envelope q = VCMFARM__ENVELOPE__INIT, *request;
+  q.body_case = VCMFARM__ENVELOPE__BODY_RESULT;
+  q.result = m;
+  uint8_t *frame;
+  size_t len;
+  if (vf_message_pack(&ip->key, &q, &frame, &len) != VF_OK) return -1;
+  ip->bytes += len;
+  vf_farm_reply r;
+  double c0 = cpu_now(), w0 = vf_seconds_now();
+  if (vf_message_unpack(&ip->key, frame, len, &request) != VF_OK) {
+    free(frame);
+    return -1;
+  }
+  vf_farm_handle(ip->farm, request, vf_seconds_now(), &r);
+  vf_message_free(request);
+  ip->cpu += cpu_now() - c0;
+  ip->wall += vf_seconds_now() - w0;
+  free(frame);
+  int accepted = r.result_ack.accepted;
+  if (!accepted) fprintf(stderr, "result refused: %s\n", r.result_ack.message);
+  vf_farm_reply_release(&r);
+  return accepted;
+}
 
 static void bench_merge(int width, int height, int runs, const char *dir) {
   char settings[512];
@@ -127,6 +165,7 @@ static void bench_merge(int width, int height, int runs, const char *dir) {
   uint64_t worker = r.registered.worker_id;
   vf_farm_reply_release(&r);
   double *cpu = calloc((size_t)runs, sizeof *cpu), *wall = calloc((size_t)runs, sizeof *wall);
+  double *encode = calloc((size_t)runs, sizeof *encode);
   size_t bytes = 0;
   for (int i = 0; i < runs; i++) {
     Vcmfarm__LeaseRequest lr = VCMFARM__LEASE_REQUEST__INIT;
@@ -142,31 +181,30 @@ static void bench_merge(int width, int height, int runs, const char *dir) {
     m.begin = r.lease.begin;
     m.end = r.lease.end;
     vf_farm_reply_release(&r);
-    if (m.end != m.begin + 1 || film_bytes(width, height, settings, m.begin, &m.film_exr.data, &m.film_exr.len) != VF_OK) {
+    vf_film *film;
+    if (m.end != m.begin + 1 || noisy_film(width, height, settings, m.begin, &film) != VF_OK) {
       fprintf(stderr, "unexpected lease or film failure\n");
       exit(1);
     }
-    bytes = m.film_exr.len;
-    q = (Vcmfarm__Envelope)VCMFARM__ENVELOPE__INIT;
-    q.body_case = VCMFARM__ENVELOPE__BODY_RESULT;
-    q.result = &m;
-    double c0 = cpu_now(), w0 = vf_seconds_now();
-    vf_farm_handle(&farm, &q, vf_seconds_now(), &r);
-    cpu[i] = cpu_now() - c0;
-    wall[i] = vf_seconds_now() - w0;
-    if (!r.result_ack.accepted) {
-      fprintf(stderr, "result refused: %s\n", r.result_ack.message);
-      exit(1);
-    }
-    vf_farm_reply_release(&r);
-    free(m.film_exr.data);
+    in_process ip = {&farm, {{0}}, 0.0, 0.0, 0};
+    randombytes_buf(ip.key.bytes, sizeof ip.key.bytes);
+    double t0 = vf_seconds_now();
+    if (vf_film_send_tiles(film, &m, 10, handle_tiles, &ip) != 1) exit(1);
+    encode[i] = vf_seconds_now() - t0 - ip.wall; /* encoding the tiles and framing them */
+    vf_film_destroy(film);
+    bytes = ip.bytes;
+    cpu[i] = ip.cpu;
+    wall[i] = ip.wall;
   }
   double w0 = vf_seconds_now();
   vf_farm_checkpoint(&farm, 1);
   double checkpoint = vf_seconds_now() - w0;
-  printf("%dx%d: result of %.2f MB, merge CPU %.2f ms, wall %.2f ms (median of %d); checkpoint write %.1f ms\n",
+  printf("%dx%d: result of %.2f MB, coordinator CPU %.2f ms, wall %.2f ms; worker (encode, frame) %.2f ms (median "
+         "of %d); checkpoint write %.1f ms\n",
          width, height, (double)bytes / 1e6, 1e3 * percentile(cpu, (size_t)runs, 0.5),
-         1e3 * percentile(wall, (size_t)runs, 0.5), runs, 1e3 * checkpoint);
+         1e3 * percentile(wall, (size_t)runs, 0.5), 1e3 * percentile(encode, (size_t)runs, 0.5), runs,
+         1e3 * checkpoint);
+  free(encode);
   free(cpu);
   free(wall);
   vf_farm_destroy(&farm);
@@ -178,13 +216,22 @@ typedef struct {
   const char *url;
   const vf_wire_key *key;
   int think_ms, index;
-  uint8_t **films; /* [k]: film of iteration k */
-  size_t *film_len;
+  vf_film **films; /* [k]: film of iteration k */
   unsigned results;
   atomic_uint *merged;
   double *latency; /* shared array, RESULTS long */
   atomic_uint *latency_count;
 } fake_worker;
+
+static int send_tiles(void *ctx, Vcmfarm__LeaseResult *m) {
+  Vcmfarm__Envelope q = VCMFARM__ENVELOPE__INIT, *reply;
+  q.body_case = VCMFARM__ENVELOPE__BODY_RESULT;
+  q.result = m;
+  if (vf_farm_request(ctx, &q, VCMFARM__ENVELOPE__BODY_RESULT_ACK, 30000, &reply) != VF_OK) return -1;
+  int accepted = reply->result_ack->accepted;
+  vf_message_free(reply);
+  return accepted;
+}
 
 static void *fake(void *arg) {
   fake_worker *f = arg;
@@ -216,25 +263,20 @@ static void *fake(void *arg) {
     m.lease_id = reply->lease->lease_id;
     m.job_id = reply->lease->job_id;
     m.begin = reply->lease->begin;
-    m.end = reply->lease->end;
-    m.film_exr.data = f->films[m.begin];
-    m.film_exr.len = f->film_len[m.begin];
     vf_message_free(reply);
     if (f->think_ms > 0) {
       struct timespec ts = {f->think_ms / 1000, (long)(f->think_ms % 1000) * 1000000L};
       nanosleep(&ts, NULL);
     }
-    q.body_case = VCMFARM__ENVELOPE__BODY_RESULT;
-    q.result = &m;
     double t0 = vf_seconds_now();
-    if (vf_farm_request(c, &q, VCMFARM__ENVELOPE__BODY_RESULT_ACK, 30000, &reply) != VF_OK) break;
+    int rc = vf_film_send_tiles(f->films[m.begin], &m, 10, send_tiles, c);
     double dt = vf_seconds_now() - t0;
-    if (reply->result_ack->accepted) {
+    if (rc < 0) break;
+    if (rc == 1) {
       unsigned i = atomic_fetch_add(f->latency_count, 1);
       if (i < f->results) f->latency[i] = dt;
       atomic_fetch_add(f->merged, 1);
     }
-    vf_message_free(reply);
   }
 close:
   vf_farm_client_close(c);
@@ -267,10 +309,9 @@ static int simulate(const char *vcmfarm, int workers, int think_ms, unsigned res
   char settings[512];
   settings_text(64, 64, settings, sizeof settings);
   fprintf(stderr, "precomputing %u films...\n", results);
-  uint8_t **films = calloc(results, sizeof *films);
-  size_t *film_len = calloc(results, sizeof *film_len);
+  vf_film **films = calloc(results, sizeof *films);
   for (unsigned k = 0; k < results; k++)
-    if (film_bytes(64, 64, settings, k, &films[k], &film_len[k]) != VF_OK) return 1;
+    if (noisy_film(64, 64, settings, k, &films[k]) != VF_OK) return 1;
   pid_t pid = fork();
   if (pid == 0) {
     char log[300];
@@ -299,7 +340,7 @@ static int simulate(const char *vcmfarm, int workers, int think_ms, unsigned res
   pthread_t *threads = calloc((size_t)workers, sizeof *threads);
   double cpu0 = proc_cpu(pid), t0 = vf_seconds_now();
   for (int i = 0; i < workers; i++) {
-    fw[i] = (fake_worker){url, &key, think_ms, i, films, film_len, results, &merged, latency, &latency_count};
+    fw[i] = (fake_worker){url, &key, think_ms, i, films, results, &merged, latency, &latency_count};
     pthread_create(&threads[i], NULL, fake, &fw[i]);
   }
   for (int i = 0; i < workers; i++) pthread_join(threads[i], NULL);
@@ -314,9 +355,8 @@ static int simulate(const char *vcmfarm, int workers, int think_ms, unsigned res
   kill(pid, SIGTERM);
   waitpid(pid, NULL, 0);
   vf_farm_client_close(c);
-  for (unsigned k = 0; k < results; k++) free(films[k]);
+  for (unsigned k = 0; k < results; k++) vf_film_destroy(films[k]);
   free(films);
-  free(film_len);
   free(latency);
   free(fw);
   free(threads);
@@ -331,8 +371,13 @@ int main(int argc, char **argv) {
     int runs = argc >= 3 ? atoi(argv[2]) : 0;
     char dir[] = "/tmp/vf-bench-merge-XXXXXX";
     if (mkdtemp(dir) == NULL) return 1;
-    bench_merge(64, 64, runs > 0 ? runs : 9, dir);
-    bench_merge(1920, 1080, runs > 0 ? runs : 5, dir);
+    int width = 0, height = 0;
+    if (argc >= 4 && sscanf(argv[3], "%dx%d", &width, &height) == 2 && width > 0 && height > 0) {
+      bench_merge(width, height, runs > 0 ? runs : 5, dir);
+    } else {
+      bench_merge(64, 64, runs > 0 ? runs : 9, dir);
+      bench_merge(1920, 1080, runs > 0 ? runs : 5, dir);
+    }
     char cmd[200];
     snprintf(cmd, sizeof cmd, "rm -rf '%s'", dir);
     return system(cmd) == 0 ? 0 : 1;

@@ -1,0 +1,148 @@
+#include "partial.h"
+
+#include "../common/error.h"
+#include "../common/film_wire.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+struct vf_partial {
+  uint64_t begin, end;
+  uint32_t total, received;
+  uint8_t *seen;   /* one per tile, owned */
+  vf_film *film;   /* the staged part, owned until taken */
+  /* the header every message of the part repeats */
+  double render_seconds, cpu_seconds;
+  uint64_t nonfinite;
+  double updated;  /* vf_seconds_now() of its last message */
+};
+
+static int check_header(const vf_job *job, const Vcmfarm__LeaseResult *m) {
+  const vf_film *f = job->film;
+  if (m->width != (uint32_t)f->width || m->height != (uint32_t)f->height)
+    return vf_error_set(VF_EMISMATCH, "tiles of a %ux%u film, job %llu is %dx%d", m->width, m->height,
+                        (unsigned long long)job->id, f->width, f->height);
+  if (m->scene_hash.len != 32 || memcmp(m->scene_hash.data, job->scene_hash, 32) != 0)
+    return vf_error_set(VF_EMISMATCH, "scene hash differs from job %llu's", (unsigned long long)job->id);
+  if (strcmp(m->settings, job->settings_text) != 0)
+    return vf_error_set(VF_EMISMATCH, "settings '%.200s' differ from job %llu's '%s'", m->settings,
+                        (unsigned long long)job->id, job->settings_text);
+  uint32_t total = vf_film_tile_count(f->width, f->height);
+  if (m->tiles_total != total)
+    return vf_error_set(VF_EINVAL, "tiles_total %u, a %dx%d film has %u tiles", m->tiles_total, f->width, f->height,
+                        total);
+  if (!(m->render_seconds >= 0.0 && m->render_seconds <= 1e9) || !(m->cpu_seconds >= 0.0 && m->cpu_seconds <= 1e9))
+    return vf_error_set(VF_EINVAL, "render or CPU seconds out of range");
+  if (m->nonfinite_samples > (m->end - m->begin) * 2 * (uint64_t)f->width * (uint64_t)f->height)
+    return vf_error_set(VF_EINVAL, "%llu non-finite samples in %llu iterations of %dx%d pixels",
+                        (unsigned long long)m->nonfinite_samples, (unsigned long long)(m->end - m->begin), f->width,
+                        f->height);
+  return VF_OK;
+}
+
+int vf_partial_create(const vf_job *job, const Vcmfarm__LeaseResult *m, vf_partial **out) {
+  if (m->begin >= m->end) return vf_error_set(VF_EINVAL, "empty range [%llu,%llu)", (unsigned long long)m->begin,
+                                              (unsigned long long)m->end);
+  int err = check_header(job, m);
+  if (err != VF_OK) return err;
+  vf_partial *p = calloc(1, sizeof *p);
+  if (p == NULL) return vf_error_set(VF_ENOMEM, "out of memory for a partial result");
+  p->total = m->tiles_total;
+  if ((p->seen = calloc(p->total, 1)) == NULL) {
+    err = vf_error_set(VF_ENOMEM, "out of memory for a partial result");
+    goto free_partial;
+  }
+  if ((err = vf_film_create(job->film->width, job->film->height, &p->film)) != VF_OK) goto free_seen;
+  if ((err = vf_iterset_add(&p->film->iterations, m->begin, m->end)) != VF_OK) goto free_film;
+  memcpy(p->film->scene_hash, job->scene_hash, 32);
+  snprintf(p->film->settings_text, sizeof p->film->settings_text, "%s", job->settings_text);
+  /* What `continue` loads: the built-in name; a JSON scene's text has no path to give. */
+  if (job->scene_builtin) snprintf(p->film->scene_name, sizeof p->film->scene_name, "%s", job->scene_text);
+  p->film->light_frames = m->end - m->begin;
+  p->film->render_seconds = p->render_seconds = m->render_seconds;
+  p->film->cpu_seconds = p->cpu_seconds = m->cpu_seconds;
+  p->film->nonfinite_samples = p->nonfinite = m->nonfinite_samples;
+  p->begin = m->begin;
+  p->end = m->end;
+  *out = p;
+  return VF_OK;
+free_film:
+  vf_film_destroy(p->film);
+free_seen:
+  free(p->seen);
+free_partial:
+  free(p);
+  return err;
+}
+
+void vf_partial_destroy(vf_partial *p) {
+  if (p == NULL) return;
+  vf_film_destroy(p->film);
+  free(p->seen);
+  free(p);
+}
+
+int vf_partial_same(const vf_partial *p, const Vcmfarm__LeaseResult *m) {
+  return p->film != NULL && m->begin == p->begin && m->end == p->end && m->tiles_total == p->total &&
+         m->render_seconds == p->render_seconds && m->cpu_seconds == p->cpu_seconds &&
+         m->nonfinite_samples == p->nonfinite && m->width == (uint32_t)p->film->width &&
+         m->height == (uint32_t)p->film->height && m->scene_hash.len == 32 &&
+         memcmp(m->scene_hash.data, p->film->scene_hash, 32) == 0 && strcmp(m->settings, p->film->settings_text) == 0;
+}
+
+/* Whether a tile equals the one stored at its place (checked tiles: sizes agree). */
+static int same_tile(const vf_film *film, const Vcmfarm__Tile *t) {
+  Vcmfarm__Tile stored;
+  double *block;
+  if (vf_film_tile_encode(film, t->x, t->y, &stored, &block) != VF_OK) return 0;
+  size_t n = stored.n_count * sizeof *block;
+  int same = memcmp(stored.camera, t->camera, 3 * n) == 0 && memcmp(stored.count, t->count, n) == 0 &&
+             memcmp(stored.light, t->light, 3 * n) == 0 && memcmp(stored.square, t->square, 3 * n) == 0;
+  free(block);
+  return same;
+}
+
+int vf_partial_add(vf_partial *p, const Vcmfarm__LeaseResult *m) {
+  if (p->film == NULL) return vf_error_set(VF_EINVAL, "this partial result was merged already");
+  uint32_t across = vf_film_tiles_across(p->film->width);
+  uint64_t iterations = p->end - p->begin;
+  for (size_t i = 0; i < m->n_tiles; i++) {
+    const Vcmfarm__Tile *t = m->tiles[i];
+    int err = vf_film_tile_check(t, p->film->width, p->film->height, iterations);
+    if (err != VF_OK) return err;
+    for (size_t j = 0; j < i; j++)
+      if (m->tiles[j]->x == t->x && m->tiles[j]->y == t->y)
+        return vf_error_set(VF_EINVAL, "tile (%u,%u) twice in one message", t->x, t->y);
+    if (p->seen[t->y * across + t->x] && !same_tile(p->film, t))
+      return vf_error_set(VF_EINVAL, "tile (%u,%u) arrived before with other values", t->x, t->y);
+  }
+  for (size_t i = 0; i < m->n_tiles; i++) {
+    const Vcmfarm__Tile *t = m->tiles[i];
+    uint8_t *seen = &p->seen[t->y * across + t->x];
+    if (*seen) continue;
+    vf_film_tile_store(p->film, t);
+    *seen = 1;
+    p->received++;
+  }
+  return VF_OK;
+}
+
+void vf_partial_touch(vf_partial *p, double now) { p->updated = now; }
+double vf_partial_updated(const vf_partial *p) { return p->updated; }
+
+uint32_t vf_partial_received(const vf_partial *p) { return p->received; }
+uint32_t vf_partial_total(const vf_partial *p) { return p->total; }
+
+int vf_partial_take(vf_partial *p, vf_film **out) {
+  if (p->film == NULL || p->received != p->total)
+    return vf_error_set(VF_EINVAL, "%u of %u tiles received", p->received, p->total);
+  char name[96];
+  snprintf(name, sizeof name, "result [%llu,%llu)", (unsigned long long)p->begin, (unsigned long long)p->end);
+  int err = vf_film_validate(p->film, name);
+  if (err != VF_OK) return err;
+  *out = p->film;
+  p->film = NULL;
+  return VF_OK;
+}
