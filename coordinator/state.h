@@ -4,6 +4,10 @@
  *                      scene kind and hash, settings, stop conditions, running time,
  *                      whether it has a reference, cancelled/failed/stopped + why
  *   DIR/job-ID.scene   the job's scene (built-in name or JSON text), written at submit
+ *   DIR/job-ID.files   the table of the files a JSON scene names (name, hash, size; JSON),
+ *                      written before the scene; absent when it names none
+ *   DIR/blobs/HEX      those files' bytes by content hash, shared by all jobs, written
+ *                      when received (coordinator/blobs.h, common/blob.h)
  *   DIR/job-ID.exr     the job's film, checkpointed (docs/FILM.md), with its convergence log
  *   DIR/job-ID.reference.exr  the job's reference image, if it has one, written at submit
  *   DIR/lock           held (flock) by the running coordinator
@@ -27,7 +31,7 @@ int vf_state_lock(const char *dir, int *fd);
 int vf_state_load(vf_farm *farm);
 
 int vf_state_save_index(vf_farm *farm);          /* state.json; clears farm->state_dirty */
-int vf_state_save_scene(const char *dir, const vf_job *job);
+int vf_state_save_scene(const char *dir, const vf_job *job); /* job-ID.files, then job-ID.scene */
 int vf_state_save_film(const char *dir, vf_job *job); /* clears job->film_dirty */
 /* Writes DIR/job-ID.reference.exr and loads it into the job (vf_job_load_reference);
  * on failure removes it again: VF_EIO (writing), or the reading error of a bad image. */
