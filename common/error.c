@@ -2,6 +2,7 @@
 
 #include <stdarg.h>
 #include <stdio.h>
+#include <string.h>
 
 static _Thread_local char detail[1024];
 
@@ -16,10 +17,14 @@ const char *vf_strerror(int err) {
 }
 
 int vf_error_set(int err, const char *fmt, ...) {
+  /* Formatted aside first, so a caller may wrap the current detail:
+   * vf_error_set(err, "files[3]: %s", vf_error_detail(err)). */
+  char text[sizeof detail];
   va_list ap;
   va_start(ap, fmt);
-  vsnprintf(detail, sizeof detail, fmt, ap);
+  vsnprintf(text, sizeof text, fmt, ap);
   va_end(ap);
+  memcpy(detail, text, sizeof detail);
   return err;
 }
 

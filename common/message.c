@@ -65,6 +65,11 @@ const char *vf_message_name(const Vcmfarm__Envelope *env) {
   case VCMFARM__ENVELOPE__BODY_STATUS: return "status";
   case VCMFARM__ENVELOPE__BODY_FILM: return "film";
   case VCMFARM__ENVELOPE__BODY_ERROR: return "error";
+  case VCMFARM__ENVELOPE__BODY_BLOB_QUERY: return "blob-query";
+  case VCMFARM__ENVELOPE__BODY_BLOB_PUT: return "blob-put";
+  case VCMFARM__ENVELOPE__BODY_BLOB_REQUEST: return "blob-request";
+  case VCMFARM__ENVELOPE__BODY_BLOB_HAVE: return "blob-have";
+  case VCMFARM__ENVELOPE__BODY_BLOB: return "blob";
   default: return "unknown";
   }
 }

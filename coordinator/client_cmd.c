@@ -11,11 +11,14 @@
 #include "schedule.h"
 
 #include <cjson/cJSON.h>
+#include <dirent.h>
+#include <errno.h>
 #include <getopt.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 /* Options every client command shares. */
 typedef struct {
@@ -66,11 +69,92 @@ static int parse_job_id(const char *text, uint64_t *id) {
 
 /* ---- submit ---- */
 
+/* A private directory for the scene's files as blobs (common/blob.h), removed after. */
+static int stage_create(char *dir, size_t n) {
+  const char *tmp = getenv("TMPDIR");
+  if (snprintf(dir, n, "%s/vcmfarm-submit-XXXXXX", tmp && tmp[0] ? tmp : "/tmp") >= (int)n)
+    return vf_error_set(VF_EINVAL, "TMPDIR too long");
+  if (mkdtemp(dir) == NULL) return vf_error_set(VF_EIO, "%s: %s", dir, strerror(errno));
+  return VF_OK;
+}
+
+static void stage_remove(const char *dir) {
+  char blobs[4200], path[4500];
+  snprintf(blobs, sizeof blobs, "%s/blobs", dir);
+  DIR *d = opendir(blobs);
+  if (d != NULL) {
+    struct dirent *e;
+    while ((e = readdir(d)) != NULL)
+      if (e->d_name[0] != '.' && snprintf(path, sizeof path, "%s/%s", blobs, e->d_name) < (int)sizeof path)
+        unlink(path);
+    closedir(d);
+  }
+  rmdir(blobs);
+  rmdir(dir);
+}
+
+/* Sends the files the coordinator does not hold yet, one blob per message: a job's files
+ * together may exceed the frame cap, one file may not (VF_BLOB_MAX_BYTES). */
+static int send_files(const connection *conn, const char *stage, const vf_blob_table *files) {
+  ProtobufCBinaryData *hashes = calloc(files->count, sizeof *hashes);
+  if (hashes == NULL) return vf_error_set(VF_ENOMEM, "out of memory");
+  for (size_t i = 0; i < files->count; i++) hashes[i] = (ProtobufCBinaryData){32, files->refs[i].hash};
+  Vcmfarm__BlobQuery query = VCMFARM__BLOB_QUERY__INIT;
+  query.n_hashes = files->count;
+  query.hashes = hashes;
+  Vcmfarm__Envelope q = VCMFARM__ENVELOPE__INIT, *have = NULL;
+  q.body_case = VCMFARM__ENVELOPE__BODY_BLOB_QUERY;
+  q.blob_query = &query;
+  int err = request(conn, &q, VCMFARM__ENVELOPE__BODY_BLOB_HAVE, &have);
+  free(hashes);
+  if (err != VF_OK) return err;
+  /* Big files take a while on slow links: at least two minutes each. */
+  connection slow = *conn;
+  if (slow.timeout < 120.0) slow.timeout = 120.0;
+  uint64_t bytes_sent = 0;
+  size_t sent = 0;
+  for (size_t i = 0; i < files->count && err == VF_OK; i++) {
+    const vf_blob_ref *ref = &files->refs[i];
+    int missing = 0;
+    for (size_t k = 0; k < have->blob_have->n_missing; k++)
+      missing |= have->blob_have->missing[k].len == 32 && memcmp(have->blob_have->missing[k].data, ref->hash, 32) == 0;
+    int earlier = 0; /* two names with the same content: one blob */
+    for (size_t k = 0; k < i; k++) earlier |= memcmp(files->refs[k].hash, ref->hash, 32) == 0;
+    if (!missing || earlier) continue;
+    uint8_t *bytes;
+    size_t len;
+    if ((err = vf_blob_store_get(stage, ref->hash, &bytes, &len)) != VF_OK) break;
+    Vcmfarm__BlobPut put = VCMFARM__BLOB_PUT__INIT;
+    put.hash = (ProtobufCBinaryData){32, (uint8_t *)ref->hash};
+    put.data = (ProtobufCBinaryData){len, bytes};
+    Vcmfarm__Envelope pq = VCMFARM__ENVELOPE__INIT, *ack = NULL;
+    pq.body_case = VCMFARM__ENVELOPE__BODY_BLOB_PUT;
+    pq.blob_put = &put;
+    err = request(&slow, &pq, VCMFARM__ENVELOPE__BODY_RESULT_ACK, &ack);
+    if (err == VF_OK && !ack->result_ack->accepted)
+      err = vf_error_set(VF_EREFUSED, "file '%s': %s", ref->name, ack->result_ack->message);
+    else if (err != VF_OK)
+      err = vf_error_set(err, "sending file '%s': %s", ref->name, vf_error_detail(err));
+    else {
+      sent++;
+      bytes_sent += len;
+    }
+    vf_message_free(ack);
+    free(bytes);
+  }
+  if (err == VF_OK)
+    fprintf(stderr, "vcmfarm submit: %zu files named by the scene; sent %zu (%llu bytes), the coordinator held the rest\n",
+            files->count, sent, (unsigned long long)bytes_sent);
+  vf_message_free(have);
+  return err;
+}
+
 static const char submit_usage[] =
     "usage: vcmfarm submit SCENE --coordinator URL --secret FILE [options]\n"
     "\n"
     "Submits a job rendering global iterations 0, 1, 2... of SCENE (a built-in name or a\n"
-    "JSON scene without mesh or map files) and prints the job id as the last line. The job\n"
+    "JSON scene file) and prints the job id as the last line. The mesh and map files the\n"
+    "scene names are sent by content hash, those the coordinator lacks first. The job\n"
     "stops at the first stop condition that holds.\n"
     "\n"
     "  -n, --iterations N       at most N iterations (default 16, or 10^9 when another stop\n"
@@ -145,14 +229,20 @@ int vf_cmd_submit(int argc, char **argv) {
   vf_scene *scene = NULL;
   vf_image reference_image = {0};
   Vcmfarm__Envelope *reply = NULL;
+  vf_blob_table files = {0};
+  Vcmfarm__BlobRef *file_refs = NULL, **file_ref_ptrs = NULL;
+  char stage[4096] = "";
   if (builtin) {
     len = strlen(source);
   } else if ((err = vf_file_read_all(source, 16u << 20, &text, &len)) != VF_OK) {
     return vf_cli_fail(cmd, err);
   }
-  /* Load it as the workers will, to refuse a broken scene here and learn its hash. */
-  if ((err = vf_job_scene_load(builtin, builtin ? source : (const char *)text, len, source, &scene)) != VF_OK)
-    goto done;
+  /* Load it as the workers will, to refuse a broken scene here and learn its hash; a JSON
+   * scene's files are collected as blobs on the way. */
+  if (builtin) err = vf_job_scene_load(1, source, len, NULL, NULL, source, &scene);
+  else if ((err = stage_create(stage, sizeof stage)) == VF_OK)
+    err = vf_job_scene_collect(source, (const char *)text, len, stage, &files, &scene);
+  if (err != VF_OK) goto done;
   vf_settings settings = scene->settings;
   if ((err = vf_cli_settings_apply(&overrides, &settings)) != VF_OK) goto done;
   char settings_text[512];
@@ -179,6 +269,13 @@ int vf_cmd_submit(int argc, char **argv) {
     s.source_case = VCMFARM__SCENE__SOURCE_JSON;
     s.json = (char *)text;
   }
+  if (files.count > 0) {
+    if ((err = send_files(&conn, stage, &files)) != VF_OK ||
+        (err = vf_blob_table_to_wire(&files, &file_refs, &file_ref_ptrs)) != VF_OK)
+      goto done;
+    s.n_files = files.count;
+    s.files = file_ref_ptrs;
+  }
   Vcmfarm__SubmitJob m = VCMFARM__SUBMIT_JOB__INIT;
   m.name = (char *)(name ? name : source);
   m.scene = &s;
@@ -200,6 +297,10 @@ int vf_cmd_submit(int argc, char **argv) {
           iterations, priority);
   printf("%llu\n", (unsigned long long)reply->submitted->job_id);
 done:
+  if (stage[0]) stage_remove(stage);
+  free(file_refs);
+  free(file_ref_ptrs);
+  vf_blob_table_clear(&files);
   vf_message_free(reply);
   vf_scene_destroy(scene);
   vf_image_destroy(&reference_image);

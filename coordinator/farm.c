@@ -3,6 +3,7 @@
 #include "../common/error.h"
 #include "../common/film_wire.h"
 #include "../common/wire.h"
+#include "blobs.h"
 #include "log.h"
 #include "partial.h"
 #include "schedule.h"
@@ -119,6 +120,10 @@ void vf_farm_reply_release(vf_farm_reply *r) {
   free(r->film_bytes);
   free(r->log);
   free(r->log_ptrs);
+  free(r->missing);
+  free(r->blob_bytes);
+  free(r->file_refs);
+  free(r->file_ref_ptrs);
   reply_init(r);
 }
 
@@ -200,6 +205,8 @@ static void handle_lease_request(vf_farm *farm, vf_farm_worker *w, double now, v
     r->scene.source_case = VCMFARM__SCENE__SOURCE_JSON;
     r->scene.json = job->scene_text;
   }
+  if (vf_farm_blobs_lease(job, r) != VF_OK)
+    return vf_farm_reply_error(r, VCMFARM__ERROR_CODE__ERROR_INTERNAL, "out of memory for the lease's file table");
   r->lease.lease_id = w->lease_id;
   r->lease.job_id = job->id;
   r->lease.scene = &r->scene;
@@ -447,6 +454,7 @@ static void handle_submit(vf_farm *farm, const Vcmfarm__SubmitJob *m, vf_farm_re
   vf_job *job;
   int err = vf_job_create(farm->next_job_id, m->name, m->priority, builtin, text, strlen(text), m->scene_hash.data,
                           m->scene_hash.len, m->settings, m->iterations, &job);
+  if (err == VF_OK && (err = vf_farm_blobs_attach(farm, job, m->scene)) != VF_OK) vf_job_destroy(job);
   if (err != VF_OK) return vf_farm_reply_error(r, VCMFARM__ERROR_CODE__ERROR_BAD_REQUEST, vf_error_detail(err));
   /* The reference is checked by reading it back from where it is kept. */
   if (m->reference_exr.len > 0 &&
@@ -638,6 +646,9 @@ void vf_farm_handle(vf_farm *farm, const Vcmfarm__Envelope *q, double now, vf_fa
   case VCMFARM__ENVELOPE__BODY_STATUS_REQUEST: return handle_status(farm, q->status_request, now, r);
   case VCMFARM__ENVELOPE__BODY_FETCH: return handle_fetch(farm, q->fetch, r);
   case VCMFARM__ENVELOPE__BODY_CANCEL: return handle_cancel(farm, q->cancel, now, r);
+  case VCMFARM__ENVELOPE__BODY_BLOB_QUERY: return vf_farm_blob_query(farm, q->blob_query, r);
+  case VCMFARM__ENVELOPE__BODY_BLOB_PUT: return vf_farm_blob_put(farm, q->blob_put, r);
+  case VCMFARM__ENVELOPE__BODY_BLOB_REQUEST: worker_id = q->blob_request->worker_id; break;
   default:
     return reply_errorf(r, VCMFARM__ERROR_CODE__ERROR_BAD_REQUEST, "a coordinator does not accept a %s message",
                         vf_message_name(q));
@@ -650,6 +661,7 @@ void vf_farm_handle(vf_farm *farm, const Vcmfarm__Envelope *q, double now, vf_fa
   switch (q->body_case) {
   case VCMFARM__ENVELOPE__BODY_LEASE_REQUEST: return handle_lease_request(farm, w, now, r);
   case VCMFARM__ENVELOPE__BODY_HEARTBEAT: return handle_heartbeat(farm, w, q->heartbeat, r);
+  case VCMFARM__ENVELOPE__BODY_BLOB_REQUEST: return vf_farm_blob_request(farm, w, q->blob_request, r);
   default: return handle_release(farm, w, q->release, now, r);
   }
 }

@@ -73,6 +73,12 @@ typedef struct {
   Vcmfarm__WorkerStatus *worker_status, **worker_status_ptrs;
   uint8_t *film_bytes;
   Vcmfarm__ConvergenceEntry *log, **log_ptrs;
+  /* ---- files of scenes by content hash (coordinator/blobs.h) ---- */
+  Vcmfarm__BlobHave blob_have;
+  Vcmfarm__Blob blob;
+  ProtobufCBinaryData *missing;                 /* owned array; data borrowed from the request */
+  uint8_t *blob_bytes;                          /* owned */
+  Vcmfarm__BlobRef *file_refs, **file_ref_ptrs; /* owned; the lease's Scene.files */
 } vf_farm_reply;
 
 /* An empty farm; then vf_state_load fills in the jobs of a state directory. */

@@ -87,6 +87,7 @@ void vf_job_destroy(vf_job *job) {
   vf_film_destroy(job->film);
   vf_image_destroy(&job->reference);
   free(job->scene_text);
+  vf_blob_table_clear(&job->files);
   free(job);
 }
 

@@ -9,6 +9,7 @@
 #ifndef VF_JOB_H
 #define VF_JOB_H
 
+#include "../common/blob.h"
 #include "../common/film.h"
 #include "../common/image.h"
 #include "../common/settings.h"
@@ -33,6 +34,8 @@ typedef struct {
   int priority; /* weight, VF_PRIORITY_MIN..VF_PRIORITY_MAX (coordinator/schedule.h) */
   int scene_builtin;    /* 1: scene_text is a built-in scene name; 0: JSON scene text */
   char *scene_text;     /* owned, NUL-terminated */
+  vf_blob_table files;  /* owned: the files a JSON scene names, by content hash; their
+                         * bytes are in the state directory's blob store */
   uint8_t scene_hash[32];
   char settings_text[512];
   vf_settings settings;

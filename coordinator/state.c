@@ -45,8 +45,12 @@ int vf_state_lock(const char *dir, int *fd) {
 
 int vf_state_save_scene(const char *dir, const vf_job *job) {
   char path[4096];
-  int err = path_of(path, sizeof path, dir, "job-", job->id, ".scene");
-  if (err != VF_OK) return err;
+  int err;
+  /* The file table (if any) before the scene text that needs it. */
+  if (job->files.count > 0 && ((err = path_of(path, sizeof path, dir, "job-", job->id, ".files")) != VF_OK ||
+                               (err = vf_blob_table_save(&job->files, path)) != VF_OK))
+    return err;
+  if ((err = path_of(path, sizeof path, dir, "job-", job->id, ".scene")) != VF_OK) return err;
   return vf_file_write_atomic(path, job->scene_text, strlen(job->scene_text), 0600);
 }
 
@@ -79,7 +83,7 @@ int vf_state_save_reference(const char *dir, vf_job *job, const uint8_t *data, s
 }
 
 void vf_state_remove_job_files(const char *dir, uint64_t id) {
-  const char *ext[] = {".scene", ".exr", ".reference.exr"};
+  const char *ext[] = {".scene", ".files", ".exr", ".reference.exr"};
   char path[4096];
   for (size_t i = 0; i < sizeof ext / sizeof *ext; i++)
     if (path_of(path, sizeof path, dir, "job-", id, ext[i]) == VF_OK) unlink(path);
@@ -206,6 +210,10 @@ static int load_job(vf_farm *farm, const cJSON *o, const char *state_path, uint6
   snprintf(job->message, sizeof job->message, "%s", message);
   job->seconds = job->seconds_saved = seconds;
   vf_film *film = NULL;
+  /* The files of a JSON scene (absent: it names none); their blobs stay in DIR/blobs. */
+  if ((err = path_of(path, sizeof path, dir, "job-", id, ".files")) != VF_OK) goto destroy_job;
+  if ((err = vf_blob_table_load(path, &job->files)) == VF_ENOENT) err = VF_OK;
+  if (err != VF_OK) goto destroy_job;
   if (cJSON_IsTrue(has_reference)) {
     if ((err = path_of(path, sizeof path, dir, "job-", id, ".reference.exr")) != VF_OK ||
         (err = vf_job_load_reference(job, path)) != VF_OK)

@@ -4,6 +4,10 @@
  *                      scene kind and hash, settings, stop conditions, running time,
  *                      whether it has a reference, cancelled/failed/stopped + why
  *   DIR/job-ID.scene   the job's scene (built-in name or JSON text), written at submit
+ *   DIR/job-ID.files   the table of the files a JSON scene names (name, hash, size; JSON),
+ *                      written before the scene; absent when it names none
+ *   DIR/blobs/HEX      those files' bytes by content hash, shared by all jobs, written
+ *                      when received (coordinator/blobs.h, common/blob.h)
  *   DIR/job-ID.exr     the job's film, checkpointed (docs/FILM.md), with its convergence log
  *   DIR/job-ID.reference.exr  the job's reference image, if it has one, written at submit
  *   DIR/lock           held (flock) by the running coordinator
@@ -32,7 +36,7 @@ int vf_state_lock(const char *dir, int *fd);
 int vf_state_load(vf_farm *farm);
 
 int vf_state_save_index(vf_farm *farm);          /* state.json; clears farm->state_dirty */
-int vf_state_save_scene(const char *dir, const vf_job *job);
+int vf_state_save_scene(const char *dir, const vf_job *job); /* job-ID.files, then job-ID.scene */
 /* Writes the job's film on the calling thread; clears job->film_dirty and final_pending. */
 int vf_state_save_film(const char *dir, vf_job *job);
 /* DIR/job-ID.exr into buf (n bytes); VF_EINVAL when it does not fit. */

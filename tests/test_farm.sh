@@ -5,10 +5,11 @@
 # seed (tests/farm_compare.c: the iteration set exactly [0,N), max |difference| <= 1e-5 x
 # image mean).
 #
-#   test_farm.sh CASE VCMFARM FARM_COMPARE FARM_PEER
+#   test_farm.sh CASE VCMFARM FARM_COMPARE FARM_PEER [FARM_BLOB_PEER]
 #
-# CASE: three_workers, worker_killed, worker_killed_after_parts, worker_terminated, coordinator_killed, hostile_peers, late_duplicate,
-# priorities, stop_conditions.
+# CASE: three_workers, worker_killed, worker_killed_after_parts, worker_terminated, coordinator_killed,
+# hostile_peers, late_duplicate, priorities, stop_conditions; mesh_scene and bad_blobs (scenes with
+# files, FARM_BLOB_PEER).
 # No fixed sleeps synchronise anything: the script polls `vcmfarm status` (or a file) with
 # a deadline, and every process it starts is killed on exit. KEEP_TMP=1 keeps the logs.
 set -u
@@ -16,6 +17,7 @@ case_name="$1"
 vcmfarm="$2"
 compare="$3"
 peer="$4"
+blob_peer="${5:-}"
 tmp=$(mktemp -d /tmp/vf-farm-XXXXXX)
 pids=()
 cleanup() {
@@ -88,7 +90,159 @@ check_film() {
   "$compare" "$tmp/farm.exr" "$tmp/reference.exr" "[0,$iterations)" || fail "farm film differs from the reference"
 }
 
+# ---- scenes with mesh and map files (docs/PROTOCOL.md, "Files of scenes") ----
+# A project directory: scenes/scene.json names an OBJ, a PLY, a glTF whose buffer is a
+# file of its own, and an EXR environment map, all by paths leading out of the scene's
+# directory ("../meshes/..."). Workers start with empty caches of their own.
+good_meshes="$(cd "$(dirname "$0")" && pwd)/scenes/good/meshes"
+scene="$tmp/project/scenes/scene.json"
+make_project() {
+  local d="$tmp/project"
+  mkdir -p "$d/scenes" "$d/meshes" "$d/maps"
+  cp "$good_meshes/quad.obj" "$good_meshes/tri.ply" "$d/meshes/" || fail "copying meshes"
+  tr -d ' \n' <"$good_meshes/tri.gltf" | sed -n 's/.*base64,\([^"]*\)".*/\1/p' | base64 -d >"$d/meshes/tri.bin" ||
+    fail "decoding the glTF buffer"
+  sed 's#"uri": "data:[^"]*"#"uri": "tri.bin"#' "$good_meshes/tri.gltf" >"$d/meshes/tri.gltf"
+  grep -q '"uri": "tri.bin"' "$d/meshes/tri.gltf" || fail "the glTF buffer did not move to a file"
+  # A 32x16 latitude-longitude map: one iteration of the Cornell box, baked.
+  "$vcmfarm" render cornell -R 32x16 -n 1 -j 1 -q -o "$tmp/skyfilm.exr" &&
+    "$vcmfarm" bake "$tmp/skyfilm.exr" -o "$d/maps/sky.exr" || fail "making the environment map"
+  cat >"$scene" <<'JSON'
+{
+  "camera": {"position": [0, 1, 6], "target": [0, 0.5, 0], "fov": 45, "resolution": [48, 32]},
+  "materials": {"white": {"diffuse": [0.7, 0.7, 0.7]},
+                "shiny": {"diffuse": [0.2, 0.2, 0.2], "glossy": [0.5, 0.5, 0.5], "exponent": 30}},
+  "shapes": [
+    {"type": "mesh", "file": "../meshes/quad.obj", "material": "white",
+     "transform": {"scale": 4, "rotate": {"axis": [1, 0, 0], "degrees": -90}, "translate": [-2, 0, 2]}},
+    {"type": "mesh", "file": "../meshes/tri.ply", "material": "shiny", "transform": {"translate": [-0.5, 0, 0]}},
+    {"type": "mesh", "file": "../meshes/tri.gltf", "material": "white", "transform": {"translate": [0.5, 0, -5]}}
+  ],
+  "lights": [{"type": "environment", "file": "../maps/sky.exr", "scale": [2, 2, 2]}]
+}
+JSON
+}
+
+submit_scene() { # iterations, seed, extra options...
+  iterations="$1"
+  seed="$2"
+  shift 2
+  job=$(client submit "$scene" -n "$iterations" --seed "$seed" "$@" 2>"$tmp/submit.err" | tail -n 1)
+  cat "$tmp/submit.err"
+  [ -n "$job" ] || fail "submit printed no job id: $(cat "$tmp/submit.err")"
+}
+
+check_scene_film() {
+  client fetch "$job" -o "$tmp/farm.exr" || fail "fetch failed"
+  "$vcmfarm" render "$scene" -n "$iterations" --seed "$seed" -j 1 -q -o "$tmp/reference.exr" ||
+    fail "reference render failed"
+  "$compare" "$tmp/farm.exr" "$tmp/reference.exr" "[0,$iterations)" || fail "farm film differs from the reference"
+}
+
+served() { grep -c "served blob" "$tmp/coordinator.log"; }
+fetched() { grep -c "fetched blob" "$tmp/$1.log"; }
+
 case "$case_name" in
+mesh_scene)
+  make_project
+  start_coordinator
+  # Slowed down so that both workers join the first job (as in three_workers).
+  start_worker w1 --cache "$tmp/cache-w1" --test-iteration-delay 50
+  start_worker w2 --cache "$tmp/cache-w2" --test-iteration-delay 50
+  submit_scene 24 7
+  grep -q "5 files named by the scene; sent 5" "$tmp/submit.err" || fail "submit did not send the 5 files"
+  wait_until 60 "job $job done" job_done
+  check_scene_film
+  [ "$(fetched w1)" = 5 ] && [ "$(fetched w2)" = 5 ] ||
+    fail "each worker should have fetched the 5 files once: w1 $(fetched w1), w2 $(fetched w2)"
+  [ "$(served)" = 10 ] || fail "the coordinator served $(served) blobs, expected 10"
+  # A cache holds blobs named by hash, nothing else: the "../" names were never paths.
+  stray=$(find "$tmp/cache-w1" "$tmp/cache-w2" -type f | grep -Ev '/cache-w[12]/blobs/[0-9a-f]{64}$')
+  [ -z "$stray" ] || fail "unexpected files in a cache: $stray"
+  [ "$(find "$tmp/cache-w1" -type f | wc -l)" = 5 ] || fail "cache-w1 should hold exactly 5 blobs"
+  grep -rq "tri.gltf" "$tmp/state/job-$job.files" || fail "the job's file table was not kept"
+  # The coordinator is killed and restarted: its blobs survive and serve the next job,
+  # which reuses them (nothing sent) and the workers' caches (nothing fetched).
+  kill -9 "$coordinator"
+  wait "$coordinator" 2>/dev/null
+  start_coordinator
+  submit_scene 8 8
+  grep -q "5 files named by the scene; sent 0" "$tmp/submit.err" || fail "the second submit sent files again"
+  wait_until 60 "job $job done" job_done
+  check_scene_film
+  [ "$(fetched w1)" = 5 ] && [ "$(fetched w2)" = 5 ] ||
+    fail "the second job fetched files again: w1 $(fetched w1), w2 $(fetched w2) (5 each before)"
+  [ "$(served)" = 10 ] || fail "the coordinator served $(served) blobs over both jobs, expected 10"
+  # A worker restarted on w1's cache (w1 and w2 gone) renders a third job from it.
+  for p in "${pids[@]}"; do [ "$p" = "$coordinator" ] || kill -9 "$p" 2>/dev/null; done
+  start_worker w3 --cache "$tmp/cache-w1"
+  submit_scene 4 9
+  wait_until 60 "job $job done" job_done
+  check_scene_film
+  [ "$(fetched w3)" = 0 ] || fail "the restarted worker fetched $(fetched w3) files its cache held"
+  [ "$(served)" = 10 ] || fail "the coordinator served $(served) blobs over three jobs, expected 10"
+  echo "blobs served: $(served) for three jobs; fetched by w1: $(fetched w1), w2: $(fetched w2), w3: $(fetched w3)"
+  ;;
+bad_blobs)
+  make_project
+  start_coordinator
+  "$blob_peer" "$url" "$key" || fail "a hostile blob peer was not refused as expected"
+  exited "$coordinator" && fail "the coordinator died"
+  # A file too big for one message is refused before anything is sent.
+  cp "$scene" "$tmp/project/scenes/big.json"
+  sed -i 's#../meshes/tri.ply#../meshes/big.ply#' "$tmp/project/scenes/big.json"
+  truncate -s 130M "$tmp/project/meshes/big.ply"
+  stored_before=$(grep -c "stored blob" "$tmp/coordinator.log")
+  client submit "$tmp/project/scenes/big.json" -n 4 >"$tmp/big.out" 2>&1
+  status=$?
+  cat "$tmp/big.out"
+  [ "$status" = 2 ] || fail "submitting a scene with a 130 MiB file exited with $status, expected 2"
+  grep -q "big.ply' is 130.0 MiB; a file sent to a farm travels in one message of at most 63 MiB" "$tmp/big.out" ||
+    fail "the oversized file was not named"
+  [ "$(grep -c "stored blob" "$tmp/coordinator.log")" = "$stored_before" ] ||
+    fail "files of the refused scene reached the coordinator"
+  # A missing file is refused on the submitting machine.
+  sed 's#../meshes/tri.ply#../meshes/absent.ply#' "$scene" >"$tmp/project/scenes/absent.json"
+  client submit "$tmp/project/scenes/absent.json" -n 4 >"$tmp/absent.out" 2>&1 && fail "a scene naming a missing file was accepted"
+  cat "$tmp/absent.out"
+  grep -q "shapes\[1\].file: cannot open '../meshes/absent.ply'" "$tmp/absent.out" || fail "the missing file was not named"
+  # A blob damaged in the coordinator's store: the worker cannot get it and fails the job,
+  # naming the file.
+  submit_scene 8 7
+  ply_hash=$(b2sum -l 256 "$tmp/project/meshes/tri.ply" | cut -d' ' -f1)
+  [ -f "$tmp/state/blobs/$ply_hash" ] || fail "no blob $ply_hash for tri.ply in the coordinator's store"
+  printf 'X' | dd of="$tmp/state/blobs/$ply_hash" bs=1 seek=0 conv=notrunc 2>/dev/null
+  start_worker w1 --cache "$tmp/cache-w1"
+  job_failed() { status_json | grep -q '"state":"failed"'; }
+  wait_until 60 "job $job to fail" job_failed
+  status_json | grep -q "tri.ply.*damaged" || fail "the failure does not name the damaged file: $(status_json)"
+  grep -q "failed lease.*tri.ply" "$tmp/w1.log" || fail "the worker did not fail its lease naming tri.ply"
+  # Submitting again repairs the store (the damaged copy is found and sent again).
+  submit_scene 8 7
+  grep -q "sent 1 " "$tmp/submit.err" || fail "the damaged blob was not sent again"
+  wait_until 60 "job $job done" job_done
+  check_scene_film
+  # A blob damaged in the worker's cache is fetched again, the job unharmed.
+  [ -f "$tmp/cache-w1/blobs/$ply_hash" ] || fail "tri.ply is not in the worker's cache"
+  printf 'X' | dd of="$tmp/cache-w1/blobs/$ply_hash" bs=1 seek=0 conv=notrunc 2>/dev/null
+  submit_scene 8 9
+  wait_until 60 "job $job done" job_done
+  grep -q "cached blob $ply_hash.*damaged.*fetching it again" "$tmp/w1.log" || fail "the damaged cached copy was not replaced"
+  check_scene_film
+  # A lying coordinator: the worker checks what it is sent, fails the lease naming the file
+  # and keeps nothing.
+  "$blob_peer" --serve "ipc://$tmp/liar.sock" "$key" "$tmp/cache-liar" >"$tmp/liar.out" 2>&1 &
+  liar=$!
+  pids+=("$liar")
+  "$vcmfarm" worker --connect "ipc://$tmp/liar.sock" --secret "$key" --threads 1 --name victim \
+    --cache "$tmp/cache-liar" >>"$tmp/victim.log" 2>&1 &
+  pids+=("$!")
+  wait_until 30 "the lying coordinator to finish" exited "$liar"
+  wait "$liar"
+  status=$?
+  cat "$tmp/liar.out"
+  [ "$status" = 0 ] || fail "the worker did not refuse bytes that do not match their hash"
+  ;;
 three_workers)
   start_coordinator
   # Slowed down so that the job outlasts the workers' idle polls and all of them join.

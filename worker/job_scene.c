@@ -2,12 +2,12 @@
 
 #include "../common/error.h"
 #include "../common/file.h"
+#include "scene_files.h"
 
-#include <errno.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <unistd.h>
+#include <sys/stat.h>
 
 int vf_job_scene_is_builtin(const char *name) {
   for (const char *const *n = vf_scene_builtin_names(); *n; n++)
@@ -15,31 +15,71 @@ int vf_job_scene_is_builtin(const char *name) {
   return 0;
 }
 
-int vf_job_scene_load(int builtin, const char *text, size_t len, const char *label, vf_scene **out) {
+int vf_job_scene_load(int builtin, const char *text, size_t len, const vf_blob_table *files, const char *store_dir,
+                      const char *label, vf_scene **out) {
+  static const vf_blob_table none = {0};
   if (builtin) {
     if (!vf_job_scene_is_builtin(text)) return vf_error_set(VF_ESCENE, "%s: no built-in scene '%s'", label, text);
+    if (files != NULL && files->count > 0)
+      return vf_error_set(VF_ESCENE, "%s: built-in scene '%s' with %zu files", label, text, files->count);
     return vf_scene_load(text, out);
   }
-  const char *tmp = getenv("TMPDIR");
-  char dir[4096], path[4200];
-  if (snprintf(dir, sizeof dir, "%s/vcmfarm-scene-XXXXXX", tmp && tmp[0] ? tmp : "/tmp") >= (int)sizeof dir)
-    return vf_error_set(VF_EINVAL, "TMPDIR too long");
-  if (mkdtemp(dir) == NULL) return vf_error_set(VF_EIO, "%s: %s", dir, strerror(errno));
-  snprintf(path, sizeof path, "%s/scene.json", dir);
-  vf_scene *scene = NULL;
-  int err = vf_file_write_atomic(path, text, len, 0600);
-  if (err == VF_OK) err = vf_scene_load(path, &scene);
-  unlink(path);
-  rmdir(dir);
-  if (err != VF_OK) {
-    const char *detail = vf_error_detail(err), *at = strstr(detail, path);
-    char rest[1024];
-    snprintf(rest, sizeof rest, "%s", at ? at + strlen(path) : detail);
-    if (err == VF_ENOENT)
-      return vf_error_set(err, "%s%s%s (scenes that name mesh or map files cannot be sent to a farm yet)", label,
-                          at ? "" : ": ", rest);
-    return vf_error_set(err, "%s%s%s", label, at ? "" : ": ", rest);
+  vf_scene_files *fs;
+  int err = vf_scene_files_mapping(files ? files : &none, store_dir ? store_dir : "", &fs);
+  if (err != VF_OK) return err;
+  err = vf_scene_load_with_files(text, len, label, fs, out);
+  vf_scene_files_destroy(fs);
+  return err;
+}
+
+/* Reads one recorded file into the stage and the table. */
+static int stage_file(const char *stage_dir, const char *name, const char *path, vf_blob_table *files) {
+  struct stat st;
+  uint8_t *bytes, hash[32];
+  size_t len;
+  if (stat(path, &st) != 0) return vf_error_set(VF_ENOENT, "%s: vanished while submitting", path);
+  if ((uint64_t)st.st_size > VF_BLOB_MAX_BYTES)
+    return vf_error_set(VF_EINVAL,
+                        "file '%s' is %.1f MiB; a file sent to a farm travels in one message and can be at most "
+                        "%zu MiB",
+                        name, (double)st.st_size / 1048576.0, (size_t)VF_BLOB_MAX_BYTES >> 20);
+  int err = vf_file_read_all(path, VF_BLOB_MAX_BYTES, &bytes, &len);
+  if (err != VF_OK) return err;
+  vf_blob_hash(bytes, len, hash);
+  if ((err = vf_blob_store_put(stage_dir, hash, bytes, len)) == VF_OK) err = vf_blob_table_add(files, name, hash, len);
+  free(bytes);
+  return err;
+}
+
+int vf_job_scene_collect(const char *path, const char *text, size_t len, const char *stage_dir,
+                         vf_blob_table *files, vf_scene **out) {
+  char dir[4096];
+  const char *slash = strrchr(path, '/');
+  if (slash == NULL) snprintf(dir, sizeof dir, ".");
+  else if (slash == path) snprintf(dir, sizeof dir, "/");
+  else snprintf(dir, sizeof dir, "%.*s", (int)(slash - path), path);
+  vf_scene_files *recorder = NULL;
+  vf_scene *from_dir = NULL, *from_stage = NULL;
+  int err = vf_scene_files_recording(dir, &recorder);
+  if (err != VF_OK) return err;
+  if ((err = vf_scene_load_with_files(text, len, path, recorder, &from_dir)) != VF_OK) goto done;
+  for (size_t i = 0; i < vf_scene_files_count(recorder); i++)
+    if ((err = stage_file(stage_dir, vf_scene_files_name(recorder, i), vf_scene_files_path(recorder, i), files)) !=
+        VF_OK)
+      goto done;
+  if ((err = vf_job_scene_load(0, text, len, files, stage_dir, path, &from_stage)) != VF_OK) goto done;
+  /* Differs only if a file changed between the two loads, or the loader read something it
+   * did not ask for by name: either way the workers would not render what was asked. */
+  if (memcmp(from_dir->hash, from_stage->hash, 32) != 0) {
+    err = vf_error_set(VF_EMISMATCH, "%s: loads differently from its %zu files as sent (did a file change while "
+                       "submitting?)", path, files->count);
+    goto done;
   }
-  *out = scene;
-  return VF_OK;
+  *out = from_stage;
+  from_stage = NULL;
+done:
+  vf_scene_destroy(from_stage);
+  vf_scene_destroy(from_dir);
+  vf_scene_files_destroy(recorder);
+  return err;
 }

@@ -27,6 +27,12 @@ typedef struct {
 int vf_scene_parse(const char *text, size_t length, const char *label, const char *base_dir,
                    const vf_scene_memfile *memfiles, int num_memfiles, vf_scene **out);
 
+/* scene_json.c: parses JSON scene text whose files all come from `files`
+ * (worker/scene_files.h: recorded from a directory, or mapped to a blob store). */
+struct vf_scene_files;
+int vf_scene_parse_files(const char *text, size_t length, const char *label, struct vf_scene_files *files,
+                         vf_scene **out);
+
 /* scene_builtin.c: builds the built-in scene `name`, one of vf_scene_builtin_names().
  * VF_ENOENT (with a detail) when it is not one; otherwise as vf_scene_parse. */
 int vf_scene_builtin_load(const char *name, vf_scene **out);

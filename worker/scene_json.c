@@ -744,8 +744,8 @@ static int syntax_error(const char *label, const char *text, size_t length, cons
   return vf_error_set(VF_ESCENE, "%s: line %d: JSON syntax error near '%s'", label, line, near);
 }
 
-int vf_scene_parse(const char *text, size_t length, const char *label, const char *base_dir,
-                   const vf_scene_memfile *memfiles, int num_memfiles, vf_scene **out) {
+static int parse(const char *text, size_t length, const char *label, const char *base_dir,
+                 const vf_scene_memfile *memfiles, int num_memfiles, struct vf_scene_files *files, vf_scene **out) {
   const char *end = NULL;
   if (memchr(text, '\0', length) != NULL) return vf_error_set(VF_ESCENE, "%s: contains a NUL byte", label);
   /* The length includes the terminating NUL so that require_null_terminated rejects
@@ -760,7 +760,7 @@ int vf_scene_parse(const char *text, size_t length, const char *label, const cha
   }
   snprintf(scene->source, sizeof scene->source, "%s", label);
   vf_settings_default(&scene->settings);
-  parse_ctx c = {label, base_dir, memfiles, num_memfiles, scene};
+  parse_ctx c = {label, base_dir, memfiles, num_memfiles, scene, files};
   if ((err = parse_root(&c, root)) < 0) goto fail;
   vf_scene_compute_bounds(scene);
   vf_scene_hash(scene);
@@ -771,4 +771,14 @@ fail:
   vf_scene_destroy(scene);
   cJSON_Delete(root);
   return err;
+}
+
+int vf_scene_parse(const char *text, size_t length, const char *label, const char *base_dir,
+                   const vf_scene_memfile *memfiles, int num_memfiles, vf_scene **out) {
+  return parse(text, length, label, base_dir, memfiles, num_memfiles, NULL, out);
+}
+
+int vf_scene_parse_files(const char *text, size_t length, const char *label, struct vf_scene_files *files,
+                         vf_scene **out) {
+  return parse(text, length, label, "", NULL, 0, files, out);
 }

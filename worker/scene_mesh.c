@@ -3,6 +3,7 @@
 #include "scene_parse.h"
 
 #include "../common/error.h"
+#include "scene_files.h"
 
 #include <assimp/cimport.h>
 #include <assimp/postprocess.h>
@@ -30,6 +31,10 @@ static const vf_scene_memfile *find_memfile(const parse_ctx *c, const char *file
 }
 
 int vf_scene_resolve(const parse_ctx *c, const char *file, const char *path, char *out, size_t n) {
+  if (c->files != NULL) { /* a farm job's scene: its files by name (scene_files.h) */
+    int err = vf_scene_files_resolve(c->files, file, out, n);
+    return err < 0 ? vf_scene_fail(c, err, path, "%s", vf_error_detail(err)) : VF_OK;
+  }
   int w = file[0] == '/' ? snprintf(out, n, "%s", file) : snprintf(out, n, "%s/%s", c->base_dir, file);
   if (w < 0 || (size_t)w >= n) return vf_scene_fail(c, VF_ESCENE, path, "path too long");
   return VF_OK;
@@ -58,7 +63,9 @@ int vf_scene_load_mesh_file(const parse_ctx *c, const char *file, const char *pa
     FILE *f = fopen(full, "rb"); /* Assimp's own message does not say why */
     if (f == NULL) return vf_scene_fail(c, VF_ENOENT, fpath, "cannot open '%s': %s", file, strerror(errno));
     fclose(f);
-    ai = aiImportFile(full, flags);
+    /* A farm job's mesh is imported under its name, so that the files it names in turn
+     * (glTF buffers, OBJ material libraries) resolve by name as well. */
+    ai = c->files ? vf_scene_files_import(c->files, file, flags) : aiImportFile(full, flags);
   }
   if (ai == NULL) return vf_scene_fail(c, VF_EMESH, fpath, "cannot read '%s': %s", file, assimp_error(why, sizeof why));
   if ((ai->mFlags & AI_SCENE_FLAGS_INCOMPLETE) || ai->mNumMeshes == 0) {

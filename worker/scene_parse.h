@@ -20,6 +20,9 @@ typedef struct {
   const vf_scene_memfile *memfiles;
   int num_memfiles;
   vf_scene *scene;      /* being filled; owned by vf_scene_parse */
+  /* Farm jobs: when set, every "file" comes from here instead of base_dir
+   * (worker/scene_files.h). Borrowed. */
+  struct vf_scene_files *files;
 } parse_ctx;
 
 /* Records "LABEL: PATH: message" (or "LABEL: message" without a path) and returns err. */

@@ -9,6 +9,7 @@
 #include "../common/error.h"
 #include "../common/farm_client.h"
 #include "../common/film_wire.h"
+#include "blob_cache.h"
 #include "heartbeat.h"
 #include "job_scene.h"
 #include "render.h"
@@ -50,6 +51,8 @@ static const char usage[] =
     "      --ship-interval S  send the iterations rendered so far every S seconds during\n"
     "                        a lease (default 5; longer when sending takes more than 2%\n"
     "                        of the time), and the rest at its end\n"
+    "      --cache DIR       cache of scene files fetched from the coordinator (default\n"
+    "                        $XDG_CACHE_HOME/vcmfarm, else ~/.cache/vcmfarm)\n"
     "  -h, --help            this text\n"
     "\n"
     "For tests only:\n"
@@ -73,6 +76,7 @@ typedef struct {
   int heartbeat_ms;
   int threads;
   char name[128];
+  char cache_dir[4096]; /* scene files by content hash (worker/blob_cache.h) */
   int backoff_ms;
   /* the renderer of the last job, kept for its next lease */
   uint64_t job_id;
@@ -171,11 +175,10 @@ static int prepare(worker *w, const Vcmfarm__Lease *l, const vf_settings *settin
   vf_scene_destroy(w->scene);
   w->renderer = NULL;
   w->scene = NULL;
-  int builtin = l->scene->source_case == VCMFARM__SCENE__SOURCE_BUILTIN;
-  const char *text = builtin ? l->scene->builtin : l->scene->json;
   char label[64];
   snprintf(label, sizeof label, "job %llu scene", (unsigned long long)l->job_id);
-  int err = vf_job_scene_load(builtin, text, strlen(text), label, &w->scene);
+  /* Its files (if any) come from the cache, fetched first when missing. */
+  int err = vf_blob_cache_load_scene(w->client, w->worker_id, w->cache_dir, l->scene, label, &w->scene);
   if (err != VF_OK) return err;
   if (memcmp(w->scene->hash, l->scene_hash.data, 32) != 0) {
     char hex[65];
@@ -307,6 +310,14 @@ static void run_lease(worker *w, const Vcmfarm__Lease *l) {
     bad = "invalid settings";
   if (bad) return release_lease(w, l->lease_id, bad);
   int err = prepare(w, l, &settings);
+  /* A scene file that could not be fetched in time, or kept in the cache, is no fault of
+   * the job: hand the lease back, and wait before asking again. */
+  if (err == VF_ETIMEDOUT || err == VF_ENET || err == VF_EIO) {
+    log_line("%s", vf_error_detail(err));
+    release_lease(w, l->lease_id, "");
+    back_off(w);
+    return;
+  }
   if (err != VF_OK) return release_lease(w, l->lease_id, vf_error_detail(err));
   vf_film *film = NULL;
   if ((err = vf_film_create(settings.width, settings.height, &film)) != VF_OK ||
@@ -389,8 +400,9 @@ int vf_cmd_worker(int argc, char **argv) {
       {"threads", required_argument, 0, 'j'}, {"name", required_argument, 0, 'n'},
       {"test-iteration-delay", required_argument, 0, 'D'}, {"test-stall-file", required_argument, 0, 'S'},
       {"ship-interval", required_argument, 0, 'I'},
+      {"cache", required_argument, 0, 'C'},
       {"help", no_argument, 0, 'h'},          {0, 0, 0, 0}};
-  const char *cmd = "worker", *secret = NULL, *name = NULL;
+  const char *cmd = "worker", *secret = NULL, *name = NULL, *cache = NULL;
   worker w;
   memset(&w, 0, sizeof w);
   w.ship_interval = SHIP_SECONDS;
@@ -407,6 +419,7 @@ int vf_cmd_worker(int argc, char **argv) {
     case 'D': err = vf_cli_int("--test-iteration-delay", optarg, 0, 60000, &delay); break;
     case 'S': w.stall_file = optarg; break;
     case 'I': err = vf_cli_double("--ship-interval", optarg, 0.01, 86400.0, &w.ship_interval); break;
+    case 'C': cache = optarg; break;
     case 'h': fputs(usage, stdout); return VF_EXIT_OK;
     default:
       fprintf(stderr, "vcmfarm worker: unknown or incomplete option '%s'\n%s", argv[optind - 1], usage);
@@ -418,6 +431,11 @@ int vf_cmd_worker(int argc, char **argv) {
     fprintf(stderr, "vcmfarm worker: --connect and --secret are required, nothing else\n%s", usage);
     return VF_EXIT_BAD_INPUT;
   }
+  if (cache == NULL) err = vf_blob_cache_default_dir(w.cache_dir, sizeof w.cache_dir);
+  else if (snprintf(w.cache_dir, sizeof w.cache_dir, "%s", cache) >= (int)sizeof w.cache_dir)
+    err = vf_error_set(VF_EINVAL, "--cache: directory name too long");
+  if (err == VF_OK) err = vf_blob_cache_open(w.cache_dir);
+  if (err != VF_OK) return vf_cli_fail(cmd, err);
   w.threads = (int)threads;
   w.iteration_delay_ms = (int)delay;
   if (name) {

@@ -1,0 +1,133 @@
+#include "blobs.h"
+
+#include "../common/error.h"
+#include "log.h"
+
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#define BAD_REQUEST VCMFARM__ERROR_CODE__ERROR_BAD_REQUEST
+
+static void reply_errorf(vf_farm_reply *r, Vcmfarm__ErrorCode code, const char *fmt, ...)
+    __attribute__((format(printf, 3, 4)));
+static void reply_errorf(vf_farm_reply *r, Vcmfarm__ErrorCode code, const char *fmt, ...) {
+  char text[sizeof r->text];
+  va_list ap;
+  va_start(ap, fmt);
+  vsnprintf(text, sizeof text, fmt, ap);
+  va_end(ap);
+  vf_farm_reply_error(r, code, text);
+}
+
+int vf_farm_blobs_attach(const vf_farm *farm, vf_job *job, const Vcmfarm__Scene *scene) {
+  if (scene->n_files == 0) return VF_OK;
+  if (scene->source_case != VCMFARM__SCENE__SOURCE_JSON)
+    return vf_error_set(VF_EINVAL, "scene: a built-in scene has no files; the job names %zu", scene->n_files);
+  vf_blob_table files;
+  int err = vf_blob_table_from_wire(scene->files, scene->n_files, &files);
+  if (err != VF_OK) return vf_error_set(err, "scene.%s", vf_error_detail(err));
+  for (size_t i = 0; i < files.count; i++) {
+    const vf_blob_ref *ref = &files.refs[i];
+    char hex[65];
+    uint64_t size;
+    vf_blob_hex(ref->hash, hex);
+    if (!vf_blob_store_has(farm->config.state_dir, ref->hash, &size))
+      err = vf_error_set(VF_EINVAL, "scene.files[%zu]: file '%s': the coordinator has no blob %s (send it first)", i,
+                         ref->name, hex);
+    else if (size != ref->size)
+      err = vf_error_set(VF_EINVAL, "scene.files[%zu]: file '%s': %llu bytes, the blob %.16s... has %llu", i,
+                         ref->name, (unsigned long long)ref->size, hex, (unsigned long long)size);
+    if (err != VF_OK) {
+      vf_blob_table_clear(&files);
+      return err;
+    }
+  }
+  vf_blob_table_clear(&job->files);
+  job->files = files;
+  return VF_OK;
+}
+
+int vf_farm_blobs_lease(const vf_job *job, vf_farm_reply *r) {
+  int err = vf_blob_table_to_wire(&job->files, &r->file_refs, &r->file_ref_ptrs);
+  if (err != VF_OK) return err;
+  r->scene.n_files = job->files.count;
+  r->scene.files = r->file_ref_ptrs;
+  return VF_OK;
+}
+
+void vf_farm_blob_query(vf_farm *farm, const Vcmfarm__BlobQuery *m, vf_farm_reply *r) {
+  if (m->n_hashes > VF_BLOB_MAX_FILES)
+    return reply_errorf(r, BAD_REQUEST, "blob query of %zu hashes, at most %d", m->n_hashes, VF_BLOB_MAX_FILES);
+  for (size_t i = 0; i < m->n_hashes; i++)
+    if (m->hashes[i].len != 32)
+      return reply_errorf(r, BAD_REQUEST, "blob query: hashes[%zu] is %zu bytes, expected 32", i, m->hashes[i].len);
+  vcmfarm__blob_have__init(&r->blob_have);
+  if (m->n_hashes > 0 && (r->missing = calloc(m->n_hashes, sizeof *r->missing)) == NULL)
+    return vf_farm_reply_error(r, VCMFARM__ERROR_CODE__ERROR_INTERNAL, "out of memory");
+  /* Each held blob is read and checked: a query comes once per submission, and a damaged
+   * copy found here is dropped and reported missing, so the client sends it again. */
+  for (size_t i = 0; i < m->n_hashes; i++) {
+    uint8_t *bytes = NULL;
+    size_t len;
+    int err = vf_blob_store_get(farm->config.state_dir, m->hashes[i].data, &bytes, &len);
+    free(bytes);
+    if (err == VF_EMISMATCH) {
+      char path[4200];
+      vf_log("%s; removed, the client will send it again", vf_error_detail(err));
+      if (vf_blob_path(farm->config.state_dir, m->hashes[i].data, path, sizeof path) == VF_OK) unlink(path);
+    }
+    if (err != VF_OK) r->missing[r->blob_have.n_missing++] = m->hashes[i]; /* borrowed from the request */
+  }
+  r->blob_have.missing = r->missing;
+  r->env.body_case = VCMFARM__ENVELOPE__BODY_BLOB_HAVE;
+  r->env.blob_have = &r->blob_have;
+}
+
+void vf_farm_blob_put(vf_farm *farm, const Vcmfarm__BlobPut *m, vf_farm_reply *r) {
+  if (m->hash.len != 32) return reply_errorf(r, BAD_REQUEST, "blob put: hash of %zu bytes, expected 32", m->hash.len);
+  char hex[65];
+  vf_blob_hex(m->hash.data, hex);
+  int had = vf_blob_store_has(farm->config.state_dir, m->hash.data, NULL);
+  int err = vf_blob_store_put(farm->config.state_dir, m->hash.data, m->data.data, m->data.len);
+  if (err != VF_OK) {
+    vf_log("refused a blob: %s", vf_error_detail(err));
+    return vf_farm_reply_error(r, err == VF_EIO ? VCMFARM__ERROR_CODE__ERROR_INTERNAL : BAD_REQUEST,
+                               vf_error_detail(err));
+  }
+  if (!had) vf_log("stored blob %s (%zu bytes)", hex, m->data.len);
+  vcmfarm__result_ack__init(&r->result_ack);
+  snprintf(r->text, sizeof r->text, "blob %s stored", hex);
+  r->result_ack.accepted = 1;
+  r->result_ack.message = r->text;
+  r->env.body_case = VCMFARM__ENVELOPE__BODY_RESULT_ACK;
+  r->env.result_ack = &r->result_ack;
+}
+
+void vf_farm_blob_request(vf_farm *farm, const vf_farm_worker *w, const Vcmfarm__BlobRequest *m, vf_farm_reply *r) {
+  if (m->hash.len != 32) return reply_errorf(r, BAD_REQUEST, "blob request: hash of %zu bytes, expected 32", m->hash.len);
+  char hex[65];
+  vf_blob_hex(m->hash.data, hex);
+  uint8_t *bytes;
+  size_t len;
+  int err = vf_blob_store_get(farm->config.state_dir, m->hash.data, &bytes, &len);
+  if (err != VF_OK) {
+    vf_log("worker %s asked for blob %s: %s", w->name, hex, vf_error_detail(err));
+    if (err == VF_ENOENT) return reply_errorf(r, BAD_REQUEST, "the coordinator has no blob %s", hex);
+    /* Short: the worker's failure message carries it into the job's status. */
+    if (err == VF_EMISMATCH)
+      return reply_errorf(r, VCMFARM__ERROR_CODE__ERROR_INTERNAL, "blob %.16s... is damaged in the coordinator's store",
+                          hex);
+    return vf_farm_reply_error(r, VCMFARM__ERROR_CODE__ERROR_INTERNAL, vf_error_detail(err));
+  }
+  vf_log("served blob %s (%zu bytes) to worker %s", hex, len, w->name);
+  vcmfarm__blob__init(&r->blob);
+  r->blob_bytes = bytes;
+  r->blob.hash = m->hash;
+  r->blob.data.data = bytes;
+  r->blob.data.len = len;
+  r->env.body_case = VCMFARM__ENVELOPE__BODY_BLOB;
+  r->env.blob = &r->blob;
+}

@@ -1,0 +1,28 @@
+/* The coordinator's side of scene files by content hash (docs/PROTOCOL.md, "Files of
+ * scenes"): it keeps every blob once, by hash, in the state directory's blob store
+ * (DIR/blobs/HEX, common/blob.h), whoever sent it and however many jobs use it; it checks
+ * a job's file table against the store before accepting the job; and it serves blobs to
+ * workers. Blobs are never deleted (no job's files are collected yet).
+ *
+ * The handlers answer into a vf_farm_reply like the rest of coordinator/farm.c. */
+#ifndef VF_COORDINATOR_BLOBS_H
+#define VF_COORDINATOR_BLOBS_H
+
+#include "farm.h"
+
+/* Checks a submitted scene's file table (common/blob.h checks, no files for a built-in
+ * scene, every blob held with the table's size) and gives it to the job. VF_EINVAL with a
+ * detail naming the file, VF_ENOMEM. */
+int vf_farm_blobs_attach(const vf_farm *farm, vf_job *job, const Vcmfarm__Scene *scene);
+
+/* Puts the job's file table into the lease being built (r->scene.files). VF_ENOMEM. */
+int vf_farm_blobs_lease(const vf_job *job, vf_farm_reply *r);
+
+/* BlobQuery -> BlobHave: which of the hashes the store lacks. */
+void vf_farm_blob_query(vf_farm *farm, const Vcmfarm__BlobQuery *m, vf_farm_reply *r);
+/* BlobPut -> ResultAck: stores a blob after checking its bytes against its hash. */
+void vf_farm_blob_put(vf_farm *farm, const Vcmfarm__BlobPut *m, vf_farm_reply *r);
+/* BlobRequest (from a registered worker) -> Blob, read back and checked. */
+void vf_farm_blob_request(vf_farm *farm, const vf_farm_worker *w, const Vcmfarm__BlobRequest *m, vf_farm_reply *r);
+
+#endif

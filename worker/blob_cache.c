@@ -1,0 +1,118 @@
+#include "blob_cache.h"
+
+#include "../common/clock.h"
+#include "../common/error.h"
+#include "job_scene.h"
+
+#include <sodium.h>
+
+#include <errno.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+/* Generous: a blob of the full 63 MiB over a slow link. */
+#define BLOB_TIMEOUT_MS 120000
+
+int vf_blob_cache_default_dir(char *out, size_t n) {
+  const char *xdg = getenv("XDG_CACHE_HOME"), *home = getenv("HOME");
+  int w;
+  if (xdg && xdg[0] == '/') w = snprintf(out, n, "%s/vcmfarm", xdg);
+  else if (home && home[0]) w = snprintf(out, n, "%s/.cache/vcmfarm", home);
+  else return vf_error_set(VF_EINVAL, "neither XDG_CACHE_HOME nor HOME is set: give --cache DIR");
+  if (w < 0 || (size_t)w >= n) return vf_error_set(VF_EINVAL, "cache directory name too long: give --cache DIR");
+  return VF_OK;
+}
+
+int vf_blob_cache_open(const char *cache_dir) {
+  char path[4200];
+  if (snprintf(path, sizeof path, "%s/blobs", cache_dir) >= (int)sizeof path)
+    return vf_error_set(VF_EIO, "cache directory name too long");
+  /* mkdir -p: every prefix ending before a '/', then the whole path. */
+  for (char *p = path + 1;; p++) {
+    if (*p != '/' && *p != '\0') continue;
+    char c = *p;
+    *p = '\0';
+    if (mkdir(path, 0700) != 0 && errno != EEXIST)
+      return vf_error_set(VF_EIO, "cache %s: cannot create %s: %s", cache_dir, path, strerror(errno));
+    *p = c;
+    if (c == '\0') break;
+  }
+  if (access(path, W_OK | X_OK) != 0)
+    return vf_error_set(VF_EIO, "cache %s: cannot write %s: %s", cache_dir, path, strerror(errno));
+  return VF_OK;
+}
+
+static int fetch(vf_farm_client *client, uint64_t worker_id, const char *cache_dir, const vf_blob_ref *ref) {
+  char hex[65];
+  vf_blob_hex(ref->hash, hex);
+  Vcmfarm__BlobRequest m = VCMFARM__BLOB_REQUEST__INIT;
+  m.worker_id = worker_id;
+  m.hash.data = (uint8_t *)ref->hash;
+  m.hash.len = 32;
+  Vcmfarm__Envelope q = VCMFARM__ENVELOPE__INIT, *reply = NULL;
+  q.body_case = VCMFARM__ENVELOPE__BODY_BLOB_REQUEST;
+  q.blob_request = &m;
+  int err = vf_farm_request(client, &q, VCMFARM__ENVELOPE__BODY_BLOB, BLOB_TIMEOUT_MS, &reply);
+  if (err != VF_OK) return vf_error_set(err, "file '%s': %s", ref->name, vf_error_detail(err));
+  const Vcmfarm__Blob *b = reply->blob;
+  if (b->hash.len != 32 || sodium_memcmp(b->hash.data, ref->hash, 32) != 0)
+    err = vf_error_set(VF_EMISMATCH, "file '%s': asked for blob %.16s..., got another", ref->name, hex);
+  else if (b->data.len != ref->size)
+    err = vf_error_set(VF_EMISMATCH, "file '%s' (blob %.16s...): %zu bytes arrived, the job says %llu", ref->name, hex,
+                       b->data.len, (unsigned long long)ref->size);
+  else if ((err = vf_blob_store_put(cache_dir, ref->hash, b->data.data, b->data.len)) != VF_OK)
+    err = vf_error_set(err, "file '%s': %s", ref->name, vf_error_detail(err));
+  vf_message_free(reply);
+  return err;
+}
+
+int vf_blob_cache_fill(vf_farm_client *client, uint64_t worker_id, const char *cache_dir, const vf_blob_table *files,
+                       unsigned *fetched) {
+  unsigned count = 0;
+  for (size_t i = 0; i < files->count; i++) {
+    const vf_blob_ref *ref = &files->refs[i];
+    char hex[65];
+    uint8_t *bytes;
+    size_t len;
+    vf_blob_hex(ref->hash, hex);
+    int err = vf_blob_store_get(cache_dir, ref->hash, &bytes, &len);
+    if (err == VF_OK) {
+      free(bytes);
+      if (len == ref->size) continue;
+      err = vf_error_set(VF_EMISMATCH, "size differs from the job's");
+    }
+    if (err == VF_EMISMATCH) { /* damaged copy in the cache: replace it */
+      fprintf(stderr, "vcmfarm worker %d: cached blob %s: %s; fetching it again\n", (int)getpid(), hex,
+              vf_error_detail(err));
+      char path[4200];
+      if (vf_blob_path(cache_dir, ref->hash, path, sizeof path) == VF_OK) unlink(path);
+    } else if (err != VF_ENOENT) {
+      return vf_error_set(err, "file '%s': %s", ref->name, vf_error_detail(err));
+    }
+    double start = vf_seconds_now();
+    if ((err = fetch(client, worker_id, cache_dir, ref)) != VF_OK) return err;
+    count++;
+    fprintf(stderr, "vcmfarm worker %d: fetched blob %s (file '%s', %llu bytes) in %.3f s into the cache %s\n",
+            (int)getpid(), hex, ref->name, (unsigned long long)ref->size, vf_seconds_now() - start, cache_dir);
+  }
+  if (fetched) *fetched = count;
+  return VF_OK;
+}
+
+int vf_blob_cache_load_scene(vf_farm_client *client, uint64_t worker_id, const char *cache_dir,
+                             const Vcmfarm__Scene *scene, const char *label, vf_scene **out) {
+  int builtin = scene->source_case == VCMFARM__SCENE__SOURCE_BUILTIN;
+  const char *text = builtin ? scene->builtin : scene->json;
+  vf_blob_table files = {0};
+  int err = vf_blob_table_from_wire(scene->files, scene->n_files, &files);
+  if (err != VF_OK) return vf_error_set(VF_ESCENE, "%s: %s", label, vf_error_detail(err));
+  if (files.count > 0 && (err = vf_blob_cache_fill(client, worker_id, cache_dir, &files, NULL)) != VF_OK)
+    err = vf_error_set(err, "%s: %s", label, vf_error_detail(err));
+  else
+    err = vf_job_scene_load(builtin, text, strlen(text), &files, cache_dir, label, out);
+  vf_blob_table_clear(&files);
+  return err;
+}
