@@ -384,7 +384,7 @@ static int64_t write_to_fd(exr_const_context_t ctxt, void *userdata, const void 
   return (int64_t)sz;
 }
 
-int vf_exr_create(const char *path, int width, int height, int tile, int n, const char *const *names,
+int vf_exr_create(const char *path, int width, int height, int tile, int zip, int n, const char *const *names,
                   vf_exr_out *out) {
   memset(out, 0, sizeof *out);
   out->file.fd = -1;
@@ -407,11 +407,11 @@ int vf_exr_create(const char *path, int width, int height, int tile, int n, cons
   int part = 0;
   const char *what = "cannot define the image";
   rv = exr_add_part(out->ctx, NULL, tile ? EXR_STORAGE_TILED : EXR_STORAGE_SCANLINE, &part);
-  if (rv == EXR_ERR_SUCCESS) rv = exr_initialize_required_attr_simple(out->ctx, part, width, height, EXR_COMPRESSION_ZIP);
-  /* Accumulation channels are mostly noise, which no level compresses much: level 1 keeps
-   * nearly all of the size gain of the default level 4 (144 against 141 MB for a 1920x1080
-   * film) at almost twice the speed, and films are written at every checkpoint. */
-  if (rv == EXR_ERR_SUCCESS) rv = exr_set_zip_compression_level(out->ctx, part, 1);
+  exr_compression_t compression = zip ? EXR_COMPRESSION_ZIP : EXR_COMPRESSION_NONE;
+  if (rv == EXR_ERR_SUCCESS) rv = exr_initialize_required_attr_simple(out->ctx, part, width, height, compression);
+  /* Level 1 keeps nearly all of the size gain of the default level 4 (144 against 141 MB
+   * for a 1920x1080 film of noise) at almost twice the speed. */
+  if (rv == EXR_ERR_SUCCESS && zip) rv = exr_set_zip_compression_level(out->ctx, part, 1);
   if (rv == EXR_ERR_SUCCESS && tile)
     rv = exr_set_tile_descriptor(out->ctx, part, (uint32_t)tile, (uint32_t)tile, EXR_TILE_ONE_LEVEL, EXR_TILE_ROUND_DOWN);
   for (int k = 0; rv == EXR_ERR_SUCCESS && k < n; k++)

@@ -75,10 +75,11 @@ typedef struct {
   int width, height, tile; /* tile 0: scanline */
 } vf_exr_out;
 
-/* Starts an atomic write of a FLOAT, ZIP-compressed, one-part image with channels `names`,
- * in tile x tile tiles, or scanlines when tile is 0. Attributes may be added with the
- * exr_attr_set_* functions on out->ctx until vf_exr_write_pixels. */
-int vf_exr_create(const char *path, int width, int height, int tile, int n, const char *const *names,
+/* Starts an atomic write of a FLOAT one-part image with channels `names`, in tile x tile
+ * tiles, or scanlines when tile is 0; compressed with ZIP (level 1) when `zip` is set,
+ * else uncompressed. Attributes may be added with the exr_attr_set_* functions on out->ctx
+ * until vf_exr_write_pixels. */
+int vf_exr_create(const char *path, int width, int height, int tile, int zip, int n, const char *const *names,
                   vf_exr_out *out);
 
 /* Fills one chunk: planes[i] receives w*h floats of channel names[i] at (x0, y0). */

@@ -353,7 +353,7 @@ int vf_film_write(const vf_film *film, const char *path) {
   if ((err = vf_convergence_format(&film->convergence, &convergence)) != VF_OK) goto free_text;
 
   vf_exr_out out;
-  if ((err = vf_exr_create(path, film->width, film->height, VF_FILM_TILE, 3 + ACCUM_PLANES, file_channels, &out)) != VF_OK)
+  if ((err = vf_exr_create(path, film->width, film->height, VF_FILM_TILE, 0, 3 + ACCUM_PLANES, file_channels, &out)) != VF_OK)
     goto free_text;
   exr_result_t rv = set_attributes(out.ctx, film, iterations, convergence);
   if (rv != EXR_ERR_SUCCESS) {

@@ -130,7 +130,7 @@ int vf_image_write_exr(const char *path, const vf_image *img) {
   if (err != VF_OK) return err;
   static const char *const names[3] = {"R", "G", "B"};
   vf_exr_out out;
-  if ((err = vf_exr_create(path, img->width, img->height, 0, 3, names, &out)) != VF_OK) return err;
+  if ((err = vf_exr_create(path, img->width, img->height, 0, 1, 3, names, &out)) != VF_OK) return err;
   if ((err = vf_exr_write_pixels(&out, 3, names, fill_rgb, (void *)img)) != VF_OK) {
     vf_exr_abort(&out);
     return err;

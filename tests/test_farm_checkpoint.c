@@ -2,8 +2,8 @@
  *
  *   test_farm_checkpoint VCMFARM
  *
- * Prepares a state directory holding one 1920x1080 job whose film is noise (the worst case
- * for the EXR writer's ZIP: several seconds to write) with iteration 0 done, starts the
+ * Prepares a state directory holding one 1920x1080 job whose film is noise (190 MB: about
+ * 0.3 s to write and sync here, 5 s while films were ZIP) with iteration 0 done, starts the
  * real `vcmfarm coordinator` on it, and merges one result (iteration 1) as a worker would,
  * which makes the film due for a checkpoint. Then it asks for the status back to back and
  * times every reply while the coordinator writes the film; the write is watched through its
