@@ -153,6 +153,7 @@ vf_vec3 vf_bsdf_sample(const vf_bsdf *b, const float rnd[3], vf_vec3 *world_gen,
       double eta = b->eta, ci = fix.z;
       float cos_t = (float)sqrt(fmax(0.0, 1.0 - (1.0 - ci * ci) / (eta * eta)));
       gen = vf_vec3_make(-fix.x / b->eta, -fix.y / b->eta, -cos_t);
+      *event |= VF_BSDF_REFRACTION;
       choice_pdf = p[VF_LOBE_DIELECTRIC] * (1.0f - b->fresnel);
       weight = vf_scale(b->material->dielectric, 1.0f - b->fresnel);
     }

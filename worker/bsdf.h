@@ -14,9 +14,13 @@
  *   (tech. rep. eq. 52).
  * - Opaque lobes are two-sided: the shading frame faces the side the path arrives from.
  *   The dielectric uses the geometric orientation to tell entering from leaving.
- * - Transmission is kept symmetric (no 1/eta^2 radiance scaling): light and camera
- *   sub-paths then carry the same quantity, and with camera and lights outside every
- *   dielectric, the factors would cancel anyway. */
+ * - Transmission carries no 1/eta^2 factor here: sample() returns the factor of a light
+ *   sub-path, which carries flux (conserved by refraction, up to Fresnel). Radiance is
+ *   not: crossing from the side of fix into the side entered, a camera sub-path's
+ *   throughput takes 1/eta^2 (Veach's thesis, sec. 5.2), which the renderer applies on
+ *   VF_BSDF_REFRACTION. With camera and lights outside every dielectric a camera sub-path
+ *   crosses each interface an even number of times and the factors cancel; a light inside
+ *   glass (cornell-bulb) makes them count: 1.5^2 = 2.25 times too bright without them. */
 #ifndef VF_BSDF_H
 #define VF_BSDF_H
 
@@ -24,7 +28,7 @@
 #include "material.h"
 
 enum { VF_LOBE_DIFFUSE, VF_LOBE_GLOSSY, VF_LOBE_MIRROR, VF_LOBE_DIELECTRIC, VF_LOBE_COUNT };
-enum { VF_BSDF_SPECULAR = 1u };
+enum { VF_BSDF_SPECULAR = 1u, VF_BSDF_REFRACTION = 2u /* the dielectric transmitted */ };
 
 typedef struct {
   const vf_material *material; /* borrowed from the scene */
@@ -68,7 +72,8 @@ vf_vec3 vf_bsdf_evaluate(const vf_bsdf *bsdf, vf_vec3 world_gen, float *cos_gen,
 /* Samples gen with three uniform numbers. Returns f (for specular lobes: the weight such that
  * f * cos / pdf is the throughput factor), and writes gen, its |cos|, the direct and reverse
  * densities (with the continuation probability; equal for a specular choice) and
- * VF_BSDF_SPECULAR when a delta lobe was chosen. Returns zero (and nothing else is
+ * VF_BSDF_SPECULAR when a delta lobe was chosen (and VF_BSDF_REFRACTION when it was a
+ * refraction through the dielectric, entering the side of ior ratio bsdf->eta). Returns zero (and nothing else is
  * meaningful) when the sample failed. The caller plays Russian roulette with
  * vf_bsdf.continuation before calling. */
 vf_vec3 vf_bsdf_sample(const vf_bsdf *bsdf, const float rnd[3], vf_vec3 *world_gen, float *pdf_w,

@@ -187,8 +187,10 @@ static void bsdf_of_vertex(const vf_vcm *v, vf_bsdf *b, const light_vertex *lv) 
 }
 
 /* Continues a sub-path from vertex `hit` with BSDF b: Russian roulette, direction sampling,
- * throughput and MIS update. Returns 0 when the path ends. */
-static int scatter(vf_vcm *v, const vf_bsdf *b, const vf_hit *hit, path_state *s, vf_rng *rng) {
+ * throughput and MIS update. A camera sub-path carries radiance, which a refraction
+ * scales by 1/eta^2 (bsdf.h); a light sub-path carries flux, which it does not. Returns 0
+ * when the path ends. */
+static int scatter(vf_vcm *v, const vf_bsdf *b, const vf_hit *hit, path_state *s, vf_rng *rng, int radiance) {
   if (vf_rng_float(rng) >= b->continuation) return 0;
   float rnd[3] = {vf_rng_float(rng), vf_rng_float(rng), vf_rng_float(rng)};
   vf_vec3 gen;
@@ -198,7 +200,9 @@ static int scatter(vf_vcm *v, const vf_bsdf *b, const vf_hit *hit, path_state *s
   if (vf_is_zero(f) || !(pdf > 0.0f)) return 0;
   int specular = (event & VF_BSDF_SPECULAR) != 0;
   vf_mis_scatter(&s->mis, &v->mis, cos_gen, pdf, rev_pdf, specular);
-  s->throughput = vf_mul(s->throughput, vf_scale(f, cos_gen / pdf));
+  float scale = cos_gen / pdf;
+  if (radiance && (event & VF_BSDF_REFRACTION)) scale /= b->eta * b->eta;
+  s->throughput = vf_mul(s->throughput, vf_scale(f, scale));
   s->specular_path &= specular;
   s->origin = vf_offset_ray_origin(hit->position, vf_dot(hit->normal, gen) > 0.0f ? hit->normal : vf_neg(hit->normal), v->offset_scale);
   s->direction = gen;
@@ -337,7 +341,7 @@ static void trace_light_path(vf_vcm *v, int thread, light_chunk *c, uint32_t pat
       if (v->t.light_to_camera) connect_to_camera(v, thread, c, &hit, &b, &s);
     }
     if (s.path_length + 2 > v->settings.max_path_length) break;
-    if (!scatter(v, &b, &hit, &s, &rng)) break;
+    if (!scatter(v, &b, &hit, &s, &rng, 0)) break;
   }
 }
 
@@ -642,7 +646,7 @@ static vf_vec3 trace_camera_path(vf_vcm *v, int thread, uint32_t pixel, uint32_t
         if (v->t.ppm) break;
       }
     }
-    if (!scatter(v, &b, &hit, &s, &rng)) break;
+    if (!scatter(v, &b, &hit, &s, &rng, 1)) break;
     s.path_length++;
   }
   return color;
