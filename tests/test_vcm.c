@@ -82,11 +82,12 @@ static void make_specular_diffuse(vf_scene *scene) {
 }
 
 /* With area and environment lights every path can be sampled by an emission hit, so path
- * tracing, BPT and VCM estimate the same image. */
-static void test_pt_bpt_vcm_agree_on_cornell_and_cornell_env(void) {
-  const char *names[] = {"cornell", "cornell-env"};
+ * tracing, BPT and VCM estimate the same image; in cornell-bulb the lamp is inside glass
+ * (see test_light_inside_glass_agrees). */
+static void test_pt_bpt_vcm_agree_on_area_and_environment_variants(void) {
+  const char *names[] = {"cornell", "cornell-env", "cornell-bulb"};
   const vf_algorithm algorithms[] = {VF_ALGO_PT, VF_ALGO_BPT, VF_ALGO_VCM};
-  for (int i = 0; i < 2; i++) {
+  for (int i = 0; i < 3; i++) {
     vf_scene *scene;
     CHECK_INT_EQ(vf_scene_load(names[i], &scene), VF_OK);
     if (check_failed_in_case) return;
@@ -229,7 +230,7 @@ static void test_auto_chooses_by_the_scene(void) {
 int main(void) {
   RUN(test_auto_chooses_by_the_scene);
   RUN(test_furnace_every_algorithm_gives_the_analytic_value);
-  RUN(test_pt_bpt_vcm_agree_on_cornell_and_cornell_env);
+  RUN(test_pt_bpt_vcm_agree_on_area_and_environment_variants);
   RUN(test_delta_light_variants_agree);
   RUN(test_environment_map_and_sphere_light_agree);
   RUN(test_light_inside_glass_agrees);
