@@ -1,0 +1,67 @@
+#!/usr/bin/env bash
+# `vcmfarm render` against the same job through a farm on this machine: a coordinator and
+# one worker with the same threads over ipc://, submit to "done". Runs alternate, so the
+# machine's drift hits both columns alike; every farm film is compared with the direct one
+# (tests/farm_compare.c: iteration set and pixels). Prints a Markdown table and the medians.
+#
+#   bash tests/bench/render_farm.sh BUILD_DIR [ITERATIONS] [RUNS] [THREADS]   defaults: 40 6 2
+set -u
+build="$1"
+iterations="${2:-40}"
+runs="${3:-6}"
+threads="${4:-2}"
+vcmfarm="$build/vcmfarm"
+compare="$build/tests/farm_compare"
+tmp=$(mktemp -d /tmp/vf-bench-render-farm-XXXXXX)
+pids=()
+cleanup() {
+  for p in "${pids[@]}"; do kill -9 "$p" 2>/dev/null; done
+  wait 2>/dev/null
+  rm -rf "$tmp"
+}
+trap cleanup EXIT
+"$vcmfarm" keygen "$tmp/key" >/dev/null || exit 1
+url="ipc://$tmp/c.sock"
+client() { "$vcmfarm" "$@" --coordinator "$url" --secret "$tmp/key" --timeout 5; }
+now() { date +%s.%N; }
+median() { sort -g | awk '{v[NR] = $1} END {print v[int((NR + 1) / 2)]}'; }
+
+echo "cornell 512x512, $iterations iterations, $threads render threads, $runs alternating runs"
+echo
+echo "| run | direct | through the farm | farm film |"
+echo "|---|---|---|---|"
+: >"$tmp/direct" && : >"$tmp/farm"
+for run in $(seq "$runs"); do
+  start=$(now)
+  "$vcmfarm" render cornell -n "$iterations" -j "$threads" -q -o "$tmp/direct.exr" || exit 1
+  direct=$(echo "$(now) - $start" | bc)
+
+  rm -rf "$tmp/state"
+  "$vcmfarm" coordinator --listen "$url" --state "$tmp/state" --secret "$tmp/key" >"$tmp/coordinator.log" 2>&1 &
+  pids+=($!)
+  "$vcmfarm" worker --connect "$url" --secret "$tmp/key" --threads "$threads" --name bench >"$tmp/worker.log" 2>&1 &
+  pids+=($!)
+  deadline=$((SECONDS + 900))
+  until [ "$(client status --json 2>/dev/null | grep -c '"threads":')" -eq 1 ]; do
+    [ "$SECONDS" -lt "$deadline" ] || { echo "the worker did not register" >&2; exit 1; }
+    sleep 0.1
+  done
+  start=$(now)
+  job=$(client submit cornell -n "$iterations" 2>/dev/null | tail -n 1)
+  until client status "$job" --json 2>/dev/null | tr -d ' \t\n' | grep -q '"state":"done"'; do
+    [ "$SECONDS" -lt "$deadline" ] || { echo "job $job not done in time" >&2; exit 1; }
+    sleep 1
+  done
+  farm=$(echo "$(now) - $start" | bc)
+  client fetch "$job" -o "$tmp/farm.exr" >/dev/null 2>&1 || { echo "fetch failed" >&2; exit 1; }
+  verdict=$("$compare" "$tmp/farm.exr" "$tmp/direct.exr" "[0,$iterations)" 2>&1 | tail -n 1 |
+    sed 's/.*max |difference| \([^,]*\),.*: \([a-z]*\)$/\2 (`farm_compare`, max difference \1)/')
+  for p in "${pids[@]}"; do kill -TERM "$p" 2>/dev/null; done
+  wait 2>/dev/null
+  pids=()
+  echo "$direct" >>"$tmp/direct"
+  echo "$farm" >>"$tmp/farm"
+  printf "| %d | %.1f s | %.1f s | %s |\n" "$run" "$direct" "$farm" "$verdict"
+done
+echo
+printf "medians: direct %.1f s, through the farm %.1f s\n" "$(median <"$tmp/direct")" "$(median <"$tmp/farm")"
