@@ -46,8 +46,8 @@ static int vertex_path_length(const light_vertex *lv) {
 }
 static uint32_t vertex_material(const light_vertex *lv) { return lv->path_length_material >> VERTEX_LENGTH_BITS; }
 
-/* What merging needs of a light vertex, kept in the grid's order: a third of a
- * light_vertex, so the vertices a query accepts cost one cache line, not two. */
+/* What merging needs of a light vertex, kept in the grid's order: 40 bytes, so that the
+ * vertices a query accepts lie next to each other and a hit costs at most one line. */
 typedef struct {
   vf_vec3 throughput;
   vf_vec3 direction; /* world, towards the previous light vertex */
