@@ -10,17 +10,8 @@ build="$1"
 iterations="${2:-48}"
 resolution="${3:-256x256}"
 vcmfarm="$build/vcmfarm"
-tmp=$(mktemp -d /tmp/vf-bench-farm-XXXXXX)
-pids=()
-cleanup() {
-  for p in "${pids[@]}"; do kill -9 "$p" 2>/dev/null; done
-  wait 2>/dev/null
-  rm -rf "$tmp"
-}
-trap cleanup EXIT
-"$vcmfarm" keygen "$tmp/key" || exit 1
-url="ipc://$tmp/c.sock"
-client() { "$vcmfarm" "$@" --coordinator "$url" --secret "$tmp/key" --timeout 5; }
+source "$(dirname "${BASH_SOURCE[0]}")/farm_lib.sh"
+farm_setup farm
 
 start=$(date +%s.%N)
 "$vcmfarm" render cornell -n "$iterations" -R "$resolution" -j 1 -q -o "$tmp/local.exr" || exit 1

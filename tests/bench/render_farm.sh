@@ -12,17 +12,8 @@ runs="${3:-6}"
 threads="${4:-2}"
 vcmfarm="$build/vcmfarm"
 compare="$build/tests/farm_compare"
-tmp=$(mktemp -d /tmp/vf-bench-render-farm-XXXXXX)
-pids=()
-cleanup() {
-  for p in "${pids[@]}"; do kill -9 "$p" 2>/dev/null; done
-  wait 2>/dev/null
-  rm -rf "$tmp"
-}
-trap cleanup EXIT
-"$vcmfarm" keygen "$tmp/key" >/dev/null || exit 1
-url="ipc://$tmp/c.sock"
-client() { "$vcmfarm" "$@" --coordinator "$url" --secret "$tmp/key" --timeout 5; }
+source "$(dirname "${BASH_SOURCE[0]}")/farm_lib.sh"
+farm_setup render-farm
 now() { date +%s.%N; }
 median() { sort -g | awk '{v[NR] = $1} END {print v[int((NR + 1) / 2)]}'; }
 

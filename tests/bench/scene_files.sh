@@ -9,14 +9,9 @@
 set -u
 build="$1"
 vcmfarm="$build/vcmfarm"
-tmp=$(mktemp -d /tmp/vf-bench-files-XXXXXX)
-pids=()
-cleanup() {
-  for p in "${pids[@]}"; do kill -9 "$p" 2>/dev/null; done
-  wait 2>/dev/null
-  rm -rf "$tmp"
-}
-trap cleanup EXIT
+source "$(dirname "${BASH_SOURCE[0]}")/farm_lib.sh"
+CLIENT_TIMEOUT=20
+farm_setup files
 fail() { echo "scene_files.sh: $*" >&2; tail -n 20 "$tmp"/*.log >&2; exit 1; }
 
 # A (3,7) torus-knot tube of 960 x 60 quads: 57,600 vertices, 115,200 triangles.
@@ -60,9 +55,6 @@ echo "{$camera, \"materials\": {\"grey\": {\"diffuse\": [0.6, 0.6, 0.6]}}, $shap
 echo "{$camera, \"materials\": {\"grey\": {\"diffuse\": [0.6, 0.6, 0.6]}}, $shapes,
   \"lights\": [{\"type\": \"environment\", \"file\": \"sky.exr\"}]}" >"$tmp/knot-map.json"
 
-"$vcmfarm" keygen "$tmp/key" >/dev/null || exit 1
-url="ipc://$tmp/c.sock"
-client() { "$vcmfarm" "$@" --coordinator "$url" --secret "$tmp/key" --timeout 20; }
 "$vcmfarm" coordinator --listen "$url" --state "$tmp/state" --secret "$tmp/key" >"$tmp/coordinator.log" 2>&1 &
 pids+=($!)
 "$vcmfarm" worker --connect "$url" --secret "$tmp/key" --threads 1 --name bench --cache "$tmp/cache" \
