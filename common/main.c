@@ -2,7 +2,7 @@
 #include "../worker/continue_cmd.h"
 #include "../coordinator/client_cmd.h"
 #include "../coordinator/coordinator_cmd.h"
-#include "../worker/render_cmd.h"
+#include "../coordinator/render_cmd.h"
 #include "../worker/worker_cmd.h"
 #include "compare_cmd.h"
 #include "film_tools.h"

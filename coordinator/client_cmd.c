@@ -9,6 +9,7 @@
 #include "../worker/job_scene.h"
 #include "job.h"
 #include "schedule.h"
+#include "submit.h"
 
 #include <cjson/cJSON.h>
 #include <dirent.h>
@@ -69,96 +70,18 @@ static int parse_job_id(const char *text, uint64_t *id) {
 
 /* ---- submit ---- */
 
-/* A private directory for the scene's files as blobs (common/blob.h), removed after. */
-static int stage_create(char *dir, size_t n) {
-  const char *tmp = getenv("TMPDIR");
-  if (snprintf(dir, n, "%s/vcmfarm-submit-XXXXXX", tmp && tmp[0] ? tmp : "/tmp") >= (int)n)
-    return vf_error_set(VF_EINVAL, "TMPDIR too long");
-  if (mkdtemp(dir) == NULL) return vf_error_set(VF_EIO, "%s: %s", dir, strerror(errno));
-  return VF_OK;
-}
-
-static void stage_remove(const char *dir) {
-  char blobs[4200], path[4500];
-  snprintf(blobs, sizeof blobs, "%s/blobs", dir);
-  DIR *d = opendir(blobs);
-  if (d != NULL) {
-    struct dirent *e;
-    while ((e = readdir(d)) != NULL)
-      if (e->d_name[0] != '.' && snprintf(path, sizeof path, "%s/%s", blobs, e->d_name) < (int)sizeof path)
-        unlink(path);
-    closedir(d);
-  }
-  rmdir(blobs);
-  rmdir(dir);
-}
-
-/* Sends the files the coordinator does not hold yet, one blob per message: a job's files
- * together may exceed the frame cap, one file may not (VF_BLOB_MAX_BYTES). */
-static int send_files(const connection *conn, const char *stage, const vf_blob_table *files) {
-  ProtobufCBinaryData *hashes = calloc(files->count, sizeof *hashes);
-  if (hashes == NULL) return vf_error_set(VF_ENOMEM, "out of memory");
-  for (size_t i = 0; i < files->count; i++) hashes[i] = (ProtobufCBinaryData){32, files->refs[i].hash};
-  Vcmfarm__BlobQuery query = VCMFARM__BLOB_QUERY__INIT;
-  query.n_hashes = files->count;
-  query.hashes = hashes;
-  Vcmfarm__Envelope q = VCMFARM__ENVELOPE__INIT, *have = NULL;
-  q.body_case = VCMFARM__ENVELOPE__BODY_BLOB_QUERY;
-  q.blob_query = &query;
-  int err = request(conn, &q, VCMFARM__ENVELOPE__BODY_BLOB_HAVE, &have);
-  free(hashes);
-  if (err != VF_OK) return err;
-  /* Big files take a while on slow links: at least two minutes each. */
-  connection slow = *conn;
-  if (slow.timeout < 120.0) slow.timeout = 120.0;
-  uint64_t bytes_sent = 0;
-  size_t sent = 0;
-  for (size_t i = 0; i < files->count && err == VF_OK; i++) {
-    const vf_blob_ref *ref = &files->refs[i];
-    int missing = 0;
-    for (size_t k = 0; k < have->blob_have->n_missing; k++)
-      missing |= have->blob_have->missing[k].len == 32 && memcmp(have->blob_have->missing[k].data, ref->hash, 32) == 0;
-    int earlier = 0; /* two names with the same content: one blob */
-    for (size_t k = 0; k < i; k++) earlier |= memcmp(files->refs[k].hash, ref->hash, 32) == 0;
-    if (!missing || earlier) continue;
-    uint8_t *bytes;
-    size_t len;
-    if ((err = vf_blob_store_get(stage, ref->hash, &bytes, &len)) != VF_OK) break;
-    Vcmfarm__BlobPut put = VCMFARM__BLOB_PUT__INIT;
-    put.hash = (ProtobufCBinaryData){32, (uint8_t *)ref->hash};
-    put.data = (ProtobufCBinaryData){len, bytes};
-    Vcmfarm__Envelope pq = VCMFARM__ENVELOPE__INIT, *ack = NULL;
-    pq.body_case = VCMFARM__ENVELOPE__BODY_BLOB_PUT;
-    pq.blob_put = &put;
-    err = request(&slow, &pq, VCMFARM__ENVELOPE__BODY_RESULT_ACK, &ack);
-    if (err == VF_OK && !ack->result_ack->accepted)
-      err = vf_error_set(VF_EREFUSED, "file '%s': %s", ref->name, ack->result_ack->message);
-    else if (err != VF_OK)
-      err = vf_error_set(err, "sending file '%s': %s", ref->name, vf_error_detail(err));
-    else {
-      sent++;
-      bytes_sent += len;
-    }
-    vf_message_free(ack);
-    free(bytes);
-  }
-  if (err == VF_OK)
-    fprintf(stderr, "vcmfarm submit: %zu files named by the scene; sent %zu (%llu bytes), the coordinator held the rest\n",
-            files->count, sent, (unsigned long long)bytes_sent);
-  vf_message_free(have);
-  return err;
-}
-
 static const char submit_usage[] =
     "usage: vcmfarm submit SCENE --coordinator URL --secret FILE [options]\n"
     "\n"
-    "Submits a job rendering global iterations 0, 1, 2... of SCENE (a built-in name or a\n"
+    "Submits a job rendering global iterations K, K+1, ... (K = 0 by default) of SCENE (a built-in name or a\n"
     "JSON scene file) and prints the job id as the last line. The mesh and map files the\n"
     "scene names are sent by content hash, those the coordinator lacks first. The job\n"
     "stops at the first stop condition that holds.\n"
     "\n"
     "  -n, --iterations N       at most N iterations (default 16, or 10^9 when another stop\n"
     "                           condition is given)\n"
+    "      --start-iteration K  the first global iteration (default 0; at most 2^53), to\n"
+    "                           continue a film that holds [0, K)\n"
     "  -t, --time S             stop after S seconds of running (from the first lease)\n"
     "      --target-rmse X      stop once the RMSE against --reference is at most X\n"
     "      --reference REF      reference image (a film or RGB EXR of the job's size); sent\n"
@@ -184,7 +107,9 @@ int vf_cmd_submit(int argc, char **argv) {
       {"secret", required_argument, 0, 'k'},     {"timeout", required_argument, 0, 'T'},
       {"time", required_argument, 0, 't'},     {"target-rmse", required_argument, 0, 'X'},
       {"reference", required_argument, 0, 'F'}, {"target-error", required_argument, 0, 'E'},
+      {"start-iteration", required_argument, 0, 'K'},
       {"help", no_argument, 0, 'h'},             {0, 0, 0, 0}};
+  uint64_t first = 0;
   const char *cmd = "submit", *name = NULL, *reference = NULL;
   vf_cli_settings overrides;
   connection conn = {NULL, NULL, 10.0};
@@ -207,6 +132,7 @@ int vf_cmd_submit(int argc, char **argv) {
     case 'E': err = vf_cli_double("--target-error", optarg, 1e-30, 1e30, &target_error); break;
     case 'F': reference = optarg; break;
     case 'N': name = optarg; break;
+    case 'K': err = vf_cli_u64("--start-iteration", optarg, &first); break;
     case 'h': fputs(submit_usage, stdout); return VF_EXIT_OK;
     default: return bad_option(cmd, argv, submit_usage);
     }
@@ -222,91 +148,22 @@ int vf_cmd_submit(int argc, char **argv) {
   }
   if (iterations == 0)
     iterations = time_limit > 0.0 || target_rmse > 0.0 || target_error > 0.0 ? (long long)VF_JOB_MAX_ITERATIONS : 16;
-  const char *source = argv[optind];
-  int builtin = vf_job_scene_is_builtin(source);
-  uint8_t *text = NULL, *reference_bytes = NULL;
-  size_t len = 0, reference_len = 0;
-  vf_scene *scene = NULL;
-  vf_image reference_image = {0};
-  Vcmfarm__Envelope *reply = NULL;
-  vf_blob_table files = {0};
-  Vcmfarm__BlobRef *file_refs = NULL, **file_ref_ptrs = NULL;
-  char stage[4096] = "";
-  if (builtin) {
-    len = strlen(source);
-  } else if ((err = vf_file_read_all(source, 16u << 20, &text, &len)) != VF_OK) {
+  vf_wire_key key;
+  vf_farm_client *client;
+  if (conn.url == NULL || conn.secret == NULL)
+    return vf_cli_fail(cmd, vf_error_set(VF_EUSAGE, "--coordinator URL and --secret FILE are required"));
+  if ((err = vf_wire_key_load(conn.secret, &key)) != VF_OK || (err = vf_farm_client_open(conn.url, &key, &client)) != VF_OK)
     return vf_cli_fail(cmd, err);
-  }
-  /* Load it as the workers will, to refuse a broken scene here and learn its hash; a JSON
-   * scene's files are collected as blobs on the way. */
-  if (builtin) err = vf_job_scene_load(1, source, len, NULL, NULL, source, &scene);
-  else if ((err = stage_create(stage, sizeof stage)) == VF_OK)
-    err = vf_job_scene_collect(source, (const char *)text, len, stage, &files, &scene);
-  if (err != VF_OK) goto done;
-  vf_settings settings = scene->settings;
-  if ((err = vf_cli_settings_apply(&overrides, &settings)) != VF_OK) goto done;
-  char settings_text[512];
-  if ((err = vf_settings_validate(&settings)) != VF_OK ||
-      (err = vf_settings_format(&settings, settings_text, sizeof settings_text)) != VF_OK)
-    goto done;
-  /* The reference is read here too, so a wrong one is refused before anything is sent. */
-  if (reference) {
-    if ((err = vf_image_read_exr(reference, &reference_image)) != VF_OK) goto done;
-    if (reference_image.width != settings.width || reference_image.height != settings.height) {
-      err = vf_error_set(VF_EMISMATCH, "reference %s is %dx%d, the job renders %dx%d", reference,
-                         reference_image.width, reference_image.height, settings.width, settings.height);
-      goto done;
-    }
-    if ((err = vf_file_read_all(reference, VF_WIRE_MAX_REQUEST - (16u << 20) - (1u << 20), &reference_bytes,
-                                &reference_len)) != VF_OK)
-      goto done;
-  }
-  Vcmfarm__Scene s = VCMFARM__SCENE__INIT;
-  if (builtin) {
-    s.source_case = VCMFARM__SCENE__SOURCE_BUILTIN;
-    s.builtin = (char *)source;
-  } else {
-    s.source_case = VCMFARM__SCENE__SOURCE_JSON;
-    s.json = (char *)text;
-  }
-  if (files.count > 0) {
-    if ((err = send_files(&conn, stage, &files)) != VF_OK ||
-        (err = vf_blob_table_to_wire(&files, &file_refs, &file_ref_ptrs)) != VF_OK)
-      goto done;
-    s.n_files = files.count;
-    s.files = file_ref_ptrs;
-  }
-  Vcmfarm__SubmitJob m = VCMFARM__SUBMIT_JOB__INIT;
-  m.name = (char *)(name ? name : source);
-  m.scene = &s;
-  m.scene_hash.data = scene->hash;
-  m.scene_hash.len = 32;
-  m.settings = settings_text;
-  m.iterations = (uint64_t)iterations;
-  m.priority = (int32_t)priority;
-  m.time_limit = time_limit;
-  m.target_rmse = target_rmse;
-  m.target_error = target_error;
-  m.reference_exr.data = reference_bytes;
-  m.reference_exr.len = reference_len;
-  Vcmfarm__Envelope q = VCMFARM__ENVELOPE__INIT;
-  q.body_case = VCMFARM__ENVELOPE__BODY_SUBMIT;
-  q.submit = &m;
-  if ((err = request(&conn, &q, VCMFARM__ENVELOPE__BODY_SUBMITTED, &reply)) != VF_OK) goto done;
-  fprintf(stderr, "vcmfarm submit: %s, %s, at most %lld iterations, priority %lld\n", source, settings_text,
-          iterations, priority);
-  printf("%llu\n", (unsigned long long)reply->submitted->job_id);
-done:
-  if (stage[0]) stage_remove(stage);
-  free(file_refs);
-  free(file_ref_ptrs);
-  vf_blob_table_clear(&files);
-  vf_message_free(reply);
-  vf_scene_destroy(scene);
-  vf_image_destroy(&reference_image);
-  free(reference_bytes);
-  free(text);
-  return err == VF_OK ? VF_EXIT_OK : vf_cli_fail(cmd, err);
+  vf_submit_job job = {argv[optind], name, &overrides, (uint64_t)first, (uint64_t)iterations, (int)priority,
+                       time_limit, target_rmse, target_error, reference, "vcmfarm submit"};
+  vf_submitted_job submitted;
+  err = vf_submit(client, (int)(conn.timeout * 1000.0), &job, &submitted);
+  vf_farm_client_close(client);
+  if (err != VF_OK) return vf_cli_fail(cmd, err);
+  fprintf(stderr, "vcmfarm submit: %s, %s, at most %lld iterations from %llu, priority %lld\n", argv[optind],
+          submitted.settings_text, iterations, (unsigned long long)first, priority);
+  printf("%llu\n", (unsigned long long)submitted.job_id);
+  return VF_EXIT_OK;
 }
 
 /* ---- status ---- */
@@ -337,6 +194,7 @@ static void print_json(const Vcmfarm__Status *st) {
     cJSON_AddStringToObject(o, "name", j->name);
     cJSON_AddStringToObject(o, "state", j->state);
     cJSON_AddNumberToObject(o, "priority", j->priority);
+    cJSON_AddNumberToObject(o, "first_iteration", (double)j->first_iteration);
     cJSON_AddNumberToObject(o, "iterations", (double)j->iterations_total);
     cJSON_AddNumberToObject(o, "iterations_done", (double)j->iterations_done);
     cJSON_AddNumberToObject(o, "iterations_leased", (double)j->iterations_leased);

@@ -31,6 +31,7 @@ typedef struct {
   vf_farm farm;
   vf_writer *writer;   /* films are checkpointed through it, off the loop */
   double checkpoint_interval, last_checkpoint;
+  volatile sig_atomic_t *stop; /* the caller's stop flag, or NULL */
   uint8_t *pending;     /* a packed reply waiting for room, owned */
   size_t pending_len;
   double pending_since;
@@ -122,6 +123,11 @@ static void on_readable(uv_poll_t *handle, int status, int events) {
 
 static void on_tick(uv_timer_t *timer) {
   coordinator *c = timer->data;
+  if (c->stop && *c->stop) {
+    vf_log("asked to stop: checkpointing and stopping");
+    uv_stop(&c->loop);
+    return;
+  }
   double now = vf_seconds_now();
   vf_farm_expire(&c->farm, now);
   vf_farm_tick(&c->farm, now);
@@ -160,9 +166,12 @@ int vf_coordinator_run(const vf_coordinator_config *config) {
   vf_farm_config fc = {config->state_dir, config->worker_timeout, config->lease_seconds};
   vf_farm_init(&c->farm, &fc);
   c->checkpoint_interval = config->checkpoint_interval;
-  int err, lock_fd = -1, recv_fd, send_fd;
+  c->stop = config->stop;
+  vf_log_set_quiet(config->quiet);
+  int err = VF_OK, lock_fd = -1, recv_fd, send_fd;
   signal(SIGPIPE, SIG_IGN);
-  if ((err = vf_wire_key_load(config->secret_path, &c->key)) != VF_OK) goto free_farm;
+  if (config->key) c->key = *config->key;
+  else if ((err = vf_wire_key_load(config->secret_path, &c->key)) != VF_OK) goto free_farm;
   if ((err = vf_state_lock(config->state_dir, &lock_fd)) != VF_OK) goto free_farm;
   if ((err = vf_state_load(&c->farm)) != VF_OK) goto unlock;
   if ((c->socket = nn_socket(AF_SP, NN_REP)) < 0) {
@@ -193,8 +202,10 @@ int vf_coordinator_run(const vf_coordinator_config *config) {
   c->recv_poll.data = c->send_poll.data = c->tick.data = c->sigint.data = c->sigterm.data = c;
   uv_poll_start(&c->recv_poll, UV_READABLE, on_readable);
   uv_timer_start(&c->tick, on_tick, TICK_MS, TICK_MS);
-  uv_signal_start(&c->sigint, on_signal, SIGINT);
-  uv_signal_start(&c->sigterm, on_signal, SIGTERM);
+  if (config->handle_signals) {
+    uv_signal_start(&c->sigint, on_signal, SIGINT);
+    uv_signal_start(&c->sigterm, on_signal, SIGTERM);
+  }
   c->last_checkpoint = vf_seconds_now();
   vf_log("listening on %s, state in %s, %zu job(s), worker timeout %.1f s", config->listen_url, config->state_dir,
          c->farm.num_jobs, config->worker_timeout);

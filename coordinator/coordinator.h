@@ -13,18 +13,29 @@
 #ifndef VF_COORDINATOR_H
 #define VF_COORDINATOR_H
 
+#include "../common/wire.h"
+
+#include <signal.h>
+
 typedef struct {
-  const char *listen_url;      /* nanomsg URL: tcp://HOST:PORT or ipc://PATH */
+  const char *listen_url;      /* nanomsg URL: tcp://HOST:PORT, ipc://PATH or inproc://NAME */
   const char *state_dir;
-  const char *secret_path;     /* key file (vcmfarm keygen) */
+  const char *secret_path;     /* key file (vcmfarm keygen), read when key is NULL */
+  const vf_wire_key *key;      /* else this key (copied) */
   double worker_timeout;       /* seconds; default 15 */
   double lease_seconds;        /* target lease duration; default 20 */
   double checkpoint_interval;  /* seconds between film checkpoints; default 10 */
+  /* How it is stopped: SIGINT and SIGTERM when handle_signals, and always when *stop
+   * (if not NULL; any thread may set it) becomes non-zero, seen within 200 ms. */
+  int handle_signals;
+  volatile sig_atomic_t *stop;
+  int quiet;                   /* no log lines (coordinator/log.h) */
 } vf_coordinator_config;
 
-/* Resumes the jobs of the state directory and serves until SIGINT or SIGTERM, then stops
- * answering, waits for the checkpoints in flight and writes a final one. Returns VF_OK after a clean shutdown, or the error that prevented
- * starting (key, state directory, bind) or the final checkpoint, with a detail. */
+/* Resumes the jobs of the state directory and serves until stopped (above), then stops
+ * answering, waits for the checkpoints in flight and writes a final one. Returns VF_OK
+ * after a clean shutdown, or the error that prevented starting (key, state directory,
+ * bind) or the final checkpoint, with a detail. */
 int vf_coordinator_run(const vf_coordinator_config *config);
 
 #endif

@@ -32,7 +32,8 @@ int vf_cmd_coordinator(int argc, char **argv) {
       {"lease-seconds", required_argument, 0, 'L'},  {"checkpoint-interval", required_argument, 0, 'C'},
       {"help", no_argument, 0, 'h'},                 {0, 0, 0, 0}};
   const char *cmd = "coordinator";
-  vf_coordinator_config config = {NULL, NULL, NULL, 15.0, 20.0, 10.0};
+  vf_coordinator_config config = {.worker_timeout = 15.0, .lease_seconds = 20.0, .checkpoint_interval = 10.0,
+                                  .handle_signals = 1};
   int err = VF_OK, c;
   optind = 1;
   opterr = 0;

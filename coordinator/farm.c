@@ -11,6 +11,7 @@
 
 #include <math.h>
 #include <sodium.h>
+#include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -163,7 +164,7 @@ static int has_free_range(void *ctx, const vf_job *j) {
   vf_farm *farm = ctx;
   uint64_t b, e, free_count;
   return vf_job_runnable(j) &&
-         vf_lease_free_range(&farm->leases, j->id, &j->film->iterations, j->iterations, 1, &b, &e, &free_count) == 1;
+         vf_lease_free_range(&farm->leases, j->id, &j->film->iterations, j->first, j->iterations, 1, &b, &e, &free_count) == 1;
 }
 
 static void handle_lease_request(vf_farm *farm, vf_farm_worker *w, double now, vf_farm_reply *r) {
@@ -185,9 +186,9 @@ static void handle_lease_request(vf_farm *farm, vf_farm_worker *w, double now, v
     return;
   }
   uint64_t b, e, free_count;
-  vf_lease_free_range(&farm->leases, job->id, &job->film->iterations, job->iterations, UINT64_MAX, &b, &e, &free_count);
+  vf_lease_free_range(&farm->leases, job->id, &job->film->iterations, job->first, job->iterations, UINT64_MAX, &b, &e, &free_count);
   uint64_t size = vf_lease_size(w->rate, farm->config.lease_seconds, free_count, farm->num_workers);
-  if (vf_lease_free_range(&farm->leases, job->id, &job->film->iterations, job->iterations, size, &b, &e,
+  if (vf_lease_free_range(&farm->leases, job->id, &job->film->iterations, job->first, job->iterations, size, &b, &e,
                           &free_count) != 1 ||
       vf_lease_add(&farm->leases, job->id, w->id, b, e, now, &w->lease_id) != VF_OK)
     return vf_farm_reply_error(r, VCMFARM__ERROR_CODE__ERROR_INTERNAL, "out of memory for leases");
@@ -453,8 +454,10 @@ static void handle_submit(vf_farm *farm, const Vcmfarm__SubmitJob *m, vf_farm_re
   const char *text = builtin ? m->scene->builtin : m->scene->json;
   vf_job *job;
   int err = vf_job_create(farm->next_job_id, m->name, m->priority, builtin, text, strlen(text), m->scene_hash.data,
-                          m->scene_hash.len, m->settings, m->iterations, &job);
-  if (err == VF_OK && (err = vf_farm_blobs_attach(farm, job, m->scene)) != VF_OK) vf_job_destroy(job);
+                          m->scene_hash.len, m->settings, m->first_iteration, m->iterations, &job);
+  if (err == VF_OK && ((err = vf_job_set_scene_path(job, m->scene_path)) != VF_OK ||
+                       (err = vf_farm_blobs_attach(farm, job, m->scene)) != VF_OK))
+    vf_job_destroy(job);
   if (err != VF_OK) return vf_farm_reply_error(r, VCMFARM__ERROR_CODE__ERROR_BAD_REQUEST, vf_error_detail(err));
   /* The reference is checked by reading it back from where it is kept. */
   if (m->reference_exr.len > 0 &&
@@ -481,9 +484,10 @@ static void handle_submit(vf_farm *farm, const Vcmfarm__SubmitJob *m, vf_farm_re
     return vf_farm_reply_error(r, VCMFARM__ERROR_CODE__ERROR_INTERNAL, vf_error_detail(err));
   }
   farm->next_job_id++;
-  vf_log("job %llu '%s' submitted: %s %s, at most %llu iterations, time limit %g s, target RMSE %g%s, target "
+  vf_log("job %llu '%s' submitted: %s %s, at most %llu iterations from %llu, time limit %g s, target RMSE %g%s, target "
          "error %g, priority %d", (unsigned long long)job->id, job->name, builtin ? "built-in" : "JSON scene",
-         builtin ? job->scene_text : "", (unsigned long long)job->iterations, job->time_limit, job->target_rmse,
+         builtin ? job->scene_text : "", (unsigned long long)job->iterations, (unsigned long long)job->first,
+         job->time_limit, job->target_rmse,
          job->reference.rgb ? " (with a reference)" : "", job->target_error, job->priority);
   vcmfarm__submitted__init(&r->submitted);
   r->submitted.job_id = job->id;
@@ -547,6 +551,7 @@ static void handle_status(vf_farm *farm, const Vcmfarm__StatusRequest *m, double
     s->name = j->name;
     s->state = (char *)vf_job_state(j, leased);
     s->priority = j->priority;
+    s->first_iteration = j->first;
     s->iterations_total = j->iterations;
     s->iterations_done = vf_job_done(j);
     s->iterations_leased = leased;
@@ -602,8 +607,11 @@ static void handle_fetch(vf_farm *farm, const Vcmfarm__FetchRequest *m, vf_farm_
   vf_job *job = vf_farm_job(farm, m->job_id);
   if (job == NULL)
     return reply_errorf(r, VCMFARM__ERROR_CODE__ERROR_UNKNOWN_JOB, "no job %llu", (unsigned long long)m->job_id);
+  /* The film as fetched carries its latest measurement in its log. */
+  int err = vf_job_log(job);
+  if (err != VF_OK) return vf_farm_reply_error(r, VCMFARM__ERROR_CODE__ERROR_INTERNAL, vf_error_detail(err));
   size_t len;
-  int err = vf_film_to_bytes(job->film, VF_WIRE_MAX_PAYLOAD - 64, &r->film_bytes, &len);
+  err = vf_film_to_bytes(job->film, VF_WIRE_MAX_PAYLOAD - 64, &r->film_bytes, &len);
   if (err != VF_OK) return vf_farm_reply_error(r, VCMFARM__ERROR_CODE__ERROR_INTERNAL, vf_error_detail(err));
   vcmfarm__film__init(&r->film);
   r->film.film_exr.data = r->film_bytes;

@@ -30,7 +30,7 @@ static int check_builtin_name(const char *text, size_t len) {
 
 int vf_job_create(uint64_t id, const char *name, int priority, int scene_builtin, const char *scene_text,
                   size_t scene_len, const uint8_t *scene_hash, size_t hash_len, const char *settings_text,
-                  uint64_t iterations, vf_job **out) {
+                  uint64_t first, uint64_t iterations, vf_job **out) {
   int err;
   if ((err = check_name(name)) != VF_OK) return err;
   if (scene_builtin && (err = check_builtin_name(scene_text, scene_len)) != VF_OK) return err;
@@ -43,6 +43,8 @@ int vf_job_create(uint64_t id, const char *name, int priority, int scene_builtin
   if (iterations < 1 || iterations > VF_JOB_MAX_ITERATIONS)
     return vf_error_set(VF_EINVAL, "iterations: %llu, must be 1 to %llu", (unsigned long long)iterations,
                         VF_JOB_MAX_ITERATIONS);
+  if (first > VF_JOB_MAX_FIRST)
+    return vf_error_set(VF_EINVAL, "first_iteration: %llu, must be at most 2^53", (unsigned long long)first);
   vf_settings settings;
   char canonical[512];
   if (strlen(settings_text) >= sizeof canonical)
@@ -64,6 +66,7 @@ int vf_job_create(uint64_t id, const char *name, int priority, int scene_builtin
   if ((err = vf_film_create(settings.width, settings.height, &job->film)) != VF_OK) goto free_text;
   memcpy(job->film->scene_hash, scene_hash, 32);
   snprintf(job->film->settings_text, sizeof job->film->settings_text, "%s", canonical);
+  if (scene_builtin) snprintf(job->film->scene_name, sizeof job->film->scene_name, "%s", job->scene_text);
   job->id = id;
   snprintf(job->name, sizeof job->name, "%s", name);
   job->priority = priority;
@@ -71,6 +74,7 @@ int vf_job_create(uint64_t id, const char *name, int priority, int scene_builtin
   memcpy(job->scene_hash, scene_hash, 32);
   snprintf(job->settings_text, sizeof job->settings_text, "%s", canonical);
   job->settings = settings;
+  job->first = first;
   job->iterations = iterations;
   job->measured_iterations = job->logged_iterations = UINT64_MAX;
   *out = job;
@@ -80,6 +84,18 @@ free_text:
 free_job:
   free(job);
   return err;
+}
+
+int vf_job_set_scene_path(vf_job *job, const char *path) {
+  size_t n = strlen(path);
+  if (n == 0 || job->scene_builtin) return VF_OK;
+  if (n >= sizeof job->film->scene_name)
+    return vf_error_set(VF_EINVAL, "scene_path: %zu bytes, at most %zu", n, sizeof job->film->scene_name - 1);
+  for (size_t i = 0; i < n; i++)
+    if ((unsigned char)path[i] < 0x20 || path[i] == 0x7f)
+      return vf_error_set(VF_EINVAL, "scene_path: control character at byte %zu", i);
+  memcpy(job->film->scene_name, path, n + 1);
+  return VF_OK;
 }
 
 void vf_job_destroy(vf_job *job) {
@@ -115,9 +131,9 @@ int vf_job_check_film(const vf_job *job, const vf_film *film) {
     return vf_error_set(VF_EMISMATCH, "film's settings '%s' differ from job %llu's '%s'", film->settings_text,
                         (unsigned long long)job->id, job->settings_text);
   const vf_iterset *set = &film->iterations;
-  if (set->count > 0 && set->ranges[set->count - 1].end > job->iterations)
-    return vf_error_set(VF_EMISMATCH, "film holds iterations beyond job %llu's %llu", (unsigned long long)job->id,
-                        (unsigned long long)job->iterations);
+  if (set->count > 0 && (set->ranges[0].begin < job->first || set->ranges[set->count - 1].end > job->first + job->iterations))
+    return vf_error_set(VF_EMISMATCH, "film holds iterations outside job %llu's [%llu,%llu)", (unsigned long long)job->id,
+                        (unsigned long long)job->first, (unsigned long long)(job->first + job->iterations));
   return VF_OK;
 }
 

@@ -1,5 +1,5 @@
 /* A job of the farm: a scene, its settings, its stop conditions (global iterations
- * [0, iterations), a time limit, a target RMSE against a reference, a target estimated
+ * [first, first + iterations), a time limit, a target RMSE against a reference, a target estimated
  * error), a priority (its weight, coordinator/schedule.h), and the film the accepted
  * results have been merged into, whose convergence log the coordinator extends.
  *
@@ -20,6 +20,7 @@
 #define VF_JOB_MAX_NAME 127
 #define VF_JOB_MAX_SCENE ((size_t)16 << 20) /* bytes of JSON scene text */
 #define VF_JOB_MAX_ITERATIONS 1000000000ull
+#define VF_JOB_MAX_FIRST (1ull << 53) /* exact in state.json's numbers */
 
 /* A job ends cancelled, failed, or stopped by its time limit or a target error (shown as
  * "done" with the reason); reaching its iterations needs no mark: the film says so. */
@@ -39,7 +40,8 @@ typedef struct {
   uint8_t scene_hash[32];
   char settings_text[512];
   vf_settings settings;
-  uint64_t iterations;  /* the job is done when the film holds [0, iterations) */
+  uint64_t first;       /* its first global iteration: 0, or where an earlier render stopped */
+  uint64_t iterations;  /* the job is done when the film holds [first, first + iterations) */
   double time_limit;    /* > 0: stop after this many seconds of running */
   double target_rmse;   /* > 0: stop once the RMSE against the reference is at most this */
   double target_error;  /* > 0: stop once the estimated RMSE is at most this */
@@ -76,12 +78,17 @@ typedef struct {
 
 /* Creates a job with an empty film stamped with scene hash and settings. Takes no
  * ownership: scene_text is copied. Checks every field as untrusted input (name length and
- * characters, built-in name syntax, scene size, canonical valid settings, iteration count)
+ * characters, built-in name syntax, scene size, canonical valid settings, first iteration, iteration count)
  * and returns VF_EINVAL with a detail naming the field otherwise. *out on success only. */
 int vf_job_create(uint64_t id, const char *name, int priority, int scene_builtin, const char *scene_text,
                   size_t scene_len, const uint8_t *scene_hash, size_t hash_len, const char *settings_text,
-                  uint64_t iterations, vf_job **out);
+                  uint64_t first, uint64_t iterations, vf_job **out);
 void vf_job_destroy(vf_job *job);
+
+/* Records in the job's film where a JSON scene's file is on the submitting machine (what
+ * `continue` loads; a built-in scene's film names it already). Empty: nothing. VF_EINVAL
+ * with a detail for a path too long for the film or with control characters. */
+int vf_job_set_scene_path(vf_job *job, const char *path);
 
 /* Sets the stop conditions besides the iterations, checked as untrusted input: each is 0
  * (none) or finite and positive, time at most a year; target_rmse needs a reference.
@@ -120,13 +127,13 @@ double vf_job_eta(const vf_job *job, double rate);
  * iterations currently leased out. */
 const char *vf_job_state(const vf_job *job, uint64_t leased);
 uint64_t vf_job_done(const vf_job *job);
-/* Its film holds [0, iterations), or it was stopped by another condition. */
+/* Its film holds [first, first + iterations), or it was stopped by another condition. */
 int vf_job_complete(const vf_job *job);
 /* Active and not complete: leases may be handed out. */
 int vf_job_runnable(const vf_job *job);
 
 /* Checks that a film belongs to the job: size, scene hash, settings, and iterations
- * within [0, iterations). VF_EMISMATCH with a detail. */
+ * within [first, first + iterations). VF_EMISMATCH with a detail. */
 int vf_job_check_film(const vf_job *job, const vf_film *film);
 
 /* Checks a result film against the job and the range [begin, end) it claims: size, scene

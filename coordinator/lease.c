@@ -77,8 +77,8 @@ uint64_t vf_lease_active_iterations(const vf_lease_table *t, uint64_t job_id) {
   return n;
 }
 
-int vf_lease_free_range(const vf_lease_table *t, uint64_t job_id, const vf_iterset *done, uint64_t total,
-                        uint64_t max_size, uint64_t *begin, uint64_t *end, uint64_t *free_count) {
+int vf_lease_free_range(const vf_lease_table *t, uint64_t job_id, const vf_iterset *done, uint64_t first,
+                        uint64_t total, uint64_t max_size, uint64_t *begin, uint64_t *end, uint64_t *free_count) {
   vf_iterset taken;
   vf_iterset_init(&taken);
   int err = vf_iterset_copy(&taken, done);
@@ -91,15 +91,16 @@ int vf_lease_free_range(const vf_lease_table *t, uint64_t job_id, const vf_iters
     if ((err = vf_iterset_add(&taken, l->begin, l->end)) == VF_ENOMEM) goto done;
   }
   err = 0;
-  uint64_t taken_below = 0;
+  uint64_t last = first + total, taken_inside = 0;
   for (size_t i = 0; i < taken.count; i++) {
-    uint64_t b = taken.ranges[i].begin, e = taken.ranges[i].end < total ? taken.ranges[i].end : total;
-    if (b < e) taken_below += e - b;
+    uint64_t b = taken.ranges[i].begin > first ? taken.ranges[i].begin : first;
+    uint64_t e = taken.ranges[i].end < last ? taken.ranges[i].end : last;
+    if (b < e) taken_inside += e - b;
   }
-  *free_count = total - taken_below;
-  uint64_t b = vf_iterset_next_free(&taken, 0);
-  if (b >= total) goto done;
-  uint64_t e = total - b > max_size ? b + max_size : total;
+  *free_count = total - taken_inside;
+  uint64_t b = vf_iterset_next_free(&taken, first);
+  if (b >= last) goto done;
+  uint64_t e = last - b > max_size ? b + max_size : last;
   for (size_t i = 0; i < taken.count; i++)
     if (taken.ranges[i].begin > b && taken.ranges[i].begin < e) e = taken.ranges[i].begin;
   *begin = b;

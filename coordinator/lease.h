@@ -49,12 +49,12 @@ void vf_lease_expire(vf_lease_table *t, uint64_t id);
 /* Number of iterations of the job in active leases. */
 uint64_t vf_lease_active_iterations(const vf_lease_table *t, uint64_t job_id);
 
-/* Finds the first free range of a job with iterations [0, total) done as `done`: it starts
- * at the smallest iteration neither done nor actively leased and holds at most max_size
- * of them. Returns 1 and writes *begin, *end when there is one, 0 when none is free,
+/* Finds the first free range of a job with iterations [first, first + total) done as
+ * `done`: it starts at the smallest iteration of those neither done nor actively leased
+ * and holds at most max_size of them. Returns 1 and writes *begin, *end when there is one, 0 when none is free,
  * or a negative error (VF_ENOMEM). *free_count receives the number of free iterations. */
-int vf_lease_free_range(const vf_lease_table *t, uint64_t job_id, const vf_iterset *done, uint64_t total,
-                        uint64_t max_size, uint64_t *begin, uint64_t *end, uint64_t *free_count);
+int vf_lease_free_range(const vf_lease_table *t, uint64_t job_id, const vf_iterset *done, uint64_t first,
+                        uint64_t total, uint64_t max_size, uint64_t *begin, uint64_t *end, uint64_t *free_count);
 
 /* The lease size for a worker: target_seconds of its measured rate (iterations per
  * second; 0 when unknown, giving 1 iteration to measure it), at most a fair share

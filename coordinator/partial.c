@@ -58,8 +58,9 @@ int vf_partial_create(const vf_job *job, const Vcmfarm__LeaseResult *m, vf_parti
   if ((err = vf_iterset_add(&p->film->iterations, m->begin, m->end)) != VF_OK) goto free_film;
   memcpy(p->film->scene_hash, job->scene_hash, 32);
   snprintf(p->film->settings_text, sizeof p->film->settings_text, "%s", job->settings_text);
-  /* What `continue` loads: the built-in name; a JSON scene's text has no path to give. */
-  if (job->scene_builtin) snprintf(p->film->scene_name, sizeof p->film->scene_name, "%s", job->scene_text);
+  /* What `continue` loads: the built-in name, or the JSON scene's path on the submitting
+   * machine (empty when it gave none). */
+  memcpy(p->film->scene_name, job->film->scene_name, sizeof p->film->scene_name);
   p->film->light_frames = m->end - m->begin;
   p->film->render_seconds = p->render_seconds = m->render_seconds;
   p->film->cpu_seconds = p->cpu_seconds = m->cpu_seconds;

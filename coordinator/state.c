@@ -17,8 +17,9 @@
 #include <unistd.h>
 
 /* Format 2 (protocol 2) added stop conditions, running time and references, and made
- * the priority a weight of at least 1; format 1 reads with priorities below 1 raised to 1. */
-#define STATE_FORMAT 2
+ * the priority a weight of at least 1; format 1 reads with priorities below 1 raised to 1.
+ * Format 3 (protocol 4) added a job's first iteration, 0 when reading formats 1 and 2. */
+#define STATE_FORMAT 3
 #define MAX_STATE_BYTES ((size_t)64 << 20)
 
 static int path_of(char *buf, size_t n, const char *dir, const char *name, uint64_t id, const char *ext) {
@@ -113,6 +114,8 @@ int vf_state_save_index(vf_farm *farm) {
     cJSON_AddBoolToObject(o, "scene_builtin", j->scene_builtin);
     cJSON_AddStringToObject(o, "scene_hash", hex);
     cJSON_AddStringToObject(o, "settings", j->settings_text);
+    cJSON_AddNumberToObject(o, "first_iteration", (double)j->first);
+    if (!j->scene_builtin) cJSON_AddStringToObject(o, "scene_path", j->film->scene_name);
     cJSON_AddNumberToObject(o, "iterations", (double)j->iterations);
     cJSON_AddNumberToObject(o, "time_limit", j->time_limit);
     cJSON_AddNumberToObject(o, "target_rmse", j->target_rmse);
@@ -166,10 +169,11 @@ static int get_nonneg(const cJSON *o, const char *key, double *out) {
 
 static int load_job(vf_farm *farm, const cJSON *o, const char *state_path, uint64_t format) {
   const char *dir = farm->config.state_dir;
-  uint64_t id = 0, iterations = 0;
+  uint64_t id = 0, first = 0, iterations = 0;
   int err;
   if ((err = get_u64(o, "id", (1ull << 53), &id, state_path)) != VF_OK ||
-      (err = get_u64(o, "iterations", VF_JOB_MAX_ITERATIONS, &iterations, state_path)) != VF_OK)
+      (err = get_u64(o, "iterations", VF_JOB_MAX_ITERATIONS, &iterations, state_path)) != VF_OK ||
+      (format >= 3 && (err = get_u64(o, "first_iteration", VF_JOB_MAX_FIRST, &first, state_path)) != VF_OK))
     return err;
   const cJSON *pr = cJSON_GetObjectItemCaseSensitive(o, "priority");
   if (!cJSON_IsNumber(pr) || pr->valuedouble < -2147483648.0 || pr->valuedouble > 2147483647.0)
@@ -200,8 +204,10 @@ static int load_job(vf_farm *farm, const cJSON *o, const char *state_path, uint6
   if (format == 1 && priority < 1) priority = 1; /* format 1: "higher first", any integer */
   vf_job *job;
   err = vf_job_create(id, name, priority, cJSON_IsTrue(builtin), (const char *)scene, scene_len, hash, 32, settings,
-                      iterations, &job);
+                      first, iterations, &job);
   free(scene);
+  const char *scene_path = get_str(o, "scene_path");
+  if (err == VF_OK && scene_path && (err = vf_job_set_scene_path(job, scene_path)) != VF_OK) vf_job_destroy(job);
   if (err != VF_OK) return vf_error_set(err, "%s: job %llu: %s", state_path, (unsigned long long)id, vf_error_detail(err));
   job->end = strcmp(end, "cancelled") == 0 ? VF_JOB_CANCELLED
              : strcmp(end, "failed") == 0  ? VF_JOB_FAILED
@@ -275,7 +281,7 @@ int vf_state_load(vf_farm *farm) {
   uint64_t format = 0, next_id = 0;
   const cJSON *jobs = cJSON_GetObjectItemCaseSensitive(root, "jobs"), *o;
   if ((err = get_u64(root, "format", 1000, &format, path)) != VF_OK) goto done;
-  if (format != STATE_FORMAT && format != 1) {
+  if (format < 1 || format > STATE_FORMAT) {
     err = vf_error_set(VF_EINVAL, "%s: state format %llu, this coordinator reads 1 to %d", path,
                        (unsigned long long)format, STATE_FORMAT);
     goto done;

@@ -85,7 +85,7 @@ submit() { # iterations, extra options...
 
 check_film() {
   client fetch "$job" -o "$tmp/farm.exr" || fail "fetch failed"
-  "$vcmfarm" render cornell -n "$iterations" -R 64x64 --seed 7 -j 1 -q -o "$tmp/reference.exr" ||
+  "$vcmfarm" render cornell --direct -n "$iterations" -R 64x64 --seed 7 -j 1 -q -o "$tmp/reference.exr" ||
     fail "reference render failed"
   "$compare" "$tmp/farm.exr" "$tmp/reference.exr" "[0,$iterations)" || fail "farm film differs from the reference"
 }
@@ -134,7 +134,7 @@ submit_scene() { # iterations, seed, extra options...
 
 check_scene_film() {
   client fetch "$job" -o "$tmp/farm.exr" || fail "fetch failed"
-  "$vcmfarm" render "$scene" -n "$iterations" --seed "$seed" -j 1 -q -o "$tmp/reference.exr" ||
+  "$vcmfarm" render "$scene" --direct -n "$iterations" --seed "$seed" -j 1 -q -o "$tmp/reference.exr" ||
     fail "reference render failed"
   "$compare" "$tmp/farm.exr" "$tmp/reference.exr" "[0,$iterations)" || fail "farm film differs from the reference"
 }
@@ -397,7 +397,7 @@ stop_conditions)
   # One worker, so that a job stopped mid-lease still holds a contiguous [0,n): the
   # revoked lease is dropped, and the film equals a render of n iterations.
   start_coordinator
-  "$vcmfarm" render cornell -n 128 -R 64x64 --seed 99 -a bpt -j 1 -q -o "$tmp/truth.exr" || fail "truth render failed"
+  "$vcmfarm" render cornell --direct -n 128 -R 64x64 --seed 99 -a bpt -j 1 -q -o "$tmp/truth.exr" || fail "truth render failed"
   start_worker w1 --test-iteration-delay 20
   stopped_by() { # reason, what
     wait_until 60 "job $job stopped by $2" job_done

@@ -70,7 +70,7 @@ static int fetch(vf_farm_client *client, uint64_t worker_id, const char *cache_d
 }
 
 int vf_blob_cache_fill(vf_farm_client *client, uint64_t worker_id, const char *cache_dir, const vf_blob_table *files,
-                       unsigned *fetched) {
+                       int quiet, unsigned *fetched) {
   unsigned count = 0;
   for (size_t i = 0; i < files->count; i++) {
     const vf_blob_ref *ref = &files->refs[i];
@@ -95,7 +95,8 @@ int vf_blob_cache_fill(vf_farm_client *client, uint64_t worker_id, const char *c
     double start = vf_seconds_now();
     if ((err = fetch(client, worker_id, cache_dir, ref)) != VF_OK) return err;
     count++;
-    fprintf(stderr, "vcmfarm worker %d: fetched blob %s (file '%s', %llu bytes) in %.3f s into the cache %s\n",
+    if (!quiet)
+      fprintf(stderr, "vcmfarm worker %d: fetched blob %s (file '%s', %llu bytes) in %.3f s into the cache %s\n",
             (int)getpid(), hex, ref->name, (unsigned long long)ref->size, vf_seconds_now() - start, cache_dir);
   }
   if (fetched) *fetched = count;
@@ -103,13 +104,13 @@ int vf_blob_cache_fill(vf_farm_client *client, uint64_t worker_id, const char *c
 }
 
 int vf_blob_cache_load_scene(vf_farm_client *client, uint64_t worker_id, const char *cache_dir,
-                             const Vcmfarm__Scene *scene, const char *label, vf_scene **out) {
+                             const Vcmfarm__Scene *scene, const char *label, int quiet, vf_scene **out) {
   int builtin = scene->source_case == VCMFARM__SCENE__SOURCE_BUILTIN;
   const char *text = builtin ? scene->builtin : scene->json;
   vf_blob_table files = {0};
   int err = vf_blob_table_from_wire(scene->files, scene->n_files, &files);
   if (err != VF_OK) return vf_error_set(VF_ESCENE, "%s: %s", label, vf_error_detail(err));
-  if (files.count > 0 && (err = vf_blob_cache_fill(client, worker_id, cache_dir, &files, NULL)) != VF_OK)
+  if (files.count > 0 && (err = vf_blob_cache_fill(client, worker_id, cache_dir, &files, quiet, NULL)) != VF_OK)
     err = vf_error_set(err, "%s: %s", label, vf_error_detail(err));
   else
     err = vf_job_scene_load(builtin, text, strlen(text), &files, cache_dir, label, out);

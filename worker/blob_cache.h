@@ -26,17 +26,18 @@ int vf_blob_cache_open(const char *cache_dir);
 
 /* Makes every file of `files` available in cache_dir: checks the cached ones and fetches
  * the others (BlobRequest as worker_id), one per request, checking size and hash before
- * storing. Logs each blob fetched. *fetched (may be NULL) counts the blobs transferred.
+ * storing. Logs each blob fetched unless quiet. *fetched (may be NULL) counts the blobs
+ * transferred.
  * Errors name the file: VF_EREFUSED (the coordinator does not have it), VF_EMISMATCH
  * (bytes or size not those of the table), VF_ETIMEDOUT / VF_ENET (try again later),
  * VF_EIO. */
 int vf_blob_cache_fill(vf_farm_client *client, uint64_t worker_id, const char *cache_dir, const vf_blob_table *files,
-                       unsigned *fetched);
+                       int quiet, unsigned *fetched);
 
 /* A lease's scene: its file table checked, its files in the cache, then loaded as
  * vf_job_scene_load does. *out on success only; errors of the steps, with details naming
  * `label`. */
 int vf_blob_cache_load_scene(vf_farm_client *client, uint64_t worker_id, const char *cache_dir,
-                             const Vcmfarm__Scene *scene, const char *label, vf_scene **out);
+                             const Vcmfarm__Scene *scene, const char *label, int quiet, vf_scene **out);
 
 #endif

@@ -4,7 +4,8 @@
 #     bash tests/bench/convergence.sh quick|medium|full [BUILD_DIR]
 #
 # For every scene of the suite and every algorithm (vcm, bpt, pt, ppm, auto) it renders for
-# a fixed wall time with --reference and --checkpoint-interval, so each film's convergence
+# a fixed wall time (`render --direct`: the render loop alone, no in-process farm) with
+# --reference and --checkpoint-interval, so each film's convergence
 # log holds its error against the reference over wall time and iterations. Then it prints
 # (and writes to BUILD_DIR/bench/SIZE/report.md) the tables of docs/BENCHMARKS.md: time to
 # fixed relative-RMSE targets and fitted convergence slopes, and draws one log-log plot per
@@ -70,19 +71,19 @@ echo "convergence.sh $size: ${res}x${res}, ${run_s} s per run, references ${ref_
 for scene in $scenes; do
   # One iteration to learn the scene's content hash, so a changed scene never meets a
   # stale reference.
-  "$vcmfarm" render "$scene" -a pt -n 1 "${common[@]}" -q -o "$out/probe.exr"
+  "$vcmfarm" render "$scene" --direct -a pt -n 1 "${common[@]}" -q -o "$out/probe.exr"
   hash=$("$vcmfarm" info --json "$out/probe.exr" | jq -r .scene_hash | cut -c1-16)
   ralgo=$(reference_algorithm "$scene")
   rsec=$(reference_seconds "$scene")
   ref=$cache/ref-$scene-$hash-$ralgo-${res}-${rsec}s.exr
   if [ ! -f "$ref" ]; then
     echo "  $scene: reference, $ralgo for $rsec s"
-    "$vcmfarm" render "$scene" -a "$ralgo" -s 1000 -t "$rsec" --checkpoint-interval 0 "${common[@]}" -q -o "$ref"
+    "$vcmfarm" render "$scene" --direct -a "$ralgo" -s 1000 -t "$rsec" --checkpoint-interval 0 "${common[@]}" -q -o "$ref"
   fi
   ln -sf "$ref" "$out/$scene-reference.exr"
   for a in $algorithms; do
     echo "  $scene: $a for $run_s s"
-    "$vcmfarm" render "$scene" -a "$a" --alpha "$(alpha_of "$a")" -t "$run_s" --checkpoint-interval "$every" \
+    "$vcmfarm" render "$scene" --direct -a "$a" --alpha "$(alpha_of "$a")" -t "$run_s" --checkpoint-interval "$every" \
       --reference "$ref" "${common[@]}" -o "$out/$scene-$a.exr" 2> "$out/$scene-$a.log" ||
       { cat "$out/$scene-$a.log" >&2; exit 1; }
   done

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Farm throughput on this machine: one job rendered by 1 worker, then by 2 workers (one
-# render thread each), against `vcmfarm render -j 1` of the same iterations.
+# render thread each), against `vcmfarm render --direct -j 1` of the same iterations.
 #
 #   bash tests/bench/farm.sh BUILD_DIR [ITERATIONS] [RESOLUTION]     defaults: 48 256x256
 #
@@ -14,7 +14,7 @@ source "$(dirname "${BASH_SOURCE[0]}")/farm_lib.sh"
 farm_setup farm
 
 start=$(date +%s.%N)
-"$vcmfarm" render cornell -n "$iterations" -R "$resolution" -j 1 -q -o "$tmp/local.exr" || exit 1
+"$vcmfarm" render cornell --direct -n "$iterations" -R "$resolution" -j 1 -q -o "$tmp/local.exr" || exit 1
 local_s=$(echo "$(date +%s.%N) - $start" | bc)
 printf "render -j 1: %d iterations in %.2f s = %.3f it/s\n" "$iterations" "$local_s" "$(echo "$iterations / $local_s" | bc -l)"
 

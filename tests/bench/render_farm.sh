@@ -1,8 +1,10 @@
 #!/usr/bin/env bash
-# `vcmfarm render` against the same job through a farm on this machine: a coordinator and
-# one worker with the same threads over ipc://, submit to "done". Runs alternate, so the
-# machine's drift hits both columns alike; every farm film is compared with the direct one
-# (tests/farm_compare.c: iteration set and pixels). Prints a Markdown table and the medians.
+# The cost of the farm's code path on one machine: the same job rendered by
+# `vcmfarm render --direct` (the render loop alone), by `vcmfarm render` (its in-process
+# coordinator and worker), and by a coordinator and one worker as processes over ipc://,
+# submit to "done", all with the same threads. Runs alternate, so the machine's drift hits
+# every column alike; every farm film is compared with the direct one (tests/farm_compare.c:
+# iteration set and pixels). Prints a Markdown table and the medians.
 #
 #   bash tests/bench/render_farm.sh BUILD_DIR [ITERATIONS] [RUNS] [THREADS]   defaults: 40 6 2
 set -u
@@ -19,13 +21,20 @@ median() { sort -g | awk '{v[NR] = $1} END {print v[int((NR + 1) / 2)]}'; }
 
 echo "cornell 512x512, $iterations iterations, $threads render threads, $runs alternating runs"
 echo
-echo "| run | direct | through the farm | farm film |"
-echo "|---|---|---|---|"
-: >"$tmp/direct" && : >"$tmp/farm"
+echo "| run | render --direct | render | coordinator + worker | films |"
+echo "|---|---|---|---|---|"
+: >"$tmp/direct" && : >"$tmp/render" && : >"$tmp/farm"
+verdict() { # FILM: equal/DIFFERENT against the direct film, with the max difference
+  "$compare" "$1" "$tmp/direct.exr" "[0,$iterations)" 2>&1 | tail -n 1 |
+    sed 's/.*max |difference| \([^,]*\),.*: \([a-z]*\)$/\2 (max difference \1)/'
+}
 for run in $(seq "$runs"); do
   start=$(now)
-  "$vcmfarm" render cornell -n "$iterations" -j "$threads" -q -o "$tmp/direct.exr" || exit 1
+  "$vcmfarm" render cornell --direct -n "$iterations" -j "$threads" -q -o "$tmp/direct.exr" || exit 1
   direct=$(echo "$(now) - $start" | bc)
+  start=$(now)
+  "$vcmfarm" render cornell -n "$iterations" -j "$threads" -q -o "$tmp/render.exr" || exit 1
+  render=$(echo "$(now) - $start" | bc)
 
   rm -rf "$tmp/state"
   "$vcmfarm" coordinator --listen "$url" --state "$tmp/state" --secret "$tmp/key" >"$tmp/coordinator.log" 2>&1 &
@@ -45,14 +54,15 @@ for run in $(seq "$runs"); do
   done
   farm=$(echo "$(now) - $start" | bc)
   client fetch "$job" -o "$tmp/farm.exr" >/dev/null 2>&1 || { echo "fetch failed" >&2; exit 1; }
-  verdict=$("$compare" "$tmp/farm.exr" "$tmp/direct.exr" "[0,$iterations)" 2>&1 | tail -n 1 |
-    sed 's/.*max |difference| \([^,]*\),.*: \([a-z]*\)$/\2 (`farm_compare`, max difference \1)/')
+  films="render: $(verdict "$tmp/render.exr"); farm: $(verdict "$tmp/farm.exr")"
   for p in "${pids[@]}"; do kill -TERM "$p" 2>/dev/null; done
   wait 2>/dev/null
   pids=()
   echo "$direct" >>"$tmp/direct"
+  echo "$render" >>"$tmp/render"
   echo "$farm" >>"$tmp/farm"
-  printf "| %d | %.1f s | %.1f s | %s |\n" "$run" "$direct" "$farm" "$verdict"
+  printf "| %d | %.1f s | %.1f s | %.1f s | %s |\n" "$run" "$direct" "$render" "$farm" "$films"
 done
 echo
-printf "medians: direct %.1f s, through the farm %.1f s\n" "$(median <"$tmp/direct")" "$(median <"$tmp/farm")"
+printf "medians: render --direct %.1f s, render %.1f s, coordinator + worker %.1f s\n" "$(median <"$tmp/direct")" \
+  "$(median <"$tmp/render")" "$(median <"$tmp/farm")"

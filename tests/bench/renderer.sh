@@ -22,7 +22,7 @@ echo "|---|---|---|---|---|---|"
 for algorithm in vcm bpt pt lt ppm bpm; do
   : >"$tmp/runs"
   for _ in $(seq "$runs"); do
-    "$vcmfarm" render "$scene" -a "$algorithm" -n "$iterations" -j 2 -R 512x512 -l 10 -o "$tmp/film.exr" 2>"$tmp/log"
+    "$vcmfarm" render "$scene" --direct -a "$algorithm" -n "$iterations" -j 2 -R 512x512 -l 10 -o "$tmp/film.exr" 2>"$tmp/log"
     rate=$(sed -n 's/.*: \([0-9.]*\) it\/s, \([0-9.]*\) Mrays\/s.*/\1 \2/p' "$tmp/log")
     phases=$(sed -n 's/per iteration: light sub-paths \([0-9.]*\) ms, grid \([0-9.]*\) ms, camera sub-paths \([0-9.]*\) ms.*/\1 \2 \3/p' "$tmp/log")
     echo "$rate $phases" >>"$tmp/runs"

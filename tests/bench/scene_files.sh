@@ -46,7 +46,7 @@ with open(sys.argv[1], "wb") as f:
             f.write(struct.pack("<B3i", 3, a, b, c) + struct.pack("<B3i", 3, a, c, d))
 EOF
 # A 4096 x 2048 map: one path-traced iteration of cornell-env, baked to RGB.
-"$vcmfarm" render cornell-env -a pt -n 1 -R 4096x2048 -q -o "$tmp/map-film.exr" || exit 1
+"$vcmfarm" render cornell-env --direct -a pt -n 1 -R 4096x2048 -q -o "$tmp/map-film.exr" || exit 1
 "$vcmfarm" bake "$tmp/map-film.exr" -o "$tmp/sky.exr" >/dev/null || exit 1
 camera='"camera": {"position": [0, -4, 1.5], "target": [0, 0, 0], "up": [0, 0, 1], "fov": 45, "resolution": [64, 64]}'
 shapes='"shapes": [{"type": "mesh", "file": "knot.ply", "material": "grey"}]'

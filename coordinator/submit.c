@@ -1,0 +1,189 @@
+#include "submit.h"
+
+#include "../common/error.h"
+#include "../common/file.h"
+#include "../common/image.h"
+#include "../common/wire.h"
+#include "../worker/job_scene.h"
+
+#include <dirent.h>
+#include <errno.h>
+#include <limits.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+/* A private directory for the scene's files as blobs (common/blob.h), removed after. */
+static int stage_create(char *dir, size_t n) {
+  const char *tmp = getenv("TMPDIR");
+  if (snprintf(dir, n, "%s/vcmfarm-submit-XXXXXX", tmp && tmp[0] ? tmp : "/tmp") >= (int)n)
+    return vf_error_set(VF_EINVAL, "TMPDIR too long");
+  if (mkdtemp(dir) == NULL) return vf_error_set(VF_EIO, "%s: %s", dir, strerror(errno));
+  return VF_OK;
+}
+
+static void stage_remove(const char *dir) {
+  char blobs[4200], path[4500];
+  snprintf(blobs, sizeof blobs, "%s/blobs", dir);
+  DIR *d = opendir(blobs);
+  if (d != NULL) {
+    struct dirent *e;
+    while ((e = readdir(d)) != NULL)
+      if (e->d_name[0] != '.' && snprintf(path, sizeof path, "%s/%s", blobs, e->d_name) < (int)sizeof path)
+        unlink(path);
+    closedir(d);
+  }
+  rmdir(blobs);
+  rmdir(dir);
+}
+
+/* Sends the files the coordinator does not hold yet, one blob per message: a job's files
+ * together may exceed the frame cap, one file may not (VF_BLOB_MAX_BYTES). */
+static int send_files(vf_farm_client *client, int timeout_ms, const char *log_prefix, const char *stage,
+                      const vf_blob_table *files) {
+  ProtobufCBinaryData *hashes = calloc(files->count, sizeof *hashes);
+  if (hashes == NULL) return vf_error_set(VF_ENOMEM, "out of memory");
+  for (size_t i = 0; i < files->count; i++) hashes[i] = (ProtobufCBinaryData){32, files->refs[i].hash};
+  Vcmfarm__BlobQuery query = VCMFARM__BLOB_QUERY__INIT;
+  query.n_hashes = files->count;
+  query.hashes = hashes;
+  Vcmfarm__Envelope q = VCMFARM__ENVELOPE__INIT, *have = NULL;
+  q.body_case = VCMFARM__ENVELOPE__BODY_BLOB_QUERY;
+  q.blob_query = &query;
+  int err = vf_farm_request(client, &q, VCMFARM__ENVELOPE__BODY_BLOB_HAVE, timeout_ms, &have);
+  free(hashes);
+  if (err != VF_OK) return err;
+  /* Big files take a while on slow links: at least two minutes each. */
+  int slow_ms = timeout_ms > 120000 ? timeout_ms : 120000;
+  uint64_t bytes_sent = 0;
+  size_t sent = 0;
+  for (size_t i = 0; i < files->count && err == VF_OK; i++) {
+    const vf_blob_ref *ref = &files->refs[i];
+    int missing = 0;
+    for (size_t k = 0; k < have->blob_have->n_missing; k++)
+      missing |= have->blob_have->missing[k].len == 32 && memcmp(have->blob_have->missing[k].data, ref->hash, 32) == 0;
+    int earlier = 0; /* two names with the same content: one blob */
+    for (size_t k = 0; k < i; k++) earlier |= memcmp(files->refs[k].hash, ref->hash, 32) == 0;
+    if (!missing || earlier) continue;
+    uint8_t *bytes;
+    size_t len;
+    if ((err = vf_blob_store_get(stage, ref->hash, &bytes, &len)) != VF_OK) break;
+    Vcmfarm__BlobPut put = VCMFARM__BLOB_PUT__INIT;
+    put.hash = (ProtobufCBinaryData){32, (uint8_t *)ref->hash};
+    put.data = (ProtobufCBinaryData){len, bytes};
+    Vcmfarm__Envelope pq = VCMFARM__ENVELOPE__INIT, *ack = NULL;
+    pq.body_case = VCMFARM__ENVELOPE__BODY_BLOB_PUT;
+    pq.blob_put = &put;
+    err = vf_farm_request(client, &pq, VCMFARM__ENVELOPE__BODY_RESULT_ACK, slow_ms, &ack);
+    if (err == VF_OK && !ack->result_ack->accepted)
+      err = vf_error_set(VF_EREFUSED, "file '%s': %s", ref->name, ack->result_ack->message);
+    else if (err != VF_OK)
+      err = vf_error_set(err, "sending file '%s': %s", ref->name, vf_error_detail(err));
+    else {
+      sent++;
+      bytes_sent += len;
+    }
+    vf_message_free(ack);
+    free(bytes);
+  }
+  if (err == VF_OK && log_prefix)
+    fprintf(stderr, "%s: %zu files named by the scene; sent %zu (%llu bytes), the coordinator held the rest\n",
+            log_prefix, files->count, sent, (unsigned long long)bytes_sent);
+  vf_message_free(have);
+  return err;
+}
+
+int vf_submit(vf_farm_client *client, int timeout_ms, const vf_submit_job *job, vf_submitted_job *out) {
+  const char *source = job->source, *reference = job->reference;
+  int err = VF_OK;
+  int builtin = vf_job_scene_is_builtin(source);
+  uint8_t *text = NULL, *reference_bytes = NULL;
+  size_t len = 0, reference_len = 0;
+  vf_scene *scene = NULL;
+  vf_image reference_image = {0};
+  Vcmfarm__Envelope *reply = NULL;
+  vf_blob_table files = {0};
+  Vcmfarm__BlobRef *file_refs = NULL, **file_ref_ptrs = NULL;
+  char stage[4096] = "";
+  if (builtin) {
+    len = strlen(source);
+  } else if ((err = vf_file_read_all(source, 16u << 20, &text, &len)) != VF_OK) {
+    return err;
+  }
+  /* Load it as the workers will, to refuse a broken scene here and learn its hash; a JSON
+   * scene's files are collected as blobs on the way. */
+  if (builtin) err = vf_job_scene_load(1, source, len, NULL, NULL, source, &scene);
+  else if ((err = stage_create(stage, sizeof stage)) == VF_OK)
+    err = vf_job_scene_collect(source, (const char *)text, len, stage, &files, &scene);
+  if (err != VF_OK) goto done;
+  vf_settings settings = scene->settings;
+  if (job->overrides && (err = vf_cli_settings_apply(job->overrides, &settings)) != VF_OK) goto done;
+  char settings_text[512];
+  if ((err = vf_settings_validate(&settings)) != VF_OK ||
+      (err = vf_settings_format(&settings, settings_text, sizeof settings_text)) != VF_OK)
+    goto done;
+  /* The reference is read here too, so a wrong one is refused before anything is sent. */
+  if (reference) {
+    if ((err = vf_image_read_exr(reference, &reference_image)) != VF_OK) goto done;
+    if (reference_image.width != settings.width || reference_image.height != settings.height) {
+      err = vf_error_set(VF_EMISMATCH, "reference %s is %dx%d, the job renders %dx%d", reference,
+                         reference_image.width, reference_image.height, settings.width, settings.height);
+      goto done;
+    }
+    if ((err = vf_file_read_all(reference, VF_WIRE_MAX_REQUEST - (16u << 20) - (1u << 20), &reference_bytes,
+                                &reference_len)) != VF_OK)
+      goto done;
+  }
+  Vcmfarm__Scene s = VCMFARM__SCENE__INIT;
+  if (builtin) {
+    s.source_case = VCMFARM__SCENE__SOURCE_BUILTIN;
+    s.builtin = (char *)source;
+  } else {
+    s.source_case = VCMFARM__SCENE__SOURCE_JSON;
+    s.json = (char *)text;
+  }
+  if (files.count > 0) {
+    if ((err = send_files(client, timeout_ms, job->log_prefix, stage, &files)) != VF_OK ||
+        (err = vf_blob_table_to_wire(&files, &file_refs, &file_ref_ptrs)) != VF_OK)
+      goto done;
+    s.n_files = files.count;
+    s.files = file_ref_ptrs;
+  }
+  Vcmfarm__SubmitJob m = VCMFARM__SUBMIT_JOB__INIT;
+  m.name = (char *)(job->name ? job->name : source);
+  m.scene = &s;
+  m.scene_hash.data = scene->hash;
+  m.scene_hash.len = 32;
+  m.settings = settings_text;
+  m.first_iteration = job->first;
+  char scene_path[PATH_MAX] = "";
+  if (!builtin && realpath(source, scene_path) == NULL) scene_path[0] = '\0';
+  m.scene_path = scene_path;
+  m.iterations = job->iterations;
+  m.priority = (int32_t)job->priority;
+  m.time_limit = job->time_limit;
+  m.target_rmse = job->target_rmse;
+  m.target_error = job->target_error;
+  m.reference_exr.data = reference_bytes;
+  m.reference_exr.len = reference_len;
+  Vcmfarm__Envelope q = VCMFARM__ENVELOPE__INIT;
+  q.body_case = VCMFARM__ENVELOPE__BODY_SUBMIT;
+  q.submit = &m;
+  if ((err = vf_farm_request(client, &q, VCMFARM__ENVELOPE__BODY_SUBMITTED, timeout_ms, &reply)) != VF_OK) goto done;
+  out->job_id = reply->submitted->job_id;
+  out->settings = settings;
+  snprintf(out->settings_text, sizeof out->settings_text, "%s", settings_text);
+  snprintf(out->scene_source, sizeof out->scene_source, "%s", scene->source);
+done:
+  if (stage[0]) stage_remove(stage);
+  free(file_refs);
+  free(file_ref_ptrs);
+  vf_blob_table_clear(&files);
+  vf_message_free(reply);
+  vf_scene_destroy(scene);
+  vf_image_destroy(&reference_image);
+  free(reference_bytes);
+  free(text);
+  return err;
+}

@@ -1,0 +1,39 @@
+/* Submitting a job to a coordinator, shared by `vcmfarm submit` and by `vcmfarm render`,
+ * which submits to its in-process coordinator: the scene is loaded here as the workers
+ * will load it, so that a broken scene, bad settings or a wrong reference are refused
+ * before anything is sent; a JSON scene's files then go to the coordinator by content
+ * hash (those it lacks), and the job last. */
+#ifndef VF_SUBMIT_H
+#define VF_SUBMIT_H
+
+#include "../common/cli.h"
+#include "../common/farm_client.h"
+#include "../common/settings.h"
+
+#include <stdint.h>
+
+typedef struct {
+  const char *source;               /* a built-in scene name or a JSON scene file */
+  const char *name;                 /* for status; NULL: source */
+  const vf_cli_settings *overrides; /* over the scene's own settings; NULL: none */
+  uint64_t first, iterations;       /* global iterations [first, first + iterations) */
+  int priority;
+  double time_limit, target_rmse, target_error; /* 0: none */
+  const char *reference;            /* a reference EXR, or NULL */
+  const char *log_prefix;           /* "vcmfarm submit": the line saying what was sent; NULL: none */
+} vf_submit_job;
+
+typedef struct {
+  uint64_t job_id;
+  vf_settings settings;             /* as the job renders them */
+  char settings_text[512];
+  char scene_source[4200];          /* the loaded scene's vf_scene.source */
+} vf_submitted_job;
+
+/* Loads and checks the scene, settings and reference, sends the files and the job
+ * through client (each request waits up to timeout_ms; a file at least two minutes).
+ * On VF_OK *out describes the job. Errors carry a detail: a broken scene or reference
+ * (as vf_scene_load), or the coordinator's refusal (VF_EREFUSED), or the network's. */
+int vf_submit(vf_farm_client *client, int timeout_ms, const vf_submit_job *job, vf_submitted_job *out);
+
+#endif

@@ -1,0 +1,108 @@
+#!/usr/bin/env bash
+# `vcmfarm render` runs an in-process coordinator and worker (coordinator/render_cmd.c).
+# Every case compares its film with `vcmfarm render --direct` of the same global
+# iterations, the render loop on one thread with no farm (tests/farm_compare.c: iteration
+# set exactly as expected, max |difference| <= 1e-5 x image mean).
+#
+#   test_render_farm.sh VCMFARM FARM_COMPARE SOURCE_DIR
+set -u
+vcmfarm="$1"
+compare="$2"
+source_dir="$3"
+tmp=$(mktemp -d /tmp/vf-render-farm-XXXXXX)
+export TMPDIR="$tmp" # the renders' private state directories land here
+pids=()
+cleanup() {
+  for p in "${pids[@]}"; do kill -9 "$p" 2>/dev/null; done
+  wait 2>/dev/null
+  [ -n "${KEEP_TMP:-}" ] || rm -rf "$tmp"
+}
+trap cleanup EXIT
+failures=0
+check() { # NAME STATUS
+  if [ "$2" -eq 0 ]; then echo "ok   $1"; else echo "FAIL $1"; failures=$((failures + 1)); fi
+}
+
+# The iteration set of a film, as `vcmfarm info` prints it.
+iterations_of() { "$vcmfarm" info "$1" | awk '$1 == "iterations" {print $2}'; }
+# Its end: the N of [K,N).
+end_of() { iterations_of "$1" | sed -n 's/^\[\([0-9]*\),\([0-9]*\))$/\2/p'; }
+
+# same NAME SET FARM_FILM DIRECT_ARGS...: renders DIRECT_ARGS with --direct and compares.
+same() {
+  local name="$1" set="$2" film="$3"
+  shift 3
+  "$vcmfarm" render "$@" --direct -j 1 -q -o "$tmp/direct.exr" && "$compare" "$film" "$tmp/direct.exr" "$set"
+  check "$name" $?
+}
+
+common=(-R 64x48 --seed 3)
+
+# 1. Iterations [0, 6) with two render threads against one thread directly.
+"$vcmfarm" render cornell "${common[@]}" -n 6 -j 2 -q -o "$tmp/a.exr"
+check "render exits 0" $?
+same "render equals render --direct" "[0,6)" "$tmp/a.exr" cornell "${common[@]}" -n 6
+
+# 2. Global iterations [5, 9): jobs starting at an iteration other than 0.
+"$vcmfarm" render cornell "${common[@]}" -a bpt -k 5 -n 4 -q -o "$tmp/b.exr"
+same "--start-iteration 5" "[5,9)" "$tmp/b.exr" cornell "${common[@]}" -a bpt -k 5 -n 4
+
+# 3. A JSON scene whose mesh files travel as blobs; the film names the scene file, so
+#    `continue` finds it.
+scene="$source_dir/tests/scenes/good/gltf.json"
+"$vcmfarm" render "$scene" -n 3 -q -o "$tmp/c.exr"
+same "JSON scene with files" "[0,3)" "$tmp/c.exr" "$scene" -n 3
+"$vcmfarm" info "$tmp/c.exr" | grep -q "^scene  *$scene\$"
+check "the film names the scene file" $?
+"$vcmfarm" continue "$tmp/c.exr" -n 2 -q -o "$tmp/c5.exr" && [ "$(iterations_of "$tmp/c5.exr")" = "[0,5)" ]
+check "continue extends it" $?
+
+# 4. A target estimated error: the job stops at the first merged part meeting it, and the
+#    film holds exactly the contiguous iterations [0, m) of that part.
+"$vcmfarm" render cornell "${common[@]}" -a pt --target-error 0.08 -q -o "$tmp/d.exr"
+m=$(end_of "$tmp/d.exr")
+if [ -n "$m" ]; then
+  same "--target-error: film of [0,$m)" "[0,$m)" "$tmp/d.exr" cornell "${common[@]}" -a pt -n "$m"
+  est=$("$vcmfarm" info "$tmp/d.exr" | awk '$1 == "estimated_rmse" {print $2}')
+  awk -v e="$est" 'BEGIN {exit !(e <= 0.08)}'
+  check "--target-error: estimate $est <= 0.08 at $m iterations" $?
+else
+  check "--target-error: film holds [0,m)" 1
+fi
+
+# 5. A time limit: no new iteration after 2 s; what was rendered is shipped, and counted.
+"$vcmfarm" render cornell "${common[@]}" -t 2 -q -o "$tmp/e.exr"
+m=$(end_of "$tmp/e.exr")
+[ -n "$m" ] && [ "$m" -gt 0 ]
+check "--time 2 rendered $m iterations" $?
+[ -n "$m" ] && same "--time: film of [0,$m)" "[0,$m)" "$tmp/e.exr" cornell "${common[@]}" -n "$m"
+
+# 6. SIGINT: the render ships what it has, writes the film and exits 0.
+"$vcmfarm" render cornell "${common[@]}" -n 100000 -q -o "$tmp/f.exr" &
+pid=$!
+pids+=("$pid")
+for _ in $(seq 100); do [ -d "$tmp"/vcmfarm-render-* ] 2>/dev/null && break; sleep 0.05; done
+sleep 1.5
+kill -INT "$pid"
+wait "$pid"
+check "SIGINT: exit status 0" $?
+m=$(end_of "$tmp/f.exr")
+[ -n "$m" ] && same "SIGINT: film of [0,$m)" "[0,$m)" "$tmp/f.exr" cornell "${common[@]}" -n "$m"
+ls -d "$tmp"/vcmfarm-render-* >/dev/null 2>&1
+check "the private state directories are removed" $((!$?))
+
+# 7. SIGKILL: the output holds the last checkpoint, a valid film of [0, m).
+"$vcmfarm" render cornell "${common[@]}" -n 100000 --checkpoint-interval 0.5 -q -o "$tmp/g.exr" &
+pid=$!
+pids+=("$pid")
+for _ in $(seq 200); do [ -s "$tmp/g.exr" ] && break; sleep 0.05; done
+sleep 0.6
+kill -9 "$pid"
+wait "$pid" 2>/dev/null
+m=$(end_of "$tmp/g.exr")
+[ -n "$m" ] && [ "$m" -gt 0 ]
+check "SIGKILL: a checkpoint of $m iterations was written" $?
+[ -n "$m" ] && same "SIGKILL: the checkpoint is the film of [0,$m)" "[0,$m)" "$tmp/g.exr" cornell "${common[@]}" -n "$m"
+
+echo "$failures failure(s)"
+[ "$failures" -eq 0 ]

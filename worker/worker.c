@@ -1,0 +1,420 @@
+#include "worker.h"
+
+#include "../common/error.h"
+#include "../common/farm_client.h"
+#include "../common/film_wire.h"
+#include "blob_cache.h"
+#include "heartbeat.h"
+#include "job_scene.h"
+#include "render.h"
+
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+#include <unistd.h>
+
+#define REQUEST_TIMEOUT_MS 10000
+#define RESULT_TIMEOUT_MS 60000
+#define BACKOFF_MAX_MS 5000
+#define RESULT_ATTEMPTS 8
+/* Tiles per LeaseResult: about 3.3 MB of a 64x64 tile's 10 doubles per pixel, under the
+ * coordinator's VF_WIRE_MAX_RESULT. */
+#define TILES_PER_MESSAGE 10
+/* Parts are shipped from the render thread, which waits meanwhile (a 1920x1080 part: about
+ * 0.4 s of encoding and framing, plus the coordinator's 0.5 s). The wait is kept to about
+ * 2% of the rendering by shipping no more often than 50 times the last part's cost. */
+#define SHIP_COST_FACTOR 50.0
+
+typedef struct {
+  const char *url;
+  volatile sig_atomic_t *terminating; /* the caller's stop flag */
+  volatile sig_atomic_t render_stop;  /* stop rendering the lease after this iteration */
+  int quiet;
+  FILE *describe;
+  vf_worker_totals *totals;
+  vf_farm_client *client;
+  vf_heartbeat *heartbeat;
+  uint64_t worker_id;
+  int heartbeat_ms;
+  int threads;
+  char name[128];
+  const char *cache_dir; /* scene files by content hash (worker/blob_cache.h) */
+  int backoff_ms;
+  /* the renderer of the last job, kept for its next lease */
+  uint64_t job_id;
+  uint8_t job_hash[32];
+  char job_settings[512];
+  vf_scene *scene;
+  vf_renderer *renderer;
+  double ship_interval;
+  /* the lease being rendered */
+  const Vcmfarm__Lease *lease;
+  uint64_t shipped;    /* iterations [lease begin, shipped) are merged */
+  double shipped_at;   /* vf_render_status.seconds of the last part's end, this lease */
+  double ship_cost;    /* seconds the last part took to ship (kept across leases) */
+  int part_merged;     /* the last acknowledgement said the part was merged */
+  int dropped;         /* a part was refused or could not be sent: stop, send nothing more */
+  /* test hooks */
+  int iteration_delay_ms;
+  const char *stall_file;
+  int stalled;
+} worker;
+
+static void log_v(const char *fmt, va_list ap) {
+  char line[1200];
+  vsnprintf(line, sizeof line, fmt, ap);
+  fprintf(stderr, "vcmfarm worker %d: %s\n", (int)getpid(), line);
+}
+
+/* Failures and retries: always logged. */
+static void log_line(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
+static void log_line(const char *fmt, ...) {
+  va_list ap;
+  va_start(ap, fmt);
+  log_v(fmt, ap);
+  va_end(ap);
+}
+
+/* The ordinary course of leases: not logged when quiet. */
+static void note(const worker *w, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
+static void note(const worker *w, const char *fmt, ...) {
+  if (w->quiet) return;
+  va_list ap;
+  va_start(ap, fmt);
+  log_v(fmt, ap);
+  va_end(ap);
+}
+
+static void sleep_ms(worker *w, int ms) {
+  while (ms > 0 && !*w->terminating) {
+    int step = ms < 50 ? ms : 50;
+    struct timespec ts = {0, (long)step * 1000000L};
+    nanosleep(&ts, NULL);
+    ms -= step;
+  }
+}
+
+static void back_off(worker *w) {
+  w->backoff_ms = w->backoff_ms ? w->backoff_ms * 2 : 100;
+  if (w->backoff_ms > BACKOFF_MAX_MS) w->backoff_ms = BACKOFF_MAX_MS;
+  sleep_ms(w, w->backoff_ms / 2 + rand() % (w->backoff_ms / 2 + 1));
+}
+
+/* Errors after which retrying cannot help. */
+static int fatal(int err) { return err == VF_EVERSION || err == VF_EAUTH; }
+
+static int register_worker(worker *w) {
+  long cores = sysconf(_SC_NPROCESSORS_ONLN);
+  Vcmfarm__Register m = VCMFARM__REGISTER__INIT;
+  m.name = w->name;
+  m.cores = cores > 0 ? (uint32_t)cores : 1;
+  m.threads = w->threads > 0 ? (uint32_t)w->threads : m.cores;
+  m.software_version = VF_VERSION;
+  Vcmfarm__Envelope q = VCMFARM__ENVELOPE__INIT, *reply;
+  q.body_case = VCMFARM__ENVELOPE__BODY_REGISTER;
+  q.register_ = &m;
+  for (int attempt = 0; !*w->terminating; attempt++) {
+    int err = vf_farm_request(w->client, &q, VCMFARM__ENVELOPE__BODY_REGISTERED, REQUEST_TIMEOUT_MS / 2, &reply);
+    if (err == VF_OK) {
+      w->worker_id = reply->registered->worker_id;
+      w->heartbeat_ms = (int)reply->registered->heartbeat_ms;
+      vf_message_free(reply);
+      w->backoff_ms = 0;
+      note(w, "registered with %s as %016llx", w->url, (unsigned long long)w->worker_id);
+      return VF_OK;
+    }
+    if (fatal(err) || err == VF_EREFUSED) return err;
+    if (attempt == 0 || attempt % 10 == 0) log_line("%s; retrying", vf_error_detail(err));
+    back_off(w);
+  }
+  return VF_OK;
+}
+
+static void release_lease(worker *w, uint64_t lease_id, const char *failure) {
+  Vcmfarm__LeaseRelease m = VCMFARM__LEASE_RELEASE__INIT;
+  m.worker_id = w->worker_id;
+  m.lease_id = lease_id;
+  m.failure = (char *)failure;
+  Vcmfarm__Envelope q = VCMFARM__ENVELOPE__INIT, *reply;
+  q.body_case = VCMFARM__ENVELOPE__BODY_RELEASE;
+  q.release = &m;
+  if (vf_farm_call(w->client, &q, REQUEST_TIMEOUT_MS / 2, &reply) == VF_OK) vf_message_free(reply);
+  if (failure[0]) log_line("failed lease %016llx: %s", (unsigned long long)lease_id, failure);
+  else note(w, "handed back lease %016llx", (unsigned long long)lease_id);
+}
+
+/* The renderer for the lease's job, reusing the last one when job, scene and settings agree. */
+static int prepare(worker *w, const Vcmfarm__Lease *l, const vf_settings *settings) {
+  if (w->renderer && w->job_id == l->job_id && memcmp(w->job_hash, l->scene_hash.data, 32) == 0 &&
+      strcmp(w->job_settings, l->settings) == 0)
+    return VF_OK;
+  vf_renderer_destroy(w->renderer);
+  vf_scene_destroy(w->scene);
+  w->renderer = NULL;
+  w->scene = NULL;
+  char label[64];
+  snprintf(label, sizeof label, "job %llu scene", (unsigned long long)l->job_id);
+  /* Its files (if any) come from the cache, fetched first when missing. */
+  int err = vf_blob_cache_load_scene(w->client, w->worker_id, w->cache_dir, l->scene, label, w->quiet, &w->scene);
+  if (err != VF_OK) return err;
+  if (memcmp(w->scene->hash, l->scene_hash.data, 32) != 0) {
+    char hex[65];
+    vf_scene_hash_hex(w->scene, hex);
+    return vf_error_set(VF_EMISMATCH, "%s loads with hash %s, not the job's (different vcmfarm versions?)", label, hex);
+  }
+  if ((err = vf_renderer_create(w->scene, settings, w->threads, &w->renderer)) != VF_OK) return err;
+  if (w->describe) vf_vcm_describe(vf_renderer_vcm(w->renderer), w->describe);
+  w->job_id = l->job_id;
+  memcpy(w->job_hash, l->scene_hash.data, 32);
+  snprintf(w->job_settings, sizeof w->job_settings, "%s", l->settings);
+  return VF_OK;
+}
+
+static void on_progress(void *ctx, const vf_render_status *st) {
+  worker *w = ctx;
+  vf_heartbeat_progress(w->heartbeat, st->iterations_done, st->seconds);
+  if (w->iteration_delay_ms > 0) {
+    struct timespec ts = {w->iteration_delay_ms / 1000, (long)(w->iteration_delay_ms % 1000) * 1000000L};
+    nanosleep(&ts, NULL);
+  }
+  if (vf_heartbeat_revoked(w->heartbeat) || *w->terminating) w->render_stop = 1;
+}
+
+static void stall(worker *w) {
+  char marker[4200];
+  snprintf(marker, sizeof marker, "%s.stalled", w->stall_file);
+  FILE *f = fopen(marker, "w");
+  if (f) fclose(f);
+  log_line("stalling (test) until %s exists", w->stall_file);
+  while (!*w->terminating && access(w->stall_file, F_OK) != 0) sleep_ms(w, 20);
+  w->stalled = 1;
+}
+
+/* Sends the tiles of one LeaseResult message; 1 accepted, 0 refused (logged), < 0 not
+ * sent. A message whose reply was lost is sent again; the coordinator takes it once. */
+static int send_tiles(worker *w, Vcmfarm__LeaseResult *m) {
+  Vcmfarm__Envelope q = VCMFARM__ENVELOPE__INIT, *reply;
+  q.body_case = VCMFARM__ENVELOPE__BODY_RESULT;
+  q.result = m;
+  int err = VF_OK;
+  for (int attempt = 0; attempt < RESULT_ATTEMPTS; attempt++) {
+    err = vf_farm_request(w->client, &q, VCMFARM__ENVELOPE__BODY_RESULT_ACK, RESULT_TIMEOUT_MS, &reply);
+    if (err == VF_OK) {
+      int accepted = reply->result_ack->accepted;
+      w->part_merged = accepted && (strcmp(reply->result_ack->message, "merged") == 0 ||
+                                    strcmp(reply->result_ack->message, "already merged") == 0);
+      if (!accepted && !(w->quiet && *w->terminating)) /* stopping quietly: the job may have ended */
+        log_line("job %llu [%llu,%llu): refused: %s", (unsigned long long)m->job_id, (unsigned long long)m->begin,
+                 (unsigned long long)m->end, reply->result_ack->message);
+      vf_message_free(reply);
+      return accepted;
+    }
+    log_line("sending job %llu [%llu,%llu): %s", (unsigned long long)m->job_id, (unsigned long long)m->begin,
+             (unsigned long long)m->end, vf_error_detail(err));
+    if (fatal(err) || err == VF_EREFUSED || *w->terminating) break;
+    back_off(w);
+  }
+  return err < 0 ? err : VF_ETIMEDOUT;
+}
+
+static int send_tiles_cb(void *ctx, Vcmfarm__LeaseResult *m) { return send_tiles(ctx, m); }
+
+/* Ships the film of [w->shipped, ...) as tiles (docs/PROTOCOL.md). Returns 1 when the
+ * coordinator merged it; otherwise the lease is dropped (w->dropped). */
+static int ship(worker *w, const vf_film *film) {
+  Vcmfarm__LeaseResult m = VCMFARM__LEASE_RESULT__INIT;
+  m.worker_id = w->worker_id;
+  m.lease_id = w->lease->lease_id;
+  m.job_id = w->lease->job_id;
+  m.begin = w->shipped;
+  w->part_merged = 0;
+  int rc = vf_film_send_tiles(film, &m, TILES_PER_MESSAGE, send_tiles_cb, w);
+  /* Every tile taken, yet not merged: the coordinator lost tiles of it (it dropped the
+   * part, or restarted); the lease cannot go on from here. */
+  if (rc == 1 && !w->part_merged) {
+    log_line("job %llu [%llu,%llu): sent but not merged; dropping the lease", (unsigned long long)m.job_id,
+             (unsigned long long)m.begin, (unsigned long long)m.end);
+    rc = 0;
+  }
+  if (rc == 1) {
+    w->shipped = m.end;
+    return 1;
+  }
+  if (rc < 0 && rc != VF_ETIMEDOUT) log_line("sending tiles: %s", vf_error_detail(rc));
+  w->dropped = 1;
+  w->render_stop = 1;
+  return 0;
+}
+
+/* The film after its iterations were shipped: empty again, ready for the next part. */
+static void film_reset(vf_film *film) {
+  size_t n = (size_t)film->width * (size_t)film->height;
+  memset(film->camera_sum, 0, 3 * n * sizeof *film->camera_sum);
+  memset(film->camera_count, 0, n * sizeof *film->camera_count);
+  memset(film->light_sum, 0, 3 * n * sizeof *film->light_sum);
+  memset(film->square_sum, 0, 3 * n * sizeof *film->square_sum);
+  vf_iterset_destroy(&film->iterations);
+  vf_iterset_init(&film->iterations);
+  film->light_frames = 0;
+  film->render_seconds = film->cpu_seconds = 0.0;
+  film->nonfinite_samples = 0;
+}
+
+/* The render loop's checkpoint, after every iteration: once the ship interval (or 50
+ * times the last part's cost, if more) has passed since the last part, the iterations so
+ * far go to the coordinator and the film starts again empty. The end of the lease is
+ * shipped by run_lease, after the loop. */
+static int on_checkpoint(void *ctx, vf_film *film, const vf_render_status *st) {
+  worker *w = ctx;
+  if (st->final || w->dropped || vf_heartbeat_revoked(w->heartbeat)) return VF_OK;
+  double interval = w->ship_interval > SHIP_COST_FACTOR * w->ship_cost ? w->ship_interval
+                                                                       : SHIP_COST_FACTOR * w->ship_cost;
+  if (st->seconds - w->shipped_at < interval) return VF_OK;
+  if (w->shipped + vf_iterset_count(&film->iterations) >= w->lease->end) return VF_OK; /* the last: after the loop */
+  double t0 = vf_seconds_now();
+  if (ship(w, film)) film_reset(film);
+  w->ship_cost = vf_seconds_now() - t0;
+  w->shipped_at = st->seconds + w->ship_cost;
+  return VF_OK;
+}
+
+static void run_lease(worker *w, const Vcmfarm__Lease *l) {
+  vf_settings settings;
+  const char *bad = NULL;
+  if (l->scene == NULL || l->scene->source_case == VCMFARM__SCENE__SOURCE__NOT_SET) bad = "no scene";
+  else if (l->scene_hash.len != 32) bad = "scene hash is not 32 bytes";
+  else if (l->begin >= l->end || l->end - l->begin > 1000000000ull) bad = "empty or huge iteration range";
+  else if (vf_settings_parse(&settings, l->settings) != VF_OK || vf_settings_validate(&settings) != VF_OK)
+    bad = "invalid settings";
+  if (bad) return release_lease(w, l->lease_id, bad);
+  int err = prepare(w, l, &settings);
+  /* A scene file that could not be fetched in time, or kept in the cache, is no fault of
+   * the job: hand the lease back, and wait before asking again. */
+  if (err == VF_ETIMEDOUT || err == VF_ENET || err == VF_EIO) {
+    log_line("%s", vf_error_detail(err));
+    release_lease(w, l->lease_id, "");
+    back_off(w);
+    return;
+  }
+  if (err != VF_OK) return release_lease(w, l->lease_id, vf_error_detail(err));
+  vf_film *film = NULL;
+  if ((err = vf_film_create(settings.width, settings.height, &film)) != VF_OK ||
+      (err = vf_renderer_stamp(w->renderer, film)) != VF_OK) {
+    vf_film_destroy(film);
+    return release_lease(w, l->lease_id, vf_error_detail(err));
+  }
+  w->lease = l;
+  w->shipped = l->begin;
+  w->shipped_at = 0.0;
+  w->dropped = 0;
+  vf_heartbeat_set_lease(w->heartbeat, w->worker_id, l->lease_id, w->heartbeat_ms);
+  w->render_stop = *w->terminating;
+  vf_render_control control = {.progress = on_progress, .ctx = w, .interrupt = &w->render_stop,
+                               .checkpoint = on_checkpoint};
+  vf_render_status st;
+  memset(&st, 0, sizeof st);
+  err = vf_render_range(w->renderer, film, l->begin, l->end, &control, &st);
+  int revoked = vf_heartbeat_revoked(w->heartbeat);
+  vf_heartbeat_clear_lease(w->heartbeat);
+  uint64_t rendered = l->begin + st.iterations_done;
+  if (w->totals) {
+    vf_worker_totals *t = w->totals;
+    t->iterations += st.iterations_done;
+    t->seconds += st.seconds;
+    t->stats.rays += st.stats.rays;
+    t->stats.light_vertices += st.stats.light_vertices;
+    t->stats.nonfinite += st.stats.nonfinite;
+    t->stats.light_seconds += st.stats.light_seconds;
+    t->stats.grid_seconds += st.stats.grid_seconds;
+    t->stats.camera_seconds += st.stats.camera_seconds;
+  }
+  if (err != VF_OK) {
+    release_lease(w, l->lease_id, vf_error_detail(err));
+  } else if (revoked) {
+    note(w, "lease %016llx revoked by the coordinator; dropped", (unsigned long long)l->lease_id);
+  } else if (!w->dropped) {
+    /* What is rendered is shipped, also when stopping early (SIGTERM): then the rest of
+     * the lease is handed back. */
+    if (vf_iterset_count(&film->iterations) > 0) {
+      if (w->stall_file && !w->stalled) stall(w);
+      ship(w, film);
+    }
+    if (!w->dropped && rendered < l->end) release_lease(w, l->lease_id, "");
+    else if (!w->dropped)
+      note(w, "job %llu [%llu,%llu): merged", (unsigned long long)l->job_id, (unsigned long long)l->begin,
+               (unsigned long long)l->end);
+  }
+  w->lease = NULL;
+  vf_film_destroy(film);
+}
+
+static int serve(worker *w) {
+  int err = register_worker(w);
+  while (err == VF_OK && !*w->terminating) {
+    Vcmfarm__LeaseRequest m = VCMFARM__LEASE_REQUEST__INIT;
+    m.worker_id = w->worker_id;
+    Vcmfarm__Envelope q = VCMFARM__ENVELOPE__INIT, *reply;
+    q.body_case = VCMFARM__ENVELOPE__BODY_LEASE_REQUEST;
+    q.lease_request = &m;
+    if ((err = vf_farm_call(w->client, &q, REQUEST_TIMEOUT_MS, &reply)) != VF_OK) {
+      if (fatal(err)) break;
+      log_line("%s; retrying", vf_error_detail(err));
+      back_off(w);
+      err = VF_OK;
+      continue;
+    }
+    w->backoff_ms = 0;
+    switch (reply->body_case) {
+    case VCMFARM__ENVELOPE__BODY_LEASE: run_lease(w, reply->lease); break;
+    case VCMFARM__ENVELOPE__BODY_IDLE: sleep_ms(w, (int)(reply->idle->retry_ms > 60000 ? 60000 : reply->idle->retry_ms)); break;
+    case VCMFARM__ENVELOPE__BODY_ERROR:
+      if (reply->error->code == VCMFARM__ERROR_CODE__ERROR_UNKNOWN_WORKER) {
+        note(w, "the coordinator does not know us (restarted, or we were declared lost): registering again");
+        err = register_worker(w);
+      } else {
+        log_line("coordinator: %s", reply->error->message);
+        back_off(w);
+      }
+      break;
+    default: log_line("unexpected %s reply to a lease request", vf_message_name(reply)); back_off(w);
+    }
+    vf_message_free(reply);
+  }
+  return err;
+}
+
+
+int vf_worker_run(const vf_worker_config *config, volatile sig_atomic_t *stop, vf_worker_totals *totals) {
+  worker *w = calloc(1, sizeof *w);
+  if (w == NULL) return vf_error_set(VF_ENOMEM, "out of memory");
+  w->url = config->url;
+  w->terminating = stop;
+  w->quiet = config->quiet;
+  w->describe = config->describe;
+  w->totals = totals;
+  w->threads = config->threads;
+  w->cache_dir = config->cache_dir;
+  w->ship_interval = config->ship_interval > 0.0 ? config->ship_interval : VF_WORKER_SHIP_SECONDS;
+  w->iteration_delay_ms = config->iteration_delay_ms;
+  w->stall_file = config->stall_file;
+  if (config->name) {
+    snprintf(w->name, sizeof w->name, "%s", config->name);
+  } else {
+    char host[64] = "host";
+    gethostname(host, sizeof host - 1);
+    snprintf(w->name, sizeof w->name, "%s/%d", host, (int)getpid());
+  }
+  int err = vf_farm_client_open(w->url, &config->key, &w->client);
+  if (err == VF_OK && (err = vf_heartbeat_start(w->url, &config->key, &w->heartbeat)) == VF_OK) {
+    err = serve(w);
+    if (err == VF_OK) note(w, "stopping");
+    vf_heartbeat_stop(w->heartbeat);
+  }
+  vf_farm_client_close(w->client);
+  vf_renderer_destroy(w->renderer);
+  vf_scene_destroy(w->scene);
+  free(w);
+  return err;
+}

@@ -1,0 +1,50 @@
+/* The farm worker's loop (docs/PROTOCOL.md): register with a coordinator, then ask for a
+ * lease, render it with the one render loop (vf_render_range, worker/render.h), ship its
+ * film as tiles during and at the end of the lease, and ask again, until told to stop.
+ *
+ * `vcmfarm worker` runs it in its own process; `vcmfarm render` runs it on a thread beside
+ * an in-process coordinator (coordinator/render_cmd.c). Every exchange is a request from
+ * here answered by the coordinator, so a coordinator that restarts or a network that drops
+ * only delays us: requests time out and are sent again with backoff, and an unknown-worker
+ * answer makes us register again. */
+#ifndef VF_WORKER_H
+#define VF_WORKER_H
+
+#include "../common/wire.h"
+#include "vcm.h"
+
+#include <signal.h>
+#include <stdint.h>
+#include <stdio.h>
+
+#define VF_WORKER_SHIP_SECONDS 5.0
+
+typedef struct {
+  const char *url;            /* the coordinator: tcp://HOST:PORT, ipc://PATH or inproc://NAME */
+  vf_wire_key key;
+  int threads;                /* render threads; <= 0: one per CPU */
+  const char *name;           /* shown in status; NULL: HOST/PID */
+  const char *cache_dir;      /* scene files by content hash (worker/blob_cache.h), opened by the caller */
+  double ship_interval;       /* seconds between parts of a lease (at least 50 times a part's cost) */
+  int quiet;                  /* log failures only, not the ordinary course of leases */
+  FILE *describe;             /* non-NULL: each new renderer prints what it enabled and skipped here */
+  /* test hooks (vcmfarm worker --help) */
+  int iteration_delay_ms;
+  const char *stall_file;
+} vf_worker_config;
+
+/* What the worker rendered, over all its leases (merged or not). */
+typedef struct {
+  uint64_t iterations;
+  double seconds;             /* rendering */
+  vf_vcm_stats stats;
+} vf_worker_totals;
+
+/* Serves the coordinator until *stop becomes non-zero (a signal handler or another thread
+ * may set it): then it finishes the iteration in progress, ships what the lease has
+ * rendered, hands back the rest and returns VF_OK. Returns an error only when going on
+ * cannot help (the key or the protocol version is refused). *totals, when not NULL, is
+ * added to as leases are rendered; read it after the call returns. */
+int vf_worker_run(const vf_worker_config *config, volatile sig_atomic_t *stop, vf_worker_totals *totals);
+
+#endif
