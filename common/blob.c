@@ -6,11 +6,15 @@
 #include <cjson/cJSON.h>
 #include <sodium.h>
 
+#include <dirent.h>
 #include <errno.h>
+#include <fcntl.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
+#include <time.h>
+#include <unistd.h>
 
 void vf_blob_hash(const void *data, size_t n, uint8_t hash[32]) {
   if (sodium_init() < 0) abort(); /* cannot happen once libsodium is linked; never hash garbage */
@@ -44,8 +48,8 @@ int vf_blob_store_put(const char *dir, const uint8_t hash[32], const void *data,
   char path[4200], want[65], got[65];
   uint8_t actual[32];
   uint64_t size;
-  if (n > VF_BLOB_MAX_BYTES)
-    return vf_error_set(VF_EINVAL, "blob of %zu bytes, at most %zu", n, (size_t)VF_BLOB_MAX_BYTES);
+  if ((uint64_t)n > VF_BLOB_MAX_BYTES)
+    return vf_error_set(VF_EINVAL, "blob of %zu bytes, at most %llu", n, (unsigned long long)VF_BLOB_MAX_BYTES);
   vf_blob_hash(data, n, actual);
   if (sodium_memcmp(actual, hash, 32) != 0) {
     vf_blob_hex(hash, want);
@@ -90,6 +94,178 @@ int vf_blob_store_get(const char *dir, const uint8_t hash[32], uint8_t **data, s
   return VF_OK;
 }
 
+/* BLAKE2b-256 of an open file's first `size` bytes, read in pieces. */
+static int hash_fd(int fd, uint64_t size, const char *path, uint8_t hash[32]) {
+  if (sodium_init() < 0) abort();
+  crypto_generichash_state state;
+  crypto_generichash_init(&state, NULL, 0, 32);
+  size_t cap = (size_t)1 << 20;
+  uint8_t *buf = malloc(cap);
+  if (buf == NULL) return vf_error_set(VF_ENOMEM, "out of memory hashing %s", path);
+  int err = VF_OK;
+  for (uint64_t at = 0; at < size && err == VF_OK;) {
+    size_t want = size - at < cap ? (size_t)(size - at) : cap;
+    ssize_t got = pread(fd, buf, want, (off_t)at);
+    if (got <= 0) err = vf_error_set(VF_EIO, "%s: read: %s", path, got < 0 ? strerror(errno) : "file shrank");
+    else {
+      crypto_generichash_update(&state, buf, (size_t)got);
+      at += (uint64_t)got;
+    }
+  }
+  free(buf);
+  if (err == VF_OK) crypto_generichash_final(&state, hash, 32);
+  return err;
+}
+
+int vf_blob_store_check(const char *dir, const uint8_t hash[32], uint64_t *size) {
+  char path[4200], want[65], got[65];
+  int err = vf_blob_path(dir, hash, path, sizeof path);
+  if (err != VF_OK) return err;
+  vf_blob_hex(hash, want);
+  int fd = open(path, O_RDONLY | O_CLOEXEC);
+  if (fd < 0) {
+    if (errno == ENOENT) return vf_error_set(VF_ENOENT, "no blob %s in %s", want, dir);
+    return vf_error_set(VF_EIO, "%s: %s", path, strerror(errno));
+  }
+  struct stat st;
+  uint8_t actual[32];
+  if (fstat(fd, &st) != 0) err = vf_error_set(VF_EIO, "%s: %s", path, strerror(errno));
+  else err = hash_fd(fd, (uint64_t)st.st_size, path, actual);
+  close(fd);
+  if (err != VF_OK) return err;
+  if (sodium_memcmp(actual, hash, 32) != 0) {
+    vf_blob_hex(actual, got);
+    return vf_error_set(VF_EMISMATCH, "%s: damaged, its bytes hash to %s", path, got);
+  }
+  if (size) *size = (uint64_t)st.st_size;
+  return VF_OK;
+}
+
+int vf_blob_store_read(const char *dir, const uint8_t hash[32], uint64_t offset, size_t max, uint8_t **data,
+                       size_t *n, uint64_t *total) {
+  char path[4200], hex[65];
+  int err = vf_blob_path(dir, hash, path, sizeof path);
+  if (err != VF_OK) return err;
+  int fd = open(path, O_RDONLY | O_CLOEXEC);
+  if (fd < 0) {
+    vf_blob_hex(hash, hex);
+    if (errno == ENOENT) return vf_error_set(VF_ENOENT, "no blob %s in %s", hex, dir);
+    return vf_error_set(VF_EIO, "%s: %s", path, strerror(errno));
+  }
+  struct stat st;
+  uint8_t *buf = NULL;
+  size_t len = 0;
+  if (fstat(fd, &st) != 0) {
+    err = vf_error_set(VF_EIO, "%s: %s", path, strerror(errno));
+  } else if (offset > (uint64_t)st.st_size) {
+    err = vf_error_set(VF_EINVAL, "%s: offset %llu past its %lld bytes", path, (unsigned long long)offset,
+                       (long long)st.st_size);
+  } else {
+    uint64_t left = (uint64_t)st.st_size - offset;
+    len = left < max ? (size_t)left : max;
+    if ((buf = malloc(len ? len : 1)) == NULL) err = vf_error_set(VF_ENOMEM, "out of memory reading %s", path);
+    for (size_t at = 0; err == VF_OK && at < len;) {
+      ssize_t got = pread(fd, buf + at, len - at, (off_t)(offset + at));
+      if (got <= 0) err = vf_error_set(VF_EIO, "%s: read: %s", path, got < 0 ? strerror(errno) : "file shrank");
+      else at += (size_t)got;
+    }
+  }
+  close(fd);
+  if (err != VF_OK) {
+    free(buf);
+    return err;
+  }
+  *data = buf;
+  *n = len;
+  *total = (uint64_t)st.st_size;
+  return VF_OK;
+}
+
+static int part_path(const char *dir, const uint8_t hash[32], uint64_t tag, char *out, size_t n) {
+  char hex[65];
+  vf_blob_hex(hash, hex);
+  int w = snprintf(out, n, "%s/blobs/%s.%016llx.part", dir, hex, (unsigned long long)tag);
+  if (w < 0 || (size_t)w >= n) return vf_error_set(VF_EINVAL, "%s: blob store path too long", dir);
+  return VF_OK;
+}
+
+int vf_blob_store_append(const char *dir, const uint8_t hash[32], uint64_t tag, uint64_t offset, uint64_t total,
+                         const void *data, size_t n, int *complete) {
+  char part[4300], path[4200], hex[65], got[65];
+  vf_blob_hex(hash, hex);
+  *complete = 0;
+  if (total > VF_BLOB_MAX_BYTES)
+    return vf_error_set(VF_EINVAL, "blob %s of %llu bytes, at most %llu", hex, (unsigned long long)total,
+                        (unsigned long long)VF_BLOB_MAX_BYTES);
+  if (offset > total || n > total - offset)
+    return vf_error_set(VF_EINVAL, "blob %s: %zu bytes at offset %llu pass its %llu", hex, n,
+                        (unsigned long long)offset, (unsigned long long)total);
+  int err;
+  if ((err = part_path(dir, hash, tag, part, sizeof part)) != VF_OK ||
+      (err = vf_blob_path(dir, hash, path, sizeof path)) != VF_OK)
+    return err;
+  char *slash = strrchr(path, '/');
+  *slash = '\0';
+  if ((err = make_dir(dir)) != VF_OK || (err = make_dir(path)) != VF_OK) return err;
+  *slash = '/';
+  int fd = open(part, O_RDWR | O_CREAT | O_CLOEXEC | (offset == 0 ? O_TRUNC : 0), 0600);
+  if (fd < 0) return vf_error_set(VF_EIO, "%s: %s", part, strerror(errno));
+  struct stat st;
+  if (fstat(fd, &st) != 0) {
+    err = vf_error_set(VF_EIO, "%s: %s", part, strerror(errno));
+  } else if ((uint64_t)st.st_size != offset) {
+    err = vf_error_set(VF_EINVAL, "blob %s: a chunk at offset %llu, but the transfer holds %lld bytes", hex,
+                       (unsigned long long)offset, (long long)st.st_size);
+    close(fd);
+    return err; /* the part stays as it was: the right chunk may still come */
+  }
+  for (size_t at = 0; err == VF_OK && at < n;) {
+    ssize_t w = pwrite(fd, (const uint8_t *)data + at, n - at, (off_t)(offset + at));
+    if (w < 0) err = vf_error_set(VF_EIO, "%s: write: %s", part, strerror(errno));
+    else at += (size_t)w;
+  }
+  if (err == VF_OK && offset + n == total) {
+    uint8_t actual[32];
+    if (fsync(fd) != 0) err = vf_error_set(VF_EIO, "%s: fsync: %s", part, strerror(errno));
+    else if ((err = hash_fd(fd, total, part, actual)) == VF_OK && sodium_memcmp(actual, hash, 32) != 0) {
+      vf_blob_hex(actual, got);
+      err = vf_error_set(VF_EMISMATCH, "blob %s: its %llu bytes hash to %s, not to its name", hex,
+                         (unsigned long long)total, got);
+    }
+    close(fd);
+    if (err == VF_OK && rename(part, path) != 0) err = vf_error_set(VF_EIO, "%s: rename: %s", path, strerror(errno));
+    if (err == VF_OK) {
+      *slash = '\0';
+      int dfd = open(path, O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+      if (dfd < 0 || fsync(dfd) != 0) err = vf_error_set(VF_EIO, "%s: syncing the directory: %s", path, strerror(errno));
+      if (dfd >= 0) close(dfd);
+      *slash = '/';
+    }
+    if (err != VF_OK) unlink(part);
+    else *complete = 1;
+    return err;
+  }
+  close(fd);
+  return err;
+}
+
+void vf_blob_store_clean_parts(const char *dir, double min_age) {
+  char blobs[4200], path[4500];
+  if (snprintf(blobs, sizeof blobs, "%s/blobs", dir) >= (int)sizeof blobs) return;
+  DIR *d = opendir(blobs);
+  if (d == NULL) return;
+  struct dirent *e;
+  time_t now = time(NULL);
+  while ((e = readdir(d)) != NULL) {
+    size_t len = strlen(e->d_name);
+    struct stat st;
+    if (len < 5 || strcmp(e->d_name + len - 5, ".part") != 0) continue;
+    if (snprintf(path, sizeof path, "%s/%s", blobs, e->d_name) >= (int)sizeof path) continue;
+    if (stat(path, &st) == 0 && difftime(now, st.st_mtime) >= min_age) unlink(path);
+  }
+  closedir(d);
+}
+
 int vf_blob_check_name(const char *name) {
   size_t n = strlen(name);
   if (n == 0 || n > VF_BLOB_MAX_NAME)
@@ -111,8 +287,8 @@ int vf_blob_table_add(vf_blob_table *t, const char *name, const uint8_t hash[32]
   if (err != VF_OK) return err;
   if (vf_blob_table_find(t, name)) return vf_error_set(VF_EINVAL, "file '%s' named twice", name);
   if (size > VF_BLOB_MAX_BYTES)
-    return vf_error_set(VF_EINVAL, "file '%s' is %llu bytes; a file can be at most %zu (one message)", name,
-                        (unsigned long long)size, (size_t)VF_BLOB_MAX_BYTES);
+    return vf_error_set(VF_EINVAL, "file '%s' is %llu bytes; a file can be at most %llu", name,
+                        (unsigned long long)size, (unsigned long long)VF_BLOB_MAX_BYTES);
   if (t->count >= VF_BLOB_MAX_FILES) return vf_error_set(VF_EINVAL, "more than %d files", VF_BLOB_MAX_FILES);
   vf_blob_ref *grown = realloc(t->refs, (t->count + 1) * sizeof *grown);
   if (grown == NULL) return vf_error_set(VF_ENOMEM, "out of memory");

@@ -22,9 +22,10 @@
 #include <stddef.h>
 #include <stdint.h>
 
-/* One blob travels in one message, and submit sends it to the coordinator: the
- * coordinator's request cap less room for the envelope's fields (63 MiB). */
-#define VF_BLOB_MAX_BYTES (VF_WIRE_MAX_REQUEST - ((size_t)1 << 20))
+/* A blob travels in chunks of at most VF_BLOB_CHUNK_BYTES, one per message, well under
+ * the coordinator's request cap (VF_WIRE_MAX_REQUEST); a file can be up to 4 GiB. */
+#define VF_BLOB_CHUNK_BYTES ((size_t)16 << 20)
+#define VF_BLOB_MAX_BYTES ((uint64_t)4 << 30)
 #define VF_BLOB_MAX_FILES 1024 /* per scene */
 #define VF_BLOB_MAX_NAME 1023  /* bytes */
 
@@ -51,7 +52,7 @@ int vf_blob_path(const char *dir, const uint8_t hash[32], char *out, size_t n);
 int vf_blob_store_has(const char *dir, const uint8_t hash[32], uint64_t *size);
 
 /* Stores n bytes under hash after checking that they hash to it (VF_EMISMATCH, naming
- * both hashes, when they do not; VF_EINVAL above VF_BLOB_MAX_BYTES). Creates DIR/blobs if
+ * both hashes, when they do not; VF_EINVAL above VF_BLOB_MAX_BYTES), all at once. Creates DIR/blobs if
  * needed; writes atomically (common/file.h), so concurrent writers of one blob, and a crash
  * at any moment, leave either no file or the whole one. A blob already held is not
  * written again (unless the copy held is damaged). VF_EIO on failure. */
@@ -61,6 +62,30 @@ int vf_blob_store_put(const char *dir, const uint8_t hash[32], const void *data,
  * *n on success only. VF_ENOENT when the store does not hold it, VF_EMISMATCH when its
  * bytes no longer hash to its name (a damaged store), VF_EIO. */
 int vf_blob_store_get(const char *dir, const uint8_t hash[32], uint8_t **data, size_t *n);
+
+/* Checks the stored blob against its name, reading it in pieces (never whole in memory).
+ * *size (may be NULL) its size on success; VF_ENOENT, VF_EMISMATCH (damaged), VF_EIO. */
+int vf_blob_store_check(const char *dir, const uint8_t hash[32], uint64_t *size);
+
+/* Reads up to max bytes of the stored blob from offset, unchecked (a receiver checks the
+ * whole): *data (malloc'ed, the caller frees), *n and *total (the blob's size) on success
+ * only. VF_ENOENT, VF_EINVAL (offset past the end), VF_EIO. */
+int vf_blob_store_read(const char *dir, const uint8_t hash[32], uint64_t offset, size_t max, uint8_t **data,
+                       size_t *n, uint64_t *total);
+
+/* A blob arriving in chunks, in order, into DIR/blobs/HEX.TAG.part (TAG: the transfer's
+ * id, so that concurrent transfers of one blob do not mix). A chunk at offset 0 starts the
+ * part again; any other must start where the part ends. Once the part holds `total` bytes
+ * they are checked against the name and the part becomes the blob (fsync, rename), and
+ * *complete is set (else cleared). VF_EINVAL (out of order, past total, total above
+ * VF_BLOB_MAX_BYTES), VF_EMISMATCH (complete but hashing to another name: the part is
+ * removed), VF_EIO. Creates DIR/blobs if needed. */
+int vf_blob_store_append(const char *dir, const uint8_t hash[32], uint64_t tag, uint64_t offset, uint64_t total,
+                         const void *data, size_t n, int *complete);
+
+/* Removes parts of transfers that never completed, those untouched for min_age seconds
+ * (another process may still be writing younger ones). */
+void vf_blob_store_clean_parts(const char *dir, double min_age);
 
 /* Checks a name as untrusted text: 1 to VF_BLOB_MAX_NAME bytes, no control characters.
  * VF_EINVAL with a detail. */

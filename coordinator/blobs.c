@@ -11,17 +11,6 @@
 
 #define BAD_REQUEST VCMFARM__ERROR_CODE__ERROR_BAD_REQUEST
 
-static void reply_errorf(vf_farm_reply *r, Vcmfarm__ErrorCode code, const char *fmt, ...)
-    __attribute__((format(printf, 3, 4)));
-static void reply_errorf(vf_farm_reply *r, Vcmfarm__ErrorCode code, const char *fmt, ...) {
-  char text[sizeof r->text];
-  va_list ap;
-  va_start(ap, fmt);
-  vsnprintf(text, sizeof text, fmt, ap);
-  va_end(ap);
-  vf_farm_reply_error(r, code, text);
-}
-
 int vf_farm_blobs_attach(const vf_farm *farm, vf_job *job, const Vcmfarm__Scene *scene) {
   if (scene->n_files == 0) return VF_OK;
   if (scene->source_case != VCMFARM__SCENE__SOURCE_JSON)
@@ -60,20 +49,17 @@ int vf_farm_blobs_lease(const vf_job *job, vf_farm_reply *r) {
 
 void vf_farm_blob_query(vf_farm *farm, const Vcmfarm__BlobQuery *m, vf_farm_reply *r) {
   if (m->n_hashes > VF_BLOB_MAX_FILES)
-    return reply_errorf(r, BAD_REQUEST, "blob query of %zu hashes, at most %d", m->n_hashes, VF_BLOB_MAX_FILES);
+    return vf_farm_reply_errorf(r, BAD_REQUEST, "blob query of %zu hashes, at most %d", m->n_hashes, VF_BLOB_MAX_FILES);
   for (size_t i = 0; i < m->n_hashes; i++)
     if (m->hashes[i].len != 32)
-      return reply_errorf(r, BAD_REQUEST, "blob query: hashes[%zu] is %zu bytes, expected 32", i, m->hashes[i].len);
+      return vf_farm_reply_errorf(r, BAD_REQUEST, "blob query: hashes[%zu] is %zu bytes, expected 32", i, m->hashes[i].len);
   vcmfarm__blob_have__init(&r->blob_have);
   if (m->n_hashes > 0 && (r->missing = calloc(m->n_hashes, sizeof *r->missing)) == NULL)
     return vf_farm_reply_error(r, VCMFARM__ERROR_CODE__ERROR_INTERNAL, "out of memory");
   /* Each held blob is read and checked: a query comes once per submission, and a damaged
    * copy found here is dropped and reported missing, so the client sends it again. */
   for (size_t i = 0; i < m->n_hashes; i++) {
-    uint8_t *bytes = NULL;
-    size_t len;
-    int err = vf_blob_store_get(farm->config.state_dir, m->hashes[i].data, &bytes, &len);
-    free(bytes);
+    int err = vf_blob_store_check(farm->config.state_dir, m->hashes[i].data, NULL);
     if (err == VF_EMISMATCH) {
       char path[4200];
       vf_log("%s; removed, the client will send it again", vf_error_detail(err));
@@ -87,47 +73,60 @@ void vf_farm_blob_query(vf_farm *farm, const Vcmfarm__BlobQuery *m, vf_farm_repl
 }
 
 void vf_farm_blob_put(vf_farm *farm, const Vcmfarm__BlobPut *m, vf_farm_reply *r) {
-  if (m->hash.len != 32) return reply_errorf(r, BAD_REQUEST, "blob put: hash of %zu bytes, expected 32", m->hash.len);
+  if (m->hash.len != 32) return vf_farm_reply_errorf(r, BAD_REQUEST, "blob put: hash of %zu bytes, expected 32", m->hash.len);
+  if (m->data.len > VF_BLOB_CHUNK_BYTES)
+    return vf_farm_reply_errorf(r, BAD_REQUEST, "blob put: a chunk of %zu bytes, at most %zu", m->data.len,
+                                VF_BLOB_CHUNK_BYTES);
   char hex[65];
   vf_blob_hex(m->hash.data, hex);
-  int had = vf_blob_store_has(farm->config.state_dir, m->hash.data, NULL);
-  int err = vf_blob_store_put(farm->config.state_dir, m->hash.data, m->data.data, m->data.len);
+  int complete;
+  int err = vf_blob_store_append(farm->config.state_dir, m->hash.data, m->transfer_id, m->offset, m->total_size,
+                                 m->data.data, m->data.len, &complete);
   if (err != VF_OK) {
-    vf_log("refused a blob: %s", vf_error_detail(err));
+    vf_log("refused a blob chunk: %s", vf_error_detail(err));
     return vf_farm_reply_error(r, err == VF_EIO ? VCMFARM__ERROR_CODE__ERROR_INTERNAL : BAD_REQUEST,
                                vf_error_detail(err));
   }
-  if (!had) vf_log("stored blob %s (%zu bytes)", hex, m->data.len);
-  vcmfarm__result_ack__init(&r->result_ack);
-  snprintf(r->text, sizeof r->text, "blob %s stored", hex);
-  r->result_ack.accepted = 1;
-  r->result_ack.message = r->text;
-  r->env.body_case = VCMFARM__ENVELOPE__BODY_RESULT_ACK;
-  r->env.result_ack = &r->result_ack;
+  if (complete) {
+    vf_log("stored blob %s (%llu bytes)", hex, (unsigned long long)m->total_size);
+    snprintf(r->text, sizeof r->text, "blob %s stored", hex);
+  } else {
+    snprintf(r->text, sizeof r->text, "blob %s: %llu of %llu bytes", hex,
+             (unsigned long long)(m->offset + m->data.len), (unsigned long long)m->total_size);
+  }
+  vf_farm_reply_ack(r, 1, r->text);
 }
 
 void vf_farm_blob_request(vf_farm *farm, const vf_farm_worker *w, const Vcmfarm__BlobRequest *m, vf_farm_reply *r) {
-  if (m->hash.len != 32) return reply_errorf(r, BAD_REQUEST, "blob request: hash of %zu bytes, expected 32", m->hash.len);
+  if (m->hash.len != 32) return vf_farm_reply_errorf(r, BAD_REQUEST, "blob request: hash of %zu bytes, expected 32", m->hash.len);
   char hex[65];
   vf_blob_hex(m->hash.data, hex);
-  uint8_t *bytes;
-  size_t len;
-  int err = vf_blob_store_get(farm->config.state_dir, m->hash.data, &bytes, &len);
+  uint8_t *bytes = NULL;
+  size_t len = 0;
+  uint64_t total = 0;
+  const char *dir = farm->config.state_dir;
+  int err = m->offset == 0 ? vf_blob_store_check(dir, m->hash.data, NULL) : VF_OK;
+  if (err == VF_OK) err = vf_blob_store_read(dir, m->hash.data, m->offset, VF_BLOB_CHUNK_BYTES, &bytes, &len, &total);
   if (err != VF_OK) {
-    vf_log("worker %s asked for blob %s: %s", w->name, hex, vf_error_detail(err));
-    if (err == VF_ENOENT) return reply_errorf(r, BAD_REQUEST, "the coordinator has no blob %s", hex);
+    vf_log("worker %s asked for blob %s at %llu: %s", w->name, hex, (unsigned long long)m->offset,
+           vf_error_detail(err));
+    if (err == VF_ENOENT) return vf_farm_reply_errorf(r, BAD_REQUEST, "the coordinator has no blob %s", hex);
+    if (err == VF_EINVAL) return vf_farm_reply_error(r, BAD_REQUEST, vf_error_detail(err));
     /* Short: the worker's failure message carries it into the job's status. */
     if (err == VF_EMISMATCH)
-      return reply_errorf(r, VCMFARM__ERROR_CODE__ERROR_INTERNAL, "blob %.16s... is damaged in the coordinator's store",
+      return vf_farm_reply_errorf(r, VCMFARM__ERROR_CODE__ERROR_INTERNAL, "blob %.16s... is damaged in the coordinator's store",
                           hex);
     return vf_farm_reply_error(r, VCMFARM__ERROR_CODE__ERROR_INTERNAL, vf_error_detail(err));
   }
-  vf_log("served blob %s (%zu bytes) to worker %s", hex, len, w->name);
+  if (m->offset + len == total)
+    vf_log("served blob %s (%llu bytes) to worker %s", hex, (unsigned long long)total, w->name);
   vcmfarm__blob__init(&r->blob);
   r->blob_bytes = bytes;
   r->blob.hash = m->hash;
   r->blob.data.data = bytes;
   r->blob.data.len = len;
+  r->blob.offset = m->offset;
+  r->blob.total_size = total;
   r->env.body_case = VCMFARM__ENVELOPE__BODY_BLOB;
   r->env.blob = &r->blob;
 }

@@ -20,9 +20,11 @@ int vf_farm_blobs_lease(const vf_job *job, vf_farm_reply *r);
 
 /* BlobQuery -> BlobHave: which of the hashes the store lacks. */
 void vf_farm_blob_query(vf_farm *farm, const Vcmfarm__BlobQuery *m, vf_farm_reply *r);
-/* BlobPut -> ResultAck: stores a blob after checking its bytes against its hash. */
+/* BlobPut -> ResultAck: one chunk of a blob's transfer; the blob is stored once its last
+ * chunk is in and the whole hashes to its name (common/blob.h, vf_blob_store_append). */
 void vf_farm_blob_put(vf_farm *farm, const Vcmfarm__BlobPut *m, vf_farm_reply *r);
-/* BlobRequest (from a registered worker) -> Blob, read back and checked. */
+/* BlobRequest (from a registered worker) -> Blob: the chunk at the requested offset; the
+ * first chunk's request reads the whole blob back and checks it first. */
 void vf_farm_blob_request(vf_farm *farm, const vf_farm_worker *w, const Vcmfarm__BlobRequest *m, vf_farm_reply *r);
 
 #endif

@@ -91,6 +91,15 @@ void vf_farm_handle(vf_farm *farm, const Vcmfarm__Envelope *request, double now,
 /* An Error reply with this code and message (for requests refused before decoding). */
 void vf_farm_reply_error(vf_farm_reply *reply, Vcmfarm__ErrorCode code, const char *message);
 void vf_farm_reply_release(vf_farm_reply *reply);
+/* For the handlers (coordinator/farm.c, jobs.c, blobs.c): an Error with a formatted
+ * message, and a ResultAck. */
+void vf_farm_reply_errorf(vf_farm_reply *reply, Vcmfarm__ErrorCode code, const char *fmt, ...)
+    __attribute__((format(printf, 3, 4)));
+void vf_farm_reply_ack(vf_farm_reply *reply, int accepted, const char *message);
+
+/* Ends every active lease of the job, kept as expired so that results on their way are
+ * checked against them and refused; the job is charged the worker time they took. */
+void vf_farm_end_job_leases(vf_farm *farm, uint64_t job_id, double now);
 
 /* Declares workers silent for longer than the timeout lost and returns their leases to
  * the pool, and drops parts of results (coordinator/partial.h) that received nothing for

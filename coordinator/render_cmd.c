@@ -195,20 +195,25 @@ done:
  * the granularity of the progress line and of the target checks. */
 #define PART_SECONDS 1.0
 
+/* Each thread's result is read after pthread_join; `ended` says, meanwhile, that it
+ * returned (the coordinator only does so early when it could not start). */
 typedef struct {
   vf_coordinator_config config;
+  volatile sig_atomic_t ended;
   int err;
 } coordinator_thread;
 
 static void *coordinator_main(void *p) {
   coordinator_thread *t = p;
   t->err = vf_coordinator_run(&t->config);
+  t->ended = 1;
   return NULL;
 }
 
 typedef struct {
   vf_worker_config config;
   volatile sig_atomic_t *stop;
+  volatile sig_atomic_t ended;
   vf_worker_totals totals;
   int err;
 } worker_thread;
@@ -216,7 +221,25 @@ typedef struct {
 static void *worker_main(void *p) {
   worker_thread *t = p;
   t->err = vf_worker_run(&t->config, t->stop, &t->totals);
+  t->ended = 1;
   return NULL;
+}
+
+/* Waits until the coordinator answers (it binds its socket on its own thread). */
+static int await_coordinator(vf_farm_client *client, const coordinator_thread *ct) {
+  Vcmfarm__StatusRequest m = VCMFARM__STATUS_REQUEST__INIT;
+  Vcmfarm__Envelope q = VCMFARM__ENVELOPE__INIT, *reply;
+  q.body_case = VCMFARM__ENVELOPE__BODY_STATUS_REQUEST;
+  q.status_request = &m;
+  double deadline = vf_seconds_now() + REQUEST_MS / 1000.0;
+  while (!ct->ended && vf_seconds_now() < deadline) {
+    if (vf_farm_request(client, &q, VCMFARM__ENVELOPE__BODY_STATUS, 250, &reply) == VF_OK) {
+      vf_message_free(reply);
+      return VF_OK;
+    }
+  }
+  return ct->ended ? VF_OK /* its error is reported after the join */
+                   : vf_error_set(VF_ETIMEDOUT, "the in-process coordinator did not answer");
 }
 
 static int remove_entry(const char *path, const struct stat *sb, int flag, struct FTW *ftw) {
@@ -336,8 +359,7 @@ static int render_farm(const render_options *o) {
   sigaddset(&block, SIGTERM);
   pthread_sigmask(SIG_BLOCK, &block, &old_mask);
   pthread_t coordinator_tid, worker_tid;
-  int coordinator_started = pthread_create(&coordinator_tid, NULL, coordinator_main, &ct) == 0;
-  int worker_started = coordinator_started && pthread_create(&worker_tid, NULL, worker_main, &wt) == 0;
+  int coordinator_started = pthread_create(&coordinator_tid, NULL, coordinator_main, &ct) == 0, worker_started = 0;
   pthread_sigmask(SIG_SETMASK, &old_mask, NULL);
   struct sigaction sa, old_int, old_term;
   memset(&sa, 0, sizeof sa);
@@ -353,24 +375,35 @@ static int render_farm(const render_options *o) {
   uint64_t job_id = 0;
   double start = 0.0, last_checkpoint = 0.0;
   int tty = !o->quiet && isatty(STDERR_FILENO), finished = 0;
-  if (!worker_started) {
-    err = vf_error_set(VF_ENOMEM, "cannot start the coordinator and worker threads");
+  if (!coordinator_started) {
+    err = vf_error_set(VF_ENOMEM, "cannot start the coordinator's thread");
     goto stop;
   }
-  if ((err = vf_farm_client_open(FARM_URL, &key, &client)) != VF_OK) goto stop;
+  if ((err = vf_farm_client_open(FARM_URL, &key, &client)) != VF_OK ||
+      (err = await_coordinator(client, &ct)) != VF_OK || ct.ended)
+    goto stop;
   vf_submit_job sj = {o->scene, "render", &o->overrides, o->start, count, 1, 0.0, o->target_rmse,
                       o->target_error, o->reference, NULL};
   if ((err = vf_submit(client, REQUEST_MS, &sj, &submitted)) != VF_OK) goto stop;
   job_id = submitted.job_id;
+  /* The worker starts once the job is there: its first lease request gets it. */
+  pthread_sigmask(SIG_BLOCK, &block, NULL);
+  worker_started = pthread_create(&worker_tid, NULL, worker_main, &wt) == 0;
+  pthread_sigmask(SIG_SETMASK, &old_mask, NULL);
+  if (!worker_started) {
+    err = vf_error_set(VF_ENOMEM, "cannot start the worker's thread");
+    goto stop;
+  }
   if (!o->quiet)
     fprintf(stderr, "vcmfarm render: %s, %s\nthrough an in-process coordinator and worker (--direct: without)\n",
             submitted.scene_source, submitted.settings_text);
   start = last_checkpoint = vf_seconds_now();
   while (!finished) {
-    sleep_ms(POLL_MS);
+    double left = o->time_limit > 0.0 ? o->time_limit - (vf_seconds_now() - start) : 1.0;
+    sleep_ms(left * 1000.0 < POLL_MS ? (left > 0.0 ? (int)(left * 1000.0) + 1 : 0) : POLL_MS);
     double now = vf_seconds_now();
     if (interrupted || (o->time_limit > 0.0 && now - start >= o->time_limit)) break;
-    if (wt.err != VF_OK || ct.err != VF_OK) break; /* a thread gave up: reported below */
+    if (wt.ended || ct.ended) break; /* a thread gave up: its error is reported below */
     vf_message_free(reply);
     reply = NULL;
     if ((err = job_status(client, job_id, &reply, &job)) != VF_OK) goto stop;
@@ -387,7 +420,7 @@ static int render_farm(const render_options *o) {
   worker_started = 0;
   double seconds = vf_seconds_now() - start;
   if (tty) fputc('\n', stderr);
-  if ((err = wt.err) != VF_OK || (err = ct.err) != VF_OK) goto stop;
+  if ((err = wt.err) != VF_OK || ct.ended) goto stop; /* the coordinator's error: after its join */
   vf_message_free(reply);
   reply = NULL;
   if ((err = job_status(client, job_id, &reply, &job)) != VF_OK) goto stop;
@@ -437,7 +470,10 @@ stop:
   worker_stop = 1;
   if (worker_started) pthread_join(worker_tid, NULL);
   coordinator_stop = 1;
-  if (coordinator_started) pthread_join(coordinator_tid, NULL);
+  if (coordinator_started) {
+    pthread_join(coordinator_tid, NULL);
+    if (err == VF_OK) err = ct.err; /* it could not start, or not write its final checkpoint */
+  }
   sigaction(SIGINT, &old_int, NULL);
   sigaction(SIGTERM, &old_term, NULL);
   nftw(dir, remove_entry, 16, FTW_DEPTH | FTW_PHYS);

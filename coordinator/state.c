@@ -1,5 +1,6 @@
 #include "state.h"
 
+#include "../common/blob.h"
 #include "../common/error.h"
 #include "../common/file.h"
 #include "log.h"
@@ -268,6 +269,9 @@ destroy_job:
 }
 
 int vf_state_load(vf_farm *farm) {
+  /* Blob transfers cut short by the last run (common/blob.h): the lock is ours, nobody
+   * else writes them. */
+  vf_blob_store_clean_parts(farm->config.state_dir, 0.0);
   char path[4096];
   int err = path_of(path, sizeof path, farm->config.state_dir, "state.json", 0, "");
   if (err != VF_OK) return err;

@@ -7,6 +7,7 @@
 #include "../worker/job_scene.h"
 
 #include <dirent.h>
+#include <sodium.h>
 #include <errno.h>
 #include <limits.h>
 #include <stdio.h>
@@ -38,8 +39,45 @@ static void stage_remove(const char *dir) {
   rmdir(dir);
 }
 
-/* Sends the files the coordinator does not hold yet, one blob per message: a job's files
- * together may exceed the frame cap, one file may not (VF_BLOB_MAX_BYTES). */
+/* Sends one blob of the stage in chunks of VF_BLOB_CHUNK_BYTES, one per message. */
+static int send_blob(vf_farm_client *client, int timeout_ms, const char *stage, const vf_blob_ref *ref) {
+  uint64_t transfer, offset = 0, total = ref->size;
+  randombytes_buf(&transfer, sizeof transfer);
+  int err = VF_OK;
+  do {
+    uint8_t *bytes;
+    size_t len;
+    uint64_t size;
+    if ((err = vf_blob_store_read(stage, ref->hash, offset, VF_BLOB_CHUNK_BYTES, &bytes, &len, &size)) != VF_OK)
+      break;
+    if (size != total || (len == 0 && offset < total)) {
+      free(bytes);
+      err = vf_error_set(VF_EIO, "file '%s' changed while being sent", ref->name);
+      break;
+    }
+    Vcmfarm__BlobPut put = VCMFARM__BLOB_PUT__INIT;
+    put.hash = (ProtobufCBinaryData){32, (uint8_t *)ref->hash};
+    put.data = (ProtobufCBinaryData){len, bytes};
+    put.offset = offset;
+    put.total_size = total;
+    put.transfer_id = transfer;
+    Vcmfarm__Envelope q = VCMFARM__ENVELOPE__INIT, *ack = NULL;
+    q.body_case = VCMFARM__ENVELOPE__BODY_BLOB_PUT;
+    q.blob_put = &put;
+    err = vf_farm_request(client, &q, VCMFARM__ENVELOPE__BODY_RESULT_ACK, timeout_ms, &ack);
+    if (err == VF_OK && !ack->result_ack->accepted)
+      err = vf_error_set(VF_EREFUSED, "file '%s': %s", ref->name, ack->result_ack->message);
+    else if (err != VF_OK)
+      err = vf_error_set(err, "sending file '%s': %s", ref->name, vf_error_detail(err));
+    vf_message_free(ack);
+    free(bytes);
+    offset += len;
+  } while (err == VF_OK && offset < total);
+  return err;
+}
+
+/* Sends the files the coordinator does not hold yet, one at a time and each in chunks: a
+ * job's files together may exceed the frame cap, and so may one file. */
 static int send_files(vf_farm_client *client, int timeout_ms, const char *log_prefix, const char *stage,
                       const vf_blob_table *files) {
   ProtobufCBinaryData *hashes = calloc(files->count, sizeof *hashes);
@@ -54,7 +92,7 @@ static int send_files(vf_farm_client *client, int timeout_ms, const char *log_pr
   int err = vf_farm_request(client, &q, VCMFARM__ENVELOPE__BODY_BLOB_HAVE, timeout_ms, &have);
   free(hashes);
   if (err != VF_OK) return err;
-  /* Big files take a while on slow links: at least two minutes each. */
+  /* Big chunks take a while on slow links: at least two minutes each. */
   int slow_ms = timeout_ms > 120000 ? timeout_ms : 120000;
   uint64_t bytes_sent = 0;
   size_t sent = 0;
@@ -66,26 +104,10 @@ static int send_files(vf_farm_client *client, int timeout_ms, const char *log_pr
     int earlier = 0; /* two names with the same content: one blob */
     for (size_t k = 0; k < i; k++) earlier |= memcmp(files->refs[k].hash, ref->hash, 32) == 0;
     if (!missing || earlier) continue;
-    uint8_t *bytes;
-    size_t len;
-    if ((err = vf_blob_store_get(stage, ref->hash, &bytes, &len)) != VF_OK) break;
-    Vcmfarm__BlobPut put = VCMFARM__BLOB_PUT__INIT;
-    put.hash = (ProtobufCBinaryData){32, (uint8_t *)ref->hash};
-    put.data = (ProtobufCBinaryData){len, bytes};
-    Vcmfarm__Envelope pq = VCMFARM__ENVELOPE__INIT, *ack = NULL;
-    pq.body_case = VCMFARM__ENVELOPE__BODY_BLOB_PUT;
-    pq.blob_put = &put;
-    err = vf_farm_request(client, &pq, VCMFARM__ENVELOPE__BODY_RESULT_ACK, slow_ms, &ack);
-    if (err == VF_OK && !ack->result_ack->accepted)
-      err = vf_error_set(VF_EREFUSED, "file '%s': %s", ref->name, ack->result_ack->message);
-    else if (err != VF_OK)
-      err = vf_error_set(err, "sending file '%s': %s", ref->name, vf_error_detail(err));
-    else {
+    if ((err = send_blob(client, slow_ms, stage, ref)) == VF_OK) {
       sent++;
-      bytes_sent += len;
+      bytes_sent += ref->size;
     }
-    vf_message_free(ack);
-    free(bytes);
   }
   if (err == VF_OK && log_prefix)
     fprintf(stderr, "%s: %zu files named by the scene; sent %zu (%llu bytes), the coordinator held the rest\n",

@@ -4,7 +4,8 @@
  *   farm_blob_peer URL KEYFILE
  *
  * Run against a coordinator without jobs. Sends a blob whose bytes do not match its hash,
- * one with a malformed hash, then jobs whose file tables name a blob the coordinator does
+ * one with a malformed hash, transfers in chunks whose whole does not match, out of order,
+ * past the size, above 4 GiB or with a chunk above 16 MiB, then jobs whose file tables name a blob the coordinator does
  * not have, a wrong size, a name with a control character, two equal names, or files for
  * a built-in scene; asks for blobs as an unknown worker and for one nobody sent. Checks
  * each is refused with a message naming the problem, that a good blob is stored, queried
@@ -49,19 +50,31 @@ static int refused(vf_farm_client *c, Vcmfarm__Envelope *q, Vcmfarm__ErrorCode c
   return ok;
 }
 
-static int put(vf_farm_client *c, const uint8_t *hash, size_t hash_len, const void *data, size_t len,
-               const char *needle) {
+/* One chunk [offset, offset + len) of a blob of `total` bytes in transfer `transfer`; with
+ * a needle, 1 when refused with it, else 1 when accepted. */
+static int put_chunk(vf_farm_client *c, const uint8_t *hash, size_t hash_len, uint64_t transfer, uint64_t offset,
+                     uint64_t total, const void *data, size_t len, const char *needle) {
   Vcmfarm__BlobPut m = VCMFARM__BLOB_PUT__INIT;
   m.hash = (ProtobufCBinaryData){hash_len, (uint8_t *)hash};
   m.data = (ProtobufCBinaryData){len, (uint8_t *)data};
+  m.offset = offset;
+  m.total_size = total;
+  m.transfer_id = transfer;
   Vcmfarm__Envelope q = VCMFARM__ENVELOPE__INIT, *reply;
   q.body_case = VCMFARM__ENVELOPE__BODY_BLOB_PUT;
   q.blob_put = &m;
   if (needle) return refused(c, &q, VCMFARM__ERROR_CODE__ERROR_BAD_REQUEST, needle);
   if (vf_farm_request(c, &q, VCMFARM__ENVELOPE__BODY_RESULT_ACK, 10000, &reply) != VF_OK) return 0;
   int ok = reply->result_ack->accepted;
+  printf("     %s\n", reply->result_ack->message);
   vf_message_free(reply);
   return ok;
+}
+
+/* A whole blob in one chunk. */
+static int put(vf_farm_client *c, const uint8_t *hash, size_t hash_len, const void *data, size_t len,
+               const char *needle) {
+  return put_chunk(c, hash, hash_len, 1, 0, len, data, len, needle);
 }
 
 /* A JSON job (the coordinator does not parse the text) with one file entry. */
@@ -96,9 +109,10 @@ static int submit_refused(vf_farm_client *c, int builtin, const char *name, cons
   return refused(c, &q, VCMFARM__ERROR_CODE__ERROR_BAD_REQUEST, needle);
 }
 
-static Vcmfarm__Envelope *blob_request(vf_farm_client *c, uint64_t worker_id, const uint8_t *hash) {
+static Vcmfarm__Envelope *blob_request(vf_farm_client *c, uint64_t worker_id, const uint8_t *hash, uint64_t offset) {
   Vcmfarm__BlobRequest m = VCMFARM__BLOB_REQUEST__INIT;
   m.worker_id = worker_id;
+  m.offset = offset;
   m.hash = (ProtobufCBinaryData){32, (uint8_t *)hash};
   Vcmfarm__Envelope q = VCMFARM__ENVELOPE__INIT, *reply;
   q.body_case = VCMFARM__ENVELOPE__BODY_BLOB_REQUEST;
@@ -183,6 +197,7 @@ static int serve(const char *url, const vf_wire_key *key, const char *cache) {
       served++;
       blob.hash = q->blob_request->hash;
       blob.data = (ProtobufCBinaryData){sizeof lie, (uint8_t *)lie};
+      blob.total_size = sizeof lie;
       r.body_case = VCMFARM__ENVELOPE__BODY_BLOB;
       r.blob = &blob;
       break;
@@ -245,7 +260,22 @@ int main(int argc, char **argv) {
 
   expect(put(c, unknown, 32, mesh, sizeof mesh, "not to its name"), "a blob whose bytes do not match its hash is refused");
   expect(put(c, good, 31, mesh, sizeof mesh, "31 bytes"), "a blob with a 31-byte hash is refused");
-  expect(put(c, good, 32, mesh, sizeof mesh, NULL), "a good blob is stored");
+  /* Transfers in chunks (version 4). */
+  size_t half = sizeof mesh / 2;
+  expect(put_chunk(c, unknown, 32, 7, 0, sizeof mesh, mesh, half, NULL) &&
+             put_chunk(c, unknown, 32, 7, half, sizeof mesh, mesh + half, sizeof mesh - half, "not to its name"),
+         "chunks whose whole does not match the hash are refused with the last one");
+  expect(put_chunk(c, good, 32, 8, 0, sizeof mesh, mesh, half, NULL) &&
+             put_chunk(c, good, 32, 8, half + 1, sizeof mesh, mesh + half + 1, 3, "the transfer holds"),
+         "a chunk out of order is refused");
+  expect(put_chunk(c, good, 32, 9, 0, 10, mesh, 20, "pass its"), "a chunk past the blob's size is refused");
+  expect(put_chunk(c, good, 32, 9, 0, (uint64_t)5 << 30, mesh, 20, "at most"), "a blob above 4 GiB is refused");
+  uint8_t *huge = calloc(1, VF_BLOB_CHUNK_BYTES + 1);
+  expect(huge && put_chunk(c, good, 32, 9, 0, VF_BLOB_CHUNK_BYTES + 1, huge, VF_BLOB_CHUNK_BYTES + 1, "a chunk of"),
+         "a chunk above 16 MiB is refused");
+  free(huge);
+  expect(put_chunk(c, good, 32, 8, half, sizeof mesh, mesh + half, sizeof mesh - half, NULL),
+         "a good blob sent in two chunks is stored (its transfer went on after the refused chunk)");
 
   ProtobufCBinaryData asked[2] = {{32, good}, {32, unknown}};
   Vcmfarm__BlobQuery bq = VCMFARM__BLOB_QUERY__INIT;
@@ -270,7 +300,7 @@ int main(int argc, char **argv) {
   expect(submit_refused(c, 1, "m.ply", good, sizeof mesh, 0, "built-in scene has no files"),
          "a built-in scene with files is refused");
 
-  Vcmfarm__Envelope *b = blob_request(c, 12345, good);
+  Vcmfarm__Envelope *b = blob_request(c, 12345, good, 0);
   expect(b && b->body_case == VCMFARM__ENVELOPE__BODY_ERROR &&
              b->error->code == VCMFARM__ERROR_CODE__ERROR_UNKNOWN_WORKER,
          "an unknown worker gets no blob");
@@ -284,15 +314,24 @@ int main(int argc, char **argv) {
     worker_id = reply->registered->worker_id;
     vf_message_free(reply);
   }
-  b = blob_request(c, worker_id, unknown);
+  b = blob_request(c, worker_id, unknown, 0);
   expect(b && b->body_case == VCMFARM__ENVELOPE__BODY_ERROR && strstr(b->error->message, "has no blob"),
          "a blob nobody sent is answered with an error naming it");
   if (b && b->body_case == VCMFARM__ENVELOPE__BODY_ERROR) printf("     %s\n", b->error->message);
   vf_message_free(b);
-  b = blob_request(c, worker_id, good);
+  b = blob_request(c, worker_id, good, 0);
   expect(b && b->body_case == VCMFARM__ENVELOPE__BODY_BLOB && b->blob->data.len == sizeof mesh &&
-             memcmp(b->blob->data.data, mesh, sizeof mesh) == 0,
+             b->blob->total_size == sizeof mesh && memcmp(b->blob->data.data, mesh, sizeof mesh) == 0,
          "the stored blob is served back intact");
+  vf_message_free(b);
+  b = blob_request(c, worker_id, good, 5);
+  expect(b && b->body_case == VCMFARM__ENVELOPE__BODY_BLOB && b->blob->offset == 5 &&
+             b->blob->data.len == sizeof mesh - 5 && memcmp(b->blob->data.data, mesh + 5, sizeof mesh - 5) == 0,
+         "a chunk from an offset is served");
+  vf_message_free(b);
+  b = blob_request(c, worker_id, good, sizeof mesh + 1);
+  expect(b && b->body_case == VCMFARM__ENVELOPE__BODY_ERROR && strstr(b->error->message, "past"),
+         "a chunk past the end is refused");
   vf_message_free(b);
 
   Vcmfarm__StatusRequest sr = VCMFARM__STATUS_REQUEST__INIT;

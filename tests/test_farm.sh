@@ -8,8 +8,8 @@
 #   test_farm.sh CASE VCMFARM FARM_COMPARE FARM_PEER [FARM_BLOB_PEER]
 #
 # CASE: three_workers, worker_killed, worker_killed_after_parts, worker_terminated, coordinator_killed,
-# hostile_peers, late_duplicate, priorities, stop_conditions; mesh_scene and bad_blobs (scenes with
-# files, FARM_BLOB_PEER).
+# hostile_peers, late_duplicate, priorities, stop_conditions; mesh_scene, big_file and bad_blobs (scenes
+# with files, FARM_BLOB_PEER).
 # No fixed sleeps synchronise anything: the script polls `vcmfarm status` (or a file) with
 # a deadline, and every process it starts is killed on exit. KEEP_TMP=1 keeps the logs.
 set -u
@@ -183,21 +183,40 @@ mesh_scene)
   [ "$(served)" = 10 ] || fail "the coordinator served $(served) blobs over three jobs, expected 10"
   echo "blobs served: $(served) for three jobs; fetched by w1: $(fetched w1), w2: $(fetched w2), w3: $(fetched w3)"
   ;;
+big_file)
+  # A mesh file of 40 MiB travels in three chunks (16 MiB each) to the coordinator and from
+  # it to the worker, and the film equals a direct render that reads the file itself.
+  make_project
+  { cat "$tmp/project/meshes/quad.obj"
+    yes "# padding: a comment line the OBJ reader skips, to make the file big enough" | head -c 40M
+  } >"$tmp/project/meshes/big.obj"
+  sed -i 's#../meshes/quad.obj#../meshes/big.obj#' "$scene"
+  start_coordinator
+  start_worker w1 --cache "$tmp/cache-w1"
+  submit_scene 6 5
+  grep -q "sent 5 ([0-9]* bytes)" "$tmp/submit.err" || fail "submit did not send the 5 files"
+  wait_until 120 "job $job done" job_done
+  check_scene_film
+  size=$(stat -c %s "$tmp/project/meshes/big.obj")
+  grep -q "stored blob [0-9a-f]* ($size bytes)" "$tmp/coordinator.log" || fail "the coordinator did not store the big file whole"
+  grep -q "fetched blob [0-9a-f]* (file '../meshes/big.obj', $size bytes)" "$tmp/w1.log" ||
+    fail "the worker did not fetch the big file whole"
+  ;;
 bad_blobs)
   make_project
   start_coordinator
   "$blob_peer" "$url" "$key" || fail "a hostile blob peer was not refused as expected"
   exited "$coordinator" && fail "the coordinator died"
-  # A file too big for one message is refused before anything is sent.
+  # A file above the 4 GiB limit is refused before anything is sent (sparse: no disk used).
   cp "$scene" "$tmp/project/scenes/big.json"
   sed -i 's#../meshes/tri.ply#../meshes/big.ply#' "$tmp/project/scenes/big.json"
-  truncate -s 130M "$tmp/project/meshes/big.ply"
+  truncate -s 4097M "$tmp/project/meshes/big.ply"
   stored_before=$(grep -c "stored blob" "$tmp/coordinator.log")
   client submit "$tmp/project/scenes/big.json" -n 4 >"$tmp/big.out" 2>&1
   status=$?
   cat "$tmp/big.out"
-  [ "$status" = 2 ] || fail "submitting a scene with a 130 MiB file exited with $status, expected 2"
-  grep -q "big.ply' is 130.0 MiB; a file sent to a farm travels in one message of at most 63 MiB" "$tmp/big.out" ||
+  [ "$status" = 2 ] || fail "submitting a scene with a 4097 MiB file exited with $status, expected 2"
+  grep -q "big.ply' is 4097.0 MiB; a file sent to a farm can be at most 4096 MiB" "$tmp/big.out" ||
     fail "the oversized file was not named"
   [ "$(grep -c "stored blob" "$tmp/coordinator.log")" = "$stored_before" ] ||
     fail "files of the refused scene reached the coordinator"

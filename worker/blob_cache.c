@@ -13,7 +13,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
-/* Generous: a blob of the full 63 MiB over a slow link. */
+/* Generous: a chunk of 16 MiB over a slow link. */
 #define BLOB_TIMEOUT_MS 120000
 
 int vf_blob_cache_default_dir(char *out, size_t n) {
@@ -42,30 +42,47 @@ int vf_blob_cache_open(const char *cache_dir) {
   }
   if (access(path, W_OK | X_OK) != 0)
     return vf_error_set(VF_EIO, "cache %s: cannot write %s: %s", cache_dir, path, strerror(errno));
+  /* Transfers cut short: untouched for a day (other workers may share the cache). */
+  vf_blob_store_clean_parts(cache_dir, 86400.0);
   return VF_OK;
 }
 
+/* Fetches a blob chunk by chunk into a part of the cache that becomes the blob once
+ * complete and checked (vf_blob_store_append). */
 static int fetch(vf_farm_client *client, uint64_t worker_id, const char *cache_dir, const vf_blob_ref *ref) {
   char hex[65];
   vf_blob_hex(ref->hash, hex);
-  Vcmfarm__BlobRequest m = VCMFARM__BLOB_REQUEST__INIT;
-  m.worker_id = worker_id;
-  m.hash.data = (uint8_t *)ref->hash;
-  m.hash.len = 32;
-  Vcmfarm__Envelope q = VCMFARM__ENVELOPE__INIT, *reply = NULL;
-  q.body_case = VCMFARM__ENVELOPE__BODY_BLOB_REQUEST;
-  q.blob_request = &m;
-  int err = vf_farm_request(client, &q, VCMFARM__ENVELOPE__BODY_BLOB, BLOB_TIMEOUT_MS, &reply);
-  if (err != VF_OK) return vf_error_set(err, "file '%s': %s", ref->name, vf_error_detail(err));
-  const Vcmfarm__Blob *b = reply->blob;
-  if (b->hash.len != 32 || sodium_memcmp(b->hash.data, ref->hash, 32) != 0)
-    err = vf_error_set(VF_EMISMATCH, "file '%s': asked for blob %.16s..., got another", ref->name, hex);
-  else if (b->data.len != ref->size)
-    err = vf_error_set(VF_EMISMATCH, "file '%s' (blob %.16s...): %zu bytes arrived, the job says %llu", ref->name, hex,
-                       b->data.len, (unsigned long long)ref->size);
-  else if ((err = vf_blob_store_put(cache_dir, ref->hash, b->data.data, b->data.len)) != VF_OK)
-    err = vf_error_set(err, "file '%s': %s", ref->name, vf_error_detail(err));
-  vf_message_free(reply);
+  uint64_t transfer;
+  randombytes_buf(&transfer, sizeof transfer);
+  uint64_t offset = 0;
+  int err = VF_OK, complete = 0;
+  while (err == VF_OK && !complete) {
+    Vcmfarm__BlobRequest m = VCMFARM__BLOB_REQUEST__INIT;
+    m.worker_id = worker_id;
+    m.hash.data = (uint8_t *)ref->hash;
+    m.hash.len = 32;
+    m.offset = offset;
+    Vcmfarm__Envelope q = VCMFARM__ENVELOPE__INIT, *reply = NULL;
+    q.body_case = VCMFARM__ENVELOPE__BODY_BLOB_REQUEST;
+    q.blob_request = &m;
+    if ((err = vf_farm_request(client, &q, VCMFARM__ENVELOPE__BODY_BLOB, BLOB_TIMEOUT_MS, &reply)) != VF_OK)
+      return vf_error_set(err, "file '%s': %s", ref->name, vf_error_detail(err));
+    const Vcmfarm__Blob *b = reply->blob;
+    if (b->hash.len != 32 || sodium_memcmp(b->hash.data, ref->hash, 32) != 0)
+      err = vf_error_set(VF_EMISMATCH, "file '%s': asked for blob %.16s..., got another", ref->name, hex);
+    else if (b->total_size != ref->size)
+      err = vf_error_set(VF_EMISMATCH, "file '%s' (blob %.16s...): the coordinator's has %llu bytes, the job says %llu",
+                         ref->name, hex, (unsigned long long)b->total_size, (unsigned long long)ref->size);
+    else if (b->offset != offset || b->data.len > VF_BLOB_CHUNK_BYTES || (b->data.len == 0 && offset < ref->size))
+      err = vf_error_set(VF_EPROTO, "file '%s' (blob %.16s...): asked for the chunk at %llu, got %zu bytes at %llu",
+                         ref->name, hex, (unsigned long long)offset, b->data.len, (unsigned long long)b->offset);
+    else if ((err = vf_blob_store_append(cache_dir, ref->hash, transfer, offset, ref->size, b->data.data, b->data.len,
+                                         &complete)) != VF_OK)
+      err = vf_error_set(err, "file '%s': %s", ref->name, vf_error_detail(err));
+    else
+      offset += b->data.len;
+    vf_message_free(reply);
+  }
   return err;
 }
 
@@ -75,12 +92,10 @@ int vf_blob_cache_fill(vf_farm_client *client, uint64_t worker_id, const char *c
   for (size_t i = 0; i < files->count; i++) {
     const vf_blob_ref *ref = &files->refs[i];
     char hex[65];
-    uint8_t *bytes;
-    size_t len;
+    uint64_t len;
     vf_blob_hex(ref->hash, hex);
-    int err = vf_blob_store_get(cache_dir, ref->hash, &bytes, &len);
+    int err = vf_blob_store_check(cache_dir, ref->hash, &len);
     if (err == VF_OK) {
-      free(bytes);
       if (len == ref->size) continue;
       err = vf_error_set(VF_EMISMATCH, "size differs from the job's");
     }

@@ -40,9 +40,8 @@ static int stage_file(const char *stage_dir, const char *name, const char *path,
   if (stat(path, &st) != 0) return vf_error_set(VF_ENOENT, "%s: vanished while submitting", path);
   if ((uint64_t)st.st_size > VF_BLOB_MAX_BYTES)
     return vf_error_set(VF_EINVAL,
-                        "file '%s' is %.1f MiB; a file sent to a farm travels in one message and can be at most "
-                        "%zu MiB",
-                        name, (double)st.st_size / 1048576.0, (size_t)VF_BLOB_MAX_BYTES >> 20);
+                        "file '%s' is %.1f MiB; a file sent to a farm can be at most %llu MiB", name,
+                        (double)st.st_size / 1048576.0, (unsigned long long)(VF_BLOB_MAX_BYTES >> 20));
   int err = vf_file_read_all(path, VF_BLOB_MAX_BYTES, &bytes, &len);
   if (err != VF_OK) return err;
   vf_blob_hash(bytes, len, hash);

@@ -1,0 +1,217 @@
+/* The users' requests to the farm (coordinator/jobs.h). */
+#include "jobs.h"
+
+#include "../common/error.h"
+#include "../common/film_wire.h"
+#include "../common/wire.h"
+#include "blobs.h"
+#include "log.h"
+#include "state.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+static int add_job(vf_farm *farm, vf_job *job) {
+  if (farm->num_jobs == farm->jobs_capacity) {
+    size_t cap = farm->jobs_capacity ? 2 * farm->jobs_capacity : 8;
+    vf_job **grown = realloc(farm->jobs, cap * sizeof *grown);
+    if (grown == NULL) return vf_error_set(VF_ENOMEM, "out of memory for jobs");
+    farm->jobs = grown;
+    farm->jobs_capacity = cap;
+  }
+  farm->jobs[farm->num_jobs++] = job;
+  return VF_OK;
+}
+
+void vf_farm_submit(vf_farm *farm, const Vcmfarm__SubmitJob *m, vf_farm_reply *r) {
+  if (m->scene == NULL || m->scene->source_case == VCMFARM__SCENE__SOURCE__NOT_SET)
+    return vf_farm_reply_error(r, VCMFARM__ERROR_CODE__ERROR_BAD_REQUEST, "submit without a scene");
+  int builtin = m->scene->source_case == VCMFARM__SCENE__SOURCE_BUILTIN;
+  const char *text = builtin ? m->scene->builtin : m->scene->json;
+  vf_job *job;
+  int err = vf_job_create(farm->next_job_id, m->name, m->priority, builtin, text, strlen(text), m->scene_hash.data,
+                          m->scene_hash.len, m->settings, m->first_iteration, m->iterations, &job);
+  if (err == VF_OK && ((err = vf_job_set_scene_path(job, m->scene_path)) != VF_OK ||
+                       (err = vf_farm_blobs_attach(farm, job, m->scene)) != VF_OK))
+    vf_job_destroy(job);
+  if (err != VF_OK) return vf_farm_reply_error(r, VCMFARM__ERROR_CODE__ERROR_BAD_REQUEST, vf_error_detail(err));
+  /* The reference is checked by reading it back from where it is kept. */
+  if (m->reference_exr.len > 0 &&
+      (err = vf_state_save_reference(farm->config.state_dir, job, m->reference_exr.data, m->reference_exr.len)) !=
+          VF_OK) {
+    vf_job_destroy(job);
+    return vf_farm_reply_error(r, err == VF_EIO ? VCMFARM__ERROR_CODE__ERROR_INTERNAL : VCMFARM__ERROR_CODE__ERROR_BAD_REQUEST,
+                               vf_error_detail(err));
+  }
+  if ((err = vf_job_set_stop(job, m->time_limit, m->target_rmse, m->target_error)) != VF_OK) {
+    vf_state_remove_job_files(farm->config.state_dir, job->id);
+    vf_job_destroy(job);
+    return vf_farm_reply_error(r, VCMFARM__ERROR_CODE__ERROR_BAD_REQUEST, vf_error_detail(err));
+  }
+  /* Durable before acknowledged: scene text first, then the job list naming it. */
+  if ((err = vf_state_save_scene(farm->config.state_dir, job)) != VF_OK || (err = add_job(farm, job)) != VF_OK) {
+    vf_state_remove_job_files(farm->config.state_dir, job->id);
+    vf_job_destroy(job);
+    return vf_farm_reply_error(r, VCMFARM__ERROR_CODE__ERROR_INTERNAL, vf_error_detail(err));
+  }
+  if ((err = vf_state_save_index(farm)) != VF_OK) {
+    farm->num_jobs--;
+    vf_job_destroy(job);
+    return vf_farm_reply_error(r, VCMFARM__ERROR_CODE__ERROR_INTERNAL, vf_error_detail(err));
+  }
+  farm->next_job_id++;
+  vf_log("job %llu '%s' submitted: %s %s, at most %llu iterations from %llu, time limit %g s, target RMSE %g%s, target "
+         "error %g, priority %d", (unsigned long long)job->id, job->name, builtin ? "built-in" : "JSON scene",
+         builtin ? job->scene_text : "", (unsigned long long)job->iterations, (unsigned long long)job->first,
+         job->time_limit, job->target_rmse,
+         job->reference.rgb ? " (with a reference)" : "", job->target_error, job->priority);
+  vcmfarm__submitted__init(&r->submitted);
+  r->submitted.job_id = job->id;
+  r->env.body_case = VCMFARM__ENVELOPE__BODY_SUBMITTED;
+  r->env.submitted = &r->submitted;
+}
+
+/* The status of one job carries its convergence log (the last entries of a long one). */
+#define STATUS_LOG_ENTRIES 1000
+static void attach_log(vf_farm_reply *r, Vcmfarm__JobStatus *s, const vf_convergence_log *log) {
+  size_t n = log->count < STATUS_LOG_ENTRIES ? log->count : STATUS_LOG_ENTRIES, first = log->count - n;
+  if (n == 0 || (r->log = calloc(n, sizeof *r->log)) == NULL || (r->log_ptrs = calloc(n, sizeof *r->log_ptrs)) == NULL)
+    return;
+  for (size_t i = 0; i < n; i++) {
+    const vf_convergence_entry *e = &log->entries[first + i];
+    Vcmfarm__ConvergenceEntry *c = &r->log[i];
+    vcmfarm__convergence_entry__init(c);
+    c->run = e->run;
+    c->wall_seconds = e->wall_seconds;
+    c->cpu_seconds = e->cpu_seconds;
+    c->iterations = e->iterations;
+    c->rmse = e->rmse;
+    c->rel_mse = e->rel_mse;
+    c->estimated_rmse = e->estimated_rmse;
+    r->log_ptrs[i] = c;
+  }
+  s->n_convergence = n;
+  s->convergence = r->log_ptrs;
+}
+
+/* The window over which rates are measured: several leases long. */
+static double rate_window(const vf_farm *farm) {
+  double w = 3.0 * farm->config.lease_seconds;
+  return w < 30.0 ? 30.0 : w;
+}
+
+void vf_farm_status(vf_farm *farm, const Vcmfarm__StatusRequest *m, double now, vf_farm_reply *r) {
+  size_t nj = 0;
+  for (size_t i = 0; i < farm->num_jobs; i++) nj += m->job_id == 0 || farm->jobs[i]->id == m->job_id;
+  if (m->job_id != 0 && nj == 0)
+    return vf_farm_reply_errorf(r, VCMFARM__ERROR_CODE__ERROR_UNKNOWN_JOB, "no job %llu", (unsigned long long)m->job_id);
+  size_t nw = farm->num_workers;
+  r->job_status = calloc(nj ? nj : 1, sizeof *r->job_status);
+  r->job_status_ptrs = calloc(nj ? nj : 1, sizeof *r->job_status_ptrs);
+  r->worker_status = calloc(nw ? nw : 1, sizeof *r->worker_status);
+  r->worker_status_ptrs = calloc(nw ? nw : 1, sizeof *r->worker_status_ptrs);
+  if (!r->job_status || !r->job_status_ptrs || !r->worker_status || !r->worker_status_ptrs)
+    return vf_farm_reply_error(r, VCMFARM__ERROR_CODE__ERROR_INTERNAL, "out of memory");
+  vcmfarm__status__init(&r->status);
+  for (size_t i = 0; i < farm->num_jobs; i++)
+    r->status.iterations_per_second += vf_job_farm_rate(farm->jobs[i], now, rate_window(farm));
+  for (size_t i = 0; i < nw; i++) r->status.workers_busy += vf_lease_find(&farm->leases, farm->workers[i].lease_id) != NULL;
+  size_t k = 0;
+  for (size_t i = 0; i < farm->num_jobs; i++) {
+    vf_job *j = farm->jobs[i];
+    if (m->job_id != 0 && j->id != m->job_id) continue;
+    Vcmfarm__JobStatus *s = &r->job_status[k];
+    vcmfarm__job_status__init(s);
+    uint64_t leased = vf_lease_active_iterations(&farm->leases, j->id);
+    s->job_id = j->id;
+    s->name = j->name;
+    s->state = (char *)vf_job_state(j, leased);
+    s->priority = j->priority;
+    s->first_iteration = j->first;
+    s->iterations_total = j->iterations;
+    s->iterations_done = vf_job_done(j);
+    s->iterations_leased = leased;
+    s->settings = j->settings_text;
+    s->message = j->message;
+    s->results_refused = j->results_refused;
+    if (vf_job_runnable(j) && j->measured_iterations != vf_job_done(j)) vf_job_measure(j);
+    double rate = vf_job_runnable(j) ? vf_job_farm_rate(j, now, rate_window(farm)) : 0.0;
+    s->iterations_per_second = rate;
+    s->seconds = j->seconds;
+    s->eta_seconds = vf_job_eta(j, rate);
+    s->time_limit = j->time_limit;
+    s->target_rmse = j->target_rmse;
+    s->target_error = j->target_error;
+    s->has_reference = j->reference.rgb != NULL;
+    s->rmse = j->measured_iterations != UINT64_MAX ? j->measured.rmse : NAN;
+    s->estimated_rmse = j->measured_iterations != UINT64_MAX ? j->measured.estimated_rmse : NAN;
+    s->stop_reason = j->end == VF_JOB_STOPPED ? j->message : "";
+    if (j->end == VF_JOB_STOPPED) s->message = "";
+    for (size_t w = 0; w < nw; w++) {
+      vf_lease *l = vf_lease_find(&farm->leases, farm->workers[w].lease_id);
+      s->workers += l != NULL && l->job_id == j->id;
+    }
+    if (m->job_id != 0) attach_log(r, s, &j->film->convergence);
+    r->job_status_ptrs[k++] = s;
+  }
+  for (size_t i = 0; i < nw; i++) {
+    vf_farm_worker *w = &farm->workers[i];
+    Vcmfarm__WorkerStatus *s = &r->worker_status[i];
+    vcmfarm__worker_status__init(s);
+    s->worker_id = w->id;
+    s->name = w->name;
+    s->threads = w->threads;
+    vf_lease *l = vf_lease_find(&farm->leases, w->lease_id);
+    if (l) {
+      s->lease_job = l->job_id;
+      s->lease_begin = l->begin;
+      s->lease_end = l->end;
+    }
+    s->iterations_per_second = w->rate;
+    s->last_seen_seconds = now - w->last_seen;
+    r->worker_status_ptrs[i] = s;
+  }
+  r->status.n_jobs = k;
+  r->status.jobs = r->job_status_ptrs;
+  r->status.n_workers = nw;
+  r->status.workers = r->worker_status_ptrs;
+  r->env.body_case = VCMFARM__ENVELOPE__BODY_STATUS;
+  r->env.status = &r->status;
+}
+
+void vf_farm_fetch(vf_farm *farm, const Vcmfarm__FetchRequest *m, vf_farm_reply *r) {
+  vf_job *job = vf_farm_job(farm, m->job_id);
+  if (job == NULL)
+    return vf_farm_reply_errorf(r, VCMFARM__ERROR_CODE__ERROR_UNKNOWN_JOB, "no job %llu", (unsigned long long)m->job_id);
+  /* The film as fetched carries its latest measurement in its log. */
+  int err = vf_job_log(job);
+  if (err != VF_OK) return vf_farm_reply_error(r, VCMFARM__ERROR_CODE__ERROR_INTERNAL, vf_error_detail(err));
+  size_t len;
+  err = vf_film_to_bytes(job->film, VF_WIRE_MAX_PAYLOAD - 64, &r->film_bytes, &len);
+  if (err != VF_OK) return vf_farm_reply_error(r, VCMFARM__ERROR_CODE__ERROR_INTERNAL, vf_error_detail(err));
+  vcmfarm__film__init(&r->film);
+  r->film.film_exr.data = r->film_bytes;
+  r->film.film_exr.len = len;
+  r->env.body_case = VCMFARM__ENVELOPE__BODY_FILM;
+  r->env.film = &r->film;
+}
+
+void vf_farm_cancel(vf_farm *farm, const Vcmfarm__CancelRequest *m, double now, vf_farm_reply *r) {
+  vf_job *job = vf_farm_job(farm, m->job_id);
+  if (job == NULL)
+    return vf_farm_reply_errorf(r, VCMFARM__ERROR_CODE__ERROR_UNKNOWN_JOB, "no job %llu", (unsigned long long)m->job_id);
+  if (!vf_job_runnable(job)) {
+    snprintf(r->text, sizeof r->text, "job %llu is %s already", (unsigned long long)job->id, vf_job_state(job, 0));
+    return vf_farm_reply_ack(r, 0, r->text);
+  }
+  job->end = VF_JOB_CANCELLED;
+  vf_farm_end_job_leases(farm, job->id, now);
+  farm->state_dirty = 1;
+  int err = vf_state_save_index(farm);
+  vf_log("job %llu cancelled", (unsigned long long)job->id);
+  if (err != VF_OK) return vf_farm_reply_error(r, VCMFARM__ERROR_CODE__ERROR_INTERNAL, vf_error_detail(err));
+  vf_farm_reply_ack(r, 1, "cancelled");
+}
+
