@@ -18,13 +18,14 @@
 #include <uv.h>
 
 #define TICK_MS 200
+#define STOP_CHECK_MS 10
 #define MESSAGES_PER_WAKEUP 32
 #define REPLY_GIVE_UP_SECONDS 30.0
 
 typedef struct {
   uv_loop_t loop;
   uv_poll_t recv_poll, send_poll;
-  uv_timer_t tick;
+  uv_timer_t tick, stop_check;
   uv_signal_t sigint, sigterm;
   int socket;
   vf_wire_key key;
@@ -121,13 +122,15 @@ static void on_readable(uv_poll_t *handle, int status, int events) {
   }
 }
 
+static void on_stop_check(uv_timer_t *timer) {
+  coordinator *c = timer->data;
+  if (!*c->stop) return;
+  vf_log("asked to stop: checkpointing and stopping");
+  uv_stop(&c->loop);
+}
+
 static void on_tick(uv_timer_t *timer) {
   coordinator *c = timer->data;
-  if (c->stop && *c->stop) {
-    vf_log("asked to stop: checkpointing and stopping");
-    uv_stop(&c->loop);
-    return;
-  }
   double now = vf_seconds_now();
   vf_farm_expire(&c->farm, now);
   vf_farm_tick(&c->farm, now);
@@ -197,11 +200,13 @@ int vf_coordinator_run(const vf_coordinator_config *config) {
   uv_poll_init(&c->loop, &c->recv_poll, recv_fd);
   uv_poll_init(&c->loop, &c->send_poll, send_fd);
   uv_timer_init(&c->loop, &c->tick);
+  uv_timer_init(&c->loop, &c->stop_check);
   uv_signal_init(&c->loop, &c->sigint);
   uv_signal_init(&c->loop, &c->sigterm);
-  c->recv_poll.data = c->send_poll.data = c->tick.data = c->sigint.data = c->sigterm.data = c;
+  c->recv_poll.data = c->send_poll.data = c->tick.data = c->stop_check.data = c->sigint.data = c->sigterm.data = c;
   uv_poll_start(&c->recv_poll, UV_READABLE, on_readable);
   uv_timer_start(&c->tick, on_tick, TICK_MS, TICK_MS);
+  if (c->stop) uv_timer_start(&c->stop_check, on_stop_check, STOP_CHECK_MS, STOP_CHECK_MS);
   if (config->handle_signals) {
     uv_signal_start(&c->sigint, on_signal, SIGINT);
     uv_signal_start(&c->sigterm, on_signal, SIGTERM);
@@ -217,6 +222,7 @@ int vf_coordinator_run(const vf_coordinator_config *config) {
   uv_poll_stop(&c->recv_poll);
   uv_poll_stop(&c->send_poll);
   uv_timer_stop(&c->tick);
+  uv_timer_stop(&c->stop_check);
   while (vf_farm_writes_pending(&c->farm) > 0) uv_run(&c->loop, UV_RUN_ONCE);
   c->farm.write_film = NULL;
   if ((err = vf_farm_checkpoint(&c->farm, 1)) == VF_OK) vf_log("checkpoint written; bye");

@@ -26,7 +26,7 @@ typedef struct {
   double lease_seconds;        /* target lease duration; default 20 */
   double checkpoint_interval;  /* seconds between film checkpoints; default 10 */
   /* How it is stopped: SIGINT and SIGTERM when handle_signals, and always when *stop
-   * (if not NULL; any thread may set it) becomes non-zero, seen within 200 ms. */
+   * (if not NULL; any thread may set it) becomes non-zero, seen within 10 ms. */
   int handle_signals;
   volatile sig_atomic_t *stop;
   int quiet;                   /* no log lines (coordinator/log.h) */

@@ -96,6 +96,34 @@ static void on_interrupt(int sig) {
   interrupted = 1;
 }
 
+static int write_preview(const vf_film *film, const render_options *o) {
+  if (o->preview == NULL) return VF_OK;
+  vf_image img;
+  int err = vf_image_alloc(&img, film->width, film->height);
+  if (err != VF_OK) return err;
+  vf_film_mean(film, img.rgb);
+  err = vf_image_write_png(o->preview, &img, (float)o->exposure);
+  vf_image_destroy(&img);
+  return err;
+}
+
+/* The summary's first lines: the film's iterations, rates, and the renderer's statistics
+ * over the `rendered` iterations they were gathered on. */
+static void print_summary(const vf_film *film, double seconds, const vf_vcm_stats *stats, uint64_t rendered) {
+  char set[256];
+  if (vf_iterset_format(&film->iterations, set, sizeof set) != VF_OK) snprintf(set, sizeof set, "(long)");
+  uint64_t n = vf_iterset_count(&film->iterations);
+  double per = rendered ? 1000.0 / (double)rendered : 0.0;
+  fprintf(stderr,
+          "rendered %llu iteration(s) %s in %.2f s: %.3f it/s, %.2f Mrays/s, %llu light vertices/it\n"
+          "per iteration: light sub-paths %.1f ms, grid %.1f ms, camera sub-paths %.1f ms; "
+          "%llu non-finite sample(s)%s\n",
+          (unsigned long long)n, set, seconds, (double)n / seconds, (double)stats->rays / seconds * 1e-6,
+          (unsigned long long)(rendered ? stats->light_vertices / rendered : 0), stats->light_seconds * per,
+          stats->grid_seconds * per, stats->camera_seconds * per, (unsigned long long)stats->nonfinite,
+          interrupted ? " (interrupted)" : "");
+}
+
 /* --direct: the render loop on this thread, no farm. */
 static int render_direct(const render_options *o) {
   int err;
@@ -151,27 +179,9 @@ static int render_direct(const render_options *o) {
     goto done;
   }
   /* The final checkpoint wrote the film. */
-  if (o->preview) {
-    vf_image img;
-    if ((err = vf_image_alloc(&img, film->width, film->height)) != VF_OK) goto done;
-    vf_film_mean(film, img.rgb);
-    err = vf_image_write_png(o->preview, &img, (float)o->exposure);
-    vf_image_destroy(&img);
-    if (err != VF_OK) goto done;
-  }
+  if ((err = write_preview(film, o)) != VF_OK) goto done;
   if (!o->quiet) {
-    char set[256];
-    if (vf_iterset_format(&film->iterations, set, sizeof set) != VF_OK) snprintf(set, sizeof set, "(long)");
-    double rate = (double)st.iterations_done / st.seconds;
-    double per = 1000.0 / (double)st.iterations_done;
-    fprintf(stderr,
-            "rendered %llu iteration(s) %s in %.2f s: %.3f it/s, %.2f Mrays/s, %llu light vertices/it\n"
-            "per iteration: light sub-paths %.1f ms, grid %.1f ms, camera sub-paths %.1f ms; "
-            "%llu non-finite sample(s)%s\n",
-            (unsigned long long)st.iterations_done, set, st.seconds, rate, (double)st.stats.rays / st.seconds * 1e-6,
-            (unsigned long long)(st.stats.light_vertices / st.iterations_done), st.stats.light_seconds * per,
-            st.stats.grid_seconds * per, st.stats.camera_seconds * per,
-            (unsigned long long)st.stats.nonfinite, interrupted ? " (interrupted)" : "");
+    print_summary(film, st.seconds, &st.stats, st.iterations_done);
     fprintf(stderr, "estimated RMSE %.4g", cp.last.estimated_rmse);
     if (o->reference) fprintf(stderr, ", RMSE %.4g against %s", cp.last.rmse, o->reference);
     fprintf(stderr, "%s\nwrote %s%s%s\n", cp.target_reached ? " (target reached)" : "", o->output,
@@ -398,9 +408,11 @@ static int render_farm(const render_options *o) {
     fprintf(stderr, "vcmfarm render: %s, %s\nthrough an in-process coordinator and worker (--direct: without)\n",
             submitted.scene_source, submitted.settings_text);
   start = last_checkpoint = vf_seconds_now();
+  int poll_ms = 10; /* short jobs end early: polls at 10, 20, 40... ms, then every POLL_MS */
   while (!finished) {
     double left = o->time_limit > 0.0 ? o->time_limit - (vf_seconds_now() - start) : 1.0;
-    sleep_ms(left * 1000.0 < POLL_MS ? (left > 0.0 ? (int)(left * 1000.0) + 1 : 0) : POLL_MS);
+    sleep_ms(left * 1000.0 < poll_ms ? (left > 0.0 ? (int)(left * 1000.0) + 1 : 0) : poll_ms);
+    poll_ms = 2 * poll_ms < POLL_MS ? 2 * poll_ms : POLL_MS;
     double now = vf_seconds_now();
     if (interrupted || (o->time_limit > 0.0 && now - start >= o->time_limit)) break;
     if (wt.ended || ct.ended) break; /* a thread gave up: its error is reported below */
@@ -433,28 +445,11 @@ static int render_farm(const render_options *o) {
     goto stop;
   }
   if ((err = checkpoint(client, job_id, o->output, &film)) != VF_OK) goto stop;
-  if (o->preview) {
-    vf_image img;
-    if ((err = vf_image_alloc(&img, film->width, film->height)) != VF_OK) goto stop;
-    vf_film_mean(film, img.rgb);
-    err = vf_image_write_png(o->preview, &img, (float)o->exposure);
-    vf_image_destroy(&img);
-    if (err != VF_OK) goto stop;
-  }
+  if ((err = write_preview(film, o)) != VF_OK) goto stop;
   if (!o->quiet) {
     const vf_worker_totals *t = &wt.totals;
-    char set[256];
-    if (vf_iterset_format(&film->iterations, set, sizeof set) != VF_OK) snprintf(set, sizeof set, "(long)");
     uint64_t n = vf_iterset_count(&film->iterations);
-    double per = t->iterations ? 1000.0 / (double)t->iterations : 0.0;
-    fprintf(stderr,
-            "rendered %llu iteration(s) %s in %.2f s: %.3f it/s, %.2f Mrays/s, %llu light vertices/it\n"
-            "per iteration: light sub-paths %.1f ms, grid %.1f ms, camera sub-paths %.1f ms; "
-            "%llu non-finite sample(s)%s\n",
-            (unsigned long long)n, set, seconds, (double)n / seconds, (double)t->stats.rays / seconds * 1e-6,
-            (unsigned long long)(t->iterations ? t->stats.light_vertices / t->iterations : 0),
-            t->stats.light_seconds * per, t->stats.grid_seconds * per, t->stats.camera_seconds * per,
-            (unsigned long long)film->nonfinite_samples, interrupted ? " (interrupted)" : "");
+    print_summary(film, seconds, &t->stats, t->iterations);
     if (t->iterations > n)
       fprintf(stderr, "the worker rendered %llu iteration(s) past the stop, not counted\n",
               (unsigned long long)(t->iterations - n));

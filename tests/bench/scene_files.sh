@@ -2,7 +2,8 @@
 # Scene files by content hash (docs/BENCHMARKS.md, "Scene files by content hash"): one
 # coordinator and one worker over ipc://, a JSON scene naming a binary PLY of the knot's
 # size (115,200 triangles), then a second scene naming it and a 4096 x 2048 EXR
-# environment map, then the first scene again as another job. Prints submit's wall time
+# environment map, then the first scene again as another job, then a scene naming a
+# 256 MiB OBJ (sent and fetched in 16 chunks). Prints submit's wall time
 # and peak memory, and the worker's fetch time of each file (from its log).
 #
 #   bash tests/bench/scene_files.sh BUILD_DIR
@@ -48,12 +49,19 @@ EOF
 # A 4096 x 2048 map: one path-traced iteration of cornell-env, baked to RGB.
 "$vcmfarm" render cornell-env --direct -a pt -n 1 -R 4096x2048 -q -o "$tmp/map-film.exr" || exit 1
 "$vcmfarm" bake "$tmp/map-film.exr" -o "$tmp/sky.exr" >/dev/null || exit 1
+# A 256 MiB OBJ: one quad and comment lines, to time a file of 16 chunks (16 MiB each).
+{ printf 'v -1 -1 0\nv 1 -1 0\nv 1 1 0\nv -1 1 0\nf 1 2 3 4\n'
+  yes "# padding: a comment line the OBJ reader skips, to make the file big" | head -c 256M
+} >"$tmp/big.obj"
 camera='"camera": {"position": [0, -4, 1.5], "target": [0, 0, 0], "up": [0, 0, 1], "fov": 45, "resolution": [64, 64]}'
 shapes='"shapes": [{"type": "mesh", "file": "knot.ply", "material": "grey"}]'
 echo "{$camera, \"materials\": {\"grey\": {\"diffuse\": [0.6, 0.6, 0.6]}}, $shapes,
   \"lights\": [{\"type\": \"background\", \"radiance\": [1, 1, 1]}]}" >"$tmp/knot.json"
 echo "{$camera, \"materials\": {\"grey\": {\"diffuse\": [0.6, 0.6, 0.6]}}, $shapes,
   \"lights\": [{\"type\": \"environment\", \"file\": \"sky.exr\"}]}" >"$tmp/knot-map.json"
+echo "{$camera, \"materials\": {\"grey\": {\"diffuse\": [0.6, 0.6, 0.6]}},
+  \"shapes\": [{\"type\": \"mesh\", \"file\": \"big.obj\", \"material\": \"grey\"}],
+  \"lights\": [{\"type\": \"background\", \"radiance\": [1, 1, 1]}]}" >"$tmp/big.json"
 
 "$vcmfarm" coordinator --listen "$url" --state "$tmp/state" --secret "$tmp/key" >"$tmp/coordinator.log" 2>&1 &
 pids+=($!)
@@ -63,7 +71,7 @@ pids+=($!)
 
 echo "| scene | submit: wall, peak RSS | worker's fetches |"
 echo "|---|---|---|"
-for scene in knot knot-map knot; do
+for scene in knot knot-map knot big; do
   fetched_before=$(grep -c "fetched blob" "$tmp/worker.log")
   /usr/bin/time -f "%e %M" -o "$tmp/time" "$vcmfarm" submit "$tmp/$scene.json" -n 2 --coordinator "$url" \
     --secret "$tmp/key" --timeout 60 >"$tmp/job" 2>"$tmp/submit.log" || fail "submit $scene"
