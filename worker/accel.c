@@ -127,7 +127,13 @@ int vf_accel_intersect(const vf_accel *a, vf_vec3 org, vf_vec3 dir, float tfar, 
   hit->shape = rh.hit.geomID;
   hit->primitive = rh.hit.primID;
   if (s->kind == VF_SHAPE_SPHERE) {
-    vf_vec3 p = vf_add(org, vf_scale(dir, rh.ray.tfar));
+    /* org and dir as Embree holds them (it writes only tfar and the hit): reading them
+     * back keeps the arguments from living across the call in stack slots, whose
+     * reloads GCC fuses into loads that straddle two stores and miss store forwarding,
+     * which cost more than the rest of this function on every ray. */
+    vf_vec3 o = vf_vec3_make(rh.ray.org_x, rh.ray.org_y, rh.ray.org_z);
+    vf_vec3 d = vf_vec3_make(rh.ray.dir_x, rh.ray.dir_y, rh.ray.dir_z);
+    vf_vec3 p = vf_add(o, vf_scale(d, rh.ray.tfar));
     vf_vec3 n = vf_normalize(vf_sub(p, s->center));
     hit->normal = n;
     /* Project back onto the sphere: removes the error of org + t dir along the normal. */
