@@ -175,24 +175,4 @@ int vf_accel_occluded(const vf_accel *a, vf_vec3 org, vf_vec3 dir, float tfar) {
   return r.tfar < 0.0f;
 }
 
-static float int_bits_offset(float p, int delta) {
-  union {
-    float f;
-    int32_t i;
-  } u = {p};
-  u.i += p < 0.0f ? -delta : delta;
-  return u.f;
-}
-
 float vf_accel_scale(const vf_accel *a) { return a->scale; }
-
-vf_vec3 vf_offset_ray_origin(vf_vec3 p, vf_vec3 n, float scale) {
-  /* Constants of the paper, for a scene of size 1: below |p| = origin the float spacing is
-   * too fine for an ulp offset, so a small offset along n is used there instead. */
-  const float origin = scale * (1.0f / 32.0f), float_scale = scale * (1.0f / 65536.0f), int_scale = 256.0f;
-  int ox = (int)(int_scale * n.x), oy = (int)(int_scale * n.y), oz = (int)(int_scale * n.z);
-  vf_vec3 pi = vf_vec3_make(int_bits_offset(p.x, ox), int_bits_offset(p.y, oy), int_bits_offset(p.z, oz));
-  return vf_vec3_make(fabsf(p.x) < origin ? p.x + float_scale * n.x : pi.x,
-                      fabsf(p.y) < origin ? p.y + float_scale * n.y : pi.y,
-                      fabsf(p.z) < origin ? p.z + float_scale * n.z : pi.z);
-}
