@@ -127,7 +127,13 @@ int vf_accel_intersect(const vf_accel *a, vf_vec3 org, vf_vec3 dir, float tfar, 
   hit->shape = rh.hit.geomID;
   hit->primitive = rh.hit.primID;
   if (s->kind == VF_SHAPE_SPHERE) {
-    vf_vec3 p = vf_add(org, vf_scale(dir, rh.ray.tfar));
+    /* org and dir as Embree holds them (it writes only tfar and the hit): reading them
+     * back keeps the arguments from living across the call in stack slots, whose
+     * reloads GCC fuses into loads that straddle two stores and miss store forwarding,
+     * which cost more than the rest of this function on every ray. */
+    vf_vec3 o = vf_vec3_make(rh.ray.org_x, rh.ray.org_y, rh.ray.org_z);
+    vf_vec3 d = vf_vec3_make(rh.ray.dir_x, rh.ray.dir_y, rh.ray.dir_z);
+    vf_vec3 p = vf_add(o, vf_scale(d, rh.ray.tfar));
     vf_vec3 n = vf_normalize(vf_sub(p, s->center));
     hit->normal = n;
     /* Project back onto the sphere: removes the error of org + t dir along the normal. */
@@ -169,24 +175,4 @@ int vf_accel_occluded(const vf_accel *a, vf_vec3 org, vf_vec3 dir, float tfar) {
   return r.tfar < 0.0f;
 }
 
-static float int_bits_offset(float p, int delta) {
-  union {
-    float f;
-    int32_t i;
-  } u = {p};
-  u.i += p < 0.0f ? -delta : delta;
-  return u.f;
-}
-
 float vf_accel_scale(const vf_accel *a) { return a->scale; }
-
-vf_vec3 vf_offset_ray_origin(vf_vec3 p, vf_vec3 n, float scale) {
-  /* Constants of the paper, for a scene of size 1: below |p| = origin the float spacing is
-   * too fine for an ulp offset, so a small offset along n is used there instead. */
-  const float origin = scale * (1.0f / 32.0f), float_scale = scale * (1.0f / 65536.0f), int_scale = 256.0f;
-  int ox = (int)(int_scale * n.x), oy = (int)(int_scale * n.y), oz = (int)(int_scale * n.z);
-  vf_vec3 pi = vf_vec3_make(int_bits_offset(p.x, ox), int_bits_offset(p.y, oy), int_bits_offset(p.z, oz));
-  return vf_vec3_make(fabsf(p.x) < origin ? p.x + float_scale * n.x : pi.x,
-                      fabsf(p.y) < origin ? p.y + float_scale * n.y : pi.y,
-                      fabsf(p.z) < origin ? p.z + float_scale * n.z : pi.z);
-}

@@ -9,7 +9,9 @@
 #include "../common/vec3.h"
 #include "scene.h"
 
+#include <math.h>
 #include <stdint.h>
+#include <string.h>
 
 typedef struct vf_accel vf_accel;
 
@@ -31,12 +33,32 @@ int vf_accel_intersect(const vf_accel *accel, vf_vec3 org, vf_vec3 dir, float tf
 /* 1 if anything blocks org + t dir for t in (0, tfar). dir need not be unit. */
 int vf_accel_occluded(const vf_accel *accel, vf_vec3 org, vf_vec3 dir, float tfar);
 
+/* One coordinate of vf_offset_ray_origin: p moved by 256 n units in its last place, or by
+ * float_scale n when |p| < origin. */
+static inline float vf_offset_coordinate(float p, float n, float origin, float float_scale) {
+  int32_t delta = (int32_t)(256.0f * n), bits;
+  memcpy(&bits, &p, sizeof bits);
+  bits += p < 0.0f ? -delta : delta;
+  float moved;
+  memcpy(&moved, &bits, sizeof moved);
+  return fabsf(p) < origin ? p + float_scale * n : moved;
+}
+
 /* Moves p off its surface towards the side n points to, by a few units in the last place of
  * p's coordinates (Waechter and Binder, "A Fast and Robust Method for Avoiding
  * Self-Intersection", Ray Tracing Gems, 2019). Near the origin, where the ulps of p are too
  * fine, it moves by a small fraction of `scale` (the scene's size) instead; the paper's
- * constants assume scale 1. Both regimes scale with the scene, unlike a fixed epsilon. */
-vf_vec3 vf_offset_ray_origin(vf_vec3 p, vf_vec3 n, float scale);
+ * constants assume scale 1. Both regimes scale with the scene, unlike a fixed epsilon.
+ * Inline: every ray origin and shadow-ray end of the renderer passes here, and as a call
+ * into another file its vectors went through the stack. */
+static inline vf_vec3 vf_offset_ray_origin(vf_vec3 p, vf_vec3 n, float scale) {
+  /* Constants of the paper, for a scene of size 1: below |p| = origin the float spacing is
+   * too fine for an ulp offset, so a small offset along n is used there instead. */
+  const float origin = scale * (1.0f / 32.0f), float_scale = scale * (1.0f / 65536.0f);
+  return vf_vec3_make(vf_offset_coordinate(p.x, n.x, origin, float_scale),
+                      vf_offset_coordinate(p.y, n.y, origin, float_scale),
+                      vf_offset_coordinate(p.z, n.z, origin, float_scale));
+}
 
 /* The scene size that ray offsets are relative to: its bounding-sphere radius. */
 float vf_accel_scale(const vf_accel *accel);
