@@ -54,7 +54,7 @@ cp "$build/bench/$size/report.md" "$out/05-convergence-report.md"
 step 06-farm-merge "$build/tests/bench_farm" merge 5
 step 07-farm-checkpoint env VF_TEST_VERBOSE=1 "$build/tests/test_farm_checkpoint" "$build/vcmfarm"
 step 08-farm-workers bash tests/bench/farm.sh "$build" 48 256x256
-step 09-render-farm bash tests/bench/render_farm.sh "$build" 40 6 2
+step 09-render-farm bash tests/bench/render_farm.sh "$build" 40 5 2
 step 10-farm-simulated "$build/tests/bench_farm" simulate "$build/vcmfarm" 64 0 512
 step 11-farm-simulated-paced "$build/tests/bench_farm" simulate "$build/vcmfarm" 64 1000 512
 step 12-scene-files bash tests/bench/scene_files.sh "$build"
