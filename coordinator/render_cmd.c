@@ -310,7 +310,8 @@ static int checkpoint(vf_farm_client *client, uint64_t job_id, const char *outpu
   return err;
 }
 
-static void progress_line(const Vcmfarm__JobStatus *j, double elapsed, int reference) {
+/* Iterations as the worker renders them (the job's count grows by merged parts). */
+static void progress_line(const Vcmfarm__JobStatus *j, uint64_t rendered, double elapsed, int reference) {
   char error[96] = "";
   if (isfinite(j->estimated_rmse)) {
     int n = snprintf(error, sizeof error, "  est. RMSE %.3g", j->estimated_rmse);
@@ -319,12 +320,12 @@ static void progress_line(const Vcmfarm__JobStatus *j, double elapsed, int refer
   }
   char eta[32] = "";
   if (j->eta_seconds >= 0.0) snprintf(eta, sizeof eta, "  ETA %.1f s", j->eta_seconds);
+  char total[32] = "";
   if (j->iterations_total < VF_JOB_MAX_ITERATIONS)
-    fprintf(stderr, "\r  iteration %llu/%llu  %.2f it/s%s  elapsed %.1f s%s   ", (unsigned long long)j->iterations_done,
-            (unsigned long long)j->iterations_total, j->iterations_per_second, error, elapsed, eta);
-  else
-    fprintf(stderr, "\r  iteration %llu  %.2f it/s%s  elapsed %.1f s%s   ", (unsigned long long)j->iterations_done,
-            j->iterations_per_second, error, elapsed, eta);
+    snprintf(total, sizeof total, "/%llu", (unsigned long long)j->iterations_total);
+  double rate = elapsed > 0.0 ? (double)rendered / elapsed : 0.0;
+  fprintf(stderr, "\r  iteration %llu%s (%llu merged)  %.2f it/s%s  elapsed %.1f s%s   ", (unsigned long long)rendered,
+          total, (unsigned long long)j->iterations_done, rate, error, elapsed, eta);
 }
 
 static int render_farm(const render_options *o) {
@@ -353,6 +354,7 @@ static int render_farm(const render_options *o) {
   }
 
   volatile sig_atomic_t coordinator_stop = 0, worker_stop = 0;
+  atomic_ullong rendered = 0;
   coordinator_thread ct = {.config = {.listen_url = FARM_URL, .state_dir = state, .key = &key,
                                       .worker_timeout = 60.0, .lease_seconds = 20.0,
                                       /* the fetches below log and write; the coordinator's own
@@ -360,7 +362,7 @@ static int render_farm(const render_options *o) {
                                       .checkpoint_interval = 1e9, .stop = &coordinator_stop, .quiet = 1}};
   worker_thread wt = {.config = {.url = FARM_URL, .key = key, .threads = o->threads, .name = "render",
                                  .cache_dir = cache, .ship_interval = PART_SECONDS, .quiet = 1,
-                                 .describe = o->quiet ? NULL : stderr},
+                                 .describe = o->quiet ? NULL : stderr, .rendered = &rendered},
                       .stop = &worker_stop};
   /* The threads leave SIGINT and SIGTERM to this one. */
   sigset_t block, old_mask;
@@ -419,7 +421,7 @@ static int render_farm(const render_options *o) {
     vf_message_free(reply);
     reply = NULL;
     if ((err = job_status(client, job_id, &reply, &job)) != VF_OK) goto stop;
-    if (tty) progress_line(job, now - start, o->reference != NULL);
+    if (tty) progress_line(job, atomic_load(&rendered), now - start, o->reference != NULL);
     finished = strcmp(job->state, "queued") != 0 && strcmp(job->state, "running") != 0;
     if (!finished && o->checkpoint_interval > 0.0 && now - last_checkpoint >= o->checkpoint_interval) {
       if ((err = checkpoint(client, job_id, o->output, NULL)) != VF_OK) goto stop;

@@ -33,6 +33,7 @@ typedef struct {
   volatile sig_atomic_t render_stop;  /* stop rendering the lease after this iteration */
   int quiet;
   FILE *describe;
+  atomic_ullong *rendered;
   vf_worker_totals *totals;
   vf_farm_client *client;
   vf_heartbeat *heartbeat;
@@ -175,6 +176,7 @@ static int prepare(worker *w, const Vcmfarm__Lease *l, const vf_settings *settin
 static void on_progress(void *ctx, const vf_render_status *st) {
   worker *w = ctx;
   vf_heartbeat_progress(w->heartbeat, st->iterations_done, st->seconds);
+  if (w->rendered) atomic_fetch_add(w->rendered, 1);
   if (w->iteration_delay_ms > 0) {
     struct timespec ts = {w->iteration_delay_ms / 1000, (long)(w->iteration_delay_ms % 1000) * 1000000L};
     nanosleep(&ts, NULL);
@@ -393,6 +395,7 @@ int vf_worker_run(const vf_worker_config *config, volatile sig_atomic_t *stop, v
   w->terminating = stop;
   w->quiet = config->quiet;
   w->describe = config->describe;
+  w->rendered = config->rendered;
   w->totals = totals;
   w->threads = config->threads;
   w->cache_dir = config->cache_dir;

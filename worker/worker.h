@@ -14,6 +14,7 @@
 #include "vcm.h"
 
 #include <signal.h>
+#include <stdatomic.h>
 #include <stdint.h>
 #include <stdio.h>
 
@@ -28,6 +29,7 @@ typedef struct {
   double ship_interval;       /* seconds between parts of a lease (at least 50 times a part's cost) */
   int quiet;                  /* log failures only, not the ordinary course of leases */
   FILE *describe;             /* non-NULL: each new renderer prints what it enabled and skipped here */
+  atomic_ullong *rendered;    /* non-NULL: counts every iteration rendered, as it ends (any thread may read) */
   /* test hooks (vcmfarm worker --help) */
   int iteration_delay_ms;
   const char *stall_file;
