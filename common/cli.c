@@ -6,6 +6,9 @@
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
 
 int vf_cli_int(const char *option, const char *text, long long min, long long max, long long *out) {
   char *end;
@@ -90,6 +93,23 @@ int vf_cli_settings_apply(const vf_cli_settings *o, vf_settings *settings) {
     settings->width = o->width;
     settings->height = o->height;
   }
+  return VF_OK;
+}
+
+int vf_cli_writable(const char *option, const char *path) {
+  char dir[4096];
+  const char *slash = strrchr(path, '/');
+  if (slash == NULL) snprintf(dir, sizeof dir, ".");
+  else if (slash == path) snprintf(dir, sizeof dir, "/");
+  else if ((size_t)(slash - path) < sizeof dir) snprintf(dir, sizeof dir, "%.*s", (int)(slash - path), path);
+  else return vf_error_set(VF_EUSAGE, "%s %s: path too long", option, path);
+  struct stat st;
+  if (stat(dir, &st) != 0 || !S_ISDIR(st.st_mode))
+    return vf_error_set(VF_EUSAGE, "%s %s: no directory %s", option, path, dir);
+  if (access(dir, W_OK | X_OK) != 0)
+    return vf_error_set(VF_EUSAGE, "%s %s: cannot write in %s: %s", option, path, dir, strerror(errno));
+  if (stat(path, &st) == 0 && S_ISDIR(st.st_mode))
+    return vf_error_set(VF_EUSAGE, "%s %s: is a directory", option, path);
   return VF_OK;
 }
 

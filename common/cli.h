@@ -15,6 +15,9 @@ int vf_cli_int(const char *option, const char *text, long long min, long long ma
 int vf_cli_u64(const char *option, const char *text, uint64_t *out);
 int vf_cli_double(const char *option, const char *text, double min, double max, double *out);
 int vf_cli_resolution(const char *option, const char *text, int *width, int *height);
+/* Checks, before hours of work, that a file can be written at path: its directory exists
+ * and is writable, and path is not a directory. VF_EUSAGE naming the option and the path. */
+int vf_cli_writable(const char *option, const char *path);
 
 /* Strict decimal: digits only, no sign or blanks, no overflow. Parses the longest run of
  * digits at s into *out and returns the first character after it, or NULL when there is

@@ -539,6 +539,9 @@ int vf_cmd_render(int argc, char **argv) {
     fprintf(stderr, "vcmfarm render: --target-rmse needs --reference\n");
     return VF_EXIT_BAD_INPUT;
   }
+  if ((err = vf_cli_writable("-o", o.output)) != VF_OK ||
+      (o.preview && (err = vf_cli_writable("--preview", o.preview)) != VF_OK))
+    return vf_cli_fail(cmd, err);
   o.scene = argv[optind];
   o.threads = (int)threads;
   return o.direct ? render_direct(&o) : render_farm(&o);

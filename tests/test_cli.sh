@@ -40,6 +40,10 @@ expect_refusal "iterations and time" "not both" "$vcmfarm" render furnace -n 3 -
 expect_refusal "alpha out of range" "--alpha" "$vcmfarm" render furnace --alpha 1.5 -o "$tmp/out.exr"
 expect_refusal "unknown option" "unknown or incomplete option" "$vcmfarm" render furnace --frobnicate -o "$tmp/out.exr"
 expect_refusal "missing output" "missing -o" "$vcmfarm" render furnace -n 1
+# An output that cannot be written is refused before rendering, with and without --direct.
+expect_refusal "output in a missing directory" "no directory $tmp/absent" "$vcmfarm" render furnace -n 1 -o "$tmp/absent/out.exr"
+expect_refusal "output is a directory" "is a directory" "$vcmfarm" render furnace --direct -n 1 -o "$tmp"
+expect_refusal "preview in a missing directory" "--preview" "$vcmfarm" render furnace -n 1 -o "$tmp/out.exr" -p "$tmp/absent/p.png"
 expect_refusal "unknown command" "unknown command" "$vcmfarm" frobnicate
 
 "$vcmfarm" --version | grep -q '^vcmfarm [0-9]'

@@ -151,6 +151,7 @@ int vf_cmd_continue(int argc, char **argv) {
   }
   const char *film_path = argv[optind];
   if (output == NULL) output = film_path;
+  if ((err = vf_cli_writable("-o", output)) != VF_OK) return vf_cli_fail(cmd, err);
 
   vf_film *film = NULL;
   vf_scene *scene = NULL;
