@@ -96,7 +96,8 @@ int vf_scene_files_resolve(vf_scene_files *f, const char *name, char *out, size_
   if (!S_ISREG(st.st_mode)) return vf_error_set(VF_ENOENT, "cannot open '%s': not a regular file", name);
   /* Refused before anything parses it: it could not be sent. */
   if ((uint64_t)st.st_size > VF_BLOB_MAX_BYTES)
-    return vf_error_set(VF_ESCENE, "'%s' is %.1f MiB; a file sent to a farm can be at most %llu MiB", name,
+    return vf_error_set(VF_ESCENE, "'%s' is %.1f MiB; a file sent to a farm can be at most %llu MiB "
+                        "(`render --direct` renders without one)", name,
                         (double)st.st_size / 1048576.0, (unsigned long long)(VF_BLOB_MAX_BYTES >> 20));
   return record(f, name, out);
 }
