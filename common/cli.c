@@ -96,6 +96,28 @@ int vf_cli_settings_apply(const vf_cli_settings *o, vf_settings *settings) {
   return VF_OK;
 }
 
+int vf_cli_bytes(const char *option, const char *text, uint64_t *out) {
+  char *end;
+  errno = 0;
+  if (text[0] < '0' || text[0] > '9') return vf_error_set(VF_EUSAGE, "%s: '%s' is not a size", option, text);
+  unsigned long long v = strtoull(text, &end, 10);
+  int shift = 0;
+  switch (*end) {
+  case 'K': shift = 10; break;
+  case 'M': shift = 20; break;
+  case 'G': shift = 30; break;
+  case 'T': shift = 40; break;
+  case '\0': break;
+  default: return vf_error_set(VF_EUSAGE, "%s: '%s' is not a size (a number, then K, M, G or T)", option, text);
+  }
+  if (*end != '\0' && end[1] != '\0')
+    return vf_error_set(VF_EUSAGE, "%s: '%s' is not a size (a number, then K, M, G or T)", option, text);
+  if (errno != 0 || v == 0 || v > (UINT64_MAX >> shift))
+    return vf_error_set(VF_EUSAGE, "%s: '%s' is out of range", option, text);
+  *out = (uint64_t)v << shift;
+  return VF_OK;
+}
+
 int vf_cli_writable(const char *option, const char *path) {
   char dir[4096];
   const char *slash = strrchr(path, '/');

@@ -15,6 +15,9 @@ int vf_cli_int(const char *option, const char *text, long long min, long long ma
 int vf_cli_u64(const char *option, const char *text, uint64_t *out);
 int vf_cli_double(const char *option, const char *text, double min, double max, double *out);
 int vf_cli_resolution(const char *option, const char *text, int *width, int *height);
+/* A size in bytes: a whole number with an optional suffix K, M, G or T (powers of 1024),
+ * at least 1. VF_EUSAGE naming the option. */
+int vf_cli_bytes(const char *option, const char *text, uint64_t *out);
 /* Checks, before hours of work, that a file can be written at path: its directory exists
  * and is writable, and path is not a directory. VF_EUSAGE naming the option and the path. */
 int vf_cli_writable(const char *option, const char *path);

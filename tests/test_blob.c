@@ -8,8 +8,10 @@
 #include "common/blob.h"
 #include "common/error.h"
 #include "common/file.h"
+#include "worker/blob_cache.h"
 #include "worker/job_scene.h"
 
+#include <fcntl.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -111,6 +113,35 @@ static void test_chunked_transfers(void) {
   vf_blob_store_clean_parts(dir, 0.0);
   CHECK(access(part, F_OK) != 0);
   free(data);
+}
+
+/* A worker's cache kept under a size: least recently used blobs first, never the job's. */
+static void test_cache_trim(void) {
+  char cache[128];
+  snprintf(cache, sizeof cache, "%s/cache", dir);
+  CHECK_INT_EQ(vf_blob_cache_open(cache), VF_OK);
+  uint8_t hash[4][32];
+  char data[100];
+  for (int i = 0; i < 4; i++) {
+    memset(data, 'a' + i, sizeof data);
+    vf_blob_hash(data, sizeof data, hash[i]);
+    CHECK_INT_EQ(vf_blob_store_put(cache, hash[i], data, sizeof data), VF_OK);
+    char path[256];
+    vf_blob_path(cache, hash[i], path, sizeof path);
+    struct timespec when[2] = {{1000 + i, 0}, {1000 + i, 0}}; /* blob 0 used longest ago */
+    CHECK_INT_EQ(utimensat(AT_FDCWD, path, when, 0), 0);
+  }
+  vf_blob_table keep = {0};
+  CHECK_INT_EQ(vf_blob_table_add(&keep, "old-but-needed.ply", hash[0], 100), VF_OK);
+  CHECK_INT_EQ(vf_blob_cache_trim(cache, 0, &keep), 0); /* no limit */
+  CHECK_INT_EQ(vf_blob_cache_trim(cache, 250, &keep), 2); /* 400 bytes: blobs 1 and 2 go */
+  CHECK(vf_blob_store_has(cache, hash[0], NULL));
+  CHECK(!vf_blob_store_has(cache, hash[1], NULL));
+  CHECK(!vf_blob_store_has(cache, hash[2], NULL));
+  CHECK(vf_blob_store_has(cache, hash[3], NULL));
+  CHECK_INT_EQ(vf_blob_cache_trim(cache, 50, &keep), 1); /* the kept one alone stays over */
+  CHECK(vf_blob_store_has(cache, hash[0], NULL));
+  vf_blob_table_clear(&keep);
 }
 
 static void test_table_refuses_bad_entries(void) {
@@ -228,6 +259,7 @@ int main(void) {
   if (mkdtemp(dir) == NULL) return 1;
   RUN(test_store_checks_hash);
   RUN(test_chunked_transfers);
+  RUN(test_cache_trim);
   RUN(test_table_refuses_bad_entries);
   RUN(test_collect_obj_ply);
   RUN(test_collect_gltf_with_buffer_file);

@@ -45,6 +45,7 @@ expect_refusal "output in a missing directory" "no directory $tmp/absent" "$vcmf
 expect_refusal "output is a directory" "is a directory" "$vcmfarm" render furnace --direct -n 1 -o "$tmp"
 expect_refusal "preview in a missing directory" "--preview" "$vcmfarm" render furnace -n 1 -o "$tmp/out.exr" -p "$tmp/absent/p.png"
 expect_refusal "unknown command" "unknown command" "$vcmfarm" frobnicate
+expect_refusal "cache size not a size" "--cache-max: '12Q' is not a size" "$vcmfarm" worker --connect ipc://x --secret x --cache-max 12Q
 
 "$vcmfarm" --version | grep -q '^vcmfarm [0-9]'
 check "--version" $?

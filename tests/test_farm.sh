@@ -190,9 +190,11 @@ big_file)
   { cat "$tmp/project/meshes/quad.obj"
     yes "# padding: a comment line the OBJ reader skips, to make the file big enough" | head -c 40M
   } >"$tmp/project/meshes/big.obj"
+  cp "$scene" "$tmp/project/scenes/small.json"
   sed -i 's#../meshes/quad.obj#../meshes/big.obj#' "$scene"
   start_coordinator
-  start_worker w1 --cache "$tmp/cache-w1"
+  # A cache of at most 1 MiB: a job's own files stay however big they are.
+  start_worker w1 --cache "$tmp/cache-w1" --cache-max 1M
   submit_scene 6 5
   grep -q "sent 5 ([0-9]* bytes)" "$tmp/submit.err" || fail "submit did not send the 5 files"
   wait_until 120 "job $job done" job_done
@@ -201,6 +203,16 @@ big_file)
   grep -q "stored blob [0-9a-f]* ($size bytes)" "$tmp/coordinator.log" || fail "the coordinator did not store the big file whole"
   grep -q "fetched blob [0-9a-f]* (file '../meshes/big.obj', $size bytes)" "$tmp/w1.log" ||
     fail "the worker did not fetch the big file whole"
+  # The next job names quad.obj instead: the big file, used least recently and not the
+  # job's, leaves the cache.
+  big_hash=$(b2sum -l 256 "$tmp/project/meshes/big.obj" | cut -d' ' -f1)
+  [ -f "$tmp/cache-w1/blobs/$big_hash" ] || fail "the big file is not in the worker's cache"
+  scene="$tmp/project/scenes/small.json"
+  submit_scene 2 5
+  wait_until 60 "job $job done" job_done
+  check_scene_film
+  grep -q "removed 1 least recently used blob(s)" "$tmp/w1.log" || fail "the worker did not trim its cache"
+  [ ! -e "$tmp/cache-w1/blobs/$big_hash" ] || fail "the big file stayed in a cache of at most 1 MiB"
   ;;
 bad_blobs)
   make_project

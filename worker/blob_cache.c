@@ -6,7 +6,9 @@
 
 #include <sodium.h>
 
+#include <dirent.h>
 #include <errno.h>
+#include <fcntl.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -86,6 +88,68 @@ static int fetch(vf_farm_client *client, uint64_t worker_id, const char *cache_d
   return err;
 }
 
+/* Marks a blob used now (its modification time), for vf_blob_cache_trim. */
+static void touch(const char *cache_dir, const uint8_t hash[32]) {
+  char path[4200];
+  if (vf_blob_path(cache_dir, hash, path, sizeof path) == VF_OK) utimensat(AT_FDCWD, path, NULL, 0);
+}
+
+typedef struct {
+  char name[80];
+  uint64_t size;
+  struct timespec used;
+} cached_blob;
+
+static int older_first(const void *a, const void *b) {
+  const struct timespec *x = &((const cached_blob *)a)->used, *y = &((const cached_blob *)b)->used;
+  if (x->tv_sec != y->tv_sec) return x->tv_sec < y->tv_sec ? -1 : 1;
+  if (x->tv_nsec != y->tv_nsec) return x->tv_nsec < y->tv_nsec ? -1 : 1;
+  return strcmp(((const cached_blob *)a)->name, ((const cached_blob *)b)->name);
+}
+
+unsigned vf_blob_cache_trim(const char *cache_dir, uint64_t max_bytes, const vf_blob_table *keep) {
+  char dir[4200], path[4300];
+  if (max_bytes == 0 || snprintf(dir, sizeof dir, "%s/blobs", cache_dir) >= (int)sizeof dir) return 0;
+  DIR *d = opendir(dir);
+  if (d == NULL) return 0;
+  cached_blob *blobs = NULL;
+  size_t count = 0, cap = 0;
+  uint64_t total = 0;
+  struct dirent *e;
+  while ((e = readdir(d)) != NULL) {
+    struct stat st;
+    if (strlen(e->d_name) != 64 || strspn(e->d_name, "0123456789abcdef") != 64) continue; /* blobs only, not parts */
+    if (snprintf(path, sizeof path, "%s/%s", dir, e->d_name) >= (int)sizeof path || stat(path, &st) != 0) continue;
+    if (count == cap) {
+      cached_blob *grown = realloc(blobs, (cap = cap ? 2 * cap : 64) * sizeof *grown);
+      if (grown == NULL) break;
+      blobs = grown;
+    }
+    snprintf(blobs[count].name, sizeof blobs[count].name, "%s", e->d_name);
+    blobs[count].size = (uint64_t)st.st_size;
+    blobs[count].used = st.st_mtim;
+    total += (uint64_t)st.st_size;
+    count++;
+  }
+  closedir(d);
+  unsigned removed = 0;
+  if (count > 0) qsort(blobs, count, sizeof *blobs, older_first);
+  for (size_t i = 0; i < count && total > max_bytes; i++) {
+    int kept = 0;
+    for (size_t k = 0; keep && k < keep->count && !kept; k++) {
+      char hex[65];
+      vf_blob_hex(keep->refs[k].hash, hex);
+      kept = strcmp(hex, blobs[i].name) == 0;
+    }
+    if (kept || snprintf(path, sizeof path, "%s/%s", dir, blobs[i].name) >= (int)sizeof path || unlink(path) != 0)
+      continue;
+    total -= blobs[i].size;
+    removed++;
+  }
+  free(blobs);
+  return removed;
+}
+
 int vf_blob_cache_fill(vf_farm_client *client, uint64_t worker_id, const char *cache_dir, const vf_blob_table *files,
                        int quiet, unsigned *fetched) {
   unsigned count = 0;
@@ -96,7 +160,10 @@ int vf_blob_cache_fill(vf_farm_client *client, uint64_t worker_id, const char *c
     vf_blob_hex(ref->hash, hex);
     int err = vf_blob_store_check(cache_dir, ref->hash, &len);
     if (err == VF_OK) {
-      if (len == ref->size) continue;
+      if (len == ref->size) {
+        touch(cache_dir, ref->hash);
+        continue;
+      }
       err = vf_error_set(VF_EMISMATCH, "size differs from the job's");
     }
     if (err == VF_EMISMATCH) { /* damaged copy in the cache: replace it */
@@ -119,7 +186,8 @@ int vf_blob_cache_fill(vf_farm_client *client, uint64_t worker_id, const char *c
 }
 
 int vf_blob_cache_load_scene(vf_farm_client *client, uint64_t worker_id, const char *cache_dir,
-                             const Vcmfarm__Scene *scene, const char *label, int quiet, vf_scene **out) {
+                             uint64_t max_bytes, const Vcmfarm__Scene *scene, const char *label, int quiet,
+                             vf_scene **out) {
   int builtin = scene->source_case == VCMFARM__SCENE__SOURCE_BUILTIN;
   const char *text = builtin ? scene->builtin : scene->json;
   vf_blob_table files = {0};
@@ -127,7 +195,13 @@ int vf_blob_cache_load_scene(vf_farm_client *client, uint64_t worker_id, const c
   if (err != VF_OK) return vf_error_set(VF_ESCENE, "%s: %s", label, vf_error_detail(err));
   if (files.count > 0 && (err = vf_blob_cache_fill(client, worker_id, cache_dir, &files, quiet, NULL)) != VF_OK)
     err = vf_error_set(err, "%s: %s", label, vf_error_detail(err));
-  else
+  else if (files.count > 0 && max_bytes > 0) {
+    unsigned removed = vf_blob_cache_trim(cache_dir, max_bytes, &files);
+    if (removed && !quiet)
+      fprintf(stderr, "vcmfarm worker %d: removed %u least recently used blob(s) from the cache %s\n", (int)getpid(),
+              removed, cache_dir);
+  }
+  if (err == VF_OK)
     err = vf_job_scene_load(builtin, text, strlen(text), &files, cache_dir, label, out);
   vf_blob_table_clear(&files);
   return err;

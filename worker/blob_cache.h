@@ -26,7 +26,8 @@ int vf_blob_cache_open(const char *cache_dir);
 
 /* Makes every file of `files` available in cache_dir: checks the cached ones and fetches
  * the others (BlobRequest as worker_id), one per request, checking size and hash before
- * storing. Logs each blob fetched unless quiet. *fetched (may be NULL) counts the blobs
+ * storing, and touches every one (its last use, for vf_blob_cache_trim). Logs each blob
+ * fetched unless quiet. *fetched (may be NULL) counts the blobs
  * transferred.
  * Errors name the file: VF_EREFUSED (the coordinator does not have it), VF_EMISMATCH
  * (bytes or size not those of the table), VF_ETIMEDOUT / VF_ENET (try again later),
@@ -34,10 +35,18 @@ int vf_blob_cache_open(const char *cache_dir);
 int vf_blob_cache_fill(vf_farm_client *client, uint64_t worker_id, const char *cache_dir, const vf_blob_table *files,
                        int quiet, unsigned *fetched);
 
-/* A lease's scene: its file table checked, its files in the cache, then loaded as
- * vf_job_scene_load does. *out on success only; errors of the steps, with details naming
+/* Keeps the cache at most max_bytes (0: no limit) by removing the blobs used least
+ * recently (a blob's modification time is its last use: vf_blob_cache_fill touches the
+ * blobs a job takes), never one of `keep` (the files of the job about to render, NULL:
+ * none). Returns the number of blobs removed; a cache that the kept blobs alone make too
+ * big stays so. */
+unsigned vf_blob_cache_trim(const char *cache_dir, uint64_t max_bytes, const vf_blob_table *keep);
+
+/* A lease's scene: its file table checked, its files in the cache (then the cache
+ * trimmed to max_bytes, keeping them), then loaded as vf_job_scene_load does. *out on success only; errors of the steps, with details naming
  * `label`. */
 int vf_blob_cache_load_scene(vf_farm_client *client, uint64_t worker_id, const char *cache_dir,
-                             const Vcmfarm__Scene *scene, const char *label, int quiet, vf_scene **out);
+                             uint64_t max_bytes, const Vcmfarm__Scene *scene, const char *label, int quiet,
+                             vf_scene **out);
 
 #endif

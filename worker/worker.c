@@ -42,6 +42,7 @@ typedef struct {
   int threads;
   char name[128];
   const char *cache_dir; /* scene files by content hash (worker/blob_cache.h) */
+  uint64_t cache_max_bytes;
   int backoff_ms;
   /* the renderer of the last job, kept for its next lease */
   uint64_t job_id;
@@ -158,7 +159,8 @@ static int prepare(worker *w, const Vcmfarm__Lease *l, const vf_settings *settin
   char label[64];
   snprintf(label, sizeof label, "job %llu scene", (unsigned long long)l->job_id);
   /* Its files (if any) come from the cache, fetched first when missing. */
-  int err = vf_blob_cache_load_scene(w->client, w->worker_id, w->cache_dir, l->scene, label, w->quiet, &w->scene);
+  int err = vf_blob_cache_load_scene(w->client, w->worker_id, w->cache_dir, w->cache_max_bytes, l->scene, label,
+                                     w->quiet, &w->scene);
   if (err != VF_OK) return err;
   if (memcmp(w->scene->hash, l->scene_hash.data, 32) != 0) {
     char hex[65];
@@ -399,6 +401,7 @@ int vf_worker_run(const vf_worker_config *config, volatile sig_atomic_t *stop, v
   w->totals = totals;
   w->threads = config->threads;
   w->cache_dir = config->cache_dir;
+  w->cache_max_bytes = config->cache_max_bytes;
   w->ship_interval = config->ship_interval > 0.0 ? config->ship_interval : VF_WORKER_SHIP_SECONDS;
   w->iteration_delay_ms = config->iteration_delay_ms;
   w->stall_file = config->stall_file;

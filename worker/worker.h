@@ -26,6 +26,7 @@ typedef struct {
   int threads;                /* render threads; <= 0: one per CPU */
   const char *name;           /* shown in status; NULL: HOST/PID */
   const char *cache_dir;      /* scene files by content hash (worker/blob_cache.h), opened by the caller */
+  uint64_t cache_max_bytes;   /* trim the cache to this after fetching a job's files; 0: no limit */
   double ship_interval;       /* seconds between parts of a lease (at least 50 times a part's cost) */
   int quiet;                  /* log failures only, not the ordinary course of leases */
   FILE *describe;             /* non-NULL: each new renderer prints what it enabled and skipped here */

@@ -29,6 +29,9 @@ static const char usage[] =
     "                        of the time), and the rest at its end\n"
     "      --cache DIR       cache of scene files fetched from the coordinator (default\n"
     "                        $XDG_CACHE_HOME/vcmfarm, else ~/.cache/vcmfarm)\n"
+    "      --cache-max SIZE  keep the cache at most SIZE bytes (suffix K, M, G or T):\n"
+    "                        after fetching a job's files, the blobs used least recently\n"
+    "                        go first, never the job's own (default: no limit)\n"
     "  -h, --help            this text\n"
     "\n"
     "For tests only:\n"
@@ -49,7 +52,7 @@ int vf_cmd_worker(int argc, char **argv) {
       {"threads", required_argument, 0, 'j'}, {"name", required_argument, 0, 'n'},
       {"test-iteration-delay", required_argument, 0, 'D'}, {"test-stall-file", required_argument, 0, 'S'},
       {"ship-interval", required_argument, 0, 'I'},
-      {"cache", required_argument, 0, 'C'},
+      {"cache", required_argument, 0, 'C'},   {"cache-max", required_argument, 0, 'M'},
       {"help", no_argument, 0, 'h'},          {0, 0, 0, 0}};
   const char *cmd = "worker", *secret = NULL, *cache = NULL;
   vf_worker_config config;
@@ -69,6 +72,7 @@ int vf_cmd_worker(int argc, char **argv) {
     case 'S': config.stall_file = optarg; break;
     case 'I': err = vf_cli_double("--ship-interval", optarg, 0.01, 86400.0, &config.ship_interval); break;
     case 'C': cache = optarg; break;
+    case 'M': err = vf_cli_bytes("--cache-max", optarg, &config.cache_max_bytes); break;
     case 'h': fputs(usage, stdout); return VF_EXIT_OK;
     default:
       fprintf(stderr, "vcmfarm worker: unknown or incomplete option '%s'\n%s", argv[optind - 1], usage);
