@@ -400,20 +400,27 @@ int vf_cmd_fetch(int argc, char **argv) {
   return err == VF_OK ? VF_EXIT_OK : vf_cli_fail(cmd, err);
 }
 
-/* ---- cancel ---- */
+/* ---- cancel, remove ---- */
 
 static const char cancel_usage[] =
     "usage: vcmfarm cancel JOB --coordinator URL --secret FILE\n"
     "\n"
     "Cancels JOB: no new leases, results refused; its film so far stays fetchable.\n\n" CONNECTION_HELP;
 
-int vf_cmd_cancel(int argc, char **argv) {
+static const char remove_usage[] =
+    "usage: vcmfarm remove JOB --coordinator URL --secret FILE\n"
+    "\n"
+    "Forgets JOB, which must have ended (done, cancelled or failed; cancel it first\n"
+    "otherwise): the coordinator deletes its film and scene, and the scene files no other\n"
+    "job names. Fetch the film first if you need it.\n\n" CONNECTION_HELP;
+
+/* `cancel JOB` and `remove JOB`: one request answered by a ResultAck. */
+static int job_request(int argc, char **argv, const char *cmd, const char *usage, Vcmfarm__Envelope__BodyCase body) {
   static const struct option options[] = {{"coordinator", required_argument, 0, 'c'},
                                           {"secret", required_argument, 0, 'k'},
                                           {"timeout", required_argument, 0, 'T'},
                                           {"help", no_argument, 0, 'h'},
                                           {0, 0, 0, 0}};
-  const char *cmd = "cancel";
   connection conn = {NULL, NULL, 10.0};
   int err = VF_OK, c;
   optind = 1;
@@ -423,23 +430,39 @@ int vf_cmd_cancel(int argc, char **argv) {
       if (err != VF_OK) return vf_cli_fail(cmd, err);
       continue;
     }
-    if (c == 'h') return fputs(cancel_usage, stdout), VF_EXIT_OK;
-    return bad_option(cmd, argv, cancel_usage);
+    if (c == 'h') return fputs(usage, stdout), VF_EXIT_OK;
+    return bad_option(cmd, argv, usage);
   }
-  Vcmfarm__CancelRequest m = VCMFARM__CANCEL_REQUEST__INIT;
   if (optind != argc - 1) {
-    fprintf(stderr, "vcmfarm cancel: expected one JOB\n%s", cancel_usage);
+    fprintf(stderr, "vcmfarm %s: expected one JOB\n%s", cmd, usage);
     return VF_EXIT_BAD_INPUT;
   }
-  if ((err = parse_job_id(argv[optind], &m.job_id)) != VF_OK) return vf_cli_fail(cmd, err);
+  uint64_t job_id;
+  if ((err = parse_job_id(argv[optind], &job_id)) != VF_OK) return vf_cli_fail(cmd, err);
+  Vcmfarm__CancelRequest cancel = VCMFARM__CANCEL_REQUEST__INIT;
+  Vcmfarm__RemoveRequest remove = VCMFARM__REMOVE_REQUEST__INIT;
   Vcmfarm__Envelope q = VCMFARM__ENVELOPE__INIT, *reply;
-  q.body_case = VCMFARM__ENVELOPE__BODY_CANCEL;
-  q.cancel = &m;
+  q.body_case = body;
+  if (body == VCMFARM__ENVELOPE__BODY_CANCEL) {
+    cancel.job_id = job_id;
+    q.cancel = &cancel;
+  } else {
+    remove.job_id = job_id;
+    q.remove = &remove;
+  }
   if ((err = request(&conn, &q, VCMFARM__ENVELOPE__BODY_RESULT_ACK, &reply)) != VF_OK) return vf_cli_fail(cmd, err);
   int accepted = reply->result_ack->accepted;
-  fprintf(stderr, "vcmfarm cancel: %s\n", reply->result_ack->message);
+  fprintf(stderr, "vcmfarm %s: %s\n", cmd, reply->result_ack->message);
   vf_message_free(reply);
   return accepted ? VF_EXIT_OK : VF_EXIT_FAILURE;
+}
+
+int vf_cmd_cancel(int argc, char **argv) {
+  return job_request(argc, argv, "cancel", cancel_usage, VCMFARM__ENVELOPE__BODY_CANCEL);
+}
+
+int vf_cmd_remove(int argc, char **argv) {
+  return job_request(argc, argv, "remove", remove_usage, VCMFARM__ENVELOPE__BODY_REMOVE);
 }
 
 /* ---- keygen ---- */

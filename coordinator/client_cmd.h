@@ -1,4 +1,4 @@
-/* The users' side of the farm: `vcmfarm submit`, `status`, `fetch`, `cancel`, and
+/* The users' side of the farm: `vcmfarm submit`, `status`, `fetch`, `cancel`, `remove`, and
  * `keygen` for the shared key every peer needs. */
 #ifndef VF_CLIENT_CMD_H
 #define VF_CLIENT_CMD_H
@@ -7,6 +7,7 @@ int vf_cmd_submit(int argc, char **argv);
 int vf_cmd_status(int argc, char **argv);
 int vf_cmd_fetch(int argc, char **argv);
 int vf_cmd_cancel(int argc, char **argv);
+int vf_cmd_remove(int argc, char **argv);
 int vf_cmd_keygen(int argc, char **argv);
 
 #endif

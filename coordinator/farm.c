@@ -447,6 +447,7 @@ void vf_farm_handle(vf_farm *farm, const Vcmfarm__Envelope *q, double now, vf_fa
   case VCMFARM__ENVELOPE__BODY_STATUS_REQUEST: return vf_farm_status(farm, q->status_request, now, r);
   case VCMFARM__ENVELOPE__BODY_FETCH: return vf_farm_fetch(farm, q->fetch, r);
   case VCMFARM__ENVELOPE__BODY_CANCEL: return vf_farm_cancel(farm, q->cancel, now, r);
+  case VCMFARM__ENVELOPE__BODY_REMOVE: return vf_farm_remove(farm, q->remove, r);
   case VCMFARM__ENVELOPE__BODY_BLOB_QUERY: return vf_farm_blob_query(farm, q->blob_query, r);
   case VCMFARM__ENVELOPE__BODY_BLOB_PUT: return vf_farm_blob_put(farm, q->blob_put, r);
   case VCMFARM__ENVELOPE__BODY_BLOB_REQUEST: worker_id = q->blob_request->worker_id; break;

@@ -12,6 +12,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 static int add_job(vf_farm *farm, vf_job *job) {
   if (farm->num_jobs == farm->jobs_capacity) {
@@ -215,3 +216,56 @@ void vf_farm_cancel(vf_farm *farm, const Vcmfarm__CancelRequest *m, double now, 
   vf_farm_reply_ack(r, 1, "cancelled");
 }
 
+/* 1 when a job of the farm other than `except` names the blob. */
+static int blob_named(const vf_farm *farm, const uint8_t hash[32], const vf_job *except) {
+  for (size_t i = 0; i < farm->num_jobs; i++) {
+    const vf_job *j = farm->jobs[i];
+    if (j == except) continue;
+    for (size_t k = 0; k < j->files.count; k++)
+      if (memcmp(j->files.refs[k].hash, hash, 32) == 0) return 1;
+  }
+  return 0;
+}
+
+void vf_farm_remove(vf_farm *farm, const Vcmfarm__RemoveRequest *m, vf_farm_reply *r) {
+  size_t at = 0;
+  while (at < farm->num_jobs && farm->jobs[at]->id != m->job_id) at++;
+  if (at == farm->num_jobs)
+    return vf_farm_reply_errorf(r, VCMFARM__ERROR_CODE__ERROR_UNKNOWN_JOB, "no job %llu", (unsigned long long)m->job_id);
+  vf_job *job = farm->jobs[at];
+  if (vf_job_runnable(job)) {
+    snprintf(r->text, sizeof r->text, "job %llu is %s: cancel it first", (unsigned long long)job->id,
+             vf_job_state(job, vf_lease_active_iterations(&farm->leases, job->id)));
+    return vf_farm_reply_ack(r, 0, r->text);
+  }
+  if (job->film_writing) {
+    snprintf(r->text, sizeof r->text, "job %llu's film is being written: try again", (unsigned long long)job->id);
+    return vf_farm_reply_ack(r, 0, r->text);
+  }
+  memmove(&farm->jobs[at], &farm->jobs[at + 1], (farm->num_jobs - at - 1) * sizeof *farm->jobs);
+  farm->num_jobs--;
+  farm->state_dirty = 1;
+  int err = vf_state_save_index(farm);
+  if (err != VF_OK) { /* still named by the job list on disk: keep it */
+    memmove(&farm->jobs[at + 1], &farm->jobs[at], (farm->num_jobs - at) * sizeof *farm->jobs);
+    farm->jobs[at] = job;
+    farm->num_jobs++;
+    return vf_farm_reply_error(r, VCMFARM__ERROR_CODE__ERROR_INTERNAL, vf_error_detail(err));
+  }
+  vf_state_remove_job_files(farm->config.state_dir, job->id);
+  unsigned blobs = 0;
+  for (size_t k = 0; k < job->files.count; k++) {
+    const uint8_t *hash = job->files.refs[k].hash;
+    int earlier = 0; /* one blob under two names */
+    for (size_t e = 0; e < k; e++) earlier |= memcmp(job->files.refs[e].hash, hash, 32) == 0;
+    char path[4200];
+    if (!earlier && !blob_named(farm, hash, job) && vf_blob_path(farm->config.state_dir, hash, path, sizeof path) == VF_OK &&
+        unlink(path) == 0)
+      blobs++;
+  }
+  vf_log("job %llu removed, with %u blob(s) no other job names", (unsigned long long)job->id, blobs);
+  snprintf(r->text, sizeof r->text, "removed job %llu and %u of its %zu file(s) no other job names",
+           (unsigned long long)job->id, blobs, job->files.count);
+  vf_job_destroy(job);
+  vf_farm_reply_ack(r, 1, r->text);
+}

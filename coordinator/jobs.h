@@ -1,4 +1,5 @@
-/* The users' side of the farm: submitting a job, its status, its film and cancelling it
+/* The users' side of the farm: submitting a job, its status, its film, cancelling it and
+ * removing it
  * (docs/PROTOCOL.md). The handlers answer into a vf_farm_reply like the rest of
  * coordinator/farm.c, which dispatches to them. */
 #ifndef VF_COORDINATOR_JOBS_H
@@ -15,5 +16,9 @@ void vf_farm_status(vf_farm *farm, const Vcmfarm__StatusRequest *m, double now, 
 void vf_farm_fetch(vf_farm *farm, const Vcmfarm__FetchRequest *m, vf_farm_reply *r);
 /* CancelRequest: ends a runnable job and its leases. */
 void vf_farm_cancel(vf_farm *farm, const Vcmfarm__CancelRequest *m, double now, vf_farm_reply *r);
+/* RemoveRequest: forgets a job that has ended (not while its film is being written): the
+ * job list without it is written first, then its files and the blobs no other job names
+ * are removed, so a crash leaves at worst files nobody names. */
+void vf_farm_remove(vf_farm *farm, const Vcmfarm__RemoveRequest *m, vf_farm_reply *r);
 
 #endif

@@ -182,6 +182,31 @@ mesh_scene)
   [ "$(fetched w3)" = 0 ] || fail "the restarted worker fetched $(fetched w3) files its cache held"
   [ "$(served)" = 10 ] || fail "the coordinator served $(served) blobs over three jobs, expected 10"
   echo "blobs served: $(served) for three jobs; fetched by w1: $(fetched w1), w2: $(fetched w2), w3: $(fetched w3)"
+  # Removing jobs: a running one is refused; an ended one goes with its files, and its
+  # blobs only once no other job names them.
+  blobs() { find "$tmp/state/blobs" -type f | wc -l; }
+  [ "$(blobs)" = 5 ] || fail "the coordinator holds $(blobs) blobs, expected 5"
+  submit_scene 100000 10
+  client remove "$job" 2>"$tmp/remove.err" && fail "a queued or running job was removed"
+  grep -q "cancel it first" "$tmp/remove.err" || fail "the refusal does not say to cancel first: $(cat "$tmp/remove.err")"
+  client cancel "$job" || fail "cancel failed"
+  for j in 1 2 3; do
+    client remove "$j" || fail "removing job $j failed"
+    [ ! -e "$tmp/state/job-$j.scene" ] && [ ! -e "$tmp/state/job-$j.exr" ] && [ ! -e "$tmp/state/job-$j.files" ] ||
+      fail "job $j's files stayed"
+    [ "$(blobs)" = 5 ] || fail "a blob another job names went with job $j"
+  done
+  client remove "$job" || fail "removing the cancelled job failed"
+  [ "$(blobs)" = 0 ] || fail "$(blobs) blobs stayed after the last job naming them went"
+  all_jobs() { local out; out=$(client status --json 2>/dev/null) || return 1; echo "$out" | tr -d ' \t\n'; }
+  all_jobs | grep -q '"jobs":\[\]' || fail "status still lists jobs: $(all_jobs)"
+  client remove 1 2>/dev/null && fail "a removed job was removed again"
+  # The coordinator restarts on the state without them.
+  kill -9 "$coordinator"
+  wait "$coordinator" 2>/dev/null
+  start_coordinator
+  wait_until 30 "the restarted coordinator to answer" all_jobs
+  all_jobs | grep -q '"jobs":\[\]' || fail "removed jobs came back after a restart"
   ;;
 big_file)
   # A mesh file of 40 MiB travels in three chunks (16 MiB each) to the coordinator and from
