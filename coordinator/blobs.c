@@ -3,13 +3,47 @@
 #include "../common/error.h"
 #include "log.h"
 
+#include <dirent.h>
+#include <sodium.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
+#include <time.h>
 #include <unistd.h>
 
 #define BAD_REQUEST VCMFARM__ERROR_CODE__ERROR_BAD_REQUEST
+
+unsigned vf_farm_blobs_collect(const vf_farm *farm, double min_age) {
+  char dir[4200], path[4300];
+  if (snprintf(dir, sizeof dir, "%s/blobs", farm->config.state_dir) >= (int)sizeof dir) return 0;
+  DIR *d = opendir(dir);
+  if (d == NULL) return 0;
+  unsigned removed = 0;
+  time_t now = time(NULL);
+  struct dirent *e;
+  while ((e = readdir(d)) != NULL) {
+    uint8_t hash[32];
+    size_t len = 0;
+    struct stat st;
+    if (strlen(e->d_name) != 64 || sodium_hex2bin(hash, sizeof hash, e->d_name, 64, NULL, &len, NULL) != 0 ||
+        len != 32)
+      continue; /* not a blob (a transfer's part) */
+    int named = 0;
+    for (size_t i = 0; i < farm->num_jobs && !named; i++)
+      for (size_t k = 0; k < farm->jobs[i]->files.count && !named; k++)
+        named = memcmp(farm->jobs[i]->files.refs[k].hash, hash, 32) == 0;
+    if (named || snprintf(path, sizeof path, "%s/%s", dir, e->d_name) >= (int)sizeof path || stat(path, &st) != 0 ||
+        difftime(now, st.st_mtime) < min_age || unlink(path) != 0)
+      continue;
+    vf_log("removed blob %s: no job names it (%lld bytes, unchanged for %.0f h)", e->d_name, (long long)st.st_size,
+           difftime(now, st.st_mtime) / 3600.0);
+    removed++;
+  }
+  closedir(d);
+  return removed;
+}
 
 int vf_farm_blobs_attach(const vf_farm *farm, vf_job *job, const Vcmfarm__Scene *scene) {
   if (scene->n_files == 0) return VF_OK;

@@ -2,7 +2,8 @@
  * scenes"): it keeps every blob once, by hash, in the state directory's blob store
  * (DIR/blobs/HEX, common/blob.h), whoever sent it and however many jobs use it; it checks
  * a job's file table against the store before accepting the job; and it serves blobs to
- * workers. Blobs are never deleted (no job's files are collected yet).
+ * workers. A blob goes when the last job naming it is removed (coordinator/jobs.h), or,
+ * named by none, a day after it arrived (vf_farm_blobs_collect).
  *
  * The handlers answer into a vf_farm_reply like the rest of coordinator/farm.c. */
 #ifndef VF_COORDINATOR_BLOBS_H
@@ -17,6 +18,12 @@ int vf_farm_blobs_attach(const vf_farm *farm, vf_job *job, const Vcmfarm__Scene 
 
 /* Puts the job's file table into the lease being built (r->scene.files). VF_ENOMEM. */
 int vf_farm_blobs_lease(const vf_job *job, vf_farm_reply *r);
+
+/* Removes the blobs of the store that no job names and that have not changed for min_age
+ * seconds: those of submissions that failed after their files were sent (a younger one
+ * may belong to a submission in progress). Call it when no request is being served, as
+ * the coordinator does at start. Returns the number removed. */
+unsigned vf_farm_blobs_collect(const vf_farm *farm, double min_age);
 
 /* BlobQuery -> BlobHave: which of the hashes the store lacks. */
 void vf_farm_blob_query(vf_farm *farm, const Vcmfarm__BlobQuery *m, vf_farm_reply *r);

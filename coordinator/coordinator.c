@@ -3,6 +3,7 @@
 #include "../common/clock.h"
 #include "../common/error.h"
 #include "../common/message.h"
+#include "blobs.h"
 #include "farm.h"
 #include "log.h"
 #include "state.h"
@@ -177,6 +178,7 @@ int vf_coordinator_run(const vf_coordinator_config *config) {
   else if ((err = vf_wire_key_load(config->secret_path, &c->key)) != VF_OK) goto free_farm;
   if ((err = vf_state_lock(config->state_dir, &lock_fd)) != VF_OK) goto free_farm;
   if ((err = vf_state_load(&c->farm)) != VF_OK) goto unlock;
+  vf_farm_blobs_collect(&c->farm, 86400.0); /* left by submissions that failed */
   if ((c->socket = nn_socket(AF_SP, NN_REP)) < 0) {
     err = vf_error_set(VF_ENET, "nanomsg socket: %s", nn_strerror(nn_errno()));
     goto unlock;

@@ -298,6 +298,23 @@ bad_blobs)
   status=$?
   cat "$tmp/liar.out"
   [ "$status" = 0 ] || fail "the worker did not refuse bytes that do not match their hash"
+  # Blobs no job names (a submission that failed after sending its files): a restarted
+  # coordinator removes those older than a day, and keeps younger ones.
+  for age in old new; do
+    printf 'orphan %s' "$age" >"$tmp/orphan"
+    hash=$(b2sum -l 256 "$tmp/orphan" | cut -d' ' -f1)
+    cp "$tmp/orphan" "$tmp/state/blobs/$hash"
+    eval "orphan_$age=$hash"
+  done
+  touch -d '2 days ago' "$tmp/state/blobs/$orphan_old"
+  kill -9 "$coordinator"
+  wait "$coordinator" 2>/dev/null
+  start_coordinator
+  wait_until 30 "the restarted coordinator to answer" status_json
+  [ ! -e "$tmp/state/blobs/$orphan_old" ] || fail "a blob no job names, two days old, stayed"
+  [ -e "$tmp/state/blobs/$orphan_new" ] || fail "a young blob no job names was removed"
+  [ -e "$tmp/state/blobs/$ply_hash" ] || fail "a blob that jobs name was removed"
+  grep -q "removed blob $orphan_old: no job names it" "$tmp/coordinator.log" || fail "the removal was not logged"
   ;;
 three_workers)
   start_coordinator
