@@ -263,26 +263,28 @@ static void sleep_ms(int ms) {
   nanosleep(&ts, NULL); /* a signal ends it early: fine */
 }
 
-/* The job's status (one job: with its convergence log); free with vf_message_free. */
+/* The job's status, from the status of every job (which leaves out the convergence log
+ * that the status of one job carries); free *reply with vf_message_free. */
 static int job_status(vf_farm_client *client, uint64_t job_id, Vcmfarm__Envelope **reply,
                       const Vcmfarm__JobStatus **job) {
   Vcmfarm__StatusRequest m = VCMFARM__STATUS_REQUEST__INIT;
-  m.job_id = job_id;
   Vcmfarm__Envelope q = VCMFARM__ENVELOPE__INIT;
   q.body_case = VCMFARM__ENVELOPE__BODY_STATUS_REQUEST;
   q.status_request = &m;
   int err = vf_farm_request(client, &q, VCMFARM__ENVELOPE__BODY_STATUS, REQUEST_MS, reply);
   if (err != VF_OK) return err;
-  if ((*reply)->status->n_jobs != 1) {
-    vf_message_free(*reply);
-    return vf_error_set(VF_EPROTO, "the coordinator's status lacks job %llu", (unsigned long long)job_id);
-  }
-  *job = (*reply)->status->jobs[0];
-  return VF_OK;
+  for (size_t i = 0; i < (*reply)->status->n_jobs; i++)
+    if ((*reply)->status->jobs[i]->job_id == job_id) {
+      *job = (*reply)->status->jobs[i];
+      return VF_OK;
+    }
+  vf_message_free(*reply);
+  return vf_error_set(VF_EPROTO, "the coordinator's status lacks job %llu", (unsigned long long)job_id);
 }
 
-/* Fetches the job's film; *bytes (an EXR file, owned) on success. */
-static int fetch_film(vf_farm_client *client, uint64_t job_id, uint8_t **bytes, size_t *len) {
+/* Fetches the film as the coordinator holds it now and writes it atomically to the
+ * output; *film (may be NULL) receives it decoded. */
+static int checkpoint(vf_farm_client *client, uint64_t job_id, const char *output, vf_film **film) {
   Vcmfarm__FetchRequest m = VCMFARM__FETCH_REQUEST__INIT;
   m.job_id = job_id;
   Vcmfarm__Envelope q = VCMFARM__ENVELOPE__INIT, *reply;
@@ -290,23 +292,10 @@ static int fetch_film(vf_farm_client *client, uint64_t job_id, uint8_t **bytes, 
   q.fetch = &m;
   int err = vf_farm_request(client, &q, VCMFARM__ENVELOPE__BODY_FILM, REQUEST_MS, &reply);
   if (err != VF_OK) return err;
-  *len = reply->film->film_exr.len;
-  *bytes = malloc(*len ? *len : 1);
-  if (*bytes == NULL) err = vf_error_set(VF_ENOMEM, "out of memory for the film");
-  else memcpy(*bytes, reply->film->film_exr.data, *len);
+  const ProtobufCBinaryData *exr = &reply->film->film_exr;
+  if (film) err = vf_film_from_bytes(exr->data, exr->len, "the fetched film", film);
+  if (err == VF_OK) err = vf_file_write_atomic(output, exr->data, exr->len, 0644);
   vf_message_free(reply);
-  return err;
-}
-
-/* The film as the coordinator holds it now, written atomically to the output. */
-static int checkpoint(vf_farm_client *client, uint64_t job_id, const char *output, vf_film **film) {
-  uint8_t *bytes;
-  size_t len;
-  int err = fetch_film(client, job_id, &bytes, &len);
-  if (err != VF_OK) return err;
-  if (film) err = vf_film_from_bytes(bytes, len, "the fetched film", film);
-  if (err == VF_OK) err = vf_file_write_atomic(output, bytes, len, 0644);
-  free(bytes);
   return err;
 }
 
