@@ -73,6 +73,20 @@ int vf_farm_blobs_attach(const vf_farm *farm, vf_job *job, const Vcmfarm__Scene 
   return VF_OK;
 }
 
+int vf_farm_blobs_reference(const vf_farm *farm, const Vcmfarm__BlobRef *ref) {
+  if (ref->hash.len != 32) return vf_error_set(VF_EINVAL, "reference: hash of %zu bytes, expected 32", ref->hash.len);
+  char hex[65];
+  vf_blob_hex(ref->hash.data, hex);
+  uint64_t size;
+  int err = vf_blob_store_check(farm->config.state_dir, ref->hash.data, &size);
+  if (err == VF_ENOENT) return vf_error_set(VF_EINVAL, "reference: the coordinator has no blob %s (send it first)", hex);
+  if (err != VF_OK) return err == VF_EMISMATCH ? vf_error_set(VF_EIO, "reference: %s", vf_error_detail(err)) : err;
+  if (size != ref->size)
+    return vf_error_set(VF_EINVAL, "reference: %llu bytes, the blob %.16s... has %llu", (unsigned long long)ref->size,
+                        hex, (unsigned long long)size);
+  return VF_OK;
+}
+
 int vf_farm_blobs_lease(const vf_job *job, vf_farm_reply *r) {
   int err = vf_blob_table_to_wire(&job->files, &r->file_refs, &r->file_ref_ptrs);
   if (err != VF_OK) return err;

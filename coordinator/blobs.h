@@ -16,13 +16,18 @@
  * detail naming the file, VF_ENOMEM. */
 int vf_farm_blobs_attach(const vf_farm *farm, vf_job *job, const Vcmfarm__Scene *scene);
 
+/* Checks a submitted reference's entry: a 32-byte hash of a blob the store holds, intact,
+ * with the entry's size. VF_EINVAL naming the problem ("send it first"), VF_EIO. */
+int vf_farm_blobs_reference(const vf_farm *farm, const Vcmfarm__BlobRef *ref);
+
 /* Puts the job's file table into the lease being built (r->scene.files). VF_ENOMEM. */
 int vf_farm_blobs_lease(const vf_job *job, vf_farm_reply *r);
 
 /* Removes the blobs of the store that no job names and that have not changed for min_age
- * seconds: those of submissions that failed after their files were sent (a younger one
- * may belong to a submission in progress). Call it when no request is being served, as
- * the coordinator does at start. Returns the number removed. */
+ * seconds: those of submissions that failed after their files were sent, and references
+ * (each job keeps a link of its own; coordinator/state.h). A younger one may belong to a
+ * submission in progress. The coordinator calls it at start and every hour. Returns the
+ * number removed. */
 unsigned vf_farm_blobs_collect(const vf_farm *farm, double min_age);
 
 /* BlobQuery -> BlobHave: which of the hashes the store lacks. */

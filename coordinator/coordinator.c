@@ -20,6 +20,7 @@
 
 #define TICK_MS 200
 #define STOP_CHECK_MS 10
+#define COLLECT_SECONDS 3600.0
 #define MESSAGES_PER_WAKEUP 32
 #define REPLY_GIVE_UP_SECONDS 30.0
 
@@ -33,6 +34,7 @@ typedef struct {
   vf_farm farm;
   vf_writer *writer;   /* films are checkpointed through it, off the loop */
   double checkpoint_interval, last_checkpoint;
+  double last_collect;  /* of blobs no job names (coordinator/blobs.h) */
   volatile sig_atomic_t *stop; /* the caller's stop flag, or NULL */
   uint8_t *pending;     /* a packed reply waiting for room, owned */
   size_t pending_len;
@@ -141,6 +143,10 @@ static void on_tick(uv_timer_t *timer) {
     c->pending = NULL;
     resume_receiving(c);
   }
+  if (now - c->last_collect >= COLLECT_SECONDS) {
+    vf_farm_blobs_collect(&c->farm, 86400.0); /* left by submissions that failed, references */
+    c->last_collect = now;
+  }
   if (now - c->last_checkpoint >= c->checkpoint_interval) {
     vf_farm_checkpoint(&c->farm, 0);
     c->last_checkpoint = now;
@@ -178,7 +184,8 @@ int vf_coordinator_run(const vf_coordinator_config *config) {
   else if ((err = vf_wire_key_load(config->secret_path, &c->key)) != VF_OK) goto free_farm;
   if ((err = vf_state_lock(config->state_dir, &lock_fd)) != VF_OK) goto free_farm;
   if ((err = vf_state_load(&c->farm)) != VF_OK) goto unlock;
-  vf_farm_blobs_collect(&c->farm, 86400.0); /* left by submissions that failed */
+  vf_farm_blobs_collect(&c->farm, 86400.0); /* before serving anyone, then every hour */
+  c->last_collect = vf_seconds_now();
   if ((c->socket = nn_socket(AF_SP, NN_REP)) < 0) {
     err = vf_error_set(VF_ENET, "nanomsg socket: %s", nn_strerror(nn_errno()));
     goto unlock;

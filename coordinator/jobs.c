@@ -38,10 +38,10 @@ void vf_farm_submit(vf_farm *farm, const Vcmfarm__SubmitJob *m, vf_farm_reply *r
                        (err = vf_farm_blobs_attach(farm, job, m->scene)) != VF_OK))
     vf_job_destroy(job);
   if (err != VF_OK) return vf_farm_reply_error(r, VCMFARM__ERROR_CODE__ERROR_BAD_REQUEST, vf_error_detail(err));
-  /* The reference is checked by reading it back from where it is kept. */
-  if (m->reference_exr.len > 0 &&
-      (err = vf_state_save_reference(farm->config.state_dir, job, m->reference_exr.data, m->reference_exr.len)) !=
-          VF_OK) {
+  /* The reference is a blob sent first, checked against its hash, then read as an image. */
+  if (m->reference && (err = vf_farm_blobs_reference(farm, m->reference)) == VF_OK)
+    err = vf_state_save_reference(farm->config.state_dir, job, m->reference->hash.data);
+  if (err != VF_OK) {
     vf_job_destroy(job);
     return vf_farm_reply_error(r, err == VF_EIO ? VCMFARM__ERROR_CODE__ERROR_INTERNAL : VCMFARM__ERROR_CODE__ERROR_BAD_REQUEST,
                                vf_error_detail(err));

@@ -68,11 +68,12 @@ int vf_state_save_film(const char *dir, vf_job *job) {
   return err;
 }
 
-int vf_state_save_reference(const char *dir, vf_job *job, const uint8_t *data, size_t len) {
-  char path[4096];
+int vf_state_save_reference(const char *dir, vf_job *job, const uint8_t hash[32]) {
+  char path[4096], blob[4200];
   int err = path_of(path, sizeof path, dir, "job-", job->id, ".reference.exr");
-  if (err != VF_OK) return err;
-  if ((err = vf_file_write_atomic(path, data, len, 0600)) != VF_OK) return err;
+  if (err != VF_OK || (err = vf_blob_path(dir, hash, blob, sizeof blob)) != VF_OK) return err;
+  unlink(path); /* left by a submission that failed before its job list was written */
+  if (link(blob, path) != 0) return vf_error_set(VF_EIO, "%s: cannot link %s: %s", path, blob, strerror(errno));
   if ((err = vf_job_load_reference(job, path)) != VF_OK) {
     /* Name what was sent, not where we kept it. */
     const char *detail = vf_error_detail(err), *at = strstr(detail, path);

@@ -41,9 +41,10 @@ int vf_state_save_scene(const char *dir, const vf_job *job); /* job-ID.files, th
 int vf_state_save_film(const char *dir, vf_job *job);
 /* DIR/job-ID.exr into buf (n bytes); VF_EINVAL when it does not fit. */
 int vf_state_film_path(const char *dir, uint64_t id, char *buf, size_t n);
-/* Writes DIR/job-ID.reference.exr and loads it into the job (vf_job_load_reference);
- * on failure removes it again: VF_EIO (writing), or the reading error of a bad image. */
-int vf_state_save_reference(const char *dir, vf_job *job, const uint8_t *data, size_t len);
+/* Makes DIR/job-ID.reference.exr the blob of hash (a hard link: no copy, and it outlives
+ * the blob) and loads it into the job (vf_job_load_reference); on failure removes it
+ * again: VF_EIO, or the reading error of a bad image. */
+int vf_state_save_reference(const char *dir, vf_job *job, const uint8_t hash[32]);
 /* Removes the files of a job that was refused after they were written. */
 void vf_state_remove_job_files(const char *dir, uint64_t id);
 

@@ -120,8 +120,9 @@ int vf_submit(vf_farm_client *client, int timeout_ms, const vf_submit_job *job, 
   const char *source = job->source, *reference = job->reference;
   int err = VF_OK;
   int builtin = vf_job_scene_is_builtin(source);
-  uint8_t *text = NULL, *reference_bytes = NULL;
-  size_t len = 0, reference_len = 0;
+  uint8_t *text = NULL;
+  size_t len = 0;
+  vf_blob_table reference_file = {0};
   vf_scene *scene = NULL;
   vf_image reference_image = {0};
   Vcmfarm__Envelope *reply = NULL;
@@ -153,9 +154,16 @@ int vf_submit(vf_farm_client *client, int timeout_ms, const vf_submit_job *job, 
                          reference_image.width, reference_image.height, settings.width, settings.height);
       goto done;
     }
-    if ((err = vf_file_read_all(reference, VF_WIRE_MAX_REQUEST - (16u << 20) - (1u << 20), &reference_bytes,
-                                &reference_len)) != VF_OK)
+    /* It travels as a blob, like the scene's files: any size. */
+    uint8_t *bytes, hash[32];
+    size_t n;
+    if ((!stage[0] && (err = stage_create(stage, sizeof stage)) != VF_OK) ||
+        (err = vf_file_read_all(reference, (size_t)VF_BLOB_MAX_BYTES, &bytes, &n)) != VF_OK)
       goto done;
+    vf_blob_hash(bytes, n, hash);
+    err = vf_blob_store_put(stage, hash, bytes, n);
+    free(bytes);
+    if (err != VF_OK || (err = vf_blob_table_add(&reference_file, "reference", hash, n)) != VF_OK) goto done;
   }
   Vcmfarm__Scene s = VCMFARM__SCENE__INIT;
   if (builtin) {
@@ -172,6 +180,13 @@ int vf_submit(vf_farm_client *client, int timeout_ms, const vf_submit_job *job, 
     s.n_files = files.count;
     s.files = file_ref_ptrs;
   }
+  Vcmfarm__BlobRef reference_ref = VCMFARM__BLOB_REF__INIT;
+  if (reference_file.count > 0) {
+    if ((err = send_files(client, timeout_ms, NULL, stage, &reference_file)) != VF_OK) goto done;
+    reference_ref.name = reference_file.refs[0].name;
+    reference_ref.hash = (ProtobufCBinaryData){32, reference_file.refs[0].hash};
+    reference_ref.size = reference_file.refs[0].size;
+  }
   Vcmfarm__SubmitJob m = VCMFARM__SUBMIT_JOB__INIT;
   m.name = (char *)(job->name ? job->name : source);
   m.scene = &s;
@@ -187,8 +202,7 @@ int vf_submit(vf_farm_client *client, int timeout_ms, const vf_submit_job *job, 
   m.time_limit = job->time_limit;
   m.target_rmse = job->target_rmse;
   m.target_error = job->target_error;
-  m.reference_exr.data = reference_bytes;
-  m.reference_exr.len = reference_len;
+  if (reference_file.count > 0) m.reference = &reference_ref;
   Vcmfarm__Envelope q = VCMFARM__ENVELOPE__INIT;
   q.body_case = VCMFARM__ENVELOPE__BODY_SUBMIT;
   q.submit = &m;
@@ -202,10 +216,10 @@ done:
   free(file_refs);
   free(file_ref_ptrs);
   vf_blob_table_clear(&files);
+  vf_blob_table_clear(&reference_file);
   vf_message_free(reply);
   vf_scene_destroy(scene);
   vf_image_destroy(&reference_image);
-  free(reference_bytes);
   free(text);
   return err;
 }

@@ -104,5 +104,13 @@ m=$(end_of "$tmp/g.exr")
 check "SIGKILL: a checkpoint of $m iterations was written" $?
 [ -n "$m" ] && same "SIGKILL: the checkpoint is the film of [0,$m)" "[0,$m)" "$tmp/g.exr" cornell "${common[@]}" -n "$m"
 
+# 8. A reference above the old one-message limit (a film of 800x800, 59 MB) travels as a
+#    blob; the film's log holds the RMSE against it.
+"$vcmfarm" render cornell -R 800x800 -a pt -n 1 --direct -q -o "$tmp/ref.exr"
+"$vcmfarm" render cornell -R 800x800 -a pt -n 2 -s 9 --reference "$tmp/ref.exr" -q -o "$tmp/h.exr"
+check "a reference of $(($(stat -c %s "$tmp/ref.exr") >> 20)) MiB" $?
+"$vcmfarm" info "$tmp/h.exr" | awk 'f && NF == 7 {r = $5} /wall_s/ {f = 1} END {exit !(r != "" && r != "nan")}'
+check "the film's log holds the RMSE against it" $?
+
 echo "$failures failure(s)"
 [ "$failures" -eq 0 ]
