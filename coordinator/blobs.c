@@ -15,6 +15,57 @@
 
 #define BAD_REQUEST VCMFARM__ERROR_CODE__ERROR_BAD_REQUEST
 
+struct vf_blob_checked {
+  uint8_t hash[32];
+  off_t size;
+  struct timespec mtime;
+};
+
+/* Records a blob as intact in the version `st` describes (taken before it was checked: a
+ * change since makes it another version). Out of memory, it is simply not remembered. */
+static void remember(vf_farm *farm, size_t i, const uint8_t hash[32], const struct stat *st) {
+  if (i == farm->num_checked) {
+    if (farm->num_checked == farm->checked_capacity) {
+      size_t cap = farm->checked_capacity ? 2 * farm->checked_capacity : 64;
+      struct vf_blob_checked *grown = realloc(farm->checked, cap * sizeof *grown);
+      if (grown == NULL) return;
+      farm->checked = grown;
+      farm->checked_capacity = cap;
+    }
+    farm->num_checked++;
+  }
+  memcpy(farm->checked[i].hash, hash, 32);
+  farm->checked[i].size = st->st_size;
+  farm->checked[i].mtime = st->st_mtim;
+}
+
+static size_t find_checked(const vf_farm *farm, const uint8_t hash[32]) {
+  size_t i = 0;
+  while (i < farm->num_checked && memcmp(farm->checked[i].hash, hash, 32) != 0) i++;
+  return i;
+}
+
+/* vf_blob_store_check, skipped for a blob found intact before and unchanged since. */
+static int check_blob(vf_farm *farm, const uint8_t hash[32], uint64_t *size) {
+  char path[4200];
+  struct stat st;
+  const char *dir = farm->config.state_dir;
+  int err = vf_blob_path(dir, hash, path, sizeof path), known = stat(path, &st) == 0;
+  if (err != VF_OK) return err;
+  size_t i = find_checked(farm, hash);
+  if (known && i < farm->num_checked && farm->checked[i].size == st.st_size &&
+      farm->checked[i].mtime.tv_sec == st.st_mtim.tv_sec && farm->checked[i].mtime.tv_nsec == st.st_mtim.tv_nsec) {
+    if (size) *size = (uint64_t)st.st_size;
+    return VF_OK;
+  }
+  if ((err = vf_blob_store_check(dir, hash, size)) != VF_OK || !known) {
+    if (i < farm->num_checked) farm->checked[i] = farm->checked[--farm->num_checked];
+    return err;
+  }
+  remember(farm, i, hash, &st);
+  return VF_OK;
+}
+
 unsigned vf_farm_blobs_collect(const vf_farm *farm, double min_age) {
   char dir[4200], path[4300];
   if (snprintf(dir, sizeof dir, "%s/blobs", farm->config.state_dir) >= (int)sizeof dir) return 0;
@@ -73,12 +124,12 @@ int vf_farm_blobs_attach(const vf_farm *farm, vf_job *job, const Vcmfarm__Scene 
   return VF_OK;
 }
 
-int vf_farm_blobs_reference(const vf_farm *farm, const Vcmfarm__BlobRef *ref) {
+int vf_farm_blobs_reference(vf_farm *farm, const Vcmfarm__BlobRef *ref) {
   if (ref->hash.len != 32) return vf_error_set(VF_EINVAL, "reference: hash of %zu bytes, expected 32", ref->hash.len);
   char hex[65];
   vf_blob_hex(ref->hash.data, hex);
   uint64_t size;
-  int err = vf_blob_store_check(farm->config.state_dir, ref->hash.data, &size);
+  int err = check_blob(farm, ref->hash.data, &size);
   if (err == VF_ENOENT) return vf_error_set(VF_EINVAL, "reference: the coordinator has no blob %s (send it first)", hex);
   if (err != VF_OK) return err == VF_EMISMATCH ? vf_error_set(VF_EIO, "reference: %s", vf_error_detail(err)) : err;
   if (size != ref->size)
@@ -107,7 +158,7 @@ void vf_farm_blob_query(vf_farm *farm, const Vcmfarm__BlobQuery *m, vf_farm_repl
   /* Each held blob is read and checked: a query comes once per submission, and a damaged
    * copy found here is dropped and reported missing, so the client sends it again. */
   for (size_t i = 0; i < m->n_hashes; i++) {
-    int err = vf_blob_store_check(farm->config.state_dir, m->hashes[i].data, NULL);
+    int err = check_blob(farm, m->hashes[i].data, NULL);
     if (err == VF_EMISMATCH) {
       char path[4200];
       vf_log("%s; removed, the client will send it again", vf_error_detail(err));
@@ -136,6 +187,10 @@ void vf_farm_blob_put(vf_farm *farm, const Vcmfarm__BlobPut *m, vf_farm_reply *r
                                vf_error_detail(err));
   }
   if (complete) {
+    char path[4200];
+    struct stat st; /* checked whole as it arrived */
+    if (vf_blob_path(farm->config.state_dir, m->hash.data, path, sizeof path) == VF_OK && stat(path, &st) == 0)
+      remember(farm, find_checked(farm, m->hash.data), m->hash.data, &st);
     vf_log("stored blob %s (%llu bytes)", hex, (unsigned long long)m->total_size);
     snprintf(r->text, sizeof r->text, "blob %s stored", hex);
   } else {
@@ -153,7 +208,7 @@ void vf_farm_blob_request(vf_farm *farm, const vf_farm_worker *w, const Vcmfarm_
   size_t len = 0;
   uint64_t total = 0;
   const char *dir = farm->config.state_dir;
-  int err = m->offset == 0 ? vf_blob_store_check(dir, m->hash.data, NULL) : VF_OK;
+  int err = m->offset == 0 ? check_blob(farm, m->hash.data, NULL) : VF_OK;
   if (err == VF_OK) err = vf_blob_store_read(dir, m->hash.data, m->offset, VF_BLOB_CHUNK_BYTES, &bytes, &len, &total);
   if (err != VF_OK) {
     vf_log("worker %s asked for blob %s at %llu: %s", w->name, hex, (unsigned long long)m->offset,

@@ -5,6 +5,11 @@
  * workers. A blob goes when the last job naming it is removed (coordinator/jobs.h), or,
  * named by none, a day after it arrived (vf_farm_blobs_collect).
  *
+ * A blob is read back and checked against its name before it is used (a query, a worker's
+ * first chunk, a reference), but once per version of the file: a blob found intact is
+ * read again only when its size or modification time changed, so a file of gigabytes does
+ * not stall the loop at every request for it.
+ *
  * The handlers answer into a vf_farm_reply like the rest of coordinator/farm.c. */
 #ifndef VF_COORDINATOR_BLOBS_H
 #define VF_COORDINATOR_BLOBS_H
@@ -18,7 +23,7 @@ int vf_farm_blobs_attach(const vf_farm *farm, vf_job *job, const Vcmfarm__Scene 
 
 /* Checks a submitted reference's entry: a 32-byte hash of a blob the store holds, intact,
  * with the entry's size. VF_EINVAL naming the problem ("send it first"), VF_EIO. */
-int vf_farm_blobs_reference(const vf_farm *farm, const Vcmfarm__BlobRef *ref);
+int vf_farm_blobs_reference(vf_farm *farm, const Vcmfarm__BlobRef *ref);
 
 /* Puts the job's file table into the lease being built (r->scene.files). VF_ENOMEM. */
 int vf_farm_blobs_lease(const vf_job *job, vf_farm_reply *r);

@@ -26,6 +26,7 @@ void vf_farm_destroy(vf_farm *farm) {
   for (size_t i = 0; i < farm->num_jobs; i++) vf_job_destroy(farm->jobs[i]);
   free(farm->jobs);
   free(farm->workers);
+  free(farm->checked);
   vf_lease_table_destroy(&farm->leases);
   memset(farm, 0, sizeof *farm);
 }

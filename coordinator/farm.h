@@ -51,6 +51,10 @@ typedef struct {
   vf_farm_film_writer write_film;
   void *write_ctx;
   size_t writes_pending;   /* started, not yet reported by vf_farm_film_written */
+  /* Blobs of the store read back and found intact, with the size and modification time
+   * they had then (coordinator/blobs.c): read again only when those change. */
+  struct vf_blob_checked *checked;
+  size_t num_checked, checked_capacity;
 } vf_farm;
 
 /* The reply being built: the envelope and storage for every body. Packed by the caller,
