@@ -198,6 +198,7 @@ static void print_json(const Vcmfarm__Status *st) {
     cJSON_AddNumberToObject(o, "iterations", (double)j->iterations_total);
     cJSON_AddNumberToObject(o, "iterations_done", (double)j->iterations_done);
     cJSON_AddNumberToObject(o, "iterations_leased", (double)j->iterations_leased);
+    cJSON_AddNumberToObject(o, "iterations_rendering", (double)j->iterations_rendering);
     cJSON_AddNumberToObject(o, "progress",
                             j->iterations_total ? (double)j->iterations_done / (double)j->iterations_total : 0.0);
     cJSON_AddNumberToObject(o, "iterations_per_second", j->iterations_per_second);
@@ -283,9 +284,10 @@ static void print_text(const Vcmfarm__Status *st) {
       p += n, left -= (size_t)n, n = snprintf(p, left, ", RMSE %g", j->target_rmse);
     if (j->target_error > 0.0 && n > 0 && (size_t)n < left)
       p += n, left -= (size_t)n, n = snprintf(p, left, ", est. RMSE %g", j->target_error);
-    printf("job %llu '%s': %s, %llu iterations done, %llu leased, priority %d; stops at %s\n",
+    printf("job %llu '%s': %s, %llu iterations done, %llu leased (%llu of them rendered, not merged yet), "
+           "priority %d; stops at %s\n",
            (unsigned long long)j->job_id, j->name, j->state, (unsigned long long)j->iterations_done,
-           (unsigned long long)j->iterations_leased, j->priority, stop);
+           (unsigned long long)j->iterations_leased, (unsigned long long)j->iterations_rendering, j->priority, stop);
     printf("  ran %s, %.2f it/s on %u workers, ETA %s, est. RMSE %.4g", ran, j->iterations_per_second, j->workers,
            strcmp(j->state, "done") == 0 ? "done" : eta, j->estimated_rmse);
     if (j->has_reference) printf(", RMSE %.4g", j->rmse);

@@ -224,6 +224,7 @@ static void handle_heartbeat(vf_farm *farm, vf_farm_worker *w, const Vcmfarm__He
   vcmfarm__heartbeat_ack__init(&r->heartbeat_ack);
   r->heartbeat_ack.lease_valid = l != NULL && l->state == VF_LEASE_ACTIVE && l->worker_id == w->id &&
                                  w->lease_id == l->id && job != NULL && vf_job_runnable(job);
+  if (r->heartbeat_ack.lease_valid) l->reported = m->iterations_done; /* clamped where it is used */
   r->env.body_case = VCMFARM__ENVELOPE__BODY_HEARTBEAT_ACK;
   r->env.heartbeat_ack = &r->heartbeat_ack;
 }

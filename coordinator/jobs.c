@@ -134,6 +134,7 @@ void vf_farm_status(vf_farm *farm, const Vcmfarm__StatusRequest *m, double now, 
     s->iterations_total = j->iterations;
     s->iterations_done = vf_job_done(j);
     s->iterations_leased = leased;
+    s->iterations_rendering = vf_lease_rendering_iterations(&farm->leases, j->id);
     s->settings = j->settings_text;
     s->message = j->message;
     s->results_refused = j->results_refused;

@@ -28,7 +28,8 @@ int vf_lease_add(vf_lease_table *t, uint64_t job_id, uint64_t worker_id, uint64_
   do {
     randombytes_buf(&new_id, sizeof new_id);
   } while (new_id == 0 || vf_lease_find(t, new_id) != NULL);
-  t->leases[t->count++] = (vf_lease){new_id, job_id, worker_id, begin, end, begin, VF_LEASE_ACTIVE, now, 0.0, NULL};
+  t->leases[t->count++] = (vf_lease){.id = new_id, .job_id = job_id, .worker_id = worker_id, .begin = begin,
+                                     .end = end, .first = begin, .state = VF_LEASE_ACTIVE, .granted = now};
   *id = new_id;
   return VF_OK;
 }
@@ -74,6 +75,17 @@ uint64_t vf_lease_active_iterations(const vf_lease_table *t, uint64_t job_id) {
   uint64_t n = 0;
   for (size_t i = 0; i < t->count; i++)
     if (t->leases[i].job_id == job_id && t->leases[i].state == VF_LEASE_ACTIVE) n += t->leases[i].end - t->leases[i].begin;
+  return n;
+}
+
+uint64_t vf_lease_rendering_iterations(const vf_lease_table *t, uint64_t job_id) {
+  uint64_t n = 0;
+  for (size_t i = 0; i < t->count; i++) {
+    const vf_lease *l = &t->leases[i];
+    if (l->job_id != job_id || l->state != VF_LEASE_ACTIVE) continue;
+    uint64_t at = l->first + l->reported < l->end ? l->first + l->reported : l->end;
+    if (at > l->begin) n += at - l->begin;
+  }
   return n;
 }
 

@@ -21,6 +21,7 @@ typedef struct {
   uint64_t job_id, worker_id;
   uint64_t begin, end; /* what is not merged yet: begin moves up as parts are merged */
   uint64_t first;      /* begin when granted */
+  uint64_t reported;   /* iterations from first rendered, as the worker's last heartbeat said */
   vf_lease_state state;
   double granted;     /* vf_seconds_now() */
   double charged;     /* worker-seconds charged to the job when granted (coordinator/schedule.h) */
@@ -48,6 +49,9 @@ void vf_lease_remove(vf_lease_table *t, uint64_t id);
 void vf_lease_expire(vf_lease_table *t, uint64_t id);
 /* Number of iterations of the job in active leases. */
 uint64_t vf_lease_active_iterations(const vf_lease_table *t, uint64_t job_id);
+/* Number of iterations of the job that workers have rendered in their active leases and
+ * not shipped yet, as their heartbeats said. */
+uint64_t vf_lease_rendering_iterations(const vf_lease_table *t, uint64_t job_id);
 
 /* Finds the first free range of a job with iterations [first, first + total) done as
  * `done`: it starts at the smallest iteration of those neither done nor actively leased

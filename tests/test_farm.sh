@@ -385,6 +385,10 @@ worker_terminated)
     [ -n "$range" ] && [ $((${range#* } - ${range% *})) -ge 3 ]
   }
   wait_until 30 "the quitter to hold a lease of 3 or more iterations" long_lease
+  # Its heartbeats tell the status what it has rendered before any part is shipped.
+  rendering() { [ "$(job_number iterations_rendering)" -gt 0 ] 2>/dev/null; }
+  wait_until 20 "the status to show iterations rendered, not merged" rendering
+  echo "status: $(job_number iterations_rendering) iteration(s) rendered, not merged; $(job_number iterations_done) done"
   kill -TERM "$quitter"
   wait_until 20 "the quitter to exit" exited "$quitter"
   wait "$quitter"
