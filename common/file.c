@@ -1,9 +1,11 @@
+#define _XOPEN_SOURCE 700 /* nftw */
 #include "file.h"
 
 #include "error.h"
 
 #include <errno.h>
 #include <fcntl.h>
+#include <ftw.h>
 #include <libgen.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -105,3 +107,19 @@ remove_tmp:
   unlink(tmp);
   return err;
 }
+
+int vf_file_temp_dir(const char *name, char *out, size_t n) {
+  const char *tmp = getenv("TMPDIR");
+  if (snprintf(out, n, "%s/%s-XXXXXX", tmp && tmp[0] ? tmp : "/tmp", name) >= (int)n)
+    return vf_error_set(VF_EINVAL, "TMPDIR too long");
+  if (mkdtemp(out) == NULL) return vf_error_set(VF_EIO, "%s: %s", out, strerror(errno));
+  return VF_OK;
+}
+
+static int remove_entry(const char *path, const struct stat *sb, int flag, struct FTW *ftw) {
+  (void)sb, (void)flag, (void)ftw;
+  remove(path);
+  return 0;
+}
+
+void vf_file_remove_tree(const char *dir) { nftw(dir, remove_entry, 16, FTW_DEPTH | FTW_PHYS); }

@@ -8,7 +8,6 @@
  * goes through leases, tiles, checks and merging exactly as on a farm of many machines.
  * --direct renders on this thread with vf_render_range instead (benchmarks of the renderer
  * alone, and the independent reference the farm tests compare with). */
-#define _XOPEN_SOURCE 700 /* nftw */
 #include "render_cmd.h"
 
 #include "../common/cli.h"
@@ -28,7 +27,6 @@
 #include "submit.h"
 
 #include <errno.h>
-#include <ftw.h>
 #include <getopt.h>
 #include <math.h>
 #include <pthread.h>
@@ -252,12 +250,6 @@ static int await_coordinator(vf_farm_client *client, const coordinator_thread *c
                    : vf_error_set(VF_ETIMEDOUT, "the in-process coordinator did not answer");
 }
 
-static int remove_entry(const char *path, const struct stat *sb, int flag, struct FTW *ftw) {
-  (void)sb, (void)flag, (void)ftw;
-  remove(path);
-  return 0;
-}
-
 static void sleep_ms(int ms) {
   struct timespec ts = {ms / 1000, (long)(ms % 1000) * 1000000L};
   nanosleep(&ts, NULL); /* a signal ends it early: fine */
@@ -325,20 +317,18 @@ static int render_farm(const render_options *o) {
     return vf_cli_fail(cmd, vf_error_set(VF_EUSAGE, "--start-iteration %llu: through the farm at most 2^53 "
                                          "(--direct takes any)", (unsigned long long)o->start));
   char dir[4096], state[4200], cache[4200];
-  const char *tmp = getenv("TMPDIR");
-  if (snprintf(dir, sizeof dir, "%s/vcmfarm-render-XXXXXX", tmp && tmp[0] ? tmp : "/tmp") >= (int)sizeof dir)
-    return vf_cli_fail(cmd, vf_error_set(VF_EINVAL, "TMPDIR too long"));
-  if (mkdtemp(dir) == NULL) return vf_cli_fail(cmd, vf_error_set(VF_EIO, "%s: %s", dir, strerror(errno)));
+  int err = vf_file_temp_dir("vcmfarm-render", dir, sizeof dir);
+  if (err != VF_OK) return vf_cli_fail(cmd, err);
   snprintf(state, sizeof state, "%s/state", dir);
   snprintf(cache, sizeof cache, "%s/cache", dir);
   vf_wire_key key;
-  int err = sodium_init() < 0 ? vf_error_set(VF_EINVAL, "libsodium cannot start") : VF_OK;
+  if (sodium_init() < 0) err = vf_error_set(VF_EINVAL, "libsodium cannot start");
   if (err == VF_OK) {
     randombytes_buf(key.bytes, sizeof key.bytes);
     err = vf_blob_cache_open(cache);
   }
   if (err != VF_OK) {
-    nftw(dir, remove_entry, 16, FTW_DEPTH | FTW_PHYS);
+    vf_file_remove_tree(dir);
     return vf_cli_fail(cmd, err);
   }
 
@@ -462,7 +452,7 @@ stop:
   }
   sigaction(SIGINT, &old_int, NULL);
   sigaction(SIGTERM, &old_term, NULL);
-  nftw(dir, remove_entry, 16, FTW_DEPTH | FTW_PHYS);
+  vf_file_remove_tree(dir);
   return err == VF_OK ? VF_EXIT_OK : vf_cli_fail(cmd, err);
 }
 

@@ -6,7 +6,6 @@
 #include "../common/wire.h"
 #include "../worker/job_scene.h"
 
-#include <dirent.h>
 #include <sodium.h>
 #include <errno.h>
 #include <limits.h>
@@ -14,30 +13,6 @@
 #include <stdlib.h>
 #include <string.h>
 #include <unistd.h>
-
-/* A private directory for the scene's files as blobs (common/blob.h), removed after. */
-static int stage_create(char *dir, size_t n) {
-  const char *tmp = getenv("TMPDIR");
-  if (snprintf(dir, n, "%s/vcmfarm-submit-XXXXXX", tmp && tmp[0] ? tmp : "/tmp") >= (int)n)
-    return vf_error_set(VF_EINVAL, "TMPDIR too long");
-  if (mkdtemp(dir) == NULL) return vf_error_set(VF_EIO, "%s: %s", dir, strerror(errno));
-  return VF_OK;
-}
-
-static void stage_remove(const char *dir) {
-  char blobs[4200], path[4500];
-  snprintf(blobs, sizeof blobs, "%s/blobs", dir);
-  DIR *d = opendir(blobs);
-  if (d != NULL) {
-    struct dirent *e;
-    while ((e = readdir(d)) != NULL)
-      if (e->d_name[0] != '.' && snprintf(path, sizeof path, "%s/%s", blobs, e->d_name) < (int)sizeof path)
-        unlink(path);
-    closedir(d);
-  }
-  rmdir(blobs);
-  rmdir(dir);
-}
 
 /* Sends one blob of the stage in chunks of VF_BLOB_CHUNK_BYTES, one per message. */
 static int send_blob(vf_farm_client *client, int timeout_ms, const char *stage, const vf_blob_ref *ref) {
@@ -137,7 +112,7 @@ int vf_submit(vf_farm_client *client, int timeout_ms, const vf_submit_job *job, 
   /* Load it as the workers will, to refuse a broken scene here and learn its hash; a JSON
    * scene's files are collected as blobs on the way. */
   if (builtin) err = vf_job_scene_load(1, source, len, NULL, NULL, source, &scene);
-  else if ((err = stage_create(stage, sizeof stage)) == VF_OK)
+  else if ((err = vf_file_temp_dir("vcmfarm-submit", stage, sizeof stage)) == VF_OK)
     err = vf_job_scene_collect(source, (const char *)text, len, stage, &files, &scene);
   if (err != VF_OK) goto done;
   vf_settings settings = scene->settings;
@@ -157,7 +132,7 @@ int vf_submit(vf_farm_client *client, int timeout_ms, const vf_submit_job *job, 
     /* It travels as a blob, like the scene's files: any size. */
     uint8_t *bytes, hash[32];
     size_t n;
-    if ((!stage[0] && (err = stage_create(stage, sizeof stage)) != VF_OK) ||
+    if ((!stage[0] && (err = vf_file_temp_dir("vcmfarm-submit", stage, sizeof stage)) != VF_OK) ||
         (err = vf_file_read_all(reference, (size_t)VF_BLOB_MAX_BYTES, &bytes, &n)) != VF_OK)
       goto done;
     vf_blob_hash(bytes, n, hash);
@@ -212,7 +187,7 @@ int vf_submit(vf_farm_client *client, int timeout_ms, const vf_submit_job *job, 
   snprintf(out->settings_text, sizeof out->settings_text, "%s", settings_text);
   snprintf(out->scene_source, sizeof out->scene_source, "%s", scene->source);
 done:
-  if (stage[0]) stage_remove(stage);
+  if (stage[0]) vf_file_remove_tree(stage); /* the scene's files as blobs */
   free(file_refs);
   free(file_ref_ptrs);
   vf_blob_table_clear(&files);
