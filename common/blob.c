@@ -249,6 +249,59 @@ int vf_blob_store_append(const char *dir, const uint8_t hash[32], uint64_t tag, 
   return err;
 }
 
+int vf_blob_store_list(const char *dir, vf_blob_entry **entries, size_t *n) {
+  char blobs[4200], path[4300];
+  *entries = NULL;
+  *n = 0;
+  if (snprintf(blobs, sizeof blobs, "%s/blobs", dir) >= (int)sizeof blobs)
+    return vf_error_set(VF_EINVAL, "%s: blob store path too long", dir);
+  DIR *d = opendir(blobs);
+  if (d == NULL) return errno == ENOENT ? VF_OK : vf_error_set(VF_EIO, "%s: %s", blobs, strerror(errno));
+  vf_blob_entry *list = NULL;
+  size_t count = 0, cap = 0;
+  int err = VF_OK;
+  struct dirent *e;
+  while ((e = readdir(d)) != NULL) {
+    uint8_t hash[32];
+    size_t len = 0;
+    struct stat st;
+    if (strlen(e->d_name) != 64 || strspn(e->d_name, "0123456789abcdef") != 64 ||
+        sodium_hex2bin(hash, sizeof hash, e->d_name, 64, NULL, &len, NULL) != 0 || len != 32)
+      continue; /* not a blob: a transfer's part */
+    if (snprintf(path, sizeof path, "%s/%s", blobs, e->d_name) >= (int)sizeof path || stat(path, &st) != 0 ||
+        !S_ISREG(st.st_mode))
+      continue;
+    if (count == cap) {
+      vf_blob_entry *grown = realloc(list, (cap = cap ? 2 * cap : 64) * sizeof *grown);
+      if (grown == NULL) {
+        err = vf_error_set(VF_ENOMEM, "out of memory listing %s", blobs);
+        break;
+      }
+      list = grown;
+    }
+    memcpy(list[count].hash, hash, 32);
+    list[count].size = (uint64_t)st.st_size;
+    list[count].modified = st.st_mtim;
+    count++;
+  }
+  closedir(d);
+  if (err != VF_OK) {
+    free(list);
+    return err;
+  }
+  *entries = list;
+  *n = count;
+  return VF_OK;
+}
+
+int vf_blob_store_remove(const char *dir, const uint8_t hash[32]) {
+  char path[4200];
+  int err = vf_blob_path(dir, hash, path, sizeof path);
+  if (err != VF_OK) return err;
+  if (unlink(path) != 0) return vf_error_set(VF_EIO, "%s: %s", path, strerror(errno));
+  return VF_OK;
+}
+
 void vf_blob_store_clean_parts(const char *dir, double min_age) {
   char blobs[4200], path[4500];
   if (snprintf(blobs, sizeof blobs, "%s/blobs", dir) >= (int)sizeof blobs) return;

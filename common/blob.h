@@ -21,6 +21,7 @@
 
 #include <stddef.h>
 #include <stdint.h>
+#include <time.h>
 
 /* A blob travels in chunks of at most VF_BLOB_CHUNK_BYTES, one per message, well under
  * the coordinator's request cap (VF_WIRE_MAX_REQUEST); a file can be up to 4 GiB. */
@@ -82,6 +83,20 @@ int vf_blob_store_read(const char *dir, const uint8_t hash[32], uint64_t offset,
  * removed), VF_EIO. Creates DIR/blobs if needed. */
 int vf_blob_store_append(const char *dir, const uint8_t hash[32], uint64_t tag, uint64_t offset, uint64_t total,
                          const void *data, size_t n, int *complete);
+
+/* A blob of a store as vf_blob_store_list sees it. */
+typedef struct {
+  uint8_t hash[32];
+  uint64_t size;
+  struct timespec modified; /* its last write, or its last use where the owner touches it */
+} vf_blob_entry;
+
+/* The blobs of store `dir` (not parts of transfers): *entries (malloc'ed, the caller
+ * frees; NULL when none) and *n. An absent store is empty. VF_ENOMEM, VF_EIO. */
+int vf_blob_store_list(const char *dir, vf_blob_entry **entries, size_t *n);
+
+/* Removes the blob of hash from the store: VF_OK, or VF_EIO (absent included). */
+int vf_blob_store_remove(const char *dir, const uint8_t hash[32]);
 
 /* Removes parts of transfers that never completed, those untouched for min_age seconds
  * (another process may still be writing younger ones). */

@@ -3,7 +3,6 @@
 #include "../common/error.h"
 #include "log.h"
 
-#include <dirent.h>
 #include <sodium.h>
 #include <stdarg.h>
 #include <stdio.h>
@@ -66,33 +65,34 @@ static int check_blob(vf_farm *farm, const uint8_t hash[32], uint64_t *size) {
   return VF_OK;
 }
 
+int vf_farm_blob_named(const vf_farm *farm, const uint8_t hash[32], const vf_job *except) {
+  for (size_t i = 0; i < farm->num_jobs; i++) {
+    const vf_job *j = farm->jobs[i];
+    if (j == except) continue;
+    for (size_t k = 0; k < j->files.count; k++)
+      if (memcmp(j->files.refs[k].hash, hash, 32) == 0) return 1;
+  }
+  return 0;
+}
+
 unsigned vf_farm_blobs_collect(const vf_farm *farm, double min_age) {
-  char dir[4200], path[4300];
-  if (snprintf(dir, sizeof dir, "%s/blobs", farm->config.state_dir) >= (int)sizeof dir) return 0;
-  DIR *d = opendir(dir);
-  if (d == NULL) return 0;
+  vf_blob_entry *blobs;
+  size_t count;
+  if (vf_blob_store_list(farm->config.state_dir, &blobs, &count) != VF_OK) return 0;
   unsigned removed = 0;
   time_t now = time(NULL);
-  struct dirent *e;
-  while ((e = readdir(d)) != NULL) {
-    uint8_t hash[32];
-    size_t len = 0;
-    struct stat st;
-    if (strlen(e->d_name) != 64 || sodium_hex2bin(hash, sizeof hash, e->d_name, 64, NULL, &len, NULL) != 0 ||
-        len != 32)
-      continue; /* not a blob (a transfer's part) */
-    int named = 0;
-    for (size_t i = 0; i < farm->num_jobs && !named; i++)
-      for (size_t k = 0; k < farm->jobs[i]->files.count && !named; k++)
-        named = memcmp(farm->jobs[i]->files.refs[k].hash, hash, 32) == 0;
-    if (named || snprintf(path, sizeof path, "%s/%s", dir, e->d_name) >= (int)sizeof path || stat(path, &st) != 0 ||
-        difftime(now, st.st_mtime) < min_age || unlink(path) != 0)
+  for (size_t i = 0; i < count; i++) {
+    double age = difftime(now, blobs[i].modified.tv_sec);
+    if (age < min_age || vf_farm_blob_named(farm, blobs[i].hash, NULL) ||
+        vf_blob_store_remove(farm->config.state_dir, blobs[i].hash) != VF_OK)
       continue;
-    vf_log("removed blob %s: no job names it (%lld bytes, unchanged for %.0f h)", e->d_name, (long long)st.st_size,
-           difftime(now, st.st_mtime) / 3600.0);
+    char hex[65];
+    vf_blob_hex(blobs[i].hash, hex);
+    vf_log("removed blob %s: no job names it (%llu bytes, unchanged for %.0f h)", hex,
+           (unsigned long long)blobs[i].size, age / 3600.0);
     removed++;
   }
-  closedir(d);
+  free(blobs);
   return removed;
 }
 

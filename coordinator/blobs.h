@@ -28,6 +28,10 @@ int vf_farm_blobs_reference(vf_farm *farm, const Vcmfarm__BlobRef *ref);
 /* Puts the job's file table into the lease being built (r->scene.files). VF_ENOMEM. */
 int vf_farm_blobs_lease(const vf_job *job, vf_farm_reply *r);
 
+/* 1 when a job of the farm other than `except` (may be NULL) names the blob among its
+ * scene's files. */
+int vf_farm_blob_named(const vf_farm *farm, const uint8_t hash[32], const vf_job *except);
+
 /* Removes the blobs of the store that no job names and that have not changed for min_age
  * seconds: those of submissions that failed after their files were sent, and references
  * (each job keeps a link of its own; coordinator/state.h). A younger one may belong to a

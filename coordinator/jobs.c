@@ -217,17 +217,6 @@ void vf_farm_cancel(vf_farm *farm, const Vcmfarm__CancelRequest *m, double now, 
   vf_farm_reply_ack(r, 1, "cancelled");
 }
 
-/* 1 when a job of the farm other than `except` names the blob. */
-static int blob_named(const vf_farm *farm, const uint8_t hash[32], const vf_job *except) {
-  for (size_t i = 0; i < farm->num_jobs; i++) {
-    const vf_job *j = farm->jobs[i];
-    if (j == except) continue;
-    for (size_t k = 0; k < j->files.count; k++)
-      if (memcmp(j->files.refs[k].hash, hash, 32) == 0) return 1;
-  }
-  return 0;
-}
-
 void vf_farm_remove(vf_farm *farm, const Vcmfarm__RemoveRequest *m, vf_farm_reply *r) {
   size_t at = 0;
   while (at < farm->num_jobs && farm->jobs[at]->id != m->job_id) at++;
@@ -259,9 +248,7 @@ void vf_farm_remove(vf_farm *farm, const Vcmfarm__RemoveRequest *m, vf_farm_repl
     const uint8_t *hash = job->files.refs[k].hash;
     int earlier = 0; /* one blob under two names */
     for (size_t e = 0; e < k; e++) earlier |= memcmp(job->files.refs[e].hash, hash, 32) == 0;
-    char path[4200];
-    if (!earlier && !blob_named(farm, hash, job) && vf_blob_path(farm->config.state_dir, hash, path, sizeof path) == VF_OK &&
-        unlink(path) == 0)
+    if (!earlier && !vf_farm_blob_named(farm, hash, job) && vf_blob_store_remove(farm->config.state_dir, hash) == VF_OK)
       blobs++;
   }
   vf_log("job %llu removed, with %u blob(s) no other job names", (unsigned long long)job->id, blobs);

@@ -6,7 +6,6 @@
 
 #include <sodium.h>
 
-#include <dirent.h>
 #include <errno.h>
 #include <fcntl.h>
 #include <stdio.h>
@@ -94,55 +93,25 @@ static void touch(const char *cache_dir, const uint8_t hash[32]) {
   if (vf_blob_path(cache_dir, hash, path, sizeof path) == VF_OK) utimensat(AT_FDCWD, path, NULL, 0);
 }
 
-typedef struct {
-  char name[80];
-  uint64_t size;
-  struct timespec used;
-} cached_blob;
-
 static int older_first(const void *a, const void *b) {
-  const struct timespec *x = &((const cached_blob *)a)->used, *y = &((const cached_blob *)b)->used;
-  if (x->tv_sec != y->tv_sec) return x->tv_sec < y->tv_sec ? -1 : 1;
-  if (x->tv_nsec != y->tv_nsec) return x->tv_nsec < y->tv_nsec ? -1 : 1;
-  return strcmp(((const cached_blob *)a)->name, ((const cached_blob *)b)->name);
+  const vf_blob_entry *x = a, *y = b;
+  if (x->modified.tv_sec != y->modified.tv_sec) return x->modified.tv_sec < y->modified.tv_sec ? -1 : 1;
+  if (x->modified.tv_nsec != y->modified.tv_nsec) return x->modified.tv_nsec < y->modified.tv_nsec ? -1 : 1;
+  return memcmp(x->hash, y->hash, 32);
 }
 
 unsigned vf_blob_cache_trim(const char *cache_dir, uint64_t max_bytes, const vf_blob_table *keep) {
-  char dir[4200], path[4300];
-  if (max_bytes == 0 || snprintf(dir, sizeof dir, "%s/blobs", cache_dir) >= (int)sizeof dir) return 0;
-  DIR *d = opendir(dir);
-  if (d == NULL) return 0;
-  cached_blob *blobs = NULL;
-  size_t count = 0, cap = 0;
+  vf_blob_entry *blobs;
+  size_t count;
+  if (max_bytes == 0 || vf_blob_store_list(cache_dir, &blobs, &count) != VF_OK) return 0;
   uint64_t total = 0;
-  struct dirent *e;
-  while ((e = readdir(d)) != NULL) {
-    struct stat st;
-    if (strlen(e->d_name) != 64 || strspn(e->d_name, "0123456789abcdef") != 64) continue; /* blobs only, not parts */
-    if (snprintf(path, sizeof path, "%s/%s", dir, e->d_name) >= (int)sizeof path || stat(path, &st) != 0) continue;
-    if (count == cap) {
-      cached_blob *grown = realloc(blobs, (cap = cap ? 2 * cap : 64) * sizeof *grown);
-      if (grown == NULL) break;
-      blobs = grown;
-    }
-    snprintf(blobs[count].name, sizeof blobs[count].name, "%s", e->d_name);
-    blobs[count].size = (uint64_t)st.st_size;
-    blobs[count].used = st.st_mtim;
-    total += (uint64_t)st.st_size;
-    count++;
-  }
-  closedir(d);
-  unsigned removed = 0;
+  for (size_t i = 0; i < count; i++) total += blobs[i].size;
   if (count > 0) qsort(blobs, count, sizeof *blobs, older_first);
+  unsigned removed = 0;
   for (size_t i = 0; i < count && total > max_bytes; i++) {
     int kept = 0;
-    for (size_t k = 0; keep && k < keep->count && !kept; k++) {
-      char hex[65];
-      vf_blob_hex(keep->refs[k].hash, hex);
-      kept = strcmp(hex, blobs[i].name) == 0;
-    }
-    if (kept || snprintf(path, sizeof path, "%s/%s", dir, blobs[i].name) >= (int)sizeof path || unlink(path) != 0)
-      continue;
+    for (size_t k = 0; keep && k < keep->count && !kept; k++) kept = memcmp(keep->refs[k].hash, blobs[i].hash, 32) == 0;
+    if (kept || vf_blob_store_remove(cache_dir, blobs[i].hash) != VF_OK) continue;
     total -= blobs[i].size;
     removed++;
   }
