@@ -128,32 +128,64 @@ static int finite3(const float *v) { return isfinite(v[0]) && isfinite(v[1]) && 
 /* A NaN or Inf sample would poison its pixel forever, so it is counted and replaced by zero
  * radiance; the sample itself still counts (camera_count, light_frames), which biases that
  * pixel slightly dark instead of dropping a sample from one estimator and not the other. */
-int vf_film_add_iteration(vf_film *film, uint64_t iteration, const float *camera_rgb, const float *light_rgb) {
-  if (film == NULL || camera_rgb == NULL || light_rgb == NULL)
-    return vf_error_set(VF_EINVAL, "vf_film_add_iteration: NULL argument");
-  if (iteration == UINT64_MAX) return vf_error_set(VF_EINVAL, "iteration index %" PRIu64 " is too large", iteration);
-  int err = vf_iterset_add(&film->iterations, iteration, iteration + 1);
-  if (err != VF_OK) return err;
+/* Pixels of one task of vf_film_add_iteration: a fixed block, so that the split does not
+ * depend on the number of threads (it could not change the sums anyway: they are per pixel). */
+#define ADD_BLOCK 16384u
+
+typedef struct {
+  vf_film *film;
+  const float *camera_rgb, *light_rgb;
+  uint64_t *nonfinite; /* per task */
+} add_ctx;
+
+static void add_task(void *ctx, size_t task, int thread) {
+  (void)thread;
+  add_ctx *c = ctx;
+  vf_film *film = c->film;
   static const float zero[3] = {0, 0, 0};
   size_t n = (size_t)film->width * (size_t)film->height;
-  for (size_t p = 0; p < n; p++) {
-    const float *cam = camera_rgb + 3 * p, *light = light_rgb + 3 * p;
+  size_t begin = task * ADD_BLOCK, end = begin + ADD_BLOCK < n ? begin + ADD_BLOCK : n;
+  uint64_t nonfinite = 0;
+  for (size_t p = begin; p < end; p++) {
+    const float *cam = c->camera_rgb + 3 * p, *light = c->light_rgb + 3 * p;
     if (!finite3(cam)) {
       cam = zero;
-      film->nonfinite_samples++;
+      nonfinite++;
     }
     if (!finite3(light)) {
       light = zero;
-      film->nonfinite_samples++;
+      nonfinite++;
     }
-    for (int c = 0; c < 3; c++) {
-      double estimate = (double)cam[c] + (double)light[c];
-      film->camera_sum[3 * p + c] += cam[c];
-      film->light_sum[3 * p + c] += light[c];
-      film->square_sum[3 * p + c] += estimate * estimate;
+    for (int k = 0; k < 3; k++) {
+      double estimate = (double)cam[k] + (double)light[k];
+      film->camera_sum[3 * p + k] += cam[k];
+      film->light_sum[3 * p + k] += light[k];
+      film->square_sum[3 * p + k] += estimate * estimate;
     }
     film->camera_count[p] += 1.0;
   }
+  c->nonfinite[task] = nonfinite;
+}
+
+int vf_film_add_iteration(vf_film *film, uint64_t iteration, const float *camera_rgb, const float *light_rgb,
+                          vf_pool *pool) {
+  if (film == NULL || camera_rgb == NULL || light_rgb == NULL)
+    return vf_error_set(VF_EINVAL, "vf_film_add_iteration: NULL argument");
+  if (iteration == UINT64_MAX) return vf_error_set(VF_EINVAL, "iteration index %" PRIu64 " is too large", iteration);
+  size_t n = (size_t)film->width * (size_t)film->height, tasks = (n + ADD_BLOCK - 1) / ADD_BLOCK;
+  uint64_t *nonfinite = calloc(tasks ? tasks : 1, sizeof *nonfinite);
+  if (nonfinite == NULL) return VF_ENOMEM;
+  int err = vf_iterset_add(&film->iterations, iteration, iteration + 1);
+  if (err != VF_OK) {
+    free(nonfinite);
+    return err;
+  }
+  add_ctx c = {film, camera_rgb, light_rgb, nonfinite};
+  if (pool) vf_pool_run(pool, tasks, add_task, &c);
+  else
+    for (size_t t = 0; t < tasks; t++) add_task(&c, t, 0);
+  for (size_t t = 0; t < tasks; t++) film->nonfinite_samples += nonfinite[t];
+  free(nonfinite);
   film->light_frames++;
   return VF_OK;
 }

@@ -24,6 +24,7 @@
 
 #include "convergence.h"
 #include "iterset.h"
+#include "pool.h"
 
 #include <stdint.h>
 
@@ -54,8 +55,11 @@ void vf_film_destroy(vf_film *film);
 
 /* Adds one iteration: camera_rgb holds one camera-path estimate per pixel, light_rgb the
  * iteration's light-tracing frame (both 3 floats per pixel, top row first). Adds the
- * iteration index to the set (VF_EOVERLAP, film unchanged, if it is already there). */
-int vf_film_add_iteration(vf_film *film, uint64_t iteration, const float *camera_rgb, const float *light_rgb);
+ * iteration index to the set (VF_EOVERLAP, film unchanged, if it is already there).
+ * Pixels are added in parallel over the pool's threads when pool is not NULL (the sums
+ * are per pixel, so the film is the same bit for bit either way). */
+int vf_film_add_iteration(vf_film *film, uint64_t iteration, const float *camera_rgb, const float *light_rgb,
+                          vf_pool *pool);
 
 /* Mean radiance, 3 floats per pixel, into rgb. Pixels without samples are 0. */
 void vf_film_mean(const vf_film *film, float *rgb);

@@ -128,7 +128,7 @@ static vf_film *lease_film(const Vcmfarm__Lease *l, int width, int height, uint6
   memcpy(film->scene_hash, l->scene_hash.data, 32);
   snprintf(film->settings_text, sizeof film->settings_text, "%s", l->settings);
   float *zeros = calloc((size_t)width * (size_t)height * 3, sizeof *zeros);
-  for (uint64_t k = begin; k < end; k++) vf_film_add_iteration(film, k, zeros, zeros);
+  for (uint64_t k = begin; k < end; k++) vf_film_add_iteration(film, k, zeros, zeros, NULL);
   free(zeros);
   return film;
 }

@@ -82,7 +82,7 @@ static vf_film *synthetic_film(int w, int h, uint64_t begin, uint64_t end) {
       cam[i] = (float)((k * 7 + (uint64_t)i * 13) % 10) * 0.1f;
       light[i] = (k % 2) ? 0.05f : 0.0f;
     }
-    vf_film_add_iteration(film, k, cam, light);
+    vf_film_add_iteration(film, k, cam, light, NULL);
   }
   free(cam);
   free(light);

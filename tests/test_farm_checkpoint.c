@@ -139,7 +139,7 @@ static int merge_one_result(vf_farm_client *c, const char *settings, const uint8
   snprintf(film->settings_text, sizeof film->settings_text, "%s", settings);
   float *zeros = calloc(3 * (size_t)WIDTH * HEIGHT, sizeof *zeros);
   if (zeros == NULL) err = VF_ENOMEM;
-  if (err == VF_OK) err = vf_film_add_iteration(film, 1, zeros, zeros);
+  if (err == VF_OK) err = vf_film_add_iteration(film, 1, zeros, zeros, NULL);
   free(zeros);
   if (err == VF_OK) {
     Vcmfarm__LeaseResult m = VCMFARM__LEASE_RESULT__INIT;

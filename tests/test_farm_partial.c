@@ -82,7 +82,7 @@ static vf_film *part_film(uint64_t begin, uint64_t end) {
   float *rgb = malloc(3 * 128 * 64 * sizeof *rgb);
   for (uint64_t k = begin; k < end; k++) {
     for (int i = 0; i < 3 * 128 * 64; i++) rgb[i] = (float)((i * 7 + k * 13) % 17) / 17.0f;
-    vf_film_add_iteration(film, k, rgb, rgb);
+    vf_film_add_iteration(film, k, rgb, rgb, NULL);
   }
   free(rgb);
   film->render_seconds = 0.5;

@@ -44,7 +44,7 @@ static vf_film *film_with(int w, int h, uint64_t begin, uint64_t end) {
   float *cam = malloc(sizeof(float) * 3 * (size_t)(w * h)), *light = malloc(sizeof(float) * 3 * (size_t)(w * h));
   for (uint64_t i = begin; i < end; i++) {
     iteration_inputs(w, h, i, cam, light);
-    vf_film_add_iteration(film, i, cam, light);
+    vf_film_add_iteration(film, i, cam, light, NULL);
   }
   free(cam);
   free(light);
@@ -82,8 +82,8 @@ static void test_add_iteration_and_mean_arithmetic(void) {
   CHECK_INT_EQ(vf_film_create(2, 1, &f), VF_OK);
   float cam1[6] = {1, 2, 3, 4, 5, 6}, light1[6] = {0.5f, 0, 0, 0, 0, 1};
   float cam2[6] = {3, 2, 1, 0, 0, 0}, light2[6] = {0.5f, 0, 0, 0, 0, 0};
-  CHECK_INT_EQ(vf_film_add_iteration(f, 7, cam1, light1), VF_OK);
-  CHECK_INT_EQ(vf_film_add_iteration(f, 8, cam2, light2), VF_OK);
+  CHECK_INT_EQ(vf_film_add_iteration(f, 7, cam1, light1, NULL), VF_OK);
+  CHECK_INT_EQ(vf_film_add_iteration(f, 8, cam2, light2, NULL), VF_OK);
   CHECK_INT_EQ(f->light_frames, 2);
   CHECK_INT_EQ(vf_iterset_count(&f->iterations), 2);
   CHECK(vf_iterset_contains(&f->iterations, 7) && vf_iterset_contains(&f->iterations, 8));
@@ -123,7 +123,7 @@ static void test_nonfinite_samples_count_as_zero(void) {
   vf_film *f = NULL;
   CHECK_INT_EQ(vf_film_create(2, 1, &f), VF_OK);
   float cam[6] = {NAN, 1, 1, 2, 2, 2}, light[6] = {1, 1, 1, INFINITY, 0, 0};
-  CHECK_INT_EQ(vf_film_add_iteration(f, 0, cam, light), VF_OK);
+  CHECK_INT_EQ(vf_film_add_iteration(f, 0, cam, light, NULL), VF_OK);
   CHECK_INT_EQ(f->nonfinite_samples, 2);
   CHECK_NEAR(f->camera_sum[0], 0, 0); /* the whole camera sample of pixel 0 is zero */
   CHECK_NEAR(f->camera_sum[1], 0, 0);
@@ -142,7 +142,7 @@ static void test_repeated_iteration_is_refused_unchanged(void) {
   CHECK_INT_EQ(vf_film_clone(f, &before), VF_OK);
   float cam[60] = {0}, light[60] = {0};
   cam[0] = 100;
-  CHECK_INT_EQ(vf_film_add_iteration(f, 1, cam, light), VF_EOVERLAP);
+  CHECK_INT_EQ(vf_film_add_iteration(f, 1, cam, light, NULL), VF_EOVERLAP);
   CHECK(films_equal(f, before, 0));
   vf_film_destroy(before);
   vf_film_destroy(f);
@@ -154,7 +154,7 @@ static void test_write_read_round_trip(void) {
   float cam[3 * 100 * 70], light[3 * 100 * 70];
   iteration_inputs(100, 70, 1000, cam, light);
   cam[5] = NAN;
-  CHECK_INT_EQ(vf_film_add_iteration(f, 1000, cam, light), VF_OK);
+  CHECK_INT_EQ(vf_film_add_iteration(f, 1000, cam, light, NULL), VF_OK);
   f->camera_sum[7] = 123456789.123456789; /* needs more than a float's precision */
   f->light_sum[8] = -1e-30;
   f->render_seconds = 12345.678;
@@ -217,7 +217,7 @@ static void test_long_iteration_set_round_trips(void) {
   CHECK_INT_EQ(vf_film_create(3, 2, &f), VF_OK);
   float cam[18] = {1, 2, 3}, light[18] = {0};
   /* 3000 separate ranges with 13-digit indices: ~90 kB of text */
-  for (uint64_t i = 0; i < 3000; i++) CHECK_INT_EQ(vf_film_add_iteration(f, 1000000000000ULL + 2 * i, cam, light), VF_OK);
+  for (uint64_t i = 0; i < 3000; i++) CHECK_INT_EQ(vf_film_add_iteration(f, 1000000000000ULL + 2 * i, cam, light, NULL), VF_OK);
   char path[512];
   scratch_path(path, sizeof path, "long.film.exr");
   CHECK_INT_EQ(vf_film_write(f, path), VF_OK);

@@ -60,7 +60,7 @@ static vf_film *film_with(int w, int h, uint64_t begin, uint64_t end, int seed) 
   float *cam = malloc(sizeof(float) * 3 * (size_t)(w * h)), *light = malloc(sizeof(float) * 3 * (size_t)(w * h));
   for (uint64_t i = begin; i < end; i++) {
     iteration_inputs(w, h, i, cam, light);
-    vf_film_add_iteration(film, i, cam, light);
+    vf_film_add_iteration(film, i, cam, light, NULL);
   }
   free(cam);
   free(light);

@@ -181,7 +181,18 @@ static int add_area_light(vf_lights *ls, const vf_shape *s, vf_light *l) {
   } else {
     l->kind = VF_LIGHT_AREA_MESH;
     l->triangle_cdf = malloc(((size_t)s->num_triangles + 1) * sizeof(float));
-    if (l->triangle_cdf == NULL) return VF_ENOMEM;
+    l->triangles = malloc((size_t)s->num_triangles * sizeof *l->triangles);
+    if (l->triangle_cdf == NULL || l->triangles == NULL) return VF_ENOMEM;
+    for (uint32_t t = 0; t < s->num_triangles; t++) {
+      const uint32_t *i = &s->indices[3 * (size_t)t];
+      const float *a = &s->positions[3 * (size_t)i[0]], *b = &s->positions[3 * (size_t)i[1]],
+                  *c = &s->positions[3 * (size_t)i[2]];
+      vf_light_triangle *lt = &l->triangles[t];
+      lt->a = vf_vec3_make(a[0], a[1], a[2]);
+      lt->b = vf_vec3_make(b[0], b[1], b[2]);
+      lt->c = vf_vec3_make(c[0], c[1], c[2]);
+      lt->normal = vf_normalize(vf_cross(vf_sub(lt->b, lt->a), vf_sub(lt->c, lt->a)));
+    }
     double sum = 0.0;
     l->triangle_cdf[0] = 0.0f;
     for (uint32_t t = 0; t < s->num_triangles; t++) {
@@ -265,7 +276,10 @@ fail:
 void vf_lights_destroy(vf_lights *ls) {
   if (ls == NULL) return;
   if (ls->lights)
-    for (int i = 0; i < ls->count; i++) free(ls->lights[i].triangle_cdf);
+    for (int i = 0; i < ls->count; i++) {
+      free(ls->lights[i].triangle_cdf);
+      free(ls->lights[i].triangles);
+    }
   free(ls->lights);
   free(ls->shape_light);
   free(ls->pick_cdf);
@@ -303,15 +317,11 @@ static void sample_area(const vf_light *l, uint32_t t, float u1, float u2, vf_ve
     *p = vf_add(s->center, vf_scale(d, s->radius));
     return;
   }
-  const uint32_t *i = &s->indices[3 * (size_t)t];
-  const float *a = &s->positions[3 * (size_t)i[0]], *b = &s->positions[3 * (size_t)i[1]],
-              *c = &s->positions[3 * (size_t)i[2]];
-  vf_vec3 va = vf_vec3_make(a[0], a[1], a[2]), vb = vf_vec3_make(b[0], b[1], b[2]),
-          vc = vf_vec3_make(c[0], c[1], c[2]);
+  const vf_light_triangle *tri = &l->triangles[t];
   float bu, bv;
   vf_sample_triangle(u1, u2, &bu, &bv);
-  *p = vf_add(vf_add(vf_scale(va, 1.0f - bu - bv), vf_scale(vb, bu)), vf_scale(vc, bv));
-  *n = vf_normalize(vf_cross(vf_sub(vb, va), vf_sub(vc, va)));
+  *p = vf_add(vf_add(vf_scale(tri->a, 1.0f - bu - bv), vf_scale(tri->b, bu)), vf_scale(tri->c, bv));
+  *n = tri->normal;
 }
 
 vf_vec3 vf_light_emit(const vf_lights *ls, const vf_light *l, const float rnd[4], vf_vec3 *position,

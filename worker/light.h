@@ -32,12 +32,19 @@ typedef enum {
 
 typedef struct vf_envmap vf_envmap;
 
+/* A triangle of an area mesh light as sampling reads it: its corners and unit normal in
+ * one record, instead of an index and three vertex lookups and a cross product per sample. */
+typedef struct {
+  vf_vec3 a, b, c, normal;
+} vf_light_triangle;
+
 typedef struct {
   vf_light_kind kind;
   float pick_probability;
   vf_vec3 radiance;          /* area: Le; point: intensity; directional: irradiance */
   const vf_shape *shape;     /* area lights; borrowed from the scene */
   float *triangle_cdf;       /* area meshes: cumulative triangle areas / total, owned */
+  vf_light_triangle *triangles; /* area meshes: per triangle, owned */
   float area, inv_area;
   vf_vec3 position;          /* point */
   vf_vec3 direction;         /* directional: direction of travel */

@@ -156,7 +156,7 @@ static int intersect(vf_vcm *v, int thread, vf_vec3 org, vf_vec3 dir, vf_hit *hi
 
 /* Whether the segment from p (normal n) to q (normal nq; zero vector: a point in space) is
  * blocked. Both ends are moved off their surfaces towards each other. */
-static int segment_occluded(vf_vcm *v, int thread, vf_vec3 p, vf_vec3 n, vf_vec3 q, vf_vec3 nq) {
+static inline __attribute__((always_inline)) int segment_occluded(vf_vcm *v, int thread, vf_vec3 p, vf_vec3 n, vf_vec3 q, vf_vec3 nq) {
   vf_vec3 d = vf_sub(q, p);
   vf_vec3 o = vf_offset_ray_origin(p, vf_dot(n, d) > 0.0f ? n : vf_neg(n), v->offset_scale);
   vf_vec3 e = vf_is_zero(nq) ? q : vf_offset_ray_origin(q, vf_dot(nq, d) < 0.0f ? nq : vf_neg(nq), v->offset_scale);
@@ -437,9 +437,33 @@ static vf_vec3 light_sample(vf_vcm *v, int thread, const vf_hit *hit, const vf_b
   return blocked ? zero : contrib;
 }
 
-/* s > 1, t > 1: connection of camera vertex (hit, b) to light vertex lv. */
+/* The BSDFs of the light vertices a camera sub-path connects to: every camera vertex
+ * connects to the same light sub-path, so each light vertex's BSDF is set up once per
+ * camera sub-path, when first needed, instead of once per connection. Light sub-paths
+ * longer than the cache set up the rest per connection. */
+#define LIGHT_BSDF_CACHE 16
+typedef struct {
+  vf_bsdf bsdf[LIGHT_BSDF_CACHE];
+  uint32_t ready; /* bit i: bsdf[i] is set up */
+} light_bsdf_cache;
+
+static const vf_bsdf *light_bsdf(const vf_vcm *v, light_bsdf_cache *cache, uint32_t i, const light_vertex *lv,
+                                 vf_bsdf *scratch) {
+  if (i >= LIGHT_BSDF_CACHE) {
+    bsdf_of_vertex(v, scratch, lv);
+    return scratch;
+  }
+  if (!(cache->ready >> i & 1u)) {
+    bsdf_of_vertex(v, &cache->bsdf[i], lv);
+    cache->ready |= 1u << i;
+  }
+  return &cache->bsdf[i];
+}
+
+/* s > 1, t > 1: connection of camera vertex (hit, b) to light vertex lv, the i-th of its
+ * light sub-path. */
 static vf_vec3 connect_vertices(vf_vcm *v, int thread, const vf_hit *hit, const vf_bsdf *b, const path_state *s,
-                                const light_vertex *lv) {
+                                const light_vertex *lv, uint32_t i, light_bsdf_cache *cache) {
   vf_vec3 zero = vf_vec3_splat(0.0f);
   vf_vec3 d = vf_sub(lv->position, hit->position);
   float dist2 = vf_length_sq(d);
@@ -449,10 +473,10 @@ static vf_vec3 connect_vertices(vf_vcm *v, int thread, const vf_hit *hit, const 
   float cos_camera, camera_pdf, camera_rev_pdf;
   vf_vec3 fc = vf_bsdf_evaluate(b, d, &cos_camera, &camera_pdf, &camera_rev_pdf);
   if (vf_is_zero(fc)) return zero;
-  vf_bsdf light_bsdf;
-  bsdf_of_vertex(v, &light_bsdf, lv);
+  vf_bsdf scratch;
+  const vf_bsdf *lb = light_bsdf(v, cache, i, lv, &scratch);
   float cos_light, light_pdf, light_rev_pdf;
-  vf_vec3 fl = vf_bsdf_evaluate(&light_bsdf, vf_neg(d), &cos_light, &light_pdf, &light_rev_pdf);
+  vf_vec3 fl = vf_bsdf_evaluate(lb, vf_neg(d), &cos_light, &light_pdf, &light_rev_pdf);
   if (vf_is_zero(fl)) return zero;
   /* Each side's density of sampling the other vertex, in area measure there. */
   float camera_pdf_a = camera_pdf * cos_light / dist2;
@@ -487,8 +511,10 @@ static vf_vec3 merge_one(const vf_vcm *v, const merge_query *q, uint32_t k) {
 }
 
 /* The light vertices of the candidate ranges within the radius of x, in grid order: up to
- * max of them into hits. Returns their number, which may exceed max. The distance tests
- * read the grid's compact sorted positions, not the photon records. */
+ * max of them into hits[0 .. max), which has room for max + 1 (the last slot takes the
+ * writes past max). Returns their number, which may exceed max. The distance tests read
+ * the grid's compact sorted positions, not the photon records, and do not branch: about
+ * one candidate in eight passes, at random, so a branch would mispredict on most hits. */
 static int find_hits(const vf_vcm *v, vf_vec3 x, const vf_index_range *ranges, int n, uint32_t *hits, int max) {
   const vf_grid_point *points = vf_hashgrid_points(v->grid);
   int found = 0;
@@ -496,9 +522,8 @@ static int find_hits(const vf_vcm *v, vf_vec3 x, const vf_index_range *ranges, i
     for (uint32_t k = ranges[r].begin; k < ranges[r].end; k++) {
       const vf_grid_point *gp = &points[k];
       float dx = gp->x - x.x, dy = gp->y - x.y, dz = gp->z - x.z;
-      if (dx * dx + dy * dy + dz * dz > v->radius_sq) continue;
-      if (found < max) hits[found] = k;
-      found++;
+      hits[found < max ? found : max] = k;
+      found += dx * dx + dy * dy + dz * dz <= v->radius_sq;
     }
   return found;
 }
@@ -558,7 +583,7 @@ static void run_merges(vf_vcm *v, int thread, float *tile_rgb) {
   vf_grid_cells cells[RING];
   vf_index_range ranges[RING][VF_HASHGRID_MAX_RANGES];
   int num_ranges[RING], num_hits[RING];
-  uint32_t hits[RING][MAX_HITS];
+  uint32_t hits[RING][MAX_HITS + 1];
   for (int i = 0; i < n + 3 * AHEAD; i++) {
     int a = i, b = i - AHEAD, c = i - 2 * AHEAD, d = i - 3 * AHEAD;
     if (a < n) vf_hashgrid_cells(v->grid, q[a].position, &cells[a % RING]);
@@ -608,6 +633,8 @@ static vf_vec3 trace_camera_path(vf_vcm *v, int thread, uint32_t pixel, uint32_t
   s.specular_path = 1;
   vf_mis_camera_start(&s.mis, &v->mis, vf_camera_pdf_w(&v->camera, s.direction));
   vf_vec3 color = vf_vec3_splat(0.0f);
+  light_bsdf_cache cache;
+  cache.ready = 0;
 
   for (;;) {
     vf_hit hit;
@@ -637,10 +664,12 @@ static vf_vec3 trace_camera_path(vf_vcm *v, int thread, uint32_t pixel, uint32_t
       if (v->t.light_sample)
         color = vf_add(color, vf_mul(s.throughput, light_sample(v, thread, &hit, &b, &s, &rng)));
       if (v->t.connection) {
-        for (uint32_t i = v->path_begin[pixel]; i < v->path_end[pixel]; i++) {
+        uint32_t first = v->path_begin[pixel];
+        for (uint32_t i = first; i < v->path_end[pixel]; i++) {
           const light_vertex *lv = &v->vertices[i];
           if (vertex_path_length(lv) + 1 + s.path_length > v->settings.max_path_length) break;
-          color = vf_add(color, vf_mul(s.throughput, connect_vertices(v, thread, &hit, &b, &s, lv)));
+          color = vf_add(color,
+                         vf_mul(s.throughput, connect_vertices(v, thread, &hit, &b, &s, lv, i - first, &cache)));
         }
       }
       if (v->t.merging && v->num_vertices > 0) {

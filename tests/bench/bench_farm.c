@@ -77,7 +77,7 @@ static int noisy_film(int width, int height, const char *settings, uint64_t k, v
   memcpy(f->scene_hash, scene_hash, 32);
   snprintf(f->settings_text, sizeof f->settings_text, "%s", settings);
   f->render_seconds = 1000.0; /* a slow worker: every lease is one iteration */
-  err = vf_film_add_iteration(f, k, cam, light);
+  err = vf_film_add_iteration(f, k, cam, light, NULL);
   free(cam);
   free(light);
   if (err == VF_OK) *out = f;

@@ -29,7 +29,7 @@ static vf_film *make_film(uint64_t first) {
       cam[i] = vf_rng_float(&rng);
       light[i] = 0.1f * vf_rng_float(&rng);
     }
-    vf_film_add_iteration(f, k, cam, light);
+    vf_film_add_iteration(f, k, cam, light, NULL);
   }
   free(cam);
   free(light);
