@@ -44,6 +44,11 @@ cd "$root"
 # Renderer throughput (issue 2) and the raw Embree rate beside it.
 step 01-renderer bash tests/bench/renderer.sh "$build" cornell 8 5
 step 02-embree "$build/tests/bench_embree" cornell 2 4000000
+if command -v valgrind >/dev/null; then
+  step 02b-instructions bash tests/bench/instructions.sh "$build"
+else
+  echo "== 02b-instructions: skipped, valgrind is not installed"
+fi
 step 03-hashgrid "$build/tests/test_hashgrid" --bench
 # Films (issue 3).
 step 04-film "$build/tests/bench_film" 3
