@@ -1,6 +1,9 @@
 #!/usr/bin/env bash
 # Renderer throughput: iterations/s and rays/s of every algorithm on a scene, medians of
 # several runs, beside the raw Embree rate on the same scene. Prints a Markdown table.
+# The raw rate (bench_embree's mix) is measured again right before each algorithm's runs
+# and each algorithm's rays/s is set against that measurement: on a shared host the
+# speed drifts within minutes, and a ratio of two rates taken minutes apart drifts with it.
 #
 #   tests/bench/renderer.sh [BUILD_DIR] [SCENE] [ITERATIONS] [RUNS]
 #   defaults: build cornell 8 5   (512x512, max path length 10, 2 threads)
@@ -17,9 +20,10 @@ median() { sort -g | awk '{v[NR] = $1} END {print v[int((NR + 1) / 2)]}'; }
 
 echo "scene $scene, 512x512, max path length 10, 2 threads, $iterations iterations per run, median of $runs runs"
 echo
-echo "| algorithm | iterations/s | Mrays/s | light pass ms/it | grid ms/it | camera pass ms/it |"
-echo "|---|---|---|---|---|---|"
+echo "| algorithm | iterations/s | Mrays/s | raw Embree mix Mrays/s | of raw | light pass ms/it | grid ms/it | camera pass ms/it |"
+echo "|---|---|---|---|---|---|---|---|"
 for algorithm in vcm bpt pt lt ppm bpm; do
+  raw=$("$build/tests/bench_embree" "$scene" 2 2000000 | sed -n 's/.*mix .*: \([0-9.]*\) Mrays\/s.*/\1/p')
   : >"$tmp/runs"
   for _ in $(seq "$runs"); do
     "$vcmfarm" render "$scene" --direct -a "$algorithm" -n "$iterations" -j 2 -R 512x512 -l 10 -o "$tmp/film.exr" 2>"$tmp/log"
@@ -29,7 +33,8 @@ for algorithm in vcm bpt pt lt ppm bpm; do
   done
   cols=()
   for c in 1 2 3 4 5; do cols+=("$(awk -v c=$c '{print $c}' "$tmp/runs" | median)"); done
-  echo "| $algorithm | ${cols[0]} | ${cols[1]} | ${cols[2]} | ${cols[3]} | ${cols[4]} |"
+  share=$(awk -v r="${cols[1]}" -v m="$raw" 'BEGIN {printf "%.0f%%", 100 * r / m}')
+  echo "| $algorithm | ${cols[0]} | ${cols[1]} | $raw | $share | ${cols[2]} | ${cols[3]} | ${cols[4]} |"
 done
 echo
 "$build/tests/bench_embree" "$scene" 2 4000000
