@@ -400,7 +400,7 @@ void vf_hashgrid_cells(const vf_hashgrid *g, vf_vec3 q, vf_grid_cells *cells) {
   int ny = axis_cells(q.y, g->search_radius, g->inv_cell, ys);
   int nz = axis_cells(q.z, g->search_radius, g->inv_cell, zs);
 
-  /* At most 27 buckets, 8 in practice; insertion-sorted as they come. */
+  /* What the block path leaves: 1 to 27 buckets, insertion-sorted as they come. */
   uint32_t *buckets = cells->bucket;
   int nb = 0;
   for (int z = 0; z < nz; z++)

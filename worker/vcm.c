@@ -155,8 +155,10 @@ static int intersect(vf_vcm *v, int thread, vf_vec3 org, vf_vec3 dir, vf_hit *hi
 }
 
 /* Whether the segment from p (normal n) to q (normal nq; zero vector: a point in space) is
- * blocked. Both ends are moved off their surfaces towards each other. */
-static inline __attribute__((always_inline)) int segment_occluded(vf_vcm *v, int thread, vf_vec3 p, vf_vec3 n, vf_vec3 q, vf_vec3 nq) {
+ * blocked. Both ends are moved off their surfaces towards each other. Always inline: as a
+ * call, its four vectors were packed into registers and spilled at every shadow ray. */
+static inline __attribute__((always_inline)) int segment_occluded(vf_vcm *v, int thread, vf_vec3 p, vf_vec3 n,
+                                                                  vf_vec3 q, vf_vec3 nq) {
   vf_vec3 d = vf_sub(q, p);
   vf_vec3 o = vf_offset_ray_origin(p, vf_dot(n, d) > 0.0f ? n : vf_neg(n), v->offset_scale);
   vf_vec3 e = vf_is_zero(nq) ? q : vf_offset_ray_origin(q, vf_dot(nq, d) < 0.0f ? nq : vf_neg(nq), v->offset_scale);
