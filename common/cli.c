@@ -3,6 +3,7 @@
 #include "error.h"
 
 #include <errno.h>
+#include <getopt.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -154,4 +155,9 @@ int vf_cli_exit_status(int err) {
 int vf_cli_fail(const char *command, int err) {
   fprintf(stderr, "vcmfarm %s: %s\n", command, vf_error_detail(err));
   return vf_cli_exit_status(err);
+}
+
+int vf_cli_bad_option(const char *command, char **argv, const char *usage) {
+  fprintf(stderr, "vcmfarm %s: unknown or incomplete option '%s'\n%s", command, argv[optind - 1], usage);
+  return VF_EXIT_BAD_INPUT;
 }

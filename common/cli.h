@@ -52,4 +52,8 @@ int vf_cli_exit_status(int err);
 /* Prints "vcmfarm CMD: detail" to stderr and returns vf_cli_exit_status(err). */
 int vf_cli_fail(const char *command, int err);
 
+/* getopt_long's answer '?' or ':' for `vcmfarm CMD`: names the option it could not take
+ * (argv[optind - 1]), prints the command's usage and returns VF_EXIT_BAD_INPUT. */
+int vf_cli_bad_option(const char *command, char **argv, const char *usage);
+
 #endif

@@ -161,8 +161,7 @@ int vf_cmd_errors(int argc, char **argv) {
     case 'j': json = 1; break;
     case 'h': fputs(errors_usage, stdout); return VF_EXIT_OK;
     default:
-      fprintf(stderr, "vcmfarm errors: unknown or incomplete option '%s'\n%s", argv[optind - 1], errors_usage);
-      return VF_EXIT_BAD_INPUT;
+      return vf_cli_bad_option("errors", argv, errors_usage);
     }
     if (err != VF_OK) return vf_cli_fail("errors", err);
   }
@@ -387,8 +386,7 @@ int vf_cmd_diff(int argc, char **argv) {
       break;
     case 'h': fputs(diff_usage, stdout); return VF_EXIT_OK;
     default:
-      fprintf(stderr, "vcmfarm diff: unknown or incomplete option '%s'\n%s", argv[optind - 1], diff_usage);
-      return VF_EXIT_BAD_INPUT;
+      return vf_cli_bad_option("diff", argv, diff_usage);
     }
     if (err != VF_OK) return vf_cli_fail("diff", err);
   }

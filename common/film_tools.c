@@ -178,8 +178,7 @@ int vf_cmd_merge(int argc, char **argv) {
     case 'q': quiet = 1; break;
     case 'h': fputs(merge_usage, stdout); return VF_EXIT_OK;
     default:
-      fprintf(stderr, "vcmfarm merge: unknown or incomplete option '%s'\n%s", argv[optind - 1], merge_usage);
-      return VF_EXIT_BAD_INPUT;
+      return vf_cli_bad_option("merge", argv, merge_usage);
     }
   }
   if (output == NULL) {
@@ -244,8 +243,7 @@ int vf_cmd_bake(int argc, char **argv) {
       break;
     case 'h': fputs(bake_usage, stdout); return VF_EXIT_OK;
     default:
-      fprintf(stderr, "vcmfarm bake: unknown or incomplete option '%s'\n%s", argv[optind - 1], bake_usage);
-      return VF_EXIT_BAD_INPUT;
+      return vf_cli_bad_option("bake", argv, bake_usage);
     }
     if (err != VF_OK) return vf_cli_fail("bake", err);
   }

@@ -143,8 +143,7 @@ int vf_cmd_info(int argc, char **argv) {
     case 'J': json = 1; break;
     case 'h': fputs(usage, stdout); return VF_EXIT_OK;
     default:
-      fprintf(stderr, "vcmfarm info: unknown or incomplete option '%s'\n%s", argv[optind - 1], usage);
-      return VF_EXIT_BAD_INPUT;
+      return vf_cli_bad_option("info", argv, usage);
     }
   }
   if (optind != argc - 1) {

@@ -324,8 +324,7 @@ int vf_cmd_plot(int argc, char **argv) {
       break;
     case 'h': fputs(usage, stdout); return VF_EXIT_OK;
     default:
-      fprintf(stderr, "vcmfarm plot: unknown or incomplete option '%s'\n%s", argv[optind - 1], usage);
-      return VF_EXIT_BAD_INPUT;
+      return vf_cli_bad_option("plot", argv, usage);
     }
   }
   if (optind >= argc) {

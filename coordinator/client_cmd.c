@@ -57,11 +57,6 @@ static int request(const connection *conn, Vcmfarm__Envelope *q, Vcmfarm__Envelo
   return err;
 }
 
-static int bad_option(const char *cmd, char **argv, const char *usage) {
-  fprintf(stderr, "vcmfarm %s: unknown or incomplete option '%s'\n%s", cmd, argv[optind - 1], usage);
-  return VF_EXIT_BAD_INPUT;
-}
-
 static int parse_job_id(const char *text, uint64_t *id) {
   int err = vf_cli_u64("JOB", text, id);
   if (err == VF_OK && *id == 0) err = vf_error_set(VF_EUSAGE, "JOB: job ids start at 1");
@@ -134,7 +129,7 @@ int vf_cmd_submit(int argc, char **argv) {
     case 'N': name = optarg; break;
     case 'K': err = vf_cli_u64("--start-iteration", optarg, &first); break;
     case 'h': fputs(submit_usage, stdout); return VF_EXIT_OK;
-    default: return bad_option(cmd, argv, submit_usage);
+    default: return vf_cli_bad_option(cmd, argv, submit_usage);
     }
     if (err != VF_OK) return vf_cli_fail(cmd, err);
   }
@@ -335,7 +330,7 @@ int vf_cmd_status(int argc, char **argv) {
     }
     if (c == 'J') json = 1;
     else if (c == 'h') return fputs(status_usage, stdout), VF_EXIT_OK;
-    else return bad_option(cmd, argv, status_usage);
+    else return vf_cli_bad_option(cmd, argv, status_usage);
   }
   Vcmfarm__StatusRequest m = VCMFARM__STATUS_REQUEST__INIT;
   if (optind == argc - 1) {
@@ -381,7 +376,7 @@ int vf_cmd_fetch(int argc, char **argv) {
     }
     if (c == 'o') output = optarg;
     else if (c == 'h') return fputs(fetch_usage, stdout), VF_EXIT_OK;
-    else return bad_option(cmd, argv, fetch_usage);
+    else return vf_cli_bad_option(cmd, argv, fetch_usage);
   }
   Vcmfarm__FetchRequest m = VCMFARM__FETCH_REQUEST__INIT;
   if (optind != argc - 1 || output == NULL) {
@@ -433,7 +428,7 @@ static int job_request(int argc, char **argv, const char *cmd, const char *usage
       continue;
     }
     if (c == 'h') return fputs(usage, stdout), VF_EXIT_OK;
-    return bad_option(cmd, argv, usage);
+    return vf_cli_bad_option(cmd, argv, usage);
   }
   if (optind != argc - 1) {
     fprintf(stderr, "vcmfarm %s: expected one JOB\n%s", cmd, usage);

@@ -47,8 +47,7 @@ int vf_cmd_coordinator(int argc, char **argv) {
     case 'C': err = vf_cli_double("--checkpoint-interval", optarg, 0.1, 86400.0, &config.checkpoint_interval); break;
     case 'h': fputs(usage, stdout); return VF_EXIT_OK;
     default:
-      fprintf(stderr, "vcmfarm coordinator: unknown or incomplete option '%s'\n%s", argv[optind - 1], usage);
-      return VF_EXIT_BAD_INPUT;
+      return vf_cli_bad_option("coordinator", argv, usage);
     }
     if (err != VF_OK) return vf_cli_fail(cmd, err);
   }

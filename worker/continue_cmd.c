@@ -132,8 +132,7 @@ int vf_cmd_continue(int argc, char **argv) {
     case 'q': quiet = 1; break;
     case 'h': fputs(usage, stdout); return VF_EXIT_OK;
     default:
-      fprintf(stderr, "vcmfarm continue: unknown or incomplete option '%s'\n%s", argv[optind - 1], usage);
-      return VF_EXIT_BAD_INPUT;
+      return vf_cli_bad_option("continue", argv, usage);
     }
     if (err != VF_OK) return vf_cli_fail(cmd, err);
   }

@@ -75,8 +75,7 @@ int vf_cmd_worker(int argc, char **argv) {
     case 'M': err = vf_cli_bytes("--cache-max", optarg, &config.cache_max_bytes); break;
     case 'h': fputs(usage, stdout); return VF_EXIT_OK;
     default:
-      fprintf(stderr, "vcmfarm worker: unknown or incomplete option '%s'\n%s", argv[optind - 1], usage);
-      return VF_EXIT_BAD_INPUT;
+      return vf_cli_bad_option("worker", argv, usage);
     }
     if (err != VF_OK) return vf_cli_fail(cmd, err);
   }
