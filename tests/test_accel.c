@@ -1,6 +1,7 @@
 /* Ray queries and the ray-origin offset: without an offset, rays leaving a surface hit it
  * again (acne), worst far from the origin where float spacing is coarse; with the offset,
- * never, at any scale; and no ray leaving the inside of a closed box escapes it. */
+ * never, at any scale; and no ray leaving the inside of a closed box escapes it. Packets
+ * of shadow rays answer as single rays do. */
 #include "check.h"
 #include "common/error.h"
 #include "common/rng.h"
@@ -95,7 +96,53 @@ static void test_without_offset_rays_hit_their_own_surface(void) {
   vf_scene_destroy(s);
 }
 
+/* Packets of shadow rays answer as the rays one by one: on `cornell` (triangles and
+ * spheres), segments between random points of the box and rays to infinity, in packets of
+ * every fill from one ray to VF_ACCEL_PACKET. */
+static void test_packets_answer_as_single_rays(void) {
+  vf_scene *s = NULL;
+  vf_accel *a = NULL;
+  CHECK_INT_EQ(vf_scene_load("cornell", &s), VF_OK);
+  if (s == NULL) return;
+  CHECK_INT_EQ(vf_accel_create(s, &a), VF_OK);
+  if (a == NULL) return;
+  vf_vec3 center;
+  float radius;
+  vf_scene_bounding_sphere(s, &center, &radius);
+  vf_rng rng = vf_rng_for_path(11, 0, 0, VF_STREAM_TEST);
+  int rays = 0, blocked = 0, mismatches = 0;
+  for (int round = 0; round < 4000; round++) {
+    int n = 1 + round % VF_ACCEL_PACKET;
+    vf_vec3 org[VF_ACCEL_PACKET], dir[VF_ACCEL_PACKET];
+    float tfar[VF_ACCEL_PACKET];
+    for (int i = 0; i < n; i++) {
+      vf_vec3 p[2];
+      for (int k = 0; k < 2; k++) /* points in the cube around the scene's bounding sphere */
+        p[k] = vf_add(center, vf_scale(vf_vec3_make(2.0f * vf_rng_float(&rng) - 1.0f, 2.0f * vf_rng_float(&rng) - 1.0f,
+                                                    2.0f * vf_rng_float(&rng) - 1.0f),
+                                       0.7f * radius));
+      org[i] = p[0];
+      dir[i] = vf_sub(p[1], p[0]);
+      tfar[i] = (round + i) % 3 == 0 ? INFINITY : 1.0f;
+    }
+    uint32_t mask = vf_accel_occluded_packet(a, org, dir, tfar, n);
+    for (int i = 0; i < n; i++) {
+      int single = vf_accel_occluded(a, org[i], dir[i], tfar[i]);
+      mismatches += single != (int)(mask >> i & 1u);
+      blocked += single;
+      rays++;
+    }
+    CHECK_INT_EQ((int)(mask >> n), 0); /* lanes past n answer nothing */
+  }
+  printf("  %d rays in packets, %d blocked, %d answered differently one by one\n", rays, blocked, mismatches);
+  CHECK_INT_EQ(mismatches, 0);
+  CHECK(blocked > rays / 10 && blocked < rays - rays / 10); /* both answers are exercised */
+  vf_accel_destroy(a);
+  vf_scene_destroy(s);
+}
+
 int main(void) {
+  RUN(test_packets_answer_as_single_rays);
   RUN(test_offset_prevents_acne_and_leaks_at_every_scale);
   RUN(test_without_offset_rays_hit_their_own_surface);
   return check_finish();

@@ -175,4 +175,33 @@ int vf_accel_occluded(const vf_accel *a, vf_vec3 org, vf_vec3 dir, float tfar) {
   return r.tfar < 0.0f;
 }
 
+uint32_t vf_accel_occluded_packet(const vf_accel *a, const vf_vec3 *org, const vf_vec3 *dir, const float *tfar,
+                                  int n) {
+  struct RTCIntersectContext ctx;
+  rtcInitIntersectContext(&ctx);
+  ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT;
+  struct RTCRay8 r; /* aligned as Embree declares it */
+  RTC_ALIGN(32) int valid[8];
+  for (int i = 0; i < 8; i++) {
+    int on = i < n; /* lanes past n are switched off, but still given a harmless ray */
+    valid[i] = on ? -1 : 0;
+    r.org_x[i] = on ? org[i].x : 0.0f;
+    r.org_y[i] = on ? org[i].y : 0.0f;
+    r.org_z[i] = on ? org[i].z : 0.0f;
+    r.dir_x[i] = on ? dir[i].x : 0.0f;
+    r.dir_y[i] = on ? dir[i].y : 0.0f;
+    r.dir_z[i] = on ? dir[i].z : 1.0f;
+    r.tnear[i] = 0.0f;
+    r.tfar[i] = on ? tfar[i] : 0.0f;
+    r.time[i] = 0.0f;
+    r.mask[i] = 0xFFFFFFFFu;
+    r.id[i] = 0;
+    r.flags[i] = 0;
+  }
+  rtcOccluded8(valid, a->scene, &ctx, &r);
+  uint32_t blocked = 0;
+  for (int i = 0; i < n; i++) blocked |= (uint32_t)(r.tfar[i] < 0.0f) << i;
+  return blocked;
+}
+
 float vf_accel_scale(const vf_accel *a) { return a->scale; }
