@@ -101,6 +101,55 @@ void vf_accel_destroy(vf_accel *a) {
   free(a);
 }
 
+/* The distance to sphere s along org + t dir: the root of |org + t dir - center| = radius
+ * nearest to Embree's t_embree, solved in double. Embree's own t is good to a few parts in
+ * a million and differs between its single-ray and packet kernels; this one is exact to
+ * float rounding whichever kernel found the hit, so a ray gives the same hit either way. */
+static float sphere_root(const vf_shape *s, vf_vec3 org, vf_vec3 dir, float t_embree) {
+  /* Products of floats are exact in double: the only rounding is in the sums. */
+  double ox = (double)org.x - s->center.x, oy = (double)org.y - s->center.y, oz = (double)org.z - s->center.z;
+  double a = (double)dir.x * dir.x + (double)dir.y * dir.y + (double)dir.z * dir.z;
+  double b = ox * dir.x + oy * dir.y + oz * dir.z;
+  double c = ox * ox + oy * oy + oz * oz - (double)s->radius * s->radius;
+  double disc = b * b - a * c;
+  double root = sqrt(disc > 0.0 ? disc : 0.0);
+  /* The two roots without cancellation: q = -(b + sign(b) root), t = q / a and c / q. */
+  double q = b < 0.0 ? root - b : -(b + root);
+  double t0 = q / a, t1 = q != 0.0 ? c / q : t0;
+  double t = fabs(t0 - t_embree) <= fabs(t1 - t_embree) ? t0 : t1;
+  return t > 0.0 ? (float)t : t_embree; /* a root behind the origin: keep Embree's */
+}
+
+/* Fills *hit from what Embree reported for the ray org + t dir; 0 for a degenerate hit. */
+static inline __attribute__((always_inline)) int complete_hit(const vf_accel *a, vf_vec3 org, vf_vec3 dir, float t,
+                                                              unsigned geom, unsigned prim, float u, float v,
+                                                              vf_vec3 ng, vf_hit *hit) {
+  const vf_shape *s = &a->source->shapes[geom];
+  hit->t = t;
+  hit->shape = geom;
+  hit->primitive = prim;
+  if (s->kind == VF_SHAPE_SPHERE) {
+    t = hit->t = sphere_root(s, org, dir, t);
+    vf_vec3 p = vf_add(org, vf_scale(dir, t));
+    vf_vec3 n = vf_normalize(vf_sub(p, s->center));
+    hit->normal = n;
+    /* Project back onto the sphere: removes the error of org + t dir along the normal. */
+    hit->position = vf_add(s->center, vf_scale(n, s->radius));
+    return 1;
+  }
+  const uint32_t *tri = &s->indices[3 * (size_t)prim];
+  const float *p0 = &s->positions[3 * (size_t)tri[0]];
+  const float *p1 = &s->positions[3 * (size_t)tri[1]];
+  const float *p2 = &s->positions[3 * (size_t)tri[2]];
+  float w = 1.0f - u - v;
+  hit->position = vf_vec3_make(w * p0[0] + u * p1[0] + v * p2[0], w * p0[1] + u * p1[1] + v * p2[1],
+                               w * p0[2] + u * p1[2] + v * p2[2]);
+  float len = vf_length(ng);
+  if (!(len > 0.0f)) return 0; /* degenerate triangle: Embree should not report it */
+  hit->normal = vf_scale(ng, 1.0f / len);
+  return 1;
+}
+
 int vf_accel_intersect(const vf_accel *a, vf_vec3 org, vf_vec3 dir, float tfar, vf_hit *hit) {
   struct RTCIntersectContext ctx;
   rtcInitIntersectContext(&ctx);
@@ -122,36 +171,13 @@ int vf_accel_intersect(const vf_accel *a, vf_vec3 org, vf_vec3 dir, float tfar, 
   rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
   rtcIntersect1(a->scene, &ctx, &rh);
   if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return 0;
-  const vf_shape *s = &a->source->shapes[rh.hit.geomID];
-  hit->t = rh.ray.tfar;
-  hit->shape = rh.hit.geomID;
-  hit->primitive = rh.hit.primID;
-  if (s->kind == VF_SHAPE_SPHERE) {
-    /* org and dir as Embree holds them (it writes only tfar and the hit): reading them
-     * back keeps the arguments from living across the call in stack slots, whose
-     * reloads GCC fuses into loads that straddle two stores and miss store forwarding,
-     * which cost more than the rest of this function on every ray. */
-    vf_vec3 o = vf_vec3_make(rh.ray.org_x, rh.ray.org_y, rh.ray.org_z);
-    vf_vec3 d = vf_vec3_make(rh.ray.dir_x, rh.ray.dir_y, rh.ray.dir_z);
-    vf_vec3 p = vf_add(o, vf_scale(d, rh.ray.tfar));
-    vf_vec3 n = vf_normalize(vf_sub(p, s->center));
-    hit->normal = n;
-    /* Project back onto the sphere: removes the error of org + t dir along the normal. */
-    hit->position = vf_add(s->center, vf_scale(n, s->radius));
-  } else {
-    const uint32_t *t = &s->indices[3 * (size_t)rh.hit.primID];
-    const float *p0 = &s->positions[3 * (size_t)t[0]];
-    const float *p1 = &s->positions[3 * (size_t)t[1]];
-    const float *p2 = &s->positions[3 * (size_t)t[2]];
-    float u = rh.hit.u, v = rh.hit.v, w = 1.0f - u - v;
-    hit->position = vf_vec3_make(w * p0[0] + u * p1[0] + v * p2[0], w * p0[1] + u * p1[1] + v * p2[1],
-                                 w * p0[2] + u * p1[2] + v * p2[2]);
-    vf_vec3 ng = vf_vec3_make(rh.hit.Ng_x, rh.hit.Ng_y, rh.hit.Ng_z);
-    float len = vf_length(ng);
-    if (!(len > 0.0f)) return 0; /* degenerate triangle: Embree should not report it */
-    hit->normal = vf_scale(ng, 1.0f / len);
-  }
-  return 1;
+  /* org and dir as Embree holds them (it writes only tfar and the hit): reading them back
+   * keeps the arguments from living across the call in stack slots, whose reloads GCC
+   * fuses into loads that straddle two stores and miss store forwarding, which cost more
+   * than the rest of this function on every ray. */
+  return complete_hit(a, vf_vec3_make(rh.ray.org_x, rh.ray.org_y, rh.ray.org_z),
+                      vf_vec3_make(rh.ray.dir_x, rh.ray.dir_y, rh.ray.dir_z), rh.ray.tfar, rh.hit.geomID,
+                      rh.hit.primID, rh.hit.u, rh.hit.v, vf_vec3_make(rh.hit.Ng_x, rh.hit.Ng_y, rh.hit.Ng_z), hit);
 }
 
 int vf_accel_occluded(const vf_accel *a, vf_vec3 org, vf_vec3 dir, float tfar) {
@@ -202,6 +228,41 @@ uint32_t vf_accel_occluded_packet(const vf_accel *a, const vf_vec3 *org, const v
   uint32_t blocked = 0;
   for (int i = 0; i < n; i++) blocked |= (uint32_t)(r.tfar[i] < 0.0f) << i;
   return blocked;
+}
+
+uint32_t vf_accel_intersect_packet(const vf_accel *a, const vf_vec3 *org, const vf_vec3 *dir, int n,
+                                   vf_hit *hits) {
+  struct RTCIntersectContext ctx;
+  rtcInitIntersectContext(&ctx);
+  ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT;
+  struct RTCRayHit8 rh; /* aligned as Embree declares it */
+  RTC_ALIGN(32) int valid[8];
+  for (int i = 0; i < 8; i++) {
+    int on = i < n;
+    valid[i] = on ? -1 : 0;
+    rh.ray.org_x[i] = on ? org[i].x : 0.0f;
+    rh.ray.org_y[i] = on ? org[i].y : 0.0f;
+    rh.ray.org_z[i] = on ? org[i].z : 0.0f;
+    rh.ray.dir_x[i] = on ? dir[i].x : 0.0f;
+    rh.ray.dir_y[i] = on ? dir[i].y : 0.0f;
+    rh.ray.dir_z[i] = on ? dir[i].z : 1.0f;
+    rh.ray.tnear[i] = 0.0f;
+    rh.ray.tfar[i] = on ? INFINITY : 0.0f;
+    rh.ray.time[i] = 0.0f;
+    rh.ray.mask[i] = 0xFFFFFFFFu;
+    rh.ray.id[i] = 0;
+    rh.ray.flags[i] = 0;
+    rh.hit.geomID[i] = RTC_INVALID_GEOMETRY_ID;
+    rh.hit.instID[0][i] = RTC_INVALID_GEOMETRY_ID;
+  }
+  rtcIntersect8(valid, a->scene, &ctx, &rh);
+  uint32_t found = 0;
+  for (int i = 0; i < n; i++)
+    if (rh.hit.geomID[i] != RTC_INVALID_GEOMETRY_ID &&
+        complete_hit(a, org[i], dir[i], rh.ray.tfar[i], rh.hit.geomID[i], rh.hit.primID[i], rh.hit.u[i], rh.hit.v[i],
+                     vf_vec3_make(rh.hit.Ng_x[i], rh.hit.Ng_y[i], rh.hit.Ng_z[i]), &hits[i]))
+      found |= 1u << i;
+  return found;
 }
 
 float vf_accel_scale(const vf_accel *a) { return a->scale; }

@@ -44,6 +44,12 @@ int vf_accel_occluded(const vf_accel *accel, vf_vec3 org, vf_vec3 dir, float tfa
 uint32_t vf_accel_occluded_packet(const vf_accel *accel, const vf_vec3 *org, const vf_vec3 *dir, const float *tfar,
                                   int n);
 
+/* Closest hits of up to VF_ACCEL_PACKET rays to infinity at once, as one rtcIntersect8
+ * packet: bit i of the result is set when ray i hit something, and hits[i] is then filled
+ * as vf_accel_intersect would. */
+uint32_t vf_accel_intersect_packet(const vf_accel *accel, const vf_vec3 *org, const vf_vec3 *dir, int n,
+                                   vf_hit *hits);
+
 /* One coordinate of vf_offset_ray_origin: p moved by 256 n units in its last place, or by
  * float_scale n when |p| < origin. */
 static inline float vf_offset_coordinate(float p, float n, float origin, float float_scale) {
