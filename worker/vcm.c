@@ -60,13 +60,19 @@ typedef struct {
 typedef struct {
   uint32_t pixel;
   vf_vec3 rgb;
+  uint32_t path; /* the light sub-path's index within its chunk */
 } splat;
 
+/* Light sub-paths finish out of order (wavefront, below): a chunk's lists hold each path's
+ * vertices together but the paths in the order they finished; the join puts them in path
+ * order and the splats are sorted back into it, so that every list is what tracing the
+ * paths one by one would give. */
 typedef struct {
   light_vertex *vertices;
   uint32_t num_vertices, vertex_capacity;
-  splat *splats;
+  splat *splats, *sorted_splats; /* sorted_splats: room to sort into, splat_capacity */
   uint32_t num_splats, splat_capacity;
+  uint32_t offset; /* of the chunk's first vertex in the joined list */
   int out_of_memory;
 } light_chunk;
 
@@ -137,6 +143,7 @@ typedef struct {
   deferred pending[DEFERRED_MAX];
   int num_pending;
   float *tile_rgb; /* the camera tile being traced, where pending contributions go */
+  light_vertex *lane_vertices; /* the light pass's lanes' paths, lane_capacity each, owned */
   char pad[32]; /* keep each thread's counters on their own cache line */
 } thread_stats;
 
@@ -153,6 +160,7 @@ struct vf_vcm {
   float scene_radius;
   float offset_scale; /* for vf_offset_ray_origin */
   uint32_t num_pixels;
+  uint32_t lane_capacity; /* most vertices a light sub-path stores */
   int has_specular, has_glossy, has_diffuse;
   vf_algorithm requested;    /* settings.algorithm as given; settings.algorithm is what runs */
   const char *auto_reason;   /* why auto chose settings.algorithm, NULL unless requested auto */
@@ -255,19 +263,21 @@ static int scatter(vf_vcm *v, const vf_bsdf *b, const vf_hit *hit, path_state *s
 /* ---------------------------------------------------------------------------------------- */
 /* Light sub-paths                                                                           */
 
-static int push_vertex(light_chunk *c, const light_vertex *lv) {
-  if (c->num_vertices == c->vertex_capacity) {
+static int append_vertices(light_chunk *c, const light_vertex *lv, uint32_t n) {
+  if (n > c->vertex_capacity - c->num_vertices) {
     uint32_t cap = c->vertex_capacity ? 2 * c->vertex_capacity : 4 * LIGHT_CHUNK;
+    while (cap - c->num_vertices < n) cap *= 2;
     light_vertex *p = realloc(c->vertices, (size_t)cap * sizeof *p);
     if (p == NULL) return 0;
     c->vertices = p;
     c->vertex_capacity = cap;
   }
-  c->vertices[c->num_vertices++] = *lv;
+  memcpy(&c->vertices[c->num_vertices], lv, (size_t)n * sizeof *lv);
+  c->num_vertices += n;
   return 1;
 }
 
-static int push_splat(light_chunk *c, uint32_t pixel, vf_vec3 rgb) {
+static int push_splat(light_chunk *c, uint32_t pixel, vf_vec3 rgb, uint32_t path) {
   if (c->num_splats == c->splat_capacity) {
     uint32_t cap = c->splat_capacity ? 2 * c->splat_capacity : 4 * LIGHT_CHUNK;
     splat *p = realloc(c->splats, (size_t)cap * sizeof *p);
@@ -276,9 +286,15 @@ static int push_splat(light_chunk *c, uint32_t pixel, vf_vec3 rgb) {
       return 0;
     }
     c->splats = p;
+    p = realloc(c->sorted_splats, (size_t)cap * sizeof *p);
+    if (p == NULL) {
+      c->out_of_memory = 1;
+      return 0;
+    }
+    c->sorted_splats = p;
     c->splat_capacity = cap;
   }
-  c->splats[c->num_splats++] = (splat){pixel, rgb};
+  c->splats[c->num_splats++] = (splat){pixel, rgb, path};
   return 1;
 }
 
@@ -306,9 +322,9 @@ static void resolve_splats(vf_vcm *v, int thread, light_chunk *c) {
 
 /* A splat of the light pass that counts only if the segment from p (normal n) to the
  * camera is free. */
-static void splat_if_visible(vf_vcm *v, int thread, light_chunk *c, uint32_t pixel, vf_vec3 rgb, vf_vec3 p,
-                             vf_vec3 n) {
-  if (!push_splat(c, pixel, rgb)) return;
+static void splat_if_visible(vf_vcm *v, int thread, light_chunk *c, uint32_t path, uint32_t pixel, vf_vec3 rgb,
+                             vf_vec3 p, vf_vec3 n) {
+  if (!push_splat(c, pixel, rgb, path)) return;
   shadow_packet *pk = &v->stats[thread].packet;
   queue_segment(v, pk, (int)(c->num_splats - 1), p, n, v->camera.position, vf_vec3_splat(0.0f));
   if (pk->n == VF_ACCEL_PACKET) resolve_splats(v, thread, c);
@@ -329,8 +345,8 @@ static float camera_pdf_a(const vf_vcm *v, vf_vec3 p, vf_vec3 dir_to_camera, flo
 }
 
 /* t = 1: projects light vertex (hit, b) onto the image. */
-static void connect_to_camera(vf_vcm *v, int thread, light_chunk *c, const vf_hit *hit, const vf_bsdf *b,
-                              const path_state *s) {
+static void connect_to_camera(vf_vcm *v, int thread, light_chunk *c, uint32_t path, const vf_hit *hit,
+                              const vf_bsdf *b, const path_state *s) {
   vf_vec3 to_camera = vf_sub(v->camera.position, hit->position);
   float dist = vf_length(to_camera);
   if (!(dist > 0.0f)) return;
@@ -345,13 +361,13 @@ static void connect_to_camera(vf_vcm *v, int thread, light_chunk *c, const vf_hi
   /* Importance of the pinhole camera over the light sub-path density n_light. */
   vf_vec3 contrib = vf_scale(vf_mul(s->throughput, f), w * pdf_a / v->mis.light_paths);
   if (vf_is_zero(contrib)) return;
-  splat_if_visible(v, thread, c, pixel, contrib, hit->position, hit->normal);
+  splat_if_visible(v, thread, c, path, pixel, contrib, hit->position, hit->normal);
 }
 
 /* Light tracing alone also projects the light's own point y0 (the s = 1, t = 1 technique,
  * which the full estimator leaves to emission hits). */
-static void connect_emitter_to_camera(vf_vcm *v, int thread, light_chunk *c, const vf_light *l, vf_vec3 p,
-                                      vf_vec3 n, float pick_and_area_pdf) {
+static void connect_emitter_to_camera(vf_vcm *v, int thread, light_chunk *c, uint32_t path, const vf_light *l,
+                                      vf_vec3 p, vf_vec3 n, float pick_and_area_pdf) {
   vf_vec3 to_camera = vf_sub(v->camera.position, p);
   float dist = vf_length(to_camera);
   if (!(dist > 0.0f)) return;
@@ -362,53 +378,118 @@ static void connect_emitter_to_camera(vf_vcm *v, int thread, light_chunk *c, con
   float pdf_a = camera_pdf_a(v, p, to_camera, dist, cos_out, &pixel);
   if (!(pdf_a > 0.0f)) return;
   vf_vec3 contrib = vf_scale(l->radiance, pdf_a / (v->mis.light_paths * pick_and_area_pdf));
-  splat_if_visible(v, thread, c, pixel, contrib, p, n);
+  splat_if_visible(v, thread, c, path, pixel, contrib, p, n);
 }
 
-static void trace_light_path(vf_vcm *v, int thread, light_chunk *c, uint32_t path) {
-  vf_rng rng = vf_rng_for_path(v->settings.seed, v->iteration, path, VF_STREAM_LIGHT);
-  const vf_light *l = vf_lights_pick(v->lights, vf_rng_float(&rng));
-  float rnd[4] = {vf_rng_float(&rng), vf_rng_float(&rng), vf_rng_float(&rng), vf_rng_float(&rng)};
+/* A light sub-path in flight. The light pass traces VF_ACCEL_PACKET of them at once, as a
+ * wavefront: each step sends the rays of all lanes to Embree as one packet (rtcIntersect8
+ * traces eight unrelated rays ~1.3 times faster than eight single rays on cornell), then
+ * continues each lane's path; a lane whose path ends starts the chunk's next path. A
+ * path's vertices stay in its lane until it ends, so that they are stored together. */
+typedef struct {
   path_state s;
+  vf_rng rng;
+  uint32_t path;          /* global index */
+  uint32_t num_vertices;
+  light_vertex *vertices; /* thread_stats.lane_vertices: room for the longest path */
+} light_lane;
+
+/* Closest hits of the m rays: one packet, or single rays when too few to fill one. Both
+ * give the same hits (vf_accel_intersect_packet). */
+#define PACKET_MIN 2
+static uint32_t intersect_rays(vf_vcm *v, int thread, const vf_vec3 *org, const vf_vec3 *dir, int m, vf_hit *hits) {
+  if (m >= PACKET_MIN) {
+    v->stats[thread].rays += (uint64_t)m;
+    return vf_accel_intersect_packet(v->accel, org, dir, m, hits);
+  }
+  uint32_t found = 0;
+  for (int k = 0; k < m; k++) found |= (uint32_t)intersect(v, thread, org[k], dir[k], &hits[k]) << k;
+  return found;
+}
+
+/* Emits light sub-path `path` into the lane; returns 1 when it has a ray to trace. */
+static int light_start(vf_vcm *v, int thread, light_chunk *c, light_lane *lane, uint32_t path, uint32_t begin) {
+  lane->path = path;
+  lane->num_vertices = 0;
+  lane->rng = vf_rng_for_path(v->settings.seed, v->iteration, path, VF_STREAM_LIGHT);
+  vf_rng *rng = &lane->rng;
+  path_state *s = &lane->s;
+  const vf_light *l = vf_lights_pick(v->lights, vf_rng_float(rng));
+  float rnd[4] = {vf_rng_float(rng), vf_rng_float(rng), vf_rng_float(rng), vf_rng_float(rng)};
   vf_vec3 normal;
   float emission_pdf, direct_pdf, cos_light;
-  vf_vec3 energy = vf_light_emit(v->lights, l, rnd, &s.origin, &s.direction, &normal, &emission_pdf, &direct_pdf,
+  vf_vec3 energy = vf_light_emit(v->lights, l, rnd, &s->origin, &s->direction, &normal, &emission_pdf, &direct_pdf,
                                  &cos_light);
-  if (vf_is_zero(energy) || !(emission_pdf > 0.0f)) return;
+  if (vf_is_zero(energy) || !(emission_pdf > 0.0f)) return 0;
   if (v->t.lt && l->is_finite && !l->is_delta)
-    connect_emitter_to_camera(v, thread, c, l, s.origin, normal, l->pick_probability * direct_pdf);
+    connect_emitter_to_camera(v, thread, c, path - begin, l, s->origin, normal, l->pick_probability * direct_pdf);
   emission_pdf *= l->pick_probability;
   direct_pdf *= l->pick_probability;
-  s.throughput = vf_scale(energy, 1.0f / emission_pdf);
-  s.path_length = 0;
-  s.is_finite_light = l->is_finite;
-  s.specular_path = 1;
-  vf_mis_light_start(&s.mis, &v->mis, direct_pdf, emission_pdf, cos_light, l->is_delta, l->is_finite);
+  s->throughput = vf_scale(energy, 1.0f / emission_pdf);
+  s->path_length = 0;
+  s->is_finite_light = l->is_finite;
+  s->specular_path = 1;
+  vf_mis_light_start(&s->mis, &v->mis, direct_pdf, emission_pdf, cos_light, l->is_delta, l->is_finite);
   if (l->kind == VF_LIGHT_AREA_MESH || l->kind == VF_LIGHT_AREA_SPHERE)
-    s.origin = vf_offset_ray_origin(s.origin, normal, v->offset_scale);
+    s->origin = vf_offset_ray_origin(s->origin, normal, v->offset_scale);
+  return 1;
+}
 
-  for (;;) {
-    vf_hit hit;
-    if (!intersect(v, thread, s.origin, s.direction, &hit)) break;
-    vf_bsdf b;
-    if (!bsdf_at(v, &b, &hit, vf_neg(s.direction))) break;
-    s.path_length++;
-    vf_mis_hit(&s.mis, hit.t, b.local_fix.z, s.path_length > 1 || s.is_finite_light);
-    if (!b.is_delta) {
-      if (v->t.store_vertices) {
-        uint32_t material = (uint32_t)v->scene->shapes[hit.shape].material;
-        light_vertex lv = {hit.position, s.throughput, vf_neg(s.direction), hit.normal, s.mis,
-                           (uint32_t)s.path_length | material << VERTEX_LENGTH_BITS};
-        if (!push_vertex(c, &lv)) {
-          c->out_of_memory = 1;
-          break;
-        }
-      }
-      if (v->t.light_to_camera) connect_to_camera(v, thread, c, &hit, &b, &s);
+/* Continues the lane's light sub-path at the hit of its last ray: stores the vertex,
+ * projects it onto the camera and scatters. Returns 0 when the path ends there. */
+static int light_bounce(vf_vcm *v, int thread, light_chunk *c, light_lane *lane, const vf_hit *hit, uint32_t begin) {
+  path_state *s = &lane->s;
+  vf_bsdf b;
+  if (!bsdf_at(v, &b, hit, vf_neg(s->direction))) return 0;
+  s->path_length++;
+  vf_mis_hit(&s->mis, hit->t, b.local_fix.z, s->path_length > 1 || s->is_finite_light);
+  if (!b.is_delta) {
+    if (v->t.store_vertices) {
+      uint32_t material = (uint32_t)v->scene->shapes[hit->shape].material;
+      lane->vertices[lane->num_vertices++] =
+          (light_vertex){hit->position, s->throughput, vf_neg(s->direction), hit->normal, s->mis,
+                         (uint32_t)s->path_length | material << VERTEX_LENGTH_BITS};
     }
-    if (s.path_length + 2 > v->settings.max_path_length) break;
-    if (!scatter(v, &b, &hit, &s, &rng, 0)) break;
+    if (v->t.light_to_camera) connect_to_camera(v, thread, c, lane->path - begin, hit, &b, s);
   }
+  if (s->path_length + 2 > v->settings.max_path_length) return 0;
+  return scatter(v, &b, hit, s, &lane->rng, 0);
+}
+
+/* The lane's path has ended: its vertices join the chunk's list, its range recorded
+ * (chunk-relative until joined). */
+static void light_retire(vf_vcm *v, light_chunk *c, const light_lane *lane) {
+  v->path_begin[lane->path] = c->num_vertices;
+  if (lane->num_vertices > 0 && !append_vertices(c, lane->vertices, lane->num_vertices)) c->out_of_memory = 1;
+  v->path_end[lane->path] = c->num_vertices;
+}
+
+/* Gives lane i the chunk's next path that has a ray to trace; returns 0 when none is left. */
+static int light_refill(vf_vcm *v, int thread, light_chunk *c, light_lane *lane, uint32_t *next, uint32_t begin,
+                        uint32_t end) {
+  while (*next < end) {
+    uint32_t path = (*next)++;
+    if (v->t.light_paths && light_start(v, thread, c, lane, path, begin)) return 1;
+    lane->path = path; /* ended at its light, or no light paths at all: no vertices */
+    lane->num_vertices = 0;
+    light_retire(v, c, lane);
+  }
+  return 0;
+}
+
+/* The chunk's splats that count, back in path order: a stable counting sort by path, so
+ * that each path's splats keep the order they were made in. */
+static void sort_splats(light_chunk *c, uint32_t paths) {
+  uint32_t start[LIGHT_CHUNK + 1] = {0};
+  for (uint32_t i = 0; i < c->num_splats; i++)
+    if (c->splats[i].pixel != DROPPED_SPLAT) start[c->splats[i].path + 1]++;
+  for (uint32_t p = 0; p < paths; p++) start[p + 1] += start[p];
+  for (uint32_t i = 0; i < c->num_splats; i++)
+    if (c->splats[i].pixel != DROPPED_SPLAT) c->sorted_splats[start[c->splats[i].path]++] = c->splats[i];
+  splat *t = c->splats;
+  c->splats = c->sorted_splats;
+  c->sorted_splats = t;
+  c->num_splats = start[paths - 1];
 }
 
 typedef struct {
@@ -422,28 +503,48 @@ static void light_task(void *ctx, size_t task, int thread) {
   c->out_of_memory = 0;
   uint32_t begin = (uint32_t)task * LIGHT_CHUNK;
   uint32_t end = begin + LIGHT_CHUNK < v->num_pixels ? begin + LIGHT_CHUNK : v->num_pixels;
-  for (uint32_t p = begin; p < end; p++) {
-    v->path_begin[p] = c->num_vertices; /* chunk-relative until joined */
-    if (v->t.light_paths) trace_light_path(v, thread, c, p);
-    v->path_end[p] = c->num_vertices;
+  light_lane lanes[VF_ACCEL_PACKET];
+  uint32_t next = begin, active = 0;
+  for (int i = 0; i < VF_ACCEL_PACKET; i++) {
+    lanes[i].vertices = v->stats[thread].lane_vertices + (size_t)i * v->lane_capacity;
+    if (light_refill(v, thread, c, &lanes[i], &next, begin, end)) active |= 1u << i;
+  }
+  while (active) {
+    vf_vec3 org[VF_ACCEL_PACKET], dir[VF_ACCEL_PACKET];
+    vf_hit hits[VF_ACCEL_PACKET];
+    int lane_of[VF_ACCEL_PACKET], m = 0;
+    for (int i = 0; i < VF_ACCEL_PACKET; i++)
+      if (active >> i & 1u) {
+        lane_of[m] = i;
+        org[m] = lanes[i].s.origin;
+        dir[m++] = lanes[i].s.direction;
+      }
+    uint32_t found = intersect_rays(v, thread, org, dir, m, hits);
+    for (int k = 0; k < m; k++) {
+      light_lane *lane = &lanes[lane_of[k]];
+      if ((found >> k & 1u) && light_bounce(v, thread, c, lane, &hits[k], begin)) continue;
+      light_retire(v, c, lane);
+      if (!light_refill(v, thread, c, lane, &next, begin, end)) active &= ~(1u << lane_of[k]);
+    }
   }
   resolve_splats(v, thread, c);
-  uint32_t kept = 0; /* the splats that count, in their order */
-  for (uint32_t i = 0; i < c->num_splats; i++)
-    if (c->splats[i].pixel != DROPPED_SPLAT) c->splats[kept++] = c->splats[i];
-  c->num_splats = kept;
+  sort_splats(c, end - begin);
 }
 
-/* Joins the chunks' vertex lists into one array, chunk by chunk. */
+/* Joins the chunks' vertex lists into one array, chunk by chunk and path by path. */
 static void join_task(void *ctx, size_t task, int thread) {
   vf_vcm *v = ((pass_ctx *)ctx)->v;
   light_chunk *c = &v->chunks[task];
-  uint32_t offset = v->path_begin[task * LIGHT_CHUNK]; /* set to the chunk's global offset */
-  if (c->num_vertices) memcpy(&v->vertices[offset], c->vertices, (size_t)c->num_vertices * sizeof *c->vertices);
+  uint32_t offset = c->offset;
   uint32_t begin = (uint32_t)task * LIGHT_CHUNK;
   uint32_t end = begin + LIGHT_CHUNK < v->num_pixels ? begin + LIGHT_CHUNK : v->num_pixels;
-  for (uint32_t p = begin + 1; p < end; p++) v->path_begin[p] += offset;
-  for (uint32_t p = begin; p < end; p++) v->path_end[p] += offset;
+  for (uint32_t p = begin; p < end; p++) { /* in path order, whatever order they ended in */
+    uint32_t n = v->path_end[p] - v->path_begin[p];
+    if (n > 0) memcpy(&v->vertices[offset], &c->vertices[v->path_begin[p]], (size_t)n * sizeof *c->vertices);
+    v->path_begin[p] = offset;
+    offset += n;
+    v->path_end[p] = offset;
+  }
 }
 
 /* Copies what merging needs of the light vertices into the grid's order, so that the
@@ -732,67 +833,115 @@ static void defer_unshadowed(vf_vcm *v, int thread, vf_vec3 value, uint32_t tile
   if (!vf_is_zero(value)) defer(v, thread, value, tile_pixel);
 }
 
-/* Traces the camera sub-path of `pixel`: its contributions go to tile_pixel of the tile
- * through the deferred queue, its merges to the merge queue (or at once, through the
- * deferred queue, when that cannot grow). */
-static void trace_camera_path(vf_vcm *v, int thread, uint32_t pixel, uint32_t tile_pixel) {
-  vf_rng rng = vf_rng_for_path(v->settings.seed, v->iteration, pixel, VF_STREAM_CAMERA);
-  uint32_t px = pixel % (uint32_t)v->camera.width, py = pixel / (uint32_t)v->camera.width;
-  float jx = vf_rng_float(&rng), jy = vf_rng_float(&rng);
+/* A camera sub-path in flight. The camera pass, like the light pass, traces
+ * VF_ACCEL_PACKET of them at once as a wavefront over the tile's pixels. Its contributions
+ * go to its pixel through the deferred queue and its merges to the merge queue, each in
+ * the path's own order, so that every pixel sums the same terms in the same order as when
+ * its path was traced alone. */
+typedef struct {
   path_state s;
-  s.origin = v->camera.position;
-  s.direction = vf_camera_direction(&v->camera, (float)px + jx, (float)py + jy);
-  s.throughput = vf_vec3_splat(1.0f);
-  s.path_length = 1;
-  s.specular_path = 1;
-  vf_mis_camera_start(&s.mis, &v->mis, vf_camera_pdf_w(&v->camera, s.direction));
-  light_bsdf_cache cache;
-  cache.ready = 0;
+  vf_rng rng;
+  uint32_t pixel, tile_pixel;
+  light_bsdf_cache cache; /* of the light sub-path this camera sub-path connects to */
+} camera_lane;
 
-  for (;;) {
-    vf_hit hit;
-    if (!intersect(v, thread, s.origin, s.direction, &hit)) {
-      if (v->lights->environment >= 0 && v->t.emission) {
-        const vf_light *l = &v->lights->lights[v->lights->environment];
-        float direct_pdf, emission_pdf;
-        vf_vec3 le = vf_light_radiance_environment(v->lights, l, s.direction, &direct_pdf, &emission_pdf);
-        defer_unshadowed(v, thread, vf_mul(s.throughput, emission_weighted(v, l, &s, le, direct_pdf, emission_pdf)),
-                         tile_pixel);
-      }
-      break;
-    }
-    float cos_fix = fabsf(vf_dot(hit.normal, s.direction));
-    if (!(cos_fix > 1e-7f)) break; /* grazing: no emission or scattering to speak of */
-    vf_mis_hit(&s.mis, hit.t, cos_fix, 1);
-    int light_index = v->lights->shape_light[hit.shape];
-    if (light_index >= 0 && v->t.emission) {
-      const vf_light *l = &v->lights->lights[light_index];
+static void camera_start(vf_vcm *v, camera_lane *lane, uint32_t pixel, uint32_t tile_pixel) {
+  lane->pixel = pixel;
+  lane->tile_pixel = tile_pixel;
+  lane->cache.ready = 0;
+  lane->rng = vf_rng_for_path(v->settings.seed, v->iteration, pixel, VF_STREAM_CAMERA);
+  uint32_t px = pixel % (uint32_t)v->camera.width, py = pixel / (uint32_t)v->camera.width;
+  float jx = vf_rng_float(&lane->rng), jy = vf_rng_float(&lane->rng);
+  path_state *s = &lane->s;
+  s->origin = v->camera.position;
+  s->direction = vf_camera_direction(&v->camera, (float)px + jx, (float)py + jy);
+  s->throughput = vf_vec3_splat(1.0f);
+  s->path_length = 1;
+  s->specular_path = 1;
+  vf_mis_camera_start(&s->mis, &v->mis, vf_camera_pdf_w(&v->camera, s->direction));
+}
+
+/* Continues the lane's camera sub-path where its last ray ended (hit NULL: it left the
+ * scene): emission, light sampling, connections, merging, scattering. Returns 0 when the
+ * path ends there. */
+static int camera_bounce(vf_vcm *v, int thread, camera_lane *lane, const vf_hit *hit) {
+  path_state *s = &lane->s;
+  uint32_t tile_pixel = lane->tile_pixel;
+  if (hit == NULL) {
+    if (v->lights->environment >= 0 && v->t.emission) {
+      const vf_light *l = &v->lights->lights[v->lights->environment];
       float direct_pdf, emission_pdf;
-      vf_vec3 le = vf_light_radiance_area(l, s.direction, hit.normal, &direct_pdf, &emission_pdf);
-      defer_unshadowed(v, thread, vf_mul(s.throughput, emission_weighted(v, l, &s, le, direct_pdf, emission_pdf)),
+      vf_vec3 le = vf_light_radiance_environment(v->lights, l, s->direction, &direct_pdf, &emission_pdf);
+      defer_unshadowed(v, thread, vf_mul(s->throughput, emission_weighted(v, l, s, le, direct_pdf, emission_pdf)),
                        tile_pixel);
     }
-    if (s.path_length >= v->settings.max_path_length) break;
-    vf_bsdf b;
-    if (!bsdf_at(v, &b, &hit, vf_neg(s.direction))) break;
-    if (!b.is_delta) {
-      if (v->t.light_sample) light_sample(v, thread, &hit, &b, &s, &rng, tile_pixel);
-      if (v->t.connection) {
-        uint32_t first = v->path_begin[pixel];
-        for (uint32_t i = first; i < v->path_end[pixel]; i++) {
-          const light_vertex *lv = &v->vertices[i];
-          if (vertex_path_length(lv) + 1 + s.path_length > v->settings.max_path_length) break;
-          connect_vertices(v, thread, &hit, &b, &s, lv, i - first, &cache, tile_pixel);
-        }
-      }
-      if (v->t.merging && v->num_vertices > 0) {
-        merge_query q = {b, hit.position, s.throughput, s.mis, s.path_length, tile_pixel};
-        if (!queue_merge(v, thread, &q)) defer_unshadowed(v, thread, vf_mul(s.throughput, merge_now(v, &q)), tile_pixel);
-        if (v->t.ppm) break;
+    return 0;
+  }
+  float cos_fix = fabsf(vf_dot(hit->normal, s->direction));
+  if (!(cos_fix > 1e-7f)) return 0; /* grazing: no emission or scattering to speak of */
+  vf_mis_hit(&s->mis, hit->t, cos_fix, 1);
+  int light_index = v->lights->shape_light[hit->shape];
+  if (light_index >= 0 && v->t.emission) {
+    const vf_light *l = &v->lights->lights[light_index];
+    float direct_pdf, emission_pdf;
+    vf_vec3 le = vf_light_radiance_area(l, s->direction, hit->normal, &direct_pdf, &emission_pdf);
+    defer_unshadowed(v, thread, vf_mul(s->throughput, emission_weighted(v, l, s, le, direct_pdf, emission_pdf)),
+                     tile_pixel);
+  }
+  if (s->path_length >= v->settings.max_path_length) return 0;
+  vf_bsdf b;
+  if (!bsdf_at(v, &b, hit, vf_neg(s->direction))) return 0;
+  if (!b.is_delta) {
+    if (v->t.light_sample) light_sample(v, thread, hit, &b, s, &lane->rng, tile_pixel);
+    if (v->t.connection) {
+      uint32_t first = v->path_begin[lane->pixel];
+      for (uint32_t i = first; i < v->path_end[lane->pixel]; i++) {
+        const light_vertex *lv = &v->vertices[i];
+        if (vertex_path_length(lv) + 1 + s->path_length > v->settings.max_path_length) break;
+        connect_vertices(v, thread, hit, &b, s, lv, i - first, &lane->cache, tile_pixel);
       }
     }
-    if (!scatter(v, &b, &hit, &s, &rng, 1)) break;
-    s.path_length++;
+    if (v->t.merging && v->num_vertices > 0) {
+      merge_query q = {b, hit->position, s->throughput, s->mis, s->path_length, tile_pixel};
+      if (!queue_merge(v, thread, &q)) defer_unshadowed(v, thread, vf_mul(s->throughput, merge_now(v, &q)), tile_pixel);
+      if (v->t.ppm) return 0;
+    }
+  }
+  if (!scatter(v, &b, hit, s, &lane->rng, 1)) return 0;
+  s->path_length++;
+  return 1;
+}
+
+/* Traces the camera sub-paths of the tile's pixels (tile_pixel = row * tw + column). */
+static void trace_camera_tile(vf_vcm *v, int thread, uint32_t x0, uint32_t y0, uint32_t tw, uint32_t pixels) {
+  uint32_t width = (uint32_t)v->camera.width;
+  camera_lane lanes[VF_ACCEL_PACKET];
+  uint32_t next = 0, active = 0;
+  for (int i = 0; i < VF_ACCEL_PACKET && next < pixels; i++, next++) {
+    camera_start(v, &lanes[i], (y0 + next / tw) * width + x0 + next % tw, next);
+    active |= 1u << i;
+  }
+  while (active) {
+    vf_vec3 org[VF_ACCEL_PACKET], dir[VF_ACCEL_PACKET];
+    vf_hit hits[VF_ACCEL_PACKET];
+    int lane_of[VF_ACCEL_PACKET], m = 0;
+    for (int i = 0; i < VF_ACCEL_PACKET; i++)
+      if (active >> i & 1u) {
+        lane_of[m] = i;
+        org[m] = lanes[i].s.origin;
+        dir[m++] = lanes[i].s.direction;
+      }
+    uint32_t found = intersect_rays(v, thread, org, dir, m, hits);
+    for (int k = 0; k < m; k++) {
+      int i = lane_of[k];
+      if (camera_bounce(v, thread, &lanes[i], (found >> k & 1u) ? &hits[k] : NULL)) continue;
+      if (next < pixels) {
+        camera_start(v, &lanes[i], (y0 + next / tw) * width + x0 + next % tw, next);
+        next++;
+      } else {
+        active &= ~(1u << i);
+      }
+    }
   }
 }
 
@@ -807,9 +956,7 @@ static void camera_task(void *ctx, size_t task, int thread) {
   float tile_rgb[3 * CAMERA_TILE * CAMERA_TILE];
   memset(tile_rgb, 0, 3 * sizeof(float) * tw * (y1 - y0));
   v->stats[thread].tile_rgb = tile_rgb;
-  if (v->t.camera_paths)
-    for (uint32_t y = y0; y < y1; y++)
-      for (uint32_t x = x0; x < x1; x++) trace_camera_path(v, thread, y * width + x, (y - y0) * tw + (x - x0));
+  if (v->t.camera_paths) trace_camera_tile(v, thread, x0, y0, tw, tw * (y1 - y0));
   resolve_deferred(v, thread);
   run_merges(v, thread, tile_rgb);
   for (uint32_t y = y0; y < y1; y++)
@@ -864,7 +1011,7 @@ int vf_vcm_iteration(vf_vcm *v, uint64_t iteration, float *camera_rgb, float *li
   uint64_t total = 0;
   for (uint32_t c = 0; c < v->num_chunks; c++) {
     if (v->chunks[c].out_of_memory) return vf_error_set(VF_ENOMEM, "out of memory storing light vertices");
-    v->path_begin[c * LIGHT_CHUNK] = (uint32_t)total; /* chunk offset, read by join_task */
+    v->chunks[c].offset = (uint32_t)total;
     total += v->chunks[c].num_vertices;
   }
   if (total > UINT32_MAX) return vf_error_set(VF_ENOMEM, "more than 2^32 light vertices in one iteration");
@@ -1051,6 +1198,11 @@ int vf_vcm_create(const vf_scene *scene, const vf_accel *accel, const vf_setting
   v->lobes = calloc(scene->num_materials > 0 ? (size_t)scene->num_materials : 1, sizeof *v->lobes);
   if (!v->chunks || !v->path_begin || !v->path_end || !v->stats || !v->lobes) goto fail;
   for (int m = 0; m < scene->num_materials; m++) vf_bsdf_lobes_of(&scene->materials[m], &v->lobes[m]);
+  v->lane_capacity = settings->max_path_length > 1 ? (uint32_t)settings->max_path_length : 1u;
+  for (int t = 0; t < vf_pool_threads(pool); t++) {
+    v->stats[t].lane_vertices = malloc((size_t)VF_ACCEL_PACKET * v->lane_capacity * sizeof(light_vertex));
+    if (v->stats[t].lane_vertices == NULL) goto fail;
+  }
   if (v->t.merging && (err = vf_hashgrid_create(&v->grid)) != VF_OK) goto fail;
   *out = v;
   return VF_OK;
@@ -1065,6 +1217,7 @@ void vf_vcm_destroy(vf_vcm *v) {
     for (uint32_t c = 0; c < v->num_chunks; c++) {
       free(v->chunks[c].vertices);
       free(v->chunks[c].splats);
+      free(v->chunks[c].sorted_splats);
     }
   free(v->chunks);
   free(v->vertices);
@@ -1072,7 +1225,10 @@ void vf_vcm_destroy(vf_vcm *v) {
   free(v->path_begin);
   free(v->path_end);
   if (v->stats)
-    for (int t = 0; t < vf_pool_threads(v->pool); t++) free(v->stats[t].queries);
+    for (int t = 0; t < vf_pool_threads(v->pool); t++) {
+      free(v->stats[t].queries);
+      free(v->stats[t].lane_vertices);
+    }
   free(v->stats);
   free(v->lobes);
   vf_hashgrid_destroy(v->grid);
