@@ -99,13 +99,15 @@ static void test_without_offset_rays_hit_their_own_surface(void) {
 /* Packets of shadow rays answer as the rays one by one: on `cornell` (triangles and
  * spheres), segments between random points of the box and rays to infinity, in packets of
  * every fill from one ray to VF_ACCEL_PACKET. */
-static void test_packets_answer_as_single_rays(void) {
+static void packets_answer_as_single_rays(int width) {
   vf_scene *s = NULL;
   vf_accel *a = NULL;
   CHECK_INT_EQ(vf_scene_load("cornell", &s), VF_OK);
   if (s == NULL) return;
   CHECK_INT_EQ(vf_accel_create(s, &a), VF_OK);
   if (a == NULL) return;
+  vf_accel_limit_packet_width(a, width);
+  printf("  packets of up to %d rays, Embree's packets %d wide\n", VF_ACCEL_PACKET, vf_accel_packet_width(a));
   vf_vec3 center;
   float radius;
   vf_scene_bounding_sphere(s, &center, &radius);
@@ -144,13 +146,15 @@ static void test_packets_answer_as_single_rays(void) {
 /* Packets of closest-hit rays find the hits of single rays, bit for bit (sphere distances
  * are solved again in double either way, since Embree's kernels differ in the last bits):
  * on `cornell`, rays in random directions from random points of the box. */
-static void test_intersect_packets_find_single_ray_hits(void) {
+static void intersect_packets_find_single_ray_hits(int width) {
   vf_scene *s = NULL;
   vf_accel *a = NULL;
   CHECK_INT_EQ(vf_scene_load("cornell", &s), VF_OK);
   if (s == NULL) return;
   CHECK_INT_EQ(vf_accel_create(s, &a), VF_OK);
   if (a == NULL) return;
+  vf_accel_limit_packet_width(a, width);
+  printf("  packets of up to %d rays, Embree's packets %d wide\n", VF_ACCEL_PACKET, vf_accel_packet_width(a));
   vf_vec3 center;
   float radius;
   vf_scene_bounding_sphere(s, &center, &radius);
@@ -191,6 +195,18 @@ static void test_intersect_packets_find_single_ray_hits(void) {
   CHECK(spheres > found / 50); /* the spheres, where Embree's kernels differ, are exercised */
   vf_accel_destroy(a);
   vf_scene_destroy(s);
+}
+
+/* At the widest native packet width of this machine, and split into 8-wide packets as on
+ * machines without AVX-512. */
+static void test_packets_answer_as_single_rays(void) {
+  packets_answer_as_single_rays(16);
+  packets_answer_as_single_rays(8);
+}
+
+static void test_intersect_packets_find_single_ray_hits(void) {
+  intersect_packets_find_single_ray_hits(16);
+  intersect_packets_find_single_ray_hits(8);
 }
 
 int main(void) {

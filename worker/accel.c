@@ -12,6 +12,7 @@ struct vf_accel {
   RTCScene scene;
   const vf_scene *source; /* borrowed: positions and spheres for hit reconstruction */
   float scale;            /* bounding-sphere radius, for ray offsets */
+  int packet_width;       /* Embree's widest native packet: 16 or 8 */
 };
 
 static void device_error(void *user, enum RTCError code, const char *msg) {
@@ -70,6 +71,9 @@ int vf_accel_create(const vf_scene *scene, vf_accel **out) {
     return vf_error_set(VF_EEMBREE, "cannot create the Embree device (error %d)", (int)rtcGetDeviceError(NULL));
   }
   rtcSetDeviceErrorFunction(a->device, device_error, NULL);
+  /* 16-wide packets are native where Embree runs AVX-512 (build and CPU); elsewhere it
+   * would split them itself, so we split into 8-wide ones, native from AVX on. */
+  a->packet_width = rtcGetDeviceProperty(a->device, RTC_DEVICE_PROPERTY_NATIVE_RAY16_SUPPORTED) ? 16 : 8;
   a->scene = rtcNewScene(a->device);
   if (a->scene == NULL) goto fail;
   /* Robust mode: watertight edges, or about 1.5e-4 of the rays leaving the inside of a
@@ -201,68 +205,97 @@ int vf_accel_occluded(const vf_accel *a, vf_vec3 org, vf_vec3 dir, float tfar) {
   return r.tfar < 0.0f;
 }
 
+/* The packet functions for Embree's packets of W = 8 and 16 rays: the same code for both
+ * widths, the types and calls named after W. Lanes past n are switched off but still
+ * given a harmless ray. */
+#define PACKET_FUNCTIONS(W)                                                                                  \
+  static uint32_t occluded##W(const vf_accel *a, const vf_vec3 *org, const vf_vec3 *dir, const float *tfar, \
+                              int n) {                                                                       \
+    struct RTCIntersectContext ctx;                                                                          \
+    rtcInitIntersectContext(&ctx);                                                                           \
+    ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT;                                                       \
+    struct RTCRay##W r; /* aligned as Embree declares it */                                                  \
+    RTC_ALIGN(4 * W) int valid[W];                                                                           \
+    for (int i = 0; i < W; i++) {                                                                            \
+      int on = i < n;                                                                                        \
+      valid[i] = on ? -1 : 0;                                                                                \
+      r.org_x[i] = on ? org[i].x : 0.0f;                                                                     \
+      r.org_y[i] = on ? org[i].y : 0.0f;                                                                     \
+      r.org_z[i] = on ? org[i].z : 0.0f;                                                                     \
+      r.dir_x[i] = on ? dir[i].x : 0.0f;                                                                     \
+      r.dir_y[i] = on ? dir[i].y : 0.0f;                                                                     \
+      r.dir_z[i] = on ? dir[i].z : 1.0f;                                                                     \
+      r.tnear[i] = 0.0f;                                                                                     \
+      r.tfar[i] = on ? tfar[i] : 0.0f;                                                                       \
+      r.time[i] = 0.0f;                                                                                      \
+      r.mask[i] = 0xFFFFFFFFu;                                                                               \
+      r.id[i] = 0;                                                                                           \
+      r.flags[i] = 0;                                                                                        \
+    }                                                                                                        \
+    rtcOccluded##W(valid, a->scene, &ctx, &r);                                                               \
+    uint32_t blocked = 0;                                                                                    \
+    for (int i = 0; i < n; i++) blocked |= (uint32_t)(r.tfar[i] < 0.0f) << i;                                \
+    return blocked;                                                                                          \
+  }                                                                                                          \
+                                                                                                             \
+  static uint32_t intersect##W(const vf_accel *a, const vf_vec3 *org, const vf_vec3 *dir, int n,            \
+                               vf_hit *hits) {                                                               \
+    struct RTCIntersectContext ctx;                                                                          \
+    rtcInitIntersectContext(&ctx);                                                                           \
+    ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT;                                                       \
+    struct RTCRayHit##W rh;                                                                                  \
+    RTC_ALIGN(4 * W) int valid[W];                                                                           \
+    for (int i = 0; i < W; i++) {                                                                            \
+      int on = i < n;                                                                                        \
+      valid[i] = on ? -1 : 0;                                                                                \
+      rh.ray.org_x[i] = on ? org[i].x : 0.0f;                                                                \
+      rh.ray.org_y[i] = on ? org[i].y : 0.0f;                                                                \
+      rh.ray.org_z[i] = on ? org[i].z : 0.0f;                                                                \
+      rh.ray.dir_x[i] = on ? dir[i].x : 0.0f;                                                                \
+      rh.ray.dir_y[i] = on ? dir[i].y : 0.0f;                                                                \
+      rh.ray.dir_z[i] = on ? dir[i].z : 1.0f;                                                                \
+      rh.ray.tnear[i] = 0.0f;                                                                                \
+      rh.ray.tfar[i] = on ? INFINITY : 0.0f;                                                                 \
+      rh.ray.time[i] = 0.0f;                                                                                 \
+      rh.ray.mask[i] = 0xFFFFFFFFu;                                                                          \
+      rh.ray.id[i] = 0;                                                                                      \
+      rh.ray.flags[i] = 0;                                                                                   \
+      rh.hit.geomID[i] = RTC_INVALID_GEOMETRY_ID;                                                            \
+      rh.hit.instID[0][i] = RTC_INVALID_GEOMETRY_ID;                                                         \
+    }                                                                                                        \
+    rtcIntersect##W(valid, a->scene, &ctx, &rh);                                                             \
+    uint32_t found = 0;                                                                                      \
+    for (int i = 0; i < n; i++)                                                                              \
+      if (rh.hit.geomID[i] != RTC_INVALID_GEOMETRY_ID &&                                                     \
+          complete_hit(a, org[i], dir[i], rh.ray.tfar[i], rh.hit.geomID[i], rh.hit.primID[i], rh.hit.u[i],  \
+                       rh.hit.v[i], vf_vec3_make(rh.hit.Ng_x[i], rh.hit.Ng_y[i], rh.hit.Ng_z[i]), &hits[i])) \
+        found |= 1u << i;                                                                                    \
+    return found;                                                                                            \
+  }
+
+PACKET_FUNCTIONS(8)
+PACKET_FUNCTIONS(16)
+
+/* Packets of up to 8 rays go to Embree as 8-wide packets; larger ones as one 16-wide packet
+ * where the CPU runs those natively, else as two 8-wide ones. */
 uint32_t vf_accel_occluded_packet(const vf_accel *a, const vf_vec3 *org, const vf_vec3 *dir, const float *tfar,
                                   int n) {
-  struct RTCIntersectContext ctx;
-  rtcInitIntersectContext(&ctx);
-  ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT;
-  struct RTCRay8 r; /* aligned as Embree declares it */
-  RTC_ALIGN(32) int valid[8];
-  for (int i = 0; i < 8; i++) {
-    int on = i < n; /* lanes past n are switched off, but still given a harmless ray */
-    valid[i] = on ? -1 : 0;
-    r.org_x[i] = on ? org[i].x : 0.0f;
-    r.org_y[i] = on ? org[i].y : 0.0f;
-    r.org_z[i] = on ? org[i].z : 0.0f;
-    r.dir_x[i] = on ? dir[i].x : 0.0f;
-    r.dir_y[i] = on ? dir[i].y : 0.0f;
-    r.dir_z[i] = on ? dir[i].z : 1.0f;
-    r.tnear[i] = 0.0f;
-    r.tfar[i] = on ? tfar[i] : 0.0f;
-    r.time[i] = 0.0f;
-    r.mask[i] = 0xFFFFFFFFu;
-    r.id[i] = 0;
-    r.flags[i] = 0;
-  }
-  rtcOccluded8(valid, a->scene, &ctx, &r);
-  uint32_t blocked = 0;
-  for (int i = 0; i < n; i++) blocked |= (uint32_t)(r.tfar[i] < 0.0f) << i;
-  return blocked;
+  if (n <= 8) return occluded8(a, org, dir, tfar, n);
+  if (a->packet_width == 16) return occluded16(a, org, dir, tfar, n);
+  return occluded8(a, org, dir, tfar, 8) | occluded8(a, org + 8, dir + 8, tfar + 8, n - 8) << 8;
 }
 
 uint32_t vf_accel_intersect_packet(const vf_accel *a, const vf_vec3 *org, const vf_vec3 *dir, int n,
                                    vf_hit *hits) {
-  struct RTCIntersectContext ctx;
-  rtcInitIntersectContext(&ctx);
-  ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT;
-  struct RTCRayHit8 rh; /* aligned as Embree declares it */
-  RTC_ALIGN(32) int valid[8];
-  for (int i = 0; i < 8; i++) {
-    int on = i < n;
-    valid[i] = on ? -1 : 0;
-    rh.ray.org_x[i] = on ? org[i].x : 0.0f;
-    rh.ray.org_y[i] = on ? org[i].y : 0.0f;
-    rh.ray.org_z[i] = on ? org[i].z : 0.0f;
-    rh.ray.dir_x[i] = on ? dir[i].x : 0.0f;
-    rh.ray.dir_y[i] = on ? dir[i].y : 0.0f;
-    rh.ray.dir_z[i] = on ? dir[i].z : 1.0f;
-    rh.ray.tnear[i] = 0.0f;
-    rh.ray.tfar[i] = on ? INFINITY : 0.0f;
-    rh.ray.time[i] = 0.0f;
-    rh.ray.mask[i] = 0xFFFFFFFFu;
-    rh.ray.id[i] = 0;
-    rh.ray.flags[i] = 0;
-    rh.hit.geomID[i] = RTC_INVALID_GEOMETRY_ID;
-    rh.hit.instID[0][i] = RTC_INVALID_GEOMETRY_ID;
-  }
-  rtcIntersect8(valid, a->scene, &ctx, &rh);
-  uint32_t found = 0;
-  for (int i = 0; i < n; i++)
-    if (rh.hit.geomID[i] != RTC_INVALID_GEOMETRY_ID &&
-        complete_hit(a, org[i], dir[i], rh.ray.tfar[i], rh.hit.geomID[i], rh.hit.primID[i], rh.hit.u[i], rh.hit.v[i],
-                     vf_vec3_make(rh.hit.Ng_x[i], rh.hit.Ng_y[i], rh.hit.Ng_z[i]), &hits[i]))
-      found |= 1u << i;
-  return found;
+  if (n <= 8) return intersect8(a, org, dir, n, hits);
+  if (a->packet_width == 16) return intersect16(a, org, dir, n, hits);
+  return intersect8(a, org, dir, 8, hits) | intersect8(a, org + 8, dir + 8, n - 8, hits + 8) << 8;
+}
+
+int vf_accel_packet_width(const vf_accel *a) { return a->packet_width; }
+
+void vf_accel_limit_packet_width(vf_accel *a, int width) {
+  if (width < a->packet_width) a->packet_width = 8;
 }
 
 float vf_accel_scale(const vf_accel *a) { return a->scale; }

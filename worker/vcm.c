@@ -114,8 +114,8 @@ typedef struct {
 
 /* Shadow rays are not traced one by one where they arise but gathered into packets of
  * VF_ACCEL_PACKET and traced together (vf_accel_occluded_packet): Embree traverses a
- * packet of eight rays 1.1 to 1.6 times faster per ray than eight single rays, whether or
- * not they share an origin (docs/BENCHMARKS.md). No path's course depends on a shadow
+ * packet of 8 rays 1.1 to 1.6 times faster per ray than single rays, whether or not they
+ * share an origin, and one of 16 faster again with AVX-512 (docs/BENCHMARKS.md). No path's course depends on a shadow
  * ray's answer, only the contribution it guards, so the contributions wait in a queue
  * until their packet is traced and are then added in the order they arose: films stay
  * bit for bit those of tracing each ray at once. */
@@ -382,8 +382,8 @@ static void connect_emitter_to_camera(vf_vcm *v, int thread, light_chunk *c, uin
 }
 
 /* A light sub-path in flight. The light pass traces VF_ACCEL_PACKET of them at once, as a
- * wavefront: each step sends the rays of all lanes to Embree as one packet (rtcIntersect8
- * traces eight unrelated rays ~1.3 times faster than eight single rays on cornell), then
+ * wavefront: each step sends the rays of all lanes to Embree as one packet (8 unrelated
+ * rays in one packet are traced ~1.3 times faster than single rays on cornell), then
  * continues each lane's path; a lane whose path ends starts the chunk's next path. A
  * path's vertices stay in its lane until it ends, so that they are stored together. */
 typedef struct {
