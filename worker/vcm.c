@@ -47,15 +47,21 @@ static int vertex_path_length(const light_vertex *lv) {
 }
 static uint32_t vertex_material(const light_vertex *lv) { return lv->path_length_material >> VERTEX_LENGTH_BITS; }
 
-/* What merging needs of a light vertex, kept in the grid's order: 40 bytes, so that the
- * vertices a query accepts lie next to each other and a hit costs at most one line. */
+/* What merging needs of the light vertices, in the grid's order, in two arrays: the
+ * distance and path-length tests of a query's candidates read only merge_point (16 bytes,
+ * four to a line), and only the candidates that pass read their photon (32 bytes, aligned:
+ * one line). A merging query is bound by the lines it misses, not by its arithmetic. */
+typedef struct {
+  float x, y, z;
+  uint32_t path_length_material; /* as in light_vertex */
+} merge_point;
+
 typedef struct {
   vf_vec3 throughput;
   vf_vec3 direction; /* world, towards the previous light vertex */
   float d_vcm, d_vm;
-  float continuation;
-  int path_length;
 } photon;
+_Static_assert(sizeof(photon) == 32, "two photons to a cache line");
 
 typedef struct {
   uint32_t pixel;
@@ -173,7 +179,8 @@ struct vf_vcm {
   uint32_t num_chunks;
   light_vertex *vertices; /* all chunks joined, in sub-path order (for connections) */
   uint32_t num_vertices, vertex_capacity;
-  photon *photons; /* the same in the grid's order (for merging), or NULL */
+  merge_point *merge_points; /* the same in the grid's order (for merging), or NULL */
+  photon *photons;
   uint32_t photon_capacity;
   uint32_t *path_begin, *path_end; /* per light sub-path, into vertices */
   vf_hashgrid *grid;
@@ -558,13 +565,8 @@ static void gather_task(void *ctx, size_t task, int thread) {
     /* The vertices are read in grid order, that is at random: fetch ahead of use. */
     if (k + GATHER_AHEAD < end) __builtin_prefetch(&v->vertices[points[k + GATHER_AHEAD].index]);
     const light_vertex *lv = &v->vertices[points[k].index];
-    photon *ph = &v->photons[k];
-    ph->throughput = lv->throughput;
-    ph->direction = lv->fix;
-    ph->d_vcm = lv->mis.d_vcm;
-    ph->d_vm = lv->mis.d_vm;
-    ph->continuation = v->lobes[vertex_material(lv)].continuation;
-    ph->path_length = vertex_path_length(lv);
+    v->merge_points[k] = (merge_point){points[k].x, points[k].y, points[k].z, lv->path_length_material};
+    v->photons[k] = (photon){lv->throughput, lv->fix, lv->mis.d_vcm, lv->mis.d_vm};
   }
 }
 
@@ -704,45 +706,52 @@ static void connect_vertices(vf_vcm *v, int thread, const vf_hit *hit, const vf_
 /* Merges camera vertex q with light vertex k (an index into the grid's order), which lies
  * within the radius: the vertex merging estimate with its MIS weight (eq. 38-39). */
 static vf_vec3 merge_one(const vf_vcm *v, const merge_query *q, uint32_t k) {
+  uint32_t length_material = v->merge_points[k].path_length_material;
+  if ((int)(length_material & ((1u << VERTEX_LENGTH_BITS) - 1u)) + q->path_length > v->settings.max_path_length)
+    return vf_vec3_splat(0.0f);
   const photon *ph = &v->photons[k];
-  if (ph->path_length + q->path_length > v->settings.max_path_length) return vf_vec3_splat(0.0f);
   float cos_camera, camera_pdf, camera_rev_pdf;
   vf_vec3 f = vf_bsdf_evaluate(&q->bsdf, ph->direction, &cos_camera, &camera_pdf, &camera_rev_pdf);
   if (vf_is_zero(f)) return f;
   float w = 1.0f;
   if (!v->t.ppm) {
     /* The reverse step is taken at the light vertex: its Russian roulette applies. */
-    camera_rev_pdf *= ph->continuation / q->bsdf.continuation;
+    camera_rev_pdf *= v->lobes[length_material >> VERTEX_LENGTH_BITS].continuation / q->bsdf.continuation;
     vf_mis light = {ph->d_vcm, 0.0f, ph->d_vm};
     w = vf_mis_weight_merge(&light, &q->mis, &v->mis, camera_pdf, camera_rev_pdf);
   }
   return vf_scale(vf_mul(f, ph->throughput), w);
 }
 
-/* The light vertices of the candidate ranges within the radius of x, in grid order: up to
+/* The light vertices of the candidate ranges within the radius of query q and short
+ * enough to merge with it (merge_one would give the others nothing), in grid order: up to
  * max of them into hits[0 .. max), which has room for max + 1 (the last slot takes the
- * writes past max). Returns their number, which may exceed max. The distance tests read
- * the grid's compact sorted positions, not the photon records, and do not branch: about
- * one candidate in eight passes, at random, so a branch would mispredict on most hits. */
-static int find_hits(const vf_vcm *v, vf_vec3 x, const vf_index_range *ranges, int n, uint32_t *hits, int max) {
-  const vf_grid_point *points = vf_hashgrid_points(v->grid);
+ * writes past max). Returns their number, which may exceed max. The tests read only the
+ * merge points, and do not branch: about one candidate in eight passes, at random, so a
+ * branch would mispredict on most hits. */
+static int find_hits(const vf_vcm *v, const merge_query *q, const vf_index_range *ranges, int n, uint32_t *hits,
+                     int max) {
+  const merge_point *points = v->merge_points;
+  vf_vec3 x = q->position;
+  uint32_t longest = (uint32_t)(v->settings.max_path_length - q->path_length); /* >= 1 */
   int found = 0;
   for (int r = 0; r < n; r++)
     for (uint32_t k = ranges[r].begin; k < ranges[r].end; k++) {
-      const vf_grid_point *gp = &points[k];
-      float dx = gp->x - x.x, dy = gp->y - x.y, dz = gp->z - x.z;
+      const merge_point *mp = &points[k];
+      float dx = mp->x - x.x, dy = mp->y - x.y, dz = mp->z - x.z;
       hits[found < max ? found : max] = k;
-      found += dx * dx + dy * dy + dz * dz <= v->radius_sq;
+      found += (dx * dx + dy * dy + dz * dz <= v->radius_sq) &
+               ((mp->path_length_material & ((1u << VERTEX_LENGTH_BITS) - 1u)) <= longest);
     }
   return found;
 }
 
 static vf_vec3 merge_all(const vf_vcm *v, const merge_query *q, const vf_index_range *ranges, int n) {
   vf_vec3 sum = vf_vec3_splat(0.0f);
-  const vf_grid_point *points = vf_hashgrid_points(v->grid);
+  const merge_point *points = v->merge_points;
   for (int r = 0; r < n; r++)
     for (uint32_t k = ranges[r].begin; k < ranges[r].end; k++) {
-      const vf_grid_point *gp = &points[k];
+      const merge_point *gp = &points[k];
       float dx = gp->x - q->position.x, dy = gp->y - q->position.y, dz = gp->z - q->position.z;
       if (dx * dx + dy * dy + dz * dz <= v->radius_sq) sum = vf_add(sum, merge_one(v, q, k));
     }
@@ -788,7 +797,7 @@ static void run_merges(vf_vcm *v, int thread, float *tile_rgb) {
   int n = (int)ts->num_queries;
   if (n == 0) return; /* nothing queued: no merging, or no grid this iteration */
   const merge_query *q = ts->queries;
-  const vf_grid_point *points = vf_hashgrid_points(v->grid);
+  const merge_point *points = v->merge_points;
   vf_grid_cells cells[RING];
   vf_index_range ranges[RING][VF_HASHGRID_MAX_RANGES];
   int num_ranges[RING], num_hits[RING];
@@ -806,7 +815,7 @@ static void run_merges(vf_vcm *v, int thread, float *tile_rgb) {
     }
     if (c >= 0 && c < n) {
       int h = num_hits[c % RING] =
-          find_hits(v, q[c].position, ranges[c % RING], num_ranges[c % RING], hits[c % RING], MAX_HITS);
+          find_hits(v, &q[c], ranges[c % RING], num_ranges[c % RING], hits[c % RING], MAX_HITS);
       for (int k = 0; k < h && k < MAX_HITS; k++) __builtin_prefetch(&v->photons[hits[c % RING][k]]);
     }
     if (d >= 0 && d < n) {
@@ -1044,10 +1053,15 @@ int vf_vcm_iteration(vf_vcm *v, uint64_t iteration, float *camera_rgb, float *li
     if (err != VF_OK) return err;
     uint32_t n = vf_hashgrid_count(v->grid);
     if (n > v->photon_capacity) {
-      photon *p = realloc(v->photons, (size_t)n * sizeof *p);
-      if (p == NULL) return VF_ENOMEM;
-      v->photons = p;
-      v->photon_capacity = n;
+      /* Photons aligned to the line, so that each lies in one; old contents are not kept.
+       * Slack as for the vertices. */
+      size_t capacity = n + n / 8 < UINT32_MAX ? (size_t)(n + n / 8) : UINT32_MAX;
+      free(v->photons);
+      free(v->merge_points);
+      v->photons = aligned_alloc(64, (capacity * sizeof(photon) + 63) / 64 * 64);
+      v->merge_points = aligned_alloc(64, (capacity * sizeof(merge_point) + 63) / 64 * 64);
+      v->photon_capacity = v->photons && v->merge_points ? (uint32_t)capacity : 0;
+      if (v->photon_capacity == 0) return VF_ENOMEM;
     }
     vf_pool_run(v->pool, (n + GATHER_CHUNK - 1) / GATHER_CHUNK, gather_task, &ctx);
   }
@@ -1222,6 +1236,7 @@ void vf_vcm_destroy(vf_vcm *v) {
   free(v->chunks);
   free(v->vertices);
   free(v->photons);
+  free(v->merge_points);
   free(v->path_begin);
   free(v->path_end);
   if (v->stats)
