@@ -96,21 +96,51 @@ static void test_without_offset_rays_hit_their_own_surface(void) {
   vf_scene_destroy(s);
 }
 
-/* Packets of shadow rays answer as the rays one by one: on `cornell` (triangles and
- * spheres), segments between random points of the box and rays to infinity, in packets of
- * every fill from one ray to VF_ACCEL_PACKET. */
-static void packets_answer_as_single_rays(int width) {
-  vf_scene *s = NULL;
-  vf_accel *a = NULL;
-  CHECK_INT_EQ(vf_scene_load("cornell", &s), VF_OK);
-  if (s == NULL) return;
-  CHECK_INT_EQ(vf_accel_create(s, &a), VF_OK);
-  if (a == NULL) return;
-  vf_accel_limit_packet_width(a, width);
-  printf("  packets of up to %d rays, Embree's packets %d wide\n", VF_ACCEL_PACKET, vf_accel_packet_width(a));
+/* The packet tests' scene: `cornell` (triangles and spheres), with Embree's packets at most
+ * `width` wide. 0 when it cannot be loaded (the failed check is recorded). */
+typedef struct {
+  vf_scene *scene;
+  vf_accel *accel;
   vf_vec3 center;
   float radius;
-  vf_scene_bounding_sphere(s, &center, &radius);
+} packet_scene;
+
+static int open_packet_scene(packet_scene *ps, int width) {
+  ps->scene = NULL;
+  ps->accel = NULL;
+  CHECK_INT_EQ(vf_scene_load("cornell", &ps->scene), VF_OK);
+  if (ps->scene == NULL) return 0;
+  CHECK_INT_EQ(vf_accel_create(ps->scene, &ps->accel), VF_OK);
+  if (ps->accel == NULL) {
+    vf_scene_destroy(ps->scene);
+    return 0;
+  }
+  vf_accel_limit_packet_width(ps->accel, width);
+  printf("  packets of up to %d rays, Embree's packets %d wide\n", VF_ACCEL_PACKET, vf_accel_packet_width(ps->accel));
+  vf_scene_bounding_sphere(ps->scene, &ps->center, &ps->radius);
+  return 1;
+}
+
+static void close_packet_scene(packet_scene *ps) {
+  vf_accel_destroy(ps->accel);
+  vf_scene_destroy(ps->scene);
+}
+
+/* A random point of the cube of half-size `scale` times the bounding radius around the
+ * scene's centre. */
+static vf_vec3 random_point(const packet_scene *ps, float scale, vf_rng *rng) {
+  vf_vec3 u = vf_vec3_make(2.0f * vf_rng_float(rng) - 1.0f, 2.0f * vf_rng_float(rng) - 1.0f,
+                           2.0f * vf_rng_float(rng) - 1.0f);
+  return vf_add(ps->center, vf_scale(u, scale * ps->radius));
+}
+
+/* Packets of shadow rays answer as the rays one by one: on `cornell`, segments between
+ * random points of the box and rays to infinity, in packets of every fill from one ray to
+ * VF_ACCEL_PACKET. */
+static void packets_answer_as_single_rays(int width) {
+  packet_scene ps;
+  if (!open_packet_scene(&ps, width)) return;
+  vf_accel *a = ps.accel;
   vf_rng rng = vf_rng_for_path(11, 0, 0, VF_STREAM_TEST);
   int rays = 0, blocked = 0, mismatches = 0;
   for (int round = 0; round < 4000; round++) {
@@ -118,13 +148,8 @@ static void packets_answer_as_single_rays(int width) {
     vf_vec3 org[VF_ACCEL_PACKET], dir[VF_ACCEL_PACKET];
     float tfar[VF_ACCEL_PACKET];
     for (int i = 0; i < n; i++) {
-      vf_vec3 p[2];
-      for (int k = 0; k < 2; k++) /* points in the cube around the scene's bounding sphere */
-        p[k] = vf_add(center, vf_scale(vf_vec3_make(2.0f * vf_rng_float(&rng) - 1.0f, 2.0f * vf_rng_float(&rng) - 1.0f,
-                                                    2.0f * vf_rng_float(&rng) - 1.0f),
-                                       0.7f * radius));
-      org[i] = p[0];
-      dir[i] = vf_sub(p[1], p[0]);
+      org[i] = random_point(&ps, 0.7f, &rng);
+      dir[i] = vf_sub(random_point(&ps, 0.7f, &rng), org[i]);
       tfar[i] = (round + i) % 3 == 0 ? INFINITY : 1.0f;
     }
     uint32_t mask = vf_accel_occluded_packet(a, org, dir, tfar, n);
@@ -139,25 +164,16 @@ static void packets_answer_as_single_rays(int width) {
   printf("  %d rays in packets, %d blocked, %d answered differently one by one\n", rays, blocked, mismatches);
   CHECK_INT_EQ(mismatches, 0);
   CHECK(blocked > rays / 10 && blocked < rays - rays / 10); /* both answers are exercised */
-  vf_accel_destroy(a);
-  vf_scene_destroy(s);
+  close_packet_scene(&ps);
 }
 
 /* Packets of closest-hit rays find the hits of single rays, bit for bit (sphere distances
  * are solved again in double either way, since Embree's kernels differ in the last bits):
  * on `cornell`, rays in random directions from random points of the box. */
 static void intersect_packets_find_single_ray_hits(int width) {
-  vf_scene *s = NULL;
-  vf_accel *a = NULL;
-  CHECK_INT_EQ(vf_scene_load("cornell", &s), VF_OK);
-  if (s == NULL) return;
-  CHECK_INT_EQ(vf_accel_create(s, &a), VF_OK);
-  if (a == NULL) return;
-  vf_accel_limit_packet_width(a, width);
-  printf("  packets of up to %d rays, Embree's packets %d wide\n", VF_ACCEL_PACKET, vf_accel_packet_width(a));
-  vf_vec3 center;
-  float radius;
-  vf_scene_bounding_sphere(s, &center, &radius);
+  packet_scene ps;
+  if (!open_packet_scene(&ps, width)) return;
+  vf_accel *a = ps.accel;
   vf_rng rng = vf_rng_for_path(12, 0, 0, VF_STREAM_TEST);
   int rays = 0, found = 0, spheres = 0, mismatches = 0;
   for (int round = 0; round < 4000; round++) {
@@ -165,9 +181,7 @@ static void intersect_packets_find_single_ray_hits(int width) {
     vf_vec3 org[VF_ACCEL_PACKET], dir[VF_ACCEL_PACKET];
     vf_hit hits[VF_ACCEL_PACKET];
     for (int i = 0; i < n; i++) {
-      org[i] = vf_add(center, vf_scale(vf_vec3_make(2.0f * vf_rng_float(&rng) - 1.0f, 2.0f * vf_rng_float(&rng) - 1.0f,
-                                                    2.0f * vf_rng_float(&rng) - 1.0f),
-                                       0.5f * radius));
+      org[i] = random_point(&ps, 0.5f, &rng);
       dir[i] = vf_sample_uniform_sphere(vf_rng_float(&rng), vf_rng_float(&rng));
     }
     uint32_t mask = vf_accel_intersect_packet(a, org, dir, n, hits);
@@ -183,7 +197,7 @@ static void intersect_packets_find_single_ray_hits(int width) {
       }
       if (!single) continue;
       found++;
-      spheres += s->shapes[h.shape].kind == VF_SHAPE_SPHERE;
+      spheres += ps.scene->shapes[h.shape].kind == VF_SHAPE_SPHERE;
       mismatches += h.t != hits[i].t || h.shape != hits[i].shape || h.primitive != hits[i].primitive ||
                      memcmp(&h.position, &hits[i].position, sizeof h.position) != 0 ||
                      memcmp(&h.normal, &hits[i].normal, sizeof h.normal) != 0;
@@ -193,8 +207,7 @@ static void intersect_packets_find_single_ray_hits(int width) {
          mismatches);
   CHECK_INT_EQ(mismatches, 0);
   CHECK(spheres > found / 50); /* the spheres, where Embree's kernels differ, are exercised */
-  vf_accel_destroy(a);
-  vf_scene_destroy(s);
+  close_packet_scene(&ps);
 }
 
 /* At the widest native packet width of this machine, and split into 8-wide packets as on

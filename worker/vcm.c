@@ -414,6 +414,23 @@ static uint32_t intersect_rays(vf_vcm *v, int thread, const vf_vec3 *org, const 
   return found;
 }
 
+/* One step of a wavefront: the closest hits of the next rays of the active lanes (bit i of
+ * `active`: lane i, whose path state is states[i]), as one packet. Ray k is lane
+ * lane_of[k]'s, *m rays in all; bit k of the result is set when ray k hit, in hits[k]. */
+static uint32_t trace_lanes(vf_vcm *v, int thread, path_state *const *states, uint32_t active, int *lane_of, int *m,
+                            vf_hit *hits) {
+  vf_vec3 org[VF_ACCEL_PACKET], dir[VF_ACCEL_PACKET];
+  int n = 0;
+  for (int i = 0; i < VF_ACCEL_PACKET; i++)
+    if (active >> i & 1u) {
+      lane_of[n] = i;
+      org[n] = states[i]->origin;
+      dir[n++] = states[i]->direction;
+    }
+  *m = n;
+  return intersect_rays(v, thread, org, dir, n, hits);
+}
+
 /* Emits light sub-path `path` into the lane; returns 1 when it has a ray to trace. */
 static int light_start(vf_vcm *v, int thread, light_chunk *c, light_lane *lane, uint32_t path, uint32_t begin) {
   lane->path = path;
@@ -511,22 +528,17 @@ static void light_task(void *ctx, size_t task, int thread) {
   uint32_t begin = (uint32_t)task * LIGHT_CHUNK;
   uint32_t end = begin + LIGHT_CHUNK < v->num_pixels ? begin + LIGHT_CHUNK : v->num_pixels;
   light_lane lanes[VF_ACCEL_PACKET];
+  path_state *states[VF_ACCEL_PACKET];
   uint32_t next = begin, active = 0;
   for (int i = 0; i < VF_ACCEL_PACKET; i++) {
     lanes[i].vertices = v->stats[thread].lane_vertices + (size_t)i * v->lane_capacity;
+    states[i] = &lanes[i].s;
     if (light_refill(v, thread, c, &lanes[i], &next, begin, end)) active |= 1u << i;
   }
   while (active) {
-    vf_vec3 org[VF_ACCEL_PACKET], dir[VF_ACCEL_PACKET];
     vf_hit hits[VF_ACCEL_PACKET];
-    int lane_of[VF_ACCEL_PACKET], m = 0;
-    for (int i = 0; i < VF_ACCEL_PACKET; i++)
-      if (active >> i & 1u) {
-        lane_of[m] = i;
-        org[m] = lanes[i].s.origin;
-        dir[m++] = lanes[i].s.direction;
-      }
-    uint32_t found = intersect_rays(v, thread, org, dir, m, hits);
+    int lane_of[VF_ACCEL_PACKET], m;
+    uint32_t found = trace_lanes(v, thread, states, active, lane_of, &m, hits);
     for (int k = 0; k < m; k++) {
       light_lane *lane = &lanes[lane_of[k]];
       if ((found >> k & 1u) && light_bounce(v, thread, c, lane, &hits[k], begin)) continue;
@@ -925,22 +937,20 @@ static int camera_bounce(vf_vcm *v, int thread, camera_lane *lane, const vf_hit 
 static void trace_camera_tile(vf_vcm *v, int thread, uint32_t x0, uint32_t y0, uint32_t tw, uint32_t pixels) {
   uint32_t width = (uint32_t)v->camera.width;
   camera_lane lanes[VF_ACCEL_PACKET];
+  path_state *states[VF_ACCEL_PACKET];
   uint32_t next = 0, active = 0;
-  for (int i = 0; i < VF_ACCEL_PACKET && next < pixels; i++, next++) {
-    camera_start(v, &lanes[i], (y0 + next / tw) * width + x0 + next % tw, next);
-    active |= 1u << i;
+  for (int i = 0; i < VF_ACCEL_PACKET; i++) {
+    states[i] = &lanes[i].s;
+    if (next < pixels) {
+      camera_start(v, &lanes[i], (y0 + next / tw) * width + x0 + next % tw, next);
+      active |= 1u << i;
+      next++;
+    }
   }
   while (active) {
-    vf_vec3 org[VF_ACCEL_PACKET], dir[VF_ACCEL_PACKET];
     vf_hit hits[VF_ACCEL_PACKET];
-    int lane_of[VF_ACCEL_PACKET], m = 0;
-    for (int i = 0; i < VF_ACCEL_PACKET; i++)
-      if (active >> i & 1u) {
-        lane_of[m] = i;
-        org[m] = lanes[i].s.origin;
-        dir[m++] = lanes[i].s.direction;
-      }
-    uint32_t found = intersect_rays(v, thread, org, dir, m, hits);
+    int lane_of[VF_ACCEL_PACKET], m;
+    uint32_t found = trace_lanes(v, thread, states, active, lane_of, &m, hits);
     for (int k = 0; k < m; k++) {
       int i = lane_of[k];
       if (camera_bounce(v, thread, &lanes[i], (found >> k & 1u) ? &hits[k] : NULL)) continue;
