@@ -121,10 +121,10 @@ typedef struct {
 /* Shadow rays are not traced one by one where they arise but gathered into packets of
  * VF_ACCEL_PACKET and traced together (vf_accel_occluded_packet): Embree traverses a
  * packet of 8 rays 1.1 to 1.6 times faster per ray than single rays, whether or not they
- * share an origin, and one of 16 faster again with AVX-512 (docs/BENCHMARKS.md). No path's course depends on a shadow
- * ray's answer, only the contribution it guards, so the contributions wait in a queue
- * until their packet is traced and are then added in the order they arose: films stay
- * bit for bit those of tracing each ray at once. */
+ * share an origin, and one of 16 faster again with AVX-512 (docs/BENCHMARKS.md). No
+ * path's course depends on a shadow ray's answer, only the contribution it guards, so the
+ * contributions wait in a queue until their packet is traced and are then added in the
+ * order they arose: films stay bit for bit those of tracing each ray at once. */
 typedef struct {
   vf_vec3 org[VF_ACCEL_PACKET], dir[VF_ACCEL_PACKET];
   float tfar[VF_ACCEL_PACKET];
@@ -617,7 +617,8 @@ static void resolve_deferred(vf_vcm *v, int thread) {
 }
 
 /* Adds value to the pixel after the contributions before it; returns the index of its
- * queue entry, for a shadow ray queued next (defer_shadowed). */
+ * queue entry, the owner of the shadow ray that guards it (queue_segment or
+ * queue_direction, then packet_queued), if any. */
 static int defer(vf_vcm *v, int thread, vf_vec3 value, uint32_t tile_pixel) {
   thread_stats *ts = &v->stats[thread];
   if (ts->num_pending == DEFERRED_MAX) resolve_deferred(v, thread);
