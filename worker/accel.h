@@ -44,8 +44,10 @@ int vf_accel_occluded(const vf_accel *accel, vf_vec3 org, vf_vec3 dir, float tfa
 uint32_t vf_accel_occluded_packet(const vf_accel *accel, const vf_vec3 *org, const vf_vec3 *dir, const float *tfar,
                                   int n);
 
-/* Closest hits of up to VF_ACCEL_PACKET rays to infinity at once, as Embree packets: bit i of the result is set when ray i hit something, and hits[i] is then filled
- * as vf_accel_intersect would. */
+/* Closest hits of up to VF_ACCEL_PACKET rays to infinity at once, as Embree packets: bit i
+ * of the result is set when ray i hit something, and hits[i] is then filled as
+ * vf_accel_intersect would, bit for bit (sphere distances are solved again in double, as
+ * Embree's packet and single-ray kernels differ in their last bits). */
 uint32_t vf_accel_intersect_packet(const vf_accel *accel, const vf_vec3 *org, const vf_vec3 *dir, int n,
                                    vf_hit *hits);
 
