@@ -295,7 +295,7 @@ uint32_t vf_accel_intersect_packet(const vf_accel *a, const vf_vec3 *org, const 
 int vf_accel_packet_width(const vf_accel *a) { return a->packet_width; }
 
 void vf_accel_limit_packet_width(vf_accel *a, int width) {
-  if (width < a->packet_width) a->packet_width = 8;
+  if (width < 16) a->packet_width = 8; /* the only narrower width there is */
 }
 
 float vf_accel_scale(const vf_accel *a) { return a->scale; }
