@@ -339,11 +339,14 @@ int vf_hashgrid_build(vf_hashgrid *g, const void *base, size_t stride, uint32_t 
 /* ---- queries ---- */
 
 /* The query's 2x2x2 block of cells, the case of all but a few queries in a thousand (two
- * cells per axis unless q's interval falls inside one cell): its eight buckets, sorted as
- * the general path sorts them, but by a sorting network (Batcher's, 19 comparators for 8)
- * in registers: the buckets are random, so an insertion sort's comparisons would
- * mispredict about half the time. Returns 0, leaving the general path to it, when an axis
- * has one cell or three. */
+ * cells per axis unless q's interval falls inside one cell). Its four rows of two cells
+ * are four pairs of consecutive buckets, row + x0 and row + x0 + 1: the block is four
+ * runs of the table, in increasing order of their first bucket (sorted by a network of
+ * five comparators in registers: the buckets are random, so an insertion sort's
+ * comparisons would mispredict about half the time). The runs are those the general path
+ * would give, in its order, unless two rows share or touch a bucket or a pair wraps
+ * around the table's end: then this returns 0 and leaves the query to the general path,
+ * which merges them. It also returns 0 when an axis has one cell or three. */
 #define ORDER(a, b)                                                                                             \
   do {                                                                                                          \
     uint32_t lo_ = a < b ? a : b, hi_ = a < b ? b : a;                                                        \
@@ -356,43 +359,33 @@ static int cells_of_block(const vf_hashgrid *g, vf_vec3 q, vf_grid_cells *cells)
   int64_t y0 = cell_coord(q.y - r, ic), y1 = cell_coord(q.y + r, ic);
   int64_t z0 = cell_coord(q.z - r, ic), z1 = cell_coord(q.z + r, ic);
   if (x1 - x0 != 1 || y1 - y0 != 1 || z1 - z0 != 1) return 0;
-  uint64_t r0 = row_hash(y0, z0), r1 = row_hash(y1, z0), r2 = row_hash(y0, z1), r3 = row_hash(y1, z1);
   uint32_t m = g->mask;
-  uint32_t b0 = bucket_of(x0, r0, m), b1 = bucket_of(x1, r0, m), b2 = bucket_of(x0, r1, m),
-           b3 = bucket_of(x1, r1, m), b4 = bucket_of(x0, r2, m), b5 = bucket_of(x1, r2, m),
-           b6 = bucket_of(x0, r3, m), b7 = bucket_of(x1, r3, m);
-  /* Queries are bound by these misses. */
+  uint32_t b0 = bucket_of(x0, row_hash(y0, z0), m), b1 = bucket_of(x0, row_hash(y1, z0), m),
+           b2 = bucket_of(x0, row_hash(y0, z1), m), b3 = bucket_of(x0, row_hash(y1, z1), m);
+  /* Queries are bound by these misses; a run's end is on its start's line but for one
+   * start in eight. */
   __builtin_prefetch(&g->cell_start[b0]);
   __builtin_prefetch(&g->cell_start[b1]);
   __builtin_prefetch(&g->cell_start[b2]);
   __builtin_prefetch(&g->cell_start[b3]);
-  __builtin_prefetch(&g->cell_start[b4]);
-  __builtin_prefetch(&g->cell_start[b5]);
-  __builtin_prefetch(&g->cell_start[b6]);
-  __builtin_prefetch(&g->cell_start[b7]);
-  ORDER(b0, b1); ORDER(b2, b3); ORDER(b4, b5); ORDER(b6, b7);
-  ORDER(b0, b2); ORDER(b1, b3); ORDER(b4, b6); ORDER(b5, b7);
-  ORDER(b1, b2); ORDER(b5, b6); ORDER(b0, b4); ORDER(b3, b7);
-  ORDER(b1, b5); ORDER(b2, b6);
-  ORDER(b1, b4); ORDER(b3, b6);
-  ORDER(b2, b4); ORDER(b3, b5);
-  ORDER(b3, b4);
+  ORDER(b0, b1); ORDER(b2, b3);
+  ORDER(b0, b2); ORDER(b1, b3);
+  ORDER(b1, b2);
+  if (b3 == m || b1 - b0 < 2 || b2 - b1 < 2 || b3 - b2 < 2) return 0;
   uint32_t *out = cells->bucket;
   out[0] = b0;
   out[1] = b1;
   out[2] = b2;
   out[3] = b3;
-  out[4] = b4;
-  out[5] = b5;
-  out[6] = b6;
-  out[7] = b7;
-  cells->count = 8;
+  cells->count = 4;
+  cells->span = 2;
   return 1;
 }
 #undef ORDER
 
 void vf_hashgrid_cells(const vf_hashgrid *g, vf_vec3 q, vf_grid_cells *cells) {
   cells->count = 0;
+  cells->span = 1;
   if (g->count == 0 || !vf_is_finite(q)) return;
   if (cells_of_block(g, q, cells)) return;
   int64_t xs[AXIS_CELLS_MAX], ys[AXIS_CELLS_MAX], zs[AXIS_CELLS_MAX];
@@ -421,6 +414,13 @@ int vf_hashgrid_ranges(const vf_hashgrid *g, const vf_grid_cells *cells, vf_inde
   /* Runs of equal or consecutive buckets become one range: disjoint, no point twice. */
   const uint32_t *buckets = cells->bucket;
   int nb = cells->count, nr = 0;
+  if (cells->span == 2) { /* disjoint pairs, not touching, none wrapping (cells_of_block) */
+    /* All four, empty or not: a branch on emptiness would mispredict, an empty range costs
+     * a caller nothing. */
+    for (int k = 0; k < nb; k++)
+      out[k] = (vf_index_range){g->cell_start[buckets[k]], g->cell_start[(size_t)buckets[k] + 2]};
+    return nb;
+  }
   for (int k = 0; k < nb;) {
     uint32_t first = buckets[k], last = first;
     for (k++; k < nb && buckets[k] <= last + 1; k++) last = buckets[k];

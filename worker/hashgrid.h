@@ -43,7 +43,7 @@ int vf_hashgrid_build(vf_hashgrid *grid, const void *base, size_t stride, uint32
 
 /* The candidate ranges for a query at q: every point within the radius of q lies in one
  * of them (others may too: callers test the distance). Returns the number of ranges
- * written to out (<= VF_HASHGRID_MAX_RANGES). */
+ * written to out (<= VF_HASHGRID_MAX_RANGES), some of which may be empty. */
 int vf_hashgrid_candidates(const vf_hashgrid *grid, vf_vec3 q, vf_index_range out[VF_HASHGRID_MAX_RANGES]);
 
 /* The same in two steps, for callers that overlap the memory latency of many queries:
@@ -52,6 +52,7 @@ int vf_hashgrid_candidates(const vf_hashgrid *grid, vf_vec3 q, vf_index_range ou
 typedef struct {
   uint32_t bucket[VF_HASHGRID_MAX_RANGES];
   int count;
+  int span; /* buckets that each entry of bucket[] starts: 2 for a query's 2x2x2 block, else 1 */
 } vf_grid_cells;
 void vf_hashgrid_cells(const vf_hashgrid *grid, vf_vec3 q, vf_grid_cells *cells);
 int vf_hashgrid_ranges(const vf_hashgrid *grid, const vf_grid_cells *cells, vf_index_range out[VF_HASHGRID_MAX_RANGES]);

@@ -10,6 +10,7 @@
 #include "mis.h"
 #include "sampling.h"
 
+#include <emmintrin.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -55,6 +56,8 @@ typedef struct {
   float x, y, z;
   uint32_t path_length_material; /* as in light_vertex */
 } merge_point;
+_Static_assert(sizeof(merge_point) == 16, "find_hits reads a merge point as four floats");
+#define MERGE_POINT_PAD 7u /* find_hits reads up to this many points past the last */
 
 typedef struct {
   vf_vec3 throughput;
@@ -736,26 +739,63 @@ static vf_vec3 merge_one(const vf_vcm *v, const merge_query *q, uint32_t k) {
   return vf_scale(vf_mul(f, ph->throughput), w);
 }
 
+/* Which of four merge points at p lie within the radius of (qx, qy, qz) and are at most
+ * `longest` segments long: bit i for point i. SSE2 (every x86-64 has it) turns the four
+ * points into one register per coordinate and tests them together, with the same float
+ * operations in the same order as one at a time, so the same points pass. */
+static inline unsigned group_mask(const float *p, __m128 qx, __m128 qy, __m128 qz, __m128 radius_sq,
+                                  __m128i longest) {
+  __m128 a = _mm_load_ps(p), b = _mm_load_ps(p + 4), c = _mm_load_ps(p + 8), d = _mm_load_ps(p + 12);
+  __m128 ab_lo = _mm_unpacklo_ps(a, b), ab_hi = _mm_unpackhi_ps(a, b); /* ax bx ay by, az bz aw bw */
+  __m128 cd_lo = _mm_unpacklo_ps(c, d), cd_hi = _mm_unpackhi_ps(c, d);
+  __m128 dx = _mm_sub_ps(_mm_movelh_ps(ab_lo, cd_lo), qx);
+  __m128 dy = _mm_sub_ps(_mm_movehl_ps(cd_lo, ab_lo), qy);
+  __m128 dz = _mm_sub_ps(_mm_movelh_ps(ab_hi, cd_hi), qz);
+  __m128i length = _mm_and_si128(_mm_castps_si128(_mm_movehl_ps(cd_hi, ab_hi)),
+                                 _mm_set1_epi32((1 << VERTEX_LENGTH_BITS) - 1));
+  __m128 d2 = _mm_add_ps(_mm_add_ps(_mm_mul_ps(dx, dx), _mm_mul_ps(dy, dy)), _mm_mul_ps(dz, dz));
+  __m128i pass = _mm_andnot_si128(_mm_cmpgt_epi32(length, longest), _mm_castps_si128(_mm_cmple_ps(d2, radius_sq)));
+  return (unsigned)_mm_movemask_ps(_mm_castsi128_ps(pass));
+}
+
+/* The set bits of a 4-bit mask, in order (padded with zeros), and their number: a group's
+ * passing points are appended without a branch per point, whose outcome is random. */
+static const uint8_t set_bits[16][4] = {{0, 0, 0, 0}, {0, 0, 0, 0}, {1, 0, 0, 0}, {0, 1, 0, 0},
+                                        {2, 0, 0, 0}, {0, 2, 0, 0}, {1, 2, 0, 0}, {0, 1, 2, 0},
+                                        {3, 0, 0, 0}, {0, 3, 0, 0}, {1, 3, 0, 0}, {0, 1, 3, 0},
+                                        {2, 3, 0, 0}, {0, 2, 3, 0}, {1, 2, 3, 0}, {0, 1, 2, 3}};
+static const uint8_t bit_count[16] = {0, 1, 1, 2, 1, 2, 2, 3, 1, 2, 2, 3, 2, 3, 3, 4};
+static const uint8_t first_bits[5] = {0x0, 0x1, 0x3, 0x7, 0xf}; /* the first min(n, 4) points */
+
 /* The light vertices of the candidate ranges within the radius of query q and short
  * enough to merge with it (merge_one would give the others nothing), in grid order: up to
- * max of them into hits[0 .. max), which has room for max + 1 (the last slot takes the
- * writes past max). Returns their number, which may exceed max. The tests read only the
- * merge points, and do not branch: about one candidate in eight passes, at random, so a
- * branch would mispredict on most hits. */
+ * max of them into hits[0 .. max), which has room for max + 4 (the slots past max take
+ * writes past it). Returns their number, which may exceed max. Nearly every range holds
+ * at most eight points; each is tested as two groups of four, whatever its length, so
+ * that nothing here branches on the data but the rare longer range: the lengths of ranges
+ * and the outcomes of the tests are random, and each mispredicted branch would cost as
+ * much as testing a group. Groups may read up to seven points past a range, or past the
+ * last point (the array has room), and ignore them. */
 static int find_hits(const vf_vcm *v, const merge_query *q, const vf_index_range *ranges, int n, uint32_t *hits,
                      int max) {
-  const merge_point *points = v->merge_points;
-  vf_vec3 x = q->position;
-  uint32_t longest = (uint32_t)(v->settings.max_path_length - q->path_length); /* >= 1 */
+  const float *points = (const float *)v->merge_points;
+  __m128 qx = _mm_set1_ps(q->position.x), qy = _mm_set1_ps(q->position.y), qz = _mm_set1_ps(q->position.z);
+  __m128 radius_sq = _mm_set1_ps(v->radius_sq);
+  __m128i longest = _mm_set1_epi32(v->settings.max_path_length - q->path_length); /* >= 1 */
   int found = 0;
-  for (int r = 0; r < n; r++)
-    for (uint32_t k = ranges[r].begin; k < ranges[r].end; k++) {
-      const merge_point *mp = &points[k];
-      float dx = mp->x - x.x, dy = mp->y - x.y, dz = mp->z - x.z;
-      hits[found < max ? found : max] = k;
-      found += (dx * dx + dy * dy + dz * dz <= v->radius_sq) &
-               ((mp->path_length_material & ((1u << VERTEX_LENGTH_BITS) - 1u)) <= longest);
-    }
+  for (int r = 0; r < n; r++) {
+    uint32_t k = ranges[r].begin, end = ranges[r].end;
+    do {
+      for (int g = 0; g < 2; g++, k += 4) {
+        int left = (int)(end - k);
+        unsigned mask = group_mask(points + 4 * (size_t)k, qx, qy, qz, radius_sq, longest) &
+                        first_bits[left < 0 ? 0 : left > 4 ? 4 : left];
+        uint32_t *out = hits + (found < max ? found : max);
+        for (int i = 0; i < 4; i++) out[i] = k + set_bits[mask][i];
+        found += bit_count[mask];
+      }
+    } while (k < end);
+  }
   return found;
 }
 
@@ -814,16 +854,20 @@ static void run_merges(vf_vcm *v, int thread, float *tile_rgb) {
   vf_grid_cells cells[RING];
   vf_index_range ranges[RING][VF_HASHGRID_MAX_RANGES];
   int num_ranges[RING], num_hits[RING];
-  uint32_t hits[RING][MAX_HITS + 1];
+  uint32_t hits[RING][MAX_HITS + 4];
   for (int i = 0; i < n + 3 * AHEAD; i++) {
     int a = i, b = i - AHEAD, c = i - 2 * AHEAD, d = i - 3 * AHEAD;
     if (a < n) vf_hashgrid_cells(v->grid, q[a].position, &cells[a % RING]);
     if (b >= 0 && b < n) {
       int m = num_ranges[b % RING] = vf_hashgrid_ranges(v->grid, &cells[b % RING], ranges[b % RING]);
       for (int r = 0; r < m; r++) {
+        /* The lines that find_hits reads first, then any of a longer range. */
         const char *p0 = (const char *)&points[ranges[b % RING][r].begin];
         const char *p1 = (const char *)&points[ranges[b % RING][r].end];
-        for (; p0 < p1; p0 += 64) __builtin_prefetch(p0);
+        __builtin_prefetch(p0);
+        __builtin_prefetch(p0 + 64);
+        __builtin_prefetch(p0 + 127);
+        for (p0 += 191; p0 < p1; p0 += 64) __builtin_prefetch(p0);
       }
     }
     if (c >= 0 && c < n) {
@@ -1070,11 +1114,12 @@ int vf_vcm_iteration(vf_vcm *v, uint64_t iteration, float *camera_rgb, float *li
       free(v->photons);
       free(v->merge_points);
       v->photons = aligned_alloc(64, (capacity * sizeof(photon) + 63) / 64 * 64);
-      v->merge_points = aligned_alloc(64, (capacity * sizeof(merge_point) + 63) / 64 * 64);
+      v->merge_points = aligned_alloc(64, ((capacity + MERGE_POINT_PAD) * sizeof(merge_point) + 63) / 64 * 64);
       v->photon_capacity = v->photons && v->merge_points ? (uint32_t)capacity : 0;
       if (v->photon_capacity == 0) return VF_ENOMEM;
     }
     vf_pool_run(v->pool, (n + GATHER_CHUNK - 1) / GATHER_CHUNK, gather_task, &ctx);
+    memset(&v->merge_points[n], 0, MERGE_POINT_PAD * sizeof *v->merge_points); /* read past a range, ignored */
   }
 
   double t2 = vf_seconds_now();
