@@ -207,7 +207,34 @@ int vf_accel_occluded(const vf_accel *a, vf_vec3 org, vf_vec3 dir, float tfar) {
 
 /* The packet functions for Embree's packets of W = 8 and 16 rays: the same code for both
  * widths, the types and calls named after W. Lanes past n are switched off but still
- * given a harmless ray. */
+ * given a harmless ray. The fields that are the same for every ray are written in loops
+ * of their own, which the compiler turns into vector stores; only origins, directions
+ * and lengths are copied lane by lane. */
+#define PACKET_RAYS(W, r, tfar_of)                                                                          \
+  for (int i = 0; i < W; i++) {                                                                              \
+    valid[i] = i < n ? -1 : 0;                                                                               \
+    r.tnear[i] = 0.0f;                                                                                       \
+    r.time[i] = 0.0f;                                                                                        \
+    r.mask[i] = 0xFFFFFFFFu;                                                                                 \
+    r.id[i] = 0;                                                                                             \
+    r.flags[i] = 0;                                                                                          \
+  }                                                                                                          \
+  for (int i = 0; i < n; i++) {                                                                              \
+    r.org_x[i] = org[i].x;                                                                                   \
+    r.org_y[i] = org[i].y;                                                                                   \
+    r.org_z[i] = org[i].z;                                                                                   \
+    r.dir_x[i] = dir[i].x;                                                                                   \
+    r.dir_y[i] = dir[i].y;                                                                                   \
+    r.dir_z[i] = dir[i].z;                                                                                   \
+    r.tfar[i] = tfar_of;                                                                                     \
+  }                                                                                                          \
+  for (int i = n; i < W; i++) {                                                                              \
+    r.org_x[i] = r.org_y[i] = r.org_z[i] = 0.0f;                                                             \
+    r.dir_x[i] = r.dir_y[i] = 0.0f;                                                                          \
+    r.dir_z[i] = 1.0f;                                                                                       \
+    r.tfar[i] = 0.0f;                                                                                        \
+  }
+
 #define PACKET_FUNCTIONS(W)                                                                                  \
   static uint32_t occluded##W(const vf_accel *a, const vf_vec3 *org, const vf_vec3 *dir, const float *tfar, \
                               int n) {                                                                       \
@@ -216,22 +243,7 @@ int vf_accel_occluded(const vf_accel *a, vf_vec3 org, vf_vec3 dir, float tfar) {
     ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT;                                                       \
     struct RTCRay##W r; /* aligned as Embree declares it */                                                  \
     RTC_ALIGN(4 * W) int valid[W];                                                                           \
-    for (int i = 0; i < W; i++) {                                                                            \
-      int on = i < n;                                                                                        \
-      valid[i] = on ? -1 : 0;                                                                                \
-      r.org_x[i] = on ? org[i].x : 0.0f;                                                                     \
-      r.org_y[i] = on ? org[i].y : 0.0f;                                                                     \
-      r.org_z[i] = on ? org[i].z : 0.0f;                                                                     \
-      r.dir_x[i] = on ? dir[i].x : 0.0f;                                                                     \
-      r.dir_y[i] = on ? dir[i].y : 0.0f;                                                                     \
-      r.dir_z[i] = on ? dir[i].z : 1.0f;                                                                     \
-      r.tnear[i] = 0.0f;                                                                                     \
-      r.tfar[i] = on ? tfar[i] : 0.0f;                                                                       \
-      r.time[i] = 0.0f;                                                                                      \
-      r.mask[i] = 0xFFFFFFFFu;                                                                               \
-      r.id[i] = 0;                                                                                           \
-      r.flags[i] = 0;                                                                                        \
-    }                                                                                                        \
+    PACKET_RAYS(W, r, tfar[i])                                                                               \
     rtcOccluded##W(valid, a->scene, &ctx, &r);                                                               \
     uint32_t blocked = 0;                                                                                    \
     for (int i = 0; i < n; i++) blocked |= (uint32_t)(r.tfar[i] < 0.0f) << i;                                \
@@ -245,24 +257,8 @@ int vf_accel_occluded(const vf_accel *a, vf_vec3 org, vf_vec3 dir, float tfar) {
     ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT;                                                       \
     struct RTCRayHit##W rh;                                                                                  \
     RTC_ALIGN(4 * W) int valid[W];                                                                           \
-    for (int i = 0; i < W; i++) {                                                                            \
-      int on = i < n;                                                                                        \
-      valid[i] = on ? -1 : 0;                                                                                \
-      rh.ray.org_x[i] = on ? org[i].x : 0.0f;                                                                \
-      rh.ray.org_y[i] = on ? org[i].y : 0.0f;                                                                \
-      rh.ray.org_z[i] = on ? org[i].z : 0.0f;                                                                \
-      rh.ray.dir_x[i] = on ? dir[i].x : 0.0f;                                                                \
-      rh.ray.dir_y[i] = on ? dir[i].y : 0.0f;                                                                \
-      rh.ray.dir_z[i] = on ? dir[i].z : 1.0f;                                                                \
-      rh.ray.tnear[i] = 0.0f;                                                                                \
-      rh.ray.tfar[i] = on ? INFINITY : 0.0f;                                                                 \
-      rh.ray.time[i] = 0.0f;                                                                                 \
-      rh.ray.mask[i] = 0xFFFFFFFFu;                                                                          \
-      rh.ray.id[i] = 0;                                                                                      \
-      rh.ray.flags[i] = 0;                                                                                   \
-      rh.hit.geomID[i] = RTC_INVALID_GEOMETRY_ID;                                                            \
-      rh.hit.instID[0][i] = RTC_INVALID_GEOMETRY_ID;                                                         \
-    }                                                                                                        \
+    PACKET_RAYS(W, rh.ray, INFINITY)                                                                         \
+    for (int i = 0; i < W; i++) rh.hit.geomID[i] = rh.hit.instID[0][i] = RTC_INVALID_GEOMETRY_ID;            \
     rtcIntersect##W(valid, a->scene, &ctx, &rh);                                                             \
     uint32_t found = 0;                                                                                      \
     for (int i = 0; i < n; i++)                                                                              \
