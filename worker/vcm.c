@@ -739,12 +739,15 @@ static vf_vec3 merge_one(const vf_vcm *v, const merge_query *q, uint32_t k) {
   return vf_scale(vf_mul(f, ph->throughput), w);
 }
 
-/* Which of four merge points at p lie within the radius of (qx, qy, qz) and are at most
- * `longest` segments long: bit i for point i. SSE2 (every x86-64 has it) turns the four
- * points into one register per coordinate and tests them together, with the same float
- * operations in the same order as one at a time, so the same points pass. */
-static inline unsigned group_mask(const float *p, __m128 qx, __m128 qy, __m128 qz, __m128 radius_sq,
-                                  __m128i longest) {
+/* Which of the four merge points k .. k + 3 lie before `end`, within the radius of
+ * (qx, qy, qz) and are at most `longest` segments long: bit i for point k + i. SSE2
+ * (every x86-64 has it) turns the four points into one register per coordinate and tests
+ * them together, with the same float operations in the same order as one at a time, so
+ * the same points pass. Indices are compared as signed after flipping their top bit:
+ * SSE2 has no unsigned comparison. */
+static inline unsigned group_mask(const float *points, uint32_t k, __m128i end_flipped, __m128 qx, __m128 qy,
+                                  __m128 qz, __m128 radius_sq, __m128i longest) {
+  const float *p = points + 4 * (size_t)k;
   __m128 a = _mm_load_ps(p), b = _mm_load_ps(p + 4), c = _mm_load_ps(p + 8), d = _mm_load_ps(p + 12);
   __m128 ab_lo = _mm_unpacklo_ps(a, b), ab_hi = _mm_unpackhi_ps(a, b); /* ax bx ay by, az bz aw bw */
   __m128 cd_lo = _mm_unpacklo_ps(c, d), cd_hi = _mm_unpackhi_ps(c, d);
@@ -754,18 +757,19 @@ static inline unsigned group_mask(const float *p, __m128 qx, __m128 qy, __m128 q
   __m128i length = _mm_and_si128(_mm_castps_si128(_mm_movehl_ps(cd_hi, ab_hi)),
                                  _mm_set1_epi32((1 << VERTEX_LENGTH_BITS) - 1));
   __m128 d2 = _mm_add_ps(_mm_add_ps(_mm_mul_ps(dx, dx), _mm_mul_ps(dy, dy)), _mm_mul_ps(dz, dz));
-  __m128i pass = _mm_andnot_si128(_mm_cmpgt_epi32(length, longest), _mm_castps_si128(_mm_cmple_ps(d2, radius_sq)));
+  __m128i index = _mm_add_epi32(_mm_set1_epi32((int)(k ^ 0x80000000u)), _mm_setr_epi32(0, 1, 2, 3));
+  __m128i pass = _mm_and_si128(_mm_castps_si128(_mm_cmple_ps(d2, radius_sq)), _mm_cmplt_epi32(index, end_flipped));
+  pass = _mm_andnot_si128(_mm_cmpgt_epi32(length, longest), pass);
   return (unsigned)_mm_movemask_ps(_mm_castsi128_ps(pass));
 }
 
-/* The set bits of a 4-bit mask, in order (padded with zeros), and their number: a group's
- * passing points are appended without a branch per point, whose outcome is random. */
-static const uint8_t set_bits[16][4] = {{0, 0, 0, 0}, {0, 0, 0, 0}, {1, 0, 0, 0}, {0, 1, 0, 0},
-                                        {2, 0, 0, 0}, {0, 2, 0, 0}, {1, 2, 0, 0}, {0, 1, 2, 0},
-                                        {3, 0, 0, 0}, {0, 3, 0, 0}, {1, 3, 0, 0}, {0, 1, 3, 0},
-                                        {2, 3, 0, 0}, {0, 2, 3, 0}, {1, 2, 3, 0}, {0, 1, 2, 3}};
+/* The offsets of the set bits of a 4-bit mask, in order (the rest 0), and their number: a
+ * group's passing points are appended with one vector store and no branch per point, whose
+ * outcome is random. */
+static const uint32_t set_bits[16][4] __attribute__((aligned(16))) = {
+    {0, 0, 0, 0}, {0, 0, 0, 0}, {1, 0, 0, 0}, {0, 1, 0, 0}, {2, 0, 0, 0}, {0, 2, 0, 0}, {1, 2, 0, 0}, {0, 1, 2, 0},
+    {3, 0, 0, 0}, {0, 3, 0, 0}, {1, 3, 0, 0}, {0, 1, 3, 0}, {2, 3, 0, 0}, {0, 2, 3, 0}, {1, 2, 3, 0}, {0, 1, 2, 3}};
 static const uint8_t bit_count[16] = {0, 1, 1, 2, 1, 2, 2, 3, 1, 2, 2, 3, 2, 3, 3, 4};
-static const uint8_t first_bits[5] = {0x0, 0x1, 0x3, 0x7, 0xf}; /* the first min(n, 4) points */
 
 /* The light vertices of the candidate ranges within the radius of query q and short
  * enough to merge with it (merge_one would give the others nothing), in grid order: up to
@@ -785,13 +789,12 @@ static int find_hits(const vf_vcm *v, const merge_query *q, const vf_index_range
   int found = 0;
   for (int r = 0; r < n; r++) {
     uint32_t k = ranges[r].begin, end = ranges[r].end;
+    __m128i end_flipped = _mm_set1_epi32((int)(end ^ 0x80000000u));
     do {
       for (int g = 0; g < 2; g++, k += 4) {
-        int left = (int)(end - k);
-        unsigned mask = group_mask(points + 4 * (size_t)k, qx, qy, qz, radius_sq, longest) &
-                        first_bits[left < 0 ? 0 : left > 4 ? 4 : left];
-        uint32_t *out = hits + (found < max ? found : max);
-        for (int i = 0; i < 4; i++) out[i] = k + set_bits[mask][i];
+        unsigned mask = group_mask(points, k, end_flipped, qx, qy, qz, radius_sq, longest);
+        __m128i at = _mm_add_epi32(_mm_set1_epi32((int)k), _mm_load_si128((const __m128i *)set_bits[mask]));
+        _mm_storeu_si128((__m128i *)(hits + (found < max ? found : max)), at);
         found += bit_count[mask];
       }
     } while (k < end);
@@ -818,19 +821,19 @@ static vf_vec3 merge_now(const vf_vcm *v, const merge_query *q) {
   return merge_all(v, q, ranges, n);
 }
 
-/* Queues a camera vertex for merging at the end of the tile; returns 0 if the queue cannot
- * grow (the caller then merges at once). */
-static int queue_merge(vf_vcm *v, int thread, const merge_query *q) {
+/* A slot in the queue of merges run at the end of the tile, or NULL if the queue cannot
+ * grow (the caller then merges at once). The caller writes the query into the slot
+ * itself: built elsewhere and copied, its 150 bytes were written twice. */
+static merge_query *queue_merge(vf_vcm *v, int thread) {
   thread_stats *ts = &v->stats[thread];
   if (ts->num_queries == ts->query_capacity) {
     uint32_t cap = ts->query_capacity ? 2 * ts->query_capacity : 4096;
     merge_query *p = realloc(ts->queries, (size_t)cap * sizeof *p);
-    if (p == NULL) return 0;
+    if (p == NULL) return NULL;
     ts->queries = p;
     ts->query_capacity = cap;
   }
-  ts->queries[ts->num_queries++] = *q;
-  return 1;
+  return &ts->queries[ts->num_queries++];
 }
 
 /* Runs the tile's queued merges as a four-stage software pipeline, each stage AHEAD
@@ -968,8 +971,13 @@ static int camera_bounce(vf_vcm *v, int thread, camera_lane *lane, const vf_hit 
       }
     }
     if (v->t.merging && v->num_vertices > 0) {
-      merge_query q = {b, hit->position, s->throughput, s->mis, s->path_length, tile_pixel};
-      if (!queue_merge(v, thread, &q)) defer_unshadowed(v, thread, vf_mul(s->throughput, merge_now(v, &q)), tile_pixel);
+      merge_query *q = queue_merge(v, thread);
+      if (q != NULL) {
+        *q = (merge_query){b, hit->position, s->throughput, s->mis, s->path_length, tile_pixel};
+      } else {
+        merge_query now = {b, hit->position, s->throughput, s->mis, s->path_length, tile_pixel};
+        defer_unshadowed(v, thread, vf_mul(s->throughput, merge_now(v, &now)), tile_pixel);
+      }
       if (v->t.ppm) return 0;
     }
   }
