@@ -64,48 +64,6 @@ int vf_bsdf_init(vf_bsdf *b, const vf_material *m, vf_vec3 normal, vf_vec3 world
 
 static vf_vec3 reflect_local(vf_vec3 v) { return vf_vec3_make(-v.x, -v.y, v.z); }
 
-/* f and both densities of the non-specular lobes, in the local frame. */
-static vf_vec3 eval_local(const vf_bsdf *b, vf_vec3 gen, float *direct_pdf, float *reverse_pdf) {
-  vf_vec3 f = vf_vec3_splat(0.0f);
-  float dpdf = 0.0f, rpdf = 0.0f;
-  const vf_vec3 fix = b->local_fix;
-  if (gen.z > 0.0f) { /* both lobes reflect only */
-    float pd = b->lobe_probability[VF_LOBE_DIFFUSE];
-    if (pd > 0.0f) {
-      f = vf_add(f, vf_scale(b->material->diffuse, VF_INV_PI));
-      dpdf += pd * gen.z * VF_INV_PI;
-      rpdf += pd * fix.z * VF_INV_PI;
-    }
-    float pg = b->lobe_probability[VF_LOBE_GLOSSY];
-    if (pg > 0.0f) {
-      float n = b->material->phong_exponent;
-      /* cos of the angle between gen and fix's mirror direction; symmetric in fix and gen. */
-      float cos_a = vf_dot(reflect_local(fix), gen);
-      if (cos_a > 0.0f) {
-        float lobe = powf(cos_a, n);
-        f = vf_add(f, vf_scale(b->material->glossy, (n + 2.0f) * (0.5f * VF_INV_PI) * lobe));
-        float p = pg * (n + 1.0f) * (0.5f * VF_INV_PI) * lobe;
-        dpdf += p;
-        rpdf += p;
-      }
-    }
-  }
-  *direct_pdf = dpdf * b->continuation;
-  *reverse_pdf = rpdf * b->continuation;
-  return f;
-}
-
-vf_vec3 vf_bsdf_evaluate(const vf_bsdf *b, vf_vec3 world_gen, float *cos_gen, float *direct_pdf_w,
-                         float *reverse_pdf_w) {
-  vf_vec3 gen = vf_frame_to_local(&b->frame, world_gen);
-  float d, r;
-  vf_vec3 f = eval_local(b, gen, &d, &r);
-  if (cos_gen) *cos_gen = fabsf(gen.z);
-  if (direct_pdf_w) *direct_pdf_w = d;
-  if (reverse_pdf_w) *reverse_pdf_w = r;
-  return f;
-}
-
 vf_vec3 vf_bsdf_sample(const vf_bsdf *b, const float rnd[3], vf_vec3 *world_gen, float *pdf_w,
                        float *reverse_pdf_w, float *cos_gen, unsigned *event) {
   const float *p = b->lobe_probability;

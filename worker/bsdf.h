@@ -26,6 +26,9 @@
 
 #include "../common/vec3.h"
 #include "material.h"
+#include "sampling.h"
+
+#include <math.h>
 
 enum { VF_LOBE_DIFFUSE, VF_LOBE_GLOSSY, VF_LOBE_MIRROR, VF_LOBE_DIELECTRIC, VF_LOBE_COUNT };
 enum { VF_BSDF_SPECULAR = 1u, VF_BSDF_REFRACTION = 2u /* the dielectric transmitted */ };
@@ -65,9 +68,42 @@ int vf_bsdf_setup(vf_bsdf *bsdf, const vf_material *material, const vf_bsdf_lobe
 
 /* f of the non-specular lobes for gen (unit, world); |cos| of gen against the shading
  * normal into *cos_gen; densities as described above (either may be NULL). Zero when gen is
- * not reachable by the non-specular lobes. */
-vf_vec3 vf_bsdf_evaluate(const vf_bsdf *bsdf, vf_vec3 world_gen, float *cos_gen, float *direct_pdf_w,
-                         float *reverse_pdf_w);
+ * not reachable by the non-specular lobes.
+ * Inline because the renderer calls it about five times per camera vertex: out of line,
+ * each call spilled its operands around powf and returned through memory, and the NULL
+ * checks of the out-parameters are resolved at compile time in every caller. */
+static inline vf_vec3 vf_bsdf_evaluate(const vf_bsdf *b, vf_vec3 world_gen, float *cos_gen, float *direct_pdf_w,
+                                       float *reverse_pdf_w) {
+  vf_vec3 gen = vf_frame_to_local(&b->frame, world_gen);
+  vf_vec3 f = vf_vec3_splat(0.0f);
+  float dpdf = 0.0f, rpdf = 0.0f;
+  const vf_vec3 fix = b->local_fix;
+  if (gen.z > 0.0f) { /* both lobes reflect only */
+    float pd = b->lobe_probability[VF_LOBE_DIFFUSE];
+    if (pd > 0.0f) {
+      f = vf_add(f, vf_scale(b->material->diffuse, VF_INV_PI));
+      dpdf += pd * gen.z * VF_INV_PI;
+      rpdf += pd * fix.z * VF_INV_PI;
+    }
+    float pg = b->lobe_probability[VF_LOBE_GLOSSY];
+    if (pg > 0.0f) {
+      float n = b->material->phong_exponent;
+      /* cos of the angle between gen and fix's mirror direction; symmetric in fix and gen. */
+      float cos_a = vf_dot(vf_vec3_make(-fix.x, -fix.y, fix.z), gen);
+      if (cos_a > 0.0f) {
+        float lobe = powf(cos_a, n);
+        f = vf_add(f, vf_scale(b->material->glossy, (n + 2.0f) * (0.5f * VF_INV_PI) * lobe));
+        float p = pg * (n + 1.0f) * (0.5f * VF_INV_PI) * lobe;
+        dpdf += p;
+        rpdf += p;
+      }
+    }
+  }
+  if (cos_gen) *cos_gen = fabsf(gen.z);
+  if (direct_pdf_w) *direct_pdf_w = dpdf * b->continuation;
+  if (reverse_pdf_w) *reverse_pdf_w = rpdf * b->continuation;
+  return f;
+}
 
 /* Samples gen with three uniform numbers. Returns f (for specular lobes: the weight such that
  * f * cos / pdf is the throughput factor), and writes gen, its |cos|, the direct and reverse
