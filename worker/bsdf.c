@@ -34,28 +34,6 @@ void vf_bsdf_lobes_of(const vf_material *m, vf_bsdf_lobes *lobes) {
   lobes->is_delta = lobes->lobe_probability[VF_LOBE_DIFFUSE] == 0.0f && lobes->lobe_probability[VF_LOBE_GLOSSY] == 0.0f;
 }
 
-int vf_bsdf_setup(vf_bsdf *b, const vf_material *m, const vf_bsdf_lobes *lobes, vf_vec3 normal, vf_vec3 world_fix) {
-  float cos_fix = vf_dot(normal, world_fix);
-  if (!(fabsf(cos_fix) > 1e-7f) || lobes->black) return 0;
-  /* The shading frame faces the arriving path, so local_fix.z > 0 always. */
-  vf_vec3 n = cos_fix > 0.0f ? normal : vf_neg(normal);
-  b->material = m;
-  b->frame = vf_frame_from_normal(n);
-  b->local_fix = vf_frame_to_local(&b->frame, world_fix);
-  if (!(b->local_fix.z > 0.0f)) return 0;
-  b->eta = 1.0f;
-  b->fresnel = 0.0f;
-  if (lobes->lobe_probability[VF_LOBE_DIELECTRIC] > 0.0f) {
-    /* Arriving on the front of the geometric normal means entering the medium. */
-    b->eta = cos_fix > 0.0f ? m->ior : 1.0f / m->ior;
-    b->fresnel = vf_fresnel_dielectric(b->local_fix.z, b->eta);
-  }
-  for (int i = 0; i < VF_LOBE_COUNT; i++) b->lobe_probability[i] = lobes->lobe_probability[i];
-  b->continuation = lobes->continuation;
-  b->is_delta = lobes->is_delta;
-  return 1;
-}
-
 int vf_bsdf_init(vf_bsdf *b, const vf_material *m, vf_vec3 normal, vf_vec3 world_fix) {
   vf_bsdf_lobes lobes;
   vf_bsdf_lobes_of(m, &lobes);

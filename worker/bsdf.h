@@ -54,6 +54,10 @@ typedef struct {
   int black; /* no lobe reflects anything: nothing scatters */
 } vf_bsdf_lobes;
 
+/* Fresnel reflectance of a smooth dielectric for cos_i (of the incident side, may be
+ * negative meaning from inside) and eta = ior inside / outside. */
+float vf_fresnel_dielectric(float cos_i, float eta);
+
 void vf_bsdf_lobes_of(const vf_material *material, vf_bsdf_lobes *lobes);
 
 /* Sets up the BSDF at a vertex with geometric normal `normal` (unit) for a path arriving
@@ -62,9 +66,31 @@ void vf_bsdf_lobes_of(const vf_material *material, vf_bsdf_lobes *lobes);
 int vf_bsdf_init(vf_bsdf *bsdf, const vf_material *material, vf_vec3 normal, vf_vec3 world_fix);
 
 /* The same with the material's lobes computed beforehand (vf_bsdf_lobes_of); the result is
- * bit for bit that of vf_bsdf_init. */
-int vf_bsdf_setup(vf_bsdf *bsdf, const vf_material *material, const vf_bsdf_lobes *lobes, vf_vec3 normal,
-                  vf_vec3 world_fix);
+ * bit for bit that of vf_bsdf_init. Inline: the renderer sets up a BSDF at every vertex of
+ * every sub-path and at light vertices it connects to. */
+static inline int vf_bsdf_setup(vf_bsdf *b, const vf_material *m, const vf_bsdf_lobes *lobes, vf_vec3 normal,
+                                vf_vec3 world_fix) {
+  float cos_fix = vf_dot(normal, world_fix);
+  if (!(fabsf(cos_fix) > 1e-7f) || lobes->black) return 0;
+  /* The shading frame faces the arriving path, so local_fix.z > 0 always. */
+  vf_vec3 n = cos_fix > 0.0f ? normal : vf_neg(normal);
+  b->material = m;
+  b->frame = vf_frame_from_normal(n);
+  /* local_fix.z is |cos_fix| exactly (negating a vector negates each product and sum
+   * exactly), so it is positive here and needs no test. */
+  b->local_fix = vf_frame_to_local(&b->frame, world_fix);
+  b->eta = 1.0f;
+  b->fresnel = 0.0f;
+  if (lobes->lobe_probability[VF_LOBE_DIELECTRIC] > 0.0f) {
+    /* Arriving on the front of the geometric normal means entering the medium. */
+    b->eta = cos_fix > 0.0f ? m->ior : 1.0f / m->ior;
+    b->fresnel = vf_fresnel_dielectric(b->local_fix.z, b->eta);
+  }
+  for (int i = 0; i < VF_LOBE_COUNT; i++) b->lobe_probability[i] = lobes->lobe_probability[i];
+  b->continuation = lobes->continuation;
+  b->is_delta = lobes->is_delta;
+  return 1;
+}
 
 /* f of the non-specular lobes for gen (unit, world); |cos| of gen against the shading
  * normal into *cos_gen; densities as described above (either may be NULL). Zero when gen is
@@ -77,18 +103,18 @@ static inline vf_vec3 vf_bsdf_evaluate(const vf_bsdf *b, vf_vec3 world_gen, floa
   vf_vec3 gen = vf_frame_to_local(&b->frame, world_gen);
   vf_vec3 f = vf_vec3_splat(0.0f);
   float dpdf = 0.0f, rpdf = 0.0f;
-  const vf_vec3 fix = b->local_fix;
   if (gen.z > 0.0f) { /* both lobes reflect only */
     float pd = b->lobe_probability[VF_LOBE_DIFFUSE];
     if (pd > 0.0f) {
       f = vf_add(f, vf_scale(b->material->diffuse, VF_INV_PI));
       dpdf += pd * gen.z * VF_INV_PI;
-      rpdf += pd * fix.z * VF_INV_PI;
+      rpdf += pd * b->local_fix.z * VF_INV_PI;
     }
     float pg = b->lobe_probability[VF_LOBE_GLOSSY];
     if (pg > 0.0f) {
       float n = b->material->phong_exponent;
       /* cos of the angle between gen and fix's mirror direction; symmetric in fix and gen. */
+      const vf_vec3 fix = b->local_fix;
       float cos_a = vf_dot(vf_vec3_make(-fix.x, -fix.y, fix.z), gen);
       if (cos_a > 0.0f) {
         float lobe = powf(cos_a, n);
@@ -114,9 +140,5 @@ static inline vf_vec3 vf_bsdf_evaluate(const vf_bsdf *b, vf_vec3 world_gen, floa
  * vf_bsdf.continuation before calling. */
 vf_vec3 vf_bsdf_sample(const vf_bsdf *bsdf, const float rnd[3], vf_vec3 *world_gen, float *pdf_w,
                        float *reverse_pdf_w, float *cos_gen, unsigned *event);
-
-/* Fresnel reflectance of a smooth dielectric for cos_i (of the incident side, may be
- * negative meaning from inside) and eta = ior inside / outside. */
-float vf_fresnel_dielectric(float cos_i, float eta);
 
 #endif
