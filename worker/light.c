@@ -304,7 +304,10 @@ static uint32_t pick_triangle(const vf_light *l, float *u) {
   if (l->kind != VF_LIGHT_AREA_MESH) return 0;
   int t = search_cdf(l->triangle_cdf, (int)l->shape->num_triangles, *u);
   float lo = l->triangle_cdf[t], hi = l->triangle_cdf[t + 1];
-  *u = hi > lo ? fminf((*u - lo) / (hi - lo), 0.99999994f) : 0.5f;
+  float rescaled = (*u - lo) / (hi - lo);
+  /* fminf(rescaled, 0.99999994f) without its libm call (see vf_fmaxf_zero): the same value,
+   * a NaN included. */
+  *u = hi > lo ? (rescaled < 0.99999994f ? rescaled : 0.99999994f) : 0.5f;
   return (uint32_t)t;
 }
 
