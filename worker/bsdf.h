@@ -29,6 +29,7 @@
 #include "sampling.h"
 
 #include <math.h>
+#include <stddef.h>
 
 enum { VF_LOBE_DIFFUSE, VF_LOBE_GLOSSY, VF_LOBE_MIRROR, VF_LOBE_DIELECTRIC, VF_LOBE_COUNT };
 enum { VF_BSDF_SPECULAR = 1u, VF_BSDF_REFRACTION = 2u /* the dielectric transmitted */ };
@@ -92,6 +93,9 @@ static inline int vf_bsdf_setup(vf_bsdf *b, const vf_material *m, const vf_bsdf_
   return 1;
 }
 
+/* The mirror direction of local v about the shading normal. */
+static inline vf_vec3 vf_bsdf_reflect_local(vf_vec3 v) { return vf_vec3_make(-v.x, -v.y, v.z); }
+
 /* f of the non-specular lobes for gen (unit, world); |cos| of gen against the shading
  * normal into *cos_gen; densities as described above (either may be NULL). Zero when gen is
  * not reachable by the non-specular lobes.
@@ -115,7 +119,7 @@ static inline vf_vec3 vf_bsdf_evaluate(const vf_bsdf *b, vf_vec3 world_gen, floa
       float n = b->material->phong_exponent;
       /* cos of the angle between gen and fix's mirror direction; symmetric in fix and gen. */
       const vf_vec3 fix = b->local_fix;
-      float cos_a = vf_dot(vf_vec3_make(-fix.x, -fix.y, fix.z), gen);
+      float cos_a = vf_dot(vf_bsdf_reflect_local(fix), gen);
       if (cos_a > 0.0f) {
         float lobe = powf(cos_a, n);
         f = vf_add(f, vf_scale(b->material->glossy, (n + 2.0f) * (0.5f * VF_INV_PI) * lobe));
@@ -138,7 +142,66 @@ static inline vf_vec3 vf_bsdf_evaluate(const vf_bsdf *b, vf_vec3 world_gen, floa
  * refraction through the dielectric, entering the side of ior ratio bsdf->eta). Returns zero (and nothing else is
  * meaningful) when the sample failed. The caller plays Russian roulette with
  * vf_bsdf.continuation before calling. */
-vf_vec3 vf_bsdf_sample(const vf_bsdf *bsdf, const float rnd[3], vf_vec3 *world_gen, float *pdf_w,
-                       float *reverse_pdf_w, float *cos_gen, unsigned *event);
+static inline vf_vec3 vf_bsdf_sample(const vf_bsdf *b, const float rnd[3], vf_vec3 *world_gen, float *pdf_w,
+                                     float *reverse_pdf_w, float *cos_gen, unsigned *event) {
+  const float *p = b->lobe_probability;
+  float u = rnd[2];
+  vf_vec3 gen;
+  *event = 0;
+  if (u < p[VF_LOBE_DIFFUSE] + p[VF_LOBE_GLOSSY]) {
+    if (u < p[VF_LOBE_DIFFUSE]) {
+      gen = vf_sample_cosine_hemisphere(rnd[0], rnd[1], NULL);
+    } else {
+      vf_vec3 axis = vf_bsdf_reflect_local(b->local_fix);
+      vf_frame lobe = vf_frame_from_normal(axis);
+      gen = vf_frame_to_world(&lobe, vf_sample_power_cosine(rnd[0], rnd[1], b->material->phong_exponent));
+    }
+    /* Evaluate the direction that is returned, after its round trip through the world
+     * frame, so that sample and evaluate agree even for a Phong exponent of 1e5, where
+     * cos^n magnifies the frames' rounding 2n times. */
+    *world_gen = vf_frame_to_world(&b->frame, gen);
+    float d, r, c;
+    vf_vec3 f = vf_bsdf_evaluate(b, *world_gen, &c, &d, &r);
+    if (!(d > 0.0f)) return vf_vec3_splat(0.0f);
+    *pdf_w = d;
+    *reverse_pdf_w = r;
+    *cos_gen = c;
+    return f;
+  }
+  *event = VF_BSDF_SPECULAR;
+  float choice_pdf;
+  vf_vec3 weight;
+  u -= p[VF_LOBE_DIFFUSE] + p[VF_LOBE_GLOSSY];
+  if (u < p[VF_LOBE_MIRROR] || p[VF_LOBE_DIELECTRIC] == 0.0f) {
+    gen = vf_bsdf_reflect_local(b->local_fix);
+    choice_pdf = p[VF_LOBE_MIRROR];
+    weight = b->material->mirror;
+  } else {
+    /* Within the dielectric lobe, reflect with probability F: the throughput factor is
+     * then tint * F / (p_lobe * F), the same for refraction with 1 - F. */
+    u = (u - p[VF_LOBE_MIRROR]) / p[VF_LOBE_DIELECTRIC];
+    const vf_vec3 fix = b->local_fix;
+    if (u < b->fresnel) {
+      gen = vf_bsdf_reflect_local(fix);
+      choice_pdf = p[VF_LOBE_DIELECTRIC] * b->fresnel;
+      weight = vf_scale(b->material->dielectric, b->fresnel);
+    } else {
+      double eta = b->eta, ci = fix.z;
+      float cos_t = (float)sqrt(fmax(0.0, 1.0 - (1.0 - ci * ci) / (eta * eta)));
+      gen = vf_vec3_make(-fix.x / b->eta, -fix.y / b->eta, -cos_t);
+      *event |= VF_BSDF_REFRACTION;
+      choice_pdf = p[VF_LOBE_DIELECTRIC] * (1.0f - b->fresnel);
+      weight = vf_scale(b->material->dielectric, 1.0f - b->fresnel);
+    }
+  }
+  if (!(choice_pdf > 0.0f) || gen.z == 0.0f) return vf_vec3_splat(0.0f);
+  float c = fabsf(gen.z);
+  *world_gen = vf_frame_to_world(&b->frame, gen);
+  *pdf_w = choice_pdf * b->continuation;
+  *reverse_pdf_w = *pdf_w;
+  *cos_gen = c;
+  /* f such that f * cos / pdf = weight / (choice_pdf * continuation). */
+  return vf_scale(weight, 1.0f / c);
+}
 
 #endif
