@@ -311,8 +311,9 @@ static uint32_t pick_triangle(const vf_light *l, float *u) {
   return (uint32_t)t;
 }
 
-/* Uniform point on triangle t of an area light (or on the sphere), with its normal. */
-static void sample_area(const vf_light *l, uint32_t t, float u1, float u2, vf_vec3 *p, vf_vec3 *n) {
+/* Uniform point on triangle t of an area light (or on the sphere), with its normal. Inline,
+ * or GCC keeps it out of line and both results go through memory once per light sample. */
+static inline void sample_area(const vf_light *l, uint32_t t, float u1, float u2, vf_vec3 *p, vf_vec3 *n) {
   const vf_shape *s = l->shape;
   if (l->kind == VF_LIGHT_AREA_SPHERE) {
     vf_vec3 d = vf_sample_uniform_sphere(u1, u2);
