@@ -287,16 +287,6 @@ void vf_lights_destroy(vf_lights *ls) {
   free(ls);
 }
 
-const vf_light *vf_lights_pick(const vf_lights *ls, float u) {
-  int lo = 0, hi = ls->count - 1;
-  while (lo < hi) {
-    int mid = (lo + hi) / 2;
-    if (ls->pick_cdf[mid] <= u) lo = mid + 1;
-    else hi = mid;
-  }
-  return &ls->lights[lo];
-}
-
 /* Picks a triangle of an area mesh in proportion to area with uniform number u, and
  * returns u rescaled to [0, 1) within the chosen triangle's interval, as a fresh uniform
  * number. Spheres need no pick: u is returned unchanged. */

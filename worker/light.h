@@ -69,8 +69,17 @@ typedef struct {
 int vf_lights_create(const vf_scene *scene, vf_lights **out);
 void vf_lights_destroy(vf_lights *lights);
 
-/* Picks a light with one uniform number. */
-const vf_light *vf_lights_pick(const vf_lights *lights, float u);
+/* Picks a light with one uniform number. Inline: it runs once per light sub-path and once
+ * per light sample, and is a few instructions for a scene's handful of lights. */
+static inline const vf_light *vf_lights_pick(const vf_lights *ls, float u) {
+  int lo = 0, hi = ls->count - 1;
+  while (lo < hi) {
+    int mid = (lo + hi) / 2;
+    if (ls->pick_cdf[mid] <= u) lo = mid + 1;
+    else hi = mid;
+  }
+  return &ls->lights[lo];
+}
 
 vf_vec3 vf_light_emit(const vf_lights *ls, const vf_light *l, const float rnd[4], vf_vec3 *position,
                       vf_vec3 *direction, vf_vec3 *normal, float *emission_pdf_w, float *direct_pdf_a,
