@@ -296,9 +296,9 @@ static inline void sample_area(const vf_light *l, uint32_t t, float u1, float u2
   *n = tri->normal;
 }
 
-vf_vec3 vf_light_emit(const vf_lights *ls, const vf_light *l, const float rnd[4], vf_vec3 *position,
-                      vf_vec3 *direction, vf_vec3 *normal, float *emission_pdf_w, float *direct_pdf_a,
-                      float *cos_light) {
+vf_vec3 vf_light_emit_any(const vf_lights *ls, const vf_light *l, const float rnd[4], vf_vec3 *position,
+                          vf_vec3 *direction, vf_vec3 *normal, float *emission_pdf_w, float *direct_pdf_a,
+                          float *cos_light) {
   switch (l->kind) {
   case VF_LIGHT_AREA_MESH:
   case VF_LIGHT_AREA_SPHERE: {
@@ -306,15 +306,7 @@ vf_vec3 vf_light_emit(const vf_lights *ls, const vf_light *l, const float rnd[4]
     float u = rnd[0];
     uint32_t t = pick_triangle(l, &u);
     sample_area(l, t, rnd[1], rnd[2], position, &n);
-    float pdf;
-    vf_vec3 local = vf_sample_cosine_hemisphere(rnd[3], u, &pdf);
-    vf_frame f = vf_frame_from_normal(n);
-    *direction = vf_frame_to_world(&f, local);
-    *normal = n;
-    *emission_pdf_w = pdf * l->inv_area;
-    *direct_pdf_a = l->inv_area;
-    *cos_light = local.z;
-    return vf_scale(l->radiance, local.z);
+    return vf_light_emit_area_point(l, n, rnd[3], u, direction, normal, emission_pdf_w, direct_pdf_a, cos_light);
   }
   case VF_LIGHT_POINT:
     *position = l->position;

@@ -85,9 +85,6 @@ static inline const vf_light *vf_lights_pick(const vf_lights *ls, float u) {
   return &ls->lights[lo];
 }
 
-vf_vec3 vf_light_emit(const vf_lights *ls, const vf_light *l, const float rnd[4], vf_vec3 *position,
-                      vf_vec3 *direction, vf_vec3 *normal, float *emission_pdf_w, float *direct_pdf_a,
-                      float *cos_light);
 
 /* First index i with cdf[i + 1] > u, for a cdf of n + 1 entries from 0 to 1. */
 static inline int vf_cdf_search(const float *cdf, int n, float u) {
@@ -165,6 +162,42 @@ static inline vf_vec3 vf_light_illuminate(const vf_lights *ls, const vf_light *l
   return vf_light_illuminate_area_point(l, receiver, vf_light_triangle_point(tri, u, rnd[1]), tri->normal,
                                         dir_to_light, distance, light_point, light_normal, direct_pdf_w,
                                         emission_pdf_w, cos_at_light);
+}
+
+/* What vf_light_emit reports for point p, with unit normal n, picked on area light l, and
+ * uniform numbers u1, u2 for the direction. */
+static inline vf_vec3 vf_light_emit_area_point(const vf_light *l, vf_vec3 n, float u1, float u2, vf_vec3 *direction,
+                                               vf_vec3 *normal, float *emission_pdf_w, float *direct_pdf_a,
+                                               float *cos_light) {
+  float pdf;
+  vf_vec3 local = vf_sample_cosine_hemisphere(u1, u2, &pdf);
+  vf_frame f = vf_frame_from_normal(n);
+  *direction = vf_frame_to_world(&f, local);
+  *normal = n;
+  *emission_pdf_w = pdf * l->inv_area;
+  *direct_pdf_a = l->inv_area;
+  *cos_light = local.z;
+  return vf_scale(l->radiance, local.z);
+}
+
+/* vf_light_emit for any kind of light; vf_light_emit calls it for all but area meshes. */
+vf_vec3 vf_light_emit_any(const vf_lights *ls, const vf_light *l, const float rnd[4], vf_vec3 *position,
+                          vf_vec3 *direction, vf_vec3 *normal, float *emission_pdf_w, float *direct_pdf_a,
+                          float *cos_light);
+
+/* Emits the first vertex of a light sub-path with four uniform numbers. Area meshes are
+ * handled inline, as in vf_light_illuminate. */
+static inline vf_vec3 vf_light_emit(const vf_lights *ls, const vf_light *l, const float rnd[4], vf_vec3 *position,
+                                    vf_vec3 *direction, vf_vec3 *normal, float *emission_pdf_w,
+                                    float *direct_pdf_a, float *cos_light) {
+  if (l->kind != VF_LIGHT_AREA_MESH)
+    return vf_light_emit_any(ls, l, rnd, position, direction, normal, emission_pdf_w, direct_pdf_a, cos_light);
+  float u = rnd[0];
+  uint32_t t = vf_light_pick_triangle(l, &u);
+  const vf_light_triangle *tri = &l->triangles[t];
+  *position = vf_light_triangle_point(tri, rnd[1], rnd[2]);
+  return vf_light_emit_area_point(l, tri->normal, rnd[3], u, direction, normal, emission_pdf_w, direct_pdf_a,
+                                  cos_light);
 }
 
 /* Radiance of an area light hit at `point` with unit geometric normal `normal` by a ray of
