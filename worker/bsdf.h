@@ -187,7 +187,9 @@ static inline vf_vec3 vf_bsdf_sample(const vf_bsdf *b, const float rnd[3], vf_ve
       weight = vf_scale(b->material->dielectric, b->fresnel);
     } else {
       double eta = b->eta, ci = fix.z;
-      float cos_t = (float)sqrt(fmax(0.0, 1.0 - (1.0 - ci * ci) / (eta * eta)));
+      double cos_t2 = 1.0 - (1.0 - ci * ci) / (eta * eta);
+      /* fmax(0.0, cos_t2) without its libm call (see vf_fmaxf_zero). */
+      float cos_t = (float)sqrt(cos_t2 >= 0.0 ? cos_t2 : 0.0);
       gen = vf_vec3_make(-fix.x / b->eta, -fix.y / b->eta, -cos_t);
       *event |= VF_BSDF_REFRACTION;
       choice_pdf = p[VF_LOBE_DIELECTRIC] * (1.0f - b->fresnel);
