@@ -26,6 +26,10 @@
 
 #include "../common/vec3.h"
 #include "material.h"
+#include "sampling.h"
+
+#include <math.h>
+#include <stddef.h>
 
 enum { VF_LOBE_DIFFUSE, VF_LOBE_GLOSSY, VF_LOBE_MIRROR, VF_LOBE_DIELECTRIC, VF_LOBE_COUNT };
 enum { VF_BSDF_SPECULAR = 1u, VF_BSDF_REFRACTION = 2u /* the dielectric transmitted */ };
@@ -51,6 +55,10 @@ typedef struct {
   int black; /* no lobe reflects anything: nothing scatters */
 } vf_bsdf_lobes;
 
+/* Fresnel reflectance of a smooth dielectric for cos_i (of the incident side, may be
+ * negative meaning from inside) and eta = ior inside / outside. */
+float vf_fresnel_dielectric(float cos_i, float eta);
+
 void vf_bsdf_lobes_of(const vf_material *material, vf_bsdf_lobes *lobes);
 
 /* Sets up the BSDF at a vertex with geometric normal `normal` (unit) for a path arriving
@@ -59,15 +67,73 @@ void vf_bsdf_lobes_of(const vf_material *material, vf_bsdf_lobes *lobes);
 int vf_bsdf_init(vf_bsdf *bsdf, const vf_material *material, vf_vec3 normal, vf_vec3 world_fix);
 
 /* The same with the material's lobes computed beforehand (vf_bsdf_lobes_of); the result is
- * bit for bit that of vf_bsdf_init. */
-int vf_bsdf_setup(vf_bsdf *bsdf, const vf_material *material, const vf_bsdf_lobes *lobes, vf_vec3 normal,
-                  vf_vec3 world_fix);
+ * bit for bit that of vf_bsdf_init. Inline: the renderer sets up a BSDF at every vertex of
+ * every sub-path and at light vertices it connects to. */
+static inline int vf_bsdf_setup(vf_bsdf *b, const vf_material *m, const vf_bsdf_lobes *lobes, vf_vec3 normal,
+                                vf_vec3 world_fix) {
+  float cos_fix = vf_dot(normal, world_fix);
+  if (!(fabsf(cos_fix) > 1e-7f) || lobes->black) return 0;
+  /* The shading frame faces the arriving path, so local_fix.z > 0 always. */
+  vf_vec3 n = cos_fix > 0.0f ? normal : vf_neg(normal);
+  b->material = m;
+  b->frame = vf_frame_from_normal(n);
+  /* local_fix.z is |cos_fix| exactly (negating a vector negates each product and sum
+   * exactly), so it is positive here and needs no test. */
+  b->local_fix = vf_frame_to_local(&b->frame, world_fix);
+  b->eta = 1.0f;
+  b->fresnel = 0.0f;
+  if (lobes->lobe_probability[VF_LOBE_DIELECTRIC] > 0.0f) {
+    /* Arriving on the front of the geometric normal means entering the medium. */
+    b->eta = cos_fix > 0.0f ? m->ior : 1.0f / m->ior;
+    b->fresnel = vf_fresnel_dielectric(b->local_fix.z, b->eta);
+  }
+  for (int i = 0; i < VF_LOBE_COUNT; i++) b->lobe_probability[i] = lobes->lobe_probability[i];
+  b->continuation = lobes->continuation;
+  b->is_delta = lobes->is_delta;
+  return 1;
+}
+
+/* The mirror direction of local v about the shading normal. */
+static inline vf_vec3 vf_bsdf_reflect_local(vf_vec3 v) { return vf_vec3_make(-v.x, -v.y, v.z); }
 
 /* f of the non-specular lobes for gen (unit, world); |cos| of gen against the shading
  * normal into *cos_gen; densities as described above (either may be NULL). Zero when gen is
- * not reachable by the non-specular lobes. */
-vf_vec3 vf_bsdf_evaluate(const vf_bsdf *bsdf, vf_vec3 world_gen, float *cos_gen, float *direct_pdf_w,
-                         float *reverse_pdf_w);
+ * not reachable by the non-specular lobes.
+ * Inline because the renderer calls it about five times per camera vertex: out of line,
+ * each call spilled its operands around powf and returned through memory, and the NULL
+ * checks of the out-parameters are resolved at compile time in every caller. */
+static inline vf_vec3 vf_bsdf_evaluate(const vf_bsdf *b, vf_vec3 world_gen, float *cos_gen, float *direct_pdf_w,
+                                       float *reverse_pdf_w) {
+  vf_vec3 gen = vf_frame_to_local(&b->frame, world_gen);
+  vf_vec3 f = vf_vec3_splat(0.0f);
+  float dpdf = 0.0f, rpdf = 0.0f;
+  if (gen.z > 0.0f) { /* both lobes reflect only */
+    float pd = b->lobe_probability[VF_LOBE_DIFFUSE];
+    if (pd > 0.0f) {
+      f = vf_add(f, vf_scale(b->material->diffuse, VF_INV_PI));
+      dpdf += pd * gen.z * VF_INV_PI;
+      rpdf += pd * b->local_fix.z * VF_INV_PI;
+    }
+    float pg = b->lobe_probability[VF_LOBE_GLOSSY];
+    if (pg > 0.0f) {
+      float n = b->material->phong_exponent;
+      /* cos of the angle between gen and fix's mirror direction; symmetric in fix and gen. */
+      const vf_vec3 fix = b->local_fix;
+      float cos_a = vf_dot(vf_bsdf_reflect_local(fix), gen);
+      if (cos_a > 0.0f) {
+        float lobe = powf(cos_a, n);
+        f = vf_add(f, vf_scale(b->material->glossy, (n + 2.0f) * (0.5f * VF_INV_PI) * lobe));
+        float p = pg * (n + 1.0f) * (0.5f * VF_INV_PI) * lobe;
+        dpdf += p;
+        rpdf += p;
+      }
+    }
+  }
+  if (cos_gen) *cos_gen = fabsf(gen.z);
+  if (direct_pdf_w) *direct_pdf_w = dpdf * b->continuation;
+  if (reverse_pdf_w) *reverse_pdf_w = rpdf * b->continuation;
+  return f;
+}
 
 /* Samples gen with three uniform numbers. Returns f (for specular lobes: the weight such that
  * f * cos / pdf is the throughput factor), and writes gen, its |cos|, the direct and reverse
@@ -76,11 +142,68 @@ vf_vec3 vf_bsdf_evaluate(const vf_bsdf *bsdf, vf_vec3 world_gen, float *cos_gen,
  * refraction through the dielectric, entering the side of ior ratio bsdf->eta). Returns zero (and nothing else is
  * meaningful) when the sample failed. The caller plays Russian roulette with
  * vf_bsdf.continuation before calling. */
-vf_vec3 vf_bsdf_sample(const vf_bsdf *bsdf, const float rnd[3], vf_vec3 *world_gen, float *pdf_w,
-                       float *reverse_pdf_w, float *cos_gen, unsigned *event);
-
-/* Fresnel reflectance of a smooth dielectric for cos_i (of the incident side, may be
- * negative meaning from inside) and eta = ior inside / outside. */
-float vf_fresnel_dielectric(float cos_i, float eta);
+static inline vf_vec3 vf_bsdf_sample(const vf_bsdf *b, const float rnd[3], vf_vec3 *world_gen, float *pdf_w,
+                                     float *reverse_pdf_w, float *cos_gen, unsigned *event) {
+  const float *p = b->lobe_probability;
+  float u = rnd[2];
+  vf_vec3 gen;
+  *event = 0;
+  if (u < p[VF_LOBE_DIFFUSE] + p[VF_LOBE_GLOSSY]) {
+    if (u < p[VF_LOBE_DIFFUSE]) {
+      gen = vf_sample_cosine_hemisphere(rnd[0], rnd[1], NULL);
+    } else {
+      vf_vec3 axis = vf_bsdf_reflect_local(b->local_fix);
+      vf_frame lobe = vf_frame_from_normal(axis);
+      gen = vf_frame_to_world(&lobe, vf_sample_power_cosine(rnd[0], rnd[1], b->material->phong_exponent));
+    }
+    /* Evaluate the direction that is returned, after its round trip through the world
+     * frame, so that sample and evaluate agree even for a Phong exponent of 1e5, where
+     * cos^n magnifies the frames' rounding 2n times. */
+    *world_gen = vf_frame_to_world(&b->frame, gen);
+    float d, r, c;
+    vf_vec3 f = vf_bsdf_evaluate(b, *world_gen, &c, &d, &r);
+    if (!(d > 0.0f)) return vf_vec3_splat(0.0f);
+    *pdf_w = d;
+    *reverse_pdf_w = r;
+    *cos_gen = c;
+    return f;
+  }
+  *event = VF_BSDF_SPECULAR;
+  float choice_pdf;
+  vf_vec3 weight;
+  u -= p[VF_LOBE_DIFFUSE] + p[VF_LOBE_GLOSSY];
+  if (u < p[VF_LOBE_MIRROR] || p[VF_LOBE_DIELECTRIC] == 0.0f) {
+    gen = vf_bsdf_reflect_local(b->local_fix);
+    choice_pdf = p[VF_LOBE_MIRROR];
+    weight = b->material->mirror;
+  } else {
+    /* Within the dielectric lobe, reflect with probability F: the throughput factor is
+     * then tint * F / (p_lobe * F), the same for refraction with 1 - F. */
+    u = (u - p[VF_LOBE_MIRROR]) / p[VF_LOBE_DIELECTRIC];
+    const vf_vec3 fix = b->local_fix;
+    if (u < b->fresnel) {
+      gen = vf_bsdf_reflect_local(fix);
+      choice_pdf = p[VF_LOBE_DIELECTRIC] * b->fresnel;
+      weight = vf_scale(b->material->dielectric, b->fresnel);
+    } else {
+      double eta = b->eta, ci = fix.z;
+      double cos_t2 = 1.0 - (1.0 - ci * ci) / (eta * eta);
+      /* fmax(0.0, cos_t2) without its libm call (see vf_fmaxf_zero). */
+      float cos_t = (float)sqrt(cos_t2 >= 0.0 ? cos_t2 : 0.0);
+      gen = vf_vec3_make(-fix.x / b->eta, -fix.y / b->eta, -cos_t);
+      *event |= VF_BSDF_REFRACTION;
+      choice_pdf = p[VF_LOBE_DIELECTRIC] * (1.0f - b->fresnel);
+      weight = vf_scale(b->material->dielectric, 1.0f - b->fresnel);
+    }
+  }
+  if (!(choice_pdf > 0.0f) || gen.z == 0.0f) return vf_vec3_splat(0.0f);
+  float c = fabsf(gen.z);
+  *world_gen = vf_frame_to_world(&b->frame, gen);
+  *pdf_w = choice_pdf * b->continuation;
+  *reverse_pdf_w = *pdf_w;
+  *cos_gen = c;
+  /* f such that f * cos / pdf = weight / (choice_pdf * continuation). */
+  return vf_scale(weight, 1.0f / c);
+}
 
 #endif

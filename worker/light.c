@@ -27,17 +27,6 @@ static float triangle_area(const vf_shape *s, uint32_t t) {
   return 0.5f * vf_length(vf_cross(e1, e2));
 }
 
-/* First index i with cdf[i + 1] > u, for a cdf of n + 1 entries from 0 to 1. */
-static int search_cdf(const float *cdf, int n, float u) {
-  int lo = 0, hi = n - 1;
-  while (lo < hi) {
-    int mid = (lo + hi) / 2;
-    if (cdf[mid + 1] <= u) lo = mid + 1;
-    else hi = mid;
-  }
-  return lo;
-}
-
 static vf_vec3 direction_of_uv(float u, float v) {
   float theta = v * VF_PI, phi = (u - 0.5f) * 2.0f * VF_PI;
   float st = sinf(theta);
@@ -143,9 +132,9 @@ static vf_vec3 environment_sample(const vf_lights *ls, const vf_light *l, float 
     *pdf_w = VF_UNIFORM_SPHERE_PDF_W;
     return l->radiance;
   }
-  int y = search_cdf(e->row_cdf, e->height, u2);
+  int y = vf_cdf_search(e->row_cdf, e->height, u2);
   const float *cdf = &e->column_cdf[(size_t)y * (e->width + 1)];
-  int x = search_cdf(cdf, e->width, u1);
+  int x = vf_cdf_search(cdf, e->width, u1);
   /* Position within the texel from the leftover of each uniform number. */
   float fy = (u2 - e->row_cdf[y]) / fmaxf(e->row_cdf[y + 1] - e->row_cdf[y], 1e-30f);
   float fx = (u1 - cdf[x]) / fmaxf(cdf[x + 1] - cdf[x], 1e-30f);
@@ -287,29 +276,14 @@ void vf_lights_destroy(vf_lights *ls) {
   free(ls);
 }
 
-const vf_light *vf_lights_pick(const vf_lights *ls, float u) {
-  int lo = 0, hi = ls->count - 1;
-  while (lo < hi) {
-    int mid = (lo + hi) / 2;
-    if (ls->pick_cdf[mid] <= u) lo = mid + 1;
-    else hi = mid;
-  }
-  return &ls->lights[lo];
-}
-
-/* Picks a triangle of an area mesh in proportion to area with uniform number u, and
- * returns u rescaled to [0, 1) within the chosen triangle's interval, as a fresh uniform
- * number. Spheres need no pick: u is returned unchanged. */
+/* vf_light_pick_triangle for area lights: spheres need no pick, and u stays unchanged. */
 static uint32_t pick_triangle(const vf_light *l, float *u) {
-  if (l->kind != VF_LIGHT_AREA_MESH) return 0;
-  int t = search_cdf(l->triangle_cdf, (int)l->shape->num_triangles, *u);
-  float lo = l->triangle_cdf[t], hi = l->triangle_cdf[t + 1];
-  *u = hi > lo ? fminf((*u - lo) / (hi - lo), 0.99999994f) : 0.5f;
-  return (uint32_t)t;
+  return l->kind == VF_LIGHT_AREA_MESH ? vf_light_pick_triangle(l, u) : 0;
 }
 
-/* Uniform point on triangle t of an area light (or on the sphere), with its normal. */
-static void sample_area(const vf_light *l, uint32_t t, float u1, float u2, vf_vec3 *p, vf_vec3 *n) {
+/* Uniform point on triangle t of an area light (or on the sphere), with its normal. Inline,
+ * or GCC keeps it out of line and both results go through memory once per light sample. */
+static inline void sample_area(const vf_light *l, uint32_t t, float u1, float u2, vf_vec3 *p, vf_vec3 *n) {
   const vf_shape *s = l->shape;
   if (l->kind == VF_LIGHT_AREA_SPHERE) {
     vf_vec3 d = vf_sample_uniform_sphere(u1, u2);
@@ -318,15 +292,13 @@ static void sample_area(const vf_light *l, uint32_t t, float u1, float u2, vf_ve
     return;
   }
   const vf_light_triangle *tri = &l->triangles[t];
-  float bu, bv;
-  vf_sample_triangle(u1, u2, &bu, &bv);
-  *p = vf_add(vf_add(vf_scale(tri->a, 1.0f - bu - bv), vf_scale(tri->b, bu)), vf_scale(tri->c, bv));
+  *p = vf_light_triangle_point(tri, u1, u2);
   *n = tri->normal;
 }
 
-vf_vec3 vf_light_emit(const vf_lights *ls, const vf_light *l, const float rnd[4], vf_vec3 *position,
-                      vf_vec3 *direction, vf_vec3 *normal, float *emission_pdf_w, float *direct_pdf_a,
-                      float *cos_light) {
+vf_vec3 vf_light_emit_any(const vf_lights *ls, const vf_light *l, const float rnd[4], vf_vec3 *position,
+                          vf_vec3 *direction, vf_vec3 *normal, float *emission_pdf_w, float *direct_pdf_a,
+                          float *cos_light) {
   switch (l->kind) {
   case VF_LIGHT_AREA_MESH:
   case VF_LIGHT_AREA_SPHERE: {
@@ -334,15 +306,7 @@ vf_vec3 vf_light_emit(const vf_lights *ls, const vf_light *l, const float rnd[4]
     float u = rnd[0];
     uint32_t t = pick_triangle(l, &u);
     sample_area(l, t, rnd[1], rnd[2], position, &n);
-    float pdf;
-    vf_vec3 local = vf_sample_cosine_hemisphere(rnd[3], u, &pdf);
-    vf_frame f = vf_frame_from_normal(n);
-    *direction = vf_frame_to_world(&f, local);
-    *normal = n;
-    *emission_pdf_w = pdf * l->inv_area;
-    *direct_pdf_a = l->inv_area;
-    *cos_light = local.z;
-    return vf_scale(l->radiance, local.z);
+    return vf_light_emit_area_point(l, n, rnd[3], u, direction, normal, emission_pdf_w, direct_pdf_a, cos_light);
   }
   case VF_LIGHT_POINT:
     *position = l->position;
@@ -385,10 +349,10 @@ vf_vec3 vf_light_emit(const vf_lights *ls, const vf_light *l, const float rnd[4]
   return vf_vec3_splat(0.0f);
 }
 
-vf_vec3 vf_light_illuminate(const vf_lights *ls, const vf_light *l, vf_vec3 receiver, const float rnd[2],
-                            vf_vec3 *dir_to_light, float *distance, vf_vec3 *light_point,
-                            vf_vec3 *light_normal, float *direct_pdf_w, float *emission_pdf_w,
-                            float *cos_at_light) {
+vf_vec3 vf_light_illuminate_any(const vf_lights *ls, const vf_light *l, vf_vec3 receiver, const float rnd[2],
+                                vf_vec3 *dir_to_light, float *distance, vf_vec3 *light_point,
+                                vf_vec3 *light_normal, float *direct_pdf_w, float *emission_pdf_w,
+                                float *cos_at_light) {
   vf_vec3 zero = vf_vec3_splat(0.0f);
   switch (l->kind) {
   case VF_LIGHT_AREA_MESH:
@@ -397,20 +361,8 @@ vf_vec3 vf_light_illuminate(const vf_lights *ls, const vf_light *l, vf_vec3 rece
     float u = rnd[0];
     uint32_t t = pick_triangle(l, &u);
     sample_area(l, t, u, rnd[1], &p, &n);
-    vf_vec3 d = vf_sub(p, receiver);
-    float dist2 = vf_length_sq(d);
-    float dist = sqrtf(dist2);
-    d = vf_scale(d, 1.0f / dist);
-    float cos_n = -vf_dot(n, d);
-    if (!(cos_n > 1e-7f) || !(dist > 0.0f)) return zero;
-    *dir_to_light = d;
-    *distance = dist;
-    *light_point = p;
-    *light_normal = n;
-    *direct_pdf_w = l->inv_area * dist2 / cos_n;
-    *emission_pdf_w = l->inv_area * cos_n * VF_INV_PI;
-    *cos_at_light = cos_n;
-    return l->radiance;
+    return vf_light_illuminate_area_point(l, receiver, p, n, dir_to_light, distance, light_point, light_normal,
+                                          direct_pdf_w, emission_pdf_w, cos_at_light);
   }
   case VF_LIGHT_POINT: {
     vf_vec3 d = vf_sub(l->position, receiver);

@@ -20,7 +20,11 @@
 #define VF_LIGHT_H
 
 #include "../common/vec3.h"
+#include "sampling.h"
 #include "scene.h"
+
+#include <math.h>
+#include <stdint.h>
 
 typedef enum {
   VF_LIGHT_AREA_MESH,
@@ -69,19 +73,132 @@ typedef struct {
 int vf_lights_create(const vf_scene *scene, vf_lights **out);
 void vf_lights_destroy(vf_lights *lights);
 
-/* Picks a light with one uniform number. */
-const vf_light *vf_lights_pick(const vf_lights *lights, float u);
+/* Picks a light with one uniform number. Inline: it runs once per light sub-path and once
+ * per light sample, and is a few instructions for a scene's handful of lights. */
+static inline const vf_light *vf_lights_pick(const vf_lights *ls, float u) {
+  int lo = 0, hi = ls->count - 1;
+  while (lo < hi) {
+    int mid = (lo + hi) / 2;
+    if (ls->pick_cdf[mid] <= u) lo = mid + 1;
+    else hi = mid;
+  }
+  return &ls->lights[lo];
+}
 
-vf_vec3 vf_light_emit(const vf_lights *ls, const vf_light *l, const float rnd[4], vf_vec3 *position,
-                      vf_vec3 *direction, vf_vec3 *normal, float *emission_pdf_w, float *direct_pdf_a,
-                      float *cos_light);
+
+/* First index i with cdf[i + 1] > u, for a cdf of n + 1 entries from 0 to 1. */
+static inline int vf_cdf_search(const float *cdf, int n, float u) {
+  int lo = 0, hi = n - 1;
+  while (lo < hi) {
+    int mid = (lo + hi) / 2;
+    if (cdf[mid + 1] <= u) lo = mid + 1;
+    else hi = mid;
+  }
+  return lo;
+}
+
+/* Picks a triangle of area mesh l in proportion to area with uniform number *u, and
+ * replaces *u by its rescaling to [0, 1) within the chosen triangle's interval, a fresh
+ * uniform number. */
+static inline uint32_t vf_light_pick_triangle(const vf_light *l, float *u) {
+  int t = vf_cdf_search(l->triangle_cdf, (int)l->shape->num_triangles, *u);
+  float lo = l->triangle_cdf[t], hi = l->triangle_cdf[t + 1];
+  float rescaled = (*u - lo) / (hi - lo);
+  /* fminf(rescaled, 0.99999994f) without its libm call (see vf_fmaxf_zero): the same value,
+   * a NaN included. */
+  *u = hi > lo ? (rescaled < 0.99999994f ? rescaled : 0.99999994f) : 0.5f;
+  return (uint32_t)t;
+}
+
+/* Uniform point on a triangle of an area mesh. */
+static inline vf_vec3 vf_light_triangle_point(const vf_light_triangle *tri, float u1, float u2) {
+  float bu, bv;
+  vf_sample_triangle(u1, u2, &bu, &bv);
+  return vf_add(vf_add(vf_scale(tri->a, 1.0f - bu - bv), vf_scale(tri->b, bu)), vf_scale(tri->c, bv));
+}
+
+/* What vf_light_illuminate reports for point p, with unit normal n, picked on area light l. */
+static inline vf_vec3 vf_light_illuminate_area_point(const vf_light *l, vf_vec3 receiver, vf_vec3 p, vf_vec3 n,
+                                                     vf_vec3 *dir_to_light, float *distance, vf_vec3 *light_point,
+                                                     vf_vec3 *light_normal, float *direct_pdf_w,
+                                                     float *emission_pdf_w, float *cos_at_light) {
+  vf_vec3 d = vf_sub(p, receiver);
+  float dist2 = vf_length_sq(d);
+  float dist = sqrtf(dist2);
+  d = vf_scale(d, 1.0f / dist);
+  float cos_n = -vf_dot(n, d);
+  if (!(cos_n > 1e-7f) || !(dist > 0.0f)) return vf_vec3_splat(0.0f);
+  *dir_to_light = d;
+  *distance = dist;
+  *light_point = p;
+  *light_normal = n;
+  *direct_pdf_w = l->inv_area * dist2 / cos_n;
+  *emission_pdf_w = l->inv_area * cos_n * VF_INV_PI;
+  *cos_at_light = cos_n;
+  return l->radiance;
+}
+
+/* vf_light_illuminate for any kind of light; vf_light_illuminate calls it for all but
+ * area meshes. */
+vf_vec3 vf_light_illuminate_any(const vf_lights *ls, const vf_light *l, vf_vec3 receiver, const float rnd[2],
+                                vf_vec3 *dir_to_light, float *distance, vf_vec3 *light_point,
+                                vf_vec3 *light_normal, float *direct_pdf_w, float *emission_pdf_w,
+                                float *cos_at_light);
 
 /* Samples the light from `receiver`. *distance is the distance to the sampled point (INFINITY
- * for infinite lights); *light_point is that point (area and point lights). */
-vf_vec3 vf_light_illuminate(const vf_lights *ls, const vf_light *l, vf_vec3 receiver, const float rnd[2],
-                            vf_vec3 *dir_to_light, float *distance, vf_vec3 *light_point,
-                            vf_vec3 *light_normal, float *direct_pdf_w, float *emission_pdf_w,
-                            float *cos_at_light);
+ * for infinite lights); *light_point is that point (area and point lights).
+ * Area meshes, the common light, are sampled inline: every camera vertex samples a light,
+ * and out of line the receiver and the seven results went through memory. */
+static inline vf_vec3 vf_light_illuminate(const vf_lights *ls, const vf_light *l, vf_vec3 receiver,
+                                          const float rnd[2], vf_vec3 *dir_to_light, float *distance,
+                                          vf_vec3 *light_point, vf_vec3 *light_normal, float *direct_pdf_w,
+                                          float *emission_pdf_w, float *cos_at_light) {
+  if (l->kind != VF_LIGHT_AREA_MESH)
+    return vf_light_illuminate_any(ls, l, receiver, rnd, dir_to_light, distance, light_point, light_normal,
+                                   direct_pdf_w, emission_pdf_w, cos_at_light);
+  float u = rnd[0];
+  uint32_t t = vf_light_pick_triangle(l, &u);
+  const vf_light_triangle *tri = &l->triangles[t];
+  return vf_light_illuminate_area_point(l, receiver, vf_light_triangle_point(tri, u, rnd[1]), tri->normal,
+                                        dir_to_light, distance, light_point, light_normal, direct_pdf_w,
+                                        emission_pdf_w, cos_at_light);
+}
+
+/* What vf_light_emit reports for point p, with unit normal n, picked on area light l, and
+ * uniform numbers u1, u2 for the direction. */
+static inline vf_vec3 vf_light_emit_area_point(const vf_light *l, vf_vec3 n, float u1, float u2, vf_vec3 *direction,
+                                               vf_vec3 *normal, float *emission_pdf_w, float *direct_pdf_a,
+                                               float *cos_light) {
+  float pdf;
+  vf_vec3 local = vf_sample_cosine_hemisphere(u1, u2, &pdf);
+  vf_frame f = vf_frame_from_normal(n);
+  *direction = vf_frame_to_world(&f, local);
+  *normal = n;
+  *emission_pdf_w = pdf * l->inv_area;
+  *direct_pdf_a = l->inv_area;
+  *cos_light = local.z;
+  return vf_scale(l->radiance, local.z);
+}
+
+/* vf_light_emit for any kind of light; vf_light_emit calls it for all but area meshes. */
+vf_vec3 vf_light_emit_any(const vf_lights *ls, const vf_light *l, const float rnd[4], vf_vec3 *position,
+                          vf_vec3 *direction, vf_vec3 *normal, float *emission_pdf_w, float *direct_pdf_a,
+                          float *cos_light);
+
+/* Emits the first vertex of a light sub-path with four uniform numbers. Area meshes are
+ * handled inline, as in vf_light_illuminate. */
+static inline vf_vec3 vf_light_emit(const vf_lights *ls, const vf_light *l, const float rnd[4], vf_vec3 *position,
+                                    vf_vec3 *direction, vf_vec3 *normal, float *emission_pdf_w,
+                                    float *direct_pdf_a, float *cos_light) {
+  if (l->kind != VF_LIGHT_AREA_MESH)
+    return vf_light_emit_any(ls, l, rnd, position, direction, normal, emission_pdf_w, direct_pdf_a, cos_light);
+  float u = rnd[0];
+  uint32_t t = vf_light_pick_triangle(l, &u);
+  const vf_light_triangle *tri = &l->triangles[t];
+  *position = vf_light_triangle_point(tri, rnd[1], rnd[2]);
+  return vf_light_emit_area_point(l, tri->normal, rnd[3], u, direction, normal, emission_pdf_w, direct_pdf_a,
+                                  cos_light);
+}
 
 /* Radiance of an area light hit at `point` with unit geometric normal `normal` by a ray of
  * direction ray_dir; zero from behind. */

@@ -10,11 +10,17 @@
 #define VF_PI 3.14159265358979323846f
 #define VF_INV_PI 0.31830988618379067154f
 
+/* fmaxf(0.0f, x), inline. Baseline x86-64 has no instruction with fmaxf's NaN rule, so GCC
+ * calls libm for fmaxf, once or twice per sampled direction. This returns glibc's value for
+ * every x but a signalling NaN, which arithmetic never produces: a quiet NaN gives 0, and
+ * -0 stays -0. */
+static inline float vf_fmaxf_zero(float x) { return x >= 0.0f ? x : 0.0f; }
+
 /* Cosine-weighted hemisphere around +z; pdf cos(theta) / pi. */
 static inline vf_vec3 vf_sample_cosine_hemisphere(float u1, float u2, float *pdf_w) {
   float phi = 2.0f * VF_PI * u1;
   float r = sqrtf(u2);
-  float z = sqrtf(fmaxf(0.0f, 1.0f - u2));
+  float z = sqrtf(vf_fmaxf_zero(1.0f - u2));
   if (pdf_w) *pdf_w = z * VF_INV_PI;
   return vf_vec3_make(r * cosf(phi), r * sinf(phi), z);
 }
@@ -22,7 +28,7 @@ static inline vf_vec3 vf_sample_cosine_hemisphere(float u1, float u2, float *pdf
 /* Uniform over the unit sphere; pdf 1 / (4 pi). */
 static inline vf_vec3 vf_sample_uniform_sphere(float u1, float u2) {
   float z = 1.0f - 2.0f * u2;
-  float r = sqrtf(fmaxf(0.0f, 1.0f - z * z));
+  float r = sqrtf(vf_fmaxf_zero(1.0f - z * z));
   float phi = 2.0f * VF_PI * u1;
   return vf_vec3_make(r * cosf(phi), r * sinf(phi), z);
 }
@@ -31,7 +37,7 @@ static inline vf_vec3 vf_sample_uniform_sphere(float u1, float u2) {
 /* Power-cosine lobe around +z: pdf (n + 1) / (2 pi) cos^n(alpha). */
 static inline vf_vec3 vf_sample_power_cosine(float u1, float u2, float n) {
   float cos_a = powf(u2, 1.0f / (n + 1.0f));
-  float sin_a = sqrtf(fmaxf(0.0f, 1.0f - cos_a * cos_a));
+  float sin_a = sqrtf(vf_fmaxf_zero(1.0f - cos_a * cos_a));
   float phi = 2.0f * VF_PI * u1;
   return vf_vec3_make(sin_a * cosf(phi), sin_a * sinf(phi), cos_a);
 }
