@@ -3,7 +3,7 @@
  * Layout. Cells are cubes a little wider than 2r (the diameter of a query), so along each
  * axis a query ball touches at most two cells: the one holding q and its neighbour on the
  * side of the half q lies in. A query therefore visits the 2x2x2 block of cells nearest q.
- * The cell (cx, cy, cz) goes to bucket (row_hash(cy, cz) + cx) mod T, with T a power of two
+ * The cell (cx, cy, cz) goes to bucket (vf_grid_row_hash(cy, cz) + cx) mod T, with T a power of two
  * >= 2n: cells that are neighbours along x are neighbours in the table, so the two x-cells
  * of a query are one contiguous run of the sorted indices. This is the thesis's
  * "triplet" trick, at cell size 2r where a query needs pairs. Point indices are sorted by
@@ -62,7 +62,6 @@ enum {
 };
 
 #define SKIPPED UINT32_MAX         /* key of a non-finite point */
-#define CELL_LIMIT 0x1p62          /* clamp for cell coordinates, exact in double */
 #define SEARCH_SLACK (1.0 + 0x1p-12)
 #define SEARCH_FLOOR 0x1p-74       /* float squares of |d| < 2^-75 underflow to 0 */
 #define CELL_SLACK (1.0 + 0x1p-10) /* cell > search diameter: at most 2 cells per axis */
@@ -73,12 +72,9 @@ typedef vf_grid_point grid_point;
 
 struct vf_hashgrid {
   /* The last build. */
+  vf_grid_lookup lk;    /* what queries read (hashgrid.h); its cell_start is cell_start below */
   double radius_sq;     /* exact square of the float radius */
-  double search_radius; /* enlarged radius for choosing cells */
-  double inv_cell;      /* 1 / cell width */
-  uint32_t mask;        /* table size - 1 */
   unsigned low_bits;    /* bucket bits below the group */
-  uint32_t count;       /* points indexed: finite ones */
   uint32_t points;      /* n of the build, finite or not */
   uint32_t chunks, groups;
   const unsigned char *base;
@@ -98,43 +94,23 @@ struct vf_hashgrid {
   size_t group_cap;
 };
 
-/* ---- cells and buckets: shared by build and query, so both agree bit for bit ---- */
-
-/* floor(v * inv_cell), clamped; monotonic in v, which the query's correctness rests on. */
-static inline int64_t cell_coord(double v, double inv_cell) {
-  double c = v * inv_cell;
-  if (c < -CELL_LIMIT) c = -CELL_LIMIT;
-  if (c > CELL_LIMIT) c = CELL_LIMIT;
-  int64_t t = (int64_t)c; /* truncates toward zero; step down for negative non-integers */
-  return t - ((double)t > c);
-}
-
-static inline uint64_t row_hash(int64_t cy, int64_t cz) {
-  uint64_t h = (uint64_t)cy * 0x9e3779b97f4a7c15ULL ^ (uint64_t)cz * 0xc2b2ae3d27d4eb4fULL;
-  h ^= h >> 31;
-  h *= 0xbf58476d1ce4e5b9ULL;
-  return h ^ (h >> 29);
-}
-
-static inline uint32_t bucket_of(int64_t cx, uint64_t row, uint32_t mask) {
-  return (uint32_t)((row + (uint64_t)cx) & mask);
-}
+/* ---- cells and buckets: shared by build and query (hashgrid.h), so both agree bit for bit ---- */
 
 static inline uint32_t point_bucket(const vf_hashgrid *g, vf_vec3 p) {
-  int64_t cx = cell_coord(p.x, g->inv_cell);
-  int64_t cy = cell_coord(p.y, g->inv_cell);
-  int64_t cz = cell_coord(p.z, g->inv_cell);
-  return bucket_of(cx, row_hash(cy, cz), g->mask);
+  int64_t cx = vf_grid_cell_coord(p.x, g->lk.inv_cell);
+  int64_t cy = vf_grid_cell_coord(p.y, g->lk.inv_cell);
+  int64_t cz = vf_grid_cell_coord(p.z, g->lk.inv_cell);
+  return vf_grid_bucket(cx, vf_grid_row_hash(cy, cz), g->lk.mask);
 }
 
 /* The cells along one axis that can hold a coordinate within the search radius of v.
  * Every float p with |p - v| <= search_radius has lo <= cell(p) <= hi, since rounding and
- * cell_coord are monotonic. The cell is wider than the search diameter, so hi - lo <= 1
+ * vf_grid_cell_coord are monotonic. The cell is wider than the search diameter, so hi - lo <= 1
  * unless |v| is so large that double rounding moves a cell (|v| / cell > ~2^51): then
  * floats near v are far more than the radius apart and only those within reach count. */
 static int axis_cells(double v, double search_radius, double inv_cell, int64_t out[AXIS_CELLS_MAX]) {
-  int64_t lo = cell_coord(v - search_radius, inv_cell);
-  int64_t hi = cell_coord(v + search_radius, inv_cell);
+  int64_t lo = vf_grid_cell_coord(v - search_radius, inv_cell);
+  int64_t hi = vf_grid_cell_coord(v + search_radius, inv_cell);
   if (hi - lo < AXIS_CELLS_MAX) {
     int k = 0;
     for (int64_t c = lo; c <= hi; c++) out[k++] = c;
@@ -143,9 +119,9 @@ static int axis_cells(double v, double search_radius, double inv_cell, int64_t o
   float f = (float)v; /* v came from a float: exact */
   float below = nextafterf(f, -INFINITY), above = nextafterf(f, INFINITY);
   int k = 0;
-  out[k++] = cell_coord(f, inv_cell);
-  if (v - (double)below <= search_radius) out[k++] = cell_coord(below, inv_cell);
-  if ((double)above - v <= search_radius) out[k++] = cell_coord(above, inv_cell);
+  out[k++] = vf_grid_cell_coord(f, inv_cell);
+  if (v - (double)below <= search_radius) out[k++] = vf_grid_cell_coord(below, inv_cell);
+  if ((double)above - v <= search_radius) out[k++] = vf_grid_cell_coord(above, inv_cell);
   return k;
 }
 
@@ -270,7 +246,7 @@ static unsigned ceil_log2(uint32_t n) {
 int vf_hashgrid_build(vf_hashgrid *g, const void *base, size_t stride, uint32_t n, float radius,
                       vf_pool *pool) {
   if (g == NULL) return vf_error_set(VF_EINVAL, "hash grid: NULL grid");
-  g->count = 0; /* an empty grid on failure */
+  g->lk.count = 0; /* an empty grid on failure */
   g->points = 0;
   if (!(radius >= 0.0f) || !isfinite(radius))
     return vf_error_set(VF_EINVAL, "hash grid: radius %g is not a finite number >= 0", radius);
@@ -280,14 +256,14 @@ int vf_hashgrid_build(vf_hashgrid *g, const void *base, size_t stride, uint32_t 
 
   double r = radius;
   g->radius_sq = r * r;
-  g->search_radius = r * SEARCH_SLACK > SEARCH_FLOOR ? r * SEARCH_SLACK : SEARCH_FLOOR;
-  g->inv_cell = 1.0 / (2.0 * g->search_radius * CELL_SLACK);
+  g->lk.search_radius = r * SEARCH_SLACK > SEARCH_FLOOR ? r * SEARCH_SLACK : SEARCH_FLOOR;
+  g->lk.inv_cell = 1.0 / (2.0 * g->lk.search_radius * CELL_SLACK);
   unsigned table_bits = ceil_log2(n) + 1; /* >= 2n buckets: ~0.5 colliding points per bucket */
   if (table_bits < TABLE_BITS_MIN) table_bits = TABLE_BITS_MIN;
   if (table_bits > TABLE_BITS_MAX) table_bits = TABLE_BITS_MAX;
   unsigned group_bits = table_bits < GROUP_BITS_MAX ? table_bits : GROUP_BITS_MAX;
   g->low_bits = table_bits - group_bits;
-  g->mask = (uint32_t)(((uint64_t)1 << table_bits) - 1);
+  g->lk.mask = (uint32_t)(((uint64_t)1 << table_bits) - 1);
   g->groups = (uint32_t)1 << group_bits;
   g->chunks = (uint32_t)(((uint64_t)n + CHUNK - 1) / CHUNK);
   g->base = base;
@@ -296,7 +272,7 @@ int vf_hashgrid_build(vf_hashgrid *g, const void *base, size_t stride, uint32_t 
 
   /* A failure leaves some buffers larger than their recorded capacity: harmless. */
   size_t points_cap = grown(g->points_cap, n);
-  size_t table_cap = grown(g->table_cap, (size_t)g->mask + 2);
+  size_t table_cap = grown(g->table_cap, (size_t)g->lk.mask + 2);
   size_t chunk_offset_cap = grown(g->chunk_offset_cap, (size_t)g->chunks * g->groups);
   size_t group_cap = grown(g->group_cap, (size_t)g->groups + 1);
   int err;
@@ -312,6 +288,8 @@ int vf_hashgrid_build(vf_hashgrid *g, const void *base, size_t stride, uint32_t 
   g->table_cap = table_cap;
   g->chunk_offset_cap = chunk_offset_cap;
   g->group_cap = group_cap;
+
+  g->lk.cell_start = g->cell_start;
 
   g->points = n;
   run_tasks(pool, g->chunks, key_chunk, g);
@@ -331,77 +309,31 @@ int vf_hashgrid_build(vf_hashgrid *g, const void *base, size_t stride, uint32_t 
 
   run_tasks(pool, g->chunks, scatter_chunk, g);
   run_tasks(pool, g->groups, sort_group, g);
-  g->cell_start[(size_t)g->mask + 1] = sum;
-  g->count = sum;
+  g->cell_start[(size_t)g->lk.mask + 1] = sum;
+  g->lk.count = sum;
   return VF_OK;
 }
 
 /* ---- queries ---- */
 
-/* The query's 2x2x2 block of cells, the case of all but a few queries in a thousand (two
- * cells per axis unless q's interval falls inside one cell). Its four rows of two cells
- * are four pairs of consecutive buckets, row + x0 and row + x0 + 1: the block is four
- * runs of the table, in increasing order of their first bucket (sorted by a network of
- * five comparators in registers: the buckets are random, so an insertion sort's
- * comparisons would mispredict about half the time). The runs are those the general path
- * would give, in its order, unless two rows share or touch a bucket or a pair wraps
- * around the table's end: then this returns 0 and leaves the query to the general path,
- * which merges them. It also returns 0 when an axis has one cell or three. */
-#define ORDER(a, b)                                                                                             \
-  do {                                                                                                          \
-    uint32_t lo_ = a < b ? a : b, hi_ = a < b ? b : a;                                                        \
-    a = lo_;                                                                                                    \
-    b = hi_;                                                                                                    \
-  } while (0)
-static int cells_of_block(const vf_hashgrid *g, vf_vec3 q, vf_grid_cells *cells) {
-  double r = g->search_radius, ic = g->inv_cell;
-  int64_t x0 = cell_coord(q.x - r, ic), x1 = cell_coord(q.x + r, ic);
-  int64_t y0 = cell_coord(q.y - r, ic), y1 = cell_coord(q.y + r, ic);
-  int64_t z0 = cell_coord(q.z - r, ic), z1 = cell_coord(q.z + r, ic);
-  if (x1 - x0 != 1 || y1 - y0 != 1 || z1 - z0 != 1) return 0;
-  uint32_t m = g->mask;
-  uint32_t b0 = bucket_of(x0, row_hash(y0, z0), m), b1 = bucket_of(x0, row_hash(y1, z0), m),
-           b2 = bucket_of(x0, row_hash(y0, z1), m), b3 = bucket_of(x0, row_hash(y1, z1), m);
-  /* Queries are bound by these misses; a run's end is on its start's line but for one
-   * start in eight. */
-  __builtin_prefetch(&g->cell_start[b0]);
-  __builtin_prefetch(&g->cell_start[b1]);
-  __builtin_prefetch(&g->cell_start[b2]);
-  __builtin_prefetch(&g->cell_start[b3]);
-  ORDER(b0, b1); ORDER(b2, b3);
-  ORDER(b0, b2); ORDER(b1, b3);
-  ORDER(b1, b2);
-  if (b3 == m || b1 - b0 < 2 || b2 - b1 < 2 || b3 - b2 < 2) return 0;
-  uint32_t *out = cells->bucket;
-  out[0] = b0;
-  out[1] = b1;
-  out[2] = b2;
-  out[3] = b3;
-  cells->count = 4;
-  cells->span = 2;
-  return 1;
-}
-#undef ORDER
-
-void vf_hashgrid_cells(const vf_hashgrid *g, vf_vec3 q, vf_grid_cells *cells) {
+void vf_grid_cells_general(const vf_grid_lookup *lk, vf_vec3 q, vf_grid_cells *cells) {
   cells->count = 0;
   cells->span = 1;
-  if (g->count == 0 || !vf_is_finite(q)) return;
-  if (cells_of_block(g, q, cells)) return;
+  if (lk->count == 0 || !vf_is_finite(q)) return;
   int64_t xs[AXIS_CELLS_MAX], ys[AXIS_CELLS_MAX], zs[AXIS_CELLS_MAX];
-  int nx = axis_cells(q.x, g->search_radius, g->inv_cell, xs);
-  int ny = axis_cells(q.y, g->search_radius, g->inv_cell, ys);
-  int nz = axis_cells(q.z, g->search_radius, g->inv_cell, zs);
+  int nx = axis_cells(q.x, lk->search_radius, lk->inv_cell, xs);
+  int ny = axis_cells(q.y, lk->search_radius, lk->inv_cell, ys);
+  int nz = axis_cells(q.z, lk->search_radius, lk->inv_cell, zs);
 
   /* What the block path leaves: 1 to 27 buckets, insertion-sorted as they come. */
   uint32_t *buckets = cells->bucket;
   int nb = 0;
   for (int z = 0; z < nz; z++)
     for (int y = 0; y < ny; y++) {
-      uint64_t row = row_hash(ys[y], zs[z]);
+      uint64_t row = vf_grid_row_hash(ys[y], zs[z]);
       for (int x = 0; x < nx; x++) {
-        uint32_t b = bucket_of(xs[x], row, g->mask);
-        __builtin_prefetch(&g->cell_start[b]); /* queries are bound by these misses */
+        uint32_t b = vf_grid_bucket(xs[x], row, lk->mask);
+        __builtin_prefetch(&lk->cell_start[b]); /* queries are bound by these misses */
         int k = nb++;
         for (; k > 0 && buckets[k - 1] > b; k--) buckets[k] = buckets[k - 1];
         buckets[k] = b;
@@ -410,37 +342,33 @@ void vf_hashgrid_cells(const vf_hashgrid *g, vf_vec3 q, vf_grid_cells *cells) {
   cells->count = nb;
 }
 
-int vf_hashgrid_ranges(const vf_hashgrid *g, const vf_grid_cells *cells, vf_index_range out[VF_HASHGRID_MAX_RANGES]) {
+int vf_grid_ranges_general(const vf_grid_lookup *lk, const vf_grid_cells *cells,
+                           vf_index_range out[VF_HASHGRID_MAX_RANGES]) {
   /* Runs of equal or consecutive buckets become one range: disjoint, no point twice. */
   const uint32_t *buckets = cells->bucket;
   int nb = cells->count, nr = 0;
-  if (cells->span == 2) { /* disjoint pairs, not touching, none wrapping (cells_of_block) */
-    /* All four, empty or not: a branch on emptiness would mispredict, an empty range costs
-     * a caller nothing. */
-    for (int k = 0; k < nb; k++)
-      out[k] = (vf_index_range){g->cell_start[buckets[k]], g->cell_start[(size_t)buckets[k] + 2]};
-    return nb;
-  }
   for (int k = 0; k < nb;) {
     uint32_t first = buckets[k], last = first;
     for (k++; k < nb && buckets[k] <= last + 1; k++) last = buckets[k];
-    uint32_t begin = g->cell_start[first], end = g->cell_start[(size_t)last + 1];
+    uint32_t begin = lk->cell_start[first], end = lk->cell_start[(size_t)last + 1];
     if (begin < end) out[nr++] = (vf_index_range){begin, end};
   }
   return nr;
 }
 
+const vf_grid_lookup *vf_hashgrid_lookup(const vf_hashgrid *g) { return &g->lk; }
+
 int vf_hashgrid_candidates(const vf_hashgrid *g, vf_vec3 q, vf_index_range out[VF_HASHGRID_MAX_RANGES]) {
   vf_grid_cells cells;
-  vf_hashgrid_cells(g, q, &cells);
-  return vf_hashgrid_ranges(g, &cells, out);
+  vf_grid_cells_of(&g->lk, q, &cells);
+  return vf_grid_ranges_of(&g->lk, &cells, out);
 }
 
 const uint32_t *vf_hashgrid_indices(const vf_hashgrid *g) { return g->indices; }
 
 const vf_grid_point *vf_hashgrid_points(const vf_hashgrid *g) { return g->keyed; }
 
-uint32_t vf_hashgrid_count(const vf_hashgrid *g) { return g->count; }
+uint32_t vf_hashgrid_count(const vf_hashgrid *g) { return g->lk.count; }
 
 void vf_hashgrid_query(const vf_hashgrid *g, vf_vec3 q, void (*visit)(void *ctx, uint32_t i), void *ctx) {
   vf_index_range ranges[VF_HASHGRID_MAX_RANGES];

@@ -47,15 +47,120 @@ int vf_hashgrid_build(vf_hashgrid *grid, const void *base, size_t stride, uint32
 int vf_hashgrid_candidates(const vf_hashgrid *grid, vf_vec3 q, vf_index_range out[VF_HASHGRID_MAX_RANGES]);
 
 /* The same in two steps, for callers that overlap the memory latency of many queries:
- * vf_hashgrid_cells computes the buckets of q and prefetches their table entries;
- * vf_hashgrid_ranges, called later, reads them. */
+ * vf_grid_cells_of computes the buckets of q and prefetches their table entries;
+ * vf_grid_ranges_of, called later, reads them. Both read the grid through its lookup
+ * view (vf_hashgrid_lookup), and their common case is inline, below: merging calls them
+ * for every camera vertex, and as calls into hashgrid.c they took ~4% of vcm's time. */
 typedef struct {
   uint32_t bucket[VF_HASHGRID_MAX_RANGES];
   int count;
   int span; /* buckets that each entry of bucket[] starts: 2 for a query's 2x2x2 block, else 1 */
 } vf_grid_cells;
-void vf_hashgrid_cells(const vf_hashgrid *grid, vf_vec3 q, vf_grid_cells *cells);
-int vf_hashgrid_ranges(const vf_hashgrid *grid, const vf_grid_cells *cells, vf_index_range out[VF_HASHGRID_MAX_RANGES]);
+
+/* What a query reads of the grid. Owned by the grid, valid until its next build; callers
+ * only read it. */
+typedef struct {
+  const uint32_t *cell_start; /* mask + 2 entries: bucket b's points are cell_start[b] .. [b + 1] */
+  double search_radius;       /* the radius enlarged for choosing cells (hashgrid.c) */
+  double inv_cell;            /* 1 / cell width */
+  uint32_t mask;              /* table size - 1 */
+  uint32_t count;             /* points indexed by the last build */
+} vf_grid_lookup;
+
+const vf_grid_lookup *vf_hashgrid_lookup(const vf_hashgrid *grid);
+
+/* Cells and buckets, shared by the build and the queries so that both agree bit for bit.
+ * The cell (cx, cy, cz) goes to bucket (row hash(cy, cz) + cx) mod table size: cells that
+ * are neighbours along x are neighbours in the table. A cell coordinate is
+ * floor(v * inv_cell), clamped to +-2^62; monotonic in v, which the queries' correctness
+ * rests on. */
+#define VF_GRID_CELL_LIMIT 0x1p62 /* exact in double */
+static inline int64_t vf_grid_cell_coord(double v, double inv_cell) {
+  double c = v * inv_cell;
+  if (c < -VF_GRID_CELL_LIMIT) c = -VF_GRID_CELL_LIMIT;
+  if (c > VF_GRID_CELL_LIMIT) c = VF_GRID_CELL_LIMIT;
+  int64_t t = (int64_t)c; /* truncates toward zero; step down for negative non-integers */
+  return t - ((double)t > c);
+}
+
+static inline uint64_t vf_grid_row_hash(int64_t cy, int64_t cz) {
+  uint64_t h = (uint64_t)cy * 0x9e3779b97f4a7c15ULL ^ (uint64_t)cz * 0xc2b2ae3d27d4eb4fULL;
+  h ^= h >> 31;
+  h *= 0xbf58476d1ce4e5b9ULL;
+  return h ^ (h >> 29);
+}
+
+static inline uint32_t vf_grid_bucket(int64_t cx, uint64_t row, uint32_t mask) {
+  return (uint32_t)((row + (uint64_t)cx) & mask);
+}
+
+/* The paths for what the inline functions below leave: queries whose cells are not a
+ * 2x2x2 block of four separate runs (a few in a thousand), an empty grid, a non-finite q. */
+void vf_grid_cells_general(const vf_grid_lookup *lk, vf_vec3 q, vf_grid_cells *cells);
+int vf_grid_ranges_general(const vf_grid_lookup *lk, const vf_grid_cells *cells,
+                           vf_index_range out[VF_HASHGRID_MAX_RANGES]);
+
+/* The query's 2x2x2 block of cells, the case of all but a few queries in a thousand (two
+ * cells per axis unless q's interval falls inside one cell). Its four rows of two cells
+ * are four pairs of consecutive buckets, row + x0 and row + x0 + 1: the block is four
+ * runs of the table, in increasing order of their first bucket (sorted by a network of
+ * five comparators in registers: the buckets are random, so an insertion sort's
+ * comparisons would mispredict about half the time). The runs are those the general path
+ * would give, in its order, unless two rows share or touch a bucket or a pair wraps
+ * around the table's end: then the general path takes the query and merges them. So does
+ * it when an axis has one cell or three. */
+static inline void vf_grid_cells_of(const vf_grid_lookup *lk, vf_vec3 q, vf_grid_cells *cells) {
+  if (lk->count == 0 || !vf_is_finite(q)) { /* no candidates: before any conversion of q */
+    vf_grid_cells_general(lk, q, cells);
+    return;
+  }
+  double r = lk->search_radius, ic = lk->inv_cell;
+  int64_t x0 = vf_grid_cell_coord(q.x - r, ic), x1 = vf_grid_cell_coord(q.x + r, ic);
+  int64_t y0 = vf_grid_cell_coord(q.y - r, ic), y1 = vf_grid_cell_coord(q.y + r, ic);
+  int64_t z0 = vf_grid_cell_coord(q.z - r, ic), z1 = vf_grid_cell_coord(q.z + r, ic);
+  if (x1 - x0 != 1 || y1 - y0 != 1 || z1 - z0 != 1) {
+    vf_grid_cells_general(lk, q, cells);
+    return;
+  }
+  uint32_t m = lk->mask;
+  uint32_t b0 = vf_grid_bucket(x0, vf_grid_row_hash(y0, z0), m), b1 = vf_grid_bucket(x0, vf_grid_row_hash(y1, z0), m),
+           b2 = vf_grid_bucket(x0, vf_grid_row_hash(y0, z1), m), b3 = vf_grid_bucket(x0, vf_grid_row_hash(y1, z1), m);
+  /* Queries are bound by these misses; a run's end is on its start's line but for one
+   * start in eight. */
+  __builtin_prefetch(&lk->cell_start[b0]);
+  __builtin_prefetch(&lk->cell_start[b1]);
+  __builtin_prefetch(&lk->cell_start[b2]);
+  __builtin_prefetch(&lk->cell_start[b3]);
+  uint32_t t;
+#define VF_GRID_ORDER(a, b) (t = a < b ? a : b, b = a < b ? b : a, a = t)
+  VF_GRID_ORDER(b0, b1), VF_GRID_ORDER(b2, b3);
+  VF_GRID_ORDER(b0, b2), VF_GRID_ORDER(b1, b3);
+  VF_GRID_ORDER(b1, b2);
+#undef VF_GRID_ORDER
+  if (b3 == m || b1 - b0 < 2 || b2 - b1 < 2 || b3 - b2 < 2) {
+    vf_grid_cells_general(lk, q, cells);
+    return;
+  }
+  cells->bucket[0] = b0;
+  cells->bucket[1] = b1;
+  cells->bucket[2] = b2;
+  cells->bucket[3] = b3;
+  cells->count = 4;
+  cells->span = 2;
+}
+
+/* The candidate ranges of cells (vf_grid_cells_of). A block's four runs are returned all
+ * four, empty or not: a branch on emptiness would mispredict, an empty range costs a
+ * caller nothing. */
+static inline int vf_grid_ranges_of(const vf_grid_lookup *lk, const vf_grid_cells *cells,
+                                    vf_index_range out[VF_HASHGRID_MAX_RANGES]) {
+  if (cells->span != 2) return vf_grid_ranges_general(lk, cells, out);
+  for (int k = 0; k < 4; k++) {
+    uint32_t b = cells->bucket[k];
+    out[k] = (vf_index_range){lk->cell_start[b], lk->cell_start[(size_t)b + 2]};
+  }
+  return 4;
+}
 
 /* The sorted point indices that candidate ranges refer to. */
 const uint32_t *vf_hashgrid_indices(const vf_hashgrid *grid);

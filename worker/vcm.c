@@ -854,15 +854,16 @@ static void run_merges(vf_vcm *v, int thread, float *tile_rgb) {
   if (n == 0) return; /* nothing queued: no merging, or no grid this iteration */
   const merge_query *q = ts->queries;
   const merge_point *points = v->merge_points;
+  const vf_grid_lookup *lookup = vf_hashgrid_lookup(v->grid);
   vf_grid_cells cells[RING];
   vf_index_range ranges[RING][VF_HASHGRID_MAX_RANGES];
   int num_ranges[RING], num_hits[RING];
   uint32_t hits[RING][MAX_HITS + 4];
   for (int i = 0; i < n + 3 * AHEAD; i++) {
     int a = i, b = i - AHEAD, c = i - 2 * AHEAD, d = i - 3 * AHEAD;
-    if (a < n) vf_hashgrid_cells(v->grid, q[a].position, &cells[a % RING]);
+    if (a < n) vf_grid_cells_of(lookup, q[a].position, &cells[a % RING]);
     if (b >= 0 && b < n) {
-      int m = num_ranges[b % RING] = vf_hashgrid_ranges(v->grid, &cells[b % RING], ranges[b % RING]);
+      int m = num_ranges[b % RING] = vf_grid_ranges_of(lookup, &cells[b % RING], ranges[b % RING]);
       for (int r = 0; r < m; r++) {
         /* The lines that find_hits reads first, then any of a longer range. */
         const char *p0 = (const char *)&points[ranges[b % RING][r].begin];
