@@ -180,6 +180,13 @@ static int render_direct(const render_options *o) {
   if ((err = write_preview(film, o)) != VF_OK) goto done;
   if (!o->quiet) {
     print_summary(film, st.seconds, &st.stats, st.iterations_done);
+    if (st.iterations_done >= 2 && st.seconds > st.first_seconds) {
+      /* The rate a long render settles at: the first iteration also pays for the first
+       * touches of the renderer's buffers (tens of thousands of page faults). */
+      double s = st.seconds - st.first_seconds;
+      fprintf(stderr, "after the first iteration: %.3f it/s, %.2f Mrays/s\n", (double)(st.iterations_done - 1) / s,
+              (double)(st.stats.rays - st.first_rays) / s * 1e-6);
+    }
     fprintf(stderr, "estimated RMSE %.4g", cp.last.estimated_rmse);
     if (o->reference) fprintf(stderr, ", RMSE %.4g against %s", cp.last.rmse, o->reference);
     fprintf(stderr, "%s\nwrote %s%s%s\n", cp.target_reached ? " (target reached)" : "", o->output,

@@ -106,6 +106,10 @@ int vf_render_range(vf_renderer *r, vf_film *film, uint64_t begin, uint64_t end,
     since_checkpoint = 1;
     double now = vf_seconds_now();
     st.seconds = now - start;
+    if (st.iterations_done == 1) {
+      st.first_seconds = st.seconds;
+      st.first_rays = st.stats.rays;
+    }
     if (control && control->checkpoint) {
       st.checkpoint_due = control->checkpoint_interval > 0.0 && now - last_checkpoint >= control->checkpoint_interval;
       int rc = control->checkpoint(control->ctx, film, &st);

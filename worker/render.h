@@ -23,6 +23,8 @@ typedef struct {
   uint64_t iterations_total; /* requested in this call (UINT64_MAX when open-ended) */
   double seconds;           /* wall time of this call so far */
   vf_vcm_stats stats;       /* of this call so far */
+  double first_seconds;     /* seconds and stats.rays when the call's first iteration ended: */
+  uint64_t first_rays;      /* the first pays for first touches of the renderer's buffers */
   int checkpoint_due;       /* for the checkpoint callback: a checkpoint is due (below) */
   int final;                /* for the checkpoint callback: the call after the last iteration */
 } vf_render_status;
