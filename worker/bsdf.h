@@ -121,7 +121,7 @@ static inline vf_vec3 vf_bsdf_evaluate(const vf_bsdf *b, vf_vec3 world_gen, floa
       const vf_vec3 fix = b->local_fix;
       float cos_a = vf_dot(vf_bsdf_reflect_local(fix), gen);
       if (cos_a > 0.0f) {
-        float lobe = powf(cos_a, n);
+        float lobe = vf_phong_power(cos_a, n);
         f = vf_add(f, vf_scale(b->material->glossy, (n + 2.0f) * (0.5f * VF_INV_PI) * lobe));
         float p = pg * (n + 1.0f) * (0.5f * VF_INV_PI) * lobe;
         dpdf += p;
