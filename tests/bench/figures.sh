@@ -42,7 +42,7 @@ step() { # name, command...
 
 cd "$root"
 # Renderer throughput (issue 2) and the raw Embree rate beside it.
-step 01-renderer bash tests/bench/renderer.sh "$build" cornell 8 5
+step 01-renderer bash tests/bench/renderer.sh "$build" cornell 12 5
 step 02-embree "$build/tests/bench_embree" cornell 2 4000000
 if command -v valgrind >/dev/null; then
   step 02b-instructions bash tests/bench/instructions.sh "$build"
