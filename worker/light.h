@@ -85,7 +85,6 @@ static inline const vf_light *vf_lights_pick(const vf_lights *ls, float u) {
   return &ls->lights[lo];
 }
 
-
 /* First index i with cdf[i + 1] > u, for a cdf of n + 1 entries from 0 to 1. */
 static inline int vf_cdf_search(const float *cdf, int n, float u) {
   int lo = 0, hi = n - 1;
