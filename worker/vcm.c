@@ -11,6 +11,7 @@
 #include "sampling.h"
 
 #include <emmintrin.h>
+#include <sys/mman.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -190,6 +191,21 @@ struct vf_vcm {
   float *camera_rgb, *light_rgb;
   thread_stats *stats;
 };
+
+/* An array that connections and merging read at random: on 2 MiB pages where the kernel
+ * has them (transparent huge pages, which Debian enables on request), so that its tens of
+ * megabytes need a few dozen TLB entries instead of thousands. Freed with free().
+ * Measured on cornell 512x512, vcm, alternating 4 rounds: camera pass 174.5-176.8 ->
+ * 171.6-173.3 ms, 2% more iterations per second. The grid's own arrays gained nothing. */
+#define HUGE_PAGE ((size_t)2 << 20)
+static void *huge_alloc(size_t size) {
+  size = (size + HUGE_PAGE - 1) / HUGE_PAGE * HUGE_PAGE; /* aligned_alloc: a multiple of the alignment */
+  void *p = aligned_alloc(HUGE_PAGE, size);
+#ifdef MADV_HUGEPAGE
+  if (p != NULL) madvise(p, size, MADV_HUGEPAGE); /* advice only: 4 KiB pages if refused */
+#endif
+  return p;
+}
 
 /* ---------------------------------------------------------------------------------------- */
 /* Ray queries and small helpers                                                             */
@@ -1089,11 +1105,11 @@ int vf_vcm_iteration(vf_vcm *v, uint64_t iteration, float *camera_rgb, float *li
   }
   if (total > UINT32_MAX) return vf_error_set(VF_ENOMEM, "more than 2^32 light vertices in one iteration");
   if (total > v->vertex_capacity) {
-    /* Aligned to the cache line, so that each vertex is one line (the old ones are copied
-     * again by the join). A little slack keeps a slowly growing count from reallocating
-     * every iteration. */
+    /* On huge pages, so aligned to the cache line too: each vertex is one line (the old
+     * ones are copied again by the join). A little slack keeps a slowly growing count from
+     * reallocating every iteration. */
     size_t capacity = total + total / 8 < UINT32_MAX ? (size_t)(total + total / 8) : UINT32_MAX;
-    light_vertex *p = aligned_alloc(64, capacity * sizeof *p);
+    light_vertex *p = huge_alloc(capacity * sizeof *p);
     if (p == NULL) return VF_ENOMEM;
     free(v->vertices);
     v->vertices = p;
@@ -1122,8 +1138,8 @@ int vf_vcm_iteration(vf_vcm *v, uint64_t iteration, float *camera_rgb, float *li
       size_t capacity = n + n / 8 < UINT32_MAX ? (size_t)(n + n / 8) : UINT32_MAX;
       free(v->photons);
       free(v->merge_points);
-      v->photons = aligned_alloc(64, (capacity * sizeof(photon) + 63) / 64 * 64);
-      v->merge_points = aligned_alloc(64, ((capacity + MERGE_POINT_PAD) * sizeof(merge_point) + 63) / 64 * 64);
+      v->photons = huge_alloc(capacity * sizeof(photon));
+      v->merge_points = huge_alloc((capacity + MERGE_POINT_PAD) * sizeof(merge_point));
       v->photon_capacity = v->photons && v->merge_points ? (uint32_t)capacity : 0;
       if (v->photon_capacity == 0) return VF_ENOMEM;
     }
