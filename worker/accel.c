@@ -207,9 +207,10 @@ int vf_accel_occluded(const vf_accel *a, vf_vec3 org, vf_vec3 dir, float tfar) {
 
 /* The packet functions for Embree's packets of W = 8 and 16 rays: the same code for both
  * widths, the types and calls named after W. Lanes past n are switched off but still
- * given a harmless ray. The fields that are the same for every ray are written in loops
- * of their own, which the compiler turns into vector stores; only origins, directions
- * and lengths are copied lane by lane. */
+ * given a harmless ray. PACKET_RAYS fills packet r and `valid` from the enclosing
+ * function's n, org and dir: the fields that are the same for every ray in loops of their
+ * own, which the compiler turns into vector stores, and only origins, directions and
+ * lengths lane by lane. */
 #define PACKET_RAYS(W, r, tfar_of)                                                                          \
   for (int i = 0; i < W; i++) {                                                                              \
     valid[i] = i < n ? -1 : 0;                                                                               \

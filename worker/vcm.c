@@ -10,8 +10,10 @@
 #include "mis.h"
 #include "sampling.h"
 
-#include <emmintrin.h>
 #include <sys/mman.h>
+#ifdef __SSE2__
+#include <emmintrin.h>
+#endif
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -755,6 +757,7 @@ static vf_vec3 merge_one(const vf_vcm *v, const merge_query *q, uint32_t k) {
   return vf_scale(vf_mul(f, ph->throughput), w);
 }
 
+#ifdef __SSE2__
 /* Which of the four merge points k .. k + 3 lie before `end`, within the radius of
  * (qx, qy, qz) and are at most `longest` segments long: bit i for point k + i. SSE2
  * (every x86-64 has it) turns the four points into one register per coordinate and tests
@@ -817,6 +820,25 @@ static int find_hits(const vf_vcm *v, const merge_query *q, const vf_index_range
   }
   return found;
 }
+
+#else
+/* find_hits one candidate at a time, for targets without SSE2: the same tests in the same
+ * order, so the same hits (the vector version's comment above says why it branches less). */
+static int find_hits(const vf_vcm *v, const merge_query *q, const vf_index_range *ranges, int n, uint32_t *hits,
+                     int max) {
+  uint32_t longest = (uint32_t)(v->settings.max_path_length - q->path_length); /* >= 1 */
+  int found = 0;
+  for (int r = 0; r < n; r++)
+    for (uint32_t k = ranges[r].begin; k < ranges[r].end; k++) {
+      const merge_point *mp = &v->merge_points[k];
+      float dx = mp->x - q->position.x, dy = mp->y - q->position.y, dz = mp->z - q->position.z;
+      hits[found < max ? found : max] = k;
+      found += (dx * dx + dy * dy + dz * dz <= v->radius_sq) &
+               ((mp->path_length_material & ((1u << VERTEX_LENGTH_BITS) - 1u)) <= longest);
+    }
+  return found;
+}
+#endif
 
 static vf_vec3 merge_all(const vf_vcm *v, const merge_query *q, const vf_index_range *ranges, int n) {
   vf_vec3 sum = vf_vec3_splat(0.0f);
