@@ -13,6 +13,9 @@
 
 #include <stddef.h>
 #include <stdint.h>
+#ifdef __SSE2__
+#include <emmintrin.h>
+#endif
 
 typedef struct vf_hashgrid vf_hashgrid;
 
@@ -83,11 +86,16 @@ static inline int64_t vf_grid_cell_coord(double v, double inv_cell) {
   return t - ((double)t > c);
 }
 
-static inline uint64_t vf_grid_row_hash(int64_t cy, int64_t cz) {
-  uint64_t h = (uint64_t)cy * 0x9e3779b97f4a7c15ULL ^ (uint64_t)cz * 0xc2b2ae3d27d4eb4fULL;
+#define VF_GRID_ROW_Y 0x9e3779b97f4a7c15ULL
+#define VF_GRID_ROW_Z 0xc2b2ae3d27d4eb4fULL
+static inline uint64_t vf_grid_row_mix(uint64_t h) {
   h ^= h >> 31;
   h *= 0xbf58476d1ce4e5b9ULL;
   return h ^ (h >> 29);
+}
+
+static inline uint64_t vf_grid_row_hash(int64_t cy, int64_t cz) {
+  return vf_grid_row_mix((uint64_t)cy * VF_GRID_ROW_Y ^ (uint64_t)cz * VF_GRID_ROW_Z);
 }
 
 static inline uint32_t vf_grid_bucket(int64_t cx, uint64_t row, uint32_t mask) {
@@ -109,12 +117,46 @@ int vf_grid_ranges_general(const vf_grid_lookup *lk, const vf_grid_cells *cells,
  * would give, in its order, unless two rows share or touch a bucket or a pair wraps
  * around the table's end: then the general path takes the query and merges them. So does
  * it when an axis has one cell or three. */
+#ifdef __SSE2__
+/* vf_grid_cell_coord of both doubles of c, as int32 in the two low lanes, for |c| < 2^30
+ * (no clamping then): truncation, then one step down where it went up, which is the floor
+ * exactly, as there. */
+static inline __m128i vf_grid_floor2(__m128d c) {
+  __m128i t = _mm_cvttpd_epi32(c);
+  __m128d up = _mm_cmpgt_pd(_mm_cvtepi32_pd(t), c);
+  return _mm_add_epi32(t, _mm_shuffle_epi32(_mm_castpd_si128(up), _MM_SHUFFLE(3, 3, 2, 0)));
+}
+#endif
+
 static inline void vf_grid_cells_of(const vf_grid_lookup *lk, vf_vec3 q, vf_grid_cells *cells) {
   if (lk->count == 0 || !vf_is_finite(q)) { /* no candidates: before any conversion of q */
     vf_grid_cells_general(lk, q, cells);
     return;
   }
   double r = lk->search_radius, ic = lk->inv_cell;
+#ifdef __SSE2__
+  /* The six cell coordinates two at a time, with the same double operations as
+   * vf_grid_cell_coord (q.z + -r is q.z - r exactly); cells beyond 2^30 go the general way. */
+  __m128d radius = _mm_set1_pd(r), inv = _mm_set1_pd(ic), qxy = _mm_setr_pd(q.x, q.y);
+  __m128d lo = _mm_mul_pd(_mm_sub_pd(qxy, radius), inv), hi = _mm_mul_pd(_mm_add_pd(qxy, radius), inv);
+  __m128d zs = _mm_mul_pd(_mm_add_pd(_mm_set1_pd(q.z), _mm_setr_pd(-r, r)), inv);
+  __m128d magnitude = _mm_castsi128_pd(_mm_set1_epi64x(INT64_MAX)), limit = _mm_set1_pd(0x1p30);
+  __m128d small = _mm_and_pd(_mm_cmplt_pd(_mm_and_pd(lo, magnitude), limit),
+                             _mm_cmplt_pd(_mm_and_pd(hi, magnitude), limit));
+  small = _mm_and_pd(small, _mm_cmplt_pd(_mm_and_pd(zs, magnitude), limit));
+  if (_mm_movemask_pd(small) != 3) {
+    vf_grid_cells_general(lk, q, cells);
+    return;
+  }
+  __m128i first = vf_grid_floor2(lo), last = vf_grid_floor2(hi), z = vf_grid_floor2(zs); /* x0 y0, x1 y1, z0 z1 */
+  __m128i span = _mm_sub_epi32(_mm_unpacklo_epi64(last, _mm_shuffle_epi32(z, 1)), _mm_unpacklo_epi64(first, z));
+  if ((_mm_movemask_ps(_mm_castsi128_ps(_mm_cmpeq_epi32(span, _mm_set1_epi32(1)))) & 7) != 7) {
+    vf_grid_cells_general(lk, q, cells);
+    return;
+  }
+  int64_t x0 = _mm_cvtsi128_si32(first), y0 = _mm_cvtsi128_si32(_mm_shuffle_epi32(first, 1));
+  int64_t z0 = _mm_cvtsi128_si32(z);
+#else
   int64_t x0 = vf_grid_cell_coord(q.x - r, ic), x1 = vf_grid_cell_coord(q.x + r, ic);
   int64_t y0 = vf_grid_cell_coord(q.y - r, ic), y1 = vf_grid_cell_coord(q.y + r, ic);
   int64_t z0 = vf_grid_cell_coord(q.z - r, ic), z1 = vf_grid_cell_coord(q.z + r, ic);
@@ -122,9 +164,14 @@ static inline void vf_grid_cells_of(const vf_grid_lookup *lk, vf_vec3 q, vf_grid
     vf_grid_cells_general(lk, q, cells);
     return;
   }
+#endif
+  /* The rows' hashes: y1 = y0 + 1 and z1 = z0 + 1, so their products are one addition away
+   * from y0's and z0's (modulo 2^64, as vf_grid_row_hash computes them). */
+  uint64_t y0p = (uint64_t)y0 * VF_GRID_ROW_Y, y1p = y0p + VF_GRID_ROW_Y;
+  uint64_t z0p = (uint64_t)z0 * VF_GRID_ROW_Z, z1p = z0p + VF_GRID_ROW_Z;
   uint32_t m = lk->mask;
-  uint32_t b0 = vf_grid_bucket(x0, vf_grid_row_hash(y0, z0), m), b1 = vf_grid_bucket(x0, vf_grid_row_hash(y1, z0), m),
-           b2 = vf_grid_bucket(x0, vf_grid_row_hash(y0, z1), m), b3 = vf_grid_bucket(x0, vf_grid_row_hash(y1, z1), m);
+  uint32_t b0 = vf_grid_bucket(x0, vf_grid_row_mix(y0p ^ z0p), m), b1 = vf_grid_bucket(x0, vf_grid_row_mix(y1p ^ z0p), m),
+           b2 = vf_grid_bucket(x0, vf_grid_row_mix(y0p ^ z1p), m), b3 = vf_grid_bucket(x0, vf_grid_row_mix(y1p ^ z1p), m);
   /* Queries are bound by these misses; a run's end is on its start's line but for one
    * start in eight. */
   __builtin_prefetch(&lk->cell_start[b0]);

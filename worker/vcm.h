@@ -53,6 +53,12 @@ vf_algorithm vf_vcm_algorithm(const vf_vcm *vcm);
 
 double vf_vcm_merge_radius(const vf_vcm *vcm, uint64_t iteration);
 
+/* Merging tests its candidates with AVX-512 where the CPU has it, else with SSE2; both give
+ * the same hits in the same order. vf_vcm_limit_simd(vcm) makes merging use SSE2 on any
+ * machine, so that tests can compare the two; vf_vcm_merge_simd names the one in use. */
+void vf_vcm_limit_simd(vf_vcm *vcm);
+const char *vf_vcm_merge_simd(const vf_vcm *vcm);
+
 /* Prints which techniques and scene features are enabled and which work is skipped. */
 void vf_vcm_describe(const vf_vcm *vcm, FILE *out);
 
