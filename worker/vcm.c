@@ -362,17 +362,25 @@ static void splat_if_visible(vf_vcm *v, int thread, light_chunk *c, uint32_t pat
   if (pk->n == VF_ACCEL_PACKET) resolve_splats(v, thread, c);
 }
 
-/* Camera's area density of generating point p (normal n) seen along -dir_to_camera, and the
- * raster pixel; 0 when p is behind the camera or outside the image. */
-static float camera_pdf_a(const vf_vcm *v, vf_vec3 p, vf_vec3 dir_to_camera, float dist, float cos_at_p,
-                          uint32_t *pixel) {
+/* Projects point p, seen along -dir_to_camera, onto the image: its raster pixel and the
+ * camera's density of that direction per unit of image area (in solid angle); 0 when p is
+ * behind the camera or outside the image. Checked before anything is evaluated at p: a
+ * good part of the light vertices lie outside the view. */
+static int camera_project(const vf_vcm *v, vf_vec3 p, vf_vec3 dir_to_camera, uint32_t *pixel,
+                          float *image_to_solid_angle) {
   float x, y;
-  if (!vf_camera_raster(&v->camera, p, &x, &y)) return 0.0f;
+  if (!vf_camera_raster(&v->camera, p, &x, &y)) return 0;
   float cos_at_camera = -vf_dot(v->camera.forward, dir_to_camera);
-  if (!(cos_at_camera > 0.0f)) return 0.0f;
+  if (!(cos_at_camera > 0.0f)) return 0;
   *pixel = (uint32_t)y * (uint32_t)v->camera.width + (uint32_t)x;
   float image_to_camera = v->camera.image_plane_distance / cos_at_camera;
-  float image_to_solid_angle = image_to_camera * image_to_camera / cos_at_camera;
+  *image_to_solid_angle = image_to_camera * image_to_camera / cos_at_camera;
+  return 1;
+}
+
+/* The camera's area density of generating a point at distance dist with |cos| cos_at_p,
+ * from camera_project's image_to_solid_angle. */
+static float camera_pdf_a(float image_to_solid_angle, float dist, float cos_at_p) {
   return image_to_solid_angle * cos_at_p / (dist * dist);
 }
 
@@ -383,11 +391,13 @@ static void connect_to_camera(vf_vcm *v, int thread, light_chunk *c, uint32_t pa
   float dist = vf_length(to_camera);
   if (!(dist > 0.0f)) return;
   to_camera = vf_scale(to_camera, 1.0f / dist);
+  uint32_t pixel;
+  float image_to_solid_angle;
+  if (!camera_project(v, hit->position, to_camera, &pixel, &image_to_solid_angle)) return;
   float cos_to_camera, dir_pdf, rev_pdf;
   vf_vec3 f = vf_bsdf_evaluate(b, to_camera, &cos_to_camera, &dir_pdf, &rev_pdf);
   if (vf_is_zero(f)) return;
-  uint32_t pixel;
-  float pdf_a = camera_pdf_a(v, hit->position, to_camera, dist, cos_to_camera, &pixel);
+  float pdf_a = camera_pdf_a(image_to_solid_angle, dist, cos_to_camera);
   if (!(pdf_a > 0.0f)) return;
   float w = v->t.lt ? 1.0f : vf_mis_weight_camera_connection(&s->mis, &v->mis, pdf_a, rev_pdf);
   /* Importance of the pinhole camera over the light sub-path density n_light. */
@@ -407,7 +417,9 @@ static void connect_emitter_to_camera(vf_vcm *v, int thread, light_chunk *c, uin
   float cos_out = vf_dot(n, to_camera);
   if (!(cos_out > 0.0f)) return;
   uint32_t pixel;
-  float pdf_a = camera_pdf_a(v, p, to_camera, dist, cos_out, &pixel);
+  float image_to_solid_angle;
+  if (!camera_project(v, p, to_camera, &pixel, &image_to_solid_angle)) return;
+  float pdf_a = camera_pdf_a(image_to_solid_angle, dist, cos_out);
   if (!(pdf_a > 0.0f)) return;
   vf_vec3 contrib = vf_scale(l->radiance, pdf_a / (v->mis.light_paths * pick_and_area_pdf));
   splat_if_visible(v, thread, c, path, pixel, contrib, p, n);
