@@ -1043,12 +1043,13 @@ typedef struct {
   light_bsdf_cache cache; /* of the light sub-path this camera sub-path connects to */
 } camera_lane;
 
-static void camera_start(vf_vcm *v, camera_lane *lane, uint32_t pixel, uint32_t tile_pixel) {
+/* Starts the camera sub-path of pixel (px, py), the tile's pixel tile_pixel. */
+static void camera_start(vf_vcm *v, camera_lane *lane, uint32_t px, uint32_t py, uint32_t tile_pixel) {
+  uint32_t pixel = py * (uint32_t)v->camera.width + px;
   lane->pixel = pixel;
   lane->tile_pixel = tile_pixel;
   lane->cache.ready = 0;
   lane->rng = vf_rng_for_path(v->settings.seed, v->iteration, pixel, VF_STREAM_CAMERA);
-  uint32_t px = pixel % (uint32_t)v->camera.width, py = pixel / (uint32_t)v->camera.width;
   float jx = vf_rng_float(&lane->rng), jy = vf_rng_float(&lane->rng);
   path_state *s = &lane->s;
   s->origin = v->camera.position;
@@ -1117,16 +1118,21 @@ static int camera_bounce(vf_vcm *v, int thread, camera_lane *lane, const vf_hit 
 
 /* Traces the camera sub-paths of the tile's pixels (tile_pixel = row * tw + column). */
 static void trace_camera_tile(vf_vcm *v, int thread, uint32_t x0, uint32_t y0, uint32_t tw, uint32_t pixels) {
-  uint32_t width = (uint32_t)v->camera.width;
   camera_lane lanes[VF_ACCEL_PACKET];
   path_state *states[VF_ACCEL_PACKET];
-  uint32_t next = 0, active = 0;
+  /* The next pixel to start: tile_pixel next, at column tx and row ty of the tile (kept
+   * apart so that no pixel costs a division). */
+  uint32_t next = 0, tx = 0, ty = 0, active = 0;
+#define START_NEXT_PIXEL(lane)                                \
+  do {                                                        \
+    camera_start(v, (lane), x0 + tx, y0 + ty, next++);        \
+    if (++tx == tw) tx = 0, ty++;                             \
+  } while (0)
   for (int i = 0; i < VF_ACCEL_PACKET; i++) {
     states[i] = &lanes[i].s;
     if (next < pixels) {
-      camera_start(v, &lanes[i], (y0 + next / tw) * width + x0 + next % tw, next);
+      START_NEXT_PIXEL(&lanes[i]);
       active |= 1u << i;
-      next++;
     }
   }
   while (active) {
@@ -1136,14 +1142,13 @@ static void trace_camera_tile(vf_vcm *v, int thread, uint32_t x0, uint32_t y0, u
     for (int k = 0; k < m; k++) {
       int i = lane_of[k];
       if (camera_bounce(v, thread, &lanes[i], (found >> k & 1u) ? &hits[k] : NULL)) continue;
-      if (next < pixels) {
-        camera_start(v, &lanes[i], (y0 + next / tw) * width + x0 + next % tw, next);
-        next++;
-      } else {
+      if (next < pixels)
+        START_NEXT_PIXEL(&lanes[i]);
+      else
         active &= ~(1u << i);
-      }
     }
   }
+#undef START_NEXT_PIXEL
 }
 
 static void camera_task(void *ctx, size_t task, int thread) {
