@@ -442,6 +442,54 @@ static void test_result_independent_of_thread_count(void) {
   free(pts.p);
 }
 
+/* Points in several arrays (as the renderer keeps its light vertices, one list per chunk of
+ * sub-paths, some lists empty) give the grid of the same points in one array: the same
+ * runs, the points in the same order, each named by its segment's index_base plus its
+ * place in the segment. Segments cross the build's 8192-point tasks and one holds a
+ * non-finite point. */
+static void test_segments_build_the_grid_of_their_concatenation(void) {
+  point_set pts = make_clustered(30000, 5, 0.02f, 12);
+  pts.p[12345].x = NAN;
+  const uint32_t counts[] = {0, 7000, 1, 0, 9000, 8191, 5808};
+  enum { SEGMENTS = sizeof counts / sizeof *counts };
+  vf_grid_segment segments[SEGMENTS];
+  uint32_t start[SEGMENTS + 1] = {0};
+  for (int k = 0; k < SEGMENTS; k++) {
+    start[k + 1] = start[k] + counts[k];
+    segments[k] = (vf_grid_segment){pts.p + start[k], counts[k], (uint32_t)k << 20};
+  }
+  CHECK_INT_EQ(start[SEGMENTS], pts.n);
+  vf_hashgrid *whole = NULL, *split = NULL;
+  vf_hashgrid_create(&whole);
+  vf_hashgrid_create(&split);
+  CHECK_INT_EQ(vf_hashgrid_build(whole, pts.p, sizeof(vf_vec3), pts.n, 0.004f, pool2), VF_OK);
+  CHECK_INT_EQ(vf_hashgrid_build_segments(split, segments, SEGMENTS, sizeof(vf_vec3), 0.004f, pool2), VF_OK);
+  uint32_t n = vf_hashgrid_count(whole);
+  CHECK_INT_EQ(n, pts.n - 1);
+  CHECK_INT_EQ(vf_hashgrid_count(split), n);
+  const vf_grid_lookup *a = vf_hashgrid_lookup(whole), *b = vf_hashgrid_lookup(split);
+  CHECK_INT_EQ(a->mask, b->mask);
+  CHECK(a->mask == b->mask && !memcmp(a->cell_start, b->cell_start, ((size_t)a->mask + 2) * sizeof(uint32_t)));
+  const vf_grid_point *pa = vf_hashgrid_points(whole), *pb = vf_hashgrid_points(split);
+  const uint32_t *ia = vf_hashgrid_indices(whole), *ib = vf_hashgrid_indices(split);
+  uint32_t mismatches = 0;
+  for (uint32_t k = 0; k < n; k++) {
+    uint32_t i = ia[k], seg = 0;
+    while (start[seg + 1] <= i) seg++;
+    uint32_t renamed = ((uint32_t)seg << 20) + (i - start[seg]);
+    mismatches += ib[k] != renamed || pb[k].index != renamed || pa[k].x != pb[k].x || pa[k].y != pb[k].y ||
+                  pa[k].z != pb[k].z;
+  }
+  CHECK_INT_EQ(mismatches, 0);
+  /* Indices past 2^32 are refused. */
+  vf_grid_segment too_far = {pts.p, 2, UINT32_MAX};
+  CHECK_INT_EQ(vf_hashgrid_build_segments(split, &too_far, 1, sizeof(vf_vec3), 0.004f, pool2), VF_EINVAL);
+  CHECK_INT_EQ(vf_hashgrid_count(split), 0);
+  vf_hashgrid_destroy(whole);
+  vf_hashgrid_destroy(split);
+  free(pts.p);
+}
+
 /* Buffers only grow: a small build after a large one must not see stale entries. */
 static void test_rebuilds_reuse_memory(void) {
   vf_hashgrid *grid = NULL;
@@ -612,6 +660,7 @@ int main(int argc, char **argv) {
     RUN(test_nonfinite_points_are_skipped);
     RUN(test_strides_other_than_vec3);
     RUN(test_result_independent_of_thread_count);
+    RUN(test_segments_build_the_grid_of_their_concatenation);
     RUN(test_rebuilds_reuse_memory);
     RUN(test_invalid_arguments_leave_an_empty_grid);
     status = check_finish();

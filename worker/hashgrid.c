@@ -77,7 +77,8 @@ struct vf_hashgrid {
   unsigned low_bits;    /* bucket bits below the group */
   uint32_t points;      /* n of the build, finite or not */
   uint32_t chunks, groups;
-  const unsigned char *base;
+  const vf_grid_segment *segments; /* the input: borrowed for the build */
+  uint32_t num_segments;
   size_t stride;
 
   /* Owned, grow-only buffers; *_cap counts elements. */
@@ -85,6 +86,9 @@ struct vf_hashgrid {
   grid_point *scattered;  /* phase 3 output, grouped */
   uint32_t *scattered_index;
   uint32_t *indices;      /* sorted point indices, count of them */
+  uint32_t *input_index;  /* phase 1: each input point's index (segment's index_base + i) */
+  uint32_t *segment_start; /* num_segments + 1: where each segment's points begin in input order */
+  size_t segment_cap;
   size_t points_cap;
   uint32_t *cell_start;   /* mask + 2 entries */
   size_t table_cap;
@@ -153,6 +157,8 @@ void vf_hashgrid_destroy(vf_hashgrid *g) {
   free(g->scattered);
   free(g->scattered_index);
   free(g->indices);
+  free(g->input_index);
+  free(g->segment_start);
   free(g->cell_start);
   free(g->chunk_offset);
   free(g->group_start);
@@ -174,22 +180,41 @@ static void chunk_range(const vf_hashgrid *g, size_t chunk, uint32_t *begin, uin
   *end = g->points - *begin < CHUNK ? g->points : *begin + CHUNK;
 }
 
-/* Phase 1: compact positions, buckets, and this chunk's histogram of groups. */
+/* The segment holding input point i: the last whose start is <= i (segments may be empty). */
+static uint32_t segment_of(const vf_hashgrid *g, uint32_t i) {
+  uint32_t lo = 0, hi = g->num_segments - 1;
+  while (lo < hi) {
+    uint32_t mid = lo + (hi - lo + 1) / 2;
+    if (g->segment_start[mid] <= i) lo = mid;
+    else hi = mid - 1;
+  }
+  return lo;
+}
+
+/* Phase 1: compact positions, buckets, input indices, and this chunk's histogram of groups. */
 static void key_chunk(void *ctx, size_t chunk, int thread) {
   vf_hashgrid *g = ctx;
   uint32_t *hist = g->chunk_offset + chunk * g->groups;
   memset(hist, 0, g->groups * sizeof *hist);
   uint32_t begin, end;
   chunk_range(g, chunk, &begin, &end);
-  for (uint32_t i = begin; i < end; i++) {
-    vf_vec3 p;
-    memcpy(&p, g->base + (size_t)i * g->stride, sizeof p); /* records need not be aligned */
-    uint32_t key = SKIPPED;
-    if (vf_is_finite(p)) {
-      key = point_bucket(g, p);
-      hist[key >> g->low_bits]++;
+  uint32_t s = segment_of(g, begin);
+  for (uint32_t i = begin; i < end;) {
+    while (g->segment_start[s + 1] <= i) s++; /* past the segment's end (or an empty one) */
+    const vf_grid_segment *seg = &g->segments[s];
+    uint32_t first = g->segment_start[s], stop = g->segment_start[s + 1] < end ? g->segment_start[s + 1] : end;
+    const unsigned char *base = seg->base;
+    for (; i < stop; i++) {
+      vf_vec3 p;
+      memcpy(&p, base + (size_t)(i - first) * g->stride, sizeof p); /* records need not be aligned */
+      uint32_t key = SKIPPED;
+      if (vf_is_finite(p)) {
+        key = point_bucket(g, p);
+        hist[key >> g->low_bits]++;
+      }
+      g->keyed[i] = (grid_point){p.x, p.y, p.z, key};
+      g->input_index[i] = seg->index_base + (i - first);
     }
-    g->keyed[i] = (grid_point){p.x, p.y, p.z, key};
   }
 }
 
@@ -204,7 +229,7 @@ static void scatter_chunk(void *ctx, size_t chunk, int thread) {
     if (p.index == SKIPPED) continue;
     uint32_t at = offset[p.index >> g->low_bits]++;
     g->scattered[at] = p;
-    g->scattered_index[at] = i;
+    g->scattered_index[at] = g->input_index[i];
   }
 }
 
@@ -245,12 +270,30 @@ static unsigned ceil_log2(uint32_t n) {
 
 int vf_hashgrid_build(vf_hashgrid *g, const void *base, size_t stride, uint32_t n, float radius,
                       vf_pool *pool) {
+  vf_grid_segment all = {base, n, 0};
+  return vf_hashgrid_build_segments(g, &all, 1, stride, radius, pool);
+}
+
+int vf_hashgrid_build_segments(vf_hashgrid *g, const vf_grid_segment *segments, uint32_t num_segments,
+                               size_t stride, float radius, vf_pool *pool) {
   if (g == NULL) return vf_error_set(VF_EINVAL, "hash grid: NULL grid");
   g->lk.count = 0; /* an empty grid on failure */
   g->points = 0;
   if (!(radius >= 0.0f) || !isfinite(radius))
     return vf_error_set(VF_EINVAL, "hash grid: radius %g is not a finite number >= 0", radius);
-  if (n > 0 && base == NULL) return vf_error_set(VF_EINVAL, "hash grid: NULL points for n = %u", n);
+  if (num_segments > 0 && segments == NULL) return vf_error_set(VF_EINVAL, "hash grid: NULL segments");
+  uint64_t total = 0;
+  for (uint32_t k = 0; k < num_segments; k++) {
+    const vf_grid_segment *seg = &segments[k];
+    if (seg->count > 0 && seg->base == NULL)
+      return vf_error_set(VF_EINVAL, "hash grid: NULL points for n = %u (segment %u)", seg->count, k);
+    if ((uint64_t)seg->index_base + seg->count - (seg->count > 0) > UINT32_MAX)
+      return vf_error_set(VF_EINVAL, "hash grid: segment %u's indices pass 2^32", k);
+    total += seg->count;
+  }
+  if (total > UINT32_MAX) return vf_error_set(VF_EINVAL, "hash grid: %llu points, more than 2^32 - 1",
+                                              (unsigned long long)total);
+  uint32_t n = (uint32_t)total;
   if (n > 0 && stride < sizeof(vf_vec3))
     return vf_error_set(VF_EINVAL, "hash grid: stride %zu is less than a vf_vec3", stride);
 
@@ -266,7 +309,8 @@ int vf_hashgrid_build(vf_hashgrid *g, const void *base, size_t stride, uint32_t 
   g->lk.mask = (uint32_t)(((uint64_t)1 << table_bits) - 1);
   g->groups = (uint32_t)1 << group_bits;
   g->chunks = (uint32_t)(((uint64_t)n + CHUNK - 1) / CHUNK);
-  g->base = base;
+  g->segments = segments;
+  g->num_segments = num_segments;
   g->stride = stride;
   if (n == 0) return VF_OK;
 
@@ -280,19 +324,26 @@ int vf_hashgrid_build(vf_hashgrid *g, const void *base, size_t stride, uint32_t 
       (err = grow((void **)&g->scattered, g->points_cap, points_cap, sizeof *g->scattered)) < 0 ||
       (err = grow((void **)&g->scattered_index, g->points_cap, points_cap, sizeof *g->scattered_index)) < 0 ||
       (err = grow((void **)&g->indices, g->points_cap, points_cap, sizeof *g->indices)) < 0 ||
+      (err = grow((void **)&g->input_index, g->points_cap, points_cap, sizeof *g->input_index)) < 0 ||
+      (err = grow((void **)&g->segment_start, g->segment_cap, grown(g->segment_cap, (size_t)num_segments + 1),
+                  sizeof *g->segment_start)) < 0 ||
       (err = grow((void **)&g->cell_start, g->table_cap, table_cap, sizeof *g->cell_start)) < 0 ||
       (err = grow((void **)&g->chunk_offset, g->chunk_offset_cap, chunk_offset_cap, sizeof *g->chunk_offset)) < 0 ||
       (err = grow((void **)&g->group_start, g->group_cap, group_cap, sizeof *g->group_start)) < 0)
     return err;
   g->points_cap = points_cap;
+  g->segment_cap = grown(g->segment_cap, (size_t)num_segments + 1);
   g->table_cap = table_cap;
   g->chunk_offset_cap = chunk_offset_cap;
   g->group_cap = group_cap;
 
   g->lk.cell_start = g->cell_start;
 
+  g->segment_start[0] = 0;
+  for (uint32_t k = 0; k < num_segments; k++) g->segment_start[k + 1] = g->segment_start[k] + segments[k].count;
   g->points = n;
   run_tasks(pool, g->chunks, key_chunk, g);
+  g->segments = NULL; /* borrowed for the build only */
 
   /* Phase 2, serial: ~n / 8 additions. */
   uint32_t sum = 0;

@@ -44,6 +44,20 @@ void vf_hashgrid_destroy(vf_hashgrid *grid);
 int vf_hashgrid_build(vf_hashgrid *grid, const void *base, size_t stride, uint32_t n, float radius,
                       vf_pool *pool);
 
+/* Points kept in several arrays: segment k holds count points at base + i * stride, which
+ * the grid names index_base + i (these names must fit in 32 bits). The grid is that of the
+ * segments' points one after the other in a single array (the same sorted order, the same
+ * runs), but with these indices: a caller can keep its points where they were made
+ * instead of copying them together. */
+typedef struct {
+  const void *base;
+  uint32_t count;
+  uint32_t index_base;
+} vf_grid_segment;
+
+int vf_hashgrid_build_segments(vf_hashgrid *grid, const vf_grid_segment *segments, uint32_t num_segments,
+                               size_t stride, float radius, vf_pool *pool);
+
 /* The candidate ranges for a query at q: every point within the radius of q lies in one
  * of them (others may too: callers test the distance). Returns the number of ranges
  * written to out (<= VF_HASHGRID_MAX_RANGES), some of which may be empty. */

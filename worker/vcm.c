@@ -21,10 +21,13 @@
 #include <stdlib.h>
 #include <string.h>
 
-/* Light sub-paths are traced in fixed chunks, each writing its own vertex and splat lists;
- * the lists are then joined in chunk order. Results therefore do not depend on which
- * thread traced which chunk. */
+/* Light sub-paths are traced in fixed chunks, each writing its own vertex and splat lists,
+ * which are then read in chunk order. Results therefore do not depend on which thread
+ * traced which chunk. */
 #define LIGHT_CHUNK 1024u
+/* Light sub-paths end out of order but are stored in path order (light_retire): a path
+ * that ends before an older one waits in a ring of this many slots, one per path. */
+#define RETIRE_RING 256u
 /* Camera sub-paths are traced in square tiles: neighbouring pixels query neighbouring grid
  * cells at their first hit, so a tile reuses what its previous rows brought into cache. */
 #define CAMERA_TILE 32u
@@ -34,7 +37,7 @@
 /* A stored light vertex: one cache line. Its BSDF is not stored but set up again from
  * material, normal and fix when a connection needs it (vf_bsdf_setup is a pure function
  * of them, so it is the BSDF the light sub-path had): rebuilding a frame costs less than
- * moving twice the bytes through the light pass, the join and the gather. */
+ * moving twice the bytes through the light pass and the gather. */
 typedef struct {
   vf_vec3 position; /* first: the hash grid reads it at offset 0 */
   vf_vec3 throughput;
@@ -78,16 +81,16 @@ typedef struct {
   uint32_t path; /* the light sub-path's index within its chunk */
 } splat;
 
-/* Light sub-paths finish out of order (wavefront, below): a chunk's lists hold each path's
- * vertices together but the paths in the order they finished; the join puts them in path
- * order and the splats are sorted back into it, so that every list is what tracing the
- * paths one by one would give. */
+/* Light sub-paths finish out of order (wavefront, below). A chunk's vertex list holds them
+ * in path order all the same (light_retire), and the splats are sorted back into it, so
+ * that every list is what tracing the paths one by one would give. Connections read the
+ * vertices of their pixel's path from this list, and the grid is built over the lists of
+ * all chunks where they are (vf_hashgrid_build_segments): nothing copies them together. */
 typedef struct {
   light_vertex *vertices;
   uint32_t num_vertices, vertex_capacity;
   splat *splats, *sorted_splats; /* sorted_splats: room to sort into, splat_capacity */
   uint32_t num_splats, splat_capacity;
-  uint32_t offset; /* of the chunk's first vertex in the joined list */
   int out_of_memory;
 } light_chunk;
 
@@ -158,7 +161,9 @@ typedef struct {
   deferred pending[DEFERRED_MAX];
   int num_pending;
   float *tile_rgb; /* the camera tile being traced, where pending contributions go */
-  light_vertex *lane_vertices; /* the light pass's lanes' paths, lane_capacity each, owned */
+  light_vertex *ring_vertices; /* the light pass's retire ring: RETIRE_RING slots of lane_capacity, owned */
+  uint32_t ring_count[RETIRE_RING]; /* vertices of the path in each slot, once it has ended */
+  unsigned char ring_done[RETIRE_RING];
   char pad[32]; /* keep each thread's counters on their own cache line */
 } thread_stats;
 
@@ -186,12 +191,13 @@ struct vf_vcm {
   vf_mis_config mis;
   light_chunk *chunks;
   uint32_t num_chunks;
-  light_vertex *vertices; /* all chunks joined, in sub-path order (for connections) */
-  uint32_t num_vertices, vertex_capacity;
+  uint32_t num_vertices;     /* in all chunks */
+  vf_grid_segment *segments; /* the chunks' vertex lists, for the grid: num_chunks of them */
+  unsigned chunk_shift;      /* the grid names vertex i of chunk c (c << chunk_shift) + i */
   merge_point *merge_points; /* the same in the grid's order (for merging), or NULL */
   photon *photons;
   uint32_t photon_capacity;
-  uint32_t *path_begin, *path_end; /* per light sub-path, into vertices */
+  uint32_t *path_begin, *path_end; /* per light sub-path, into its chunk's vertices */
   vf_hashgrid *grid;
   int merge_avx512; /* the CPU runs AVX-512 F and VL: merging tests eight candidates at once */
   float *camera_rgb, *light_rgb;
@@ -429,13 +435,14 @@ static void connect_emitter_to_camera(vf_vcm *v, int thread, light_chunk *c, uin
  * wavefront: each step sends the rays of all lanes to Embree as one packet (8 unrelated
  * rays in one packet are traced ~1.3 times faster than single rays on cornell), then
  * continues each lane's path; a lane whose path ends starts the chunk's next path. A
- * path's vertices stay in its lane until it ends, so that they are stored together. */
+ * path's vertices are written to its slot of the retire ring, where they wait until every
+ * older path of the chunk has been stored. */
 typedef struct {
   path_state s;
   vf_rng rng;
   uint32_t path;          /* global index */
   uint32_t num_vertices;
-  light_vertex *vertices; /* thread_stats.lane_vertices: room for the longest path */
+  light_vertex *vertices; /* the path's slot of the retire ring: room for the longest path */
 } light_lane;
 
 /* Closest hits of the m rays: one packet, or single rays when too few to fill one. Both
@@ -517,23 +524,44 @@ static int light_bounce(vf_vcm *v, int thread, light_chunk *c, light_lane *lane,
   return scatter(v, &b, hit, s, &lane->rng, 0);
 }
 
-/* The lane's path has ended: its vertices join the chunk's list, its range recorded
- * (chunk-relative until joined). */
-static void light_retire(vf_vcm *v, light_chunk *c, const light_lane *lane) {
-  v->path_begin[lane->path] = c->num_vertices;
-  if (lane->num_vertices > 0 && !append_vertices(c, lane->vertices, lane->num_vertices)) c->out_of_memory = 1;
-  v->path_end[lane->path] = c->num_vertices;
+/* The ring slot of light sub-path `path`. */
+static light_vertex *ring_slot(const vf_vcm *v, int thread, uint32_t path) {
+  return v->stats[thread].ring_vertices + (size_t)(path % RETIRE_RING) * v->lane_capacity;
 }
 
-/* Gives lane i the chunk's next path that has a ray to trace; returns 0 when none is left. */
-static int light_refill(vf_vcm *v, int thread, light_chunk *c, light_lane *lane, uint32_t *next, uint32_t begin,
-                        uint32_t end) {
-  while (*next < end) {
+/* The lane's path has ended, its vertices in its ring slot. Every ended path at the head
+ * of the ring, from *oldest (the chunk's oldest path not yet stored) up to `next` (the
+ * next to start), then goes to the chunk's list in path order, its range recorded: a
+ * chunk's list is in path order, as connections want it (a camera tile reads the light
+ * paths of its pixels, which are neighbours in the list only in path order), without a
+ * pass that would sort it afterwards. */
+static void light_retire(vf_vcm *v, int thread, light_chunk *c, const light_lane *lane, uint32_t *oldest,
+                         uint32_t next) {
+  thread_stats *ts = &v->stats[thread];
+  uint32_t slot = lane->path % RETIRE_RING;
+  ts->ring_count[slot] = lane->num_vertices;
+  ts->ring_done[slot] = 1;
+  while (*oldest < next && ts->ring_done[*oldest % RETIRE_RING]) {
+    uint32_t p = (*oldest)++, n = ts->ring_count[p % RETIRE_RING];
+    ts->ring_done[p % RETIRE_RING] = 0;
+    v->path_begin[p] = c->num_vertices;
+    if (n > 0 && !append_vertices(c, ring_slot(v, thread, p), n)) c->out_of_memory = 1;
+    v->path_end[p] = c->num_vertices;
+  }
+}
+
+/* Gives the lane the chunk's next path that has a ray to trace; returns 0 when none is
+ * left, or when the ring is full (the oldest path still in flight): the caller tries again
+ * after the next step. */
+static int light_refill(vf_vcm *v, int thread, light_chunk *c, light_lane *lane, uint32_t *next, uint32_t *oldest,
+                        uint32_t begin, uint32_t end) {
+  while (*next < end && *next - *oldest < RETIRE_RING) {
     uint32_t path = (*next)++;
+    lane->vertices = ring_slot(v, thread, path);
     if (v->t.light_paths && light_start(v, thread, c, lane, path, begin)) return 1;
     lane->path = path; /* ended at its light, or no light paths at all: no vertices */
     lane->num_vertices = 0;
-    light_retire(v, c, lane);
+    light_retire(v, thread, c, lane, oldest, *next);
   }
   return 0;
 }
@@ -566,11 +594,10 @@ static void light_task(void *ctx, size_t task, int thread) {
   uint32_t end = begin + LIGHT_CHUNK < v->num_pixels ? begin + LIGHT_CHUNK : v->num_pixels;
   light_lane lanes[VF_ACCEL_PACKET];
   path_state *states[VF_ACCEL_PACKET];
-  uint32_t next = begin, active = 0;
+  uint32_t next = begin, oldest = begin, active = 0;
   for (int i = 0; i < VF_ACCEL_PACKET; i++) {
-    lanes[i].vertices = v->stats[thread].lane_vertices + (size_t)i * v->lane_capacity;
     states[i] = &lanes[i].s;
-    if (light_refill(v, thread, c, &lanes[i], &next, begin, end)) active |= 1u << i;
+    if (light_refill(v, thread, c, &lanes[i], &next, &oldest, begin, end)) active |= 1u << i;
   }
   while (active) {
     vf_hit hits[VF_ACCEL_PACKET];
@@ -579,28 +606,23 @@ static void light_task(void *ctx, size_t task, int thread) {
     for (int k = 0; k < m; k++) {
       light_lane *lane = &lanes[lane_of[k]];
       if ((found >> k & 1u) && light_bounce(v, thread, c, lane, &hits[k], begin)) continue;
-      light_retire(v, c, lane);
-      if (!light_refill(v, thread, c, lane, &next, begin, end)) active &= ~(1u << lane_of[k]);
+      light_retire(v, thread, c, lane, &oldest, next);
+      if (!light_refill(v, thread, c, lane, &next, &oldest, begin, end)) active &= ~(1u << lane_of[k]);
     }
+    /* Lanes left idle by a full ring start again once it has drained (a rare event: the
+     * ring holds many times the paths of the lanes). */
+    if (next < end && active != (1u << VF_ACCEL_PACKET) - 1u)
+      for (int i = 0; i < VF_ACCEL_PACKET; i++)
+        if (!(active >> i & 1u) && light_refill(v, thread, c, &lanes[i], &next, &oldest, begin, end))
+          active |= 1u << i;
   }
   resolve_splats(v, thread, c);
   sort_splats(c, end - begin);
 }
 
-/* Joins the chunks' vertex lists into one array, chunk by chunk and path by path. */
-static void join_task(void *ctx, size_t task, int thread) {
-  vf_vcm *v = ((pass_ctx *)ctx)->v;
-  light_chunk *c = &v->chunks[task];
-  uint32_t offset = c->offset;
-  uint32_t begin = (uint32_t)task * LIGHT_CHUNK;
-  uint32_t end = begin + LIGHT_CHUNK < v->num_pixels ? begin + LIGHT_CHUNK : v->num_pixels;
-  for (uint32_t p = begin; p < end; p++) { /* in path order, whatever order they ended in */
-    uint32_t n = v->path_end[p] - v->path_begin[p];
-    if (n > 0) memcpy(&v->vertices[offset], &c->vertices[v->path_begin[p]], (size_t)n * sizeof *c->vertices);
-    v->path_begin[p] = offset;
-    offset += n;
-    v->path_end[p] = offset;
-  }
+/* The light vertex the grid names `index` (vf_vcm.chunk_shift). */
+static const light_vertex *grid_vertex(const vf_vcm *v, uint32_t index) {
+  return &v->chunks[index >> v->chunk_shift].vertices[index & ((1u << v->chunk_shift) - 1u)];
 }
 
 /* Copies what merging needs of the light vertices into the grid's order, so that the
@@ -612,8 +634,8 @@ static void gather_task(void *ctx, size_t task, int thread) {
   uint32_t begin = (uint32_t)task * GATHER_CHUNK, end = begin + GATHER_CHUNK < n ? begin + GATHER_CHUNK : n;
   for (uint32_t k = begin; k < end; k++) {
     /* The vertices are read in grid order, that is at random: fetch ahead of use. */
-    if (k + GATHER_AHEAD < end) __builtin_prefetch(&v->vertices[points[k + GATHER_AHEAD].index]);
-    const light_vertex *lv = &v->vertices[points[k].index];
+    if (k + GATHER_AHEAD < end) __builtin_prefetch(grid_vertex(v, points[k + GATHER_AHEAD].index));
+    const light_vertex *lv = grid_vertex(v, points[k].index);
     v->merge_points[k] = (merge_point){points[k].x, points[k].y, points[k].z, lv->path_length_material};
     v->photons[k] = (photon){lv->throughput, lv->fix, lv->mis.d_vcm, lv->mis.d_vm};
   }
@@ -1093,9 +1115,10 @@ static int camera_bounce(vf_vcm *v, int thread, camera_lane *lane, const vf_hit 
   if (!b.is_delta) {
     if (v->t.light_sample) light_sample(v, thread, hit, &b, s, &lane->rng, tile_pixel);
     if (v->t.connection) {
+      const light_vertex *path = v->chunks[lane->pixel / LIGHT_CHUNK].vertices;
       uint32_t first = v->path_begin[lane->pixel];
       for (uint32_t i = first; i < v->path_end[lane->pixel]; i++) {
-        const light_vertex *lv = &v->vertices[i];
+        const light_vertex *lv = &path[i];
         if (vertex_path_length(lv) + 1 + s->path_length > v->settings.max_path_length) break;
         connect_vertices(v, thread, hit, &b, s, lv, i - first, &lane->cache, tile_pixel);
       }
@@ -1215,25 +1238,21 @@ int vf_vcm_iteration(vf_vcm *v, uint64_t iteration, float *camera_rgb, float *li
   double t0 = vf_seconds_now();
   vf_pool_run(v->pool, v->num_chunks, light_task, &ctx);
   uint64_t total = 0;
+  uint32_t largest = 0;
   for (uint32_t c = 0; c < v->num_chunks; c++) {
     if (v->chunks[c].out_of_memory) return vf_error_set(VF_ENOMEM, "out of memory storing light vertices");
-    v->chunks[c].offset = (uint32_t)total;
     total += v->chunks[c].num_vertices;
+    if (v->chunks[c].num_vertices > largest) largest = v->chunks[c].num_vertices;
   }
-  if (total > UINT32_MAX) return vf_error_set(VF_ENOMEM, "more than 2^32 light vertices in one iteration");
-  if (total > v->vertex_capacity) {
-    /* On huge pages, so aligned to the cache line too: each vertex is one line (the old
-     * ones are copied again by the join). A little slack keeps a slowly growing count from
-     * reallocating every iteration. */
-    size_t capacity = total + total / 8 < UINT32_MAX ? (size_t)(total + total / 8) : UINT32_MAX;
-    light_vertex *p = huge_alloc(capacity * sizeof *p);
-    if (p == NULL) return VF_ENOMEM;
-    free(v->vertices);
-    v->vertices = p;
-    v->vertex_capacity = (uint32_t)capacity;
-  }
+  /* The grid names vertex i of chunk c (c << chunk_shift) + i: chunk_shift bits hold the
+   * largest chunk's count. Some 2^20 vertices at 512x512 (2^8 chunks of 2^11): the names
+   * run out only far beyond what memory holds. */
+  v->chunk_shift = 0;
+  while (v->chunk_shift < 32 && ((uint64_t)1 << v->chunk_shift) < largest) v->chunk_shift++;
+  if (v->chunk_shift >= 32 || ((uint64_t)v->num_chunks << v->chunk_shift) > (uint64_t)UINT32_MAX + 1)
+    return vf_error_set(VF_ENOMEM, "%llu light vertices in one iteration: more than the grid can index",
+                        (unsigned long long)total);
   v->num_vertices = (uint32_t)total;
-  if (v->t.store_vertices) vf_pool_run(v->pool, v->num_chunks, join_task, &ctx);
   memset(light_rgb, 0, 3 * sizeof(float) * v->num_pixels);
   for (uint32_t c = 0; c < v->num_chunks; c++) /* in chunk order: reproducible sums */
     for (uint32_t i = 0; i < v->chunks[c].num_splats; i++) {
@@ -1246,7 +1265,10 @@ int vf_vcm_iteration(vf_vcm *v, uint64_t iteration, float *camera_rgb, float *li
   double t1 = vf_seconds_now();
   /* 2. The range-search grid, only when merging. */
   if (v->t.merging && v->num_vertices > 0) {
-    int err = vf_hashgrid_build(v->grid, v->vertices, sizeof *v->vertices, v->num_vertices, v->radius, v->pool);
+    for (uint32_t c = 0; c < v->num_chunks; c++)
+      v->segments[c] = (vf_grid_segment){v->chunks[c].vertices, v->chunks[c].num_vertices, c << v->chunk_shift};
+    int err = vf_hashgrid_build_segments(v->grid, v->segments, v->num_chunks, sizeof(light_vertex), v->radius,
+                                         v->pool);
     if (err != VF_OK) return err;
     uint32_t n = vf_hashgrid_count(v->grid);
     if (n > v->photon_capacity) {
@@ -1416,14 +1438,15 @@ int vf_vcm_create(const vf_scene *scene, const vf_accel *accel, const vf_setting
   v->chunks = calloc(v->num_chunks, sizeof *v->chunks);
   v->path_begin = calloc(v->num_pixels, sizeof(uint32_t));
   v->path_end = calloc(v->num_pixels, sizeof(uint32_t));
+  v->segments = calloc(v->num_chunks, sizeof *v->segments);
   v->stats = calloc((size_t)vf_pool_threads(pool), sizeof *v->stats);
   v->lobes = calloc(scene->num_materials > 0 ? (size_t)scene->num_materials : 1, sizeof *v->lobes);
-  if (!v->chunks || !v->path_begin || !v->path_end || !v->stats || !v->lobes) goto fail;
+  if (!v->chunks || !v->path_begin || !v->path_end || !v->segments || !v->stats || !v->lobes) goto fail;
   for (int m = 0; m < scene->num_materials; m++) vf_bsdf_lobes_of(&scene->materials[m], &v->lobes[m]);
   v->lane_capacity = settings->max_path_length > 1 ? (uint32_t)settings->max_path_length : 1u;
   for (int t = 0; t < vf_pool_threads(pool); t++) {
-    v->stats[t].lane_vertices = malloc((size_t)VF_ACCEL_PACKET * v->lane_capacity * sizeof(light_vertex));
-    if (v->stats[t].lane_vertices == NULL) goto fail;
+    v->stats[t].ring_vertices = malloc((size_t)RETIRE_RING * v->lane_capacity * sizeof(light_vertex));
+    if (v->stats[t].ring_vertices == NULL) goto fail;
   }
   if (v->t.merging && (err = vf_hashgrid_create(&v->grid)) != VF_OK) goto fail;
 #ifdef MERGE_AVX512
@@ -1446,7 +1469,7 @@ void vf_vcm_destroy(vf_vcm *v) {
       free(v->chunks[c].sorted_splats);
     }
   free(v->chunks);
-  free(v->vertices);
+  free(v->segments);
   free(v->photons);
   free(v->merge_points);
   free(v->path_begin);
@@ -1454,7 +1477,7 @@ void vf_vcm_destroy(vf_vcm *v) {
   if (v->stats)
     for (int t = 0; t < vf_pool_threads(v->pool); t++) {
       free(v->stats[t].queries);
-      free(v->stats[t].lane_vertices);
+      free(v->stats[t].ring_vertices);
     }
   free(v->stats);
   free(v->lobes);
