@@ -27,6 +27,9 @@
  *               its buckets. Positions are copied in sorted order next to the indices, so
  *               queries read contiguous memory, not the caller's large records.
  * Every task writes only its own outputs; nothing depends on which thread ran it.
+ * The input may be several arrays (segments, vf_hashgrid_build_segments): the phases see
+ * their points one after the other, and phase 3 gives each the caller's name for it, its
+ * segment's index_base plus its place in the segment.
  *
  * Degenerate cases.
  *   - n = 0: the grid is empty; candidates returns 0 and query visits nothing.
@@ -86,8 +89,8 @@ struct vf_hashgrid {
   grid_point *scattered;  /* phase 3 output, grouped */
   uint32_t *scattered_index;
   uint32_t *indices;      /* sorted point indices, count of them */
-  uint32_t *input_index;  /* phase 1: each input point's index (segment's index_base + i) */
   uint32_t *segment_start; /* num_segments + 1: where each segment's points begin in input order */
+  uint32_t *segment_rename; /* num_segments: index_base - start, so that point i is named i + this */
   size_t segment_cap;
   size_t points_cap;
   uint32_t *cell_start;   /* mask + 2 entries */
@@ -157,8 +160,8 @@ void vf_hashgrid_destroy(vf_hashgrid *g) {
   free(g->scattered);
   free(g->scattered_index);
   free(g->indices);
-  free(g->input_index);
   free(g->segment_start);
+  free(g->segment_rename);
   free(g->cell_start);
   free(g->chunk_offset);
   free(g->group_start);
@@ -191,7 +194,7 @@ static uint32_t segment_of(const vf_hashgrid *g, uint32_t i) {
   return lo;
 }
 
-/* Phase 1: compact positions, buckets, input indices, and this chunk's histogram of groups. */
+/* Phase 1: compact positions, buckets, and this chunk's histogram of groups. */
 static void key_chunk(void *ctx, size_t chunk, int thread) {
   vf_hashgrid *g = ctx;
   uint32_t *hist = g->chunk_offset + chunk * g->groups;
@@ -213,7 +216,6 @@ static void key_chunk(void *ctx, size_t chunk, int thread) {
         hist[key >> g->low_bits]++;
       }
       g->keyed[i] = (grid_point){p.x, p.y, p.z, key};
-      g->input_index[i] = seg->index_base + (i - first);
     }
   }
 }
@@ -224,12 +226,18 @@ static void scatter_chunk(void *ctx, size_t chunk, int thread) {
   uint32_t *offset = g->chunk_offset + chunk * g->groups;
   uint32_t begin, end;
   chunk_range(g, chunk, &begin, &end);
-  for (uint32_t i = begin; i < end; i++) {
-    grid_point p = g->keyed[i];
-    if (p.index == SKIPPED) continue;
-    uint32_t at = offset[p.index >> g->low_bits]++;
-    g->scattered[at] = p;
-    g->scattered_index[at] = g->input_index[i];
+  uint32_t s = segment_of(g, begin);
+  for (uint32_t i = begin; i < end;) {
+    while (g->segment_start[s + 1] <= i) s++;
+    uint32_t stop = g->segment_start[s + 1] < end ? g->segment_start[s + 1] : end;
+    uint32_t rename = g->segment_rename[s]; /* the caller's name of point i, modulo 2^32 */
+    for (; i < stop; i++) {
+      grid_point p = g->keyed[i];
+      if (p.index == SKIPPED) continue;
+      uint32_t at = offset[p.index >> g->low_bits]++;
+      g->scattered[at] = p;
+      g->scattered_index[at] = i + rename;
+    }
   }
 }
 
@@ -324,9 +332,10 @@ int vf_hashgrid_build_segments(vf_hashgrid *g, const vf_grid_segment *segments, 
       (err = grow((void **)&g->scattered, g->points_cap, points_cap, sizeof *g->scattered)) < 0 ||
       (err = grow((void **)&g->scattered_index, g->points_cap, points_cap, sizeof *g->scattered_index)) < 0 ||
       (err = grow((void **)&g->indices, g->points_cap, points_cap, sizeof *g->indices)) < 0 ||
-      (err = grow((void **)&g->input_index, g->points_cap, points_cap, sizeof *g->input_index)) < 0 ||
       (err = grow((void **)&g->segment_start, g->segment_cap, grown(g->segment_cap, (size_t)num_segments + 1),
                   sizeof *g->segment_start)) < 0 ||
+      (err = grow((void **)&g->segment_rename, g->segment_cap, grown(g->segment_cap, (size_t)num_segments + 1),
+                  sizeof *g->segment_rename)) < 0 ||
       (err = grow((void **)&g->cell_start, g->table_cap, table_cap, sizeof *g->cell_start)) < 0 ||
       (err = grow((void **)&g->chunk_offset, g->chunk_offset_cap, chunk_offset_cap, sizeof *g->chunk_offset)) < 0 ||
       (err = grow((void **)&g->group_start, g->group_cap, group_cap, sizeof *g->group_start)) < 0)
@@ -340,7 +349,10 @@ int vf_hashgrid_build_segments(vf_hashgrid *g, const vf_grid_segment *segments, 
   g->lk.cell_start = g->cell_start;
 
   g->segment_start[0] = 0;
-  for (uint32_t k = 0; k < num_segments; k++) g->segment_start[k + 1] = g->segment_start[k] + segments[k].count;
+  for (uint32_t k = 0; k < num_segments; k++) {
+    g->segment_start[k + 1] = g->segment_start[k] + segments[k].count;
+    g->segment_rename[k] = segments[k].index_base - g->segment_start[k];
+  }
   g->points = n;
   run_tasks(pool, g->chunks, key_chunk, g);
   g->segments = NULL; /* borrowed for the build only */
