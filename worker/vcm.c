@@ -204,11 +204,13 @@ struct vf_vcm {
   thread_stats *stats;
 };
 
-/* An array that connections and merging read at random: on 2 MiB pages where the kernel
- * has them (transparent huge pages, which Debian enables on request), so that its tens of
- * megabytes need a few dozen TLB entries instead of thousands. Freed with free().
- * Measured on cornell 512x512, vcm, alternating 4 rounds: camera pass 174.5-176.8 ->
- * 171.6-173.3 ms, 2% more iterations per second. The grid's own arrays gained nothing. */
+/* An array that merging reads at random (photons, merge points): on 2 MiB pages where
+ * the kernel has them (transparent huge pages, which Debian enables on request), so that
+ * its tens of megabytes need a few dozen TLB entries instead of thousands. Freed with
+ * free(). Measured on cornell 512x512, vcm, alternating 4 rounds: camera pass 174.5-176.8
+ * -> 171.6-173.3 ms, 2% more iterations per second (with the light vertices, then one
+ * joined array). The grid's own arrays gained nothing, nor did the chunks' vertex lists
+ * once aligned to the cache line (docs/BENCHMARKS.md). */
 #define HUGE_PAGE ((size_t)2 << 20)
 static void *huge_alloc(size_t size) {
   size = (size + HUGE_PAGE - 1) / HUGE_PAGE * HUGE_PAGE; /* aligned_alloc: a multiple of the alignment */
