@@ -274,7 +274,8 @@ static void test_merging_simd_paths_give_identical_frames(void) {
         if (!iteration_frames(scene, &s, 0, it, camera[0], light[0], &simd[0]) ||
             !iteration_frames(scene, &s, 1, it, camera[1], light[1], &simd[1]))
           break;
-        int same = memcmp(camera[0], camera[1], sizeof camera[0]) == 0 && memcmp(light[0], light[1], sizeof light[0]) == 0;
+        int same = memcmp(camera[0], camera[1], sizeof camera[0]) == 0 &&
+                   memcmp(light[0], light[1], sizeof light[0]) == 0;
         if (!same || it == 0)
           printf("  %s %s iteration %llu: %s and %s merging %s\n", scenes[c], vf_algorithm_name(s.algorithm),
                  (unsigned long long)it, simd[0], simd[1], same ? "agree bit for bit" : "DIFFER");

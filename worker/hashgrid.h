@@ -184,8 +184,10 @@ static inline void vf_grid_cells_of(const vf_grid_lookup *lk, vf_vec3 q, vf_grid
   uint64_t y0p = (uint64_t)y0 * VF_GRID_ROW_Y, y1p = y0p + VF_GRID_ROW_Y;
   uint64_t z0p = (uint64_t)z0 * VF_GRID_ROW_Z, z1p = z0p + VF_GRID_ROW_Z;
   uint32_t m = lk->mask;
-  uint32_t b0 = vf_grid_bucket(x0, vf_grid_row_mix(y0p ^ z0p), m), b1 = vf_grid_bucket(x0, vf_grid_row_mix(y1p ^ z0p), m),
-           b2 = vf_grid_bucket(x0, vf_grid_row_mix(y0p ^ z1p), m), b3 = vf_grid_bucket(x0, vf_grid_row_mix(y1p ^ z1p), m);
+  uint32_t b0 = vf_grid_bucket(x0, vf_grid_row_mix(y0p ^ z0p), m);
+  uint32_t b1 = vf_grid_bucket(x0, vf_grid_row_mix(y1p ^ z0p), m);
+  uint32_t b2 = vf_grid_bucket(x0, vf_grid_row_mix(y0p ^ z1p), m);
+  uint32_t b3 = vf_grid_bucket(x0, vf_grid_row_mix(y1p ^ z1p), m);
   /* Queries are bound by these misses; a run's end is on its start's line but for one
    * start in eight. */
   __builtin_prefetch(&lk->cell_start[b0]);

@@ -161,7 +161,7 @@ typedef struct {
   deferred pending[DEFERRED_MAX];
   int num_pending;
   float *tile_rgb; /* the camera tile being traced, where pending contributions go */
-  light_vertex *ring_vertices; /* the light pass's retire ring: RETIRE_RING slots of lane_capacity, owned */
+  light_vertex *ring_vertices; /* the light pass's retire ring: RETIRE_RING slots of lane_capacity */
   uint32_t ring_count[RETIRE_RING]; /* vertices of the path in each slot, once it has ended */
   unsigned char ring_done[RETIRE_RING];
   char pad[32]; /* keep each thread's counters on their own cache line */
@@ -872,9 +872,11 @@ static int find_hits(const vf_vcm *v, const merge_query *q, const vf_index_range
  * permutation per field gathers them into a register per coordinate; the tests are the
  * same float operations, in the same order, as group_mask's, and the passing indices are
  * packed in order into one register (VPCOMPRESSD) and stored whole: compressing straight
- * into memory is microcoded on AMD Zen 4, and made merging slower than SSE2 there. The same hits, then, with
- * about a third of the instructions. No FMA is enabled here, so no product and sum can be
- * fused into one rounding. The caller's hits[] needs room for max + 8. */
+ * into memory is microcoded on AMD Zen 4, and made merging slower than SSE2 there. So the
+ * same hits, in the same order (test_vcm compares the frames). This target allows FMA:
+ * the build's -ffp-contract=off (CMakeLists.txt) keeps every product and sum rounded on
+ * its own, here and in the code inlined into run_merges_avx512. The caller's hits[] needs
+ * room for max + 8. */
 __attribute__((target("avx512f,avx512vl,popcnt"))) static inline int find_hits_avx512(
     const vf_vcm *v, const merge_query *q, const vf_index_range *ranges, int n, uint32_t *hits, int max) {
   const float *points = (const float *)v->merge_points;
@@ -1251,8 +1253,8 @@ int vf_vcm_iteration(vf_vcm *v, uint64_t iteration, float *camera_rgb, float *li
     if (v->chunks[c].num_vertices > largest) largest = v->chunks[c].num_vertices;
   }
   /* The grid names vertex i of chunk c (c << chunk_shift) + i: chunk_shift bits hold the
-   * largest chunk's count. Some 2^20 vertices at 512x512 (2^8 chunks of 2^11): the names
-   * run out only far beyond what memory holds. */
+   * largest chunk's count. At 512x512 the names stay below 2^20 (2^8 chunks, none of 2^12
+   * vertices); they run out only far beyond what memory holds. */
   v->chunk_shift = 0;
   while (v->chunk_shift < 32 && ((uint64_t)1 << v->chunk_shift) < largest) v->chunk_shift++;
   if (v->chunk_shift >= 32 || ((uint64_t)v->num_chunks << v->chunk_shift) > (uint64_t)UINT32_MAX + 1)
@@ -1409,6 +1411,7 @@ void vf_vcm_describe(const vf_vcm *v, FILE *out) {
           vf_algorithm_name(v->settings.algorithm), t->emission ? (t->emission_specular_only ? "specular paths" : "on") : "off",
           t->light_sample ? "on" : "off", t->light_to_camera ? "on" : "off", t->connection ? "on" : "off",
           t->merging ? (t->ppm ? "first diffuse vertex" : "on") : "off");
+  if (t->merging) fprintf(out, "merging tests its candidates with %s\n", vf_vcm_merge_simd(v));
   fprintf(out, "skipped: %s%s%s%s\n", t->store_vertices ? "" : "light-vertex storage, ",
           t->merging ? "" : "range-search grid, ", v->lights->environment >= 0 ? "" : "environment lookups, ",
           "connections at specular vertices, shadow rays for zero contributions");
