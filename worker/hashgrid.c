@@ -194,6 +194,13 @@ static uint32_t segment_of(const vf_hashgrid *g, uint32_t i) {
   return lo;
 }
 
+/* The end of the run of input points from i (< end) that lie in one segment, *s: the
+ * phases walk a chunk's points segment by segment, *s from segment_of(begin) on. */
+static uint32_t segment_run(const vf_hashgrid *g, uint32_t *s, uint32_t i, uint32_t end) {
+  while (g->segment_start[*s + 1] <= i) (*s)++; /* past the segment's end (or an empty one) */
+  return g->segment_start[*s + 1] < end ? g->segment_start[*s + 1] : end;
+}
+
 /* Phase 1: compact positions, buckets, and this chunk's histogram of groups. */
 static void key_chunk(void *ctx, size_t chunk, int thread) {
   vf_hashgrid *g = ctx;
@@ -203,10 +210,8 @@ static void key_chunk(void *ctx, size_t chunk, int thread) {
   chunk_range(g, chunk, &begin, &end);
   uint32_t s = segment_of(g, begin);
   for (uint32_t i = begin; i < end;) {
-    while (g->segment_start[s + 1] <= i) s++; /* past the segment's end (or an empty one) */
-    const vf_grid_segment *seg = &g->segments[s];
-    uint32_t first = g->segment_start[s], stop = g->segment_start[s + 1] < end ? g->segment_start[s + 1] : end;
-    const unsigned char *base = seg->base;
+    uint32_t stop = segment_run(g, &s, i, end), first = g->segment_start[s];
+    const unsigned char *base = g->segments[s].base;
     for (; i < stop; i++) {
       vf_vec3 p;
       memcpy(&p, base + (size_t)(i - first) * g->stride, sizeof p); /* records need not be aligned */
@@ -228,8 +233,7 @@ static void scatter_chunk(void *ctx, size_t chunk, int thread) {
   chunk_range(g, chunk, &begin, &end);
   uint32_t s = segment_of(g, begin);
   for (uint32_t i = begin; i < end;) {
-    while (g->segment_start[s + 1] <= i) s++;
-    uint32_t stop = g->segment_start[s + 1] < end ? g->segment_start[s + 1] : end;
+    uint32_t stop = segment_run(g, &s, i, end);
     uint32_t rename = g->segment_rename[s]; /* the caller's name of point i, modulo 2^32 */
     for (; i < stop; i++) {
       grid_point p = g->keyed[i];
