@@ -28,6 +28,7 @@
 /* Light sub-paths end out of order but are stored in path order (light_retire): a path
  * that ends before an older one waits in a ring of this many slots, one per path. */
 #define RETIRE_RING 256u
+#define RING_IN_FLIGHT UINT32_MAX /* thread_stats.ring_count of a slot whose path has not ended */
 /* Camera sub-paths are traced in square tiles: neighbouring pixels query neighbouring grid
  * cells at their first hit, so a tile reuses what its previous rows brought into cache. */
 #define CAMERA_TILE 32u
@@ -162,8 +163,7 @@ typedef struct {
   int num_pending;
   float *tile_rgb; /* the camera tile being traced, where pending contributions go */
   light_vertex *ring_vertices; /* the light pass's retire ring: RETIRE_RING slots of lane_capacity */
-  uint32_t ring_count[RETIRE_RING]; /* vertices of the path in each slot, once it has ended */
-  unsigned char ring_done[RETIRE_RING];
+  uint32_t ring_count[RETIRE_RING]; /* vertices of each slot's path once it has ended, else RING_IN_FLIGHT */
   char pad[32]; /* keep each thread's counters on their own cache line */
 } thread_stats;
 
@@ -544,12 +544,10 @@ static light_vertex *ring_slot(const vf_vcm *v, int thread, uint32_t path) {
 static void light_retire(vf_vcm *v, int thread, light_chunk *c, const light_lane *lane, uint32_t *oldest,
                          uint32_t next) {
   thread_stats *ts = &v->stats[thread];
-  uint32_t slot = lane->path % RETIRE_RING;
-  ts->ring_count[slot] = lane->num_vertices;
-  ts->ring_done[slot] = 1;
-  while (*oldest < next && ts->ring_done[*oldest % RETIRE_RING]) {
+  ts->ring_count[lane->path % RETIRE_RING] = lane->num_vertices;
+  while (*oldest < next && ts->ring_count[*oldest % RETIRE_RING] != RING_IN_FLIGHT) {
     uint32_t p = (*oldest)++, n = ts->ring_count[p % RETIRE_RING];
-    ts->ring_done[p % RETIRE_RING] = 0;
+    ts->ring_count[p % RETIRE_RING] = RING_IN_FLIGHT;
     v->path_begin[p] = c->num_vertices;
     if (n > 0 && !append_vertices(c, ring_slot(v, thread, p), n)) c->out_of_memory = 1;
     v->path_end[p] = c->num_vertices;
@@ -1456,6 +1454,7 @@ int vf_vcm_create(const vf_scene *scene, const vf_accel *accel, const vf_setting
   for (int t = 0; t < vf_pool_threads(pool); t++) {
     v->stats[t].ring_vertices = aligned_alloc(64, (size_t)RETIRE_RING * v->lane_capacity * sizeof(light_vertex));
     if (v->stats[t].ring_vertices == NULL) goto fail;
+    for (uint32_t i = 0; i < RETIRE_RING; i++) v->stats[t].ring_count[i] = RING_IN_FLIGHT;
   }
   if (v->t.merging && (err = vf_hashgrid_create(&v->grid)) != VF_OK) goto fail;
 #ifdef MERGE_AVX512
