@@ -41,7 +41,7 @@ int vf_settings_validate(const vf_settings *s) {
     return vf_error_set(VF_EINVAL, "radius factor %g must be a positive number", s->radius_factor);
   if (!(s->alpha > 0.0 && s->alpha <= 1.0))
     return vf_error_set(VF_EINVAL, "alpha %g is outside (0, 1]", s->alpha);
-  if (s->width < 1 || s->height < 1 || s->width > 65536 || s->height > 65536 ||
+  if (s->width < 1 || s->height < 1 || s->width > VF_MAX_IMAGE_SIDE || s->height > VF_MAX_IMAGE_SIDE ||
       (int64_t)s->width * s->height > (int64_t)1 << 28)
     return vf_error_set(VF_EINVAL, "resolution %dx%d is outside 1x1 .. 65536x65536 (at most 2^28 pixels)",
                         s->width, s->height);

@@ -25,6 +25,7 @@ typedef enum {
 
 /* The longest path a render may ask for, in segments. */
 #define VF_MAX_PATH_LENGTH 1000
+#define VF_MAX_IMAGE_SIDE 65536 /* pixels, width or height */
 
 typedef struct {
   vf_algorithm algorithm;

@@ -32,6 +32,9 @@
 /* Camera sub-paths are traced in square tiles: neighbouring pixels query neighbouring grid
  * cells at their first hit, so a tile reuses what its previous rows brought into cache. */
 #define CAMERA_TILE 32u
+/* The light pass's splats are added to the image in bands of this many rows, one band per
+ * task. */
+#define SPLAT_BAND 32u
 #define GATHER_CHUNK 16384u
 #define GATHER_AHEAD 16u
 
@@ -79,8 +82,10 @@ _Static_assert(sizeof(photon) == 32, "two photons to a cache line");
 typedef struct {
   uint32_t pixel;
   vf_vec3 rgb;
-  uint32_t path; /* the light sub-path's index within its chunk */
+  uint16_t path; /* the light sub-path's index within its chunk (< LIGHT_CHUNK) */
+  uint16_t band; /* the pixel's band of rows (SPLAT_BAND) */
 } splat;
+_Static_assert(LIGHT_CHUNK <= 65536 && VF_MAX_IMAGE_SIDE / SPLAT_BAND < 65536, "splat's fields hold their values");
 
 /* Light sub-paths finish out of order (wavefront, below). A chunk's vertex list holds them
  * in path order all the same (light_retire), and the splats are sorted back into it, so
@@ -154,8 +159,10 @@ typedef struct {
   int blocked;
 } deferred;
 
+/* One thread's state: aligned to the cache line (and allocated so), so that no line holds
+ * two threads' fields. */
 typedef struct {
-  uint64_t rays, nonfinite;
+  _Alignas(64) uint64_t rays, nonfinite;
   merge_query *queries; /* this thread's pending merges, owned */
   uint32_t num_queries, query_capacity;
   shadow_packet packet;
@@ -164,7 +171,6 @@ typedef struct {
   float *tile_rgb; /* the camera tile being traced, where pending contributions go */
   light_vertex *ring_vertices; /* the light pass's retire ring: RETIRE_RING slots of lane_capacity */
   uint32_t ring_count[RETIRE_RING]; /* vertices of each slot's path once it has ended, else RING_IN_FLIGHT */
-  char pad[32]; /* keep each thread's counters on their own cache line */
 } thread_stats;
 
 struct vf_vcm {
@@ -198,6 +204,8 @@ struct vf_vcm {
   photon *photons;
   uint32_t photon_capacity;
   uint32_t *path_begin, *path_end; /* per light sub-path, into its chunk's vertices */
+  uint32_t num_bands, band_pixels; /* the light image's bands of SPLAT_BAND rows, band_pixels each */
+  uint32_t *band_start;            /* per chunk, num_bands + 1: where its splats of each band begin */
   vf_hashgrid *grid;
   int merge_avx512; /* the CPU runs AVX-512 F and VL: merging tests eight candidates at once */
   float *camera_rgb, *light_rgb;
@@ -321,7 +329,7 @@ static int append_vertices(light_chunk *c, const light_vertex *lv, uint32_t n) {
   return 1;
 }
 
-static int push_splat(light_chunk *c, uint32_t pixel, vf_vec3 rgb, uint32_t path) {
+static int push_splat(light_chunk *c, uint32_t pixel, uint32_t band, vf_vec3 rgb, uint32_t path) {
   if (c->num_splats == c->splat_capacity) {
     uint32_t cap = c->splat_capacity ? 2 * c->splat_capacity : 4 * LIGHT_CHUNK;
     splat *p = realloc(c->splats, (size_t)cap * sizeof *p);
@@ -338,7 +346,7 @@ static int push_splat(light_chunk *c, uint32_t pixel, vf_vec3 rgb, uint32_t path
     c->sorted_splats = p;
     c->splat_capacity = cap;
   }
-  c->splats[c->num_splats++] = (splat){pixel, rgb, path};
+  c->splats[c->num_splats++] = (splat){pixel, rgb, (uint16_t)path, (uint16_t)band};
   return 1;
 }
 
@@ -366,9 +374,9 @@ static void resolve_splats(vf_vcm *v, int thread, light_chunk *c) {
 
 /* A splat of the light pass that counts only if the segment from p (normal n) to the
  * camera is free. */
-static void splat_if_visible(vf_vcm *v, int thread, light_chunk *c, uint32_t path, uint32_t pixel, vf_vec3 rgb,
-                             vf_vec3 p, vf_vec3 n) {
-  if (!push_splat(c, pixel, rgb, path)) return;
+static void splat_if_visible(vf_vcm *v, int thread, light_chunk *c, uint32_t path, uint32_t pixel, uint32_t band,
+                             vf_vec3 rgb, vf_vec3 p, vf_vec3 n) {
+  if (!push_splat(c, pixel, band, rgb, path)) return;
   shadow_packet *pk = &v->stats[thread].packet;
   queue_segment(v, pk, (int)(c->num_splats - 1), p, n, v->camera.position, vf_vec3_splat(0.0f));
   if (pk->n == VF_ACCEL_PACKET) resolve_splats(v, thread, c);
@@ -378,13 +386,14 @@ static void splat_if_visible(vf_vcm *v, int thread, light_chunk *c, uint32_t pat
  * camera's density of that direction per unit of image area (in solid angle); 0 when p is
  * behind the camera or outside the image. Checked before anything is evaluated at p: a
  * good part of the light vertices lie outside the view. */
-static int camera_project(const vf_vcm *v, vf_vec3 p, vf_vec3 dir_to_camera, uint32_t *pixel,
+static int camera_project(const vf_vcm *v, vf_vec3 p, vf_vec3 dir_to_camera, uint32_t *pixel, uint32_t *band,
                           float *image_to_solid_angle) {
   float x, y;
   if (!vf_camera_raster(&v->camera, p, &x, &y)) return 0;
   float cos_at_camera = -vf_dot(v->camera.forward, dir_to_camera);
   if (!(cos_at_camera > 0.0f)) return 0;
   *pixel = (uint32_t)y * (uint32_t)v->camera.width + (uint32_t)x;
+  *band = (uint32_t)y / SPLAT_BAND;
   float image_to_camera = v->camera.image_plane_distance / cos_at_camera;
   *image_to_solid_angle = image_to_camera * image_to_camera / cos_at_camera;
   return 1;
@@ -403,9 +412,9 @@ static void connect_to_camera(vf_vcm *v, int thread, light_chunk *c, uint32_t pa
   float dist = vf_length(to_camera);
   if (!(dist > 0.0f)) return;
   to_camera = vf_scale(to_camera, 1.0f / dist);
-  uint32_t pixel;
+  uint32_t pixel, band;
   float image_to_solid_angle;
-  if (!camera_project(v, hit->position, to_camera, &pixel, &image_to_solid_angle)) return;
+  if (!camera_project(v, hit->position, to_camera, &pixel, &band, &image_to_solid_angle)) return;
   float cos_to_camera, dir_pdf, rev_pdf;
   vf_vec3 f = vf_bsdf_evaluate(b, to_camera, &cos_to_camera, &dir_pdf, &rev_pdf);
   if (vf_is_zero(f)) return;
@@ -415,7 +424,7 @@ static void connect_to_camera(vf_vcm *v, int thread, light_chunk *c, uint32_t pa
   /* Importance of the pinhole camera over the light sub-path density n_light. */
   vf_vec3 contrib = vf_scale(vf_mul(s->throughput, f), w * pdf_a / v->mis.light_paths);
   if (vf_is_zero(contrib)) return;
-  splat_if_visible(v, thread, c, path, pixel, contrib, hit->position, hit->normal);
+  splat_if_visible(v, thread, c, path, pixel, band, contrib, hit->position, hit->normal);
 }
 
 /* Light tracing alone also projects the light's own point y0 (the s = 1, t = 1 technique,
@@ -428,13 +437,13 @@ static void connect_emitter_to_camera(vf_vcm *v, int thread, light_chunk *c, uin
   to_camera = vf_scale(to_camera, 1.0f / dist);
   float cos_out = vf_dot(n, to_camera);
   if (!(cos_out > 0.0f)) return;
-  uint32_t pixel;
+  uint32_t pixel, band;
   float image_to_solid_angle;
-  if (!camera_project(v, p, to_camera, &pixel, &image_to_solid_angle)) return;
+  if (!camera_project(v, p, to_camera, &pixel, &band, &image_to_solid_angle)) return;
   float pdf_a = camera_pdf_a(image_to_solid_angle, dist, cos_out);
   if (!(pdf_a > 0.0f)) return;
   vf_vec3 contrib = vf_scale(l->radiance, pdf_a / (v->mis.light_paths * pick_and_area_pdf));
-  splat_if_visible(v, thread, c, path, pixel, contrib, p, n);
+  splat_if_visible(v, thread, c, path, pixel, band, contrib, p, n);
 }
 
 /* A light sub-path in flight. The light pass traces VF_ACCEL_PACKET of them at once, as a
@@ -570,24 +579,60 @@ static int light_refill(vf_vcm *v, int thread, light_chunk *c, light_lane *lane,
   return 0;
 }
 
-/* The chunk's splats that count, back in path order: a stable counting sort by path, so
- * that each path's splats keep the order they were made in. */
-static void sort_splats(light_chunk *c, uint32_t paths) {
+typedef struct {
+  vf_vcm *v;
+} pass_ctx;
+
+/* The chunk's splats that count, by band of the image (SPLAT_BAND rows) and in path order
+ * within each band: two stable counting sorts, by path, then by band, so that each path's
+ * splats keep the order they were made in. The chunk's band b is then
+ * splats[band_start[b] .. band_start[b + 1]), band_start being the chunk's row of
+ * vf_vcm.band_start. */
+static void sort_splats(const vf_vcm *v, light_chunk *c, uint32_t chunk, uint32_t paths) {
   uint32_t start[LIGHT_CHUNK + 1] = {0};
   for (uint32_t i = 0; i < c->num_splats; i++)
     if (c->splats[i].pixel != DROPPED_SPLAT) start[c->splats[i].path + 1]++;
   for (uint32_t p = 0; p < paths; p++) start[p + 1] += start[p];
   for (uint32_t i = 0; i < c->num_splats; i++)
     if (c->splats[i].pixel != DROPPED_SPLAT) c->sorted_splats[start[c->splats[i].path]++] = c->splats[i];
-  splat *t = c->splats;
-  c->splats = c->sorted_splats;
-  c->sorted_splats = t;
-  c->num_splats = start[paths - 1];
+  uint32_t n = start[paths - 1];
+  uint32_t *band_start = &v->band_start[(size_t)chunk * (v->num_bands + 1)];
+  memset(band_start, 0, (v->num_bands + 1) * sizeof *band_start);
+  for (uint32_t i = 0; i < n; i++) band_start[c->sorted_splats[i].band + 1]++;
+  /* band_start[b + 1] becomes where band b begins, and after the scatter where it ends. */
+  for (uint32_t b = 0, sum = 0; b < v->num_bands; b++) {
+    uint32_t count = band_start[b + 1];
+    band_start[b + 1] = sum;
+    sum += count;
+  }
+  for (uint32_t i = 0; i < n; i++) {
+    const splat *sp = &c->sorted_splats[i];
+    c->splats[band_start[sp->band + 1]++] = *sp;
+  }
+  c->num_splats = n;
 }
 
-typedef struct {
-  vf_vcm *v;
-} pass_ctx;
+/* Adds the splats of band `band` to the light image, chunk by chunk in chunk order: each
+ * pixel gets its terms in the order of one pass over the paths, whatever the thread
+ * count, and the bands run in parallel. */
+static void splat_band_task(void *ctx, size_t band, int thread) {
+  (void)thread;
+  vf_vcm *v = ((pass_ctx *)ctx)->v;
+  size_t first = band * (size_t)v->band_pixels;
+  size_t last = first + v->band_pixels < v->num_pixels ? first + v->band_pixels : v->num_pixels;
+  float *light_rgb = v->light_rgb;
+  memset(&light_rgb[3 * first], 0, 3 * sizeof(float) * (last - first));
+  for (uint32_t c = 0; c < v->num_chunks; c++) {
+    const uint32_t *band_start = &v->band_start[(size_t)c * (v->num_bands + 1)];
+    const splat *splats = v->chunks[c].splats;
+    for (uint32_t i = band_start[band]; i < band_start[band + 1]; i++) {
+      const splat *sp = &splats[i];
+      light_rgb[3 * (size_t)sp->pixel + 0] += sp->rgb.x;
+      light_rgb[3 * (size_t)sp->pixel + 1] += sp->rgb.y;
+      light_rgb[3 * (size_t)sp->pixel + 2] += sp->rgb.z;
+    }
+  }
+}
 
 static void light_task(void *ctx, size_t task, int thread) {
   vf_vcm *v = ((pass_ctx *)ctx)->v;
@@ -621,7 +666,7 @@ static void light_task(void *ctx, size_t task, int thread) {
           active |= 1u << i;
   }
   resolve_splats(v, thread, c);
-  sort_splats(c, end - begin);
+  sort_splats(v, c, (uint32_t)task, end - begin);
 }
 
 /* The light vertex the grid names `index` (vf_vcm.chunk_shift). */
@@ -1259,14 +1304,7 @@ int vf_vcm_iteration(vf_vcm *v, uint64_t iteration, float *camera_rgb, float *li
     return vf_error_set(VF_ENOMEM, "%llu light vertices in one iteration: more than the grid can index",
                         (unsigned long long)total);
   v->num_vertices = (uint32_t)total;
-  memset(light_rgb, 0, 3 * sizeof(float) * v->num_pixels);
-  for (uint32_t c = 0; c < v->num_chunks; c++) /* in chunk order: reproducible sums */
-    for (uint32_t i = 0; i < v->chunks[c].num_splats; i++) {
-      const splat *sp = &v->chunks[c].splats[i];
-      light_rgb[3 * (size_t)sp->pixel + 0] += sp->rgb.x;
-      light_rgb[3 * (size_t)sp->pixel + 1] += sp->rgb.y;
-      light_rgb[3 * (size_t)sp->pixel + 2] += sp->rgb.z;
-    }
+  vf_pool_run(v->pool, v->num_bands, splat_band_task, &ctx); /* the light image, band by band */
 
   double t1 = vf_seconds_now();
   /* 2. The range-search grid, only when merging. */
@@ -1443,12 +1481,17 @@ int vf_vcm_create(const vf_scene *scene, const vf_accel *accel, const vf_setting
   err = VF_ENOMEM;
   v->num_chunks = (v->num_pixels + LIGHT_CHUNK - 1) / LIGHT_CHUNK;
   v->chunks = calloc(v->num_chunks, sizeof *v->chunks);
+  v->band_pixels = SPLAT_BAND * (uint32_t)v->camera.width;
+  v->num_bands = (v->num_pixels + v->band_pixels - 1) / v->band_pixels;
+  v->band_start = calloc((size_t)v->num_chunks * (v->num_bands + 1), sizeof *v->band_start);
   v->path_begin = calloc(v->num_pixels, sizeof(uint32_t));
   v->path_end = calloc(v->num_pixels, sizeof(uint32_t));
   v->segments = calloc(v->num_chunks, sizeof *v->segments);
-  v->stats = calloc((size_t)vf_pool_threads(pool), sizeof *v->stats);
+  v->stats = aligned_alloc(64, (size_t)vf_pool_threads(pool) * sizeof *v->stats);
+  if (v->stats != NULL) memset(v->stats, 0, (size_t)vf_pool_threads(pool) * sizeof *v->stats);
   v->lobes = calloc(scene->num_materials > 0 ? (size_t)scene->num_materials : 1, sizeof *v->lobes);
-  if (!v->chunks || !v->path_begin || !v->path_end || !v->segments || !v->stats || !v->lobes) goto fail;
+  if (!v->chunks || !v->band_start || !v->path_begin || !v->path_end || !v->segments || !v->stats || !v->lobes)
+    goto fail;
   for (int m = 0; m < scene->num_materials; m++) vf_bsdf_lobes_of(&scene->materials[m], &v->lobes[m]);
   v->lane_capacity = settings->max_path_length > 1 ? (uint32_t)settings->max_path_length : 1u;
   for (int t = 0; t < vf_pool_threads(pool); t++) {
@@ -1477,6 +1520,7 @@ void vf_vcm_destroy(vf_vcm *v) {
       free(v->chunks[c].sorted_splats);
     }
   free(v->chunks);
+  free(v->band_start);
   free(v->segments);
   free(v->photons);
   free(v->merge_points);
