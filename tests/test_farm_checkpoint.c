@@ -22,6 +22,7 @@
 #include "common/settings.h"
 
 #include <dirent.h>
+#include <errno.h>
 #include <fcntl.h>
 #include <signal.h>
 #include <spawn.h>
@@ -208,7 +209,10 @@ int main(int argc, char **argv) {
   char *args[] = {argv[1], "coordinator", "--listen", url, "--state", state, "--secret", key_path,
                   "--checkpoint-interval", "0.5", NULL};
   pid_t coordinator;
-  if (posix_spawn(&coordinator, argv[1], &actions, NULL, args, environ) != 0) {
+  int spawned = posix_spawn(&coordinator, argv[1], &actions, NULL, args, environ);
+  posix_spawn_file_actions_destroy(&actions);
+  if (spawned != 0) {
+    errno = spawned; /* posix_spawn returns its error instead of setting errno */
     perror("posix_spawn");
     return 1;
   }
