@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # The renderer's rays/s against the raw Embree rate, as pairs: the raw rate (bench_embree's
-# single-ray mix, exactly as renderer.sh measures it), then one render right after it, and
+# single-ray mix, measured as renderer.sh does: tests/bench/renderer_lib.sh), then one render right after it, and
 # their ratio; repeated, then the median, minimum and maximum of the ratios. On a shared
 # host the speed drifts within minutes, and a render shortly after its own raw
 # measurement is set against the host's state of that moment; many pairs show how the
@@ -16,6 +16,7 @@ algorithm="${3:-vcm}"
 pairs="${4:-16}"
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
+source "$(dirname "$0")/renderer_lib.sh"
 
 echo "scene $scene, $algorithm, 512x512, max path length 10, 2 threads, 12 iterations, $pairs pairs"
 echo
@@ -23,10 +24,10 @@ echo "| time | raw Embree mix Mrays/s | steady Mrays/s | of raw |"
 echo "|---|---|---|---|"
 : >"$tmp/ratios"
 for _ in $(seq "$pairs"); do
-  raw=$("$build/tests/bench_embree" "$scene" 2 2000000 | sed -n 's/.*mix 15% .*: \([0-9.]*\) Mrays\/s.*/\1/p')
-  "$build/vcmfarm" render "$scene" --direct -a "$algorithm" -n 12 -j 2 -R 512x512 -l 10 -o "$tmp/film.exr" \
-    2>"$tmp/log"
-  steady=$(sed -n 's/^after the first iteration: [0-9.]* it\/s, \([0-9.]*\) Mrays\/s.*/\1/p' "$tmp/log")
+  raw_bench "$build" "$scene" "$tmp/raw"
+  raw=$(raw_mix "$tmp/raw")
+  render_bench "$build" "$scene" "$algorithm" 12 "$tmp/film.exr" "$tmp/log"
+  steady=$(steady_rates "$tmp/log" | awk '{print $2}')
   ratio=$(awk -v r="$steady" -v m="$raw" 'BEGIN {printf "%.1f", 100 * r / m}')
   echo "$ratio" >>"$tmp/ratios"
   echo "| $(date +%H:%M:%S) | $raw | $steady | $ratio% |"

@@ -20,9 +20,9 @@ build="${1:-build}"
 scene="${2:-cornell}"
 iterations="${3:-12}"
 runs="${4:-5}"
-vcmfarm="$build/vcmfarm"
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
+source "$(dirname "$0")/renderer_lib.sh"
 
 median() { sort -g | awk '{v[NR] = $1} END {print v[int((NR + 1) / 2)]}'; }
 
@@ -31,14 +31,14 @@ echo
 echo "| algorithm | iterations/s | Mrays/s | steady iterations/s | steady Mrays/s | raw Embree mix Mrays/s | of raw (steady) | packet mix Mrays/s | light pass ms/it | grid ms/it | camera pass ms/it |"
 echo "|---|---|---|---|---|---|---|---|---|---|---|"
 for algorithm in vcm bpt pt lt ppm bpm; do
-  "$build/tests/bench_embree" "$scene" 2 2000000 >"$tmp/raw"
-  raw=$(sed -n 's/.*mix 15% .*: \([0-9.]*\) Mrays\/s.*/\1/p' "$tmp/raw")
-  packet=$(sed -n 's/.*packet mix: \([0-9.]*\) Mrays\/s.*/\1/p' "$tmp/raw")
+  raw_bench "$build" "$scene" "$tmp/raw"
+  raw=$(raw_mix "$tmp/raw")
+  packet=$(packet_mix "$tmp/raw")
   : >"$tmp/runs"
   for _ in $(seq "$runs"); do
-    "$vcmfarm" render "$scene" --direct -a "$algorithm" -n "$iterations" -j 2 -R 512x512 -l 10 -o "$tmp/film.exr" 2>"$tmp/log"
+    render_bench "$build" "$scene" "$algorithm" "$iterations" "$tmp/film.exr" "$tmp/log"
     rate=$(sed -n 's/^rendered.*: \([0-9.]*\) it\/s, \([0-9.]*\) Mrays\/s.*/\1 \2/p' "$tmp/log")
-    steady=$(sed -n 's/^after the first iteration: \([0-9.]*\) it\/s, \([0-9.]*\) Mrays\/s.*/\1 \2/p' "$tmp/log")
+    steady=$(steady_rates "$tmp/log")
     phases=$(sed -n 's/per iteration: light sub-paths \([0-9.]*\) ms, grid \([0-9.]*\) ms, camera sub-paths \([0-9.]*\) ms.*/\1 \2 \3/p' "$tmp/log")
     echo "$rate $steady $phases" >>"$tmp/runs"
   done

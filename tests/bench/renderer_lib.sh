@@ -1,0 +1,22 @@
+# The renderer benchmarks' common measurements, sourced by renderer.sh and raw_ratio.sh so
+# that both set a render against the same raw rate, measured the same way.
+
+# bench_embree on SCENE with 2 threads and 2M rays per kind, into FILE:
+#   raw_bench BUILD SCENE FILE
+raw_bench() { "$1/tests/bench_embree" "$2" 2 2000000 >"$3"; }
+
+# The single-ray mix (the raw rate issue 2 names) and the packet mix from raw_bench's FILE.
+raw_mix() { sed -n 's/.*mix 15% .*: \([0-9.]*\) Mrays\/s.*/\1/p' "$1"; }
+packet_mix() { sed -n 's/.*packet mix: \([0-9.]*\) Mrays\/s.*/\1/p' "$1"; }
+
+# One render as the benchmarks time it: 512x512, max path length 10, 2 threads, --direct;
+# its report into LOG:
+#   render_bench BUILD SCENE ALGORITHM ITERATIONS FILM LOG
+render_bench() {
+  "$1/vcmfarm" render "$2" --direct -a "$3" -n "$4" -j 2 -R 512x512 -l 10 -o "$5" 2>"$6"
+}
+
+# "IT/S MRAYS/S" after the first iteration (the steady rate), from render_bench's LOG.
+steady_rates() {
+  sed -n 's/^after the first iteration: \([0-9.]*\) it\/s, \([0-9.]*\) Mrays\/s.*/\1 \2/p' "$1"
+}
