@@ -19,7 +19,14 @@ packages=(
   slurm-wlm munge      # tests/test_slurm.sh: a one-node Slurm cluster (deploy/slurm)
   systemd              # tests/test_systemd.sh: systemd-analyze verify (deploy/systemd)
   python3              # tests/bench/convergence_report.py (standard library only)
+  jq                   # tests/bench/convergence.sh, tests/test_film_tools.sh: fields of --json output
 )
+# tests/test_k8s.sh validates deploy/k8s with packages from the npm registry. Debian's
+# nodejs and npm are installed only where no node and npm are on the PATH: a machine
+# with another Node.js (NodeSource's nodejs carries its own npm) keeps it.
+if ! command -v node >/dev/null || ! command -v npm >/dev/null; then
+  packages+=(nodejs npm)
+fi
 
 missing=()
 for p in "${packages[@]}"; do

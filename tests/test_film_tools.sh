@@ -44,12 +44,12 @@ check() { # name, result (0 = pass)
 
 # ---- merging real renders equals rendering at once ----
 
-# One number of the one-line object `errors --json` prints (jq is not a dependency):
-# rmse_all for rmse.all, or a top-level key such as mean_reference.
+# One number of the object `errors --json` prints: rmse_all for rmse.all, or a top-level
+# key such as mean_reference.
 json_field() { # json text, field
   case "$2" in
-  rmse_all) sed -n 's/.*"rmse":{[^}]*"all":\([^,}]*\).*/\1/p' <<<"$1" ;;
-  *) sed -n "s/.*\"$2\":\([^,}]*\).*/\1/p" <<<"$1" ;;
+  rmse_all) jq -r .rmse.all <<<"$1" ;;
+  *) jq -r ".$2" <<<"$1" ;;
   esac
 }
 

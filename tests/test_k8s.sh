@@ -7,24 +7,26 @@
 #
 #   test_k8s.sh DEPLOY_DIR SOURCE_DIR WORK_DIR
 #
-# Skips (77) without node and npm, or when npm cannot install the validator's packages.
+# node and npm are dependencies (deploy/install-deps.sh installs them): without them, or
+# when npm cannot install the validator's packages, the test fails, so that manifests that
+# were never validated are never reported as passing.
 set -u
 manifests="$1/k8s"
 src="$2"
 work="$3"
-skip() { echo "SKIP test_k8s: $*"; exit 77; }
-command -v node >/dev/null && command -v npm >/dev/null || skip "node and npm not found"
+fail() { echo "FAIL test_k8s: $*"; exit 1; }
+command -v node >/dev/null && command -v npm >/dev/null ||
+  fail "node and npm not found (Debian packages nodejs and npm: bash deploy/install-deps.sh)"
 
 # Install once per lock file into the build tree.
 mkdir -p "$work"
 cp "$src/package.json" "$src/package-lock.json" "$src/validate.js" "$work/"
 if ! cmp -s "$src/package-lock.json" "$work/node_modules/.vcmfarm-lock" 2>/dev/null; then
   (cd "$work" && npm ci --no-audit --no-fund --loglevel=error) >"$work/npm.log" 2>&1 ||
-    { cat "$work/npm.log"; skip "npm ci could not install the validator's packages (above)"; }
+    { cat "$work/npm.log"; fail "npm ci could not install the validator's packages (above)"; }
   cp "$src/package-lock.json" "$work/node_modules/.vcmfarm-lock"
 fi
 
-fail() { echo "FAIL test_k8s: $*"; exit 1; }
 (cd "$work" && node validate.js "$manifests"/*.yaml) || fail "deploy/k8s does not validate"
 
 tmp=$(mktemp -d /tmp/vf-k8s-XXXXXX)

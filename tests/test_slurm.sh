@@ -8,8 +8,8 @@
 #
 #   test_slurm.sh VCMFARM FARM_COMPARE DEPLOY_DIR
 #
-# Skips (exit 77) when slurm-wlm or munge is not installed (deploy/install-deps.sh installs
-# them) or when not run as root. Every daemon and process it started is stopped, by PID,
+# Fails when slurm-wlm or munge is not installed (deploy/install-deps.sh installs them);
+# skips (exit 77) when not run as root. Every daemon and process it started is stopped, by PID,
 # on every exit path. Nothing is synchronised by fixed sleeps: it polls with deadlines.
 set -u
 vcmfarm="$1"
@@ -19,7 +19,7 @@ deploy="$3"
 skip() { echo "SKIP test_slurm: $*"; exit 77; }
 for tool in munged mungekey slurmctld slurmd sbatch squeue scancel sinfo; do
   command -v "$tool" >/dev/null || PATH="$PATH:/usr/sbin:/sbin" command -v "$tool" >/dev/null ||
-    skip "$tool not found (Debian packages slurm-wlm and munge: bash deploy/install-deps.sh)"
+    { echo "FAIL test_slurm: $tool not found (Debian packages slurm-wlm and munge: bash deploy/install-deps.sh)"; exit 1; }
 done
 export PATH="$PATH:/usr/sbin:/sbin"
 [ "$(id -u)" -eq 0 ] || skip "slurmd must run as root to start jobs; run the test as root"
@@ -76,10 +76,11 @@ fail() {
 }
 
 wait_until() { # seconds, what, command...
-  local deadline=$((SECONDS + $1)) what="$2"
+  local seconds="$1" what="$2"
+  local deadline=$((SECONDS + seconds))
   shift 2
   until "$@"; do
-    [ "$SECONDS" -lt "$deadline" ] || fail "timed out after $1 s waiting for: $what"
+    [ "$SECONDS" -lt "$deadline" ] || fail "timed out after $seconds s waiting for: $what"
     sleep 0.1
   done
 }

@@ -11,7 +11,7 @@ set -u
 vcmfarm="$1"
 units="$2/systemd"
 command -v systemd-analyze >/dev/null ||
-  { echo "SKIP test_systemd: systemd-analyze not found (Debian package systemd: bash deploy/install-deps.sh)"; exit 77; }
+  { echo "FAIL test_systemd: systemd-analyze not found (Debian package systemd: bash deploy/install-deps.sh)"; exit 1; }
 tmp=$(mktemp -d /tmp/vf-systemd-XXXXXX)
 pids=()
 cleanup() {
