@@ -1,7 +1,7 @@
 #include "convergence.h"
 
-#include "cli.h"
 #include "error.h"
+#include "parse.h"
 
 #include <inttypes.h>
 #include <math.h>

@@ -7,8 +7,8 @@
  * differs from the one written by a relative ~4e-15 at most (counts below 2^48 exactly). */
 #include "film.h"
 
-#include "cli.h"
 #include "error.h"
+#include "parse.h"
 #include "exr_util.h"
 
 #include <inttypes.h>

@@ -1,7 +1,7 @@
 #include "iterset.h"
 
-#include "cli.h"
 #include "error.h"
+#include "parse.h"
 
 #include <inttypes.h>
 #include <stdio.h>

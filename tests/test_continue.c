@@ -6,8 +6,8 @@
 #include "common/error.h"
 #include "common/film.h"
 #include "common/image.h"
-#include "worker/continue_cmd.h"
-#include "coordinator/render_cmd.h"
+#include "cli/continue_cmd.h"
+#include "cli/render_cmd.h"
 
 #include <stdarg.h>
 #include <stdlib.h>

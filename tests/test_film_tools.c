@@ -5,10 +5,10 @@
  * the analytic values of known perturbations; diff draws the right colours at the right
  * size. Damaged files and real renders are covered by test_film_tools.sh. */
 #include "check.h"
-#include "common/compare_cmd.h"
+#include "cli/compare_cmd.h"
 #include "common/error.h"
 #include "common/film.h"
-#include "common/film_tools.h"
+#include "cli/film_cmd.h"
 #include "common/image.h"
 
 #include <cjson/cJSON.h>

@@ -3,9 +3,9 @@
 #include "check.h"
 #include "common/error.h"
 #include "common/film.h"
-#include "common/info.h"
-#include "common/plot.h"
-#include "coordinator/render_cmd.h"
+#include "cli/info_cmd.h"
+#include "cli/plot.h"
+#include "cli/render_cmd.h"
 
 #include <cairo.h>
 #include <cjson/cJSON.h>

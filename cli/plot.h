@@ -8,7 +8,7 @@
 #ifndef VF_PLOT_H
 #define VF_PLOT_H
 
-#include "film.h"
+#include "../common/film.h"
 
 typedef enum {
   VF_PLOT_BOTH,       /* two panels: against wall time and against iterations */

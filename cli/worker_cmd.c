@@ -1,10 +1,10 @@
 /* `vcmfarm worker`: the command line of the farm worker (worker/worker.h). */
 #include "worker_cmd.h"
 
-#include "../common/cli.h"
+#include "options.h"
 #include "../common/error.h"
-#include "blob_cache.h"
-#include "worker.h"
+#include "../worker/blob_cache.h"
+#include "../worker/worker.h"
 
 #include <getopt.h>
 #include <signal.h>

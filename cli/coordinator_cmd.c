@@ -1,8 +1,8 @@
 #include "coordinator_cmd.h"
 
-#include "../common/cli.h"
+#include "options.h"
 #include "../common/error.h"
-#include "coordinator.h"
+#include "../coordinator/coordinator.h"
 
 #include <getopt.h>
 #include <stdio.h>

@@ -1,6 +1,6 @@
-#include "cli.h"
+#include "options.h"
 
-#include "error.h"
+#include "../common/error.h"
 
 #include <errno.h>
 #include <getopt.h>
@@ -49,19 +49,6 @@ int vf_cli_resolution(const char *option, const char *text, int *width, int *hei
   *width = w;
   *height = h;
   return VF_OK;
-}
-
-const char *vf_parse_u64(const char *s, uint64_t *out) {
-  uint64_t v = 0;
-  const char *p = s;
-  for (; *p >= '0' && *p <= '9'; p++) {
-    unsigned d = (unsigned)(*p - '0');
-    if (v > (UINT64_MAX - d) / 10) return NULL;
-    v = v * 10 + d;
-  }
-  if (p == s) return NULL;
-  *out = v;
-  return p;
 }
 
 void vf_cli_settings_init(vf_cli_settings *o) {

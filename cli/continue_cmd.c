@@ -5,12 +5,12 @@
  * of [0,N) rendered at once. */
 #include "continue_cmd.h"
 
-#include "../common/cli.h"
+#include "options.h"
 #include "../common/error.h"
 #include "../common/film.h"
 #include "../common/image.h"
-#include "checkpoint.h"
-#include "render.h"
+#include "local_render.h"
+#include "../worker/render.h"
 
 #include <getopt.h>
 #include <inttypes.h>

@@ -10,7 +10,7 @@
  * alone, and the independent reference the farm tests compare with). */
 #include "render_cmd.h"
 
-#include "../common/cli.h"
+#include "options.h"
 #include "../common/clock.h"
 #include "../common/error.h"
 #include "../common/farm_client.h"
@@ -19,11 +19,11 @@
 #include "../common/film_wire.h"
 #include "../common/image.h"
 #include "../worker/blob_cache.h"
-#include "../worker/checkpoint.h"
+#include "local_render.h"
 #include "../worker/render.h"
 #include "../worker/worker.h"
-#include "coordinator.h"
-#include "job.h"
+#include "../coordinator/coordinator.h"
+#include "../coordinator/job.h"
 #include "submit.h"
 
 #include <errno.h>

@@ -6,7 +6,7 @@
 #ifndef VF_SUBMIT_H
 #define VF_SUBMIT_H
 
-#include "../common/cli.h"
+#include "options.h"
 #include "../common/farm_client.h"
 #include "../common/settings.h"
 

@@ -1,14 +1,14 @@
 #include "client_cmd.h"
 
-#include "../common/cli.h"
+#include "options.h"
 #include "../common/error.h"
 #include "../common/farm_client.h"
 #include "../common/file.h"
 #include "../common/film_wire.h"
 #include "../common/image.h"
 #include "../worker/job_scene.h"
-#include "job.h"
-#include "schedule.h"
+#include "../coordinator/job.h"
+#include "../coordinator/schedule.h"
 #include "submit.h"
 
 #include <cjson/cJSON.h>

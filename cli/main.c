@@ -1,12 +1,12 @@
 /* vcmfarm: one executable, one subcommand per task. */
-#include "../worker/continue_cmd.h"
-#include "../coordinator/client_cmd.h"
-#include "../coordinator/coordinator_cmd.h"
-#include "../coordinator/render_cmd.h"
-#include "../worker/worker_cmd.h"
+#include "continue_cmd.h"
+#include "client_cmd.h"
+#include "coordinator_cmd.h"
+#include "render_cmd.h"
+#include "worker_cmd.h"
 #include "compare_cmd.h"
-#include "film_tools.h"
-#include "info.h"
+#include "film_cmd.h"
+#include "info_cmd.h"
 #include "plot.h"
 
 #include <stdio.h>

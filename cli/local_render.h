@@ -5,12 +5,12 @@
  *
  * A killed render therefore keeps the work up to its last checkpoint: the film at the
  * output path is always a complete, valid film, at most one checkpoint interval old. */
-#ifndef VF_CHECKPOINT_H
-#define VF_CHECKPOINT_H
+#ifndef VF_LOCAL_RENDER_H
+#define VF_LOCAL_RENDER_H
 
 #include "../common/film.h"
 #include "../common/image.h"
-#include "render.h"
+#include "../worker/render.h"
 
 typedef struct {
   const char *output;        /* borrowed: the film path written at every due checkpoint */

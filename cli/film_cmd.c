@@ -4,12 +4,12 @@
  * films costs the memory of two. Before each input is added it is checked against the
  * first input (size, scene, settings) and against the iteration set of every earlier
  * input, so a refusal names the two files involved instead of only "films differ". */
-#include "film_tools.h"
+#include "film_cmd.h"
 
-#include "cli.h"
-#include "error.h"
-#include "exr_util.h"
-#include "film.h"
+#include "options.h"
+#include "../common/error.h"
+#include "../common/exr_util.h"
+#include "../common/film.h"
 
 #include <getopt.h>
 #include <inttypes.h>

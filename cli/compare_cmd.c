@@ -7,12 +7,12 @@
  * zero), interpolated in sRGB like its published stops. */
 #include "compare_cmd.h"
 
-#include "cli.h"
-#include "error.h"
-#include "exr_util.h"
-#include "film_tools.h"
-#include "image.h"
-#include "metrics.h"
+#include "options.h"
+#include "../common/error.h"
+#include "../common/exr_util.h"
+#include "film_cmd.h"
+#include "../common/image.h"
+#include "../common/metrics.h"
 
 #include <cairo.h>
 #include <cjson/cJSON.h>

@@ -1,4 +1,4 @@
-#include "checkpoint.h"
+#include "local_render.h"
 
 #include "../common/error.h"
 #include "../common/metrics.h"

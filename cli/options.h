@@ -1,10 +1,10 @@
 /* Command-line helpers shared by the subcommands: strict number parsing with ranges and
  * the exit-status convention (0 success, 1 failure while working, 2 bad input: command
  * line, scene, EXR file or film). */
-#ifndef VF_CLI_H
-#define VF_CLI_H
+#ifndef VF_OPTIONS_H
+#define VF_OPTIONS_H
 
-#include "settings.h"
+#include "../common/settings.h"
 
 #include <stdint.h>
 
@@ -21,11 +21,6 @@ int vf_cli_bytes(const char *option, const char *text, uint64_t *out);
 /* Checks, before hours of work, that a file can be written at path: its directory exists
  * and is writable, and path is not a directory. VF_EUSAGE naming the option and the path. */
 int vf_cli_writable(const char *option, const char *path);
-
-/* Strict decimal: digits only, no sign or blanks, no overflow. Parses the longest run of
- * digits at s into *out and returns the first character after it, or NULL when there is
- * no digit or the value overflows 64 bits. For text from files and the network. */
-const char *vf_parse_u64(const char *s, uint64_t *out);
 
 /* The render settings a command line may override (render, submit): -a/--algorithm,
  * -s/--seed, -l/--max-path-length, -r/--radius-factor, --alpha (option value 'A'),

@@ -1,9 +1,9 @@
 #include "plot.h"
 
-#include "cli.h"
-#include "error.h"
-#include "exr_util.h"
-#include "settings.h"
+#include "options.h"
+#include "../common/error.h"
+#include "../common/exr_util.h"
+#include "../common/settings.h"
 
 #include <cairo.h>
 #include <getopt.h>

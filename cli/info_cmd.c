@@ -1,11 +1,11 @@
 /* `vcmfarm info`: every attribute of a film, its image mean, its estimated RMSE and its
  * convergence log, as aligned text or as JSON (cJSON; NaN becomes null). */
-#include "info.h"
+#include "info_cmd.h"
 
-#include "cli.h"
-#include "error.h"
-#include "film.h"
-#include "settings.h"
+#include "options.h"
+#include "../common/error.h"
+#include "../common/film.h"
+#include "../common/settings.h"
 
 #include <cjson/cJSON.h>
 #include <getopt.h>

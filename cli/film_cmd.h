@@ -9,10 +9,10 @@
  * outputs are written atomically (temporary file, fsync, rename), so an existing file at
  * the output path is left exactly as it was. The functions reset getopt and may be called
  * repeatedly in one process (the tests do); they are not thread-safe (getopt). */
-#ifndef VF_FILM_TOOLS_H
-#define VF_FILM_TOOLS_H
+#ifndef VF_FILM_CMD_H
+#define VF_FILM_CMD_H
 
-#include "image.h"
+#include "../common/image.h"
 
 /* vcmfarm merge -o OUT IN...: the exact sum of two or more films. Refuses films whose
  * size, scene hash or settings text differ from the first input's, and films whose
