@@ -73,59 +73,39 @@ static const char submit_usage[] =
     "scene names are sent by content hash, those the coordinator lacks first. The job\n"
     "stops at the first stop condition that holds.\n"
     "\n"
-    "  -n, --iterations N       at most N iterations (default 16, or 10^9 when another stop\n"
-    "                           condition is given)\n"
     "      --start-iteration K  the first global iteration (default 0; at most 2^53), to\n"
-    "                           continue a film that holds [0, K)\n"
-    "  -t, --time S             stop after S seconds of running (from the first lease)\n"
-    "      --target-rmse X      stop once the RMSE against --reference is at most X\n"
-    "      --reference REF      reference image (a film or RGB EXR of the job's size); sent\n"
-    "                           with the job, its RMSE is tracked in the job's log\n"
-    "      --target-error E     stop once the estimated RMSE (no reference) is at most E\n"
+    "                           continue a film that holds [0, K)\n" VF_CLI_STOP_HELP
+    "                           (the reference is sent with the job)\n"
     "  -P, --priority P         weight 1 to 1000 (default 1): jobs share the workers' time in\n"
     "                           proportion to their priorities\n"
-    "  -N, --name NAME          a name for status (default: SCENE)\n"
-    "  -a, --algorithm A        vcm (default), bpt, pt, lt, ppm or bpm\n"
-    "  -s, --seed S             job seed (default: the scene's, else 1)\n"
-    "  -l, --max-path-length L  maximum path segments (default 10)\n"
-    "  -r, --radius-factor F    initial merge radius / scene radius (default 0.003)\n"
-    "      --alpha A            radius reduction exponent in (0, 1] (default 0.75)\n"
-    "  -R, --resolution WxH     image size (default: the scene camera's)\n" CONNECTION_HELP;
+    "  -N, --name NAME          a name for status (default: SCENE)\n" VF_CLI_SETTINGS_HELP CONNECTION_HELP;
 
 int vf_cmd_submit(int argc, char **argv) {
   static const struct option options[] = {
-      {"iterations", required_argument, 0, 'n'}, {"priority", required_argument, 0, 'P'},
-      {"name", required_argument, 0, 'N'},       {"algorithm", required_argument, 0, 'a'},
-      {"seed", required_argument, 0, 's'},       {"max-path-length", required_argument, 0, 'l'},
-      {"radius-factor", required_argument, 0, 'r'}, {"alpha", required_argument, 0, 'A'},
-      {"resolution", required_argument, 0, 'R'}, {"coordinator", required_argument, 0, 'c'},
-      {"secret", required_argument, 0, 'k'},     {"timeout", required_argument, 0, 'T'},
-      {"time", required_argument, 0, 't'},     {"target-rmse", required_argument, 0, 'X'},
-      {"reference", required_argument, 0, 'F'}, {"target-error", required_argument, 0, 'E'},
-      {"start-iteration", required_argument, 0, 'K'},
-      {"help", no_argument, 0, 'h'},             {0, 0, 0, 0}};
+      VF_CLI_STOP_OPTIONS,
+      VF_CLI_SETTINGS_OPTIONS,
+      {"priority", required_argument, 0, 'P'},        {"name", required_argument, 0, 'N'},
+      {"coordinator", required_argument, 0, 'c'},     {"secret", required_argument, 0, 'k'},
+      {"timeout", required_argument, 0, 'T'},         {"start-iteration", required_argument, 0, 'K'},
+      {"help", no_argument, 0, 'h'},                  {0, 0, 0, 0}};
   uint64_t first = 0;
-  const char *cmd = "submit", *name = NULL, *reference = NULL;
+  const char *cmd = "submit", *name = NULL;
   vf_cli_settings overrides;
+  vf_cli_stop stop = {0};
   connection conn = {NULL, NULL, 10.0};
-  long long iterations = 0, priority = 1;
-  double time_limit = 0.0, target_rmse = 0.0, target_error = 0.0;
+  long long priority = 1;
   int err = VF_OK, c;
   vf_cli_settings_init(&overrides);
   optind = 1;
   opterr = 0;
-  while ((c = getopt_long(argc, argv, "n:t:P:N:a:s:l:r:R:c:k:h", options, NULL)) != -1) {
-    if (connection_option(&conn, c, &err) || vf_cli_settings_option(&overrides, c, optarg, &err)) {
+  while ((c = getopt_long(argc, argv, VF_CLI_STOP_SHORT VF_CLI_SETTINGS_SHORT "P:N:c:k:h", options, NULL)) != -1) {
+    if (connection_option(&conn, c, &err) || vf_cli_settings_option(&overrides, c, optarg, &err) ||
+        vf_cli_stop_option(&stop, c, optarg, &err)) {
       if (err != VF_OK) return vf_cli_fail(cmd, err);
       continue;
     }
     switch (c) {
-    case 'n': err = vf_cli_int("--iterations", optarg, 1, 1000000000LL, &iterations); break;
     case 'P': err = vf_cli_int("--priority", optarg, VF_PRIORITY_MIN, VF_PRIORITY_MAX, &priority); break;
-    case 't': err = vf_cli_double("--time", optarg, 1e-3, 366.0 * 86400.0, &time_limit); break;
-    case 'X': err = vf_cli_double("--target-rmse", optarg, 1e-30, 1e30, &target_rmse); break;
-    case 'E': err = vf_cli_double("--target-error", optarg, 1e-30, 1e30, &target_error); break;
-    case 'F': reference = optarg; break;
     case 'N': name = optarg; break;
     case 'K': err = vf_cli_u64("--start-iteration", optarg, &first); break;
     case 'h': fputs(submit_usage, stdout); return VF_EXIT_OK;
@@ -137,26 +117,23 @@ int vf_cmd_submit(int argc, char **argv) {
     fprintf(stderr, "vcmfarm submit: expected exactly one SCENE\n%s", submit_usage);
     return VF_EXIT_BAD_INPUT;
   }
-  if (target_rmse > 0.0 && reference == NULL) {
-    fprintf(stderr, "vcmfarm submit: --target-rmse needs --reference\n%s", submit_usage);
-    return VF_EXIT_BAD_INPUT;
-  }
-  if (iterations == 0)
-    iterations = time_limit > 0.0 || target_rmse > 0.0 || target_error > 0.0 ? (long long)VF_JOB_MAX_ITERATIONS : 16;
+  /* A farm job stops at the first of its conditions to hold: iterations and time together too. */
+  if ((err = vf_cli_stop_check(&stop, 0)) != VF_OK) return vf_cli_fail(cmd, err);
+  uint64_t iterations = vf_cli_stop_iterations(&stop);
   vf_wire_key key;
   vf_farm_client *client;
   if (conn.url == NULL || conn.secret == NULL)
     return vf_cli_fail(cmd, vf_error_set(VF_EUSAGE, "--coordinator URL and --secret FILE are required"));
   if ((err = vf_wire_key_load(conn.secret, &key)) != VF_OK || (err = vf_farm_client_open(conn.url, &key, &client)) != VF_OK)
     return vf_cli_fail(cmd, err);
-  vf_submit_job job = {argv[optind], name, &overrides, (uint64_t)first, (uint64_t)iterations, (int)priority,
-                       time_limit, target_rmse, target_error, reference, "vcmfarm submit"};
+  vf_submit_job job = {argv[optind], name, &overrides, first, iterations, (int)priority,
+                       stop.time_limit, stop.target_rmse, stop.target_error, stop.reference, "vcmfarm submit"};
   vf_submitted_job submitted;
   err = vf_submit(client, (int)(conn.timeout * 1000.0), &job, &submitted);
   vf_farm_client_close(client);
   if (err != VF_OK) return vf_cli_fail(cmd, err);
-  fprintf(stderr, "vcmfarm submit: %s, %s, at most %lld iterations from %llu, priority %lld\n", argv[optind],
-          submitted.settings_text, iterations, (unsigned long long)first, priority);
+  fprintf(stderr, "vcmfarm submit: %s, %s, at most %llu iterations from %llu, priority %lld\n", argv[optind],
+          submitted.settings_text, (unsigned long long)iterations, (unsigned long long)first, priority);
   printf("%llu\n", (unsigned long long)submitted.job_id);
   return VF_EXIT_OK;
 }

@@ -5,16 +5,15 @@
  * of [0,N) rendered at once. */
 #include "continue_cmd.h"
 
-#include "options.h"
 #include "../common/error.h"
 #include "../common/film.h"
 #include "../common/image.h"
-#include "local_render.h"
 #include "../worker/render.h"
+#include "local_render.h"
+#include "options.h"
 
 #include <getopt.h>
 #include <inttypes.h>
-#include <signal.h>
 #include <stdio.h>
 #include <string.h>
 #include <unistd.h>
@@ -28,11 +27,7 @@ static const char usage[] =
     "and writes the result to OUT (default: FILM itself, atomically). The result equals the\n"
     "film of all its iterations rendered at once.\n"
     "\n"
-    "  -n, --iterations N       iterations to add (default 16)\n"
-    "  -t, --time S             render for S seconds instead\n"
-    "      --reference REF      reference image (a film or an RGB EXR of the film's size)\n"
-    "      --target-rmse X      stop once the RMSE against the reference is <= X\n"
-    "      --target-error E     stop once the estimated RMSE (no reference) is <= E\n"
+    "\n" VF_CLI_STOP_HELP
     "      --checkpoint-interval S  log an error entry and write OUT every S seconds\n"
     "                           (default 10; 0: only at the end)\n"
     "      --scene SCENE        the scene to load (default: the one the film names); its\n"
@@ -45,22 +40,8 @@ static const char usage[] =
     "Exit status: 0 done (or the target was already met: nothing written), 1 failure while\n"
     "rendering, 2 bad input: unreadable film or reference, other scene (nothing written).\n";
 
-static volatile sig_atomic_t interrupted;
-static void on_interrupt(int sig) {
-  (void)sig;
-  interrupted = 1;
-}
-
 static void hex32(const uint8_t *hash, char out[65]) {
   for (int i = 0; i < 32; i++) snprintf(out + 2 * i, 3, "%02x", hash[i]);
-}
-
-/* The end of the run of free indices that starts at `free_index`: the next index in the
- * set, or UINT64_MAX. */
-static uint64_t gap_end(const vf_iterset *set, uint64_t free_index) {
-  for (size_t i = 0; i < set->count; i++)
-    if (set->ranges[i].begin > free_index) return set->ranges[i].begin;
-  return UINT64_MAX;
 }
 
 /* Loads the scene the film names (or `scene_arg`) and checks it is the film's scene. */
@@ -106,25 +87,24 @@ static int film_settings(const vf_film *film, const char *film_path, vf_settings
 
 int vf_cmd_continue(int argc, char **argv) {
   static const struct option options[] = {
-      {"iterations", required_argument, 0, 'n'},  {"time", required_argument, 0, 't'},
-      {"reference", required_argument, 0, 'F'},   {"target-rmse", required_argument, 0, 'X'},
-      {"target-error", required_argument, 0, 'E'}, {"checkpoint-interval", required_argument, 0, 'C'},
-      {"scene", required_argument, 0, 'S'},       {"output", required_argument, 0, 'o'},
-      {"threads", required_argument, 0, 'j'},     {"quiet", no_argument, 0, 'q'},
-      {"help", no_argument, 0, 'h'},              {0, 0, 0, 0}};
-  const char *cmd = "continue", *output = NULL, *scene_arg = NULL, *reference_path = NULL;
-  long long iterations = -1, threads = 0;
-  double time_limit = 0.0, target_rmse = 0.0, target_error = 0.0, checkpoint_interval = 10.0;
+      VF_CLI_STOP_OPTIONS,
+      {"checkpoint-interval", required_argument, 0, 'C'}, {"scene", required_argument, 0, 'S'},
+      {"output", required_argument, 0, 'o'},              {"threads", required_argument, 0, 'j'},
+      {"quiet", no_argument, 0, 'q'},                     {"help", no_argument, 0, 'h'},
+      {0, 0, 0, 0}};
+  const char *cmd = "continue", *output = NULL, *scene_arg = NULL;
+  vf_cli_stop stop = {0};
+  long long threads = 0;
+  double checkpoint_interval = 10.0;
   int quiet = 0, err = VF_OK, c;
   optind = 1;
   opterr = 0;
-  while ((c = getopt_long(argc, argv, "n:t:o:j:qh", options, NULL)) != -1) {
+  while ((c = getopt_long(argc, argv, VF_CLI_STOP_SHORT "o:j:qh", options, NULL)) != -1) {
+    if (vf_cli_stop_option(&stop, c, optarg, &err)) {
+      if (err != VF_OK) return vf_cli_fail(cmd, err);
+      continue;
+    }
     switch (c) {
-    case 'n': err = vf_cli_int("--iterations", optarg, 1, 1000000000LL, &iterations); break;
-    case 't': err = vf_cli_double("--time", optarg, 1e-3, 1e9, &time_limit); break;
-    case 'F': reference_path = optarg; break;
-    case 'X': err = vf_cli_double("--target-rmse", optarg, 1e-300, 1e300, &target_rmse); break;
-    case 'E': err = vf_cli_double("--target-error", optarg, 1e-300, 1e300, &target_error); break;
     case 'C': err = vf_cli_double("--checkpoint-interval", optarg, 0.0, 1e9, &checkpoint_interval); break;
     case 'S': scene_arg = optarg; break;
     case 'o': output = optarg; break;
@@ -140,28 +120,20 @@ int vf_cmd_continue(int argc, char **argv) {
     fprintf(stderr, "vcmfarm continue: expected exactly one FILM\n%s", usage);
     return VF_EXIT_BAD_INPUT;
   }
-  if (iterations > 0 && time_limit > 0.0) {
-    fprintf(stderr, "vcmfarm continue: give --iterations or --time, not both\n");
-    return VF_EXIT_BAD_INPUT;
-  }
-  if (target_rmse > 0.0 && reference_path == NULL) {
-    fprintf(stderr, "vcmfarm continue: --target-rmse needs --reference\n");
-    return VF_EXIT_BAD_INPUT;
-  }
   const char *film_path = argv[optind];
   if (output == NULL) output = film_path;
-  if ((err = vf_cli_writable("-o", output)) != VF_OK) return vf_cli_fail(cmd, err);
+  if ((err = vf_cli_stop_check(&stop, 1)) != VF_OK || (err = vf_cli_writable("-o", output)) != VF_OK)
+    return vf_cli_fail(cmd, err);
 
   vf_film *film = NULL;
   vf_scene *scene = NULL;
   vf_renderer *renderer = NULL;
   vf_image reference = {0};
-  vf_checkpointer cp = {0};
   vf_settings settings;
   if ((err = vf_film_read(film_path, &film)) != VF_OK) goto done;
   if ((err = film_settings(film, film_path, &settings)) != VF_OK) goto done;
   if ((err = load_scene(film, film_path, scene_arg, &scene)) != VF_OK) goto done;
-  if (reference_path && (err = vf_reference_load(reference_path, film->width, film->height, &reference)) != VF_OK)
+  if (stop.reference && (err = vf_reference_load(stop.reference, film->width, film->height, &reference)) != VF_OK)
     goto done;
   if ((err = vf_renderer_create(scene, &settings, (int)threads, &renderer)) != VF_OK) goto done;
   /* A film from an older build may lack the scene name: stamp it now, the hash matched. */
@@ -172,67 +144,31 @@ int vf_cmd_continue(int argc, char **argv) {
     memcpy(film->scene_name, stamped->scene_name, sizeof film->scene_name);
     vf_film_destroy(stamped);
   }
-  int tty = !quiet && isatty(STDERR_FILENO);
-  if ((err = vf_checkpointer_init(&cp, film, output, reference_path ? &reference : NULL, target_rmse, target_error,
-                                  tty)) != VF_OK)
-    goto done;
-  vf_checkpointer_measure(&cp, film);
-  if (cp.target_reached) {
-    if (!quiet)
-      fprintf(stderr, "vcmfarm continue: %s already meets the target (estimated RMSE %.4g, RMSE %.4g); nothing done\n",
-              film_path, cp.last.estimated_rmse, cp.last.rmse);
-    goto done;
-  }
   if (!quiet) {
     fprintf(stderr, "vcmfarm continue: %s (%" PRIu64 " iterations), scene %s, %s\n", film_path,
             vf_iterset_count(&film->iterations), scene->source, film->settings_text);
     vf_vcm_describe(vf_renderer_vcm(renderer), stderr);
   }
-
-  int open_ended = time_limit > 0.0 || target_rmse > 0.0 || target_error > 0.0;
-  uint64_t remaining = iterations > 0 ? (uint64_t)iterations : (open_ended ? UINT64_MAX : 16), done = 0;
-  vf_render_control control = {0.0, NULL, NULL, &interrupted, 0.0, NULL};
-  vf_checkpointer_attach(&cp, &control, checkpoint_interval);
-  struct sigaction sa, old_int, old_term;
-  memset(&sa, 0, sizeof sa);
-  sa.sa_handler = on_interrupt;
-  sigaction(SIGINT, &sa, &old_int);
-  sigaction(SIGTERM, &sa, &old_term);
-  double start = vf_seconds_now(), seconds = 0.0;
-  /* One call per gap of the iteration set: the loop over iterations stays in vf_render_range. */
-  while (remaining > 0 && !interrupted && !cp.target_reached) {
-    uint64_t begin = vf_iterset_next_free(&film->iterations, 0), end = gap_end(&film->iterations, begin);
-    if (end - begin > remaining) end = begin + remaining;
-    if (time_limit > 0.0) {
-      control.time_limit = time_limit - (vf_seconds_now() - start);
-      if (control.time_limit <= 0.0) break;
-    }
-    vf_render_status st;
-    err = vf_render_range(renderer, film, begin, end, &control, &st);
-    done += st.iterations_done;
-    remaining -= st.iterations_done;
-    if (err != VF_OK || st.iterations_done < end - begin) break;
-  }
-  seconds = vf_seconds_now() - start;
-  sigaction(SIGINT, &old_int, NULL);
-  sigaction(SIGTERM, &old_term, NULL);
-  if (tty) fputc('\n', stderr);
-  if (err != VF_OK) goto done;
-  if (done == 0) {
-    err = vf_error_set(VF_EINVAL, "no iteration finished; nothing written");
+  vf_local_render_options lo = {output, stop.reference ? &reference : NULL, &stop, checkpoint_interval,
+                                !quiet && isatty(STDERR_FILENO)};
+  vf_local_render_result r;
+  err = vf_local_render(renderer, film, 0, &lo, &r);
+  if (err == VF_OK && r.iterations == 0 && r.target_reached) {
+    if (!quiet)
+      fprintf(stderr, "vcmfarm continue: %s already meets the target (estimated RMSE %.4g, RMSE %.4g); nothing done\n",
+              film_path, r.last.estimated_rmse, r.last.rmse);
     goto done;
   }
-  /* Every call's final checkpoint wrote the film. */
+  if (err != VF_OK) goto done;
   if (!quiet) {
     char set[256];
     if (vf_iterset_format(&film->iterations, set, sizeof set) != VF_OK) snprintf(set, sizeof set, "(long)");
-    fprintf(stderr, "added %" PRIu64 " iteration(s) in %.2f s%s; the film holds %s\nestimated RMSE %.4g", done, seconds,
-            interrupted ? " (interrupted)" : "", set, cp.last.estimated_rmse);
-    if (reference_path) fprintf(stderr, ", RMSE %.4g against %s", cp.last.rmse, reference_path);
-    fprintf(stderr, "%s\nwrote %s\n", cp.target_reached ? " (target reached)" : "", output);
+    fprintf(stderr, "added %" PRIu64 " iteration(s) in %.2f s%s; the film holds %s\nestimated RMSE %.4g", r.iterations,
+            r.seconds, r.interrupted ? " (interrupted)" : "", set, r.last.estimated_rmse);
+    if (stop.reference) fprintf(stderr, ", RMSE %.4g against %s", r.last.rmse, stop.reference);
+    fprintf(stderr, "%s\nwrote %s\n", r.target_reached ? " (target reached)" : "", output);
   }
 done:
-  vf_checkpointer_destroy(&cp);
   vf_renderer_destroy(renderer);
   vf_image_destroy(&reference);
   vf_scene_destroy(scene);

@@ -1,7 +1,9 @@
 #include "local_render.h"
 
+#include "../common/clock.h"
 #include "../common/error.h"
 #include "../common/metrics.h"
+#include "interrupt.h"
 
 #include <math.h>
 #include <stdio.h>
@@ -12,90 +14,146 @@
  * this often. */
 #define PROGRESS_MEASURE_SECONDS 1.0
 
-int vf_checkpointer_init(vf_checkpointer *cp, const vf_film *film, const char *output, const vf_image *reference,
-                         double target_rmse, double target_error, int tty) {
-  float *mean = malloc(3 * (size_t)film->width * (size_t)film->height * sizeof *mean);
-  if (mean == NULL) return vf_error_set(VF_ENOMEM, "out of memory for a %dx%d image", film->width, film->height);
-  *cp = (vf_checkpointer){0};
-  cp->output = output;
-  cp->reference = reference;
-  cp->target_rmse = target_rmse;
-  cp->target_error = target_error;
-  cp->tty = tty;
-  cp->mean = mean;
-  cp->run = vf_convergence_next_run(&film->convergence, vf_iterset_count(&film->iterations), film->render_seconds);
-  return VF_OK;
-}
+/* What the render loop's delivery callback and progress line share during one run. */
+typedef struct {
+  const vf_local_render_options *o;
+  uint32_t run;              /* of the entries this run appends to the convergence log */
+  float *mean;               /* owned scratch: the film's mean image */
+  vf_convergence_entry last; /* the latest measurement (valid when measured) */
+  int measured, target_reached;
+  double last_measure_time;  /* status->seconds of that measurement */
+  uint64_t done_before;      /* iterations of the run's earlier render calls */
+  double seconds_before;     /* and their wall time */
+} local_run;
 
-void vf_checkpointer_destroy(vf_checkpointer *cp) {
-  if (cp == NULL) return;
-  free(cp->mean);
-  cp->mean = NULL;
-}
-
-void vf_checkpointer_measure(vf_checkpointer *cp, const vf_film *film) {
-  vf_convergence_entry e = {cp->run, film->render_seconds, film->cpu_seconds, vf_iterset_count(&film->iterations),
+static void measure(local_run *lr, const vf_film *film) {
+  const vf_cli_stop *stop = lr->o->stop;
+  vf_convergence_entry e = {lr->run, film->render_seconds, film->cpu_seconds, vf_iterset_count(&film->iterations),
                             NAN, NAN, vf_film_estimate_rmse(film)};
-  if (cp->reference) {
+  if (lr->o->reference) {
     vf_error_metrics m;
-    vf_film_mean(film, cp->mean);
-    if (vf_metrics_compute(cp->mean, cp->reference->rgb, film->width, film->height, NULL, &m) == VF_OK &&
+    vf_film_mean(film, lr->mean);
+    if (vf_metrics_compute(lr->mean, lr->o->reference->rgb, film->width, film->height, NULL, &m) == VF_OK &&
         m.pixels > 0) {
       e.rmse = m.rmse_all;
       e.rel_mse = m.rel_mse_all;
     }
   }
-  cp->last = e;
-  cp->measured = 1;
-  if ((cp->target_rmse > 0 && e.rmse <= cp->target_rmse) || (cp->target_error > 0 && e.estimated_rmse <= cp->target_error))
-    cp->target_reached = 1;
+  lr->last = e;
+  lr->measured = 1;
+  if ((stop->target_rmse > 0 && e.rmse <= stop->target_rmse) ||
+      (stop->target_error > 0 && e.estimated_rmse <= stop->target_error))
+    lr->target_reached = 1;
 }
 
-static int on_checkpoint(void *ctx, vf_film *film, const vf_render_status *st) {
-  vf_checkpointer *cp = ctx;
-  int targets = cp->target_rmse > 0 || cp->target_error > 0;
-  if (st->checkpoint_due || targets || (cp->tty && st->seconds - cp->last_measure_time >= PROGRESS_MEASURE_SECONDS)) {
-    vf_checkpointer_measure(cp, film);
-    cp->last_measure_time = st->seconds;
+/* The render loop's delivery: measure, and at a due checkpoint log and write the film. */
+static int deliver(void *ctx, vf_film *film, const vf_render_status *st) {
+  local_run *lr = ctx;
+  int targets = lr->o->stop->target_rmse > 0 || lr->o->stop->target_error > 0;
+  if (st->delivery_due || targets ||
+      (lr->o->progress && st->seconds - lr->last_measure_time >= PROGRESS_MEASURE_SECONDS)) {
+    measure(lr, film);
+    lr->last_measure_time = st->seconds;
   }
-  if (st->checkpoint_due) {
-    int err = vf_convergence_append(&film->convergence, &cp->last);
+  if (st->delivery_due) {
+    int err = vf_convergence_append(&film->convergence, &lr->last);
+    if (err == VF_OK && lr->o->output) err = vf_film_write(film, lr->o->output);
     if (err != VF_OK) return err;
-    if (cp->output) {
-      if ((err = vf_film_write(film, cp->output)) != VF_OK) return err;
-      cp->writes++;
-    }
   }
-  return cp->target_reached ? VF_RENDER_STOP : VF_OK;
+  return lr->target_reached ? VF_RENDER_STOP : VF_OK;
 }
 
+/* The progress line: a total and an ETA only where the stop condition gives one. */
 static void progress(void *ctx, const vf_render_status *st) {
-  vf_checkpointer *cp = ctx;
-  if (!cp->tty) return;
-  char error[96] = "";
-  if (cp->measured) {
-    int n = snprintf(error, sizeof error, "  est. RMSE %.3g", cp->last.estimated_rmse);
-    if (cp->reference && n > 0 && (size_t)n < sizeof error)
-      snprintf(error + n, sizeof error - (size_t)n, "  RMSE %.3g", cp->last.rmse);
+  local_run *lr = ctx;
+  const vf_cli_stop *stop = lr->o->stop;
+  char error[96] = "", total[32] = "", eta[32] = "";
+  if (lr->measured) {
+    int n = snprintf(error, sizeof error, "  est. RMSE %.3g", lr->last.estimated_rmse);
+    if (lr->o->reference && n > 0 && (size_t)n < sizeof error)
+      snprintf(error + n, sizeof error - (size_t)n, "  RMSE %.3g", lr->last.rmse);
   }
-  double rate = st->seconds > 0.0 ? (double)st->iterations_done / st->seconds : 0.0;
+  uint64_t done = lr->done_before + st->iterations_done;
+  double seconds = lr->seconds_before + st->seconds;
+  double rate = seconds > 0.0 ? (double)done / seconds : 0.0;
   double mrays = st->seconds > 0.0 ? (double)st->stats.rays / st->seconds * 1e-6 : 0.0;
-  if (st->iterations_total != UINT64_MAX && rate > 0.0) {
-    double eta = (double)(st->iterations_total - st->iterations_done) / rate;
-    fprintf(stderr, "\r  iteration %llu/%llu  %.2f it/s  %.1f Mrays/s%s  elapsed %.1f s  ETA %.1f s   ",
-            (unsigned long long)st->iterations_done, (unsigned long long)st->iterations_total, rate, mrays, error,
-            st->seconds, eta);
-  } else {
-    fprintf(stderr, "\r  iteration %llu  %.2f it/s  %.1f Mrays/s%s  elapsed %.1f s   ",
-            (unsigned long long)st->iterations_done, rate, mrays, error, st->seconds);
+  if (stop->iterations > 0) {
+    snprintf(total, sizeof total, "/%llu", (unsigned long long)stop->iterations);
+    if (rate > 0.0) snprintf(eta, sizeof eta, "  ETA %.1f s", (double)((uint64_t)stop->iterations - done) / rate);
+  } else if (stop->time_limit > 0.0) {
+    snprintf(eta, sizeof eta, "  ETA %.1f s", seconds < stop->time_limit ? stop->time_limit - seconds : 0.0);
   }
+  fprintf(stderr, "\r  iteration %llu%s  %.2f it/s  %.1f Mrays/s%s  elapsed %.1f s%s   ", (unsigned long long)done,
+          total, rate, mrays, error, seconds, eta);
 }
 
-void vf_checkpointer_attach(vf_checkpointer *cp, vf_render_control *control, double interval) {
-  control->ctx = cp;
-  control->progress = progress;
-  control->checkpoint = on_checkpoint;
-  control->checkpoint_interval = interval;
+static void stats_add(vf_vcm_stats *sum, const vf_vcm_stats *s) {
+  sum->rays += s->rays;
+  sum->light_vertices += s->light_vertices;
+  sum->nonfinite += s->nonfinite;
+  sum->light_seconds += s->light_seconds;
+  sum->grid_seconds += s->grid_seconds;
+  sum->camera_seconds += s->camera_seconds;
+}
+
+/* The end of the run of free indices that starts at `free_index`: the next index in the
+ * set, or UINT64_MAX. */
+static uint64_t gap_end(const vf_iterset *set, uint64_t free_index) {
+  for (size_t i = 0; i < set->count; i++)
+    if (set->ranges[i].begin > free_index) return set->ranges[i].begin;
+  return UINT64_MAX;
+}
+
+int vf_local_render(vf_renderer *renderer, vf_film *film, uint64_t first, const vf_local_render_options *o,
+                    vf_local_render_result *result) {
+  *result = (vf_local_render_result){0};
+  local_run lr = {.o = o, .run = vf_convergence_next_run(&film->convergence, vf_iterset_count(&film->iterations),
+                                                         film->render_seconds)};
+  lr.mean = malloc(3 * (size_t)film->width * (size_t)film->height * sizeof *lr.mean);
+  if (lr.mean == NULL) return vf_error_set(VF_ENOMEM, "out of memory for a %dx%d image", film->width, film->height);
+  measure(&lr, film);
+  int err = VF_OK;
+  if (lr.target_reached) goto done; /* a film that already meets its target stays as it is */
+
+  vf_render_control control = {.interrupt = &vf_interrupted, .ctx = &lr, .progress = o->progress ? progress : NULL,
+                               .delivery_interval = o->checkpoint_interval, .deliver = deliver};
+  uint64_t remaining = vf_cli_stop_iterations(o->stop);
+  vf_interrupt_saved saved;
+  vf_interrupt_catch(&saved);
+  double start = vf_seconds_now();
+  /* One call per gap of the iteration set: the loop over iterations stays in vf_render_range. */
+  while (remaining > 0 && !vf_interrupted && !lr.target_reached) {
+    uint64_t begin = vf_iterset_next_free(&film->iterations, first), end = gap_end(&film->iterations, begin);
+    if (begin >= end) break; /* no free index left below 2^64 - 1 */
+    if (end - begin > remaining) end = begin + remaining;
+    if (o->stop->time_limit > 0.0) {
+      control.time_limit = o->stop->time_limit - (vf_seconds_now() - start);
+      if (control.time_limit <= 0.0) break;
+    }
+    vf_render_status st;
+    err = vf_render_range(renderer, film, begin, end, &control, &st);
+    if (result->iterations == 0 && st.iterations_done > 0) {
+      result->first_seconds = lr.seconds_before + st.first_seconds;
+      result->first_rays = result->stats.rays + st.first_rays;
+    }
+    result->iterations += st.iterations_done;
+    stats_add(&result->stats, &st.stats);
+    lr.done_before += st.iterations_done;
+    lr.seconds_before += st.seconds;
+    remaining -= st.iterations_done;
+    if (err != VF_OK || st.iterations_done < end - begin) break;
+  }
+  result->seconds = vf_seconds_now() - start;
+  result->interrupted = vf_interrupted != 0;
+  vf_interrupt_restore(&saved);
+  if (o->progress) fputc('\n', stderr);
+  /* Every call's final delivery wrote the film. */
+  if (err == VF_OK && result->iterations == 0) err = vf_error_set(VF_EINVAL, "no iteration finished; nothing written");
+done:
+  result->last = lr.last;
+  result->target_reached = lr.target_reached;
+  free(lr.mean);
+  return err;
 }
 
 int vf_reference_load(const char *path, int width, int height, vf_image *out) {

@@ -1,45 +1,50 @@
-/* What `render` and `continue` do while vf_render_range runs: measure the film's error
- * (against a reference when there is one, and the no-reference estimate), append an entry
- * to its convergence log and write it (atomically) at every due checkpoint, stop at a
- * target error, and show the progress line.
+/* The local render: `render --direct` and `continue`, one driver.
  *
- * A killed render therefore keeps the work up to its last checkpoint: the film at the
- * output path is always a complete, valid film, at most one checkpoint interval old. */
+ * Renders a film's free global iterations, from a first index upward (gaps first, then
+ * after its last), on this machine through the one render loop (vf_render_range), until
+ * the stop conditions end it or SIGINT/SIGTERM (cli/interrupt.h) interrupts it. Meanwhile
+ * it measures the film's error (against a reference when there is one, and the
+ * no-reference estimate), shows the progress line, stops at a target, and at every due
+ * film checkpoint appends an entry to the film's convergence log and writes the film
+ * atomically to the output. A killed render therefore keeps its work up to its last
+ * checkpoint: the file at the output path is always a complete, valid film, at most one
+ * checkpoint interval old. */
 #ifndef VF_LOCAL_RENDER_H
 #define VF_LOCAL_RENDER_H
 
 #include "../common/film.h"
 #include "../common/image.h"
 #include "../worker/render.h"
+#include "options.h"
+
+#include <stdint.h>
 
 typedef struct {
-  const char *output;        /* borrowed: the film path written at every due checkpoint */
-  const vf_image *reference; /* borrowed, or NULL; same size as the film */
-  double target_rmse;        /* > 0: stop once the RMSE against the reference is <= this */
-  double target_error;       /* > 0: stop once the estimated RMSE is <= this */
-  int tty;                   /* show the progress line on stderr */
-  /* state, filled while rendering */
-  uint32_t run;              /* of the entries this session appends */
-  float *mean;               /* owned scratch: the film's mean image */
-  vf_convergence_entry last; /* the latest measurement (valid when measured) */
-  int measured;
-  double last_measure_time;  /* status->seconds of that measurement */
-  int target_reached;
-  unsigned writes;           /* films written at checkpoints */
-} vf_checkpointer;
+  const char *output;          /* borrowed: the film path written at every due checkpoint */
+  const vf_image *reference;   /* borrowed, or NULL; the film's size */
+  const vf_cli_stop *stop;     /* borrowed: iterations, time, targets */
+  double checkpoint_interval;  /* seconds between film checkpoints; 0: only at the end */
+  int progress;                /* show the progress line on stderr */
+} vf_local_render_options;
 
-/* Prepares a checkpointer for film (its convergence log decides the run). reference and
- * output are borrowed. VF_ENOMEM. */
-int vf_checkpointer_init(vf_checkpointer *cp, const vf_film *film, const char *output, const vf_image *reference,
-                         double target_rmse, double target_error, int tty);
-void vf_checkpointer_destroy(vf_checkpointer *cp);
+typedef struct {
+  uint64_t iterations;        /* added to the film by this run */
+  double seconds;             /* wall time of the run */
+  vf_vcm_stats stats;         /* summed over the run */
+  double first_seconds;       /* seconds and rays when the run's first iteration ended: */
+  uint64_t first_rays;        /* it also paid for first touches of the renderer's buffers */
+  vf_convergence_entry last;  /* the latest measurement of the film */
+  int target_reached;         /* a target holds (perhaps before anything was rendered) */
+  int interrupted;            /* SIGINT or SIGTERM ended the run */
+} vf_local_render_result;
 
-/* Points control's ctx, checkpoint and progress at this checkpointer. */
-void vf_checkpointer_attach(vf_checkpointer *cp, vf_render_control *control, double interval);
-
-/* Measures film now into cp->last (times, iterations, RMSE and relative MSE when there is
- * a reference, the estimate); sets cp->target_reached when a target holds. */
-void vf_checkpointer_measure(vf_checkpointer *cp, const vf_film *film);
+/* Renders into film (stamped by renderer, holding any iterations) the free global
+ * iterations from `first` upward, as options say. A film that already meets a target is
+ * left as it is (result->target_reached, result->iterations 0, nothing written). Otherwise
+ * VF_EINVAL when no iteration finished (nothing written), or the render loop's and the
+ * writer's errors; *result is filled in every case. */
+int vf_local_render(vf_renderer *renderer, vf_film *film, uint64_t first, const vf_local_render_options *options,
+                    vf_local_render_result *result);
 
 /* Reads a reference image: a film or any RGB EXR (a film's R, G, B hold its mean).
  * VF_ENOENT / VF_EEXR naming the file, VF_EMISMATCH when it is not width x height. *out is

@@ -84,6 +84,33 @@ int vf_cli_settings_apply(const vf_cli_settings *o, vf_settings *settings) {
   return VF_OK;
 }
 
+int vf_cli_stop_option(vf_cli_stop *s, int c, const char *arg, int *err) {
+  switch (c) {
+  case 'n': *err = vf_cli_int("--iterations", arg, 1, (long long)VF_CLI_ITERATIONS_OPEN_ENDED, &s->iterations); return 1;
+  case 't': *err = vf_cli_double("--time", arg, 1e-3, 366.0 * 86400.0, &s->time_limit); return 1;
+  case 'F': s->reference = arg; *err = VF_OK; return 1;
+  case 'X': *err = vf_cli_double("--target-rmse", arg, 1e-30, 1e30, &s->target_rmse); return 1;
+  case 'E': *err = vf_cli_double("--target-error", arg, 1e-30, 1e30, &s->target_error); return 1;
+  default: return 0;
+  }
+}
+
+int vf_cli_stop_check(const vf_cli_stop *s, int exclusive) {
+  if (exclusive && s->iterations > 0 && s->time_limit > 0.0)
+    return vf_error_set(VF_EUSAGE, "give --iterations or --time, not both");
+  if (s->target_rmse > 0.0 && s->reference == NULL) return vf_error_set(VF_EUSAGE, "--target-rmse needs --reference");
+  return VF_OK;
+}
+
+int vf_cli_stop_open_ended(const vf_cli_stop *s) {
+  return s->time_limit > 0.0 || s->target_rmse > 0.0 || s->target_error > 0.0;
+}
+
+uint64_t vf_cli_stop_iterations(const vf_cli_stop *s) {
+  if (s->iterations > 0) return (uint64_t)s->iterations;
+  return vf_cli_stop_open_ended(s) ? VF_CLI_ITERATIONS_OPEN_ENDED : VF_CLI_ITERATIONS_DEFAULT;
+}
+
 int vf_cli_bytes(const char *option, const char *text, uint64_t *out) {
   char *end;
   errno = 0;

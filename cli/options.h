@@ -6,6 +6,7 @@
 
 #include "../common/settings.h"
 
+#include <getopt.h>
 #include <stdint.h>
 
 enum { VF_EXIT_OK = 0, VF_EXIT_FAILURE = 1, VF_EXIT_BAD_INPUT = 2 };
@@ -24,7 +25,24 @@ int vf_cli_writable(const char *option, const char *path);
 
 /* The render settings a command line may override (render, submit): -a/--algorithm,
  * -s/--seed, -l/--max-path-length, -r/--radius-factor, --alpha (option value 'A'),
- * -R/--resolution. Unset fields leave the scene's settings as they are. */
+ * -R/--resolution. Unset fields leave the scene's settings as they are. The commands take
+ * them through VF_CLI_SETTINGS_OPTIONS (getopt_long entries), VF_CLI_SETTINGS_SHORT (its
+ * short letters) and VF_CLI_SETTINGS_HELP (their lines of --help), so the options and
+ * their help exist once. */
+#define VF_CLI_SETTINGS_OPTIONS                                                                              \
+  {"algorithm", required_argument, 0, 'a'}, {"seed", required_argument, 0, 's'},                            \
+      {"max-path-length", required_argument, 0, 'l'}, {"radius-factor", required_argument, 0, 'r'},         \
+      {"alpha", required_argument, 0, 'A'}, {"resolution", required_argument, 0, 'R'}
+#define VF_CLI_SETTINGS_SHORT "a:s:l:r:R:"
+#define VF_CLI_SETTINGS_HELP                                                                 \
+  "  -a, --algorithm A        vcm (default), bpt, pt, lt, ppm, bpm or auto (the cheapest\n"  \
+  "                           set of techniques for the scene's light transport)\n"         \
+  "  -s, --seed S             job seed (default: the scene's, else 1)\n"                     \
+  "  -l, --max-path-length L  maximum path segments (default 10)\n"                          \
+  "  -r, --radius-factor F    initial merge radius / scene radius (default 0.003)\n"         \
+  "      --alpha A            radius reduction exponent in (0, 1] (default 0.75)\n"          \
+  "  -R, --resolution WxH     image size (default: the scene camera's)\n"
+
 typedef struct {
   const char *algorithm; /* borrowed from argv, or NULL */
   uint64_t seed;
@@ -40,6 +58,45 @@ int vf_cli_settings_option(vf_cli_settings *o, int c, const char *arg, int *err)
 
 /* Applies the overrides to *settings (an algorithm name is checked here). */
 int vf_cli_settings_apply(const vf_cli_settings *o, vf_settings *settings);
+
+/* The stop conditions of a render (render, continue, submit): -n/--iterations,
+ * -t/--time, --reference (option value 'F'), --target-rmse ('X'), --target-error ('E'),
+ * through VF_CLI_STOP_OPTIONS, VF_CLI_STOP_SHORT and VF_CLI_STOP_HELP like the settings. */
+typedef struct {
+  long long iterations; /* 0: not given */
+  double time_limit, target_rmse, target_error; /* 0: none */
+  const char *reference; /* borrowed from argv, or NULL */
+} vf_cli_stop;
+#define VF_CLI_STOP_OPTIONS                                                                              \
+  {"iterations", required_argument, 0, 'n'}, {"time", required_argument, 0, 't'},                       \
+      {"reference", required_argument, 0, 'F'}, {"target-rmse", required_argument, 0, 'X'},             \
+      {"target-error", required_argument, 0, 'E'}
+#define VF_CLI_STOP_SHORT "n:t:"
+#define VF_CLI_STOP_HELP                                                                       \
+  "  -n, --iterations N       at most N iterations (default 16, or 10^9 when a time or a\n"   \
+  "                           target ends the render)\n"                                      \
+  "  -t, --time S             stop after S seconds: no iteration starts later (a farm job\n"  \
+  "                           counts them from its first lease)\n"                            \
+  "      --reference REF      reference image (a film or an RGB EXR of the same size):\n"     \
+  "                           the convergence log records the RMSE against it\n"              \
+  "      --target-rmse X      stop once the RMSE against the reference is at most X\n"        \
+  "      --target-error E     stop once the estimated RMSE (no reference) is at most E\n"
+
+/* If option c is a stop condition, parses arg into s, stores the result code in *err and
+ * returns 1; otherwise returns 0. */
+int vf_cli_stop_option(vf_cli_stop *s, int c, const char *arg, int *err);
+/* The conditions' own consistency: --target-rmse needs --reference; with exclusive set,
+ * --iterations and --time are not given together (with it unset, the first to hold stops).
+ * VF_EUSAGE naming the options. */
+int vf_cli_stop_check(const vf_cli_stop *s, int exclusive);
+/* Whether a time or a target may end the render before its iterations do. */
+int vf_cli_stop_open_ended(const vf_cli_stop *s);
+/* The iterations to render, by the one rule every command follows: --iterations when
+ * given; else VF_CLI_ITERATIONS_OPEN_ENDED when a time or target ends the render; else
+ * VF_CLI_ITERATIONS_DEFAULT. */
+#define VF_CLI_ITERATIONS_DEFAULT 16
+#define VF_CLI_ITERATIONS_OPEN_ENDED 1000000000ull /* also the most one farm job holds */
+uint64_t vf_cli_stop_iterations(const vf_cli_stop *s);
 
 /* Exit status for an error code: 2 for bad input, 1 otherwise. */
 int vf_cli_exit_status(int err);

@@ -1,6 +1,7 @@
 /* `vcmfarm worker`: the command line of the farm worker (worker/worker.h). */
 #include "worker_cmd.h"
 
+#include "interrupt.h"
 #include "options.h"
 #include "../common/error.h"
 #include "../worker/blob_cache.h"
@@ -38,13 +39,6 @@ static const char usage[] =
     "      --test-iteration-delay MS  sleep MS after every iteration (slows leases down)\n"
     "      --test-stall-file PATH     after the first lease, create PATH.stalled and wait,\n"
     "                                 silent, until PATH exists before sending the result\n";
-
-static volatile sig_atomic_t terminating;
-
-static void on_terminate(int sig) {
-  (void)sig;
-  terminating = 1;
-}
 
 int vf_cmd_worker(int argc, char **argv) {
   static const struct option options[] = {
@@ -94,14 +88,10 @@ int vf_cmd_worker(int argc, char **argv) {
   config.threads = (int)threads;
   config.iteration_delay_ms = (int)delay;
   srand((unsigned)getpid());
-  struct sigaction sa, old_int, old_term;
-  memset(&sa, 0, sizeof sa);
-  sa.sa_handler = on_terminate;
-  sigaction(SIGINT, &sa, &old_int);
-  sigaction(SIGTERM, &sa, &old_term);
+  vf_interrupt_saved saved;
+  vf_interrupt_catch(&saved);
   signal(SIGPIPE, SIG_IGN);
-  err = vf_worker_run(&config, &terminating, NULL);
-  sigaction(SIGINT, &old_int, NULL);
-  sigaction(SIGTERM, &old_term, NULL);
+  err = vf_worker_run(&config, &vf_interrupted, NULL);
+  vf_interrupt_restore(&saved);
   return err == VF_OK ? VF_EXIT_OK : vf_cli_fail(cmd, err);
 }

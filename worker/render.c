@@ -85,8 +85,8 @@ int vf_render_range(vf_renderer *r, vf_film *film, uint64_t begin, uint64_t end,
   vf_render_status st;
   memset(&st, 0, sizeof st);
   st.iterations_total = end - begin;
-  double start = vf_seconds_now(), last_checkpoint = start;
-  int err = VF_OK, stop = 0, since_checkpoint = 0;
+  double start = vf_seconds_now(), last_delivery = start;
+  int err = VF_OK, stop = 0, since_delivery = 0;
   for (uint64_t k = begin; k < end && !stop; k++) {
     if (control && control->interrupt && *control->interrupt) break;
     if (control && control->time_limit > 0.0 && vf_seconds_now() - start >= control->time_limit) break;
@@ -98,38 +98,38 @@ int vf_render_range(vf_renderer *r, vf_film *film, uint64_t begin, uint64_t end,
     uint64_t nonfinite0 = st.stats.nonfinite;
     if ((err = vf_vcm_iteration(r->vcm, k, r->camera_rgb, r->light_rgb, &st.stats)) != VF_OK) break;
     if ((err = vf_film_add_iteration(film, k, r->camera_rgb, r->light_rgb, r->pool)) != VF_OK) break;
-    /* Counted per iteration so that a checkpoint writes a consistent film. */
+    /* Counted per iteration so that a delivery sees a consistent film. */
     film->nonfinite_samples += st.stats.nonfinite - nonfinite0;
     film->render_seconds += vf_seconds_now() - t0;
     film->cpu_seconds += cpu_seconds_now() - cpu0;
     st.iterations_done++;
-    since_checkpoint = 1;
+    since_delivery = 1;
     double now = vf_seconds_now();
     st.seconds = now - start;
     if (st.iterations_done == 1) {
       st.first_seconds = st.seconds;
       st.first_rays = st.stats.rays;
     }
-    if (control && control->checkpoint) {
-      st.checkpoint_due = control->checkpoint_interval > 0.0 && now - last_checkpoint >= control->checkpoint_interval;
-      int rc = control->checkpoint(control->ctx, film, &st);
+    if (control && control->deliver) {
+      st.delivery_due = control->delivery_interval > 0.0 && now - last_delivery >= control->delivery_interval;
+      int rc = control->deliver(control->ctx, film, &st);
       if (rc < 0) {
         err = rc;
         break;
       }
-      if (st.checkpoint_due) {
-        last_checkpoint = vf_seconds_now();
-        since_checkpoint = 0;
+      if (st.delivery_due) {
+        last_delivery = vf_seconds_now();
+        since_delivery = 0;
       }
       stop = rc == VF_RENDER_STOP;
-      st.checkpoint_due = 0;
+      st.delivery_due = 0;
     }
     if (control && control->progress) control->progress(control->ctx, &st);
   }
   st.seconds = vf_seconds_now() - start;
-  if (err == VF_OK && since_checkpoint && control && control->checkpoint) {
-    st.checkpoint_due = st.final = 1;
-    int rc = control->checkpoint(control->ctx, film, &st);
+  if (err == VF_OK && since_delivery && control && control->deliver) {
+    st.delivery_due = st.final = 1;
+    int rc = control->deliver(control->ctx, film, &st);
     if (rc < 0) err = rc;
   }
   if (status) *status = st;

@@ -25,11 +25,11 @@ typedef struct {
   vf_vcm_stats stats;       /* of this call so far */
   double first_seconds;     /* seconds and stats.rays when the call's first iteration ended: */
   uint64_t first_rays;      /* the first pays for first touches of the renderer's buffers */
-  int checkpoint_due;       /* for the checkpoint callback: a checkpoint is due (below) */
-  int final;                /* for the checkpoint callback: the call after the last iteration */
+  int delivery_due;         /* for the delivery callback: a delivery is due (below) */
+  int final;                /* for the delivery callback: the call after the last iteration */
 } vf_render_status;
 
-/* A checkpoint callback's "stop rendering" answer (a target error was reached). */
+/* A delivery callback's "stop rendering" answer (a target error was reached). */
 #define VF_RENDER_STOP 1
 
 typedef struct {
@@ -37,16 +37,18 @@ typedef struct {
   void (*progress)(void *ctx, const vf_render_status *status); /* after each iteration, or NULL */
   void *ctx;
   volatile sig_atomic_t *interrupt; /* when it becomes non-zero, stop after the current iteration */
-  /* Checkpoints: called after every iteration, before progress, with the film holding it,
-   * and once more after the last iteration of the call with status->final set. Its
-   * status->checkpoint_due is set every checkpoint_interval seconds of this call (> 0; else
-   * never) and on the final call, which happens only if an iteration entered the film since
-   * the last due checkpoint. Cheap work (a target test) may run at every call, expensive
-   * work (writing the film) only when due. Returns VF_OK to go on, VF_RENDER_STOP to stop
-   * (a last, final call follows), or a negative error, which stops the loop without a final
-   * call and is returned. NULL: none. */
-  double checkpoint_interval;
-  int (*checkpoint)(void *ctx, vf_film *film, const vf_render_status *status);
+  /* Delivery: where the film's iterations go while the loop runs. The local render writes
+   * the film to its output (a film checkpoint, cli/local_render.c); a worker ships a part of
+   * its lease to the coordinator and empties the film (worker/worker.c). Called after every
+   * iteration, before progress, with the film holding it, and once more after the last
+   * iteration of the call with status->final set. Its status->delivery_due is set every
+   * delivery_interval seconds of this call (> 0; else never) and on the final call, which
+   * happens only if an iteration entered the film since the last due delivery. Cheap work
+   * (a target test) may run at every call, expensive work (writing the film) only when due.
+   * Returns VF_OK to go on, VF_RENDER_STOP to stop (a last, final call follows), or a
+   * negative error, which stops the loop without a final call and is returned. NULL: none. */
+  double delivery_interval;
+  int (*deliver)(void *ctx, vf_film *film, const vf_render_status *status);
 } vf_render_control;
 
 /* The scene is borrowed and must outlive the renderer. threads <= 0: one per CPU. */

@@ -266,11 +266,11 @@ static void film_reset(vf_film *film) {
   film->nonfinite_samples = 0;
 }
 
-/* The render loop's checkpoint, after every iteration: once the ship interval (or 50
+/* The render loop's delivery, after every iteration: once the ship interval (or 50
  * times the last part's cost, if more) has passed since the last part, the iterations so
  * far go to the coordinator and the film starts again empty. The end of the lease is
  * shipped by run_lease, after the loop. */
-static int on_checkpoint(void *ctx, vf_film *film, const vf_render_status *st) {
+static int ship_part(void *ctx, vf_film *film, const vf_render_status *st) {
   worker *w = ctx;
   if (st->final || w->dropped || vf_heartbeat_revoked(w->heartbeat)) return VF_OK;
   double interval = w->ship_interval > SHIP_COST_FACTOR * w->ship_cost ? w->ship_interval
@@ -316,7 +316,7 @@ static void run_lease(worker *w, const Vcmfarm__Lease *l) {
   vf_heartbeat_set_lease(w->heartbeat, w->worker_id, l->lease_id, w->heartbeat_ms);
   w->render_stop = *w->terminating;
   vf_render_control control = {.progress = on_progress, .ctx = w, .interrupt = &w->render_stop,
-                               .checkpoint = on_checkpoint};
+                               .deliver = ship_part};
   vf_render_status st;
   memset(&st, 0, sizeof st);
   err = vf_render_range(w->renderer, film, l->begin, l->end, &control, &st);

@@ -1,0 +1,34 @@
+/* A render as `vcmfarm render` takes it, whichever way it runs (cli/render_cmd.c on this
+ * thread with --direct, cli/farm_render.c through an in-process farm): its options, and the
+ * preview and summary both ways write the same. */
+#ifndef VF_RENDER_JOB_H
+#define VF_RENDER_JOB_H
+
+#include "../common/film.h"
+#include "../worker/vcm.h"
+#include "options.h"
+
+#include <stdint.h>
+
+typedef struct {
+  const char *scene, *output, *preview; /* borrowed from argv; preview may be NULL */
+  vf_cli_settings overrides;
+  vf_cli_stop stop;
+  double checkpoint_interval, exposure;
+  int threads;    /* 0: one per CPU */
+  uint64_t start; /* the first global iteration */
+  int quiet;
+} vf_render_job;
+
+/* Writes the film's mean as the sRGB preview PNG when the job asks for one. */
+int vf_render_job_write_preview(const vf_render_job *job, const vf_film *film);
+
+/* The summary's first lines on stderr: the film's iterations, rates over `seconds`, and
+ * the renderer's statistics over the `rendered` iterations they were gathered on. */
+void vf_render_job_print_summary(const vf_film *film, double seconds, const vf_vcm_stats *stats, uint64_t rendered,
+                                 int interrupted);
+
+/* The summary's last lines: the error, why it stopped (or NULL), and what was written. */
+void vf_render_job_print_result(const vf_render_job *job, double estimated_rmse, double rmse, const char *stopped_by);
+
+#endif
