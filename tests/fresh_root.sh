@@ -9,7 +9,11 @@
 # The pristine root is made once (WORK_DIR/pristine) and copied for every run, so each
 # run starts from nothing installed. The checkout's committed HEAD is cloned into the
 # copy, as CI clones main; the OpenEXR corpus beside the checkout (../shared/exr-corpus)
-# is copied beside the clone when present, as the tests look for it there. The two
+# is copied beside the clone when present, as the tests look for it there. The root gets
+# this machine's network as it is, not packages: its resolver, /sys with its cgroup
+# hierarchy (as on a booted machine, where slurmd needs it), and the extra CA certificates
+# the host's environment names in NODE_EXTRA_CA_CERTS (the npm registry is reached through
+# an egress proxy that signs with them). The two
 # commands are read from README.md, so the check runs what the README says, and each one's
 # output goes to WORK_DIR/command-N.log. Exit 0 only when both commands exit 0 and the
 # first has written cornell.exr and cornell.png.
@@ -41,18 +45,24 @@ unmount() {
     [ "$(readlink "/proc/$pid/root" 2>/dev/null)" = "$root" ] && kill -9 "$pid" 2>/dev/null
   done
   sleep 0.5
-  umount "$root/sys" 2>/dev/null || umount -l "$root/sys" 2>/dev/null || true
+  umount -R "$root/sys" 2>/dev/null || umount -R -l "$root/sys" 2>/dev/null || true
   umount "$root/proc" 2>/dev/null || umount -l "$root/proc" 2>/dev/null || true
 }
 if [ -d "$root" ]; then
   mountpoint -q "$root/proc" || mountpoint -q "$root/sys" && unmount
-  rm -rf "$root"
+  rm -rf --one-file-system "$root"
 fi
 cp -a "$work/pristine" "$root"
 trap unmount EXIT
 mount -t proc proc "$root/proc"
-mount -t sysfs sysfs "$root/sys"
+mount --rbind /sys "$root/sys"
+mount --make-rslave "$root/sys"
 cp /etc/resolv.conf "$root/etc/resolv.conf"
+extra_ca=()
+if [ -n "${NODE_EXTRA_CA_CERTS:-}" ] && [ -f "$NODE_EXTRA_CA_CERTS" ]; then
+  cp "$NODE_EXTRA_CA_CERTS" "$root/etc/vcmfarm-host-extra-ca.pem"
+  extra_ca=(NODE_EXTRA_CA_CERTS=/etc/vcmfarm-host-extra-ca.pem)
+fi
 
 mkdir -p "$root/src"
 git clone --quiet "$repo" "$root/src/vcmfarm"
@@ -72,7 +82,7 @@ for i in 0 1; do
   start=$SECONDS
   set +e
   chroot "$root" /usr/bin/env -i PATH=/usr/local/sbin:/usr/local/bin:/usr/sbin:/usr/bin:/sbin:/bin \
-    HOME=/root TERM=dumb /bin/bash -c "cd /src/vcmfarm && ${commands[$i]}" >"$work/command-$n.log" 2>&1
+    HOME=/root TERM=dumb "${extra_ca[@]}" /bin/bash -c "cd /src/vcmfarm && ${commands[$i]}" >"$work/command-$n.log" 2>&1
   rc=$?
   set -e
   echo "fresh_root: command $n: exit $rc after $((SECONDS - start)) s (log $work/command-$n.log)"
