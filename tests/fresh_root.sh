@@ -17,83 +17,88 @@
 # commands are read from README.md, so the check runs what the README says, and each one's
 # output goes to WORK_DIR/command-N.log. Exit 0 only when both commands exit 0 and the
 # first has written cornell.exr and cornell.png.
-set -euo pipefail
-[ "$(id -u)" -eq 0 ] || { echo "fresh_root.sh: debootstrap and chroot need root" >&2; exit 2; }
-repo=$(git -C "$(dirname "$0")/.." rev-parse --show-toplevel)
-work=${1:-/var/tmp/vcmfarm-fresh}
-mirror=${VF_DEBIAN_MIRROR:-http://deb.debian.org/debian}
-root="$work/root"
-mkdir -p "$work"
+# The whole script is one function, read before it runs: editing the file during a run
+# (the run takes a quarter of an hour) cannot change what the run does.
+main() {
+  set -euo pipefail
+  [ "$(id -u)" -eq 0 ] || { echo "fresh_root.sh: debootstrap and chroot need root" >&2; exit 2; }
+  repo=$(git -C "$(dirname "$0")/.." rev-parse --show-toplevel)
+  work=${1:-/var/tmp/vcmfarm-fresh}
+  mirror=${VF_DEBIAN_MIRROR:-http://deb.debian.org/debian}
+  root="$work/root"
+  mkdir -p "$work"
 
-if ! command -v debootstrap >/dev/null; then
-  echo "fresh_root: installing debootstrap"
-  apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq debootstrap >/dev/null
-fi
-if [ ! -f "$work/pristine/.vcmfarm-complete" ]; then
-  rm -rf "$work/pristine"
-  echo "fresh_root: debootstrap --variant=minbase bookworm ($mirror)"
-  debootstrap --variant=minbase bookworm "$work/pristine" "$mirror" >"$work/debootstrap.log" 2>&1 ||
-    { tail -20 "$work/debootstrap.log" >&2; exit 1; }
-  touch "$work/pristine/.vcmfarm-complete"
-fi
-
-unmount() {
-  # Daemons a test left behind (munged, slurmd) keep the mounts busy: end every process
-  # whose root is inside this one first.
-  local pid
-  for pid in $(ls /proc | grep -E '^[0-9]+$'); do
-    [ "$(readlink "/proc/$pid/root" 2>/dev/null)" = "$root" ] && kill -9 "$pid" 2>/dev/null
-  done
-  sleep 0.5
-  umount -R "$root/sys" 2>/dev/null || umount -R -l "$root/sys" 2>/dev/null || true
-  umount "$root/proc" 2>/dev/null || umount -l "$root/proc" 2>/dev/null || true
-}
-if [ -d "$root" ]; then
-  mountpoint -q "$root/proc" || mountpoint -q "$root/sys" && unmount
-  rm -rf --one-file-system "$root"
-fi
-cp -a "$work/pristine" "$root"
-trap unmount EXIT
-mount -t proc proc "$root/proc"
-mount --rbind /sys "$root/sys"
-mount --make-rslave "$root/sys"
-cp /etc/resolv.conf "$root/etc/resolv.conf"
-extra_ca=()
-if [ -n "${NODE_EXTRA_CA_CERTS:-}" ] && [ -f "$NODE_EXTRA_CA_CERTS" ]; then
-  cp "$NODE_EXTRA_CA_CERTS" "$root/etc/vcmfarm-host-extra-ca.pem"
-  extra_ca=(NODE_EXTRA_CA_CERTS=/etc/vcmfarm-host-extra-ca.pem)
-fi
-
-mkdir -p "$root/src"
-git clone --quiet "$repo" "$root/src/vcmfarm"
-commit=$(git -C "$root/src/vcmfarm" rev-parse --short HEAD)
-corpus="$repo/../shared/exr-corpus"
-[ -d "$corpus" ] && mkdir -p "$root/src/shared" && cp -a "$corpus" "$root/src/shared/exr-corpus"
-
-# The README's set-up commands: its indented lines that start with the install script.
-mapfile -t commands < <(grep -E '^    bash deploy/install-deps\.sh' "$repo/README.md" | sed 's/^    //')
-[ ${#commands[@]} -eq 2 ] || { echo "fresh_root: README.md has ${#commands[@]} set-up commands, not 2" >&2; exit 1; }
-
-echo "fresh_root: commit $commit in $root"
-status=0
-for i in 0 1; do
-  n=$((i + 1))
-  echo "fresh_root: command $n: ${commands[$i]}"
-  start=$SECONDS
-  set +e
-  chroot "$root" /usr/bin/env -i PATH=/usr/local/sbin:/usr/local/bin:/usr/sbin:/usr/bin:/sbin:/bin \
-    HOME=/root TERM=dumb "${extra_ca[@]}" /bin/bash -c "cd /src/vcmfarm && ${commands[$i]}" >"$work/command-$n.log" 2>&1
-  rc=$?
-  set -e
-  echo "fresh_root: command $n: exit $rc after $((SECONDS - start)) s (log $work/command-$n.log)"
-  tail -n 12 "$work/command-$n.log" | sed 's/^/  | /'
-  if [ "$i" -eq 0 ]; then
-    for f in cornell.exr cornell.png; do
-      [ -s "$root/src/vcmfarm/$f" ] || { echo "fresh_root: command 1 did not write $f"; rc=1; }
-    done
+  if ! command -v debootstrap >/dev/null; then
+    echo "fresh_root: installing debootstrap"
+    apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq debootstrap >/dev/null
   fi
-  [ "$rc" -eq 0 ] || status=1
-done
-[ "$status" -eq 0 ] && echo "fresh_root: PASS, both README commands on a fresh Debian 12 root ($commit)" ||
-  echo "fresh_root: FAIL ($commit)"
-exit "$status"
+  if [ ! -f "$work/pristine/.vcmfarm-complete" ]; then
+    rm -rf "$work/pristine"
+    echo "fresh_root: debootstrap --variant=minbase bookworm ($mirror)"
+    debootstrap --variant=minbase bookworm "$work/pristine" "$mirror" >"$work/debootstrap.log" 2>&1 ||
+      { tail -20 "$work/debootstrap.log" >&2; exit 1; }
+    touch "$work/pristine/.vcmfarm-complete"
+  fi
+
+  unmount() {
+    # Daemons a test left behind (munged, slurmd) keep the mounts busy: end every process
+    # whose root is inside this one first.
+    local pid
+    for pid in $(ls /proc | grep -E '^[0-9]+$'); do
+      [ "$(readlink "/proc/$pid/root" 2>/dev/null)" = "$root" ] && kill -9 "$pid" 2>/dev/null
+    done
+    sleep 0.5
+    umount -R "$root/sys" 2>/dev/null || umount -R -l "$root/sys" 2>/dev/null || true
+    umount "$root/proc" 2>/dev/null || umount -l "$root/proc" 2>/dev/null || true
+  }
+  if [ -d "$root" ]; then
+    mountpoint -q "$root/proc" || mountpoint -q "$root/sys" && unmount
+    rm -rf --one-file-system "$root"
+  fi
+  cp -a "$work/pristine" "$root"
+  trap unmount EXIT
+  mount -t proc proc "$root/proc"
+  mount --rbind /sys "$root/sys"
+  mount --make-rslave "$root/sys"
+  cp /etc/resolv.conf "$root/etc/resolv.conf"
+  extra_ca=()
+  if [ -n "${NODE_EXTRA_CA_CERTS:-}" ] && [ -f "$NODE_EXTRA_CA_CERTS" ]; then
+    cp "$NODE_EXTRA_CA_CERTS" "$root/etc/vcmfarm-host-extra-ca.pem"
+    extra_ca=(NODE_EXTRA_CA_CERTS=/etc/vcmfarm-host-extra-ca.pem)
+  fi
+
+  mkdir -p "$root/src"
+  git clone --quiet "$repo" "$root/src/vcmfarm"
+  commit=$(git -C "$root/src/vcmfarm" rev-parse --short HEAD)
+  corpus="$repo/../shared/exr-corpus"
+  [ -d "$corpus" ] && mkdir -p "$root/src/shared" && cp -a "$corpus" "$root/src/shared/exr-corpus"
+
+  # The README's set-up commands: its indented lines that start with the install script.
+  mapfile -t commands < <(grep -E '^    bash deploy/install-deps\.sh' "$repo/README.md" | sed 's/^    //')
+  [ ${#commands[@]} -eq 2 ] || { echo "fresh_root: README.md has ${#commands[@]} set-up commands, not 2" >&2; exit 1; }
+
+  echo "fresh_root: commit $commit in $root"
+  status=0
+  for i in 0 1; do
+    n=$((i + 1))
+    echo "fresh_root: command $n: ${commands[$i]}"
+    start=$SECONDS
+    set +e
+    chroot "$root" /usr/bin/env -i PATH=/usr/local/sbin:/usr/local/bin:/usr/sbin:/usr/bin:/sbin:/bin \
+      HOME=/root TERM=dumb "${extra_ca[@]}" /bin/bash -c "cd /src/vcmfarm && ${commands[$i]}" >"$work/command-$n.log" 2>&1
+    rc=$?
+    set -e
+    echo "fresh_root: command $n: exit $rc after $((SECONDS - start)) s (log $work/command-$n.log)"
+    tail -n 12 "$work/command-$n.log" | sed 's/^/  | /'
+    if [ "$i" -eq 0 ]; then
+      for f in cornell.exr cornell.png; do
+        [ -s "$root/src/vcmfarm/$f" ] || { echo "fresh_root: command 1 did not write $f"; rc=1; }
+      done
+    fi
+    [ "$rc" -eq 0 ] || status=1
+  done
+  [ "$status" -eq 0 ] && echo "fresh_root: PASS, both README commands on a fresh Debian 12 root ($commit)" ||
+    echo "fresh_root: FAIL ($commit)"
+  exit "$status"
+}
+main "$@"
