@@ -65,7 +65,7 @@ static int check_blob(vf_farm *farm, const uint8_t hash[32], uint64_t *size) {
   return VF_OK;
 }
 
-int vf_farm_blob_named(const vf_farm *farm, const uint8_t hash[32], const vf_job *except) {
+int vf_blobs_named(const vf_farm *farm, const uint8_t hash[32], const vf_job *except) {
   for (size_t i = 0; i < farm->num_jobs; i++) {
     const vf_job *j = farm->jobs[i];
     if (j == except) continue;
@@ -75,7 +75,7 @@ int vf_farm_blob_named(const vf_farm *farm, const uint8_t hash[32], const vf_job
   return 0;
 }
 
-unsigned vf_farm_blobs_collect(const vf_farm *farm, double min_age) {
+unsigned vf_blobs_collect(const vf_farm *farm, double min_age) {
   vf_blob_entry *blobs;
   size_t count;
   if (vf_blob_store_list(farm->config.state_dir, &blobs, &count) != VF_OK) return 0;
@@ -83,7 +83,7 @@ unsigned vf_farm_blobs_collect(const vf_farm *farm, double min_age) {
   time_t now = time(NULL);
   for (size_t i = 0; i < count; i++) {
     double age = difftime(now, blobs[i].modified.tv_sec);
-    if (age < min_age || vf_farm_blob_named(farm, blobs[i].hash, NULL) ||
+    if (age < min_age || vf_blobs_named(farm, blobs[i].hash, NULL) ||
         vf_blob_store_remove(farm->config.state_dir, blobs[i].hash) != VF_OK)
       continue;
     char hex[65];
@@ -96,7 +96,7 @@ unsigned vf_farm_blobs_collect(const vf_farm *farm, double min_age) {
   return removed;
 }
 
-int vf_farm_blobs_attach(const vf_farm *farm, vf_job *job, const Vcmfarm__Scene *scene) {
+int vf_blobs_attach(const vf_farm *farm, vf_job *job, const Vcmfarm__Scene *scene) {
   if (scene->n_files == 0) return VF_OK;
   if (scene->source_case != VCMFARM__SCENE__SOURCE_JSON)
     return vf_error_set(VF_EINVAL, "scene: a built-in scene has no files; the job names %zu", scene->n_files);
@@ -124,7 +124,7 @@ int vf_farm_blobs_attach(const vf_farm *farm, vf_job *job, const Vcmfarm__Scene 
   return VF_OK;
 }
 
-int vf_farm_blobs_reference(vf_farm *farm, const Vcmfarm__BlobRef *ref) {
+int vf_blobs_reference(vf_farm *farm, const Vcmfarm__BlobRef *ref) {
   if (ref->hash.len != 32) return vf_error_set(VF_EINVAL, "reference: hash of %zu bytes, expected 32", ref->hash.len);
   char hex[65];
   vf_blob_hex(ref->hash.data, hex);
@@ -138,7 +138,7 @@ int vf_farm_blobs_reference(vf_farm *farm, const Vcmfarm__BlobRef *ref) {
   return VF_OK;
 }
 
-int vf_farm_blobs_lease(const vf_job *job, vf_farm_reply *r) {
+int vf_blobs_lease(const vf_job *job, vf_farm_reply *r) {
   int err = vf_blob_table_to_wire(&job->files, &r->file_refs, &r->file_ref_ptrs);
   if (err != VF_OK) return err;
   r->scene.n_files = job->files.count;
@@ -146,7 +146,7 @@ int vf_farm_blobs_lease(const vf_job *job, vf_farm_reply *r) {
   return VF_OK;
 }
 
-void vf_farm_blob_query(vf_farm *farm, const Vcmfarm__BlobQuery *m, vf_farm_reply *r) {
+void vf_blobs_query(vf_farm *farm, const Vcmfarm__BlobQuery *m, vf_farm_reply *r) {
   if (m->n_hashes > VF_BLOB_MAX_FILES)
     return vf_farm_reply_errorf(r, BAD_REQUEST, "blob query of %zu hashes, at most %d", m->n_hashes, VF_BLOB_MAX_FILES);
   for (size_t i = 0; i < m->n_hashes; i++)
@@ -171,7 +171,7 @@ void vf_farm_blob_query(vf_farm *farm, const Vcmfarm__BlobQuery *m, vf_farm_repl
   r->env.blob_have = &r->blob_have;
 }
 
-void vf_farm_blob_put(vf_farm *farm, const Vcmfarm__BlobPut *m, vf_farm_reply *r) {
+void vf_blobs_put(vf_farm *farm, const Vcmfarm__BlobPut *m, vf_farm_reply *r) {
   if (m->hash.len != 32) return vf_farm_reply_errorf(r, BAD_REQUEST, "blob put: hash of %zu bytes, expected 32", m->hash.len);
   if (m->data.len > VF_BLOB_CHUNK_BYTES)
     return vf_farm_reply_errorf(r, BAD_REQUEST, "blob put: a chunk of %zu bytes, at most %zu", m->data.len,
@@ -200,7 +200,7 @@ void vf_farm_blob_put(vf_farm *farm, const Vcmfarm__BlobPut *m, vf_farm_reply *r
   vf_farm_reply_ack(r, 1, r->text);
 }
 
-void vf_farm_blob_request(vf_farm *farm, const vf_farm_worker *w, const Vcmfarm__BlobRequest *m, vf_farm_reply *r) {
+void vf_blobs_request(vf_farm *farm, const vf_farm_worker *w, const Vcmfarm__BlobRequest *m, vf_farm_reply *r) {
   if (m->hash.len != 32) return vf_farm_reply_errorf(r, BAD_REQUEST, "blob request: hash of %zu bytes, expected 32", m->hash.len);
   char hex[65];
   vf_blob_hex(m->hash.data, hex);

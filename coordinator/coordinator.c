@@ -4,10 +4,10 @@
 #include "../common/error.h"
 #include "../common/message.h"
 #include "blobs.h"
+#include "checkpoint.h"
 #include "farm.h"
 #include "log.h"
 #include "state.h"
-#include "writer.h"
 
 #include <errno.h>
 #include <nanomsg/nn.h>
@@ -32,7 +32,6 @@ typedef struct {
   int socket;
   vf_wire_key key;
   vf_farm farm;
-  vf_writer *writer;   /* films are checkpointed through it, off the loop */
   double checkpoint_interval, last_checkpoint;
   double last_collect;  /* of blobs no job names (coordinator/blobs.h) */
   volatile sig_atomic_t *stop; /* the caller's stop flag, or NULL */
@@ -144,7 +143,7 @@ static void on_tick(uv_timer_t *timer) {
     resume_receiving(c);
   }
   if (now - c->last_collect >= COLLECT_SECONDS) {
-    vf_farm_blobs_collect(&c->farm, 86400.0); /* left by submissions that failed, references */
+    vf_blobs_collect(&c->farm, 86400.0); /* left by submissions that failed, references */
     c->last_collect = now;
   }
   if (now - c->last_checkpoint >= c->checkpoint_interval) {
@@ -184,7 +183,7 @@ int vf_coordinator_run(const vf_coordinator_config *config) {
   else if ((err = vf_wire_key_load(config->secret_path, &c->key)) != VF_OK) goto free_farm;
   if ((err = vf_state_lock(config->state_dir, &lock_fd)) != VF_OK) goto free_farm;
   if ((err = vf_state_load(&c->farm)) != VF_OK) goto unlock;
-  vf_farm_blobs_collect(&c->farm, 86400.0); /* before serving anyone, then every hour */
+  vf_blobs_collect(&c->farm, 86400.0); /* before serving anyone, then every hour */
   c->last_collect = vf_seconds_now();
   if ((c->socket = nn_socket(AF_SP, NN_REP)) < 0) {
     err = vf_error_set(VF_ENET, "nanomsg socket: %s", nn_strerror(nn_errno()));
@@ -203,9 +202,7 @@ int vf_coordinator_run(const vf_coordinator_config *config) {
     err = vf_error_set(VF_ENOMEM, "libuv: cannot create the loop");
     goto close_socket;
   }
-  if ((err = vf_writer_create(&c->loop, &c->farm, &c->writer)) != VF_OK) goto close_loop;
-  c->farm.write_film = vf_writer_start;
-  c->farm.write_ctx = c->writer;
+  c->farm.checkpoint_loop = &c->loop; /* films are checkpointed off the loop */
   uv_poll_init(&c->loop, &c->recv_poll, recv_fd);
   uv_poll_init(&c->loop, &c->send_poll, send_fd);
   uv_timer_init(&c->loop, &c->tick);
@@ -232,13 +229,11 @@ int vf_coordinator_run(const vf_coordinator_config *config) {
   uv_poll_stop(&c->send_poll);
   uv_timer_stop(&c->tick);
   uv_timer_stop(&c->stop_check);
-  while (vf_farm_writes_pending(&c->farm) > 0) uv_run(&c->loop, UV_RUN_ONCE);
-  c->farm.write_film = NULL;
+  while (vf_checkpoint_pending(&c->farm) > 0) uv_run(&c->loop, UV_RUN_ONCE);
+  c->farm.checkpoint_loop = NULL;
   if ((err = vf_farm_checkpoint(&c->farm, 1)) == VF_OK) vf_log("checkpoint written; bye");
   uv_walk(&c->loop, close_handle, NULL);
   uv_run(&c->loop, UV_RUN_DEFAULT);
-  vf_writer_destroy(c->writer);
-close_loop:
   uv_loop_close(&c->loop);
 close_socket:
   nn_close(c->socket);

@@ -1,6 +1,6 @@
 /* The coordinator's event loop: one libuv loop on one thread owns a nanomsg REP socket,
  * the farm (coordinator/farm.h), a tick timer and the termination signals. Film
- * checkpoints are written beside it by libuv's thread pool (coordinator/writer.h).
+ * checkpoints are written beside it by libuv's thread pool (coordinator/checkpoint.h).
  *
  * nanomsg sockets are not file descriptors, but they expose two (NN_RCVFD, NN_SNDFD) that
  * become readable when a message can be received or sent; uv_poll watches them and the

@@ -50,7 +50,7 @@ typedef struct {
   char message[256];    /* why it failed or stopped */
   vf_film *film;        /* owned; every accepted result merged */
   int film_dirty;       /* merged into since the last checkpoint */
-  /* Checkpoints run off the event loop (coordinator/writer.h) on a snapshot of the film:
+  /* Checkpoints run off the event loop (coordinator/checkpoint.h) on a snapshot of the film:
    * film_generation counts changes of the film, so that a write that lands after further
    * merges does not clear film_dirty; at most one write of a job is in flight. */
   uint64_t film_generation;

@@ -1,10 +1,11 @@
-/* The users' requests to the farm (coordinator/jobs.h). */
 #include "jobs.h"
 
 #include "../common/error.h"
 #include "../common/film_wire.h"
 #include "../common/wire.h"
 #include "blobs.h"
+#include "checkpoint.h"
+#include "leases.h"
 #include "log.h"
 #include "state.h"
 
@@ -14,19 +15,7 @@
 #include <string.h>
 #include <unistd.h>
 
-static int add_job(vf_farm *farm, vf_job *job) {
-  if (farm->num_jobs == farm->jobs_capacity) {
-    size_t cap = farm->jobs_capacity ? 2 * farm->jobs_capacity : 8;
-    vf_job **grown = realloc(farm->jobs, cap * sizeof *grown);
-    if (grown == NULL) return vf_error_set(VF_ENOMEM, "out of memory for jobs");
-    farm->jobs = grown;
-    farm->jobs_capacity = cap;
-  }
-  farm->jobs[farm->num_jobs++] = job;
-  return VF_OK;
-}
-
-void vf_farm_submit(vf_farm *farm, const Vcmfarm__SubmitJob *m, vf_farm_reply *r) {
+void vf_jobs_submit(vf_farm *farm, const Vcmfarm__SubmitJob *m, vf_farm_reply *r) {
   if (m->scene == NULL || m->scene->source_case == VCMFARM__SCENE__SOURCE__NOT_SET)
     return vf_farm_reply_error(r, VCMFARM__ERROR_CODE__ERROR_BAD_REQUEST, "submit without a scene");
   int builtin = m->scene->source_case == VCMFARM__SCENE__SOURCE_BUILTIN;
@@ -35,11 +24,11 @@ void vf_farm_submit(vf_farm *farm, const Vcmfarm__SubmitJob *m, vf_farm_reply *r
   int err = vf_job_create(farm->next_job_id, m->name, m->priority, builtin, text, strlen(text), m->scene_hash.data,
                           m->scene_hash.len, m->settings, m->first_iteration, m->iterations, &job);
   if (err == VF_OK && ((err = vf_job_set_scene_path(job, m->scene_path)) != VF_OK ||
-                       (err = vf_farm_blobs_attach(farm, job, m->scene)) != VF_OK))
+                       (err = vf_blobs_attach(farm, job, m->scene)) != VF_OK))
     vf_job_destroy(job);
   if (err != VF_OK) return vf_farm_reply_error(r, VCMFARM__ERROR_CODE__ERROR_BAD_REQUEST, vf_error_detail(err));
   /* The reference is a blob sent first, checked against its hash, then read as an image. */
-  if (m->reference && (err = vf_farm_blobs_reference(farm, m->reference)) == VF_OK)
+  if (m->reference && (err = vf_blobs_reference(farm, m->reference)) == VF_OK)
     err = vf_state_save_reference(farm->config.state_dir, job, m->reference->hash.data);
   if (err != VF_OK) {
     vf_job_destroy(job);
@@ -52,7 +41,7 @@ void vf_farm_submit(vf_farm *farm, const Vcmfarm__SubmitJob *m, vf_farm_reply *r
     return vf_farm_reply_error(r, VCMFARM__ERROR_CODE__ERROR_BAD_REQUEST, vf_error_detail(err));
   }
   /* Durable before acknowledged: scene text first, then the job list naming it. */
-  if ((err = vf_state_save_scene(farm->config.state_dir, job)) != VF_OK || (err = add_job(farm, job)) != VF_OK) {
+  if ((err = vf_state_save_scene(farm->config.state_dir, job)) != VF_OK || (err = vf_farm_add_job(farm, job)) != VF_OK) {
     vf_state_remove_job_files(farm->config.state_dir, job->id);
     vf_job_destroy(job);
     return vf_farm_reply_error(r, VCMFARM__ERROR_CODE__ERROR_INTERNAL, vf_error_detail(err));
@@ -103,7 +92,7 @@ static double rate_window(const vf_farm *farm) {
   return w < 30.0 ? 30.0 : w;
 }
 
-void vf_farm_status(vf_farm *farm, const Vcmfarm__StatusRequest *m, double now, vf_farm_reply *r) {
+void vf_jobs_status(vf_farm *farm, const Vcmfarm__StatusRequest *m, double now, vf_farm_reply *r) {
   size_t nj = 0;
   for (size_t i = 0; i < farm->num_jobs; i++) nj += m->job_id == 0 || farm->jobs[i]->id == m->job_id;
   if (m->job_id != 0 && nj == 0)
@@ -183,7 +172,7 @@ void vf_farm_status(vf_farm *farm, const Vcmfarm__StatusRequest *m, double now, 
   r->env.status = &r->status;
 }
 
-void vf_farm_fetch(vf_farm *farm, const Vcmfarm__FetchRequest *m, vf_farm_reply *r) {
+void vf_jobs_fetch(vf_farm *farm, const Vcmfarm__FetchRequest *m, vf_farm_reply *r) {
   vf_job *job = vf_farm_job(farm, m->job_id);
   if (job == NULL)
     return vf_farm_reply_errorf(r, VCMFARM__ERROR_CODE__ERROR_UNKNOWN_JOB, "no job %llu", (unsigned long long)m->job_id);
@@ -200,7 +189,7 @@ void vf_farm_fetch(vf_farm *farm, const Vcmfarm__FetchRequest *m, vf_farm_reply 
   r->env.film = &r->film;
 }
 
-void vf_farm_cancel(vf_farm *farm, const Vcmfarm__CancelRequest *m, double now, vf_farm_reply *r) {
+void vf_jobs_cancel(vf_farm *farm, const Vcmfarm__CancelRequest *m, double now, vf_farm_reply *r) {
   vf_job *job = vf_farm_job(farm, m->job_id);
   if (job == NULL)
     return vf_farm_reply_errorf(r, VCMFARM__ERROR_CODE__ERROR_UNKNOWN_JOB, "no job %llu", (unsigned long long)m->job_id);
@@ -209,7 +198,7 @@ void vf_farm_cancel(vf_farm *farm, const Vcmfarm__CancelRequest *m, double now, 
     return vf_farm_reply_ack(r, 0, r->text);
   }
   job->end = VF_JOB_CANCELLED;
-  vf_farm_end_job_leases(farm, job->id, now);
+  vf_leases_end_job(farm, job->id, now);
   farm->state_dirty = 1;
   int err = vf_state_save_index(farm);
   vf_log("job %llu cancelled", (unsigned long long)job->id);
@@ -217,7 +206,7 @@ void vf_farm_cancel(vf_farm *farm, const Vcmfarm__CancelRequest *m, double now, 
   vf_farm_reply_ack(r, 1, "cancelled");
 }
 
-void vf_farm_remove(vf_farm *farm, const Vcmfarm__RemoveRequest *m, vf_farm_reply *r) {
+void vf_jobs_remove(vf_farm *farm, const Vcmfarm__RemoveRequest *m, vf_farm_reply *r) {
   size_t at = 0;
   while (at < farm->num_jobs && farm->jobs[at]->id != m->job_id) at++;
   if (at == farm->num_jobs)
@@ -248,7 +237,7 @@ void vf_farm_remove(vf_farm *farm, const Vcmfarm__RemoveRequest *m, vf_farm_repl
     const uint8_t *hash = job->files.refs[k].hash;
     int earlier = 0; /* one blob under two names */
     for (size_t e = 0; e < k; e++) earlier |= memcmp(job->files.refs[e].hash, hash, 32) == 0;
-    if (!earlier && !vf_farm_blob_named(farm, hash, job) && vf_blob_store_remove(farm->config.state_dir, hash) == VF_OK)
+    if (!earlier && !vf_blobs_named(farm, hash, job) && vf_blob_store_remove(farm->config.state_dir, hash) == VF_OK)
       blobs++;
   }
   vf_log("job %llu removed, with %u blob(s) no other job names", (unsigned long long)job->id, blobs);
@@ -256,4 +245,16 @@ void vf_farm_remove(vf_farm *farm, const Vcmfarm__RemoveRequest *m, vf_farm_repl
            (unsigned long long)job->id, blobs, job->files.count);
   vf_job_destroy(job);
   vf_farm_reply_ack(r, 1, r->text);
+}
+
+void vf_jobs_finish(vf_farm *farm, vf_job *job, double now) {
+  unsigned long long jid = (unsigned long long)job->id;
+  if (job->end == VF_JOB_STOPPED) {
+    vf_log("job %llu done: %s", jid, job->message);
+    farm->state_dirty = 1;
+  } else {
+    vf_log("job %llu done", jid);
+  }
+  vf_leases_end_job(farm, job->id, now);
+  vf_checkpoint_final(farm, job);
 }

@@ -247,17 +247,7 @@ static int load_job(vf_farm *farm, const cJSON *o, const char *state_path, uint6
     vf_film_destroy(job->film);
     job->film = film;
   }
-  if (farm->num_jobs == farm->jobs_capacity) {
-    size_t cap = farm->jobs_capacity ? 2 * farm->jobs_capacity : 8;
-    vf_job **grown = realloc(farm->jobs, cap * sizeof *grown);
-    if (grown == NULL) {
-      err = vf_error_set(VF_ENOMEM, "out of memory for jobs");
-      goto destroy_job;
-    }
-    farm->jobs = grown;
-    farm->jobs_capacity = cap;
-  }
-  farm->jobs[farm->num_jobs++] = job;
+  if ((err = vf_farm_add_job(farm, job)) != VF_OK) goto destroy_job;
   vf_log("resumed job %llu '%s': %llu/%llu iterations done%s%s", (unsigned long long)id, job->name,
          (unsigned long long)vf_job_done(job), (unsigned long long)iterations, job->end != VF_JOB_ACTIVE ? ", " : "",
          job->end != VF_JOB_ACTIVE ? end_name(job->end) : "");

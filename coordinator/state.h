@@ -17,14 +17,14 @@
  * a restart, iterations in the film are done and everything else goes back to the pool
  * (leases are not persisted). Files are untrusted input when read back.
  *
- * Films are written off the event loop (coordinator/writer.h), so state.json may be
+ * Films are written off the event loop (coordinator/checkpoint.h), so state.json may be
  * written while a job's final film is still on its way: until it lands, a stopped job is
  * recorded as active, so that a crash in between cannot leave it stopped short of the
  * iterations it had merged (it resumes from its last film and stops again). */
 #ifndef VF_STATE_H
 #define VF_STATE_H
 
-#include "farm.h"
+#include "farm_core.h"
 
 /* Creates DIR if needed and takes its lock; VF_EIO with a detail if another process
  * holds it. *fd (the lock's descriptor, closed at exit) is written on success only. */

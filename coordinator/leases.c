@@ -1,0 +1,146 @@
+#include "leases.h"
+
+#include "../common/error.h"
+#include "blobs.h"
+#include "log.h"
+#include "schedule.h"
+
+#include <stdio.h>
+
+static vf_farm_worker *worker_of_lease(vf_farm *farm, const vf_lease *lease) {
+  vf_farm_worker *w = vf_farm_find_worker(farm, lease->worker_id);
+  return w != NULL && w->lease_id == lease->id ? w : NULL;
+}
+
+void vf_leases_end(vf_farm *farm, vf_lease *lease, int keep, double now) {
+  vf_farm_worker *w = worker_of_lease(farm, lease);
+  if (w) w->lease_id = 0;
+  vf_job *job = vf_farm_job(farm, lease->job_id);
+  if (job && lease->state == VF_LEASE_ACTIVE) vf_schedule_charge(job, (now - lease->granted) - lease->charged);
+  if (keep) vf_lease_expire(&farm->leases, lease->id);
+  else vf_lease_remove(&farm->leases, lease->id);
+}
+
+/* Ends, keeping them as expired, the job's active leases but `except` that overlap
+ * [begin, end); logs each when `why` is set. Ending one changes the table, so the scan
+ * starts again after each. */
+static void end_active(vf_farm *farm, uint64_t job_id, uint64_t begin, uint64_t end, uint64_t except, const char *why,
+                       double now) {
+  for (size_t i = 0; i < farm->leases.count;) {
+    vf_lease *l = &farm->leases.leases[i];
+    if (l->id != except && l->job_id == job_id && l->state == VF_LEASE_ACTIVE && l->begin < end && begin < l->end) {
+      if (why) vf_log("lease %016llx revoked: %s", (unsigned long long)l->id, why);
+      vf_leases_end(farm, l, 1, now);
+      i = 0;
+    } else {
+      i++;
+    }
+  }
+}
+
+void vf_leases_end_job(vf_farm *farm, uint64_t job_id, double now) {
+  end_active(farm, job_id, 0, UINT64_MAX, 0, NULL, now);
+}
+
+void vf_leases_revoke(vf_farm *farm, uint64_t job_id, uint64_t begin, uint64_t end, uint64_t except, double now) {
+  end_active(farm, job_id, begin, end, except, "a late result covered it", now);
+}
+
+static int has_free_range(void *ctx, const vf_job *j) {
+  vf_farm *farm = ctx;
+  uint64_t b, e, free_count;
+  return vf_job_runnable(j) && vf_lease_free_range(&farm->leases, j->id, &j->film->iterations, j->first,
+                                                   j->iterations, 1, &b, &e, &free_count) == 1;
+}
+
+/* The lease's body: the job's scene (and its file table), hash, settings and range. */
+static void fill_lease(vf_job *job, uint64_t lease_id, uint64_t b, uint64_t e, vf_farm_reply *r) {
+  vcmfarm__lease__init(&r->lease);
+  vcmfarm__scene__init(&r->scene);
+  if (job->scene_builtin) {
+    r->scene.source_case = VCMFARM__SCENE__SOURCE_BUILTIN;
+    r->scene.builtin = job->scene_text;
+  } else {
+    r->scene.source_case = VCMFARM__SCENE__SOURCE_JSON;
+    r->scene.json = job->scene_text;
+  }
+  if (vf_blobs_lease(job, r) != VF_OK)
+    return vf_farm_reply_error(r, VCMFARM__ERROR_CODE__ERROR_INTERNAL, "out of memory for the lease's file table");
+  r->lease.lease_id = lease_id;
+  r->lease.job_id = job->id;
+  r->lease.scene = &r->scene;
+  r->lease.scene_hash.data = job->scene_hash;
+  r->lease.scene_hash.len = 32;
+  r->lease.settings = job->settings_text;
+  r->lease.begin = b;
+  r->lease.end = e;
+  r->env.body_case = VCMFARM__ENVELOPE__BODY_LEASE;
+  r->env.lease = &r->lease;
+}
+
+void vf_leases_grant(vf_farm *farm, vf_farm_worker *w, double now, vf_farm_reply *r) {
+  vf_lease *old = vf_lease_find(&farm->leases, w->lease_id);
+  if (old != NULL) {
+    vf_log("worker %s asks for work while holding lease %016llx; that lease returns to the pool", w->name,
+           (unsigned long long)old->id);
+    vf_leases_end(farm, old, 1, now);
+  }
+  w->lease_id = 0;
+  vf_job *job = vf_schedule_pick(farm->jobs, farm->num_jobs, has_free_range, farm);
+  if (job == NULL) {
+    vcmfarm__idle__init(&r->idle);
+    /* Often enough that a new job starts within half a second; cheap for the coordinator. */
+    double retry = farm->config.worker_timeout / 4.0;
+    r->idle.retry_ms = (uint32_t)(retry > 0.5 ? 500.0 : retry * 1000.0);
+    r->env.body_case = VCMFARM__ENVELOPE__BODY_IDLE;
+    r->env.idle = &r->idle;
+    return;
+  }
+  uint64_t b, e, free_count;
+  const vf_iterset *done = &job->film->iterations;
+  vf_lease_free_range(&farm->leases, job->id, done, job->first, job->iterations, UINT64_MAX, &b, &e, &free_count);
+  uint64_t size = vf_lease_size(w->rate, farm->config.lease_seconds, free_count, farm->num_workers);
+  if (vf_lease_free_range(&farm->leases, job->id, done, job->first, job->iterations, size, &b, &e, &free_count) != 1 ||
+      vf_lease_add(&farm->leases, job->id, w->id, b, e, now, &w->lease_id) != VF_OK)
+    return vf_farm_reply_error(r, VCMFARM__ERROR_CODE__ERROR_INTERNAL, "out of memory for leases");
+  vf_lease *granted = vf_lease_find(&farm->leases, w->lease_id);
+  granted->charged = vf_schedule_estimate(e - b, w->rate, job->rate, farm->config.lease_seconds);
+  vf_schedule_charge(job, granted->charged);
+  vf_log("lease %016llx: job %llu iterations [%llu,%llu) to worker %s", (unsigned long long)w->lease_id,
+         (unsigned long long)job->id, (unsigned long long)b, (unsigned long long)e, w->name);
+  fill_lease(job, w->lease_id, b, e, r);
+}
+
+void vf_leases_heartbeat(vf_farm *farm, const vf_farm_worker *w, const Vcmfarm__Heartbeat *m, vf_farm_reply *r) {
+  vf_lease *l = vf_lease_find(&farm->leases, m->lease_id);
+  vf_job *job = l ? vf_farm_job(farm, l->job_id) : NULL;
+  vcmfarm__heartbeat_ack__init(&r->heartbeat_ack);
+  r->heartbeat_ack.lease_valid = l != NULL && l->state == VF_LEASE_ACTIVE && l->worker_id == w->id &&
+                                 w->lease_id == l->id && job != NULL && vf_job_runnable(job);
+  if (r->heartbeat_ack.lease_valid) l->reported = m->iterations_done; /* clamped where it is used */
+  r->env.body_case = VCMFARM__ENVELOPE__BODY_HEARTBEAT_ACK;
+  r->env.heartbeat_ack = &r->heartbeat_ack;
+}
+
+void vf_leases_release(vf_farm *farm, const vf_farm_worker *w, const Vcmfarm__LeaseRelease *m, double now,
+                       vf_farm_reply *r) {
+  vf_lease *l = vf_lease_find(&farm->leases, m->lease_id);
+  if (l == NULL || l->worker_id != w->id || l->state != VF_LEASE_ACTIVE) {
+    vf_farm_reply_ack(r, 0, "no such active lease of this worker");
+    return;
+  }
+  vf_job *job = vf_farm_job(farm, l->job_id);
+  if (m->failure[0] != '\0' && job != NULL && job->end == VF_JOB_ACTIVE) {
+    job->end = VF_JOB_FAILED;
+    snprintf(job->message, sizeof job->message, "worker %s: %s", w->name, m->failure);
+    for (char *c = job->message; *c; c++)
+      if ((unsigned char)*c < 0x20) *c = '?';
+    vf_log("job %llu failed: %s", (unsigned long long)job->id, job->message);
+    vf_leases_end_job(farm, job->id, now);
+    farm->state_dirty = 1;
+  } else {
+    vf_log("worker %s handed back lease %016llx", w->name, (unsigned long long)l->id);
+    vf_leases_end(farm, l, 0, now);
+  }
+  vf_farm_reply_ack(r, 1, "released");
+}

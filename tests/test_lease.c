@@ -1,0 +1,387 @@
+/* Leases (coordinator/lease.h, the table; coordinator/leases.h, the farm's side): ranges
+ * are cut from the free iterations only, so no iteration in the film or in an active lease
+ * is leased again; an expired lease returns its range to the pool but stays findable for
+ * late results, up to a limit; sizes are the worker's rate times the lease duration, at
+ * most a fair share; a revoked lease is no longer valid to its worker's heartbeats and its
+ * job is charged the time it really took. */
+#include "check.h"
+#include "common/error.h"
+#include "common/settings.h"
+#include "coordinator/leases.h"
+#include "coordinator/log.h"
+#include "coordinator/workers.h"
+
+#include <stdlib.h>
+
+/* The free range of job 1 in [first, first + total) as "[b,e)", or "none". */
+static const char *free_range(const vf_lease_table *t, const vf_iterset *done, uint64_t first, uint64_t total,
+                              uint64_t max_size, uint64_t *free_count) {
+  static char text[64];
+  uint64_t b = 0, e = 0, n = 0;
+  int rc = vf_lease_free_range(t, 1, done, first, total, max_size, &b, &e, &n);
+  if (free_count) *free_count = n;
+  if (rc < 0) return "error";
+  if (rc == 0) return "none";
+  snprintf(text, sizeof text, "[%llu,%llu)", (unsigned long long)b, (unsigned long long)e);
+  return text;
+}
+
+#define CHECK_STR_EQ(got, want)                                                                    \
+  do {                                                                                             \
+    const char *g_ = (got), *w_ = (want);                                                          \
+    if (strcmp(g_, w_) != 0) CHECK_FAIL_("%s: \"%s\", expected \"%s\"", #got, g_, w_);             \
+  } while (0)
+
+static uint64_t add(vf_lease_table *t, uint64_t job, uint64_t begin, uint64_t end) {
+  uint64_t id = 0;
+  CHECK_INT_EQ(vf_lease_add(t, job, 99, begin, end, 0.0, &id), VF_OK);
+  return id;
+}
+
+static void test_free_range_is_the_first_free_one(void) {
+  vf_lease_table t;
+  vf_lease_table_init(&t);
+  vf_iterset done;
+  vf_iterset_init(&done);
+  uint64_t n;
+  CHECK_STR_EQ(free_range(&t, &done, 0, 100, 10, &n), "[0,10)");
+  CHECK_INT_EQ(n, 100);
+  CHECK_STR_EQ(free_range(&t, &done, 0, 100, UINT64_MAX, &n), "[0,100)");
+  /* A job of global iterations [1000, 1010) (continuing a film) starts at 1000. */
+  CHECK_STR_EQ(free_range(&t, &done, 1000, 10, 4, &n), "[1000,1004)");
+  CHECK_INT_EQ(n, 10);
+  vf_iterset_destroy(&done);
+  vf_lease_table_destroy(&t);
+}
+
+static void test_free_range_skips_the_film_and_active_leases(void) {
+  vf_lease_table t;
+  vf_lease_table_init(&t);
+  vf_iterset done;
+  vf_iterset_init(&done);
+  vf_iterset_add(&done, 0, 5);
+  vf_iterset_add(&done, 50, 60);
+  add(&t, 1, 5, 15);
+  add(&t, 2, 15, 40); /* another job's lease takes nothing of this one */
+  uint64_t n;
+  /* Stops before the film's [50,60): a range is contiguous and free throughout. */
+  CHECK_STR_EQ(free_range(&t, &done, 0, 100, UINT64_MAX, &n), "[15,50)");
+  CHECK_INT_EQ(n, 100 - 5 - 10 - 10);
+  vf_iterset_add(&done, 15, 50);
+  CHECK_STR_EQ(free_range(&t, &done, 0, 100, UINT64_MAX, &n), "[60,100)");
+  CHECK_INT_EQ(n, 40);
+  vf_iterset_add(&done, 60, 100);
+  CHECK_STR_EQ(free_range(&t, &done, 0, 100, UINT64_MAX, &n), "none");
+  CHECK_INT_EQ(n, 0);
+  /* Iterations of the film outside the job's range do not count as its free ones. */
+  CHECK_STR_EQ(free_range(&t, &done, 90, 20, UINT64_MAX, &n), "[100,110)");
+  CHECK_INT_EQ(n, 10);
+  vf_iterset_destroy(&done);
+  vf_lease_table_destroy(&t);
+}
+
+/* A farm's life in miniature: leases of random sizes granted, some merged (into `done`, the
+ * film), some expired (their range returns to the pool), until nothing is free. Every
+ * iteration is merged exactly once and no range granted ever overlaps the film or an
+ * active lease. */
+static void test_ranges_in_the_film_are_never_leased_twice(void) {
+  vf_lease_table t;
+  vf_lease_table_init(&t);
+  vf_iterset done;
+  vf_iterset_init(&done);
+  const uint64_t first = 7, total = 500;
+  unsigned rng = 12345, grants = 0, overlaps = 0, bad_merges = 0;
+  for (int step = 0; step < 10000; step++) {
+    rng = rng * 1103515245u + 12345u;
+    uint64_t b, e, n;
+    int rc = vf_lease_free_range(&t, 1, &done, first, total, 1 + (rng >> 16) % 11, &b, &e, &n);
+    if (rc == 0 && t.count == 0) break;
+    if (rc == 1) {
+      grants++;
+      for (uint64_t k = b; k < e; k++) overlaps += vf_iterset_contains(&done, k);
+      for (size_t i = 0; i < t.count; i++)
+        if (t.leases[i].state == VF_LEASE_ACTIVE && t.leases[i].begin < e && b < t.leases[i].end) overlaps++;
+      add(&t, 1, b, e);
+    }
+    /* The oldest lease ends: merged two times in three, else its worker is lost. */
+    if (t.count > 0 && (rc != 1 || (rng >> 8) % 3 == 0)) {
+      vf_lease *l = &t.leases[0];
+      if (l->state == VF_LEASE_ACTIVE && (rng >> 4) % 3 != 0) {
+        bad_merges += vf_iterset_add(&done, l->begin, l->end) != VF_OK;
+        vf_lease_remove(&t, l->id);
+      } else if (l->state == VF_LEASE_ACTIVE) {
+        vf_lease_expire(&t, l->id);
+      } else {
+        vf_lease_remove(&t, l->id);
+      }
+    }
+  }
+  CHECK_INT_EQ(overlaps, 0);
+  CHECK_INT_EQ(bad_merges, 0);
+  if (grants < 50) CHECK_FAIL_("%u grants, expected at least 50", grants);
+  CHECK_INT_EQ(vf_iterset_count(&done), total);
+  CHECK_INT_EQ(vf_iterset_next_free(&done, first), first + total);
+  vf_iterset_destroy(&done);
+  vf_lease_table_destroy(&t);
+}
+
+static void test_an_expired_lease_returns_its_range_to_the_pool(void) {
+  vf_lease_table t;
+  vf_lease_table_init(&t);
+  vf_iterset done;
+  vf_iterset_init(&done);
+  uint64_t id = add(&t, 1, 0, 10);
+  CHECK_INT_EQ(vf_lease_active_iterations(&t, 1), 10);
+  CHECK_STR_EQ(free_range(&t, &done, 0, 30, UINT64_MAX, NULL), "[10,30)");
+  vf_lease_expire(&t, id);
+  CHECK_INT_EQ(vf_lease_active_iterations(&t, 1), 0);
+  CHECK_STR_EQ(free_range(&t, &done, 0, 30, UINT64_MAX, NULL), "[0,30)");
+  /* Still there, for a late result to be checked against. */
+  vf_lease *l = vf_lease_find(&t, id);
+  CHECK(l != NULL);
+  if (l) CHECK_INT_EQ(l->state, VF_LEASE_EXPIRED);
+  vf_lease_remove(&t, id);
+  CHECK(vf_lease_find(&t, id) == NULL);
+  CHECK_INT_EQ(t.count, 0);
+  vf_iterset_destroy(&done);
+  vf_lease_table_destroy(&t);
+}
+
+static void test_expired_leases_are_kept_up_to_a_limit(void) {
+  vf_lease_table t;
+  vf_lease_table_init(&t);
+  enum { N = VF_LEASE_KEEP_EXPIRED + 20 };
+  uint64_t *ids = malloc(N * sizeof *ids);
+  uint64_t active = add(&t, 1, 1000000, 1000001);
+  for (uint64_t i = 0; i < N; i++) {
+    ids[i] = add(&t, 1, i, i + 1);
+    vf_lease_expire(&t, ids[i]);
+  }
+  CHECK_INT_EQ(t.count, VF_LEASE_KEEP_EXPIRED + 1);
+  CHECK(vf_lease_find(&t, ids[0]) == NULL);  /* the oldest forgotten */
+  CHECK(vf_lease_find(&t, ids[19]) == NULL);
+  CHECK(vf_lease_find(&t, ids[20]) != NULL); /* the newest kept */
+  CHECK(vf_lease_find(&t, ids[N - 1]) != NULL);
+  CHECK(vf_lease_find(&t, active) != NULL);  /* an active lease is never forgotten */
+  free(ids);
+  vf_lease_table_destroy(&t);
+}
+
+static void test_lease_ids_are_unique_and_never_zero(void) {
+  vf_lease_table t;
+  vf_lease_table_init(&t);
+  unsigned zero = 0, repeated = 0;
+  for (uint64_t i = 0; i < 2000; i++) {
+    uint64_t id = add(&t, 1, i, i + 1);
+    zero += id == 0;
+    for (size_t k = 0; k + 1 < t.count; k++) repeated += t.leases[k].id == id;
+  }
+  CHECK_INT_EQ(zero, 0);
+  CHECK_INT_EQ(repeated, 0);
+  vf_lease_table_destroy(&t);
+}
+
+static void test_rendering_iterations_follow_heartbeats(void) {
+  vf_lease_table t;
+  vf_lease_table_init(&t);
+  vf_lease *l = vf_lease_find(&t, add(&t, 1, 100, 110));
+  add(&t, 2, 0, 50);
+  CHECK_INT_EQ(vf_lease_rendering_iterations(&t, 1), 0);
+  l->reported = 4; /* [100,104) rendered, not shipped */
+  CHECK_INT_EQ(vf_lease_rendering_iterations(&t, 1), 4);
+  l->begin = 103; /* a part [100,103) merged */
+  CHECK_INT_EQ(vf_lease_rendering_iterations(&t, 1), 1);
+  CHECK_INT_EQ(vf_lease_active_iterations(&t, 1), 7);
+  l->reported = 1000; /* a worker's word is clamped to its lease */
+  CHECK_INT_EQ(vf_lease_rendering_iterations(&t, 1), 7);
+  vf_lease_expire(&t, l->id);
+  CHECK_INT_EQ(vf_lease_rendering_iterations(&t, 1), 0);
+  vf_lease_table_destroy(&t);
+}
+
+static void test_lease_size_is_a_fair_share(void) {
+  CHECK_INT_EQ(vf_lease_size(0.0, 20.0, 1000, 1), 1);   /* rate unknown: one, to measure it */
+  CHECK_INT_EQ(vf_lease_size(2.5, 20.0, 1000, 1), 50);  /* 20 s at 2.5 per second */
+  CHECK_INT_EQ(vf_lease_size(100.0, 20.0, 1000, 4), 250); /* a fair share of what is left */
+  CHECK_INT_EQ(vf_lease_size(100.0, 20.0, 1001, 4), 251); /* rounded up */
+  CHECK_INT_EQ(vf_lease_size(100.0, 20.0, 3, 8), 1);    /* at least one */
+  CHECK_INT_EQ(vf_lease_size(100.0, 20.0, 0, 0), 1);
+  CHECK_INT_EQ(vf_lease_size(0.01, 20.0, 1000, 1), 1);
+  CHECK_INT_EQ(vf_lease_size(1e12, 1e3, UINT64_MAX, 1), 1000000000);
+}
+
+/* ---- the farm's side: grants, heartbeats, revocation ---- */
+
+typedef struct {
+  vf_farm farm;
+  vf_job *job;
+  uint64_t worker[4];
+  double now;
+} farm_fixture;
+
+static void farm_setup(farm_fixture *f, uint64_t iterations, int workers) {
+  vf_farm_config config = {"/nonexistent/vf_test_lease", 15.0, 20.0};
+  vf_farm_init(&f->farm, &config);
+  f->now = 100.0;
+  vf_settings s;
+  vf_settings_default(&s);
+  s.width = s.height = 8;
+  char settings[512];
+  vf_settings_format(&s, settings, sizeof settings);
+  const uint8_t hash[32] = {1};
+  CHECK_INT_EQ(vf_job_create(1, "j", 1, 1, "cornell", 7, hash, 32, settings, 0, iterations, &f->job), VF_OK);
+  CHECK_INT_EQ(vf_farm_add_job(&f->farm, f->job), VF_OK);
+  for (int i = 0; i < workers; i++) {
+    Vcmfarm__Register m = VCMFARM__REGISTER__INIT;
+    m.name = "w";
+    vf_farm_reply r;
+    vf_farm_reply_init(&r);
+    vf_workers_register(&f->farm, &m, f->now, &r);
+    CHECK_INT_EQ(r.env.body_case, VCMFARM__ENVELOPE__BODY_REGISTERED);
+    f->worker[i] = r.registered.worker_id;
+    vf_farm_reply_release(&r);
+  }
+}
+
+/* Worker i asks for work: its new lease, or NULL when it was told to wait. */
+static vf_lease *grant(farm_fixture *f, int i) {
+  vf_farm_reply r;
+  vf_farm_reply_init(&r);
+  vf_farm_worker *w = vf_farm_find_worker(&f->farm, f->worker[i]);
+  vf_leases_grant(&f->farm, w, f->now, &r);
+  uint64_t id = r.env.body_case == VCMFARM__ENVELOPE__BODY_LEASE ? r.lease.lease_id : 0;
+  vf_farm_reply_release(&r);
+  return vf_lease_find(&f->farm.leases, id);
+}
+
+static int heartbeat_valid(farm_fixture *f, int i, uint64_t lease_id) {
+  Vcmfarm__Heartbeat m = VCMFARM__HEARTBEAT__INIT;
+  m.worker_id = f->worker[i];
+  m.lease_id = lease_id;
+  vf_farm_reply r;
+  vf_farm_reply_init(&r);
+  vf_leases_heartbeat(&f->farm, vf_farm_find_worker(&f->farm, f->worker[i]), &m, &r);
+  int valid = r.env.body_case == VCMFARM__ENVELOPE__BODY_HEARTBEAT_ACK && r.heartbeat_ack.lease_valid;
+  vf_farm_reply_release(&r);
+  return valid;
+}
+
+static void test_grants_are_sized_by_rate_and_fair_share(void) {
+  farm_fixture f;
+  farm_setup(&f, 100, 4);
+  vf_lease *l = grant(&f, 0);
+  CHECK(l != NULL);
+  if (l) CHECK_INT_EQ(l->end - l->begin, 1); /* rate unknown */
+  for (int i = 0; i < 4; i++) vf_farm_find_worker(&f.farm, f.worker[i])->rate = 1000.0;
+  l = grant(&f, 1); /* 20 s at 1000/s, but at most ceil(100 / 4) */
+  CHECK(l != NULL);
+  if (l) {
+    CHECK_INT_EQ(l->begin, 1);
+    CHECK_INT_EQ(l->end, 26);
+  }
+  /* Asking again while holding a lease gives it up: the same range is granted again. */
+  l = grant(&f, 1);
+  CHECK(l != NULL);
+  if (l) CHECK_INT_EQ(l->begin, 1);
+  vf_farm_destroy(&f.farm);
+}
+
+static void test_no_free_range_means_idle(void) {
+  farm_fixture f;
+  farm_setup(&f, 2, 3);
+  CHECK(grant(&f, 0) != NULL);
+  CHECK(grant(&f, 1) != NULL);
+  vf_farm_reply r;
+  vf_farm_reply_init(&r);
+  vf_leases_grant(&f.farm, vf_farm_find_worker(&f.farm, f.worker[2]), f.now, &r);
+  CHECK_INT_EQ(r.env.body_case, VCMFARM__ENVELOPE__BODY_IDLE);
+  if (r.idle.retry_ms < 1 || r.idle.retry_ms > 500)
+    CHECK_FAIL_("retry after %u ms, expected 1 to 500", r.idle.retry_ms);
+  vf_farm_reply_release(&r);
+  vf_farm_destroy(&f.farm);
+}
+
+static void test_a_revoked_lease_is_invalid_and_charged(void) {
+  farm_fixture f;
+  farm_setup(&f, 100, 3);
+  for (int i = 0; i < 3; i++) vf_farm_find_worker(&f.farm, f.worker[i])->rate = 1.0;
+  vf_lease *a = grant(&f, 0), *b = grant(&f, 1), *c = grant(&f, 2);
+  CHECK(a != NULL && b != NULL && c != NULL);
+  if (a == NULL || b == NULL || c == NULL) {
+    vf_farm_destroy(&f.farm);
+    return;
+  }
+  uint64_t ida = a->id, idb = b->id, idc = c->id;
+  CHECK_INT_EQ(b->begin, 20); /* [0,20), [20,40), [40,60): 20 s at 1 per second each */
+  CHECK_INT_EQ(c->begin, 40);
+  CHECK(heartbeat_valid(&f, 0, ida));
+  CHECK(!heartbeat_valid(&f, 1, ida)); /* not worker 1's */
+  double charged = f.job->service;
+  CHECK_NEAR(charged, 60.0, 1e-9);
+  /* A late result of a's covering [10, 25) makes b moot, not c. */
+  f.now += 5.0;
+  vf_leases_revoke(&f.farm, f.job->id, 10, 25, ida, f.now);
+  CHECK(heartbeat_valid(&f, 0, ida));
+  CHECK(!heartbeat_valid(&f, 1, idb));
+  CHECK(heartbeat_valid(&f, 2, idc));
+  CHECK_INT_EQ(vf_farm_find_worker(&f.farm, f.worker[1])->lease_id, 0);
+  b = vf_lease_find(&f.farm.leases, idb);
+  CHECK(b != NULL); /* kept, expired, for its late results */
+  if (b) CHECK_INT_EQ(b->state, VF_LEASE_EXPIRED);
+  /* b was charged 20 s at its grant and took 5: its job gets 15 back. */
+  CHECK_NEAR(f.job->service, charged - 15.0, 1e-9);
+  CHECK_INT_EQ(vf_lease_active_iterations(&f.farm.leases, f.job->id), 40);
+  vf_leases_end_job(&f.farm, f.job->id, f.now);
+  CHECK(!heartbeat_valid(&f, 0, ida));
+  CHECK(!heartbeat_valid(&f, 2, idc));
+  CHECK_INT_EQ(vf_lease_active_iterations(&f.farm.leases, f.job->id), 0);
+  vf_farm_destroy(&f.farm);
+}
+
+static void test_a_release_returns_the_lease_or_fails_the_job(void) {
+  farm_fixture f;
+  farm_setup(&f, 100, 2);
+  vf_lease *a = grant(&f, 0);
+  CHECK(a != NULL);
+  uint64_t id = a ? a->id : 0;
+  Vcmfarm__LeaseRelease m = VCMFARM__LEASE_RELEASE__INIT;
+  m.lease_id = id;
+  vf_farm_reply r;
+  vf_farm_reply_init(&r);
+  vf_leases_release(&f.farm, vf_farm_find_worker(&f.farm, f.worker[1]), &m, f.now, &r);
+  CHECK(!r.result_ack.accepted); /* not worker 1's to give back */
+  vf_farm_reply_release(&r);
+  vf_leases_release(&f.farm, vf_farm_find_worker(&f.farm, f.worker[0]), &m, f.now, &r);
+  CHECK(r.result_ack.accepted);
+  vf_farm_reply_release(&r);
+  CHECK(vf_lease_find(&f.farm.leases, id) == NULL);
+  CHECK_INT_EQ(f.job->end, VF_JOB_ACTIVE);
+  a = grant(&f, 0);
+  CHECK(a != NULL);
+  m.lease_id = a ? a->id : 0;
+  m.failure = "scene does not load:\nbad";
+  vf_leases_release(&f.farm, vf_farm_find_worker(&f.farm, f.worker[0]), &m, f.now, &r);
+  vf_farm_reply_release(&r);
+  CHECK_INT_EQ(f.job->end, VF_JOB_FAILED);
+  CHECK_STR_CONTAINS(f.job->message, "scene does not load:?bad"); /* no control characters */
+  CHECK(f.farm.state_dirty);
+  CHECK(grant(&f, 1) == NULL);
+  vf_farm_destroy(&f.farm);
+}
+
+int main(void) {
+  vf_log_set_quiet(1);
+  RUN(test_free_range_is_the_first_free_one);
+  RUN(test_free_range_skips_the_film_and_active_leases);
+  RUN(test_ranges_in_the_film_are_never_leased_twice);
+  RUN(test_an_expired_lease_returns_its_range_to_the_pool);
+  RUN(test_expired_leases_are_kept_up_to_a_limit);
+  RUN(test_lease_ids_are_unique_and_never_zero);
+  RUN(test_rendering_iterations_follow_heartbeats);
+  RUN(test_lease_size_is_a_fair_share);
+  RUN(test_grants_are_sized_by_rate_and_fair_share);
+  RUN(test_no_free_range_means_idle);
+  RUN(test_a_revoked_lease_is_invalid_and_charged);
+  RUN(test_a_release_returns_the_lease_or_fails_the_job);
+  return check_finish();
+}

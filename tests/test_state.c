@@ -1,0 +1,427 @@
+/* The coordinator's state directory (coordinator/state.h): every job written (job list,
+ * scene, file table, film, reference) is read back as it was, a stopped job whose final
+ * film is not durable yet is read back active, older formats are read, and a damaged
+ * file is refused with an error naming the file and what is wrong with it. */
+#include "check.h"
+#include "common/error.h"
+#include "common/file.h"
+#include "common/settings.h"
+#include "coordinator/log.h"
+#include "coordinator/state.h"
+
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#define W 8
+#define H 4
+
+static char settings[512];
+static char root[4096];
+static const uint8_t scene_hash[32] = {0xab, 0xcd};
+
+/* Two strings equal, both printed when not. */
+#define CHECK_STR_EQ(got, want)                                                                    \
+  do {                                                                                             \
+    const char *g_ = (got), *w_ = (want);                                                          \
+    if (strcmp(g_, w_) != 0) CHECK_FAIL_("%s: \"%s\", expected \"%s\"", #got, g_, w_);             \
+  } while (0)
+
+/* The hash's hex digits (one of two buffers, for two in one assertion). */
+static const char *hex_of(const uint8_t hash[32]) {
+  static char hex[2][65];
+  static int next;
+  next ^= 1;
+  vf_blob_hex(hash, hex[next]);
+  return hex[next];
+}
+
+/* The film's iteration set as text (one of two buffers). */
+static const char *iterations_of(const vf_film *film) {
+  static char text[2][256];
+  static int next;
+  next ^= 1;
+  vf_iterset_format(&film->iterations, text[next], sizeof text[next]);
+  return text[next];
+}
+
+/* A farm on the state directory dir, empty. */
+static void open_farm(vf_farm *farm, const char *dir) {
+  vf_farm_config config = {dir, 15.0, 20.0};
+  vf_farm_init(farm, &config);
+}
+
+/* A fresh empty state directory under root. */
+static void fresh_dir(char *dir, size_t n, const char *name) {
+  snprintf(dir, n, "%s/%s", root, name);
+  vf_file_remove_tree(dir);
+  int fd = -1;
+  CHECK_INT_EQ(vf_state_lock(dir, &fd), VF_OK); /* creates it */
+  close(fd);
+}
+
+/* The same, and an empty farm on it. */
+static void fresh_farm(vf_farm *farm, char *dir, size_t n, const char *name) {
+  fresh_dir(dir, n, name);
+  open_farm(farm, dir);
+}
+
+static void write_file(const char *dir, const char *name, const char *text) {
+  char path[8192];
+  snprintf(path, sizeof path, "%s/%s", dir, name);
+  CHECK_INT_EQ(vf_file_write_atomic(path, text, strlen(text), 0600), VF_OK);
+}
+
+static vf_job *add_job(vf_farm *farm, int builtin, const char *scene, uint64_t first, uint64_t iterations) {
+  vf_job *job = NULL;
+  char name[32];
+  snprintf(name, sizeof name, "job %llu", (unsigned long long)farm->next_job_id);
+  CHECK_INT_EQ(vf_job_create(farm->next_job_id, name, (int)farm->next_job_id, builtin, scene, strlen(scene),
+                             scene_hash, 32, settings, first, iterations, &job),
+               VF_OK);
+  CHECK(job != NULL);
+  if (job == NULL) return NULL;
+  CHECK_INT_EQ(vf_farm_add_job(farm, job), VF_OK);
+  farm->next_job_id++;
+  return job;
+}
+
+static void check_same_job(const vf_job *a, const vf_job *b) {
+  CHECK_INT_EQ(b->id, a->id);
+  CHECK_STR_EQ(b->name, a->name);
+  CHECK_INT_EQ(b->priority, a->priority);
+  CHECK_INT_EQ(b->scene_builtin, a->scene_builtin);
+  CHECK_STR_EQ(b->scene_text, a->scene_text);
+  CHECK_STR_EQ(hex_of(b->scene_hash), hex_of(a->scene_hash));
+  CHECK_STR_EQ(b->settings_text, a->settings_text);
+  CHECK_INT_EQ(b->first, a->first);
+  CHECK_INT_EQ(b->iterations, a->iterations);
+  CHECK_NEAR(b->time_limit, a->time_limit, 0.0);
+  CHECK_NEAR(b->target_rmse, a->target_rmse, 0.0);
+  CHECK_NEAR(b->target_error, a->target_error, 0.0);
+  CHECK_NEAR(b->seconds, a->seconds, 0.0);
+  CHECK_INT_EQ(b->end, a->end);
+  CHECK_STR_EQ(b->message, a->message);
+  CHECK_STR_EQ(b->film->scene_name, a->film->scene_name);
+  CHECK_STR_EQ(iterations_of(b->film), iterations_of(a->film));
+  CHECK_INT_EQ(b->files.count, a->files.count);
+  for (size_t i = 0; i < a->files.count && i < b->files.count; i++) {
+    CHECK_STR_EQ(b->files.refs[i].name, a->files.refs[i].name);
+    CHECK_STR_EQ(hex_of(b->files.refs[i].hash), hex_of(a->files.refs[i].hash));
+    CHECK_INT_EQ(b->files.refs[i].size, a->files.refs[i].size);
+  }
+  CHECK_INT_EQ(b->reference.rgb != NULL, a->reference.rgb != NULL);
+  for (int i = 0; a->reference.rgb && b->reference.rgb && i < 3 * W * H; i++)
+    if (b->reference.rgb[i] != a->reference.rgb[i]) {
+      CHECK_NEAR(b->reference.rgb[i], a->reference.rgb[i], 0.0);
+      break;
+    }
+}
+
+static void test_every_job_is_read_back_as_written(void) {
+  char dir[4200];
+  vf_farm a, b;
+  fresh_farm(&a, dir, sizeof dir, "round_trip");
+  /* 1: built-in, running, with merged iterations and stop conditions. */
+  vf_job *j = add_job(&a, 1, "cornell", 0, 50);
+  if (j == NULL) return;
+  float rgb[3 * W * H] = {0};
+  for (uint64_t k = 0; k < 7; k++) {
+    rgb[k] = 1.0f + (float)k;
+    CHECK_INT_EQ(vf_film_add_iteration(j->film, k, rgb, rgb, NULL), VF_OK);
+  }
+  CHECK_INT_EQ(vf_job_set_stop(j, 100.0, 0.0, 0.5), VF_OK);
+  j->seconds = 12.5;
+  /* 2: a JSON scene with files, continuing from iteration 1000, cancelled. */
+  j = add_job(&a, 0, "{\"shapes\":[{\"file\":\"../meshes/bunny.ply\"}]}", 1000, 10);
+  const uint8_t h1[32] = {1}, h2[32] = {2};
+  CHECK_INT_EQ(vf_blob_table_add(&j->files, "../meshes/bunny.ply", h1, 1234), VF_OK);
+  CHECK_INT_EQ(vf_blob_table_add(&j->files, "sky.exr", h2, 99), VF_OK);
+  CHECK_INT_EQ(vf_job_set_scene_path(j, "/home/u/scenes/bunny.json"), VF_OK);
+  j->end = VF_JOB_CANCELLED;
+  /* 3: failed; 4: stopped, its final film durable. */
+  j = add_job(&a, 1, "veach-mis", 0, 10);
+  j->end = VF_JOB_FAILED;
+  snprintf(j->message, sizeof j->message, "worker w: scene does not load");
+  j = add_job(&a, 1, "cornell", 0, 10);
+  j->end = VF_JOB_STOPPED;
+  snprintf(j->message, sizeof j->message, "time limit of 5 s reached");
+  /* 5: with a reference and a target RMSE. */
+  j = add_job(&a, 1, "cornell", 0, 10);
+  char path[8192];
+  snprintf(path, sizeof path, "%s/job-5.reference.exr", dir);
+  vf_image ref = {0};
+  CHECK_INT_EQ(vf_image_alloc(&ref, W, H), VF_OK);
+  for (int i = 0; i < 3 * W * H; i++) ref.rgb[i] = 0.125f * (float)(i % 8);
+  CHECK_INT_EQ(vf_image_write_exr(path, &ref), VF_OK);
+  vf_image_destroy(&ref);
+  CHECK_INT_EQ(vf_job_load_reference(j, path), VF_OK);
+  CHECK_INT_EQ(vf_job_set_stop(j, 0.0, 0.02, 0.0), VF_OK);
+  /* Job 2 has no film yet: nothing done, and its scene's path is the job list's. */
+  for (size_t i = 0; i < a.num_jobs; i++) {
+    CHECK_INT_EQ(vf_state_save_scene(dir, a.jobs[i]), VF_OK);
+    if (a.jobs[i]->id != 2) CHECK_INT_EQ(vf_state_save_film(dir, a.jobs[i]), VF_OK);
+  }
+  a.state_dirty = 1;
+  CHECK_INT_EQ(vf_state_save_index(&a), VF_OK);
+  CHECK_INT_EQ(a.state_dirty, 0);
+  CHECK_NEAR(a.jobs[0]->seconds_saved, 12.5, 0.0);
+
+  open_farm(&b, dir);
+  int err = vf_state_load(&b);
+  CHECK_INT_EQ(err, VF_OK);
+  if (err != VF_OK) fprintf(stderr, "  %s\n", vf_error_detail(err));
+  CHECK_INT_EQ(b.num_jobs, a.num_jobs);
+  CHECK_INT_EQ(b.next_job_id, 6);
+  for (size_t i = 0; i < a.num_jobs && i < b.num_jobs; i++) check_same_job(a.jobs[i], b.jobs[i]);
+  CHECK_INT_EQ(vf_job_done(b.jobs[0]), 7);
+  vf_farm_destroy(&a);
+  vf_farm_destroy(&b);
+}
+
+static void test_an_empty_directory_is_an_empty_farm(void) {
+  char dir[4200];
+  vf_farm farm;
+  fresh_farm(&farm, dir, sizeof dir, "empty");
+  CHECK_INT_EQ(vf_state_load(&farm), VF_OK);
+  CHECK_INT_EQ(farm.num_jobs, 0);
+  CHECK_INT_EQ(farm.next_job_id, 1);
+  vf_farm_destroy(&farm);
+}
+
+/* Until a stopped job's final film is durable, the job list says it is still active, so a
+ * crash in between resumes it from its last film (coordinator/checkpoint.h). */
+static void test_a_stop_not_yet_durable_is_written_active(void) {
+  char dir[4200];
+  vf_farm a, b;
+  fresh_farm(&a, dir, sizeof dir, "unsettled");
+  vf_job *j = add_job(&a, 1, "cornell", 0, 10);
+  if (j == NULL) return;
+  CHECK_INT_EQ(vf_state_save_scene(dir, j), VF_OK);
+  j->end = VF_JOB_STOPPED;
+  snprintf(j->message, sizeof j->message, "target estimated error 0.1 reached");
+  j->final_pending = 1;
+  CHECK_INT_EQ(vf_state_save_index(&a), VF_OK);
+  open_farm(&b, dir);
+  CHECK_INT_EQ(vf_state_load(&b), VF_OK);
+  CHECK_INT_EQ(b.num_jobs, 1);
+  if (b.num_jobs == 1) {
+    CHECK_INT_EQ(b.jobs[0]->end, VF_JOB_ACTIVE);
+    CHECK_INT_EQ(strlen(b.jobs[0]->message), 0);
+  }
+  vf_farm_destroy(&b);
+  /* Once it landed (vf_state_save_film clears final_pending), the stop is written. */
+  CHECK_INT_EQ(vf_state_save_film(dir, j), VF_OK);
+  CHECK_INT_EQ(j->final_pending, 0);
+  CHECK_INT_EQ(vf_state_save_index(&a), VF_OK);
+  open_farm(&b, dir);
+  CHECK_INT_EQ(vf_state_load(&b), VF_OK);
+  if (b.num_jobs == 1) {
+    CHECK_INT_EQ(b.jobs[0]->end, VF_JOB_STOPPED);
+    CHECK_STR_EQ(b.jobs[0]->message, "target estimated error 0.1 reached");
+  }
+  vf_farm_destroy(&a);
+  vf_farm_destroy(&b);
+}
+
+/* The text of state.json with one job, whose key `key` has the value `value` instead of
+ * the valid one (NULL: the key is left out). */
+static void job_list(char *out, size_t n, int format, const char *key, const char *value) {
+  char hex[65];
+  vf_blob_hex(scene_hash, hex);
+  char quoted_hex[80], quoted_settings[600];
+  snprintf(quoted_hex, sizeof quoted_hex, "\"%s\"", hex);
+  snprintf(quoted_settings, sizeof quoted_settings, "\"%s\"", settings);
+  const char *fields[][2] = {
+      {"id", "1"},           {"name", "\"j\""},         {"priority", "2"},        {"scene_builtin", "true"},
+      {"scene_hash", quoted_hex}, {"settings", quoted_settings}, {"first_iteration", "0"}, {"iterations", "10"},
+      {"time_limit", "0"},   {"target_rmse", "0"},      {"target_error", "0"},    {"reference", "false"},
+      {"seconds", "1.5"},    {"end", "\"active\""},     {"message", "\"\""},
+  };
+  size_t len = (size_t)snprintf(out, n, "{\"format\": %d, \"next_job_id\": 2, \"jobs\": [{", format);
+  const char *sep = "";
+  for (size_t i = 0; i < sizeof fields / sizeof *fields; i++) {
+    int replaced = key != NULL && strcmp(fields[i][0], key) == 0;
+    if (replaced && value == NULL) continue;
+    len += (size_t)snprintf(out + len, n - len, "%s\"%s\": %s", sep, fields[i][0], replaced ? value : fields[i][1]);
+    sep = ", ";
+  }
+  snprintf(out + len, n - len, "}]}");
+}
+
+/* Loads dir into a fresh farm; returns the error and its detail in detail. */
+static int load(const char *dir, char *detail, size_t n) {
+  vf_farm farm;
+  open_farm(&farm, dir);
+  int err = vf_state_load(&farm);
+  snprintf(detail, n, "%s", err != VF_OK ? vf_error_detail(err) : "");
+  vf_farm_destroy(&farm);
+  return err;
+}
+
+static void test_a_damaged_job_list_is_refused_naming_the_problem(void) {
+  char dir[4200], text[4096], detail[2048];
+  fresh_dir(dir, sizeof dir, "damaged");
+  write_file(dir, "job-1.scene", "cornell");
+  job_list(text, sizeof text, 3, NULL, NULL);
+  write_file(dir, "state.json", text);
+  CHECK_INT_EQ(load(dir, detail, sizeof detail), VF_OK); /* the valid one, for reference */
+  const struct {
+    const char *text; /* a whole state.json, or NULL for the job list with key = value */
+    const char *key, *value, *detail;
+  } cases[] = {
+      {"", NULL, NULL, "state.json: not valid JSON"},
+      {"{\"format\": 3, \"next_job_id\": 2, \"jobs\": [{\"id\": 1, \"na", NULL, NULL, "state.json: not valid JSON"},
+      {"{\"format\": 9, \"next_job_id\": 1, \"jobs\": []}", NULL, NULL,
+       "state format 9, this coordinator reads 1 to 3"},
+      {"{\"next_job_id\": 1, \"jobs\": []}", NULL, NULL,
+       "\"format\" missing or not a whole number"},
+      {"{\"format\": 3, \"next_job_id\": -1, \"jobs\": []}", NULL, NULL,
+       "\"next_job_id\" missing or not a whole number"},
+      {"{\"format\": 3, \"next_job_id\": 1, \"jobs\": {}}", NULL, NULL, "\"jobs\" is not an array"},
+      {NULL, "id", "1.5", "\"id\" missing or not a whole number"},
+      {NULL, "iterations", "-1", "\"iterations\" missing or not a whole number in [0, 1000000000]"},
+      {NULL, "iterations", "0", "job 1: iterations: 0, must be 1 to"},
+      {NULL, "first_iteration", NULL, "\"first_iteration\" missing"},
+      {NULL, "priority", "\"high\"", "job 1: bad \"priority\""},
+      {NULL, "priority", "0", "job 1: priority: 0, must be 1 to 1000"},
+      {NULL, "settings", NULL, "job 1: a field is missing or malformed"},
+      {NULL, "scene_hash", "\"abcd\"", "job 1: a field is missing or malformed"},
+      {NULL, "scene_builtin", "1", "job 1: a field is missing or malformed"},
+      {NULL, "settings", "\"algorithm=vcm\"", "job 1: settings: settings: malformed"},
+      {NULL, "time_limit", "-5", "job 1: a stop condition is malformed"},
+      {NULL, "reference", "\"yes\"", "job 1: a stop condition is malformed"},
+      {NULL, "target_rmse", "0.1", "job 1: target_rmse: needs a reference image"},
+      {NULL, "name", "\"a\\u0001b\"", "job 1: job name: control character at byte 1"},
+  };
+  for (size_t i = 0; i < sizeof cases / sizeof *cases; i++) {
+    if (cases[i].text) snprintf(text, sizeof text, "%s", cases[i].text);
+    else job_list(text, sizeof text, 3, cases[i].key, cases[i].value);
+    write_file(dir, "state.json", text);
+    int err = load(dir, detail, sizeof detail);
+    if (err == VF_OK) CHECK_FAIL_("case %zu (%s) was accepted", i, cases[i].detail);
+    CHECK_STR_CONTAINS(detail, cases[i].detail);
+    CHECK_STR_CONTAINS(detail, "state.json");
+  }
+}
+
+static void test_damaged_job_files_are_refused_naming_the_file(void) {
+  char dir[4200], text[4096], detail[2048], path[8192];
+  fresh_dir(dir, sizeof dir, "damaged_files");
+  job_list(text, sizeof text, 3, NULL, NULL);
+  write_file(dir, "state.json", text);
+  /* No scene file. */
+  int err = load(dir, detail, sizeof detail);
+  CHECK_INT_EQ(err, VF_ENOENT);
+  CHECK_STR_CONTAINS(detail, "job-1.scene");
+  write_file(dir, "job-1.scene", "cornell");
+  /* A film that is not an EXR. */
+  write_file(dir, "job-1.exr", "this is no film");
+  err = load(dir, detail, sizeof detail);
+  CHECK(err != VF_OK);
+  CHECK_STR_CONTAINS(detail, "job-1.exr");
+  /* A film of another job (another size). */
+  vf_film *film = NULL;
+  CHECK_INT_EQ(vf_film_create(W * 2, H, &film), VF_OK);
+  memcpy(film->scene_hash, scene_hash, 32);
+  snprintf(film->settings_text, sizeof film->settings_text, "%s", settings);
+  snprintf(path, sizeof path, "%s/job-1.exr", dir);
+  CHECK_INT_EQ(vf_film_write(film, path), VF_OK);
+  vf_film_destroy(film);
+  err = load(dir, detail, sizeof detail);
+  CHECK_INT_EQ(err, VF_EFILM);
+  CHECK_STR_CONTAINS(detail, "job-1.exr: does not belong to job 1: film is 16x4, job 1 is 8x4");
+  unlink(path);
+  /* A damaged file table. */
+  write_file(dir, "job-1.files", "[{\"name\": \"a.ply\"}]");
+  err = load(dir, detail, sizeof detail);
+  CHECK_INT_EQ(err, VF_EINVAL);
+  CHECK_STR_CONTAINS(detail, "job-1.files: entry 0");
+  /* A job list that says there is a reference, which is not there. */
+  snprintf(path, sizeof path, "%s/job-1.files", dir);
+  unlink(path);
+  job_list(text, sizeof text, 3, "reference", "true");
+  write_file(dir, "state.json", text);
+  err = load(dir, detail, sizeof detail);
+  CHECK_INT_EQ(err, VF_ENOENT);
+  CHECK_STR_CONTAINS(detail, "job-1.reference.exr");
+}
+
+static void test_format_1_is_read(void) {
+  char dir[4200], text[4096];
+  fresh_dir(dir, sizeof dir, "format1");
+  write_file(dir, "job-1.scene", "cornell");
+  /* Format 1 had no first iteration, and any integer priority ("higher first"). */
+  const char *change[][2] = {{"first_iteration", NULL}, {"priority", "-3"}};
+  for (int i = 0; i < 2; i++) {
+    job_list(text, sizeof text, 1, change[i][0], change[i][1]);
+    write_file(dir, "state.json", text);
+    vf_farm farm;
+    open_farm(&farm, dir);
+    int err = vf_state_load(&farm);
+    CHECK_INT_EQ(err, VF_OK);
+    if (err != VF_OK) fprintf(stderr, "  %s\n", vf_error_detail(err));
+    CHECK_INT_EQ(farm.num_jobs, 1);
+    if (farm.num_jobs == 1) {
+      CHECK_INT_EQ(farm.jobs[0]->priority, i == 0 ? 2 : 1);
+      CHECK_INT_EQ(farm.jobs[0]->first, 0);
+      CHECK_NEAR(farm.jobs[0]->seconds, 1.5, 0.0);
+    }
+    CHECK_INT_EQ(farm.next_job_id, 2);
+    vf_farm_destroy(&farm);
+  }
+}
+
+static void test_one_coordinator_per_directory(void) {
+  char dir[4200];
+  snprintf(dir, sizeof dir, "%s/locked", root);
+  int fd = -1, fd2 = -1;
+  CHECK_INT_EQ(vf_state_lock(dir, &fd), VF_OK);
+  int err = vf_state_lock(dir, &fd2);
+  CHECK_INT_EQ(err, VF_EIO);
+  CHECK_STR_CONTAINS(vf_error_detail(err), "another coordinator uses this state directory");
+  CHECK_INT_EQ(fd2, -1);
+  close(fd);
+  CHECK_INT_EQ(vf_state_lock(dir, &fd2), VF_OK); /* free again */
+  close(fd2);
+}
+
+static void test_a_refused_jobs_files_are_removed(void) {
+  char dir[4200], path[8192];
+  vf_farm farm;
+  fresh_farm(&farm, dir, sizeof dir, "remove");
+  vf_job *j = add_job(&farm, 0, "{}", 0, 10);
+  if (j == NULL) return;
+  const uint8_t h[32] = {9};
+  CHECK_INT_EQ(vf_blob_table_add(&j->files, "a.ply", h, 1), VF_OK);
+  CHECK_INT_EQ(vf_state_save_scene(dir, j), VF_OK);
+  CHECK_INT_EQ(vf_state_save_film(dir, j), VF_OK);
+  vf_state_remove_job_files(dir, j->id);
+  const char *ext[] = {".scene", ".files", ".exr"};
+  for (int i = 0; i < 3; i++) {
+    snprintf(path, sizeof path, "%s/job-1%s", dir, ext[i]);
+    if (access(path, F_OK) == 0) CHECK_FAIL_("%s is still there", path);
+  }
+  vf_farm_destroy(&farm);
+}
+
+int main(void) {
+  vf_log_set_quiet(1);
+  /* Any order parses; the job's text is the canonical one (W x H). */
+  vf_settings s;
+  if (vf_settings_parse(&s, "resolution=8x4 seed=1 alpha=0.75 radius_factor=0.003 max_path_length=10 algorithm=vcm") !=
+          VF_OK ||
+      vf_settings_format(&s, settings, sizeof settings) != VF_OK ||
+      vf_file_temp_dir("vf_test_state", root, sizeof root) != VF_OK)
+    return 1;
+  RUN(test_every_job_is_read_back_as_written);
+  RUN(test_an_empty_directory_is_an_empty_farm);
+  RUN(test_a_stop_not_yet_durable_is_written_active);
+  RUN(test_a_damaged_job_list_is_refused_naming_the_problem);
+  RUN(test_damaged_job_files_are_refused_naming_the_file);
+  RUN(test_format_1_is_read);
+  RUN(test_one_coordinator_per_directory);
+  RUN(test_a_refused_jobs_files_are_removed);
+  vf_file_remove_tree(root);
+  return check_finish();
+}
