@@ -6,9 +6,13 @@
  *   2. build the range-search grid over the stored light vertices, radius r_k;
  *   3. trace one camera sub-path per pixel; at each vertex: emission hit (s = 0), light
  *      sampling (s = 1), connection to the vertices of the pixel's own light sub-path, and
- *      merging with every light vertex within r_k; then continue.
+ *      vertex merging with every light vertex within r_k; then continue.
  * Each technique is weighted by the recursive MIS scheme of worker/mis.h. The algorithms
  * bpt, pt, lt, ppm and bpm are this same iteration with techniques switched off.
+ * The phases are files of their own: 1. worker/light_pass.c, 2. worker/vertex_merging.c
+ * (over worker/hashgrid.c), 3. worker/camera_pass.c, whose vertex merging queries
+ * vertex_merging.c runs; both passes trace with worker/wavefront.c and share the state of
+ * worker/vcm_internal.h. vcm.c sets up and runs them.
  *
  * The merge radius of iteration k is r_1 sqrt(i^(alpha - 1)), i = k + 1 (paper sec. 6.1),
  * r_1 = radius_factor x the scene's bounding-sphere radius. Random numbers of light
@@ -53,9 +57,10 @@ vf_algorithm vf_vcm_algorithm(const vf_vcm *vcm);
 
 double vf_vcm_merge_radius(const vf_vcm *vcm, uint64_t iteration);
 
-/* Merging tests its candidates with AVX-512 where the CPU has it, else with SSE2; both give
- * the same hits in the same order. vf_vcm_limit_simd(vcm) makes merging use SSE2 on any
- * machine, so that tests can compare the two; vf_vcm_merge_simd names the one in use. */
+/* Vertex merging tests its candidates with AVX-512 where the CPU has it, else with SSE2;
+ * both give the same hits in the same order. vf_vcm_limit_simd(vcm) makes vertex merging
+ * use SSE2 on any machine, so that tests can compare the two; vf_vcm_merge_simd names the
+ * one in use. */
 void vf_vcm_limit_simd(vf_vcm *vcm);
 const char *vf_vcm_merge_simd(const vf_vcm *vcm);
 

@@ -1,0 +1,366 @@
+/* Phase 1 of an iteration, the light sub-paths: light_pass.h. */
+#include "light_pass.h"
+
+#include "../common/error.h"
+#include "../common/rng.h"
+#include "vcm_internal.h"
+#include "wavefront.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* A projection of a light vertex onto the image, waiting to be added to the light image. */
+struct splat {
+  uint32_t pixel;
+  vf_vec3 rgb;
+  uint16_t path; /* the light sub-path's index within its chunk (< LIGHT_CHUNK) */
+  uint16_t band; /* the pixel's band of rows (SPLAT_BAND) */
+};
+_Static_assert(LIGHT_CHUNK <= 65536 && VF_MAX_IMAGE_SIDE / SPLAT_BAND < 65536, "splat's fields hold their values");
+
+static int append_vertices(light_chunk *c, const light_vertex *lv, uint32_t n) {
+  if (n > c->vertex_capacity - c->num_vertices) {
+    uint32_t cap = c->vertex_capacity ? 2 * c->vertex_capacity : 4 * LIGHT_CHUNK;
+    while (cap - c->num_vertices < n) cap *= 2;
+    /* Aligned to the cache line, as realloc's memory is not: each vertex is then one line,
+     * which the grid's gather and the connections read at random. */
+    light_vertex *p = aligned_alloc(64, (size_t)cap * sizeof *p);
+    if (p == NULL) return 0;
+    if (c->num_vertices > 0) memcpy(p, c->vertices, (size_t)c->num_vertices * sizeof *p);
+    free(c->vertices);
+    c->vertices = p;
+    c->vertex_capacity = cap;
+  }
+  memcpy(&c->vertices[c->num_vertices], lv, (size_t)n * sizeof *lv);
+  c->num_vertices += n;
+  return 1;
+}
+
+static int push_splat(light_chunk *c, uint32_t pixel, uint32_t band, vf_vec3 rgb, uint32_t path) {
+  if (c->num_splats == c->splat_capacity) {
+    uint32_t cap = c->splat_capacity ? 2 * c->splat_capacity : 4 * LIGHT_CHUNK;
+    splat *p = realloc(c->splats, (size_t)cap * sizeof *p);
+    if (p == NULL) {
+      c->out_of_memory = 1;
+      return 0;
+    }
+    c->splats = p;
+    p = realloc(c->sorted_splats, (size_t)cap * sizeof *p);
+    if (p == NULL) {
+      c->out_of_memory = 1;
+      return 0;
+    }
+    c->sorted_splats = p;
+    c->splat_capacity = cap;
+  }
+  c->splats[c->num_splats++] = (splat){pixel, rgb, (uint16_t)path, (uint16_t)band};
+  return 1;
+}
+
+/* Marks a splat that is not to be added (its shadow ray was blocked, or it is not finite). */
+#define DROPPED_SPLAT UINT32_MAX
+
+/* Traces the light pass's queued shadow rays: the splats they guard that turn out blocked,
+ * or not finite, are dropped (the check of finiteness comes after the shadow ray's, as for
+ * every contribution). */
+static void resolve_splats(vf_vcm *v, int thread, light_chunk *c) {
+  shadow_packet *pk = &v->stats[thread].packet;
+  int n = pk->n;
+  if (n == 0) return;
+  uint32_t blocked = trace_packet(v, thread, pk);
+  for (int i = 0; i < n; i++) {
+    splat *sp = &c->splats[pk->owner[i]];
+    if (blocked >> i & 1u) {
+      sp->pixel = DROPPED_SPLAT;
+    } else if (!vf_is_finite(sp->rgb)) {
+      v->stats[thread].nonfinite++;
+      sp->pixel = DROPPED_SPLAT;
+    }
+  }
+}
+
+/* A splat of the light pass that counts only if the segment from p (normal n) to the
+ * camera is free. */
+static void splat_if_visible(vf_vcm *v, int thread, light_chunk *c, uint32_t path, uint32_t pixel, uint32_t band,
+                             vf_vec3 rgb, vf_vec3 p, vf_vec3 n) {
+  if (!push_splat(c, pixel, band, rgb, path)) return;
+  shadow_packet *pk = &v->stats[thread].packet;
+  queue_segment(v, pk, (int)(c->num_splats - 1), p, n, v->camera.position, vf_vec3_splat(0.0f));
+  if (pk->n == VF_ACCEL_PACKET) resolve_splats(v, thread, c);
+}
+
+/* Projects point p, seen along -dir_to_camera, onto the image: its raster pixel and the
+ * camera's density of that direction per unit of image area (in solid angle); 0 when p is
+ * behind the camera or outside the image. Checked before anything is evaluated at p: a
+ * good part of the light vertices lie outside the view. */
+static int camera_project(const vf_vcm *v, vf_vec3 p, vf_vec3 dir_to_camera, uint32_t *pixel, uint32_t *band,
+                          float *image_to_solid_angle) {
+  float x, y;
+  if (!vf_camera_raster(&v->camera, p, &x, &y)) return 0;
+  float cos_at_camera = -vf_dot(v->camera.forward, dir_to_camera);
+  if (!(cos_at_camera > 0.0f)) return 0;
+  *pixel = (uint32_t)y * (uint32_t)v->camera.width + (uint32_t)x;
+  *band = (uint32_t)y / SPLAT_BAND;
+  float image_to_camera = v->camera.image_plane_distance / cos_at_camera;
+  *image_to_solid_angle = image_to_camera * image_to_camera / cos_at_camera;
+  return 1;
+}
+
+/* The camera's area density of generating a point at distance dist with |cos| cos_at_p,
+ * from camera_project's image_to_solid_angle. */
+static float camera_pdf_a(float image_to_solid_angle, float dist, float cos_at_p) {
+  return image_to_solid_angle * cos_at_p / (dist * dist);
+}
+
+/* t = 1: projects light vertex (hit, b) onto the image. */
+static void connect_to_camera(vf_vcm *v, int thread, light_chunk *c, uint32_t path, const vf_hit *hit,
+                              const vf_bsdf *b, const path_state *s) {
+  vf_vec3 to_camera = vf_sub(v->camera.position, hit->position);
+  float dist = vf_length(to_camera);
+  if (!(dist > 0.0f)) return;
+  to_camera = vf_scale(to_camera, 1.0f / dist);
+  uint32_t pixel, band;
+  float image_to_solid_angle;
+  if (!camera_project(v, hit->position, to_camera, &pixel, &band, &image_to_solid_angle)) return;
+  float cos_to_camera, dir_pdf, rev_pdf;
+  vf_vec3 f = vf_bsdf_evaluate(b, to_camera, &cos_to_camera, &dir_pdf, &rev_pdf);
+  if (vf_is_zero(f)) return;
+  float pdf_a = camera_pdf_a(image_to_solid_angle, dist, cos_to_camera);
+  if (!(pdf_a > 0.0f)) return;
+  float w = v->t.lt ? 1.0f : vf_mis_weight_camera_connection(&s->mis, &v->mis, pdf_a, rev_pdf);
+  /* Importance of the pinhole camera over the light sub-path density n_light. */
+  vf_vec3 contrib = vf_scale(vf_mul(s->throughput, f), w * pdf_a / v->mis.light_paths);
+  if (vf_is_zero(contrib)) return;
+  splat_if_visible(v, thread, c, path, pixel, band, contrib, hit->position, hit->normal);
+}
+
+/* Light tracing alone also projects the light's own point y0 (the s = 1, t = 1 technique,
+ * which the full estimator leaves to emission hits). */
+static void connect_emitter_to_camera(vf_vcm *v, int thread, light_chunk *c, uint32_t path, const vf_light *l,
+                                      vf_vec3 p, vf_vec3 n, float pick_and_area_pdf) {
+  vf_vec3 to_camera = vf_sub(v->camera.position, p);
+  float dist = vf_length(to_camera);
+  if (!(dist > 0.0f)) return;
+  to_camera = vf_scale(to_camera, 1.0f / dist);
+  float cos_out = vf_dot(n, to_camera);
+  if (!(cos_out > 0.0f)) return;
+  uint32_t pixel, band;
+  float image_to_solid_angle;
+  if (!camera_project(v, p, to_camera, &pixel, &band, &image_to_solid_angle)) return;
+  float pdf_a = camera_pdf_a(image_to_solid_angle, dist, cos_out);
+  if (!(pdf_a > 0.0f)) return;
+  vf_vec3 contrib = vf_scale(l->radiance, pdf_a / (v->mis.light_paths * pick_and_area_pdf));
+  splat_if_visible(v, thread, c, path, pixel, band, contrib, p, n);
+}
+
+/* A light sub-path in flight. The light pass traces VF_ACCEL_PACKET of them at once, as a
+ * wavefront: each step sends the rays of all lanes to Embree as one packet (8 unrelated
+ * rays in one packet are traced ~1.3 times faster than single rays on cornell), then
+ * continues each lane's path; a lane whose path ends starts the chunk's next path. A
+ * path's vertices are written to its slot of the retire ring, where they wait until every
+ * older path of the chunk has been stored. */
+typedef struct {
+  path_state s;
+  vf_rng rng;
+  uint32_t path;          /* global index */
+  uint32_t num_vertices;
+  light_vertex *vertices; /* the path's slot of the retire ring: room for the longest path */
+} light_lane;
+
+/* Emits light sub-path `path` into the lane; returns 1 when it has a ray to trace. */
+static int light_start(vf_vcm *v, int thread, light_chunk *c, light_lane *lane, uint32_t path, uint32_t begin) {
+  lane->path = path;
+  lane->num_vertices = 0;
+  lane->rng = vf_rng_for_path(v->settings.seed, v->iteration, path, VF_STREAM_LIGHT);
+  vf_rng *rng = &lane->rng;
+  path_state *s = &lane->s;
+  const vf_light *l = vf_lights_pick(v->lights, vf_rng_float(rng));
+  float rnd[4] = {vf_rng_float(rng), vf_rng_float(rng), vf_rng_float(rng), vf_rng_float(rng)};
+  vf_vec3 normal;
+  float emission_pdf, direct_pdf, cos_light;
+  vf_vec3 energy = vf_light_emit(v->lights, l, rnd, &s->origin, &s->direction, &normal, &emission_pdf, &direct_pdf,
+                                 &cos_light);
+  if (vf_is_zero(energy) || !(emission_pdf > 0.0f)) return 0;
+  if (v->t.lt && l->is_finite && !l->is_delta)
+    connect_emitter_to_camera(v, thread, c, path - begin, l, s->origin, normal, l->pick_probability * direct_pdf);
+  emission_pdf *= l->pick_probability;
+  direct_pdf *= l->pick_probability;
+  s->throughput = vf_scale(energy, 1.0f / emission_pdf);
+  s->path_length = 0;
+  s->is_finite_light = l->is_finite;
+  s->specular_path = 1;
+  vf_mis_light_start(&s->mis, &v->mis, direct_pdf, emission_pdf, cos_light, l->is_delta, l->is_finite);
+  if (l->kind == VF_LIGHT_AREA_MESH || l->kind == VF_LIGHT_AREA_SPHERE)
+    s->origin = vf_offset_ray_origin(s->origin, normal, v->offset_scale);
+  return 1;
+}
+
+/* Continues the lane's light sub-path at the hit of its last ray: stores the vertex,
+ * projects it onto the camera and scatters. Returns 0 when the path ends there. */
+static int light_bounce(vf_vcm *v, int thread, light_chunk *c, light_lane *lane, const vf_hit *hit, uint32_t begin) {
+  path_state *s = &lane->s;
+  vf_bsdf b;
+  if (!bsdf_at(v, &b, hit, vf_neg(s->direction))) return 0;
+  s->path_length++;
+  vf_mis_hit(&s->mis, hit->t, b.local_fix.z, s->path_length > 1 || s->is_finite_light);
+  if (!b.is_delta) {
+    if (v->t.store_vertices) {
+      uint32_t material = (uint32_t)v->scene->shapes[hit->shape].material;
+      lane->vertices[lane->num_vertices++] =
+          (light_vertex){hit->position, s->throughput, vf_neg(s->direction), hit->normal, s->mis,
+                         (uint32_t)s->path_length | material << VERTEX_LENGTH_BITS};
+    }
+    if (v->t.light_to_camera) connect_to_camera(v, thread, c, lane->path - begin, hit, &b, s);
+  }
+  if (s->path_length + 2 > v->settings.max_path_length) return 0;
+  return vf_wavefront_scatter(v, &b, hit, s, &lane->rng, 0);
+}
+
+/* The ring slot of light sub-path `path`. */
+static light_vertex *ring_slot(const vf_vcm *v, int thread, uint32_t path) {
+  return v->stats[thread].ring_vertices + (size_t)(path % RETIRE_RING) * v->lane_capacity;
+}
+
+/* The lane's path has ended, its vertices in its ring slot. Every ended path at the head
+ * of the ring, from *oldest (the chunk's oldest path not yet stored) up to `next` (the
+ * next to start), then goes to the chunk's list in path order, its range recorded: a
+ * chunk's list is in path order, as connections want it (a camera tile reads the light
+ * paths of its pixels, which are neighbours in the list only in path order), without a
+ * pass that would sort it afterwards. */
+static void light_retire(vf_vcm *v, int thread, light_chunk *c, const light_lane *lane, uint32_t *oldest,
+                         uint32_t next) {
+  thread_stats *ts = &v->stats[thread];
+  ts->ring_count[lane->path % RETIRE_RING] = lane->num_vertices;
+  while (*oldest < next && ts->ring_count[*oldest % RETIRE_RING] != RING_IN_FLIGHT) {
+    uint32_t p = (*oldest)++, n = ts->ring_count[p % RETIRE_RING];
+    ts->ring_count[p % RETIRE_RING] = RING_IN_FLIGHT;
+    v->path_begin[p] = c->num_vertices;
+    if (n > 0 && !append_vertices(c, ring_slot(v, thread, p), n)) c->out_of_memory = 1;
+    v->path_end[p] = c->num_vertices;
+  }
+}
+
+/* Gives the lane the chunk's next path that has a ray to trace; returns 0 when none is
+ * left, or when the ring is full (the oldest path still in flight): the caller tries again
+ * after the next step. */
+static int light_refill(vf_vcm *v, int thread, light_chunk *c, light_lane *lane, uint32_t *next, uint32_t *oldest,
+                        uint32_t begin, uint32_t end) {
+  while (*next < end && *next - *oldest < RETIRE_RING) {
+    uint32_t path = (*next)++;
+    lane->vertices = ring_slot(v, thread, path);
+    if (v->t.light_paths && light_start(v, thread, c, lane, path, begin)) return 1;
+    lane->path = path; /* ended at its light, or no light paths at all: no vertices */
+    lane->num_vertices = 0;
+    light_retire(v, thread, c, lane, oldest, *next);
+  }
+  return 0;
+}
+
+/* The chunk's splats that count, by band of the image (SPLAT_BAND rows) and in path order
+ * within each band: two stable counting sorts, by path, then by band, so that each path's
+ * splats keep the order they were made in. The chunk's band b is then
+ * splats[band_start[b] .. band_start[b + 1]), band_start being the chunk's row of
+ * vf_vcm.band_start. */
+static void sort_splats(const vf_vcm *v, light_chunk *c, uint32_t chunk, uint32_t paths) {
+  uint32_t start[LIGHT_CHUNK + 1] = {0};
+  for (uint32_t i = 0; i < c->num_splats; i++)
+    if (c->splats[i].pixel != DROPPED_SPLAT) start[c->splats[i].path + 1]++;
+  for (uint32_t p = 0; p < paths; p++) start[p + 1] += start[p];
+  for (uint32_t i = 0; i < c->num_splats; i++)
+    if (c->splats[i].pixel != DROPPED_SPLAT) c->sorted_splats[start[c->splats[i].path]++] = c->splats[i];
+  uint32_t n = start[paths - 1];
+  uint32_t *band_start = &v->band_start[(size_t)chunk * (v->num_bands + 1)];
+  memset(band_start, 0, (v->num_bands + 1) * sizeof *band_start);
+  for (uint32_t i = 0; i < n; i++) band_start[c->sorted_splats[i].band + 1]++;
+  /* band_start[b + 1] becomes where band b begins, and after the scatter where it ends. */
+  for (uint32_t b = 0, sum = 0; b < v->num_bands; b++) {
+    uint32_t count = band_start[b + 1];
+    band_start[b + 1] = sum;
+    sum += count;
+  }
+  for (uint32_t i = 0; i < n; i++) {
+    const splat *sp = &c->sorted_splats[i];
+    c->splats[band_start[sp->band + 1]++] = *sp;
+  }
+  c->num_splats = n;
+}
+
+/* Adds the splats of band `band` to the light image, chunk by chunk in chunk order: each
+ * pixel gets its terms in the order of one pass over the paths, whatever the thread
+ * count, and the bands run in parallel. */
+static void splat_band_task(void *ctx, size_t band, int thread) {
+  (void)thread;
+  vf_vcm *v = ctx;
+  size_t first = band * (size_t)v->band_pixels;
+  size_t last = first + v->band_pixels < v->num_pixels ? first + v->band_pixels : v->num_pixels;
+  float *light_rgb = v->light_rgb;
+  memset(&light_rgb[3 * first], 0, 3 * sizeof(float) * (last - first));
+  for (uint32_t c = 0; c < v->num_chunks; c++) {
+    const uint32_t *band_start = &v->band_start[(size_t)c * (v->num_bands + 1)];
+    const splat *splats = v->chunks[c].splats;
+    for (uint32_t i = band_start[band]; i < band_start[band + 1]; i++) {
+      const splat *sp = &splats[i];
+      light_rgb[3 * (size_t)sp->pixel + 0] += sp->rgb.x;
+      light_rgb[3 * (size_t)sp->pixel + 1] += sp->rgb.y;
+      light_rgb[3 * (size_t)sp->pixel + 2] += sp->rgb.z;
+    }
+  }
+}
+
+static void light_task(void *ctx, size_t task, int thread) {
+  vf_vcm *v = ctx;
+  light_chunk *c = &v->chunks[task];
+  c->num_vertices = c->num_splats = 0;
+  c->out_of_memory = 0;
+  uint32_t begin = (uint32_t)task * LIGHT_CHUNK;
+  uint32_t end = begin + LIGHT_CHUNK < v->num_pixels ? begin + LIGHT_CHUNK : v->num_pixels;
+  light_lane lanes[VF_ACCEL_PACKET];
+  path_state *states[VF_ACCEL_PACKET];
+  uint32_t next = begin, oldest = begin, active = 0;
+  for (int i = 0; i < VF_ACCEL_PACKET; i++) {
+    states[i] = &lanes[i].s;
+    if (light_refill(v, thread, c, &lanes[i], &next, &oldest, begin, end)) active |= 1u << i;
+  }
+  while (active) {
+    vf_hit hits[VF_ACCEL_PACKET];
+    int lane_of[VF_ACCEL_PACKET], m;
+    uint32_t found = vf_wavefront_trace(v, thread, states, active, lane_of, &m, hits);
+    for (int k = 0; k < m; k++) {
+      light_lane *lane = &lanes[lane_of[k]];
+      if ((found >> k & 1u) && light_bounce(v, thread, c, lane, &hits[k], begin)) continue;
+      light_retire(v, thread, c, lane, &oldest, next);
+      if (!light_refill(v, thread, c, lane, &next, &oldest, begin, end)) active &= ~(1u << lane_of[k]);
+    }
+    /* Lanes left idle by a full ring start again once it has drained (a rare event: the
+     * ring holds many times the paths of the lanes). */
+    if (next < end && active != (1u << VF_ACCEL_PACKET) - 1u)
+      for (int i = 0; i < VF_ACCEL_PACKET; i++)
+        if (!(active >> i & 1u) && light_refill(v, thread, c, &lanes[i], &next, &oldest, begin, end))
+          active |= 1u << i;
+  }
+  resolve_splats(v, thread, c);
+  sort_splats(v, c, (uint32_t)task, end - begin);
+}
+
+int vf_light_pass_run(vf_vcm *v) {
+  vf_pool_run(v->pool, v->num_chunks, light_task, v);
+  uint64_t total = 0;
+  uint32_t largest = 0;
+  for (uint32_t c = 0; c < v->num_chunks; c++) {
+    if (v->chunks[c].out_of_memory) return vf_error_set(VF_ENOMEM, "out of memory storing light vertices");
+    total += v->chunks[c].num_vertices;
+    if (v->chunks[c].num_vertices > largest) largest = v->chunks[c].num_vertices;
+  }
+  /* The grid names vertex i of chunk c (c << chunk_shift) + i: chunk_shift bits hold the
+   * largest chunk's count. At 512x512 the names stay below 2^20 (2^8 chunks, none of 2^12
+   * vertices); they run out only far beyond what memory holds. */
+  v->chunk_shift = 0;
+  while (v->chunk_shift < 32 && ((uint64_t)1 << v->chunk_shift) < largest) v->chunk_shift++;
+  if (v->chunk_shift >= 32 || ((uint64_t)v->num_chunks << v->chunk_shift) > (uint64_t)UINT32_MAX + 1)
+    return vf_error_set(VF_ENOMEM, "%llu light vertices in one iteration: more than the grid can index",
+                        (unsigned long long)total);
+  v->num_vertices = (uint32_t)total;
+  vf_pool_run(v->pool, v->num_bands, splat_band_task, v); /* the light image, band by band */
+  return VF_OK;
+}

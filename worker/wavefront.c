@@ -1,0 +1,53 @@
+/* Tracing a wavefront of sub-paths and continuing them: wavefront.h. */
+#include "wavefront.h"
+
+static int intersect(vf_vcm *v, int thread, vf_vec3 org, vf_vec3 dir, vf_hit *hit) {
+  v->stats[thread].rays++;
+  return vf_accel_intersect(v->accel, org, dir, INFINITY, hit);
+}
+
+/* Closest hits of the m rays: one packet, or single rays when too few to fill one. Both
+ * give the same hits (vf_accel_intersect_packet). */
+#define PACKET_MIN 2
+static uint32_t intersect_rays(vf_vcm *v, int thread, const vf_vec3 *org, const vf_vec3 *dir, int m, vf_hit *hits) {
+  if (m >= PACKET_MIN) {
+    v->stats[thread].rays += (uint64_t)m;
+    return vf_accel_intersect_packet(v->accel, org, dir, m, hits);
+  }
+  uint32_t found = 0;
+  for (int k = 0; k < m; k++) found |= (uint32_t)intersect(v, thread, org[k], dir[k], &hits[k]) << k;
+  return found;
+}
+
+uint32_t vf_wavefront_trace(vf_vcm *v, int thread, path_state *const *states, uint32_t active, int *lane_of, int *m,
+                            vf_hit *hits) {
+  vf_vec3 org[VF_ACCEL_PACKET], dir[VF_ACCEL_PACKET];
+  int n = 0;
+  for (int i = 0; i < VF_ACCEL_PACKET; i++)
+    if (active >> i & 1u) {
+      lane_of[n] = i;
+      org[n] = states[i]->origin;
+      dir[n++] = states[i]->direction;
+    }
+  *m = n;
+  return intersect_rays(v, thread, org, dir, n, hits);
+}
+
+int vf_wavefront_scatter(vf_vcm *v, const vf_bsdf *b, const vf_hit *hit, path_state *s, vf_rng *rng, int radiance) {
+  if (vf_rng_float(rng) >= b->continuation) return 0;
+  float rnd[3] = {vf_rng_float(rng), vf_rng_float(rng), vf_rng_float(rng)};
+  vf_vec3 gen;
+  float pdf, rev_pdf, cos_gen;
+  unsigned event;
+  vf_vec3 f = vf_bsdf_sample(b, rnd, &gen, &pdf, &rev_pdf, &cos_gen, &event);
+  if (vf_is_zero(f) || !(pdf > 0.0f)) return 0;
+  int specular = (event & VF_BSDF_SPECULAR) != 0;
+  vf_mis_scatter(&s->mis, &v->mis, cos_gen, pdf, rev_pdf, specular);
+  float scale = cos_gen / pdf;
+  if (radiance && (event & VF_BSDF_REFRACTION)) scale /= b->eta * b->eta;
+  s->throughput = vf_mul(s->throughput, vf_scale(f, scale));
+  s->specular_path &= specular;
+  s->origin = vf_offset_ray_origin(hit->position, vf_dot(hit->normal, gen) > 0.0f ? hit->normal : vf_neg(hit->normal), v->offset_scale);
+  s->direction = gen;
+  return 1;
+}
