@@ -1,5 +1,6 @@
 #include "blob.h"
 
+#include "atomic_file.h"
 #include "error.h"
 #include "file.h"
 
@@ -208,44 +209,34 @@ int vf_blob_store_append(const char *dir, const uint8_t hash[32], uint64_t tag, 
   *slash = '\0';
   if ((err = make_dir(dir)) != VF_OK || (err = make_dir(path)) != VF_OK) return err;
   *slash = '/';
-  int fd = open(part, O_RDWR | O_CREAT | O_CLOEXEC | (offset == 0 ? O_TRUNC : 0), 0600);
-  if (fd < 0) return vf_error_set(VF_EIO, "%s: %s", part, strerror(errno));
-  struct stat st;
-  if (fstat(fd, &st) != 0) {
-    err = vf_error_set(VF_EIO, "%s: %s", part, strerror(errno));
-  } else if ((uint64_t)st.st_size != offset) {
-    err = vf_error_set(VF_EINVAL, "blob %s: a chunk at offset %llu, but the transfer holds %lld bytes", hex,
-                       (unsigned long long)offset, (long long)st.st_size);
-    close(fd);
-    return err; /* the part stays as it was: the right chunk may still come */
-  }
-  for (size_t at = 0; err == VF_OK && at < n;) {
-    ssize_t w = pwrite(fd, (const uint8_t *)data + at, n - at, (off_t)(offset + at));
-    if (w < 0) err = vf_error_set(VF_EIO, "%s: write: %s", part, strerror(errno));
-    else at += (size_t)w;
-  }
-  if (err == VF_OK && offset + n == total) {
-    uint8_t actual[32];
-    if (fsync(fd) != 0) err = vf_error_set(VF_EIO, "%s: fsync: %s", part, strerror(errno));
-    else if ((err = hash_fd(fd, total, part, actual)) == VF_OK && sodium_memcmp(actual, hash, 32) != 0) {
-      vf_blob_hex(actual, got);
-      err = vf_error_set(VF_EMISMATCH, "blob %s: its %llu bytes hash to %s, not to its name", hex,
-                         (unsigned long long)total, got);
-    }
-    close(fd);
-    if (err == VF_OK && rename(part, path) != 0) err = vf_error_set(VF_EIO, "%s: rename: %s", path, strerror(errno));
-    if (err == VF_OK) {
-      *slash = '\0';
-      int dfd = open(path, O_RDONLY | O_DIRECTORY | O_CLOEXEC);
-      if (dfd < 0 || fsync(dfd) != 0) err = vf_error_set(VF_EIO, "%s: syncing the directory: %s", path, strerror(errno));
-      if (dfd >= 0) close(dfd);
-      *slash = '/';
-    }
-    if (err != VF_OK) unlink(part);
-    else *complete = 1;
+  vf_atomic_file file;
+  uint64_t held = 0;
+  if ((err = vf_atomic_resume(&file, path, part, 0600, offset == 0, &held)) != VF_OK) return err;
+  if (held != offset) {
+    err = vf_error_set(VF_EINVAL, "blob %s: a chunk at offset %llu, but the transfer holds %llu bytes", hex,
+                       (unsigned long long)offset, (unsigned long long)held);
+    vf_atomic_suspend(&file); /* the part stays as it was: the right chunk may still come */
     return err;
   }
-  close(fd);
+  if ((err = vf_atomic_pwrite(&file, data, n, offset)) != VF_OK) {
+    vf_atomic_abort(&file);
+    return err;
+  }
+  if (offset + n < total) {
+    vf_atomic_suspend(&file);
+    return VF_OK;
+  }
+  uint8_t actual[32];
+  if ((err = hash_fd(file.fd, total, part, actual)) == VF_OK && sodium_memcmp(actual, hash, 32) != 0) {
+    vf_blob_hex(actual, got);
+    err = vf_error_set(VF_EMISMATCH, "blob %s: its %llu bytes hash to %s, not to its name", hex,
+                       (unsigned long long)total, got);
+  }
+  if (err != VF_OK) {
+    vf_atomic_abort(&file);
+    return err;
+  }
+  if ((err = vf_atomic_commit(&file)) == VF_OK) *complete = 1;
   return err;
 }
 

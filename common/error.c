@@ -5,6 +5,7 @@
 #include <string.h>
 
 static _Thread_local char detail[1024];
+static _Thread_local int detail_err; /* the code detail belongs to; VF_OK when there is none */
 
 const char *vf_strerror(int err) {
   switch (err) {
@@ -25,11 +26,15 @@ int vf_error_set(int err, const char *fmt, ...) {
   vsnprintf(text, sizeof text, fmt, ap);
   va_end(ap);
   memcpy(detail, text, sizeof detail);
+  detail_err = detail[0] ? err : VF_OK;
   return err;
 }
 
-const char *vf_error_detail(int err) {
-  return detail[0] ? detail : vf_strerror(err);
-}
+const char *vf_error_detail(int err) { return detail[0] != '\0' && detail_err == err ? detail : vf_strerror(err); }
 
-void vf_error_clear(void) { detail[0] = '\0'; }
+int vf_error_code(void) { return detail[0] != '\0' ? detail_err : VF_OK; }
+
+void vf_error_clear(void) {
+  detail[0] = '\0';
+  detail_err = VF_OK;
+}

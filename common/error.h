@@ -2,9 +2,10 @@
  *
  * Functions that can fail return a negative int from the table below (0 on success).
  * A failing function may also record a detail sentence with vf_error_set(); the detail is
- * thread-local and names what was wrong ("scene.json: shapes[2].material: unknown material
- * 'gold'"). Errors from Embree, OpenEXR, nanomsg, libuv and protobuf-c are translated into
- * these codes once, where they enter our code. */
+ * thread-local, belongs to the code it was recorded with, and names what was wrong
+ * ("scene.json: shapes[2].material: unknown material 'gold'"). Errors from Embree, OpenEXR,
+ * nanomsg, libuv and protobuf-c are translated into these codes once, where they enter our
+ * code. */
 #ifndef VF_ERROR_H
 #define VF_ERROR_H
 
@@ -40,14 +41,25 @@ enum {
 /* The fixed message of an error code ("invalid scene"); never NULL. */
 const char *vf_strerror(int err);
 
-/* Records a detail message for the calling thread and returns err, so a failing
- * function can write `return vf_error_set(VF_ESCENE, "%s: ...", path);`. */
+/* Records a detail message for the calling thread, belonging to err, and returns err, so a
+ * failing function can write `return vf_error_set(VF_ESCENE, "%s: ...", path);`. */
 int vf_error_set(int err, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
 
-/* The last detail recorded by this thread, or the code's fixed message when none was
- * recorded since vf_error_clear(). Valid until the next vf_error_set on this thread. */
+/* The detail of err: the calling thread's last detail if it was recorded for this same code,
+ * else the code's fixed message (vf_strerror). A function that returns a code without
+ * recording a detail (a bare `return VF_ENOMEM;`) thus shows its code's message, not the
+ * text of an earlier, unrelated error; ask with the code the failing call returned. (An
+ * earlier detail of the very same code is still returned: a function that handles an error
+ * and goes on may call vf_error_clear.) Valid until the next vf_error_set on this thread.
+ * Wrapping is safe: vf_error_set(err, "files[3]: %s", vf_error_detail(err)). */
 const char *vf_error_detail(int err);
 
+/* The code the calling thread's current detail belongs to, VF_OK when there is none: for
+ * callers that see a failure only as an exit status (tests of command functions), which
+ * then ask vf_error_detail(vf_error_code()). */
+int vf_error_code(void);
+
+/* Forgets the calling thread's detail. */
 void vf_error_clear(void);
 
 #endif

@@ -3,12 +3,10 @@
 #include "error.h"
 
 #include <errno.h>
-#include <fcntl.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
-#include <unistd.h>
 
 /* Tiles larger than this are refused while parsing the header: a damaged tile descriptor
  * would otherwise size every per-chunk buffer. Real files use 32..512. */
@@ -40,93 +38,6 @@ int vf_exr_error(const char *path, exr_result_t rv, const char *what) {
   const char *msg = exr_message[0] ? exr_message : exr_get_default_error_message(rv);
   int err = vf_error_set(VF_EEXR, "%s: %s (%s)", path, what, msg);
   clear_message();
-  return err;
-}
-
-/* ---- atomic files ---- */
-
-int vf_atomic_open(vf_atomic_file *file, const char *path) {
-  memset(file, 0, sizeof *file);
-  file->fd = -1;
-  if (path == NULL || path[0] == '\0') return vf_error_set(VF_EINVAL, "empty output path");
-  size_t n = strlen(path) + 32;
-  file->path = strdup(path);
-  file->tmp_path = malloc(n);
-  if (file->path == NULL || file->tmp_path == NULL) {
-    vf_atomic_abort(file);
-    return VF_ENOMEM;
-  }
-  snprintf(file->tmp_path, n, "%s.tmp.%ld", path, (long)getpid());
-  file->fd = open(file->tmp_path, O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0666);
-  if (file->fd < 0) {
-    int err = vf_error_set(VF_EIO, "%s: cannot create temporary file %s: %s", path, file->tmp_path, strerror(errno));
-    free(file->tmp_path); /* nothing was created: do not unlink someone else's file */
-    file->tmp_path = NULL;
-    vf_atomic_abort(file);
-    return err;
-  }
-  return VF_OK;
-}
-
-int vf_atomic_pwrite(vf_atomic_file *file, const void *buf, uint64_t size, uint64_t offset) {
-  const char *p = buf;
-  while (size > 0) {
-    ssize_t w = pwrite(file->fd, p, size, (off_t)offset);
-    if (w < 0 && errno == EINTR) continue;
-    if (w <= 0) return vf_error_set(VF_EIO, "%s: write failed: %s", file->path, w < 0 ? strerror(errno) : "no progress");
-    p += w;
-    size -= (uint64_t)w;
-    offset += (uint64_t)w;
-  }
-  return VF_OK;
-}
-
-void vf_atomic_abort(vf_atomic_file *file) {
-  if (file->fd >= 0) close(file->fd);
-  if (file->tmp_path) unlink(file->tmp_path);
-  free(file->tmp_path);
-  free(file->path);
-  memset(file, 0, sizeof *file);
-  file->fd = -1;
-}
-
-/* The rename is durable only once the directory entry is: fsync the directory too. A
- * failure here is not reported, since the file itself is complete and in place. */
-static void sync_parent_dir(const char *path) {
-  const char *slash = strrchr(path, '/');
-  char *dir = slash ? strndup(path, (size_t)(slash - path) + (slash == path)) : strdup(".");
-  if (dir == NULL) return;
-  int fd = open(dir, O_RDONLY | O_DIRECTORY | O_CLOEXEC);
-  if (fd >= 0) {
-    fsync(fd);
-    close(fd);
-  }
-  free(dir);
-}
-
-int vf_atomic_commit(vf_atomic_file *file) {
-  int err = VF_OK;
-  if (fsync(file->fd) != 0) {
-    err = vf_error_set(VF_EIO, "%s: fsync failed: %s", file->path, strerror(errno));
-    goto fail;
-  }
-  int fd = file->fd;
-  file->fd = -1;
-  if (close(fd) != 0) {
-    err = vf_error_set(VF_EIO, "%s: close failed: %s", file->path, strerror(errno));
-    goto fail;
-  }
-  if (rename(file->tmp_path, file->path) != 0) {
-    err = vf_error_set(VF_EIO, "%s: cannot rename %s into place: %s", file->path, file->tmp_path, strerror(errno));
-    goto fail;
-  }
-  sync_parent_dir(file->path);
-  free(file->tmp_path);
-  file->tmp_path = NULL; /* renamed: abort must not unlink it */
-  vf_atomic_abort(file);
-  return VF_OK;
-fail:
-  vf_atomic_abort(file);
   return err;
 }
 

@@ -1,5 +1,4 @@
-/* Private to common/: the OpenEXRCore plumbing that film.c and image.c share, and the
- * atomic-file rule every writer follows.
+/* Private to common/: the OpenEXRCore plumbing that film_file.c and image.c share.
  *
  * OpenEXR errors are translated into VF_EEXR here, once, with a detail "FILE: problem
  * (library message)". The library's own messages are captured per thread instead of being
@@ -7,11 +6,12 @@
  * absurd sizes and files too short for their chunk table before it allocates anything,
  * and hands pixels to its caller one decoded chunk at a time, converted to float.
  *
- * Atomic writes: the bytes go to "PATH.tmp.<pid>" in the same directory, are fsync'ed, and
- * the file is renamed over PATH; on any failure the temporary file is unlinked and an
- * existing file at PATH is left untouched. */
+ * The writer streams the file through an atomic file (common/atomic_file.h), whose rule
+ * every writer follows. */
 #ifndef VF_EXR_UTIL_H
 #define VF_EXR_UTIL_H
+
+#include "atomic_file.h"
 
 #include <openexr.h>
 
@@ -20,24 +20,6 @@
 /* Refuse data windows above this many pixels before allocating anything. */
 #define VF_EXR_MAX_PIXELS ((int64_t)1 << 28)
 #define VF_EXR_MAX_SIDE 65536
-
-/* ---- atomic files ---- */
-
-typedef struct {
-  char *path;     /* owned copy of the final path */
-  char *tmp_path; /* owned: PATH.tmp.<pid> */
-  int fd;         /* open on tmp_path, or -1 */
-} vf_atomic_file;
-
-/* Creates the temporary file. VF_EINVAL / VF_EIO with a detail naming the path. */
-int vf_atomic_open(vf_atomic_file *file, const char *path);
-/* Writes all of buf at offset (pwrite loop). VF_EIO with a detail on failure. */
-int vf_atomic_pwrite(vf_atomic_file *file, const void *buf, uint64_t size, uint64_t offset);
-/* fsync, close, rename over the final path, fsync the directory. On failure the temporary
- * file is removed. Releases the file either way. */
-int vf_atomic_commit(vf_atomic_file *file);
-/* Closes and removes the temporary file; releases the file. No-op on a released file. */
-void vf_atomic_abort(vf_atomic_file *file);
 
 /* ---- reading ---- */
 

@@ -1,12 +1,12 @@
 #define _XOPEN_SOURCE 700 /* nftw */
 #include "file.h"
 
+#include "atomic_file.h"
 #include "error.h"
 
 #include <errno.h>
 #include <fcntl.h>
 #include <ftw.h>
-#include <libgen.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -58,54 +58,11 @@ close_fd:
   return err;
 }
 
-static int fsync_parent(const char *path) {
-  char *copy = strdup(path);
-  if (copy == NULL) return vf_error_set(VF_ENOMEM, "%s: out of memory", path);
-  int dfd = open(dirname(copy), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
-  int err = VF_OK;
-  if (dfd < 0 || fsync(dfd) != 0) err = vf_error_set(VF_EIO, "%s: syncing the directory: %s", path, strerror(errno));
-  if (dfd >= 0) close(dfd);
-  free(copy);
-  return err;
-}
-
 int vf_file_write_atomic(const char *path, const void *data, size_t len, unsigned mode) {
-  char tmp[4096];
-  if (snprintf(tmp, sizeof tmp, "%s.tmp.%ld", path, (long)getpid()) >= (int)sizeof tmp)
-    return vf_error_set(VF_EINVAL, "%s: path too long", path);
-  int fd = open(tmp, O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, (mode_t)mode);
-  if (fd < 0) return vf_error_set(VF_EIO, "%s: %s", tmp, strerror(errno));
-  int err = VF_OK;
-  const uint8_t *p = data;
-  size_t done = 0;
-  while (done < len) {
-    ssize_t n = write(fd, p + done, len - done);
-    if (n < 0 && errno == EINTR) continue;
-    if (n < 0) {
-      err = vf_error_set(VF_EIO, "%s: %s", tmp, strerror(errno));
-      goto remove_tmp;
-    }
-    done += (size_t)n;
-  }
-  if (fsync(fd) != 0) {
-    err = vf_error_set(VF_EIO, "%s: fsync: %s", tmp, strerror(errno));
-    goto remove_tmp;
-  }
-  if (close(fd) != 0) {
-    fd = -1;
-    err = vf_error_set(VF_EIO, "%s: close: %s", tmp, strerror(errno));
-    goto remove_tmp;
-  }
-  fd = -1;
-  if (rename(tmp, path) != 0) {
-    err = vf_error_set(VF_EIO, "%s: rename: %s", path, strerror(errno));
-    goto remove_tmp;
-  }
-  return fsync_parent(path);
-remove_tmp:
-  if (fd >= 0) close(fd);
-  unlink(tmp);
-  return err;
+  vf_atomic_file file;
+  int err = vf_atomic_open_mode(&file, path, mode);
+  if (err == VF_OK && (err = vf_atomic_pwrite(&file, data, len, 0)) != VF_OK) vf_atomic_abort(&file);
+  return err == VF_OK ? vf_atomic_commit(&file) : err;
 }
 
 int vf_file_temp_dir(const char *name, char *out, size_t n) {

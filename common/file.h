@@ -2,9 +2,9 @@
  * (keys, coordinator state, scene texts) and for passing films through memory; and the
  * private temporary directories of `submit` and `render`.
  *
- * Atomic writes follow the rule of docs/FILM.md: the bytes go to "PATH.tmp.<pid>" in the
- * same directory, are fsync'ed, renamed over PATH, and the directory is fsync'ed; on any
- * failure the temporary file is removed and an existing PATH is left as it was. */
+ * Atomic writes follow the rule of common/atomic_file.h (docs/FILM.md): "PATH.tmp.<pid>"
+ * in the same directory, fsync, rename over PATH, fsync of the directory; on any failure
+ * before the rename the temporary file is removed and an existing PATH is left as it was. */
 #ifndef VF_FILE_H
 #define VF_FILE_H
 
@@ -17,7 +17,8 @@
 int vf_file_read_all(const char *path, size_t max, uint8_t **data, size_t *len);
 
 /* Atomically replaces path with len bytes of data, created with permissions `mode`
- * (subject to the umask). VF_EIO with a detail naming the path on failure. */
+ * (subject to the umask): a thin wrapper of vf_atomic_open_mode, vf_atomic_pwrite and
+ * vf_atomic_commit. VF_EIO (VF_EINVAL for an empty path) with a detail naming the path. */
 int vf_file_write_atomic(const char *path, const void *data, size_t len, unsigned mode);
 
 /* A new private directory $TMPDIR/NAME-XXXXXX (/tmp without TMPDIR) into out. VF_EINVAL

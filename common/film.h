@@ -18,7 +18,10 @@
  *
  * On disk (docs/FILM.md): a tiled OpenEXR (64x64 tiles) whose R, G, B channels hold the
  * mean (any viewer shows the image) and whose other channels and "vcmfarm:" attributes
- * hold the accumulation exactly. */
+ * hold the accumulation exactly.
+ *
+ * One module in two files: film.c holds the sums (create, add, mean, merge, estimate,
+ * validate), film_file.c the file format (vf_film_write, vf_film_read). */
 #ifndef VF_FILM_H
 #define VF_FILM_H
 
@@ -26,6 +29,7 @@
 #include "iterset.h"
 #include "pool.h"
 
+#include <stddef.h>
 #include <stdint.h>
 
 #define VF_FILM_FORMAT_VERSION 1
@@ -63,13 +67,8 @@ int vf_film_add_iteration(vf_film *film, uint64_t iteration, const float *camera
 
 /* Mean radiance, 3 floats per pixel, into rgb. Pixels without samples are 0. */
 void vf_film_mean(const vf_film *film, float *rgb);
-
-/* Atomic write (temporary file, fsync, rename). Never leaves a partial file at path. */
-int vf_film_write(const vf_film *film, const char *path);
-
-/* Reads and validates a film. VF_ENOENT, or VF_EEXR / VF_EFILM with a detail naming the file
- * and the problem (not a film, missing channel, negative or NaN counts, bad attribute...). */
-int vf_film_read(const char *path, vf_film **out);
+/* The same for the one pixel p (y * width + x). */
+void vf_film_pixel_mean(const vf_film *film, size_t p, float rgb[3]);
 
 /* dst += src. VF_EMISMATCH (size, scene hash, settings) or VF_EOVERLAP (iteration sets),
  * with dst unchanged, when they cannot be merged. Times add up; dst keeps its scene name
@@ -93,5 +92,16 @@ double vf_film_estimate_rmse(const vf_film *film);
  * valid (vf_convergence_validate). VF_EFILM
  * with a detail "NAME: problem" (name is e.g. the file path) when one does not hold. */
 int vf_film_validate(const vf_film *film, const char *name);
+
+/* ---- the file (film_file.c, docs/FILM.md) ---- */
+
+/* Atomic write (common/atomic_file.h: temporary file, fsync, rename, fsync of the directory).
+ * Never leaves a partial file at path. VF_EFILM for a film that breaks an invariant or holds
+ * a value beyond float range, VF_EIO, VF_EEXR. */
+int vf_film_write(const vf_film *film, const char *path);
+
+/* Reads and validates a film. VF_ENOENT, or VF_EEXR / VF_EFILM with a detail naming the file
+ * and the problem (not a film, missing channel, negative or NaN counts, bad attribute...). */
+int vf_film_read(const char *path, vf_film **out);
 
 #endif

@@ -1,5 +1,6 @@
 #include "wire.h"
 
+#include "atomic_file.h"
 #include "error.h"
 #include "file.h"
 
@@ -50,23 +51,22 @@ int vf_wire_key_load(const char *path, vf_wire_key *key) {
 int vf_wire_key_generate(const char *path) {
   int err = sodium_ready();
   if (err != VF_OK) return err;
-  int fd = open(path, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0600);
-  if (fd < 0)
-    return vf_error_set(errno == EEXIST ? VF_EINVAL : VF_EIO, "key file %s: %s", path,
-                        errno == EEXIST ? "exists already; not replacing it" : strerror(errno));
+  vf_atomic_file file;
+  if ((err = vf_atomic_open_mode(&file, path, 0600)) != VF_OK)
+    return vf_error_set(err, "key file %s", vf_error_detail(err));
   uint8_t k[32];
   char hex[65];
   randombytes_buf(k, sizeof k);
   sodium_bin2hex(hex, sizeof hex, k, sizeof k);
   hex[64] = '\n';
-  if (fchmod(fd, 0600) != 0 || write(fd, hex, sizeof hex) != (ssize_t)sizeof hex || fsync(fd) != 0) {
-    err = vf_error_set(VF_EIO, "key file %s: %s", path, strerror(errno));
-    unlink(path);
-  }
-  close(fd);
+  /* exactly 0600 whatever the umask: vf_wire_key_load refuses anything else */
+  if (fchmod(file.fd, 0600) != 0) err = vf_error_set(VF_EIO, "%s: chmod: %s", path, strerror(errno));
+  if (err == VF_OK) err = vf_atomic_pwrite(&file, hex, sizeof hex, 0);
+  if (err == VF_OK) err = vf_atomic_commit_new(&file);
+  else vf_atomic_abort(&file);
   sodium_memzero(k, sizeof k);
   sodium_memzero(hex, sizeof hex);
-  return err;
+  return err == VF_OK ? VF_OK : vf_error_set(err, "key file %s", vf_error_detail(err));
 }
 
 static void put_u32(uint8_t *p, uint32_t v) {

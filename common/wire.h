@@ -41,8 +41,8 @@ typedef struct {
  * (VF_EINVAL) or a missing one (VF_ENOENT); *key is written only on success. */
 int vf_wire_key_load(const char *path, vf_wire_key *key);
 
-/* Writes a new random key to path with permissions 0600. Refuses to replace an existing
- * file (VF_EINVAL). */
+/* Writes a new random key to path with permissions 0600, atomically (common/atomic_file.h:
+ * a crash leaves no partial key). Refuses to replace an existing file (VF_EINVAL). */
 int vf_wire_key_generate(const char *path);
 
 /* Frames payload: *frame (malloc'ed, the caller frees) and *frame_len are written only on

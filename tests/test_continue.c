@@ -3,38 +3,14 @@
  * the wrong scene and damaged inputs are refused with nothing written, targets stop the
  * render, checkpoints log entries. */
 #include "check.h"
+#include "film_fixtures.h"
 #include "common/error.h"
 #include "common/film.h"
 #include "common/image.h"
 #include "cli/continue_cmd.h"
 #include "cli/render_cmd.h"
 
-#include <stdarg.h>
 #include <stdlib.h>
-#include <sys/stat.h>
-#include <unistd.h>
-
-static char dir[256];
-
-static const char *path_of(const char *name) {
-  static char buf[8][512];
-  static int next;
-  char *p = buf[next++ % 8];
-  snprintf(p, 512, "%s/%s", dir, name);
-  return p;
-}
-
-/* Runs a command function with a NULL-terminated argument list. */
-static int run(int (*cmd)(int, char **), const char *first, ...) {
-  char *argv[40];
-  int argc = 0;
-  va_list ap;
-  va_start(ap, first);
-  for (const char *a = first; a != NULL && argc < 39; a = va_arg(ap, const char *)) argv[argc++] = (char *)a;
-  va_end(ap);
-  argv[argc] = NULL;
-  return cmd(argc, argv);
-}
 
 static vf_film *read_film(const char *path) {
   vf_film *f = NULL;
@@ -63,18 +39,17 @@ static double max_sum_difference(const vf_film *a, const vf_film *b) {
   return d;
 }
 
-static int file_exists(const char *p) { return access(p, F_OK) == 0; }
-
 static void test_continue_in_three_steps_equals_one_render(void) {
   static const char *const algorithms[] = {"vcm", "bpt", "ppm"};
   for (size_t a = 0; a < sizeof algorithms / sizeof *algorithms; a++) {
-    const char *whole = path_of("whole.exr"), *steps = path_of("steps.exr"), *out = path_of("steps2.exr");
-    CHECK_INT_EQ(run(vf_cmd_render, "render", "cornell", "-a", algorithms[a], "-n", "9", "-R", "40x32", "-s", "5", "-q",
-                     "-o", whole, NULL), 0);
-    CHECK_INT_EQ(run(vf_cmd_render, "render", "cornell", "-a", algorithms[a], "-n", "2", "-R", "40x32", "-s", "5", "-q",
-                     "-o", steps, NULL), 0);
-    CHECK_INT_EQ(run(vf_cmd_continue, "continue", steps, "-n", "3", "-q", NULL), 0);          /* in place */
-    CHECK_INT_EQ(run(vf_cmd_continue, "continue", steps, "-n", "4", "-q", "-o", out, NULL), 0); /* elsewhere */
+    const char *whole = fixture_path("whole.exr"), *steps = fixture_path("steps.exr");
+    const char *out = fixture_path("steps2.exr");
+    CHECK_INT_EQ(fixture_run(vf_cmd_render, "render", "cornell", "-a", algorithms[a], "-n", "9", "-R", "40x32", "-s",
+                             "5", "-q", "-o", whole, NULL), 0);
+    CHECK_INT_EQ(fixture_run(vf_cmd_render, "render", "cornell", "-a", algorithms[a], "-n", "2", "-R", "40x32", "-s",
+                             "5", "-q", "-o", steps, NULL), 0);
+    CHECK_INT_EQ(fixture_run(vf_cmd_continue, "continue", steps, "-n", "3", "-q", NULL), 0);          /* in place */
+    CHECK_INT_EQ(fixture_run(vf_cmd_continue, "continue", steps, "-n", "4", "-q", "-o", out, NULL), 0); /* elsewhere */
     vf_film *w = read_film(whole), *s = read_film(out), *mid = read_film(steps);
     if (!w || !s || !mid) return;
     CHECK_INT_EQ(vf_iterset_count(&mid->iterations), 5);
@@ -95,15 +70,16 @@ static void test_continue_in_three_steps_equals_one_render(void) {
 }
 
 static void test_continue_fills_gaps_first(void) {
-  const char *a = path_of("gap_a.exr"), *b = path_of("gap_b.exr"), *whole = path_of("gap_whole.exr");
-  CHECK_INT_EQ(run(vf_cmd_render, "render", "cornell", "-n", "2", "-R", "24x16", "-q", "-o", a, NULL), 0);
-  CHECK_INT_EQ(run(vf_cmd_render, "render", "cornell", "-k", "5", "-n", "2", "-R", "24x16", "-q", "-o", b, NULL), 0);
-  CHECK_INT_EQ(run(vf_cmd_render, "render", "cornell", "-n", "8", "-R", "24x16", "-q", "-o", whole, NULL), 0);
+  const char *a = fixture_path("gap_a.exr"), *b = fixture_path("gap_b.exr"), *whole = fixture_path("gap_whole.exr");
+  CHECK_INT_EQ(fixture_run(vf_cmd_render, "render", "cornell", "-n", "2", "-R", "24x16", "-q", "-o", a, NULL), 0);
+  CHECK_INT_EQ(fixture_run(vf_cmd_render, "render", "cornell", "-k", "5", "-n", "2", "-R", "24x16", "-q", "-o", b,
+                           NULL), 0);
+  CHECK_INT_EQ(fixture_run(vf_cmd_render, "render", "cornell", "-n", "8", "-R", "24x16", "-q", "-o", whole, NULL), 0);
   vf_film *fa = read_film(a), *fb = read_film(b);
   if (!fa || !fb) return;
   CHECK_INT_EQ(vf_film_merge(fa, fb), VF_OK);
   CHECK_INT_EQ(vf_film_write(fa, a), VF_OK);
-  CHECK_INT_EQ(run(vf_cmd_continue, "continue", a, "-n", "4", "-q", NULL), 0); /* [2,5) then [7,8) */
+  CHECK_INT_EQ(fixture_run(vf_cmd_continue, "continue", a, "-n", "4", "-q", NULL), 0); /* [2,5) then [7,8) */
   vf_film *c = read_film(a), *w = read_film(whole);
   if (c && w) {
     char text[64] = "";
@@ -121,73 +97,54 @@ static void test_continue_fills_gaps_first(void) {
   vf_film_destroy(w);
 }
 
-static unsigned char *slurp(const char *path, size_t *size) {
-  FILE *fp = fopen(path, "rb");
-  if (fp == NULL) return NULL;
-  fseek(fp, 0, SEEK_END);
-  long n = ftell(fp);
-  fseek(fp, 0, SEEK_SET);
-  unsigned char *buf = malloc((size_t)n + 1);
-  if (fread(buf, 1, (size_t)n, fp) != (size_t)n) n = 0;
-  fclose(fp);
-  *size = (size_t)n;
-  return buf;
-}
-
-static int same_file(const char *p, const unsigned char *bytes, size_t size) {
-  size_t n = 0;
-  unsigned char *now = slurp(p, &n);
-  int same = now && n == size && memcmp(now, bytes, size) == 0;
-  free(now);
-  return same;
-}
-
 static void test_bad_inputs_are_refused_and_nothing_is_written(void) {
-  const char *film = path_of("bad_base.exr"), *out = path_of("bad_out.exr"), *junk = path_of("junk.exr");
-  const char *small = path_of("small_ref.exr");
-  CHECK_INT_EQ(run(vf_cmd_render, "render", "cornell", "-n", "2", "-R", "24x16", "-q", "-o", film, NULL), 0);
+  const char *film = fixture_path("bad_base.exr"), *out = fixture_path("bad_out.exr"), *junk = fixture_path("junk.exr");
+  const char *small = fixture_path("small_ref.exr");
+  CHECK_INT_EQ(fixture_run(vf_cmd_render, "render", "cornell", "-n", "2", "-R", "24x16", "-q", "-o", film, NULL), 0);
   size_t size = 0;
-  unsigned char *bytes = slurp(film, &size);
+  unsigned char *bytes = fixture_slurp(film, &size);
   if (!bytes) return;
-  FILE *fp = fopen(junk, "wb");
-  fwrite(bytes, 1, size / 2, fp); /* truncated */
-  fclose(fp);
+  fixture_spill(junk, bytes, size / 2); /* truncated */
   vf_image img = {0};
   vf_image_alloc(&img, 8, 8);
   CHECK_INT_EQ(vf_image_write_exr(small, &img), VF_OK);
   vf_image_destroy(&img);
 
   /* another scene: exit 2, the film untouched */
-  CHECK_INT_EQ(run(vf_cmd_continue, "continue", film, "--scene", "furnace", "-n", "1", "-q", NULL), 2);
+  CHECK_INT_EQ(fixture_run(vf_cmd_continue, "continue", film, "--scene", "furnace", "-n", "1", "-q", NULL), 2);
   CHECK_STR_CONTAINS(vf_error_detail(VF_EMISMATCH), "content hash");
-  CHECK(same_file(film, bytes, size));
+  CHECK(fixture_file_holds(film, bytes, size));
   /* damaged or absent film */
-  CHECK_INT_EQ(run(vf_cmd_continue, "continue", junk, "-n", "1", "-q", "-o", out, NULL), 2);
-  CHECK_STR_CONTAINS(vf_error_detail(VF_EFILM), junk);
-  CHECK_INT_EQ(run(vf_cmd_continue, "continue", path_of("absent.exr"), "-n", "1", "-q", "-o", out, NULL), 2);
+  CHECK_INT_EQ(fixture_run(vf_cmd_continue, "continue", junk, "-n", "1", "-q", "-o", out, NULL), 2);
+  CHECK_STR_CONTAINS(vf_error_detail(vf_error_code()), junk);
+  CHECK_INT_EQ(fixture_run(vf_cmd_continue, "continue", fixture_path("absent.exr"), "-n", "1", "-q", "-o", out,
+                           NULL), 2);
   /* damaged, absent or wrong-size reference */
-  CHECK_INT_EQ(run(vf_cmd_continue, "continue", film, "--reference", junk, "-n", "1", "-q", "-o", out, NULL), 2);
-  CHECK_INT_EQ(run(vf_cmd_continue, "continue", film, "--reference", small, "-n", "1", "-q", "-o", out, NULL), 2);
+  CHECK_INT_EQ(fixture_run(vf_cmd_continue, "continue", film, "--reference", junk, "-n", "1", "-q", "-o", out,
+                           NULL), 2);
+  CHECK_INT_EQ(fixture_run(vf_cmd_continue, "continue", film, "--reference", small, "-n", "1", "-q", "-o", out,
+                           NULL), 2);
   CHECK_STR_CONTAINS(vf_error_detail(VF_EMISMATCH), small);
-  CHECK_INT_EQ(run(vf_cmd_render, "render", "cornell", "-R", "24x16", "--reference", path_of("absent.exr"), "-q", "-o",
-                   out, NULL), 2);
-  CHECK_INT_EQ(run(vf_cmd_render, "render", "cornell", "-R", "24x16", "--reference", small, "-q", "-o", out, NULL), 2);
+  CHECK_INT_EQ(fixture_run(vf_cmd_render, "render", "cornell", "-R", "24x16", "--reference", fixture_path("absent.exr"),
+                           "-q", "-o", out, NULL), 2);
+  CHECK_INT_EQ(fixture_run(vf_cmd_render, "render", "cornell", "-R", "24x16", "--reference", small, "-q", "-o", out,
+                           NULL), 2);
   /* --target-rmse needs a reference */
-  CHECK_INT_EQ(run(vf_cmd_continue, "continue", film, "--target-rmse", "0.1", "-q", "-o", out, NULL), 2);
-  CHECK_INT_EQ(run(vf_cmd_render, "render", "cornell", "--target-rmse", "0.1", "-q", "-o", out, NULL), 2);
-  CHECK(!file_exists(out));
-  CHECK(same_file(film, bytes, size));
+  CHECK_INT_EQ(fixture_run(vf_cmd_continue, "continue", film, "--target-rmse", "0.1", "-q", "-o", out, NULL), 2);
+  CHECK_INT_EQ(fixture_run(vf_cmd_render, "render", "cornell", "--target-rmse", "0.1", "-q", "-o", out, NULL), 2);
+  CHECK(!fixture_exists(out));
+  CHECK(fixture_file_holds(film, bytes, size));
   free(bytes);
 }
 
 static void test_targets_stop_and_checkpoints_log(void) {
-  const char *ref = path_of("t_ref.exr"), *film = path_of("t_film.exr");
-  CHECK_INT_EQ(run(vf_cmd_render, "render", "cornell", "-a", "bpt", "-s", "99", "-n", "64", "-R", "32x24", "-q", "-o",
-                   ref, NULL), 0);
+  const char *ref = fixture_path("t_ref.exr"), *film = fixture_path("t_film.exr");
+  CHECK_INT_EQ(fixture_run(vf_cmd_render, "render", "cornell", "-a", "bpt", "-s", "99", "-n", "64", "-R", "32x24", "-q",
+                           "-o", ref, NULL), 0);
   /* --target-error: open-ended, stops as soon as the estimate is low enough (--direct:
    * right after that iteration; through the farm after that part, test_render_farm.sh) */
-  CHECK_INT_EQ(run(vf_cmd_render, "render", "cornell", "--direct", "-R", "32x24", "--target-error", "0.12", "-q", "-o",
-                   film, NULL), 0);
+  CHECK_INT_EQ(fixture_run(vf_cmd_render, "render", "cornell", "--direct", "-R", "32x24", "--target-error", "0.12",
+                           "-q", "-o", film, NULL), 0);
   vf_film *f = read_film(film);
   if (f) {
     uint64_t n = vf_iterset_count(&f->iterations);
@@ -200,8 +157,8 @@ static void test_targets_stop_and_checkpoints_log(void) {
   }
   vf_film_destroy(f);
   /* --target-rmse with --reference, checkpoints every iteration (interval ~0) */
-  CHECK_INT_EQ(run(vf_cmd_continue, "continue", film, "--reference", ref, "--target-rmse", "0.09",
-                   "--checkpoint-interval", "1e-9", "-q", NULL), 0);
+  CHECK_INT_EQ(fixture_run(vf_cmd_continue, "continue", film, "--reference", ref, "--target-rmse", "0.09",
+                           "--checkpoint-interval", "1e-9", "-q", NULL), 0);
   f = read_film(film);
   if (f) {
     const vf_convergence_log *log = &f->convergence;
@@ -217,20 +174,17 @@ static void test_targets_stop_and_checkpoints_log(void) {
   }
   vf_film_destroy(f);
   /* already met: nothing rendered, nothing written */
-  const char *out = path_of("t_out.exr");
-  CHECK_INT_EQ(run(vf_cmd_continue, "continue", film, "--target-error", "1e9", "-q", "-o", out, NULL), 0);
-  CHECK(!file_exists(out));
+  const char *out = fixture_path("t_out.exr");
+  CHECK_INT_EQ(fixture_run(vf_cmd_continue, "continue", film, "--target-error", "1e9", "-q", "-o", out, NULL), 0);
+  CHECK(!fixture_exists(out));
 }
 
 int main(void) {
-  snprintf(dir, sizeof dir, "/tmp/vf_test_continue_XXXXXX");
-  if (mkdtemp(dir) == NULL) return 1;
+  if (fixture_scratch_open("test_continue") != 0) return 1;
   RUN(test_continue_in_three_steps_equals_one_render);
   RUN(test_continue_fills_gaps_first);
   RUN(test_bad_inputs_are_refused_and_nothing_is_written);
   RUN(test_targets_stop_and_checkpoints_log);
-  char cmd[600];
-  snprintf(cmd, sizeof cmd, "rm -rf '%s'", dir);
-  if (system(cmd) != 0) return 1;
+  if (fixture_scratch_close() != 0) return 1;
   return check_finish();
 }

@@ -3,6 +3,7 @@
  * of a real render measured against a much longer, independent reference. */
 #define _GNU_SOURCE /* memmem */
 #include "check.h"
+#include "film_fixtures.h"
 #include "common/convergence.h"
 #include "common/error.h"
 #include "common/film.h"
@@ -12,8 +13,6 @@
 #include <stdlib.h>
 #include <sys/stat.h>
 #include <unistd.h>
-
-static char scratch_dir[256];
 
 static vf_convergence_entry entry(uint32_t run, double wall, uint64_t iterations, double rmse, double estimate) {
   vf_convergence_entry e = {run, wall, 2 * wall, iterations, rmse, isnan(rmse) ? NAN : rmse * 3, estimate};
@@ -151,23 +150,8 @@ static void test_merge_appends_the_source_log_as_new_runs(void) {
   vf_film_destroy(c);
 }
 
-static unsigned char *slurp(const char *path, size_t *size) {
-  FILE *fp = fopen(path, "rb");
-  if (fp == NULL) return NULL;
-  fseek(fp, 0, SEEK_END);
-  long n = ftell(fp);
-  fseek(fp, 0, SEEK_SET);
-  unsigned char *buf = malloc((size_t)n + 1);
-  if (fread(buf, 1, (size_t)n, fp) != (size_t)n) n = 0;
-  fclose(fp);
-  *size = (size_t)n;
-  return buf;
-}
-
 static void test_film_file_keeps_log_scene_and_cpu_time(void) {
-  char path[512], bad[512];
-  snprintf(path, sizeof path, "%s/log.exr", scratch_dir);
-  snprintf(bad, sizeof bad, "%s/bad.exr", scratch_dir);
+  const char *path = fixture_path("log.exr"), *bad = fixture_path("bad.exr");
   vf_film *f = synthetic_film(8, 5, 0, 4), *back = NULL;
   if (!f) return;
   vf_convergence_entry e[2] = {entry(0, 0.75, 3, NAN, 0.5), entry(0, 1.0, 4, 0.3125, 0.375)};
@@ -187,14 +171,12 @@ static void test_film_file_keeps_log_scene_and_cpu_time(void) {
 
   /* damage the log in place (same length): refused, naming the attribute */
   size_t size = 0;
-  unsigned char *bytes = slurp(path, &size);
+  unsigned char *bytes = fixture_slurp(path, &size);
   unsigned char *at = bytes ? memmem(bytes, size, "0 0.75 1.5 3 nan nan 0.5\n", 25) : NULL;
   CHECK(at != NULL);
   if (at) {
     memcpy(at, "0 0.75 1.5 3 nan nan -.5\n", 25);
-    FILE *fp = fopen(bad, "wb");
-    fwrite(bytes, 1, size, fp);
-    fclose(fp);
+    fixture_spill(bad, bytes, size);
     int err = vf_film_read(bad, &back);
     CHECK_INT_EQ(err, VF_EFILM);
     CHECK_STR_CONTAINS(vf_error_detail(err), "vcmfarm:convergence");
@@ -299,14 +281,13 @@ static void test_estimate_matches_true_rmse_on_cornell(void) {
 }
 
 int main(void) {
-  snprintf(scratch_dir, sizeof scratch_dir, "/tmp/vf_test_convergence_XXXXXX");
-  if (mkdtemp(scratch_dir) == NULL) return 1;
+  if (fixture_scratch_open("test_convergence") != 0) return 1;
   RUN(test_log_text_round_trips);
   RUN(test_malformed_log_text_is_refused);
   RUN(test_estimate_is_the_standard_error_of_the_mean);
   RUN(test_merge_appends_the_source_log_as_new_runs);
   RUN(test_film_file_keeps_log_scene_and_cpu_time);
   RUN(test_estimate_matches_true_rmse_on_cornell);
-  rmdir(scratch_dir);
+  fixture_scratch_close();
   return check_finish();
 }

@@ -2,58 +2,20 @@
  * writes, and reading damaged files (corrupted copies of a film and the OpenEXR corpus). */
 #include "check.h"
 #include "exr_corpus.h"
+#include "film_fixtures.h"
 #include "common/error.h"
 #include "common/exr_util.h"
 #include "common/film.h"
 #include "common/image.h"
 
-#include <dirent.h>
-#include <signal.h>
 #include <stdint.h>
 #include <stdlib.h>
-#include <sys/resource.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
-static char scratch_dir[256];
-
-static void scratch_path(char *buf, size_t n, const char *name) { snprintf(buf, n, "%s/%s", scratch_dir, name); }
-
-static uint64_t xorshift(uint64_t *s) {
-  *s ^= *s << 13;
-  *s ^= *s >> 7;
-  *s ^= *s << 17;
-  return *s;
-}
-static double uniform(uint64_t *s) { return (double)(xorshift(s) >> 11) * 0x1.0p-53; }
-
-/* The inputs of one iteration are a pure function of its index, so films that receive the
- * same iterations in different groupings can be compared. */
-static void iteration_inputs(int w, int h, uint64_t iteration, float *cam, float *light) {
-  uint64_t s = 0x9e3779b97f4a7c15ULL ^ (iteration * 0xbf58476d1ce4e5b9ULL + 1);
-  for (int i = 0; i < 3 * w * h; i++) {
-    cam[i] = (float)(uniform(&s) * pow(10.0, 4 * uniform(&s) - 2));
-    light[i] = (float)(uniform(&s) * 0.1);
-  }
-}
-
-static vf_film *film_with(int w, int h, uint64_t begin, uint64_t end) {
-  vf_film *film = NULL;
-  if (vf_film_create(w, h, &film) != VF_OK) return NULL;
-  float *cam = malloc(sizeof(float) * 3 * (size_t)(w * h)), *light = malloc(sizeof(float) * 3 * (size_t)(w * h));
-  for (uint64_t i = begin; i < end; i++) {
-    iteration_inputs(w, h, i, cam, light);
-    vf_film_add_iteration(film, i, cam, light, NULL);
-  }
-  free(cam);
-  free(light);
-  memset(film->scene_hash, 0xab, sizeof film->scene_hash);
-  film->scene_hash[31] = 0x01;
-  snprintf(film->settings_text, sizeof film->settings_text, "algorithm=vcm max_path_length=10 resolution=%dx%d", w, h);
-  film->render_seconds = 1.25 * (double)(end - begin);
-  return film;
-}
+/* Films of iterations [begin, end) of the fixture's inputs (film_fixtures.h). */
+static vf_film *film_with(int w, int h, uint64_t begin, uint64_t end) { return fixture_film(w, h, begin, end, 1); }
 
 static double rel_diff(double a, double b) {
   double m = fmax(fabs(a), fabs(b));
@@ -152,14 +114,13 @@ static void test_write_read_round_trip(void) {
   /* 100x70: partial tiles on both edges; iterations with gaps make a multi-range set */
   vf_film *f = film_with(100, 70, 0, 3), *back = NULL;
   float cam[3 * 100 * 70], light[3 * 100 * 70];
-  iteration_inputs(100, 70, 1000, cam, light);
+  fixture_iteration_inputs(100, 70, 1000, cam, light);
   cam[5] = NAN;
   CHECK_INT_EQ(vf_film_add_iteration(f, 1000, cam, light, NULL), VF_OK);
   f->camera_sum[7] = 123456789.123456789; /* needs more than a float's precision */
   f->light_sum[8] = -1e-30;
   f->render_seconds = 12345.678;
-  char path[512];
-  scratch_path(path, sizeof path, "round.film.exr");
+  const char *path = fixture_path("round.film.exr");
   CHECK_INT_EQ(vf_film_write(f, path), VF_OK);
   CHECK_INT_EQ(vf_film_read(path, &back), VF_OK);
   if (back) {
@@ -218,8 +179,7 @@ static void test_long_iteration_set_round_trips(void) {
   float cam[18] = {1, 2, 3}, light[18] = {0};
   /* 3000 separate ranges with 13-digit indices: ~90 kB of text */
   for (uint64_t i = 0; i < 3000; i++) CHECK_INT_EQ(vf_film_add_iteration(f, 1000000000000ULL + 2 * i, cam, light, NULL), VF_OK);
-  char path[512];
-  scratch_path(path, sizeof path, "long.film.exr");
+  const char *path = fixture_path("long.film.exr");
   CHECK_INT_EQ(vf_film_write(f, path), VF_OK);
   CHECK_INT_EQ(vf_film_read(path, &back), VF_OK);
   if (back) {
@@ -291,9 +251,7 @@ static void test_validate_catches_broken_invariants(void) {
                      : cases[i].field == 2 ? f->square_sum : f->camera_count;
     target[5] = cases[i].value;
     if (vf_film_validate(f, "bad") != VF_EFILM) CHECK_FAIL_("%s passed validation", cases[i].what);
-    char path[512];
-    scratch_path(path, sizeof path, "invalid.film.exr");
-    if (vf_film_write(f, path) == VF_OK) CHECK_FAIL_("%s was written", cases[i].what);
+    if (vf_film_write(f, fixture_path("invalid.film.exr")) == VF_OK) CHECK_FAIL_("%s was written", cases[i].what);
     vf_film_destroy(f);
   }
   CHECK_INT_EQ(vf_film_clone(good, &f), VF_OK);
@@ -303,56 +261,24 @@ static void test_validate_catches_broken_invariants(void) {
   vf_film_destroy(good);
 }
 
-static int file_contains(const char *path, const char *text) {
-  char buf[64] = {0};
-  FILE *fp = fopen(path, "rb");
-  if (fp == NULL) return 0;
-  size_t n = fread(buf, 1, sizeof buf - 1, fp);
-  fclose(fp);
-  return n == strlen(text) && memcmp(buf, text, n) == 0;
-}
-
-static int no_temp_files_left(void) {
-  DIR *d = opendir(scratch_dir);
-  if (d == NULL) return 0;
-  int clean = 1;
-  struct dirent *e;
-  while ((e = readdir(d)) != NULL)
-    if (strstr(e->d_name, ".tmp.")) clean = 0;
-  closedir(d);
-  return clean;
+/* In the child of fixture_run_with_file_limit: 0 when writing keep.film.exr fails with VF_EIO. */
+static int write_fails_with_eio(void *film) {
+  return vf_film_write(film, fixture_path("keep.film.exr")) == VF_EIO ? 0 : 1;
 }
 
 static void test_write_is_atomic(void) {
   vf_film *f = film_with(130, 70, 0, 2);
-  char path[512], dir_path[512], ro_dir[512], ro_path[600];
-  scratch_path(path, sizeof path, "keep.film.exr");
-  scratch_path(dir_path, sizeof dir_path, "film_dir");
-  scratch_path(ro_dir, sizeof ro_dir, "read_only");
+  const char *path = fixture_path("keep.film.exr"), *dir_path = fixture_path("film_dir");
+  const char *ro_dir = fixture_path("read_only"), *ro_path = fixture_path("read_only/keep.film.exr");
   mkdir(dir_path, 0755);
   mkdir(ro_dir, 0755);
-  snprintf(ro_path, sizeof ro_path, "%s/keep.film.exr", ro_dir);
-  FILE *fp = fopen(path, "wb");
-  fputs("old content", fp);
-  fclose(fp);
-  fp = fopen(ro_path, "wb");
-  fputs("old content", fp);
-  fclose(fp);
+  fixture_spill_text(path, "old content");
+  fixture_spill_text(ro_path, "old content");
 
   /* the write fails half-way (file size limit): old content stays, no temporary file */
-  fflush(stdout);
-  fflush(stderr);
-  pid_t pid = fork();
-  if (pid == 0) {
-    signal(SIGXFSZ, SIG_IGN);
-    struct rlimit lim = {8192, 8192};
-    setrlimit(RLIMIT_FSIZE, &lim);
-    exit(vf_film_write(f, path) == VF_EIO ? 0 : 1);
-  }
-  int status = 0;
-  waitpid(pid, &status, 0);
+  int status = fixture_run_with_file_limit(8192, write_fails_with_eio, f);
   CHECK(WIFEXITED(status) && WEXITSTATUS(status) == 0);
-  CHECK(file_contains(path, "old content"));
+  CHECK(fixture_file_holds_text(path, "old content"));
 
   /* the target is a directory */
   CHECK_INT_EQ(vf_film_write(f, dir_path), VF_EIO);
@@ -363,32 +289,12 @@ static void test_write_is_atomic(void) {
   chmod(ro_dir, 0555);
   if (geteuid() != 0) CHECK_INT_EQ(vf_film_write(f, ro_path), VF_EIO);
   chmod(ro_dir, 0755);
-  CHECK(geteuid() == 0 || file_contains(ro_path, "old content"));
-  CHECK(no_temp_files_left());
+  CHECK(geteuid() == 0 || fixture_file_holds_text(ro_path, "old content"));
+  CHECK(fixture_no_temp_files());
 
   CHECK_INT_EQ(vf_film_write(f, path), VF_OK);
-  CHECK(!file_contains(path, "old content"));
+  CHECK(!fixture_file_holds_text(path, "old content"));
   vf_film_destroy(f);
-}
-
-static unsigned char *slurp(const char *path, size_t *size) {
-  FILE *fp = fopen(path, "rb");
-  if (fp == NULL) return NULL;
-  fseek(fp, 0, SEEK_END);
-  long n = ftell(fp);
-  fseek(fp, 0, SEEK_SET);
-  unsigned char *buf = malloc((size_t)n + 1);
-  if (fread(buf, 1, (size_t)n, fp) != (size_t)n) n = 0;
-  fclose(fp);
-  *size = (size_t)n;
-  return buf;
-}
-
-static void spill(const char *path, const unsigned char *buf, size_t size) {
-  FILE *fp = fopen(path, "wb");
-  if (fp == NULL) return;
-  fwrite(buf, 1, size, fp);
-  fclose(fp);
 }
 
 /* Replaces the value of a string attribute in place (same length) in the file's header. */
@@ -415,12 +321,10 @@ static void expect_read_refused(const char *path, const char *needle) {
 
 static void test_read_refuses_inconsistent_films(void) {
   vf_film *f = film_with(20, 10, 0, 3);
-  char good[512], bad[512];
-  scratch_path(good, sizeof good, "good.film.exr");
-  scratch_path(bad, sizeof bad, "bad.film.exr");
+  const char *good = fixture_path("good.film.exr"), *bad = fixture_path("bad.film.exr");
   CHECK_INT_EQ(vf_film_write(f, good), VF_OK);
   size_t size = 0;
-  unsigned char *bytes = slurp(good, &size), *copy = malloc(size);
+  unsigned char *bytes = fixture_slurp(good, &size), *copy = malloc(size);
 
   static const struct {
     const char *attribute, *value, *detail;
@@ -434,7 +338,7 @@ static void test_read_refuses_inconsistent_films(void) {
   for (size_t i = 0; i < sizeof patches / sizeof patches[0]; i++) {
     memcpy(copy, bytes, size);
     CHECK(patch_string_attribute(copy, size, patches[i].attribute, patches[i].value));
-    spill(bad, copy, size);
+    fixture_spill(bad, copy, size);
     expect_read_refused(bad, patches[i].detail);
   }
   /* the scene hash with a non-hex digit */
@@ -444,7 +348,7 @@ static void test_read_refuses_inconsistent_films(void) {
   hex[10] = 'g';
   memcpy(copy, bytes, size);
   CHECK(patch_string_attribute(copy, size, "vcmfarm:scene_hash", hex));
-  spill(bad, copy, size);
+  fixture_spill(bad, copy, size);
   expect_read_refused(bad, "vcmfarm:scene_hash");
 
   /* a plain image is not a film */
@@ -488,8 +392,7 @@ static void test_read_refuses_missing_channel_and_unknown_version(void) {
                                     "camera.lo.B", "count.hi",    "count.lo",    "light.hi.R",  "light.hi.G",
                                     "light.hi.B",  "light.lo.R",  "light.lo.G",  "light.lo.B",  "square.hi.R",
                                     "square.hi.G", "square.hi.B", "square.lo.R", "square.lo.G", "square.lo.B"};
-  char path[512];
-  scratch_path(path, sizeof path, "fake.film.exr");
+  const char *path = fixture_path("fake.film.exr");
   vf_film *f = NULL;
   CHECK_INT_EQ(write_fake_film(path, VF_FILM_FORMAT_VERSION, all, 20), VF_OK);
   CHECK_INT_EQ(vf_film_read(path, &f), VF_OK); /* the complete fake is a valid empty film */
@@ -518,13 +421,11 @@ static int read_film_outcome(const char *path) {
 
 static void test_corrupted_copies_never_crash(void) {
   vf_film *f = film_with(70, 40, 0, 5);
-  char good[512], bad[512];
-  scratch_path(good, sizeof good, "fuzz.film.exr");
-  scratch_path(bad, sizeof bad, "fuzzed.film.exr");
+  const char *good = fixture_path("fuzz.film.exr"), *bad = fixture_path("fuzzed.film.exr");
   CHECK_INT_EQ(vf_film_write(f, good), VF_OK);
   vf_film_destroy(f);
   size_t size = 0;
-  unsigned char *bytes = slurp(good, &size), *copy = malloc(size);
+  unsigned char *bytes = fixture_slurp(good, &size), *copy = malloc(size);
   uint64_t s = 12345;
   int refused = 0, read = 0;
   double slowest = 0;
@@ -532,14 +433,15 @@ static void test_corrupted_copies_never_crash(void) {
     memcpy(copy, bytes, size);
     size_t n = size;
     if (c % 3 == 0) {
-      n = (size_t)(uniform(&s) * (double)size); /* truncation */
+      n = (size_t)(fixture_uniform(&s) * (double)size); /* truncation */
     } else {
       /* flips: half of the cases aim at the header, where the structure lives */
       size_t span = c % 3 == 1 ? (size < 2000 ? size : 2000) : size;
-      int flips = 1 + (int)(uniform(&s) * 8);
-      for (int k = 0; k < flips; k++) copy[(size_t)(uniform(&s) * (double)span)] ^= (unsigned char)(1u << (xorshift(&s) % 8));
+      int flips = 1 + (int)(fixture_uniform(&s) * 8);
+      for (int k = 0; k < flips; k++)
+        copy[(size_t)(fixture_uniform(&s) * (double)span)] ^= (unsigned char)(1u << (fixture_xorshift(&s) % 8));
     }
-    spill(bad, copy, n);
+    fixture_spill(bad, copy, n);
     double dt;
     int sig;
     int outcome = exr_corpus_read_in_child(read_film_outcome, bad, &dt, &sig);
@@ -576,8 +478,7 @@ static void test_damaged_corpus_is_refused(void) {
 }
 
 int main(void) {
-  snprintf(scratch_dir, sizeof scratch_dir, "%s/test_film.%ld", VF_BINARY_DIR, (long)getpid());
-  mkdir(scratch_dir, 0755);
+  if (fixture_scratch_open("test_film") != 0) return 1;
   RUN(test_add_iteration_and_mean_arithmetic);
   RUN(test_create_refuses_bad_sizes);
   RUN(test_nonfinite_samples_count_as_zero);
@@ -592,8 +493,6 @@ int main(void) {
   RUN(test_read_refuses_missing_channel_and_unknown_version);
   RUN(test_corrupted_copies_never_crash);
   RUN(test_damaged_corpus_is_refused);
-  char cleanup[600];
-  snprintf(cleanup, sizeof cleanup, "rm -rf '%s'", scratch_dir);
-  if (system(cleanup) != 0) printf("  note: could not remove %s\n", scratch_dir);
+  fixture_scratch_close();
   return check_finish();
 }

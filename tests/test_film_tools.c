@@ -5,6 +5,7 @@
  * the analytic values of known perturbations; diff draws the right colours at the right
  * size. Damaged files and real renders are covered by test_film_tools.sh. */
 #include "check.h"
+#include "film_fixtures.h"
 #include "cli/compare_cmd.h"
 #include "common/error.h"
 #include "common/film.h"
@@ -14,62 +15,15 @@
 #include <cjson/cJSON.h>
 #include <fcntl.h>
 #include <png.h>
-#include <stdarg.h>
 #include <stdint.h>
 #include <stdlib.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
-static char scratch_dir[256];
-
 /* In sanitizer builds: fontconfig (under cairo's text API, used by diff) keeps a few hundred
  * bytes it never frees; that is not ours to fix. LeakSanitizer calls this hook if present. */
 const char *__lsan_default_suppressions(void);
 const char *__lsan_default_suppressions(void) { return "leak:libfontconfig.so\n"; }
-
-static const char *scratch(const char *name) {
-  static char paths[16][512];
-  static int next;
-  char *p = paths[next++ % 16];
-  snprintf(p, sizeof paths[0], "%s/%s", scratch_dir, name);
-  return p;
-}
-
-static uint64_t xorshift(uint64_t *s) {
-  *s ^= *s << 13;
-  *s ^= *s >> 7;
-  *s ^= *s << 17;
-  return *s;
-}
-static double uniform(uint64_t *s) { return (double)(xorshift(s) >> 11) * 0x1.0p-53; }
-
-/* The inputs of one iteration are a pure function of its index, so films that receive the
- * same iterations in different groupings must agree. Values span four decades. */
-static void iteration_inputs(int w, int h, uint64_t iteration, float *cam, float *light) {
-  uint64_t s = 0x9e3779b97f4a7c15ULL ^ (iteration * 0xbf58476d1ce4e5b9ULL + 1);
-  for (int i = 0; i < 3 * w * h; i++) {
-    cam[i] = (float)(uniform(&s) * pow(10.0, 4 * uniform(&s) - 2));
-    light[i] = (float)(uniform(&s) * 0.1);
-  }
-}
-
-/* A film of iterations [begin, end) of a w x h "render" with the given seed in its settings. */
-static vf_film *film_with(int w, int h, uint64_t begin, uint64_t end, int seed) {
-  vf_film *film = NULL;
-  if (vf_film_create(w, h, &film) != VF_OK) return NULL;
-  float *cam = malloc(sizeof(float) * 3 * (size_t)(w * h)), *light = malloc(sizeof(float) * 3 * (size_t)(w * h));
-  for (uint64_t i = begin; i < end; i++) {
-    iteration_inputs(w, h, i, cam, light);
-    vf_film_add_iteration(film, i, cam, light, NULL);
-  }
-  free(cam);
-  free(light);
-  memset(film->scene_hash, 0xab, sizeof film->scene_hash);
-  snprintf(film->settings_text, sizeof film->settings_text,
-           "algorithm=vcm max_path_length=10 radius_factor=0.003 alpha=0.75 seed=%d resolution=%dx%d", seed, w, h);
-  film->render_seconds = 0.5 * (double)(end - begin);
-  return film;
-}
 
 static void write_film(vf_film *film, const char *path) {
   CHECK(film != NULL);
@@ -77,34 +31,15 @@ static void write_film(vf_film *film, const char *path) {
   vf_film_destroy(film);
 }
 
-/* Runs a command function with the NULL-terminated argument list. */
-static int run(int (*cmd)(int, char **), const char *name, ...) {
-  char *argv[32];
-  int argc = 0;
-  va_list ap;
-  va_start(ap, name);
-  argv[argc++] = strdup(name);
-  for (const char *a; argc < 31 && (a = va_arg(ap, const char *)) != NULL;) argv[argc++] = strdup(a);
-  va_end(ap);
-  argv[argc] = NULL;
-  char *owned[32];
-  memcpy(owned, argv, sizeof owned); /* getopt permutes argv */
-  fflush(stdout);
-  int status = cmd(argc, argv);
-  fflush(stdout);
-  for (int i = 0; i < argc; i++) free(owned[i]);
-  return status;
-}
-
 /* Like run, with the command's standard output captured in a new string (caller frees). */
 static char *run_captured(int *status, int (*cmd)(int, char **), const char *a, const char *b, const char *c,
                           const char *d) {
-  const char *path = scratch("stdout.txt");
+  const char *path = fixture_path("stdout.txt");
   fflush(stdout);
   int saved = dup(STDOUT_FILENO), fd = open(path, O_WRONLY | O_CREAT | O_TRUNC, 0644);
   dup2(fd, STDOUT_FILENO);
   close(fd);
-  *status = run(cmd, a, b, c, d, (const char *)NULL);
+  *status = fixture_run(cmd, a, b, c, d, (const char *)NULL);
   fflush(stdout);
   dup2(saved, STDOUT_FILENO);
   close(saved);
@@ -116,11 +51,6 @@ static char *run_captured(int *status, int (*cmd)(int, char **), const char *a, 
     fclose(f);
   }
   return text;
-}
-
-static int exists(const char *path) {
-  struct stat st;
-  return stat(path, &st) == 0;
 }
 
 static vf_film *read_film(const char *path) {
@@ -170,117 +100,119 @@ done:
 enum { W = 37, H = 23 };
 
 static void make_abc(void) {
-  write_film(film_with(W, H, 0, 3, 1), scratch("a.exr"));
-  write_film(film_with(W, H, 3, 5, 1), scratch("b.exr"));
-  write_film(film_with(W, H, 5, 9, 1), scratch("c.exr"));
+  write_film(fixture_film(W, H, 0, 3, 1), fixture_path("a.exr"));
+  write_film(fixture_film(W, H, 3, 5, 1), fixture_path("b.exr"));
+  write_film(fixture_film(W, H, 5, 9, 1), fixture_path("c.exr"));
 }
 
 static void test_merge_is_commutative(void) {
   make_abc();
-  CHECK_INT_EQ(run(vf_cmd_merge, "merge", "-q", "-o", scratch("ab.exr"), scratch("a.exr"), scratch("b.exr"), NULL), 0);
-  CHECK_INT_EQ(run(vf_cmd_merge, "merge", "-q", "-o", scratch("ba.exr"), scratch("b.exr"), scratch("a.exr"), NULL), 0);
-  check_films_agree(scratch("ab.exr"), scratch("ba.exr"));
+  CHECK_INT_EQ(fixture_run(vf_cmd_merge, "merge", "-q", "-o", fixture_path("ab.exr"), fixture_path("a.exr"),
+                           fixture_path("b.exr"), NULL), 0);
+  CHECK_INT_EQ(fixture_run(vf_cmd_merge, "merge", "-q", "-o", fixture_path("ba.exr"), fixture_path("b.exr"),
+                           fixture_path("a.exr"), NULL), 0);
+  check_films_agree(fixture_path("ab.exr"), fixture_path("ba.exr"));
 }
 
 static void test_merge_is_associative(void) {
   make_abc();
-  CHECK_INT_EQ(run(vf_cmd_merge, "merge", "-q", "-o", scratch("ab.exr"), scratch("a.exr"), scratch("b.exr"), NULL), 0);
-  CHECK_INT_EQ(run(vf_cmd_merge, "merge", "-q", "-o", scratch("bc.exr"), scratch("b.exr"), scratch("c.exr"), NULL), 0);
-  CHECK_INT_EQ(run(vf_cmd_merge, "merge", "-q", "-o", scratch("ab_c.exr"), scratch("ab.exr"), scratch("c.exr"), NULL), 0);
-  CHECK_INT_EQ(run(vf_cmd_merge, "merge", "-q", "-o", scratch("a_bc.exr"), scratch("a.exr"), scratch("bc.exr"), NULL), 0);
-  CHECK_INT_EQ(run(vf_cmd_merge, "merge", "-q", "-o", scratch("abc.exr"), scratch("c.exr"), scratch("a.exr"),
-                   scratch("b.exr"), NULL),
-               0);
-  check_films_agree(scratch("ab_c.exr"), scratch("a_bc.exr"));
-  check_films_agree(scratch("ab_c.exr"), scratch("abc.exr"));
+  CHECK_INT_EQ(fixture_run(vf_cmd_merge, "merge", "-q", "-o", fixture_path("ab.exr"), fixture_path("a.exr"),
+                           fixture_path("b.exr"), NULL), 0);
+  CHECK_INT_EQ(fixture_run(vf_cmd_merge, "merge", "-q", "-o", fixture_path("bc.exr"), fixture_path("b.exr"),
+                           fixture_path("c.exr"), NULL), 0);
+  CHECK_INT_EQ(fixture_run(vf_cmd_merge, "merge", "-q", "-o", fixture_path("ab_c.exr"), fixture_path("ab.exr"),
+                           fixture_path("c.exr"), NULL), 0);
+  CHECK_INT_EQ(fixture_run(vf_cmd_merge, "merge", "-q", "-o", fixture_path("a_bc.exr"), fixture_path("a.exr"),
+                           fixture_path("bc.exr"), NULL), 0);
+  CHECK_INT_EQ(fixture_run(vf_cmd_merge, "merge", "-q", "-o", fixture_path("abc.exr"), fixture_path("c.exr"),
+                           fixture_path("a.exr"), fixture_path("b.exr"), NULL), 0);
+  check_films_agree(fixture_path("ab_c.exr"), fixture_path("a_bc.exr"));
+  check_films_agree(fixture_path("ab_c.exr"), fixture_path("abc.exr"));
 }
 
 static void test_merge_of_split_ranges_equals_direct_film(void) {
   const int n = 12;
-  write_film(film_with(W, H, 0, (uint64_t)n, 1), scratch("direct.exr"));
+  write_film(fixture_film(W, H, 0, (uint64_t)n, 1), fixture_path("direct.exr"));
   for (int k = 1; k < n; k += 5) {
-    write_film(film_with(W, H, 0, (uint64_t)k, 1), scratch("head.exr"));
-    write_film(film_with(W, H, (uint64_t)k, (uint64_t)n, 1), scratch("tail.exr"));
-    CHECK_INT_EQ(run(vf_cmd_merge, "merge", "-q", "-o", scratch("joined.exr"), scratch("head.exr"),
-                     scratch("tail.exr"), NULL),
-                 0);
-    check_films_agree(scratch("joined.exr"), scratch("direct.exr"));
+    write_film(fixture_film(W, H, 0, (uint64_t)k, 1), fixture_path("head.exr"));
+    write_film(fixture_film(W, H, (uint64_t)k, (uint64_t)n, 1), fixture_path("tail.exr"));
+    CHECK_INT_EQ(fixture_run(vf_cmd_merge, "merge", "-q", "-o", fixture_path("joined.exr"), fixture_path("head.exr"),
+                             fixture_path("tail.exr"), NULL), 0);
+    check_films_agree(fixture_path("joined.exr"), fixture_path("direct.exr"));
   }
 }
 
 static void test_merge_into_one_of_its_inputs(void) {
   make_abc();
-  CHECK_INT_EQ(run(vf_cmd_merge, "merge", "-q", "-o", scratch("a.exr"), scratch("a.exr"), scratch("b.exr"), NULL), 0);
-  write_film(film_with(W, H, 0, 5, 1), scratch("direct.exr"));
-  check_films_agree(scratch("a.exr"), scratch("direct.exr"));
+  CHECK_INT_EQ(fixture_run(vf_cmd_merge, "merge", "-q", "-o", fixture_path("a.exr"), fixture_path("a.exr"),
+                           fixture_path("b.exr"), NULL), 0);
+  write_film(fixture_film(W, H, 0, 5, 1), fixture_path("direct.exr"));
+  check_films_agree(fixture_path("a.exr"), fixture_path("direct.exr"));
 }
 
 /* merge must refuse with exit 2, name both files and the expected words, and write nothing:
  * no new file, and an existing output byte for byte as it was. */
 static void expect_merge_refused(const char *first, const char *second, const char *words) {
-  const char *fresh = scratch("never.exr"), *kept = scratch("kept.exr");
+  const char *fresh = fixture_path("never.exr"), *kept = fixture_path("kept.exr");
   unlink(fresh);
-  FILE *f = fopen(kept, "wb");
-  fputs("precious bytes", f);
-  fclose(f);
-  CHECK_INT_EQ(run(vf_cmd_merge, "merge", "-o", fresh, first, second, NULL), 2);
+  fixture_spill_text(kept, "precious bytes");
+  CHECK_INT_EQ(fixture_run(vf_cmd_merge, "merge", "-o", fresh, first, second, NULL), 2);
   char detail[1024];
-  snprintf(detail, sizeof detail, "%s", vf_error_detail(VF_EINVAL));
+  snprintf(detail, sizeof detail, "%s", vf_error_detail(vf_error_code()));
   CHECK_STR_CONTAINS(detail, first);
   CHECK_STR_CONTAINS(detail, second);
   CHECK_STR_CONTAINS(detail, words);
-  CHECK(!exists(fresh));
-  CHECK_INT_EQ(run(vf_cmd_merge, "merge", "-o", kept, first, second, NULL), 2);
+  CHECK(!fixture_exists(fresh));
+  CHECK_INT_EQ(fixture_run(vf_cmd_merge, "merge", "-o", kept, first, second, NULL), 2);
   char buf[64] = {0};
-  f = fopen(kept, "rb");
+  FILE *f = fopen(kept, "rb");
   CHECK(f != NULL && fread(buf, 1, sizeof buf - 1, f) == 14);
   if (f) fclose(f);
   CHECK(strcmp(buf, "precious bytes") == 0);
 }
 
 static void test_merge_refuses_overlapping_iterations(void) {
-  write_film(film_with(W, H, 0, 6, 1), scratch("first.exr"));
-  write_film(film_with(W, H, 4, 8, 1), scratch("second.exr"));
-  expect_merge_refused(scratch("first.exr"), scratch("second.exr"), "iterations [4,8) overlap");
-  CHECK_STR_CONTAINS(vf_error_detail(VF_EINVAL), "'s [0,6)");
+  write_film(fixture_film(W, H, 0, 6, 1), fixture_path("first.exr"));
+  write_film(fixture_film(W, H, 4, 8, 1), fixture_path("second.exr"));
+  expect_merge_refused(fixture_path("first.exr"), fixture_path("second.exr"), "iterations [4,8) overlap");
+  CHECK_STR_CONTAINS(vf_error_detail(VF_EOVERLAP), "'s [0,6)");
   /* the same film twice overlaps itself */
-  expect_merge_refused(scratch("first.exr"), scratch("first.exr"), "overlap");
+  expect_merge_refused(fixture_path("first.exr"), fixture_path("first.exr"), "overlap");
 }
 
 static void test_merge_refuses_mismatched_films(void) {
-  write_film(film_with(W, H, 0, 2, 1), scratch("first.exr"));
-  vf_film *other = film_with(W, H, 2, 4, 1);
+  write_film(fixture_film(W, H, 0, 2, 1), fixture_path("first.exr"));
+  vf_film *other = fixture_film(W, H, 2, 4, 1);
   other->scene_hash[5] ^= 1;
-  write_film(other, scratch("scene.exr"));
-  expect_merge_refused(scratch("first.exr"), scratch("scene.exr"), "different scene");
-  write_film(film_with(W, H, 2, 4, 2), scratch("seed.exr"));
-  expect_merge_refused(scratch("first.exr"), scratch("seed.exr"), "seed=2 vs seed=1");
-  write_film(film_with(W + 1, H, 2, 4, 1), scratch("size.exr"));
-  expect_merge_refused(scratch("first.exr"), scratch("size.exr"), "size 38x23 differs");
+  write_film(other, fixture_path("scene.exr"));
+  expect_merge_refused(fixture_path("first.exr"), fixture_path("scene.exr"), "different scene");
+  write_film(fixture_film(W, H, 2, 4, 2), fixture_path("seed.exr"));
+  expect_merge_refused(fixture_path("first.exr"), fixture_path("seed.exr"), "seed=2 vs seed=1");
+  write_film(fixture_film(W + 1, H, 2, 4, 1), fixture_path("size.exr"));
+  expect_merge_refused(fixture_path("first.exr"), fixture_path("size.exr"), "size 38x23 differs");
 }
 
 static void test_merge_refuses_bad_command_lines(void) {
-  write_film(film_with(W, H, 0, 2, 1), scratch("first.exr"));
-  unlink(scratch("never.exr"));
-  CHECK_INT_EQ(run(vf_cmd_merge, "merge", "-o", scratch("never.exr"), scratch("first.exr"), NULL), 2);
-  CHECK_INT_EQ(run(vf_cmd_merge, "merge", scratch("first.exr"), scratch("first.exr"), NULL), 2);
-  CHECK_INT_EQ(run(vf_cmd_merge, "merge", "-o", scratch("never.exr"), scratch("first.exr"), scratch("missing.exr"),
-                   NULL),
-               2);
+  write_film(fixture_film(W, H, 0, 2, 1), fixture_path("first.exr"));
+  unlink(fixture_path("never.exr"));
+  CHECK_INT_EQ(fixture_run(vf_cmd_merge, "merge", "-o", fixture_path("never.exr"), fixture_path("first.exr"), NULL), 2);
+  CHECK_INT_EQ(fixture_run(vf_cmd_merge, "merge", fixture_path("first.exr"), fixture_path("first.exr"), NULL), 2);
+  CHECK_INT_EQ(fixture_run(vf_cmd_merge, "merge", "-o", fixture_path("never.exr"), fixture_path("first.exr"),
+                           fixture_path("missing.exr"), NULL), 2);
   CHECK_STR_CONTAINS(vf_error_detail(VF_ENOENT), "missing.exr");
-  CHECK(!exists(scratch("never.exr")));
+  CHECK(!fixture_exists(fixture_path("never.exr")));
 }
 
 /* ---- bake ---- */
 
 static void test_bake_exr_round_trips_the_mean(void) {
-  vf_film *film = film_with(W, H, 0, 4, 1);
+  vf_film *film = fixture_film(W, H, 0, 4, 1);
   float *mean = malloc(sizeof(float) * 3 * W * H);
   vf_film_mean(film, mean);
-  write_film(film, scratch("film.exr"));
-  CHECK_INT_EQ(run(vf_cmd_bake, "bake", scratch("film.exr"), "-o", scratch("mean.exr"), NULL), 0);
+  write_film(film, fixture_path("film.exr"));
+  CHECK_INT_EQ(fixture_run(vf_cmd_bake, "bake", fixture_path("film.exr"), "-o", fixture_path("mean.exr"), NULL), 0);
   vf_image img = {0};
-  CHECK_INT_EQ(vf_image_read_exr(scratch("mean.exr"), &img), VF_OK);
+  CHECK_INT_EQ(vf_image_read_exr(fixture_path("mean.exr"), &img), VF_OK);
   CHECK_INT_EQ(img.width, W);
   CHECK_INT_EQ(img.height, H);
   if (img.rgb && img.width == W && img.height == H) CHECK(memcmp(img.rgb, mean, sizeof(float) * 3 * W * H) == 0);
@@ -307,28 +239,29 @@ static int decode_png(const char *path, int *width, int *height, unsigned char *
 }
 
 static void test_bake_png_decodes(void) {
-  write_film(film_with(W, H, 0, 2, 1), scratch("film.exr"));
-  CHECK_INT_EQ(run(vf_cmd_bake, "bake", scratch("film.exr"), "-o", scratch("mean.PNG"), "--exposure", "-1", NULL), 0);
+  write_film(fixture_film(W, H, 0, 2, 1), fixture_path("film.exr"));
+  CHECK_INT_EQ(fixture_run(vf_cmd_bake, "bake", fixture_path("film.exr"), "-o", fixture_path("mean.PNG"), "--exposure",
+                           "-1", NULL), 0);
   int w = 0, h = 0;
   unsigned char *rgb = NULL;
-  CHECK(decode_png(scratch("mean.PNG"), &w, &h, &rgb));
+  CHECK(decode_png(fixture_path("mean.PNG"), &w, &h, &rgb));
   CHECK_INT_EQ(w, W);
   CHECK_INT_EQ(h, H);
   free(rgb);
 }
 
 static void test_bake_refuses_bad_input(void) {
-  write_film(film_with(W, H, 0, 2, 1), scratch("film.exr"));
-  unlink(scratch("mean.tiff"));
-  CHECK_INT_EQ(run(vf_cmd_bake, "bake", scratch("film.exr"), "-o", scratch("mean.tiff"), NULL), 2);
+  write_film(fixture_film(W, H, 0, 2, 1), fixture_path("film.exr"));
+  unlink(fixture_path("mean.tiff"));
+  CHECK_INT_EQ(fixture_run(vf_cmd_bake, "bake", fixture_path("film.exr"), "-o", fixture_path("mean.tiff"), NULL), 2);
   CHECK_STR_CONTAINS(vf_error_detail(VF_EUSAGE), ".exr or .png");
-  CHECK(!exists(scratch("mean.tiff")));
+  CHECK(!fixture_exists(fixture_path("mean.tiff")));
   /* a plain image is not a film */
-  CHECK_INT_EQ(run(vf_cmd_bake, "bake", scratch("film.exr"), "-o", scratch("plain.exr"), NULL), 0);
-  unlink(scratch("never.png"));
-  CHECK_INT_EQ(run(vf_cmd_bake, "bake", scratch("plain.exr"), "-o", scratch("never.png"), NULL), 2);
+  CHECK_INT_EQ(fixture_run(vf_cmd_bake, "bake", fixture_path("film.exr"), "-o", fixture_path("plain.exr"), NULL), 0);
+  unlink(fixture_path("never.png"));
+  CHECK_INT_EQ(fixture_run(vf_cmd_bake, "bake", fixture_path("plain.exr"), "-o", fixture_path("never.png"), NULL), 2);
   CHECK_STR_CONTAINS(vf_error_detail(VF_EFILM), "plain.exr");
-  CHECK(!exists(scratch("never.png")));
+  CHECK(!fixture_exists(fixture_path("never.png")));
 }
 
 /* ---- errors ---- */
@@ -351,7 +284,7 @@ static void make_perturbed_pair(vf_image *ref, vf_image *img) {
   vf_image_alloc(ref, W, H);
   vf_image_alloc(img, W, H);
   uint64_t s = 77;
-  for (int i = 0; i < 3 * W * H; i++) ref->rgb[i] = (float)(uniform(&s) * 2.0);
+  for (int i = 0; i < 3 * W * H; i++) ref->rgb[i] = (float)(fixture_uniform(&s) * 2.0);
   memcpy(img->rgb, ref->rgb, sizeof(float) * 3 * W * H);
   for (int p = 0; p < W * H; p++) {
     img->rgb[3 * p] += 0.1f;
@@ -360,14 +293,14 @@ static void make_perturbed_pair(vf_image *ref, vf_image *img) {
 }
 
 static void test_errors_of_an_image_against_itself_are_zero(void) {
-  vf_film *film = film_with(W, H, 0, 3, 1);
-  write_film(film, scratch("film.exr"));
-  CHECK_INT_EQ(run(vf_cmd_bake, "bake", scratch("film.exr"), "-o", scratch("baked.exr"), NULL), 0);
+  vf_film *film = fixture_film(W, H, 0, 3, 1);
+  write_film(film, fixture_path("film.exr"));
+  CHECK_INT_EQ(fixture_run(vf_cmd_bake, "bake", fixture_path("film.exr"), "-o", fixture_path("baked.exr"), NULL), 0);
   /* film against film, and film against its baked mean: the same pixels */
   const char *pairs[2][2] = {{"film.exr", "film.exr"}, {"film.exr", "baked.exr"}};
   for (int k = 0; k < 2; k++) {
     int status = -1;
-    cJSON *root = errors_json(scratch(pairs[k][0]), scratch(pairs[k][1]), &status);
+    cJSON *root = errors_json(fixture_path(pairs[k][0]), fixture_path(pairs[k][1]), &status);
     CHECK_INT_EQ(status, 0);
     CHECK(root != NULL);
     CHECK_INT_EQ(json_number(root, NULL, "pixels"), W * H);
@@ -383,8 +316,8 @@ static void test_errors_of_an_image_against_itself_are_zero(void) {
 static void test_errors_of_a_known_perturbation(void) {
   vf_image ref = {0}, img = {0};
   make_perturbed_pair(&ref, &img);
-  CHECK_INT_EQ(vf_image_write_exr(scratch("ref.exr"), &ref), VF_OK);
-  CHECK_INT_EQ(vf_image_write_exr(scratch("img.exr"), &img), VF_OK);
+  CHECK_INT_EQ(vf_image_write_exr(fixture_path("ref.exr"), &ref), VF_OK);
+  CHECK_INT_EQ(vf_image_write_exr(fixture_path("img.exr"), &img), VF_OK);
   /* analytic values from the reference alone: d_R = 0.1, d_G = 0.5 G, d_B = 0 */
   double se_g = 0, rel_r = 0, rel_g = 0, abs_g = 0;
   for (int p = 0; p < W * H; p++) {
@@ -396,7 +329,7 @@ static void test_errors_of_a_known_perturbation(void) {
   }
   double n = W * H;
   int status = -1;
-  cJSON *root = errors_json(scratch("img.exr"), scratch("ref.exr"), &status);
+  cJSON *root = errors_json(fixture_path("img.exr"), fixture_path("ref.exr"), &status);
   CHECK_INT_EQ(status, 0);
   CHECK(root != NULL);
   const double tol = 1e-6; /* float rounding of the perturbed pixels */
@@ -420,26 +353,30 @@ static void test_errors_window_and_text_output(void) {
   vf_image_alloc(&ref, W, H);
   vf_image_alloc(&img, W, H);
   for (int c = 0; c < 3; c++) img.rgb[3 * (7 * W + 5) + c] = 1.0f;
-  CHECK_INT_EQ(vf_image_write_exr(scratch("ref.exr"), &ref), VF_OK);
-  CHECK_INT_EQ(vf_image_write_exr(scratch("img.exr"), &img), VF_OK);
+  CHECK_INT_EQ(vf_image_write_exr(fixture_path("ref.exr"), &ref), VF_OK);
+  CHECK_INT_EQ(vf_image_write_exr(fixture_path("img.exr"), &img), VF_OK);
   int status = -1;
-  char *text = run_captured(&status, vf_cmd_errors, "errors", "-w", "4,6,2,2", scratch("img.exr"));
+  char *text = run_captured(&status, vf_cmd_errors, "errors", "-w", "4,6,2,2", fixture_path("img.exr"));
   free(text);
   CHECK_INT_EQ(status, 2); /* REF missing */
-  text = run_captured(&status, vf_cmd_errors, "errors", "--window=4,6,2,2", scratch("img.exr"), scratch("ref.exr"));
+  text = run_captured(&status, vf_cmd_errors, "errors", "--window=4,6,2,2", fixture_path("img.exr"),
+                      fixture_path("ref.exr"));
   CHECK_INT_EQ(status, 0);
   CHECK_STR_CONTAINS(text, "4 pixels compared, 0 skipped");
   CHECK_STR_CONTAINS(text, "rmse                   0.5             0.5             0.5             0.5");
   CHECK_STR_CONTAINS(text, "mae                   0.25");
   free(text);
-  text = run_captured(&status, vf_cmd_errors, "errors", "--window=0,0,5,5", scratch("img.exr"), scratch("ref.exr"));
+  text = run_captured(&status, vf_cmd_errors, "errors", "--window=0,0,5,5", fixture_path("img.exr"),
+                      fixture_path("ref.exr"));
   CHECK_INT_EQ(status, 0);
   CHECK_STR_CONTAINS(text, "rmse                     0               0               0               0");
   free(text);
-  text = run_captured(&status, vf_cmd_errors, "errors", "--window=30,20,10,10", scratch("img.exr"), scratch("ref.exr"));
+  text = run_captured(&status, vf_cmd_errors, "errors", "--window=30,20,10,10", fixture_path("img.exr"),
+                      fixture_path("ref.exr"));
   CHECK_INT_EQ(status, 2); /* outside the image */
   free(text);
-  text = run_captured(&status, vf_cmd_errors, "errors", "--window=1,2,3", scratch("img.exr"), scratch("ref.exr"));
+  text = run_captured(&status, vf_cmd_errors, "errors", "--window=1,2,3", fixture_path("img.exr"),
+                      fixture_path("ref.exr"));
   CHECK_INT_EQ(status, 2);
   free(text);
   vf_image_destroy(&ref);
@@ -450,18 +387,19 @@ static void test_errors_refuse_different_sizes(void) {
   vf_image a = {0}, b = {0};
   vf_image_alloc(&a, W, H);
   vf_image_alloc(&b, H, W);
-  CHECK_INT_EQ(vf_image_write_exr(scratch("a.exr"), &a), VF_OK);
-  CHECK_INT_EQ(vf_image_write_exr(scratch("b.exr"), &b), VF_OK);
+  CHECK_INT_EQ(vf_image_write_exr(fixture_path("a.exr"), &a), VF_OK);
+  CHECK_INT_EQ(vf_image_write_exr(fixture_path("b.exr"), &b), VF_OK);
   int status = -1;
-  char *text = run_captured(&status, vf_cmd_errors, "errors", scratch("a.exr"), scratch("b.exr"), NULL);
+  char *text = run_captured(&status, vf_cmd_errors, "errors", fixture_path("a.exr"), fixture_path("b.exr"), NULL);
   CHECK_INT_EQ(status, 2);
   CHECK_STR_CONTAINS(vf_error_detail(VF_EMISMATCH), "37x23");
   CHECK_STR_CONTAINS(vf_error_detail(VF_EMISMATCH), "23x37");
   CHECK(text[0] == '\0'); /* no figures for a refused pair */
   free(text);
-  unlink(scratch("never.png"));
-  CHECK_INT_EQ(run(vf_cmd_diff, "diff", scratch("a.exr"), scratch("b.exr"), "-o", scratch("never.png"), NULL), 2);
-  CHECK(!exists(scratch("never.png")));
+  unlink(fixture_path("never.png"));
+  CHECK_INT_EQ(fixture_run(vf_cmd_diff, "diff", fixture_path("a.exr"), fixture_path("b.exr"), "-o",
+                           fixture_path("never.png"), NULL), 2);
+  CHECK(!fixture_exists(fixture_path("never.png")));
   vf_image_destroy(&a);
   vf_image_destroy(&b);
 }
@@ -480,12 +418,13 @@ static void test_diff_png_size_and_colours(void) {
       a.rgb[3 * p + c] = p % w < w / 2 ? 200.0f : 100.0f;
     }
   a.rgb[3 * (5 * w + 30)] = NAN; /* one non-finite pixel */
-  CHECK_INT_EQ(vf_image_write_exr(scratch("a.exr"), &a), VF_OK);
-  CHECK_INT_EQ(vf_image_write_exr(scratch("b.exr"), &b), VF_OK);
-  CHECK_INT_EQ(run(vf_cmd_diff, "diff", scratch("a.exr"), scratch("b.exr"), "-o", scratch("d.png"), "-s", "1", NULL), 0);
+  CHECK_INT_EQ(vf_image_write_exr(fixture_path("a.exr"), &a), VF_OK);
+  CHECK_INT_EQ(vf_image_write_exr(fixture_path("b.exr"), &b), VF_OK);
+  CHECK_INT_EQ(fixture_run(vf_cmd_diff, "diff", fixture_path("a.exr"), fixture_path("b.exr"), "-o",
+                           fixture_path("d.png"), "-s", "1", NULL), 0);
   int pw = 0, ph = 0;
   unsigned char *rgb = NULL;
-  CHECK(decode_png(scratch("d.png"), &pw, &ph, &rgb));
+  CHECK(decode_png(fixture_path("d.png"), &pw, &ph, &rgb));
   CHECK_INT_EQ(pw, VF_DIFF_MIN_WIDTH);
   CHECK_INT_EQ(ph, h + VF_DIFF_LEGEND_HEIGHT);
   if (rgb && pw == VF_DIFF_MIN_WIDTH) {
@@ -502,21 +441,22 @@ static void test_diff_png_size_and_colours(void) {
   /* a wide image sets the width; the default scale of equal images is fine */
   vf_image_destroy(&a);
   vf_image_alloc(&a, 600, 3);
-  CHECK_INT_EQ(vf_image_write_exr(scratch("wide.exr"), &a), VF_OK);
-  CHECK_INT_EQ(run(vf_cmd_diff, "diff", scratch("wide.exr"), scratch("wide.exr"), "-o", scratch("w.png"), NULL), 0);
-  CHECK(decode_png(scratch("w.png"), &pw, &ph, &rgb));
+  CHECK_INT_EQ(vf_image_write_exr(fixture_path("wide.exr"), &a), VF_OK);
+  CHECK_INT_EQ(fixture_run(vf_cmd_diff, "diff", fixture_path("wide.exr"), fixture_path("wide.exr"), "-o",
+                           fixture_path("w.png"), NULL), 0);
+  CHECK(decode_png(fixture_path("w.png"), &pw, &ph, &rgb));
   CHECK_INT_EQ(pw, 600);
   CHECK_INT_EQ(ph, 3 + VF_DIFF_LEGEND_HEIGHT);
   free(rgb);
-  CHECK_INT_EQ(run(vf_cmd_diff, "diff", scratch("wide.exr"), scratch("wide.exr"), "-o", scratch("w.jpg"), NULL), 2);
-  CHECK(!exists(scratch("w.jpg")));
+  CHECK_INT_EQ(fixture_run(vf_cmd_diff, "diff", fixture_path("wide.exr"), fixture_path("wide.exr"), "-o",
+                           fixture_path("w.jpg"), NULL), 2);
+  CHECK(!fixture_exists(fixture_path("w.jpg")));
   vf_image_destroy(&a);
   vf_image_destroy(&b);
 }
 
 int main(void) {
-  snprintf(scratch_dir, sizeof scratch_dir, "%s/test_film_tools.%ld", VF_BINARY_DIR, (long)getpid());
-  mkdir(scratch_dir, 0755);
+  if (fixture_scratch_open("test_film_tools") != 0) return 1;
   RUN(test_merge_is_commutative);
   RUN(test_merge_is_associative);
   RUN(test_merge_of_split_ranges_equals_direct_film);
@@ -532,8 +472,6 @@ int main(void) {
   RUN(test_errors_window_and_text_output);
   RUN(test_errors_refuse_different_sizes);
   RUN(test_diff_png_size_and_colours);
-  char cleanup[600];
-  snprintf(cleanup, sizeof cleanup, "rm -rf '%s'", scratch_dir);
-  if (system(cleanup) != 0) printf("  note: could not remove %s\n", scratch_dir);
+  fixture_scratch_close();
   return check_finish();
 }

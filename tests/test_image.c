@@ -3,64 +3,20 @@
  * every damaged file is refused quickly and without crashing. */
 #include "check.h"
 #include "exr_corpus.h"
+#include "film_fixtures.h"
 #include "common/error.h"
 #include "common/image.h"
 
-#include <dirent.h>
 #include <errno.h>
 #include <png.h>
-#include <signal.h>
 #include <stdint.h>
 #include <stdlib.h>
-#include <sys/resource.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
-static char scratch_dir[256];
-
-static void make_scratch_dir(void) {
-  snprintf(scratch_dir, sizeof scratch_dir, "%s/test_image.%ld", VF_BINARY_DIR, (long)getpid());
-  mkdir(scratch_dir, 0755);
-}
-
-static void scratch_path(char *buf, size_t n, const char *name) { snprintf(buf, n, "%s/%s", scratch_dir, name); }
-
 static uint64_t rng_state = 0x9e3779b97f4a7c15ULL;
-static double uniform(void) {
-  rng_state ^= rng_state << 13;
-  rng_state ^= rng_state >> 7;
-  rng_state ^= rng_state << 17;
-  return (double)(rng_state >> 11) * 0x1.0p-53;
-}
-
-static int file_contains(const char *path, const char *text) {
-  char buf[64] = {0};
-  FILE *f = fopen(path, "rb");
-  if (f == NULL) return 0;
-  size_t n = fread(buf, 1, sizeof buf - 1, f);
-  fclose(f);
-  return n == strlen(text) && memcmp(buf, text, n) == 0;
-}
-
-static void write_text(const char *path, const char *text) {
-  FILE *f = fopen(path, "wb");
-  if (f) {
-    fputs(text, f);
-    fclose(f);
-  }
-}
-
-static int no_temp_files_left(void) {
-  DIR *d = opendir(scratch_dir);
-  if (d == NULL) return 0;
-  int clean = 1;
-  struct dirent *e;
-  while ((e = readdir(d)) != NULL)
-    if (strstr(e->d_name, ".tmp.")) clean = 0;
-  closedir(d);
-  return clean;
-}
+static double uniform(void) { return fixture_uniform(&rng_state); }
 
 static void test_exr_round_trip_is_exact(void) {
   vf_image img = {0}, back = {0};
@@ -69,14 +25,13 @@ static void test_exr_round_trip_is_exact(void) {
   img.rgb[0] = 0.0f;
   img.rgb[1] = -0.0f;
   img.rgb[2] = 3.0e38f;
-  char path[512];
-  scratch_path(path, sizeof path, "round.exr");
+  const char *path = fixture_path("round.exr");
   CHECK_INT_EQ(vf_image_write_exr(path, &img), VF_OK);
   CHECK_INT_EQ(vf_image_read_exr(path, &back), VF_OK);
   CHECK_INT_EQ(back.width, 37);
   CHECK_INT_EQ(back.height, 23);
   if (back.rgb) CHECK(memcmp(img.rgb, back.rgb, sizeof(float) * 3 * 37 * 23) == 0);
-  CHECK(no_temp_files_left());
+  CHECK(fixture_no_temp_files());
   vf_image_destroy(&img);
   vf_image_destroy(&back);
   vf_image_destroy(&back); /* zeroed: no-op */
@@ -89,9 +44,8 @@ static void test_missing_file_is_enoent(void) {
 }
 
 static void test_non_exr_file_is_refused_with_name(void) {
-  char path[512];
-  scratch_path(path, sizeof path, "text.exr");
-  write_text(path, "this is not an image\n");
+  const char *path = fixture_path("text.exr");
+  fixture_spill_text(path, "this is not an image\n");
   vf_image img = {0};
   CHECK_INT_EQ(vf_image_read_exr(path, &img), VF_EEXR);
   CHECK_STR_CONTAINS(vf_error_detail(VF_EEXR), path);
@@ -104,8 +58,7 @@ static void test_png_writes_srgb_pixels(void) {
   float values[18] = {0.25f, 0.0f, 10.0f, /* */ -1.0f, NAN, 0.001f, /* */ 0.5f, 0.5f, 0.5f,
                       1.0f,  1.0f, 1.0f,  /* */ 0.0f, 0.0f, 0.0f,   /* */ 0.1f, 0.2f, 0.3f};
   memcpy(img.rgb, values, sizeof values);
-  char path[512];
-  scratch_path(path, sizeof path, "preview.png");
+  const char *path = fixture_path("preview.png");
   CHECK_INT_EQ(vf_image_write_png(path, &img, 1.0f), VF_OK); /* exposure +1 stop: x2 */
 
   png_image png;
@@ -127,36 +80,29 @@ static void test_png_writes_srgb_pixels(void) {
   CHECK_INT_EQ(pixels[5], 7);
   CHECK_INT_EQ(pixels[6], 255); /* 0.5 * 2 = 1 */
   CHECK_INT_EQ(pixels[15], 124); /* 0.2 -> sRGB 0.4845 -> 123.5 -> 124 */
-  CHECK(no_temp_files_left());
+  CHECK(fixture_no_temp_files());
   vf_image_destroy(&img);
+}
+
+/* In the child of fixture_run_with_file_limit: 0 when both writes of keep.exr fail. */
+static int both_writes_fail(void *img) {
+  const char *path = fixture_path("keep.exr");
+  return vf_image_write_exr(path, img) != VF_OK && vf_image_write_png(path, img, 0.0f) != VF_OK ? 0 : 1;
 }
 
 /* A failure half-way through the write (file size limit) must leave the old file intact
  * and no temporary file behind. Run in a child so the limit does not leak into the test. */
 static void test_writes_are_atomic(void) {
-  char path[512], dir_path[512];
-  scratch_path(path, sizeof path, "keep.exr");
-  scratch_path(dir_path, sizeof dir_path, "a_directory");
+  const char *path = fixture_path("keep.exr"), *dir_path = fixture_path("a_directory");
   mkdir(dir_path, 0755);
-  write_text(path, "old content");
+  fixture_spill_text(path, "old content");
   vf_image img = {0};
   CHECK_INT_EQ(vf_image_alloc(&img, 300, 200), VF_OK);
   for (size_t i = 0; i < 3 * 300 * 200; i++) img.rgb[i] = (float)uniform();
 
-  fflush(stdout);
-  fflush(stderr);
-  pid_t pid = fork();
-  if (pid == 0) {
-    signal(SIGXFSZ, SIG_IGN);
-    struct rlimit lim = {4096, 4096};
-    setrlimit(RLIMIT_FSIZE, &lim);
-    int exr = vf_image_write_exr(path, &img), png = vf_image_write_png(path, &img, 0.0f);
-    exit(exr != VF_OK && png != VF_OK ? 0 : 1);
-  }
-  int status = 0;
-  waitpid(pid, &status, 0);
+  int status = fixture_run_with_file_limit(4096, both_writes_fail, &img);
   CHECK(WIFEXITED(status) && WEXITSTATUS(status) == 0);
-  CHECK(file_contains(path, "old content"));
+  CHECK(fixture_file_holds_text(path, "old content"));
 
   /* the target is a directory: refused, directory untouched */
   CHECK(vf_image_write_exr(dir_path, &img) != VF_OK);
@@ -164,14 +110,12 @@ static void test_writes_are_atomic(void) {
   struct stat st;
   CHECK(stat(dir_path, &st) == 0 && S_ISDIR(st.st_mode));
   /* the directory does not exist */
-  char missing[600];
-  snprintf(missing, sizeof missing, "%s/no/such/dir/x.exr", scratch_dir);
-  CHECK_INT_EQ(vf_image_write_exr(missing, &img), VF_EIO);
-  CHECK(no_temp_files_left());
+  CHECK_INT_EQ(vf_image_write_exr(fixture_path("no/such/dir/x.exr"), &img), VF_EIO);
+  CHECK(fixture_no_temp_files());
 
   /* and a successful write replaces the old content */
   CHECK_INT_EQ(vf_image_write_exr(path, &img), VF_OK);
-  CHECK(!file_contains(path, "old content"));
+  CHECK(!fixture_file_holds_text(path, "old content"));
   vf_image_destroy(&img);
 }
 
@@ -257,7 +201,7 @@ static void test_corpus_damaged_files_are_refused(void) {
 }
 
 int main(void) {
-  make_scratch_dir();
+  if (fixture_scratch_open("test_image") != 0) return 1;
   RUN(test_exr_round_trip_is_exact);
   RUN(test_missing_file_is_enoent);
   RUN(test_non_exr_file_is_refused_with_name);
@@ -265,8 +209,6 @@ int main(void) {
   RUN(test_writes_are_atomic);
   RUN(test_corpus_valid_images_read);
   RUN(test_corpus_damaged_files_are_refused);
-  char cleanup[600];
-  snprintf(cleanup, sizeof cleanup, "rm -rf '%s'", scratch_dir);
-  if (system(cleanup) != 0) printf("  note: could not remove %s\n", scratch_dir);
+  fixture_scratch_close();
   return check_finish();
 }

@@ -1,6 +1,7 @@
 /* `vcmfarm plot` and `vcmfarm info`: a PNG of the right size with one visible colour per
  * film, refusal of damaged films with nothing written, and info's text and JSON. */
 #include "check.h"
+#include "film_fixtures.h"
 #include "common/error.h"
 #include "common/film.h"
 #include "cli/info_cmd.h"
@@ -9,31 +10,9 @@
 
 #include <cairo.h>
 #include <cjson/cJSON.h>
-#include <stdarg.h>
 #include <stdlib.h>
 #include <sys/wait.h>
 #include <unistd.h>
-
-static char dir[256];
-
-static const char *path_of(const char *name) {
-  static char buf[8][512];
-  static int next;
-  char *p = buf[next++ % 8];
-  snprintf(p, 512, "%s/%s", dir, name);
-  return p;
-}
-
-static int run(int (*cmd)(int, char **), const char *first, ...) {
-  char *argv[40];
-  int argc = 0;
-  va_list ap;
-  va_start(ap, first);
-  for (const char *a = first; a != NULL && argc < 39; a = va_arg(ap, const char *)) argv[argc++] = (char *)a;
-  va_end(ap);
-  argv[argc] = NULL;
-  return cmd(argc, argv);
-}
 
 /* Number of pixels of exactly this colour. */
 static long count_color(cairo_surface_t *s, const unsigned char rgb[3]) {
@@ -52,16 +31,16 @@ static long count_color(cairo_surface_t *s, const unsigned char rgb[3]) {
 static const char *film_a, *film_b, *film_c;
 
 static void make_films(void) {
-  film_a = path_of("a.exr");
-  film_b = path_of("b.exr");
-  film_c = path_of("c.exr");
-  CHECK_INT_EQ(run(vf_cmd_render, "render", "cornell", "-a", "bpt", "-s", "3", "-n", "24", "-R", "24x16", "-q", "-o",
-                   film_a, NULL), 0);
+  film_a = fixture_path("a.exr");
+  film_b = fixture_path("b.exr");
+  film_c = fixture_path("c.exr");
+  CHECK_INT_EQ(fixture_run(vf_cmd_render, "render", "cornell", "-a", "bpt", "-s", "3", "-n", "24", "-R", "24x16", "-q",
+                           "-o", film_a, NULL), 0);
   /* --direct: a log entry after every iteration (through the farm, one per part) */
-  CHECK_INT_EQ(run(vf_cmd_render, "render", "cornell", "--direct", "-a", "vcm", "-n", "12", "-R", "24x16", "--reference",
-                   film_a, "--checkpoint-interval", "1e-9", "-q", "-o", film_b, NULL), 0);
-  CHECK_INT_EQ(run(vf_cmd_render, "render", "cornell", "--direct", "-a", "pt", "-n", "12", "-R", "24x16",
-                   "--checkpoint-interval", "1e-9", "-q", "-o", film_c, NULL), 0);
+  CHECK_INT_EQ(fixture_run(vf_cmd_render, "render", "cornell", "--direct", "-a", "vcm", "-n", "12", "-R", "24x16",
+                           "--reference", film_a, "--checkpoint-interval", "1e-9", "-q", "-o", film_b, NULL), 0);
+  CHECK_INT_EQ(fixture_run(vf_cmd_render, "render", "cornell", "--direct", "-a", "pt", "-n", "12", "-R", "24x16",
+                           "--checkpoint-interval", "1e-9", "-q", "-o", film_c, NULL), 0);
 }
 
 static void check_png(const char *png, int width, int height, int curves) {
@@ -82,24 +61,23 @@ static void check_png(const char *png, int width, int height, int curves) {
 }
 
 static void test_plot_draws_one_colour_per_film(void) {
-  const char *png = path_of("plot.png"), *one = path_of("time.png");
-  CHECK_INT_EQ(run(vf_cmd_plot, "plot", film_b, film_c, "-o", png, NULL), 0);
+  const char *png = fixture_path("plot.png"), *one = fixture_path("time.png");
+  CHECK_INT_EQ(fixture_run(vf_cmd_plot, "plot", film_b, film_c, "-o", png, NULL), 0);
   check_png(png, 2 * VF_PLOT_PANEL_WIDTH, VF_PLOT_HEIGHT, 2);
-  CHECK_INT_EQ(run(vf_cmd_plot, "plot", film_a, film_b, film_c, "--x", "time", "-o", one, NULL), 0);
+  CHECK_INT_EQ(fixture_run(vf_cmd_plot, "plot", film_a, film_b, film_c, "--x", "time", "-o", one, NULL), 0);
   check_png(one, VF_PLOT_PANEL_WIDTH, VF_PLOT_HEIGHT, 3);
 }
 
 static void test_plot_refuses_bad_input_and_writes_nothing(void) {
-  const char *png = path_of("bad.png"), *junk = path_of("junk.exr");
-  FILE *fp = fopen(junk, "wb");
-  fputs("v/1\x01 not an exr", fp);
-  fclose(fp);
-  CHECK_INT_EQ(run(vf_cmd_plot, "plot", film_b, junk, "-o", png, NULL), 2);
+  const char *png = fixture_path("bad.png"), *junk = fixture_path("junk.exr");
+  static const char not_exr[] = "v/1\x01 not an exr";
+  fixture_spill(junk, not_exr, sizeof not_exr - 1);
+  CHECK_INT_EQ(fixture_run(vf_cmd_plot, "plot", film_b, junk, "-o", png, NULL), 2);
   CHECK_STR_CONTAINS(vf_error_detail(VF_EEXR), junk);
-  CHECK_INT_EQ(run(vf_cmd_plot, "plot", film_b, path_of("absent.exr"), "-o", png, NULL), 2);
-  CHECK_INT_EQ(run(vf_cmd_plot, "plot", film_b, "--x", "frequency", "-o", png, NULL), 2);
-  CHECK_INT_EQ(run(vf_cmd_plot, "plot", film_b, NULL), 2);
-  CHECK(access(png, F_OK) != 0);
+  CHECK_INT_EQ(fixture_run(vf_cmd_plot, "plot", film_b, fixture_path("absent.exr"), "-o", png, NULL), 2);
+  CHECK_INT_EQ(fixture_run(vf_cmd_plot, "plot", film_b, "--x", "frequency", "-o", png, NULL), 2);
+  CHECK_INT_EQ(fixture_run(vf_cmd_plot, "plot", film_b, NULL), 2);
+  CHECK(!fixture_exists(png));
 }
 
 /* Runs `vcmfarm info ARGS` and returns its stdout (caller frees). */
@@ -154,19 +132,16 @@ static void test_info_prints_everything(void) {
   cJSON_Delete(root);
   free(text);
 
-  CHECK_INT_EQ(run(vf_cmd_info, "info", path_of("absent.exr"), NULL), 2);
+  CHECK_INT_EQ(fixture_run(vf_cmd_info, "info", fixture_path("absent.exr"), NULL), 2);
   CHECK_STR_CONTAINS(vf_error_detail(VF_ENOENT), "absent.exr");
 }
 
 int main(void) {
-  snprintf(dir, sizeof dir, "/tmp/vf_test_plot_XXXXXX");
-  if (mkdtemp(dir) == NULL) return 1;
+  if (fixture_scratch_open("test_plot") != 0) return 1;
   RUN(make_films);
   RUN(test_plot_draws_one_colour_per_film);
   RUN(test_plot_refuses_bad_input_and_writes_nothing);
   RUN(test_info_prints_everything);
-  char cmd[600];
-  snprintf(cmd, sizeof cmd, "rm -rf '%s'", dir);
-  if (system(cmd) != 0) return 1;
+  if (fixture_scratch_close() != 0) return 1;
   return check_finish();
 }
