@@ -96,7 +96,7 @@ int vf_cmd_submit(int argc, char **argv) {
   long long priority = 1;
   int err = VF_OK, c;
   vf_cli_settings_init(&overrides);
-  optind = 1;
+  optind = 0; /* 0: getopt starts again from scratch (glibc), forgetting the last argv */
   opterr = 0;
   while ((c = getopt_long(argc, argv, VF_CLI_STOP_SHORT VF_CLI_SETTINGS_SHORT "P:N:c:k:h", options, NULL)) != -1) {
     if (connection_option(&conn, c, &err) || vf_cli_settings_option(&overrides, c, optarg, &err) ||
@@ -298,7 +298,7 @@ int vf_cmd_status(int argc, char **argv) {
   const char *cmd = "status";
   connection conn = {NULL, NULL, 10.0};
   int json = 0, err = VF_OK, c;
-  optind = 1;
+  optind = 0; /* 0: getopt starts again from scratch (glibc), forgetting the last argv */
   opterr = 0;
   while ((c = getopt_long(argc, argv, "Jc:k:h", options, NULL)) != -1) {
     if (connection_option(&conn, c, &err)) {
@@ -344,7 +344,7 @@ int vf_cmd_fetch(int argc, char **argv) {
   const char *cmd = "fetch", *output = NULL;
   connection conn = {NULL, NULL, 60.0};
   int err = VF_OK, c;
-  optind = 1;
+  optind = 0; /* 0: getopt starts again from scratch (glibc), forgetting the last argv */
   opterr = 0;
   while ((c = getopt_long(argc, argv, "o:c:k:h", options, NULL)) != -1) {
     if (connection_option(&conn, c, &err)) {
@@ -397,7 +397,7 @@ static int job_request(int argc, char **argv, const char *cmd, const char *usage
                                           {0, 0, 0, 0}};
   connection conn = {NULL, NULL, 10.0};
   int err = VF_OK, c;
-  optind = 1;
+  optind = 0; /* 0: getopt starts again from scratch (glibc), forgetting the last argv */
   opterr = 0;
   while ((c = getopt_long(argc, argv, "c:k:h", options, NULL)) != -1) {
     if (connection_option(&conn, c, &err)) {

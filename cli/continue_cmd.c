@@ -97,7 +97,7 @@ int vf_cmd_continue(int argc, char **argv) {
   long long threads = 0;
   double checkpoint_interval = 10.0;
   int quiet = 0, err = VF_OK, c;
-  optind = 1;
+  optind = 0; /* 0: getopt starts again from scratch (glibc), forgetting the last argv */
   opterr = 0;
   while ((c = getopt_long(argc, argv, VF_CLI_STOP_SHORT "o:j:qh", options, NULL)) != -1) {
     if (vf_cli_stop_option(&stop, c, optarg, &err)) {

@@ -35,7 +35,7 @@ int vf_cmd_coordinator(int argc, char **argv) {
   vf_coordinator_config config = {.worker_timeout = 15.0, .lease_seconds = 20.0, .checkpoint_interval = 10.0,
                                   .handle_signals = 1};
   int err = VF_OK, c;
-  optind = 1;
+  optind = 0; /* 0: getopt starts again from scratch (glibc), forgetting the last argv */
   opterr = 0;
   while ((c = getopt_long(argc, argv, "l:d:k:w:h", options, NULL)) != -1) {
     switch (c) {

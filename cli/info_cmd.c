@@ -136,7 +136,7 @@ static void print_text(const char *path, const vf_film *film, const summary *s) 
 int vf_cmd_info(int argc, char **argv) {
   static const struct option options[] = {{"json", no_argument, 0, 'J'}, {"help", no_argument, 0, 'h'}, {0, 0, 0, 0}};
   int json = 0, c;
-  optind = 1;
+  optind = 0; /* 0: getopt starts again from scratch (glibc), forgetting the last argv */
   opterr = 0;
   while ((c = getopt_long(argc, argv, "h", options, NULL)) != -1) {
     switch (c) {

@@ -311,7 +311,7 @@ int vf_cmd_plot(int argc, char **argv) {
   const char *output = NULL;
   vf_plot_x axis = VF_PLOT_BOTH;
   int c;
-  optind = 1;
+  optind = 0; /* 0: getopt starts again from scratch (glibc), forgetting the last argv */
   opterr = 0;
   while ((c = getopt_long(argc, argv, "o:x:h", options, NULL)) != -1) {
     switch (c) {

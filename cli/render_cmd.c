@@ -116,7 +116,7 @@ int vf_cmd_render(int argc, char **argv) {
   long long threads = 0;
   int err = VF_OK, c, direct = 0;
   vf_cli_settings_init(&o.overrides);
-  optind = 1;
+  optind = 0; /* 0: getopt starts again from scratch (glibc), forgetting the last argv */
   opterr = 0;
   while ((c = getopt_long(argc, argv, VF_CLI_STOP_SHORT VF_CLI_SETTINGS_SHORT "k:j:o:p:e:qh", options, NULL)) != -1) {
     if (vf_cli_settings_option(&o.overrides, c, optarg, &err) || vf_cli_stop_option(&o.stop, c, optarg, &err)) {

@@ -54,7 +54,7 @@ int vf_cmd_worker(int argc, char **argv) {
   config.ship_interval = VF_WORKER_SHIP_SECONDS;
   long long threads = 0, delay = 0;
   int err = VF_OK, c;
-  optind = 1;
+  optind = 0; /* 0: getopt starts again from scratch (glibc), forgetting the last argv */
   opterr = 0;
   while ((c = getopt_long(argc, argv, "c:k:j:n:h", options, NULL)) != -1) {
     switch (c) {

@@ -726,8 +726,8 @@ static int parse_root(const parse_ctx *c, const cJSON *root) {
     return err;
   if (!has_light(c->scene))
     return vf_scene_fail(c, VF_ESCENE, NULL, "the scene has no light (no emissive shape and nothing in 'lights' emits)");
-  if (vf_settings_validate(&c->scene->settings) < 0)
-    return vf_scene_fail(c, VF_ESCENE, "render", "%s", vf_error_detail(VF_ESCENE));
+  if ((err = vf_settings_validate(&c->scene->settings)) < 0)
+    return vf_scene_fail(c, VF_ESCENE, "render", "%s", vf_error_detail(err));
   return VF_OK;
 }
 
