@@ -1,4 +1,4 @@
-/* The coordinator keeps answering while it checkpoints a big film (coordinator/writer.h).
+/* The coordinator keeps answering while it checkpoints a big film (coordinator/checkpoint.h).
  *
  *   test_farm_checkpoint VCMFARM
  *

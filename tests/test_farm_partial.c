@@ -1,4 +1,4 @@
-/* Results in parts (coordinator/partial.c, coordinator/farm.c), in process: a job of a
+/* Results in parts (coordinator/partial.c, coordinator/results.c), in process: a job of a
  * 128x64 film (two 64x64 tiles) and one registered worker holding a lease, whose result
  * arrives one tile per message. Checks that nothing touches the job film before every
  * tile of a part is there, that a bad tile drops the part, that a part merged shrinks the

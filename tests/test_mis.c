@@ -1,5 +1,5 @@
 /* The MIS identity: for a full path x_0 .. x_k (x_0 on the area light, x_k the pinhole),
- * the recursive weights of worker/mis.h, driven exactly as worker/vcm.c drives them, must
+ * the recursive weights of worker/mis.h, driven exactly as the renderer's passes drive them (worker/light_pass.c, camera_pass.c), must
  * (1) sum to 1 over every technique the renderer uses to sample that path, and
  * (2) each equal a direct evaluation of the balance heuristic, tech. rep. eq. (12), from
  *     the path's vertex densities computed one by one in double precision (eq. 2-8, 10).

@@ -3,7 +3,7 @@
  * film as tiles during and at the end of the lease, and ask again, until told to stop.
  *
  * `vcmfarm worker` runs it in its own process; `vcmfarm render` runs it on a thread beside
- * an in-process coordinator (coordinator/render_cmd.c). Every exchange is a request from
+ * an in-process coordinator (cli/farm_render.c). Every exchange is a request from
  * here answered by the coordinator, so a coordinator that restarts or a network that drops
  * only delays us: requests time out and are sent again with backoff, and an unknown-worker
  * answer makes us register again. */
