@@ -1,5 +1,6 @@
 /* The MIS identity: for a full path x_0 .. x_k (x_0 on the area light, x_k the pinhole),
- * the recursive weights of worker/mis.h, driven exactly as the renderer's passes drive them (worker/light_pass.c, camera_pass.c), must
+ * the recursive weights of worker/mis.h, driven exactly as the renderer's passes drive them
+ * (worker/light_pass.c, camera_pass.c), must
  * (1) sum to 1 over every technique the renderer uses to sample that path, and
  * (2) each equal a direct evaluation of the balance heuristic, tech. rep. eq. (12), from
  *     the path's vertex densities computed one by one in double precision (eq. 2-8, 10).
@@ -10,7 +11,8 @@
  * reflection off the mirror or glass ball), where eq. (51) removes three techniques and
  * the rest must still sum to 1.
  *
- * Which techniques exist (mirrors choose_techniques() and the guards of vcm.c):
+ * Which techniques exist (mirrors choose_techniques() of worker/vcm.c and the guards of
+ * worker/light_pass.c and camera_pass.c):
  *   VC, s = 0 (t = k + 1): emission hit; a path of one segment has only this technique.
  *   VC, s = 1 (t = k):     light sampling from x_1, unless x_1 is specular.
  *   VC, 2 <= s <= k - 1:   connection of x_{s-1} and x_s, both non-specular.
@@ -82,7 +84,8 @@ static double abs_cos_d(vf_vec3 p, vf_vec3 n, vf_vec3 q) {
   return fabs((dx * n.x + dy * n.y + dz * n.z) / sqrt(dx * dx + dy * dy + dz * dz));
 }
 
-/* As segment_occluded() in vcm.c: both ends moved off their surfaces (nq zero: a point). */
+/* As the renderer's shadow segments (queue_segment, worker/wavefront.h): both ends moved off
+ * their surfaces (nq zero: a point). */
 static int occluded(const test_scene *ts, vf_vec3 p, vf_vec3 n, vf_vec3 q, vf_vec3 nq) {
   vf_vec3 d = vf_sub(q, p);
   vf_vec3 o = vf_offset_ray_origin(p, vf_dot(n, d) > 0.0f ? n : vf_neg(n), vf_accel_scale(ts->accel));
@@ -200,7 +203,7 @@ typedef struct {
   int emission_unweighted;  /* BPM: s = 0 along a purely specular camera path, weight 1 */
 } technique_set;
 
-/* The techniques vcm.c uses for this path under algorithm a (see the top of the file). */
+/* The techniques the renderer uses for this path under algorithm a (see the top of the file). */
 static void implemented_techniques(const full_path *x, vf_algorithm a, technique_set *t) {
   const int k = x->k;
   memset(t, 0, sizeof *t);
@@ -268,9 +271,9 @@ static void direct_weights(const full_path *x, const path_data *pd, const techni
 }
 
 /* ---------------------------------------------------------------------------------------- */
-/* The recursive weights, with the call sequence of vcm.c                                   */
+/* The recursive weights, with the call sequence of the renderer's passes                  */
 
-/* camera_pdf_a() of vcm.c: the camera's area density of generating p seen along
+/* camera_pdf_a() of worker/light_pass.c: the camera's area density of generating p seen along
  * -dir_to_camera; 0 off the image. */
 static float camera_pdf_a(const vf_camera *cam, vf_vec3 p, vf_vec3 dir_to_camera, float dist, float cos_at_p) {
   float rx, ry;
