@@ -398,9 +398,7 @@ int vf_cmd_diff(int argc, char **argv) {
     fprintf(stderr, "vcmfarm diff: missing -o DIFF.png\n");
     return VF_EXIT_BAD_INPUT;
   }
-  size_t len = strlen(output);
-  if (len < 5 || strcasecmp(output + len - 4, ".png") != 0)
-    return vf_cli_fail("diff", vf_error_set(VF_EUSAGE, "%s: the output must be a .png file", output));
+  if ((err = vf_cli_extension("-o", output, ".png", "a PNG image")) != VF_OK) return vf_cli_fail("diff", err);
 
   vf_image a = {0}, b = {0};
   float *d = NULL;

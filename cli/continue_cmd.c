@@ -122,7 +122,8 @@ int vf_cmd_continue(int argc, char **argv) {
   }
   const char *film_path = argv[optind];
   if (output == NULL) output = film_path;
-  if ((err = vf_cli_stop_check(&stop, 1)) != VF_OK || (err = vf_cli_writable("-o", output)) != VF_OK)
+  if ((err = vf_cli_stop_check(&stop, 1)) != VF_OK || (err = vf_cli_writable("-o", output)) != VF_OK ||
+      (err = vf_cli_extension("-o", output, ".exr", "an OpenEXR film")) != VF_OK)
     return vf_cli_fail(cmd, err);
 
   vf_film *film = NULL;

@@ -8,6 +8,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <strings.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -82,6 +83,12 @@ int vf_cli_settings_apply(const vf_cli_settings *o, vf_settings *settings) {
     settings->height = o->height;
   }
   return VF_OK;
+}
+
+int vf_cli_extension(const char *option, const char *path, const char *ext, const char *what) {
+  size_t n = strlen(path), e = strlen(ext);
+  if (n > e && strcasecmp(path + n - e, ext) == 0) return VF_OK;
+  return vf_error_set(VF_EUSAGE, "%s: '%s' does not end in %s, but %s is written there", option, path, ext, what);
 }
 
 int vf_cli_stop_option(vf_cli_stop *s, int c, const char *arg, int *err) {

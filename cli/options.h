@@ -23,6 +23,11 @@ int vf_cli_bytes(const char *option, const char *text, uint64_t *out);
  * and is writable, and path is not a directory. VF_EUSAGE naming the option and the path. */
 int vf_cli_writable(const char *option, const char *path);
 
+/* Checks that path ends in ext (".exr", ".png"; any case), so that a file is never written
+ * under a name that says another format. VF_EUSAGE naming the option, the path and `what`
+ * the command writes there ("an OpenEXR film"). */
+int vf_cli_extension(const char *option, const char *path, const char *ext, const char *what);
+
 /* The render settings a command line may override (render, submit): -a/--algorithm,
  * -s/--seed, -l/--max-path-length, -r/--radius-factor, --alpha (option value 'A'),
  * -R/--resolution. Unset fields leave the scene's settings as they are. The commands take

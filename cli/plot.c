@@ -335,7 +335,8 @@ int vf_cmd_plot(int argc, char **argv) {
     fprintf(stderr, "vcmfarm plot: missing -o PLOT.png\n");
     return VF_EXIT_BAD_INPUT;
   }
-  int n = argc - optind, err = VF_OK;
+  int n = argc - optind, err = vf_cli_extension("-o", output, ".png", "a PNG image");
+  if (err != VF_OK) return vf_cli_fail("plot", err);
   vf_film **films = calloc((size_t)n, sizeof *films);
   if (films == NULL) return vf_cli_fail("plot", VF_ENOMEM);
   for (int i = 0; i < n && err == VF_OK; i++) err = vf_film_read(argv[optind + i], &films[i]);

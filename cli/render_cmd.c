@@ -147,7 +147,9 @@ int vf_cmd_render(int argc, char **argv) {
     return VF_EXIT_BAD_INPUT;
   }
   if ((err = vf_cli_stop_check(&o.stop, 1)) != VF_OK || (err = vf_cli_writable("-o", o.output)) != VF_OK ||
-      (o.preview && (err = vf_cli_writable("--preview", o.preview)) != VF_OK))
+      (err = vf_cli_extension("-o", o.output, ".exr", "an OpenEXR film")) != VF_OK ||
+      (o.preview && (err = vf_cli_writable("--preview", o.preview)) != VF_OK) ||
+      (o.preview && (err = vf_cli_extension("--preview", o.preview, ".png", "a PNG image")) != VF_OK))
     return vf_cli_fail(cmd, err);
   o.scene = argv[optind];
   o.threads = (int)threads;

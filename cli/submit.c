@@ -5,6 +5,7 @@
 #include "../common/image.h"
 #include "../common/wire.h"
 #include "../worker/job_scene.h"
+#include "../worker/scene_builtin.h"
 
 #include <sodium.h>
 #include <errno.h>
@@ -107,7 +108,7 @@ int vf_submit(vf_farm_client *client, int timeout_ms, const vf_submit_job *job, 
   if (builtin) {
     len = strlen(source);
   } else if ((err = vf_file_read_all(source, 16u << 20, &text, &len)) != VF_OK) {
-    return err;
+    return vf_scene_not_found(source, err);
   }
   /* Load it as the workers will, to refuse a broken scene here and learn its hash; a JSON
    * scene's files are collected as blobs on the way. */

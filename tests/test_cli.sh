@@ -44,6 +44,13 @@ expect_refusal "missing output" "missing -o" "$vcmfarm" render furnace -n 1
 expect_refusal "output in a missing directory" "no directory $tmp/absent" "$vcmfarm" render furnace -n 1 -o "$tmp/absent/out.exr"
 expect_refusal "output is a directory" "is a directory" "$vcmfarm" render furnace --direct -n 1 -o "$tmp"
 expect_refusal "preview in a missing directory" "--preview" "$vcmfarm" render furnace -n 1 -o "$tmp/out.exr" -p "$tmp/absent/p.png"
+# A file is never written under a name that says another format.
+expect_refusal "film named .png" "does not end in .exr" "$vcmfarm" render furnace -n 1 -o "$tmp/film.png"
+expect_refusal "preview named .exr" "does not end in .png" "$vcmfarm" render furnace -n 1 -o "$tmp/out.exr" -p "$tmp/p.exr"
+expect_refusal "plot named .svg" "does not end in .png" "$vcmfarm" plot "$tmp/any.exr" -o "$tmp/p.svg"
+# A misspelt built-in scene lists the built-in names, through the farm path and --direct.
+expect_refusal "misspelt built-in" "not a built-in scene either (built-in: cornell," "$vcmfarm" render cornel -n 1 -o "$tmp/out.exr"
+expect_refusal "misspelt built-in, --direct" "built-in: cornell," "$vcmfarm" render cornel --direct -n 1 -o "$tmp/out.exr"
 expect_refusal "unknown command" "unknown command" "$vcmfarm" frobnicate
 expect_refusal "cache size not a size" "--cache-max: '12Q' is not a size" "$vcmfarm" worker --connect ipc://x --secret x --cache-max 12Q
 

@@ -72,6 +72,21 @@ done:
   return err;
 }
 
+int vf_scene_not_found(const char *name, int err) {
+  size_t n = strlen(name);
+  if (err != VF_ENOENT || strchr(name, '/') != NULL || (n >= 5 && strcmp(name + n - 5, ".json") == 0)) return err;
+  char names[512] = "";
+  size_t used = 0;
+  for (const char *const *b = vf_scene_builtin_names(); *b != NULL && used < sizeof names; b++) {
+    int w = snprintf(names + used, sizeof names - used, "%s%s", used ? ", " : "", *b);
+    if (w < 0) break;
+    used += (size_t)w;
+  }
+  char detail[256];
+  snprintf(detail, sizeof detail, "%s", vf_error_detail(err));
+  return vf_error_set(err, "%s; '%s' is not a built-in scene either (built-in: %s)", detail, name, names);
+}
+
 int vf_scene_load(const char *name_or_path, vf_scene **out) {
   for (const char *const *n = vf_scene_builtin_names(); *n != NULL; n++)
     if (strcmp(*n, name_or_path) == 0) return vf_scene_builtin_load(name_or_path, out);
@@ -82,7 +97,7 @@ int vf_scene_load(const char *name_or_path, vf_scene **out) {
   else if (slash == name_or_path) snprintf(dir, sizeof dir, "/");
   else snprintf(dir, sizeof dir, "%.*s", (int)(slash - name_or_path), name_or_path);
   int err = read_text(name_or_path, &text, &length);
-  if (err < 0) return err;
+  if (err < 0) return vf_scene_not_found(name_or_path, err);
   err = vf_scene_parse(text, length, name_or_path, dir, NULL, 0, out);
   free(text);
   return err;

@@ -37,4 +37,9 @@ int vf_scene_parse_files(const char *text, size_t length, const char *label, str
  * VF_ENOENT (with a detail) when it is not one; otherwise as vf_scene_parse. */
 int vf_scene_builtin_load(const char *name, vf_scene **out);
 
+/* scene.c: `name` could not be read as a scene file (error err, with its detail). When
+ * it looks like a scene name rather than a path (no '/', no ".json"), the detail gains the
+ * list of built-in names, so a misspelt built-in says what there is. Returns err. */
+int vf_scene_not_found(const char *name, int err);
+
 #endif
