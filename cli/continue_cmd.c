@@ -6,6 +6,7 @@
 #include "continue_cmd.h"
 
 #include "../common/error.h"
+#include "../common/file_lock.h"
 #include "../common/film.h"
 #include "../common/image.h"
 #include "../worker/render.h"
@@ -126,11 +127,16 @@ int vf_cmd_continue(int argc, char **argv) {
       (err = vf_cli_extension("-o", output, ".exr", "an OpenEXR film")) != VF_OK)
     return vf_cli_fail(cmd, err);
 
+  if (stop.reference && (err = vf_cli_not_input("-o", output, "--reference", stop.reference)) != VF_OK)
+    return vf_cli_fail(cmd, err);
   vf_film *film = NULL;
   vf_scene *scene = NULL;
   vf_renderer *renderer = NULL;
   vf_image reference = {0};
   vf_settings settings;
+  /* The film is read after the lock is taken: a writer that held it has finished. */
+  vf_file_lock lock = {-1, NULL};
+  if ((err = vf_file_lock_acquire(output, "continue", &lock)) != VF_OK) goto done;
   if ((err = vf_film_read(film_path, &film)) != VF_OK) goto done;
   if ((err = film_settings(film, film_path, &settings)) != VF_OK) goto done;
   if ((err = load_scene(film, film_path, scene_arg, &scene)) != VF_OK) goto done;
@@ -170,6 +176,7 @@ int vf_cmd_continue(int argc, char **argv) {
     fprintf(stderr, "%s\nwrote %s\n", r.target_reached ? " (target reached)" : "", output);
   }
 done:
+  vf_file_lock_release(&lock);
   vf_renderer_destroy(renderer);
   vf_image_destroy(&reference);
   vf_scene_destroy(scene);

@@ -9,6 +9,7 @@
 #include "options.h"
 #include "../common/error.h"
 #include "../common/exr_util.h"
+#include "../common/file_lock.h"
 #include "../common/film.h"
 
 #include <getopt.h>
@@ -190,9 +191,14 @@ int vf_cmd_merge(int argc, char **argv) {
     fprintf(stderr, "vcmfarm merge: expected at least two input films, got %d\n%s", n, merge_usage);
     return VF_EXIT_BAD_INPUT;
   }
+  /* OUT may be one of the inputs (it then grows by the others), but no other vcmfarm
+   * process may write it meanwhile. */
   vf_film *sum = NULL;
-  int err = merge_inputs(argv + optind, n, &sum);
+  vf_file_lock lock = {-1, NULL};
+  int err = vf_file_lock_acquire(output, "merge", &lock);
+  if (err == VF_OK) err = merge_inputs(argv + optind, n, &sum);
   if (err == VF_OK) err = vf_film_write(sum, output);
+  vf_file_lock_release(&lock);
   if (err == VF_OK && !quiet) {
     char set[256];
     if (vf_iterset_format(&sum->iterations, set, sizeof set) != VF_OK) snprintf(set, sizeof set, "(long)");
@@ -263,6 +269,7 @@ int vf_cmd_bake(int argc, char **argv) {
     return vf_cli_fail("bake", vf_error_set(VF_EUSAGE, "--exposure applies to PNG output only; the EXR holds the "
                                                        "radiance itself"));
 
+  if ((err = vf_cli_not_input("-o", output, "FILM", argv[optind])) != VF_OK) return vf_cli_fail("bake", err);
   vf_film *film = NULL;
   vf_image img = {0};
   if ((err = vf_film_read(argv[optind], &film)) != VF_OK) goto done;

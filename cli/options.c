@@ -91,6 +91,15 @@ int vf_cli_extension(const char *option, const char *path, const char *ext, cons
   return vf_error_set(VF_EUSAGE, "%s: '%s' does not end in %s, but %s is written there", option, path, ext, what);
 }
 
+int vf_cli_not_input(const char *output_option, const char *output, const char *input_option, const char *input) {
+  struct stat a, b;
+  int same = strcmp(output, input) == 0 ||
+             (stat(output, &a) == 0 && stat(input, &b) == 0 && a.st_dev == b.st_dev && a.st_ino == b.st_ino);
+  if (!same) return VF_OK;
+  return vf_error_set(VF_EUSAGE, "%s %s is the %s file: writing it would replace that input", output_option, output,
+                      input_option);
+}
+
 int vf_cli_stop_option(vf_cli_stop *s, int c, const char *arg, int *err) {
   switch (c) {
   case 'n': *err = vf_cli_int("--iterations", arg, 1, (long long)VF_CLI_ITERATIONS_OPEN_ENDED, &s->iterations); return 1;
@@ -168,7 +177,9 @@ int vf_cli_exit_status(int err) {
   case VF_EEXR:
   case VF_EFILM:
   case VF_EMISMATCH:
-  case VF_EOVERLAP: return VF_EXIT_BAD_INPUT;
+  case VF_EOVERLAP:
+  case VF_EBUSY: /* refused before anything was written, like bad input */
+    return VF_EXIT_BAD_INPUT;
   default: return VF_EXIT_FAILURE;
   }
 }

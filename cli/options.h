@@ -28,6 +28,11 @@ int vf_cli_writable(const char *option, const char *path);
  * the command writes there ("an OpenEXR film"). */
 int vf_cli_extension(const char *option, const char *path, const char *ext, const char *what);
 
+/* Refuses (VF_EUSAGE naming both options) an output that is the same file as one of the
+ * command's inputs (by device and inode when it exists: links and other spellings of a
+ * path count), where writing it would replace the input with something else. */
+int vf_cli_not_input(const char *output_option, const char *output, const char *input_option, const char *input);
+
 /* The render settings a command line may override (render, submit): -a/--algorithm,
  * -s/--seed, -l/--max-path-length, -r/--radius-factor, --alpha (option value 'A'),
  * -R/--resolution. Unset fields leave the scene's settings as they are. The commands take

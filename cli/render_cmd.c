@@ -8,6 +8,7 @@
 #include "render_cmd.h"
 
 #include "../common/error.h"
+#include "../common/file_lock.h"
 #include "../common/film.h"
 #include "../common/image.h"
 #include "../worker/render.h"
@@ -151,7 +152,14 @@ int vf_cmd_render(int argc, char **argv) {
       (o.preview && (err = vf_cli_writable("--preview", o.preview)) != VF_OK) ||
       (o.preview && (err = vf_cli_extension("--preview", o.preview, ".png", "a PNG image")) != VF_OK))
     return vf_cli_fail(cmd, err);
+  if (o.stop.reference && (err = vf_cli_not_input("-o", o.output, "--reference", o.stop.reference)) != VF_OK)
+    return vf_cli_fail(cmd, err);
   o.scene = argv[optind];
   o.threads = (int)threads;
-  return direct ? render_direct(&o) : vf_farm_render(&o);
+  /* Two renders into one film would each replace the other's checkpoints. */
+  vf_file_lock lock;
+  if ((err = vf_file_lock_acquire(o.output, "render", &lock)) != VF_OK) return vf_cli_fail(cmd, err);
+  int status = direct ? render_direct(&o) : vf_farm_render(&o);
+  vf_file_lock_release(&lock);
+  return status;
 }

@@ -28,7 +28,8 @@
   XX(EAUTH, "message authentication failed")                               \
   XX(ETIMEDOUT, "timed out")                                               \
   XX(ENET, "network error")                                                \
-  XX(EREFUSED, "refused by the peer")
+  XX(EREFUSED, "refused by the peer")                                      \
+  XX(EBUSY, "in use by another process")
 
 enum {
   VF_OK = 0,
