@@ -29,6 +29,12 @@
 #define VF_BLOB_MAX_BYTES ((uint64_t)4 << 30)
 #define VF_BLOB_MAX_FILES 1024 /* per scene */
 #define VF_BLOB_MAX_NAME 1023  /* bytes */
+/* Blob stores of both roles have the same layout (DIR/blobs/), so each says what it is: a
+ * worker's cache holds this file (worker/blob_cache.h), a coordinator's state directory
+ * its lock file (coordinator/state.h), and neither role opens the other's directory,
+ * whose files it would otherwise evict or collect. */
+#define VF_BLOB_CACHE_MARKER "vcmfarm-worker-cache"
+#define VF_STATE_MARKER "lock" /* coordinator/state.c: vf_state_lock, from its first start */
 
 typedef struct {
   char *name; /* owned by the table */

@@ -1,5 +1,6 @@
 #include "coordinator.h"
 
+#include "../common/blob.h"
 #include "../common/clock.h"
 #include "../common/error.h"
 #include "../common/message.h"
@@ -15,6 +16,9 @@
 #include <signal.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/socket.h>
+#include <sys/stat.h>
+#include <sys/un.h>
 #include <unistd.h>
 #include <uv.h>
 
@@ -169,6 +173,39 @@ static void close_handle(uv_handle_t *h, void *arg) {
   if (!uv_is_closing(h)) uv_close(h, NULL);
 }
 
+/* nanomsg's ipc:// bind unlinks whatever is at the path first. Refuse a path that holds
+ * anything but a socket (a user's file would be deleted), and a socket that another
+ * process still listens on (its clients would be taken over). */
+static int check_ipc_path(const char *url) {
+  if (strncmp(url, "ipc://", 6) != 0) return VF_OK;
+  const char *path = url + 6;
+  struct stat st;
+  if (lstat(path, &st) != 0) return VF_OK; /* nothing there */
+  if (!S_ISSOCK(st.st_mode))
+    return vf_error_set(VF_EUSAGE, "--listen %s: %s exists and is not a socket; refusing to replace it", url, path);
+  struct sockaddr_un addr = {.sun_family = AF_UNIX};
+  if (strlen(path) >= sizeof addr.sun_path) return VF_OK; /* nanomsg refuses it with its own error */
+  memcpy(addr.sun_path, path, strlen(path) + 1);
+  int fd = socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
+  if (fd < 0) return VF_OK;
+  int live = connect(fd, (struct sockaddr *)&addr, sizeof addr) == 0;
+  close(fd);
+  if (live) return vf_error_set(VF_EUSAGE, "--listen %s: another process listens on %s", url, path);
+  return VF_OK; /* a socket left by a process that ended */
+}
+
+/* A worker's blob cache (worker/blob_cache.h) is not a state directory: the worker's
+ * eviction would delete the coordinator's scene files. */
+static int check_state_dir(const char *dir) {
+  char marker[4200];
+  struct stat st;
+  snprintf(marker, sizeof marker, "%s/" VF_BLOB_CACHE_MARKER, dir);
+  if (stat(marker, &st) == 0)
+    return vf_error_set(VF_EUSAGE, "--state %s is a worker's scene-file cache (it holds %s), not a state directory",
+                        dir, VF_BLOB_CACHE_MARKER);
+  return VF_OK;
+}
+
 int vf_coordinator_run(const vf_coordinator_config *config) {
   coordinator *c = calloc(1, sizeof *c);
   if (c == NULL) return vf_error_set(VF_ENOMEM, "out of memory");
@@ -181,6 +218,8 @@ int vf_coordinator_run(const vf_coordinator_config *config) {
   signal(SIGPIPE, SIG_IGN);
   if (config->key) c->key = *config->key;
   else if ((err = vf_wire_key_load(config->secret_path, &c->key)) != VF_OK) goto free_farm;
+  if ((err = check_state_dir(config->state_dir)) != VF_OK || (err = check_ipc_path(config->listen_url)) != VF_OK)
+    goto free_farm;
   if ((err = vf_state_lock(config->state_dir, &lock_fd)) != VF_OK) goto free_farm;
   if ((err = vf_state_load(&c->farm)) != VF_OK) goto unlock;
   vf_blobs_collect(&c->farm, 86400.0); /* before serving anyone, then every hour */

@@ -54,6 +54,25 @@ expect_refusal "misspelt built-in, --direct" "built-in: cornell," "$vcmfarm" ren
 expect_refusal "unknown command" "unknown command" "$vcmfarm" frobnicate
 expect_refusal "cache size not a size" "--cache-max: '12Q' is not a size" "$vcmfarm" worker --connect ipc://x --secret x --cache-max 12Q
 
+# The roles' directories and sockets are never taken from someone else.
+"$vcmfarm" keygen "$tmp/farm.key" >/dev/null 2>&1
+echo "a user's file" >"$tmp/regular"
+expect_refusal "ipc:// path that is a regular file" "is not a socket; refusing to replace it" \
+  timeout 20 "$vcmfarm" coordinator --listen "ipc://$tmp/regular" --state "$tmp/state-a" --secret "$tmp/farm.key"
+grep -q "a user's file" "$tmp/regular"
+check "the regular file is kept" $?
+"$vcmfarm" coordinator --listen "ipc://$tmp/live.sock" --state "$tmp/state-live" --secret "$tmp/farm.key" 2>/dev/null &
+live=$!
+for _ in $(seq 100); do [ -S "$tmp/live.sock" ] && [ -e "$tmp/state-live/lock" ] && break; sleep 0.05; done
+expect_refusal "ipc:// socket another coordinator listens on" "another process listens on" \
+  timeout 20 "$vcmfarm" coordinator --listen "ipc://$tmp/live.sock" --state "$tmp/state-b" --secret "$tmp/farm.key"
+expect_refusal "worker cache in a coordinator's state directory" "is a coordinator's state directory" \
+  timeout 20 "$vcmfarm" worker --connect "ipc://$tmp/live.sock" --secret "$tmp/farm.key" --cache "$tmp/state-live" --cache-max 1
+kill -TERM "$live" && wait "$live"
+mkdir -p "$tmp/cache" && touch "$tmp/cache/vcmfarm-worker-cache"
+expect_refusal "coordinator state in a worker's cache" "is a worker's scene-file cache" \
+  timeout 20 "$vcmfarm" coordinator --listen "ipc://$tmp/c.sock" --state "$tmp/cache" --secret "$tmp/farm.key"
+
 "$vcmfarm" --version | grep -q '^vcmfarm [0-9]'
 check "--version" $?
 "$vcmfarm" render --help | grep -q 'usage: vcmfarm render'

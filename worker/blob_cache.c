@@ -29,6 +29,10 @@ int vf_blob_cache_default_dir(char *out, size_t n) {
 
 int vf_blob_cache_open(const char *cache_dir) {
   char path[4200];
+  struct stat st;
+  if (snprintf(path, sizeof path, "%s/" VF_STATE_MARKER, cache_dir) < (int)sizeof path && stat(path, &st) == 0)
+    return vf_error_set(VF_EUSAGE, "--cache %s is a coordinator's state directory (it holds %s), not a cache", cache_dir,
+                        VF_STATE_MARKER);
   if (snprintf(path, sizeof path, "%s/blobs", cache_dir) >= (int)sizeof path)
     return vf_error_set(VF_EIO, "cache directory name too long");
   /* mkdir -p: every prefix ending before a '/', then the whole path. */
@@ -43,6 +47,11 @@ int vf_blob_cache_open(const char *cache_dir) {
   }
   if (access(path, W_OK | X_OK) != 0)
     return vf_error_set(VF_EIO, "cache %s: cannot write %s: %s", cache_dir, path, strerror(errno));
+  char marker[4200];
+  snprintf(marker, sizeof marker, "%s/" VF_BLOB_CACHE_MARKER, cache_dir);
+  int fd = open(marker, O_WRONLY | O_CREAT | O_CLOEXEC, 0600);
+  if (fd < 0) return vf_error_set(VF_EIO, "cache %s: cannot create %s: %s", cache_dir, marker, strerror(errno));
+  close(fd);
   /* Transfers cut short: untouched for a day (other workers may share the cache). */
   vf_blob_store_clean_parts(cache_dir, 86400.0);
   return VF_OK;
