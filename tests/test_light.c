@@ -9,6 +9,7 @@
 #include "worker/light.h"
 #include "worker/sampling.h"
 #include "worker/scene.h"
+#include "worker/scene_builtin.h"
 
 #include <stdio.h>
 #include <stdlib.h>
@@ -172,9 +173,180 @@ static void test_area_emission_density_integrates(void) {
   vf_scene_destroy(s);
 }
 
+/* ---- spot lights ------------------------------------------------------------------------ */
+
+/* A scene of one floor and the spot light `light` (a JSON object); NULL when it does not
+ * load, with the error code in *err and its detail in the thread's error. */
+static vf_scene *spot_scene(const char *light, int *err) {
+  char text[1024];
+  snprintf(text, sizeof text,
+           "{\"camera\": {\"position\": [0, 1, 3], \"target\": [0, 0, 0], \"fov\": 40},"
+           " \"materials\": {\"m\": {\"diffuse\": [0.5, 0.5, 0.5]}},"
+           " \"shapes\": [{\"type\": \"mesh\", \"material\": \"m\", \"positions\": [-5,0,-5, 5,0,-5, 5,0,5, -5,0,5],"
+           "  \"indices\": [0,2,1, 0,3,2]}], \"lights\": [%s]}",
+           light);
+  vf_scene *s = NULL;
+  *err = vf_scene_parse(text, strlen(text), "spot.json", ".", NULL, 0, &s);
+  return s;
+}
+
+/* The spot light of spot_scene(light), with the scene and its lights; NULL after a failed
+ * check. The caller destroys both, NULL or not. */
+static const vf_light *spot_light(const char *light, vf_scene **scene, vf_lights **ls) {
+  int err;
+  *ls = NULL;
+  *scene = spot_scene(light, &err);
+  CHECK_INT_EQ(err, VF_OK);
+  if (*scene == NULL) return NULL;
+  CHECK_INT_EQ(vf_lights_create(*scene, ls), VF_OK);
+  const vf_light *l = *ls ? light_of_kind(*ls, VF_LIGHT_SPOT) : NULL;
+  CHECK(l != NULL);
+  return l;
+}
+
+/* KHR_lights_punctual's falloff, written out: the square of the ramp from the outer cone's
+ * cosine (0) to the inner's (1). */
+static double gltf_falloff(double cos_theta, double inner, double outer) {
+  double t = (cos_theta - cos(outer)) / (cos(inner) - cos(outer));
+  t = t < 0.0 ? 0.0 : t > 1.0 ? 1.0 : t;
+  return t * t;
+}
+
+/* Irradiance on the floor, E = I f(theta) cos / d^2, from what illuminate reports
+ * (radiance, and direct_pdf_w = d^2 for a point): on the axis, in the falloff and outside
+ * the outer cone. The emission density illuminate reports is the cone's. */
+static void test_spot_irradiance_on_a_plane(void) {
+  vf_scene *s;
+  vf_lights *ls;
+  const vf_light *l = spot_light("{\"type\": \"spot\", \"position\": [0, 2, 0], \"direction\": [0, -1, 0],"
+                                 " \"intensity\": [3, 3, 3], \"inner_cone_angle\": 20, \"outer_cone_angle\": 35}",
+                                 &s, &ls);
+  const double inner = 20.0 * M_PI / 180.0, outer = 35.0 * M_PI / 180.0, h = 2.0, I = 3.0;
+  const double cone_pdf = 1.0 / (2.0 * M_PI * (1.0 - cos(outer)));
+  for (int i = 0; l != NULL && i <= 40; i++) {
+    double x = h * tan(i * (M_PI / 180.0)); /* theta = i degrees from the axis */
+    vf_vec3 receiver = vf_vec3_make((float)x, 0.0f, 0.0f), n = vf_vec3_make(0, 1, 0);
+    const float rnd[2] = {0.3f, 0.7f};
+    vf_vec3 d, lp, ln;
+    float dist, pdf_w, emission_pdf, cos_light;
+    vf_vec3 le = vf_light_illuminate(ls, l, receiver, rnd, &d, &dist, &lp, &ln, &pdf_w, &emission_pdf, &cos_light);
+    double cos_theta = h / sqrt(h * h + x * x);
+    double exact = I * gltf_falloff(cos_theta, inner, outer) * cos_theta * cos_theta * cos_theta / (h * h);
+    double e = vf_is_zero(le) ? 0.0 : le.x * vf_dot(n, d) / pdf_w;
+    if (i % 10 == 0 || i == 35) printf("  %2d degrees off the axis: irradiance %.6f, exact %.6f\n", i, e, exact);
+    CHECK_NEAR(e, exact, 1e-5 * I / (h * h));
+    if (i == 0) CHECK_NEAR(e, I / (h * h), 1e-6); /* the cone's centre: the full intensity */
+    if (i >= 35) CHECK_NEAR(e, 0.0, 0.0);        /* outside the outer cone: nothing */
+    if (!vf_is_zero(le)) CHECK_NEAR(emission_pdf, cone_pdf, 1e-6 * cone_pdf);
+  }
+  vf_lights_destroy(ls);
+  vf_scene_destroy(s);
+}
+
+/* Emission samples the outer cone uniformly in solid angle: every direction lies inside it,
+ * E[cos theta] = (1 + cos outer) / 2, the reported density is illuminate's for the same
+ * direction, and the emitted power, the mean of intensity / pdf, is the falloff's integral
+ * 2 pi I ((1 - cos inner) + (cos inner - cos outer) / 3). */
+static void test_spot_emission_samples_the_cone(void) {
+  vf_scene *s;
+  vf_lights *ls;
+  const vf_light *l = spot_light("{\"type\": \"spot\", \"position\": [0, 2, 0], \"direction\": [1, -1, 0],"
+                                 " \"intensity\": [2, 2, 2], \"inner_cone_angle\": 10, \"outer_cone_angle\": 50}",
+                                 &s, &ls);
+  if (l == NULL) {
+    vf_lights_destroy(ls);
+    vf_scene_destroy(s);
+    return;
+  }
+  const double inner = 10.0 * M_PI / 180.0, outer = 50.0 * M_PI / 180.0;
+  const vf_vec3 axis = vf_normalize(vf_vec3_make(1, -1, 0));
+  vf_rng rng = vf_rng_for_path(6, 0, 0, VF_STREAM_TEST);
+  const int n = 200000;
+  double sum = 0.0, sum2 = 0.0, sum_cos = 0.0, max_pdf_dev = 0.0;
+  int outside = 0;
+  for (int i = 0; i < n; i++) {
+    float rnd[4] = {vf_rng_float(&rng), vf_rng_float(&rng), vf_rng_float(&rng), vf_rng_float(&rng)};
+    vf_vec3 p, d, nrm;
+    float emission_pdf, direct_pdf, cos_light;
+    vf_vec3 le = vf_light_emit(ls, l, rnd, &p, &d, &nrm, &emission_pdf, &direct_pdf, &cos_light);
+    double c = vf_dot(d, axis);
+    outside += !(c >= cos(outer) - 1e-6);
+    sum_cos += c;
+    double v = le.x / emission_pdf;
+    sum += v;
+    sum2 += v * v;
+    /* illuminate from a point along d sees the same direction, with the same density */
+    vf_vec3 receiver = vf_add(p, vf_scale(d, 1.5f)), dl, lp, ln;
+    float dist, pdf_w, illum_emission_pdf, cos_at;
+    const float r2[2] = {0.5f, 0.5f};
+    vf_vec3 li = vf_light_illuminate(ls, l, receiver, r2, &dl, &dist, &lp, &ln, &pdf_w, &illum_emission_pdf, &cos_at);
+    if (!vf_is_zero(li)) max_pdf_dev = fmax(max_pdf_dev, fabs(illum_emission_pdf - emission_pdf) / emission_pdf);
+    CHECK_NEAR(direct_pdf, 1.0, 0.0);
+  }
+  double mean = sum / n, se = sqrt((sum2 / n - mean * mean) / n);
+  double power = 2.0 * M_PI * 2.0 * ((1.0 - cos(inner)) + (cos(inner) - cos(outer)) / 3.0);
+  printf("  emitted intensity / pdf: %.5f +- %.5f, exact %.5f; mean cos %.5f, exact %.5f; %d outside the cone\n",
+         mean, se, power, sum_cos / n, 0.5 * (1.0 + cos(outer)), outside);
+  CHECK_INT_EQ(outside, 0);
+  CHECK_NEAR(mean, power, 5.0 * se);
+  CHECK_NEAR(sum_cos / n, 0.5 * (1.0 + cos(outer)), 5.0 * (1.0 - cos(outer)) / sqrt(12.0 * n));
+  CHECK(max_pdf_dev < 1e-6);
+  vf_lights_destroy(ls);
+  vf_scene_destroy(s);
+}
+
+/* Cone angles out of order, beyond 90 degrees or negative, and a zero axis, are refused
+ * naming the field (the command line exits 2 on VF_ESCENE). */
+static void test_spot_fields_are_validated(void) {
+  static const struct {
+    const char *light, *message;
+  } cases[] = {
+      {"{\"type\": \"spot\", \"position\": [0, 2, 0], \"direction\": [0, -1, 0], \"intensity\": [1, 1, 1],"
+       " \"inner_cone_angle\": 40, \"outer_cone_angle\": 30}",
+       "lights[0].inner_cone_angle: must be in [0, outer_cone_angle = 30) degrees, found 40"},
+      {"{\"type\": \"spot\", \"position\": [0, 2, 0], \"direction\": [0, -1, 0], \"intensity\": [1, 1, 1],"
+       " \"inner_cone_angle\": 30, \"outer_cone_angle\": 30}",
+       "lights[0].inner_cone_angle: must be in [0, outer_cone_angle = 30) degrees, found 30"},
+      {"{\"type\": \"spot\", \"position\": [0, 2, 0], \"direction\": [0, -1, 0], \"intensity\": [1, 1, 1],"
+       " \"outer_cone_angle\": 95}",
+       "lights[0].outer_cone_angle: must be in (0, 90] degrees, found 95"},
+      {"{\"type\": \"spot\", \"position\": [0, 2, 0], \"direction\": [0, -1, 0], \"intensity\": [1, 1, 1],"
+       " \"inner_cone_angle\": -5}",
+       "lights[0].inner_cone_angle: must be in [0, outer_cone_angle = 45) degrees, found -5"},
+      {"{\"type\": \"spot\", \"position\": [0, 2, 0], \"direction\": [0, 0, 0], \"intensity\": [1, 1, 1]}",
+       "lights[0].direction: zero vector"},
+      {"{\"type\": \"spot\", \"position\": [0, 2, 0], \"intensity\": [1, 1, 1]}",
+       "lights[0]: missing field 'direction'"},
+      {"{\"type\": \"point\", \"position\": [0, 2, 0], \"intensity\": [1, 1, 1], \"outer_cone_angle\": 30}",
+       "lights[0].outer_cone_angle: unknown field"},
+  };
+  for (size_t i = 0; i < sizeof cases / sizeof *cases; i++) {
+    int err;
+    vf_scene *s = spot_scene(cases[i].light, &err);
+    CHECK(s == NULL);
+    CHECK_INT_EQ(err, VF_ESCENE);
+    CHECK_STR_CONTAINS(vf_error_detail(err), cases[i].message);
+    vf_scene_destroy(s);
+  }
+  /* The defaults are glTF's: inner 0, outer 45 degrees. */
+  int err;
+  vf_scene *s = spot_scene("{\"type\": \"spot\", \"position\": [0, 2, 0], \"direction\": [0, -3, 0], \"intensity\": [1, 1, 1]}",
+                           &err);
+  CHECK_INT_EQ(err, VF_OK);
+  if (s == NULL) return;
+  CHECK_INT_EQ(s->point_lights[0].is_spot, 1);
+  CHECK_NEAR(s->point_lights[0].inner_cone_angle, 0.0, 0.0);
+  CHECK_NEAR(s->point_lights[0].outer_cone_angle, M_PI / 4.0, 1e-7);
+  CHECK_NEAR(s->point_lights[0].direction.y, -1.0, 0.0);
+  vf_scene_destroy(s);
+}
+
 int main(void) {
   RUN(test_environment_sampling_density_is_consistent_and_normalised);
   RUN(test_area_light_densities_agree_with_hits);
   RUN(test_area_emission_density_integrates);
+  RUN(test_spot_irradiance_on_a_plane);
+  RUN(test_spot_emission_samples_the_cone);
+  RUN(test_spot_fields_are_validated);
   return check_finish();
 }

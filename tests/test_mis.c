@@ -1,12 +1,14 @@
-/* The MIS identity: for a full path x_0 .. x_k (x_0 on the area light, x_k the pinhole),
+/* The MIS identity: for a full path x_0 .. x_k (x_0 on the light, x_k on the camera's lens),
  * the recursive weights of worker/mis.h, driven exactly as the renderer's passes drive them
  * (worker/light_pass.c, camera_pass.c), must
  * (1) sum to 1 over every technique the renderer uses to sample that path, and
  * (2) each equal a direct evaluation of the balance heuristic, tech. rep. eq. (12), from
  *     the path's vertex densities computed one by one in double precision (eq. 2-8, 10).
  *
- * Paths come from random walks in the built-in "cornell": from the light, closed by a
- * connection to the camera, and from the camera, closed by a light sample or by hitting
+ * Paths come from random walks in the built-in "cornell" (an area light and a pinhole),
+ * "cornell-dof" (a thin lens: x_k is a point sampled on the lens) and "cornell-spot" (a
+ * spot light, a delta in position: eq. 48-50, no emission hits): from the light, closed by
+ * a connection to the camera, and from the camera, closed by a light sample or by hitting
  * the light. The first family has no specular vertex; the second has exactly one (a
  * reflection off the mirror or glass ball), where eq. (51) removes three techniques and
  * the rest must still sum to 1.
@@ -41,7 +43,7 @@
 
 enum { MAX_SEGMENTS = 6, MAX_VERTICES = MAX_SEGMENTS + 1, MAX_PATHS = 3000, WALKS = 6000 };
 
-/* A full path: position[0] on the light, position[k] the camera position. */
+/* A full path: position[0] on the light, position[k] on the lens (the pinhole's position). */
 typedef struct {
   int k;
   vf_vec3 position[MAX_VERTICES];
@@ -59,7 +61,8 @@ typedef struct {
   vf_scene *scene;
   vf_accel *accel;
   vf_lights *lights;
-  const vf_light *light; /* the area light */
+  const vf_light *light; /* the scene's one light: an area mesh or a spot */
+  const vf_point_light_desc *spot; /* its description when a spot, else NULL */
   vf_camera camera;
   double n_light;        /* light sub-paths per iteration: one per pixel */
 } test_scene;
@@ -112,7 +115,8 @@ static float specular_reflection_pdf(const vf_bsdf *b) {
 typedef struct {
   vf_bsdf from_light[MAX_VERTICES];  /* at x_i, fix towards x_{i-1} (light sub-path) */
   vf_bsdf from_camera[MAX_VERTICES]; /* at x_i, fix towards x_{i+1} (camera sub-path) */
-  double cos_light;                  /* at x_0 towards x_1 */
+  double cos_light;                  /* at x_0 towards x_1; 1 for a spot, which has no surface */
+  double emission_pdf_w;             /* of the light emitting towards x_1, in solid angle */
   double p_light[MAX_VERTICES];      /* pL(x_i): area density of the light walk sampling x_i */
   double p_camera[MAX_VERTICES];     /* pC(x_i): the same for the camera walk */
 } path_data;
@@ -124,6 +128,14 @@ static int prepare_path(const test_scene *ts, const full_path *x, path_data *pd)
   const double min_cos = 1e-3; /* keeps float round-off of cos far below the tolerance */
   pd->cos_light = (double)vf_dot(x->normal[0], vf_sub(x->position[1], x->position[0])) /
                   sqrt(dist_sq_d(x->position[0], x->position[1]));
+  pd->emission_pdf_w = pd->cos_light / M_PI;
+  if (ts->spot) { /* emits uniformly into its outer cone */
+    pd->cos_light = (double)vf_dot(ts->spot->direction, vf_sub(x->position[1], x->position[0])) /
+                    sqrt(dist_sq_d(x->position[0], x->position[1]));
+    if (!(pd->cos_light > cos(ts->spot->outer_cone_angle))) return 0;
+    pd->emission_pdf_w = 1.0 / (2.0 * M_PI * (1.0 - cos(ts->spot->outer_cone_angle)));
+    pd->cos_light = 1.0;
+  }
   if (!(pd->cos_light > min_cos)) return 0;
   for (int i = 1; i < k; i++) {
     float d;
@@ -153,9 +165,10 @@ static int prepare_path(const test_scene *ts, const full_path *x, path_data *pd)
     }
   }
 
-  /* Light side (eq. 2-4): x_0 by area, x_1 by cosine emission, then BSDF sampling. */
-  pd->p_light[0] = (double)ts->light->pick_probability / (double)ts->light->area;
-  pd->p_light[1] = pd->cos_light / M_PI * (k > 1 ? abs_cos_d(x->position[1], x->normal[1], x->position[0]) : 1.0) /
+  /* Light side (eq. 2-4): x_0 by area (a spot's position is a delta: only its selection
+   * counts, the same in every technique), x_1 by emission, then BSDF sampling. */
+  pd->p_light[0] = (double)ts->light->pick_probability / (ts->spot ? 1.0 : (double)ts->light->area);
+  pd->p_light[1] = pd->emission_pdf_w * (k > 1 ? abs_cos_d(x->position[1], x->normal[1], x->position[0]) : 1.0) /
                    dist_sq_d(x->position[0], x->position[1]);
   for (int i = 2; i <= k; i++) {
     const vf_bsdf *b = &pd->from_light[i - 1];
@@ -170,8 +183,10 @@ static int prepare_path(const test_scene *ts, const full_path *x, path_data *pd)
     pd->p_light[i] = (double)pdf_w * cos_i / dist_sq_d(x->position[i - 1], x->position[i]);
   }
 
-  /* Camera side (eq. 6-8 read from the eye): the pinhole is deterministic, x_{k-1} through
-   * the image, then BSDF sampling; at x_0 the light's emitting cosine converts the measure. */
+  /* Camera side (eq. 6-8 read from the eye): x_k on the lens (the pinhole is deterministic;
+   * a thin lens's point has the density 1 / (pi r^2) whether traced from or connected to,
+   * a factor of every technique), x_{k-1} through the image from x_k, then BSDF sampling;
+   * at x_0 the light's emitting cosine converts the measure. */
   pd->p_camera[k] = 1.0;
   float d;
   vf_vec3 view = direction_between(x->position[k], x->position[k - 1], &d);
@@ -189,8 +204,9 @@ static int prepare_path(const test_scene *ts, const full_path *x, path_data *pd)
     double cos_i = i > 0 ? abs_cos_d(x->position[i], x->normal[i], x->position[i + 1]) : pd->cos_light;
     pd->p_camera[i] = (double)pdf_w * cos_i / dist_sq_d(x->position[i + 1], x->position[i]);
   }
+  if (ts->spot) pd->p_camera[0] = 0.0; /* no ray hits a point */
   for (int i = 0; i <= k; i++)
-    if (!(pd->p_light[i] > 0.0) || !(pd->p_camera[i] > 0.0)) return 0;
+    if (!(pd->p_light[i] > 0.0) || !(pd->p_camera[i] > 0.0 || (i == 0 && ts->spot))) return 0;
   return 1;
 }
 
@@ -203,8 +219,9 @@ typedef struct {
   int emission_unweighted;  /* BPM: s = 0 along a purely specular camera path, weight 1 */
 } technique_set;
 
-/* The techniques the renderer uses for this path under algorithm a (see the top of the file). */
-static void implemented_techniques(const full_path *x, vf_algorithm a, technique_set *t) {
+/* The techniques the renderer uses for this path under algorithm a (see the top of the file);
+ * delta_light: the light cannot be hit, s = 0 does not exist. */
+static void implemented_techniques(const full_path *x, vf_algorithm a, int delta_light, technique_set *t) {
   const int k = x->k;
   memset(t, 0, sizeof *t);
   int vc = a == VF_ALGO_VCM || a == VF_ALGO_BPT, vm = a == VF_ALGO_VCM || a == VF_ALGO_BPM;
@@ -227,6 +244,7 @@ static void implemented_techniques(const full_path *x, vf_algorithm a, technique
   }
   if (vm)
     for (int s = 2; s <= k; s++) t->vm[s] = !x->specular[s - 1];
+  if (delta_light) t->vc[0] = t->emission_unweighted = 0;
 }
 
 /* vf_mis_config as setup_iteration() builds it for eta = pi r^2 n_light. */
@@ -273,16 +291,40 @@ static void direct_weights(const full_path *x, const path_data *pd, const techni
 /* ---------------------------------------------------------------------------------------- */
 /* The recursive weights, with the call sequence of the renderer's passes                  */
 
-/* camera_pdf_a() of worker/light_pass.c: the camera's area density of generating p seen along
- * -dir_to_camera; 0 off the image. */
-static float camera_pdf_a(const vf_camera *cam, vf_vec3 p, vf_vec3 dir_to_camera, float dist, float cos_at_p) {
+/* camera_pdf_a() of worker/light_pass.c: the camera's area density of generating p seen from
+ * lens point `lens` along -dir_to_camera; 0 off the image. */
+static float camera_pdf_a(const vf_camera *cam, vf_vec3 lens, vf_vec3 p, vf_vec3 dir_to_camera, float dist,
+                          float cos_at_p) {
   float rx, ry;
-  if (!vf_camera_raster(cam, p, &rx, &ry)) return 0.0f;
+  if (!vf_camera_raster(cam, lens, p, &rx, &ry)) return 0.0f;
   float cos_at_camera = -vf_dot(cam->forward, dir_to_camera);
   if (!(cos_at_camera > 0.0f)) return 0.0f;
   float image_to_camera = cam->image_plane_distance / cos_at_camera;
   float image_to_solid_angle = image_to_camera * image_to_camera / cos_at_camera;
   return image_to_solid_angle * cos_at_p / (dist * dist);
+}
+
+/* What vf_light_emit and vf_light_illuminate report for x_0 seen from x_1, before the
+ * selection probability: the area light's from its formulas, the spot's from illuminate
+ * itself (its point is deterministic). */
+typedef struct {
+  float direct_pdf_a, emission_pdf_w, direct_pdf_w, cos_at_light;
+} light_report;
+
+static light_report light_densities(const test_scene *ts, const full_path *x, float cos0) {
+  float dist;
+  direction_between(x->position[1], x->position[0], &dist);
+  const float inv_area = ts->light->inv_area;
+  light_report r = {inv_area, inv_area * cos0 * VF_INV_PI, inv_area * dist * dist / cos0, cos0};
+  if (ts->spot) {
+    const float rnd[2] = {0.5f, 0.5f};
+    vf_vec3 d, lp, ln;
+    float distance;
+    r.direct_pdf_a = 1.0f;
+    vf_light_illuminate(ts->lights, ts->light, x->position[1], rnd, &d, &distance, &lp, &ln, &r.direct_pdf_w,
+                        &r.emission_pdf_w, &r.cos_at_light);
+  }
+  return r;
 }
 
 /* The sub-path quantities at every vertex: light[i] at y_i = x_i after its hit (i >= 1),
@@ -292,10 +334,11 @@ static void trace_quantities(const test_scene *ts, const full_path *x, const pat
   const int k = x->k;
   const float pick = ts->light->pick_probability;
   float cos0 = (float)pd->cos_light;
+  light_report r = light_densities(ts, x, cos0);
   vf_mis m;
-  /* trace_light_path(): densities times the pick probability, then hit and scatter. */
-  vf_mis_light_start(&m, c, ts->light->inv_area * pick, ts->light->inv_area * cos0 * VF_INV_PI * pick, cos0,
-                     ts->light->is_delta, ts->light->is_finite);
+  /* light_start(): densities times the pick probability (eq. 31-33, 48-50), then hit and scatter. */
+  vf_mis_light_start(&m, c, r.direct_pdf_a * pick, r.emission_pdf_w * pick, cos0, ts->light->is_delta,
+                     ts->light->is_finite);
   for (int i = 1; i < k; i++) {
     const vf_bsdf *b = &pd->from_light[i];
     float dist;
@@ -313,7 +356,7 @@ static void trace_quantities(const test_scene *ts, const full_path *x, const pat
     }
     vf_mis_scatter(&m, c, cos_gen, pdf, rev, x->specular[i]);
   }
-  /* trace_camera_path(): the pinhole's density of the first direction, then the same. */
+  /* camera_start(): the density of the first direction from the lens point (eq. 31-33), then the same. */
   float dist;
   vf_mis_camera_start(&m, c, vf_camera_pdf_w(&ts->camera, direction_between(x->position[k], x->position[k - 1], &dist)));
   for (int j = 1; j <= k; j++) {
@@ -342,6 +385,7 @@ static void recursive_weights(const test_scene *ts, const full_path *x, const pa
   const int k = x->k;
   const float pick = ts->light->pick_probability, inv_area = ts->light->inv_area;
   const float cos0 = (float)pd->cos_light;
+  const light_report r = light_densities(ts, x, cos0);
   vf_mis light[MAX_VERTICES], camera[MAX_VERTICES + 1];
   trace_quantities(ts, x, pd, c, light, camera);
   for (int s = 0; s <= k; s++) w_vc[s] = w_vm[s] = 0.0;
@@ -354,9 +398,9 @@ static void recursive_weights(const test_scene *ts, const full_path *x, const pa
     float dist, cos_to_light, bsdf_pdf, bsdf_rev_pdf;
     vf_vec3 dir = direction_between(x->position[1], x->position[0], &dist);
     vf_bsdf_evaluate(&pd->from_camera[1], dir, &cos_to_light, &bsdf_pdf, &bsdf_rev_pdf);
-    float direct_pdf_w = inv_area * dist * dist / cos0, emission_pdf_w = inv_area * cos0 * VF_INV_PI;
-    w_vc[1] = vf_mis_weight_light_sample(&camera[k - 1], c, bsdf_pdf, bsdf_rev_pdf, direct_pdf_w * pick,
-                                         emission_pdf_w * pick, cos_to_light, cos0);
+    if (ts->light->is_delta) bsdf_pdf = 0.0f; /* eq. (44): a delta light cannot be hit */
+    w_vc[1] = vf_mis_weight_light_sample(&camera[k - 1], c, bsdf_pdf, bsdf_rev_pdf, r.direct_pdf_w * pick,
+                                         r.emission_pdf_w * pick, cos_to_light, r.cos_at_light);
   }
   for (int s = 2; s <= k - 1; s++) { /* light vertex x_{s-1}, camera vertex x_s = z_{k-s} */
     if (!t->vc[s]) continue;
@@ -373,7 +417,7 @@ static void recursive_weights(const test_scene *ts, const full_path *x, const pa
     float dist, cos_to_camera, dir_pdf, rev_pdf;
     vf_vec3 to_camera = direction_between(x->position[k - 1], x->position[k], &dist);
     vf_bsdf_evaluate(&pd->from_light[k - 1], to_camera, &cos_to_camera, &dir_pdf, &rev_pdf);
-    float pdf_a = camera_pdf_a(&ts->camera, x->position[k - 1], to_camera, dist, cos_to_camera);
+    float pdf_a = camera_pdf_a(&ts->camera, x->position[k], x->position[k - 1], to_camera, dist, cos_to_camera);
     w_vc[k] = vf_mis_weight_camera_connection(&light[k - 1], c, pdf_a, rev_pdf);
   }
   for (int s = 2; s <= k; s++) { /* merging y_{s-1} into z_{k+1-s}, both at x_{s-1} */
@@ -390,17 +434,19 @@ static void recursive_weights(const test_scene *ts, const full_path *x, const pa
 /* ---------------------------------------------------------------------------------------- */
 /* Path generation                                                                           */
 
-static int load_test_scene(test_scene *ts) {
+static int load_test_scene(test_scene *ts, const char *name, vf_light_kind kind) {
   memset(ts, 0, sizeof *ts);
-  int err = vf_scene_load("cornell", &ts->scene);
+  int err = vf_scene_load(name, &ts->scene);
   if (err == VF_OK) err = vf_accel_create(ts->scene, &ts->accel);
   if (err == VF_OK) err = vf_lights_create(ts->scene, &ts->lights);
   if (err != VF_OK) {
-    fprintf(stderr, "cornell: %s\n", vf_error_detail(err));
+    fprintf(stderr, "%s: %s\n", name, vf_error_detail(err));
     return err;
   }
   for (int i = 0; i < ts->lights->count; i++)
-    if (ts->lights->lights[i].kind == VF_LIGHT_AREA_MESH) ts->light = &ts->lights->lights[i];
+    if (ts->lights->lights[i].kind == kind) ts->light = &ts->lights->lights[i];
+  for (int i = 0; i < ts->scene->num_point_lights; i++)
+    if (ts->scene->point_lights[i].is_spot) ts->spot = &ts->scene->point_lights[i];
   vf_camera_init(&ts->camera, &ts->scene->camera, ts->scene->settings.width, ts->scene->settings.height);
   ts->n_light = (double)ts->scene->settings.width * ts->scene->settings.height;
   return ts->light ? VF_OK : VF_ESCENE;
@@ -419,9 +465,17 @@ static void add_path(const test_scene *ts, const full_path *x, path_set *diffuse
   path_data pd;
   float rx, ry;
   if (set == NULL || set->count == MAX_PATHS) return;
-  if (!vf_camera_raster(&ts->camera, x->position[x->k - 1], &rx, &ry)) return;
+  if (!vf_camera_raster(&ts->camera, x->position[x->k], x->position[x->k - 1], &rx, &ry)) return;
   if (!prepare_path(ts, x, &pd)) return;
   set->paths[set->count++] = *x;
+}
+
+/* The lens point of a camera sub-path or a connection to the camera: lens_sample() of
+ * worker/light_pass.c. */
+static vf_vec3 lens_point(const test_scene *ts, vf_rng *rng) {
+  if (!(ts->camera.lens_radius > 0.0f)) return ts->camera.position;
+  float u1 = vf_rng_float(rng), u2 = vf_rng_float(rng);
+  return vf_camera_lens_point(&ts->camera, u1, u2);
 }
 
 /* From the light: every non-specular vertex that sees the camera closes a path. */
@@ -432,7 +486,7 @@ static void walk_from_light(const test_scene *ts, vf_rng *rng, path_set *diffuse
   float emission_pdf, direct_pdf, cos_light;
   vf_light_emit(ts->lights, ts->light, rnd, &x.position[0], &dir, &n, &emission_pdf, &direct_pdf, &cos_light);
   x.normal[0] = n;
-  vf_vec3 origin = vf_offset_ray_origin(x.position[0], n, vf_accel_scale(ts->accel));
+  vf_vec3 origin = ts->spot ? x.position[0] : vf_offset_ray_origin(x.position[0], n, vf_accel_scale(ts->accel));
   for (int m = 1; m < MAX_SEGMENTS; m++) {
     vf_hit hit;
     vf_bsdf b;
@@ -443,9 +497,10 @@ static void walk_from_light(const test_scene *ts, vf_rng *rng, path_set *diffuse
     x.normal[m] = hit.normal;
     x.material[m] = b.material;
     x.specular[m] = b.is_delta;
-    if (!b.is_delta && !occluded(ts, hit.position, hit.normal, ts->camera.position, vf_vec3_splat(0.0f))) {
+    vf_vec3 lens = lens_point(ts, rng);
+    if (!b.is_delta && !occluded(ts, hit.position, hit.normal, lens, vf_vec3_splat(0.0f))) {
       x.k = m + 1;
-      x.position[m + 1] = ts->camera.position;
+      x.position[m + 1] = lens;
       add_path(ts, &x, diffuse, specular);
     }
     float srnd[3] = {vf_rng_float(rng), vf_rng_float(rng), vf_rng_float(rng)};
@@ -459,12 +514,13 @@ static void walk_from_light(const test_scene *ts, vf_rng *rng, path_set *diffuse
 /* From the camera: every non-specular vertex closes a path with a point sampled on the
  * light, and hitting the light closes one too (camera vertices are reversed into x). */
 static void walk_from_camera(const test_scene *ts, vf_rng *rng, path_set *diffuse, path_set *specular) {
-  full_path z = {0}; /* z.position[j] = z_j, z_0 the camera */
+  full_path z = {0}; /* z.position[j] = z_j, z_0 on the lens */
   full_path x = {0};
-  z.position[0] = ts->camera.position;
-  vf_vec3 dir = vf_camera_direction(&ts->camera, vf_rng_float(rng) * (float)ts->camera.width,
-                                    vf_rng_float(rng) * (float)ts->camera.height);
-  vf_vec3 origin = ts->camera.position;
+  float rx = vf_rng_float(rng) * (float)ts->camera.width, ry = vf_rng_float(rng) * (float)ts->camera.height;
+  z.position[0] = lens_point(ts, rng);
+  vf_vec3 dir = ts->camera.lens_radius > 0.0f ? vf_camera_lens_direction(&ts->camera, z.position[0], rx, ry)
+                                              : vf_camera_direction(&ts->camera, rx, ry);
+  vf_vec3 origin = z.position[0];
   for (int m = 1; m < MAX_SEGMENTS; m++) {
     vf_hit hit;
     vf_bsdf b;
@@ -495,7 +551,7 @@ static void walk_from_camera(const test_scene *ts, vf_rng *rng, path_set *diffus
       vf_vec3 le = vf_light_illuminate(ts->lights, ts->light, hit.position, rnd, &to_light, &dist, &lp, &ln,
                                        &direct_pdf_w, &emission_pdf_w, &cos_at_light);
       if (!vf_is_zero(le) && !vf_is_zero(vf_bsdf_evaluate(&b, to_light, NULL, NULL, NULL)) &&
-          !occluded(ts, hit.position, hit.normal, lp, ln)) {
+          !occluded(ts, hit.position, hit.normal, lp, ts->spot ? vf_vec3_splat(0.0f) : ln)) {
         x.k = m + 1;
         x.position[0] = lp;
         x.normal[0] = ln;
@@ -553,7 +609,7 @@ static deviation check_set(const path_set *set, vf_algorithm a, double eta, int 
     technique_set t;
     double rec_vc[MAX_VERTICES + 1], rec_vm[MAX_VERTICES + 1], dir_vc[MAX_VERTICES + 1], dir_vm[MAX_VERTICES + 1];
     if (!prepare_path(&g_scene, x, &pd)) continue;
-    implemented_techniques(x, a, &t);
+    implemented_techniques(x, a, g_scene.spot != NULL, &t);
     recursive_weights(&g_scene, x, &pd, &c, &t, rec_vc, rec_vm);
     direct_weights(x, &pd, &t, eta, g_scene.n_light, dir_vc, dir_vm);
     double sum = 0.0, vm = 0.0;
@@ -602,7 +658,7 @@ static void check_algorithm(const path_set *set, const char *family, vf_algorith
       double rv[MAX_VERTICES + 1], rm[MAX_VERTICES + 1], dv[MAX_VERTICES + 1], dm[MAX_VERTICES + 1];
       vf_mis_config c = config_for(a, etas[e], g_scene.n_light);
       prepare_path(&g_scene, x, &pd);
-      implemented_techniques(x, a, &t);
+      implemented_techniques(x, a, g_scene.spot != NULL, &t);
       recursive_weights(&g_scene, x, &pd, &c, &t, rv, rm);
       direct_weights(x, &pd, &t, etas[e], g_scene.n_light, dv, dm);
       print_path(x, &t, rv, rm, dv, dm);
@@ -672,20 +728,31 @@ static void test_vcm_weights_match_eq12_with_light_selection(void) {
   l->pick_probability = pick;
 }
 
+/* The pinhole with an area light, the thin lens with an area light, the pinhole with a spot. */
+static const struct {
+  const char *name;
+  vf_light_kind light;
+} test_scenes[] = {{"cornell", VF_LIGHT_AREA_MESH}, {"cornell-dof", VF_LIGHT_AREA_MESH}, {"cornell-spot", VF_LIGHT_SPOT}};
+
 int main(void) {
-  if (load_test_scene(&g_scene) != VF_OK) return 1;
-  for (uint64_t w = 0; w < WALKS; w++) {
-    vf_rng rng = vf_rng_for_path(20240611u, 0, w, VF_STREAM_TEST);
-    if (w % 2 == 0) walk_from_light(&g_scene, &rng, &g_diffuse, &g_specular);
-    else walk_from_camera(&g_scene, &rng, &g_diffuse, &g_specular);
+  for (size_t i = 0; i < sizeof test_scenes / sizeof *test_scenes; i++) {
+    if (load_test_scene(&g_scene, test_scenes[i].name, test_scenes[i].light) != VF_OK) return 1;
+    printf("%s (%s, %s)\n", test_scenes[i].name, g_scene.camera.lens_radius > 0.0f ? "thin lens" : "pinhole",
+           g_scene.spot ? "spot light" : "area light");
+    g_diffuse.count = g_specular.count = 0;
+    for (uint64_t w = 0; w < WALKS; w++) {
+      vf_rng rng = vf_rng_for_path(20240611u, 0, w, VF_STREAM_TEST);
+      if (w % 2 == 0) walk_from_light(&g_scene, &rng, &g_diffuse, &g_specular);
+      else walk_from_camera(&g_scene, &rng, &g_diffuse, &g_specular);
+    }
+    RUN(test_path_sets_are_large_enough);
+    RUN(test_vcm_weights_match_eq12_without_specular_vertices);
+    RUN(test_vcm_weights_match_eq12_with_one_specular_vertex);
+    RUN(test_bpt_weights_match_eq12);
+    RUN(test_bpm_weights_match_eq12);
+    RUN(test_pt_weights_match_eq12);
+    RUN(test_vcm_weights_match_eq12_with_light_selection);
+    destroy_test_scene(&g_scene);
   }
-  RUN(test_path_sets_are_large_enough);
-  RUN(test_vcm_weights_match_eq12_without_specular_vertices);
-  RUN(test_vcm_weights_match_eq12_with_one_specular_vertex);
-  RUN(test_bpt_weights_match_eq12);
-  RUN(test_bpm_weights_match_eq12);
-  RUN(test_pt_weights_match_eq12);
-  RUN(test_vcm_weights_match_eq12_with_light_selection);
-  destroy_test_scene(&g_scene);
   return check_finish();
 }

@@ -84,11 +84,11 @@ static void make_specular_diffuse(vf_scene *scene) {
 
 /* With area and environment lights every path can be sampled by an emission hit, so path
  * tracing, BPT and VCM estimate the same image; in cornell-bulb the lamp is inside glass
- * (see test_light_inside_glass_agrees). */
+ * (see test_light_inside_glass_agrees); cornell-dof sees the box through a thin lens. */
 static void test_pt_bpt_vcm_agree_on_area_and_environment_variants(void) {
-  const char *names[] = {"cornell", "cornell-env", "cornell-bulb"};
+  const char *names[] = {"cornell", "cornell-env", "cornell-bulb", "cornell-dof"};
   const vf_algorithm algorithms[] = {VF_ALGO_PT, VF_ALGO_BPT, VF_ALGO_VCM};
-  for (int i = 0; i < 3; i++) {
+  for (int i = 0; i < 4; i++) {
     vf_scene *scene;
     CHECK_INT_EQ(vf_scene_load(names[i], &scene), VF_OK);
     if (check_failed_in_case) return;
@@ -97,23 +97,25 @@ static void test_pt_bpt_vcm_agree_on_area_and_environment_variants(void) {
   }
 }
 
-/* Point and directional lights are deltas: path tracing cannot sample caustics from them
- * (L S+ D E: neither light sampling through glass nor hitting the light works), and BPT
- * cannot sample caustics seen through the spheres (L S+ D S+ E: no vertex pair to
+/* Point, spot and directional lights are deltas: path tracing cannot sample caustics from
+ * them (L S+ D E: neither light sampling through glass nor hitting the light works), and
+ * BPT cannot sample caustics seen through the spheres (L S+ D S+ E: no vertex pair to
  * connect). Merging samples both, so on the scenes as built VCM must agree with
  * bidirectional photon mapping, an independent estimator of those paths; and with the
- * spheres made diffuse, where every algorithm samples every path, pt, bpt and vcm agree. */
+ * spheres made diffuse, where every algorithm samples every path, pt, bpt and vcm agree,
+ * and on the spot light's scene light tracing too (the light is invisible: lt samples
+ * every path). */
 static void test_delta_light_variants_agree(void) {
-  const char *names[] = {"cornell-point", "cornell-sun"};
+  const char *names[] = {"cornell-point", "cornell-sun", "cornell-spot"};
   const vf_algorithm complete[] = {VF_ALGO_BPM, VF_ALGO_VCM};
-  const vf_algorithm all[] = {VF_ALGO_PT, VF_ALGO_BPT, VF_ALGO_VCM};
-  for (int i = 0; i < 2; i++) {
+  const vf_algorithm all[] = {VF_ALGO_PT, VF_ALGO_BPT, VF_ALGO_VCM, VF_ALGO_LT};
+  for (int i = 0; i < 3; i++) {
     vf_scene *scene;
     CHECK_INT_EQ(vf_scene_load(names[i], &scene), VF_OK);
     if (check_failed_in_case) return;
     check_agreement(names[i], scene, complete, 2);
     make_specular_diffuse(scene);
-    check_agreement(names[i], scene, all, 3);
+    check_agreement(names[i], scene, all, i == 2 ? 4 : 3); /* light tracing on the spot */
     vf_scene_destroy(scene);
   }
 }
@@ -190,6 +192,168 @@ static void test_light_inside_glass_agrees(void) {
   if (check_failed_in_case) return;
   const vf_algorithm algorithms[] = {VF_ALGO_PT, VF_ALGO_BPT, VF_ALGO_VCM};
   check_agreement("lamp in glass", scene, algorithms, 3);
+  vf_scene_destroy(scene);
+}
+
+/* Light tracing through the thin lens (t = 1 to a sampled lens point, W_e over the lens
+ * density) against path tracing, on cornell-dof with the spheres made diffuse so that light
+ * tracing, which never connects at a specular vertex, samples every path. */
+static void test_light_tracing_agrees_through_the_thin_lens(void) {
+  vf_scene *scene;
+  CHECK_INT_EQ(vf_scene_load("cornell-dof", &scene), VF_OK);
+  if (check_failed_in_case) return;
+  make_specular_diffuse(scene);
+  const vf_algorithm algorithms[] = {VF_ALGO_PT, VF_ALGO_LT};
+  check_agreement("cornell-dof d", scene, algorithms, 2);
+  vf_scene_destroy(scene);
+}
+
+/* Per-block means and standard errors of `algorithm` on a scene given as JSON text. */
+static void text_block_estimates(const char *text, vf_algorithm algorithm, double mean[NB], double se[NB]) {
+  vf_scene *scene = NULL;
+  CHECK_INT_EQ(vf_scene_parse(text, strlen(text), "emitter", ".", NULL, 0, &scene), VF_OK);
+  if (scene == NULL) return;
+  block_estimates(scene, algorithm, mean, se);
+  vf_scene_destroy(scene);
+}
+
+/* A square emitter of radiance 1 facing the camera at distance 2, nothing else but the
+ * top-level fields `more` (or ""); the camera has the lens `lens` (JSON fields, or "" for a
+ * pinhole). */
+static void emitter_scene(char *text, size_t n, const char *lens, const char *more) {
+  snprintf(text, n,
+           "{\"camera\": {\"position\": [0, 0, 0], \"forward\": [0, 0, -1], \"fov\": 40, \"resolution\": [128, 128]%s},"
+           " \"materials\": {\"black\": {}}, \"shapes\": [{\"type\": \"mesh\", \"material\": \"black\","
+           "  \"emission\": [1, 1, 1], \"positions\": [-0.4,-0.4,-2, 0.4,-0.4,-2, 0.4,0.4,-2, -0.4,0.4,-2],"
+           "  \"indices\": [0,1,2, 0,2,3]}]%s}",
+           lens, more);
+}
+
+/* Blocks within their combined standard error, plus an absolute 1e-5 for blocks both
+ * algorithms see without noise (a pinhole or lens camera that sees only the emitter). */
+static void check_blocks_agree(const char *what, const double a[NB], const double sa[NB], const double b[NB],
+                               const double sb[NB]) {
+  double max_z = 0.0;
+  int bad = 0;
+  for (int k = 0; k < NB; k++) {
+    double tol = 5.0 * sqrt(sa[k] * sa[k] + sb[k] * sb[k]) + 1e-5;
+    if (!(fabs(a[k] - b[k]) <= tol)) bad++;
+    double se = sqrt(sa[k] * sa[k] + sb[k] * sb[k]);
+    if (se > 0.0) max_z = fmax(max_z, fabs(a[k] - b[k]) / se);
+  }
+  printf("  %-34s max |z| %.2f, %d blocks off\n", what, max_z, bad);
+  CHECK_INT_EQ(bad, 0);
+}
+
+/* Seen through a thin lens, an emitter in the plane in focus makes the pinhole's image,
+ * block by block, whether traced from the camera (pt: rays through the lens, in focus) or
+ * from the light (lt: its points projected through sampled lens points, weighted by W_e);
+ * out of focus, a uniform emitter's image is still its radiance wherever the blur circle
+ * lies inside it and nothing where it lies outside, and the blur keeps the image's total. */
+static void test_emitter_through_the_thin_lens_has_its_radiance(void) {
+  char pinhole[1024], in_focus[1024], out_of_focus[1024];
+  emitter_scene(pinhole, sizeof pinhole, "", "");
+  emitter_scene(in_focus, sizeof in_focus, ", \"aperture\": 0.2, \"focus_distance\": 2", "");
+  emitter_scene(out_of_focus, sizeof out_of_focus, ", \"aperture\": 0.2, \"focus_distance\": 4", "");
+  static double m[5][NB], se[5][NB];
+  text_block_estimates(pinhole, VF_ALGO_PT, m[0], se[0]);
+  text_block_estimates(in_focus, VF_ALGO_PT, m[1], se[1]);
+  text_block_estimates(in_focus, VF_ALGO_LT, m[2], se[2]);
+  text_block_estimates(out_of_focus, VF_ALGO_PT, m[3], se[3]);
+  text_block_estimates(out_of_focus, VF_ALGO_LT, m[4], se[4]);
+  if (check_failed_in_case) return;
+  check_blocks_agree("in focus: lens pt vs pinhole pt", m[1], se[1], m[0], se[0]);
+  check_blocks_agree("in focus: lens lt vs pinhole pt", m[2], se[2], m[0], se[0]);
+  check_blocks_agree("out of focus: lens lt vs lens pt", m[4], se[4], m[3], se[3]);
+  /* The emitter spans +-35 px around the centre of the 128-pixel image, the blur circle of
+   * its edges 8.8 px at focus 4: the central 2 x 2 blocks see radiance 1 from every lens
+   * point, the corner blocks nothing. */
+  const int centre[] = {3 * BLOCKS + 3, 3 * BLOCKS + 4, 4 * BLOCKS + 3, 4 * BLOCKS + 4};
+  const int corner[] = {0, BLOCKS - 1, NB - BLOCKS, NB - 1};
+  for (int i = 0; i < 4; i++) {
+    for (int a = 0; a < 5; a++) CHECK_NEAR(m[a][corner[i]], 0.0, 1e-6);
+    for (int a = 0; a < 4; a += a ? 2 : 1) CHECK_NEAR(m[a][centre[i]], 1.0, 1e-5); /* pt (0, 1, 3): exact */
+    CHECK_NEAR(m[2][centre[i]], 1.0, 5.0 * se[2][centre[i]]);
+    CHECK_NEAR(m[4][centre[i]], 1.0, 5.0 * se[4][centre[i]]);
+  }
+  double total[5] = {0}, total_se[5] = {0};
+  for (int a = 0; a < 5; a++) {
+    for (int k = 0; k < NB; k++) total[a] += m[a][k] / NB, total_se[a] += se[a][k] * se[a][k] / (NB * NB);
+    total_se[a] = sqrt(total_se[a]);
+  }
+  printf("  image mean: pinhole %.5f, in focus %.5f (lt %.5f), out of focus %.5f (lt %.5f); exact %.5f\n", total[0],
+         total[1], total[2], total[3], total[4], 0.8 * 0.8 / (4.0 * 4.0 * tan(20.0 * M_PI / 180.0) * tan(20.0 * M_PI / 180.0)));
+  for (int a = 1; a < 5; a++) CHECK_NEAR(total[a], total[0], 5.0 * sqrt(total_se[a] * total_se[a] + total_se[0] * total_se[0]) + 1e-5);
+  /* A camera ray through the lens that hits nothing sees the background, unweighted (no
+   * other technique sees the sky directly): 0.25 in the corners, still 1 in the centre. */
+  char sky[1200];
+  emitter_scene(sky, sizeof sky, ", \"aperture\": 0.2, \"focus_distance\": 4",
+                ", \"lights\": [{\"type\": \"background\", \"radiance\": [0.25, 0.25, 0.25]}]");
+  const vf_algorithm sky_algorithms[] = {VF_ALGO_PT, VF_ALGO_VCM};
+  for (int a = 0; a < 2; a++) {
+    text_block_estimates(sky, sky_algorithms[a], m[0], se[0]);
+    for (int i = 0; i < 4; i++) {
+      CHECK_NEAR(m[0][corner[i]], 0.25, 1e-6);
+      CHECK_NEAR(m[0][centre[i]], 1.0, 1e-5);
+    }
+  }
+}
+
+/* A spot light 1 above a diffuse floor (albedo 0.5), the camera at the light looking down
+ * the axis: a pixel whose ray leaves at theta from the axis sees radiance
+ * (0.5 / pi) I f(theta) cos^3(theta) / h^2, f being KHR_lights_punctual's falloff. Each
+ * block's mean is integrated over its pixels; the centre blocks (theta < 20 degrees,
+ * inside the inner cone of 30) see the full intensity, the corner blocks (theta > 46
+ * degrees, beyond the outer cone of 40) nothing. Vertex merging blurs the falloff by the
+ * merge radius, a bias that vanishes with the radius: at the default radius (0.038 here,
+ * weighted 0.98 against connections) the blocks across the outer cone's edge were 30%
+ * too bright, so the scene asks for a radius 30 times smaller. */
+static void test_spot_light_on_a_floor_has_the_analytic_radiance(void) {
+  static const char text[] =
+      "{\"camera\": {\"position\": [0, 1, 0], \"forward\": [0, -1, 0], \"up\": [0, 0, -1], \"fov\": 90,"
+      "  \"resolution\": [128, 128]},"
+      " \"materials\": {\"floor\": {\"diffuse\": [0.5, 0.5, 0.5]}},"
+      " \"shapes\": [{\"type\": \"mesh\", \"material\": \"floor\", \"positions\": [-9,0,-9, 9,0,-9, 9,0,9, -9,0,9],"
+      "  \"indices\": [0,2,1, 0,3,2]}],"
+      " \"lights\": [{\"type\": \"spot\", \"position\": [0, 1, 0], \"direction\": [0, -1, 0], \"intensity\": [2, 2, 2],"
+      "  \"inner_cone_angle\": 30, \"outer_cone_angle\": 40}], \"render\": {\"radius_factor\": 0.0001}}";
+  const double inner = 30.0 * M_PI / 180.0, outer = 40.0 * M_PI / 180.0, I = 2.0, rho = 0.5;
+  double exact[NB] = {0};
+  const int sub = 8, px = RES / BLOCKS; /* sub x sub points per pixel */
+  const double ipd = 0.5 * RES / tan(45.0 * M_PI / 180.0);
+  for (int b = 0; b < NB; b++) {
+    int bx = b % BLOCKS, by = b / BLOCKS;
+    double sum = 0.0;
+    for (int j = 0; j < px * sub; j++)
+      for (int i = 0; i < px * sub; i++) {
+        double x = bx * px + (i + 0.5) / sub - 0.5 * RES, y = by * px + (j + 0.5) / sub - 0.5 * RES;
+        double c = ipd / sqrt(ipd * ipd + x * x + y * y);
+        double t = (c - cos(outer)) / (cos(inner) - cos(outer));
+        t = t < 0.0 ? 0.0 : t > 1.0 ? 1.0 : t;
+        sum += rho / M_PI * I * t * t * c * c * c;
+      }
+    exact[b] = sum / (px * sub * px * sub);
+  }
+  vf_scene *scene = NULL;
+  CHECK_INT_EQ(vf_scene_parse(text, sizeof text - 1, "spot floor", ".", NULL, 0, &scene), VF_OK);
+  if (scene == NULL) return;
+  const vf_algorithm algorithms[] = {VF_ALGO_PT, VF_ALGO_LT, VF_ALGO_BPT, VF_ALGO_VCM};
+  for (int a = 0; a < 4; a++) {
+    double mean[NB], se[NB], max_z = 0.0;
+    block_estimates(scene, algorithms[a], mean, se);
+    for (int b = 0; b < NB; b++) {
+      double tol = 5.0 * se[b] + 2e-4 * exact[b] + 1e-7; /* the float image and the quadrature */
+      max_z = fmax(max_z, fabs(mean[b] - exact[b]) / (se[b] + 1e-12));
+      if (!(fabs(mean[b] - exact[b]) <= tol)) {
+        printf("  %s block %d: %.6f +- %.6f, exact %.6f\n", vf_algorithm_name(algorithms[a]), b, mean[b], se[b], exact[b]);
+        CHECK_NEAR(mean[b], exact[b], tol);
+      }
+    }
+    int centre = 3 * BLOCKS + 3, corner = 0;
+    printf("  spot floor %-3s: centre block %.6f (exact %.6f), corner %.2g, max |z| %.2f\n",
+           vf_algorithm_name(algorithms[a]), mean[centre], exact[centre], mean[corner], max_z);
+    CHECK_NEAR(mean[corner], 0.0, 0.0);
+  }
   vf_scene_destroy(scene);
 }
 
@@ -294,5 +458,8 @@ int main(void) {
   RUN(test_delta_light_variants_agree);
   RUN(test_environment_map_and_sphere_light_agree);
   RUN(test_light_inside_glass_agrees);
+  RUN(test_light_tracing_agrees_through_the_thin_lens);
+  RUN(test_emitter_through_the_thin_lens_has_its_radiance);
+  RUN(test_spot_light_on_a_floor_has_the_analytic_radiance);
   return check_finish();
 }

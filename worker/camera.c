@@ -11,4 +11,6 @@ void vf_camera_init(vf_camera *cam, const vf_camera_desc *desc, int width, int h
   cam->height = height;
   float half = 0.5f * desc->vertical_fov_degrees * (3.14159265358979f / 180.0f);
   cam->image_plane_distance = 0.5f * (float)height / tanf(half);
+  cam->lens_radius = desc->aperture > 0.0f ? desc->aperture : 0.0f;
+  cam->focus_distance = cam->lens_radius > 0.0f ? desc->focus_distance : 0.0f;
 }

@@ -97,7 +97,7 @@ static void light_sample(vf_vcm *v, int thread, const vf_hit *hit, const vf_bsdf
   if (isinf(dist))
     queue_direction(v, pk, entry, hit->position, hit->normal, dir);
   else
-    queue_segment(v, pk, entry, hit->position, hit->normal, lp, l->kind == VF_LIGHT_POINT ? zero : ln);
+    queue_segment(v, pk, entry, hit->position, hit->normal, lp, l->is_delta ? zero : ln); /* punctual: no surface */
   packet_queued(v, thread);
 }
 
@@ -194,11 +194,21 @@ static void camera_start(vf_vcm *v, camera_lane *lane, uint32_t px, uint32_t py,
   lane->rng = vf_rng_for_path(v->settings.seed, v->iteration, pixel, VF_STREAM_CAMERA);
   float jx = vf_rng_float(&lane->rng), jy = vf_rng_float(&lane->rng);
   path_state *s = &lane->s;
-  s->origin = v->camera.position;
-  s->direction = vf_camera_direction(&v->camera, (float)px + jx, (float)py + jy);
-  s->throughput = vf_vec3_splat(1.0f);
+  if (v->camera.lens_radius > 0.0f) {
+    /* A point on the thin lens, then the ray through the raster position in focus. The
+     * lens numbers come after the pixel's, and only for a lens: a pinhole's stream is
+     * what it always was. */
+    float u1 = vf_rng_float(&lane->rng), u2 = vf_rng_float(&lane->rng);
+    s->origin = vf_camera_lens_point(&v->camera, u1, u2);
+    s->direction = vf_camera_lens_direction(&v->camera, s->origin, (float)px + jx, (float)py + jy);
+  } else {
+    s->origin = v->camera.position;
+    s->direction = vf_camera_direction(&v->camera, (float)px + jx, (float)py + jy);
+  }
+  s->throughput = vf_vec3_splat(1.0f); /* W_e cos / (p(z0) pdf_w) = 1: camera.h */
   s->path_length = 1;
   s->specular_path = 1;
+  /* z1's quantities, tech. rep. eq. (31)-(33): p_connect / p_trace of the lens point is 1. */
   vf_mis_camera_start(&s->mis, &v->mis, vf_camera_pdf_w(&v->camera, s->direction));
 }
 

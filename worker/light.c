@@ -144,12 +144,38 @@ static vf_vec3 environment_sample(const vf_lights *ls, const vf_light *l, float 
   return environment_lookup(ls, l, *d, pdf_w);
 }
 
+/* A spot's intensity relative to its axis in direction cos_theta from it:
+ * KHR_lights_punctual's falloff, the square of the linear ramp in cos(theta) from 0 at the
+ * outer cone to 1 at the inner one. */
+static float spot_falloff(const vf_light *l, float cos_theta) {
+  float t = (cos_theta - l->cos_outer) * l->falloff_scale;
+  t = t < 1.0f ? vf_fmaxf_zero(t) : 1.0f;
+  return t * t;
+}
+
+static void set_up_spot(vf_light *l, const vf_point_light_desc *d) {
+  double inner = d->inner_cone_angle, outer = d->outer_cone_angle;
+  double one_minus_cos_outer = 2.0 * sin(0.5 * outer) * sin(0.5 * outer);
+  l->direction = vf_normalize(d->direction);
+  l->frame = vf_frame_from_normal(l->direction);
+  l->cos_outer = (float)cos(outer);
+  l->falloff_scale = (float)(1.0 / (cos(inner) - cos(outer)));
+  l->one_minus_cos_outer = (float)one_minus_cos_outer;
+  l->cone_pdf_w = (float)(1.0 / (2.0 * M_PI * one_minus_cos_outer));
+}
+
 static float estimated_power(const vf_lights *ls, const vf_light *l) {
   float disk = VF_PI * ls->scene_radius * ls->scene_radius;
   switch (l->kind) {
   case VF_LIGHT_AREA_MESH:
   case VF_LIGHT_AREA_SPHERE: return VF_PI * l->area * vf_luminance(l->radiance);
   case VF_LIGHT_POINT: return 4.0f * VF_PI * vf_luminance(l->radiance);
+  case VF_LIGHT_SPOT: {
+    /* The falloff integrated over the sphere: 2 pi times (1 - cos inner) at full intensity
+     * plus a third of (cos inner - cos outer) under the quadratic ramp. */
+    float ramp = 1.0f / l->falloff_scale;
+    return 2.0f * VF_PI * (l->one_minus_cos_outer - ramp + ramp / 3.0f) * vf_luminance(l->radiance);
+  }
   case VF_LIGHT_DIRECTIONAL: return disk * vf_luminance(l->radiance);
   case VF_LIGHT_ENVIRONMENT: {
     float mean = l->envmap ? l->envmap->integral : vf_luminance(l->radiance);
@@ -218,10 +244,12 @@ int vf_lights_create(const vf_scene *scene, vf_lights **out) {
   }
   for (int i = 0; i < scene->num_point_lights; i++) {
     vf_light *l = &ls->lights[ls->count++];
-    l->kind = VF_LIGHT_POINT;
-    l->position = scene->point_lights[i].position;
-    l->radiance = scene->point_lights[i].intensity;
+    const vf_point_light_desc *d = &scene->point_lights[i];
+    l->kind = d->is_spot ? VF_LIGHT_SPOT : VF_LIGHT_POINT;
+    l->position = d->position;
+    l->radiance = d->intensity;
     l->is_delta = l->is_finite = 1;
+    if (d->is_spot) set_up_spot(l, d);
   }
   for (int i = 0; i < scene->num_directional_lights; i++) {
     vf_light *l = &ls->lights[ls->count++];
@@ -316,6 +344,18 @@ vf_vec3 vf_light_emit_any(const vf_lights *ls, const vf_light *l, const float rn
     *direct_pdf_a = 1.0f;
     *cos_light = 1.0f;
     return l->radiance;
+  case VF_LIGHT_SPOT: {
+    /* Uniform over the outer cone's solid angle: 1 - cos(theta) uniform in [0, 1 - cos_outer). */
+    float one_minus_cos = rnd[0] * l->one_minus_cos_outer, cos_theta = 1.0f - one_minus_cos;
+    float sin_theta = sqrtf(vf_fmaxf_zero(one_minus_cos * (2.0f - one_minus_cos))), phi = 2.0f * VF_PI * rnd[1];
+    *position = l->position;
+    *direction = vf_frame_to_world(&l->frame, vf_vec3_make(sin_theta * cosf(phi), sin_theta * sinf(phi), cos_theta));
+    *normal = *direction;
+    *emission_pdf_w = l->cone_pdf_w;
+    *direct_pdf_a = 1.0f;
+    *cos_light = 1.0f;
+    return vf_scale(l->radiance, spot_falloff(l, cos_theta));
+  }
   case VF_LIGHT_DIRECTIONAL: {
     float x, y;
     vf_sample_concentric_disk(rnd[0], rnd[1], &x, &y);
@@ -364,7 +404,8 @@ vf_vec3 vf_light_illuminate_any(const vf_lights *ls, const vf_light *l, vf_vec3 
     return vf_light_illuminate_area_point(l, receiver, p, n, dir_to_light, distance, light_point, light_normal,
                                           direct_pdf_w, emission_pdf_w, cos_at_light);
   }
-  case VF_LIGHT_POINT: {
+  case VF_LIGHT_POINT:
+  case VF_LIGHT_SPOT: {
     vf_vec3 d = vf_sub(l->position, receiver);
     float dist2 = vf_length_sq(d);
     float dist = sqrtf(dist2);
@@ -374,9 +415,15 @@ vf_vec3 vf_light_illuminate_any(const vf_lights *ls, const vf_light *l, vf_vec3 
     *light_point = l->position;
     *light_normal = vf_neg(*dir_to_light);
     *direct_pdf_w = dist2;
-    *emission_pdf_w = VF_UNIFORM_SPHERE_PDF_W;
     *cos_at_light = 1.0f;
-    return l->radiance;
+    if (l->kind == VF_LIGHT_POINT) {
+      *emission_pdf_w = VF_UNIFORM_SPHERE_PDF_W;
+      return l->radiance;
+    }
+    /* The light sub-path's density of this direction, the cone's (tech. rep. eq. 45, 48). */
+    float cos_theta = vf_dot(l->direction, *light_normal);
+    *emission_pdf_w = l->cone_pdf_w;
+    return cos_theta > l->cos_outer ? vf_scale(l->radiance, spot_falloff(l, cos_theta)) : zero;
   }
   case VF_LIGHT_DIRECTIONAL:
     *dir_to_light = vf_neg(l->direction);

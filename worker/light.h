@@ -12,7 +12,9 @@
  * None of them include the light-selection probability (vf_light.pick_probability).
  *
  * Kinds: area lights (emissive triangle meshes and spheres, one-sided, cosine emission),
- * point lights (delta position), directional lights (delta direction, infinite), and one
+ * point lights (delta position), spot lights (delta position, emitting into a cone with
+ * KHR_lights_punctual's smooth falloff, sampled uniformly over the cone's solid angle),
+ * directional lights (delta direction, infinite), and one
  * environment light (infinite) that unites the constant background and the
  * latitude-longitude map: radiance(d) = background + scale * map(d), importance sampled by
  * the map's luminance when there is a map. */
@@ -30,6 +32,7 @@ typedef enum {
   VF_LIGHT_AREA_MESH,
   VF_LIGHT_AREA_SPHERE,
   VF_LIGHT_POINT,
+  VF_LIGHT_SPOT,
   VF_LIGHT_DIRECTIONAL,
   VF_LIGHT_ENVIRONMENT
 } vf_light_kind;
@@ -45,14 +48,18 @@ typedef struct {
 typedef struct {
   vf_light_kind kind;
   float pick_probability;
-  vf_vec3 radiance;          /* area: Le; point: intensity; directional: irradiance */
+  vf_vec3 radiance;          /* area: Le; point: intensity; spot: intensity on the axis; directional: irradiance */
   const vf_shape *shape;     /* area lights; borrowed from the scene */
   float *triangle_cdf;       /* area meshes: cumulative triangle areas / total, owned */
   vf_light_triangle *triangles; /* area meshes: per triangle, owned */
   float area, inv_area;
-  vf_vec3 position;          /* point */
-  vf_vec3 direction;         /* directional: direction of travel */
-  vf_frame frame;            /* directional: frame around direction */
+  vf_vec3 position;          /* point and spot */
+  vf_vec3 direction;         /* directional: direction of travel; spot: its axis */
+  vf_frame frame;            /* directional and spot: frame around direction */
+  float cos_outer;           /* spot: cosine of the outer cone's half-angle; nothing beyond */
+  float falloff_scale;       /* spot: 1 / (cos inner - cos outer), the falloff's slope in cos */
+  float one_minus_cos_outer; /* spot: 1 - cos_outer, without cancellation for narrow cones */
+  float cone_pdf_w;          /* spot: 1 / (2 pi (1 - cos_outer)), emission's solid-angle density */
   const vf_envmap *envmap;   /* environment: NULL for a constant background */
   int is_delta, is_finite;
 } vf_light;
@@ -145,7 +152,7 @@ vf_vec3 vf_light_illuminate_any(const vf_lights *ls, const vf_light *l, vf_vec3 
                                 float *cos_at_light);
 
 /* Samples the light from `receiver`. *distance is the distance to the sampled point (INFINITY
- * for infinite lights); *light_point is that point (area and point lights).
+ * for infinite lights); *light_point is that point (area, point and spot lights).
  * Area meshes, the common light, are sampled inline: every camera vertex samples a light,
  * and out of line the receiver and the seven results went through memory. */
 static inline vf_vec3 vf_light_illuminate(const vf_lights *ls, const vf_light *l, vf_vec3 receiver,

@@ -80,24 +80,35 @@ static void resolve_splats(vf_vcm *v, int thread, light_chunk *c) {
   }
 }
 
-/* A splat of the light pass that counts only if the segment from p (normal n) to the
- * camera is free. */
+/* A splat of the light pass that counts only if the segment from p (normal n) to the lens
+ * point is free. */
 static void splat_if_visible(vf_vcm *v, int thread, light_chunk *c, uint32_t path, uint32_t pixel, uint32_t band,
-                             vf_vec3 rgb, vf_vec3 p, vf_vec3 n) {
+                             vf_vec3 rgb, vf_vec3 p, vf_vec3 n, vf_vec3 lens) {
   if (!push_splat(c, pixel, band, rgb, path)) return;
   shadow_packet *pk = &v->stats[thread].packet;
-  queue_segment(v, pk, (int)(c->num_splats - 1), p, n, v->camera.position, vf_vec3_splat(0.0f));
+  queue_segment(v, pk, (int)(c->num_splats - 1), p, n, lens, vf_vec3_splat(0.0f));
   if (pk->n == VF_ACCEL_PACKET) resolve_splats(v, thread, c);
 }
 
-/* Projects point p, seen along -dir_to_camera, onto the image: its raster pixel and the
- * camera's density of that direction per unit of image area (in solid angle); 0 when p is
- * behind the camera or outside the image. Checked before anything is evaluated at p: a
- * good part of the light vertices lie outside the view. */
-static int camera_project(const vf_vcm *v, vf_vec3 p, vf_vec3 dir_to_camera, uint32_t *pixel, uint32_t *band,
-                          float *image_to_solid_angle) {
+/* The lens point a light vertex connects to (t = 1): the pinhole, or a point sampled
+ * uniformly on the thin lens from the light sub-path's stream (drawn only for a lens, so
+ * pinhole renders keep their streams). Its density 1 / (pi r^2) is the camera
+ * sub-paths' too (p_connect = p_trace, tech. rep. eq. 46), and it cancels against the
+ * importance's (camera.h). */
+static vf_vec3 lens_sample(const vf_vcm *v, vf_rng *rng) {
+  if (!(v->camera.lens_radius > 0.0f)) return v->camera.position;
+  float u1 = vf_rng_float(rng), u2 = vf_rng_float(rng);
+  return vf_camera_lens_point(&v->camera, u1, u2);
+}
+
+/* Projects point p, seen from lens point `lens` along -dir_to_camera, onto the image: its
+ * raster pixel and the camera's density of that direction per unit of image area (in
+ * solid angle); 0 when p is behind the lens or outside the image. Checked before anything
+ * is evaluated at p: a good part of the light vertices lie outside the view. */
+static int camera_project(const vf_vcm *v, vf_vec3 lens, vf_vec3 p, vf_vec3 dir_to_camera, uint32_t *pixel,
+                          uint32_t *band, float *image_to_solid_angle) {
   float x, y;
-  if (!vf_camera_raster(&v->camera, p, &x, &y)) return 0;
+  if (!vf_camera_raster(&v->camera, lens, p, &x, &y)) return 0;
   float cos_at_camera = -vf_dot(v->camera.forward, dir_to_camera);
   if (!(cos_at_camera > 0.0f)) return 0;
   *pixel = (uint32_t)y * (uint32_t)v->camera.width + (uint32_t)x;
@@ -113,33 +124,37 @@ static float camera_pdf_a(float image_to_solid_angle, float dist, float cos_at_p
   return image_to_solid_angle * cos_at_p / (dist * dist);
 }
 
-/* t = 1: projects light vertex (hit, b) onto the image. */
+/* t = 1: connects light vertex (hit, b) to a lens point and projects it onto the image. */
 static void connect_to_camera(vf_vcm *v, int thread, light_chunk *c, uint32_t path, const vf_hit *hit,
-                              const vf_bsdf *b, const path_state *s) {
-  vf_vec3 to_camera = vf_sub(v->camera.position, hit->position);
+                              const vf_bsdf *b, const path_state *s, vf_rng *rng) {
+  vf_vec3 lens = lens_sample(v, rng);
+  vf_vec3 to_camera = vf_sub(lens, hit->position);
   float dist = vf_length(to_camera);
   if (!(dist > 0.0f)) return;
   to_camera = vf_scale(to_camera, 1.0f / dist);
   uint32_t pixel, band;
   float image_to_solid_angle;
-  if (!camera_project(v, hit->position, to_camera, &pixel, &band, &image_to_solid_angle)) return;
+  if (!camera_project(v, lens, hit->position, to_camera, &pixel, &band, &image_to_solid_angle)) return;
   float cos_to_camera, dir_pdf, rev_pdf;
   vf_vec3 f = vf_bsdf_evaluate(b, to_camera, &cos_to_camera, &dir_pdf, &rev_pdf);
   if (vf_is_zero(f)) return;
   float pdf_a = camera_pdf_a(image_to_solid_angle, dist, cos_to_camera);
   if (!(pdf_a > 0.0f)) return;
+  /* Eq. (46)-(47); pdf_a is the camera's area density of the vertex from the lens point. */
   float w = v->t.lt ? 1.0f : vf_mis_weight_camera_connection(&s->mis, &v->mis, pdf_a, rev_pdf);
-  /* Importance of the pinhole camera over the light sub-path density n_light. */
+  /* The importance times the geometry term over the lens density, W_e G / p(z0) = pdf_a
+   * (camera.h), over the light sub-path density n_light. */
   vf_vec3 contrib = vf_scale(vf_mul(s->throughput, f), w * pdf_a / v->mis.light_paths);
   if (vf_is_zero(contrib)) return;
-  splat_if_visible(v, thread, c, path, pixel, band, contrib, hit->position, hit->normal);
+  splat_if_visible(v, thread, c, path, pixel, band, contrib, hit->position, hit->normal, lens);
 }
 
 /* Light tracing alone also projects the light's own point y0 (the s = 1, t = 1 technique,
  * which the full estimator leaves to emission hits). */
 static void connect_emitter_to_camera(vf_vcm *v, int thread, light_chunk *c, uint32_t path, const vf_light *l,
-                                      vf_vec3 p, vf_vec3 n, float pick_and_area_pdf) {
-  vf_vec3 to_camera = vf_sub(v->camera.position, p);
+                                      vf_vec3 p, vf_vec3 n, float pick_and_area_pdf, vf_rng *rng) {
+  vf_vec3 lens = lens_sample(v, rng);
+  vf_vec3 to_camera = vf_sub(lens, p);
   float dist = vf_length(to_camera);
   if (!(dist > 0.0f)) return;
   to_camera = vf_scale(to_camera, 1.0f / dist);
@@ -147,11 +162,11 @@ static void connect_emitter_to_camera(vf_vcm *v, int thread, light_chunk *c, uin
   if (!(cos_out > 0.0f)) return;
   uint32_t pixel, band;
   float image_to_solid_angle;
-  if (!camera_project(v, p, to_camera, &pixel, &band, &image_to_solid_angle)) return;
+  if (!camera_project(v, lens, p, to_camera, &pixel, &band, &image_to_solid_angle)) return;
   float pdf_a = camera_pdf_a(image_to_solid_angle, dist, cos_out);
   if (!(pdf_a > 0.0f)) return;
   vf_vec3 contrib = vf_scale(l->radiance, pdf_a / (v->mis.light_paths * pick_and_area_pdf));
-  splat_if_visible(v, thread, c, path, pixel, band, contrib, p, n);
+  splat_if_visible(v, thread, c, path, pixel, band, contrib, p, n, lens);
 }
 
 /* A light sub-path in flight. The light pass traces VF_ACCEL_PACKET of them at once, as a
@@ -183,7 +198,7 @@ static int light_start(vf_vcm *v, int thread, light_chunk *c, light_lane *lane, 
                                  &cos_light);
   if (vf_is_zero(energy) || !(emission_pdf > 0.0f)) return 0;
   if (v->t.lt && l->is_finite && !l->is_delta)
-    connect_emitter_to_camera(v, thread, c, path - begin, l, s->origin, normal, l->pick_probability * direct_pdf);
+    connect_emitter_to_camera(v, thread, c, path - begin, l, s->origin, normal, l->pick_probability * direct_pdf, rng);
   emission_pdf *= l->pick_probability;
   direct_pdf *= l->pick_probability;
   s->throughput = vf_scale(energy, 1.0f / emission_pdf);
@@ -211,7 +226,7 @@ static int light_bounce(vf_vcm *v, int thread, light_chunk *c, light_lane *lane,
           (light_vertex){hit->position, s->throughput, vf_neg(s->direction), hit->normal, s->mis,
                          (uint32_t)s->path_length | material << VERTEX_LENGTH_BITS};
     }
-    if (v->t.light_to_camera) connect_to_camera(v, thread, c, lane->path - begin, hit, &b, s);
+    if (v->t.light_to_camera) connect_to_camera(v, thread, c, lane->path - begin, hit, &b, s, &lane->rng);
   }
   if (s->path_length + 2 > v->settings.max_path_length) return 0;
   return vf_wavefront_scatter(v, &b, hit, s, &lane->rng, 0);

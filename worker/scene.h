@@ -20,6 +20,8 @@ typedef struct {
   vf_vec3 forward; /* unit */
   vf_vec3 up;      /* unit, orthogonal to forward */
   float vertical_fov_degrees;
+  float aperture;       /* thin lens: radius of the lens, >= 0; 0 is a pinhole */
+  float focus_distance; /* thin lens: distance along forward of the plane in focus, > 0 when aperture > 0 */
 } vf_camera_desc;
 
 typedef enum { VF_SHAPE_MESH, VF_SHAPE_SPHERE } vf_shape_kind;
@@ -41,9 +43,15 @@ typedef struct {
   float radius;
 } vf_shape;
 
+/* A point light, or a spot light (is_spot): a point light whose intensity is that of the
+ * axis inside the inner cone, falls off smoothly to zero at the outer cone and is zero
+ * beyond (KHR_lights_punctual's spot). Both are "punctual": a delta in position. */
 typedef struct {
   vf_vec3 position;
-  vf_vec3 intensity; /* radiant intensity, W/sr per channel */
+  vf_vec3 intensity; /* radiant intensity, W/sr per channel (a spot's on its axis) */
+  int is_spot;
+  vf_vec3 direction; /* spot: unit axis, the way the light shines */
+  float inner_cone_angle, outer_cone_angle; /* spot: half-angles in radians, 0 <= inner < outer <= pi/2 */
 } vf_point_light_desc;
 
 typedef struct {

@@ -1,5 +1,5 @@
 /* Built-in scenes: the Cornell box family (with the benchmark suite's SDS, diffuse-only and
- * glossy members), the white furnace and the 100k-triangle knot.
+ * glossy members, a spot light and a thin lens), the white furnace and the 100k-triangle knot.
  *
  * Each one is written out as JSON in the documented format (docs/SCENES.md) and parsed by
  * vf_scene_parse, so a built-in is validated, bounded and hashed exactly like a file, and
@@ -21,7 +21,7 @@
 
 static const char *const builtin_names[] = {"cornell", "cornell-point", "cornell-sun", "cornell-env",
                                             "furnace", "knot", "cornell-bulb", "cornell-diffuse",
-                                            "cornell-glossy", NULL};
+                                            "cornell-glossy", "cornell-spot", "cornell-dof", NULL};
 
 const char *const *vf_scene_builtin_names(void) { return builtin_names; }
 
@@ -187,6 +187,8 @@ enum {
   WITH_BACKGROUND = 1 << 3,
   WITH_KNOT = 1 << 4,
   WITH_BULB = 1 << 5, /* a small spherical lamp inside a glass sphere: all light leaves through glass */
+  WITH_SPOT = 1 << 6,
+  WITH_LENS = 1 << 7, /* a thin-lens camera, nearer, focused on the glass ball */
 };
 
 /* A member of the Cornell family: the box with its floor and back wall, two balls on the
@@ -223,6 +225,8 @@ static const cornell_variant cornells[] = {
      "{'diffuse':[0.25,0.25,0.25],'glossy':[0.6,0.6,0.6],'exponent':150}", "chrome ball",
      "{'glossy':[0.9,0.9,0.9],'exponent':5000}", "blue glossy ball",
      "{'diffuse':[0.1,0.1,0.3],'glossy':[0.7,0.7,0.7],'exponent':200}"},
+    {"cornell-spot", WITH_SPOT, FLOOR_GLOSSY, NULL, "mirror", MIRROR, "glass", GLASS},
+    {"cornell-dof", WITH_LENS | WITH_AREA_LIGHT, FLOOR_GLOSSY, NULL, "mirror", MIRROR, "glass", GLASS},
 };
 
 /* The shared box: [-1,1]^3 open at z = +1, walls facing inwards. */
@@ -230,8 +234,14 @@ static void put_cornell(text_buf *t, const cornell_variant *c) {
   const vf_vec3 zero = vf_vec3_splat(0.0f), ex = vf_vec3_make(1, 0, 0), ey = vf_vec3_make(0, 1, 0),
                 ez = vf_vec3_make(0, 0, 1);
   const unsigned with = c->with;
-  put(t, "{'camera':{'position':[0,0,3.6],'target':[0,0,0],'up':[0,1,0],'fov':38,'resolution':[512,512]},"
-         "'materials':{'white':{'diffuse':[0.75,0.75,0.75]},'red':{'diffuse':[0.75,0.15,0.15]},"
+  /* The lens camera sits at the balls' height, focused on the plane of the glass ball's
+   * centre: the mirror ball and the back wall blur. */
+  if (with & WITH_LENS)
+    put(t, "{'camera':{'position':[0,-0.35,3],'target':[0,-0.35,0],'up':[0,1,0],'fov':38,'aperture':0.1,"
+           "'focus_distance':2.75,'resolution':[512,512]},");
+  else
+    put(t, "{'camera':{'position':[0,0,3.6],'target':[0,0,0],'up':[0,1,0],'fov':38,'resolution':[512,512]},");
+  put(t, "'materials':{'white':{'diffuse':[0.75,0.75,0.75]},'red':{'diffuse':[0.75,0.15,0.15]},"
          "'green':{'diffuse':[0.15,0.75,0.15]},'floor':%s",
       c->floor_material);
   if (c->back_material) put(t, ",'back':%s", c->back_material);
@@ -264,6 +274,10 @@ static void put_cornell(text_buf *t, const cornell_variant *c) {
   /* Exposures roughly match the area light's: the point light's downward hemisphere
    * carries about the area light's power (pi * 0.36 m^2 * 12). */
   if (with & WITH_POINT_LIGHT) put(t, "{'type':'point','position':[0,0.85,0],'intensity':[1.8,1.8,1.8]}");
+  /* Tilted to the back so that the outer cone's edge crosses the back wall. */
+  if (with & WITH_SPOT)
+    put(t, "{'type':'spot','position':[0,0.9,0.2],'direction':[0,-1,-0.3],'intensity':[6,6,6],"
+           "'inner_cone_angle':20,'outer_cone_angle':35}");
   if (with & WITH_SUN) {
     vf_vec3 d = vf_normalize(vf_vec3_make(-0.35f, -0.55f, -0.75f));
     put(t, "{'type':'directional','direction':[%.9g,%.9g,%.9g],'irradiance':[3,3,3]}", d.x, d.y, d.z);

@@ -209,10 +209,27 @@ static int parse_resolution(const parse_ctx *c, const cJSON *item, vf_settings *
   return VF_OK;
 }
 
+/* The thin lens: a radius and the distance in focus, by default the target's. */
+static int parse_lens(const parse_ctx *c, const cJSON *cam, const vf_vec3 *target, vf_camera_desc *d) {
+  int err = float_field(c, cam, "camera", "aperture", OPTIONAL, &d->aperture);
+  if (err < 0) return err;
+  if (!(d->aperture >= 0.0f))
+    return vf_scene_fail(c, VF_ESCENE, "camera.aperture", "the lens radius must be >= 0, found %g", d->aperture);
+  int has_focus = float_field(c, cam, "camera", "focus_distance", OPTIONAL, &d->focus_distance);
+  if (has_focus < 0) return has_focus;
+  if (has_focus && !(d->focus_distance > 0.0f))
+    return vf_scene_fail(c, VF_ESCENE, "camera.focus_distance", "must be > 0, found %g", d->focus_distance);
+  if (!has_focus && d->aperture > 0.0f) {
+    if (target == NULL) return vf_scene_fail(c, VF_ESCENE, "camera", "missing field 'focus_distance' (or 'target')");
+    d->focus_distance = vf_length(vf_sub(*target, d->position));
+  }
+  return VF_OK;
+}
+
 static int parse_camera(const parse_ctx *c, const cJSON *cam) {
-  static const char *const fields[] = {"position", "target", "forward", "up", "fov", "resolution", NULL};
+  static const char *const fields[] = {"position", "target", "forward", "up", "fov", "resolution", "aperture", "focus_distance", NULL};
   vf_scene *s = c->scene;
-  vf_camera_desc d;
+  vf_camera_desc d = {.aperture = 0.0f, .focus_distance = 0.0f};
   vf_vec3 target, forward, up = vf_vec3_make(0.0f, 1.0f, 0.0f);
   int err = check_object(c, cam, "camera", fields);
   if (err < 0) return err;
@@ -235,6 +252,7 @@ static int parse_camera(const parse_ctx *c, const cJSON *cam) {
   if ((err = float_field(c, cam, "camera", "fov", REQUIRED, &d.vertical_fov_degrees)) < 0) return err;
   if (!(d.vertical_fov_degrees > 0.0f && d.vertical_fov_degrees < 180.0f))
     return vf_scene_fail(c, VF_ESCENE, "camera.fov", "must be in (0, 180) degrees, found %g", d.vertical_fov_degrees);
+  if ((err = parse_lens(c, cam, has_target ? &target : NULL, &d)) < 0) return err;
   const cJSON *res;
   int has_resolution = member(c, cam, "camera", "resolution", OPTIONAL, &res);
   if (has_resolution) {
@@ -593,8 +611,30 @@ static int load_envmap(const parse_ctx *c, const char *file, const char *path) {
   return VF_OK;
 }
 
+/* A spot's axis and cone, given in degrees (the format's angles) and kept in radians. */
+static int parse_spot(const parse_ctx *c, const cJSON *j, const char *path, vf_point_light_desc *l) {
+  char p[PATH_LEN];
+  vf_vec3 d;
+  float inner = 0.0f, outer = 45.0f; /* KHR_lights_punctual's defaults */
+  int err = vec3_field(c, j, path, "direction", REQUIRED, &d);
+  if (err < 0) return err;
+  if (!unit(d, &l->direction)) return vf_scene_fail(c, VF_ESCENE, vf_scene_join(p, path, "direction"), "zero vector");
+  if ((err = float_field(c, j, path, "inner_cone_angle", OPTIONAL, &inner)) < 0) return err;
+  if ((err = float_field(c, j, path, "outer_cone_angle", OPTIONAL, &outer)) < 0) return err;
+  if (!(outer > 0.0f && outer <= 90.0f))
+    return vf_scene_fail(c, VF_ESCENE, vf_scene_join(p, path, "outer_cone_angle"), "must be in (0, 90] degrees, found %g", outer);
+  if (!(inner >= 0.0f && inner < outer))
+    return vf_scene_fail(c, VF_ESCENE, vf_scene_join(p, path, "inner_cone_angle"),
+                         "must be in [0, outer_cone_angle = %g) degrees, found %g", outer, inner);
+  l->is_spot = 1;
+  l->inner_cone_angle = inner * (float)(M_PI / 180.0);
+  l->outer_cone_angle = outer * (float)(M_PI / 180.0);
+  return VF_OK;
+}
+
 static int parse_light(const parse_ctx *c, const cJSON *j, int index, int *num_distant) {
   static const char *const point_fields[] = {"type", "position", "intensity", NULL};
+  static const char *const spot_fields[] = {"type", "position", "intensity", "direction", "inner_cone_angle", "outer_cone_angle", NULL};
   static const char *const directional_fields[] = {"type", "direction", "irradiance", NULL};
   static const char *const background_fields[] = {"type", "radiance", NULL};
   static const char *const environment_fields[] = {"type", "file", "scale", NULL};
@@ -605,11 +645,13 @@ static int parse_light(const parse_ctx *c, const cJSON *j, int index, int *num_d
   vf_scene_join_index(path, "lights", index);
   if (!cJSON_IsObject(j)) return vf_scene_fail(c, VF_ESCENE, path, "expected an object, found %s", kind(j));
   if ((err = string_field(c, j, path, "type", REQUIRED, &type)) < 0) return err;
-  if (strcmp(type, "point") == 0) {
+  if (strcmp(type, "point") == 0 || strcmp(type, "spot") == 0) {
     vf_point_light_desc *l = &s->point_lights[s->num_point_lights];
-    if ((err = check_object(c, j, path, point_fields)) < 0) return err;
+    int spot = type[0] == 's';
+    if ((err = check_object(c, j, path, spot ? spot_fields : point_fields)) < 0) return err;
     if ((err = vec3_field(c, j, path, "position", REQUIRED, &l->position)) < 0) return err;
     if ((err = rgb_field(c, j, path, "intensity", REQUIRED, "intensity", &l->intensity)) < 0) return err;
+    if (spot && (err = parse_spot(c, j, path, l)) < 0) return err;
     s->num_point_lights++;
   } else if (strcmp(type, "directional") == 0) {
     vf_directional_light_desc *l = &s->directional_lights[s->num_directional_lights];
@@ -635,7 +677,7 @@ static int parse_light(const parse_ctx *c, const cJSON *j, int index, int *num_d
     }
   } else {
     return vf_scene_fail(c, VF_ESCENE, vf_scene_join(p, path, "type"),
-                "unknown light type '%s' (expected point, directional, background or environment)", type);
+                "unknown light type '%s' (expected point, spot, directional, background or environment)", type);
   }
   return VF_OK;
 }

@@ -149,18 +149,21 @@ const char *vf_vcm_merge_simd(const vf_vcm *v) {
 
 void vf_vcm_describe(const vf_vcm *v, FILE *out) {
   const techniques *t = &v->t;
-  int area = 0, point = 0, directional = 0;
+  int area = 0, point = 0, spot = 0, directional = 0;
   for (int i = 0; i < v->lights->count; i++) {
     vf_light_kind k = v->lights->lights[i].kind;
     area += k == VF_LIGHT_AREA_MESH || k == VF_LIGHT_AREA_SPHERE;
     point += k == VF_LIGHT_POINT;
+    spot += k == VF_LIGHT_SPOT;
     directional += k == VF_LIGHT_DIRECTIONAL;
   }
   int sds = v->has_specular && (v->has_diffuse || v->has_glossy);
-  fprintf(out, "scene: %d area, %d point, %d directional light(s)%s; %s%s%s surfaces; SDS paths %s\n", area, point,
-          directional, v->lights->environment >= 0 ? ", environment" : "", v->has_diffuse ? "diffuse " : "",
+  fprintf(out, "scene: %d area, %d point, %d spot, %d directional light(s)%s; %s%s%s surfaces; SDS paths %s\n", area,
+          point, spot, directional, v->lights->environment >= 0 ? ", environment" : "", v->has_diffuse ? "diffuse " : "",
           v->has_glossy ? "glossy " : "", v->has_specular ? "specular" : "",
           sds ? "possible" : "impossible");
+  if (v->camera.lens_radius > 0.0f)
+    fprintf(out, "camera: thin lens of radius %g, in focus at %g\n", v->camera.lens_radius, v->camera.focus_distance);
   if (v->requested == VF_ALGO_AUTO)
     fprintf(out, "auto: %s (%s)\n", vf_algorithm_name(v->settings.algorithm), v->auto_reason);
   fprintf(out,
