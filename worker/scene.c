@@ -36,6 +36,38 @@ void vf_scene_compute_bounds(vf_scene *s) {
   s->bounds_max = hi;
 }
 
+static int beyond(float v) { return !(fabsf(v) <= VF_SCENE_MAX_COORDINATE); }
+static int beyond3(vf_vec3 v) { return beyond(v.x) || beyond(v.y) || beyond(v.z); }
+
+int vf_scene_check_extent(const vf_scene *s, const char *label) {
+  const char *what = NULL;
+  int index = -1;
+  for (int i = 0; i < s->num_shapes && what == NULL; i++) {
+    const vf_shape *sh = &s->shapes[i];
+    if (sh->kind == VF_SHAPE_SPHERE) {
+      if (beyond3(sh->center) || beyond(sh->radius) || beyond(fabsf(sh->center.x) + sh->radius) ||
+          beyond(fabsf(sh->center.y) + sh->radius) || beyond(fabsf(sh->center.z) + sh->radius))
+        what = "shapes", index = i;
+      continue;
+    }
+    for (uint32_t k = 0; k < 3 * sh->num_vertices; k++)
+      if (beyond(sh->positions[k])) {
+        what = "shapes", index = i;
+        break;
+      }
+  }
+  if (what == NULL && beyond3(s->camera.position)) what = "camera.position";
+  if (what == NULL && (beyond(s->camera.aperture) || beyond(s->camera.focus_distance))) what = "camera (lens)";
+  for (int i = 0; i < s->num_point_lights && what == NULL; i++)
+    if (beyond3(s->point_lights[i].position)) what = "lights", index = i;
+  if (what == NULL) return VF_OK;
+  if (index >= 0)
+    return vf_error_set(VF_ESCENE, "%s: %s[%d]: a coordinate beyond %g in world space: the renderer cannot trace it "
+                        "(scale the scene down)", label, what, index, (double)VF_SCENE_MAX_COORDINATE);
+  return vf_error_set(VF_ESCENE, "%s: %s: a coordinate beyond %g in world space: the renderer cannot trace it", label,
+                      what, (double)VF_SCENE_MAX_COORDINATE);
+}
+
 /* Reads a whole file into a NUL-terminated buffer the caller frees. */
 static int read_text(const char *path, char **text, size_t *length) {
   FILE *f = fopen(path, "rb");
@@ -128,6 +160,8 @@ int vf_scene_scale(vf_scene *s, double factor) {
     sh->radius *= f;
   }
   s->camera.position = vf_scale(s->camera.position, f);
+  s->camera.aperture *= f; /* a thin lens is a length, and so is its distance in focus */
+  s->camera.focus_distance *= f;
   /* Irradiance from a point light falls with the square of the distance: its intensity
    * grows with the square of the scale. Area lights keep their radiance, directional lights
    * their irradiance, the environment its radiance: none depends on distance. */
@@ -135,6 +169,8 @@ int vf_scene_scale(vf_scene *s, double factor) {
     s->point_lights[i].position = vf_scale(s->point_lights[i].position, f);
     s->point_lights[i].intensity = vf_scale(s->point_lights[i].intensity, (float)(factor * factor));
   }
+  int err = vf_scene_check_extent(s, s->source);
+  if (err != VF_OK) return err;
   vf_scene_compute_bounds(s);
   vf_scene_hash(s);
   return VF_OK;
@@ -216,6 +252,11 @@ void vf_scene_hash(vf_scene *s) {
   h_vec3(&h, s->camera.forward);
   h_vec3(&h, s->camera.up);
   h_f32(&h, s->camera.vertical_fov_degrees);
+  if (s->camera.aperture > 0.0f) { /* only then: pinhole scenes keep the hashes they had */
+    h_tag(&h, "thin lens");
+    h_f32(&h, s->camera.aperture);
+    h_f32(&h, s->camera.focus_distance);
+  }
   h_tag(&h, "materials");
   h_u32(&h, (uint32_t)s->num_materials);
   for (int i = 0; i < s->num_materials; i++) {
@@ -249,6 +290,12 @@ void vf_scene_hash(vf_scene *s) {
   for (int i = 0; i < s->num_point_lights; i++) {
     h_vec3(&h, s->point_lights[i].position);
     h_vec3(&h, s->point_lights[i].intensity);
+    if (s->point_lights[i].is_spot) { /* only then: point lights keep the hashes they had */
+      h_tag(&h, "spot");
+      h_vec3(&h, s->point_lights[i].direction);
+      h_f32(&h, s->point_lights[i].inner_cone_angle);
+      h_f32(&h, s->point_lights[i].outer_cone_angle);
+    }
   }
   h_u32(&h, (uint32_t)s->num_directional_lights);
   for (int i = 0; i < s->num_directional_lights; i++) {

@@ -803,7 +803,7 @@ static int parse(const char *text, size_t length, const char *label, const char 
   snprintf(scene->source, sizeof scene->source, "%s", label);
   vf_settings_default(&scene->settings);
   parse_ctx c = {label, base_dir, memfiles, num_memfiles, scene, files};
-  if ((err = parse_root(&c, root)) < 0) goto fail;
+  if ((err = parse_root(&c, root)) < 0 || (err = vf_scene_check_extent(scene, label)) < 0) goto fail;
   vf_scene_compute_bounds(scene);
   vf_scene_hash(scene);
   cJSON_Delete(root);

@@ -25,6 +25,16 @@ typedef struct {
   struct vf_scene_files *files;
 } parse_ctx;
 
+/* The largest coordinate magnitude a scene may have, in world space after every transform
+ * (vertices, sphere bounds, the camera, point lights). Embree asserts that ray origins
+ * stay below 1.8e18 and the renderer squares distances in floats (3.4e38 at most): 1e15
+ * keeps both with a wide margin. docs/SCENES.md states it. */
+#define VF_SCENE_MAX_COORDINATE 1e15f
+
+/* Refuses (VF_ESCENE naming the scene, what and where) a scene with a coordinate beyond
+ * VF_SCENE_MAX_COORDINATE: the renderer could not trace it. */
+int vf_scene_check_extent(const vf_scene *scene, const char *label);
+
 /* Records "LABEL: PATH: message" (or "LABEL: message" without a path) and returns err. */
 int vf_scene_fail(const parse_ctx *c, int err, const char *path, const char *fmt, ...)
     __attribute__((format(printf, 4, 5)));
