@@ -156,8 +156,10 @@ mesh_scene)
   [ "$(fetched w1)" = 5 ] && [ "$(fetched w2)" = 5 ] ||
     fail "each worker should have fetched the 5 files once: w1 $(fetched w1), w2 $(fetched w2)"
   [ "$(served)" = 10 ] || fail "the coordinator served $(served) blobs, expected 10"
-  # A cache holds blobs named by hash, nothing else: the "../" names were never paths.
-  stray=$(find "$tmp/cache-w1" "$tmp/cache-w2" -type f | grep -Ev '/cache-w[12]/blobs/[0-9a-f]{64}$')
+  # A cache holds blobs named by hash and its marker (common/blob.h), nothing else: the
+  # "../" names were never paths.
+  stray=$(find "$tmp/cache-w1" "$tmp/cache-w2" -type f |
+    grep -Ev '/cache-w[12]/(blobs/[0-9a-f]{64}|vcmfarm-worker-cache)$')
   [ -z "$stray" ] || fail "unexpected files in a cache: $stray"
   [ "$(find "$tmp/cache-w1" -type f | wc -l)" = 5 ] || fail "cache-w1 should hold exactly 5 blobs"
   grep -rq "tri.gltf" "$tmp/state/job-$job.files" || fail "the job's file table was not kept"
