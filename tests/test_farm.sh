@@ -161,7 +161,7 @@ mesh_scene)
   stray=$(find "$tmp/cache-w1" "$tmp/cache-w2" -type f |
     grep -Ev '/cache-w[12]/(blobs/[0-9a-f]{64}|vcmfarm-worker-cache)$')
   [ -z "$stray" ] || fail "unexpected files in a cache: $stray"
-  [ "$(find "$tmp/cache-w1" -type f | wc -l)" = 5 ] || fail "cache-w1 should hold exactly 5 blobs"
+  [ "$(find "$tmp/cache-w1/blobs" -type f | wc -l)" = 5 ] || fail "cache-w1 should hold exactly 5 blobs"
   grep -rq "tri.gltf" "$tmp/state/job-$job.files" || fail "the job's file table was not kept"
   # The coordinator is killed and restarted: its blobs survive and serve the next job,
   # which reuses them (nothing sent) and the workers' caches (nothing fetched).
