@@ -4,11 +4,11 @@
 #include "../common/error.h"
 #include "../common/farm_client.h"
 #include "../common/file.h"
-#include "../common/film_wire.h"
 #include "../common/image.h"
 #include "../worker/job_scene.h"
 #include "../coordinator/job.h"
 #include "../coordinator/schedule.h"
+#include "fetch.h"
 #include "submit.h"
 
 #include <cjson/cJSON.h>
@@ -16,6 +16,7 @@
 #include <errno.h>
 #include <getopt.h>
 #include <math.h>
+#include <sodium.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -42,16 +43,23 @@ static int connection_option(connection *conn, int c, int *err) {
   }
 }
 
-/* One request, one reply of the expected kind. */
-static int request(const connection *conn, Vcmfarm__Envelope *q, Vcmfarm__Envelope__BodyCase expected,
-                   Vcmfarm__Envelope **reply) {
+/* A client of the coordinator the options name; *client on success only. */
+static int connect_to(const connection *conn, vf_farm_client **client) {
   if (conn->url == NULL || conn->secret == NULL)
     return vf_error_set(VF_EUSAGE, "--coordinator URL and --secret FILE are required");
   vf_wire_key key;
-  vf_farm_client *client;
   int err = vf_wire_key_load(conn->secret, &key);
+  if (err == VF_OK) err = vf_farm_client_open(conn->url, &key, client);
+  sodium_memzero(&key, sizeof key);
+  return err;
+}
+
+/* One request, one reply of the expected kind. */
+static int request(const connection *conn, Vcmfarm__Envelope *q, Vcmfarm__Envelope__BodyCase expected,
+                   Vcmfarm__Envelope **reply) {
+  vf_farm_client *client;
+  int err = connect_to(conn, &client);
   if (err != VF_OK) return err;
-  if ((err = vf_farm_client_open(conn->url, &key, &client)) != VF_OK) return err;
   err = vf_farm_request(client, q, expected, (int)(conn->timeout * 1000.0), reply);
   vf_farm_client_close(client);
   return err;
@@ -120,12 +128,8 @@ int vf_cmd_submit(int argc, char **argv) {
   /* A farm job stops at the first of its conditions to hold: iterations and time together too. */
   if ((err = vf_cli_stop_check(&stop, 0)) != VF_OK) return vf_cli_fail(cmd, err);
   uint64_t iterations = vf_cli_stop_iterations(&stop);
-  vf_wire_key key;
   vf_farm_client *client;
-  if (conn.url == NULL || conn.secret == NULL)
-    return vf_cli_fail(cmd, vf_error_set(VF_EUSAGE, "--coordinator URL and --secret FILE are required"));
-  if ((err = vf_wire_key_load(conn.secret, &key)) != VF_OK || (err = vf_farm_client_open(conn.url, &key, &client)) != VF_OK)
-    return vf_cli_fail(cmd, err);
+  if ((err = connect_to(&conn, &client)) != VF_OK) return vf_cli_fail(cmd, err);
   vf_submit_job job = {argv[optind], name, &overrides, first, iterations, (int)priority,
                        stop.time_limit, stop.target_rmse, stop.target_error, stop.reference, "vcmfarm submit"};
   vf_submitted_job submitted;
@@ -332,7 +336,8 @@ static const char fetch_usage[] =
     "usage: vcmfarm fetch JOB -o FILM.exr --coordinator URL --secret FILE\n"
     "\n"
     "Writes the current film of JOB (a valid film at any moment, holding the iterations\n"
-    "merged so far) to FILM.exr, atomically.\n"
+    "merged so far) to FILM.exr, atomically: it arrives in chunks, is checked whole (size,\n"
+    "hash, film) and only then replaces FILM.exr, which a failed fetch leaves as it was.\n"
     "\n"
     "  -o, --output FILM.exr  the film to write (required)\n" CONNECTION_HELP;
 
@@ -355,21 +360,18 @@ int vf_cmd_fetch(int argc, char **argv) {
     else if (c == 'h') return fputs(fetch_usage, stdout), VF_EXIT_OK;
     else return vf_cli_bad_option(cmd, argv, fetch_usage);
   }
-  Vcmfarm__FetchRequest m = VCMFARM__FETCH_REQUEST__INIT;
   if (optind != argc - 1 || output == NULL) {
     fprintf(stderr, "vcmfarm fetch: expected one JOB and -o FILM.exr\n%s", fetch_usage);
     return VF_EXIT_BAD_INPUT;
   }
-  if ((err = parse_job_id(argv[optind], &m.job_id)) != VF_OK) return vf_cli_fail(cmd, err);
-  Vcmfarm__Envelope q = VCMFARM__ENVELOPE__INIT, *reply;
-  q.body_case = VCMFARM__ENVELOPE__BODY_FETCH;
-  q.fetch = &m;
-  if ((err = request(&conn, &q, VCMFARM__ENVELOPE__BODY_FILM, &reply)) != VF_OK) return vf_cli_fail(cmd, err);
+  uint64_t job_id;
+  vf_farm_client *client;
+  if ((err = parse_job_id(argv[optind], &job_id)) != VF_OK || (err = connect_to(&conn, &client)) != VF_OK)
+    return vf_cli_fail(cmd, err);
+  /* Read back before it replaces FILM.exr: what lands there is a checked film. */
   vf_film *film = NULL;
-  /* Decoded before it is written: what lands at FILM.exr is a checked film. */
-  err = vf_film_from_bytes(reply->film->film_exr.data, reply->film->film_exr.len, "fetched film", &film);
-  vf_message_free(reply);
-  if (err == VF_OK) err = vf_film_write(film, output);
+  err = vf_fetch_film(client, job_id, output, (int)(conn.timeout * 1000.0), &film);
+  vf_farm_client_close(client);
   vf_film_destroy(film);
   return err == VF_OK ? VF_EXIT_OK : vf_cli_fail(cmd, err);
 }

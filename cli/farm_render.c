@@ -12,11 +12,11 @@
 #include "../common/error.h"
 #include "../common/farm_client.h"
 #include "../common/file.h"
-#include "../common/film_wire.h"
 #include "../coordinator/coordinator.h"
 #include "../coordinator/job.h"
 #include "../worker/blob_cache.h"
 #include "../worker/worker.h"
+#include "fetch.h"
 #include "interrupt.h"
 #include "submit.h"
 
@@ -111,23 +111,6 @@ static int job_status(vf_farm_client *client, uint64_t job_id, Vcmfarm__Envelope
   return vf_error_set(VF_EPROTO, "the coordinator's status lacks job %llu", (unsigned long long)job_id);
 }
 
-/* Fetches the film as the coordinator holds it now and writes it atomically to the
- * output (the render's film checkpoint); *film (may be NULL) receives it decoded. */
-static int fetch_to_output(vf_farm_client *client, uint64_t job_id, const char *output, vf_film **film) {
-  Vcmfarm__FetchRequest m = VCMFARM__FETCH_REQUEST__INIT;
-  m.job_id = job_id;
-  Vcmfarm__Envelope q = VCMFARM__ENVELOPE__INIT, *reply;
-  q.body_case = VCMFARM__ENVELOPE__BODY_FETCH;
-  q.fetch = &m;
-  int err = vf_farm_request(client, &q, VCMFARM__ENVELOPE__BODY_FILM, REQUEST_MS, &reply);
-  if (err != VF_OK) return err;
-  const ProtobufCBinaryData *exr = &reply->film->film_exr;
-  if (film) err = vf_film_from_bytes(exr->data, exr->len, "the fetched film", film);
-  if (err == VF_OK) err = vf_file_write_atomic(output, exr->data, exr->len, 0644);
-  vf_message_free(reply);
-  return err;
-}
-
 /* Iterations as the worker renders them (the job's count grows by merged parts). */
 static void progress_line(const Vcmfarm__JobStatus *j, uint64_t rendered, double elapsed, int reference) {
   char error[96] = "";
@@ -172,8 +155,9 @@ int vf_farm_render(const vf_render_job *o) {
   atomic_ullong rendered = 0;
   coordinator_thread ct = {.config = {.listen_url = FARM_URL, .state_dir = state, .key = &key,
                                       .worker_timeout = 60.0, .lease_seconds = 20.0,
-                                      /* the fetches below log and write; the coordinator's own
-                                       * checkpoints would only write a copy nobody reads */
+                                      /* each fetch below logs and checkpoints the film; the
+                                       * coordinator's own checkpoints would only write copies
+                                       * nobody reads */
                                       .checkpoint_interval = 1e9, .stop = &coordinator_stop, .quiet = 1}};
   worker_thread wt = {.config = {.url = FARM_URL, .key = key, .threads = o->threads, .name = "render",
                                  .cache_dir = cache, .ship_interval = PART_SECONDS, .quiet = 1,
@@ -236,7 +220,7 @@ int vf_farm_render(const vf_render_job *o) {
     if (tty) progress_line(job, atomic_load(&rendered), now - start, o->stop.reference != NULL);
     finished = strcmp(job->state, "queued") != 0 && strcmp(job->state, "running") != 0;
     if (!finished && o->checkpoint_interval > 0.0 && now - last_fetch >= o->checkpoint_interval) {
-      if ((err = fetch_to_output(client, job_id, o->output, NULL)) != VF_OK) goto stop;
+      if ((err = vf_fetch_film(client, job_id, o->output, REQUEST_MS, NULL)) != VF_OK) goto stop;
       last_fetch = vf_seconds_now();
     }
   }
@@ -258,7 +242,7 @@ int vf_farm_render(const vf_render_job *o) {
     err = vf_error_set(VF_EINVAL, "no iteration finished; nothing written");
     goto stop;
   }
-  if ((err = fetch_to_output(client, job_id, o->output, &film)) != VF_OK) goto stop;
+  if ((err = vf_fetch_film(client, job_id, o->output, REQUEST_MS, &film)) != VF_OK) goto stop;
   if ((err = vf_render_job_write_preview(o, film)) != VF_OK) goto stop;
   if (!o->quiet) {
     const vf_worker_totals *t = &wt.totals;

@@ -16,12 +16,13 @@
 #include <stddef.h>
 #include <stdint.h>
 
-#define VF_PROTOCOL_VERSION 4u
+#define VF_PROTOCOL_VERSION 5u
 #define VF_WIRE_MAGIC "VCMF"
 #define VF_WIRE_HEADER_SIZE 12u
 #define VF_WIRE_TAG_SIZE 32u
 /* Payloads above this are refused by both sides (and by nanomsg's NN_RCVMAXSIZE before
- * they are buffered). Only a coordinator's reply to `fetch` (a whole job film) needs it. */
+ * they are buffered). Since version 5 no reply comes near it: a fetched film travels in
+ * chunks of 16 MiB (docs/PROTOCOL.md, "Fetching a film"). */
 #define VF_WIRE_MAX_PAYLOAD ((size_t)128 << 20)
 #define VF_WIRE_MAX_FRAME (VF_WIRE_MAX_PAYLOAD + VF_WIRE_HEADER_SIZE + VF_WIRE_TAG_SIZE)
 /* What the coordinator receives: results travel as tiles in messages of at most

@@ -24,7 +24,7 @@ void vf_farm_handle(vf_farm *farm, const Vcmfarm__Envelope *q, double now, vf_fa
   case VCMFARM__ENVELOPE__BODY_RELEASE: worker_id = q->release->worker_id; break;
   case VCMFARM__ENVELOPE__BODY_SUBMIT: return vf_jobs_submit(farm, q->submit, r);
   case VCMFARM__ENVELOPE__BODY_STATUS_REQUEST: return vf_jobs_status(farm, q->status_request, now, r);
-  case VCMFARM__ENVELOPE__BODY_FETCH: return vf_jobs_fetch(farm, q->fetch, r);
+  case VCMFARM__ENVELOPE__BODY_FETCH: return vf_jobs_fetch(farm, q->fetch, now, r);
   case VCMFARM__ENVELOPE__BODY_CANCEL: return vf_jobs_cancel(farm, q->cancel, now, r);
   case VCMFARM__ENVELOPE__BODY_REMOVE: return vf_jobs_remove(farm, q->remove, r);
   case VCMFARM__ENVELOPE__BODY_BLOB_QUERY: return vf_blobs_query(farm, q->blob_query, r);
@@ -49,6 +49,7 @@ void vf_farm_handle(vf_farm *farm, const Vcmfarm__Envelope *q, double now, vf_fa
 
 int vf_farm_expire(vf_farm *farm, double now) {
   vf_results_expire(farm, now);
+  vf_checkpoint_snapshot_expire(farm, now);
   return vf_workers_expire(farm, now);
 }
 

@@ -1,8 +1,6 @@
 #include "jobs.h"
 
 #include "../common/error.h"
-#include "../common/film_wire.h"
-#include "../common/wire.h"
 #include "blobs.h"
 #include "checkpoint.h"
 #include "leases.h"
@@ -172,21 +170,50 @@ void vf_jobs_status(vf_farm *farm, const Vcmfarm__StatusRequest *m, double now, 
   r->env.status = &r->status;
 }
 
-void vf_jobs_fetch(vf_farm *farm, const Vcmfarm__FetchRequest *m, vf_farm_reply *r) {
+/* The reply to a fetch, without its chunk. */
+static void film_reply(vf_farm_reply *r, Vcmfarm__Film__State state, uint64_t snapshot) {
+  vcmfarm__film__init(&r->film);
+  r->film.state = state;
+  r->film.snapshot = snapshot;
+  if (state == VCMFARM__FILM__STATE__WAIT) r->film.retry_ms = VF_SNAPSHOT_RETRY_MS;
+  r->env.body_case = VCMFARM__ENVELOPE__BODY_FILM;
+  r->env.film = &r->film;
+}
+
+void vf_jobs_fetch(vf_farm *farm, const Vcmfarm__FetchRequest *m, double now, vf_farm_reply *r) {
   vf_job *job = vf_farm_job(farm, m->job_id);
   if (job == NULL)
     return vf_farm_reply_errorf(r, VCMFARM__ERROR_CODE__ERROR_UNKNOWN_JOB, "no job %llu", (unsigned long long)m->job_id);
-  /* The film as fetched carries its latest measurement in its log. */
-  int err = vf_job_log(job);
-  if (err != VF_OK) return vf_farm_reply_error(r, VCMFARM__ERROR_CODE__ERROR_INTERNAL, vf_error_detail(err));
+  uint64_t id = m->snapshot;
+  int err;
+  if (id == 0) {
+    if (m->offset != 0)
+      return vf_farm_reply_errorf(r, VCMFARM__ERROR_CODE__ERROR_BAD_REQUEST, "a fetch starts at offset 0, not %llu",
+                                  (unsigned long long)m->offset);
+    if ((err = vf_checkpoint_snapshot_start(farm, job, now, &id)) != VF_OK)
+      return vf_farm_reply_error(r, VCMFARM__ERROR_CODE__ERROR_INTERNAL, vf_error_detail(err));
+    if (id == 0) return film_reply(r, VCMFARM__FILM__STATE__WAIT, 0);
+  }
+  /* The chunk and, after it, the hash: one block the reply owns. */
+  vf_snapshot_info info;
   size_t len;
-  err = vf_film_to_bytes(job->film, VF_WIRE_MAX_PAYLOAD - 64, &r->film_bytes, &len);
-  if (err != VF_OK) return vf_farm_reply_error(r, VCMFARM__ERROR_CODE__ERROR_INTERNAL, vf_error_detail(err));
-  vcmfarm__film__init(&r->film);
-  r->film.film_exr.data = r->film_bytes;
-  r->film.film_exr.len = len;
-  r->env.body_case = VCMFARM__ENVELOPE__BODY_FILM;
-  r->env.film = &r->film;
+  err = vf_checkpoint_snapshot_read(farm, job->id, id, m->offset, now, sizeof info.hash, &r->film_bytes, &len, &info);
+  if (err == 0) return film_reply(r, VCMFARM__FILM__STATE__WAIT, id);
+  if (err == VF_ENOENT) {
+    snprintf(r->text, sizeof r->text, "%s", vf_error_detail(err));
+    film_reply(r, VCMFARM__FILM__STATE__GONE, id);
+    r->film.message = r->text;
+    return;
+  }
+  if (err < 0)
+    return vf_farm_reply_error(r, err == VF_EINVAL ? VCMFARM__ERROR_CODE__ERROR_BAD_REQUEST : VCMFARM__ERROR_CODE__ERROR_INTERNAL,
+                               vf_error_detail(err));
+  film_reply(r, VCMFARM__FILM__STATE__CHUNK, id);
+  memcpy(r->film_bytes + len, info.hash, sizeof info.hash);
+  r->film.offset = m->offset;
+  r->film.data = (ProtobufCBinaryData){len, r->film_bytes};
+  r->film.total_size = info.size;
+  r->film.hash = (ProtobufCBinaryData){sizeof info.hash, r->film_bytes + len};
 }
 
 void vf_jobs_cancel(vf_farm *farm, const Vcmfarm__CancelRequest *m, double now, vf_farm_reply *r) {
@@ -232,6 +259,7 @@ void vf_jobs_remove(vf_farm *farm, const Vcmfarm__RemoveRequest *m, vf_farm_repl
     return vf_farm_reply_error(r, VCMFARM__ERROR_CODE__ERROR_INTERNAL, vf_error_detail(err));
   }
   vf_state_remove_job_files(farm->config.state_dir, job->id);
+  vf_checkpoint_snapshot_drop(farm, job->id);
   unsigned blobs = 0;
   for (size_t k = 0; k < job->files.count; k++) {
     const uint8_t *hash = job->files.refs[k].hash;

@@ -11,8 +11,10 @@
 void vf_jobs_submit(vf_farm *farm, const Vcmfarm__SubmitJob *m, vf_farm_reply *r);
 /* StatusRequest: every job (or one, with its convergence log) and every worker. */
 void vf_jobs_status(vf_farm *farm, const Vcmfarm__StatusRequest *m, double now, vf_farm_reply *r);
-/* FetchRequest: the job's film as an EXR file, its latest measurement logged first. */
-void vf_jobs_fetch(vf_farm *farm, const Vcmfarm__FetchRequest *m, vf_farm_reply *r);
+/* FetchRequest: a chunk of the job's film file (a fetch snapshot, coordinator/checkpoint.h;
+ * a new one has the film's latest measurement logged first), "wait" while it is being
+ * written, or "gone" for a snapshot dropped meanwhile (docs/PROTOCOL.md, "Fetching a film"). */
+void vf_jobs_fetch(vf_farm *farm, const Vcmfarm__FetchRequest *m, double now, vf_farm_reply *r);
 /* CancelRequest: ends a runnable job and its leases. */
 void vf_jobs_cancel(vf_farm *farm, const Vcmfarm__CancelRequest *m, double now, vf_farm_reply *r);
 /* RemoveRequest: forgets a job that has ended (not while its film is being written): the

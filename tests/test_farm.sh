@@ -9,7 +9,8 @@
 #
 # CASE: three_workers, worker_killed, worker_killed_after_parts, worker_terminated, coordinator_killed,
 # hostile_peers, late_duplicate, priorities, stop_conditions; mesh_scene, big_file and bad_blobs (scenes
-# with files, FARM_BLOB_PEER).
+# with files, FARM_BLOB_PEER); render_4k, fetch_4k and bad_fetches (films fetched in chunks, with
+# FARM_FETCH_PEER in the place of FARM_BLOB_PEER).
 # No fixed sleeps synchronise anything: the script polls `vcmfarm status` (or a file) with
 # a deadline, and every process it starts is killed on exit. KEEP_TMP=1 keeps the logs.
 set -u
@@ -18,6 +19,7 @@ vcmfarm="$2"
 compare="$3"
 peer="$4"
 blob_peer="${5:-}"
+fetch_peer="${5:-}"
 tmp=$(mktemp -d /tmp/vf-farm-XXXXXX)
 pids=()
 cleanup() {
@@ -82,6 +84,9 @@ submit() { # iterations, extra options...
   job=$(client submit cornell -n "$iterations" -R 64x64 --seed 7 "$@" | tail -n 1)
   [ -n "$job" ] || fail "submit printed no job id"
 }
+
+# A film of hundreds of MB that renders in seconds: 3840x2160, path tracing of two bounces.
+big_film=(-R 3840x2160 -n 2 -l 2 -a pt --seed 7)
 
 check_film() {
   client fetch "$job" -o "$tmp/farm.exr" || fail "fetch failed"
@@ -400,6 +405,85 @@ worker_terminated)
   start_worker rescuer
   wait_until 60 "job $job done" job_done
   check_film
+  ;;
+render_4k)
+  # The in-process farm at 3840x2160: its film (hundreds of MB) is fetched in chunks of
+  # 16 MiB, and equals the film of --direct.
+  export TMPDIR="$tmp"
+  "$vcmfarm" render cornell "${big_film[@]}" -q -o "$tmp/farm.exr" || fail "render failed"
+  "$vcmfarm" render cornell "${big_film[@]}" --direct -q -o "$tmp/reference.exr" || fail "reference render failed"
+  "$compare" "$tmp/farm.exr" "$tmp/reference.exr" "[0,2)" || fail "the farm's 4K film differs from --direct's"
+  echo "film of $(stat -c %s "$tmp/farm.exr") bytes"
+  [ -z "$(ls "$tmp" | grep -v -E '^(farm|reference)\.exr$|\.log$|^farm\.key$')" ] ||
+    fail "render left files behind: $(ls "$tmp")"
+  ;;
+fetch_4k)
+  # A coordinator and a worker process at 3840x2160; two clients fetch the finished job's
+  # film at once (one joins the other's snapshot, or starts again once it is dropped), an
+  # earlier film at the output is replaced, and both equal the film of --direct.
+  start_coordinator --checkpoint-interval 5
+  start_worker w1 --threads 2
+  job=$(client submit cornell "${big_film[@]}" | tail -n 1)
+  [ -n "$job" ] || fail "submit printed no job id"
+  wait_until 300 "job $job done" job_done
+  "$vcmfarm" render cornell -R 64x64 -n 1 -q --direct -o "$tmp/a.exr" || fail "the earlier film"
+  fetch_big() { "$vcmfarm" fetch "$job" -o "$1" --coordinator "$url" --secret "$key" --timeout 60; }
+  fetch_big "$tmp/a.exr" &
+  first=$!
+  fetch_big "$tmp/b.exr" || fail "the second fetch failed"
+  wait "$first" || fail "the first fetch failed"
+  cmp "$tmp/a.exr" "$tmp/b.exr" || fail "two fetches of the same film differ"
+  ls "$tmp" | grep -q '\.tmp\.' && fail "a fetch left its temporary file: $(ls "$tmp")"
+  grep "film of [0-9]* bytes fetched" "$tmp/coordinator.log" || fail "the coordinator logged no fetch"
+  "$vcmfarm" render cornell "${big_film[@]}" --direct -q -o "$tmp/reference.exr" || fail "reference render failed"
+  "$compare" "$tmp/a.exr" "$tmp/reference.exr" "[0,2)" || fail "the fetched 4K film differs from --direct's"
+  ;;
+bad_fetches)
+  # The coordinator's side: requests out of place are refused, snapshots are shared, read
+  # whole and dropped (farm_fetch_peer against a job with nothing merged yet).
+  start_coordinator
+  submit 4 -R 128x128
+  "$fetch_peer" "$url" "$key" "$job" || fail "the coordinator did not answer fetches as expected"
+  grep -q "fetch snapshot [0-9a-f]* dropped (unasked for too long)" "$tmp/coordinator.log" ||
+    fail "the coordinator did not log the unused snapshot's end"
+  # The client's side: a lying coordinator's transfers are refused and the output kept byte
+  # for byte, then honest ones (after waits, after a snapshot was dropped) are taken.
+  "$vcmfarm" render cornell --direct -R 128x128 -n 2 -j 1 -q -o "$tmp/film.exr" || fail "the film to serve"
+  "$vcmfarm" render cornell --direct -R 128x128 -n 1 --seed 5 -j 1 -q -o "$tmp/out.exr" || fail "the earlier output"
+  cp "$tmp/out.exr" "$tmp/before.exr"
+  liar() { # mode, fetch status expected (0 or 1), text the error must contain
+    local mode="$1" liar_url="ipc://$tmp/liar-$1.sock"
+    "$fetch_peer" --serve "$liar_url" "$key" "$mode" "$tmp/film.exr" >>"$tmp/liar.log" 2>&1 &
+    local served=$!
+    pids+=("$served")
+    "$vcmfarm" fetch 1 -o "$tmp/out.exr" --coordinator "$liar_url" --secret "$key" --timeout 2 2>"$tmp/fetch.err"
+    local status=$?
+    kill "$served" 2>/dev/null
+    echo "$mode: exit $status: $(cat "$tmp/fetch.err")"
+    if [ "$2" = 0 ]; then
+      [ "$status" = 0 ] || fail "a good transfer ($mode) was refused"
+      cmp "$tmp/out.exr" "$tmp/film.exr" || fail "the film fetched ($mode) is not the one served"
+      cp "$tmp/before.exr" "$tmp/out.exr"
+    else
+      [ "$status" != 0 ] || fail "a lying transfer ($mode) was accepted"
+      grep -q "$3" "$tmp/fetch.err" || fail "the refusal ($mode) does not say '$3'"
+      grep -q "left as it was" "$tmp/fetch.err" || fail "the refusal ($mode) does not say the output was kept"
+      cmp "$tmp/out.exr" "$tmp/before.exr" || fail "a refused transfer ($mode) changed the output"
+    fi
+    ls "$tmp" | grep -q 'out\.exr\.tmp' && fail "a fetch ($mode) left its temporary file"
+  }
+  liar stop 1 "no reply within 2000 ms"
+  liar hash 1 "hash to"
+  liar flip 1 "hash to"
+  liar size 1 "announces another film"
+  liar offset 1 "is a chunk at offset"
+  liar past 1 "past the film's end"
+  liar snapshot 1 "is a chunk of snapshot"
+  liar gone 1 "dropped the film under the fetch 4 times"
+  liar notfilm 1 "the fetched film"
+  liar good 0
+  liar wait 0
+  liar gone_once 0
   ;;
 coordinator_killed)
   start_coordinator --worker-timeout 3
