@@ -2,6 +2,7 @@
  * material and configuration table. Nothing here checks; the tests do. */
 #include "bsdf_cases.h"
 
+#include <complex.h>
 #include <float.h>
 #include <math.h>
 #include <stdio.h>
@@ -140,9 +141,9 @@ void make_fix(double theta, double azimuth, int front, vf_vec3 *normal, vf_vec3 
   *up = u;
 }
 
-void make_config(config *c, int index) {
+static void config_of(config *c, const material_case *table, int index) {
   int side = index % 2, angle = (index / 2) % ANGLE_COUNT, m = index / (2 * ANGLE_COUNT);
-  c->mc = &MATERIALS[m];
+  c->mc = &table[m];
   c->theta = ANGLES_DEG[angle] * PI_D / 180.0;
   make_fix(c->theta, 0.7, side == 0, &c->normal, &c->fix, &c->up);
   snprintf(c->label, sizeof c->label, "%s, %g deg, %s", c->mc->name, ANGLES_DEG[angle],
@@ -150,8 +151,54 @@ void make_config(config *c, int index) {
   c->ok = vf_bsdf_init(&c->bsdf, &c->mc->material, c->normal, c->fix);
 }
 
+void make_config(config *c, int index) { config_of(c, MATERIALS, index); }
+
+#define GOLD_ETA RGB(0.143f, 0.374f, 1.442f)
+#define GOLD_K RGB(3.983f, 2.385f, 1.603f)
+#define COPPER_ETA RGB(0.200f, 0.924f, 1.102f)
+#define COPPER_K RGB(3.912f, 2.452f, 2.142f)
+
+const material_case ROUGH_MATERIALS[] = {
+    {"conductor F=1 r0.3", {.conductor = RGB(1.0f, 1.0f, 1.0f), .roughness = 0.3f}, 0},
+    {"gold r0.5", {.conductor = RGB(1.0f, 1.0f, 1.0f), .conductor_eta = GOLD_ETA, .conductor_k = GOLD_K, .roughness = 0.5f}, 0},
+    {"copper r0.1",
+     {.conductor = RGB(0.9f, 0.9f, 0.9f), .conductor_eta = COPPER_ETA, .conductor_k = COPPER_K, .roughness = 0.1f},
+     0},
+    {"conductor r1", {.conductor = RGB(0.8f, 0.6f, 0.4f), .roughness = 1.0f}, 0},
+    {"glass1.5 r0.3", {.dielectric = RGB(1.0f, 1.0f, 1.0f), .ior = 1.5f, .roughness = 0.3f}, 0},
+    {"glass1.5 r0.1", {.dielectric = RGB(0.9f, 0.8f, 0.7f), .ior = 1.5f, .roughness = 0.1f}, 0},
+    {"water1.33 r0.7", {.dielectric = RGB(1.0f, 1.0f, 1.0f), .ior = 1.33f, .roughness = 0.7f}, 0},
+    {"diamond2.4 r0.05", {.dielectric = RGB(1.0f, 1.0f, 1.0f), .ior = 2.4f, .roughness = 0.05f}, 0},
+    {"gltf plastic", {.gltf = 1, .base_color = RGB(0.8f, 0.3f, 0.2f), .metallic = 0.0f, .roughness = 0.4f}, 0},
+    {"gltf metal", {.gltf = 1, .base_color = RGB(0.95f, 0.65f, 0.3f), .metallic = 1.0f, .roughness = 0.3f}, 0},
+    {"gltf half-metal", {.gltf = 1, .base_color = RGB(0.5f, 0.7f, 0.9f), .metallic = 0.5f, .roughness = 0.8f}, 0},
+    {"gltf smooth", {.gltf = 1, .base_color = RGB(0.7f, 0.7f, 0.7f), .metallic = 0.2f, .roughness = 0.02f}, 0},
+    {"diffuse+conductor",
+     {.diffuse = RGB(0.3f, 0.2f, 0.1f), .conductor = RGB(0.6f, 0.6f, 0.6f), .roughness = 0.4f},
+     0},
+    {"diffuse+rough glass",
+     {.diffuse = RGB(0.2f, 0.2f, 0.2f), .dielectric = RGB(0.7f, 0.7f, 0.7f), .ior = 1.5f, .roughness = 0.2f},
+     0},
+    {"mirror+conductor", {.mirror = RGB(0.3f, 0.3f, 0.3f), .conductor = RGB(0.6f, 0.5f, 0.4f), .roughness = 0.2f}, 0},
+};
+
+void make_rough_config(config *c, int index) { config_of(c, ROUGH_MATERIALS, index); }
+
 int has_nonspecular(const vf_material *m) {
   return vf_max_component(m->diffuse) > 0.0f || vf_max_component(m->glossy) > 0.0f;
+}
+
+int make_swapped_pair(const config *c, vf_rng *r, int i, swapped_pair *p) {
+  p->b = fv(uniform_sphere_d(r));
+  if (i % 2 == 0) {
+    bsdf_draw s = draw_sample(&c->bsdf, r);
+    if (!vf_is_zero(s.f) && !(s.event & VF_BSDF_SPECULAR)) p->b = vf_normalize(s.gen);
+  }
+  vf_bsdf swapped;
+  if (!vf_bsdf_init(&swapped, &c->mc->material, c->normal, p->b)) return 0;
+  p->f_ab = vf_bsdf_evaluate(&c->bsdf, p->b, NULL, &p->d_ab, &p->r_ab);
+  p->f_ba = vf_bsdf_evaluate(&swapped, c->fix, NULL, &p->d_ba, &p->r_ba);
+  return 1;
 }
 
 /* cos of the angle between gen and the mirror direction of fix about up (double). */
@@ -175,4 +222,81 @@ double rel_err(double a, double b, double abs_allowance) {
   if (diff <= 0.0) return 0.0;
   double scale = fmax(fabs(a), fabs(b));
   return scale > 0.0 ? diff / scale : 0.0;
+}
+
+/* ---- a double-precision reference of the rough lobes ---- */
+
+double ref_fresnel(double cos_i, double n_re, double n_im) {
+  double complex n = n_re + n_im * I;
+  double sin2 = 1.0 - cos_i * cos_i;
+  double complex cos_t = csqrt(1.0 - sin2 / (n * n));
+  double complex rs = (cos_i - n * cos_t) / (cos_i + n * cos_t);
+  double complex rp = (n * cos_i - cos_t) / (n * cos_i + cos_t);
+  double as = cabs(rs), ap = cabs(rp);
+  return 0.5 * (as * as + ap * ap);
+}
+
+double ref_ggx_lambda(dvec w, double alpha) {
+  double tan2 = (w.x * w.x + w.y * w.y) / (w.z * w.z);
+  return 0.5 * (sqrt(1.0 + alpha * alpha * tan2) - 1.0);
+}
+
+double ref_conductor_reflectance(const vf_material *m, double c, int ch) {
+  if (m->gltf) {
+    double f0 = 0.04 + m->metallic * (vf_vec3_get(m->base_color, ch) - 0.04);
+    return f0 + (1.0 - f0) * pow(1.0 - c, 5.0);
+  }
+  double tint = vf_vec3_get(m->conductor, ch);
+  if (vf_is_zero(m->conductor_eta) && vf_is_zero(m->conductor_k)) return tint;
+  return tint * ref_fresnel(c, vf_vec3_get(m->conductor_eta, ch), vf_vec3_get(m->conductor_k, ch));
+}
+
+void ref_rough_albedo(const vf_material *m, double theta, double eta, int steps, ref_albedo *out) {
+  *out = (ref_albedo){{0}, {0}};
+  double alpha = (double)m->roughness * m->roughness;
+  int rough = alpha >= VF_GGX_ALPHA_DELTA;
+  int conductor = rough && (m->gltf || !vf_is_zero(m->conductor));
+  int dielectric = rough && !vf_is_zero(m->dielectric) && m->ior != 1.0f;
+  dvec i = dmake(sin(theta), 0.0, cos(theta));
+  double lambda_i = ref_ggx_lambda(i, alpha);
+  if (conductor || dielectric)
+    for (int a = 0; a < steps; a++) {
+      /* u = 1 - s^2 takes the integrable 1 / sqrt(1 - u) of grazing normals out */
+      double s = (a + 0.5) / steps, u = 1.0 - s * s, du = 2.0 * s / steps;
+      double tan_m = alpha * sqrt(u / (1.0 - u)), cos_m = 1.0 / sqrt(1.0 + tan_m * tan_m);
+      for (int b = 0; b < 2 * steps; b++) {
+        double phi = 2.0 * PI_D * (b + 0.5) / (2 * steps), dphi = 1.0 / (2 * steps); /* d phi / (2 pi) */
+        dvec mn = dmake(tan_m * cos_m * cos(phi), tan_m * cos_m * sin(phi), cos_m);
+        double c = ddot(i, mn);
+        if (!(c > 0.0)) continue;
+        /* f cos_o d omega_o = F G |i.m| / (cos_i cos_m) du d phi / (2 pi), by Walter's
+         * eq. 14 and 17 for either event */
+        double w = c / (i.z * cos_m) * du * dphi;
+        dvec o = dsub(dscale(mn, 2.0 * c), i);
+        double g2 = o.z > 0.0 ? 1.0 / (1.0 + lambda_i + ref_ggx_lambda(o, alpha)) : 0.0;
+        double fr = dielectric ? ref_fresnel(c, eta, 0.0) : 0.0;
+        for (int ch = 0; ch < 3; ch++) {
+          if (conductor) out->reflect[ch] += ref_conductor_reflectance(m, c, ch) * g2 * w;
+          if (dielectric) out->reflect[ch] += vf_vec3_get(m->dielectric, ch) * fr * g2 * w;
+        }
+        /* Walter's eq. 40 with his eta = 1 / ours: o = (e c - s) m - e i, s^2 = 1 + e^2 (c^2 - 1)
+         * the cosine of the refracted direction to m (Snell's law) */
+        double e = 1.0 / eta, root = 1.0 + e * e * (c * c - 1.0);
+        if (!dielectric || root <= 0.0) continue;
+        dvec t = dsub(dscale(mn, e * c - sqrt(root)), dscale(i, e));
+        if (!(t.z < 0.0)) continue;
+        double g = 1.0 / ((1.0 + lambda_i) * (1.0 + ref_ggx_lambda(t, alpha)));
+        for (int ch = 0; ch < 3; ch++) out->transmit[ch] += vf_vec3_get(m->dielectric, ch) * (1.0 - fr) * g * w;
+      }
+    }
+  if (!m->gltf || m->metallic >= 1.0f) return;
+  for (int a = 0; a < steps; a++)
+    for (int b = 0; b < steps; b++) {
+      double u1 = (a + 0.5) / steps, u2 = (b + 0.5) / steps, r = sqrt(u2);
+      dvec o = dmake(r * cos(2.0 * PI_D * u1), r * sin(2.0 * PI_D * u1), sqrt(1.0 - u2));
+      double c = ddot(i, dnormalize(dadd(i, o)));
+      double coat = 1.0 - (0.04 + 0.96 * pow(1.0 - c, 5.0));
+      for (int ch = 0; ch < 3; ch++)
+        out->reflect[ch] += (1.0 - m->metallic) * vf_vec3_get(m->base_color, ch) * coat / ((double)steps * steps);
+    }
 }

@@ -1,4 +1,5 @@
-/* What the BSDF tests share (test_bsdf.c, test_bsdf_energy.c, test_bsdf_specular.c): geometry
+/* What the BSDF tests share (test_bsdf.c, test_bsdf_energy.c, test_bsdf_specular.c, and for
+ * the rough lobes test_bsdf_rough.c and test_microfacet.c): geometry
  * in double precision, independent of the code under test; the statistics their checks rest
  * on; and the table of materials and incidence configurations that every one of them walks.
  * Compiled into each of those executables (tests/CMakeLists.txt), never into a library, so the
@@ -34,7 +35,22 @@
 #define PI_D 3.14159265358979323846
 
 /* One random stream per test; the numbers are part of every stream's identity. */
-enum { CASE_PDF = 1, CASE_REVERSE, CASE_CHI2, CASE_INTEGRAL, CASE_ALBEDO, CASE_SPECULAR, CASE_HELPERS };
+enum {
+  CASE_PDF = 1,
+  CASE_REVERSE,
+  CASE_CHI2,
+  CASE_INTEGRAL,
+  CASE_ALBEDO,
+  CASE_SPECULAR,
+  CASE_HELPERS,
+  CASE_ROUGH_PDF,
+  CASE_ROUGH_REVERSE,
+  CASE_ROUGH_CHI2,
+  CASE_ROUGH_ALBEDO,
+  CASE_MICROFACET,
+  CASE_FURNACE,
+  CASE_LIMIT
+};
 
 static inline vf_rng test_rng(uint64_t test_case, uint64_t configuration) {
   return vf_rng_for_path(SEED, test_case, configuration, VF_STREAM_TEST);
@@ -66,6 +82,27 @@ static inline void expect_near(const char *what, const char *where, double value
                 fabs(value - expected), tol);
 }
 #endif
+
+/* One vf_bsdf_sample() draw from r's next three numbers (f zero: the draw failed). */
+typedef struct {
+  vf_vec3 f, gen;
+  float pdf, rev, cos_gen;
+  unsigned event;
+} bsdf_draw;
+
+static inline bsdf_draw draw_sample(const vf_bsdf *b, vf_rng *r) {
+  float rnd[3];
+  bsdf_draw d = {.event = 0};
+  draw3(r, rnd);
+  d.f = vf_bsdf_sample(b, rnd, &d.gen, &d.pdf, &d.rev, &d.cos_gen, &d.event);
+  return d;
+}
+
+/* What a path carries past the vertex in channel ch: f cos / pdf times the continuation
+ * probability (the caller's Russian roulette); 0 for a failed draw. */
+static inline double draw_weight(const vf_bsdf *b, const bsdf_draw *d, int ch) {
+  return vf_is_zero(d->f) ? 0.0 : vf_vec3_get(d->f, ch) * d->cos_gen / d->pdf * b->continuation;
+}
 
 /* ---- double-precision geometry, independent of the code under test ---- */
 
@@ -137,6 +174,51 @@ static inline double rm_se(const running_mean *m) {
   return sqrt(var / (double)(m->n - 1));
 }
 
+#ifdef VF_TEST_CHECK_H
+/* A family of chi-square tests of sampled directions (test_bsdf.c, test_bsdf_rough.c):
+ * each configuration's draws inside its grid against the grid's integrated density, and the
+ * cells' shape. */
+typedef struct {
+  int tests;
+  double alpha, min_p, worst_rate_z;
+  char min_label[96];
+} chi_family;
+
+static inline chi_family chi_family_of(int tests) { return (chi_family){tests, sidak(tests), 1.0, 0.0, ""}; }
+
+/* Rate: a draw is a non-specular one inside the grid with probability
+ * rate = grid_mass / continuation, so in_grid of `samples` is binomial, up to the
+ * deterministic `allowance` of the quadrature. Shape: given the count inside the grid, the
+ * `count` cells are multinomial with probabilities proportional to their masses. */
+static inline void chi_family_check(chi_family *f, const char *label, chi_cell *cells, const double *mass, int count,
+                                    double grid_mass, double continuation, long in_grid, long samples,
+                                    double allowance, int verbose) {
+  double rate = grid_mass / continuation;
+  double rate_sd = sqrt(samples * rate * fmax(0.0, 1.0 - rate));
+  expect_near("non-specular draws inside the grid", label, (double)in_grid, samples * rate, K_SE * rate_sd + allowance);
+  double rate_z = rate_sd > 0.0 ? fmax(0.0, fabs(in_grid - samples * rate) - allowance) / rate_sd : 0.0;
+  f->worst_rate_z = fmax(f->worst_rate_z, rate_z);
+  for (int q = 0; q < count; q++) cells[q].expected = in_grid * mass[q] / grid_mass;
+  double chi2;
+  int dof;
+  double p = chi_square_p(cells, count, &chi2, &dof);
+  if (!(p >= f->alpha)) CHECK_FAIL_("chi-square [%s]: chi2 %.1f with %d dof, p = %.3g < %.3g", label, chi2, dof, p, f->alpha);
+  if (verbose)
+    printf("  %-36s chi2 %8.1f dof %3d p %.3f  in grid %6ld expected %8.1f (z %.2f)\n", label, chi2, dof, p, in_grid,
+           samples * rate, rate_z);
+  if (p < f->min_p) {
+    f->min_p = p;
+    snprintf(f->min_label, sizeof f->min_label, "%s", label);
+  }
+}
+
+static inline void chi_family_report(const chi_family *f, long samples) {
+  printf("  info: %d chi-square tests of %ld samples, per-test significance %.2e, smallest p %.4f (%s); "
+         "largest |z| of the in-grid rate beyond allowances %.2f\n",
+         f->tests, samples, f->alpha, f->min_p, f->min_label, f->worst_rate_z);
+}
+#endif
+
 /* ---- materials and configurations ---- */
 
 typedef struct {
@@ -175,7 +257,25 @@ void make_fix(double theta, double azimuth, int front, vf_vec3 *normal, vf_vec3 
  * front when index is even; its BSDF initialised. */
 void make_config(config *c, int index);
 
+/* The rough lobes' materials (test_bsdf_rough.c), a table of their own so that the
+ * configurations above keep their indices and random streams; configuration `index` in
+ * [0, ROUGH_CONFIG_COUNT) as make_config's. */
+enum { ROUGH_MATERIAL_COUNT = 15 };
+extern const material_case ROUGH_MATERIALS[ROUGH_MATERIAL_COUNT];
+#define ROUGH_CONFIG_COUNT (ROUGH_MATERIAL_COUNT * ANGLE_COUNT * 2)
+void make_rough_config(config *c, int index);
+
 int has_nonspecular(const vf_material *m);
+
+/* A pair of the reverse-density and reciprocity tests: a direction b, from c's sampler for
+ * even i (where the lobes are) and uniform on the sphere otherwise (both sides, the edges),
+ * and both evaluations, of c's BSDF for b (a -> b) and of the BSDF at b for c's fix
+ * (b -> a). 0 when nothing scatters at b. */
+typedef struct {
+  vf_vec3 b, f_ab, f_ba;
+  float d_ab, r_ab, d_ba, r_ba;
+} swapped_pair;
+int make_swapped_pair(const config *c, vf_rng *r, int i, swapped_pair *p);
 
 /* cos of the angle between gen and the mirror direction of fix about up (double). */
 double cos_to_mirror(dvec fix, dvec gen, dvec up);
@@ -186,5 +286,33 @@ double glossy_rounding(double scale, double n, double cos_a);
 
 /* |a - b| beyond abs_allowance, relative to the larger magnitude (0 when within it). */
 double rel_err(double a, double b, double abs_allowance);
+
+/* ---- a double-precision reference of the rough lobes ----
+ * Written from the papers apart from worker/bsdf.c and worker/microfacet.h, in other forms:
+ * the Fresnel equations in complex arithmetic (Born and Wolf), GGX through its slope-space
+ * CDF (Walter et al. 2007 eq. 35), refraction by Walter's eq. 40. */
+
+/* Unpolarised Fresnel reflectance for cos_i > 0 into a medium of relative index n (complex
+ * for a conductor; real below 1 for leaving a dielectric, total internal reflection
+ * included). */
+double ref_fresnel(double cos_i, double n_re, double n_im);
+
+/* The GGX masking Lambda(w) = (sqrt(1 + alpha^2 tan^2 theta) - 1) / 2 (Walter et al. eq. 34). */
+double ref_ggx_lambda(dvec w, double alpha);
+
+/* Directional albedo of a material's rough and base lobes (not its diffuse, Phong or delta
+ * lobes), as a light sub-path's flux, for fix at theta to the shading normal, a dielectric
+ * being entered with ior ratio eta: reflected and transmitted per channel. By the midpoint
+ * rule on steps x 2 steps points over the microfacet normals in GGX's CDF coordinates,
+ * where D(m) cos(theta_m) d omega_m = du d phi / (2 pi): a smooth integrand at any alpha
+ * (the glTF base, steps^2 points over cosine-distributed directions). */
+typedef struct {
+  double reflect[3], transmit[3];
+} ref_albedo;
+void ref_rough_albedo(const vf_material *m, double theta, double eta, int steps, ref_albedo *out);
+
+/* The reflectance of a material's conductor lobe for cos c to the microfacet normal, channel
+ * ch: tint x Fresnel, or the glTF model's Schlick. */
+double ref_conductor_reflectance(const vf_material *m, double c, int ch);
 
 #endif

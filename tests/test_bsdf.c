@@ -105,22 +105,11 @@ static void test_reverse_pdf_is_swapped_direct_pdf_and_f_is_reciprocal(void) {
     double worst_rev = 0.0, worst_dir = 0.0, worst_f = 0.0;
     long pairs = 0, nonzero = 0;
     for (int i = 0; i < 2000; i++) {
-      /* b: half from the sampler (where the lobes are), half uniform (both sides, edges) */
-      vf_vec3 b = fv(uniform_sphere_d(&r));
-      if (i % 2 == 0) {
-        float rnd[3], pdf, rev, cos_gen;
-        vf_vec3 gen;
-        unsigned event;
-        draw3(&r, rnd);
-        vf_vec3 f = vf_bsdf_sample(&c.bsdf, rnd, &gen, &pdf, &rev, &cos_gen, &event);
-        if (!vf_is_zero(f) && !(event & VF_BSDF_SPECULAR)) b = vf_normalize(gen);
-      }
-      vf_bsdf swapped;
-      if (!vf_bsdf_init(&swapped, m, c.normal, b)) continue;
+      swapped_pair q;
+      if (!make_swapped_pair(&c, &r, i, &q)) continue;
       pairs++;
-      float d_ab, r_ab, d_ba, r_ba;
-      vf_vec3 f_ab = vf_bsdf_evaluate(&c.bsdf, b, NULL, &d_ab, &r_ab);
-      vf_vec3 f_ba = vf_bsdf_evaluate(&swapped, c.fix, NULL, &d_ba, &r_ba);
+      vf_vec3 b = q.b, f_ab = q.f_ab, f_ba = q.f_ba;
+      float d_ab = q.d_ab, r_ab = q.r_ab, d_ba = q.d_ba, r_ba = q.r_ba;
       if (d_ab > 0.0f) nonzero++;
       double cos_a = cos_to_mirror(dv(c.fix), dv(b), c.up);
       /* both evaluations round the cosine independently */
@@ -187,8 +176,7 @@ static void test_sampled_directions_follow_evaluated_pdf(void) {
     make_config(&c, k);
     if (c.ok && !c.mc->pdf_consistency_only && has_nonspecular(&c.mc->material)) tests++;
   }
-  double alpha = sidak(tests), min_p = 1.0, worst_rate_z = 0.0;
-  char min_label[96] = "";
+  chi_family family = chi_family_of(tests);
   for (int k = 0; k < CONFIG_COUNT; k++) {
     config c;
     make_config(&c, k);
@@ -219,13 +207,9 @@ static void test_sampled_directions_follow_evaluated_pdf(void) {
     double dth = g.theta_max / CHI_THETA, dph = 2.0 * PI_D / CHI_PHI;
     long in_grid = 0;
     for (int i = 0; i < CHI_SAMPLES; i++) {
-      float rnd[3], pdf, rev, cos_gen;
-      vf_vec3 gen;
-      unsigned event;
-      draw3(&r, rnd);
-      vf_vec3 f = vf_bsdf_sample(&c.bsdf, rnd, &gen, &pdf, &rev, &cos_gen, &event);
-      if (vf_is_zero(f) || (event & VF_BSDF_SPECULAR)) continue;
-      dvec d = dv(gen);
+      bsdf_draw s = draw_sample(&c.bsdf, &r);
+      if (vf_is_zero(s.f) || (s.event & VF_BSDF_SPECULAR)) continue;
+      dvec d = dv(s.gen);
       double z = ddot(d, g.frame.n);
       double th = acos(fmax(-1.0, fmin(1.0, z / dlength(d))));
       if (!(th < g.theta_max)) continue;
@@ -237,38 +221,17 @@ static void test_sampled_directions_follow_evaluated_pdf(void) {
       cells[it * CHI_PHI + ip].observed++;
       in_grid++;
     }
-    /* Rate: a draw is a non-specular sample inside the grid with probability
-     * grid_mass / continuation (binomial). Two deterministic allowances: the midpoint rule's
-     * error h^2 / 24 integral |f''|, with |f''| <~ 3 (n + 2) f for these cosine lobes and h the
+    /* Allowance of the rate: two deterministic bounds, the midpoint rule's error
+     * h^2 / 24 integral |f''|, with |f''| <~ 3 (n + 2) f for these cosine lobes and h the
      * quadrature step in theta; and the float bound of glossy_rounding() on the evaluated pdf,
      * n 8 FLT_EPSILON relative (it matters only for n >= 1e3). */
     double rate = grid_mass / c.bsdf.continuation;
-    double rate_sd = sqrt(CHI_SAMPLES * rate * fmax(0.0, 1.0 - rate));
     double h = g.theta_max / (CHI_THETA * CHI_SUB);
     double allowance = 0.5 + CHI_SAMPLES * rate * ((n + 2.0) * h * h / 8.0 + 8.0 * FLT_EPSILON * n);
-    expect_near("non-specular draws inside the grid", c.label, (double)in_grid, CHI_SAMPLES * rate,
-                K_SE * rate_sd + allowance);
-    double rate_z = rate_sd > 0.0 ? fmax(0.0, fabs(in_grid - CHI_SAMPLES * rate) - allowance) / rate_sd : 0.0;
-    worst_rate_z = fmax(worst_rate_z, rate_z);
-    /* Shape: given the count inside the grid, the cells are multinomial with probabilities
-     * proportional to the integrated pdf. */
-    for (int q = 0; q < CHI_THETA * CHI_PHI; q++) cells[q].expected = in_grid * mass[q] / grid_mass;
-    double chi2;
-    int dof;
-    double p = chi_square_p(cells, CHI_THETA * CHI_PHI, &chi2, &dof);
-    if (!(p >= alpha))
-      CHECK_FAIL_("chi-square [%s]: chi2 %.1f with %d dof, p = %.3g < %.3g", c.label, chi2, dof, p, alpha);
-    if (verbose)
-      printf("  %-36s chi2 %8.1f dof %3d p %.3f  in grid %6ld expected %8.1f (z %.2f)\n", c.label, chi2, dof, p,
-             in_grid, CHI_SAMPLES * rate, rate_z);
-    if (p < min_p) {
-      min_p = p;
-      snprintf(min_label, sizeof min_label, "%s", c.label);
-    }
+    chi_family_check(&family, c.label, cells, mass, CHI_THETA * CHI_PHI, grid_mass, c.bsdf.continuation, in_grid,
+                     CHI_SAMPLES, allowance, verbose);
   }
-  printf("  info: %d chi-square tests of %d samples, per-test significance %.2e, smallest p %.4f (%s); "
-         "largest |z| of the in-grid rate beyond allowances %.2f\n",
-         tests, CHI_SAMPLES, alpha, min_p, min_label, worst_rate_z);
+  chi_family_report(&family, CHI_SAMPLES);
 }
 
 /* ---- 3. vf_bsdf_init ---- */

@@ -131,16 +131,10 @@ static void test_directional_albedo_is_at_most_one(void) {
     running_mean total[3] = {{0}}, nonspecular[3] = {{0}}, specular[3] = {{0}};
     vf_rng r = test_rng(CASE_ALBEDO, (uint64_t)k);
     for (int i = 0; i < MC_SAMPLES; i++) {
-      float rnd[3], pdf, rev, cos_gen;
-      vf_vec3 gen;
-      unsigned event = 0;
-      draw3(&r, rnd);
-      vf_vec3 f = vf_bsdf_sample(&c.bsdf, rnd, &gen, &pdf, &rev, &cos_gen, &event);
-      int ok = !vf_is_zero(f);
-      int spec = ok && (event & VF_BSDF_SPECULAR);
+      bsdf_draw s = draw_sample(&c.bsdf, &r);
+      int spec = !vf_is_zero(s.f) && (s.event & VF_BSDF_SPECULAR);
       for (int ch = 0; ch < 3; ch++) {
-        /* the caller's Russian roulette survives with probability `continuation` */
-        double w = ok ? vf_vec3_get(f, ch) * cos_gen / pdf * c.bsdf.continuation : 0.0;
+        double w = draw_weight(&c.bsdf, &s, ch);
         rm_add(&total[ch], w);
         rm_add(&nonspecular[ch], spec ? 0.0 : w);
         rm_add(&specular[ch], spec ? w : 0.0);

@@ -11,7 +11,9 @@
  * a connection to the camera, and from the camera, closed by a light sample or by hitting
  * the light. The first family has no specular vertex; the second has exactly one (a
  * reflection off the mirror or glass ball), where eq. (51) removes three techniques and
- * the rest must still sum to 1.
+ * the rest must still sum to 1. In "cornell-rough" the balls are rough gold and rough glass
+ * and the floor a glTF material (worker/bsdf.h): no vertex is specular, and the paths
+ * reflect off and refract through GGX lobes.
  *
  * Which techniques exist (mirrors choose_techniques() of worker/vcm.c and the guards of
  * worker/light_pass.c and camera_pass.c):
@@ -728,6 +730,51 @@ static void test_vcm_weights_match_eq12_with_light_selection(void) {
   l->pick_probability = pick;
 }
 
+/* The rough family's vertices by lobe: on the gold ball, reflecting off and refracting
+ * through the glass ball (the path's neighbours on one side of its surface, or on both),
+ * on the glTF floor. */
+static void test_rough_paths_reach_every_rough_lobe(void) {
+  int gold = 0, glass_reflect = 0, glass_refract = 0, floor = 0;
+  for (int p = 0; p < g_diffuse.count; p++) {
+    const full_path *x = &g_diffuse.paths[p];
+    for (int i = 1; i < x->k; i++) {
+      const vf_material *m = x->material[i];
+      double before = vf_dot(x->normal[i], vf_sub(x->position[i - 1], x->position[i]));
+      double after = vf_dot(x->normal[i], vf_sub(x->position[i + 1], x->position[i]));
+      if (strcmp(m->name, "gold") == 0) gold++;
+      else if (strcmp(m->name, "frosted glass") == 0) *(before * after < 0.0 ? &glass_refract : &glass_reflect) += 1;
+      else if (m->gltf) floor++;
+    }
+  }
+  printf("  %d paths; vertices on the rough gold %d, reflecting off the rough glass %d, refracting through it %d, "
+         "on the glTF floor %d\n",
+         g_diffuse.count, gold, glass_reflect, glass_refract, floor);
+  CHECK(g_diffuse.count >= 1000);
+  CHECK_INT_EQ(g_specular.count, 0);
+  CHECK(gold >= 100 && glass_reflect >= 30 && glass_refract >= 100 && floor >= 100);
+}
+
+static void test_weights_match_eq12_through_rough_lobes(void) {
+  check_algorithm(&g_diffuse, "rough", VF_ALGO_VCM, etas, NUM_ETAS, 2);
+  check_algorithm(&g_diffuse, "rough", VF_ALGO_BPT, etas, 1, 0);
+  check_algorithm(&g_diffuse, "rough", VF_ALGO_BPM, etas, 1, 0);
+  check_algorithm(&g_diffuse, "rough", VF_ALGO_PT, etas, 1, 0);
+}
+
+/* Loads scene `name` into g_scene and walks its path sets; 0 when it cannot be loaded. */
+static int walk_scene(const char *name, vf_light_kind light) {
+  if (load_test_scene(&g_scene, name, light) != VF_OK) return 0;
+  printf("%s (%s, %s)\n", name, g_scene.camera.lens_radius > 0.0f ? "thin lens" : "pinhole",
+         g_scene.spot ? "spot light" : "area light");
+  g_diffuse.count = g_specular.count = 0;
+  for (uint64_t w = 0; w < WALKS; w++) {
+    vf_rng rng = vf_rng_for_path(20240611u, 0, w, VF_STREAM_TEST);
+    if (w % 2 == 0) walk_from_light(&g_scene, &rng, &g_diffuse, &g_specular);
+    else walk_from_camera(&g_scene, &rng, &g_diffuse, &g_specular);
+  }
+  return 1;
+}
+
 /* The pinhole with an area light, the thin lens with an area light, the pinhole with a spot. */
 static const struct {
   const char *name;
@@ -736,15 +783,7 @@ static const struct {
 
 int main(void) {
   for (size_t i = 0; i < sizeof test_scenes / sizeof *test_scenes; i++) {
-    if (load_test_scene(&g_scene, test_scenes[i].name, test_scenes[i].light) != VF_OK) return 1;
-    printf("%s (%s, %s)\n", test_scenes[i].name, g_scene.camera.lens_radius > 0.0f ? "thin lens" : "pinhole",
-           g_scene.spot ? "spot light" : "area light");
-    g_diffuse.count = g_specular.count = 0;
-    for (uint64_t w = 0; w < WALKS; w++) {
-      vf_rng rng = vf_rng_for_path(20240611u, 0, w, VF_STREAM_TEST);
-      if (w % 2 == 0) walk_from_light(&g_scene, &rng, &g_diffuse, &g_specular);
-      else walk_from_camera(&g_scene, &rng, &g_diffuse, &g_specular);
-    }
+    if (!walk_scene(test_scenes[i].name, test_scenes[i].light)) return 1;
     RUN(test_path_sets_are_large_enough);
     RUN(test_vcm_weights_match_eq12_without_specular_vertices);
     RUN(test_vcm_weights_match_eq12_with_one_specular_vertex);
@@ -754,5 +793,9 @@ int main(void) {
     RUN(test_vcm_weights_match_eq12_with_light_selection);
     destroy_test_scene(&g_scene);
   }
+  if (!walk_scene("cornell-rough", VF_LIGHT_AREA_MESH)) return 1;
+  RUN(test_rough_paths_reach_every_rough_lobe);
+  RUN(test_weights_match_eq12_through_rough_lobes);
+  destroy_test_scene(&g_scene);
   return check_finish();
 }

@@ -242,6 +242,7 @@ static int camera_bounce(vf_vcm *v, int thread, camera_lane *lane, const vf_hit 
   if (s->path_length >= v->settings.max_path_length) return 0;
   vf_bsdf b;
   if (!bsdf_at(v, &b, hit, vf_neg(s->direction))) return 0;
+  b.radiance = 1; /* its connections and merges evaluate radiance's BTDF (worker/bsdf.h) */
   if (!b.is_delta) {
     if (v->t.light_sample) light_sample(v, thread, hit, &b, s, &lane->rng, tile_pixel);
     if (v->t.connection) {

@@ -1,15 +1,36 @@
-/* Materials: a sum of up to four lobes, each with its own albedo (RGB weight).
+/* Materials: a sum of lobes, each with its own albedo (RGB weight), or the glTF 2.0
+ * metallic-roughness model.
  *
  *   diffuse     Lambertian, f = diffuse / pi
  *   glossy      energy-normalised modified Phong around the mirror direction,
  *               f = glossy (n + 2) / (2 pi) cos^n(alpha), n = phong_exponent
  *   mirror      perfect specular reflection with reflectance `mirror`
- *   dielectric  smooth dielectric interface with index of refraction `ior` (inside over
- *               outside), Fresnel reflection and refraction, tinted by `dielectric`
+ *   dielectric  dielectric interface with index of refraction `ior` (inside over outside),
+ *               Fresnel reflection and refraction, tinted by `dielectric`: smooth, or rough
+ *               (GGX, Walter et al. 2007) when `roughness` is above the threshold below
+ *   conductor   GGX microfacet reflection tinted by `conductor`, with the Fresnel
+ *               reflectance of the complex index of refraction conductor_eta + i conductor_k
+ *               per channel (both zero: Fresnel 1, the tint alone); smooth below the threshold
+ *
+ * With `gltf` set the material is instead the glTF 2.0 metallic-roughness BRDF (glTF 2.0
+ * specification, appendix B) of base_color, metallic and roughness, and the lobes above are
+ * unused (zero): a GGX specular layer with Schlick's Fresnel of
+ * F0 = mix(0.04, base_color, metallic) over a Lambertian base of (1 - metallic) base_color
+ * weighted by 1 - F(0.04).
+ *
+ * roughness is glTF's perceptual roughness in [0, 1] for every GGX lobe of the material:
+ * alpha = roughness^2. A lobe with alpha < VF_GGX_ALPHA_DELTA (worker/microfacet.h: alpha
+ * 1e-3, roughness 0.0316) is its delta limit: the smooth dielectric, or a mirror reflecting
+ * tint x Fresnel (the smooth conductor); so is a rough dielectric of ior 1, which only
+ * transmits straight on. worker/bsdf.h has the formulas and their sources.
  *
  * A scattering event picks a lobe with probability proportional to its albedo (the mean of
- * its RGB weights). Every channel of the sum of albedos must be <= 1 (no surface reflects more
- * energy than it receives); the scene loader enforces it. */
+ * its RGB weights; for the conductor lobes the weight times the cosine-weighted hemispherical
+ * average of its Fresnel reflectance). Every channel of the sum of the lobes' weights must be
+ * <= 1 (no surface reflects more energy than it receives); the scene loader enforces it.
+ * Single-scattering GGX reflects less than its weight at high roughness (docs/SCENES.md has
+ * the figures), and the glTF model more than 1 at grazing angles for a bright base colour:
+ * that is the specification's BRDF, measured in tests/test_microfacet.c. */
 #ifndef VF_MATERIAL_H
 #define VF_MATERIAL_H
 
@@ -23,6 +44,12 @@ typedef struct {
   vf_vec3 mirror;
   vf_vec3 dielectric;
   float ior;            /* > 0 when dielectric is non-zero */
+  float roughness;      /* [0, 1]: of the dielectric, the conductor and the glTF specular layer */
+  vf_vec3 conductor;
+  vf_vec3 conductor_eta, conductor_k; /* >= 0; both zero: no Fresnel factor */
+  int gltf;             /* the glTF model of base_color, metallic and roughness */
+  vf_vec3 base_color;   /* [0, 1] per channel */
+  float metallic;       /* [0, 1] */
 } vf_material;
 
 #endif

@@ -268,6 +268,23 @@ void vf_scene_hash(vf_scene *s) {
     h_vec3(&h, m->dielectric);
     h_f32(&h, m->ior);
   }
+  /* The microfacet fields, only of the materials that use them: a scene without them keeps
+   * the hash it had before they existed. */
+  for (int i = 0; i < s->num_materials; i++) {
+    const vf_material *m = &s->materials[i];
+    if (m->roughness == 0.0f && vf_is_zero(m->conductor) && vf_is_zero(m->conductor_eta) &&
+        vf_is_zero(m->conductor_k) && !m->gltf)
+      continue;
+    h_tag(&h, "microfacet material");
+    h_u32(&h, (uint32_t)i);
+    h_f32(&h, m->roughness);
+    h_vec3(&h, m->conductor);
+    h_vec3(&h, m->conductor_eta);
+    h_vec3(&h, m->conductor_k);
+    h_u32(&h, (uint32_t)m->gltf);
+    h_vec3(&h, m->base_color);
+    h_f32(&h, m->metallic);
+  }
   h_tag(&h, "shapes");
   h_u32(&h, (uint32_t)s->num_shapes);
   for (int i = 0; i < s->num_shapes; i++) {

@@ -1,5 +1,6 @@
 /* Built-in scenes: the Cornell box family (with the benchmark suite's SDS, diffuse-only and
- * glossy members, a spot light and a thin lens), the white furnace and the 100k-triangle knot.
+ * glossy members, a spot light, a thin lens and microfacet materials), the white furnace and
+ * the 100k-triangle knot.
  *
  * Each one is written out as JSON in the documented format (docs/SCENES.md) and parsed by
  * vf_scene_parse, so a built-in is validated, bounded and hashed exactly like a file, and
@@ -21,7 +22,8 @@
 
 static const char *const builtin_names[] = {"cornell", "cornell-point", "cornell-sun", "cornell-env",
                                             "furnace", "knot", "cornell-bulb", "cornell-diffuse",
-                                            "cornell-glossy", "cornell-spot", "cornell-dof", NULL};
+                                            "cornell-glossy", "cornell-spot", "cornell-dof", "cornell-rough",
+                                            NULL};
 
 const char *const *vf_scene_builtin_names(void) { return builtin_names; }
 
@@ -221,6 +223,11 @@ static const cornell_variant cornells[] = {
      "{'diffuse':[0.75,0.75,0.75]}", "blue ball", "{'diffuse':[0.2,0.3,0.75]}"},
     /* Sharp Phong lobes on floor, back wall and balls (exponents 150 to 5000), no perfect
      * specular: SDS paths do not exist, near-SDS (glossy-diffuse-glossy) ones abound. */
+    /* Microfacet lobes (worker/microfacet.h): a glTF plastic floor, a rough gold ball and a
+     * ball of rough glass; no delta lobe anywhere, so every technique applies everywhere. */
+    {"cornell-rough", WITH_AREA_LIGHT, "{'base_color':[0.5,0.5,0.5],'metallic':0,'roughness':0.5}", NULL, "gold",
+     "{'conductor':[1,1,1],'eta':[0.143,0.374,1.442],'k':[3.983,2.385,1.603],'roughness':0.3}", "frosted glass",
+     "{'dielectric':[1,1,1],'ior':1.5,'roughness':0.2}"},
     {"cornell-glossy", WITH_AREA_LIGHT, "{'diffuse':[0.1,0.1,0.1],'glossy':[0.8,0.8,0.8],'exponent':800}",
      "{'diffuse':[0.25,0.25,0.25],'glossy':[0.6,0.6,0.6],'exponent':150}", "chrome ball",
      "{'glossy':[0.9,0.9,0.9],'exponent':5000}", "blue glossy ball",

@@ -133,33 +133,66 @@ static int parse_camera(const parse_ctx *c, const cJSON *cam) {
 
 /* ---- materials ---------------------------------------------------------------------------- */
 
+/* A number in [0, 1] (roughness, metallic). */
+static int unit_field(const parse_ctx *c, const cJSON *obj, const char *path, const char *key, int required,
+                      float *out) {
+  char p[PATH_LEN];
+  int has = vf_scene_float_field(c, obj, path, key, required, out);
+  if (has > 0 && !(*out >= 0.0f && *out <= 1.0f))
+    return vf_scene_fail(c, VF_ESCENE, vf_scene_join(p, path, key), "must be in [0, 1], found %g", *out);
+  return has;
+}
+
 static int parse_material(const parse_ctx *c, const cJSON *j, vf_material *m) {
-  static const char *const fields[] = {"diffuse", "glossy", "exponent", "mirror", "dielectric", "ior", NULL};
+  static const char *const fields[] = {"diffuse", "glossy", "exponent",  "mirror", "dielectric", "ior",
+                                       "conductor", "eta",  "k", "roughness", NULL};
+  /* The glTF 2.0 metallic-roughness model has these three fields and none of the lobes'. */
+  static const char *const gltf_fields[] = {"base_color", "metallic", "roughness", NULL};
   char path[PATH_LEN];
   vf_scene_join(path, "materials", j->string);
-  int err = vf_scene_check_object(c, j, path, fields);
+  int gltf = cJSON_GetObjectItemCaseSensitive(j, "base_color") || cJSON_GetObjectItemCaseSensitive(j, "metallic");
+  int err = vf_scene_check_object(c, j, path, gltf ? gltf_fields : fields);
   if (err < 0) return err;
   if (j->string[0] == '\0' || strlen(j->string) >= sizeof m->name)
     return vf_scene_fail(c, VF_ESCENE, path, "a material name must have 1 to %zu bytes", sizeof m->name - 1);
   memset(m, 0, sizeof *m);
   snprintf(m->name, sizeof m->name, "%s", j->string);
+  char p[PATH_LEN];
+  /* Unused parameters get harmless values (1), so no consumer ever divides by zero. */
+  m->phong_exponent = m->ior = 1.0f;
+  if ((m->gltf = gltf)) {
+    if ((err = vf_scene_rgb_field(c, j, path, "base_color", REQUIRED, "colour", &m->base_color)) < 0 ||
+        (err = unit_field(c, j, path, "metallic", REQUIRED, &m->metallic)) < 0 ||
+        (err = unit_field(c, j, path, "roughness", REQUIRED, &m->roughness)) < 0)
+      return err;
+    if (vf_max_component(m->base_color) > 1.0f)
+      return vf_scene_fail(c, VF_ESCENE, vf_scene_join(p, path, "base_color"), "exceeds 1 in a channel");
+    return VF_OK;
+  }
   if ((err = vf_scene_rgb_field(c, j, path, "diffuse", OPTIONAL, "albedo", &m->diffuse)) < 0) return err;
   if ((err = vf_scene_rgb_field(c, j, path, "glossy", OPTIONAL, "albedo", &m->glossy)) < 0) return err;
   if ((err = vf_scene_rgb_field(c, j, path, "mirror", OPTIONAL, "albedo", &m->mirror)) < 0) return err;
   if ((err = vf_scene_rgb_field(c, j, path, "dielectric", OPTIONAL, "albedo", &m->dielectric)) < 0) return err;
-  char p[PATH_LEN];
-  /* Unused parameters get harmless values (1), so no consumer ever divides by zero. */
-  m->phong_exponent = 1.0f;
+  if ((err = vf_scene_rgb_field(c, j, path, "conductor", OPTIONAL, "albedo", &m->conductor)) < 0) return err;
   int has = vf_scene_float_field(c, j, path, "exponent", vf_is_zero(m->glossy) ? OPTIONAL : REQUIRED, &m->phong_exponent);
   if (has < 0) return has;
   if (has && !(m->phong_exponent >= 1.0f))
     return vf_scene_fail(c, VF_ESCENE, vf_scene_join(p, path, "exponent"), "must be >= 1, found %g", m->phong_exponent);
-  m->ior = 1.0f;
   has = vf_scene_float_field(c, j, path, "ior", vf_is_zero(m->dielectric) ? OPTIONAL : REQUIRED, &m->ior);
   if (has < 0) return has;
   if (has && !(m->ior > 0.0f))
     return vf_scene_fail(c, VF_ESCENE, vf_scene_join(p, path, "ior"), "must be > 0, found %g", m->ior);
-  vf_vec3 sum = vf_add(vf_add(m->diffuse, m->glossy), vf_add(m->mirror, m->dielectric));
+  /* The conductor's complex index of refraction eta + i k, per channel. */
+  int has_eta = vf_scene_rgb_field(c, j, path, "eta", OPTIONAL, "index of refraction", &m->conductor_eta);
+  int has_k = has_eta < 0 ? has_eta
+                          : vf_scene_rgb_field(c, j, path, "k", OPTIONAL, "extinction coefficient", &m->conductor_k);
+  if (has_k < 0) return has_k;
+  if (has_eta != has_k || (has_eta && vf_is_zero(m->conductor)))
+    return vf_scene_fail(c, VF_ESCENE, vf_scene_join(p, path, has_eta ? "eta" : "k"), "needs 'eta', 'k' and 'conductor'");
+  if ((has = unit_field(c, j, path, "roughness", OPTIONAL, &m->roughness)) < 0) return has;
+  if (has && vf_is_zero(m->conductor) && vf_is_zero(m->dielectric))
+    return vf_scene_fail(c, VF_ESCENE, vf_scene_join(p, path, "roughness"), "needs a 'conductor' or 'dielectric' lobe");
+  vf_vec3 sum = vf_add(vf_add(vf_add(m->diffuse, m->glossy), vf_add(m->mirror, m->dielectric)), m->conductor);
   for (int i = 0; i < 3; i++)
     if (vf_vec3_get(sum, i) > 1.0f + ALBEDO_SUM_TOLERANCE)
       return vf_scene_fail(c, VF_ESCENE, path, "albedo sum of the lobes exceeds 1 (channel %c: %g)", "rgb"[i],

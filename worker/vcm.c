@@ -101,10 +101,10 @@ static void choose_techniques(vf_vcm *v) {
 static void analyse_scene(vf_vcm *v) {
   const vf_scene *sc = v->scene;
   for (int i = 0; i < sc->num_materials; i++) {
-    const vf_material *m = &sc->materials[i];
-    if (!vf_is_zero(m->mirror) || !vf_is_zero(m->dielectric)) v->has_specular = 1;
-    if (!vf_is_zero(m->glossy)) v->has_glossy = 1;
-    if (!vf_is_zero(m->diffuse)) v->has_diffuse = 1;
+    unsigned kinds = vf_material_kinds(&sc->materials[i]);
+    if (kinds & VF_KIND_SPECULAR) v->has_specular = 1;
+    if (kinds & VF_KIND_GLOSSY) v->has_glossy = 1;
+    if (kinds & VF_KIND_DIFFUSE) v->has_diffuse = 1;
   }
 }
 
