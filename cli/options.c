@@ -88,7 +88,8 @@ int vf_cli_settings_apply(const vf_cli_settings *o, vf_settings *settings) {
 int vf_cli_extension(const char *option, const char *path, const char *ext, const char *what) {
   size_t n = strlen(path), e = strlen(ext);
   if (n > e && strcasecmp(path + n - e, ext) == 0) return VF_OK;
-  return vf_error_set(VF_EUSAGE, "%s: '%s' does not end in %s, but %s is written there", option, path, ext, what);
+  return vf_error_set(VF_EUSAGE, "%s: '%s' must be a %s file (%s is written there), but it does not end in %s",
+                      option, path, ext, what, ext);
 }
 
 int vf_cli_not_input(const char *output_option, const char *output, const char *input_option, const char *input) {
