@@ -33,6 +33,7 @@ typedef struct {
   vf_settings settings;
   int have_settings;
   char hash[65];
+  int format_version; /* the file's */
 } summary;
 
 static int summarise(const vf_film *film, summary *out) {
@@ -64,7 +65,7 @@ static int print_json(const char *path, const vf_film *film, const summary *s) {
   cJSON *root = cJSON_CreateObject(), *log = NULL;
   if (root == NULL) return VF_ENOMEM;
   cJSON_AddStringToObject(root, "file", path);
-  cJSON_AddNumberToObject(root, "format_version", VF_FILM_FORMAT_VERSION);
+  cJSON_AddNumberToObject(root, "format_version", s->format_version);
   cJSON_AddNumberToObject(root, "width", film->width);
   cJSON_AddNumberToObject(root, "height", film->height);
   cJSON_AddStringToObject(root, "scene_hash", s->hash);
@@ -75,7 +76,7 @@ static int print_json(const char *path, const vf_film *film, const summary *s) {
   cJSON_AddItemToObject(root, "seed", s->have_settings ? cJSON_CreateNumber((double)s->settings.seed) : cJSON_CreateNull());
   cJSON_AddStringToObject(root, "iterations", s->iterations);
   cJSON_AddNumberToObject(root, "iteration_count", (double)vf_iterset_count(&film->iterations));
-  cJSON_AddNumberToObject(root, "light_frames", (double)film->light_frames);
+  cJSON_AddNumberToObject(root, "light_frames", (double)vf_iterset_count(&film->iterations)); /* one per iteration */
   cJSON_AddNumberToObject(root, "render_seconds", film->render_seconds);
   cJSON_AddNumberToObject(root, "cpu_seconds", film->cpu_seconds);
   cJSON_AddNumberToObject(root, "nonfinite_samples", (double)film->nonfinite_samples);
@@ -105,7 +106,7 @@ static int print_json(const char *path, const vf_film *film, const summary *s) {
 
 static void print_text(const char *path, const vf_film *film, const summary *s) {
   printf("file               %s\n", path);
-  printf("format_version     %d\n", VF_FILM_FORMAT_VERSION);
+  printf("format_version     %d\n", s->format_version);
   printf("size               %dx%d\n", film->width, film->height);
   printf("scene              %s\n", film->scene_name[0] ? film->scene_name : "(unknown)");
   printf("scene_hash         %s\n", s->hash);
@@ -116,7 +117,7 @@ static void print_text(const char *path, const vf_film *film, const summary *s) 
   }
   printf("iterations         %s\n", s->iterations);
   printf("iteration_count    %" PRIu64 "\n", vf_iterset_count(&film->iterations));
-  printf("light_frames       %" PRIu64 "\n", film->light_frames);
+  printf("light_frames       %" PRIu64 "\n", vf_iterset_count(&film->iterations)); /* one per iteration */
   printf("render_seconds     %.3f\n", film->render_seconds);
   printf("cpu_seconds        %.3f\n", film->cpu_seconds);
   printf("nonfinite_samples  %" PRIu64 "\n", film->nonfinite_samples);
@@ -154,6 +155,7 @@ int vf_cmd_info(int argc, char **argv) {
   vf_film *film = NULL;
   summary s = {0};
   int err = vf_film_read(path, &film);
+  if (err == VF_OK) err = vf_film_read_version(path, &s.format_version);
   if (err == VF_OK) err = summarise(film, &s);
   if (err == VF_OK) {
     if (json) err = print_json(path, film, &s);

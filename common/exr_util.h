@@ -6,12 +6,17 @@
  * absurd sizes and files too short for their chunk table before it allocates anything,
  * and hands pixels to its caller one decoded chunk at a time, converted to float.
  *
- * The writer streams the file through an atomic file (common/atomic_file.h), whose rule
- * every writer follows. */
+ * Chunks are decoded, and filled and encoded, in parallel: one thread per CPU (at most
+ * 16), each with its own buffers, so the store and fill callbacks run concurrently for
+ * different chunks and must only touch their chunk's pixels. The writer packs and
+ * compresses chunks itself (common/exr_chunk.h) and writes them in order, so a file's
+ * bytes do not depend on the number of threads; it streams the file through an atomic
+ * file (common/atomic_file.h), whose rule every writer follows. */
 #ifndef VF_EXR_UTIL_H
 #define VF_EXR_UTIL_H
 
 #include "atomic_file.h"
+#include "exr_chunk.h"
 
 #include <openexr.h>
 
@@ -20,6 +25,8 @@
 /* Refuse data windows above this many pixels before allocating anything. */
 #define VF_EXR_MAX_PIXELS ((int64_t)1 << 28)
 #define VF_EXR_MAX_SIDE 65536
+/* Channels read or written at once. */
+#define VF_EXR_MAX_CHANNELS 64
 
 /* ---- reading ---- */
 
@@ -45,8 +52,9 @@ int vf_exr_has_channel(const vf_exr_in *in, const char *name);
 typedef int (*vf_exr_store_fn)(void *user, int x0, int y0, int w, int h, const float *const *planes);
 
 /* Decodes channels `names` (which must all exist, unsubsampled) over the whole data
- * window, level 0 of a tiled file, calling store once per chunk. VF_EEXR with a detail
- * naming the chunk on corrupt data; store's error is passed through. */
+ * window, level 0 of a tiled file, calling store once per chunk, from several threads at
+ * once. VF_EEXR with a detail naming the chunk on corrupt data; store's error is passed
+ * through (the first, when several chunks fail). */
 int vf_exr_read_channels(vf_exr_in *in, int n, const char *const *names, vf_exr_store_fn store, void *user);
 
 /* ---- writing ---- */
@@ -55,19 +63,24 @@ typedef struct {
   exr_context_t ctx;
   vf_atomic_file file;
   int width, height, tile; /* tile 0: scanline */
+  int channels;
+  vf_exr_compression compression;
+  int order[VF_EXR_MAX_CHANNELS]; /* the file's i-th channel is names[order[i]] */
+  uint64_t written, handed;       /* bytes written, and handed to the disk early */
 } vf_exr_out;
 
 /* Starts an atomic write of a FLOAT one-part image with channels `names`, in tile x tile
- * tiles, or scanlines when tile is 0; compressed with ZIP (level 1) when `zip` is set,
- * else uncompressed. Attributes may be added with the exr_attr_set_* functions on out->ctx
- * until vf_exr_write_pixels. */
-int vf_exr_create(const char *path, int width, int height, int tile, int zip, int n, const char *const *names,
-                  vf_exr_out *out);
+ * tiles, or scanlines when tile is 0; ZIP (exr_chunk.h) or uncompressed. Attributes may
+ * be added with the exr_attr_set_* functions on out->ctx until vf_exr_write_pixels. */
+int vf_exr_create(const char *path, int width, int height, int tile, vf_exr_compression compression, int n,
+                  const char *const *names, vf_exr_out *out);
 
-/* Fills one chunk: planes[i] receives w*h floats of channel names[i] at (x0, y0). */
+/* Fills one chunk: planes[i] receives w*h floats of channel names[i] at (x0, y0). Called
+ * from several threads at once, for different chunks. */
 typedef void (*vf_exr_fill_fn)(void *user, int x0, int y0, int w, int h, float *const *planes);
 
-/* Writes the header and every chunk, asking fill for the pixels. */
+/* Writes the header and every chunk, asking fill for the pixels; n and names are those
+ * given to vf_exr_create. */
 int vf_exr_write_pixels(vf_exr_out *out, int n, const char *const *names, vf_exr_fill_fn fill, void *user);
 
 /* Finishes the file and renames it into place. Releases out either way. */

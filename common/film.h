@@ -1,24 +1,23 @@
 /* The film: what a render accumulates, what users keep, merge and continue.
  *
- * Per pixel, in double precision:
- *   camera_sum   sum over camera sub-paths of their estimate (RGB)
- *   camera_count number of camera sub-paths accumulated
- *   light_sum    sum over light-tracing frames of the light-tracing image (RGB); the
- *                light-to-camera technique splats anywhere in the image, so it is kept as
- *                whole frames with one global frame count
- *   square_sum   sum over iterations of the square of that iteration's pixel estimate
- *                (camera + light), RGB: with the means it gives each pixel's variance and
- *                so an error estimate without a reference
- * The mean radiance of a pixel is camera_sum / camera_count + light_sum / light_frames.
+ * Per pixel, in double precision, over the film's iterations:
+ *   sum          sum of the pixel's estimate of each iteration (RGB): its camera sub-path
+ *                plus its light-tracing frame (the light-to-camera technique splats
+ *                anywhere in the image, so every iteration adds one whole frame)
+ *   square_sum   sum of the squares of those estimates (RGB): with the mean it gives
+ *                each pixel's variance and so an error estimate without a reference
+ * Every iteration adds one camera sample to every pixel (a non-finite one as zero, still
+ * counted) and one light frame, so every pixel holds N = vf_iterset_count(&iterations)
+ * samples and nothing per pixel needs counting: the mean radiance is sum / N.
  *
  * Beside the pixels the film carries the scene content hash, the canonical settings text,
  * the set of global iterations it contains, the render time, the scene's name and the
  * convergence log (common/convergence.h); two films merge only when scene hash and settings
  * text agree and their iteration sets are disjoint.
  *
- * On disk (docs/FILM.md): a tiled OpenEXR (64x64 tiles) whose R, G, B channels hold the
- * mean (any viewer shows the image) and whose other channels and "vcmfarm:" attributes
- * hold the accumulation exactly.
+ * On disk (docs/FILM.md): a tiled OpenEXR (64x64 tiles, ZIP) whose R, G, B channels hold
+ * the mean (any viewer shows the image) and, with the other channels and the "vcmfarm:"
+ * attributes, the accumulation to 48 significant bits.
  *
  * One module in two files: film.c holds the sums (create, add, mean, merge, estimate,
  * validate), film_file.c the file format (vf_film_write, vf_film_read). */
@@ -32,17 +31,15 @@
 #include <stddef.h>
 #include <stdint.h>
 
-#define VF_FILM_FORMAT_VERSION 1
+/* The version vf_film_write writes; vf_film_read reads it and version 1. */
+#define VF_FILM_FORMAT_VERSION 2
 #define VF_FILM_TILE 64
 
 typedef struct {
   int width, height;
-  double *camera_sum;   /* 3 per pixel, owned */
-  double *camera_count; /* 1 per pixel, owned; whole numbers */
-  double *light_sum;    /* 3 per pixel, owned */
-  double *square_sum;   /* 3 per pixel, owned */
-  uint64_t light_frames;
-  vf_iterset iterations;
+  double *sum;        /* 3 per pixel, owned */
+  double *square_sum; /* 3 per pixel, owned */
+  vf_iterset iterations; /* which global iterations it holds; their number is every pixel's count */
   uint8_t scene_hash[32];
   char settings_text[512];
   double render_seconds;      /* wall-clock time spent rendering the iterations it holds */
@@ -65,7 +62,7 @@ void vf_film_destroy(vf_film *film);
 int vf_film_add_iteration(vf_film *film, uint64_t iteration, const float *camera_rgb, const float *light_rgb,
                           vf_pool *pool);
 
-/* Mean radiance, 3 floats per pixel, into rgb. Pixels without samples are 0. */
+/* Mean radiance (sum / N), 3 floats per pixel, into rgb; 0 when the film is empty. */
 void vf_film_mean(const vf_film *film, float *rgb);
 /* The same for the one pixel p (y * width + x). */
 void vf_film_pixel_mean(const vf_film *film, size_t p, float rgb[3]);
@@ -80,28 +77,37 @@ int vf_film_merge(vf_film *dst, const vf_film *src);
 int vf_film_clone(const vf_film *film, vf_film **out);
 
 /* The estimated RMSE of the film's mean image, without a reference (docs/FILM.md): per pixel
- * and channel, the sample variance of the per-iteration estimates (camera + light) from
- * square_sum and the sums, divided by the number of iterations, averaged over pixels and
- * channels, square-rooted. NaN when the film holds fewer than 2 iterations. Uses only sums,
- * so it is the same for a merged or continued film as for one rendered in one go. */
+ * and channel, the sample variance of the per-iteration estimates from square_sum and sum,
+ * divided by the number of iterations, averaged over pixels and channels, square-rooted.
+ * NaN when the film holds fewer than 2 iterations. Uses only sums, so it is the same for a
+ * merged or continued film as for one rendered in one go. */
 double vf_film_estimate_rmse(const vf_film *film);
 
-/* Checks the invariants every film built by this module keeps: counts whole, >= 0 and at
- * most the number of iterations, sums finite, square sums >= 0, light_frames equal to the
- * number of iterations, times finite and >= 0, texts terminated, the convergence log
- * valid (vf_convergence_validate). VF_EFILM
- * with a detail "NAME: problem" (name is e.g. the file path) when one does not hold. */
+/* Checks the invariants every film built by this module keeps: sums finite, square sums
+ * >= 0, times finite and >= 0, non-finite samples at most two per pixel and iteration,
+ * texts terminated, the convergence log valid (vf_convergence_validate). VF_EFILM with a
+ * detail "NAME: problem" (name is e.g. the file path) when one does not hold. */
 int vf_film_validate(const vf_film *film, const char *name);
 
 /* ---- the file (film_file.c, docs/FILM.md) ---- */
 
-/* Atomic write (common/atomic_file.h: temporary file, fsync, rename, fsync of the directory).
- * Never leaves a partial file at path. VF_EFILM for a film that breaks an invariant or holds
- * a value beyond float range, VF_EIO, VF_EEXR. */
+/* Atomic write (common/atomic_file.h: temporary file, fsync, rename, fsync of the directory)
+ * in format VF_FILM_FORMAT_VERSION. Never leaves a partial file at path. VF_EFILM for a
+ * film that breaks an invariant or holds a value beyond float range, VF_EIO, VF_EEXR.
+ * Tiles are filled and compressed on one thread per CPU. */
 int vf_film_write(const vf_film *film, const char *path);
 
-/* Reads and validates a film. VF_ENOENT, or VF_EEXR / VF_EFILM with a detail naming the file
- * and the problem (not a film, missing channel, negative or NaN counts, bad attribute...). */
+/* The same in format `version`: 2, or 1 (uncompressed, camera_sum = sum, light_sum = 0,
+ * every count N) for builds that read only version 1. VF_EINVAL for other versions. */
+int vf_film_write_version(const vf_film *film, const char *path, int version);
+
+/* Reads and validates a film of version 1 or 2. VF_ENOENT, or VF_EEXR / VF_EFILM with a
+ * detail naming the file and the problem (not a film, missing channel, a version-1 pixel
+ * whose camera count is not the film's number of iterations, bad attribute...). */
 int vf_film_read(const char *path, vf_film **out);
+
+/* The format version of the film file at path (1 or 2), from its header alone; fails
+ * like vf_film_read on a file that is not a film of a known version. */
+int vf_film_read_version(const char *path, int *version);
 
 #endif

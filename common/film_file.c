@@ -1,19 +1,23 @@
-/* The film file (docs/FILM.md): a tiled OpenEXR whose R, G, B hold the mean and whose
- * other channels and "vcmfarm:" attributes hold the accumulation exactly; written
+/* The film file (docs/FILM.md): a tiled OpenEXR whose R, G, B hold the mean and which,
+ * with its other channels and "vcmfarm:" attributes, holds the accumulation; written
  * atomically, read as untrusted input.
  *
- * The file keeps each double as two floats, hi = (float)d and lo = (float)(d - hi), because
- * EXR has no double channels: hi + lo carries about 48 significant bits, so a film read back
- * differs from the one written by a relative ~4e-15 at most (counts below 2^48 exactly). */
+ * The file keeps each double as two floats (common/film_planes.h), because EXR has no
+ * double channels: the pair carries about 48 significant bits, so a film read back differs
+ * from the one written by a relative ~4e-15 at most. Version 2 is written (ZIP); versions 1
+ * (uncompressed, with per-pixel counts that must all equal the number of iterations) and 2
+ * are read. */
 #include "film.h"
 
 #include "error.h"
 #include "exr_util.h"
+#include "film_planes.h"
 #include "parse.h"
 
 #include <inttypes.h>
 #include <math.h>
 #include <sodium.h>
+#include <stdatomic.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -31,68 +35,23 @@
 #define ATTR_CONVERGENCE "vcmfarm:convergence"
 #define ATTR_SETTINGS_HASH "vcmfarm:settings_hash"
 
-/* The four accumulated quantities, in the order of accum_names below. */
-enum { Q_CAMERA, Q_COUNT, Q_LIGHT, Q_SQUARE, Q_COUNT_ };
-static const int q_comps[Q_COUNT_] = {3, 1, 3, 3};
-static const int q_first_plane[Q_COUNT_] = {0, 6, 8, 14}; /* hi planes, then lo planes */
-#define ACCUM_PLANES 20
-
-/* Layer "camera.hi" with channels R, G, B shows up as an image in layer-aware viewers. */
-static const char *const file_channels[3 + ACCUM_PLANES] = {
-    "R",           "G",           "B",                                                      /* mean */
-    "camera.hi.R", "camera.hi.G", "camera.hi.B", "camera.lo.R", "camera.lo.G", "camera.lo.B", /* */
-    "count.hi",    "count.lo",                                                               /* */
-    "light.hi.R",  "light.hi.G",  "light.hi.B",  "light.lo.R",  "light.lo.G",  "light.lo.B",  /* */
-    "square.hi.R", "square.hi.G", "square.hi.B", "square.lo.R", "square.lo.G", "square.lo.B",
-};
-static const char *const *const accum_names = file_channels + 3;
-
-static double *q_data(const vf_film *film, int q) {
-  switch (q) {
-  case Q_CAMERA: return film->camera_sum;
-  case Q_COUNT: return film->camera_count;
-  case Q_LIGHT: return film->light_sum;
-  default: return film->square_sum;
-  }
-}
-
 /* ---- writing ---- */
 
-static void split(double d, float *hi, float *lo) {
-  *hi = (float)d;
-  *lo = (float)(d - (double)*hi);
+/* The film's sums for the tiles, filled on several threads, which note a value beyond
+ * float range (the file is then dropped, not committed). */
+typedef struct {
+  vf_film_sums sums;
+  atomic_int overflow;
+} fill_source;
+
+static void fill_v2(void *user, int x0, int y0, int w, int h, float *const *planes) {
+  fill_source *f = user;
+  if (!vf_film_planes_fill(f->sums, x0, y0, w, h, planes)) atomic_store(&f->overflow, 1);
 }
 
-static void fill_film(void *user, int x0, int y0, int w, int h, float *const *planes) {
-  const vf_film *film = user;
-  for (int y = 0; y < h; y++) {
-    for (int x = 0; x < w; x++) {
-      size_t p = (size_t)(y0 + y) * (size_t)film->width + (size_t)(x0 + x), i = (size_t)y * (size_t)w + (size_t)x;
-      float mean[3];
-      vf_film_pixel_mean(film, p, mean);
-      for (int c = 0; c < 3; c++) planes[c][i] = mean[c];
-      for (int q = 0; q < Q_COUNT_; q++) {
-        const double *data = q_data(film, q);
-        for (int c = 0; c < q_comps[q]; c++) {
-          float *const *hi_lo = planes + 3 + q_first_plane[q];
-          split(data[(size_t)q_comps[q] * p + (size_t)c], &hi_lo[c][i], &hi_lo[q_comps[q] + c][i]);
-        }
-      }
-    }
-  }
-}
-
-/* A value beyond float range would be written as Inf and refused on reading. */
-static int check_float_range(const vf_film *film, const char *path) {
-  size_t n = (size_t)film->width * (size_t)film->height;
-  for (int q = 0; q < Q_COUNT_; q++) {
-    const double *data = q_data(film, q);
-    for (size_t i = 0; i < n * (size_t)q_comps[q]; i++)
-      if (!isfinite((float)data[i]))
-        return vf_error_set(VF_EFILM, "%s: pixel %zu holds %g, beyond the file format's float range", path,
-                            i / (size_t)q_comps[q], data[i]);
-  }
-  return VF_OK;
+static void fill_v1(void *user, int x0, int y0, int w, int h, float *const *planes) {
+  fill_source *f = user;
+  if (!vf_film_planes_fill_v1(f->sums, x0, y0, w, h, planes)) atomic_store(&f->overflow, 1);
 }
 
 /* BLAKE2b-256 of the settings text, in hex: lets a person or a script see at a glance that
@@ -103,17 +62,19 @@ static void settings_hash_hex(const char *settings_text, char hex[65]) {
   for (int i = 0; i < 32; i++) snprintf(hex + 2 * i, 3, "%02x", h[i]);
 }
 
-static int set_attributes(exr_context_t ctx, const vf_film *film, const char *iterations, const char *convergence) {
+static int set_attributes(exr_context_t ctx, const vf_film *film, int version, const char *iterations,
+                          const char *convergence) {
   char hex[65], settings_hex[65], number[32];
   for (int i = 0; i < 32; i++) snprintf(hex + 2 * i, 3, "%02x", film->scene_hash[i]);
   settings_hash_hex(film->settings_text, settings_hex);
-  exr_result_t rv = exr_attr_set_int(ctx, 0, ATTR_VERSION, VF_FILM_FORMAT_VERSION);
+  exr_result_t rv = exr_attr_set_int(ctx, 0, ATTR_VERSION, version);
   if (rv == EXR_ERR_SUCCESS) rv = exr_attr_set_string(ctx, 0, ATTR_SCENE, hex);
   if (rv == EXR_ERR_SUCCESS) rv = exr_attr_set_string(ctx, 0, ATTR_SETTINGS, film->settings_text);
   if (rv == EXR_ERR_SUCCESS) rv = exr_attr_set_string(ctx, 0, ATTR_SETTINGS_HASH, settings_hex);
   if (rv == EXR_ERR_SUCCESS) rv = exr_attr_set_string(ctx, 0, ATTR_ITERATIONS, iterations);
-  snprintf(number, sizeof number, "%" PRIu64, film->light_frames);
-  if (rv == EXR_ERR_SUCCESS) rv = exr_attr_set_string(ctx, 0, ATTR_LIGHT_FRAMES, number);
+  /* Version 2 derives it from the iterations. */
+  snprintf(number, sizeof number, "%" PRIu64, vf_iterset_count(&film->iterations));
+  if (rv == EXR_ERR_SUCCESS && version == 1) rv = exr_attr_set_string(ctx, 0, ATTR_LIGHT_FRAMES, number);
   if (rv == EXR_ERR_SUCCESS) rv = exr_attr_set_double(ctx, 0, ATTR_SECONDS, film->render_seconds);
   snprintf(number, sizeof number, "%" PRIu64, film->nonfinite_samples);
   if (rv == EXR_ERR_SUCCESS) rv = exr_attr_set_string(ctx, 0, ATTR_NONFINITE, number);
@@ -124,9 +85,14 @@ static int set_attributes(exr_context_t ctx, const vf_film *film, const char *it
 }
 
 int vf_film_write(const vf_film *film, const char *path) {
+  return vf_film_write_version(film, path, VF_FILM_FORMAT_VERSION);
+}
+
+int vf_film_write_version(const vf_film *film, const char *path, int version) {
   if (film == NULL || path == NULL) return vf_error_set(VF_EINVAL, "vf_film_write: NULL argument");
+  if (version != 1 && version != 2)
+    return vf_error_set(VF_EINVAL, "%s: film format version %d cannot be written (1 or 2)", path, version);
   int err = vf_film_validate(film, path);
-  if (err == VF_OK) err = check_float_range(film, path);
   if (err != VF_OK) return err;
   /* "[b,e)" with two 20-digit numbers and a separator is at most 45 bytes per range. */
   size_t text_size = film->iterations.count * 46 + 1;
@@ -135,16 +101,22 @@ int vf_film_write(const vf_film *film, const char *path) {
   if ((err = vf_iterset_format(&film->iterations, iterations, text_size)) != VF_OK) goto free_text;
   if ((err = vf_convergence_format(&film->convergence, &convergence)) != VF_OK) goto free_text;
 
+  /* Version 1 stays as it was written: uncompressed. */
+  int n = version == 1 ? VF_FILM_V1_CHANNELS : VF_FILM_V2_CHANNELS;
+  const char *const *names = version == 1 ? vf_film_v1_channels : vf_film_v2_channels;
   vf_exr_out out;
-  if ((err = vf_exr_create(path, film->width, film->height, VF_FILM_TILE, 0, 3 + ACCUM_PLANES, file_channels, &out)) != VF_OK)
+  if ((err = vf_exr_create(path, film->width, film->height, VF_FILM_TILE, version == 1 ? VF_EXR_NONE : VF_EXR_ZIP, n,
+                           names, &out)) != VF_OK)
     goto free_text;
-  exr_result_t rv = set_attributes(out.ctx, film, iterations, convergence);
+  exr_result_t rv = set_attributes(out.ctx, film, version, iterations, convergence);
   if (rv != EXR_ERR_SUCCESS) {
     err = vf_exr_error(path, rv, "cannot set the film attributes");
     goto abort;
   }
-  if ((err = vf_exr_write_pixels(&out, 3 + ACCUM_PLANES, file_channels, fill_film, (void *)film)) != VF_OK)
+  fill_source source = {vf_film_sums_of(film), 0};
+  if ((err = vf_exr_write_pixels(&out, n, names, version == 1 ? fill_v1 : fill_v2, &source)) != VF_OK)
     goto abort;
+  if (atomic_load(&source.overflow) && (err = vf_film_planes_check_range(film, version, path)) != VF_OK) goto abort;
   err = vf_exr_commit(&out);
   free(convergence);
   free(iterations);
@@ -257,19 +229,35 @@ static int read_optional_attributes(const vf_exr_in *in, vf_film *film) {
   return err;
 }
 
-/* Reads every attribute into film, which has no pixels yet. */
-static int read_attributes(const vf_exr_in *in, vf_film *film) {
+static int get_version(const vf_exr_in *in, int *version) {
   const exr_attribute_t *attr = find_attr(in, ATTR_VERSION);
   if (attr == NULL)
     return vf_error_set(VF_EFILM, "%s: not a vcmfarm film: missing attribute " ATTR_VERSION, in->path);
   if (attr->type != EXR_ATTR_INT) return vf_error_set(VF_EFILM, "%s: attribute " ATTR_VERSION " is not an int", in->path);
-  if (attr->i != VF_FILM_FORMAT_VERSION)
-    return vf_error_set(VF_EFILM, "%s: unknown film format version %d (this build reads version %d)", in->path,
-                        (int)attr->i, VF_FILM_FORMAT_VERSION);
+  if (attr->i != 1 && attr->i != 2)
+    return vf_error_set(VF_EFILM, "%s: unknown film format version %d (this build reads versions 1 and 2)", in->path,
+                        (int)attr->i);
+  *version = (int)attr->i;
+  return VF_OK;
+}
+
+int vf_film_read_version(const char *path, int *version) {
+  if (path == NULL || version == NULL) return vf_error_set(VF_EINVAL, "vf_film_read_version: NULL argument");
+  vf_exr_in in;
+  int err = vf_exr_open(path, &in);
+  if (err != VF_OK) return err;
+  err = get_version(&in, version);
+  vf_exr_close(&in);
+  return err;
+}
+
+/* Reads every attribute into film, which has no pixels yet, and the format version. */
+static int read_attributes(const vf_exr_in *in, vf_film *film, int *version) {
+  int err = get_version(in, version);
+  if (err != VF_OK) return err;
 
   char *text = NULL;
-  int err = get_string(in, ATTR_SCENE, &text);
-  if (err != VF_OK) return err;
+  if ((err = get_string(in, ATTR_SCENE, &text)) != VF_OK) return err;
   for (int i = 0; i < 32 && err == VF_OK; i++) {
     int hi = strlen(text) == 64 ? hex_digit(text[2 * i]) : -1, lo = hi >= 0 ? hex_digit(text[2 * i + 1]) : -1;
     if (hi < 0 || lo < 0) err = vf_error_set(VF_EFILM, "%s: attribute " ATTR_SCENE " is not 64 hex digits", in->path);
@@ -286,27 +274,32 @@ static int read_attributes(const vf_exr_in *in, vf_film *film) {
   free(text);
   if (err != VF_OK) return err;
 
-  if ((err = get_u64(in, ATTR_LIGHT_FRAMES, &film->light_frames)) != VF_OK) return err;
+  if (*version == 1) {
+    uint64_t frames = 0, iterations = vf_iterset_count(&film->iterations);
+    if ((err = get_u64(in, ATTR_LIGHT_FRAMES, &frames)) != VF_OK) return err;
+    if (frames != iterations)
+      return vf_error_set(VF_EFILM, "%s: %" PRIu64 " light frames but %" PRIu64 " iterations", in->path, frames,
+                          iterations);
+  }
   if ((err = get_u64(in, ATTR_NONFINITE, &film->nonfinite_samples)) != VF_OK) return err;
 
   if ((err = get_double(in, ATTR_SECONDS, &film->render_seconds)) != VF_OK) return err;
   return read_optional_attributes(in, film);
 }
 
-static int store_film(void *user, int x0, int y0, int w, int h, const float *const *planes) {
-  vf_film *film = user;
-  for (int y = 0; y < h; y++) {
-    for (int x = 0; x < w; x++) {
-      size_t p = (size_t)(y0 + y) * (size_t)film->width + (size_t)(x0 + x), i = (size_t)y * (size_t)w + (size_t)x;
-      for (int q = 0; q < Q_COUNT_; q++) {
-        double *data = q_data(film, q);
-        const float *const *hi_lo = planes + q_first_plane[q];
-        for (int c = 0; c < q_comps[q]; c++)
-          data[(size_t)q_comps[q] * p + (size_t)c] = (double)hi_lo[c][i] + (double)hi_lo[q_comps[q] + c][i];
-      }
-    }
-  }
+typedef struct {
+  vf_film_sums sums;
+  const char *path;
+} store_target;
+
+static int store_v2(void *user, int x0, int y0, int w, int h, const float *const *planes) {
+  vf_film_planes_store(((store_target *)user)->sums, x0, y0, w, h, planes);
   return VF_OK;
+}
+
+static int store_v1(void *user, int x0, int y0, int w, int h, const float *const *planes) {
+  store_target *t = user;
+  return vf_film_planes_store_v1(t->sums, t->path, x0, y0, w, h, planes);
 }
 
 int vf_film_read(const char *path, vf_film **out) {
@@ -321,21 +314,19 @@ int vf_film_read(const char *path, vf_film **out) {
   vf_film *film = NULL;
   vf_iterset_init(&header.iterations);
   vf_convergence_init(&header.convergence);
-  if ((err = read_attributes(&in, &header)) != VF_OK) goto fail;
-  for (int k = 0; k < ACCUM_PLANES; k++)
-    if (!vf_exr_has_channel(&in, accum_names[k])) {
-      err = vf_error_set(VF_EFILM, "%s: not a vcmfarm film: missing channel %s", path, accum_names[k]);
+  int version = 0;
+  if ((err = read_attributes(&in, &header, &version)) != VF_OK) goto fail;
+  /* Version 1's R, G, B are a view of the sums, never read back. */
+  int n = version == 1 ? VF_FILM_V1_ACCUM : VF_FILM_V2_CHANNELS;
+  const char *const *names = version == 1 ? vf_film_v1_channels + 3 : vf_film_v2_channels;
+  for (int k = 0; k < n; k++)
+    if (!vf_exr_has_channel(&in, names[k])) {
+      err = vf_error_set(VF_EFILM, "%s: not a vcmfarm film: missing channel %s", path, names[k]);
       goto fail;
     }
-  if (header.light_frames != vf_iterset_count(&header.iterations)) {
-    err = vf_error_set(VF_EFILM, "%s: %" PRIu64 " light frames but %" PRIu64 " iterations", path, header.light_frames,
-                       vf_iterset_count(&header.iterations));
-    goto fail;
-  }
   if ((err = vf_film_create(in.width, in.height, &film)) != VF_OK) goto fail;
   film->iterations = header.iterations; /* moved: header no longer owns it */
   vf_iterset_init(&header.iterations);
-  film->light_frames = header.light_frames;
   memcpy(film->scene_hash, header.scene_hash, sizeof film->scene_hash);
   memcpy(film->settings_text, header.settings_text, sizeof film->settings_text);
   film->render_seconds = header.render_seconds;
@@ -345,7 +336,8 @@ int vf_film_read(const char *path, vf_film **out) {
   film->convergence = header.convergence; /* moved, like the iterations */
   vf_convergence_init(&header.convergence);
 
-  if ((err = vf_exr_read_channels(&in, ACCUM_PLANES, accum_names, store_film, film)) != VF_OK) goto fail;
+  store_target target = {vf_film_sums_of(film), path};
+  if ((err = vf_exr_read_channels(&in, n, names, version == 1 ? store_v1 : store_v2, &target)) != VF_OK) goto fail;
   if ((err = vf_film_validate(film, path)) != VF_OK) goto fail;
   vf_exr_close(&in);
   *out = film;

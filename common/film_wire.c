@@ -1,7 +1,10 @@
 #include "film_wire.h"
 
 #include "error.h"
+#include "exr_chunk.h"
 #include "file.h"
+#include "film_planes.h"
+#include "pool.h"
 
 #include <errno.h>
 #include <math.h>
@@ -79,80 +82,141 @@ static int tile_rect(int width, int height, uint32_t x, uint32_t y, int *x0, int
   return 1;
 }
 
-/* Copies comps values per pixel between a film plane and a tile array, either way. */
-static void copy_plane(double *plane, double *tile, int width, int x0, int y0, int w, int h, int comps, int to_tile) {
-  for (int row = 0; row < h; row++) {
-    double *p = plane + ((size_t)(y0 + row) * (size_t)width + (size_t)x0) * (size_t)comps;
-    double *t = tile + (size_t)row * (size_t)w * (size_t)comps;
-    size_t n = (size_t)w * (size_t)comps * sizeof *p;
-    if (to_tile) memcpy(t, p, n);
-    else memcpy(p, t, n);
-  }
-}
-
-int vf_film_tile_encode(const vf_film *film, uint32_t x, uint32_t y, Vcmfarm__Tile *tile, double **storage) {
+/* Encodes tile (x, y) of film with coder c into a new block (*storage) that tile->chunk
+ * points to. */
+static int encode_tile(vf_exr_coder *c, const vf_film *film, uint32_t x, uint32_t y, Vcmfarm__Tile *tile,
+                       uint8_t **storage) {
   int x0, y0, w, h;
   if (!tile_rect(film->width, film->height, x, y, &x0, &y0, &w, &h))
     return vf_error_set(VF_EINVAL, "tile (%u,%u) is outside a %dx%d film", x, y, film->width, film->height);
-  size_t n = (size_t)w * (size_t)h;
-  double *block = malloc(10 * n * sizeof *block);
+  size_t plane = (size_t)w * (size_t)h;
+  float *block = malloc(VF_FILM_V2_CHANNELS * plane * sizeof *block), *planes[VF_FILM_V2_CHANNELS];
   if (block == NULL) return vf_error_set(VF_ENOMEM, "out of memory for a tile");
+  for (int k = 0; k < VF_FILM_V2_CHANNELS; k++) planes[k] = block + (size_t)k * plane;
+  const uint8_t *data;
+  size_t len;
+  int err = vf_film_planes_fill(vf_film_sums_of(film), x0, y0, w, h, planes)
+                ? vf_exr_chunk_encode(c, VF_EXR_ZIP, VF_FILM_V2_CHANNELS, (const float *const *)planes, w, h, &data, &len)
+                : vf_error_set(VF_EFILM, "tile (%u,%u) holds a value beyond the film format's float range", x, y);
+  free(block);
+  if (err != VF_OK) return err;
+  if ((*storage = malloc(len)) == NULL) return vf_error_set(VF_ENOMEM, "out of memory for a tile");
+  memcpy(*storage, data, len);
   vcmfarm__tile__init(tile);
   tile->x = x;
   tile->y = y;
-  tile->camera = block;
-  tile->count = block + 3 * n;
-  tile->light = block + 4 * n;
-  tile->square = block + 7 * n;
-  tile->n_camera = tile->n_light = tile->n_square = 3 * n;
-  tile->n_count = n;
-  copy_plane(film->camera_sum, tile->camera, film->width, x0, y0, w, h, 3, 1);
-  copy_plane(film->camera_count, tile->count, film->width, x0, y0, w, h, 1, 1);
-  copy_plane(film->light_sum, tile->light, film->width, x0, y0, w, h, 3, 1);
-  copy_plane(film->square_sum, tile->square, film->width, x0, y0, w, h, 3, 1);
-  *storage = block;
+  tile->chunk.data = *storage;
+  tile->chunk.len = len;
   return VF_OK;
 }
 
-int vf_film_tile_check(const Vcmfarm__Tile *tile, int width, int height, uint64_t iterations) {
+int vf_film_tile_encode(const vf_film *film, uint32_t x, uint32_t y, Vcmfarm__Tile *tile, uint8_t **storage) {
+  vf_exr_coder c;
+  vf_exr_coder_init(&c);
+  int err = encode_tile(&c, film, x, y, tile, storage);
+  vf_exr_coder_destroy(&c);
+  return err;
+}
+
+/* Decodes one untrusted tile into t (its block allocated here). */
+static int decode_tile(vf_exr_coder *c, const Vcmfarm__Tile *m, int width, int height, uint64_t iterations,
+                       float *scratch, vf_film_tile *t) {
   int x0, y0, w, h;
-  if (!tile_rect(width, height, tile->x, tile->y, &x0, &y0, &w, &h))
-    return vf_error_set(VF_EINVAL, "tile (%u,%u) is outside a %dx%d film (%ux%u tiles)", tile->x, tile->y, width,
-                        height, vf_film_tiles_across(width), vf_film_tiles_across(height));
-  size_t n = (size_t)w * (size_t)h;
-  const struct {
-    const char *name;
-    size_t len, expected;
-    const double *data;
-  } arrays[] = {{"camera", tile->n_camera, 3 * n, tile->camera},
-                {"count", tile->n_count, n, tile->count},
-                {"light", tile->n_light, 3 * n, tile->light},
-                {"square", tile->n_square, 3 * n, tile->square}};
-  for (size_t a = 0; a < 4; a++) {
-    if (arrays[a].len != arrays[a].expected)
-      return vf_error_set(VF_EINVAL, "tile (%u,%u): %s holds %zu values, a %dx%d tile needs %zu", tile->x, tile->y,
-                          arrays[a].name, arrays[a].len, w, h, arrays[a].expected);
-    for (size_t i = 0; i < arrays[a].len; i++) {
-      double v = arrays[a].data[i];
-      if (!isfinite(v))
-        return vf_error_set(VF_EINVAL, "tile (%u,%u): %s value %zu is not finite", tile->x, tile->y, arrays[a].name, i);
-      if (a == 1 && !(v >= 0.0 && v <= (double)iterations && v == floor(v)))
-        return vf_error_set(VF_EINVAL, "tile (%u,%u): count %g at pixel %zu is not a whole number in [0, %llu]",
-                            tile->x, tile->y, v, i, (unsigned long long)iterations);
-      if (a == 3 && v < 0.0)
-        return vf_error_set(VF_EINVAL, "tile (%u,%u): square sum %g at value %zu is negative", tile->x, tile->y, v, i);
+  if (!tile_rect(width, height, m->x, m->y, &x0, &y0, &w, &h))
+    return vf_error_set(VF_EINVAL, "tile (%u,%u) is outside a %dx%d film (%ux%u tiles)", m->x, m->y, width, height,
+                        vf_film_tiles_across(width), vf_film_tiles_across(height));
+  size_t plane = (size_t)w * (size_t)h;
+  float *planes[VF_FILM_V2_CHANNELS];
+  for (int k = 0; k < VF_FILM_V2_CHANNELS; k++) planes[k] = scratch + (size_t)k * plane;
+  int err = vf_exr_chunk_decode(c, m->chunk.data, m->chunk.len, VF_FILM_V2_CHANNELS, w, h, planes);
+  if (err == VF_EINVAL) return vf_error_set(err, "tile (%u,%u): %s", m->x, m->y, vf_error_detail(err));
+  if (err != VF_OK) return err;
+  *t = (vf_film_tile){m->x, m->y, x0, y0, w, h, malloc(6 * plane * sizeof(double)), NULL};
+  if (t->sum == NULL) return vf_error_set(VF_ENOMEM, "out of memory for a tile");
+  t->square_sum = t->sum + 3 * plane;
+  vf_film_planes_store((vf_film_sums){t->sum, t->square_sum, w, iterations}, 0, 0, w, h, (const float *const *)planes);
+  for (size_t i = 0; i < 3 * plane; i++) {
+    if (!isfinite(t->sum[i]) || !isfinite(t->square_sum[i]))
+      err = vf_error_set(VF_EINVAL, "tile (%u,%u): the sums of pixel %zu are not finite", m->x, m->y, i / 3);
+    else if (t->square_sum[i] < 0.0)
+      err = vf_error_set(VF_EINVAL, "tile (%u,%u): square sum %g at pixel %zu is negative", m->x, m->y,
+                         t->square_sum[i], i / 3);
+    if (err != VF_OK) {
+      free(t->sum);
+      return err;
     }
   }
   return VF_OK;
 }
 
-void vf_film_tile_store(vf_film *film, const Vcmfarm__Tile *tile) {
-  int x0, y0, w, h;
-  if (!tile_rect(film->width, film->height, tile->x, tile->y, &x0, &y0, &w, &h)) return;
-  copy_plane(film->camera_sum, tile->camera, film->width, x0, y0, w, h, 3, 0);
-  copy_plane(film->camera_count, tile->count, film->width, x0, y0, w, h, 1, 0);
-  copy_plane(film->light_sum, tile->light, film->width, x0, y0, w, h, 3, 0);
-  copy_plane(film->square_sum, tile->square, film->width, x0, y0, w, h, 3, 0);
+int vf_film_tiles_decode(const Vcmfarm__LeaseResult *m, int width, int height, vf_film_tile **out) {
+  size_t n = m->n_tiles;
+  vf_film_tile *tiles = calloc(n ? n : 1, sizeof *tiles);
+  float *scratch = malloc(VF_FILM_V2_CHANNELS * VF_FILM_TILE * VF_FILM_TILE * sizeof *scratch);
+  vf_exr_coder c;
+  vf_exr_coder_init(&c);
+  int err = tiles && scratch ? VF_OK : vf_error_set(VF_ENOMEM, "out of memory for tiles");
+  size_t done = 0;
+  for (; err == VF_OK && done < n; done++)
+    if ((err = decode_tile(&c, m->tiles[done], width, height, m->end - m->begin, scratch, &tiles[done])) != VF_OK) break;
+  vf_exr_coder_destroy(&c);
+  free(scratch);
+  if (err != VF_OK) {
+    vf_film_tiles_free(tiles, done);
+    return err;
+  }
+  *out = tiles;
+  return VF_OK;
+}
+
+void vf_film_tiles_free(vf_film_tile *tiles, size_t n) {
+  if (tiles == NULL) return;
+  for (size_t i = 0; i < n; i++) free(tiles[i].sum);
+  free(tiles);
+}
+
+/* Copies 3 values per pixel between a film array and a tile array, either way. */
+static void copy_rows(double *film_values, int width, double *tile_values, const vf_film_tile *t, int to_film) {
+  for (int row = 0; row < t->h; row++) {
+    double *f = film_values + ((size_t)(t->y0 + row) * (size_t)width + (size_t)t->x0) * 3;
+    double *v = tile_values + (size_t)row * (size_t)t->w * 3;
+    if (to_film) memcpy(f, v, (size_t)t->w * 3 * sizeof *f);
+    else memcpy(v, f, (size_t)t->w * 3 * sizeof *f);
+  }
+}
+
+int vf_film_tile_matches(const vf_film *film, const vf_film_tile *t) {
+  for (int row = 0; row < t->h; row++) {
+    size_t at = ((size_t)(t->y0 + row) * (size_t)film->width + (size_t)t->x0) * 3, len = (size_t)t->w * 3;
+    size_t in = (size_t)row * len;
+    if (memcmp(film->sum + at, t->sum + in, len * sizeof(double)) != 0 ||
+        memcmp(film->square_sum + at, t->square_sum + in, len * sizeof(double)) != 0)
+      return 0;
+  }
+  return 1;
+}
+
+void vf_film_tile_store(vf_film *film, const vf_film_tile *t) {
+  copy_rows(film->sum, film->width, t->sum, t, 1);
+  copy_rows(film->square_sum, film->width, t->square_sum, t, 1);
+}
+
+/* One message's tiles, encoded in parallel: task i encodes tile first + i. */
+typedef struct {
+  const vf_film *film;
+  uint32_t first, across;
+  Vcmfarm__Tile *tiles;
+  uint8_t **blocks;
+  vf_exr_coder *coders; /* per thread */
+  int *errors;          /* per task */
+  char (*details)[256]; /* per task */
+} encode_job;
+
+static void encode_task(void *ctx, size_t i, int thread) {
+  encode_job *j = ctx;
+  uint32_t index = j->first + (uint32_t)i;
+  j->errors[i] = encode_tile(&j->coders[thread], j->film, index % j->across, index / j->across, &j->tiles[i], &j->blocks[i]);
+  if (j->errors[i] != VF_OK) snprintf(j->details[i], sizeof j->details[i], "%s", vf_error_detail(j->errors[i]));
 }
 
 int vf_film_send_tiles(const vf_film *film, Vcmfarm__LeaseResult *m, size_t tiles_per_message,
@@ -168,35 +232,45 @@ int vf_film_send_tiles(const vf_film *film, Vcmfarm__LeaseResult *m, size_t tile
   m->render_seconds = film->render_seconds;
   m->cpu_seconds = film->cpu_seconds;
   m->nonfinite_samples = film->nonfinite_samples;
-  Vcmfarm__Tile *tiles = calloc(tiles_per_message, sizeof *tiles);
+  int threads = vf_exr_chunk_threads(tiles_per_message);
+  encode_job job = {film, 0, vf_film_tiles_across(film->width), calloc(tiles_per_message, sizeof(Vcmfarm__Tile)),
+                    calloc(tiles_per_message, sizeof(uint8_t *)), calloc((size_t)threads, sizeof(vf_exr_coder)),
+                    calloc(tiles_per_message, sizeof(int)), calloc(tiles_per_message, 256)};
   Vcmfarm__Tile **ptrs = calloc(tiles_per_message, sizeof *ptrs);
-  double **blocks = calloc(tiles_per_message, sizeof *blocks);
+  vf_pool *pool = NULL;
   int rc = 1;
-  if (tiles == NULL || ptrs == NULL || blocks == NULL) rc = vf_error_set(VF_ENOMEM, "out of memory for tiles");
-  uint32_t across = vf_film_tiles_across(film->width), next = 0;
-  while (rc == 1 && next < m->tiles_total) {
-    size_t n = 0;
-    while (rc == 1 && n < tiles_per_message && next < m->tiles_total) {
-      int err = vf_film_tile_encode(film, next % across, next / across, &tiles[n], &blocks[n]);
-      if (err != VF_OK) {
-        rc = err;
-        break;
-      }
-      ptrs[n] = &tiles[n];
-      n++;
-      next++;
-    }
+  if (!job.tiles || !job.blocks || !job.coders || !job.errors || !job.details || !ptrs)
+    rc = vf_error_set(VF_ENOMEM, "out of memory for tiles");
+  if (rc == 1 && threads > 1 && vf_pool_create(threads, &pool) != VF_OK) threads = 1;
+  for (int t = 0; job.coders && t < threads; t++) vf_exr_coder_init(&job.coders[t]);
+  while (rc == 1 && job.first < m->tiles_total) {
+    size_t n = m->tiles_total - job.first < tiles_per_message ? m->tiles_total - job.first : tiles_per_message;
+    if (pool) vf_pool_run(pool, n, encode_task, &job);
+    else
+      for (size_t i = 0; i < n; i++) encode_task(&job, i, 0);
+    for (size_t i = 0; i < n && rc == 1; i++)
+      if (job.errors[i] != VF_OK) rc = vf_error_set(job.errors[i], "%s", job.details[i]);
+    for (size_t i = 0; i < n; i++) ptrs[i] = &job.tiles[i];
     if (rc == 1) {
       m->n_tiles = n;
       m->tiles = ptrs;
       rc = send(ctx, m);
     }
-    for (size_t i = 0; i < n; i++) free(blocks[i]);
+    for (size_t i = 0; i < n; i++) {
+      free(job.blocks[i]);
+      job.blocks[i] = NULL;
+    }
+    job.first += (uint32_t)n;
   }
   m->n_tiles = 0;
   m->tiles = NULL;
-  free(tiles);
+  vf_pool_destroy(pool);
+  for (int t = 0; job.coders && t < threads; t++) vf_exr_coder_destroy(&job.coders[t]);
+  free(job.coders);
+  free(job.tiles);
+  free(job.blocks);
+  free(job.errors);
+  free(job.details);
   free(ptrs);
-  free(blocks);
   return rc;
 }

@@ -24,29 +24,43 @@ int vf_film_to_bytes(const vf_film *film, size_t max_len, uint8_t **data, size_t
 int vf_film_from_bytes(const uint8_t *data, size_t len, const char *name, vf_film **out);
 
 /* Tiles, numbered row-major from the top left: tile (x, y) holds pixels
- * [64 x, min(64 x + 64, width)) x [64 y, min(64 y + 64, height)). */
+ * [64 x, min(64 x + 64, width)) x [64 y, min(64 y + 64, height)). On the wire a tile is its
+ * chunk of the film file (proto/vcmfarm.proto, Tile; common/film_planes.h): what a file
+ * holds, as compact, decoded in one pass. */
 uint32_t vf_film_tiles_across(int width);
 uint32_t vf_film_tile_count(int width, int height);
 
-/* Fills *tile with tile (x, y) of film, its arrays in one malloc'ed block written to
+/* Fills *tile with tile (x, y) of film, its chunk in one malloc'ed block written to
  * *storage (the caller frees it after packing). VF_EINVAL for a tile outside the film,
- * VF_ENOMEM. */
-int vf_film_tile_encode(const vf_film *film, uint32_t x, uint32_t y, Vcmfarm__Tile *tile, double **storage);
+ * VF_EFILM for one holding a value beyond float range, VF_ENOMEM. */
+int vf_film_tile_encode(const vf_film *film, uint32_t x, uint32_t y, Vcmfarm__Tile *tile, uint8_t **storage);
 
-/* Checks an untrusted tile for a film of width x height holding `iterations` iterations:
- * coordinates inside the film, every array of exactly the tile's size, sums finite,
- * counts whole in [0, iterations], squares >= 0. VF_EINVAL with a detail naming the tile
- * and what is wrong. */
-int vf_film_tile_check(const Vcmfarm__Tile *tile, int width, int height, uint64_t iterations);
+/* A tile decoded from a message: its pixels' sums, 3 per pixel each, rows of w pixels. */
+typedef struct {
+  uint32_t x, y;
+  int x0, y0, w, h;
+  double *sum, *square_sum; /* one block, owned */
+} vf_film_tile;
 
-/* Copies a checked tile into its place in film (of the size it was checked for). */
-void vf_film_tile_store(vf_film *film, const Vcmfarm__Tile *tile);
+/* Decodes and checks the untrusted tiles of m for a film of width x height holding the
+ * part's m->end - m->begin iterations: coordinates inside the film, each chunk exactly a
+ * tile's, sums finite, squares >= 0. *out (n_tiles of them, free with vf_film_tiles_free)
+ * on success only; VF_EINVAL with a detail naming the tile and what is wrong, VF_ENOMEM. */
+int vf_film_tiles_decode(const Vcmfarm__LeaseResult *m, int width, int height, vf_film_tile **out);
+void vf_film_tiles_free(vf_film_tile *tiles, size_t n);
+
+/* 1 when film holds exactly t's values at t's place (of the size t was decoded for). */
+int vf_film_tile_matches(const vf_film *film, const vf_film_tile *t);
+
+/* Copies t into its place in film (of the size t was decoded for). */
+void vf_film_tile_store(vf_film *film, const vf_film_tile *t);
 
 /* A film as the LeaseResult messages of a part [m->begin, m->begin + its iterations): the
  * caller sets worker_id, lease_id, job_id and begin in *m; this fills in the rest of the
- * header and, message after message, up to tiles_per_message tiles, calling
- * send(ctx, m) for each. Stops at the first send that does not return 1 and returns its
- * value; 1 when every message was sent and accepted, or a negative encoding error. */
+ * header and, message after message, up to tiles_per_message tiles (encoded on one thread
+ * per CPU), calling send(ctx, m) for each. Stops at the first send that does not return 1
+ * and returns its value; 1 when every message was sent and accepted, or a negative
+ * encoding error. */
 int vf_film_send_tiles(const vf_film *film, Vcmfarm__LeaseResult *m, size_t tiles_per_message,
                        int (*send)(void *ctx, Vcmfarm__LeaseResult *m), void *ctx);
 

@@ -61,7 +61,6 @@ int vf_partial_create(const vf_job *job, const Vcmfarm__LeaseResult *m, vf_parti
   /* What `continue` loads: the built-in name, or the JSON scene's path on the submitting
    * machine (empty when it gave none). */
   memcpy(p->film->scene_name, job->film->scene_name, sizeof p->film->scene_name);
-  p->film->light_frames = m->end - m->begin;
   p->film->render_seconds = p->render_seconds = m->render_seconds;
   p->film->cpu_seconds = p->cpu_seconds = m->cpu_seconds;
   p->film->nonfinite_samples = p->nonfinite = m->nonfinite_samples;
@@ -93,41 +92,30 @@ int vf_partial_same(const vf_partial *p, const Vcmfarm__LeaseResult *m) {
          memcmp(m->scene_hash.data, p->film->scene_hash, 32) == 0 && strcmp(m->settings, p->film->settings_text) == 0;
 }
 
-/* Whether a tile equals the one stored at its place (checked tiles: sizes agree). */
-static int same_tile(const vf_film *film, const Vcmfarm__Tile *t) {
-  Vcmfarm__Tile stored;
-  double *block;
-  if (vf_film_tile_encode(film, t->x, t->y, &stored, &block) != VF_OK) return 0;
-  size_t n = stored.n_count * sizeof *block;
-  int same = memcmp(stored.camera, t->camera, 3 * n) == 0 && memcmp(stored.count, t->count, n) == 0 &&
-             memcmp(stored.light, t->light, 3 * n) == 0 && memcmp(stored.square, t->square, 3 * n) == 0;
-  free(block);
-  return same;
-}
-
 int vf_partial_add(vf_partial *p, const Vcmfarm__LeaseResult *m) {
   if (p->film == NULL) return vf_error_set(VF_EINVAL, "this partial result was merged already");
   uint32_t across = vf_film_tiles_across(p->film->width);
-  uint64_t iterations = p->end - p->begin;
-  for (size_t i = 0; i < m->n_tiles; i++) {
-    const Vcmfarm__Tile *t = m->tiles[i];
-    int err = vf_film_tile_check(t, p->film->width, p->film->height, iterations);
-    if (err != VF_OK) return err;
-    for (size_t j = 0; j < i; j++)
-      if (m->tiles[j]->x == t->x && m->tiles[j]->y == t->y)
-        return vf_error_set(VF_EINVAL, "tile (%u,%u) twice in one message", t->x, t->y);
-    if (p->seen[t->y * across + t->x] && !same_tile(p->film, t))
-      return vf_error_set(VF_EINVAL, "tile (%u,%u) arrived before with other values", t->x, t->y);
+  vf_film_tile *tiles = NULL;
+  int err = vf_film_tiles_decode(m, p->film->width, p->film->height, &tiles);
+  if (err != VF_OK) return err;
+  for (size_t i = 0; i < m->n_tiles && err == VF_OK; i++) {
+    const vf_film_tile *t = &tiles[i];
+    for (size_t j = 0; j < i && err == VF_OK; j++)
+      if (tiles[j].x == t->x && tiles[j].y == t->y)
+        err = vf_error_set(VF_EINVAL, "tile (%u,%u) twice in one message", t->x, t->y);
+    if (err == VF_OK && p->seen[t->y * across + t->x] && !vf_film_tile_matches(p->film, t))
+      err = vf_error_set(VF_EINVAL, "tile (%u,%u) arrived before with other values", t->x, t->y);
   }
-  for (size_t i = 0; i < m->n_tiles; i++) {
-    const Vcmfarm__Tile *t = m->tiles[i];
+  for (size_t i = 0; i < m->n_tiles && err == VF_OK; i++) {
+    const vf_film_tile *t = &tiles[i];
     uint8_t *seen = &p->seen[t->y * across + t->x];
     if (*seen) continue;
     vf_film_tile_store(p->film, t);
     *seen = 1;
     p->received++;
   }
-  return VF_OK;
+  vf_film_tiles_free(tiles, m->n_tiles);
+  return err;
 }
 
 void vf_partial_touch(vf_partial *p, double now) { p->updated = now; }

@@ -5,8 +5,8 @@
  * merged completely or not at all.
  *
  * Every message is untrusted: its header (size, scene hash, settings, tile count, times)
- * must be the job's and the same in every message of the part, and every tile is checked
- * (vf_film_tile_check) before any of the message's tiles is stored. */
+ * must be the job's and the same in every message of the part, and every tile is decoded
+ * and checked (vf_film_tiles_decode) before any of the message's tiles is stored. */
 #ifndef VF_PARTIAL_H
 #define VF_PARTIAL_H
 
@@ -25,7 +25,7 @@ void vf_partial_destroy(vf_partial *p);
 /* 1 when m belongs to this part: same range and header. */
 int vf_partial_same(const vf_partial *p, const Vcmfarm__LeaseResult *m);
 
-/* Checks every tile of m, then stores them. A tile received before is accepted again only
+/* Decodes and checks every tile of m, then stores them. A tile received before is accepted again only
  * when identical (a message sent twice). VF_EINVAL with a detail, nothing stored. */
 int vf_partial_add(vf_partial *p, const Vcmfarm__LeaseResult *m);
 

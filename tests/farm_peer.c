@@ -5,8 +5,8 @@
  * Run while the coordinator at URL has one queued job and no worker. Sends a frame under
  * another key, a frame of another protocol version, garbage, a frame whose header claims
  * an oversized payload, raw bytes below the nanomsg protocol (ipc:// only), and then, as
- * a registered worker holding a lease, results that do not match it (tiles with arrays of
- * the wrong length, a NaN, or outside the film; another film size, other settings,
+ * a registered worker holding a lease, results that do not match it (tiles whose chunk is
+ * cut short, holds a NaN, or lies outside the film; another film size, other settings,
  * another range; a message above the result size cap). Checks each is refused as
  * docs/PROTOCOL.md says, hands the lease back, and that the coordinator still answers.
  * Exit status 0 when every expectation held. */
@@ -146,20 +146,24 @@ typedef struct {
 static int send_spoiled(void *ctx, Vcmfarm__LeaseResult *m) {
   sender *s = ctx;
   Vcmfarm__Tile *t = m->n_tiles ? m->tiles[0] : NULL;
-  double saved = 0.0, *big = NULL;
-  size_t saved_n = 0;
+  ProtobufCBinaryData saved = t ? t->chunk : (ProtobufCBinaryData){0};
+  uint8_t *spoilt = NULL;
+  /* tile (0, 0) uncompressed: 12 FLOAT channels of w x h (docs/FILM.md, proto Tile) */
+  size_t w = m->width < 64 ? m->width : 64, h = m->height < 64 ? m->height : 64, raw = 48 * w * h;
+  float nan = NAN;
   switch (s->how) {
-  case SHORT_ARRAY: saved_n = t->n_count; t->n_count = 5; break;
+  case SHORT_ARRAY: t->chunk.len -= 1; break;
   case HALF_WIDTH: m->width /= 2; break;
   case OTHER_SETTINGS: m->settings = (char *)s->other_settings; break;
-  case NAN_VALUE: saved = t->light[7]; t->light[7] = NAN; break;
+  case NAN_VALUE:
+    if ((spoilt = calloc(raw, 1)) != NULL) memcpy(spoilt + 4 * 7, &nan, sizeof nan);
+    t->chunk = (ProtobufCBinaryData){spoilt ? raw : 0, spoilt};
+    break;
   case TILE_OUTSIDE: t->x = 1; break;
   case OTHER_RANGE: m->begin = m->end; m->end++; break;
   case OVERSIZED:
-    big = calloc(600000, sizeof *big);
-    saved_n = t->n_camera;
-    t->camera = big; /* the block's other arrays stay where they were */
-    t->n_camera = 600000;
+    spoilt = calloc(4800000, 1);
+    t->chunk = (ProtobufCBinaryData){spoilt ? 4800000 : 0, spoilt};
     break;
   default: break;
   }
@@ -172,10 +176,8 @@ static int send_spoiled(void *ctx, Vcmfarm__LeaseResult *m) {
     snprintf(s->message, sizeof s->message, "%s", reply->result_ack->message);
     vf_message_free(reply);
   }
-  if (s->how == SHORT_ARRAY) t->n_count = saved_n;
-  if (s->how == NAN_VALUE) t->light[7] = saved;
-  if (s->how == OVERSIZED) t->n_camera = saved_n;
-  free(big);
+  if (t) t->chunk = saved;
+  free(spoilt);
   return accepted;
 }
 
@@ -223,7 +225,7 @@ static void test_results(vf_farm_client *c) {
     spoil how;
     const char *what;
   } cases[] = {
-      {SHORT_ARRAY, "a result whose tile arrays have the wrong length is refused"},
+      {SHORT_ARRAY, "a result whose tile chunk is cut short is refused"},
       {HALF_WIDTH, "a result claiming another film size is refused"},
       {OTHER_SETTINGS, "a result with other settings is refused"},
       {NAN_VALUE, "a result with a NaN in a tile is refused"},

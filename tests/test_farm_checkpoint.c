@@ -75,12 +75,9 @@ static int noisy_film(const char *settings, const uint8_t hash[32], vf_film **ou
     double c = (double)(x >> 11) * 0x1p-53;
     x ^= x << 13, x ^= x >> 7, x ^= x << 17;
     double l = (double)(x >> 11) * 0x1p-53;
-    film->camera_sum[i] = c;
-    film->light_sum[i] = l;
+    film->sum[i] = c + l;
     film->square_sum[i] = (c + l) * (c + l);
   }
-  for (size_t i = 0; i < n; i++) film->camera_count[i] = 1.0;
-  film->light_frames = 1;
   if ((err = vf_iterset_add(&film->iterations, 0, 1)) != VF_OK) {
     vf_film_destroy(film);
     return err;

@@ -1,11 +1,14 @@
-/* The film: accumulation arithmetic, exact merging, the file format round trip, atomic
- * writes, and reading damaged files (corrupted copies of a film and the OpenEXR corpus). */
+/* The film: accumulation arithmetic, exact merging, the file format round trip (version 2,
+ * and version 1 read, merged with version 2), tiles on the wire, atomic writes, and reading
+ * damaged files (corrupted copies of a film and the OpenEXR corpus). */
 #include "check.h"
 #include "exr_corpus.h"
 #include "film_fixtures.h"
 #include "common/error.h"
 #include "common/exr_util.h"
 #include "common/film.h"
+#include "common/film_planes.h"
+#include "common/film_wire.h"
 #include "common/image.h"
 
 #include <stdint.h>
@@ -22,20 +25,15 @@ static double rel_diff(double a, double b) {
   return m == 0 ? 0 : fabs(a - b) / m;
 }
 
-/* Every field and every pixel value, sums within rel_tol, counts exact. */
+/* Every field and every pixel value, sums within rel_tol, iterations exact. */
 static int films_equal(const vf_film *a, const vf_film *b, double rel_tol) {
-  if (a->width != b->width || a->height != b->height || a->light_frames != b->light_frames ||
-      a->nonfinite_samples != b->nonfinite_samples || memcmp(a->scene_hash, b->scene_hash, 32) != 0 ||
-      strcmp(a->settings_text, b->settings_text) != 0 || !vf_iterset_equal(&a->iterations, &b->iterations) ||
-      rel_diff(a->render_seconds, b->render_seconds) > rel_tol)
+  if (a->width != b->width || a->height != b->height || a->nonfinite_samples != b->nonfinite_samples ||
+      memcmp(a->scene_hash, b->scene_hash, 32) != 0 || strcmp(a->settings_text, b->settings_text) != 0 ||
+      !vf_iterset_equal(&a->iterations, &b->iterations) || rel_diff(a->render_seconds, b->render_seconds) > rel_tol)
     return 0;
   size_t n = (size_t)a->width * (size_t)a->height;
-  for (size_t i = 0; i < n; i++)
-    if (a->camera_count[i] != b->camera_count[i]) return 0;
   for (size_t i = 0; i < 3 * n; i++)
-    if (rel_diff(a->camera_sum[i], b->camera_sum[i]) > rel_tol || rel_diff(a->light_sum[i], b->light_sum[i]) > rel_tol ||
-        rel_diff(a->square_sum[i], b->square_sum[i]) > rel_tol)
-      return 0;
+    if (rel_diff(a->sum[i], b->sum[i]) > rel_tol || rel_diff(a->square_sum[i], b->square_sum[i]) > rel_tol) return 0;
   return 1;
 }
 
@@ -46,14 +44,10 @@ static void test_add_iteration_and_mean_arithmetic(void) {
   float cam2[6] = {3, 2, 1, 0, 0, 0}, light2[6] = {0.5f, 0, 0, 0, 0, 0};
   CHECK_INT_EQ(vf_film_add_iteration(f, 7, cam1, light1, NULL), VF_OK);
   CHECK_INT_EQ(vf_film_add_iteration(f, 8, cam2, light2, NULL), VF_OK);
-  CHECK_INT_EQ(f->light_frames, 2);
-  CHECK_INT_EQ(vf_iterset_count(&f->iterations), 2);
+  CHECK_INT_EQ(vf_iterset_count(&f->iterations), 2); /* every pixel's count, and the light frames */
   CHECK(vf_iterset_contains(&f->iterations, 7) && vf_iterset_contains(&f->iterations, 8));
-  CHECK_NEAR(f->camera_sum[0], 4, 0);
-  CHECK_NEAR(f->camera_count[0], 2, 0);
-  CHECK_NEAR(f->camera_count[1], 2, 0);
-  CHECK_NEAR(f->light_sum[0], 1, 0);
-  CHECK_NEAR(f->light_sum[5], 1, 0);
+  CHECK_NEAR(f->sum[0], 4 + 1, 0); /* camera 1 + 3, light 0.5 + 0.5 */
+  CHECK_NEAR(f->sum[5], 6 + 1, 0);
   /* (1 + 0.5)^2 + (3 + 0.5)^2 and (6 + 1)^2 + 0^2 */
   CHECK_NEAR(f->square_sum[0], 2.25 + 12.25, 0);
   CHECK_NEAR(f->square_sum[5], 49, 0);
@@ -87,12 +81,10 @@ static void test_nonfinite_samples_count_as_zero(void) {
   float cam[6] = {NAN, 1, 1, 2, 2, 2}, light[6] = {1, 1, 1, INFINITY, 0, 0};
   CHECK_INT_EQ(vf_film_add_iteration(f, 0, cam, light, NULL), VF_OK);
   CHECK_INT_EQ(f->nonfinite_samples, 2);
-  CHECK_NEAR(f->camera_sum[0], 0, 0); /* the whole camera sample of pixel 0 is zero */
-  CHECK_NEAR(f->camera_sum[1], 0, 0);
-  CHECK_NEAR(f->camera_count[0], 1, 0); /* but it still counts */
-  CHECK_NEAR(f->light_sum[0], 1, 0);
-  CHECK_NEAR(f->light_sum[3], 0, 0); /* light sample of pixel 1 is zero */
-  CHECK_NEAR(f->camera_sum[3], 2, 0);
+  CHECK_NEAR(f->sum[0], 0 + 1, 0); /* the whole camera sample of pixel 0 is zero, its light 1 */
+  CHECK_NEAR(f->sum[1], 0 + 1, 0);
+  CHECK_INT_EQ(vf_iterset_count(&f->iterations), 1); /* but it still counts */
+  CHECK_NEAR(f->sum[3], 2 + 0, 0);  /* light sample of pixel 1 is zero */
   CHECK_NEAR(f->square_sum[0], 1, 0);
   CHECK_NEAR(f->square_sum[3], 4, 0);
   CHECK_INT_EQ(vf_film_validate(f, "nonfinite"), VF_OK);
@@ -117,8 +109,8 @@ static void test_write_read_round_trip(void) {
   fixture_iteration_inputs(100, 70, 1000, cam, light);
   cam[5] = NAN;
   CHECK_INT_EQ(vf_film_add_iteration(f, 1000, cam, light, NULL), VF_OK);
-  f->camera_sum[7] = 123456789.123456789; /* needs more than a float's precision */
-  f->light_sum[8] = -1e-30;
+  f->sum[7] = 123456789.123456789; /* needs more than a float's precision */
+  f->sum[8] = -1e-30;
   f->render_seconds = 12345.678;
   const char *path = fixture_path("round.film.exr");
   CHECK_INT_EQ(vf_film_write(f, path), VF_OK);
@@ -126,14 +118,15 @@ static void test_write_read_round_trip(void) {
   if (back) {
     CHECK(films_equal(f, back, 1e-14));
     CHECK_INT_EQ(back->nonfinite_samples, 1);
-    CHECK_INT_EQ(back->light_frames, 4);
-    CHECK_NEAR(back->camera_sum[7], 123456789.123456789, 1e-6);
+    CHECK_INT_EQ(vf_iterset_count(&back->iterations), 4);
+    CHECK_NEAR(back->sum[7], 123456789.123456789, 1e-6);
     CHECK_NEAR(back->render_seconds, 12345.678, 0);
     char text[64];
     vf_iterset_format(&back->iterations, text, sizeof text);
     CHECK_STR_CONTAINS(text, "[0,3) [1000,1001)");
   }
-  /* the layout docs/FILM.md promises: one tiled part, 64x64 tiles, uncompressed, FLOAT channels */
+  /* the layout docs/FILM.md promises: one tiled part, 64x64 tiles, ZIP, 12 FLOAT channels in
+   * the order of vf_film_v2_channels (that of a tile on the wire) */
   exr_context_t ctx = NULL;
   CHECK_INT_EQ(exr_start_read(&ctx, path, NULL), EXR_ERR_SUCCESS);
   if (ctx) {
@@ -151,13 +144,17 @@ static void test_write_read_round_trip(void) {
     exr_get_channels(ctx, 0, &channels);
     CHECK_INT_EQ(parts, 1);
     CHECK_INT_EQ(storage, EXR_STORAGE_TILED);
-    CHECK_INT_EQ(compression, EXR_COMPRESSION_NONE);
+    CHECK_INT_EQ(compression, EXR_COMPRESSION_ZIP);
     CHECK_INT_EQ(tx, VF_FILM_TILE);
     CHECK_INT_EQ(ty, VF_FILM_TILE);
     CHECK(channels != NULL);
     if (channels) {
-      CHECK_INT_EQ(channels->num_channels, 23);
-      for (int i = 0; i < channels->num_channels; i++) CHECK_INT_EQ(channels->entries[i].pixel_type, EXR_PIXEL_FLOAT);
+      CHECK_INT_EQ(channels->num_channels, VF_FILM_V2_CHANNELS);
+      for (int i = 0; i < channels->num_channels && i < VF_FILM_V2_CHANNELS; i++) {
+        CHECK_INT_EQ(channels->entries[i].pixel_type, EXR_PIXEL_FLOAT);
+        if (strcmp(channels->entries[i].name.str, vf_film_v2_channels[i]) != 0)
+          CHECK_FAIL_("channel %d is %s, expected %s", i, channels->entries[i].name.str, vf_film_v2_channels[i]);
+      }
     }
     exr_finish(&ctx);
   }
@@ -243,20 +240,25 @@ static void test_validate_catches_broken_invariants(void) {
     const char *what;
     int field;
     double value;
-  } cases[] = {{"NaN sum", 0, NAN}, {"Inf light", 1, INFINITY}, {"negative square", 2, -1},
-               {"fractional count", 3, 1.5}, {"count above iterations", 3, 3}, {"negative count", 3, -1}};
+  } cases[] = {{"NaN sum", 0, NAN}, {"Inf sum", 0, INFINITY}, {"Inf square", 1, INFINITY}, {"negative square", 1, -1}};
   for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
     CHECK_INT_EQ(vf_film_clone(good, &f), VF_OK);
-    double *target = cases[i].field == 0 ? f->camera_sum : cases[i].field == 1 ? f->light_sum
-                     : cases[i].field == 2 ? f->square_sum : f->camera_count;
+    double *target = cases[i].field == 0 ? f->sum : f->square_sum;
     target[5] = cases[i].value;
     if (vf_film_validate(f, "bad") != VF_EFILM) CHECK_FAIL_("%s passed validation", cases[i].what);
     if (vf_film_write(f, fixture_path("invalid.film.exr")) == VF_OK) CHECK_FAIL_("%s was written", cases[i].what);
     vf_film_destroy(f);
   }
+  /* each iteration refuses at most one camera and one light sample per pixel */
   CHECK_INT_EQ(vf_film_clone(good, &f), VF_OK);
-  f->light_frames = 3;
-  CHECK_INT_EQ(vf_film_validate(f, "frames"), VF_EFILM);
+  f->nonfinite_samples = 2 * 16 * 2 + 1;
+  CHECK_INT_EQ(vf_film_validate(f, "nonfinite"), VF_EFILM);
+  vf_film_destroy(f);
+  /* a mean beyond float range cannot be written */
+  CHECK_INT_EQ(vf_film_clone(good, &f), VF_OK);
+  f->sum[3] = 1e39;
+  CHECK_INT_EQ(vf_film_write(f, fixture_path("invalid.film.exr")), VF_EFILM);
+  CHECK_STR_CONTAINS(vf_error_detail(VF_EFILM), "float range");
   vf_film_destroy(f);
   vf_film_destroy(good);
 }
@@ -322,25 +324,33 @@ static void expect_read_refused(const char *path, const char *needle) {
 static void test_read_refuses_inconsistent_films(void) {
   vf_film *f = film_with(20, 10, 0, 3);
   const char *good = fixture_path("good.film.exr"), *bad = fixture_path("bad.film.exr");
+  const char *good_v1 = fixture_path("good_v1.film.exr");
   CHECK_INT_EQ(vf_film_write(f, good), VF_OK);
-  size_t size = 0;
+  CHECK_INT_EQ(vf_film_write_version(f, good_v1, 1), VF_OK);
+  size_t size = 0, size_v1 = 0;
   unsigned char *bytes = fixture_slurp(good, &size), *copy = malloc(size);
+  unsigned char *bytes_v1 = fixture_slurp(good_v1, &size_v1), *copy_v1 = malloc(size_v1);
 
   static const struct {
+    int version;
     const char *attribute, *value, *detail;
   } patches[] = {
-      {"vcmfarm:light_frames", "4", "light frames"},
-      {"vcmfarm:light_frames", "x", "vcmfarm:light_frames"},
-      {"vcmfarm:iterations", "[0,3(", "vcmfarm:iterations"},
-      {"vcmfarm:iterations", "[3,0)", "vcmfarm:iterations"},
-      {"vcmfarm:nonfinite_samples", "-", "vcmfarm:nonfinite_samples"},
+      {1, "vcmfarm:light_frames", "4", "light frames"}, /* version 2 derives them from the iterations */
+      {1, "vcmfarm:light_frames", "x", "vcmfarm:light_frames"},
+      {1, "vcmfarm:iterations", "[0,3(", "vcmfarm:iterations"},
+      {2, "vcmfarm:iterations", "[0,3(", "vcmfarm:iterations"},
+      {2, "vcmfarm:iterations", "[3,0)", "vcmfarm:iterations"},
+      {2, "vcmfarm:nonfinite_samples", "-", "vcmfarm:nonfinite_samples"},
   };
   for (size_t i = 0; i < sizeof patches / sizeof patches[0]; i++) {
-    memcpy(copy, bytes, size);
-    CHECK(patch_string_attribute(copy, size, patches[i].attribute, patches[i].value));
-    fixture_spill(bad, copy, size);
+    int v1 = patches[i].version == 1;
+    memcpy(v1 ? copy_v1 : copy, v1 ? bytes_v1 : bytes, v1 ? size_v1 : size);
+    CHECK(patch_string_attribute(v1 ? copy_v1 : copy, v1 ? size_v1 : size, patches[i].attribute, patches[i].value));
+    fixture_spill(bad, v1 ? copy_v1 : copy, v1 ? size_v1 : size);
     expect_read_refused(bad, patches[i].detail);
   }
+  free(copy_v1);
+  free(bytes_v1);
   /* the scene hash with a non-hex digit */
   char hex[65];
   memset(hex, 'a', 64);
@@ -363,24 +373,37 @@ static void test_read_refuses_inconsistent_films(void) {
   vf_film_destroy(f);
 }
 
-static void zero_fill(void *user, int x0, int y0, int w, int h, float *const *planes) {
-  int n = *(const int *)user;
-  for (int k = 0; k < n; k++) memset(planes[k], 0, sizeof(float) * (size_t)w * (size_t)h);
+/* Fills every plane of channel names[k] with value[k] (user: a fake_fill). */
+typedef struct {
+  int n;
+  const char *const *names;
+  double (*value)(const char *channel, int x, int y);
+} fake_fill;
+
+static void fill_fake(void *user, int x0, int y0, int w, int h, float *const *planes) {
+  const fake_fill *f = user;
+  for (int k = 0; k < f->n; k++)
+    for (int y = 0; y < h; y++)
+      for (int x = 0; x < w; x++) planes[k][y * w + x] = f->value ? (float)f->value(f->names[k], x0 + x, y0 + y) : 0.0f;
 }
 
-/* A film-like file built with the private helpers, to reach states vf_film_write refuses. */
-static int write_fake_film(const char *path, int version, const char *const *names, int n) {
+/* A 20x10 film-like file of `iterations` built with the private helpers, to reach states
+ * vf_film_write refuses and to write version 1 as older builds did: channel values from
+ * value (NULL: zeros), light_frames as in version 1. */
+static int write_fake_film(const char *path, int version, const char *const *names, int n, const char *iterations,
+                           double (*value)(const char *, int, int)) {
   vf_exr_out out;
-  int err = vf_exr_create(path, 20, 10, VF_FILM_TILE, 0, n, names, &out);
+  int err = vf_exr_create(path, 20, 10, VF_FILM_TILE, VF_EXR_NONE, n, names, &out);
   if (err != VF_OK) return err;
   exr_attr_set_int(out.ctx, 0, "vcmfarm:format_version", version);
   exr_attr_set_string(out.ctx, 0, "vcmfarm:scene_hash", "abababababababababababababababababababababababababababababababab");
   exr_attr_set_string(out.ctx, 0, "vcmfarm:settings", "");
-  exr_attr_set_string(out.ctx, 0, "vcmfarm:iterations", "");
-  exr_attr_set_string(out.ctx, 0, "vcmfarm:light_frames", "0");
+  exr_attr_set_string(out.ctx, 0, "vcmfarm:iterations", iterations);
+  exr_attr_set_string(out.ctx, 0, "vcmfarm:light_frames", iterations[0] ? "1" : "0");
   exr_attr_set_double(out.ctx, 0, "vcmfarm:render_seconds", 0);
   exr_attr_set_string(out.ctx, 0, "vcmfarm:nonfinite_samples", "0");
-  if ((err = vf_exr_write_pixels(&out, n, names, zero_fill, &n)) != VF_OK) {
+  fake_fill fill = {n, names, value};
+  if ((err = vf_exr_write_pixels(&out, n, names, fill_fake, &fill)) != VF_OK) {
     vf_exr_abort(&out);
     return err;
   }
@@ -388,19 +411,208 @@ static int write_fake_film(const char *path, int version, const char *const *nam
 }
 
 static void test_read_refuses_missing_channel_and_unknown_version(void) {
-  static const char *const all[] = {"camera.hi.R", "camera.hi.G", "camera.hi.B", "camera.lo.R", "camera.lo.G",
-                                    "camera.lo.B", "count.hi",    "count.lo",    "light.hi.R",  "light.hi.G",
-                                    "light.hi.B",  "light.lo.R",  "light.lo.G",  "light.lo.B",  "square.hi.R",
-                                    "square.hi.G", "square.hi.B", "square.lo.R", "square.lo.G", "square.lo.B"};
+  const char *const *v1 = vf_film_v1_channels + 3; /* the 20 accumulation channels */
   const char *path = fixture_path("fake.film.exr");
   vf_film *f = NULL;
-  CHECK_INT_EQ(write_fake_film(path, VF_FILM_FORMAT_VERSION, all, 20), VF_OK);
+  CHECK_INT_EQ(write_fake_film(path, 1, v1, VF_FILM_V1_ACCUM, "", NULL), VF_OK);
   CHECK_INT_EQ(vf_film_read(path, &f), VF_OK); /* the complete fake is a valid empty film */
   vf_film_destroy(f);
-  CHECK_INT_EQ(write_fake_film(path, VF_FILM_FORMAT_VERSION, all, 19), VF_OK);
+  CHECK_INT_EQ(write_fake_film(path, 1, v1, VF_FILM_V1_ACCUM - 1, "", NULL), VF_OK);
   expect_read_refused(path, "missing channel square.lo.B");
-  CHECK_INT_EQ(write_fake_film(path, VF_FILM_FORMAT_VERSION + 1, all, 20), VF_OK);
-  expect_read_refused(path, "unknown film format version 2");
+  CHECK_INT_EQ(write_fake_film(path, 2, vf_film_v2_channels, VF_FILM_V2_CHANNELS, "", NULL), VF_OK);
+  CHECK_INT_EQ(vf_film_read(path, &f), VF_OK);
+  vf_film_destroy(f);
+  CHECK_INT_EQ(write_fake_film(path, 2, vf_film_v2_channels, VF_FILM_V2_CHANNELS - 1, "", NULL), VF_OK);
+  expect_read_refused(path, "missing channel sum.lo.R");
+  CHECK_INT_EQ(write_fake_film(path, 2, v1, VF_FILM_V1_ACCUM, "", NULL), VF_OK); /* version 1's channels */
+  expect_read_refused(path, "missing channel B");
+  CHECK_INT_EQ(write_fake_film(path, VF_FILM_FORMAT_VERSION + 1, vf_film_v2_channels, VF_FILM_V2_CHANNELS, "", NULL),
+               VF_OK);
+  expect_read_refused(path, "unknown film format version 3");
+}
+
+/* A version-1 film of one iteration as older builds wrote it: camera 2 + light 0.25 in
+ * every channel (exact in floats, lo parts 0), squares 5, counts 1; or count 0 at (13, 7). */
+static double v1_value(const char *channel, int x, int y) {
+  (void)x, (void)y;
+  if (strstr(channel, ".lo")) return 0.0;
+  if (strncmp(channel, "camera", 6) == 0) return 2.0;
+  if (strncmp(channel, "light", 5) == 0) return 0.25;
+  if (strncmp(channel, "square", 6) == 0) return 5.0;
+  return 1.0; /* count.hi */
+}
+
+static double v1_value_odd_count(const char *channel, int x, int y) {
+  return strcmp(channel, "count.hi") == 0 && x == 13 && y == 7 ? 0.0 : v1_value(channel, x, y);
+}
+
+static void test_version_1_sums_camera_and_light_and_needs_every_count(void) {
+  const char *path = fixture_path("old.film.exr");
+  vf_film *f = NULL;
+  CHECK_INT_EQ(write_fake_film(path, 1, vf_film_v1_channels + 3, VF_FILM_V1_ACCUM, "[0,1)", v1_value), VF_OK);
+  CHECK_INT_EQ(vf_film_read(path, &f), VF_OK);
+  if (f) {
+    CHECK_NEAR(f->sum[0], 2.25, 0);
+    CHECK_NEAR(f->sum[3 * 199 + 2], 2.25, 0);
+    CHECK_NEAR(f->square_sum[100], 5.0, 0);
+    float mean[3];
+    vf_film_pixel_mean(f, 57, mean);
+    CHECK_NEAR(mean[1], 2.25, 0);
+    int version = 0;
+    CHECK_INT_EQ(vf_film_read_version(path, &version), VF_OK);
+    CHECK_INT_EQ(version, 1);
+  }
+  vf_film_destroy(f);
+  /* a pixel with another count than the film's iterations: refused, naming file and pixel */
+  CHECK_INT_EQ(write_fake_film(path, 1, vf_film_v1_channels + 3, VF_FILM_V1_ACCUM, "[0,1)", v1_value_odd_count), VF_OK);
+  expect_read_refused(path, "pixel (13, 7): camera count 0 is not the film's 1 iterations");
+  CHECK_STR_CONTAINS(vf_error_detail(VF_EFILM), path);
+}
+
+static void test_version_1_films_read_merge_with_version_2(void) {
+  vf_film *early = film_with(70, 65, 0, 3), *late = film_with(70, 65, 3, 7), *all = film_with(70, 65, 0, 7);
+  const char *old = fixture_path("early_v1.film.exr"), *now = fixture_path("late_v2.film.exr");
+  CHECK_INT_EQ(vf_film_write_version(early, old, 1), VF_OK);
+  CHECK_INT_EQ(vf_film_write(late, now), VF_OK);
+  int version = 0;
+  CHECK_INT_EQ(vf_film_read_version(old, &version), VF_OK);
+  CHECK_INT_EQ(version, 1);
+  CHECK_INT_EQ(vf_film_read_version(now, &version), VF_OK);
+  CHECK_INT_EQ(version, 2);
+  vf_film *a = NULL, *b = NULL, *b_first = NULL;
+  CHECK_INT_EQ(vf_film_read(old, &a), VF_OK);
+  CHECK_INT_EQ(vf_film_read(now, &b), VF_OK);
+  if (a && b) {
+    CHECK(films_equal(a, early, 1e-14));
+    CHECK(films_equal(b, late, 1e-14));
+    CHECK_INT_EQ(vf_film_clone(b, &b_first), VF_OK);
+    CHECK_INT_EQ(vf_film_merge(b_first, a), VF_OK);
+    CHECK_INT_EQ(vf_film_merge(a, b), VF_OK);
+    CHECK(films_equal(a, b_first, 0)); /* x + y == y + x exactly */
+    CHECK(films_equal(a, all, 1e-13)); /* same samples, different rounding and summation order */
+    CHECK_NEAR(vf_film_estimate_rmse(a), vf_film_estimate_rmse(all), 1e-12 * vf_film_estimate_rmse(all));
+    /* the merged film written again is version 2 and reads back to 48 bits */
+    vf_film *back = NULL;
+    CHECK_INT_EQ(vf_film_write(a, old), VF_OK);
+    CHECK_INT_EQ(vf_film_read(old, &back), VF_OK);
+    if (back) CHECK(films_equal(back, a, 1e-14));
+    vf_film_destroy(back);
+  }
+  vf_film_destroy(b_first);
+  vf_film_destroy(a);
+  vf_film_destroy(b);
+  vf_film_destroy(all);
+  vf_film_destroy(late);
+  vf_film_destroy(early);
+}
+
+/* The sums of a wire tile and of the film at its place agree to 48 bits. */
+static int tile_agrees(const vf_film *film, const vf_film_tile *t, double rel_tol) {
+  for (int y = 0; y < t->h; y++)
+    for (int i = 0; i < 3 * t->w; i++) {
+      size_t at = ((size_t)(t->y0 + y) * (size_t)film->width + (size_t)t->x0) * 3 + (size_t)i;
+      if (rel_diff(film->sum[at], t->sum[y * 3 * t->w + i]) > rel_tol ||
+          rel_diff(film->square_sum[at], t->square_sum[y * 3 * t->w + i]) > rel_tol)
+        return 0;
+    }
+  return 1;
+}
+
+static void test_a_wire_tile_is_its_chunk_of_the_file(void) {
+  vf_film *f = film_with(100, 70, 0, 3);
+  const char *path = fixture_path("wire.film.exr");
+  CHECK_INT_EQ(vf_film_write(f, path), VF_OK);
+  exr_context_t ctx = NULL;
+  CHECK_INT_EQ(exr_start_read(&ctx, path, NULL), EXR_ERR_SUCCESS);
+  Vcmfarm__Tile tiles[4];
+  uint8_t *blocks[4] = {0};
+  for (uint32_t i = 0; i < 4 && ctx; i++) {
+    CHECK_INT_EQ(vf_film_tile_encode(f, i % 2, i / 2, &tiles[i], &blocks[i]), VF_OK);
+    exr_chunk_info_t ci;
+    CHECK_INT_EQ(exr_read_tile_chunk_info(ctx, 0, (int)(i % 2), (int)(i / 2), 0, 0, &ci), EXR_ERR_SUCCESS);
+    uint8_t *chunk = malloc(ci.packed_size);
+    CHECK_INT_EQ(exr_read_chunk(ctx, 0, &ci, chunk), EXR_ERR_SUCCESS);
+    CHECK_INT_EQ(ci.packed_size, tiles[i].chunk.len);
+    CHECK(ci.packed_size == tiles[i].chunk.len && memcmp(chunk, tiles[i].chunk.data, ci.packed_size) == 0);
+    free(chunk);
+  }
+  exr_finish(&ctx);
+
+  Vcmfarm__LeaseResult m = VCMFARM__LEASE_RESULT__INIT;
+  Vcmfarm__Tile *ptrs[4] = {&tiles[0], &tiles[1], &tiles[2], &tiles[3]};
+  m.begin = 10;
+  m.end = 13; /* the part's 3 iterations */
+  m.n_tiles = 4;
+  m.tiles = ptrs;
+  vf_film_tile *decoded = NULL;
+  CHECK_INT_EQ(vf_film_tiles_decode(&m, 100, 70, &decoded), VF_OK);
+  for (int i = 0; decoded && i < 4; i++) {
+    CHECK(tile_agrees(f, &decoded[i], 1e-14));
+    CHECK_INT_EQ(decoded[i].w, i % 2 ? 36 : 64);
+    CHECK_INT_EQ(decoded[i].h, i / 2 ? 6 : 64);
+  }
+  vf_film_tiles_free(decoded, 4);
+
+  /* damaged chunks are refused with the tile named; noise is sent as it is (it does not
+   * compress), so a flipped bit shows in a compressed chunk, of a black tile */
+  ProtobufCBinaryData kept = tiles[3].chunk;
+  CHECK_INT_EQ(kept.len, 48 * 36 * 6);
+  vf_film *black = NULL;
+  Vcmfarm__Tile black_tile;
+  uint8_t *flipped = NULL;
+  CHECK_INT_EQ(vf_film_create(100, 70, &black), VF_OK);
+  CHECK_INT_EQ(vf_film_tile_encode(black, 1, 1, &black_tile, &flipped), VF_OK);
+  CHECK(black_tile.chunk.len < 100);
+  flipped[black_tile.chunk.len / 2] ^= 0x40;
+  vf_film_destroy(black);
+  const struct {
+    const char *what;
+    ProtobufCBinaryData chunk;
+    uint32_t x;
+  } cases[] = {{"cut short", {kept.len - 1, kept.data}, 1},
+               {"one byte more", {kept.len + 1, kept.data}, 1},
+               {"with a flipped bit", black_tile.chunk, 1},
+               {"empty", {0, NULL}, 1},
+               {"outside the film", kept, 2}};
+  for (size_t c = 0; c < sizeof cases / sizeof *cases; c++) {
+    tiles[3].chunk = cases[c].chunk;
+    tiles[3].x = cases[c].x;
+    decoded = (vf_film_tile *)0x1;
+    int err = vf_film_tiles_decode(&m, 100, 70, &decoded);
+    if (err != VF_EINVAL) CHECK_FAIL_("a chunk %s was not refused (%d)", cases[c].what, err);
+    else CHECK_STR_CONTAINS(vf_error_detail(err), "tile (");
+    CHECK(decoded == (vf_film_tile *)0x1);
+  }
+  tiles[3].chunk = kept;
+  tiles[3].x = 1;
+  free(flipped);
+  for (int i = 0; i < 4; i++) free(blocks[i]);
+  vf_film_destroy(f);
+}
+
+static void test_files_are_the_same_bytes_every_time(void) {
+  /* tiles are encoded in parallel and written in order */
+  vf_film *f = film_with(300, 200, 0, 2);
+  const char *a = fixture_path("twice_a.film.exr"), *b = fixture_path("twice_b.film.exr");
+  CHECK_INT_EQ(vf_film_write(f, a), VF_OK);
+  CHECK_INT_EQ(vf_film_write(f, b), VF_OK);
+  size_t na = 0, nb = 0;
+  unsigned char *x = fixture_slurp(a, &na), *y = fixture_slurp(b, &nb);
+  CHECK(x && y && na == nb && memcmp(x, y, na) == 0);
+  /* black compresses to almost nothing; noise to at most 48 bytes per pixel */
+  printf("  300x200 noise: %.2f bytes per pixel\n", (double)na / (300.0 * 200.0));
+  CHECK(na < 48 * 300 * 200 + 100000);
+  free(x);
+  free(y);
+  vf_film *black = NULL;
+  CHECK_INT_EQ(vf_film_create(300, 200, &black), VF_OK);
+  CHECK_INT_EQ(vf_film_write(black, a), VF_OK);
+  x = fixture_slurp(a, &na);
+  printf("  300x200 black: %.2f bytes per pixel\n", (double)na / (300.0 * 200.0));
+  CHECK(na < 300 * 200);
+  free(x);
+  vf_film_destroy(black);
+  vf_film_destroy(f);
 }
 
 /* Outcome of a child that reads one damaged file. */
@@ -491,6 +703,10 @@ int main(void) {
   RUN(test_write_is_atomic);
   RUN(test_read_refuses_inconsistent_films);
   RUN(test_read_refuses_missing_channel_and_unknown_version);
+  RUN(test_version_1_sums_camera_and_light_and_needs_every_count);
+  RUN(test_version_1_films_read_merge_with_version_2);
+  RUN(test_a_wire_tile_is_its_chunk_of_the_file);
+  RUN(test_files_are_the_same_bytes_every_time);
   RUN(test_corrupted_copies_never_crash);
   RUN(test_damaged_corpus_is_refused);
   fixture_scratch_close();

@@ -255,13 +255,10 @@ static int ship(worker *w, const vf_film *film) {
 /* The film after its iterations were shipped: empty again, ready for the next part. */
 static void film_reset(vf_film *film) {
   size_t n = (size_t)film->width * (size_t)film->height;
-  memset(film->camera_sum, 0, 3 * n * sizeof *film->camera_sum);
-  memset(film->camera_count, 0, n * sizeof *film->camera_count);
-  memset(film->light_sum, 0, 3 * n * sizeof *film->light_sum);
+  memset(film->sum, 0, 3 * n * sizeof *film->sum);
   memset(film->square_sum, 0, 3 * n * sizeof *film->square_sum);
   vf_iterset_destroy(&film->iterations);
   vf_iterset_init(&film->iterations);
-  film->light_frames = 0;
   film->render_seconds = film->cpu_seconds = 0.0;
   film->nonfinite_samples = 0;
 }
