@@ -3,6 +3,7 @@
 #include "../common/clock.h"
 #include "../common/error.h"
 #include "../common/metrics.h"
+#include "film_cmd.h"
 #include "interrupt.h"
 
 #include <math.h>
@@ -158,7 +159,7 @@ done:
 
 int vf_reference_load(const char *path, int width, int height, vf_image *out) {
   vf_image img = {0};
-  int err = vf_image_read_exr(path, &img);
+  int err = vf_reference_read(path, &img, NULL); /* cli/film_cmd.h: a film or any RGB EXR */
   if (err != VF_OK) return err;
   if (img.width != width || img.height != height) {
     err = vf_error_set(VF_EMISMATCH, "reference %s is %dx%d but the film is %dx%d", path, img.width, img.height,
