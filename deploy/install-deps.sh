@@ -16,6 +16,7 @@ packages=(
   libpng-dev           # previews and plots
   libsodium-dev        # content hashes and message authentication
   libcairo2-dev        # plots and legends (PNG with text)
+  zlib1g-dev           # film chunks are ZIP-compressed in parallel (common/exr_chunk.c)
   slurm-wlm munge      # tests/test_slurm.sh: a one-node Slurm cluster (deploy/slurm)
   systemd              # tests/test_systemd.sh: systemd-analyze verify (deploy/systemd)
   python3              # tests/bench/convergence_report.py (standard library only)

@@ -6,7 +6,7 @@
 #    library of ldd's full closure belongs to a package those pull in through their
 #    Depends (apt-cache depends --recurse), so the image has all it loads and nothing more;
 #  - build stage: every package of deploy/install-deps.sh that a build needs (the ones
-#    only tests need are named below).
+#    only tests need are named below), and a COPY of every source directory the build adds.
 #
 #   test_docker.sh VCMFARM SOURCE_DIR
 set -u
@@ -76,6 +76,11 @@ for p in $test_only; do deps=$(grep -v -x "$p" <<<"$deps"); done
 missing=$(comm -23 <(echo "$deps") <(echo "$build"))
 [ -z "$missing" ] || fail "the build stage lacks $(echo $missing) from deploy/install-deps.sh"
 echo "build stage: all $(echo "$deps" | wc -l) build packages of deploy/install-deps.sh"
+# The build stage copies every directory the top-level CMakeLists.txt adds.
+for dir in $(sed -n 's/^add_subdirectory(\([a-z_]*\))$/\1/p' "$src/CMakeLists.txt"); do
+  grep -q -x "COPY $dir $dir" "$dockerfile" || fail "the build stage does not COPY $dir, which CMakeLists.txt adds"
+done
+echo "build stage: copies every directory CMakeLists.txt adds"
 grep -q '^FROM debian:12-slim AS build$' "$dockerfile" && grep -q '^FROM debian:12-slim AS runtime$' "$dockerfile" ||
   fail "the stages are not debian:12-slim"
 echo "ok   test_docker"
