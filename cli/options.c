@@ -175,6 +175,7 @@ int vf_cli_exit_status(int err) {
   case VF_EUSAGE:
   case VF_ESCENE:
   case VF_EMESH:
+  case VF_ETEXTURE:
   case VF_EEXR:
   case VF_EFILM:
   case VF_EMISMATCH:

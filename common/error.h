@@ -17,6 +17,7 @@
   XX(EUSAGE, "bad command line")                                           \
   XX(ESCENE, "invalid scene")                                              \
   XX(EMESH, "invalid mesh file")                                           \
+  XX(ETEXTURE, "invalid or unreadable texture")                            \
   XX(EEXR, "invalid or unreadable EXR file")                               \
   XX(EFILM, "invalid film")                                                \
   XX(EMISMATCH, "films or inputs do not match")                            \

@@ -36,6 +36,23 @@
 
 #include "../common/vec3.h"
 
+/* Texture slots of a material: what each texture of worker/texture.h multiplies. Colour
+ * slots are sRGB-decoded when their texture is 8-bit; the others are read as stored. */
+enum {
+  VF_TEXTURE_COLOR,              /* RGB multiplies diffuse, or base_color of a glTF material (sRGB) */
+  VF_TEXTURE_ROUGHNESS_METALLIC, /* glTF's layout: G multiplies roughness, B metallic (linear) */
+  VF_TEXTURE_EMISSION,           /* RGB multiplies the emission of the shapes of this material (sRGB) */
+  VF_TEXTURE_ALPHA,              /* channel alpha_channel multiplies alpha (linear) */
+  VF_TEXTURE_NORMAL,             /* tangent-space normal map: RGB [0, 1] -> [-1, 1] (linear) */
+  VF_TEXTURE_SLOTS
+};
+
+/* A material's use of a texture. memset to zero is "no texture". */
+typedef struct {
+  int texture;        /* 1 + index into vf_scene.textures; 0: none */
+  int wrap_s, wrap_t; /* VF_WRAP_* of worker/texture.h */
+} vf_texture_slot;
+
 typedef struct {
   char name[64];
   vf_vec3 diffuse;
@@ -50,6 +67,20 @@ typedef struct {
   int gltf;             /* the glTF model of base_color, metallic and roughness */
   vf_vec3 base_color;   /* [0, 1] per channel */
   float metallic;       /* [0, 1] */
+  /* Textures (memset to zero: none). Coverage = alpha x the ALPHA texture's channel; where
+   * it is below alpha_cutoff the surface is a hole for every ray. alpha_cutoff 0: opaque
+   * (alpha is then unused). normal_scale scales the normal map's x and y (glTF). */
+  vf_texture_slot textures[VF_TEXTURE_SLOTS];
+  float alpha, alpha_cutoff;
+  int alpha_channel;    /* 0..3 */
+  float normal_scale;
 } vf_material;
+
+/* Whether m has any texture. */
+static inline int vf_material_textured(const vf_material *m) {
+  for (int i = 0; i < VF_TEXTURE_SLOTS; i++)
+    if (m->textures[i].texture != 0) return 1;
+  return 0;
+}
 
 #endif

@@ -140,11 +140,17 @@ void vf_scene_destroy(vf_scene *scene) {
   for (int i = 0; i < scene->num_shapes; i++) {
     free(scene->shapes[i].positions);
     free(scene->shapes[i].indices);
+    free(scene->shapes[i].normals);
+    free(scene->shapes[i].uvs);
+    free(scene->shapes[i].tangents);
   }
   free(scene->shapes);
   free(scene->materials);
   free(scene->point_lights);
   free(scene->directional_lights);
+  for (int i = 0; i < scene->num_textures; i++) vf_texture_release(&scene->textures[i]);
+  free(scene->textures);
+  free(scene->notes);
   vf_image_destroy(&scene->envmap);
   free(scene);
 }
@@ -285,6 +291,29 @@ void vf_scene_hash(vf_scene *s) {
     h_vec3(&h, m->base_color);
     h_f32(&h, m->metallic);
   }
+  /* Textures and the materials' use of them, only when there are any: untextured scenes
+   * keep the hashes they had before textures existed. A texture counts by the hash of its
+   * file's bytes (vf_texture.hash). */
+  if (s->num_textures > 0) {
+    h_tag(&h, "textures");
+    h_u32(&h, (uint32_t)s->num_textures);
+    for (int i = 0; i < s->num_textures; i++) h_bytes(&h, s->textures[i].hash, sizeof s->textures[i].hash);
+  }
+  for (int i = 0; i < s->num_materials; i++) {
+    const vf_material *m = &s->materials[i];
+    if (!vf_material_textured(m) && m->alpha_cutoff == 0.0f) continue;
+    h_tag(&h, "textured material");
+    h_u32(&h, (uint32_t)i);
+    for (int k = 0; k < VF_TEXTURE_SLOTS; k++) {
+      h_u32(&h, (uint32_t)m->textures[k].texture);
+      h_u32(&h, (uint32_t)m->textures[k].wrap_s);
+      h_u32(&h, (uint32_t)m->textures[k].wrap_t);
+    }
+    h_f32(&h, m->alpha);
+    h_f32(&h, m->alpha_cutoff);
+    h_u32(&h, (uint32_t)m->alpha_channel);
+    h_f32(&h, m->normal_scale);
+  }
   h_tag(&h, "shapes");
   h_u32(&h, (uint32_t)s->num_shapes);
   for (int i = 0; i < s->num_shapes; i++) {
@@ -301,6 +330,19 @@ void vf_scene_hash(vf_scene *s) {
     h_u32(&h, sh->num_triangles);
     for (uint64_t k = 0; k < 3ull * sh->num_vertices; k++) h_f32(&h, sh->positions[k]);
     for (uint64_t k = 0; k < 3ull * sh->num_triangles; k++) h_u32(&h, sh->indices[k]);
+    /* Vertex attributes, each only when present (so meshes without them keep their hashes). */
+    if (sh->normals != NULL) {
+      h_tag(&h, "normals");
+      for (uint64_t k = 0; k < 3ull * sh->num_vertices; k++) h_f32(&h, sh->normals[k]);
+    }
+    if (sh->uvs != NULL) {
+      h_tag(&h, "uvs");
+      for (uint64_t k = 0; k < 2ull * sh->num_vertices; k++) h_f32(&h, sh->uvs[k]);
+    }
+    if (sh->tangents != NULL) {
+      h_tag(&h, "tangents");
+      for (uint64_t k = 0; k < 4ull * sh->num_vertices; k++) h_f32(&h, sh->tangents[k]);
+    }
   }
   h_tag(&h, "lights");
   h_u32(&h, (uint32_t)s->num_point_lights);

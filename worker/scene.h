@@ -12,6 +12,7 @@
 #include "../common/settings.h"
 #include "../common/vec3.h"
 #include "material.h"
+#include "texture.h"
 
 #include <stdint.h>
 
@@ -38,6 +39,16 @@ typedef struct {
   uint32_t num_vertices, num_triangles;
   float *positions;  /* 3 per vertex */
   uint32_t *indices; /* 3 per triangle */
+  /* Optional per-vertex attributes (NULL: absent), world space like the positions:
+   * normals: 3 per vertex, unit, the shading normals interpolated across each triangle
+   *   (absent: the triangle's geometric normal, a faceted surface);
+   * uvs: 2 per vertex, texture coordinates (s, t) with t = 0 the top row of an image
+   *   (glTF's convention; OBJ's v is flipped to it at load);
+   * tangents: 4 per vertex, a unit tangent along increasing s and in w the sign of the
+   *   bitangent (glTF's TANGENT); absent with a normal map: derived from the uvs. */
+  float *normals;
+  float *uvs;
+  float *tangents;
   /* VF_SHAPE_SPHERE */
   vf_vec3 center;
   float radius;
@@ -71,6 +82,12 @@ enum {
 
 typedef struct {
   char source[512]; /* file path, or "builtin:NAME" */
+  vf_texture *textures; /* what vf_texture_slot.texture indexes (minus one) */
+  int num_textures;
+  /* What the scene's files ask for that vcmfarm does not do (an unsupported extension, a
+   * texture transform, ...), one line each ending in '\n', each kind once; NULL: nothing.
+   * The command line prints it at load; it is not part of the hash. */
+  char *notes;
   vf_camera_desc camera;
   vf_material *materials;
   int num_materials;
