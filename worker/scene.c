@@ -8,6 +8,7 @@
 
 #include <errno.h>
 #include <math.h>
+#include <stdarg.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -133,6 +134,24 @@ int vf_scene_load(const char *name_or_path, vf_scene **out) {
   err = vf_scene_parse(text, length, name_or_path, dir, NULL, 0, out);
   free(text);
   return err;
+}
+
+int vf_scene_note(const parse_ctx *c, const char *fmt, ...) {
+  char line[512];
+  va_list ap;
+  va_start(ap, fmt);
+  vsnprintf(line, sizeof line - 1, fmt, ap);
+  va_end(ap);
+  strcat(line, "\n");
+  vf_scene *s = c->scene;
+  size_t have = s->notes ? strlen(s->notes) : 0, len = strlen(line);
+  for (const char *p = s->notes; p != NULL && *p != '\0'; p = strchr(p, '\n') + 1)
+    if (strncmp(p, line, len) == 0) return VF_OK;
+  char *grown = realloc(s->notes, have + len + 1);
+  if (grown == NULL) return vf_error_set(VF_ENOMEM, "out of memory");
+  memcpy(grown + have, line, len + 1);
+  s->notes = grown;
+  return VF_OK;
 }
 
 void vf_scene_destroy(vf_scene *scene) {

@@ -89,6 +89,21 @@ int vf_scene_resolve(const parse_ctx *c, const char *file, const char *path, cha
  * the field at `path` describes. VF_ENOENT, VF_EMESH or VF_ENOMEM with a detail. */
 int vf_scene_load_mesh_file(const parse_ctx *c, const char *file, const char *path, vf_shape *s);
 
+/* ---- textures (scene_textures.c) ----
+ * Texture `file`, resolved as mesh files are (so a farm job ships it by content hash, and
+ * a recording load records it), decoded into the scene's textures once per name: its
+ * 1-based index (vf_texture_slot.texture) into *index. Errors as vf_texture_read, the
+ * detail naming the scene, the field at `path` and the file. */
+int vf_scene_texture_file(const parse_ctx *c, const char *file, const char *path, int *index);
+/* An image embedded in a file (a glTF binary's buffer view, a data URI), named `name`
+ * ("model.glb#2"): decoded once per name as above. */
+int vf_scene_texture_bytes(const parse_ctx *c, const char *name, const void *bytes, size_t size, const char *path,
+                           int *index);
+
+/* Adds a line to scene->notes (worker/scene.h) unless the same line is there already.
+ * VF_ENOMEM only. */
+int vf_scene_note(const parse_ctx *c, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
+
 /* Sets the scene's bounds from its shapes. */
 void vf_scene_compute_bounds(vf_scene *s);
 
