@@ -1,6 +1,7 @@
 #include "accel.h"
 
 #include "../common/error.h"
+#include "surface.h"
 
 #include <embree3/rtcore.h>
 #include <math.h>
@@ -13,7 +14,31 @@ struct vf_accel {
   const vf_scene *source; /* borrowed: positions and spheres for hit reconstruction */
   float scale;            /* bounding-sphere radius, for ray offsets */
   int packet_width;       /* Embree's widest native packet: 16 or 8 */
+  unsigned char *interpolated; /* per shape: vf_surface_interpolated */
+  struct cutout *cutouts;      /* per shape: what its filter functions read */
 };
+
+/* A cut-out mesh's filter functions' user data. */
+struct cutout {
+  const vf_scene *scene;
+  const vf_shape *shape;
+};
+
+/* Embree's filter for hits on a cut-out mesh (closest hit and occlusion): hits in a hole
+ * are refused, and the ray goes on. */
+static void cutout_filter(const struct RTCFilterFunctionNArguments *args) {
+  const struct cutout *c = args->geometryUserPtr;
+  for (unsigned i = 0; i < args->N; i++) {
+    if (args->valid[i] == 0) continue;
+    /* RTCHitN is N-wide structure-of-arrays Ng_x, Ng_y, Ng_z, u, v, primID, ...; Embree's
+     * accessors for it (rtcore_ray.h) are C++ only. */
+    const float *f = (const float *)args->hit;
+    const unsigned *w = (const unsigned *)args->hit;
+    unsigned prim = w[5 * args->N + i];
+    float u = f[3 * args->N + i], v = f[4 * args->N + i];
+    if (!vf_surface_covered(c->scene, c->shape, prim, u, v)) args->valid[i] = 0;
+  }
+}
 
 static void device_error(void *user, enum RTCError code, const char *msg) {
   (void)user;
@@ -34,6 +59,12 @@ static int add_mesh(vf_accel *a, const vf_shape *s, unsigned id) {
   }
   memcpy(v, s->positions, (size_t)s->num_vertices * 3 * sizeof(float));
   memcpy(idx, s->indices, (size_t)s->num_triangles * 3 * sizeof(uint32_t));
+  if (a->source->materials[s->material].alpha_cutoff > 0.0f) {
+    a->cutouts[id] = (struct cutout){a->source, s};
+    rtcSetGeometryUserData(g, &a->cutouts[id]);
+    rtcSetGeometryIntersectFilterFunction(g, cutout_filter);
+    rtcSetGeometryOccludedFilterFunction(g, cutout_filter);
+  }
   rtcCommitGeometry(g);
   rtcAttachGeometryByID(a->scene, g, id);
   rtcReleaseGeometry(g);
@@ -62,6 +93,13 @@ int vf_accel_create(const vf_scene *scene, vf_accel **out) {
   vf_accel *a = calloc(1, sizeof *a);
   if (a == NULL) return VF_ENOMEM;
   a->source = scene;
+  a->interpolated = calloc((size_t)scene->num_shapes + 1, 1);
+  a->cutouts = calloc((size_t)scene->num_shapes + 1, sizeof *a->cutouts);
+  if (a->interpolated == NULL || a->cutouts == NULL) {
+    vf_accel_destroy(a);
+    return VF_ENOMEM;
+  }
+  for (int i = 0; i < scene->num_shapes; i++) a->interpolated[i] = (unsigned char)vf_surface_interpolated(scene, &scene->shapes[i]);
   vf_vec3 center;
   vf_scene_bounding_sphere(scene, &center, &a->scale);
   if (!(a->scale > 0.0f)) a->scale = 1.0f; /* a single point or sphere of radius 0: any unit */
@@ -102,6 +140,8 @@ void vf_accel_destroy(vf_accel *a) {
   if (a == NULL) return;
   if (a->scene) rtcReleaseScene(a->scene);
   if (a->device) rtcReleaseDevice(a->device);
+  free(a->interpolated);
+  free(a->cutouts);
   free(a);
 }
 
@@ -123,6 +163,8 @@ static float sphere_root(const vf_shape *s, vf_vec3 org, vf_vec3 dir, float t_em
   double t = fabs(t0 - t_embree) <= fabs(t1 - t_embree) ? t0 : t1;
   return t > 0.0 ? (float)t : t_embree; /* a root behind the origin: keep Embree's */
 }
+
+#define VF_UNLIKELY_HIT(x) __builtin_expect(!!(x), 0)
 
 /* Fills *hit from what Embree reported for the ray org + t dir; 0 for a degenerate hit. */
 static inline __attribute__((always_inline)) int complete_hit(const vf_accel *a, vf_vec3 org, vf_vec3 dir, float t,
@@ -148,6 +190,13 @@ static inline __attribute__((always_inline)) int complete_hit(const vf_accel *a,
   float w = 1.0f - u - v;
   hit->position = vf_vec3_make(w * p0[0] + u * p1[0] + v * p2[0], w * p0[1] + u * p1[1] + v * p2[1],
                                w * p0[2] + u * p1[2] + v * p2[2]);
+  hit->u = u;
+  hit->v = v;
+  if (VF_UNLIKELY_HIT(a->interpolated[geom])) {
+    /* Our own normal, which a light vertex rebuilt from the triangle gets again. */
+    hit->normal = vf_surface_triangle_normal(s, prim);
+    return !vf_is_zero(hit->normal);
+  }
   float len = vf_length(ng);
   if (!(len > 0.0f)) return 0; /* degenerate triangle: Embree should not report it */
   hit->normal = vf_scale(ng, 1.0f / len);

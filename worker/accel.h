@@ -2,7 +2,9 @@
  * secondary rays from re-hitting the surface they leave.
  *
  * Geometry IDs equal shape indices in the vf_scene. Triangle meshes are Embree triangle
- * geometry; spheres are Embree's own sphere-point geometry. */
+ * geometry; spheres are Embree's own sphere-point geometry. A mesh whose material has an
+ * alpha cut-out gets Embree filter functions that pass through its holes
+ * (vf_surface_covered), for closest hits and occlusion alike, single rays and packets. */
 #ifndef VF_ACCEL_H
 #define VF_ACCEL_H
 
@@ -24,6 +26,7 @@ typedef struct {
   uint32_t primitive; /* triangle index within the shape (0 for spheres) */
   vf_vec3 position;   /* recomputed from the primitive, not org + t dir, for precision */
   vf_vec3 normal;     /* unit geometric normal (triangle winding / sphere outward) */
+  float u, v;         /* triangles: barycentrics, the weights of vertices 1 and 2 */
 } vf_hit;
 
 /* Builds the Embree device and scene. VF_EEMBREE with a detail on failure. */

@@ -111,7 +111,7 @@ typedef struct {
 static vf_vec3 conductor_reflectance(const vf_bsdf *b, float c) {
   const vf_material *m = b->material;
   switch (b->fresnel_model) {
-  case VF_FRESNEL_SCHLICK: return vf_fresnel_schlick(gltf_f0(m), c);
+  case VF_FRESNEL_SCHLICK: return vf_fresnel_schlick(b->f0, c);
   case VF_FRESNEL_COMPLEX: return vf_mul(m->conductor, vf_fresnel_conductor(c, m->conductor_eta, m->conductor_k));
   default: return m->conductor;
   }
@@ -152,7 +152,7 @@ static void reflect_rough(const vf_bsdf *b, vf_vec3 gen, lobe_value *v) {
   float pb = p[VF_LOBE_BASE];
   if (pb > 0.0f) {
     float coat = 1.0f - VF_GLTF_DIELECTRIC_F0 - (1.0f - VF_GLTF_DIELECTRIC_F0) * vf_fresnel_schlick_weight(c);
-    v->f = vf_add(v->f, vf_scale(mat->base_color, (1.0f - mat->metallic) * coat * VF_INV_PI));
+    v->f = vf_add(v->f, vf_scale(b->base, coat * VF_INV_PI));
     v->direct_pdf_w += pb * gen.z * VF_INV_PI;
     v->reverse_pdf_w += pb * fix.z * VF_INV_PI;
   }
@@ -196,6 +196,10 @@ void vf_bsdf_setup_extended(vf_bsdf *b, const vf_bsdf_lobes *lobes, int entering
   b->fresnel_model = lobes->fresnel_model;
   b->alpha = lobes->alpha;
   b->lambda_fix = vf_ggx_lambda(b->local_fix, lobes->alpha, lobes->alpha);
+  if (b->material->gltf) { /* from the material set up with, which may be a textured copy */
+    b->f0 = gltf_f0(b->material);
+    b->base = vf_scale(b->material->base_color, 1.0f - b->material->metallic);
+  }
   if (lobes->lobe_probability[VF_LOBE_ROUGH_DIELECTRIC] > 0.0f)
     b->eta = entering ? b->material->ior : 1.0f / b->material->ior;
 }
@@ -206,13 +210,79 @@ static void rough_lobes(const vf_bsdf *b, vf_vec3 gen, int radiance, lobe_value 
   else if (gen.z < 0.0f && b->lobe_probability[VF_LOBE_ROUGH_DIELECTRIC] > 0.0f) refract_rough(b, gen, radiance, v);
 }
 
-vf_vec3 vf_bsdf_evaluate_extended(const vf_bsdf *b, vf_vec3 world_gen, float *cos_gen, float *direct_pdf_w,
-                                  float *reverse_pdf_w, int radiance) {
-  vf_vec3 gen = vf_frame_to_local(&b->frame, world_gen);
+/* ---- shading normals (vf_bsdf_setup_shading) ------------------------------------------ */
+
+int vf_bsdf_setup_shading(vf_bsdf *b, const vf_material *m, const vf_bsdf_lobes *lobes, vf_vec3 geometric,
+                          vf_vec3 shading, vf_vec3 world_fix) {
+  float cos_fix = vf_dot(geometric, world_fix);
+  if (!(fabsf(cos_fix) > 1e-7f) || lobes->black) return 0;
+  int entering = cos_fix > 0.0f;
+  vf_vec3 ng = entering ? geometric : vf_neg(geometric);
+  /* A shading normal on the back of the surface (a file's normals against its winding)
+   * is taken as pointing to the front. */
+  vf_vec3 ns = vf_dot(shading, geometric) < 0.0f ? vf_neg(shading) : shading;
+  if (!entering) ns = vf_neg(ns);
+  float cos_fix_shading = vf_dot(ns, world_fix);
+  if (!(cos_fix_shading > 1e-7f)) return 0;
+  b->material = m;
+  b->frame = vf_frame_from_normal(ns);
+  b->local_fix = vf_frame_to_local(&b->frame, world_fix);
+  if (!(b->local_fix.z > 0.0f)) return 0;
+  b->eta = 1.0f;
+  b->fresnel = 0.0f;
+  b->diffuse = m->diffuse;
+  if (lobes->lobe_probability[VF_LOBE_DIELECTRIC] > 0.0f) {
+    b->eta = entering ? m->ior : 1.0f / m->ior;
+    b->fresnel = vf_fresnel_dielectric(b->local_fix.z, b->eta);
+  }
+  memcpy(b->lobe_probability, lobes->lobe_probability, sizeof b->lobe_probability);
+  b->continuation = lobes->continuation;
+  b->is_delta = lobes->is_delta;
+  b->radiance = 0;
+  b->rough = 0;
+  b->fresnel_model = lobes->fresnel_model;
+  if (lobes->extended) vf_bsdf_setup_extended(b, lobes, entering);
+  b->extended = 1; /* evaluate and sample go through bsdf.c, which applies the shading */
+  b->shading = 1;
+  b->geometric = ng;
+  b->fix_ratio = b->local_fix.z / fabsf(cos_fix);
+  return 1;
+}
+
+/* The factor that folds the shading cosines into f (vf_bsdf_setup_shading): for local gen
+ * whose cosine with the geometric normal is cos_geometric; zero where gen lies on
+ * different sides of the two surfaces. */
+static float shading_fold(const vf_bsdf *b, vf_vec3 gen, float cos_geometric) {
+  if (!(cos_geometric > 0.0f ? gen.z > 0.0f : cos_geometric < 0.0f && gen.z < 0.0f)) return 0.0f;
+  return b->radiance ? fabsf(gen.z) / fabsf(cos_geometric) : b->fix_ratio;
+}
+
+/* f and densities of the lobes (not the deltas) for local gen. */
+static lobe_value evaluate_local(const vf_bsdf *b, vf_vec3 gen, int radiance) {
   lobe_value v = {vf_vec3_splat(0.0f), 0.0f, 0.0f};
   vf_bsdf_smooth_lobes(b, gen, &v.f, &v.direct_pdf_w, &v.reverse_pdf_w);
   if (b->rough) rough_lobes(b, gen, radiance, &v);
-  if (cos_gen) *cos_gen = fabsf(gen.z);
+  return v;
+}
+
+vf_vec3 vf_bsdf_evaluate_extended(const vf_bsdf *b, vf_vec3 world_gen, float *cos_gen, float *direct_pdf_w,
+                                  float *reverse_pdf_w, int radiance) {
+  vf_vec3 gen = vf_frame_to_local(&b->frame, world_gen);
+  lobe_value v;
+  float c = fabsf(gen.z);
+  if (b->shading) {
+    float cos_geometric = vf_dot(b->geometric, world_gen), fold = shading_fold(b, gen, cos_geometric);
+    c = fabsf(cos_geometric);
+    if (fold > 0.0f) {
+      v = evaluate_local(b, gen, radiance);
+      v.f = vf_scale(v.f, fold);
+    } else {
+      v = (lobe_value){vf_vec3_splat(0.0f), 0.0f, 0.0f};
+    }
+  } else {
+    v = evaluate_local(b, gen, radiance);
+  }
+  if (cos_gen) *cos_gen = c;
   if (direct_pdf_w) *direct_pdf_w = v.direct_pdf_w * b->continuation;
   if (reverse_pdf_w) *reverse_pdf_w = v.reverse_pdf_w * b->continuation;
   return v.f;
@@ -255,8 +325,8 @@ static vf_vec3 sample_rough(const vf_bsdf *b, float u, float u1, float u2, unsig
  * ROUGH_CONDUCTOR, ROUGH_DIELECTRIC, BASE, then the delta ones, MIRROR, DIELECTRIC,
  * CONDUCTOR; the smooth conductor is a mirror reflecting tint x Fresnel at the angle of
  * fix. */
-vf_vec3 vf_bsdf_sample_extended(const vf_bsdf *b, const float rnd[3], vf_vec3 *world_gen, float *pdf_w,
-                                float *reverse_pdf_w, float *cos_gen, unsigned *event) {
+static vf_vec3 sample_lobes(const vf_bsdf *b, const float rnd[3], vf_vec3 *world_gen, float *pdf_w,
+                            float *reverse_pdf_w, float *cos_gen, unsigned *event) {
   const float *p = b->lobe_probability;
   float u = rnd[2];
   *event = 0;
@@ -267,9 +337,10 @@ vf_vec3 vf_bsdf_sample_extended(const vf_bsdf *b, const float rnd[3], vf_vec3 *w
     if (vf_is_zero(gen)) return gen;
     /* evaluated after the round trip through the world frame, as vf_bsdf_sample does */
     *world_gen = vf_frame_to_world(&b->frame, gen);
-    float d, r, c;
-    vf_vec3 f = vf_bsdf_evaluate_extended(b, *world_gen, &c, &d, &r, 0);
-    return vf_bsdf_sampled(f, d, r, c, pdf_w, reverse_pdf_w, cos_gen);
+    vf_vec3 back = vf_frame_to_local(&b->frame, *world_gen);
+    lobe_value v = evaluate_local(b, back, 0);
+    return vf_bsdf_sampled(v.f, v.direct_pdf_w * b->continuation, v.reverse_pdf_w * b->continuation,
+                           fabsf(back.z), pdf_w, reverse_pdf_w, cos_gen);
   }
   u -= p_nondelta;
   if (!(p[VF_LOBE_CONDUCTOR] > 0.0f && u >= p[VF_LOBE_MIRROR] + p[VF_LOBE_DIELECTRIC]))
@@ -281,4 +352,18 @@ vf_vec3 vf_bsdf_sample_extended(const vf_bsdf *b, const float rnd[3], vf_vec3 *w
   *pdf_w = *reverse_pdf_w = p[VF_LOBE_CONDUCTOR] * b->continuation;
   *cos_gen = c;
   return vf_scale(conductor_reflectance(b, c), 1.0f / c);
+}
+
+vf_vec3 vf_bsdf_sample_extended(const vf_bsdf *b, const float rnd[3], vf_vec3 *world_gen, float *pdf_w,
+                                float *reverse_pdf_w, float *cos_gen, unsigned *event) {
+  vf_vec3 f = sample_lobes(b, rnd, world_gen, pdf_w, reverse_pdf_w, cos_gen, event);
+  if (!b->shading || vf_is_zero(f)) return f;
+  /* In the shading frame, cos_gen is |gen.ns|: fold it into f, and refuse a direction
+   * that crosses one surface but not the other (a reflection through the geometric
+   * surface, or a refraction that stays on fix's side of it). */
+  vf_vec3 gen = vf_frame_to_local(&b->frame, *world_gen);
+  float cos_geometric = vf_dot(b->geometric, *world_gen), fold = shading_fold(b, gen, cos_geometric);
+  if (!(fold > 0.0f)) return vf_vec3_splat(0.0f);
+  *cos_gen = fabsf(cos_geometric);
+  return vf_scale(f, fold);
 }

@@ -72,6 +72,14 @@ typedef struct {
                                 * only when extended) */
   int rough, fresnel_model;    /* when extended: a rough or base lobe; the conductors' VF_FRESNEL_* */
   float alpha, lambda_fix;     /* when rough: GGX alpha and Smith's Lambda(local_fix) */
+  vf_vec3 diffuse;             /* the diffuse lobe's albedo here (a texture may vary it) */
+  vf_vec3 f0, base;            /* glTF model, when extended: Schlick's F0 and the base's weight */
+  /* Shading normals (vf_bsdf_setup_shading; extended is then set): the frame is the shading
+   * normal's, `geometric` the unit geometric normal on the side of fix, fix_ratio
+   * |fix.n_shading| / |fix.n_geometric|. */
+  int shading;
+  vf_vec3 geometric;
+  float fix_ratio;
 } vf_bsdf;
 
 /* What of a BSDF depends on its material only: the lobe selection probabilities (in
@@ -131,6 +139,8 @@ static inline int vf_bsdf_setup(vf_bsdf *b, const vf_material *m, const vf_bsdf_
   b->local_fix = vf_frame_to_local(&b->frame, world_fix);
   b->eta = 1.0f;
   b->fresnel = 0.0f;
+  b->diffuse = m->diffuse;
+  b->shading = 0;
   if (lobes->lobe_probability[VF_LOBE_DIELECTRIC] > 0.0f) {
     /* Arriving on the front of the geometric normal means entering the medium. */
     b->eta = cos_fix > 0.0f ? m->ior : 1.0f / m->ior;
@@ -145,6 +155,21 @@ static inline int vf_bsdf_setup(vf_bsdf *b, const vf_material *m, const vf_bsdf_
   return 1;
 }
 
+/* vf_bsdf_setup at a vertex whose shading normal (unit, on the front of the geometric one
+ * or flipped there) differs from its geometric normal: the lobes live in the shading
+ * normal's frame, reflection and transmission are told apart by the geometric normal, and
+ * a direction on one side of the geometric surface but the other of the shading one is
+ * not scattered into (no light leaks through the surface). f is folded so that every
+ * cosine the renderer sees is geometric (its area measure and MIS stay those of the
+ * surface): a camera sub-path's vertex (radiance) returns f |gen.ns| / |gen.ng|, a light
+ * sub-path's f |fix.ns| / |fix.ng|, so that f cos_gen is f_s |gen.ns| for radiance and
+ * the adjoint f_s |fix.ns| |gen.ng| / |fix.ng| for importance (Veach's thesis, sec. 5.3,
+ * eq. 5.19); both give the same value for the same vertex of a path whichever sub-path
+ * reaches it, as the techniques of VCM need. Returns 0 where fix is below the shading
+ * hemisphere. Out of line: bsdf.c. */
+int vf_bsdf_setup_shading(vf_bsdf *b, const vf_material *m, const vf_bsdf_lobes *lobes, vf_vec3 geometric,
+                          vf_vec3 shading, vf_vec3 world_fix);
+
 /* The mirror direction of local v about the shading normal. */
 static inline vf_vec3 vf_bsdf_reflect_local(vf_vec3 v) { return vf_vec3_make(-v.x, -v.y, v.z); }
 
@@ -154,7 +179,7 @@ static inline void vf_bsdf_smooth_lobes(const vf_bsdf *b, vf_vec3 gen, vf_vec3 *
   if (!(gen.z > 0.0f)) return;
   float pd = b->lobe_probability[VF_LOBE_DIFFUSE];
   if (pd > 0.0f) {
-    *f = vf_add(*f, vf_scale(b->material->diffuse, VF_INV_PI));
+    *f = vf_add(*f, vf_scale(b->diffuse, VF_INV_PI));
     *direct += pd * gen.z * VF_INV_PI;
     *reverse += pd * b->local_fix.z * VF_INV_PI;
   }

@@ -21,8 +21,23 @@ static void rnd2(vf_rng *r, float out[2]) {
 
 /* The BSDF a stored light vertex had. */
 static void bsdf_of_vertex(const vf_vcm *v, vf_bsdf *b, const light_vertex *lv) {
-  uint32_t m = vertex_material(lv);
-  vf_bsdf_setup(b, &v->scene->materials[m], &v->lobes[m], lv->normal, lv->fix);
+  uint32_t shape = vertex_shape(lv);
+  if (__builtin_expect(v->interpolated[shape], 0)) {
+    const vf_shape *sh = &v->scene->shapes[shape];
+    vf_vec3 ng = vf_surface_triangle_normal(sh, lv->at.point.primitive);
+    vf_surface_bsdf(b, v->scene, v->lobes, shape, lv->at.point.primitive, lv->at.point.u, lv->at.point.v, ng, lv->fix);
+    return;
+  }
+  uint32_t m = (uint32_t)v->scene->shapes[shape].material;
+  vf_bsdf_setup(b, &v->scene->materials[m], &v->lobes[m], lv->at.normal, lv->fix);
+}
+
+/* The geometric normal of a stored light vertex, for its shadow rays' offsets. */
+static vf_vec3 normal_of_vertex(const vf_vcm *v, const light_vertex *lv) {
+  uint32_t shape = vertex_shape(lv);
+  if (__builtin_expect(v->interpolated[shape], 0))
+    return vf_surface_triangle_normal(&v->scene->shapes[shape], lv->at.point.primitive);
+  return lv->at.normal;
 }
 
 /* s = 0: radiance of a light found by the camera sub-path, weighted. */
@@ -149,7 +164,7 @@ static void connect_vertices(vf_vcm *v, int thread, const vf_hit *hit, const vf_
   vf_vec3 contrib = vf_scale(vf_mul(vf_mul(fc, fl), lv->throughput), w * cos_camera * cos_light / dist2);
   if (vf_is_zero(contrib)) return;
   int entry = defer(v, thread, vf_mul(s->throughput, contrib), tile_pixel);
-  queue_segment(v, &v->stats[thread].packet, entry, hit->position, hit->normal, lv->position, lv->normal);
+  queue_segment(v, &v->stats[thread].packet, entry, hit->position, hit->normal, lv->position, normal_of_vertex(v, lv));
   packet_queued(v, thread);
 }
 

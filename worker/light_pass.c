@@ -218,13 +218,24 @@ static int light_bounce(vf_vcm *v, int thread, light_chunk *c, light_lane *lane,
   vf_bsdf b;
   if (!bsdf_at(v, &b, hit, vf_neg(s->direction))) return 0;
   s->path_length++;
-  vf_mis_hit(&s->mis, hit->t, b.local_fix.z, s->path_length > 1 || s->is_finite_light);
+  /* The geometric cosine (the BSDF's local_fix.z is the shading one where they differ;
+   * both are the same bits where they do not). */
+  vf_mis_hit(&s->mis, hit->t, fabsf(vf_dot(hit->normal, s->direction)), s->path_length > 1 || s->is_finite_light);
   if (!b.is_delta) {
     if (v->t.store_vertices) {
-      uint32_t material = (uint32_t)v->scene->shapes[hit->shape].material;
-      lane->vertices[lane->num_vertices++] =
-          (light_vertex){hit->position, s->throughput, vf_neg(s->direction), hit->normal, s->mis,
-                         (uint32_t)s->path_length | material << VERTEX_LENGTH_BITS};
+      light_vertex *lv = &lane->vertices[lane->num_vertices++];
+      lv->position = hit->position;
+      lv->throughput = s->throughput;
+      lv->fix = vf_neg(s->direction);
+      if (__builtin_expect(v->interpolated[hit->shape], 0)) {
+        lv->at.point.primitive = hit->primitive;
+        lv->at.point.u = hit->u;
+        lv->at.point.v = hit->v;
+      } else {
+        lv->at.normal = hit->normal;
+      }
+      lv->mis = s->mis;
+      lv->path_length_shape = (uint32_t)s->path_length | hit->shape << VERTEX_LENGTH_BITS;
     }
     if (v->t.light_to_camera) connect_to_camera(v, thread, c, lane->path - begin, hit, &b, s, &lane->rng);
   }

@@ -7,6 +7,7 @@
 #include "../common/error.h"
 #include "camera_pass.h"
 #include "light_pass.h"
+#include "surface.h"
 #include "vcm_internal.h"
 #include "vertex_merging.h"
 
@@ -192,10 +193,10 @@ int vf_vcm_create(const vf_scene *scene, const vf_accel *accel, const vf_setting
   vf_scene_bounding_sphere(scene, &v->scene_center, &v->scene_radius);
   v->offset_scale = vf_accel_scale(accel);
   v->num_pixels = (uint32_t)settings->width * (uint32_t)settings->height;
-  if ((uint32_t)scene->num_materials > VERTEX_MAX_MATERIALS) {
+  if ((uint32_t)scene->num_shapes > VERTEX_MAX_SHAPES) {
     free(v);
-    return vf_error_set(VF_ESCENE, "the scene has %d materials; the renderer handles at most %u",
-                        scene->num_materials, VERTEX_MAX_MATERIALS);
+    return vf_error_set(VF_ESCENE, "the scene has %d shapes; the renderer handles at most %u", scene->num_shapes,
+                        VERTEX_MAX_SHAPES);
   }
   analyse_scene(v);
   v->requested = settings->algorithm;
@@ -214,9 +215,17 @@ int vf_vcm_create(const vf_scene *scene, const vf_accel *accel, const vf_setting
   v->stats = aligned_alloc(64, (size_t)vf_pool_threads(pool) * sizeof *v->stats);
   if (v->stats != NULL) memset(v->stats, 0, (size_t)vf_pool_threads(pool) * sizeof *v->stats);
   v->lobes = calloc(scene->num_materials > 0 ? (size_t)scene->num_materials : 1, sizeof *v->lobes);
-  if (!v->chunks || !v->band_start || !v->path_begin || !v->path_end || !v->segments || !v->stats || !v->lobes)
+  size_t shapes = scene->num_shapes > 0 ? (size_t)scene->num_shapes : 1;
+  v->interpolated = calloc(shapes, sizeof *v->interpolated);
+  v->shape_continuation = calloc(shapes, sizeof *v->shape_continuation);
+  if (!v->chunks || !v->band_start || !v->path_begin || !v->path_end || !v->segments || !v->stats || !v->lobes ||
+      !v->interpolated || !v->shape_continuation)
     goto fail;
   for (int m = 0; m < scene->num_materials; m++) vf_bsdf_lobes_of(&scene->materials[m], &v->lobes[m]);
+  for (int i = 0; i < scene->num_shapes; i++) {
+    v->interpolated[i] = (unsigned char)vf_surface_interpolated(scene, &scene->shapes[i]);
+    v->shape_continuation[i] = v->lobes[scene->shapes[i].material].continuation;
+  }
   v->lane_capacity = settings->max_path_length > 1 ? (uint32_t)settings->max_path_length : 1u;
   for (int t = 0; t < vf_pool_threads(pool); t++) {
     v->stats[t].ring_vertices = aligned_alloc(64, (size_t)RETIRE_RING * v->lane_capacity * sizeof(light_vertex));
@@ -254,6 +263,8 @@ void vf_vcm_destroy(vf_vcm *v) {
     }
   free(v->stats);
   free(v->lobes);
+  free(v->interpolated);
+  free(v->shape_continuation);
   vf_hashgrid_destroy(v->grid);
   vf_lights_destroy(v->lights);
   free(v);

@@ -38,29 +38,36 @@
 #define SPLAT_BAND 32u
 
 /* A stored light vertex: one cache line. Its BSDF is not stored but set up again from
- * material, normal and fix when a connection needs it (vf_bsdf_setup is a pure function
+ * shape, normal and fix when a connection needs it (vf_bsdf_setup is a pure function
  * of them, so it is the BSDF the light sub-path had): rebuilding a frame costs less than
- * moving twice the bytes through the light pass and the gather. */
+ * moving twice the bytes through the light pass and the gather. On a shape shaded from
+ * its barycentrics (vf_vcm.interpolated: vertex normals, textures) the vertex holds the
+ * triangle and barycentrics instead of the normal, and the set-up starts from them
+ * (vf_surface_bsdf, with the geometric normal the hit had: worker/surface.h). */
 typedef struct {
   vf_vec3 position; /* first: the hash grid reads it at offset 0 */
   vf_vec3 throughput;
   vf_vec3 fix;      /* world, unit, towards the previous light vertex */
-  vf_vec3 normal;   /* geometric normal at the vertex, as the hit reported it */
+  union {
+    vf_vec3 normal; /* geometric normal at the vertex, as the hit reported it */
+    struct {
+      uint32_t primitive;
+      float u, v;
+    } point;        /* on an interpolated shape */
+  } at;
   vf_mis mis;
-  uint32_t path_length_material; /* segments from the light (low bits) and material index */
+  uint32_t path_length_shape; /* segments from the light (low bits) and shape index */
 } light_vertex;
 _Static_assert(sizeof(light_vertex) == 64, "a light vertex is one cache line");
 
 /* Path lengths are at most VF_MAX_PATH_LENGTH (common/settings.h): 10 bits. */
 #define VERTEX_LENGTH_BITS 10u
 _Static_assert(VF_MAX_PATH_LENGTH < (1 << VERTEX_LENGTH_BITS), "path lengths fit their bits");
-#define VERTEX_MAX_MATERIALS (1u << (32u - VERTEX_LENGTH_BITS))
+#define VERTEX_MAX_SHAPES (1u << (32u - VERTEX_LENGTH_BITS))
 static inline int vertex_path_length(const light_vertex *lv) {
-  return (int)(lv->path_length_material & ((1u << VERTEX_LENGTH_BITS) - 1u));
+  return (int)(lv->path_length_shape & ((1u << VERTEX_LENGTH_BITS) - 1u));
 }
-static inline uint32_t vertex_material(const light_vertex *lv) {
-  return lv->path_length_material >> VERTEX_LENGTH_BITS;
-}
+static inline uint32_t vertex_shape(const light_vertex *lv) { return lv->path_length_shape >> VERTEX_LENGTH_BITS; }
 
 /* What the light pass makes for the light image (light_pass.c). */
 typedef struct splat splat;
@@ -164,6 +171,8 @@ struct vf_vcm {
   vf_lights *lights;
   techniques t;
   vf_bsdf_lobes *lobes; /* per material, owned */
+  unsigned char *interpolated; /* per shape: vf_surface_interpolated, owned */
+  float *shape_continuation;   /* per shape: its material's Russian-roulette probability, owned */
   vf_vec3 scene_center;
   float scene_radius;
   float offset_scale; /* for vf_offset_ray_origin */

@@ -22,7 +22,7 @@
  * one line). A query is bound by the lines it misses, not by its arithmetic. */
 struct merge_point {
   float x, y, z;
-  uint32_t path_length_material; /* as in light_vertex */
+  uint32_t path_length_shape; /* as in light_vertex */
 };
 _Static_assert(sizeof(merge_point) == 16, "find_hits reads a merge point as four floats");
 #define MERGE_POINT_PAD 7u /* find_hits reads up to this many points past the last */
@@ -70,7 +70,7 @@ static void gather_task(void *ctx, size_t task, int thread) {
     /* The vertices are read in grid order, that is at random: fetch ahead of use. */
     if (k + GATHER_AHEAD < end) __builtin_prefetch(grid_vertex(v, points[k + GATHER_AHEAD].index));
     const light_vertex *lv = grid_vertex(v, points[k].index);
-    v->merge_points[k] = (merge_point){points[k].x, points[k].y, points[k].z, lv->path_length_material};
+    v->merge_points[k] = (merge_point){points[k].x, points[k].y, points[k].z, lv->path_length_shape};
     v->photons[k] = (photon){lv->throughput, lv->fix, lv->mis.d_vcm, lv->mis.d_vm};
   }
 }
@@ -104,8 +104,8 @@ int vf_vertex_merging_build_grid(vf_vcm *v) {
 /* Merges camera vertex q with light vertex k (an index into the grid's order), which lies
  * within the radius: the vertex merging estimate with its MIS weight (eq. 38-39). */
 static vf_vec3 merge_one(const vf_vcm *v, const vertex_merging_query *q, uint32_t k) {
-  uint32_t length_material = v->merge_points[k].path_length_material;
-  if ((int)(length_material & ((1u << VERTEX_LENGTH_BITS) - 1u)) + q->path_length > v->settings.max_path_length)
+  uint32_t length_shape = v->merge_points[k].path_length_shape;
+  if ((int)(length_shape & ((1u << VERTEX_LENGTH_BITS) - 1u)) + q->path_length > v->settings.max_path_length)
     return vf_vec3_splat(0.0f);
   const photon *ph = &v->photons[k];
   float cos_camera, camera_pdf, camera_rev_pdf;
@@ -114,7 +114,7 @@ static vf_vec3 merge_one(const vf_vcm *v, const vertex_merging_query *q, uint32_
   float w = 1.0f;
   if (!v->t.ppm) {
     /* The reverse step is taken at the light vertex: its Russian roulette applies. */
-    camera_rev_pdf *= v->lobes[length_material >> VERTEX_LENGTH_BITS].continuation / q->bsdf.continuation;
+    camera_rev_pdf *= v->shape_continuation[length_shape >> VERTEX_LENGTH_BITS] / q->bsdf.continuation;
     vf_mis light = {ph->d_vcm, 0.0f, ph->d_vm};
     w = vf_mis_weight_merge(&light, &q->mis, &v->mis, camera_pdf, camera_rev_pdf);
   }
@@ -249,7 +249,7 @@ static int find_hits(const vf_vcm *v, const vertex_merging_query *q, const vf_in
       float dx = mp->x - q->position.x, dy = mp->y - q->position.y, dz = mp->z - q->position.z;
       hits[found < max ? found : max] = k;
       found += (dx * dx + dy * dy + dz * dz <= v->radius_sq) &
-               ((mp->path_length_material & ((1u << VERTEX_LENGTH_BITS) - 1u)) <= longest);
+               ((mp->path_length_shape & ((1u << VERTEX_LENGTH_BITS) - 1u)) <= longest);
     }
   return found;
 }

@@ -12,6 +12,7 @@
 #define VF_WAVEFRONT_H
 
 #include "../common/rng.h"
+#include "surface.h"
 #include "vcm_internal.h"
 
 #include <math.h>
@@ -49,6 +50,8 @@ static inline void queue_direction(vf_vcm *v, shadow_packet *pk, int owner, vf_v
 
 /* The BSDF at a hit for a path arriving from world_fix; 0 when nothing scatters there. */
 static inline int bsdf_at(const vf_vcm *v, vf_bsdf *b, const vf_hit *hit, vf_vec3 world_fix) {
+  if (__builtin_expect(v->interpolated[hit->shape], 0))
+    return vf_surface_bsdf(b, v->scene, v->lobes, hit->shape, hit->primitive, hit->u, hit->v, hit->normal, world_fix);
   int m = v->scene->shapes[hit->shape].material;
   return vf_bsdf_setup(b, &v->scene->materials[m], &v->lobes[m], hit->normal, world_fix);
 }

@@ -1,0 +1,420 @@
+/* Shading normals, textures and cut-outs (worker/surface.h, vf_bsdf_setup_shading), tested
+ * on physics and on identities, never on pixels of an earlier run:
+ * 1. with a shading normal, the value a camera sub-path's vertex evaluates for (fix a,
+ *    gen b) equals the value a light sub-path's vertex evaluates for (fix b, gen a), and
+ *    each side's direct density is the other's reverse one: the same path vertex gets the
+ *    same contribution and densities from every technique (worker/bsdf.h);
+ * 2. sampling reports the density and value that evaluation gives for the sampled
+ *    direction, and never a direction through the geometric surface of an opaque material;
+ * 3. f cos of the folded value is f_s |gen.ns| for radiance and the adjoint of Veach's
+ *    thesis eq. 5.19 for importance;
+ * 4. the geometric normal of an interpolated hit is the winding's, as Embree's;
+ * 5. cut-outs: rays pass through holes, closest hits and occlusion alike;
+ * 6. path tracing, light tracing, BPT and VCM agree per image block on smooth-normal
+ *    meshes, textured diffuse and glTF materials, a normal map and an alpha cut-out. */
+#include "check.h"
+#include "render_util.h"
+#include "worker/bsdf.h"
+#include "worker/surface.h"
+
+#include "common/rng.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* ---- 1-3: the shading-normal BSDF ---- */
+
+static vf_vec3 random_direction(vf_rng *r) {
+  float z = 1.0f - 2.0f * vf_rng_float(r), phi = 2.0f * (float)M_PI * vf_rng_float(r);
+  float s = sqrtf(fmaxf(0.0f, 1.0f - z * z));
+  return vf_vec3_make(s * cosf(phi), s * sinf(phi), z);
+}
+
+/* A shading normal tilted from ng by up to ~50 degrees. */
+static vf_vec3 tilted(vf_vec3 ng, vf_rng *r) {
+  return vf_normalize(vf_add(ng, vf_scale(random_direction(r), 0.8f * vf_rng_float(r))));
+}
+
+static vf_material reflecting_material(int k) {
+  vf_material m;
+  memset(&m, 0, sizeof m);
+  m.phong_exponent = m.ior = 1.0f;
+  switch (k) {
+  case 0: m.diffuse = vf_vec3_make(0.7f, 0.5f, 0.3f); break;
+  case 1:
+    m.diffuse = vf_vec3_splat(0.3f);
+    m.glossy = vf_vec3_splat(0.5f);
+    m.phong_exponent = 30.0f;
+    break;
+  case 2:
+    m.gltf = 1;
+    m.base_color = vf_vec3_make(0.8f, 0.6f, 0.2f);
+    m.metallic = 0.3f;
+    m.roughness = 0.5f;
+    break;
+  default:
+    m.conductor = vf_vec3_splat(0.9f);
+    m.roughness = 0.4f;
+    break;
+  }
+  return m;
+}
+
+static double rel(double a, double b) { return fabs(a - b) / fmax(1e-30, fmax(fabs(a), fabs(b))); }
+
+static void test_shading_bsdf_is_the_same_from_both_sub_paths(void) {
+  vf_rng r = vf_rng_for_path(7, 0, 0, 0);
+  int compared = 0;
+  double worst_f = 0.0, worst_pdf = 0.0;
+  for (int k = 0; k < 4; k++) {
+    vf_material m = reflecting_material(k);
+    vf_bsdf_lobes lobes;
+    vf_bsdf_lobes_of(&m, &lobes);
+    for (int i = 0; i < 4000; i++) {
+      vf_vec3 ng = random_direction(&r), ns = tilted(ng, &r);
+      vf_vec3 a = random_direction(&r), b = random_direction(&r);
+      vf_bsdf camera, light;
+      if (!vf_bsdf_setup_shading(&camera, &m, &lobes, ng, ns, a)) continue;
+      if (!vf_bsdf_setup_shading(&light, &m, &lobes, ng, ns, b)) continue;
+      camera.radiance = 1;
+      float cc, cp, cr, lc, lp, lr;
+      vf_vec3 fc = vf_bsdf_evaluate(&camera, b, &cc, &cp, &cr);
+      vf_vec3 fl = vf_bsdf_evaluate(&light, a, &lc, &lp, &lr);
+      CHECK(vf_is_zero(fc) == vf_is_zero(fl));
+      /* The cosines the renderer sees are geometric. */
+      CHECK_NEAR(cc, fabsf(vf_dot(ng, b)), 1e-6);
+      CHECK_NEAR(lc, fabsf(vf_dot(ng, a)), 1e-6);
+      if (vf_is_zero(fc)) {
+        /* zero exactly when a direction lies on different sides of the two surfaces */
+        int split = (vf_dot(ng, a) > 0) != (vf_dot(ns, a) > 0) || (vf_dot(ng, b) > 0) != (vf_dot(ns, b) > 0) ||
+                    (vf_dot(ng, a) > 0) != (vf_dot(ng, b) > 0);
+        if (k != 1) CHECK(split); /* Phong is zero outside its lobe too */
+        continue;
+      }
+      compared++;
+      for (int c = 0; c < 3; c++) worst_f = fmax(worst_f, rel(vf_vec3_get(fc, c), vf_vec3_get(fl, c)));
+      worst_pdf = fmax(worst_pdf, fmax(rel(cp, lr), rel(cr, lp)));
+      /* 3: f cos is f_s |b.ns| for the camera's vertex; for the light's, the adjoint. */
+      vf_bsdf plain;
+      vf_bsdf_init(&plain, &m, ns, a);
+      float pc;
+      vf_vec3 fs = vf_bsdf_evaluate(&plain, b, &pc, NULL, NULL);
+      CHECK_NEAR(fc.x * cc, fs.x * fabsf(vf_dot(ns, b)), 1e-4 * fs.x * fabsf(vf_dot(ns, b)) + 1e-7);
+      /* the light's vertex: fix b, gen a; f_s |fix.ns| |gen.ng| / |fix.ng| */
+      double adjoint = fs.x * fabs(vf_dot(ns, b)) * fabs(vf_dot(ng, a)) / fabs(vf_dot(ng, b));
+      CHECK_NEAR(fl.x * lc, adjoint, 1e-4 * adjoint + 1e-7);
+    }
+  }
+  printf("  %d pairs: worst relative difference of f %.2g, of densities %.2g\n", compared, worst_f, worst_pdf);
+  CHECK(compared > 4000);
+  CHECK(worst_f < 1e-4);
+  CHECK(worst_pdf < 1e-4);
+}
+
+static void test_shading_bsdf_samples_what_it_evaluates_and_never_leaks(void) {
+  vf_rng r = vf_rng_for_path(8, 0, 0, 0);
+  int sampled = 0;
+  for (int k = 0; k < 4; k++) {
+    vf_material m = reflecting_material(k);
+    vf_bsdf_lobes lobes;
+    vf_bsdf_lobes_of(&m, &lobes);
+    for (int i = 0; i < 4000; i++) {
+      vf_vec3 ng = random_direction(&r), ns = tilted(ng, &r), fix = random_direction(&r);
+      vf_bsdf b;
+      if (!vf_bsdf_setup_shading(&b, &m, &lobes, ng, ns, fix)) continue;
+      b.radiance = (int)(i & 1);
+      float rnd[3] = {vf_rng_float(&r), vf_rng_float(&r), vf_rng_float(&r)};
+      vf_vec3 gen;
+      float pdf, rev, cos_gen, e_cos, e_pdf, e_rev;
+      unsigned event;
+      vf_vec3 f = vf_bsdf_sample(&b, rnd, &gen, &pdf, &rev, &cos_gen, &event);
+      if (vf_is_zero(f)) continue;
+      sampled++;
+      /* on the side of fix: an opaque surface is never crossed */
+      CHECK((vf_dot(ng, gen) > 0) == (vf_dot(ng, fix) > 0));
+      vf_vec3 fe = vf_bsdf_evaluate(&b, gen, &e_cos, &e_pdf, &e_rev);
+      CHECK_NEAR(e_pdf, pdf, 1e-6 * pdf);
+      CHECK_NEAR(e_rev, rev, 1e-6 * rev);
+      CHECK_NEAR(e_cos, cos_gen, 1e-7);
+      CHECK_NEAR(fe.y, f.y, 1e-6 * f.y);
+    }
+  }
+  printf("  %d sampled directions checked\n", sampled);
+  CHECK(sampled > 8000);
+}
+
+/* ---- scenes built from the Cornell family ---- */
+
+/* A latitude-longitude sphere mesh of `rows` x 2 rows segments with the sphere's normals
+ * and coordinates (s along longitude, t from the north pole): coarse, so that shading
+ * normals differ from the facets by up to ~15 degrees. */
+static void make_uv_sphere(vf_shape *s, vf_vec3 c, float radius, int rows) {
+  int cols = 2 * rows;
+  uint32_t nv = (uint32_t)((rows + 1) * (cols + 1)), nt = (uint32_t)(2 * rows * cols);
+  s->kind = VF_SHAPE_MESH;
+  s->num_vertices = nv;
+  s->num_triangles = nt;
+  s->positions = malloc(3 * nv * sizeof(float));
+  s->normals = malloc(3 * nv * sizeof(float));
+  s->uvs = malloc(2 * nv * sizeof(float));
+  s->indices = malloc(3 * nt * sizeof(uint32_t));
+  uint32_t v = 0, t = 0;
+  for (int i = 0; i <= rows; i++)
+    for (int j = 0; j <= cols; j++, v++) {
+      double theta = M_PI * i / rows, phi = 2 * M_PI * j / cols;
+      vf_vec3 n = vf_vec3_make((float)(sin(theta) * cos(phi)), (float)cos(theta), (float)(-sin(theta) * sin(phi)));
+      vf_vec3 p = vf_add(c, vf_scale(n, radius));
+      memcpy(&s->positions[3 * v], &p, 3 * sizeof(float));
+      memcpy(&s->normals[3 * v], &n, 3 * sizeof(float));
+      s->uvs[2 * v] = (float)j / cols;
+      s->uvs[2 * v + 1] = (float)i / rows;
+    }
+  for (int i = 0; i < rows; i++)
+    for (int j = 0; j < cols; j++) {
+      uint32_t a = (uint32_t)(i * (cols + 1) + j), b = a + 1, d = a + (uint32_t)cols + 1, e = d + 1;
+      /* counter-clockwise seen from outside */
+      uint32_t tri[6] = {a, d, b, b, d, e};
+      memcpy(&s->indices[3 * t], tri, sizeof tri);
+      t += 2;
+    }
+}
+
+static int find_shape(const vf_scene *s, const char *name) {
+  for (int i = 0; i < s->num_shapes; i++)
+    if (strcmp(s->shapes[i].name, name) == 0) return i;
+  return -1;
+}
+
+/* Texture coordinates for a wall from two of its position's coordinates, `repeat` times
+ * across the wall's [-1, 1] extent. */
+static void wall_uvs(vf_shape *s, int axis_s, int axis_t, float repeat) {
+  s->uvs = malloc(2 * s->num_vertices * sizeof(float));
+  for (uint32_t v = 0; v < s->num_vertices; v++) {
+    s->uvs[2 * v] = (s->positions[3 * v + axis_s] + 1.0f) * 0.5f * repeat;
+    s->uvs[2 * v + 1] = (1.0f - s->positions[3 * v + axis_t]) * 0.5f * repeat;
+  }
+}
+
+/* Appends texture (w x h, channels, 8-bit texels from fn(x, y, c)) and returns its slot
+ * value (1 + index). */
+static int add_texture(vf_scene *s, int w, int h, int channels, int is_float, float (*fn)(int, int, int)) {
+  s->textures = realloc(s->textures, (size_t)(s->num_textures + 1) * sizeof *s->textures);
+  vf_texture *t = &s->textures[s->num_textures];
+  memset(t, 0, sizeof *t);
+  t->width = (uint32_t)w;
+  t->height = (uint32_t)h;
+  t->channels = channels;
+  t->is_float = is_float;
+  t->texels = malloc((size_t)w * h * channels * (is_float ? sizeof(float) : 1));
+  for (int y = 0; y < h; y++)
+    for (int x = 0; x < w; x++)
+      for (int c = 0; c < channels; c++) {
+        size_t k = ((size_t)y * w + x) * channels + c;
+        float value = fn(x, y, c);
+        if (is_float)
+          ((float *)t->texels)[k] = value;
+        else
+          ((uint8_t *)t->texels)[k] = (uint8_t)lrintf(value * 255.0f);
+      }
+  return ++s->num_textures;
+}
+
+static float checker(int x, int y, int c) { return ((x + y) & 1) ? (c == 0 ? 0.9f : 0.5f) : 0.15f; }
+static float holes(int x, int y, int c) { (void)c; return ((x + y) & 1) ? 1.0f : 0.0f; }
+static float roughness_metallic(int x, int y, int c) { return c == 1 ? 0.2f + 0.1f * (float)((x * 3 + y) % 8) : ((x / 2 + y) & 1); }
+/* A field of bumps: tangent-space normals tilted up to ~35 degrees, encoded as (n + 1) / 2. */
+static float bumps(int x, int y, int c) {
+  double nx = 0.5 * sin(2 * M_PI * x / 8.0), ny = 0.5 * cos(2 * M_PI * y / 8.0), nz = 1.0;
+  double len = sqrt(nx * nx + ny * ny + nz * nz), n[3] = {nx / len, ny / len, nz / len};
+  return (float)(0.5 * (n[c] + 1.0));
+}
+
+enum { SMOOTH = 1, TEXTURED = 2, NORMAL_MAP = 4, CUTOUT = 8 };
+
+/* cornell-diffuse with the features asked for: SMOOTH makes the balls coarse meshes with
+ * vertex normals; TEXTURED gives the floor a checker diffuse texture and the right ball a
+ * glTF material with base colour and roughness-metallic textures; NORMAL_MAP bumps the
+ * back wall; CUTOUT puts a grating with square holes under the light. */
+static vf_scene *feature_scene(unsigned features) {
+  vf_scene *s;
+  CHECK_INT_EQ(vf_scene_load("cornell-diffuse", &s), VF_OK);
+  if (check_failed_in_case) return NULL;
+  int left = find_shape(s, "white ball ball"), right = find_shape(s, "blue ball ball");
+  if (left < 0) left = find_shape(s, "white ball");
+  if (right < 0) right = find_shape(s, "blue ball");
+  CHECK(left >= 0 && right >= 0);
+  if (check_failed_in_case) return s;
+  if (features & (SMOOTH | TEXTURED)) {
+    vf_vec3 cl = s->shapes[left].center, cr = s->shapes[right].center;
+    float rl = s->shapes[left].radius, rr = s->shapes[right].radius;
+    make_uv_sphere(&s->shapes[left], cl, rl, 6);
+    make_uv_sphere(&s->shapes[right], cr, rr, 8);
+  }
+  /* room for two more materials */
+  s->materials = realloc(s->materials, (size_t)(s->num_materials + 2) * sizeof *s->materials);
+  if (features & TEXTURED) {
+    int floor = find_shape(s, "floor");
+    wall_uvs(&s->shapes[floor], 0, 2, 4.0f);
+    vf_material *fm = &s->materials[s->shapes[floor].material];
+    fm->diffuse = vf_vec3_splat(1.0f);
+    fm->textures[VF_TEXTURE_COLOR].texture = add_texture(s, 4, 4, 3, 0, checker);
+    vf_material *g = &s->materials[s->num_materials];
+    memset(g, 0, sizeof *g);
+    snprintf(g->name, sizeof g->name, "textured glTF");
+    g->phong_exponent = g->ior = 1.0f;
+    g->gltf = 1;
+    g->base_color = vf_vec3_splat(1.0f);
+    g->metallic = 1.0f;
+    g->roughness = 1.0f;
+    g->textures[VF_TEXTURE_COLOR].texture = add_texture(s, 8, 8, 3, 0, checker);
+    g->textures[VF_TEXTURE_ROUGHNESS_METALLIC].texture = add_texture(s, 8, 8, 3, 0, roughness_metallic);
+    s->shapes[right].material = s->num_materials++;
+  }
+  if (features & NORMAL_MAP) {
+    int back = find_shape(s, "back");
+    wall_uvs(&s->shapes[back], 0, 1, 2.0f);
+    /* the back wall's own material, so the others keep theirs */
+    vf_material *bm = &s->materials[s->num_materials];
+    *bm = s->materials[s->shapes[back].material];
+    snprintf(bm->name, sizeof bm->name, "bumpy");
+    bm->normal_scale = 1.0f;
+    bm->textures[VF_TEXTURE_NORMAL].texture = add_texture(s, 8, 8, 3, 1, bumps);
+    s->shapes[back].material = s->num_materials++;
+  }
+  if (features & CUTOUT) {
+    s->shapes = realloc(s->shapes, (size_t)(s->num_shapes + 1) * sizeof *s->shapes);
+    vf_shape *g = &s->shapes[s->num_shapes];
+    memset(g, 0, sizeof *g);
+    snprintf(g->name, sizeof g->name, "grating");
+    g->kind = VF_SHAPE_MESH;
+    g->num_vertices = 4;
+    g->num_triangles = 2;
+    float p[12] = {-0.6f, 0.5f, -0.6f, 0.6f, 0.5f, -0.6f, 0.6f, 0.5f, 0.6f, -0.6f, 0.5f, 0.6f};
+    float uv[8] = {0, 0, 1, 0, 1, 1, 0, 1};
+    uint32_t idx[6] = {0, 2, 1, 0, 3, 2};
+    g->positions = malloc(sizeof p);
+    g->uvs = malloc(sizeof uv);
+    g->indices = malloc(sizeof idx);
+    memcpy(g->positions, p, sizeof p);
+    memcpy(g->uvs, uv, sizeof uv);
+    memcpy(g->indices, idx, sizeof idx);
+    /* a grating of the walls' white with square holes: half its area is open */
+    int white = s->shapes[find_shape(s, "ceiling")].material;
+    s->materials = realloc(s->materials, (size_t)(s->num_materials + 1) * sizeof *s->materials);
+    vf_material *gm = &s->materials[s->num_materials];
+    *gm = s->materials[white];
+    snprintf(gm->name, sizeof gm->name, "grating");
+    gm->alpha = 1.0f;
+    gm->alpha_cutoff = 0.5f;
+    gm->alpha_channel = 0;
+    gm->textures[VF_TEXTURE_ALPHA].texture = add_texture(s, 6, 6, 1, 0, holes);
+    g->material = s->num_materials++;
+    s->num_shapes++;
+  }
+  return s;
+}
+
+/* ---- 4, 5: hits ---- */
+
+static void test_interpolated_hits_have_the_winding_normal_and_cutouts_have_holes(void) {
+  vf_scene *s = feature_scene(SMOOTH | CUTOUT);
+  if (s == NULL) return;
+  vf_accel *a;
+  CHECK_INT_EQ(vf_accel_create(s, &a), VF_OK);
+  if (check_failed_in_case) return;
+  int grating = find_shape(s, "grating"), through = 0, stopped = 0;
+  /* Rays straight down through the grating: through a hole they reach the floor. */
+  for (int i = 0; i < 60; i++)
+    for (int j = 0; j < 60; j++) {
+      float x = -0.59f + 1.18f * (i + 0.5f) / 60, z = -0.59f + 1.18f * (j + 0.5f) / 60;
+      vf_hit h;
+      CHECK(vf_accel_intersect(a, vf_vec3_make(x, 0.9f, z), vf_vec3_make(0, -1, 0), INFINITY, &h));
+      /* uv = ((x + 0.6) / 1.2, (z + 0.6) / 1.2), texel (6 u, 6 v): a hole where x + y is even */
+      int tx = (int)((x + 0.6f) / 1.2f * 6), ty = (int)((z + 0.6f) / 1.2f * 6), open = ((tx + ty) & 1) == 0;
+      int blocked = vf_accel_occluded(a, vf_vec3_make(x, 0.9f, z), vf_vec3_make(0, -0.6f, 0), 1.0f);
+      if (open) {
+        CHECK(h.shape != (uint32_t)grating);
+        CHECK(!blocked);
+        through++;
+      } else {
+        CHECK_INT_EQ((int)h.shape, grating);
+        CHECK(blocked);
+        stopped++;
+      }
+    }
+  CHECK(through > 1000 && stopped > 1000);
+  /* Hits on the smooth balls: the normal points out of the ball, like Embree's Ng would. */
+  int left = find_shape(s, "white ball");
+  for (int i = 0; i < 100; i++) {
+    vf_vec3 center = vf_vec3_make(-0.45f, -0.65f, -0.35f);
+    vf_vec3 org = vf_add(center, vf_scale(vf_normalize(vf_vec3_make(sinf((float)i), 0.3f, cosf((float)i * 0.7f))), 0.9f));
+    vf_hit h;
+    if (!vf_accel_intersect(a, org, vf_sub(center, org), INFINITY, &h) || (int)h.shape != left) continue;
+    CHECK(vf_dot(h.normal, vf_sub(h.position, center)) > 0.0f);
+    CHECK(h.u >= 0.0f && h.v >= 0.0f && h.u + h.v <= 1.0f + 1e-6f);
+  }
+  vf_accel_destroy(a);
+  vf_scene_destroy(s);
+}
+
+/* ---- 6: independent algorithms agree ---- */
+
+enum { RES = 64, BLOCKS = 8, NB = BLOCKS * BLOCKS, ITERATIONS = 96 };
+
+static void block_estimates(const vf_scene *scene, vf_algorithm algorithm, double mean[NB], double se[NB]) {
+  vf_settings s = scene->settings;
+  s.algorithm = algorithm;
+  s.width = s.height = RES;
+  s.max_path_length = 6;
+  s.seed = 3000 + (uint64_t)algorithm;
+  static double means[ITERATIONS * NB];
+  vf_vcm_stats stats = {0};
+  CHECK_INT_EQ(render_block_means(scene, &s, 2, 0, ITERATIONS, BLOCKS, means, &stats), VF_OK);
+  CHECK_INT_EQ(stats.nonfinite, 0);
+  for (int b = 0; b < NB; b++) mean_and_standard_error(means, ITERATIONS, NB, b, &mean[b], &se[b]);
+}
+
+/* As tests/test_vcm.c: no block's |z| beyond 5 and mean z^2 near 1. */
+static void check_agreement(const char *what, unsigned features) {
+  const vf_algorithm algorithms[] = {VF_ALGO_PT, VF_ALGO_LT, VF_ALGO_BPT, VF_ALGO_VCM};
+  enum { N = 4 };
+  vf_scene *scene = feature_scene(features);
+  if (scene == NULL || check_failed_in_case) return;
+  static double mean[N][NB], se[N][NB];
+  for (int a = 0; a < N; a++) block_estimates(scene, algorithms[a], mean[a], se[a]);
+  for (int i = 0; i < N; i++)
+    for (int j = i + 1; j < N; j++) {
+      double max_z = 0.0, sum_z2 = 0.0;
+      for (int b = 0; b < NB; b++) {
+        double z = (mean[i][b] - mean[j][b]) / sqrt(se[i][b] * se[i][b] + se[j][b] * se[j][b]);
+        max_z = fmax(max_z, fabs(z));
+        sum_z2 += z * z;
+      }
+      printf("  %-12s %-3s vs %-3s: max |z| %.2f, mean z^2 %.2f\n", what, vf_algorithm_name(algorithms[i]),
+             vf_algorithm_name(algorithms[j]), max_z, sum_z2 / NB);
+      CHECK(max_z < 5.0);
+      CHECK(sum_z2 / NB < 2.0);
+    }
+  vf_scene_destroy(scene);
+}
+
+static void test_algorithms_agree_on_smooth_meshes(void) { check_agreement("smooth", SMOOTH); }
+static void test_algorithms_agree_on_textures(void) { check_agreement("textured", TEXTURED); }
+static void test_algorithms_agree_on_a_normal_map(void) { check_agreement("normal map", NORMAL_MAP); }
+static void test_algorithms_agree_through_a_cutout(void) { check_agreement("cut-out", CUTOUT); }
+static void test_algorithms_agree_on_everything_together(void) {
+  check_agreement("all", SMOOTH | TEXTURED | NORMAL_MAP | CUTOUT);
+}
+
+int main(void) {
+  RUN(test_shading_bsdf_is_the_same_from_both_sub_paths);
+  RUN(test_shading_bsdf_samples_what_it_evaluates_and_never_leaks);
+  RUN(test_interpolated_hits_have_the_winding_normal_and_cutouts_have_holes);
+  RUN(test_algorithms_agree_on_smooth_meshes);
+  RUN(test_algorithms_agree_on_textures);
+  RUN(test_algorithms_agree_on_a_normal_map);
+  RUN(test_algorithms_agree_through_a_cutout);
+  RUN(test_algorithms_agree_on_everything_together);
+  return check_finish();
+}
