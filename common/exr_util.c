@@ -48,14 +48,8 @@ int vf_exr_error(const char *path, exr_result_t rv, const char *what) {
 
 /* ---- reading ---- */
 
-int vf_exr_open(const char *path, vf_exr_in *in) {
-  struct stat st;
-  if (stat(path, &st) != 0) {
-    if (errno == ENOENT) return vf_error_set(VF_ENOENT, "%s: no such file", path);
-    return vf_error_set(VF_EIO, "%s: %s", path, strerror(errno));
-  }
-  if (!S_ISREG(st.st_mode)) return vf_error_set(VF_EEXR, "%s: not a regular file", path);
-
+/* The options every read uses: our error capture and limits, no chunk table repair. */
+static exr_context_initializer_t read_initializer(void) {
   exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
   init.error_handler_fn = capture_error;
   init.max_image_width = VF_EXR_MAX_SIDE;
@@ -64,13 +58,14 @@ int vf_exr_open(const char *path, vf_exr_in *in) {
   init.max_tile_height = MAX_TILE_SIDE;
   /* A damaged chunk table is an error for us, not something to search the file for. */
   init.flags = EXR_CONTEXT_FLAG_DISABLE_CHUNK_RECONSTRUCTION;
+  return init;
+}
 
-  exr_context_t ctx = NULL;
-  clear_message();
-  exr_result_t rv = exr_start_read(&ctx, path, &init);
-  if (rv != EXR_ERR_SUCCESS) return vf_exr_error(path, rv, "not a readable EXR file");
-
+/* Checks a started read of `size` bytes (single part, flat, sane size, long enough for its
+ * chunk table) and fills in; finishes ctx on failure. */
+static int check_opened(exr_context_t ctx, const char *path, int64_t size, vf_exr_in *in) {
   int err = VF_OK, parts = 0;
+  exr_result_t rv;
   exr_storage_t storage;
   exr_attr_box2i_t dw;
   int32_t chunks = 0;
@@ -110,9 +105,9 @@ int vf_exr_open(const char *path, vf_exr_in *in) {
   }
   int64_t min_bytes =
       (int64_t)chunks * (storage == EXR_STORAGE_TILED ? MIN_TILE_CHUNK_BYTES : MIN_SCANLINE_CHUNK_BYTES);
-  if ((int64_t)st.st_size < min_bytes) {
+  if (size < min_bytes) {
     err = vf_error_set(VF_EEXR, "%s: file of %lld bytes is too short for its %d chunks (truncated?)", path,
-                       (long long)st.st_size, (int)chunks);
+                       (long long)size, (int)chunks);
     goto fail;
   }
   clear_message();
@@ -127,6 +122,57 @@ int vf_exr_open(const char *path, vf_exr_in *in) {
 fail:
   exr_finish(&ctx);
   return err;
+}
+
+int vf_exr_open(const char *path, vf_exr_in *in) {
+  struct stat st;
+  if (stat(path, &st) != 0) {
+    if (errno == ENOENT) return vf_error_set(VF_ENOENT, "%s: no such file", path);
+    return vf_error_set(VF_EIO, "%s: %s", path, strerror(errno));
+  }
+  if (!S_ISREG(st.st_mode)) return vf_error_set(VF_EEXR, "%s: not a regular file", path);
+  exr_context_initializer_t init = read_initializer();
+  exr_context_t ctx = NULL;
+  clear_message();
+  exr_result_t rv = exr_start_read(&ctx, path, &init);
+  if (rv != EXR_ERR_SUCCESS) return vf_exr_error(path, rv, "not a readable EXR file");
+  in->memory = NULL;
+  in->memory_size = 0;
+  return check_opened(ctx, path, (int64_t)st.st_size, in);
+}
+
+/* OpenEXRCore's stream over a file in memory. It may ask from several threads at once
+ * (chunks decode in parallel): a copy out of read-only bytes needs no lock. */
+static int64_t read_memory(exr_const_context_t ctxt, void *userdata, void *buffer, uint64_t sz, uint64_t offset,
+                           exr_stream_error_func_ptr_t error_cb) {
+  (void)ctxt;
+  (void)error_cb;
+  const vf_exr_in *in = userdata;
+  if (offset >= in->memory_size) return 0;
+  uint64_t n = in->memory_size - offset < sz ? in->memory_size - offset : sz;
+  memcpy(buffer, in->memory + offset, n);
+  return (int64_t)n;
+}
+
+static int64_t memory_size(exr_const_context_t ctxt, void *userdata) {
+  (void)ctxt;
+  return (int64_t)((const vf_exr_in *)userdata)->memory_size;
+}
+
+int vf_exr_open_memory(const void *bytes, size_t size, const char *name, vf_exr_in *in) {
+  if (size > (uint64_t)INT64_MAX) return vf_error_set(VF_EEXR, "%s: too large", name);
+  exr_context_initializer_t init = read_initializer();
+  /* The stream reads through `in`, which therefore stays where it is until vf_exr_close. */
+  in->memory = bytes;
+  in->memory_size = size;
+  init.user_data = in;
+  init.read_fn = read_memory;
+  init.size_fn = memory_size;
+  exr_context_t ctx = NULL;
+  clear_message();
+  exr_result_t rv = exr_start_read(&ctx, name, &init);
+  if (rv != EXR_ERR_SUCCESS) return vf_exr_error(name, rv, "not a readable EXR file");
+  return check_opened(ctx, name, (int64_t)size, in);
 }
 
 void vf_exr_close(vf_exr_in *in) {

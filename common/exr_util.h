@@ -20,6 +20,7 @@
 
 #include <openexr.h>
 
+#include <stddef.h>
 #include <stdint.h>
 
 /* Refuse data windows above this many pixels before allocating anything. */
@@ -36,11 +37,16 @@ typedef struct {
   int width, height; /* the data window, which is "the image" */
   int min_x, min_y;
   int tiled;
+  const uint8_t *memory; /* vf_exr_open_memory: the file's bytes, borrowed; else NULL */
+  uint64_t memory_size;
 } vf_exr_in;
 
 /* Opens path and checks it is a single-part, flat (not deep), scanline or tiled image of a
  * sane size. VF_ENOENT, VF_EIO, or VF_EEXR with a detail. in->ctx is set only on success. */
 int vf_exr_open(const char *path, vf_exr_in *in);
+/* The same for a file held in memory (`name` in errors): bytes are borrowed until
+ * vf_exr_close, and *in must not move meanwhile (the library reads through it). */
+int vf_exr_open_memory(const void *bytes, size_t size, const char *name, vf_exr_in *in);
 void vf_exr_close(vf_exr_in *in);
 
 /* 1 if the file has a channel with this exact name (any sampling), else 0. */

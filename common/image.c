@@ -104,6 +104,58 @@ close:
   return err;
 }
 
+/* ---- texels of a file in memory ---- */
+
+typedef struct {
+  float *texels;
+  int width, channels;
+} texel_target;
+
+static int store_texels(void *user, int x0, int y0, int w, int h, const float *const *planes) {
+  texel_target *t = user;
+  const int n = t->channels;
+  for (int y = 0; y < h; y++) {
+    float *dst = t->texels + ((size_t)(y0 + y) * (size_t)t->width + (size_t)x0) * (size_t)n;
+    size_t row = (size_t)y * (size_t)w;
+    for (int x = 0; x < w; x++, dst += n)
+      for (int k = 0; k < n; k++) dst[k] = planes[k][row + (size_t)x];
+  }
+  return VF_OK;
+}
+
+int vf_image_decode_exr_texels(const void *bytes, size_t size, const char *name, int max_side, int *width,
+                               int *height, int *channels, float **texels) {
+  vf_exr_in in;
+  int err = vf_exr_open_memory(bytes, size, name, &in);
+  if (err != VF_OK) return err;
+  int grey = 0;
+  if ((err = choose_channels(&in, &grey)) != VF_OK) goto close;
+  if (in.width > max_side || in.height > max_side) {
+    err = vf_error_set(VF_EEXR, "%s: %dx%d is larger than %d on a side", name, in.width, in.height, max_side);
+    goto close;
+  }
+  int alpha = vf_exr_has_channel(&in, "A");
+  static const char *const names[2][4] = {{"R", "G", "B", "A"}, {"Y", "A"}};
+  const char *const *wanted = names[grey];
+  texel_target target = {NULL, in.width, (grey ? 1 : 3) + alpha};
+  target.texels = malloc((size_t)in.width * (size_t)in.height * (size_t)target.channels * sizeof(float));
+  if (target.texels == NULL) {
+    err = vf_error_set(VF_ENOMEM, "%s: out of memory for %dx%d texels", name, in.width, in.height);
+    goto close;
+  }
+  if ((err = vf_exr_read_channels(&in, target.channels, wanted, store_texels, &target)) != VF_OK) {
+    free(target.texels);
+    goto close;
+  }
+  *width = in.width;
+  *height = in.height;
+  *channels = target.channels;
+  *texels = target.texels;
+close:
+  vf_exr_close(&in);
+  return err;
+}
+
 /* ---- writing ---- */
 
 static int check_image(const char *path, const vf_image *img) {

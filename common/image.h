@@ -8,6 +8,8 @@
 #ifndef VF_IMAGE_H
 #define VF_IMAGE_H
 
+#include <stddef.h>
+
 typedef struct {
   int width, height;
   float *rgb; /* owned by the image; 3 * width * height floats */
@@ -17,6 +19,14 @@ typedef struct {
  * with a detail naming the file and the problem for anything that is not a readable RGB
  * EXR (truncated, corrupt, missing channels, absurd size, deep or multi-part data). */
 int vf_image_read_exr(const char *path, vf_image *out);
+
+/* Texels of an EXR file held in memory (worker/texture.c): interleaved floats of R, G, B and
+ * A when it has A, or of Y (and A) for a luminance image, so *channels is 3, 4, 1 or 2; rows
+ * top first. Channel rules as vf_image_read_exr; sides above max_side are refused before
+ * anything is allocated. *texels (the caller frees it) and the rest are written only on
+ * success. VF_EEXR with a detail naming `name`, or VF_ENOMEM. */
+int vf_image_decode_exr_texels(const void *bytes, size_t size, const char *name, int max_side, int *width,
+                               int *height, int *channels, float **texels);
 
 /* Writes a FLOAT RGB scanline EXR (ZIP compression). */
 int vf_image_write_exr(const char *path, const vf_image *img);

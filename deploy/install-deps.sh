@@ -13,7 +13,8 @@ packages=(
   libprotobuf-c-dev protobuf-c-compiler   # wire messages
   libcjson-dev         # scene files and --json output
   libassimp-dev        # mesh files (OBJ, PLY, glTF)
-  libpng-dev           # previews and plots
+  libpng-dev           # previews and plots, PNG textures
+  libjpeg-dev          # JPEG textures (worker/texture.c; Debian's libjpeg62-turbo)
   libsodium-dev        # content hashes and message authentication
   libcairo2-dev        # plots and legends (PNG with text)
   zlib1g-dev           # film chunks are ZIP-compressed in parallel (common/exr_chunk.c)
