@@ -234,7 +234,8 @@ enum { SMOOTH = 1, TEXTURED = 2, NORMAL_MAP = 4, CUTOUT = 8 };
 
 /* cornell-diffuse with the features asked for: SMOOTH makes the balls coarse meshes with
  * vertex normals; TEXTURED gives the floor a checker diffuse texture and the right ball a
- * glTF material with base colour and roughness-metallic textures; NORMAL_MAP bumps the
+ * glTF material with base colour and roughness-metallic textures, and the light an emission
+ * texture; NORMAL_MAP bumps the
  * back wall; CUTOUT puts a grating with square holes under the light. */
 static vf_scene *feature_scene(unsigned features) {
   vf_scene *s;
@@ -270,6 +271,10 @@ static vf_scene *feature_scene(unsigned features) {
     g->textures[VF_TEXTURE_COLOR].texture = add_texture(s, 8, 8, 3, 0, checker);
     g->textures[VF_TEXTURE_ROUGHNESS_METALLIC].texture = add_texture(s, 8, 8, 3, 0, roughness_metallic);
     s->shapes[right].material = s->num_materials++;
+    /* the light emits through a checker of emission (its own material, which only emits) */
+    int light = find_shape(s, "light");
+    wall_uvs(&s->shapes[light], 0, 2, 3.0f);
+    s->materials[s->shapes[light].material].textures[VF_TEXTURE_EMISSION].texture = add_texture(s, 2, 2, 3, 0, checker);
   }
   if (features & NORMAL_MAP) {
     int back = find_shape(s, "back");

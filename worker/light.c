@@ -2,6 +2,7 @@
 
 #include "../common/error.h"
 #include "sampling.h"
+#include "surface.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -185,9 +186,14 @@ static float estimated_power(const vf_lights *ls, const vf_light *l) {
   return 0.0f;
 }
 
-static int add_area_light(vf_lights *ls, const vf_shape *s, vf_light *l) {
+static int add_area_light(vf_lights *ls, const vf_scene *scene, const vf_shape *s, vf_light *l) {
   memset(l, 0, sizeof *l);
   l->shape = s;
+  if (s->kind == VF_SHAPE_MESH) {
+    const vf_material *m = &scene->materials[s->material];
+    l->textured = m->textures[VF_TEXTURE_EMISSION].texture != 0 || m->alpha_cutoff > 0.0f;
+    l->scene = scene;
+  }
   l->radiance = s->emission;
   l->is_finite = 1;
   if (s->kind == VF_SHAPE_SPHERE) {
@@ -239,7 +245,7 @@ int vf_lights_create(const vf_scene *scene, vf_lights **out) {
   for (int i = 0; i < scene->num_shapes; i++) {
     ls->shape_light[i] = -1;
     if (vf_is_zero(scene->shapes[i].emission)) continue;
-    if ((err = add_area_light(ls, &scene->shapes[i], &ls->lights[ls->count])) != VF_OK) goto fail;
+    if ((err = add_area_light(ls, scene, &scene->shapes[i], &ls->lights[ls->count])) != VF_OK) goto fail;
     ls->shape_light[i] = ls->count++;
   }
   for (int i = 0; i < scene->num_point_lights; i++) {
@@ -446,6 +452,10 @@ vf_vec3 vf_light_illuminate_any(const vf_lights *ls, const vf_light *l, vf_vec3 
   }
   }
   return zero;
+}
+
+vf_vec3 vf_light_emission_factor(const vf_light *l, uint32_t t, float u, float v) {
+  return vf_surface_emission_factor(l->scene, l->shape, t, u, v);
 }
 
 vf_vec3 vf_light_radiance_area(const vf_light *l, vf_vec3 ray_dir, vf_vec3 normal, float *direct_pdf_a,

@@ -62,6 +62,10 @@ typedef struct {
   float cone_pdf_w;          /* spot: 1 / (2 pi (1 - cos_outer)), emission's solid-angle density */
   const vf_envmap *envmap;   /* environment: NULL for a constant background */
   int is_delta, is_finite;
+  /* Area meshes whose material has an emission texture or a cut-out: radiance is then
+   * `radiance` times vf_light_emission_factor at the point (worker/surface.h). */
+  int textured;
+  const vf_scene *scene;     /* textured lights: borrowed */
 } vf_light;
 
 typedef struct {
@@ -117,11 +121,20 @@ static inline uint32_t vf_light_pick_triangle(const vf_light *l, float *u) {
 }
 
 /* Uniform point on a triangle of an area mesh. */
+static inline vf_vec3 vf_light_triangle_point_at(const vf_light_triangle *tri, float u1, float u2, float *bu,
+                                                  float *bv) {
+  vf_sample_triangle(u1, u2, bu, bv);
+  return vf_add(vf_add(vf_scale(tri->a, 1.0f - *bu - *bv), vf_scale(tri->b, *bu)), vf_scale(tri->c, *bv));
+}
+
 static inline vf_vec3 vf_light_triangle_point(const vf_light_triangle *tri, float u1, float u2) {
   float bu, bv;
-  vf_sample_triangle(u1, u2, &bu, &bv);
-  return vf_add(vf_add(vf_scale(tri->a, 1.0f - bu - bv), vf_scale(tri->b, bu)), vf_scale(tri->c, bv));
+  return vf_light_triangle_point_at(tri, u1, u2, &bu, &bv);
 }
+
+/* What a textured area light's texture and cut-out make of its radiance at barycentrics
+ * (u, v) of triangle t (weights of its vertices b and c). */
+vf_vec3 vf_light_emission_factor(const vf_light *l, uint32_t t, float u, float v);
 
 /* What vf_light_illuminate reports for point p, with unit normal n, picked on area light l. */
 static inline vf_vec3 vf_light_illuminate_area_point(const vf_light *l, vf_vec3 receiver, vf_vec3 p, vf_vec3 n,
@@ -162,12 +175,14 @@ static inline vf_vec3 vf_light_illuminate(const vf_lights *ls, const vf_light *l
   if (l->kind != VF_LIGHT_AREA_MESH)
     return vf_light_illuminate_any(ls, l, receiver, rnd, dir_to_light, distance, light_point, light_normal,
                                    direct_pdf_w, emission_pdf_w, cos_at_light);
-  float u = rnd[0];
+  float u = rnd[0], bu, bv;
   uint32_t t = vf_light_pick_triangle(l, &u);
   const vf_light_triangle *tri = &l->triangles[t];
-  return vf_light_illuminate_area_point(l, receiver, vf_light_triangle_point(tri, u, rnd[1]), tri->normal,
-                                        dir_to_light, distance, light_point, light_normal, direct_pdf_w,
-                                        emission_pdf_w, cos_at_light);
+  vf_vec3 le = vf_light_illuminate_area_point(l, receiver, vf_light_triangle_point_at(tri, u, rnd[1], &bu, &bv),
+                                              tri->normal, dir_to_light, distance, light_point, light_normal,
+                                              direct_pdf_w, emission_pdf_w, cos_at_light);
+  if (__builtin_expect(l->textured, 0) && !vf_is_zero(le)) le = vf_mul(le, vf_light_emission_factor(l, t, bu, bv));
+  return le;
 }
 
 /* What vf_light_emit reports for point p, with unit normal n, picked on area light l, and
@@ -198,16 +213,19 @@ static inline vf_vec3 vf_light_emit(const vf_lights *ls, const vf_light *l, cons
                                     float *direct_pdf_a, float *cos_light) {
   if (l->kind != VF_LIGHT_AREA_MESH)
     return vf_light_emit_any(ls, l, rnd, position, direction, normal, emission_pdf_w, direct_pdf_a, cos_light);
-  float u = rnd[0];
+  float u = rnd[0], bu, bv;
   uint32_t t = vf_light_pick_triangle(l, &u);
   const vf_light_triangle *tri = &l->triangles[t];
-  *position = vf_light_triangle_point(tri, rnd[1], rnd[2]);
-  return vf_light_emit_area_point(l, tri->normal, rnd[3], u, direction, normal, emission_pdf_w, direct_pdf_a,
-                                  cos_light);
+  *position = vf_light_triangle_point_at(tri, rnd[1], rnd[2], &bu, &bv);
+  vf_vec3 energy = vf_light_emit_area_point(l, tri->normal, rnd[3], u, direction, normal, emission_pdf_w,
+                                            direct_pdf_a, cos_light);
+  if (__builtin_expect(l->textured, 0)) energy = vf_mul(energy, vf_light_emission_factor(l, t, bu, bv));
+  return energy;
 }
 
 /* Radiance of an area light hit at `point` with unit geometric normal `normal` by a ray of
- * direction ray_dir; zero from behind. */
+ * direction ray_dir; zero from behind. A textured light's radiance is this times
+ * vf_light_emission_factor at the hit's triangle and barycentrics. */
 vf_vec3 vf_light_radiance_area(const vf_light *l, vf_vec3 ray_dir, vf_vec3 normal, float *direct_pdf_a,
                                float *emission_pdf_w);
 

@@ -151,7 +151,7 @@ static void connect_to_camera(vf_vcm *v, int thread, light_chunk *c, uint32_t pa
 
 /* Light tracing alone also projects the light's own point y0 (the s = 1, t = 1 technique,
  * which the full estimator leaves to emission hits). */
-static void connect_emitter_to_camera(vf_vcm *v, int thread, light_chunk *c, uint32_t path, const vf_light *l,
+static void connect_emitter_to_camera(vf_vcm *v, int thread, light_chunk *c, uint32_t path, vf_vec3 radiance,
                                       vf_vec3 p, vf_vec3 n, float pick_and_area_pdf, vf_rng *rng) {
   vf_vec3 lens = lens_sample(v, rng);
   vf_vec3 to_camera = vf_sub(lens, p);
@@ -165,7 +165,7 @@ static void connect_emitter_to_camera(vf_vcm *v, int thread, light_chunk *c, uin
   if (!camera_project(v, lens, p, to_camera, &pixel, &band, &image_to_solid_angle)) return;
   float pdf_a = camera_pdf_a(image_to_solid_angle, dist, cos_out);
   if (!(pdf_a > 0.0f)) return;
-  vf_vec3 contrib = vf_scale(l->radiance, pdf_a / (v->mis.light_paths * pick_and_area_pdf));
+  vf_vec3 contrib = vf_scale(radiance, pdf_a / (v->mis.light_paths * pick_and_area_pdf));
   splat_if_visible(v, thread, c, path, pixel, band, contrib, p, n, lens);
 }
 
@@ -198,7 +198,8 @@ static int light_start(vf_vcm *v, int thread, light_chunk *c, light_lane *lane, 
                                  &cos_light);
   if (vf_is_zero(energy) || !(emission_pdf > 0.0f)) return 0;
   if (v->t.lt && l->is_finite && !l->is_delta)
-    connect_emitter_to_camera(v, thread, c, path - begin, l, s->origin, normal, l->pick_probability * direct_pdf, rng);
+    connect_emitter_to_camera(v, thread, c, path - begin, l->textured ? vf_scale(energy, 1.0f / cos_light) : l->radiance,
+                              s->origin, normal, l->pick_probability * direct_pdf, rng);
   emission_pdf *= l->pick_probability;
   direct_pdf *= l->pick_probability;
   s->throughput = vf_scale(energy, 1.0f / emission_pdf);
