@@ -215,6 +215,7 @@ static int decode_png(const uint8_t *bytes, size_t size, const char *name, vf_te
   }
   for (png_uint_32 y = 0; y < h; y++) rows[y] = texels + y * stride;
   png_read_image(png, rows);
+  png_read_end(png, NULL); /* up to IEND: a file cut after its image data is still cut */
   out->width = w;
   out->height = h;
   out->channels = channels;
