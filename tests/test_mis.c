@@ -13,7 +13,10 @@
  * reflection off the mirror or glass ball), where eq. (51) removes three techniques and
  * the rest must still sum to 1. In "cornell-rough" the balls are rough gold and rough glass
  * and the floor a glTF material (worker/bsdf.h): no vertex is specular, and the paths
- * reflect off and refract through GGX lobes.
+ * reflect off and refract through GGX lobes. The "features" scene (tests/feature_scene.h)
+ * has smooth-normal balls, textured diffuse and glTF materials, a normal-mapped wall, an
+ * emission-textured light and a cut-out grating: its BSDFs are set up as the renderer's
+ * (worker/surface.h), with shading normals.
  *
  * Which techniques exist (mirrors choose_techniques() of worker/vcm.c and the guards of
  * worker/light_pass.c and camera_pass.c):
@@ -27,6 +30,7 @@
  * BPT drops VM, BPM drops VC (its emission hits count only along purely specular camera
  * paths, unweighted), PT keeps s = 0 and s = 1. */
 #include "check.h"
+#include "feature_scene.h"
 
 #include "common/error.h"
 #include "common/rng.h"
@@ -37,6 +41,7 @@
 #include "worker/mis.h"
 #include "worker/sampling.h"
 #include "worker/scene.h"
+#include "worker/surface.h"
 
 #include <math.h>
 #include <stdio.h>
@@ -51,6 +56,8 @@ typedef struct {
   vf_vec3 position[MAX_VERTICES];
   vf_vec3 normal[MAX_VERTICES];              /* geometric; [0] the light's, [k] unused */
   const vf_material *material[MAX_VERTICES]; /* interior vertices 1 .. k-1 */
+  uint32_t shape[MAX_VERTICES], primitive[MAX_VERTICES]; /* interior vertices: the hit's */
+  float bu[MAX_VERTICES], bv[MAX_VERTICES];              /* barycentrics, for interpolated shapes */
   int specular[MAX_VERTICES];                /* interior vertex with only delta lobes */
 } full_path;
 
@@ -67,6 +74,7 @@ typedef struct {
   const vf_point_light_desc *spot; /* its description when a spot, else NULL */
   vf_camera camera;
   double n_light;        /* light sub-paths per iteration: one per pixel */
+  vf_bsdf_lobes *lobes;  /* per material, as the renderer's */
 } test_scene;
 
 /* ---------------------------------------------------------------------------------------- */
@@ -98,8 +106,31 @@ static int occluded(const test_scene *ts, vf_vec3 p, vf_vec3 n, vf_vec3 q, vf_ve
   return vf_accel_occluded(ts->accel, o, vf_sub(e, o), 1.0f);
 }
 
-static const vf_material *material_of(const test_scene *ts, uint32_t shape) {
-  return &ts->scene->materials[ts->scene->shapes[shape].material];
+/* The BSDF at hit h for a path arriving from fix, as the renderer sets it up (bsdf_at of
+ * worker/wavefront.h): through the shading normal and textures of an interpolated shape. */
+static int bsdf_at_hit(const test_scene *ts, uint32_t shape, uint32_t prim, float u, float v, vf_vec3 normal,
+                       vf_vec3 fix, vf_bsdf *b) {
+  const vf_shape *sh = &ts->scene->shapes[shape];
+  if (vf_surface_interpolated(ts->scene, sh))
+    return vf_surface_bsdf(b, ts->scene, ts->lobes, shape, prim, u, v, normal, fix);
+  return vf_bsdf_init(b, &ts->scene->materials[sh->material], normal, fix);
+}
+
+/* The same at interior vertex i of x. */
+static int bsdf_at_vertex(const test_scene *ts, const full_path *x, int i, vf_vec3 fix, vf_bsdf *b) {
+  return bsdf_at_hit(ts, x->shape[i], x->primitive[i], x->bu[i], x->bv[i], x->normal[i], fix, b);
+}
+
+/* Copies interior vertex j of `from` to vertex i of `to`. */
+static void copy_vertex(full_path *to, int i, const full_path *from, int j) {
+  to->position[i] = from->position[j];
+  to->normal[i] = from->normal[j];
+  to->material[i] = from->material[j];
+  to->specular[i] = from->specular[j];
+  to->shape[i] = from->shape[j];
+  to->primitive[i] = from->primitive[j];
+  to->bu[i] = from->bu[j];
+  to->bv[i] = from->bv[j];
 }
 
 /* Density of the specular reflection of fix (tech. rep. eq. 52: the probability of
@@ -143,8 +174,8 @@ static int prepare_path(const test_scene *ts, const full_path *x, path_data *pd)
     float d;
     vf_vec3 to_prev = direction_between(x->position[i], x->position[i - 1], &d);
     vf_vec3 to_next = direction_between(x->position[i], x->position[i + 1], &d);
-    if (!vf_bsdf_init(&pd->from_light[i], x->material[i], x->normal[i], to_prev)) return 0;
-    if (!vf_bsdf_init(&pd->from_camera[i], x->material[i], x->normal[i], to_next)) return 0;
+    if (!bsdf_at_vertex(ts, x, i, to_prev, &pd->from_light[i])) return 0;
+    if (!bsdf_at_vertex(ts, x, i, to_next, &pd->from_camera[i])) return 0;
     if (pd->from_light[i].is_delta != x->specular[i]) return 0;
     if (abs_cos_d(x->position[i], x->normal[i], x->position[i - 1]) < min_cos ||
         abs_cos_d(x->position[i], x->normal[i], x->position[i + 1]) < min_cos)
@@ -345,13 +376,14 @@ static void trace_quantities(const test_scene *ts, const full_path *x, const pat
     const vf_bsdf *b = &pd->from_light[i];
     float dist;
     direction_between(x->position[i - 1], x->position[i], &dist);
-    vf_mis_hit(&m, dist, b->local_fix.z, 1);
+    /* the geometric cosine, as light_bounce() (local_fix.z is the shading one) */
+    vf_mis_hit(&m, dist, fabsf(vf_dot(x->normal[i], direction_between(x->position[i], x->position[i - 1], &dist))), 1);
     light[i] = m;
     if (i == k - 1) break;
     vf_vec3 gen = direction_between(x->position[i], x->position[i + 1], &dist);
     float cos_gen, pdf, rev;
     if (x->specular[i]) {
-      cos_gen = fabsf(vf_dot(b->frame.n, gen));
+      cos_gen = fabsf(vf_dot(x->normal[i], gen)); /* geometric, as vf_bsdf_sample reports it */
       pdf = rev = specular_reflection_pdf(b);
     } else {
       vf_bsdf_evaluate(b, gen, &cos_gen, &pdf, &rev);
@@ -371,7 +403,7 @@ static void trace_quantities(const test_scene *ts, const full_path *x, const pat
     vf_vec3 gen = direction_between(x->position[i], x->position[i - 1], &dist);
     float cos_gen, pdf, rev;
     if (x->specular[i]) {
-      cos_gen = fabsf(vf_dot(b->frame.n, gen));
+      cos_gen = fabsf(vf_dot(x->normal[i], gen)); /* geometric, as vf_bsdf_sample reports it */
       pdf = rev = specular_reflection_pdf(b);
     } else {
       vf_bsdf_evaluate(b, gen, &cos_gen, &pdf, &rev);
@@ -438,7 +470,18 @@ static void recursive_weights(const test_scene *ts, const full_path *x, const pa
 
 static int load_test_scene(test_scene *ts, const char *name, vf_light_kind kind) {
   memset(ts, 0, sizeof *ts);
-  int err = vf_scene_load(name, &ts->scene);
+  int err = VF_OK;
+  if (strcmp(name, "features") == 0) /* tests/feature_scene.h: every feature of worker/surface.h */
+    err = (ts->scene = feature_scene(FEATURE_SMOOTH | FEATURE_TEXTURED | FEATURE_NORMAL_MAP | FEATURE_CUTOUT))
+              ? VF_OK
+              : VF_ESCENE;
+  else
+    err = vf_scene_load(name, &ts->scene);
+  if (err == VF_OK) {
+    ts->lobes = calloc((size_t)ts->scene->num_materials, sizeof *ts->lobes);
+    if (ts->lobes == NULL) return VF_ENOMEM;
+    for (int m = 0; m < ts->scene->num_materials; m++) vf_bsdf_lobes_of(&ts->scene->materials[m], &ts->lobes[m]);
+  }
   if (err == VF_OK) err = vf_accel_create(ts->scene, &ts->accel);
   if (err == VF_OK) err = vf_lights_create(ts->scene, &ts->lights);
   if (err != VF_OK) {
@@ -455,6 +498,7 @@ static int load_test_scene(test_scene *ts, const char *name, vf_light_kind kind)
 }
 
 static void destroy_test_scene(test_scene *ts) {
+  free(ts->lobes);
   vf_lights_destroy(ts->lights);
   vf_accel_destroy(ts->accel);
   vf_scene_destroy(ts->scene);
@@ -494,11 +538,15 @@ static void walk_from_light(const test_scene *ts, vf_rng *rng, path_set *diffuse
     vf_bsdf b;
     if (!vf_accel_intersect(ts->accel, origin, dir, INFINITY, &hit)) return;
     if (ts->lights->shape_light[hit.shape] >= 0) return;
-    if (!vf_bsdf_init(&b, material_of(ts, hit.shape), hit.normal, vf_neg(dir))) return;
+    if (!bsdf_at_hit(ts, hit.shape, hit.primitive, hit.u, hit.v, hit.normal, vf_neg(dir), &b)) return;
     x.position[m] = hit.position;
     x.normal[m] = hit.normal;
     x.material[m] = b.material;
     x.specular[m] = b.is_delta;
+    x.shape[m] = hit.shape;
+    x.primitive[m] = hit.primitive;
+    x.bu[m] = hit.u;
+    x.bv[m] = hit.v;
     vf_vec3 lens = lens_point(ts, rng);
     if (!b.is_delta && !occluded(ts, hit.position, hit.normal, lens, vf_vec3_splat(0.0f))) {
       x.k = m + 1;
@@ -534,18 +582,17 @@ static void walk_from_camera(const test_scene *ts, vf_rng *rng, path_set *diffus
     if (close_at_light) {
       if (!(vf_dot(hit.normal, dir) < 0.0f)) return; /* the back of the one-sided light */
       x.k = m;
-      for (int j = 0; j <= m; j++) {
-        x.position[m - j] = z.position[j];
-        x.normal[m - j] = z.normal[j];
-        x.material[m - j] = z.material[j];
-        x.specular[m - j] = z.specular[j];
-      }
+      for (int j = 0; j <= m; j++) copy_vertex(&x, m - j, &z, j);
       add_path(ts, &x, diffuse, specular);
       return;
     }
-    if (!vf_bsdf_init(&b, material_of(ts, hit.shape), hit.normal, vf_neg(dir))) return;
+    if (!bsdf_at_hit(ts, hit.shape, hit.primitive, hit.u, hit.v, hit.normal, vf_neg(dir), &b)) return;
     z.material[m] = b.material;
     z.specular[m] = b.is_delta;
+    z.shape[m] = hit.shape;
+    z.primitive[m] = hit.primitive;
+    z.bu[m] = hit.u;
+    z.bv[m] = hit.v;
     if (!b.is_delta) {
       float rnd[2] = {vf_rng_float(rng), vf_rng_float(rng)};
       vf_vec3 to_light, lp, ln;
@@ -557,12 +604,7 @@ static void walk_from_camera(const test_scene *ts, vf_rng *rng, path_set *diffus
         x.k = m + 1;
         x.position[0] = lp;
         x.normal[0] = ln;
-        for (int j = 0; j <= m; j++) {
-          x.position[m + 1 - j] = z.position[j];
-          x.normal[m + 1 - j] = z.normal[j];
-          x.material[m + 1 - j] = z.material[j];
-          x.specular[m + 1 - j] = z.specular[j];
-        }
+        for (int j = 0; j <= m; j++) copy_vertex(&x, m + 1 - j, &z, j);
         add_path(ts, &x, diffuse, specular);
       }
     }
@@ -761,6 +803,42 @@ static void test_weights_match_eq12_through_rough_lobes(void) {
   check_algorithm(&g_diffuse, "rough", VF_ALGO_PT, etas, 1, 0);
 }
 
+/* The feature family's vertices: on the smooth balls (shading normals), on the textured
+ * floor and glTF ball, on the normal-mapped back wall, and paths that pass a cut-out
+ * grating's hole (a segment crossing its plane inside its square). */
+static void test_feature_paths_reach_every_feature(void) {
+  int smooth = 0, textured = 0, mapped = 0, through_holes = 0;
+  const vf_scene *sc = g_scene.scene;
+  for (int p = 0; p < g_diffuse.count; p++) {
+    const full_path *x = &g_diffuse.paths[p];
+    for (int i = 1; i < x->k; i++) {
+      const vf_shape *sh = &sc->shapes[x->shape[i]];
+      const vf_material *m = &sc->materials[sh->material];
+      smooth += sh->normals != NULL;
+      textured += m->textures[VF_TEXTURE_COLOR].texture != 0;
+      mapped += m->textures[VF_TEXTURE_NORMAL].texture != 0;
+    }
+    for (int i = 0; i < x->k; i++) {
+      vf_vec3 a = x->position[i], b = x->position[i + 1];
+      if ((a.y - 0.5f) * (b.y - 0.5f) >= 0.0f) continue;
+      float t = (0.5f - a.y) / (b.y - a.y), px = a.x + t * (b.x - a.x), pz = a.z + t * (b.z - a.z);
+      through_holes += fabsf(px) < 0.6f && fabsf(pz) < 0.6f;
+    }
+  }
+  printf("  %d paths; vertices on smooth meshes %d, textured %d, normal-mapped %d; segments through the grating's "
+         "holes %d\n",
+         g_diffuse.count, smooth, textured, mapped, through_holes);
+  CHECK(g_diffuse.count >= 1000);
+  CHECK(smooth >= 100 && textured >= 100 && mapped >= 100 && through_holes >= 100);
+}
+
+static void test_weights_match_eq12_through_shaded_and_textured_vertices(void) {
+  check_algorithm(&g_diffuse, "features", VF_ALGO_VCM, etas, NUM_ETAS, 2);
+  check_algorithm(&g_diffuse, "features", VF_ALGO_BPT, etas, 1, 0);
+  check_algorithm(&g_diffuse, "features", VF_ALGO_BPM, etas, 1, 0);
+  check_algorithm(&g_diffuse, "features", VF_ALGO_PT, etas, 1, 0);
+}
+
 /* Loads scene `name` into g_scene and walks its path sets; 0 when it cannot be loaded. */
 static int walk_scene(const char *name, vf_light_kind light) {
   if (load_test_scene(&g_scene, name, light) != VF_OK) return 0;
@@ -796,6 +874,10 @@ int main(void) {
   if (!walk_scene("cornell-rough", VF_LIGHT_AREA_MESH)) return 1;
   RUN(test_rough_paths_reach_every_rough_lobe);
   RUN(test_weights_match_eq12_through_rough_lobes);
+  destroy_test_scene(&g_scene);
+  if (!walk_scene("features", VF_LIGHT_AREA_MESH)) return 1;
+  RUN(test_feature_paths_reach_every_feature);
+  RUN(test_weights_match_eq12_through_shaded_and_textured_vertices);
   destroy_test_scene(&g_scene);
   return check_finish();
 }
