@@ -149,6 +149,53 @@ int vf_scene_walk_nodes(const parse_ctx *c, const char *what, const struct aiSce
 /* The world transform of node: the product of its and its parents' transforms. */
 void vf_scene_node_world(const struct aiNode *node, vf_affine *out);
 
+/* ---- whole-scene import (scene_import.c, scene_import_material.c, scene_gltf.c) ---- */
+
+/* What a glTF file's own JSON says beyond Assimp (scene_gltf.c). */
+typedef struct {
+  float *emissive_strength; /* per glTF material: KHR_materials_emissive_strength, else 1; owned */
+  int num_materials;
+  int has_occlusion;        /* some material has an occlusionTexture */
+} vf_gltf_info;
+
+/* 1 if file ends in .gltf or .glb (any case). */
+int vf_gltf_is_gltf(const char *file);
+/* Reads the JSON of glTF file `file` (resolved as mesh files are) into *out (release with
+ * vf_gltf_info_release) and notes each extension of extensionsUsed that vcmfarm does not
+ * implement, light ranges, occlusion textures and extra scenes. Errors name `what`. */
+int vf_gltf_read_info(const parse_ctx *c, const char *file, const char *what, vf_gltf_info *out);
+void vf_gltf_info_release(vf_gltf_info *info);
+
+/* A file being imported, as its material and light readers see it. All borrowed. */
+typedef struct {
+  const parse_ctx *c;
+  const char *file;            /* as the scene names it: notes start with it */
+  const char *what;            /* the file in errors ("import[0] (model.gltf)"); NULL: the scene is the file */
+  const char *dir;             /* its directory as the scene names it ("" for the scene's own): textures are relative to it */
+  int gltf_file;               /* a glTF file: its materials are glTF's */
+  const struct aiScene *ai;
+  vf_gltf_info gltf;           /* glTF files only */
+} vf_import_file;
+
+/* Material `index` of the file as a vf_material (docs/SCENES.md, "import"), with its
+ * textures loaded (vf_scene_texture_file / _bytes) and the radiance its shapes emit in
+ * *emission. Notes what it cannot render. Errors name the file and the material. */
+int vf_scene_import_material(const parse_ctx *c, const vf_import_file *f, unsigned index, vf_material *m,
+                             vf_vec3 *emission);
+
+/* The JSON's "import" array: every file's meshes, materials and lights added to the scene.
+ * Materials [0, json_materials) are the JSON's and replace the file's of the same name.
+ * With *camera_wanted set (the JSON has no "camera"), the entry with a "camera" field, or
+ * else the first file with a perspective camera, sets the scene's camera and clears it. */
+int vf_scene_parse_imports(const parse_ctx *c, const cJSON *j, int json_materials, int *camera_wanted);
+/* For a scene with no camera after its imports: one looking at the bounds, with a note. */
+int vf_scene_default_camera(const parse_ctx *c);
+/* For an imported scene with no light at all: a white background, with a note. */
+int vf_scene_default_light(const parse_ctx *c);
+
+/* A JSON "transform" object (scene_shapes.c, docs/SCENES.md) as an affine map. */
+int vf_scene_parse_transform(const parse_ctx *c, const cJSON *j, const char *path, vf_affine *out);
+
 /* ---- textures (scene_textures.c) ----
  * Texture `file`, resolved as mesh files are (so a farm job ships it by content hash, and
  * a recording load records it), decoded into the scene's textures once per name: its

@@ -109,6 +109,14 @@ static int parse_transform(const parse_ctx *c, const cJSON *j, const char *path,
   return VF_OK;
 }
 
+int vf_scene_parse_transform(const parse_ctx *c, const cJSON *j, const char *path, vf_affine *out) {
+  affine a;
+  int err = parse_transform(c, j, path, &a);
+  if (err < 0) return err;
+  memcpy(out->m, a.m, sizeof out->m);
+  return VF_OK;
+}
+
 /* ---- meshes ------------------------------------------------------------------------------ */
 
 static int parse_inline_mesh(const parse_ctx *c, const cJSON *j, const char *path, vf_shape *s) {
