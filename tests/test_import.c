@@ -480,8 +480,10 @@ static void test_bad_files_are_refused_naming_file_and_problem(void) {
 
 static void test_assimp_testmodels_glTF2_load_with_notes(void) {
   static const char *const models[] = {"BoxTextured-glTF/BoxTextured.gltf", "BoxTextured-glTF-Binary/BoxTextured.glb",
-                                       "Duck/glTF/Duck.gltf", "BoomBox/glTF/BoomBox.gltf", NULL};
-  const char *root = "/usr/share/assimp-testmodels/models/glTF2";
+                                       "BoxTextured-glTF-Embedded/BoxTextured.gltf", "cameras/Cameras.gltf",
+                                       "2CylinderEngine-glTF-Binary/2CylinderEngine.glb",
+                                       NULL};
+  const char *root = "/usr/share/assimp/models/glTF2";
   if (access(root, R_OK) != 0) {
     printf("  skipped: %s not installed (apt-get install assimp-testmodels)\n", root);
     return;
