@@ -336,7 +336,9 @@ static void test_json_scene_imports_with_transform_and_material_override(void) {
     CHECK(vertex_at(tri, 10, 2, -100) >= 0);
     CHECK_INT_EQ(tri->material, 0); /* the JSON's "Red" */
     CHECK_VEC(s->materials[tri->material].diffuse, 0.1, 0.2, 0.3, 1e-7);
+    CHECK(vf_is_zero(tri->emission)); /* the file's material, emission included, is replaced */
   }
+  CHECK_INT_EQ(s->num_textures, 0); /* only "Red" used textures */
   CHECK_VEC(s->camera.position, 0, 10, -100, 1e-5);
   CHECK_VEC(s->point_lights[0].position, 1, 2, -97, 1e-5);
   vf_scene_destroy(s);

@@ -14,6 +14,7 @@
 #include "../common/error.h"
 
 #include <assimp/cimport.h>
+#include <assimp/material.h>
 #include <assimp/scene.h>
 #include <cjson/cJSON.h>
 
@@ -55,11 +56,16 @@ static int material_for(const parse_ctx *c, import_state *st, unsigned k, int *o
     *out = st->material_of[k];
     return VF_OK;
   }
-  vf_material m;
-  int err = vf_scene_import_material(c, &st->f, k, &m, &st->emission_of[k]);
-  if (err < 0) return err;
-  int j = json_material(s, st->json_materials, m.name);
+  /* An override replaces the file's material whole, emission included: the file's is not
+   * read, so its textures need not exist. */
+  struct aiString name;
+  int j = -1;
+  if (aiGetMaterialString(st->f.ai->mMaterials[k], AI_MATKEY_NAME, &name) == aiReturn_SUCCESS && name.length > 0)
+    j = json_material(s, st->json_materials, name.data);
   if (j < 0) {
+    vf_material m;
+    int err = vf_scene_import_material(c, &st->f, k, &m, &st->emission_of[k]);
+    if (err < 0) return err;
     vf_material *grown = realloc(s->materials, (size_t)(s->num_materials + 1) * sizeof *grown);
     if (grown == NULL) return vf_error_set(VF_ENOMEM, "out of memory");
     s->materials = grown;
