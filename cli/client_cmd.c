@@ -86,7 +86,8 @@ static const char submit_usage[] =
     "                           (the reference is sent with the job)\n"
     "  -P, --priority P         weight 1 to 1000 (default 1): jobs share the workers' time in\n"
     "                           proportion to their priorities\n"
-    "  -N, --name NAME          a name for status (default: SCENE)\n" VF_CLI_SETTINGS_HELP CONNECTION_HELP;
+    "  -N, --name NAME          a name for status (default: SCENE)\n"
+    "      --camera NAME|INDEX  a glTF file's camera to render (default: its first)\n" VF_CLI_SETTINGS_HELP CONNECTION_HELP;
 
 int vf_cmd_submit(int argc, char **argv) {
   static const struct option options[] = {
@@ -95,9 +96,10 @@ int vf_cmd_submit(int argc, char **argv) {
       {"priority", required_argument, 0, 'P'},        {"name", required_argument, 0, 'N'},
       {"coordinator", required_argument, 0, 'c'},     {"secret", required_argument, 0, 'k'},
       {"timeout", required_argument, 0, 'T'},         {"start-iteration", required_argument, 0, 'K'},
-      {"help", no_argument, 0, 'h'},                  {0, 0, 0, 0}};
+      {"camera", required_argument, 0, 'M'},          {"help", no_argument, 0, 'h'},
+      {0, 0, 0, 0}};
   uint64_t first = 0;
-  const char *cmd = "submit", *name = NULL;
+  const char *cmd = "submit", *name = NULL, *camera = NULL;
   vf_cli_settings overrides;
   vf_cli_stop stop = {0};
   connection conn = {NULL, NULL, 10.0};
@@ -115,6 +117,7 @@ int vf_cmd_submit(int argc, char **argv) {
     switch (c) {
     case 'P': err = vf_cli_int("--priority", optarg, VF_PRIORITY_MIN, VF_PRIORITY_MAX, &priority); break;
     case 'N': name = optarg; break;
+    case 'M': camera = optarg; break;
     case 'K': err = vf_cli_u64("--start-iteration", optarg, &first); break;
     case 'h': fputs(submit_usage, stdout); return VF_EXIT_OK;
     default: return vf_cli_bad_option(cmd, argv, submit_usage);
@@ -130,7 +133,7 @@ int vf_cmd_submit(int argc, char **argv) {
   uint64_t iterations = vf_cli_stop_iterations(&stop);
   vf_farm_client *client;
   if ((err = connect_to(&conn, &client)) != VF_OK) return vf_cli_fail(cmd, err);
-  vf_submit_job job = {argv[optind], name, &overrides, first, iterations, (int)priority,
+  vf_submit_job job = {argv[optind], camera, name, &overrides, first, iterations, (int)priority,
                        stop.time_limit, stop.target_rmse, stop.target_error, stop.reference, "vcmfarm submit"};
   vf_submitted_job submitted;
   err = vf_submit(client, (int)(conn.timeout * 1000.0), &job, &submitted);

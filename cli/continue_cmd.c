@@ -33,6 +33,7 @@ static const char usage[] =
     "                           (default 10; 0: only at the end)\n"
     "      --scene SCENE        the scene to load (default: the one the film names); its\n"
     "                           content hash must equal the film's\n"
+    "      --camera NAME|INDEX  the glTF file's camera the film was rendered with (as render's)\n"
     "  -o, --output OUT         where to write (default: FILM)\n"
     "  -j, --threads T          render threads (default: one per CPU)\n"
     "  -q, --quiet              no progress line or summary\n"
@@ -46,20 +47,22 @@ static void hex32(const uint8_t *hash, char out[65]) {
 }
 
 /* Loads the scene the film names (or `scene_arg`) and checks it is the film's scene. */
-static int load_scene(const vf_film *film, const char *film_path, const char *scene_arg, vf_scene **out) {
+static int load_scene(const vf_film *film, const char *film_path, const char *scene_arg, const char *camera,
+                      vf_scene **out) {
   const char *name = scene_arg ? scene_arg : film->scene_name;
   if (name[0] == '\0')
     return vf_error_set(VF_EUSAGE, "%s does not name its scene (no attribute vcmfarm:scene): give --scene", film_path);
   vf_scene *scene = NULL;
-  int err = vf_scene_load(name, &scene);
+  int err = vf_scene_load_camera(name, camera, &scene);
   if (err != VF_OK) return err;
   if (memcmp(scene->hash, film->scene_hash, sizeof scene->hash) != 0) {
     char have[65], want[65];
     hex32(scene->hash, have);
     hex32(film->scene_hash, want);
     vf_scene_destroy(scene);
-    return vf_error_set(VF_EMISMATCH, "scene %s has content hash %s but %s was rendered from scene hash %s", name,
-                        have, film_path, want);
+    return vf_error_set(VF_EMISMATCH, "scene %s has content hash %s but %s was rendered from scene hash %s%s", name,
+                        have, film_path, want,
+                        vf_scene_is_model_file(name) ? " (was it rendered with another --camera?)" : "");
   }
   *out = scene;
   return VF_OK;
@@ -92,8 +95,8 @@ int vf_cmd_continue(int argc, char **argv) {
       {"checkpoint-interval", required_argument, 0, 'C'}, {"scene", required_argument, 0, 'S'},
       {"output", required_argument, 0, 'o'},              {"threads", required_argument, 0, 'j'},
       {"quiet", no_argument, 0, 'q'},                     {"help", no_argument, 0, 'h'},
-      {0, 0, 0, 0}};
-  const char *cmd = "continue", *output = NULL, *scene_arg = NULL;
+      {"camera", required_argument, 0, 'M'},              {0, 0, 0, 0}};
+  const char *cmd = "continue", *output = NULL, *scene_arg = NULL, *camera = NULL;
   vf_cli_stop stop = {0};
   long long threads = 0;
   double checkpoint_interval = 10.0;
@@ -108,6 +111,7 @@ int vf_cmd_continue(int argc, char **argv) {
     switch (c) {
     case 'C': err = vf_cli_double("--checkpoint-interval", optarg, 0.0, 1e9, &checkpoint_interval); break;
     case 'S': scene_arg = optarg; break;
+    case 'M': camera = optarg; break;
     case 'o': output = optarg; break;
     case 'j': err = vf_cli_int("--threads", optarg, 1, 1024, &threads); break;
     case 'q': quiet = 1; break;
@@ -139,7 +143,7 @@ int vf_cmd_continue(int argc, char **argv) {
   if ((err = vf_file_lock_acquire(output, "continue", &lock)) != VF_OK) goto done;
   if ((err = vf_film_read(film_path, &film)) != VF_OK) goto done;
   if ((err = film_settings(film, film_path, &settings)) != VF_OK) goto done;
-  if ((err = load_scene(film, film_path, scene_arg, &scene)) != VF_OK) goto done;
+  if ((err = load_scene(film, film_path, scene_arg, camera, &scene)) != VF_OK) goto done;
   if (stop.reference && (err = vf_reference_load(stop.reference, film->width, film->height, &reference)) != VF_OK)
     goto done;
   if ((err = vf_renderer_create(scene, &settings, (int)threads, &renderer)) != VF_OK) goto done;

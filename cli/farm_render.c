@@ -190,7 +190,7 @@ int vf_farm_render(const vf_render_job *o) {
   if ((err = vf_farm_client_open(FARM_URL, &key, &client)) != VF_OK ||
       (err = await_coordinator(client, &ct)) != VF_OK || ct.ended)
     goto stop;
-  vf_submit_job sj = {o->scene, "render", &o->overrides, o->start, count, 1, 0.0, o->stop.target_rmse,
+  vf_submit_job sj = {o->scene, o->camera, "render", &o->overrides, o->start, count, 1, 0.0, o->stop.target_rmse,
                       o->stop.target_error, o->stop.reference, NULL};
   if ((err = vf_submit(client, REQUEST_MS, &sj, &submitted)) != VF_OK) goto stop;
   job_id = submitted.job_id;

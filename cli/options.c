@@ -195,3 +195,16 @@ int vf_cli_bad_option(const char *command, char **argv, const char *usage) {
   fprintf(stderr, "vcmfarm %s: unknown or incomplete option '%s'\n%s", command, argv[optind - 1], usage);
   return VF_EXIT_BAD_INPUT;
 }
+
+void vf_cli_print_notes(const char *source, const char *notes) {
+  const char *slash = strrchr(source, '/'), *base = slash ? slash + 1 : source;
+  size_t k = strlen(base);
+  for (const char *line = notes; line != NULL && *line != '\0';) {
+    /* A model file's notes name it; its scene's label names it already. */
+    if (strncmp(line, base, k) == 0 && strncmp(line + k, ": ", 2) == 0) line += k + 2;
+    const char *end = strchr(line, '\n');
+    int n = end ? (int)(end - line) : (int)strlen(line);
+    fprintf(stderr, "%s: note: %.*s\n", source, n, line);
+    line = end ? end + 1 : NULL;
+  }
+}

@@ -108,6 +108,10 @@ int vf_cli_stop_open_ended(const vf_cli_stop *s);
 #define VF_CLI_ITERATIONS_OPEN_ENDED 1000000000ull /* also the most one farm job holds */
 uint64_t vf_cli_stop_iterations(const vf_cli_stop *s);
 
+/* Prints what the loaded scene's files ask for that vcmfarm does not do (vf_scene.notes),
+ * each line as "SCENE: note: ...", to stderr: once, where the command loads the scene. */
+void vf_cli_print_notes(const char *source, const char *notes);
+
 /* Exit status for an error code: 2 for bad input, 1 otherwise. */
 int vf_cli_exit_status(int err);
 

@@ -24,8 +24,8 @@
 static const char usage[] =
     "usage: vcmfarm render SCENE [options] -o FILM.exr\n"
     "\n"
-    "Renders global iterations [K, K+N) of SCENE (a built-in name or a JSON scene file,\n"
-    "see docs/SCENES.md) into FILM.exr, an OpenEXR film that any viewer opens and that\n"
+    "Renders global iterations [K, K+N) of SCENE (a built-in name, a JSON scene file or a\n"
+    "glTF 2.0 (.gltf, .glb) or OBJ file, see docs/SCENES.md) into FILM.exr, an OpenEXR film that any viewer opens and that\n"
     "`vcmfarm merge` and `continue` extend exactly. It runs a farm's coordinator and one\n"
     "worker in this process (the farm's own code path, docs/PROTOCOL.md); --direct renders\n"
     "without them.\n"
@@ -35,6 +35,7 @@ static const char usage[] =
     "                           render keeps its work; 0: only at the end\n"
     "  -k, --start-iteration K  first global iteration index (default 0)\n"
     "  -j, --threads T          render threads (default: one per CPU)\n" VF_CLI_SETTINGS_HELP
+    "      --camera NAME|INDEX  the glTF file's camera to render (default: its first)\n"
     "  -o, --output FILM.exr    the film to write (required)\n"
     "  -p, --preview IMAGE.png  also write a tone-mapped sRGB preview\n"
     "  -e, --exposure E         preview exposure in stops (default 0)\n"
@@ -56,7 +57,8 @@ static int render_direct(const vf_render_job *o) {
   vf_renderer *renderer = NULL;
   vf_film *film = NULL;
   vf_image reference = {0};
-  if ((err = vf_scene_load(o->scene, &scene)) != VF_OK) return vf_cli_fail("render", err);
+  if ((err = vf_scene_load_camera(o->scene, o->camera, &scene)) != VF_OK) return vf_cli_fail("render", err);
+  vf_cli_print_notes(scene->source, scene->notes);
 
   /* Settings: defaults, then the scene's "render" object, then the command line. */
   vf_settings settings = scene->settings;
@@ -111,7 +113,8 @@ int vf_cmd_render(int argc, char **argv) {
       {"output", required_argument, 0, 'o'},          {"preview", required_argument, 0, 'p'},
       {"exposure", required_argument, 0, 'e'},        {"quiet", no_argument, 0, 'q'},
       {"help", no_argument, 0, 'h'},                  {"checkpoint-interval", required_argument, 0, 'C'},
-      {"direct", no_argument, 0, 'D'},                {0, 0, 0, 0}};
+      {"direct", no_argument, 0, 'D'},                {"camera", required_argument, 0, 'M'},
+      {0, 0, 0, 0}};
   const char *cmd = "render";
   vf_render_job o = {.checkpoint_interval = 10.0};
   long long threads = 0;
@@ -132,6 +135,7 @@ int vf_cmd_render(int argc, char **argv) {
     case 'e': err = vf_cli_double("--exposure", optarg, -64.0, 64.0, &o.exposure); break;
     case 'q': o.quiet = 1; break;
     case 'D': direct = 1; break;
+    case 'M': o.camera = optarg; break;
     case 'C': err = vf_cli_double("--checkpoint-interval", optarg, 0.0, 1e9, &o.checkpoint_interval); break;
     case 'h': fputs(usage, stdout); return VF_EXIT_OK;
     default:

@@ -12,6 +12,7 @@
 
 typedef struct {
   const char *scene, *output, *preview; /* borrowed from argv; preview may be NULL */
+  const char *camera;                   /* --camera NAME|INDEX of a model file, or NULL */
   vf_cli_settings overrides;
   vf_cli_stop stop;
   double checkpoint_interval, exposure;

@@ -105,7 +105,17 @@ int vf_submit(vf_farm_client *client, int timeout_ms, const vf_submit_job *job, 
   vf_blob_table files = {0};
   Vcmfarm__BlobRef *file_refs = NULL, **file_ref_ptrs = NULL;
   char stage[4096] = "";
-  if (builtin) {
+  if (job->camera != NULL && !vf_scene_is_model_file(source))
+    return vf_error_set(VF_EUSAGE, "--camera chooses a camera of a glTF or OBJ file; a JSON scene chooses it in "
+                        "import[i].camera (docs/SCENES.md)");
+  if (vf_scene_is_model_file(source)) {
+    /* A model file travels as the JSON scene that imports it: its files (buffers, .mtl,
+     * textures) are then recorded and shipped like any JSON scene's. */
+    char *model_text;
+    if ((err = vf_scene_model_text(source, job->camera, &model_text, &len)) != VF_OK) return err;
+    text = (uint8_t *)model_text;
+    builtin = 0;
+  } else if (builtin) {
     len = strlen(source);
   } else if ((err = vf_file_read_all(source, 16u << 20, &text, &len)) != VF_OK) {
     return vf_scene_not_found(source, err);
@@ -116,6 +126,7 @@ int vf_submit(vf_farm_client *client, int timeout_ms, const vf_submit_job *job, 
   else if ((err = vf_file_temp_dir("vcmfarm-submit", stage, sizeof stage)) == VF_OK)
     err = vf_job_scene_collect(source, (const char *)text, len, stage, &files, &scene);
   if (err != VF_OK) goto done;
+  vf_cli_print_notes(scene->source, scene->notes);
   vf_settings settings = scene->settings;
   if (job->overrides && (err = vf_cli_settings_apply(job->overrides, &settings)) != VF_OK) goto done;
   char settings_text[512];

@@ -13,7 +13,8 @@
 #include <stdint.h>
 
 typedef struct {
-  const char *source;               /* a built-in scene name or a JSON scene file */
+  const char *source;               /* a built-in scene name, a JSON scene file or a model file */
+  const char *camera;               /* a model file's camera (--camera), or NULL */
   const char *name;                 /* for status; NULL: source */
   const vf_cli_settings *overrides; /* over the scene's own settings; NULL: none */
   uint64_t first, iterations;       /* global iterations [first, first + iterations) */

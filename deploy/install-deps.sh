@@ -22,6 +22,7 @@ packages=(
   systemd              # tests/test_systemd.sh: systemd-analyze verify (deploy/systemd)
   python3              # tests/bench/convergence_report.py (standard library only)
   jq                   # tests/bench/convergence.sh, tests/test_film_tools.sh: fields of --json output
+  assimp-testmodels    # tests/test_import.c: Khronos glTF 2.0 sample models as import smoke tests
 )
 # tests/test_k8s.sh validates deploy/k8s with packages from the npm registry. Debian's
 # nodejs and npm are installed only where no node and npm are on the PATH: a machine

@@ -81,5 +81,33 @@ check "render --help" $?
 "$vcmfarm" render furnace -n 2 -R 16x16 -q -o "$tmp/ok.exr" -p "$tmp/ok.png"
 check "good render writes film and preview" $([ -s "$tmp/ok.exr" ] && [ -s "$tmp/ok.png" ]; echo $?)
 
+# glTF import (tests/scenes/import: the file tests/test_import.c writes, with external
+# textures): notes at load, --camera, and broken copies refused naming file and problem.
+import="$scenes/import"
+"$vcmfarm" render "$import/model.gltf" --direct -n 1 -R 16x12 -q -o "$tmp/gltf.exr" 2>"$tmp/stderr"
+check "glTF scene renders" $([ -s "$tmp/gltf.exr" ]; echo $?)
+grep -qF "model.gltf: note: extension KHR_materials_sheen is not supported" "$tmp/stderr"
+check "glTF notes are printed once at load" $([ "$(grep -c KHR_materials_sheen "$tmp/stderr")" -eq 1 ]; echo $?)
+"$vcmfarm" render "$import/model.gltf" --camera TopCam -n 1 -R 16x12 -q -o "$tmp/top.exr"
+check "--camera by name" $([ -s "$tmp/top.exr" ]; echo $?)
+expect_refusal "unknown --camera" "--camera: no camera 'Nope' in model.gltf (its cameras: 0 'CamNode', 1 'TopCam')" \
+  "$vcmfarm" render "$import/model.gltf" --camera Nope -n 1 -R 8x8 -o "$tmp/out.exr"
+expect_refusal "--camera with a built-in scene" "--camera chooses a camera of a glTF or OBJ file" \
+  "$vcmfarm" render furnace --camera 0 -n 1 -R 8x8 -o "$tmp/out.exr"
+broken="$tmp/broken"
+fresh_copy() { rm -rf "$broken"; mkdir "$broken"; cp "$import"/* "$broken"/; }
+fresh_copy; rm "$broken/nrm.png"
+expect_refusal "glTF with a missing texture" "model.gltf: material 'Red': cannot open" \
+  "$vcmfarm" render "$broken/model.gltf" -n 1 -R 8x8 -o "$tmp/out.exr"
+fresh_copy; printf '\x00\x00\xc0\x7f' | dd of="$broken/model.bin" bs=1 seek=48 conv=notrunc status=none
+expect_refusal "glTF with a NaN normal" "model.gltf: vertex 1 has a non-finite normal" \
+  "$vcmfarm" render "$broken/model.gltf" --direct -n 1 -R 8x8 -o "$tmp/out.exr"
+fresh_copy; printf '\x00\x00\x80\x7f' | dd of="$broken/model.bin" bs=1 seek=80 conv=notrunc status=none
+expect_refusal "glTF with an infinite uv" "model.gltf: vertex 1 has a non-finite texture coordinate" \
+  "$vcmfarm" render "$broken/model.gltf" -n 1 -R 8x8 -o "$tmp/out.exr"
+fresh_copy; sed -i 's/"byteOffset": 0, "byteLength": 144/"byteOffset": 100, "byteLength": 144/' "$broken/model.gltf"
+expect_refusal "glTF with a buffer view out of range" "cannot read 'model.gltf': GLTF: Buffer view with offset/length (100/144) is out of range" \
+  "$vcmfarm" render "$broken/model.gltf" -n 1 -R 8x8 -o "$tmp/out.exr"
+
 echo "$passed passed, $failed failed"
 [ "$failed" -eq 0 ]

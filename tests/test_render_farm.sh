@@ -57,6 +57,14 @@ check "the film names the scene file" $?
 "$vcmfarm" continue "$tmp/c.exr" -n 2 -q -o "$tmp/c5.exr" && [ "$(iterations_of "$tmp/c5.exr")" = "[0,5)" ]
 check "continue extends it" $?
 
+# 3b. A glTF file as the scene: the job carries the JSON that imports it, and its buffer
+#     and external textures travel as blobs (a file the load reads but the job lacks
+#     would fail the worker's load: "not among the job's files").
+scene="$source_dir/tests/scenes/import/model.gltf"
+"$vcmfarm" render "$scene" "${common[@]}" -n 2 -q -o "$tmp/g.exr" 2>/dev/null
+check "glTF scene with external textures renders through the farm" $?
+same "glTF scene through the farm equals --direct" "[0,2)" "$tmp/g.exr" "$scene" "${common[@]}" -n 2
+
 # 4. A target estimated error: the job stops at the first merged part meeting it, and the
 #    film holds exactly the contiguous iterations [0, m) of that part.
 "$vcmfarm" render cornell "${common[@]}" -a pt --target-error 0.08 -q -o "$tmp/d.exr"

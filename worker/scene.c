@@ -120,21 +120,32 @@ int vf_scene_not_found(const char *name, int err) {
   return vf_error_set(err, "%s; '%s' is not a built-in scene either (built-in: %s)", detail, name, names);
 }
 
-int vf_scene_load(const char *name_or_path, vf_scene **out) {
-  for (const char *const *n = vf_scene_builtin_names(); *n != NULL; n++)
-    if (strcmp(*n, name_or_path) == 0) return vf_scene_builtin_load(name_or_path, out);
+int vf_scene_load_camera(const char *name_or_path, const char *camera, vf_scene **out) {
+  int model = vf_scene_is_model_file(name_or_path);
+  for (const char *const *n = vf_scene_builtin_names(); *n != NULL && !model; n++)
+    if (strcmp(*n, name_or_path) == 0) {
+      if (camera != NULL) return vf_error_set(VF_EUSAGE, "--camera chooses a camera of a glTF or OBJ file, not of a built-in scene");
+      return vf_scene_builtin_load(name_or_path, out);
+    }
+  if (camera != NULL && !model)
+    return vf_error_set(VF_EUSAGE, "--camera chooses a camera of a glTF or OBJ file; a JSON scene chooses it in "
+                        "import[i].camera (docs/SCENES.md)");
   char *text = NULL, dir[4096];
   size_t length = 0;
   const char *slash = strrchr(name_or_path, '/');
   if (slash == NULL) snprintf(dir, sizeof dir, ".");
   else if (slash == name_or_path) snprintf(dir, sizeof dir, "/");
   else snprintf(dir, sizeof dir, "%.*s", (int)(slash - name_or_path), name_or_path);
-  int err = read_text(name_or_path, &text, &length);
-  if (err < 0) return vf_scene_not_found(name_or_path, err);
+  /* A model file is read as the JSON scene that imports it, so local renders and farm jobs
+   * (which carry that text) load it by one path. */
+  int err = model ? vf_scene_model_text(name_or_path, camera, &text, &length) : read_text(name_or_path, &text, &length);
+  if (err < 0) return model ? err : vf_scene_not_found(name_or_path, err);
   err = vf_scene_parse(text, length, name_or_path, dir, NULL, 0, out);
   free(text);
   return err;
 }
+
+int vf_scene_load(const char *name_or_path, vf_scene **out) { return vf_scene_load_camera(name_or_path, NULL, out); }
 
 int vf_scene_note(const parse_ctx *c, const char *fmt, ...) {
   char line[512];

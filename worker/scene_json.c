@@ -543,18 +543,34 @@ static int parse_render(const parse_ctx *c, const cJSON *j) {
 
 /* ---- whole scene ------------------------------------------------------------------------- */
 
+/* The files of "import" and what a scene made of them lacks: a camera, a light. */
+static int parse_import(const parse_ctx *c, const cJSON *root, int camera_wanted) {
+  vf_scene *s = c->scene;
+  int err = vf_scene_parse_imports(c, cJSON_GetObjectItemCaseSensitive(root, "import"), s->num_materials,
+                                   &camera_wanted);
+  if (err < 0) return err;
+  if (s->num_shapes == 0) return vf_scene_fail(c, VF_ESCENE, NULL, "the scene has no shape (its files have no triangles)");
+  if (camera_wanted && (err = vf_scene_default_camera(c)) < 0) return err;
+  if (!has_light(s) && !cJSON_HasObjectItem(root, "lights") && (err = vf_scene_default_light(c)) < 0) return err;
+  return VF_OK;
+}
+
 static int parse_root(const parse_ctx *c, const cJSON *root) {
-  static const char *const fields[] = {"camera", "materials", "shapes", "lights", "render", NULL};
+  static const char *const fields[] = {"camera", "materials", "shapes", "lights", "render", "import", NULL};
   const cJSON *m;
   int err = vf_scene_check_object(c, root, "", fields);
   if (err < 0) return err;
-  if ((err = vf_scene_member(c, root, "", "camera", REQUIRED, &m)) < 0 || (err = parse_camera(c, m)) < 0) return err;
-  if ((err = vf_scene_member(c, root, "", "materials", REQUIRED, &m)) < 0 || (err = parse_materials(c, m)) < 0)
+  /* A scene that imports files may take all of camera, materials and shapes from them. */
+  int imports = cJSON_HasObjectItem(root, "import"), need = imports ? OPTIONAL : REQUIRED;
+  int has_camera = vf_scene_member(c, root, "", "camera", need, &m);
+  if (has_camera < 0 || (has_camera && (err = parse_camera(c, m)) < 0)) return has_camera < 0 ? has_camera : err;
+  if ((err = vf_scene_member(c, root, "", "materials", need, &m)) < 0 || (err > 0 && (err = parse_materials(c, m)) < 0))
     return err;
-  if ((err = vf_scene_member(c, root, "", "shapes", REQUIRED, &m)) < 0 || (err = vf_scene_parse_shapes(c, m)) < 0)
+  if ((err = vf_scene_member(c, root, "", "shapes", need, &m)) < 0 || (err > 0 && (err = vf_scene_parse_shapes(c, m)) < 0))
     return err;
   if ((err = vf_scene_member(c, root, "", "lights", OPTIONAL, &m)) < 0 || (err > 0 && (err = parse_lights(c, m)) < 0))
     return err;
+  if (imports && (err = parse_import(c, root, !has_camera)) < 0) return err;
   if ((err = vf_scene_member(c, root, "", "render", OPTIONAL, &m)) < 0 || (err > 0 && (err = parse_render(c, m)) < 0))
     return err;
   if (!has_light(c->scene))

@@ -109,6 +109,14 @@ static int parse_transform(const parse_ctx *c, const cJSON *j, const char *path,
   return VF_OK;
 }
 
+int vf_scene_parse_transform(const parse_ctx *c, const cJSON *j, const char *path, vf_affine *out) {
+  affine a;
+  int err = parse_transform(c, j, path, &a);
+  if (err < 0) return err;
+  memcpy(out->m, a.m, sizeof out->m);
+  return VF_OK;
+}
+
 /* ---- meshes ------------------------------------------------------------------------------ */
 
 static int parse_inline_mesh(const parse_ctx *c, const cJSON *j, const char *path, vf_shape *s) {
@@ -179,24 +187,11 @@ static double mesh_area(const vf_shape *s) {
   return area;
 }
 
+/* Positions, normals and tangents, and the winding under a mirror (scene_mesh.c). */
 static int transform_mesh(const parse_ctx *c, const affine *a, const char *path, vf_shape *s) {
-  for (uint32_t v = 0; v < s->num_vertices; v++) {
-    double w[3];
-    affine_apply(a, &s->positions[3 * v], w);
-    for (int k = 0; k < 3; k++) {
-      if (!(fabs(w[k]) <= FLT_MAX)) return vf_scene_fail(c, VF_ESCENE, path, "moves vertex %u out of range", v);
-      s->positions[3 * v + k] = (float)w[k];
-    }
-  }
-  /* A mirroring transform turns counter-clockwise into clockwise; swapping two corners keeps
-   * every triangle facing the side it faced in the file, which is what emission refers to. */
-  if (affine_det(a) < 0.0)
-    for (uint32_t t = 0; t < s->num_triangles; t++) {
-      uint32_t tmp = s->indices[3 * t + 1];
-      s->indices[3 * t + 1] = s->indices[3 * t + 2];
-      s->indices[3 * t + 2] = tmp;
-    }
-  return VF_OK;
+  vf_affine m;
+  memcpy(m.m, a->m, sizeof m.m);
+  return vf_scene_transform_range(c, path, &m, s, 0, 0);
 }
 
 static int parse_sphere(const parse_ctx *c, const cJSON *j, const char *path, const affine *a, int has_transform,

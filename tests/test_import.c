@@ -1,0 +1,528 @@
+/* Whole-scene import (worker/scene_import.c): a glTF 2.0 file and an OBJ+MTL written here,
+ * checked field by field against what they say (world positions through a node hierarchy,
+ * normals by the inverse transpose, the uv convention, cameras, lights, every material
+ * parameter and texture slot), their notes, and bad files refused naming file and problem. */
+#include "check.h"
+#include "common/error.h"
+#include "worker/scene.h"
+
+#include <png.h>
+
+#include <dirent.h>
+#include <math.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+/* ---- fixtures ---------------------------------------------------------------------------- */
+
+static char dir[64];
+
+static void path_of(char *out, size_t n, const char *name) { snprintf(out, n, "%s/%s", dir, name); }
+
+static void write_file(const char *name, const void *bytes, size_t n) {
+  char p[256];
+  path_of(p, sizeof p, name);
+  FILE *f = fopen(p, "wb");
+  CHECK(f != NULL && fwrite(bytes, 1, n, f) == n);
+  if (f) fclose(f);
+}
+
+static void write_png(const char *name, int channels, const uint8_t *texels, int w, int h) {
+  char p[256];
+  png_image img;
+  memset(&img, 0, sizeof img);
+  img.version = PNG_IMAGE_VERSION;
+  img.width = (png_uint_32)w;
+  img.height = (png_uint_32)h;
+  img.format = channels == 1 ? PNG_FORMAT_GRAY : channels == 3 ? PNG_FORMAT_RGB : PNG_FORMAT_RGBA;
+  path_of(p, sizeof p, name);
+  CHECK(png_image_write_to_file(&img, p, 0, texels, 0, NULL));
+}
+
+/* One triangle with normals, uvs and tangents; `nan` spoils a normal (1) or a uv (2). */
+static void write_buffer(int nan) {
+  float b[38] = {0, 0, 0, 1, 0, 0, 0, 1, 0,                      /* positions, offset 0 */
+                 0.6f, 0, 0.8f, 0, 0, 1, 0, 0, 1,                /* normals, 36 */
+                 0, 0, 1, 0, 0, 1,                               /* uvs (glTF: t = 0 top), 72 */
+                 1, 0, 0, 1, 1, 0, 0, 1, 1, 0, 0, -1};           /* tangents, 96 */
+  if (nan == 1) b[12] = NAN; /* vertex 1's normal */
+  if (nan == 2) b[20] = INFINITY; /* vertex 1's u */
+  uint8_t bytes[152] = {0};
+  memcpy(bytes, b, 144);
+  const uint16_t idx[3] = {0, 1, 2};
+  memcpy(bytes + 144, idx, 6);
+  write_file("model.bin", bytes, 150);
+}
+
+static void write_textures(void) {
+  const uint8_t rgba[16] = {255, 0, 0, 255, 0, 255, 0, 0, 0, 0, 255, 255, 255, 255, 255, 0};
+  const uint8_t rgb[12] = {0, 128, 255, 0, 64, 32, 0, 255, 0, 0, 0, 0};
+  const uint8_t normal[12] = {128, 128, 255, 128, 128, 255, 128, 128, 255, 128, 128, 255};
+  const uint8_t grey[4] = {10, 200, 90, 30};
+  write_png("base.png", 4, rgba, 2, 2);
+  write_png("mr.png", 3, rgb, 2, 2);
+  write_png("nrm.png", 3, normal, 2, 2);
+  write_png("bump.png", 1, grey, 2, 2);
+}
+
+/* The glTF of the test: `accessors` replaces the accessor list when given (broken ones). */
+static const char gltf_head[] =
+    "{\"asset\": {\"version\": \"2.0\"},\n"
+    " \"extensionsUsed\": [\"KHR_lights_punctual\", \"KHR_materials_emissive_strength\",\n"
+    "   \"KHR_materials_transmission\", \"KHR_materials_ior\", \"KHR_materials_sheen\", \"KHR_texture_transform\"],\n"
+    " \"scene\": 0, \"scenes\": [{\"nodes\": [0, 2, 3, 4, 5, 6, 7]}],\n"
+    " \"nodes\": [\n"
+    "  {\"name\": \"Parent\", \"translation\": [10, 0, 0], \"scale\": [2, 2, 2], \"children\": [1]},\n"
+    "  {\"name\": \"Child\", \"mesh\": 0, \"rotation\": [0, 0, 0.70710678, 0.70710678]},\n"
+    "  {\"name\": \"Squash\", \"mesh\": 1, \"scale\": [2, 1, 1]},\n"
+    "  {\"name\": \"CamNode\", \"camera\": 0, \"translation\": [0, 1, 5]},\n"
+    "  {\"name\": \"TopCam\", \"camera\": 1, \"translation\": [0, 10, 0], \"rotation\": [-0.70710678, 0, 0, 0.70710678]},\n"
+    "  {\"name\": \"PointNode\", \"translation\": [1, 2, 3], \"extensions\": {\"KHR_lights_punctual\": {\"light\": 0}}},\n"
+    "  {\"name\": \"SpotNode\", \"translation\": [0, 5, 0], \"rotation\": [-0.70710678, 0, 0, 0.70710678],\n"
+    "   \"extensions\": {\"KHR_lights_punctual\": {\"light\": 1}}},\n"
+    "  {\"name\": \"SunNode\", \"rotation\": [-0.70710678, 0, 0, 0.70710678], \"extensions\": {\"KHR_lights_punctual\": {\"light\": 2}}}],\n"
+    " \"cameras\": [{\"type\": \"perspective\", \"perspective\": {\"yfov\": 0.8, \"aspectRatio\": 1.5, \"znear\": 0.1}},\n"
+    "   {\"type\": \"perspective\", \"perspective\": {\"yfov\": 0.5, \"aspectRatio\": 1.0, \"znear\": 0.1}}],\n"
+    " \"extensions\": {\"KHR_lights_punctual\": {\"lights\": [\n"
+    "   {\"type\": \"point\", \"color\": [1, 0.5, 0.25], \"intensity\": 100},\n"
+    "   {\"type\": \"spot\", \"intensity\": 50, \"spot\": {\"innerConeAngle\": 0.2, \"outerConeAngle\": 0.5}},\n"
+    "   {\"type\": \"directional\", \"intensity\": 3}]}},\n"
+    " \"meshes\": [{\"name\": \"Tri\", \"primitives\": [{\"attributes\": {\"POSITION\": 0, \"NORMAL\": 1, \"TEXCOORD_0\": 2,\n"
+    "   \"TANGENT\": 3}, \"indices\": 4, \"material\": 0}]},\n"
+    "  {\"name\": \"GlassTri\", \"primitives\": [{\"attributes\": {\"POSITION\": 0, \"NORMAL\": 1}, \"indices\": 4, \"material\": 1}]}],\n"
+    " \"materials\": [\n"
+    "  {\"name\": \"Red\", \"pbrMetallicRoughness\": {\"baseColorFactor\": [0.8, 0.2, 0.1, 0.5], \"metallicFactor\": 0.3,\n"
+    "     \"roughnessFactor\": 0.6, \"baseColorTexture\": {\"index\": 0}, \"metallicRoughnessTexture\": {\"index\": 1}},\n"
+    "   \"normalTexture\": {\"index\": 2, \"scale\": 0.7}, \"emissiveTexture\": {\"index\": 1},\n"
+    "   \"emissiveFactor\": [1, 0.5, 0], \"alphaMode\": \"MASK\", \"alphaCutoff\": 0.3,\n"
+    "   \"extensions\": {\"KHR_materials_emissive_strength\": {\"emissiveStrength\": 4}}},\n"
+    "  {\"name\": \"Glass\", \"pbrMetallicRoughness\": {\"baseColorFactor\": [0.9, 0.95, 1, 1], \"roughnessFactor\": 0.1},\n"
+    "   \"extensions\": {\"KHR_materials_transmission\": {\"transmissionFactor\": 1}, \"KHR_materials_ior\": {\"ior\": 1.45}}}],\n"
+    " \"samplers\": [{\"wrapS\": 33071, \"wrapT\": 33648}],\n"
+    " \"images\": [{\"uri\": \"base.png\"}, {\"uri\": \"mr.png\"}, {\"uri\": \"nrm.png\"}],\n"
+    " \"textures\": [{\"source\": 0, \"sampler\": 0}, {\"source\": 1}, {\"source\": 2}],\n"
+    " \"buffers\": [{\"uri\": \"model.bin\", \"byteLength\": 150}],\n";
+
+static const char good_accessors[] =
+    " \"bufferViews\": [{\"buffer\": 0, \"byteOffset\": 0, \"byteLength\": 144}, {\"buffer\": 0, \"byteOffset\": 144, \"byteLength\": 6}],\n"
+    " \"accessors\": [\n"
+    "  {\"bufferView\": 0, \"byteOffset\": 0, \"componentType\": 5126, \"count\": 3, \"type\": \"VEC3\", \"min\": [0,0,0], \"max\": [1,1,0]},\n"
+    "  {\"bufferView\": 0, \"byteOffset\": 36, \"componentType\": 5126, \"count\": 3, \"type\": \"VEC3\"},\n"
+    "  {\"bufferView\": 0, \"byteOffset\": 72, \"componentType\": 5126, \"count\": 3, \"type\": \"VEC2\"},\n"
+    "  {\"bufferView\": 0, \"byteOffset\": 96, \"componentType\": 5126, \"count\": 3, \"type\": \"VEC4\"},\n"
+    "  {\"bufferView\": 1, \"byteOffset\": 0, \"componentType\": 5123, \"count\": 3, \"type\": \"SCALAR\"}]}\n";
+
+static void write_gltf(const char *accessors) {
+  char text[8192];
+  snprintf(text, sizeof text, "%s%s", gltf_head, accessors ? accessors : good_accessors);
+  write_file("model.gltf", text, strlen(text));
+}
+
+static void fresh_dir(void) {
+  snprintf(dir, sizeof dir, "/tmp/test_import.XXXXXX");
+  CHECK(mkdtemp(dir) != NULL);
+  write_textures();
+  write_buffer(0);
+  write_gltf(NULL);
+}
+
+static void remove_dir(void) {
+  DIR *d = opendir(dir);
+  struct dirent *e;
+  char p[512];
+  while (d && (e = readdir(d)) != NULL) {
+    if (e->d_name[0] == '.') continue;
+    snprintf(p, sizeof p, "%s/%s", dir, e->d_name);
+    unlink(p);
+  }
+  if (d) closedir(d);
+  rmdir(dir);
+}
+
+static vf_scene *load(const char *name, const char *camera) {
+  char p[256];
+  vf_scene *s = NULL;
+  path_of(p, sizeof p, name);
+  int err = vf_scene_load_camera(p, camera, &s);
+  if (err != VF_OK) CHECK_FAIL_("loading %s: %s", p, vf_error_detail(err));
+  return s;
+}
+
+/* The error loading `name` (with `camera`): its code, and its detail into `detail`. */
+static int load_error(const char *name, const char *camera, char *detail, size_t n) {
+  char p[256];
+  vf_scene *s = NULL;
+  path_of(p, sizeof p, name);
+  int err = vf_scene_load_camera(p, camera, &s);
+  snprintf(detail, n, "%s", err == VF_OK ? "(loaded)" : vf_error_detail(err));
+  vf_scene_destroy(s);
+  return err;
+}
+
+static const vf_shape *shape_named(const vf_scene *s, const char *name) {
+  for (int i = 0; s && i < s->num_shapes; i++)
+    if (strcmp(s->shapes[i].name, name) == 0) return &s->shapes[i];
+  CHECK_FAIL_("no shape named '%s'", name);
+  return NULL;
+}
+
+static int material_named(const vf_scene *s, const char *name) {
+  for (int i = 0; s && i < s->num_materials; i++)
+    if (strcmp(s->materials[i].name, name) == 0) return i;
+  CHECK_FAIL_("no material named '%s'", name);
+  return 0;
+}
+
+/* The vertex of s at (x, y, z), or -1. */
+static int vertex_at(const vf_shape *s, float x, float y, float z) {
+  for (uint32_t v = 0; s && v < s->num_vertices; v++)
+    if (fabsf(s->positions[3 * v] - x) < 1e-5f && fabsf(s->positions[3 * v + 1] - y) < 1e-5f &&
+        fabsf(s->positions[3 * v + 2] - z) < 1e-5f)
+      return (int)v;
+  CHECK_FAIL_("no vertex at (%g, %g, %g)", x, y, z);
+  return -1;
+}
+
+#define CHECK_VEC(v, ex, ey, ez, tol)                                                                 \
+  do {                                                                                                \
+    CHECK_NEAR((v).x, ex, tol);                                                                        \
+    CHECK_NEAR((v).y, ey, tol);                                                                        \
+    CHECK_NEAR((v).z, ez, tol);                                                                        \
+  } while (0)
+
+/* ---- glTF -------------------------------------------------------------------------------- */
+
+static void test_gltf_node_hierarchy_moves_positions_normals_and_tangents(void) {
+  vf_scene *s = load("model.gltf", NULL);
+  const vf_shape *tri = shape_named(s, "Tri"), *squash = shape_named(s, "GlassTri");
+  if (tri == NULL || squash == NULL) goto done;
+  CHECK_INT_EQ(s->num_shapes, 2);
+  CHECK_INT_EQ(tri->num_triangles, 1);
+  /* Child: translate (10, 0, 0) x scale 2 (parent) x rotate 90 degrees about z. */
+  int v0 = vertex_at(tri, 10, 0, 0), v1 = vertex_at(tri, 10, 2, 0), v2 = vertex_at(tri, 8, 0, 0);
+  CHECK(tri->normals != NULL && tri->uvs != NULL && tri->tangents != NULL);
+  if (v0 < 0 || v1 < 0 || v2 < 0 || !tri->normals || !tri->uvs || !tri->tangents) goto done;
+  /* (0.6, 0, 0.8) rotated about z: (0, 0.6, 0.8). */
+  CHECK_NEAR(tri->normals[3 * v0], 0.0, 1e-6);
+  CHECK_NEAR(tri->normals[3 * v0 + 1], 0.6, 1e-6);
+  CHECK_NEAR(tri->normals[3 * v0 + 2], 0.8, 1e-6);
+  /* The file's uvs are glTF's (t = 0 the top row): kept as they were written. */
+  CHECK_NEAR(tri->uvs[2 * v1], 1.0, 1e-6);
+  CHECK_NEAR(tri->uvs[2 * v1 + 1], 0.0, 1e-6);
+  CHECK_NEAR(tri->uvs[2 * v2], 0.0, 1e-6);
+  CHECK_NEAR(tri->uvs[2 * v2 + 1], 1.0, 1e-6);
+  /* Tangent (1, 0, 0) rotated: (0, 1, 0); w as in the file. */
+  CHECK_NEAR(tri->tangents[4 * v0 + 1], 1.0, 1e-6);
+  CHECK_NEAR(tri->tangents[4 * v0 + 3], 1.0, 0);
+  CHECK_NEAR(tri->tangents[4 * v2 + 3], -1.0, 0);
+  /* Squash: scale (2, 1, 1). The normal goes by the inverse transpose, diag(1/2, 1, 1). */
+  int s0 = vertex_at(squash, 0, 0, 0);
+  CHECK(vertex_at(squash, 2, 0, 0) >= 0);
+  CHECK(squash->uvs == NULL && squash->tangents == NULL); /* the file gives it none */
+  if (s0 < 0 || !squash->normals) goto done;
+  double len = sqrt(0.3 * 0.3 + 0.8 * 0.8);
+  CHECK_NEAR(squash->normals[3 * s0], 0.3 / len, 1e-6);
+  CHECK_NEAR(squash->normals[3 * s0 + 2], 0.8 / len, 1e-6);
+done:
+  vf_scene_destroy(s);
+}
+
+static void test_gltf_camera_by_default_name_and_index(void) {
+  vf_scene *s = load("model.gltf", NULL);
+  if (s == NULL) return;
+  CHECK_VEC(s->camera.position, 0, 1, 5, 1e-6);
+  CHECK_VEC(s->camera.forward, 0, 0, -1, 1e-6);
+  CHECK_VEC(s->camera.up, 0, 1, 0, 1e-6);
+  CHECK_NEAR(s->camera.vertical_fov_degrees, 0.8 * 180.0 / M_PI, 1e-4);
+  CHECK_INT_EQ(s->settings.width, 1280); /* aspect 1.5 */
+  CHECK_INT_EQ(s->settings.height, 853);
+  vf_scene_destroy(s);
+  const char *picks[] = {"TopCam", "1"};
+  for (int i = 0; i < 2; i++) {
+    s = load("model.gltf", picks[i]);
+    if (s == NULL) continue;
+    CHECK_VEC(s->camera.position, 0, 10, 0, 1e-6);
+    CHECK_VEC(s->camera.forward, 0, -1, 0, 1e-6);
+    CHECK_VEC(s->camera.up, 0, 0, -1, 1e-6);
+    CHECK_NEAR(s->camera.vertical_fov_degrees, 0.5 * 180.0 / M_PI, 1e-4);
+    CHECK_INT_EQ(s->settings.height, 1280);
+    vf_scene_destroy(s);
+  }
+}
+
+static void test_gltf_lights_point_spot_directional(void) {
+  vf_scene *s = load("model.gltf", NULL);
+  if (s == NULL) return;
+  CHECK_INT_EQ(s->num_point_lights, 2);
+  CHECK_INT_EQ(s->num_directional_lights, 1);
+  if (s->num_point_lights == 2 && s->num_directional_lights == 1) {
+    const vf_point_light_desc *p = &s->point_lights[0], *spot = &s->point_lights[1];
+    CHECK(!p->is_spot);
+    CHECK_VEC(p->position, 1, 2, 3, 1e-6);
+    CHECK_VEC(p->intensity, 100, 50, 25, 1e-4); /* candela read as W/sr */
+    CHECK(spot->is_spot);
+    CHECK_VEC(spot->position, 0, 5, 0, 1e-6);
+    CHECK_VEC(spot->direction, 0, -1, 0, 1e-6);
+    CHECK_VEC(spot->intensity, 50, 50, 50, 1e-4);
+    CHECK_NEAR(spot->inner_cone_angle, 0.2, 1e-6); /* half-angles, as glTF */
+    CHECK_NEAR(spot->outer_cone_angle, 0.5, 1e-6);
+    CHECK_VEC(s->directional_lights[0].direction, 0, -1, 0, 1e-6);
+    CHECK_VEC(s->directional_lights[0].irradiance, 3, 3, 3, 1e-6); /* lux read as W/m^2 */
+  }
+  vf_scene_destroy(s);
+}
+
+static void test_gltf_materials_every_parameter_and_texture_slot(void) {
+  vf_scene *s = load("model.gltf", NULL);
+  if (s == NULL) return;
+  const vf_material *red = &s->materials[material_named(s, "Red")], *glass = &s->materials[material_named(s, "Glass")];
+  CHECK(red->gltf);
+  CHECK_VEC(red->base_color, 0.8, 0.2, 0.1, 1e-6);
+  CHECK_NEAR(red->metallic, 0.3, 1e-6);
+  CHECK_NEAR(red->roughness, 0.6, 1e-6);
+  CHECK_NEAR(red->alpha, 0.5, 1e-6);
+  CHECK_NEAR(red->alpha_cutoff, 0.3, 1e-6);
+  CHECK_INT_EQ(red->alpha_channel, 3);
+  CHECK_NEAR(red->normal_scale, 0.7, 1e-6);
+  CHECK_INT_EQ(s->num_textures, 3);
+  const vf_texture_slot *t = red->textures;
+  CHECK(t[VF_TEXTURE_COLOR].texture > 0 && t[VF_TEXTURE_ROUGHNESS_METALLIC].texture > 0 &&
+        t[VF_TEXTURE_NORMAL].texture > 0 && t[VF_TEXTURE_EMISSION].texture > 0);
+  CHECK_INT_EQ(t[VF_TEXTURE_ALPHA].texture, t[VF_TEXTURE_COLOR].texture); /* alpha of the base colour */
+  CHECK_INT_EQ(t[VF_TEXTURE_EMISSION].texture, t[VF_TEXTURE_ROUGHNESS_METALLIC].texture); /* one image, one texture */
+  CHECK_INT_EQ(t[VF_TEXTURE_COLOR].wrap_s, VF_WRAP_CLAMP);
+  CHECK_INT_EQ(t[VF_TEXTURE_COLOR].wrap_t, VF_WRAP_MIRROR);
+  CHECK_INT_EQ(t[VF_TEXTURE_NORMAL].wrap_s, VF_WRAP_REPEAT);
+  if (t[VF_TEXTURE_COLOR].texture > 0 && t[VF_TEXTURE_COLOR].texture <= s->num_textures) {
+    const vf_texture *base = &s->textures[t[VF_TEXTURE_COLOR].texture - 1];
+    CHECK_INT_EQ(base->width, 2);
+    CHECK_INT_EQ(base->channels, 4);
+    CHECK_STR_CONTAINS(base->name, "base.png");
+  }
+  /* Emission = emissiveFactor x KHR_materials_emissive_strength, on the shape. */
+  const vf_shape *tri = shape_named(s, "Tri");
+  if (tri) CHECK_VEC(tri->emission, 4, 2, 0, 1e-6);
+  /* Transmission 1 with KHR_materials_ior: a rough dielectric tinted by the base colour. */
+  CHECK(!glass->gltf);
+  CHECK_VEC(glass->dielectric, 0.9, 0.95, 1.0, 1e-6);
+  CHECK_NEAR(glass->ior, 1.45, 1e-6);
+  CHECK_NEAR(glass->roughness, 0.1, 1e-6);
+  CHECK_NEAR(glass->alpha_cutoff, 0.0, 0);
+  vf_scene_destroy(s);
+}
+
+static void test_gltf_notes_list_what_is_not_rendered(void) {
+  vf_scene *s = load("model.gltf", NULL);
+  if (s == NULL) return;
+  CHECK_STR_CONTAINS(s->notes, "model.gltf: extension KHR_materials_sheen is not supported");
+  CHECK_STR_CONTAINS(s->notes, "KHR_texture_transform");
+  CHECK(s->notes && strstr(s->notes, "KHR_materials_ior") == NULL);
+  CHECK(s->notes && strstr(s->notes, "KHR_lights_punctual") == NULL);
+  vf_scene_destroy(s);
+}
+
+static void test_json_scene_imports_with_transform_and_material_override(void) {
+  const char json[] =
+      "{\"materials\": {\"Red\": {\"diffuse\": [0.1, 0.2, 0.3]}},\n"
+      " \"import\": [{\"file\": \"model.gltf\", \"transform\": {\"translate\": [0, 0, -100]}, \"camera\": \"TopCam\"}]}\n";
+  write_file("scene.json", json, sizeof json - 1);
+  vf_scene *s = load("scene.json", NULL);
+  if (s == NULL) return;
+  const vf_shape *tri = shape_named(s, "Tri");
+  if (tri) {
+    CHECK(vertex_at(tri, 10, 2, -100) >= 0);
+    CHECK_INT_EQ(tri->material, 0); /* the JSON's "Red" */
+    CHECK_VEC(s->materials[tri->material].diffuse, 0.1, 0.2, 0.3, 1e-7);
+    CHECK(vf_is_zero(tri->emission)); /* the file's material, emission included, is replaced */
+  }
+  CHECK_INT_EQ(s->num_textures, 0); /* only "Red" used textures */
+  CHECK_VEC(s->camera.position, 0, 10, -100, 1e-5);
+  CHECK_VEC(s->point_lights[0].position, 1, 2, -97, 1e-5);
+  vf_scene_destroy(s);
+  /* A scene with a camera of its own cannot choose an imported one as well. */
+  const char both[] = "{\"camera\": {\"position\": [0, 0, 5], \"target\": [0, 0, 0], \"fov\": 40},\n"
+                      " \"import\": [{\"file\": \"model.gltf\", \"camera\": 0}]}\n";
+  write_file("both.json", both, sizeof both - 1);
+  char detail[1024];
+  CHECK_INT_EQ(load_error("both.json", NULL, detail, sizeof detail), VF_ESCENE);
+  CHECK_STR_CONTAINS(detail, "import[0].camera: the scene has a 'camera' already");
+}
+
+static void test_model_text_is_the_json_that_imports_it(void) {
+  char *text = NULL;
+  size_t len = 0;
+  CHECK_INT_EQ(vf_scene_model_text("/some/dir/a \"b\".glb", "Cam 1", &text, &len), VF_OK);
+  CHECK_STR_CONTAINS(text, "{\"import\":[{\"file\":\"a \\\"b\\\".glb\",\"camera\":\"Cam 1\"}]}");
+  free(text);
+  CHECK(vf_scene_is_model_file("x/Y.GLTF") && vf_scene_is_model_file("a.obj") && !vf_scene_is_model_file("a.json"));
+}
+
+/* ---- OBJ + MTL ------------------------------------------------------------------------------ */
+
+static void write_obj(void) {
+  const char obj[] = "mtllib model.mtl\n"
+                     "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\n"
+                     "vt 0 0\nvt 1 0\nvt 0 1\n"
+                     "vn 0 0 2\n"
+                     "o plastic\nusemtl plastic\nf 1/1/1 2/2/1 3/3/1\n"
+                     "o glass\nusemtl glass\nf 1/1/1 2/2/1 4/3/1\n"
+                     "o leaf\nusemtl leaf\nf 1/1/1 3/2/1 4/3/1\n";
+  const char mtl[] = "newmtl plastic\nKd 0.5 0.4 0.3\nKs 0.6 0.6 0.6\nNs 50\nKe 0 0 0\nillum 2\n"
+                     "newmtl glass\nKd 0 0 0\nNi 1.33\nillum 7\n"
+                     "newmtl leaf\nKd 1 1 1\nKe 0.5 0.5 0.5\nmap_Kd base.png\nmap_d base.png\nmap_Bump bump.png\nnorm nrm.png\n"
+                     "map_Ks mr.png\n";
+  write_file("model.obj", obj, sizeof obj - 1);
+  write_file("model.mtl", mtl, sizeof mtl - 1);
+}
+
+static void test_obj_mtl_materials_uvs_and_notes(void) {
+  write_obj();
+  vf_scene *s = load("model.obj", NULL);
+  if (s == NULL) return;
+  CHECK_INT_EQ(s->num_shapes, 3);
+  const vf_material *plastic = &s->materials[material_named(s, "plastic")];
+  const vf_material *glass = &s->materials[material_named(s, "glass")], *leaf = &s->materials[material_named(s, "leaf")];
+  /* Kd + Ks = 1.1 in red: both scaled by 1/1.1. */
+  CHECK_VEC(plastic->diffuse, 0.5 / 1.1, 0.4 / 1.1, 0.3 / 1.1, 1e-6);
+  CHECK_VEC(plastic->glossy, 0.6 / 1.1, 0.6 / 1.1, 0.6 / 1.1, 1e-6);
+  CHECK_NEAR(plastic->phong_exponent, 50, 0);
+  CHECK(!plastic->gltf);
+  CHECK_VEC(glass->dielectric, 1, 1, 1, 0);
+  CHECK_NEAR(glass->ior, 1.33, 1e-6);
+  CHECK(vf_is_zero(glass->diffuse));
+  CHECK(leaf->textures[VF_TEXTURE_COLOR].texture > 0);
+  CHECK_INT_EQ(leaf->textures[VF_TEXTURE_ALPHA].texture, leaf->textures[VF_TEXTURE_COLOR].texture);
+  CHECK_INT_EQ(leaf->alpha_channel, 3);
+  CHECK_NEAR(leaf->alpha_cutoff, 0.5, 0);
+  CHECK(leaf->textures[VF_TEXTURE_NORMAL].texture > 0); /* norm */
+  const vf_shape *sh = shape_named(s, "leaf");
+  if (sh) CHECK_VEC(sh->emission, 0.5, 0.5, 0.5, 0);
+  sh = shape_named(s, "plastic");
+  if (sh && sh->uvs && sh->normals) {
+    /* OBJ's vt has v = 0 at the bottom of an image: t = 1 - v. */
+    int v = vertex_at(sh, 1, 0, 0);
+    CHECK_NEAR(sh->uvs[2 * v], 1.0, 0);
+    CHECK_NEAR(sh->uvs[2 * v + 1], 1.0, 0);
+    CHECK_NEAR(sh->normals[3 * v + 2], 1.0, 0); /* vn 0 0 2, normalised */
+  } else {
+    CHECK_FAIL_("%s", "the plastic shape has no uvs or normals");
+  }
+  CHECK_STR_CONTAINS(s->notes, "Kd + Ks above 1 are scaled down");
+  CHECK_STR_CONTAINS(s->notes, "specular (map_Ks) textures are not supported");
+  CHECK_STR_CONTAINS(s->notes, "no camera: a default camera");
+  /* The default camera sees the whole bounds. */
+  CHECK(s->camera.position.z > 1.0f && s->camera.forward.z < 0.0f);
+  vf_scene_destroy(s);
+}
+
+static void test_obj_bump_map_that_is_a_height_map_is_noted(void) {
+  const char obj[] = "mtllib bump.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\nusemtl m\nf 1/1 2/2 3/3\n";
+  const char mtl[] = "newmtl m\nKd 0.5 0.5 0.5\nKe 1 1 1\nmap_Bump bump.png\n";
+  write_file("bump.obj", obj, sizeof obj - 1);
+  write_file("bump.mtl", mtl, sizeof mtl - 1);
+  vf_scene *s = load("bump.obj", NULL);
+  if (s == NULL) return;
+  CHECK_STR_CONTAINS(s->notes, "bump.obj: bump maps that are height maps are not supported");
+  CHECK_INT_EQ(s->materials[0].textures[VF_TEXTURE_NORMAL].texture, 0);
+  vf_scene_destroy(s);
+}
+
+/* ---- bad input ------------------------------------------------------------------------------ */
+
+static void test_bad_files_are_refused_naming_file_and_problem(void) {
+  char detail[1024];
+  CHECK_INT_EQ(load_error("model.gltf", "Nope", detail, sizeof detail), VF_ESCENE);
+  CHECK_STR_CONTAINS(detail, "model.gltf: --camera: no camera 'Nope' in model.gltf (its cameras: 0 'CamNode', 1 'TopCam')");
+  CHECK_INT_EQ(load_error("model.gltf", "7", detail, sizeof detail), VF_ESCENE);
+  CHECK_STR_CONTAINS(detail, "no camera '7'");
+
+  write_buffer(1);
+  CHECK_INT_EQ(load_error("model.gltf", NULL, detail, sizeof detail), VF_EMESH);
+  CHECK_STR_CONTAINS(detail, "model.gltf: vertex 1 has a non-finite normal");
+  write_buffer(2);
+  CHECK_INT_EQ(load_error("model.gltf", NULL, detail, sizeof detail), VF_EMESH);
+  CHECK_STR_CONTAINS(detail, "model.gltf: vertex 1 has a non-finite texture coordinate");
+  write_buffer(0);
+
+  const char *broken[] = {
+      /* a buffer view beyond its buffer */
+      " \"bufferViews\": [{\"buffer\": 0, \"byteOffset\": 100, \"byteLength\": 144}, {\"buffer\": 0, \"byteOffset\": 144, \"byteLength\": 6}],\n",
+      /* an accessor counting more elements than its view holds */
+      " \"bufferViews\": [{\"buffer\": 0, \"byteOffset\": 0, \"byteLength\": 144}, {\"buffer\": 0, \"byteOffset\": 144, \"byteLength\": 6}],\n"};
+  for (int i = 0; i < 2; i++) {
+    char acc[4096];
+    const char *rest = strstr(good_accessors, " \"accessors\"");
+    snprintf(acc, sizeof acc, "%s%s", broken[i], rest);
+    if (i == 1) { /* count 3 -> 3000 for the positions */
+      char *count = strstr(acc, "\"count\": 3,");
+      memmove(count + 14, count + 11, strlen(count + 11) + 1);
+      memcpy(count, "\"count\": 3000,", 14);
+    }
+    write_gltf(acc);
+    int err = load_error("model.gltf", NULL, detail, sizeof detail);
+    CHECK_INT_EQ(err, VF_EMESH);
+    CHECK_STR_CONTAINS(detail, "cannot read 'model.gltf'");
+    printf("  broken accessor %d: %s\n", i, detail);
+  }
+  write_gltf(NULL);
+
+  char p[256];
+  path_of(p, sizeof p, "nrm.png");
+  unlink(p);
+  CHECK_INT_EQ(load_error("model.gltf", NULL, detail, sizeof detail), VF_ENOENT);
+  CHECK_STR_CONTAINS(detail, "model.gltf: material 'Red'");
+  CHECK_STR_CONTAINS(detail, "nrm.png");
+  write_textures();
+}
+
+/* ---- the glTF sample models of Debian's assimp-testmodels --------------------------------------- */
+
+static void test_assimp_testmodels_glTF2_load_with_notes(void) {
+  static const char *const models[] = {"BoxTextured-glTF/BoxTextured.gltf", "BoxTextured-glTF-Binary/BoxTextured.glb",
+                                       "BoxTextured-glTF-Embedded/BoxTextured.gltf", "cameras/Cameras.gltf",
+                                       "2CylinderEngine-glTF-Binary/2CylinderEngine.glb",
+                                       NULL};
+  const char *root = "/usr/share/assimp/models/glTF2";
+  if (access(root, R_OK) != 0) {
+    printf("  skipped: %s not installed (apt-get install assimp-testmodels)\n", root);
+    return;
+  }
+  int loaded = 0;
+  for (int i = 0; models[i] != NULL; i++) {
+    char p[512];
+    snprintf(p, sizeof p, "%s/%s", root, models[i]);
+    if (access(p, R_OK) != 0) continue;
+    vf_scene *s = NULL;
+    int err = vf_scene_load(p, &s);
+    if (err != VF_OK) CHECK_FAIL_("%s: %s", p, vf_error_detail(err));
+    if (s == NULL) continue;
+    loaded++;
+    CHECK(s->num_shapes > 0 && s->shapes[0].num_triangles > 0);
+    CHECK(s->notes != NULL); /* at least the default camera or light */
+    printf("  %s: %d shapes, %d materials, %d textures; notes:\n%s", models[i], s->num_shapes, s->num_materials,
+           s->num_textures, s->notes ? s->notes : "");
+    vf_scene_destroy(s);
+  }
+  CHECK(loaded > 0);
+}
+
+int main(void) {
+  fresh_dir();
+  RUN(test_gltf_node_hierarchy_moves_positions_normals_and_tangents);
+  RUN(test_gltf_camera_by_default_name_and_index);
+  RUN(test_gltf_lights_point_spot_directional);
+  RUN(test_gltf_materials_every_parameter_and_texture_slot);
+  RUN(test_gltf_notes_list_what_is_not_rendered);
+  RUN(test_json_scene_imports_with_transform_and_material_override);
+  RUN(test_model_text_is_the_json_that_imports_it);
+  RUN(test_obj_mtl_materials_uvs_and_notes);
+  RUN(test_obj_bump_map_that_is_a_height_map_is_noted);
+  RUN(test_bad_files_are_refused_naming_file_and_problem);
+  RUN(test_assimp_testmodels_glTF2_load_with_notes);
+  if (getenv("KEEP_TMP") == NULL) remove_dir();
+  else printf("kept %s\n", dir);
+  return check_finish();
+}
