@@ -100,13 +100,22 @@ static float bumps(int x, int y, int c) {
   return (float)(0.5 * (n[c] + 1.0));
 }
 
-enum { FEATURE_SMOOTH = 1, FEATURE_TEXTURED = 2, FEATURE_NORMAL_MAP = 4, FEATURE_CUTOUT = 8 };
+enum {
+  FEATURE_SMOOTH = 1,
+  FEATURE_TEXTURED = 2,
+  FEATURE_NORMAL_MAP = 4,
+  FEATURE_CUTOUT = 8,
+  FEATURE_ROUGH_GLASS = 16, /* the left ball (smooth with FEATURE_SMOOTH) of rough glass */
+  FEATURE_LENS = 32,        /* a thin lens focused on the balls */
+  FEATURE_SPOT = 64,        /* a spot light beside the area light */
+};
 
 /* cornell-diffuse with the features asked for: FEATURE_SMOOTH makes the balls coarse meshes with
  * vertex normals; FEATURE_TEXTURED gives the floor a checker diffuse texture and the right ball a
  * glTF material with base colour and roughness-metallic textures, and the light an emission
  * texture; FEATURE_NORMAL_MAP bumps the
- * back wall; FEATURE_CUTOUT puts a grating with square holes under the light. */
+ * back wall; FEATURE_CUTOUT puts a grating with square holes under the light; the rest as
+ * their names say. */
 static vf_scene *feature_scene(unsigned features) {
   vf_scene *s;
   CHECK_INT_EQ(vf_scene_load("cornell-diffuse", &s), VF_OK);
@@ -121,6 +130,33 @@ static vf_scene *feature_scene(unsigned features) {
     float rl = s->shapes[left].radius, rr = s->shapes[right].radius;
     make_uv_sphere(&s->shapes[left], cl, rl, 6);
     make_uv_sphere(&s->shapes[right], cr, rr, 8);
+  }
+  if (features & FEATURE_ROUGH_GLASS) {
+    s->materials = realloc(s->materials, (size_t)(s->num_materials + 1) * sizeof *s->materials);
+    vf_material *g = &s->materials[s->num_materials];
+    memset(g, 0, sizeof *g);
+    snprintf(g->name, sizeof g->name, "rough glass");
+    g->phong_exponent = 1.0f;
+    g->dielectric = vf_vec3_splat(1.0f);
+    g->ior = 1.5f;
+    g->roughness = 0.3f;
+    g->alpha = g->normal_scale = 1.0f;
+    s->shapes[left].material = s->num_materials++;
+  }
+  if (features & FEATURE_LENS) {
+    s->camera.aperture = 0.08f;
+    s->camera.focus_distance = 3.6f;
+  }
+  if (features & FEATURE_SPOT) {
+    s->point_lights = realloc(s->point_lights, (size_t)(s->num_point_lights + 1) * sizeof *s->point_lights);
+    vf_point_light_desc *l = &s->point_lights[s->num_point_lights++];
+    memset(l, 0, sizeof *l);
+    l->position = vf_vec3_make(-0.5f, 0.8f, 0.5f);
+    l->direction = vf_normalize(vf_vec3_make(0.3f, -1.0f, -0.4f));
+    l->intensity = vf_vec3_splat(2.0f);
+    l->is_spot = 1;
+    l->inner_cone_angle = 0.3f;
+    l->outer_cone_angle = 0.6f;
   }
   /* room for two more materials */
   s->materials = realloc(s->materials, (size_t)(s->num_materials + 2) * sizeof *s->materials);
