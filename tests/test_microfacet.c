@@ -457,7 +457,7 @@ static void test_scene_format_reads_and_checks_the_rough_fields(void) {
       {"{\"conductor\": [0.6, 0.6, 0.6], \"diffuse\": [0.5, 0.2, 0.2]}", "materials.m: albedo sum of the lobes exceeds 1 (channel r"},
       {"{\"conductor\": [-1, 1, 1]}", "materials.m.conductor: negative albedo"},
       {"{\"base_color\": [0.5, 0.5, 0.5], \"metallic\": 0, \"roughness\": 0.5, \"diffuse\": [0.1, 0.1, 0.1]}",
-       "materials.m.diffuse: unknown field (expected one of: base_color, metallic, roughness)"},
+       "materials.m.diffuse: unknown field (expected one of: base_color, metallic, roughness, base_color_texture,"},
       {"{\"base_color\": [0.5, 0.5, 0.5], \"roughness\": 0.5}", "materials.m: missing field 'metallic'"},
       {"{\"metallic\": 1, \"roughness\": 0.5}", "materials.m: missing field 'base_color'"},
       {"{\"base_color\": [0.5, 0.5, 0.5], \"metallic\": 0}", "materials.m: missing field 'roughness'"},
