@@ -13,8 +13,8 @@
 # rays prepared beforehand, pays for no such thing, and neither does an iteration of a
 # long render. "of raw" sets the steady rate against the raw one.
 #
-#   tests/bench/renderer.sh [BUILD_DIR] [SCENE] [ITERATIONS] [RUNS]
-#   defaults: build cornell 12 5   (512x512, max path length 10, 2 threads)
+#   [RESOLUTION=WxH] [ALGORITHMS="vcm bpt pt"] tests/bench/renderer.sh [BUILD_DIR] [SCENE] [ITERATIONS] [RUNS]
+#   defaults: build cornell 12 5, 512x512, all six algorithms (max path length 10, 2 threads)
 set -euo pipefail
 build="${1:-build}"
 scene="${2:-cornell}"
@@ -26,11 +26,11 @@ source "$(dirname "$0")/renderer_lib.sh"
 
 median() { sort -g | awk '{v[NR] = $1} END {print v[int((NR + 1) / 2)]}'; }
 
-echo "scene $scene, 512x512, max path length 10, 2 threads, $iterations iterations per run, median of $runs runs"
+echo "scene $scene, ${RESOLUTION:-512x512}, max path length 10, 2 threads, $iterations iterations per run, median of $runs runs"
 echo
 echo "| algorithm | iterations/s | Mrays/s | steady iterations/s | steady Mrays/s | raw Embree mix Mrays/s | of raw (steady) | packet mix Mrays/s | light pass ms/it | grid ms/it | camera pass ms/it |"
 echo "|---|---|---|---|---|---|---|---|---|---|---|"
-for algorithm in vcm bpt pt lt ppm bpm; do
+for algorithm in ${ALGORITHMS:-vcm bpt pt lt ppm bpm}; do
   raw_bench "$build" "$scene" "$tmp/raw"
   raw=$(raw_mix "$tmp/raw")
   packet=$(packet_mix "$tmp/raw")

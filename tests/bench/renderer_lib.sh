@@ -9,11 +9,11 @@ raw_bench() { "$1/tests/bench_embree" "$2" 2 2000000 >"$3"; }
 raw_mix() { sed -n 's/.*mix 15% .*: \([0-9.]*\) Mrays\/s.*/\1/p' "$1"; }
 packet_mix() { sed -n 's/.*packet mix: \([0-9.]*\) Mrays\/s.*/\1/p' "$1"; }
 
-# One render as the benchmarks time it: 512x512, max path length 10, 2 threads, --direct;
-# its report into LOG:
-#   render_bench BUILD SCENE ALGORITHM ITERATIONS FILM LOG
+# One render as the benchmarks time it: RESOLUTION (default 512x512), max path length 10,
+# 2 threads, --direct; its report into LOG:
+#   [RESOLUTION=WxH] render_bench BUILD SCENE ALGORITHM ITERATIONS FILM LOG
 render_bench() {
-  "$1/vcmfarm" render "$2" --direct -a "$3" -n "$4" -j 2 -R 512x512 -l 10 -o "$5" 2>"$6"
+  "$1/vcmfarm" render "$2" --direct -a "$3" -n "$4" -j 2 -R "${RESOLUTION:-512x512}" -l 10 -o "$5" 2>"$6"
 }
 
 # "IT/S MRAYS/S" after the first iteration (the steady rate), from render_bench's LOG.
