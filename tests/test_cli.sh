@@ -109,5 +109,18 @@ fresh_copy; sed -i 's/"byteOffset": 0, "byteLength": 144/"byteOffset": 100, "byt
 expect_refusal "glTF with a buffer view out of range" "cannot read 'model.gltf': GLTF: Buffer view with offset/length (100/144) is out of range" \
   "$vcmfarm" render "$broken/model.gltf" -n 1 -R 8x8 -o "$tmp/out.exr"
 
+fresh_copy; echo "not an image" >"$broken/nrm.png"
+expect_refusal "glTF with a texture of an unsupported format" "model.gltf: material 'Red': nrm.png: unsupported texture format" \
+  "$vcmfarm" render "$broken/model.gltf" -n 1 -R 8x8 -o "$tmp/out.exr"
+fresh_copy; head -c 60 "$import/nrm.png" >"$broken/nrm.png"
+expect_refusal "glTF with an unreadable (truncated) texture" "model.gltf: material 'Red': nrm.png: corrupt PNG: file truncated" \
+  "$vcmfarm" render "$broken/model.gltf" -n 1 -R 8x8 -o "$tmp/out.exr"
+printf '%s' '{"camera":{"position":[0,0,3],"target":[0,0,0],"up":[0,1,0],"fov":40},
+  "materials":{"m":{"conductor":[1,1,1],"roughness":-0.1}},
+  "shapes":[{"type":"sphere","material":"m","center":[0,0,0],"radius":1}],
+  "lights":[{"type":"background","radiance":[1,1,1]}]}' >"$tmp/negative.json"
+expect_refusal "negative roughness" "negative.json: materials.m.roughness: must be in [0, 1], found -0.1" \
+  "$vcmfarm" render "$tmp/negative.json" -n 1 -R 8x8 -o "$tmp/out.exr"
+
 echo "$passed passed, $failed failed"
 [ "$failed" -eq 0 ]
