@@ -139,11 +139,7 @@ static void add_worker(cJSON *workers, const Vcmfarm__WorkerStatus *w) {
   cJSON_AddItemToArray(workers, o);
   cJSON_AddStringToObject(o, "id", id);
   cJSON_AddStringToObject(o, "name", w->name);
-  cJSON_AddStringToObject(o, "state", w->state);
-  add_string_or_null(o, "host", w->host);
-  cJSON_AddNumberToObject(o, "cores", w->cores);
   cJSON_AddNumberToObject(o, "threads", w->threads);
-  add_string_or_null(o, "version", w->software_version);
   if (w->lease_job) {
     cJSON *l = cJSON_AddObjectToObject(o, "lease");
     cJSON_AddNumberToObject(l, "job", (double)w->lease_job);
@@ -152,6 +148,10 @@ static void add_worker(cJSON *workers, const Vcmfarm__WorkerStatus *w) {
   } else {
     cJSON_AddNullToObject(o, "lease");
   }
+  cJSON_AddStringToObject(o, "state", w->state);
+  add_string_or_null(o, "host", w->host);
+  cJSON_AddNumberToObject(o, "cores", w->cores);
+  add_string_or_null(o, "version", w->software_version);
   cJSON_AddNumberToObject(o, "iterations_per_second", w->iterations_per_second);
   cJSON_AddNumberToObject(o, "last_seen_seconds", w->last_seen_seconds);
   add_time(o, "registered_at", w->registered_at);

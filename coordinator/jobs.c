@@ -64,11 +64,18 @@ void vf_jobs_submit(vf_farm *farm, const Vcmfarm__SubmitJob *m, vf_farm_reply *r
     return vf_farm_reply_error(r, VCMFARM__ERROR_CODE__ERROR_INTERNAL, vf_error_detail(err));
   }
   farm->next_job_id++;
-  vf_log("job %llu '%s' submitted: %s %s, at most %llu iterations from %llu, time limit %g s, target RMSE %g%s, target "
-         "error %g, priority %d", (unsigned long long)job->id, job->name, builtin ? "built-in" : "JSON scene",
-         builtin ? job->scene_text : "", (unsigned long long)job->iterations, (unsigned long long)job->first,
-         job->time_limit, job->target_rmse,
-         job->reference.rgb ? " (with a reference)" : "", job->target_error, job->priority);
+  char limits[256];
+  int n = snprintf(limits, sizeof limits, "at most %llu iteration%s from %llu", (unsigned long long)job->iterations,
+                   job->iterations == 1 ? "" : "s", (unsigned long long)job->first);
+  if (job->time_limit > 0.0 && n > 0 && (size_t)n < sizeof limits)
+    n += snprintf(limits + n, sizeof limits - (size_t)n, ", time limit %g s", job->time_limit);
+  if (job->target_rmse > 0.0 && n > 0 && (size_t)n < sizeof limits)
+    n += snprintf(limits + n, sizeof limits - (size_t)n, ", target RMSE %g", job->target_rmse);
+  if (job->target_error > 0.0 && n > 0 && (size_t)n < sizeof limits)
+    snprintf(limits + n, sizeof limits - (size_t)n, ", target error %g", job->target_error);
+  vf_log("job %llu '%s' submitted: %s %s, %s%s, priority %d", (unsigned long long)job->id, job->name,
+         builtin ? "built-in" : "JSON scene", builtin ? job->scene_text : job->film->scene_name[0] ? job->film->scene_name : "(no path)",
+         limits, job->reference.rgb ? " (with a reference)" : "", job->priority);
   vcmfarm__submitted__init(&r->submitted);
   r->submitted.job_id = job->id;
   r->env.body_case = VCMFARM__ENVELOPE__BODY_SUBMITTED;

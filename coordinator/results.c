@@ -7,6 +7,7 @@
 #include "leases.h"
 #include "log.h"
 #include "partial.h"
+#include "workers.h"
 
 #include <stdarg.h>
 #include <stdio.h>
@@ -71,7 +72,7 @@ static void merged(vf_farm *farm, vf_job *job, vf_lease *l, const vf_film *film,
   unsigned long long lid = (unsigned long long)m->lease_id, b = (unsigned long long)m->begin;
   unsigned long long e = (unsigned long long)m->end;
   int late = l->state == VF_LEASE_EXPIRED;
-  vf_farm_worker *w = vf_farm_find_worker(farm, l->worker_id);
+  vf_farm_worker *w = vf_workers_find_any(farm, l->worker_id);
   if (w) {
     w->iterations_merged += m->end - m->begin;
     w->parts_merged++;
@@ -97,7 +98,7 @@ void vf_results_receive(vf_farm *farm, const Vcmfarm__LeaseResult *m, double now
   unsigned long long b = (unsigned long long)m->begin, e = (unsigned long long)m->end;
   vf_job *job = vf_farm_job(farm, m->job_id);
   vf_lease *l = vf_lease_find(&farm->leases, m->lease_id);
-  vf_farm_worker *w = vf_farm_find_worker(farm, m->worker_id);
+  vf_farm_worker *w = vf_workers_find_any(farm, m->worker_id);
   if (l == NULL)
     return refuse(w, job, r, "lease %016llx (job %llu [%llu,%llu)) is unknown: expired long ago, finished, or "
                   "granted before a coordinator restart", lid, jid, b, e);

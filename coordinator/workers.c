@@ -36,10 +36,11 @@ void vf_workers_register(vf_farm *farm, const Vcmfarm__Register *m, double now, 
   w->threads = m->threads;
   w->last_seen = now;
   w->registered_at = vf_unix_now();
-  vf_log("worker %s registered (%u cores, %u threads, vcmfarm %s, host %s) as %016llx", w->name, w->cores, w->threads,
-         w->version, w->host[0] ? w->host : "unnamed", (unsigned long long)w->id);
-  vf_events_add(&farm->events, w->registered_at, "worker_registered", 0, w->name, "worker %s registered: %u cores, %u threads",
-                w->name, w->cores, w->threads);
+  vf_log("worker %s registered (%u core%s, %u thread%s, vcmfarm %s, host %s) as %016llx", w->name, w->cores,
+         w->cores == 1 ? "" : "s", w->threads, w->threads == 1 ? "" : "s", w->version, w->host[0] ? w->host : "unnamed",
+         (unsigned long long)w->id);
+  vf_events_add(&farm->events, w->registered_at, "worker_registered", 0, w->name, "worker %s registered: %u core%s, %u thread%s",
+                w->name, w->cores, w->cores == 1 ? "" : "s", w->threads, w->threads == 1 ? "" : "s");
   vcmfarm__registered__init(&r->registered);
   r->registered.worker_id = w->id;
   double hb = farm->config.worker_timeout / 5.0;
@@ -59,6 +60,13 @@ static void depart(vf_farm *farm, size_t i, vf_worker_state state) {
   farm->departed_next = (farm->departed_next + 1) % VF_FARM_DEPARTED;
   if (farm->num_departed < VF_FARM_DEPARTED) farm->num_departed++;
   farm->workers[i] = farm->workers[--farm->num_workers];
+}
+
+vf_farm_worker *vf_workers_find_any(vf_farm *farm, uint64_t id) {
+  vf_farm_worker *w = vf_farm_find_worker(farm, id);
+  for (unsigned i = 0; w == NULL && i < farm->num_departed; i++)
+    if (farm->departed[i].id == id) w = &farm->departed[i];
+  return w;
 }
 
 const vf_farm_worker *vf_workers_departed(const vf_farm *farm, unsigned i) {

@@ -24,6 +24,10 @@ int vf_workers_expire(vf_farm *farm, double now);
  * and its pointer invalid afterwards). */
 void vf_workers_goodbye(vf_farm *farm, vf_farm_worker *w, const Vcmfarm__Goodbye *m, double now, vf_farm_reply *r);
 
+/* The registered or departed worker with this id (a late result may come from a worker
+ * already lost: its totals and events still name it), or NULL. */
+vf_farm_worker *vf_workers_find_any(vf_farm *farm, uint64_t id);
+
 /* The i-th departed worker kept, 0 the oldest; NULL past the last. */
 const vf_farm_worker *vf_workers_departed(const vf_farm *farm, unsigned i);
 

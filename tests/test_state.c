@@ -6,6 +6,7 @@
 #include "common/error.h"
 #include "common/file.h"
 #include "common/settings.h"
+#include "coordinator/checkpoint.h"
 #include "coordinator/log.h"
 #include "coordinator/state.h"
 
@@ -229,6 +230,31 @@ static void test_a_finished_jobs_errors_come_back(void) {
   }
   vf_farm_destroy(&a);
   vf_farm_destroy(&b);
+}
+
+/* A film checkpoint that fails is an event of its job (and is tried again later). */
+static void test_a_failed_checkpoint_is_an_event_of_its_job(void) {
+  char dir[4200], blocked[4300];
+  fresh_dir(dir, sizeof dir, "blocked");
+  write_file(dir, "file", "not a directory");
+  snprintf(blocked, sizeof blocked, "%s/file/state", dir);
+  vf_farm farm;
+  open_farm(&farm, blocked);
+  vf_job *j = add_job(&farm, 1, "cornell", 0, 10);
+  if (j == NULL) return;
+  float rgb[3 * W * H] = {0};
+  CHECK_INT_EQ(vf_film_add_iteration(j->film, 0, rgb, rgb, NULL), VF_OK);
+  j->film_dirty = 1;
+  CHECK(vf_checkpoint_write(&farm, 0) != VF_OK);
+  CHECK_INT_EQ(j->events.count, 1);
+  const vf_event *e = vf_events_at(&j->events, 0);
+  if (e) {
+    CHECK_STR_EQ(e->kind, "checkpoint_failed");
+    CHECK_STR_CONTAINS(e->message, "film checkpoint failed: ");
+    if (!(e->time > 1.6e9)) CHECK_FAIL_("event time %g, expected a Unix time", e->time);
+  }
+  CHECK(j->film_dirty); /* the next checkpoint tries again */
+  vf_farm_destroy(&farm);
 }
 
 static void test_an_empty_directory_is_an_empty_farm(void) {
@@ -508,6 +534,7 @@ int main(void) {
   RUN(test_every_job_is_read_back_as_written);
   RUN(test_a_finished_jobs_errors_come_back);
   RUN(test_format_3_is_read_with_old_settings_text);
+  RUN(test_a_failed_checkpoint_is_an_event_of_its_job);
   RUN(test_an_empty_directory_is_an_empty_farm);
   RUN(test_a_stop_not_yet_durable_is_written_active);
   RUN(test_a_damaged_job_list_is_refused_naming_the_problem);

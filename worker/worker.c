@@ -8,6 +8,7 @@
 #include "job_scene.h"
 #include "render.h"
 
+#include <errno.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -183,8 +184,10 @@ static void on_progress(void *ctx, const vf_render_status *st) {
   vf_heartbeat_progress(w->heartbeat, st->iterations_done, st->seconds);
   if (w->rendered) atomic_fetch_add(w->rendered, 1);
   if (w->iteration_delay_ms > 0) {
+    /* A real iteration runs to its end whatever signal arrives: so does the delay. */
     struct timespec ts = {w->iteration_delay_ms / 1000, (long)(w->iteration_delay_ms % 1000) * 1000000L};
-    nanosleep(&ts, NULL);
+    while (nanosleep(&ts, &ts) != 0 && errno == EINTR) {
+    }
   }
   if (vf_heartbeat_revoked(w->heartbeat) || *w->terminating) w->render_stop = 1;
 }
