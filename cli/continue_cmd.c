@@ -22,7 +22,8 @@
 
 static const char usage[] =
     "usage: vcmfarm continue FILM [--iterations N | --time S | --target-rmse X --reference REF |\n"
-    "                              --target-error E] [--scene SCENE] [-o OUT] [--threads T]\n"
+    "                              --target-error E] [--scene SCENE] [-o OUT] [--preview PNG]\n"
+    "                              [--threads T]\n"
     "\n"
     "Renders the next global iterations FILM does not hold (its gaps first, then after its\n"
     "last), with the film's own settings and the merge radius of each global index, adds them\n"
