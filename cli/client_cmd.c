@@ -8,7 +8,11 @@
 #include "../worker/job_scene.h"
 #include "../coordinator/job.h"
 #include "../coordinator/schedule.h"
+#include "../common/clock.h"
 #include "fetch.h"
+#include "interrupt.h"
+#include "render_job.h"
+#include "status_report.h"
 #include "submit.h"
 
 #include <cjson/cJSON.h>
@@ -73,6 +77,7 @@ static int parse_job_id(const char *text, uint64_t *id) {
 
 /* ---- submit ---- */
 
+
 static const char submit_usage[] =
     "usage: vcmfarm submit SCENE --coordinator URL --secret FILE [options]\n"
     "\n"
@@ -87,7 +92,76 @@ static const char submit_usage[] =
     "  -P, --priority P         weight 1 to 1000 (default 1): jobs share the workers' time in\n"
     "                           proportion to their priorities\n"
     "  -N, --name NAME          a name for status (default: SCENE)\n"
-    "      --camera NAME|INDEX  a glTF file's camera to render (default: its first)\n" VF_CLI_SETTINGS_HELP CONNECTION_HELP;
+    "      --camera NAME|INDEX  a glTF file's camera to render (default: its first)\n"
+    "  -w, --wait               wait until the job ends (its progress on stderr), then fetch\n"
+    "                           its film to -o; SIGINT stops waiting, not the job. Exit\n"
+    "                           status 0 when it is done, 1 when it failed or was cancelled\n"
+    "  -o, --output FILM.exr    with --wait: where the film goes (required with it)\n" VF_CLI_PREVIEW_HELP
+    VF_CLI_SETTINGS_HELP CONNECTION_HELP;
+
+/* Status of one job until it ends, then its film to `output`: submit --wait. The job keeps
+ * running on the farm whatever happens here (SIGINT only stops the waiting). *done says
+ * whether the job ended done (not failed, cancelled, or still running when interrupted). */
+static int wait_and_fetch(vf_farm_client *client, const connection *conn, uint64_t job_id, const char *output,
+                          const char *preview, double exposure, int *done) {
+  *done = 0;
+  Vcmfarm__StatusRequest m = VCMFARM__STATUS_REQUEST__INIT;
+  m.job_id = job_id;
+  Vcmfarm__Envelope q = VCMFARM__ENVELOPE__INIT, *reply = NULL;
+  q.body_case = VCMFARM__ENVELOPE__BODY_STATUS_REQUEST;
+  q.status_request = &m;
+  int tty = isatty(STDERR_FILENO), err = VF_OK, ended = 0;
+  double last_line = 0.0;
+  char line[512] = "", state[16] = "";
+  vf_interrupt_saved saved;
+  vf_interrupt_catch(&saved);
+  while (!ended && !vf_interrupted) {
+    err = vf_farm_request(client, &q, VCMFARM__ENVELOPE__BODY_STATUS, (int)(conn->timeout * 1000.0), &reply);
+    if (err == VF_OK && reply->status->n_jobs == 1) {
+      const Vcmfarm__JobStatus *j = reply->status->jobs[0];
+      vf_status_job_line(j, line, sizeof line);
+      snprintf(state, sizeof state, "%s", j->state);
+      ended = strcmp(j->state, "queued") != 0 && strcmp(j->state, "running") != 0;
+    } else if (err == VF_OK) {
+      err = vf_error_set(VF_EPROTO, "the status of job %llu lacks it", (unsigned long long)job_id);
+    }
+    vf_message_free(reply);
+    reply = NULL;
+    if (err == VF_EREFUSED || err == VF_EPROTO || err == VF_EVERSION || err == VF_EAUTH) break;
+    double now = vf_seconds_now();
+    if (err != VF_OK) { /* the coordinator away (restarting?): keep asking */
+      fprintf(stderr, "%svcmfarm submit: %s; asking again\n", tty ? "\n" : "", vf_error_detail(err));
+      err = VF_OK;
+    } else if (tty) {
+      fprintf(stderr, "\r  job %llu: %s   ", (unsigned long long)job_id, line);
+    } else if (ended || now - last_line >= 10.0) {
+      fprintf(stderr, "vcmfarm submit: job %llu: %s\n", (unsigned long long)job_id, line);
+      last_line = now;
+    }
+    if (!ended) {
+      struct timespec ts = {0, 500000000L};
+      nanosleep(&ts, NULL);
+    }
+  }
+  if (tty && line[0]) fputc('\n', stderr);
+  int interrupted = vf_interrupted != 0;
+  vf_interrupt_restore(&saved);
+  if (err != VF_OK) return err;
+  if (interrupted) {
+    fprintf(stderr, "vcmfarm submit: stopped waiting; job %llu goes on (vcmfarm fetch %llu -o ... when it is done)\n",
+            (unsigned long long)job_id, (unsigned long long)job_id);
+    return VF_OK;
+  }
+  vf_film *film = NULL;
+  if ((err = vf_fetch_film(client, job_id, output, (int)(conn->timeout * 1000.0) * 6, &film)) != VF_OK) return err;
+  if (preview) err = vf_preview_write(film, preview, exposure);
+  if (err == VF_OK)
+    fprintf(stderr, "vcmfarm submit: job %llu %s; wrote %s%s%s\n", (unsigned long long)job_id, state, output,
+            preview ? " and " : "", preview ? preview : "");
+  vf_film_destroy(film);
+  *done = strcmp(state, "done") == 0;
+  return err;
+}
 
 int vf_cmd_submit(int argc, char **argv) {
   static const struct option options[] = {
@@ -96,10 +170,14 @@ int vf_cmd_submit(int argc, char **argv) {
       {"priority", required_argument, 0, 'P'},        {"name", required_argument, 0, 'N'},
       {"coordinator", required_argument, 0, 'c'},     {"secret", required_argument, 0, 'k'},
       {"timeout", required_argument, 0, 'T'},         {"start-iteration", required_argument, 0, 'K'},
-      {"camera", required_argument, 0, 'M'},          {"help", no_argument, 0, 'h'},
+      {"camera", required_argument, 0, 'M'},          {"wait", no_argument, 0, 'w'},
+      {"output", required_argument, 0, 'o'},          {"preview", required_argument, 0, 'p'},
+      {"exposure", required_argument, 0, 'e'},        {"help", no_argument, 0, 'h'},
       {0, 0, 0, 0}};
   uint64_t first = 0;
-  const char *cmd = "submit", *name = NULL, *camera = NULL;
+  const char *cmd = "submit", *name = NULL, *camera = NULL, *output = NULL, *preview = NULL;
+  double exposure = 0.0;
+  int wait = 0;
   vf_cli_settings overrides;
   vf_cli_stop stop = {0};
   connection conn = {NULL, NULL, 10.0};
@@ -108,7 +186,8 @@ int vf_cmd_submit(int argc, char **argv) {
   vf_cli_settings_init(&overrides);
   optind = 0; /* 0: getopt starts again from scratch (glibc), forgetting the last argv */
   opterr = 0;
-  while ((c = getopt_long(argc, argv, VF_CLI_STOP_SHORT VF_CLI_SETTINGS_SHORT "P:N:c:k:h", options, NULL)) != -1) {
+  while ((c = getopt_long(argc, argv, VF_CLI_STOP_SHORT VF_CLI_SETTINGS_SHORT "P:N:c:k:wo:p:e:h", options, NULL)) !=
+         -1) {
     if (connection_option(&conn, c, &err) || vf_cli_settings_option(&overrides, c, optarg, &err) ||
         vf_cli_stop_option(&stop, c, optarg, &err)) {
       if (err != VF_OK) return vf_cli_fail(cmd, err);
@@ -119,6 +198,10 @@ int vf_cmd_submit(int argc, char **argv) {
     case 'N': name = optarg; break;
     case 'M': camera = optarg; break;
     case 'K': err = vf_cli_u64("--start-iteration", optarg, &first); break;
+    case 'w': wait = 1; break;
+    case 'o': output = optarg; break;
+    case 'p': preview = optarg; break;
+    case 'e': err = vf_cli_double("--exposure", optarg, -64.0, 64.0, &exposure); break;
     case 'h': fputs(submit_usage, stdout); return VF_EXIT_OK;
     default: return vf_cli_bad_option(cmd, argv, submit_usage);
     }
@@ -130,6 +213,13 @@ int vf_cmd_submit(int argc, char **argv) {
   }
   /* A farm job stops at the first of its conditions to hold: iterations and time together too. */
   if ((err = vf_cli_stop_check(&stop, 0)) != VF_OK) return vf_cli_fail(cmd, err);
+  if ((output || preview) && !wait)
+    return vf_cli_fail(cmd, vf_error_set(VF_EUSAGE, "-o and --preview go with --wait (else: vcmfarm fetch JOB -o ...)"));
+  if (wait && output == NULL) return vf_cli_fail(cmd, vf_error_set(VF_EUSAGE, "--wait needs -o FILM.exr"));
+  if (output && ((err = vf_cli_writable("-o", output)) != VF_OK ||
+                 (err = vf_cli_extension("-o", output, ".exr", "an OpenEXR film")) != VF_OK))
+    return vf_cli_fail(cmd, err);
+  if (preview && (err = vf_cli_preview_check(preview)) != VF_OK) return vf_cli_fail(cmd, err);
   uint64_t iterations = vf_cli_stop_iterations(&stop);
   vf_farm_client *client;
   if ((err = connect_to(&conn, &client)) != VF_OK) return vf_cli_fail(cmd, err);
@@ -137,12 +227,29 @@ int vf_cmd_submit(int argc, char **argv) {
                        stop.time_limit, stop.target_rmse, stop.target_error, stop.reference, "vcmfarm submit"};
   vf_submitted_job submitted;
   err = vf_submit(client, (int)(conn.timeout * 1000.0), &job, &submitted);
+  if (err != VF_OK) {
+    vf_farm_client_close(client);
+    return vf_cli_fail(cmd, err);
+  }
+  char limits[256] = "";
+  if (stop.iterations > 0 || !vf_cli_stop_open_ended(&stop))
+    snprintf(limits, sizeof limits, ", at most %llu iteration%s", (unsigned long long)iterations, iterations == 1 ? "" : "s");
+  if (stop.time_limit > 0.0)
+    snprintf(limits + strlen(limits), sizeof limits - strlen(limits), ", at most %g s from its first lease",
+             stop.time_limit);
+  if (stop.target_rmse > 0.0)
+    snprintf(limits + strlen(limits), sizeof limits - strlen(limits), ", until RMSE %g", stop.target_rmse);
+  if (stop.target_error > 0.0)
+    snprintf(limits + strlen(limits), sizeof limits - strlen(limits), ", until est. RMSE %g", stop.target_error);
+  fprintf(stderr, "vcmfarm submit: %s, %s%s, from iteration %llu, priority %lld\n", argv[optind], submitted.settings_text,
+          limits, (unsigned long long)first, priority);
+  printf("%llu\n", (unsigned long long)submitted.job_id);
+  fflush(stdout);
+  int done = 1;
+  if (wait) err = wait_and_fetch(client, &conn, submitted.job_id, output, preview, exposure, &done);
   vf_farm_client_close(client);
   if (err != VF_OK) return vf_cli_fail(cmd, err);
-  fprintf(stderr, "vcmfarm submit: %s, %s, at most %llu iterations from %llu, priority %lld\n", argv[optind],
-          submitted.settings_text, (unsigned long long)iterations, (unsigned long long)first, priority);
-  printf("%llu\n", (unsigned long long)submitted.job_id);
-  return VF_EXIT_OK;
+  return done ? VF_EXIT_OK : VF_EXIT_FAILURE;
 }
 
 /* ---- status ---- */
@@ -152,150 +259,12 @@ static const char status_usage[] =
     "\n"
     "Shows the farm's rate, every job (or JOB) and every worker. A job's state is one of\n"
     "queued, running, done, cancelled, failed; with --json it is the field \"state\". A job\n"
-    "shows its rate, ETA and latest error; with JOB, its convergence log too.\n"
+    "shows its rate, its progress and ETA towards the stop condition expected to end it,\n"
+    "its latest error and why it stopped; with JOB, its scene, settings, events and\n"
+    "convergence log too. Workers are idle, busy, stopping, left or lost (the latest that\n"
+    "left or were lost stay listed). The JSON is described in docs/PROTOCOL.md, \"Status\".\n"
     "\n"
     "  -J, --json             JSON on stdout instead of text\n" CONNECTION_HELP;
-
-/* JSON has no NaN: unknown values are null. */
-static void add_number_or_null(cJSON *o, const char *key, double v) {
-  if (isfinite(v)) cJSON_AddNumberToObject(o, key, v);
-  else cJSON_AddNullToObject(o, key);
-}
-
-static void print_json(const Vcmfarm__Status *st) {
-  cJSON *root = cJSON_CreateObject(), *jobs = cJSON_AddArrayToObject(root, "jobs"),
-        *workers = cJSON_AddArrayToObject(root, "workers");
-  for (size_t i = 0; i < st->n_jobs; i++) {
-    const Vcmfarm__JobStatus *j = st->jobs[i];
-    cJSON *o = cJSON_CreateObject();
-    cJSON_AddItemToArray(jobs, o);
-    cJSON_AddNumberToObject(o, "id", (double)j->job_id);
-    cJSON_AddStringToObject(o, "name", j->name);
-    cJSON_AddStringToObject(o, "state", j->state);
-    cJSON_AddNumberToObject(o, "priority", j->priority);
-    cJSON_AddNumberToObject(o, "first_iteration", (double)j->first_iteration);
-    cJSON_AddNumberToObject(o, "iterations", (double)j->iterations_total);
-    cJSON_AddNumberToObject(o, "iterations_done", (double)j->iterations_done);
-    cJSON_AddNumberToObject(o, "iterations_leased", (double)j->iterations_leased);
-    cJSON_AddNumberToObject(o, "iterations_rendering", (double)j->iterations_rendering);
-    cJSON_AddNumberToObject(o, "progress",
-                            j->iterations_total ? (double)j->iterations_done / (double)j->iterations_total : 0.0);
-    cJSON_AddNumberToObject(o, "iterations_per_second", j->iterations_per_second);
-    cJSON_AddNumberToObject(o, "workers", j->workers);
-    cJSON_AddNumberToObject(o, "seconds", j->seconds);
-    add_number_or_null(o, "eta_seconds", j->eta_seconds >= 0.0 ? j->eta_seconds : NAN);
-    add_number_or_null(o, "rmse", j->rmse);
-    add_number_or_null(o, "estimated_rmse", j->estimated_rmse);
-    cJSON *stop = cJSON_AddObjectToObject(o, "stop");
-    cJSON_AddNumberToObject(stop, "iterations", (double)j->iterations_total);
-    add_number_or_null(stop, "time", j->time_limit > 0.0 ? j->time_limit : NAN);
-    add_number_or_null(stop, "target_rmse", j->target_rmse > 0.0 ? j->target_rmse : NAN);
-    add_number_or_null(stop, "target_error", j->target_error > 0.0 ? j->target_error : NAN);
-    cJSON_AddBoolToObject(o, "reference", j->has_reference);
-    cJSON_AddStringToObject(o, "stop_reason", j->stop_reason);
-    cJSON_AddNumberToObject(o, "results_refused", (double)j->results_refused);
-    cJSON_AddStringToObject(o, "settings", j->settings);
-    cJSON_AddStringToObject(o, "message", j->message);
-    if (j->n_convergence > 0) {
-      cJSON *log = cJSON_AddArrayToObject(o, "convergence");
-      for (size_t k = 0; k < j->n_convergence; k++) {
-        const Vcmfarm__ConvergenceEntry *e = j->convergence[k];
-        cJSON *c = cJSON_CreateObject();
-        cJSON_AddItemToArray(log, c);
-        cJSON_AddNumberToObject(c, "run", e->run);
-        cJSON_AddNumberToObject(c, "wall_seconds", e->wall_seconds);
-        cJSON_AddNumberToObject(c, "cpu_seconds", e->cpu_seconds);
-        cJSON_AddNumberToObject(c, "iterations", (double)e->iterations);
-        add_number_or_null(c, "rmse", e->rmse);
-        add_number_or_null(c, "rel_mse", e->rel_mse);
-        add_number_or_null(c, "estimated_rmse", e->estimated_rmse);
-      }
-    }
-  }
-  cJSON_AddNumberToObject(root, "iterations_per_second", st->iterations_per_second);
-  cJSON_AddNumberToObject(root, "workers_busy", st->workers_busy);
-  for (size_t i = 0; i < st->n_workers; i++) {
-    const Vcmfarm__WorkerStatus *w = st->workers[i];
-    cJSON *o = cJSON_CreateObject();
-    char id[17];
-    snprintf(id, sizeof id, "%016llx", (unsigned long long)w->worker_id);
-    cJSON_AddItemToArray(workers, o);
-    cJSON_AddStringToObject(o, "id", id);
-    cJSON_AddStringToObject(o, "name", w->name);
-    cJSON_AddNumberToObject(o, "threads", w->threads);
-    if (w->lease_job) {
-      cJSON *l = cJSON_AddObjectToObject(o, "lease");
-      cJSON_AddNumberToObject(l, "job", (double)w->lease_job);
-      cJSON_AddNumberToObject(l, "begin", (double)w->lease_begin);
-      cJSON_AddNumberToObject(l, "end", (double)w->lease_end);
-    } else {
-      cJSON_AddNullToObject(o, "lease");
-    }
-    cJSON_AddNumberToObject(o, "iterations_per_second", w->iterations_per_second);
-    cJSON_AddNumberToObject(o, "last_seen_seconds", w->last_seen_seconds);
-  }
-  char *text = cJSON_Print(root);
-  if (text) puts(text);
-  free(text);
-  cJSON_Delete(root);
-}
-
-/* "1h02m", "3m05s", "12.3 s" */
-static void format_duration(char *buf, size_t n, double s) {
-  if (s < 0.0 || !isfinite(s)) snprintf(buf, n, "unknown");
-  else if (s < 60.0) snprintf(buf, n, "%.1f s", s);
-  else if (s < 3600.0) snprintf(buf, n, "%dm%02ds", (int)(s / 60.0), (int)fmod(s, 60.0));
-  else snprintf(buf, n, "%dh%02dm", (int)(s / 3600.0), (int)fmod(s / 60.0, 60.0));
-}
-
-static void print_text(const Vcmfarm__Status *st) {
-  printf("farm: %.2f iterations/s, %u of %zu workers busy\n", st->iterations_per_second, st->workers_busy,
-         st->n_workers);
-  for (size_t i = 0; i < st->n_jobs; i++) {
-    const Vcmfarm__JobStatus *j = st->jobs[i];
-    char ran[32], eta[32], stop[256] = "", *p = stop;
-    format_duration(ran, sizeof ran, j->seconds);
-    format_duration(eta, sizeof eta, j->eta_seconds);
-    size_t left = sizeof stop;
-    int n = snprintf(p, left, "%llu iterations", (unsigned long long)j->iterations_total);
-    if (j->time_limit > 0.0 && n > 0 && (size_t)n < left) p += n, left -= (size_t)n, n = snprintf(p, left, ", %g s", j->time_limit);
-    if (j->target_rmse > 0.0 && n > 0 && (size_t)n < left)
-      p += n, left -= (size_t)n, n = snprintf(p, left, ", RMSE %g", j->target_rmse);
-    if (j->target_error > 0.0 && n > 0 && (size_t)n < left)
-      p += n, left -= (size_t)n, n = snprintf(p, left, ", est. RMSE %g", j->target_error);
-    printf("job %llu '%s': %s, %llu iterations done, %llu leased (%llu of them rendered, not merged yet), "
-           "priority %d; stops at %s\n",
-           (unsigned long long)j->job_id, j->name, j->state, (unsigned long long)j->iterations_done,
-           (unsigned long long)j->iterations_leased, (unsigned long long)j->iterations_rendering, j->priority, stop);
-    printf("  ran %s, %.2f it/s on %u workers, ETA %s, est. RMSE %.4g", ran, j->iterations_per_second, j->workers,
-           strcmp(j->state, "done") == 0 ? "done" : eta, j->estimated_rmse);
-    if (j->has_reference) printf(", RMSE %.4g", j->rmse);
-    if (j->results_refused) printf(", %llu results refused", (unsigned long long)j->results_refused);
-    printf("\n");
-    if (j->stop_reason[0]) printf("  stopped: %s\n", j->stop_reason);
-    if (j->message[0]) printf("  %s\n", j->message);
-    if (j->n_convergence > 0) {
-      printf("  %4s %12s %12s %10s %12s %12s %12s\n", "run", "worker s", "cpu s", "iterations", "RMSE", "rel. MSE",
-             "est. RMSE");
-      for (size_t k = 0; k < j->n_convergence; k++) {
-        const Vcmfarm__ConvergenceEntry *e = j->convergence[k];
-        printf("  %4u %12.2f %12.2f %10llu %12.5g %12.5g %12.5g\n", e->run, e->wall_seconds, e->cpu_seconds,
-               (unsigned long long)e->iterations, e->rmse, e->rel_mse, e->estimated_rmse);
-      }
-    }
-  }
-  for (size_t i = 0; i < st->n_workers; i++) {
-    const Vcmfarm__WorkerStatus *w = st->workers[i];
-    printf("worker %s (%u threads): ", w->name, w->threads);
-    if (w->lease_job)
-      printf("job %llu [%llu,%llu)", (unsigned long long)w->lease_job, (unsigned long long)w->lease_begin,
-             (unsigned long long)w->lease_end);
-    else
-      printf("idle");
-    printf(", %.2f it/s, seen %.1f s ago\n", w->iterations_per_second, w->last_seen_seconds);
-  }
-  if (st->n_jobs == 0 && st->n_workers == 0) printf("no jobs, no workers\n");
-}
 
 int vf_cmd_status(int argc, char **argv) {
   static const struct option options[] = {
@@ -327,8 +296,8 @@ int vf_cmd_status(int argc, char **argv) {
   q.body_case = VCMFARM__ENVELOPE__BODY_STATUS_REQUEST;
   q.status_request = &m;
   if ((err = request(&conn, &q, VCMFARM__ENVELOPE__BODY_STATUS, &reply)) != VF_OK) return vf_cli_fail(cmd, err);
-  if (json) print_json(reply->status);
-  else print_text(reply->status);
+  if (json) vf_status_print_json(reply->status, stdout);
+  else vf_status_print_text(reply->status, stdout);
   vf_message_free(reply);
   return VF_EXIT_OK;
 }
@@ -336,37 +305,45 @@ int vf_cmd_status(int argc, char **argv) {
 /* ---- fetch ---- */
 
 static const char fetch_usage[] =
-    "usage: vcmfarm fetch JOB -o FILM.exr --coordinator URL --secret FILE\n"
+    "usage: vcmfarm fetch JOB -o FILM.exr [--preview IMAGE.png] --coordinator URL --secret FILE\n"
     "\n"
     "Writes the current film of JOB (a valid film at any moment, holding the iterations\n"
     "merged so far) to FILM.exr, atomically: it arrives in chunks, is checked whole (size,\n"
     "hash, film) and only then replaces FILM.exr, which a failed fetch leaves as it was.\n"
     "\n"
-    "  -o, --output FILM.exr  the film to write (required)\n" CONNECTION_HELP;
+    "  -o, --output FILM.exr  the film to write (required)\n" VF_CLI_PREVIEW_HELP CONNECTION_HELP;
 
 int vf_cmd_fetch(int argc, char **argv) {
   static const struct option options[] = {
       {"output", required_argument, 0, 'o'}, {"coordinator", required_argument, 0, 'c'},
       {"secret", required_argument, 0, 'k'}, {"timeout", required_argument, 0, 'T'},
+      {"preview", required_argument, 0, 'p'}, {"exposure", required_argument, 0, 'e'},
       {"help", no_argument, 0, 'h'},         {0, 0, 0, 0}};
-  const char *cmd = "fetch", *output = NULL;
+  const char *cmd = "fetch", *output = NULL, *preview = NULL;
+  double exposure = 0.0;
   connection conn = {NULL, NULL, 60.0};
   int err = VF_OK, c;
   optind = 0; /* 0: getopt starts again from scratch (glibc), forgetting the last argv */
   opterr = 0;
-  while ((c = getopt_long(argc, argv, "o:c:k:h", options, NULL)) != -1) {
+  while ((c = getopt_long(argc, argv, "o:p:e:c:k:h", options, NULL)) != -1) {
     if (connection_option(&conn, c, &err)) {
       if (err != VF_OK) return vf_cli_fail(cmd, err);
       continue;
     }
     if (c == 'o') output = optarg;
+    else if (c == 'p') preview = optarg;
+    else if (c == 'e') err = vf_cli_double("--exposure", optarg, -64.0, 64.0, &exposure);
     else if (c == 'h') return fputs(fetch_usage, stdout), VF_EXIT_OK;
     else return vf_cli_bad_option(cmd, argv, fetch_usage);
+    if (err != VF_OK) return vf_cli_fail(cmd, err);
   }
   if (optind != argc - 1 || output == NULL) {
     fprintf(stderr, "vcmfarm fetch: expected one JOB and -o FILM.exr\n%s", fetch_usage);
     return VF_EXIT_BAD_INPUT;
   }
+  if ((err = vf_cli_extension("-o", output, ".exr", "an OpenEXR film")) != VF_OK ||
+      (preview && (err = vf_cli_preview_check(preview)) != VF_OK))
+    return vf_cli_fail(cmd, err);
   uint64_t job_id;
   vf_farm_client *client;
   if ((err = parse_job_id(argv[optind], &job_id)) != VF_OK || (err = connect_to(&conn, &client)) != VF_OK)
@@ -375,6 +352,7 @@ int vf_cmd_fetch(int argc, char **argv) {
   vf_film *film = NULL;
   err = vf_fetch_film(client, job_id, output, (int)(conn.timeout * 1000.0), &film);
   vf_farm_client_close(client);
+  if (err == VF_OK && preview) err = vf_preview_write(film, preview, exposure);
   vf_film_destroy(film);
   return err == VF_OK ? VF_EXIT_OK : vf_cli_fail(cmd, err);
 }

@@ -12,6 +12,7 @@
 #include "../worker/render.h"
 #include "local_render.h"
 #include "options.h"
+#include "render_job.h"
 
 #include <getopt.h>
 #include <inttypes.h>
@@ -21,7 +22,8 @@
 
 static const char usage[] =
     "usage: vcmfarm continue FILM [--iterations N | --time S | --target-rmse X --reference REF |\n"
-    "                              --target-error E] [--scene SCENE] [-o OUT] [--threads T]\n"
+    "                              --target-error E] [--scene SCENE] [-o OUT] [--preview PNG]\n"
+    "                              [--threads T]\n"
     "\n"
     "Renders the next global iterations FILM does not hold (its gaps first, then after its\n"
     "last), with the film's own settings and the merge radius of each global index, adds them\n"
@@ -34,7 +36,7 @@ static const char usage[] =
     "      --scene SCENE        the scene to load (default: the one the film names); its\n"
     "                           content hash must equal the film's\n"
     "      --camera NAME|INDEX  the glTF file's camera the film was rendered with (as render's)\n"
-    "  -o, --output OUT         where to write (default: FILM)\n"
+    "  -o, --output OUT         where to write (default: FILM)\n" VF_CLI_PREVIEW_HELP
     "  -j, --threads T          render threads (default: one per CPU)\n"
     "  -q, --quiet              no progress line or summary\n"
     "  -h, --help               this text\n"
@@ -95,15 +97,17 @@ int vf_cmd_continue(int argc, char **argv) {
       {"checkpoint-interval", required_argument, 0, 'C'}, {"scene", required_argument, 0, 'S'},
       {"output", required_argument, 0, 'o'},              {"threads", required_argument, 0, 'j'},
       {"quiet", no_argument, 0, 'q'},                     {"help", no_argument, 0, 'h'},
-      {"camera", required_argument, 0, 'M'},              {0, 0, 0, 0}};
-  const char *cmd = "continue", *output = NULL, *scene_arg = NULL, *camera = NULL;
+      {"camera", required_argument, 0, 'M'},              {"preview", required_argument, 0, 'p'},
+      {"exposure", required_argument, 0, 'e'},            {0, 0, 0, 0}};
+  const char *cmd = "continue", *output = NULL, *scene_arg = NULL, *camera = NULL, *preview = NULL;
+  double exposure = 0.0;
   vf_cli_stop stop = {0};
   long long threads = 0;
   double checkpoint_interval = 10.0;
   int quiet = 0, err = VF_OK, c;
   optind = 0; /* 0: getopt starts again from scratch (glibc), forgetting the last argv */
   opterr = 0;
-  while ((c = getopt_long(argc, argv, VF_CLI_STOP_SHORT "o:j:qh", options, NULL)) != -1) {
+  while ((c = getopt_long(argc, argv, VF_CLI_STOP_SHORT "o:j:p:e:qh", options, NULL)) != -1) {
     if (vf_cli_stop_option(&stop, c, optarg, &err)) {
       if (err != VF_OK) return vf_cli_fail(cmd, err);
       continue;
@@ -115,6 +119,8 @@ int vf_cmd_continue(int argc, char **argv) {
     case 'o': output = optarg; break;
     case 'j': err = vf_cli_int("--threads", optarg, 1, 1024, &threads); break;
     case 'q': quiet = 1; break;
+    case 'p': preview = optarg; break;
+    case 'e': err = vf_cli_double("--exposure", optarg, -64.0, 64.0, &exposure); break;
     case 'h': fputs(usage, stdout); return VF_EXIT_OK;
     default:
       return vf_cli_bad_option("continue", argv, usage);
@@ -128,7 +134,8 @@ int vf_cmd_continue(int argc, char **argv) {
   const char *film_path = argv[optind];
   if (output == NULL) output = film_path;
   if ((err = vf_cli_stop_check(&stop, 1)) != VF_OK || (err = vf_cli_writable("-o", output)) != VF_OK ||
-      (err = vf_cli_extension("-o", output, ".exr", "an OpenEXR film")) != VF_OK)
+      (err = vf_cli_extension("-o", output, ".exr", "an OpenEXR film")) != VF_OK ||
+      (preview && (err = vf_cli_preview_check(preview)) != VF_OK))
     return vf_cli_fail(cmd, err);
 
   if (stop.reference && (err = vf_cli_not_input("-o", output, "--reference", stop.reference)) != VF_OK)
@@ -171,13 +178,15 @@ int vf_cmd_continue(int argc, char **argv) {
     goto done;
   }
   if (err != VF_OK) goto done;
+  if (preview && (err = vf_preview_write(film, preview, exposure)) != VF_OK) goto done;
   if (!quiet) {
     char set[256];
     if (vf_iterset_format(&film->iterations, set, sizeof set) != VF_OK) snprintf(set, sizeof set, "(long)");
     fprintf(stderr, "added %" PRIu64 " iteration(s) in %.2f s%s; the film holds %s\nestimated RMSE %.4g", r.iterations,
             r.seconds, r.interrupted ? " (interrupted)" : "", set, r.last.estimated_rmse);
     if (stop.reference) fprintf(stderr, ", RMSE %.4g against %s", r.last.rmse, stop.reference);
-    fprintf(stderr, "%s\nwrote %s\n", r.target_reached ? " (target reached)" : "", output);
+    fprintf(stderr, "%s\nwrote %s%s%s\n", r.target_reached ? " (target reached)" : "", output, preview ? " and " : "",
+            preview ? preview : "");
   }
 done:
   vf_file_lock_release(&lock);

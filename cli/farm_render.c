@@ -12,6 +12,7 @@
 #include "../common/error.h"
 #include "../common/farm_client.h"
 #include "../common/file.h"
+#include "../common/forecast.h"
 #include "../coordinator/coordinator.h"
 #include "../coordinator/job.h"
 #include "../worker/blob_cache.h"
@@ -111,20 +112,32 @@ static int job_status(vf_farm_client *client, uint64_t job_id, Vcmfarm__Envelope
   return vf_error_set(VF_EPROTO, "the coordinator's status lacks job %llu", (unsigned long long)job_id);
 }
 
-/* Iterations as the worker renders them (the job's count grows by merged parts). */
-static void progress_line(const Vcmfarm__JobStatus *j, uint64_t rendered, double elapsed, int reference) {
+/* Iterations as the worker renders them (the job's count grows by merged parts); progress
+ * and ETA towards the condition that will end the render (common/forecast.h): the
+ * iteration count and --time are this command's (it stops the worker itself when the time
+ * is up, so that every rendered iteration counts), a target the coordinator's forecast
+ * (it holds the job's convergence log). */
+static void progress_line(const vf_render_job *o, const Vcmfarm__JobStatus *j, uint64_t rendered, double elapsed) {
   char error[96] = "";
   if (isfinite(j->estimated_rmse)) {
     int n = snprintf(error, sizeof error, "  est. RMSE %.3g", j->estimated_rmse);
-    if (reference && isfinite(j->rmse) && n > 0 && (size_t)n < sizeof error)
+    if (o->stop.reference && isfinite(j->rmse) && n > 0 && (size_t)n < sizeof error)
       snprintf(error + n, sizeof error - (size_t)n, "  RMSE %.3g", j->rmse);
   }
-  char eta[32] = "";
-  if (j->eta_seconds >= 0.0) snprintf(eta, sizeof eta, "  ETA %.1f s", j->eta_seconds);
-  char total[32] = "";
-  if (j->iterations_total < VF_JOB_MAX_ITERATIONS)
-    snprintf(total, sizeof total, "/%llu", (unsigned long long)j->iterations_total);
   double rate = elapsed > 0.0 ? (double)rendered / elapsed : 0.0;
+  uint64_t limit = vf_cli_stop_open_ended(&o->stop) ? (uint64_t)o->stop.iterations : vf_cli_stop_iterations(&o->stop);
+  vf_forecast_input in = {.done = rendered, .iterations = limit, .seconds = elapsed,
+                          .time_limit = o->stop.time_limit, .rate = rate};
+  vf_forecast f;
+  vf_forecast_compute(&in, &f);
+  int target = vf_stop_reason_parse(j->progress_by);
+  if ((target == VF_STOP_TARGET_RMSE || target == VF_STOP_TARGET_ERROR) && j->eta_seconds >= 0.0 &&
+      (f.by == VF_STOP_NONE || f.eta < 0.0 || j->eta_seconds < f.eta))
+    f = (vf_forecast){(vf_stop_reason)target, j->progress, j->eta_seconds, j->error_slope};
+  char eta[64] = "", total[32] = "";
+  if (f.by != VF_STOP_NONE && f.eta >= 0.0)
+    snprintf(eta, sizeof eta, "  %.0f%% (%s)  ETA %.1f s", 100.0 * f.progress, vf_stop_reason_name(f.by), f.eta);
+  if (limit > 0) snprintf(total, sizeof total, "/%llu", (unsigned long long)limit);
   fprintf(stderr, "\r  iteration %llu%s (%llu merged)  %.2f it/s%s  elapsed %.1f s%s   ", (unsigned long long)rendered,
           total, (unsigned long long)j->iterations_done, rate, error, elapsed, eta);
 }
@@ -217,7 +230,7 @@ int vf_farm_render(const vf_render_job *o) {
     vf_message_free(reply);
     reply = NULL;
     if ((err = job_status(client, job_id, &reply, &job)) != VF_OK) goto stop;
-    if (tty) progress_line(job, atomic_load(&rendered), now - start, o->stop.reference != NULL);
+    if (tty) progress_line(o, job, atomic_load(&rendered), now - start);
     finished = strcmp(job->state, "queued") != 0 && strcmp(job->state, "running") != 0;
     if (!finished && o->checkpoint_interval > 0.0 && now - last_fetch >= o->checkpoint_interval) {
       if ((err = vf_fetch_film(client, job_id, o->output, REQUEST_MS, NULL)) != VF_OK) goto stop;

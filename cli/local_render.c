@@ -2,6 +2,7 @@
 
 #include "../common/clock.h"
 #include "../common/error.h"
+#include "../common/forecast.h"
 #include "../common/metrics.h"
 #include "film_cmd.h"
 #include "interrupt.h"
@@ -25,7 +26,30 @@ typedef struct {
   double last_measure_time;  /* status->seconds of that measurement */
   uint64_t done_before;      /* iterations of the run's earlier render calls */
   double seconds_before;     /* and their wall time */
+  uint64_t film_before;      /* iterations the film held when the run began */
+  /* measurements for the forecast's slope, each at 1.1 times the iterations of the one
+   * before (so that the latest VF_FORECAST_POINTS span a factor 4.6), ring of the latest */
+  vf_error_point rmse_points[VF_FORECAST_POINTS], estimated_points[VF_FORECAST_POINTS];
+  unsigned points, points_next;
 } local_run;
+
+/* The measurement as a forecast point, when it is far enough past the last one. */
+static void keep_point(local_run *lr, const vf_convergence_entry *e) {
+  unsigned last = (lr->points_next + VF_FORECAST_POINTS - 1) % VF_FORECAST_POINTS;
+  if (e->iterations < 1 || (lr->points > 0 && (double)e->iterations < 1.1 * (double)lr->estimated_points[last].iterations))
+    return;
+  lr->rmse_points[lr->points_next] = (vf_error_point){e->iterations, e->rmse};
+  lr->estimated_points[lr->points_next] = (vf_error_point){e->iterations, e->estimated_rmse};
+  lr->points_next = (lr->points_next + 1) % VF_FORECAST_POINTS;
+  if (lr->points < VF_FORECAST_POINTS) lr->points++;
+}
+
+/* The ring in order of iterations, into out; how many. */
+static size_t ordered_points(const local_run *lr, const vf_error_point *ring, vf_error_point *out) {
+  for (unsigned i = 0; i < lr->points; i++)
+    out[i] = ring[(lr->points_next + VF_FORECAST_POINTS - lr->points + i) % VF_FORECAST_POINTS];
+  return lr->points;
+}
 
 static void measure(local_run *lr, const vf_film *film) {
   const vf_cli_stop *stop = lr->o->stop;
@@ -42,6 +66,7 @@ static void measure(local_run *lr, const vf_film *film) {
   }
   lr->last = e;
   lr->measured = 1;
+  keep_point(lr, &e);
   if ((stop->target_rmse > 0 && e.rmse <= stop->target_rmse) ||
       (stop->target_error > 0 && e.estimated_rmse <= stop->target_error))
     lr->target_reached = 1;
@@ -64,11 +89,12 @@ static int deliver(void *ctx, vf_film *film, const vf_render_status *st) {
   return lr->target_reached ? VF_RENDER_STOP : VF_OK;
 }
 
-/* The progress line: a total and an ETA only where the stop condition gives one. */
+/* The progress line: progress and ETA towards the stop condition that will end the run
+ * (common/forecast.h), never against an iteration count nobody asked for. */
 static void progress(void *ctx, const vf_render_status *st) {
   local_run *lr = ctx;
   const vf_cli_stop *stop = lr->o->stop;
-  char error[96] = "", total[32] = "", eta[32] = "";
+  char error[96] = "", total[32] = "", eta[64] = "";
   if (lr->measured) {
     int n = snprintf(error, sizeof error, "  est. RMSE %.3g", lr->last.estimated_rmse);
     if (lr->o->reference && n > 0 && (size_t)n < sizeof error)
@@ -78,12 +104,27 @@ static void progress(void *ctx, const vf_render_status *st) {
   double seconds = lr->seconds_before + st->seconds;
   double rate = seconds > 0.0 ? (double)done / seconds : 0.0;
   double mrays = st->seconds > 0.0 ? (double)st->stats.rays / st->seconds * 1e-6 : 0.0;
-  if (stop->iterations > 0) {
-    snprintf(total, sizeof total, "/%llu", (unsigned long long)stop->iterations);
-    if (rate > 0.0) snprintf(eta, sizeof eta, "  ETA %.1f s", (double)((uint64_t)stop->iterations - done) / rate);
-  } else if (stop->time_limit > 0.0) {
-    snprintf(eta, sizeof eta, "  ETA %.1f s", seconds < stop->time_limit ? stop->time_limit - seconds : 0.0);
-  }
+  uint64_t limit = vf_cli_stop_open_ended(stop) ? (uint64_t)stop->iterations : vf_cli_stop_iterations(stop);
+  if (limit > 0) snprintf(total, sizeof total, "/%llu", (unsigned long long)limit);
+  vf_error_point rmse_log[VF_FORECAST_POINTS], estimated_log[VF_FORECAST_POINTS];
+  /* Targets count the film's iterations, the iteration count this run's. */
+  vf_forecast_input in = {.done = lr->film_before + done,
+                          .iterations = limit > 0 ? lr->film_before + limit : 0,
+                          .seconds = seconds,
+                          .time_limit = stop->time_limit,
+                          .rate = rate,
+                          .target_rmse = stop->target_rmse,
+                          .rmse = lr->measured ? lr->last.rmse : NAN,
+                          .rmse_log = rmse_log,
+                          .rmse_count = ordered_points(lr, lr->rmse_points, rmse_log),
+                          .target_error = stop->target_error,
+                          .estimated_rmse = lr->measured ? lr->last.estimated_rmse : NAN,
+                          .estimated_log = estimated_log,
+                          .estimated_count = ordered_points(lr, lr->estimated_points, estimated_log)};
+  vf_forecast f;
+  vf_forecast_compute(&in, &f);
+  if (f.by != VF_STOP_NONE && f.eta >= 0.0)
+    snprintf(eta, sizeof eta, "  %.0f%% (%s)  ETA %.1f s", 100.0 * f.progress, vf_stop_reason_name(f.by), f.eta);
   fprintf(stderr, "\r  iteration %llu%s  %.2f it/s  %.1f Mrays/s%s  elapsed %.1f s%s   ", (unsigned long long)done,
           total, rate, mrays, error, seconds, eta);
 }
@@ -108,8 +149,10 @@ static uint64_t gap_end(const vf_iterset *set, uint64_t free_index) {
 int vf_local_render(vf_renderer *renderer, vf_film *film, uint64_t first, const vf_local_render_options *o,
                     vf_local_render_result *result) {
   *result = (vf_local_render_result){0};
-  local_run lr = {.o = o, .run = vf_convergence_next_run(&film->convergence, vf_iterset_count(&film->iterations),
-                                                         film->render_seconds)};
+  local_run lr = {.o = o,
+                  .run = vf_convergence_next_run(&film->convergence, vf_iterset_count(&film->iterations),
+                                                 film->render_seconds),
+                  .film_before = vf_iterset_count(&film->iterations)};
   lr.mean = malloc(3 * (size_t)film->width * (size_t)film->height * sizeof *lr.mean);
   if (lr.mean == NULL) return vf_error_set(VF_ENOMEM, "out of memory for a %dx%d image", film->width, film->height);
   measure(&lr, film);

@@ -83,10 +83,10 @@ typedef struct {
       {"target-error", required_argument, 0, 'E'}
 #define VF_CLI_STOP_SHORT "n:t:"
 #define VF_CLI_STOP_HELP                                                                       \
-  "  -n, --iterations N       at most N iterations (default 16, or 10^9 when a time or a\n"   \
+  "  -n, --iterations N       at most N iterations (default 16; none when a time or a\n"    \
   "                           target ends the render)\n"                                      \
-  "  -t, --time S             stop after S seconds: no iteration starts later (a farm job\n"  \
-  "                           counts them from its first lease)\n"                            \
+  "  -t, --time S             stop after S seconds of wall-clock time: no iteration starts\n" \
+  "                           later (a farm job counts them from its first lease)\n"          \
   "      --reference REF      reference image (a film or an RGB EXR of the same size):\n"     \
   "                           the convergence log records the RMSE against it\n"              \
   "      --target-rmse X      stop once the RMSE against the reference is at most X\n"        \

@@ -37,8 +37,7 @@ static const char usage[] =
     "  -j, --threads T          render threads (default: one per CPU)\n" VF_CLI_SETTINGS_HELP
     "      --camera NAME|INDEX  the glTF file's camera to render (default: its first)\n"
     "  -o, --output FILM.exr    the film to write (required)\n"
-    "  -p, --preview IMAGE.png  also write a tone-mapped sRGB preview\n"
-    "  -e, --exposure E         preview exposure in stops (default 0)\n"
+    VF_CLI_PREVIEW_HELP
     "      --direct             render on this thread, without coordinator and worker: a\n"
     "                           target then stops right after the iteration meeting it\n"
     "                           (through the farm, after the part of a lease meeting it)\n"
@@ -153,8 +152,7 @@ int vf_cmd_render(int argc, char **argv) {
   }
   if ((err = vf_cli_stop_check(&o.stop, 1)) != VF_OK || (err = vf_cli_writable("-o", o.output)) != VF_OK ||
       (err = vf_cli_extension("-o", o.output, ".exr", "an OpenEXR film")) != VF_OK ||
-      (o.preview && (err = vf_cli_writable("--preview", o.preview)) != VF_OK) ||
-      (o.preview && (err = vf_cli_extension("--preview", o.preview, ".png", "a PNG image")) != VF_OK))
+      (o.preview && (err = vf_cli_preview_check(o.preview)) != VF_OK))
     return vf_cli_fail(cmd, err);
   if (o.stop.reference && (err = vf_cli_not_input("-o", o.output, "--reference", o.stop.reference)) != VF_OK)
     return vf_cli_fail(cmd, err);

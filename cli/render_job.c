@@ -5,15 +5,23 @@
 
 #include <stdio.h>
 
-int vf_render_job_write_preview(const vf_render_job *job, const vf_film *film) {
-  if (job->preview == NULL) return VF_OK;
+int vf_preview_write(const vf_film *film, const char *path, double exposure) {
   vf_image img;
   int err = vf_image_alloc(&img, film->width, film->height);
   if (err != VF_OK) return err;
   vf_film_mean(film, img.rgb);
-  err = vf_image_write_png(job->preview, &img, (float)job->exposure);
+  err = vf_image_write_png(path, &img, (float)exposure);
   vf_image_destroy(&img);
   return err;
+}
+
+int vf_cli_preview_check(const char *preview) {
+  int err = vf_cli_writable("--preview", preview);
+  return err != VF_OK ? err : vf_cli_extension("--preview", preview, ".png", "a PNG image");
+}
+
+int vf_render_job_write_preview(const vf_render_job *job, const vf_film *film) {
+  return job->preview ? vf_preview_write(film, job->preview, job->exposure) : VF_OK;
 }
 
 void vf_render_job_print_summary(const vf_film *film, double seconds, const vf_vcm_stats *stats, uint64_t rendered,

@@ -21,6 +21,10 @@ typedef struct {
   int quiet;
 } vf_render_job;
 
+/* Writes the film's mean, tone-mapped (exposure in stops) to sRGB, as the PNG `path`:
+ * the preview of render, continue, fetch and submit --wait. */
+int vf_preview_write(const vf_film *film, const char *path, double exposure);
+
 /* Writes the film's mean as the sRGB preview PNG when the job asks for one. */
 int vf_render_job_write_preview(const vf_render_job *job, const vf_film *film);
 
@@ -28,6 +32,14 @@ int vf_render_job_write_preview(const vf_render_job *job, const vf_film *film);
  * the renderer's statistics over the `rendered` iterations they were gathered on. */
 void vf_render_job_print_summary(const vf_film *film, double seconds, const vf_vcm_stats *stats, uint64_t rendered,
                                  int interrupted);
+
+/* The preview options of the commands that write films (-p/--preview, -e/--exposure),
+ * with their --help lines, as the settings options are shared (cli/options.h). */
+#define VF_CLI_PREVIEW_HELP                                                     \
+  "  -p, --preview IMAGE.png  also write a tone-mapped sRGB preview\n"         \
+  "  -e, --exposure E         preview exposure in stops (default 0)\n"
+/* Checks a --preview path before any work: writable, ending in .png. */
+int vf_cli_preview_check(const char *preview);
 
 /* The summary's last lines: the error, why it stopped (or NULL), and what was written. */
 void vf_render_job_print_result(const vf_render_job *job, double estimated_rmse, double rmse, const char *stopped_by);

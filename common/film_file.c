@@ -8,6 +8,7 @@
  * (uncompressed, with per-pixel counts that must all equal the number of iterations) and 2
  * are read. */
 #include "film.h"
+#include "settings.h"
 
 #include "error.h"
 #include "exr_util.h"
@@ -284,7 +285,12 @@ static int read_attributes(const vf_exr_in *in, vf_film *film, int *version) {
   if ((err = get_u64(in, ATTR_NONFINITE, &film->nonfinite_samples)) != VF_OK) return err;
 
   if ((err = get_double(in, ATTR_SECONDS, &film->render_seconds)) != VF_OK) return err;
-  return read_optional_attributes(in, film);
+  if ((err = read_optional_attributes(in, film)) != VF_OK) return err;
+  /* Checked against its hash as written; then in today's canonical form (settings.h), so
+   * that films written before it merge with films written now. Text that does not parse
+   * stays as it is: every merge compares it, and nothing matches it. */
+  vf_settings_canonicalize(film->settings_text, sizeof film->settings_text);
+  return VF_OK;
 }
 
 typedef struct {

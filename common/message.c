@@ -52,6 +52,7 @@ const char *vf_message_name(const Vcmfarm__Envelope *env) {
   case VCMFARM__ENVELOPE__BODY_HEARTBEAT: return "heartbeat";
   case VCMFARM__ENVELOPE__BODY_RESULT: return "lease-result";
   case VCMFARM__ENVELOPE__BODY_RELEASE: return "lease-release";
+  case VCMFARM__ENVELOPE__BODY_GOODBYE: return "goodbye";
   case VCMFARM__ENVELOPE__BODY_SUBMIT: return "submit";
   case VCMFARM__ENVELOPE__BODY_STATUS_REQUEST: return "status-request";
   case VCMFARM__ENVELOPE__BODY_FETCH: return "fetch";

@@ -48,13 +48,21 @@ int vf_settings_validate(const vf_settings *s) {
   return VF_OK;
 }
 
+void vf_double_format(double v, char *buf, size_t n) {
+  /* The fewest significant digits that read back as the same double: unique for each
+   * value, so the text stays canonical; %.17g always round-trips. */
+  for (int digits = 1; digits <= 17; digits++) {
+    snprintf(buf, n, "%.*g", digits, v);
+    if (strtod(buf, NULL) == v) return;
+  }
+}
+
 int vf_settings_format(const vf_settings *s, char *buf, size_t n) {
-  /* %.17g round-trips a double exactly, so parse(format(s)) == s. */
-  int w = snprintf(buf, n,
-                   "algorithm=%s max_path_length=%d radius_factor=%.17g alpha=%.17g seed=%" PRIu64
-                   " resolution=%dx%d",
-                   vf_algorithm_name(s->algorithm), s->max_path_length, s->radius_factor, s->alpha, s->seed,
-                   s->width, s->height);
+  char radius[32], alpha[32];
+  vf_double_format(s->radius_factor, radius, sizeof radius);
+  vf_double_format(s->alpha, alpha, sizeof alpha);
+  int w = snprintf(buf, n, "algorithm=%s max_path_length=%d radius_factor=%s alpha=%s seed=%" PRIu64 " resolution=%dx%d",
+                   vf_algorithm_name(s->algorithm), s->max_path_length, radius, alpha, s->seed, s->width, s->height);
   if (w < 0 || (size_t)w >= n) return vf_error_set(VF_EINVAL, "settings text too long");
   return VF_OK;
 }
@@ -100,4 +108,14 @@ int vf_settings_parse(vf_settings *s, const char *text) {
   return VF_OK;
 bad:
   return vf_error_set(VF_EINVAL, "settings: bad value '%s' for '%s'", value, key);
+}
+
+int vf_settings_canonicalize(char *text, size_t n) {
+  vf_settings s;
+  char canonical[512];
+  int err = vf_settings_parse(&s, text);
+  if (err == VF_OK) err = vf_settings_format(&s, canonical, sizeof canonical);
+  if (err == VF_OK && strlen(canonical) >= n) err = vf_error_set(VF_EINVAL, "settings text too long");
+  if (err == VF_OK) memcpy(text, canonical, strlen(canonical) + 1);
+  return err;
 }

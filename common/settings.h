@@ -47,8 +47,16 @@ int vf_algorithm_parse(const char *name, vf_algorithm *out);
 int vf_settings_validate(const vf_settings *s);
 
 /* Canonical text, e.g. "algorithm=vcm max_path_length=10 radius_factor=0.003 alpha=0.75
- * seed=1 resolution=512x512". VF_EINVAL if it does not fit in n bytes. */
+ * seed=1 resolution=512x512": numbers in their shortest text that reads back exactly
+ * (vf_double_format), so parse(format(s)) == s. VF_EINVAL if it does not fit in n bytes.
+ * Before protocol version 6 the numbers had 17 digits ("0.0030000000000000001"): films and
+ * state files of then are brought to this form when read (vf_settings_canonicalize). */
 int vf_settings_format(const vf_settings *s, char *buf, size_t n);
+/* Rewrites settings text (any valid form, n bytes of room) in canonical form, in place;
+ * the parsing error, or VF_EINVAL when it would not fit, leaving text as it was. */
+int vf_settings_canonicalize(char *text, size_t n);
+/* The shortest "%g" text of v that reads back as v (at most 24 bytes with the NUL). */
+void vf_double_format(double v, char *buf, size_t n);
 /* Parses the canonical text (keys in any order, all required). */
 int vf_settings_parse(vf_settings *s, const char *text);
 

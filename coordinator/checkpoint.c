@@ -137,18 +137,24 @@ static void do_work(uv_work_t *work) {
  * is durable (err VF_OK) or failed (err, with its detail set). Marks the film clean unless
  * it changed meanwhile; a stopped job whose final film landed gets its end written to
  * state.json. */
+/* A failed film checkpoint: logged and an event of the job. */
+static void checkpoint_failed(vf_job *job, int err) {
+  vf_log("checkpoint of job %llu failed: %s", (unsigned long long)job->id, vf_error_detail(err));
+  vf_events_add(&job->events, vf_unix_now(), "checkpoint_failed", job->id, "", "film checkpoint failed: %s",
+                vf_error_detail(err));
+}
+
 static void landed(vf_farm *farm, vf_job *job, int err, double seconds) {
   unsigned long long jid = (unsigned long long)job->id;
   job->film_writing = 0;
   if (err != VF_OK) {
-    vf_log("checkpoint of job %llu failed: %s", jid, vf_error_detail(err));
+    checkpoint_failed(job, err);
     return; /* still dirty: the next checkpoint tries again */
   }
   if (seconds >= 1.0) vf_log("job %llu: film checkpoint written in %.2f s (off the event loop)", jid, seconds);
   if (job->writing_generation != job->film_generation) {
     /* Changed while being written; a final film is written again at once. */
-    if (job->final_pending && (err = save_film(farm, job, 0)) != VF_OK)
-      vf_log("checkpoint of job %llu failed: %s", jid, vf_error_detail(err));
+    if (job->final_pending && (err = save_film(farm, job, 0)) != VF_OK) checkpoint_failed(job, err);
     return;
   }
   job->film_dirty = 0;
@@ -250,7 +256,7 @@ void vf_checkpoint_final(vf_farm *farm, vf_job *job) {
   int err = vf_job_log(job);
   if (err == VF_OK) err = save_film(farm, job, 0);
   if (err == VF_OK && farm->state_dirty) err = vf_state_save_index(farm);
-  if (err != VF_OK) vf_log("job %llu: checkpoint failed: %s", (unsigned long long)job->id, vf_error_detail(err));
+  if (err != VF_OK) checkpoint_failed(job, err);
 }
 
 int vf_checkpoint_write(vf_farm *farm, int all) {
@@ -264,7 +270,7 @@ int vf_checkpoint_write(vf_farm *farm, int all) {
     if (!j->film_dirty && !all) continue;
     err = save_film(farm, j, 0);
     if (err != VF_OK) {
-      vf_log("checkpoint of job %llu failed: %s", (unsigned long long)j->id, vf_error_detail(err));
+      checkpoint_failed(j, err);
       if (first == VF_OK) first = err;
     }
   }

@@ -22,6 +22,7 @@ void vf_farm_handle(vf_farm *farm, const Vcmfarm__Envelope *q, double now, vf_fa
   case VCMFARM__ENVELOPE__BODY_LEASE_REQUEST: worker_id = q->lease_request->worker_id; break;
   case VCMFARM__ENVELOPE__BODY_HEARTBEAT: worker_id = q->heartbeat->worker_id; break;
   case VCMFARM__ENVELOPE__BODY_RELEASE: worker_id = q->release->worker_id; break;
+  case VCMFARM__ENVELOPE__BODY_GOODBYE: worker_id = q->goodbye->worker_id; break;
   case VCMFARM__ENVELOPE__BODY_SUBMIT: return vf_jobs_submit(farm, q->submit, r);
   case VCMFARM__ENVELOPE__BODY_STATUS_REQUEST: return vf_jobs_status(farm, q->status_request, now, r);
   case VCMFARM__ENVELOPE__BODY_FETCH: return vf_jobs_fetch(farm, q->fetch, now, r);
@@ -40,7 +41,10 @@ void vf_farm_handle(vf_farm *farm, const Vcmfarm__Envelope *q, double now, vf_fa
                                 (unsigned long long)worker_id);
   w->last_seen = now;
   switch (q->body_case) {
-  case VCMFARM__ENVELOPE__BODY_LEASE_REQUEST: return vf_leases_grant(farm, w, now, r);
+  case VCMFARM__ENVELOPE__BODY_LEASE_REQUEST:
+    w->state = VF_WORKER_ACTIVE; /* asking for work: not stopping after all */
+    return vf_leases_grant(farm, w, now, r);
+  case VCMFARM__ENVELOPE__BODY_GOODBYE: return vf_workers_goodbye(farm, w, q->goodbye, now, r);
   case VCMFARM__ENVELOPE__BODY_HEARTBEAT: return vf_leases_heartbeat(farm, w, q->heartbeat, r);
   case VCMFARM__ENVELOPE__BODY_BLOB_REQUEST: return vf_blobs_request(farm, w, q->blob_request, r);
   default: return vf_leases_release(farm, w, q->release, now, r);

@@ -11,6 +11,7 @@
 #ifndef VF_FARM_CORE_H
 #define VF_FARM_CORE_H
 
+#include "events.h"
 #include "job.h"
 #include "lease.h"
 
@@ -19,14 +20,30 @@
 
 struct uv_loop_s; /* libuv's uv_loop_t */
 
+/* A registered worker is active (idle or busy: whether it holds a lease) or stopping (it
+ * said goodbye and finishes its lease); one that said it is done has left, one silent for
+ * the worker timeout is lost. Those two are kept among the departed for status. */
+typedef enum { VF_WORKER_ACTIVE, VF_WORKER_STOPPING, VF_WORKER_LEFT, VF_WORKER_LOST } vf_worker_state;
+
 typedef struct {
   uint64_t id;        /* random */
   char name[128];
+  char host[64];      /* its host name, as it says (version 6) */
+  char version[32];   /* its software version */
   unsigned cores, threads;
+  vf_worker_state state;
   double last_seen;   /* vf_seconds_now() of its last message */
+  double registered_at, departed_at; /* Unix seconds; departed_at 0 while registered */
   double rate;        /* iterations per second, smoothed over its results; 0 unknown */
   uint64_t lease_id;  /* its active lease, 0 none */
+  /* totals since it registered */
+  uint64_t iterations_merged, parts_merged, results_refused, leases;
 } vf_farm_worker;
+
+/* Workers that left or were lost, kept for status (the latest; older ones are forgotten). */
+#define VF_FARM_DEPARTED 16
+/* Events of the farm's workers kept (coordinator/events.h). */
+#define VF_FARM_EVENTS 64
 
 typedef struct {
   const char *state_dir;   /* borrowed */
@@ -41,6 +58,11 @@ typedef struct vf_farm {
   uint64_t next_job_id;
   vf_farm_worker *workers; /* owned (coordinator/workers.h) */
   size_t num_workers, workers_capacity;
+  vf_farm_worker departed[VF_FARM_DEPARTED]; /* ring of the latest that left or were lost */
+  unsigned num_departed, departed_next;
+  vf_events events;        /* the workers' events, over events_storage */
+  vf_event events_storage[VF_FARM_EVENTS];
+  double started_at;       /* Unix seconds, vf_farm_init */
   vf_lease_table leases;   /* coordinator/leases.h */
   int state_dirty;         /* the job list changed since state.json was written */
   double last_tick;        /* of vf_farm_tick; 0 before the first */

@@ -27,6 +27,7 @@ typedef struct {
   Vcmfarm__WorkerStatus *worker_status, **worker_status_ptrs;
   uint8_t *film_bytes;
   Vcmfarm__ConvergenceEntry *log, **log_ptrs;
+  Vcmfarm__Event *events, **event_ptrs; /* every job's and the farm's; texts borrowed from the farm */
   /* ---- files of scenes by content hash (coordinator/blobs.h) ---- */
   Vcmfarm__BlobHave blob_have;
   Vcmfarm__Blob blob;

@@ -1,5 +1,6 @@
 #include "job.h"
 
+#include "../common/clock.h"
 #include "../common/error.h"
 #include "../common/metrics.h"
 #include "schedule.h"
@@ -77,6 +78,7 @@ int vf_job_create(uint64_t id, const char *name, int priority, int scene_builtin
   job->first = first;
   job->iterations = iterations;
   job->measured_iterations = job->logged_iterations = UINT64_MAX;
+  vf_events_init(&job->events, job->events_storage, VF_JOB_EVENTS);
   *out = job;
   return VF_OK;
 free_text:
@@ -240,11 +242,34 @@ int vf_job_log(vf_job *job) {
   return VF_OK;
 }
 
+void vf_job_finish(vf_job *job, vf_stop_reason why, double at, const char *message) {
+  if (job->stop != VF_STOP_NONE) return;
+  job->stop = why;
+  job->ended_at = at;
+  if (why == VF_STOP_CANCELLED) job->end = VF_JOB_CANCELLED;
+  else if (why == VF_STOP_FAILED) job->end = VF_JOB_FAILED;
+  else if (why != VF_STOP_ITERATIONS) job->end = VF_JOB_STOPPED;
+  if (message) {
+    snprintf(job->message, sizeof job->message, "%s", message);
+    for (char *c = job->message; *c; c++)
+      if ((unsigned char)*c < 0x20) *c = '?';
+  }
+}
+
+void vf_job_restore_measure(vf_job *job) {
+  const vf_convergence_log *log = &job->film->convergence;
+  uint64_t n = vf_job_done(job);
+  if (log->count == 0 || log->entries[log->count - 1].iterations != n) return;
+  job->measured = log->entries[log->count - 1];
+  job->measured_iterations = job->logged_iterations = n;
+}
+
 int vf_job_check_stop(vf_job *job) {
   if (job->end != VF_JOB_ACTIVE || vf_job_complete(job)) return 0;
+  char text[256];
   if (job->time_limit > 0.0 && job->seconds >= job->time_limit) {
-    job->end = VF_JOB_STOPPED;
-    snprintf(job->message, sizeof job->message, "time limit of %g s reached", job->time_limit);
+    snprintf(text, sizeof text, "time limit of %g s reached", job->time_limit);
+    vf_job_finish(job, VF_STOP_TIME, vf_unix_now(), text);
     return 1;
   }
   if (job->target_rmse <= 0.0 && job->target_error <= 0.0) return 0;
@@ -253,15 +278,15 @@ int vf_job_check_stop(vf_job *job) {
   if (job->measured_iterations != n && (err = vf_job_measure(job)) != VF_OK) return err;
   const vf_convergence_entry *e = &job->measured;
   if (job->target_rmse > 0.0 && e->rmse <= job->target_rmse) {
-    job->end = VF_JOB_STOPPED;
-    snprintf(job->message, sizeof job->message, "target RMSE %g reached: %.6g at %llu iterations", job->target_rmse,
-             e->rmse, (unsigned long long)n);
+    snprintf(text, sizeof text, "target RMSE %g reached: %.6g at %llu iterations", job->target_rmse, e->rmse,
+             (unsigned long long)n);
+    vf_job_finish(job, VF_STOP_TARGET_RMSE, vf_unix_now(), text);
     return 1;
   }
   if (job->target_error > 0.0 && e->estimated_rmse <= job->target_error) {
-    job->end = VF_JOB_STOPPED;
-    snprintf(job->message, sizeof job->message, "target estimated error %g reached: %.6g at %llu iterations",
-             job->target_error, e->estimated_rmse, (unsigned long long)n);
+    snprintf(text, sizeof text, "target estimated error %g reached: %.6g at %llu iterations", job->target_error,
+             e->estimated_rmse, (unsigned long long)n);
+    vf_job_finish(job, VF_STOP_TARGET_ERROR, vf_unix_now(), text);
     return 1;
   }
   return 0;
@@ -282,26 +307,41 @@ double vf_job_farm_rate(const vf_job *job, double now, double window) {
   return iterations > 0 && span > 0.0 ? (double)iterations / span : 0.0;
 }
 
-/* Iterations needed for an error falling as 1/sqrt(iterations) to reach target. */
-static double iterations_for(double error, double target, uint64_t n) {
-  if (!(error > 0.0) || !isfinite(error) || n < 2) return NAN;
-  double r = error / target;
-  return (double)n * r * r;
+/* The error measurements of the job: its convergence log's latest entries, then its latest
+ * measurement when newer; `rmse` picks which error. Returns how many (at most max). */
+static size_t error_points(const vf_job *job, int rmse, vf_error_point *p, size_t max) {
+  const vf_convergence_log *log = &job->film->convergence;
+  size_t n = 0, first = log->count > max - 1 ? log->count - (max - 1) : 0;
+  for (size_t i = first; i < log->count; i++)
+    p[n++] = (vf_error_point){log->entries[i].iterations,
+                              rmse ? log->entries[i].rmse : log->entries[i].estimated_rmse};
+  if (job->measured_iterations != UINT64_MAX && (n == 0 || p[n - 1].iterations < job->measured_iterations))
+    p[n++] = (vf_error_point){job->measured_iterations, rmse ? job->measured.rmse : job->measured.estimated_rmse};
+  return n;
 }
 
-double vf_job_eta(const vf_job *job, double rate) {
-  if (job->end != VF_JOB_ACTIVE || vf_job_complete(job)) return 0.0;
-  double eta = INFINITY;
-  if (job->time_limit > 0.0) eta = fmax(job->time_limit - job->seconds, 0.0);
-  if (rate > 0.0) {
-    uint64_t n = vf_job_done(job);
-    double need[3] = {(double)job->iterations, NAN, NAN};
-    if (job->target_rmse > 0.0 && job->measured_iterations == n)
-      need[1] = iterations_for(job->measured.rmse, job->target_rmse, n);
-    if (job->target_error > 0.0 && job->measured_iterations == n)
-      need[2] = iterations_for(job->measured.estimated_rmse, job->target_error, n);
-    for (int i = 0; i < 3; i++)
-      if (isfinite(need[i])) eta = fmin(eta, fmax(need[i] - (double)n, 0.0) / rate);
+void vf_job_forecast(const vf_job *job, double rate, vf_forecast *out) {
+  if (job->end != VF_JOB_ACTIVE || vf_job_complete(job)) {
+    *out = (vf_forecast){job->stop != VF_STOP_NONE ? job->stop : VF_STOP_ITERATIONS, 1.0, 0.0, 0.0};
+    return;
   }
-  return isfinite(eta) ? eta : -1.0;
+  vf_error_point rmse_log[VF_FORECAST_POINTS + 1], estimated_log[VF_FORECAST_POINTS + 1];
+  int others = job->time_limit > 0.0 || job->target_rmse > 0.0 || job->target_error > 0.0;
+  int measured = job->measured_iterations != UINT64_MAX;
+  vf_forecast_input in = {
+      .done = vf_job_done(job),
+      .iterations = job->iterations >= VF_JOB_MAX_ITERATIONS && others ? 0 : job->iterations,
+      .seconds = job->seconds,
+      .time_limit = job->time_limit,
+      .rate = rate,
+      .target_rmse = job->target_rmse,
+      .rmse = measured ? job->measured.rmse : NAN,
+      .rmse_log = rmse_log,
+      .rmse_count = error_points(job, 1, rmse_log, VF_FORECAST_POINTS + 1),
+      .target_error = job->target_error,
+      .estimated_rmse = measured ? job->measured.estimated_rmse : NAN,
+      .estimated_log = estimated_log,
+      .estimated_count = error_points(job, 0, estimated_log, VF_FORECAST_POINTS + 1),
+  };
+  vf_forecast_compute(&in, out);
 }

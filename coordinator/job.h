@@ -11,8 +11,10 @@
 
 #include "../common/blob.h"
 #include "../common/film.h"
+#include "../common/forecast.h"
 #include "../common/image.h"
 #include "../common/settings.h"
+#include "events.h"
 
 #include <stddef.h>
 #include <stdint.h>
@@ -28,6 +30,8 @@ typedef enum { VF_JOB_ACTIVE, VF_JOB_CANCELLED, VF_JOB_FAILED, VF_JOB_STOPPED } 
 
 /* Recent merges, for the job's rate. */
 #define VF_JOB_RATE_SAMPLES 64
+/* Events kept per job (the latest; older ones are counted, coordinator/events.h). */
+#define VF_JOB_EVENTS 32
 
 typedef struct {
   uint64_t id;
@@ -48,6 +52,11 @@ typedef struct {
   vf_image reference;   /* owned; rgb NULL when the job has none */
   vf_job_end end;       /* cancelled, failed or stopped, else active */
   char message[256];    /* why it failed or stopped */
+  vf_stop_reason stop;  /* why it ended, machine-readable (VF_STOP_NONE while active) */
+  double submitted_at, started_at, ended_at; /* Unix seconds; 0 not yet (or unknown, older state) */
+  char algorithm_resolved[16]; /* what `auto` resolves to for its scene, "" unknown */
+  vf_events events;     /* what happened to it, over events_storage */
+  vf_event events_storage[VF_JOB_EVENTS];
   vf_film *film;        /* owned; every accepted result merged */
   int film_dirty;       /* merged into since the last checkpoint */
   /* Checkpoints run off the event loop (coordinator/checkpoint.h) on a snapshot of the film:
@@ -111,17 +120,31 @@ int vf_job_measure(vf_job *job);
 int vf_job_log(vf_job *job);
 
 /* Checks the stop conditions other than the iterations, measuring when a target error
- * needs it; when one holds the job is marked stopped with the reason in job->message and
- * 1 is returned, else 0 (or a negative error of vf_job_measure). */
+ * needs it; when one holds the job is marked stopped (vf_job_finish) with the reason in
+ * job->stop and, as a sentence, job->message, and 1 is returned, else 0 (or a negative
+ * error of vf_job_measure). */
 int vf_job_check_stop(vf_job *job);
+
+/* Marks the job ended at Unix time `at` for `why`: cancelled, failed (with the message),
+ * stopped by time or a target, or, for VF_STOP_ITERATIONS, complete (job->end stays
+ * active: the film says so). Records stop and ended_at once; later calls change nothing. */
+void vf_job_finish(vf_job *job, vf_stop_reason why, double at, const char *message);
+
+/* The job's latest measurement restored from its film's convergence log when the log's
+ * last entry has the film's iterations (a film read back after a restart): status then
+ * shows the errors without measuring. */
+void vf_job_restore_measure(vf_job *job);
 
 /* Iterations per second of the whole farm on this job, over the merges of the last
  * `window` seconds; 0 when unknown. */
 double vf_job_farm_rate(const vf_job *job, double now, double window);
 
-/* Seconds until the first stop condition is expected to hold at `rate` iterations per
- * second (targets extrapolated by error ~ 1 / sqrt(iterations)); < 0 unknown, 0 when done. */
-double vf_job_eta(const vf_job *job, double rate);
+/* The forecast (common/forecast.h) of the job at `rate` iterations per second: the stop
+ * condition expected to hold first, the progress towards it and its ETA; targets
+ * extrapolated from the slope of its convergence log and latest measurement. Its
+ * iteration count is a condition unless it is the open-ended VF_JOB_MAX_ITERATIONS and
+ * another condition is set. An ended job: progress 1, ETA 0, `by` its stop reason. */
+void vf_job_forecast(const vf_job *job, double rate, vf_forecast *out);
 
 /* "queued", "running", "done", "cancelled" or "failed"; `leased` is the number of
  * iterations currently leased out. */

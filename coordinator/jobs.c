@@ -1,11 +1,14 @@
 #include "jobs.h"
 
+#include "../common/clock.h"
 #include "../common/error.h"
+#include "../common/wire.h"
 #include "blobs.h"
 #include "checkpoint.h"
 #include "leases.h"
 #include "log.h"
 #include "state.h"
+#include "workers.h"
 
 #include <math.h>
 #include <stdio.h>
@@ -33,6 +36,17 @@ void vf_jobs_submit(vf_farm *farm, const Vcmfarm__SubmitJob *m, vf_farm_reply *r
     return vf_farm_reply_error(r, err == VF_EIO ? VCMFARM__ERROR_CODE__ERROR_INTERNAL : VCMFARM__ERROR_CODE__ERROR_BAD_REQUEST,
                                vf_error_detail(err));
   }
+  vf_algorithm resolved;
+  if (m->algorithm_resolved[0] != '\0' &&
+      (vf_algorithm_parse(m->algorithm_resolved, &resolved) != VF_OK || resolved == VF_ALGO_AUTO)) {
+    vf_state_remove_job_files(farm->config.state_dir, job->id);
+    vf_job_destroy(job);
+    return vf_farm_reply_errorf(r, VCMFARM__ERROR_CODE__ERROR_BAD_REQUEST,
+                                "algorithm_resolved: '%.40s' is not an algorithm auto can resolve to", m->algorithm_resolved);
+  }
+  snprintf(job->algorithm_resolved, sizeof job->algorithm_resolved, "%s",
+           job->settings.algorithm != VF_ALGO_AUTO ? vf_algorithm_name(job->settings.algorithm) : m->algorithm_resolved);
+  job->submitted_at = vf_unix_now();
   if ((err = vf_job_set_stop(job, m->time_limit, m->target_rmse, m->target_error)) != VF_OK) {
     vf_state_remove_job_files(farm->config.state_dir, job->id);
     vf_job_destroy(job);
@@ -50,11 +64,18 @@ void vf_jobs_submit(vf_farm *farm, const Vcmfarm__SubmitJob *m, vf_farm_reply *r
     return vf_farm_reply_error(r, VCMFARM__ERROR_CODE__ERROR_INTERNAL, vf_error_detail(err));
   }
   farm->next_job_id++;
-  vf_log("job %llu '%s' submitted: %s %s, at most %llu iterations from %llu, time limit %g s, target RMSE %g%s, target "
-         "error %g, priority %d", (unsigned long long)job->id, job->name, builtin ? "built-in" : "JSON scene",
-         builtin ? job->scene_text : "", (unsigned long long)job->iterations, (unsigned long long)job->first,
-         job->time_limit, job->target_rmse,
-         job->reference.rgb ? " (with a reference)" : "", job->target_error, job->priority);
+  char limits[256];
+  int n = snprintf(limits, sizeof limits, "at most %llu iteration%s from %llu", (unsigned long long)job->iterations,
+                   job->iterations == 1 ? "" : "s", (unsigned long long)job->first);
+  if (job->time_limit > 0.0 && n > 0 && (size_t)n < sizeof limits)
+    n += snprintf(limits + n, sizeof limits - (size_t)n, ", time limit %g s", job->time_limit);
+  if (job->target_rmse > 0.0 && n > 0 && (size_t)n < sizeof limits)
+    n += snprintf(limits + n, sizeof limits - (size_t)n, ", target RMSE %g", job->target_rmse);
+  if (job->target_error > 0.0 && n > 0 && (size_t)n < sizeof limits)
+    snprintf(limits + n, sizeof limits - (size_t)n, ", target error %g", job->target_error);
+  vf_log("job %llu '%s' submitted: %s %s, %s%s, priority %d", (unsigned long long)job->id, job->name,
+         builtin ? "built-in" : "JSON scene", builtin ? job->scene_text : job->film->scene_name[0] ? job->film->scene_name : "(no path)",
+         limits, job->reference.rgb ? " (with a reference)" : "", job->priority);
   vcmfarm__submitted__init(&r->submitted);
   r->submitted.job_id = job->id;
   r->env.body_case = VCMFARM__ENVELOPE__BODY_SUBMITTED;
@@ -90,23 +111,80 @@ static double rate_window(const vf_farm *farm) {
   return w < 30.0 ? 30.0 : w;
 }
 
+static void fill_event(Vcmfarm__Event *out, const vf_event *e) {
+  vcmfarm__event__init(out);
+  out->time = e->time;
+  out->kind = (char *)e->kind;
+  out->job_id = e->job_id;
+  out->worker = (char *)e->worker;
+  out->message = (char *)e->message;
+}
+
+/* Events of a log into the reply's arrays from *next on; their count. */
+static size_t attach_events(vf_farm_reply *r, size_t *next, const vf_events *log, Vcmfarm__Event ***out) {
+  *out = &r->event_ptrs[*next];
+  for (unsigned i = 0; i < log->count; i++) {
+    fill_event(&r->events[*next], vf_events_at(log, i));
+    r->event_ptrs[*next] = &r->events[*next];
+    (*next)++;
+  }
+  return log->count;
+}
+
+static void fill_worker(vf_farm *farm, const vf_farm_worker *w, double now, Vcmfarm__WorkerStatus *s) {
+  vcmfarm__worker_status__init(s);
+  s->worker_id = w->id;
+  s->name = (char *)w->name;
+  s->threads = w->threads;
+  vf_lease *l = vf_lease_find(&farm->leases, w->lease_id);
+  if (l) {
+    s->lease_job = l->job_id;
+    s->lease_begin = l->begin;
+    s->lease_end = l->end;
+  }
+  s->iterations_per_second = w->rate;
+  s->last_seen_seconds = now - w->last_seen;
+  s->state = (char *)vf_worker_state_name(farm, w);
+  s->host = (char *)w->host;
+  s->cores = w->cores;
+  s->software_version = (char *)w->version;
+  s->registered_at = w->registered_at;
+  s->departed_at = w->departed_at;
+  s->iterations_merged = w->iterations_merged;
+  s->parts_merged = w->parts_merged;
+  s->results_refused = w->results_refused;
+  s->leases = w->leases;
+}
+
 void vf_jobs_status(vf_farm *farm, const Vcmfarm__StatusRequest *m, double now, vf_farm_reply *r) {
-  size_t nj = 0;
-  for (size_t i = 0; i < farm->num_jobs; i++) nj += m->job_id == 0 || farm->jobs[i]->id == m->job_id;
+  size_t nj = 0, ne = farm->events.count;
+  for (size_t i = 0; i < farm->num_jobs; i++)
+    if (m->job_id == 0 || farm->jobs[i]->id == m->job_id) {
+      nj++;
+      ne += farm->jobs[i]->events.count;
+    }
   if (m->job_id != 0 && nj == 0)
     return vf_farm_reply_errorf(r, VCMFARM__ERROR_CODE__ERROR_UNKNOWN_JOB, "no job %llu", (unsigned long long)m->job_id);
-  size_t nw = farm->num_workers;
+  size_t nw = farm->num_workers + farm->num_departed;
   r->job_status = calloc(nj ? nj : 1, sizeof *r->job_status);
   r->job_status_ptrs = calloc(nj ? nj : 1, sizeof *r->job_status_ptrs);
   r->worker_status = calloc(nw ? nw : 1, sizeof *r->worker_status);
   r->worker_status_ptrs = calloc(nw ? nw : 1, sizeof *r->worker_status_ptrs);
-  if (!r->job_status || !r->job_status_ptrs || !r->worker_status || !r->worker_status_ptrs)
+  r->events = calloc(ne ? ne : 1, sizeof *r->events);
+  r->event_ptrs = calloc(ne ? ne : 1, sizeof *r->event_ptrs);
+  if (!r->job_status || !r->job_status_ptrs || !r->worker_status || !r->worker_status_ptrs || !r->events ||
+      !r->event_ptrs)
     return vf_farm_reply_error(r, VCMFARM__ERROR_CODE__ERROR_INTERNAL, "out of memory");
   vcmfarm__status__init(&r->status);
+  r->status.time = vf_unix_now();
+  r->status.protocol_version = VF_PROTOCOL_VERSION;
+  r->status.software_version = VF_VERSION;
+  r->status.started_at = farm->started_at;
   for (size_t i = 0; i < farm->num_jobs; i++)
     r->status.iterations_per_second += vf_job_farm_rate(farm->jobs[i], now, rate_window(farm));
-  for (size_t i = 0; i < nw; i++) r->status.workers_busy += vf_lease_find(&farm->leases, farm->workers[i].lease_id) != NULL;
-  size_t k = 0;
+  for (size_t i = 0; i < farm->num_workers; i++)
+    r->status.workers_busy += vf_lease_find(&farm->leases, farm->workers[i].lease_id) != NULL;
+  size_t k = 0, next_event = 0;
   for (size_t i = 0; i < farm->num_jobs; i++) {
     vf_job *j = farm->jobs[i];
     if (m->job_id != 0 && j->id != m->job_id) continue;
@@ -125,11 +203,18 @@ void vf_jobs_status(vf_farm *farm, const Vcmfarm__StatusRequest *m, double now, 
     s->settings = j->settings_text;
     s->message = j->message;
     s->results_refused = j->results_refused;
-    if (vf_job_runnable(j) && j->measured_iterations != vf_job_done(j)) vf_job_measure(j);
+    /* Measured once per change of the film: a job ended before a restart comes back with
+     * its log's last entry (vf_job_restore_measure) or is measured here once. */
+    if (j->measured_iterations != vf_job_done(j) && (vf_job_runnable(j) || vf_job_done(j) > 0)) vf_job_measure(j);
     double rate = vf_job_runnable(j) ? vf_job_farm_rate(j, now, rate_window(farm)) : 0.0;
+    vf_forecast f;
+    vf_job_forecast(j, rate, &f);
     s->iterations_per_second = rate;
     s->seconds = j->seconds;
-    s->eta_seconds = vf_job_eta(j, rate);
+    s->eta_seconds = f.eta;
+    s->progress = f.progress;
+    s->progress_by = (char *)vf_stop_reason_name(f.by);
+    s->error_slope = f.slope;
     s->time_limit = j->time_limit;
     s->target_rmse = j->target_rmse;
     s->target_error = j->target_error;
@@ -138,33 +223,36 @@ void vf_jobs_status(vf_farm *farm, const Vcmfarm__StatusRequest *m, double now, 
     s->estimated_rmse = j->measured_iterations != UINT64_MAX ? j->measured.estimated_rmse : NAN;
     s->stop_reason = j->end == VF_JOB_STOPPED ? j->message : "";
     if (j->end == VF_JOB_STOPPED) s->message = "";
-    for (size_t w = 0; w < nw; w++) {
+    s->stop_code = (char *)vf_stop_reason_name(j->stop);
+    s->submitted_at = j->submitted_at;
+    s->started_at = j->started_at;
+    s->ended_at = j->ended_at;
+    s->scene_name = j->film->scene_name;
+    s->scene_hash = (ProtobufCBinaryData){32, j->scene_hash};
+    s->algorithm_resolved = j->algorithm_resolved;
+    s->n_events = attach_events(r, &next_event, &j->events, &s->events);
+    s->events_dropped = j->events.dropped;
+    for (size_t w = 0; w < farm->num_workers; w++) {
       vf_lease *l = vf_lease_find(&farm->leases, farm->workers[w].lease_id);
       s->workers += l != NULL && l->job_id == j->id;
     }
     if (m->job_id != 0) attach_log(r, s, &j->film->convergence);
     r->job_status_ptrs[k++] = s;
   }
-  for (size_t i = 0; i < nw; i++) {
-    vf_farm_worker *w = &farm->workers[i];
-    Vcmfarm__WorkerStatus *s = &r->worker_status[i];
-    vcmfarm__worker_status__init(s);
-    s->worker_id = w->id;
-    s->name = w->name;
-    s->threads = w->threads;
-    vf_lease *l = vf_lease_find(&farm->leases, w->lease_id);
-    if (l) {
-      s->lease_job = l->job_id;
-      s->lease_begin = l->begin;
-      s->lease_end = l->end;
-    }
-    s->iterations_per_second = w->rate;
-    s->last_seen_seconds = now - w->last_seen;
-    r->worker_status_ptrs[i] = s;
+  r->status.n_events = attach_events(r, &next_event, &farm->events, &r->status.events);
+  r->status.events_dropped = farm->events.dropped;
+  size_t kw = 0;
+  for (size_t i = 0; i < farm->num_workers; i++, kw++) {
+    fill_worker(farm, &farm->workers[i], now, &r->worker_status[kw]);
+    r->worker_status_ptrs[kw] = &r->worker_status[kw];
+  }
+  for (unsigned i = 0; i < farm->num_departed; i++, kw++) {
+    fill_worker(farm, vf_workers_departed(farm, i), now, &r->worker_status[kw]);
+    r->worker_status_ptrs[kw] = &r->worker_status[kw];
   }
   r->status.n_jobs = k;
   r->status.jobs = r->job_status_ptrs;
-  r->status.n_workers = nw;
+  r->status.n_workers = kw;
   r->status.workers = r->worker_status_ptrs;
   r->env.body_case = VCMFARM__ENVELOPE__BODY_STATUS;
   r->env.status = &r->status;
@@ -224,7 +312,7 @@ void vf_jobs_cancel(vf_farm *farm, const Vcmfarm__CancelRequest *m, double now, 
     snprintf(r->text, sizeof r->text, "job %llu is %s already", (unsigned long long)job->id, vf_job_state(job, 0));
     return vf_farm_reply_ack(r, 0, r->text);
   }
-  job->end = VF_JOB_CANCELLED;
+  vf_job_finish(job, VF_STOP_CANCELLED, vf_unix_now(), NULL);
   vf_leases_end_job(farm, job->id, now);
   farm->state_dirty = 1;
   int err = vf_state_save_index(farm);
@@ -282,6 +370,8 @@ void vf_jobs_finish(vf_farm *farm, vf_job *job, double now) {
     farm->state_dirty = 1;
   } else {
     vf_log("job %llu done", jid);
+    vf_job_finish(job, VF_STOP_ITERATIONS, vf_unix_now(), NULL);
+    farm->state_dirty = 1;
   }
   vf_leases_end_job(farm, job->id, now);
   vf_checkpoint_final(farm, job);

@@ -1,5 +1,6 @@
 #include "leases.h"
 
+#include "../common/clock.h"
 #include "../common/error.h"
 #include "blobs.h"
 #include "log.h"
@@ -29,7 +30,15 @@ static void end_active(vf_farm *farm, uint64_t job_id, uint64_t begin, uint64_t 
   for (size_t i = 0; i < farm->leases.count;) {
     vf_lease *l = &farm->leases.leases[i];
     if (l->id != except && l->job_id == job_id && l->state == VF_LEASE_ACTIVE && l->begin < end && begin < l->end) {
-      if (why) vf_log("lease %016llx revoked: %s", (unsigned long long)l->id, why);
+      if (why) {
+        vf_log("lease %016llx revoked: %s", (unsigned long long)l->id, why);
+        vf_job *job = vf_farm_job(farm, job_id);
+        vf_farm_worker *w = worker_of_lease(farm, l);
+        if (job)
+          vf_events_add(&job->events, vf_unix_now(), "lease_revoked", job_id, w ? w->name : "",
+                        "lease [%llu,%llu)%s%s revoked: %s", (unsigned long long)l->begin, (unsigned long long)l->end,
+                        w ? " of worker " : "", w ? w->name : "", why);
+      }
       vf_leases_end(farm, l, 1, now);
       i = 0;
     } else {
@@ -83,6 +92,11 @@ void vf_leases_grant(vf_farm *farm, vf_farm_worker *w, double now, vf_farm_reply
   if (old != NULL) {
     vf_log("worker %s asks for work while holding lease %016llx; that lease returns to the pool", w->name,
            (unsigned long long)old->id);
+    vf_job *old_job = vf_farm_job(farm, old->job_id);
+    if (old_job)
+      vf_events_add(&old_job->events, vf_unix_now(), "lease_expired", old_job->id, w->name,
+                    "worker %s asked for work while holding lease [%llu,%llu), which returns to the pool", w->name,
+                    (unsigned long long)old->begin, (unsigned long long)old->end);
     vf_leases_end(farm, old, 1, now);
   }
   w->lease_id = 0;
@@ -106,6 +120,11 @@ void vf_leases_grant(vf_farm *farm, vf_farm_worker *w, double now, vf_farm_reply
   vf_lease *granted = vf_lease_find(&farm->leases, w->lease_id);
   granted->charged = vf_schedule_estimate(e - b, w->rate, job->rate, farm->config.lease_seconds);
   vf_schedule_charge(job, granted->charged);
+  w->leases++;
+  if (job->started_at == 0.0) {
+    job->started_at = vf_unix_now();
+    farm->state_dirty = 1;
+  }
   vf_log("lease %016llx: job %llu iterations [%llu,%llu) to worker %s", (unsigned long long)w->lease_id,
          (unsigned long long)job->id, (unsigned long long)b, (unsigned long long)e, w->name);
   fill_lease(job, w->lease_id, b, e, r);
@@ -131,11 +150,11 @@ void vf_leases_release(vf_farm *farm, const vf_farm_worker *w, const Vcmfarm__Le
   }
   vf_job *job = vf_farm_job(farm, l->job_id);
   if (m->failure[0] != '\0' && job != NULL && job->end == VF_JOB_ACTIVE) {
-    job->end = VF_JOB_FAILED;
-    snprintf(job->message, sizeof job->message, "worker %s: %s", w->name, m->failure);
-    for (char *c = job->message; *c; c++)
-      if ((unsigned char)*c < 0x20) *c = '?';
+    char text[sizeof job->message];
+    snprintf(text, sizeof text, "worker %s: %s", w->name, m->failure);
+    vf_job_finish(job, VF_STOP_FAILED, vf_unix_now(), text);
     vf_log("job %llu failed: %s", (unsigned long long)job->id, job->message);
+    vf_events_add(&job->events, job->ended_at, "job_failed", job->id, w->name, "%s", job->message);
     vf_leases_end_job(farm, job->id, now);
     farm->state_dirty = 1;
   } else {

@@ -1,23 +1,32 @@
 #include "results.h"
 
+#include "../common/clock.h"
 #include "../common/error.h"
 #include "../common/wire.h"
 #include "jobs.h"
 #include "leases.h"
 #include "log.h"
 #include "partial.h"
+#include "workers.h"
 
 #include <stdarg.h>
 #include <stdio.h>
 
-static void refuse(vf_job *job, vf_farm_reply *r, const char *fmt, ...) __attribute__((format(printf, 3, 4)));
-static void refuse(vf_job *job, vf_farm_reply *r, const char *fmt, ...) {
+/* Refuses a result message of worker `w` (NULL: not registered) for job (NULL: none):
+ * counted for both, an event of the job, logged and answered. */
+static void refuse(vf_farm_worker *w, vf_job *job, vf_farm_reply *r, const char *fmt, ...)
+    __attribute__((format(printf, 4, 5)));
+static void refuse(vf_farm_worker *w, vf_job *job, vf_farm_reply *r, const char *fmt, ...) {
   char text[1024];
   va_list ap;
   va_start(ap, fmt);
   vsnprintf(text, sizeof text, fmt, ap);
   va_end(ap);
-  if (job) job->results_refused++;
+  if (w) w->results_refused++;
+  if (job) {
+    job->results_refused++;
+    vf_events_add(&job->events, vf_unix_now(), "result_refused", job->id, w ? w->name : "", "%s", text);
+  }
   vf_log("refused result: %s", text);
   vf_farm_reply_ack(r, 0, text);
 }
@@ -30,7 +39,8 @@ static void drop_part(vf_lease *l) {
 /* Stores the message's tiles in the lease's part (a new one when the message starts
  * another). Returns 1 when the part is whole, 0 when tiles are missing (acknowledged), -1
  * when refused (answered and the part dropped). */
-static int stage(vf_job *job, vf_lease *l, const Vcmfarm__LeaseResult *m, double now, vf_farm_reply *r) {
+static int stage(vf_farm_worker *w, vf_job *job, vf_lease *l, const Vcmfarm__LeaseResult *m, double now,
+                 vf_farm_reply *r) {
   unsigned long long jid = (unsigned long long)m->job_id, b = (unsigned long long)m->begin;
   unsigned long long e = (unsigned long long)m->end;
   int err;
@@ -39,13 +49,13 @@ static int stage(vf_job *job, vf_lease *l, const Vcmfarm__LeaseResult *m, double
     drop_part(l);
   }
   if (l->partial == NULL && (err = vf_partial_create(job, m, &l->partial)) != VF_OK) {
-    refuse(job, r, "job %llu [%llu,%llu): %s", jid, b, e, vf_error_detail(err));
+    refuse(w, job, r, "job %llu [%llu,%llu): %s", jid, b, e, vf_error_detail(err));
     return -1;
   }
   vf_partial_touch(l->partial, now);
   if ((err = vf_partial_add(l->partial, m)) != VF_OK) {
     drop_part(l);
-    refuse(job, r, "job %llu [%llu,%llu): %s; the part is dropped", jid, b, e, vf_error_detail(err));
+    refuse(w, job, r, "job %llu [%llu,%llu): %s; the part is dropped", jid, b, e, vf_error_detail(err));
     return -1;
   }
   if (vf_partial_received(l->partial) == vf_partial_total(l->partial)) return 1;
@@ -62,7 +72,11 @@ static void merged(vf_farm *farm, vf_job *job, vf_lease *l, const vf_film *film,
   unsigned long long lid = (unsigned long long)m->lease_id, b = (unsigned long long)m->begin;
   unsigned long long e = (unsigned long long)m->end;
   int late = l->state == VF_LEASE_EXPIRED;
-  vf_farm_worker *w = vf_farm_find_worker(farm, l->worker_id);
+  vf_farm_worker *w = vf_workers_find_any(farm, l->worker_id);
+  if (w) {
+    w->iterations_merged += m->end - m->begin;
+    w->parts_merged++;
+  }
   if (w && film->render_seconds > 0.0) {
     double rate = (double)(m->end - m->begin) / film->render_seconds;
     w->rate = w->rate > 0.0 ? 0.5 * w->rate + 0.5 * rate : rate;
@@ -84,24 +98,25 @@ void vf_results_receive(vf_farm *farm, const Vcmfarm__LeaseResult *m, double now
   unsigned long long b = (unsigned long long)m->begin, e = (unsigned long long)m->end;
   vf_job *job = vf_farm_job(farm, m->job_id);
   vf_lease *l = vf_lease_find(&farm->leases, m->lease_id);
+  vf_farm_worker *w = vf_workers_find_any(farm, m->worker_id);
   if (l == NULL)
-    return refuse(job, r, "lease %016llx (job %llu [%llu,%llu)) is unknown: expired long ago, finished, or "
+    return refuse(w, job, r, "lease %016llx (job %llu [%llu,%llu)) is unknown: expired long ago, finished, or "
                   "granted before a coordinator restart", lid, jid, b, e);
   if (l->job_id != m->job_id)
-    return refuse(job, r, "lease %016llx is of job %llu, the result claims job %llu", lid,
+    return refuse(w, job, r, "lease %016llx is of job %llu, the result claims job %llu", lid,
                   (unsigned long long)l->job_id, jid);
-  if (job == NULL) return refuse(NULL, r, "job %llu does not exist", jid);
-  if (job->end != VF_JOB_ACTIVE) return refuse(job, r, "job %llu is %s", jid, vf_job_state(job, 0));
+  if (job == NULL) return refuse(w, NULL, r, "job %llu does not exist", jid);
+  if (job->end != VF_JOB_ACTIVE) return refuse(w, job, r, "job %llu is %s", jid, vf_job_state(job, 0));
   size_t size = vcmfarm__lease_result__get_packed_size(m);
   if (size > VF_WIRE_MAX_RESULT)
-    return refuse(job, r, "job %llu [%llu,%llu): a result message of %zu bytes, at most %zu", jid, b, e, size,
+    return refuse(w, job, r, "job %llu [%llu,%llu): a result message of %zu bytes, at most %zu", jid, b, e, size,
                   VF_WIRE_MAX_RESULT);
   /* Sent again because the acknowledgement of its last tiles was lost: nothing to do. */
   if (m->begin >= l->first && m->begin < m->end && m->end <= l->begin) return vf_farm_reply_ack(r, 1, "already merged");
   if (m->begin != l->begin || m->end <= m->begin || m->end > l->end)
-    return refuse(job, r, "lease %016llx holds job %llu [%llu,%llu) unmerged, the result claims [%llu,%llu)", lid,
+    return refuse(w, job, r, "lease %016llx holds job %llu [%llu,%llu) unmerged, the result claims [%llu,%llu)", lid,
                   jid, (unsigned long long)l->begin, (unsigned long long)l->end, b, e);
-  if (stage(job, l, m, now, r) != 1) return;
+  if (stage(w, job, l, m, now, r) != 1) return;
   vf_film *film = NULL;
   int err = vf_partial_take(l->partial, &film);
   drop_part(l);
@@ -110,10 +125,10 @@ void vf_results_receive(vf_farm *farm, const Vcmfarm__LeaseResult *m, double now
   if (err != VF_OK) {
     vf_film_destroy(film);
     if (err == VF_EOVERLAP)
-      return refuse(job, r, "job %llu [%llu,%llu): %s lease %016llx: some of these iterations are already counted, "
+      return refuse(w, job, r, "job %llu [%llu,%llu): %s lease %016llx: some of these iterations are already counted, "
                     "nothing merged", jid, b, e,
                     l->state == VF_LEASE_EXPIRED ? "late result of expired" : "duplicate result of", lid);
-    return refuse(job, r, "job %llu [%llu,%llu): %s", jid, b, e, vf_error_detail(err));
+    return refuse(w, job, r, "job %llu [%llu,%llu): %s", jid, b, e, vf_error_detail(err));
   }
   merged(farm, job, l, film, m, now);
   vf_film_destroy(film);

@@ -19,8 +19,12 @@
 
 /* Format 2 (protocol 2) added stop conditions, running time and references, and made
  * the priority a weight of at least 1; format 1 reads with priorities below 1 raised to 1.
- * Format 3 (protocol 4) added a job's first iteration, 0 when reading formats 1 and 2. */
-#define STATE_FORMAT 3
+ * Format 3 (protocol 4) added a job's first iteration, 0 when reading formats 1 and 2.
+ * Format 4 (protocol 6) added per job the times it was submitted, started and ended, the
+ * machine-readable stop reason, what `auto` resolved to and its latest events; absent in
+ * older files: times 0 (unknown), the reason derived from the end and its message, no
+ * events. Settings texts of any format are read in today's canonical form. */
+#define STATE_FORMAT 4
 #define MAX_STATE_BYTES ((size_t)64 << 20)
 
 static int path_of(char *buf, size_t n, const char *dir, const char *name, uint64_t id, const char *ext) {
@@ -96,6 +100,21 @@ static const char *end_name(vf_job_end e) {
   return e == VF_JOB_CANCELLED ? "cancelled" : e == VF_JOB_FAILED ? "failed" : e == VF_JOB_STOPPED ? "stopped" : "active";
 }
 
+static int save_events(cJSON *job, const vf_events *log) {
+  cJSON *a = cJSON_AddArrayToObject(job, "events");
+  if (a == NULL || cJSON_AddNumberToObject(job, "events_dropped", (double)log->dropped) == NULL) return VF_ENOMEM;
+  for (unsigned i = 0; i < log->count; i++) {
+    const vf_event *e = vf_events_at(log, i);
+    cJSON *o = cJSON_CreateObject();
+    if (o == NULL || !cJSON_AddItemToArray(a, o)) return VF_ENOMEM;
+    cJSON_AddNumberToObject(o, "time", e->time);
+    cJSON_AddStringToObject(o, "kind", e->kind);
+    cJSON_AddStringToObject(o, "worker", e->worker);
+    if (cJSON_AddStringToObject(o, "message", e->message) == NULL) return VF_ENOMEM;
+  }
+  return VF_OK;
+}
+
 int vf_state_save_index(vf_farm *farm) {
   int err = vf_error_set(VF_ENOMEM, "out of memory writing state.json");
   cJSON *root = cJSON_CreateObject(), *jobs = cJSON_AddArrayToObject(root, "jobs");
@@ -125,6 +144,12 @@ int vf_state_save_index(vf_farm *farm) {
     cJSON_AddBoolToObject(o, "reference", j->reference.rgb != NULL);
     cJSON_AddNumberToObject(o, "seconds", j->seconds);
     cJSON_AddStringToObject(o, "end", end_name(unsettled ? VF_JOB_ACTIVE : j->end));
+    cJSON_AddStringToObject(o, "stop_reason", unsettled ? "" : vf_stop_reason_name(j->stop));
+    cJSON_AddNumberToObject(o, "submitted_at", j->submitted_at);
+    cJSON_AddNumberToObject(o, "started_at", j->started_at);
+    cJSON_AddNumberToObject(o, "ended_at", unsettled ? 0.0 : j->ended_at);
+    cJSON_AddStringToObject(o, "algorithm_resolved", j->algorithm_resolved);
+    if (save_events(o, &j->events) != VF_OK) goto done;
     if (cJSON_AddStringToObject(o, "message", unsettled ? "" : j->message) == NULL) goto done;
   }
   char *text = cJSON_Print(root);
@@ -169,6 +194,40 @@ static int get_nonneg(const cJSON *o, const char *key, double *out) {
   return 1;
 }
 
+/* The events of a job as saved (format 4), each field checked; at most the log's capacity
+ * (the latest). False when malformed. */
+static int load_events(const cJSON *o, vf_job *job) {
+  const cJSON *a = cJSON_GetObjectItemCaseSensitive(o, "events"), *e;
+  double dropped;
+  if (a == NULL) return 1;
+  if (!cJSON_IsArray(a) || !get_nonneg(o, "events_dropped", &dropped) || dropped > 1e15) return 0;
+  int n = cJSON_GetArraySize(a), skip = n > VF_JOB_EVENTS ? n - VF_JOB_EVENTS : 0, i = 0;
+  cJSON_ArrayForEach(e, a) {
+    const cJSON *time = cJSON_GetObjectItemCaseSensitive(e, "time");
+    const char *kind = get_str(e, "kind"), *worker = get_str(e, "worker"), *message = get_str(e, "message");
+    if (!cJSON_IsNumber(time) || !isfinite(time->valuedouble) || !kind || !worker || !message ||
+        strlen(kind) >= sizeof job->events_storage[0].kind)
+      return 0;
+    if (i++ < skip) continue;
+    vf_events_add(&job->events, time->valuedouble, kind, job->id, worker, "%s", message);
+  }
+  job->events.dropped = (uint64_t)dropped + (uint64_t)skip;
+  return 1;
+}
+
+/* A stop reason from a state file older than format 4: from how the job ended. */
+static vf_stop_reason derived_stop(const vf_job *job) {
+  switch (job->end) {
+  case VF_JOB_CANCELLED: return VF_STOP_CANCELLED;
+  case VF_JOB_FAILED: return VF_STOP_FAILED;
+  case VF_JOB_STOPPED:
+    return strncmp(job->message, "time", 4) == 0         ? VF_STOP_TIME
+           : strncmp(job->message, "target RMSE", 11) == 0 ? VF_STOP_TARGET_RMSE
+                                                          : VF_STOP_TARGET_ERROR;
+  default: return vf_job_complete(job) ? VF_STOP_ITERATIONS : VF_STOP_NONE;
+  }
+}
+
 static int load_job(vf_farm *farm, const cJSON *o, const char *state_path, uint64_t format) {
   const char *dir = farm->config.state_dir;
   uint64_t id = 0, first = 0, iterations = 0;
@@ -180,14 +239,25 @@ static int load_job(vf_farm *farm, const cJSON *o, const char *state_path, uint6
   const cJSON *pr = cJSON_GetObjectItemCaseSensitive(o, "priority");
   if (!cJSON_IsNumber(pr) || pr->valuedouble < -2147483648.0 || pr->valuedouble > 2147483647.0)
     return vf_error_set(VF_EINVAL, "%s: job %llu: bad \"priority\"", state_path, (unsigned long long)id);
-  const char *name = get_str(o, "name"), *hex = get_str(o, "scene_hash"), *settings = get_str(o, "settings");
+  const char *name = get_str(o, "name"), *hex = get_str(o, "scene_hash"), *settings_text = get_str(o, "settings");
   const char *end = get_str(o, "end"), *message = get_str(o, "message");
   const cJSON *builtin = cJSON_GetObjectItemCaseSensitive(o, "scene_builtin");
   uint8_t hash[32];
   size_t hash_len = 0;
-  if (!name || !hex || !settings || !end || !message || !cJSON_IsBool(builtin) ||
+  if (!name || !hex || !settings_text || !end || !message || !cJSON_IsBool(builtin) ||
       sodium_hex2bin(hash, sizeof hash, hex, strlen(hex), NULL, &hash_len, NULL) != 0 || hash_len != 32)
     return vf_error_set(VF_EINVAL, "%s: job %llu: a field is missing or malformed", state_path, (unsigned long long)id);
+  /* Written by an older coordinator, the text may hold 17-digit numbers (settings.h). */
+  char settings[512];
+  snprintf(settings, sizeof settings, "%s", settings_text);
+  vf_settings_canonicalize(settings, sizeof settings);
+  double times[3];
+  const char *stop_name = get_str(o, "stop_reason"), *resolved = get_str(o, "algorithm_resolved");
+  if (!get_nonneg(o, "submitted_at", &times[0]) || !get_nonneg(o, "started_at", &times[1]) ||
+      !get_nonneg(o, "ended_at", &times[2]) || (stop_name && vf_stop_reason_parse(stop_name) < 0) ||
+      (resolved && strlen(resolved) >= 16))
+    return vf_error_set(VF_EINVAL, "%s: job %llu: a time, the stop reason or the resolved algorithm is malformed",
+                        state_path, (unsigned long long)id);
   char path[4096];
   uint8_t *scene;
   size_t scene_len;
@@ -217,6 +287,14 @@ static int load_job(vf_farm *farm, const cJSON *o, const char *state_path, uint6
                                            : VF_JOB_ACTIVE;
   snprintf(job->message, sizeof job->message, "%s", message);
   job->seconds = job->seconds_saved = seconds;
+  job->submitted_at = times[0];
+  job->started_at = times[1];
+  job->ended_at = times[2];
+  if (resolved) snprintf(job->algorithm_resolved, sizeof job->algorithm_resolved, "%s", resolved);
+  if (!load_events(o, job)) {
+    err = vf_error_set(VF_EINVAL, "%s: job %llu: an event is malformed", state_path, (unsigned long long)id);
+    goto destroy_job;
+  }
   vf_film *film = NULL;
   /* The files of a JSON scene (absent: it names none); their blobs stay in DIR/blobs. */
   if ((err = path_of(path, sizeof path, dir, "job-", id, ".files")) != VF_OK) goto destroy_job;
@@ -247,6 +325,11 @@ static int load_job(vf_farm *farm, const cJSON *o, const char *state_path, uint6
     vf_film_destroy(job->film);
     job->film = film;
   }
+  /* The reason as saved, while the film agrees: a job complete by iterations whose final
+   * film had not landed resumes from the last one, not complete. */
+  job->stop = stop_name ? (vf_stop_reason)vf_stop_reason_parse(stop_name) : derived_stop(job);
+  if (job->end == VF_JOB_ACTIVE && !vf_job_complete(job)) job->stop = VF_STOP_NONE, job->ended_at = 0.0;
+  vf_job_restore_measure(job);
   if ((err = vf_farm_add_job(farm, job)) != VF_OK) goto destroy_job;
   vf_log("resumed job %llu '%s': %llu/%llu iterations done%s%s", (unsigned long long)id, job->name,
          (unsigned long long)vf_job_done(job), (unsigned long long)iterations, job->end != VF_JOB_ACTIVE ? ", " : "",

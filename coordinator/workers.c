@@ -1,5 +1,6 @@
 #include "workers.h"
 
+#include "../common/clock.h"
 #include "leases.h"
 #include "log.h"
 
@@ -7,6 +8,13 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+
+/* Untrusted text from a worker, for status and logs: no control characters. */
+static void copy_text(char *dst, size_t n, const char *src) {
+  snprintf(dst, n, "%s", src);
+  for (char *c = dst; *c; c++)
+    if ((unsigned char)*c < 0x20 || *c == 0x7f) *c = '?';
+}
 
 void vf_workers_register(vf_farm *farm, const Vcmfarm__Register *m, double now, vf_farm_reply *r) {
   if (farm->num_workers == farm->workers_capacity) {
@@ -21,14 +29,18 @@ void vf_workers_register(vf_farm *farm, const Vcmfarm__Register *m, double now, 
   do {
     randombytes_buf(&w->id, sizeof w->id);
   } while (w->id == 0 || vf_farm_find_worker(farm, w->id) != w);
-  snprintf(w->name, sizeof w->name, "%s", m->name);
-  for (char *c = w->name; *c; c++)
-    if ((unsigned char)*c < 0x20) *c = '?';
+  copy_text(w->name, sizeof w->name, m->name);
+  copy_text(w->host, sizeof w->host, m->host);
+  copy_text(w->version, sizeof w->version, m->software_version);
   w->cores = m->cores;
   w->threads = m->threads;
   w->last_seen = now;
-  vf_log("worker %s registered (%u cores, %u threads, vcmfarm %.32s) as %016llx", w->name, w->cores, w->threads,
-         m->software_version, (unsigned long long)w->id);
+  w->registered_at = vf_unix_now();
+  vf_log("worker %s registered (%u core%s, %u thread%s, vcmfarm %s, host %s) as %016llx", w->name, w->cores,
+         w->cores == 1 ? "" : "s", w->threads, w->threads == 1 ? "" : "s", w->version, w->host[0] ? w->host : "unnamed",
+         (unsigned long long)w->id);
+  vf_events_add(&farm->events, w->registered_at, "worker_registered", 0, w->name, "worker %s registered: %u core%s, %u thread%s",
+                w->name, w->cores, w->cores == 1 ? "" : "s", w->threads, w->threads == 1 ? "" : "s");
   vcmfarm__registered__init(&r->registered);
   r->registered.worker_id = w->id;
   double hb = farm->config.worker_timeout / 5.0;
@@ -36,6 +48,30 @@ void vf_workers_register(vf_farm *farm, const Vcmfarm__Register *m, double now, 
   r->registered.timeout_ms = (uint32_t)(farm->config.worker_timeout * 1000.0);
   r->env.body_case = VCMFARM__ENVELOPE__BODY_REGISTERED;
   r->env.registered = &r->registered;
+}
+
+/* Moves worker i to the departed (left or lost), its lease already ended. */
+static void depart(vf_farm *farm, size_t i, vf_worker_state state) {
+  vf_farm_worker *w = &farm->workers[i];
+  w->state = state;
+  w->departed_at = vf_unix_now();
+  w->lease_id = 0;
+  farm->departed[farm->departed_next] = *w;
+  farm->departed_next = (farm->departed_next + 1) % VF_FARM_DEPARTED;
+  if (farm->num_departed < VF_FARM_DEPARTED) farm->num_departed++;
+  farm->workers[i] = farm->workers[--farm->num_workers];
+}
+
+vf_farm_worker *vf_workers_find_any(vf_farm *farm, uint64_t id) {
+  vf_farm_worker *w = vf_farm_find_worker(farm, id);
+  for (unsigned i = 0; w == NULL && i < farm->num_departed; i++)
+    if (farm->departed[i].id == id) w = &farm->departed[i];
+  return w;
+}
+
+const vf_farm_worker *vf_workers_departed(const vf_farm *farm, unsigned i) {
+  if (i >= farm->num_departed) return NULL;
+  return &farm->departed[(farm->departed_next + VF_FARM_DEPARTED - farm->num_departed + i) % VF_FARM_DEPARTED];
 }
 
 int vf_workers_expire(vf_farm *farm, double now) {
@@ -46,17 +82,63 @@ int vf_workers_expire(vf_farm *farm, double now) {
       i++;
       continue;
     }
+    double at = vf_unix_now(), silent = now - w->last_seen;
     vf_lease *l = vf_lease_find(&farm->leases, w->lease_id);
     if (l) {
       vf_log("worker %s lost (silent for %.1f s); lease %016llx of job %llu [%llu,%llu) returns to the pool", w->name,
-             now - w->last_seen, (unsigned long long)l->id, (unsigned long long)l->job_id,
-             (unsigned long long)l->begin, (unsigned long long)l->end);
+             silent, (unsigned long long)l->id, (unsigned long long)l->job_id, (unsigned long long)l->begin,
+             (unsigned long long)l->end);
+      vf_job *job = vf_farm_job(farm, l->job_id);
+      if (job)
+        vf_events_add(&job->events, at, "worker_lost", job->id, w->name,
+                      "worker %s lost after %.1f s of silence; its lease [%llu,%llu) expired and returns to the pool",
+                      w->name, silent, (unsigned long long)l->begin, (unsigned long long)l->end);
       vf_leases_end(farm, l, 1, now);
     } else {
-      vf_log("worker %s lost (silent for %.1f s)", w->name, now - w->last_seen);
+      vf_log("worker %s lost (silent for %.1f s)", w->name, silent);
     }
-    farm->workers[i] = farm->workers[--farm->num_workers];
+    vf_events_add(&farm->events, at, "worker_lost", 0, w->name, "worker %s lost after %.1f s of silence", w->name,
+                  silent);
+    depart(farm, i, VF_WORKER_LOST);
     lost++;
   }
   return lost;
+}
+
+void vf_workers_goodbye(vf_farm *farm, vf_farm_worker *w, const Vcmfarm__Goodbye *m, double now, vf_farm_reply *r) {
+  double at = vf_unix_now();
+  vf_lease *l = vf_lease_find(&farm->leases, w->lease_id);
+  if (!m->done) {
+    if (w->state != VF_WORKER_STOPPING) {
+      w->state = VF_WORKER_STOPPING;
+      vf_log("worker %s is stopping%s", w->name, l ? ": it finishes its lease" : "");
+      vf_events_add(&farm->events, at, "worker_stopping", l ? l->job_id : 0, w->name, "worker %s is stopping%s",
+                    w->name, l ? ": it ships what it rendered and hands back the rest" : "");
+    }
+    return vf_farm_reply_ack(r, 1, "stopping");
+  }
+  if (l) {
+    vf_job *job = vf_farm_job(farm, l->job_id);
+    vf_log("worker %s left holding lease %016llx; [%llu,%llu) returns to the pool", w->name, (unsigned long long)l->id,
+           (unsigned long long)l->begin, (unsigned long long)l->end);
+    if (job)
+      vf_events_add(&job->events, at, "lease_expired", job->id, w->name,
+                    "worker %s left holding lease [%llu,%llu), which returns to the pool", w->name,
+                    (unsigned long long)l->begin, (unsigned long long)l->end);
+    vf_leases_end(farm, l, 1, now);
+  } else {
+    vf_log("worker %s left", w->name);
+  }
+  vf_events_add(&farm->events, at, "worker_left", 0, w->name, "worker %s left", w->name);
+  depart(farm, (size_t)(w - farm->workers), VF_WORKER_LEFT);
+  vf_farm_reply_ack(r, 1, "goodbye");
+}
+
+const char *vf_worker_state_name(vf_farm *farm, const vf_farm_worker *w) {
+  switch (w->state) {
+  case VF_WORKER_STOPPING: return "stopping";
+  case VF_WORKER_LEFT: return "left";
+  case VF_WORKER_LOST: return "lost";
+  default: return vf_lease_find(&farm->leases, w->lease_id) != NULL ? "busy" : "idle";
+  }
 }

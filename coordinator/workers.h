@@ -2,7 +2,11 @@
  * (the farm never calls it): it registers and gets a random id, the heartbeat interval and
  * the timeout; every message of it counts as a sign of life; one silent for the worker
  * timeout is lost, and its lease returns to the pool (coordinator/leases.h) with its merged
- * parts counted. A restarted coordinator knows no worker: they register again. */
+ * parts counted. One told to stop says goodbye (version 6): first that it is stopping (it
+ * finishes its lease, which stays valid), then that it is done (it has left; a lease it
+ * still holds returns to the pool). The latest VF_FARM_DEPARTED workers that left or were
+ * lost are kept for status, with their totals. A restarted coordinator knows no worker:
+ * they register again. */
 #ifndef VF_WORKERS_H
 #define VF_WORKERS_H
 
@@ -15,5 +19,19 @@ void vf_workers_register(vf_farm *farm, const Vcmfarm__Register *m, double now, 
 /* Declares the workers silent for longer than the worker timeout lost and returns their
  * leases to the pool (kept as expired, for their late results). Returns how many. */
 int vf_workers_expire(vf_farm *farm, double now);
+
+/* Goodbye -> ResultAck: stopping (done false) or left (done true; the worker is departed
+ * and its pointer invalid afterwards). */
+void vf_workers_goodbye(vf_farm *farm, vf_farm_worker *w, const Vcmfarm__Goodbye *m, double now, vf_farm_reply *r);
+
+/* The registered or departed worker with this id (a late result may come from a worker
+ * already lost: its totals and events still name it), or NULL. */
+vf_farm_worker *vf_workers_find_any(vf_farm *farm, uint64_t id);
+
+/* The i-th departed worker kept, 0 the oldest; NULL past the last. */
+const vf_farm_worker *vf_workers_departed(const vf_farm *farm, unsigned i);
+
+/* "idle", "busy" (holds a lease), "stopping", "left" or "lost". */
+const char *vf_worker_state_name(vf_farm *farm, const vf_farm_worker *w);
 
 #endif

@@ -122,5 +122,42 @@ printf '%s' '{"camera":{"position":[0,0,3],"target":[0,0,0],"up":[0,1,0],"fov":4
 expect_refusal "negative roughness" "negative.json: materials.m.roughness: must be in [0, 1], found -0.1" \
   "$vcmfarm" render "$tmp/negative.json" -n 1 -R 8x8 -o "$tmp/out.exr"
 
+# Settings lines give numbers in their shortest exact form, and messages count in words.
+"$vcmfarm" render furnace -n 1 -R 8x8 -j 1 -o "$tmp/words.exr" 2>"$tmp/words.err"
+grep -q 'radius_factor=0.003 alpha=0.75 ' "$tmp/words.err"
+check "settings line without 17-digit numbers" $?
+! grep -qE ';  surfaces;| 1 threads|on 1 workers|JSON scene ,' "$tmp/words.err"
+check "no empty fields or wrong plurals in the render's lines" $?
+"$vcmfarm" continue "$tmp/ok.exr" -n 1 -q -p "$tmp/continued.png"
+check "continue --preview writes the preview" $([ -s "$tmp/continued.png" ]; echo $?)
+expect_refusal "continue --preview named .exr" "does not end in .png" "$vcmfarm" continue "$tmp/ok.exr" -n 1 -p "$tmp/p.exr"
+expect_refusal "submit -o without --wait" "go with --wait" "$vcmfarm" submit furnace -o "$tmp/out.exr" --coordinator ipc://x --secret "$tmp/farm.key"
+expect_refusal "submit --wait without -o" "--wait needs -o" "$vcmfarm" submit furnace --wait --coordinator ipc://x --secret "$tmp/farm.key"
+expect_refusal "fetch -o named .png" "does not end in .exr" "$vcmfarm" fetch 1 -o "$tmp/f.png" --coordinator ipc://x --secret "$tmp/farm.key"
+
+# submit --wait waits for the job and fetches its film (and a preview); fetch --preview
+# too; status speaks of "1 worker" and "1 thread".
+"$vcmfarm" coordinator --listen "ipc://$tmp/w.sock" --state "$tmp/state-w" --secret "$tmp/farm.key" --lease-seconds 0.3 \
+  2>"$tmp/coordinator-w.log" &
+coordinator=$!
+"$vcmfarm" worker --connect "ipc://$tmp/w.sock" --secret "$tmp/farm.key" --threads 1 --name single 2>/dev/null &
+worker=$!
+client=(--coordinator "ipc://$tmp/w.sock" --secret "$tmp/farm.key" --timeout 5)
+timeout 120 "$vcmfarm" submit furnace -R 16x16 -n 6 --wait -o "$tmp/waited.exr" -p "$tmp/waited.png" "${client[@]}" \
+  >"$tmp/wait.out" 2>"$tmp/wait.err"
+check "submit --wait exits 0 when the job is done" $?
+check "submit --wait writes the film and the preview" $([ -s "$tmp/waited.exr" ] && [ -s "$tmp/waited.png" ]; echo $?)
+"$vcmfarm" info "$tmp/waited.exr" 2>/dev/null | grep -q '\[0,6)'
+check "the waited-for film holds the job's iterations" $?
+"$vcmfarm" fetch "$(tail -n 1 "$tmp/wait.out")" -o "$tmp/fetched.exr" -p "$tmp/fetched.png" "${client[@]}"
+check "fetch --preview writes the preview" $([ -s "$tmp/fetched.png" ]; echo $?)
+"$vcmfarm" status "${client[@]}" >"$tmp/status.txt"
+grep -q '1 thread, ' "$tmp/status.txt" && grep -q 'of 1 worker busy' "$tmp/status.txt" && ! grep -q '1 threads\|1 workers' "$tmp/status.txt"
+check "status counts in words" $?
+grep -q "submitted: built-in furnace, at most 6 iterations from 0, priority 1" "$tmp/coordinator-w.log"
+check "the coordinator's submission line has no empty field" $?
+kill -TERM "$worker" "$coordinator"
+wait "$worker" "$coordinator" 2>/dev/null
+
 echo "$passed passed, $failed failed"
 [ "$failed" -eq 0 ]

@@ -357,6 +357,11 @@ worker_killed)
   start_worker rescuer
   wait_until 60 "job $job done" job_done
   grep -q "worker victim lost.*returns to the pool" "$tmp/coordinator.log" || fail "the victim's lease was not reclaimed"
+  # The lost worker stays listed as lost, and the job says what happened to its lease.
+  status_json | grep -q '"name":"victim","threads":1,"lease":null,"state":"lost"' ||
+    fail "the victim is not listed as lost: $(status_json)"
+  status_json | grep -q '"kind":"worker_lost","job":'"$job"',"worker":"victim","message":"workervictimlost' ||
+    fail "job $job has no worker_lost event: $(status_json)"
   check_film
   ;;
 worker_killed_after_parts)
@@ -380,8 +385,11 @@ worker_killed_after_parts)
   check_film
   ;;
 worker_terminated)
+  # A worker told to stop (SIGTERM) says so at once (Goodbye, protocol 6): it is listed as
+  # stopping while it finishes its iteration (1.5 s here), ships what it rendered and hands
+  # back the rest, then as left; the farm's events say both.
   start_coordinator --lease-seconds 5
-  start_worker quitter --test-iteration-delay 300
+  start_worker quitter --test-iteration-delay 1500
   quitter=$last_worker
   submit 24
   # The first lease is one iteration (to measure the worker); wait for a longer one.
@@ -396,12 +404,26 @@ worker_terminated)
   rendering() { [ "$(job_number iterations_rendering)" -gt 0 ] 2>/dev/null; }
   wait_until 20 "the status to show iterations rendered, not merged" rendering
   echo "status: $(job_number iterations_rendering) iteration(s) rendered, not merged; $(job_number iterations_done) done"
+  worker_json() { client status --json | tr -d ' \t\n' | grep -o '{"id":"[0-9a-f]*","name":"quitter"[^}]*}[^}]*}[^}]*}'; }
+  worker_json | grep -q '"state":"busy","host":"[^"]*","cores":[1-9][0-9]*,"version":"[0-9.]*"' ||
+    fail "the quitter is not busy with host, cores and version: $(worker_json)"
   kill -TERM "$quitter"
+  stopping() { worker_json | grep -q '"state":"stopping"'; }
+  wait_until 5 "the quitter to be listed as stopping" stopping
   wait_until 20 "the quitter to exit" exited "$quitter"
   wait "$quitter"
   status=$?
   [ "$status" -eq 0 ] || fail "the worker exited with status $status after SIGTERM"
   grep -q "worker quitter handed back lease" "$tmp/coordinator.log" || fail "the lease was not handed back"
+  worker_json | grep -q '"state":"left"' || fail "the quitter is not listed as left: $(worker_json)"
+  worker_json | grep -q '"departed_at":[0-9]' || fail "the quitter has no departure time: $(worker_json)"
+  merged=$(worker_json | sed -n 's/.*"iterations_merged":\([0-9]*\).*/\1/p')
+  [ "${merged:-0}" -ge 2 ] || fail "the quitter's totals say $merged iterations merged: $(worker_json)"
+  for kind in worker_stopping worker_left; do
+    client status --json | tr -d ' \t\n' | grep -q "\"kind\":\"$kind\"[^}]*\"worker\":\"quitter\"" ||
+      fail "no $kind event of the quitter"
+  done
+  client status | grep "^worker quitter"
   start_worker rescuer
   wait_until 60 "job $job done" job_done
   check_film
@@ -500,6 +522,18 @@ coordinator_killed)
   [ -n "$resumed" ] && [ "$resumed" -gt 0 ] || fail "the restarted coordinator did not resume the checkpointed film"
   echo "resumed with $resumed of 32 iterations done"
   check_film
+  # Restarted once more, the finished job still tells its errors, times and reason (they
+  # come back from its film's convergence log and state.json).
+  kill -9 "$coordinator"
+  wait_until 10 "the coordinator to die" exited "$coordinator"
+  start_coordinator --worker-timeout 3
+  wait_until 30 "the restarted coordinator to answer" job_done
+  status_json | grep -q '"estimated_rmse":[0-9][^,]*,"error_slope"' || fail "estimated_rmse after a restart: $(status_json)"
+  status_json | grep -q '"stop_reason":"iterations"' || fail "no stop reason after a restart: $(status_json)"
+  for t in submitted_at started_at ended_at; do
+    [ -n "$(job_value "$t")" ] || fail "no $t after a restart: $(status_json)"
+  done
+  status_json | grep -q '"progress":1,' || fail "a done job's progress is not 1: $(status_json)"
   ;;
 hostile_peers)
   start_coordinator
@@ -523,6 +557,9 @@ late_duplicate)
   wait_until 30 "the late result to be refused" grep -q "already counted" "$tmp/coordinator.log"
   [ "$(job_number results_refused)" = 1 ] || fail "expected exactly 1 refused result, status says $(job_number results_refused)"
   grep "refused result" "$tmp/coordinator.log"
+  for kind in worker_lost result_refused; do
+    status_json | grep -q "\"kind\":\"$kind\",\"job\":$job,\"worker\":\"staller\"" || fail "job $job has no $kind event"
+  done
   check_film
   ;;
 priorities)
@@ -564,7 +601,9 @@ stop_conditions)
   start_worker w1 --test-iteration-delay 20
   stopped_by() { # reason, what
     wait_until 60 "job $job stopped by $2" job_done
-    status_json | grep -q "\"stop_reason\":\"${1// /}" || fail "job $job: expected stop reason '$1': $(status_json)"
+    status_json | grep -q "\"stop_reason\":\"$1\"" || fail "job $job: expected stop reason '$1': $(status_json)"
+    status_json | grep -q "\"stop_message\":\"${3// /}" || fail "job $job: expected stop message '$3': $(status_json)"
+    status_json | grep -q '"progress":1,' || fail "job $job: a done job's progress is not 1"
     iterations=$(job_number iterations_done)
     echo "job $job: $(client status "$job" | sed -n 's/^  stopped: //p')"
     [ "$(status_json | grep -o '"iterations":[0-9]*,"rmse"' | wc -l)" -ge 1 ] || fail "job $job: empty convergence log"
@@ -572,22 +611,41 @@ stop_conditions)
   }
 
   submit 100000 --target-error 0.1
-  stopped_by "target estimated error 0.1 reached" "its target error"
+  stopped_by target_error "its target error" "target estimated error 0.1 reached"
   at_most "$(job_value estimated_rmse)" 0.1 || fail "estimated RMSE $(job_value estimated_rmse) above the target"
   [ "$iterations" -lt 200 ] || fail "took $iterations iterations to an estimated RMSE of 0.1"
 
   submit 100000 --target-rmse 0.12 --reference "$tmp/truth.exr"
   [ -s "$tmp/state/job-$job.reference.exr" ] || fail "the reference was not kept with the job"
-  stopped_by "target RMSE 0.12 reached" "its target RMSE"
+  stopped_by target_rmse "its target RMSE" "target RMSE 0.12 reached"
   at_most "$(job_value rmse)" 0.12 || fail "RMSE $(job_value rmse) above the target"
   client status "$job"
 
-  submit 100000 --time 1.5
-  has_eta() { at_most "$(job_value eta_seconds)" 1.5; }
-  wait_until 30 "job $job to show an ETA within its time limit" has_eta
-  stopped_by "time limit of 1.5 s reached" "its time limit"
+  # Open-ended (no --iterations): progress and ETA follow the time, never the cap of 10^9.
+  job=$(client submit cornell -R 64x64 --seed 7 --time 1.5 | tail -n 1)
+  has_eta() {
+    at_most "$(job_value eta_seconds)" 1.45 && status_json | grep -q '"progress_by":"time"' &&
+      at_most 0.03 "$(job_value progress)"
+  }
+  wait_until 30 "job $job to show an ETA within its time limit and progress" has_eta
+  progress=$(job_value progress)
+  at_most "$progress" 1 || fail "job $job: progress $progress of a running time job"
+  status_json | grep -q '"stop":{"iterations":null,"time":1.5,' || fail "job $job: the cap shows as a condition"
+  client status "$job" | grep -q 1000000000 && fail "job $job: the status text counts against the cap"
+  client status "$job" | grep "^job\|stops at"
+  stopped_by time "its time limit" "time limit of 1.5 s reached"
   at_most 1.5 "$(job_value seconds)" && at_most "$(job_value seconds)" 3 ||
     fail "stopped after $(job_value seconds) s of a 1.5 s limit"
+  # A target far away: its progress and ETA come from the convergence log's slope.
+  job=$(client submit cornell -R 64x64 --seed 7 --target-error 0.0001 | tail -n 1)
+  by_target() {
+    status_json | grep -q '"progress_by":"target_error"' && [ -n "$(job_value eta_seconds)" ] &&
+      [ -n "$(job_value error_slope)" ]
+  }
+  wait_until 30 "job $job to forecast its target from the slope" by_target
+  echo "job $job: progress $(job_value progress) towards est. RMSE 0.0001, slope $(job_value error_slope), ETA $(job_value eta_seconds) s"
+  client cancel "$job" || fail "cancel failed"
+  status_json | grep -q '"stop_reason":"cancelled"' || fail "job $job: no stop reason after cancel"
   client submit cornell --target-rmse 0.1 >/dev/null 2>&1 && fail "--target-rmse without --reference was accepted"
   client submit cornell -R 32x32 --target-rmse 0.1 --reference "$tmp/truth.exr" >/dev/null 2>&1 &&
     fail "a reference of the wrong size was accepted"

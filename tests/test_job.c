@@ -38,6 +38,12 @@ static int create(const submission *s, vf_job **out) {
                        s->settings, s->first, s->iterations, out);
 }
 
+#define CHECK_STR_EQ(got, want)                                                                    \
+  do {                                                                                             \
+    const char *g_ = (got), *w_ = (want);                                                          \
+    if (strcmp(g_, w_) != 0) CHECK_FAIL_("%s: \"%s\", expected \"%s\"", #got, g_, w_);             \
+  } while (0)
+
 static vf_job *make_job(uint64_t first, uint64_t iterations) {
   submission s = valid();
   s.first = first;
@@ -239,7 +245,10 @@ static void test_results_are_checked_and_merged_once(void) {
   CHECK_STR_CONTAINS(vf_job_state(job, 0), "done");
   CHECK_INT_EQ(vf_job_check_stop(job), 0); /* complete needs no mark */
   CHECK_INT_EQ(job->end, VF_JOB_ACTIVE);
-  CHECK_NEAR(vf_job_eta(job, 1.0), 0.0, 0.0);
+  vf_forecast f;
+  vf_job_forecast(job, 1.0, &f);
+  CHECK_NEAR(f.eta, 0.0, 0.0);
+  CHECK_NEAR(f.progress, 1.0, 0.0);
   vf_job_destroy(job);
 }
 
@@ -249,10 +258,19 @@ static void test_a_time_limit_stops_the_job(void) {
   CHECK_INT_EQ(vf_job_set_stop(job, 5.0, 0.0, 0.0), VF_OK);
   job->seconds = 4.9;
   CHECK_INT_EQ(vf_job_check_stop(job), 0);
-  CHECK_NEAR(vf_job_eta(job, 0.0), 0.1, 1e-9);
+  vf_forecast f;
+  vf_job_forecast(job, 0.0, &f);
+  CHECK_NEAR(f.eta, 0.1, 1e-9);
+  CHECK_INT_EQ(f.by, VF_STOP_TIME);
+  CHECK_NEAR(f.progress, 0.98, 1e-9);
+  CHECK_INT_EQ(job->stop, VF_STOP_NONE);
+  CHECK_NEAR(job->ended_at, 0.0, 0.0);
   job->seconds = 5.0;
   CHECK_INT_EQ(vf_job_check_stop(job), 1);
   CHECK_INT_EQ(job->end, VF_JOB_STOPPED);
+  CHECK_INT_EQ(job->stop, VF_STOP_TIME);
+  CHECK_STR_EQ(vf_stop_reason_name(job->stop), "time");
+  if (!(job->ended_at > 1.6e9)) CHECK_FAIL_("ended_at %g, expected a Unix time", job->ended_at);
   CHECK_STR_CONTAINS(job->message, "time limit of 5 s reached");
   CHECK_STR_CONTAINS(vf_job_state(job, 0), "done");
   CHECK(vf_job_complete(job));
@@ -269,7 +287,25 @@ static void test_a_target_error_stops_the_job(void) {
   if (!(job->measured.estimated_rmse > 0.01))
     CHECK_FAIL_("estimated RMSE %g, expected above 0.01", job->measured.estimated_rmse);
   /* The 96 iterations left at 2 per second come first: the target needs thousands. */
-  CHECK_NEAR(vf_job_eta(job, 2.0), 48.0, 1e-9);
+  vf_forecast f;
+  vf_job_forecast(job, 2.0, &f);
+  CHECK_NEAR(f.eta, 48.0, 1e-9);
+  CHECK_INT_EQ(f.by, VF_STOP_ITERATIONS);
+  CHECK_NEAR(f.progress, 0.04, 1e-9);
+  vf_job_destroy(job);
+  /* Open-ended (the cap of 10^9 iterations with a target): the target alone counts, its
+   * iterations extrapolated with the default slope 1/2 from one measurement. */
+  job = make_job(0, VF_JOB_MAX_ITERATIONS);
+  if (job == NULL) return;
+  CHECK_INT_EQ(vf_job_set_stop(job, 0.0, 0.0, 0.01), VF_OK);
+  CHECK_INT_EQ(merge(job, 0, 4, 0), VF_OK);
+  CHECK_INT_EQ(vf_job_check_stop(job), 0);
+  vf_job_forecast(job, 2.0, &f);
+  CHECK_INT_EQ(f.by, VF_STOP_TARGET_ERROR);
+  double r = job->measured.estimated_rmse / 0.01, needed = 4.0 * r * r;
+  CHECK_NEAR(f.progress, 4.0 / needed, 1e-9);
+  CHECK_NEAR(f.eta, (needed - 4.0) / 2.0, 1e-6 * needed);
+  CHECK_NEAR(f.slope, 0.5, 0.0);
   vf_job_destroy(job);
   job = make_job(0, 100);
   if (job == NULL) return;
@@ -279,6 +315,7 @@ static void test_a_target_error_stops_the_job(void) {
   CHECK_INT_EQ(merge(job, 1, 3, 1), VF_OK); /* steady: no variance */
   CHECK_INT_EQ(vf_job_check_stop(job), 1);
   CHECK_STR_CONTAINS(job->message, "target estimated error 0.01 reached: 0 at 3 iterations");
+  CHECK_STR_EQ(vf_stop_reason_name(job->stop), "target_error");
   vf_job_destroy(job);
 }
 
@@ -305,6 +342,7 @@ static void test_a_target_rmse_stops_the_job(void) {
   CHECK_INT_EQ(vf_job_set_stop(job, 0.0, 1e-6, 0.0), VF_OK);
   CHECK_INT_EQ(vf_job_check_stop(job), 1);
   CHECK_STR_CONTAINS(job->message, "target RMSE 1e-06 reached: 0 at 2 iterations");
+  CHECK_STR_EQ(vf_stop_reason_name(job->stop), "target_rmse");
   CHECK_NEAR(job->measured.rmse, 0.0, 0.0);
   vf_job_destroy(job);
 }
@@ -327,6 +365,60 @@ static void test_the_convergence_log_gains_one_entry_per_change(void) {
   vf_job_destroy(job);
 }
 
+static void test_an_end_is_recorded_once_with_its_reason(void) {
+  vf_job *job = make_job(0, 100);
+  if (job == NULL) return;
+  vf_job_finish(job, VF_STOP_CANCELLED, 1000.0, NULL);
+  CHECK_INT_EQ(job->end, VF_JOB_CANCELLED);
+  vf_job_finish(job, VF_STOP_FAILED, 2000.0, "late");
+  CHECK_INT_EQ(job->end, VF_JOB_CANCELLED);
+  CHECK_NEAR(job->ended_at, 1000.0, 0.0);
+  CHECK_STR_EQ(vf_stop_reason_name(job->stop), "cancelled");
+  vf_forecast f;
+  vf_job_forecast(job, 1.0, &f);
+  CHECK_INT_EQ(f.by, VF_STOP_CANCELLED);
+  vf_job_destroy(job);
+  job = make_job(0, 100);
+  if (job == NULL) return;
+  vf_job_finish(job, VF_STOP_FAILED, 5.0, "worker w: bad\nscene");
+  CHECK_INT_EQ(job->end, VF_JOB_FAILED);
+  CHECK_STR_EQ(job->message, "worker w: bad?scene");
+  vf_job_destroy(job);
+}
+
+static void test_a_job_keeps_its_latest_events(void) {
+  vf_job *job = make_job(0, 100);
+  if (job == NULL) return;
+  for (int i = 0; i < VF_JOB_EVENTS + 8; i++)
+    vf_events_add(&job->events, 100.0 + i, "result_refused", job->id, "w\x01", "refused %d\n", i);
+  CHECK_INT_EQ(job->events.count, VF_JOB_EVENTS);
+  CHECK_INT_EQ(job->events.dropped, 8);
+  const vf_event *oldest = vf_events_at(&job->events, 0), *latest = vf_events_at(&job->events, VF_JOB_EVENTS - 1);
+  CHECK_STR_EQ(oldest->message, "refused 8?");
+  CHECK_NEAR(oldest->time, 108.0, 0.0);
+  CHECK_STR_EQ(latest->message, "refused 39?");
+  CHECK_STR_EQ(latest->worker, "w?");
+  CHECK(vf_events_at(&job->events, VF_JOB_EVENTS) == NULL);
+  vf_job_destroy(job);
+}
+
+static void test_a_measure_comes_back_from_the_log(void) {
+  vf_job *job = make_job(0, 100);
+  if (job == NULL) return;
+  CHECK_INT_EQ(merge(job, 0, 4, 0), VF_OK);
+  CHECK_INT_EQ(vf_job_log(job), VF_OK);
+  double logged = job->measured.estimated_rmse;
+  job->measured_iterations = UINT64_MAX; /* as read back by a restarted coordinator */
+  vf_job_restore_measure(job);
+  CHECK_INT_EQ(job->measured_iterations, 4);
+  CHECK_NEAR(job->measured.estimated_rmse, logged, 0.0);
+  CHECK_INT_EQ(merge(job, 4, 6, 0), VF_OK); /* the log's last entry is older: nothing restored */
+  job->measured_iterations = UINT64_MAX;
+  vf_job_restore_measure(job);
+  CHECK_INT_EQ(job->measured_iterations, UINT64_MAX);
+  vf_job_destroy(job);
+}
+
 int main(void) {
   vf_settings s;
   vf_settings_default(&s);
@@ -343,6 +435,9 @@ int main(void) {
   RUN(test_a_target_error_stops_the_job);
   RUN(test_a_target_rmse_stops_the_job);
   RUN(test_the_convergence_log_gains_one_entry_per_change);
+  RUN(test_an_end_is_recorded_once_with_its_reason);
+  RUN(test_a_job_keeps_its_latest_events);
+  RUN(test_a_measure_comes_back_from_the_log);
   vf_file_remove_tree(dir);
   return check_finish();
 }

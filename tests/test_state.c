@@ -6,6 +6,7 @@
 #include "common/error.h"
 #include "common/file.h"
 #include "common/settings.h"
+#include "coordinator/checkpoint.h"
 #include "coordinator/log.h"
 #include "coordinator/state.h"
 
@@ -102,6 +103,20 @@ static void check_same_job(const vf_job *a, const vf_job *b) {
   CHECK_NEAR(b->seconds, a->seconds, 0.0);
   CHECK_INT_EQ(b->end, a->end);
   CHECK_STR_EQ(b->message, a->message);
+  CHECK_STR_EQ(vf_stop_reason_name(b->stop), vf_stop_reason_name(a->stop));
+  CHECK_NEAR(b->submitted_at, a->submitted_at, 0.0);
+  CHECK_NEAR(b->started_at, a->started_at, 0.0);
+  CHECK_NEAR(b->ended_at, a->ended_at, 0.0);
+  CHECK_STR_EQ(b->algorithm_resolved, a->algorithm_resolved);
+  CHECK_INT_EQ(b->events.count, a->events.count);
+  CHECK_INT_EQ(b->events.dropped, a->events.dropped);
+  for (unsigned i = 0; i < a->events.count && i < b->events.count; i++) {
+    const vf_event *x = vf_events_at(&a->events, i), *y = vf_events_at(&b->events, i);
+    CHECK_NEAR(y->time, x->time, 0.0);
+    CHECK_STR_EQ(y->kind, x->kind);
+    CHECK_STR_EQ(y->worker, x->worker);
+    CHECK_STR_EQ(y->message, x->message);
+  }
   CHECK_STR_EQ(b->film->scene_name, a->film->scene_name);
   CHECK_STR_EQ(iterations_of(b->film), iterations_of(a->film));
   CHECK_INT_EQ(b->files.count, a->files.count);
@@ -132,20 +147,24 @@ static void test_every_job_is_read_back_as_written(void) {
   }
   CHECK_INT_EQ(vf_job_set_stop(j, 100.0, 0.0, 0.5), VF_OK);
   j->seconds = 12.5;
+  j->submitted_at = 1714550000.25;
+  j->started_at = 1714550001.5;
+  snprintf(j->algorithm_resolved, sizeof j->algorithm_resolved, "pt");
+  for (int k = 0; k < VF_JOB_EVENTS + 3; k++)
+    vf_events_add(&j->events, 1714550002.0 + k, k % 2 ? "lease_expired" : "worker_lost", j->id, "w1",
+                  "event %d: \"quoted\"", k);
   /* 2: a JSON scene with files, continuing from iteration 1000, cancelled. */
   j = add_job(&a, 0, "{\"shapes\":[{\"file\":\"../meshes/bunny.ply\"}]}", 1000, 10);
   const uint8_t h1[32] = {1}, h2[32] = {2};
   CHECK_INT_EQ(vf_blob_table_add(&j->files, "../meshes/bunny.ply", h1, 1234), VF_OK);
   CHECK_INT_EQ(vf_blob_table_add(&j->files, "sky.exr", h2, 99), VF_OK);
   CHECK_INT_EQ(vf_job_set_scene_path(j, "/home/u/scenes/bunny.json"), VF_OK);
-  j->end = VF_JOB_CANCELLED;
+  vf_job_finish(j, VF_STOP_CANCELLED, 1714550100.0, NULL);
   /* 3: failed; 4: stopped, its final film durable. */
   j = add_job(&a, 1, "veach-mis", 0, 10);
-  j->end = VF_JOB_FAILED;
-  snprintf(j->message, sizeof j->message, "worker w: scene does not load");
+  vf_job_finish(j, VF_STOP_FAILED, 1714550200.0, "worker w: scene does not load");
   j = add_job(&a, 1, "cornell", 0, 10);
-  j->end = VF_JOB_STOPPED;
-  snprintf(j->message, sizeof j->message, "time limit of 5 s reached");
+  vf_job_finish(j, VF_STOP_TIME, 1714550300.0, "time limit of 5 s reached");
   /* 5: with a reference and a target RMSE. */
   j = add_job(&a, 1, "cornell", 0, 10);
   char path[8192];
@@ -177,6 +196,65 @@ static void test_every_job_is_read_back_as_written(void) {
   CHECK_INT_EQ(vf_job_done(b.jobs[0]), 7);
   vf_farm_destroy(&a);
   vf_farm_destroy(&b);
+}
+
+/* After a restart a finished job shows its errors again: the film's convergence log ends
+ * with the measurement of its last iterations (issue 19: they came back null). */
+static void test_a_finished_jobs_errors_come_back(void) {
+  char dir[4200];
+  vf_farm a, b;
+  fresh_farm(&a, dir, sizeof dir, "errors_back");
+  vf_job *j = add_job(&a, 1, "cornell", 0, 6);
+  if (j == NULL) return;
+  float rgb[3 * W * H];
+  for (uint64_t k = 0; k < 6; k++) {
+    for (int i = 0; i < 3 * W * H; i++) rgb[i] = (float)((i * 7 + (int)k * 13) % 11) * 0.1f;
+    CHECK_INT_EQ(vf_film_add_iteration(j->film, k, rgb, rgb, NULL), VF_OK);
+  }
+  CHECK_INT_EQ(vf_job_log(j), VF_OK); /* the final checkpoint's entry */
+  vf_job_finish(j, VF_STOP_ITERATIONS, 1714550400.0, NULL);
+  double estimated = j->measured.estimated_rmse;
+  if (!(estimated > 0.0)) CHECK_FAIL_("estimated RMSE %g, expected > 0", estimated);
+  CHECK_INT_EQ(vf_state_save_scene(dir, j), VF_OK);
+  CHECK_INT_EQ(vf_state_save_film(dir, j), VF_OK);
+  CHECK_INT_EQ(vf_state_save_index(&a), VF_OK);
+  open_farm(&b, dir);
+  CHECK_INT_EQ(vf_state_load(&b), VF_OK);
+  if (b.num_jobs == 1) {
+    const vf_job *r = b.jobs[0];
+    CHECK(vf_job_complete(r));
+    CHECK_INT_EQ(r->measured_iterations, 6);
+    CHECK_NEAR(r->measured.estimated_rmse, estimated, 1e-6 * estimated); /* the log's text holds 9 digits */
+    CHECK_STR_EQ(vf_stop_reason_name(r->stop), "iterations");
+    CHECK_NEAR(r->ended_at, 1714550400.0, 0.0);
+  }
+  vf_farm_destroy(&a);
+  vf_farm_destroy(&b);
+}
+
+/* A film checkpoint that fails is an event of its job (and is tried again later). */
+static void test_a_failed_checkpoint_is_an_event_of_its_job(void) {
+  char dir[4200], blocked[4300];
+  fresh_dir(dir, sizeof dir, "blocked");
+  write_file(dir, "file", "not a directory");
+  snprintf(blocked, sizeof blocked, "%s/file/state", dir);
+  vf_farm farm;
+  open_farm(&farm, blocked);
+  vf_job *j = add_job(&farm, 1, "cornell", 0, 10);
+  if (j == NULL) return;
+  float rgb[3 * W * H] = {0};
+  CHECK_INT_EQ(vf_film_add_iteration(j->film, 0, rgb, rgb, NULL), VF_OK);
+  j->film_dirty = 1;
+  CHECK(vf_checkpoint_write(&farm, 0) != VF_OK);
+  CHECK_INT_EQ(j->events.count, 1);
+  const vf_event *e = vf_events_at(&j->events, 0);
+  if (e) {
+    CHECK_STR_EQ(e->kind, "checkpoint_failed");
+    CHECK_STR_CONTAINS(e->message, "film checkpoint failed: ");
+    if (!(e->time > 1.6e9)) CHECK_FAIL_("event time %g, expected a Unix time", e->time);
+  }
+  CHECK(j->film_dirty); /* the next checkpoint tries again */
+  vf_farm_destroy(&farm);
 }
 
 static void test_an_empty_directory_is_an_empty_farm(void) {
@@ -237,10 +315,14 @@ static void job_list(char *out, size_t n, int format, const char *key, const cha
       {"scene_hash", quoted_hex}, {"settings", quoted_settings}, {"first_iteration", "0"}, {"iterations", "10"},
       {"time_limit", "0"},   {"target_rmse", "0"},      {"target_error", "0"},    {"reference", "false"},
       {"seconds", "1.5"},    {"end", "\"active\""},     {"message", "\"\""},
+      /* format 4 */
+      {"stop_reason", "\"\""}, {"submitted_at", "1714550000"}, {"started_at", "0"}, {"ended_at", "0"},
+      {"algorithm_resolved", "\"\""}, {"events", "[]"}, {"events_dropped", "0"},
   };
+  size_t num_fields = format >= 4 ? sizeof fields / sizeof *fields : 15;
   size_t len = (size_t)snprintf(out, n, "{\"format\": %d, \"next_job_id\": 2, \"jobs\": [{", format);
   const char *sep = "";
-  for (size_t i = 0; i < sizeof fields / sizeof *fields; i++) {
+  for (size_t i = 0; i < num_fields; i++) {
     int replaced = key != NULL && strcmp(fields[i][0], key) == 0;
     if (replaced && value == NULL) continue;
     len += (size_t)snprintf(out + len, n - len, "%s\"%s\": %s", sep, fields[i][0], replaced ? value : fields[i][1]);
@@ -259,6 +341,37 @@ static int load(const char *dir, char *detail, size_t n) {
   return err;
 }
 
+/* A job list of format 3 (no times, reasons or events) with settings in 17 digits: read,
+ * the settings in today's form, the stop reason derived from the end. */
+static void test_format_3_is_read_with_old_settings_text(void) {
+  char dir[4200], text[4096], detail[2048], old_settings[600];
+  fresh_dir(dir, sizeof dir, "format3");
+  write_file(dir, "job-1.scene", "cornell");
+  snprintf(old_settings, sizeof old_settings, "\"%s\"",
+           "algorithm=vcm max_path_length=10 radius_factor=0.0030000000000000001 alpha=0.75 seed=1 resolution=8x4");
+  job_list(text, sizeof text, 3, "end", "\"failed\"");
+  char *at = strstr(text, settings), rest[4096];
+  CHECK(at != NULL);
+  if (at) { /* the settings as an older coordinator wrote them */
+    snprintf(rest, sizeof rest, "%s", at + strlen(settings) + 1);
+    snprintf(at - 1, sizeof text - (size_t)(at - 1 - text), "%s%s", old_settings, rest);
+  }
+  write_file(dir, "state.json", text);
+  vf_farm farm;
+  open_farm(&farm, dir);
+  int err = vf_state_load(&farm);
+  snprintf(detail, sizeof detail, "%s", err != VF_OK ? vf_error_detail(err) : "");
+  CHECK_INT_EQ(err, VF_OK);
+  if (err != VF_OK) fprintf(stderr, "  %s\n", detail);
+  if (farm.num_jobs == 1) {
+    CHECK_STR_EQ(farm.jobs[0]->settings_text, settings);
+    CHECK_STR_EQ(vf_stop_reason_name(farm.jobs[0]->stop), "failed");
+    CHECK_NEAR(farm.jobs[0]->submitted_at, 0.0, 0.0);
+    CHECK_INT_EQ(farm.jobs[0]->events.count, 0);
+  }
+  vf_farm_destroy(&farm);
+}
+
 static void test_a_damaged_job_list_is_refused_naming_the_problem(void) {
   char dir[4200], text[4096], detail[2048];
   fresh_dir(dir, sizeof dir, "damaged");
@@ -273,7 +386,7 @@ static void test_a_damaged_job_list_is_refused_naming_the_problem(void) {
       {"", NULL, NULL, "state.json: not valid JSON"},
       {"{\"format\": 3, \"next_job_id\": 2, \"jobs\": [{\"id\": 1, \"na", NULL, NULL, "state.json: not valid JSON"},
       {"{\"format\": 9, \"next_job_id\": 1, \"jobs\": []}", NULL, NULL,
-       "state format 9, this coordinator reads 1 to 3"},
+       "state format 9, this coordinator reads 1 to 4"},
       {"{\"next_job_id\": 1, \"jobs\": []}", NULL, NULL,
        "\"format\" missing or not a whole number"},
       {"{\"format\": 3, \"next_job_id\": -1, \"jobs\": []}", NULL, NULL,
@@ -293,10 +406,14 @@ static void test_a_damaged_job_list_is_refused_naming_the_problem(void) {
       {NULL, "reference", "\"yes\"", "job 1: a stop condition is malformed"},
       {NULL, "target_rmse", "0.1", "job 1: target_rmse: needs a reference image"},
       {NULL, "name", "\"a\\u0001b\"", "job 1: job name: control character at byte 1"},
+      {NULL, "stop_reason", "\"finished\"", "job 1: a time, the stop reason or the resolved algorithm is malformed"},
+      {NULL, "started_at", "-1", "job 1: a time, the stop reason or the resolved algorithm is malformed"},
+      {NULL, "events", "[{\"time\": 1}]", "job 1: an event is malformed"},
+      {NULL, "events", "{}", "job 1: an event is malformed"},
   };
   for (size_t i = 0; i < sizeof cases / sizeof *cases; i++) {
     if (cases[i].text) snprintf(text, sizeof text, "%s", cases[i].text);
-    else job_list(text, sizeof text, 3, cases[i].key, cases[i].value);
+    else job_list(text, sizeof text, 4, cases[i].key, cases[i].value);
     write_file(dir, "state.json", text);
     int err = load(dir, detail, sizeof detail);
     if (err == VF_OK) CHECK_FAIL_("case %zu (%s) was accepted", i, cases[i].detail);
@@ -415,6 +532,9 @@ int main(void) {
       vf_file_temp_dir("vf_test_state", root, sizeof root) != VF_OK)
     return 1;
   RUN(test_every_job_is_read_back_as_written);
+  RUN(test_a_finished_jobs_errors_come_back);
+  RUN(test_format_3_is_read_with_old_settings_text);
+  RUN(test_a_failed_checkpoint_is_an_event_of_its_job);
   RUN(test_an_empty_directory_is_an_empty_farm);
   RUN(test_a_stop_not_yet_durable_is_written_active);
   RUN(test_a_damaged_job_list_is_refused_naming_the_problem);

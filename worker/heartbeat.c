@@ -3,7 +3,9 @@
 #include "../common/error.h"
 #include "../common/farm_client.h"
 
+#include <errno.h>
 #include <pthread.h>
+#include <signal.h>
 #include <stdatomic.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -14,7 +16,9 @@ struct vf_heartbeat {
   pthread_mutex_t lock;
   pthread_cond_t wake;
   vf_farm_client *client;
+  volatile sig_atomic_t *terminating; /* the worker's stop flag, or NULL */
   /* under lock */
+  int said_stopping;            /* the Goodbye that says we are stopping went out */
   int stopping;
   uint64_t worker_id, lease_id; /* lease_id 0: no lease, no beats */
   int interval_ms;
@@ -44,12 +48,32 @@ static void *beat(void *arg) {
       continue;
     }
     uint64_t generation = hb->generation;
-    struct timespec ts;
-    deadline_after(&ts, hb->interval_ms);
-    while (!hb->stopping && hb->generation == generation &&
-           pthread_cond_timedwait(&hb->wake, &hb->lock, &ts) == 0) {
+    /* The interval in slices, so that a SIGTERM is told at once, not after the iteration
+     * being rendered (which may take longer than the interval). */
+    int goodbye = 0;
+    for (int waited = 0; waited < hb->interval_ms && !hb->stopping && hb->generation == generation;) {
+      if (hb->terminating && *hb->terminating && !hb->said_stopping) {
+        goodbye = 1;
+        break;
+      }
+      int slice = hb->interval_ms - waited < 100 ? hb->interval_ms - waited : 100;
+      struct timespec ts;
+      deadline_after(&ts, slice);
+      if (pthread_cond_timedwait(&hb->wake, &hb->lock, &ts) == ETIMEDOUT) waited += slice;
     }
     if (hb->stopping || hb->generation != generation) continue;
+    if (goodbye) {
+      hb->said_stopping = 1;
+      Vcmfarm__Goodbye g = VCMFARM__GOODBYE__INIT;
+      g.worker_id = hb->worker_id;
+      pthread_mutex_unlock(&hb->lock);
+      Vcmfarm__Envelope q = VCMFARM__ENVELOPE__INIT, *reply = NULL;
+      q.body_case = VCMFARM__ENVELOPE__BODY_GOODBYE;
+      q.goodbye = &g;
+      if (vf_farm_call(hb->client, &q, 2000, &reply) == VF_OK) vf_message_free(reply);
+      pthread_mutex_lock(&hb->lock);
+      continue; /* and beat on: the lease stays ours until it is shipped or handed back */
+    }
     Vcmfarm__Heartbeat m = VCMFARM__HEARTBEAT__INIT;
     m.worker_id = hb->worker_id;
     m.lease_id = hb->lease_id;
@@ -73,9 +97,11 @@ static void *beat(void *arg) {
   return NULL;
 }
 
-int vf_heartbeat_start(const char *url, const vf_wire_key *key, vf_heartbeat **out) {
+int vf_heartbeat_start(const char *url, const vf_wire_key *key, volatile sig_atomic_t *terminating,
+                       vf_heartbeat **out) {
   vf_heartbeat *hb = calloc(1, sizeof *hb);
   if (hb == NULL) return vf_error_set(VF_ENOMEM, "out of memory");
+  hb->terminating = terminating;
   int err = vf_farm_client_open(url, key, &hb->client);
   if (err != VF_OK) goto free_hb;
   pthread_mutex_init(&hb->lock, NULL);

@@ -10,12 +10,17 @@
 
 #include "../common/wire.h"
 
+#include <signal.h>
 #include <stdint.h>
 
 typedef struct vf_heartbeat vf_heartbeat;
 
-/* Starts the thread (idle until a lease is set). url and key are copied. *out on success. */
-int vf_heartbeat_start(const char *url, const vf_wire_key *key, vf_heartbeat **out);
+/* Starts the thread (idle until a lease is set). url and key are copied. While a lease is
+ * held and *terminating (borrowed, may be NULL) becomes non-zero, the thread tells the
+ * coordinator at once, within 0.1 s, that the worker is stopping (Goodbye, done false; once),
+ * and beats on until the lease is cleared. *out on success. */
+int vf_heartbeat_start(const char *url, const vf_wire_key *key, volatile sig_atomic_t *terminating,
+                       vf_heartbeat **out);
 /* Stops and joins the thread; NULL is a no-op. */
 void vf_heartbeat_stop(vf_heartbeat *hb);
 

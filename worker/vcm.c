@@ -99,14 +99,26 @@ static void choose_techniques(vf_vcm *v) {
   t->store_vertices = t->connection || t->vertex_merging;
 }
 
-static void analyse_scene(vf_vcm *v) {
-  const vf_scene *sc = v->scene;
+typedef struct {
+  int has_specular, has_glossy, has_diffuse;
+} material_kinds;
+
+static material_kinds scene_kinds(const vf_scene *sc) {
+  material_kinds k = {0, 0, 0};
   for (int i = 0; i < sc->num_materials; i++) {
     unsigned kinds = vf_material_kinds(&sc->materials[i]);
-    if (kinds & VF_KIND_SPECULAR) v->has_specular = 1;
-    if (kinds & VF_KIND_GLOSSY) v->has_glossy = 1;
-    if (kinds & VF_KIND_DIFFUSE) v->has_diffuse = 1;
+    if (kinds & VF_KIND_SPECULAR) k.has_specular = 1;
+    if (kinds & VF_KIND_GLOSSY) k.has_glossy = 1;
+    if (kinds & VF_KIND_DIFFUSE) k.has_diffuse = 1;
   }
+  return k;
+}
+
+static void analyse_scene(vf_vcm *v) {
+  material_kinds k = scene_kinds(v->scene);
+  v->has_specular = k.has_specular;
+  v->has_glossy = k.has_glossy;
+  v->has_diffuse = k.has_diffuse;
 }
 
 /* --algorithm auto: the cheapest technique set that covers the scene's light transport
@@ -126,15 +138,23 @@ static void analyse_scene(vf_vcm *v) {
  * settings: every worker and every `continue` makes the same one, and films keep "auto"
  * in their settings text. It cannot tell how much light the SDS paths carry: with area
  * lights in view of the light sampler (`cornell`) pt would be faster than the vcm chosen. */
-static vf_algorithm resolve_auto(vf_vcm *v) {
-  if (v->has_specular && (v->has_diffuse || v->has_glossy)) {
-    v->auto_reason = "specular next to non-specular surfaces: SDS paths possible";
-    return VF_ALGO_VCM;
+vf_algorithm vf_vcm_auto_algorithm(const vf_scene *scene, const char **reason) {
+  material_kinds k = scene_kinds(scene);
+  const char *why;
+  vf_algorithm a;
+  if (k.has_specular && (k.has_diffuse || k.has_glossy)) {
+    why = "specular next to non-specular surfaces: SDS paths possible";
+    a = VF_ALGO_VCM;
+  } else {
+    why = k.has_specular ? "only specular surfaces: emission hits along specular chains suffice"
+                         : "no specular surfaces, so no SDS paths: light sampling suffices";
+    a = VF_ALGO_PT;
   }
-  v->auto_reason = v->has_specular ? "only specular surfaces: emission hits along specular chains suffice"
-                                   : "no specular surfaces, so no SDS paths: light sampling suffices";
-  return VF_ALGO_PT;
+  if (reason) *reason = why;
+  return a;
 }
+
+static vf_algorithm resolve_auto(vf_vcm *v) { return vf_vcm_auto_algorithm(v->scene, &v->auto_reason); }
 
 vf_algorithm vf_vcm_algorithm(const vf_vcm *v) { return v->settings.algorithm; }
 
@@ -159,10 +179,13 @@ void vf_vcm_describe(const vf_vcm *v, FILE *out) {
     directional += k == VF_LIGHT_DIRECTIONAL;
   }
   int sds = v->has_specular && (v->has_diffuse || v->has_glossy);
-  fprintf(out, "scene: %d area, %d point, %d spot, %d directional light(s)%s; %s%s%s surfaces; SDS paths %s\n", area,
-          point, spot, directional, v->lights->environment >= 0 ? ", environment" : "", v->has_diffuse ? "diffuse " : "",
-          v->has_glossy ? "glossy " : "", v->has_specular ? "specular" : "",
-          sds ? "possible" : "impossible");
+  char surfaces[64];
+  snprintf(surfaces, sizeof surfaces, "%s%s%s%s%s", v->has_diffuse ? "diffuse" : "",
+           v->has_diffuse && v->has_glossy ? " " : "", v->has_glossy ? "glossy" : "",
+           (v->has_diffuse || v->has_glossy) && v->has_specular ? " " : "", v->has_specular ? "specular" : "");
+  fprintf(out, "scene: %d area, %d point, %d spot, %d directional light(s)%s; %s surfaces; SDS paths %s\n", area,
+          point, spot, directional, v->lights->environment >= 0 ? ", environment" : "",
+          surfaces[0] ? surfaces : "no scattering", sds ? "possible" : "impossible");
   if (v->camera.lens_radius > 0.0f)
     fprintf(out, "camera: thin lens of radius %g, in focus at %g\n", v->camera.lens_radius, v->camera.focus_distance);
   if (v->requested == VF_ALGO_AUTO)

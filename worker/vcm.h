@@ -54,6 +54,10 @@ int vf_vcm_iteration(vf_vcm *vcm, uint64_t iteration, float *camera_rgb, float *
 /* The algorithm this renderer runs: the settings' one, or for VF_ALGO_AUTO the one chosen
  * from the scene at vf_vcm_create (never VF_ALGO_AUTO). */
 vf_algorithm vf_vcm_algorithm(const vf_vcm *vcm);
+/* What `--algorithm auto` resolves to for a scene (vcm or pt), by the rule vf_vcm_create
+ * applies: a pure function of the scene's materials, so a client that has loaded the
+ * scene knows it without a renderer. *reason (if not NULL) receives a static sentence. */
+vf_algorithm vf_vcm_auto_algorithm(const vf_scene *scene, const char **reason);
 
 double vf_vcm_merge_radius(const vf_vcm *vcm, uint64_t iteration);
 

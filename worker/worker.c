@@ -8,6 +8,7 @@
 #include "job_scene.h"
 #include "render.h"
 
+#include <errno.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -114,6 +115,9 @@ static int register_worker(worker *w) {
   m.cores = cores > 0 ? (uint32_t)cores : 1;
   m.threads = w->threads > 0 ? (uint32_t)w->threads : m.cores;
   m.software_version = VF_VERSION;
+  char host[64] = "";
+  if (gethostname(host, sizeof host - 1) != 0) host[0] = '\0';
+  m.host = host;
   Vcmfarm__Envelope q = VCMFARM__ENVELOPE__INIT, *reply;
   q.body_case = VCMFARM__ENVELOPE__BODY_REGISTER;
   q.register_ = &m;
@@ -180,8 +184,10 @@ static void on_progress(void *ctx, const vf_render_status *st) {
   vf_heartbeat_progress(w->heartbeat, st->iterations_done, st->seconds);
   if (w->rendered) atomic_fetch_add(w->rendered, 1);
   if (w->iteration_delay_ms > 0) {
+    /* A real iteration runs to its end whatever signal arrives: so does the delay. */
     struct timespec ts = {w->iteration_delay_ms / 1000, (long)(w->iteration_delay_ms % 1000) * 1000000L};
-    nanosleep(&ts, NULL);
+    while (nanosleep(&ts, &ts) != 0 && errno == EINTR) {
+    }
   }
   if (vf_heartbeat_revoked(w->heartbeat) || *w->terminating) w->render_stop = 1;
 }
@@ -351,6 +357,21 @@ static void run_lease(worker *w, const Vcmfarm__Lease *l) {
   vf_film_destroy(film);
 }
 
+/* Told to stop, with its lease shipped and handed back: the coordinator may forget us
+ * (Goodbye, done). Once and briefly: a coordinator away will time us out instead. */
+static void say_goodbye(worker *w) {
+  Vcmfarm__Goodbye m = VCMFARM__GOODBYE__INIT;
+  m.worker_id = w->worker_id;
+  m.done = 1;
+  Vcmfarm__Envelope q = VCMFARM__ENVELOPE__INIT, *reply;
+  q.body_case = VCMFARM__ENVELOPE__BODY_GOODBYE;
+  q.goodbye = &m;
+  if (vf_farm_request(w->client, &q, VCMFARM__ENVELOPE__BODY_RESULT_ACK, 2000, &reply) == VF_OK) {
+    note(w, "said goodbye to %s", w->url);
+    vf_message_free(reply);
+  }
+}
+
 static int serve(worker *w) {
   int err = register_worker(w);
   while (err == VF_OK && !*w->terminating) {
@@ -410,9 +431,10 @@ int vf_worker_run(const vf_worker_config *config, volatile sig_atomic_t *stop, v
     snprintf(w->name, sizeof w->name, "%s/%d", host, (int)getpid());
   }
   int err = vf_farm_client_open(w->url, &config->key, &w->client);
-  if (err == VF_OK && (err = vf_heartbeat_start(w->url, &config->key, &w->heartbeat)) == VF_OK) {
+  if (err == VF_OK && (err = vf_heartbeat_start(w->url, &config->key, stop, &w->heartbeat)) == VF_OK) {
     err = serve(w);
     if (err == VF_OK) note(w, "stopping");
+    if (w->worker_id != 0 && *w->terminating) say_goodbye(w);
     vf_heartbeat_stop(w->heartbeat);
   }
   vf_farm_client_close(w->client);
