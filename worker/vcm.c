@@ -168,6 +168,24 @@ const char *vf_vcm_merge_simd(const vf_vcm *v) {
 #endif
 }
 
+/* Triangles, shapes shaded from their barycentrics, textures and the memory they take. */
+static void describe_geometry(const vf_scene *sc, FILE *out) {
+  uint64_t triangles = 0;
+  int spheres = 0, interpolated = 0;
+  for (int i = 0; i < sc->num_shapes; i++) {
+    const vf_shape *sh = &sc->shapes[i];
+    if (sh->kind == VF_SHAPE_SPHERE) spheres++;
+    else triangles += sh->num_triangles;
+    interpolated += vf_surface_interpolated(sc, sh);
+  }
+  size_t texels = 0;
+  for (int i = 0; i < sc->num_textures; i++) texels += vf_texture_bytes(&sc->textures[i]);
+  fprintf(out, "geometry: %llu triangle%s, %d sphere%s, %d shape%s with vertex normals or textures; %d texture%s (%.1f MiB)\n",
+          (unsigned long long)triangles, triangles == 1 ? "" : "s", spheres, spheres == 1 ? "" : "s", interpolated,
+          interpolated == 1 ? "" : "s", sc->num_textures, sc->num_textures == 1 ? "" : "s",
+          (double)texels / (1024.0 * 1024.0));
+}
+
 void vf_vcm_describe(const vf_vcm *v, FILE *out) {
   const techniques *t = &v->t;
   int area = 0, point = 0, spot = 0, directional = 0;
@@ -188,6 +206,7 @@ void vf_vcm_describe(const vf_vcm *v, FILE *out) {
           surfaces[0] ? surfaces : "no scattering", sds ? "possible" : "impossible");
   if (v->camera.lens_radius > 0.0f)
     fprintf(out, "camera: thin lens of radius %g, in focus at %g\n", v->camera.lens_radius, v->camera.focus_distance);
+  describe_geometry(v->scene, out);
   if (v->requested == VF_ALGO_AUTO)
     fprintf(out, "auto: %s (%s)\n", vf_algorithm_name(v->settings.algorithm), v->auto_reason);
   fprintf(out,
