@@ -234,6 +234,33 @@ static void check_hash_of_file(const vf_texture *t, const char *name) {
   free(bytes);
 }
 
+/* The one-channel lookup of cut-outs gives vf_texture_lookup's channel, bit for bit, for
+ * every channel count, 8-bit and float, every wrap mode. */
+static void test_channel_lookup_is_the_full_lookups_channel(void) {
+  uint8_t bytes[5 * 3 * 4];
+  float floats[5 * 3 * 4];
+  for (int i = 0; i < 60; i++) {
+    bytes[i] = (uint8_t)(i * 37 + 11);
+    floats[i] = (float)((i * 37 + 11) % 251) / 250.0f;
+  }
+  int compared = 0;
+  for (int channels = 1; channels <= 4; channels++)
+    for (int is_float = 0; is_float <= 1; is_float++) {
+      vf_texture t = make_texture(5, 3, channels, is_float, is_float ? (void *)floats : (void *)bytes);
+      for (int wrap = VF_WRAP_REPEAT; wrap <= VF_WRAP_MIRROR; wrap++)
+        for (int i = 0; i < 200; i++) {
+          float s = -2.0f + 0.0317f * (float)i, tc = 3.1f - 0.0271f * (float)i, full[4];
+          vf_texture_lookup(&t, s, tc, wrap, wrap, 0, full);
+          for (int c = 0; c < 4; c++, compared++)
+            if (!(vf_texture_lookup_channel(&t, s, tc, wrap, wrap, c) == full[c])) {
+              CHECK_NEAR(vf_texture_lookup_channel(&t, s, tc, wrap, wrap, c), full[c], 0.0);
+              return;
+            }
+        }
+    }
+  CHECK_INT_EQ(compared, 4 * 2 * 3 * 200 * 4);
+}
+
 static void test_png_rgb_keeps_stored_bytes(void) {
   uint8_t rgb[4 * 2 * 3];
   for (int i = 0; i < 24; i++) rgb[i] = (uint8_t)(i * 11);
@@ -707,6 +734,7 @@ int main(void) {
   RUN(test_srgb_and_linear_tables_match_the_formula);
   RUN(test_bilinear_is_exact_at_centres_and_averages_between);
   RUN(test_wrap_modes);
+  RUN(test_channel_lookup_is_the_full_lookups_channel);
   RUN(test_png_rgb_keeps_stored_bytes);
   RUN(test_png_channel_counts);
   RUN(test_jpeg_quality_100_is_near_exact);

@@ -143,9 +143,13 @@ int vf_surface_bsdf(vf_bsdf *b, const vf_scene *scene, const vf_bsdf_lobes *lobe
 int vf_surface_covered(const vf_scene *scene, const vf_shape *sh, uint32_t prim, float u, float v) {
   const vf_material *m = &scene->materials[sh->material];
   if (!(m->alpha_cutoff > 0.0f)) return 1;
-  float coverage = m->alpha, st[2], t[4];
-  vf_surface_uv(sh, prim, u, v, st);
-  if (slot_lookup(scene, m, VF_TEXTURE_ALPHA, 0, st, t)) coverage *= t[m->alpha_channel & 3];
+  float coverage = m->alpha, st[2];
+  const vf_texture_slot *ts = &m->textures[VF_TEXTURE_ALPHA];
+  if (ts->texture != 0) {
+    vf_surface_uv(sh, prim, u, v, st);
+    coverage *= vf_texture_lookup_channel(&scene->textures[ts->texture - 1], st[0], st[1], ts->wrap_s, ts->wrap_t,
+                                          m->alpha_channel & 3);
+  }
   return coverage >= m->alpha_cutoff;
 }
 

@@ -482,3 +482,27 @@ void vf_texture_lookup(const vf_texture *t, float s, float t_coord, int wrap_s, 
     out[3] = n == 4 ? v[3] : 1.0f;
   }
 }
+
+float vf_texture_lookup_channel(const vf_texture *t, float s, float t_coord, int wrap_s, int wrap_t, int channel) {
+  const int n = t->channels;
+  /* Where the RGBA channel lives in the stored ones: grey is R, G and B; no alpha is 1. */
+  int k = n >= 3 ? channel : channel < 3 ? 0 : 1;
+  if (k >= n) return 1.0f;
+  int x0 = 0, x1 = 0, y0 = 0, y1 = 0;
+  float fx = 0.0f, fy = 0.0f;
+  if (isfinite(s) && isfinite(t_coord)) {
+    filter_axis(s, (int)t->width, wrap_s, &x0, &x1, &fx);
+    filter_axis(t_coord, (int)t->height, wrap_t, &y0, &y1, &fy);
+  }
+  const size_t w = t->width, r0 = (size_t)y0 * w, r1 = (size_t)y1 * w;
+  const size_t o00 = (r0 + (size_t)x0) * (size_t)n + (size_t)k, o10 = (r0 + (size_t)x1) * (size_t)n + (size_t)k;
+  const size_t o01 = (r1 + (size_t)x0) * (size_t)n + (size_t)k, o11 = (r1 + (size_t)x1) * (size_t)n + (size_t)k;
+  const float w00 = (1.0f - fx) * (1.0f - fy), w10 = fx * (1.0f - fy), w01 = (1.0f - fx) * fy, w11 = fx * fy;
+  if (t->is_float) {
+    const float *p = t->texels;
+    return w00 * p[o00] + w10 * p[o10] + w01 * p[o01] + w11 * p[o11];
+  }
+  const uint8_t *p = t->texels;
+  return w00 * linear_table[p[o00]] + w10 * linear_table[p[o10]] + w01 * linear_table[p[o01]] +
+         w11 * linear_table[p[o11]];
+}
