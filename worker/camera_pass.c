@@ -32,12 +32,11 @@ static void bsdf_of_vertex(const vf_vcm *v, vf_bsdf *b, const light_vertex *lv) 
   vf_bsdf_setup(b, &v->scene->materials[m], &v->lobes[m], lv->at.normal, lv->fix);
 }
 
-/* The geometric normal of a stored light vertex, for its shadow rays' offsets. */
-static vf_vec3 normal_of_vertex(const vf_vcm *v, const light_vertex *lv) {
-  uint32_t shape = vertex_shape(lv);
-  if (__builtin_expect(v->interpolated[shape], 0))
-    return vf_surface_triangle_normal(&v->scene->shapes[shape], lv->at.point.primitive);
-  return lv->at.normal;
+/* The geometric normal of a stored light vertex whose BSDF is lb, for its shadow rays'
+ * offsets (which orient it themselves): on an interpolated shape the one its BSDF was set
+ * up with (vf_bsdf.geometric), not recomputed for every connection. */
+static vf_vec3 normal_of_vertex(const vf_vcm *v, const light_vertex *lv, const vf_bsdf *lb) {
+  return __builtin_expect(v->interpolated[vertex_shape(lv)], 0) ? lb->geometric : lv->at.normal;
 }
 
 /* s = 0: radiance of a light found by the camera sub-path, weighted. */
@@ -164,7 +163,7 @@ static void connect_vertices(vf_vcm *v, int thread, const vf_hit *hit, const vf_
   vf_vec3 contrib = vf_scale(vf_mul(vf_mul(fc, fl), lv->throughput), w * cos_camera * cos_light / dist2);
   if (vf_is_zero(contrib)) return;
   int entry = defer(v, thread, vf_mul(s->throughput, contrib), tile_pixel);
-  queue_segment(v, &v->stats[thread].packet, entry, hit->position, hit->normal, lv->position, normal_of_vertex(v, lv));
+  queue_segment(v, &v->stats[thread].packet, entry, hit->position, hit->normal, lv->position, normal_of_vertex(v, lv, lb));
   packet_queued(v, thread);
 }
 
