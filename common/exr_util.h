@@ -73,6 +73,7 @@ typedef struct {
   vf_exr_compression compression;
   int order[VF_EXR_MAX_CHANNELS]; /* the file's i-th channel is names[order[i]] */
   uint64_t written, handed;       /* bytes written, and handed to the disk early */
+  int checksum;                   /* vf_exr_add_checksum was called */
 } vf_exr_out;
 
 /* Starts an atomic write of a FLOAT one-part image with channels `names`, in tile x tile
@@ -88,6 +89,19 @@ typedef void (*vf_exr_fill_fn)(void *user, int x0, int y0, int w, int h, float *
 /* Writes the header and every chunk, asking fill for the pixels; n and names are those
  * given to vf_exr_create. */
 int vf_exr_write_pixels(vf_exr_out *out, int n, const char *const *names, vf_exr_fill_fn fill, void *user);
+
+/* Files that check themselves: the string attribute VF_EXR_CHECKSUM_ATTR holds 64
+ * lower-case hex digits of BLAKE2b-256 over the BLAKE2b-256 digests of the file's 8 MiB
+ * segments in order and its size (a little-endian 64-bit number), every byte of the file
+ * hashed, the 64 bytes of the value itself read as '0's. Header, offset table and chunks
+ * are all covered, so any flipped bit is found, at the price of one pass of hashing over
+ * the file when it is written and when it is read, the segments in parallel. vf_exr_add_checksum (before vf_exr_write_pixels) makes vf_exr_commit
+ * compute the value and write it into the finished file before it is renamed into place;
+ * vf_exr_verify_checksum checks a file (or a file in memory) so written: VF_EEXR with
+ * "PATH: damaged: ..." when it does not match. */
+#define VF_EXR_CHECKSUM_ATTR "vcmfarm:checksum"
+int vf_exr_add_checksum(vf_exr_out *out);
+int vf_exr_verify_checksum(const vf_exr_in *in);
 
 /* Finishes the file and renames it into place. Releases out either way. */
 int vf_exr_commit(vf_exr_out *out);

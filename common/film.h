@@ -31,8 +31,10 @@
 #include <stddef.h>
 #include <stdint.h>
 
-/* The version vf_film_write writes; vf_film_read reads it and version 1. */
-#define VF_FILM_FORMAT_VERSION 2
+/* The version vf_film_write writes; vf_film_read reads it and versions 1 and 2. Version 3
+ * is version 2 with a checksum of the whole file (common/exr_util.h), checked on every
+ * read: a damaged film is refused, never merged or continued. */
+#define VF_FILM_FORMAT_VERSION 3
 #define VF_FILM_TILE 64
 
 typedef struct {

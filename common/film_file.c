@@ -91,8 +91,8 @@ int vf_film_write(const vf_film *film, const char *path) {
 
 int vf_film_write_version(const vf_film *film, const char *path, int version) {
   if (film == NULL || path == NULL) return vf_error_set(VF_EINVAL, "vf_film_write: NULL argument");
-  if (version != 1 && version != 2)
-    return vf_error_set(VF_EINVAL, "%s: film format version %d cannot be written (1 or 2)", path, version);
+  if (version < 1 || version > 3)
+    return vf_error_set(VF_EINVAL, "%s: film format version %d cannot be written (1, 2 or 3)", path, version);
   int err = vf_film_validate(film, path);
   if (err != VF_OK) return err;
   /* "[b,e)" with two 20-digit numbers and a separator is at most 45 bytes per range. */
@@ -114,6 +114,7 @@ int vf_film_write_version(const vf_film *film, const char *path, int version) {
     err = vf_exr_error(path, rv, "cannot set the film attributes");
     goto abort;
   }
+  if (version >= 3 && (err = vf_exr_add_checksum(&out)) != VF_OK) goto abort;
   fill_source source = {vf_film_sums_of(film), 0};
   if ((err = vf_exr_write_pixels(&out, n, names, version == 1 ? fill_v1 : fill_v2, &source)) != VF_OK)
     goto abort;
@@ -138,6 +139,25 @@ static const exr_attribute_t *find_attr(const vf_exr_in *in, const char *name) {
   return attr;
 }
 
+/* Whether s[0, n) is well-formed UTF-8 (RFC 3629: no overlong forms, no surrogates, at
+ * most U+10FFFF): what `info --json` prints of a film's text must be valid JSON. */
+static int valid_utf8(const unsigned char *s, size_t n) {
+  for (size_t i = 0; i < n;) {
+    unsigned c = s[i];
+    size_t extra = c < 0x80 ? 0 : (c & 0xE0) == 0xC0 ? 1 : (c & 0xF0) == 0xE0 ? 2 : (c & 0xF8) == 0xF0 ? 3 : 4;
+    if (extra == 4 || extra > n - i - 1) return 0; /* a bad lead byte, or cut short */
+    unsigned cp = extra == 0 ? c : c & (0x3Fu >> extra);
+    for (size_t k = 1; k <= extra; k++) {
+      if ((s[i + k] & 0xC0) != 0x80) return 0;
+      cp = cp << 6 | (s[i + k] & 0x3Fu);
+    }
+    static const unsigned least[4] = {0, 0x80, 0x800, 0x10000};
+    if (cp < least[extra] || cp > 0x10FFFF || (cp >= 0xD800 && cp <= 0xDFFF)) return 0;
+    i += extra + 1;
+  }
+  return 1;
+}
+
 /* A string attribute copied into a new NUL-terminated buffer (*out, caller frees). */
 static int get_string(const vf_exr_in *in, const char *name, char **out) {
   const exr_attribute_t *attr = find_attr(in, name);
@@ -148,6 +168,8 @@ static int get_string(const vf_exr_in *in, const char *name, char **out) {
   size_t len = (size_t)attr->string->length;
   if (len > 0 && memchr(attr->string->str, '\0', len) != NULL)
     return vf_error_set(VF_EFILM, "%s: attribute %s contains a NUL byte", in->path, name);
+  if (!valid_utf8((const unsigned char *)attr->string->str, len))
+    return vf_error_set(VF_EFILM, "%s: attribute %s is not valid UTF-8", in->path, name);
   char *s = malloc(len + 1);
   if (s == NULL) return VF_ENOMEM;
   if (len) memcpy(s, attr->string->str, len);
@@ -235,8 +257,8 @@ static int get_version(const vf_exr_in *in, int *version) {
   if (attr == NULL)
     return vf_error_set(VF_EFILM, "%s: not a vcmfarm film: missing attribute " ATTR_VERSION, in->path);
   if (attr->type != EXR_ATTR_INT) return vf_error_set(VF_EFILM, "%s: attribute " ATTR_VERSION " is not an int", in->path);
-  if (attr->i != 1 && attr->i != 2)
-    return vf_error_set(VF_EFILM, "%s: unknown film format version %d (this build reads versions 1 and 2)", in->path,
+  if (attr->i < 1 || attr->i > 3)
+    return vf_error_set(VF_EFILM, "%s: unknown film format version %d (this build reads versions 1 to 3)", in->path,
                         (int)attr->i);
   *version = (int)attr->i;
   return VF_OK;
@@ -322,6 +344,12 @@ int vf_film_read(const char *path, vf_film **out) {
   vf_convergence_init(&header.convergence);
   int version = 0;
   if ((err = read_attributes(&in, &header, &version)) != VF_OK) goto fail;
+  /* Before any pixel is decoded: a damaged file is refused as such, whatever its bytes
+   * would decode to. */
+  if (version >= 3 && (err = vf_exr_verify_checksum(&in)) != VF_OK) {
+    if (err == VF_EEXR) err = vf_error_set(VF_EFILM, "%s", vf_error_detail(err));
+    goto fail;
+  }
   /* Version 1's R, G, B are a view of the sums, never read back. */
   int n = version == 1 ? VF_FILM_V1_ACCUM : VF_FILM_V2_CHANNELS;
   const char *const *names = version == 1 ? vf_film_v1_channels + 3 : vf_film_v2_channels;

@@ -390,6 +390,8 @@ static void fill_fake(void *user, int x0, int y0, int w, int h, float *const *pl
 /* A 20x10 film-like file of `iterations` built with the private helpers, to reach states
  * vf_film_write refuses and to write version 1 as older builds did: channel values from
  * value (NULL: zeros), light_frames as in version 1. */
+static const char *fake_scene_name; /* when set, write_fake_film writes it as vcmfarm:scene */
+
 static int write_fake_film(const char *path, int version, const char *const *names, int n, const char *iterations,
                            double (*value)(const char *, int, int)) {
   vf_exr_out out;
@@ -402,6 +404,7 @@ static int write_fake_film(const char *path, int version, const char *const *nam
   exr_attr_set_string(out.ctx, 0, "vcmfarm:light_frames", iterations[0] ? "1" : "0");
   exr_attr_set_double(out.ctx, 0, "vcmfarm:render_seconds", 0);
   exr_attr_set_string(out.ctx, 0, "vcmfarm:nonfinite_samples", "0");
+  if (fake_scene_name) exr_attr_set_string(out.ctx, 0, "vcmfarm:scene", fake_scene_name);
   fake_fill fill = {n, names, value};
   if ((err = vf_exr_write_pixels(&out, n, names, fill_fake, &fill)) != VF_OK) {
     vf_exr_abort(&out);
@@ -428,7 +431,35 @@ static void test_read_refuses_missing_channel_and_unknown_version(void) {
   expect_read_refused(path, "missing channel B");
   CHECK_INT_EQ(write_fake_film(path, VF_FILM_FORMAT_VERSION + 1, vf_film_v2_channels, VF_FILM_V2_CHANNELS, "", NULL),
                VF_OK);
-  expect_read_refused(path, "unknown film format version 3");
+  char unknown[64];
+  snprintf(unknown, sizeof unknown, "unknown film format version %d", VF_FILM_FORMAT_VERSION + 1);
+  expect_read_refused(path, unknown);
+  /* version 3 needs its checksum: a fake of version 3 without one is damaged */
+  CHECK_INT_EQ(write_fake_film(path, 3, vf_film_v2_channels, VF_FILM_V2_CHANNELS, "", NULL), VF_OK);
+  expect_read_refused(path, "damaged: no vcmfarm:checksum attribute");
+}
+
+/* Text attributes must be UTF-8 (`info --json` prints them as JSON strings): multi-byte
+ * names read, malformed ones (overlong, surrogate, cut short, beyond U+10FFFF, a stray
+ * continuation byte) are refused naming the attribute. */
+static void test_attributes_must_be_utf8(void) {
+  const char *path = fixture_path("utf8.film.exr");
+  static const char *const good[] = {"plain", "Caf\xc3\xa9 \xe2\x98\x95 \xf0\x9d\x84\x9e"};
+  static const char *const bad[] = {"\xc0\xaf", "\xed\xa0\x80", "ab\xe2\x82", "\xf4\x90\x80\x80", "\x80x", "\xff"};
+  for (size_t i = 0; i < sizeof good / sizeof *good; i++) {
+    fake_scene_name = good[i];
+    CHECK_INT_EQ(write_fake_film(path, 2, vf_film_v2_channels, VF_FILM_V2_CHANNELS, "", NULL), VF_OK);
+    vf_film *f = NULL;
+    CHECK_INT_EQ(vf_film_read(path, &f), VF_OK);
+    if (f) CHECK(strcmp(f->scene_name, good[i]) == 0);
+    vf_film_destroy(f);
+  }
+  for (size_t i = 0; i < sizeof bad / sizeof *bad; i++) {
+    fake_scene_name = bad[i];
+    CHECK_INT_EQ(write_fake_film(path, 2, vf_film_v2_channels, VF_FILM_V2_CHANNELS, "", NULL), VF_OK);
+    expect_read_refused(path, "attribute vcmfarm:scene is not valid UTF-8");
+  }
+  fake_scene_name = NULL;
 }
 
 /* A version-1 film of one iteration as older builds wrote it: camera 2 + light 0.25 in
@@ -469,16 +500,24 @@ static void test_version_1_sums_camera_and_light_and_needs_every_count(void) {
   CHECK_STR_CONTAINS(vf_error_detail(VF_EFILM), path);
 }
 
-static void test_version_1_films_read_merge_with_version_2(void) {
+static void test_version_1_and_2_films_read_merge_with_version_3(void) {
   vf_film *early = film_with(70, 65, 0, 3), *late = film_with(70, 65, 3, 7), *all = film_with(70, 65, 0, 7);
-  const char *old = fixture_path("early_v1.film.exr"), *now = fixture_path("late_v2.film.exr");
+  const char *old = fixture_path("early_v1.film.exr"), *now = fixture_path("late.film.exr");
+  const char *v2 = fixture_path("late_v2.film.exr");
   CHECK_INT_EQ(vf_film_write_version(early, old, 1), VF_OK);
   CHECK_INT_EQ(vf_film_write(late, now), VF_OK);
+  CHECK_INT_EQ(vf_film_write_version(late, v2, 2), VF_OK);
   int version = 0;
   CHECK_INT_EQ(vf_film_read_version(old, &version), VF_OK);
   CHECK_INT_EQ(version, 1);
   CHECK_INT_EQ(vf_film_read_version(now, &version), VF_OK);
+  CHECK_INT_EQ(version, VF_FILM_FORMAT_VERSION);
+  CHECK_INT_EQ(vf_film_read_version(v2, &version), VF_OK);
   CHECK_INT_EQ(version, 2);
+  vf_film *from_v2 = NULL; /* version 2, without a checksum, still reads: the same film */
+  CHECK_INT_EQ(vf_film_read(v2, &from_v2), VF_OK);
+  if (from_v2) CHECK(films_equal(from_v2, late, 1e-14));
+  vf_film_destroy(from_v2);
   vf_film *a = NULL, *b = NULL, *b_first = NULL;
   CHECK_INT_EQ(vf_film_read(old, &a), VF_OK);
   CHECK_INT_EQ(vf_film_read(now, &b), VF_OK);
@@ -491,7 +530,7 @@ static void test_version_1_films_read_merge_with_version_2(void) {
     CHECK(films_equal(a, b_first, 0)); /* x + y == y + x exactly */
     CHECK(films_equal(a, all, 1e-13)); /* same samples, different rounding and summation order */
     CHECK_NEAR(vf_film_estimate_rmse(a), vf_film_estimate_rmse(all), 1e-12 * vf_film_estimate_rmse(all));
-    /* the merged film written again is version 2 and reads back to 48 bits */
+    /* the merged film written again is of the current version and reads back to 48 bits */
     vf_film *back = NULL;
     CHECK_INT_EQ(vf_film_write(a, old), VF_OK);
     CHECK_INT_EQ(vf_film_read(old, &back), VF_OK);
@@ -653,6 +692,7 @@ static void test_corrupted_copies_never_crash(void) {
       for (int k = 0; k < flips; k++)
         copy[(size_t)(fixture_uniform(&s) * (double)span)] ^= (unsigned char)(1u << (fixture_xorshift(&s) % 8));
     }
+    if (n == size && memcmp(copy, bytes, size) == 0) continue; /* flips that undid each other */
     fixture_spill(bad, copy, n);
     double dt;
     int sig;
@@ -665,6 +705,7 @@ static void test_corrupted_copies_never_crash(void) {
     if (dt > EXR_CORPUS_MAX_SECONDS_PER_FILE) CHECK_FAIL_("case %d took %.2f s", c, dt);
   }
   printf("  300 corrupted copies: %d refused, %d read as valid films, slowest %.3f s\n", refused, read, slowest);
+  CHECK_INT_EQ(read, 0); /* the checksum finds every damage */
   free(copy);
   free(bytes);
 }
@@ -704,7 +745,8 @@ int main(void) {
   RUN(test_read_refuses_inconsistent_films);
   RUN(test_read_refuses_missing_channel_and_unknown_version);
   RUN(test_version_1_sums_camera_and_light_and_needs_every_count);
-  RUN(test_version_1_films_read_merge_with_version_2);
+  RUN(test_version_1_and_2_films_read_merge_with_version_3);
+  RUN(test_attributes_must_be_utf8);
   RUN(test_a_wire_tile_is_its_chunk_of_the_file);
   RUN(test_files_are_the_same_bytes_every_time);
   RUN(test_corrupted_copies_never_crash);

@@ -4,7 +4,7 @@
  *   bench_film [RUNS] [DIR] [FILM ...]      defaults: 5 /tmp
  *
  * With FILMs (e.g. rendered by tests/bench/film_size.sh): reads each once, then writes it
- * as format version 1 and as version 2 and reads it back, RUNS times each, and prints per
+ * as format versions 1, 2 and 3 and reads it back, RUNS times each, and prints per
  * version the file's bytes per pixel and the median wall time (and process CPU time, all
  * threads) of a write (atomic: fsync and rename) and of a read (decode and validate).
  * Without: the same for a 1920x1080 film of 4 iterations of random data, and the merge of
@@ -106,13 +106,15 @@ int main(int argc, char **argv) {
     int err = vf_film_read(argv[i], &film);
     if (err != VF_OK) return fail(argv[i], err);
     const char *name = strrchr(argv[i], '/') ? strrchr(argv[i], '/') + 1 : argv[i];
-    if (measure(film, name, 1, runs, path) || measure(film, name, 2, runs, path)) return 1;
+    if (measure(film, name, 1, runs, path) || measure(film, name, 2, runs, path) || measure(film, name, 3, runs, path))
+      return 1;
     vf_film_destroy(film);
   }
   if (argc > 3) return 0;
   vf_film *a = random_film(0), *b = random_film(4);
   if (!a || !b) return 1;
-  if (measure(a, "random", 1, runs, path) || measure(a, "random", 2, runs, path)) return 1;
+  if (measure(a, "random", 1, runs, path) || measure(a, "random", 2, runs, path) || measure(a, "random", 3, runs, path))
+    return 1;
   double t_merge[MAX_RUNS];
   for (int r = 0; r < runs; r++) {
     vf_film *sum = NULL;
