@@ -80,6 +80,15 @@ check "render --help" $?
 
 "$vcmfarm" render furnace -n 2 -R 16x16 -q -o "$tmp/ok.exr" -p "$tmp/ok.png"
 check "good render writes film and preview" $([ -s "$tmp/ok.exr" ] && [ -s "$tmp/ok.png" ]; echo $?)
+# A film with one flipped bit is refused by every reader (its checksum), with exit 2.
+cp "$tmp/ok.exr" "$tmp/flipped.exr"
+size=$(stat -c %s "$tmp/flipped.exr")
+byte=$(od -An -tu1 -j $((size - 100)) -N1 "$tmp/flipped.exr" | tr -d ' ')
+printf "$(printf '\\%03o' $((byte ^ 4)))" | dd of="$tmp/flipped.exr" bs=1 seek=$((size - 100)) conv=notrunc status=none
+expect_refusal "info refuses a film with a flipped bit" "flipped.exr: damaged: its checksum does not match its contents" \
+  "$vcmfarm" info "$tmp/flipped.exr"
+expect_refusal "continue refuses a film with a flipped bit" "flipped.exr: damaged" \
+  "$vcmfarm" continue "$tmp/flipped.exr" -n 1 -o "$tmp/out.exr"
 
 # glTF import (tests/scenes/import: the file tests/test_import.c writes, with external
 # textures): notes at load, --camera, and broken copies refused naming file and problem.
