@@ -163,7 +163,7 @@ static void add_worker(cJSON *workers, const Vcmfarm__WorkerStatus *w) {
   cJSON_AddNumberToObject(t, "leases", (double)w->leases);
 }
 
-void vf_status_print_json(const Vcmfarm__Status *st, FILE *out) {
+static cJSON *status_json(const Vcmfarm__Status *st) {
   cJSON *root = cJSON_CreateObject();
   add_time(root, "time", st->time);
   cJSON *c = cJSON_AddObjectToObject(root, "coordinator");
@@ -177,10 +177,22 @@ void vf_status_print_json(const Vcmfarm__Status *st, FILE *out) {
   cJSON *workers = cJSON_AddArrayToObject(root, "workers");
   for (size_t i = 0; i < st->n_workers; i++) add_worker(workers, st->workers[i]);
   add_events(root, st->events, st->n_events, st->events_dropped, VF_FARM_EVENTS);
+  return root;
+}
+
+void vf_status_print_json(const Vcmfarm__Status *st, FILE *out) {
+  cJSON *root = status_json(st);
   char *text = cJSON_Print(root);
   if (text) fprintf(out, "%s\n", text);
   free(text);
   cJSON_Delete(root);
+}
+
+char *vf_status_json_text(const Vcmfarm__Status *st) {
+  cJSON *root = status_json(st);
+  char *text = cJSON_PrintUnformatted(root);
+  cJSON_Delete(root);
+  return text;
 }
 
 /* "1h02m", "3m05s", "12.3 s" */

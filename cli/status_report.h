@@ -12,6 +12,10 @@
 /* The whole status as one JSON document on out. */
 void vf_status_print_json(const Vcmfarm__Status *status, FILE *out);
 
+/* The same document on one line, malloc'ed (the caller frees it); NULL when out of
+ * memory. The coordinator's dashboard serves it (vf_coordinator_config.status_json). */
+char *vf_status_json_text(const Vcmfarm__Status *status);
+
 /* The status as text on out: the farm, each job (with its log and events when the status
  * is of one job), each worker. */
 void vf_status_print_text(const Vcmfarm__Status *status, FILE *out);

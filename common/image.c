@@ -227,28 +227,26 @@ static void png_ignore_warning(png_structp png, png_const_charp msg) {
   (void)msg;
 }
 
-int vf_image_write_png(const char *path, const vf_image *img, float exposure) {
-  int err = check_image(path, img);
-  if (err != VF_OK) return err;
-  if (!isfinite(exposure)) return vf_error_set(VF_EINVAL, "%s: exposure %g is not finite", path, (double)exposure);
+/* The PNG of img at exposure through libpng to sink (a write function and its argument);
+ * `name` names the output in errors. */
+static int encode_png(const char *name, const vf_image *img, float exposure, png_rw_ptr write, void *sink) {
+  if (!isfinite(exposure)) return vf_error_set(VF_EINVAL, "%s: exposure %g is not finite", name, (double)exposure);
   const float scale = exp2f(exposure);
   uint8_t *row = malloc((size_t)img->width * 3);
   if (row == NULL) return VF_ENOMEM;
-  vf_atomic_file file;
-  if ((err = vf_atomic_open(&file, path)) != VF_OK) goto free_row;
-  png_sink sink = {&file, 0};
+  int err = VF_OK;
   png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, NULL, png_fail, png_ignore_warning);
   png_infop info = png ? png_create_info_struct(png) : NULL;
   if (png == NULL || info == NULL) {
-    err = vf_error_set(VF_ENOMEM, "%s: cannot create a PNG writer", path);
+    err = vf_error_set(VF_ENOMEM, "%s: cannot create a PNG writer", name);
     goto destroy_png;
   }
   /* Nothing below changes a local that the error branch reads, so no volatile is needed. */
   if (setjmp(png_jmpbuf(png))) {
-    err = vf_error_set(VF_EIO, "%s: PNG write failed: %s", path, png_message);
+    err = vf_error_set(VF_EIO, "%s: PNG write failed: %s", name, png_message);
     goto destroy_png;
   }
-  png_set_write_fn(png, &sink, png_write_to_file, png_flush_nothing);
+  png_set_write_fn(png, sink, write, png_flush_nothing);
   png_set_IHDR(png, info, (png_uint_32)img->width, (png_uint_32)img->height, 8, PNG_COLOR_TYPE_RGB,
                PNG_INTERLACE_NONE, PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
   png_set_sRGB_gAMA_and_cHRM(png, info, PNG_sRGB_INTENT_PERCEPTUAL);
@@ -259,14 +257,53 @@ int vf_image_write_png(const char *path, const vf_image *img, float exposure) {
     png_write_row(png, row);
   }
   png_write_end(png, info);
-  png_destroy_write_struct(&png, &info);
-  free(row);
-  return vf_atomic_commit(&file);
-
 destroy_png:
   png_destroy_write_struct(png ? &png : NULL, info ? &info : NULL);
-  vf_atomic_abort(&file);
-free_row:
   free(row);
   return err;
+}
+
+int vf_image_write_png(const char *path, const vf_image *img, float exposure) {
+  int err = check_image(path, img);
+  if (err != VF_OK) return err;
+  vf_atomic_file file;
+  if ((err = vf_atomic_open(&file, path)) != VF_OK) return err;
+  png_sink sink = {&file, 0};
+  if ((err = encode_png(path, img, exposure, png_write_to_file, &sink)) != VF_OK) {
+    vf_atomic_abort(&file);
+    return err;
+  }
+  return vf_atomic_commit(&file);
+}
+
+typedef struct {
+  uint8_t *bytes;
+  size_t size, capacity;
+} png_buffer;
+
+static void png_write_to_buffer(png_structp png, png_bytep data, size_t length) {
+  png_buffer *b = png_get_io_ptr(png);
+  if (length > b->capacity - b->size) {
+    size_t capacity = b->capacity ? b->capacity : 65536;
+    while (length > capacity - b->size) capacity *= 2;
+    uint8_t *bytes = realloc(b->bytes, capacity);
+    if (bytes == NULL) png_error(png, "out of memory");
+    b->bytes = bytes;
+    b->capacity = capacity;
+  }
+  memcpy(b->bytes + b->size, data, length);
+  b->size += length;
+}
+
+int vf_image_encode_png(const vf_image *img, float exposure, uint8_t **png, size_t *size) {
+  int err = check_image("PNG in memory", img);
+  if (err != VF_OK) return err;
+  png_buffer b = {NULL, 0, 0};
+  if ((err = encode_png("PNG in memory", img, exposure, png_write_to_buffer, &b)) != VF_OK) {
+    free(b.bytes);
+    return err;
+  }
+  *png = b.bytes;
+  *size = b.size;
+  return VF_OK;
 }

@@ -9,6 +9,7 @@
 #define VF_IMAGE_H
 
 #include <stddef.h>
+#include <stdint.h>
 
 typedef struct {
   int width, height;
@@ -33,6 +34,10 @@ int vf_image_write_exr(const char *path, const vf_image *img);
 
 /* Writes an 8-bit sRGB PNG: value * 2^exposure, clamped, sRGB-encoded. Through libpng. */
 int vf_image_write_png(const char *path, const vf_image *img, float exposure);
+
+/* The same PNG in memory: *png (malloc'ed; the caller frees it) and *size, written only on
+ * success. VF_EINVAL for no image or an exposure that is not finite, VF_ENOMEM, VF_EIO. */
+int vf_image_encode_png(const vf_image *img, float exposure, uint8_t **png, size_t *size);
 
 int vf_image_alloc(vf_image *img, int width, int height);
 void vf_image_destroy(vf_image *img); /* frees rgb; NULL and zeroed images are no-ops */

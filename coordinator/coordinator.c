@@ -36,6 +36,7 @@ typedef struct {
   int socket;
   vf_wire_key key;
   vf_farm farm;
+  vf_dashboard *dashboard; /* owned; NULL without --http */
   double checkpoint_interval, last_checkpoint;
   double last_collect;  /* of blobs no job names (coordinator/blobs.h) */
   volatile sig_atomic_t *stop; /* the caller's stop flag, or NULL */
@@ -256,6 +257,10 @@ int vf_coordinator_run(const vf_coordinator_config *config) {
     uv_signal_start(&c->sigint, on_signal, SIGINT);
     uv_signal_start(&c->sigterm, on_signal, SIGTERM);
   }
+  if (config->http_address &&
+      (err = vf_dashboard_start(&c->farm, &c->loop, &c->key, config->http_address, config->status_json,
+                                &c->dashboard)) != VF_OK)
+    goto close_loop;
   c->last_checkpoint = vf_seconds_now();
   vf_log("listening on %s, state in %s, %zu job(s), worker timeout %.1f s", config->listen_url, config->state_dir,
          c->farm.num_jobs, config->worker_timeout);
@@ -268,11 +273,14 @@ int vf_coordinator_run(const vf_coordinator_config *config) {
   uv_poll_stop(&c->send_poll);
   uv_timer_stop(&c->tick);
   uv_timer_stop(&c->stop_check);
+  vf_dashboard_stop(c->dashboard);
   while (vf_checkpoint_pending(&c->farm) > 0) uv_run(&c->loop, UV_RUN_ONCE);
   c->farm.checkpoint_loop = NULL;
   if ((err = vf_farm_checkpoint(&c->farm, 1)) == VF_OK) vf_log("checkpoint written; bye");
+close_loop:
   uv_walk(&c->loop, close_handle, NULL);
   uv_run(&c->loop, UV_RUN_DEFAULT);
+  vf_dashboard_destroy(c->dashboard);
   uv_loop_close(&c->loop);
 close_socket:
   nn_close(c->socket);

@@ -14,6 +14,7 @@
 #define VF_COORDINATOR_H
 
 #include "../common/wire.h"
+#include "dashboard.h"
 
 #include <signal.h>
 
@@ -30,6 +31,10 @@ typedef struct {
   int handle_signals;
   volatile sig_atomic_t *stop;
   int quiet;                   /* no log lines (coordinator/log.h) */
+  /* The web dashboard (coordinator/dashboard.h): served on http_address when it is not
+   * NULL, with status_json as the status document's form (required then). */
+  const char *http_address;
+  vf_status_json_fn status_json;
 } vf_coordinator_config;
 
 /* Resumes the jobs of the state directory and serves until stopped (above), then stops

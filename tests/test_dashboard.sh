@@ -1,0 +1,69 @@
+#!/usr/bin/env bash
+# The web dashboard end to end in a real browser: a coordinator with --http on a loopback
+# port and a worker over ipc:// run a cornell job slowed by --test-iteration-delay;
+# Debian's chromium, headless, driven by playwright-core (tests/dashboard/drive.js, from
+# the npm registry at the version in tests/dashboard/package-lock.json), opens the page and
+# checks that the job's progress rises, its preview changes between two screenshots, the
+# plots are drawn, the worker is listed, an action without a session is refused, and the
+# job is cancelled with the farm key through the page.
+#
+#   test_dashboard.sh VCMFARM SOURCE_DIR WORK_DIR
+#
+# node, npm and chromium are dependencies (deploy/install-deps.sh): without them, or when
+# npm cannot install playwright-core, the test fails, never skips. SCREENSHOTS=DIR writes
+# the page's pictures there (docs/dashboard.png, docs/dashboard-job.png come from it).
+set -u
+vcmfarm="$1"
+src="$2"
+work="$3"
+fail() {
+  echo "FAIL test_dashboard: $*"
+  for log in "$tmp"/*.log; do [ -e "$log" ] && { echo "---- $(basename "$log")"; tail -n 30 "$log"; }; done
+  exit 1
+}
+tmp=$(mktemp -d /tmp/vf-dash-XXXXXX)
+pids=()
+cleanup() {
+  for p in "${pids[@]}"; do kill -9 "$p" 2>/dev/null; done
+  wait 2>/dev/null
+  [ -n "${KEEP_TMP:-}" ] || rm -rf "$tmp"
+}
+trap cleanup EXIT
+command -v node >/dev/null && command -v npm >/dev/null ||
+  fail "node and npm not found (Debian packages nodejs and npm: bash deploy/install-deps.sh)"
+chromium=$(command -v chromium) || fail "chromium not found (Debian package chromium: bash deploy/install-deps.sh)"
+
+# Install once per lock file into the build tree.
+mkdir -p "$work"
+cp "$src/package.json" "$src/package-lock.json" "$src/drive.js" "$work/"
+if ! cmp -s "$src/package-lock.json" "$work/node_modules/.vcmfarm-lock" 2>/dev/null; then
+  (cd "$work" && npm ci --no-audit --no-fund --loglevel=error) >"$work/npm.log" 2>&1 ||
+    { cat "$work/npm.log"; fail "npm ci could not install playwright-core (above)"; }
+  cp "$src/package-lock.json" "$work/node_modules/.vcmfarm-lock"
+fi
+
+url="ipc://$tmp/coordinator.sock"
+key="$tmp/farm.key"
+"$vcmfarm" keygen "$key" >/dev/null || fail "keygen"
+"$vcmfarm" coordinator --listen "$url" --state "$tmp/state" --secret "$key" --checkpoint-interval 1 \
+  --http 127.0.0.1:0 >"$tmp/coordinator.log" 2>&1 &
+pids+=($!)
+base=""
+for _ in $(seq 100); do
+  base=$(grep -o 'dashboard on http://127\.0\.0\.1:[0-9]*' "$tmp/coordinator.log" | sed 's/dashboard on //')
+  [ -n "$base" ] && break
+  sleep 0.1
+done
+[ -n "$base" ] || fail "the coordinator did not say where its dashboard is"
+"$vcmfarm" worker --connect "$url" --secret "$key" --threads 1 --name w1 --test-iteration-delay 150 \
+  --ship-interval 0.5 >"$tmp/worker.log" 2>&1 &
+pids+=($!)
+"$vcmfarm" submit cornell -R 96x96 --iterations 3000 --coordinator "$url" --secret "$key" >"$tmp/submit.log" 2>&1 ||
+  fail "submit"
+
+out=$(cd "$work" && node drive.js "$base" "$key" "$chromium" ${SCREENSHOTS:+"$SCREENSHOTS"} 2>&1)
+status=$?
+echo "$out"
+[ $status -eq 0 ] || fail "the page did not pass (above)"
+grep -q "job 1 cancelled from the dashboard" "$tmp/coordinator.log" || fail "the coordinator did not log the cancel"
+echo "ok   test_dashboard"
