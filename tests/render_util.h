@@ -64,4 +64,20 @@ static void mean_and_standard_error(const double *v, int n, int stride, int col,
   *se = sqrt(s2 / (n - 1) / n);
 }
 
+/* Whether two independent estimates of nb image blocks agree: every block's difference
+ * within 5 combined standard errors (with 64 blocks a Gaussian reaches 4 once in ~250
+ * runs) and mean z^2 below 2 (a small bias everywhere shows there before it does in any
+ * one block). Prints "  WHAT A vs B: max |z| .., mean z^2 ..". */
+static int blocks_agree(const char *what, const char *a, const char *b, const double *mean_a, const double *se_a,
+                        const double *mean_b, const double *se_b, int nb) {
+  double max_z = 0.0, sum_z2 = 0.0;
+  for (int k = 0; k < nb; k++) {
+    double z = (mean_a[k] - mean_b[k]) / sqrt(se_a[k] * se_a[k] + se_b[k] * se_b[k]);
+    max_z = fmax(max_z, fabs(z));
+    sum_z2 += z * z;
+  }
+  printf("  %-13s %-3s vs %-3s: max |z| %.2f, mean z^2 %.2f\n", what, a, b, max_z, sum_z2 / nb);
+  return max_z < 5.0 && sum_z2 / nb < 2.0;
+}
+
 #endif
