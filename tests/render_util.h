@@ -68,7 +68,7 @@ static void mean_and_standard_error(const double *v, int n, int stride, int col,
  * within 5 combined standard errors (with 64 blocks a Gaussian reaches 4 once in ~250
  * runs) and mean z^2 below 2 (a small bias everywhere shows there before it does in any
  * one block). Prints "  WHAT A vs B: max |z| .., mean z^2 ..". */
-static int blocks_agree(const char *what, const char *a, const char *b, const double *mean_a, const double *se_a,
+static inline int blocks_agree(const char *what, const char *a, const char *b, const double *mean_a, const double *se_a,
                         const double *mean_b, const double *se_b, int nb) {
   double max_z = 0.0, sum_z2 = 0.0;
   for (int k = 0; k < nb; k++) {

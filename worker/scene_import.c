@@ -85,18 +85,6 @@ static int add_shape(vf_scene *s, vf_shape **out) {
   return VF_OK;
 }
 
-static double shape_area(const vf_shape *s) {
-  double area = 0.0;
-  for (uint32_t t = 0; t < s->num_triangles; t++) {
-    const float *a = &s->positions[3 * s->indices[3 * t]], *b = &s->positions[3 * s->indices[3 * t + 1]],
-                *d = &s->positions[3 * s->indices[3 * t + 2]];
-    double e1[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]}, e2[3] = {d[0] - a[0], d[1] - a[1], d[2] - a[2]};
-    double n[3] = {e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]};
-    area += 0.5 * sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
-  }
-  return area;
-}
-
 /* One shape per (node, mesh) of the hierarchy: instances of a mesh are shapes of their own. */
 static int import_instance(void *user, const struct aiNode *node, unsigned mesh_index, const vf_affine *world) {
   import_state *st = user;
@@ -118,7 +106,7 @@ static int import_instance(void *user, const struct aiNode *node, unsigned mesh_
   snprintf(s->name, sizeof s->name, "%.63s", name[0] ? name : st->f.file); /* names only name: cut is fine */
   s->emission = st->emission_of[mesh->mMaterialIndex];
   /* An emitter without area would have infinite radiance per unit power. */
-  if (!vf_is_zero(s->emission) && !(shape_area(s) > 0.0)) {
+  if (!vf_is_zero(s->emission) && !(vf_scene_mesh_area(s) > 0.0)) {
     s->emission = vf_vec3_splat(0.0f);
     if ((err = vf_scene_note(c, "%s: emissive meshes without area do not emit", st->f.file)) < 0) return err;
   }

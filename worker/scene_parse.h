@@ -211,6 +211,9 @@ int vf_scene_texture_bytes(const parse_ctx *c, const char *name, const void *byt
  * VF_ENOMEM only. */
 int vf_scene_note(const parse_ctx *c, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
 
+/* The total area of mesh s, in double (an emitter's must be > 0). */
+double vf_scene_mesh_area(const vf_shape *s);
+
 /* Sets the scene's bounds from its shapes. */
 void vf_scene_compute_bounds(vf_scene *s);
 

@@ -175,7 +175,7 @@ fail:
 
 /* ---- shapes ------------------------------------------------------------------------------ */
 
-static double mesh_area(const vf_shape *s) {
+double vf_scene_mesh_area(const vf_shape *s) {
   double area = 0.0;
   for (uint32_t t = 0; t < s->num_triangles; t++) {
     const float *a = &s->positions[3 * s->indices[3 * t]], *b = &s->positions[3 * s->indices[3 * t + 1]],
@@ -260,7 +260,7 @@ static int parse_shape(const parse_ctx *c, const cJSON *j, int index, vf_shape *
     if (has_transform && (err = transform_mesh(c, &a, vf_scene_join(p, path, "transform"), s)) < 0) return err;
     /* Degenerate triangles are kept (real meshes have them and the renderer copes), but an
      * emitter with no area would have infinite radiance per unit power: refuse it. */
-    if (!vf_is_zero(s->emission) && !(mesh_area(s) > 0.0))
+    if (!vf_is_zero(s->emission) && !(vf_scene_mesh_area(s) > 0.0))
       return vf_scene_fail(c, VF_ESCENE, path, "emissive shape has zero area");
   }
   /* Default names are only for messages: a long file name may be cut short. */
