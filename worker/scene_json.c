@@ -598,10 +598,22 @@ static int parse(const char *text, size_t length, const char *label, const char 
                  const vf_scene_memfile *memfiles, int num_memfiles, struct vf_scene_files *files, vf_scene **out) {
   const char *end = NULL;
   if (memchr(text, '\0', length) != NULL) return vf_error_set(VF_ESCENE, "%s: contains a NUL byte", label);
-  /* The length includes the terminating NUL so that require_null_terminated rejects
-   * anything but whitespace after the top-level value. */
-  cJSON *root = cJSON_ParseWithLengthOpts(text, length + 1, &end, 1);
-  if (root == NULL) return syntax_error(label, text, length, end);
+  /* cJSON reads a NUL after the text (the length below includes it, so that
+   * require_null_terminated rejects anything but whitespace after the top-level value):
+   * the text is given in a copy that has one, whatever the caller's buffer holds after
+   * its `length` bytes (every caller had one there; tests/fuzz/fuzz_scene.c's buffers,
+   * which do not, made cJSON read past them). */
+  char *terminated = malloc(length + 1);
+  if (terminated == NULL) return vf_error_set(VF_ENOMEM, "out of memory");
+  memcpy(terminated, text, length);
+  terminated[length] = '\0';
+  cJSON *root = cJSON_ParseWithLengthOpts(terminated, length + 1, &end, 1);
+  if (root == NULL) {
+    int err = syntax_error(label, terminated, length, end);
+    free(terminated);
+    return err;
+  }
+  free(terminated);
   int err = VF_OK;
   vf_scene *scene = calloc(1, sizeof *scene);
   if (scene == NULL) {
