@@ -23,7 +23,8 @@ packages=(
   systemd              # tests/test_systemd.sh: systemd-analyze verify (deploy/systemd)
   python3              # tests/bench/convergence_report.py (standard library only)
   jq                   # tests/bench/convergence.sh, tests/test_film_tools.sh: fields of --json output
-  clang                # tests/test_fuzz.sh: the libFuzzer targets of tests/fuzz (compiler-rt's libFuzzer, ASan, UBSan)
+  clang                # tests/test_fuzz.sh: the libFuzzer targets of tests/fuzz, with
+  libclang-rt-14-dev   #   compiler-rt's libFuzzer, ASan and UBSan (only recommended by clang)
   curl                 # tests/test_dashboard_http.sh: the dashboard's endpoints
   chromium             # tests/test_dashboard.sh: the dashboard in a headless browser (playwright-core)
   assimp-testmodels    # tests/test_import.c: Khronos glTF 2.0 sample models as import smoke tests
