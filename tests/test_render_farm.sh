@@ -61,9 +61,9 @@ check "continue extends it" $?
 #     and external textures travel as blobs (a file the load reads but the job lacks
 #     would fail the worker's load: "not among the job's files").
 scene="$source_dir/tests/scenes/import/model.gltf"
-"$vcmfarm" render "$scene" "${common[@]}" -n 2 -q -o "$tmp/g.exr" 2>/dev/null
+"$vcmfarm" render "$scene" "${common[@]}" -n 2 -q -o "$tmp/gltf.exr" 2>/dev/null
 check "glTF scene with external textures renders through the farm" $?
-same "glTF scene through the farm equals --direct" "[0,2)" "$tmp/g.exr" "$scene" "${common[@]}" -n 2
+same "glTF scene through the farm equals --direct" "[0,2)" "$tmp/gltf.exr" "$scene" "${common[@]}" -n 2
 
 # 4. A target estimated error: the job stops at the first merged part meeting it, and the
 #    film holds exactly the contiguous iterations [0, m) of that part.
