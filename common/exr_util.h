@@ -102,6 +102,8 @@ int vf_exr_write_pixels(vf_exr_out *out, int n, const char *const *names, vf_exr
 #define VF_EXR_CHECKSUM_ATTR "vcmfarm:checksum"
 int vf_exr_add_checksum(vf_exr_out *out);
 int vf_exr_verify_checksum(const vf_exr_in *in);
+/* For vf_exr_commit: the finished temporary file's checksum, written into its attribute. */
+int vf_exr_write_checksum(vf_exr_out *out);
 
 /* Finishes the file and renames it into place. Releases out either way. */
 int vf_exr_commit(vf_exr_out *out);
