@@ -170,6 +170,20 @@ void vf_film_mean(const vf_film *film, float *rgb) {
 }
 
 int vf_film_merge(vf_film *dst, const vf_film *src) {
+  int err = vf_film_merge_metadata(dst, src);
+  if (err == VF_OK) vf_film_add_pixels(dst, src);
+  return err;
+}
+
+void vf_film_add_pixels(vf_film *dst, const vf_film *src) {
+  size_t n = (size_t)dst->width * (size_t)dst->height;
+  for (size_t i = 0; i < 3 * n; i++) {
+    dst->sum[i] += src->sum[i];
+    dst->square_sum[i] += src->square_sum[i];
+  }
+}
+
+int vf_film_merge_metadata(vf_film *dst, const vf_film *src) {
   if (dst == NULL || src == NULL) return vf_error_set(VF_EINVAL, "vf_film_merge: NULL argument");
   if (dst->width != src->width || dst->height != src->height)
     return vf_error_set(VF_EMISMATCH, "film sizes differ: %dx%d and %dx%d", dst->width, dst->height, src->width,
@@ -188,11 +202,6 @@ int vf_film_merge(vf_film *dst, const vf_film *src) {
   if (err != VF_OK) return err;
   vf_convergence_append_runs(&dst->convergence, &src->convergence);
   if (dst->scene_name[0] == '\0') memcpy(dst->scene_name, src->scene_name, sizeof dst->scene_name);
-  size_t n = (size_t)dst->width * (size_t)dst->height;
-  for (size_t i = 0; i < 3 * n; i++) {
-    dst->sum[i] += src->sum[i];
-    dst->square_sum[i] += src->square_sum[i];
-  }
   dst->render_seconds += src->render_seconds;
   dst->cpu_seconds += src->cpu_seconds;
   dst->nonfinite_samples += src->nonfinite_samples;

@@ -237,6 +237,13 @@ static int queue_work(vf_farm *farm, uint64_t job_id, vf_film *film, const char 
  * its landing or the next checkpoint takes it. */
 static int save_film(vf_farm *farm, vf_job *job, uint64_t snapshot_id) {
   if (job->film_writing) return VF_OK;
+  if (job->merging > 0) { /* pixels being added: vf_checkpoint_resume when they are in */
+    if (snapshot_id != 0) {
+      snapshot *s = snapshot_find(farm, job->id);
+      if (s != NULL && s->id == snapshot_id) s->state = SNAPSHOT_PENDING;
+    }
+    return VF_OK;
+  }
   if (farm->checkpoint_loop == NULL && snapshot_id == 0) return vf_state_save_film(farm->config.state_dir, job);
   char path[4096];
   int err = vf_state_film_path(farm->config.state_dir, job->id, path, sizeof path);
@@ -286,13 +293,23 @@ int vf_checkpoint_write(vf_farm *farm, int all) {
 
 size_t vf_checkpoint_pending(const vf_farm *farm) { return farm->checkpoints_pending; }
 
+void vf_checkpoint_resume(vf_farm *farm, vf_job *job) {
+  if (job->merging > 0) return;
+  if (job->final_pending && job->film_dirty && !job->film_writing) {
+    int err = vf_job_log(job);
+    if (err == VF_OK) err = save_film(farm, job, 0);
+    if (err != VF_OK) checkpoint_failed(job, err);
+  }
+  snapshot_advance(farm, job);
+}
+
 /* ---- fetch snapshots ---- */
 
 /* Takes the job's pending snapshot further once no write of its film is in flight: the
  * file on disk when it holds the film as it is, else a checkpoint written for it. */
 static void snapshot_advance(vf_farm *farm, vf_job *job) {
   snapshot *s = snapshot_find(farm, job->id);
-  if (s == NULL || s->state != SNAPSHOT_PENDING || job->film_writing) return;
+  if (s == NULL || s->state != SNAPSHOT_PENDING || job->film_writing || job->merging > 0) return;
   char path[4096];
   int err = vf_state_film_path(farm->config.state_dir, job->id, path, sizeof path), fd = -1;
   s->state = SNAPSHOT_HASHING;

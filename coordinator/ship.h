@@ -1,0 +1,52 @@
+/* How often workers ship (docs/PROTOCOL.md, "How often workers ship"): the coordinator
+ * chooses the interval from its own load and the size of the films, and tells every worker
+ * in its Lease and HeartbeatAck replies; leases last at least that long, so that a lease's
+ * end is not an extra part.
+ *
+ * The model: a part of P pixels costs the merge thread s(P) seconds (decoding its tiles,
+ * validating, adding), measured as the thread's work per part merged, smoothed, per pixel
+ * (a prior of VF_SHIP_PRIOR_SECONDS_PER_PIXEL until measured). With N busy workers each
+ * shipping every T seconds the thread is busy rho = N s / T; the interval is the T that
+ * makes rho VF_SHIP_TARGET_LOAD, within [VF_SHIP_MIN_SECONDS, VF_SHIP_MAX_SECONDS], and
+ * longer still while the measured load of the merge thread or of the loop is above the
+ * target (the estimate was low, or requests other than results load the loop). It grows at
+ * once and shrinks by at most a tenth per second, so a burst of parts does not make it
+ * swing. A worker ships no more often than it says, nor than 50 times what its last part
+ * cost it (worker/worker.c). */
+#ifndef VF_SHIP_H
+#define VF_SHIP_H
+
+#include "farm_core.h"
+
+#include <stdint.h>
+
+#define VF_SHIP_MIN_SECONDS 5.0
+#define VF_SHIP_MAX_SECONDS (4.0 * 3600.0)
+#define VF_SHIP_TARGET_LOAD 0.5
+/* Merge-thread seconds per pixel of a part before any is measured: a 1920x1080 part of a
+ * noisy vcm film decoded, validated and added on the project's machine (docs/BENCHMARKS.md,
+ * "Merging one result"). */
+#define VF_SHIP_PRIOR_SECONDS_PER_PIXEL 2.5e-7
+/* Leases given while no rate is known for a job: one iteration each, to measure it; more
+ * workers wait (Idle) until a heartbeat or a part tells the rate, so that a thousand
+ * workers starting a job do not all ship a one-iteration part at once. */
+#define VF_SHIP_PROBES 2
+
+/* Recomputes the interval (farm->ship_seconds) from the loads at `now`; the loop calls it
+ * with every tick. */
+void vf_ship_tick(vf_farm *farm, double now);
+
+/* Accounts `seconds` of merge-thread work; m is the message of a part's tile decoding,
+ * NULL for a part's addition (which ends the part). */
+void vf_ship_part_work(vf_farm *farm, double seconds, const Vcmfarm__LeaseResult *m);
+
+/* The interval in milliseconds for a Lease or HeartbeatAck. */
+uint32_t vf_ship_interval_ms(const vf_farm *farm);
+/* The seconds a lease should last at least: the interval, or --lease-seconds if longer. */
+double vf_ship_lease_seconds(const vf_farm *farm);
+/* When a "busy" sender should send again: about the time a part takes to merge. */
+uint32_t vf_ship_retry_ms(const vf_farm *farm);
+/* Merge seconds of one part of a film of this many pixels, as measured (or the prior). */
+double vf_ship_part_seconds(const vf_farm *farm, double pixels);
+
+#endif
