@@ -20,7 +20,7 @@
 
 #include <stdint.h>
 
-#define VF_SHIP_MIN_SECONDS 5.0
+#define VF_SHIP_MIN_SECONDS 1.0
 #define VF_SHIP_MAX_SECONDS (4.0 * 3600.0)
 #define VF_SHIP_TARGET_LOAD 0.5
 /* Merge-thread seconds per pixel of a part before any is measured: a 1920x1080 part of a

@@ -37,7 +37,9 @@ for size in "${sizes[@]}"; do
   pids+=($wpid)
   client submit cornell -R "$size" -n "$n" --wait -o "$tmp/submit.exr" >/dev/null 2>&1 ||
     CLIENT_TIMEOUT=60 client submit cornell -R "$size" -n "$n" --wait -o "$tmp/submit.exr" >/dev/null
-  kill -TERM "$wpid" 2>/dev/null; wait "$wpid" 2>/dev/null
-  kill -TERM "${pids[-2]}" 2>/dev/null; wait "${pids[-2]}" 2>/dev/null
+  # /usr/bin/time passes no signal on: its child (by parent id) is told to stop, then time
+  # writes its figures and ends.
+  pkill -TERM -P "$wpid"; wait "$wpid" 2>/dev/null
+  pkill -TERM -P "${pids[-2]}"; wait "${pids[-2]}" 2>/dev/null
   echo "| $size | $(peak "$tmp/direct.time") | $(peak "$tmp/farm.time") | $(peak "$tmp/worker.time") | $(peak "$tmp/coord.time") | $rate |"
 done
