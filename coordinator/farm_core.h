@@ -89,7 +89,6 @@ typedef struct vf_farm {
   uint64_t request_token;
   void (*reply_later)(void *ctx, uint64_t token, struct vf_farm_reply *reply);
   void *reply_ctx;
-  unsigned staged_parts;   /* parts of results being received (coordinator/partial.h) */
   /* How often workers ship (coordinator/ship.h): the loop's and the merge thread's load. */
   double ship_seconds;     /* the interval now */
   double part_seconds;     /* merge work per part of the film's size, smoothed; 0 unknown */

@@ -26,7 +26,6 @@ typedef struct {
   double granted;     /* vf_seconds_now() */
   double charged;     /* worker-seconds charged to the job when granted (coordinator/schedule.h) */
   struct vf_partial *partial; /* owned: tiles of the part [begin, ...) arriving, or NULL */
-  int busy;           /* a message of it is on the merge thread, with its part (coordinator/results.h) */
 } vf_lease;
 
 /* Expired leases kept for checking late results; the oldest are forgotten beyond this. */

@@ -194,19 +194,23 @@ static void merge_part(vf_farm *farm, vf_job *job, vf_lease *l, vf_film *film, c
 }
 
 /* ---- off the loop (farm->merger) ----
- * A message's tiles are decoded and stored in its part on the merge thread (DECODE), the
- * message answered when that is done; with the part whole, it is validated there too, and
- * merged on the loop except for the addition of its pixels, queued behind it (ADD). The
- * part is owned by the item while it is on the thread (the lease's slot is empty and
- * `busy`), so nothing on the loop frees it meanwhile; the loop looks the lease up again
- * by id when the item is back. */
+ * A message's tiles are decoded and stored in its part on the merge thread (DECODE). The
+ * messages of a part stream: each is answered "queued" as soon as it is handed to the
+ * thread, except the one that brings the part's tiles to its total, which is answered
+ * when it is decoded: with the part whole, it is validated there, and merged on the loop
+ * except for the addition of its pixels, queued behind it (ADD). A message refused on the
+ * thread marks the part failed; the part's next message (at the latest its last) is
+ * refused with that reason and the part dropped, so nothing of it is merged. The part is
+ * held by a reference of each message on the thread (coordinator/partial.h): the lease may
+ * drop it meanwhile; the loop looks the lease up again by id when a message is back. */
 
 typedef struct {
   vf_merge_item item;
   vf_farm *farm;
   uint64_t token;
+  int answer;                 /* the message waits for this for its reply */
   Vcmfarm__Envelope *request; /* owned: request->result is the message */
-  vf_partial *partial;        /* owned while on the thread */
+  vf_partial *partial;        /* a reference */
   vf_film *film;              /* the whole part, validated, when it is */
   int err;
   char detail[1024];
@@ -228,39 +232,44 @@ static void decode_done(vf_merge_item *item) {
   unsigned long long jid = (unsigned long long)m->job_id, b = (unsigned long long)m->begin;
   unsigned long long e = (unsigned long long)m->end;
   double now = vf_seconds_now();
-  if (farm->staged_parts > 0) farm->staged_parts--;
   vf_ship_part_work(farm, item->seconds, m);
-  vf_farm_reply r;
-  vf_farm_reply_init(&r);
   vf_job *job = vf_farm_job(farm, m->job_id);
   vf_lease *l = vf_lease_find(&farm->leases, m->lease_id);
   vf_farm_worker *w = vf_workers_find_any(farm, m->worker_id);
-  if (l != NULL) l->busy = 0;
-  /* What changed on the loop meanwhile: the lease ended, the job ended. */
-  if (l == NULL || job == NULL || l->job_id != m->job_id || l->begin != m->begin || l->partial != NULL) {
-    vf_partial_destroy(d->partial);
+  int current = l != NULL && job != NULL && l->job_id == m->job_id && l->begin == m->begin && l->partial == d->partial;
+  if (d->err != VF_OK) vf_partial_fail(d->partial, d->detail);
+  if (!d->answer) {
+    if (d->err != VF_OK && current) vf_log("job %llu [%llu,%llu): %s; the part is dropped", jid, b, e, d->detail);
     vf_film_destroy(d->film);
-    refuse(w, job, &r, "job %llu [%llu,%llu): its lease ended while the part was being received", jid, b, e);
-  } else if (job->end != VF_JOB_ACTIVE) {
-    vf_partial_destroy(d->partial);
-    vf_film_destroy(d->film);
-    refuse(w, job, &r, "job %llu is %s", jid, vf_job_state(job, 0));
-  } else if (d->err != VF_OK) {
-    vf_partial_destroy(d->partial);
-    vf_film_destroy(d->film);
-    refuse(w, job, &r, "job %llu [%llu,%llu): %s; the part is dropped", jid, b, e, d->detail);
-  } else if (d->film == NULL) {
-    l->partial = d->partial;
-    vf_partial_touch(l->partial, now);
-    snprintf(r.text, sizeof r.text, "tiles %u/%u of [%llu,%llu) received", vf_partial_received(l->partial),
-             vf_partial_total(l->partial), b, e);
-    vf_farm_reply_ack(&r, 1, r.text);
   } else {
-    vf_partial_destroy(d->partial);
-    merge_part(farm, job, l, d->film, m, now, 1, &r);
+    vf_farm_reply r;
+    vf_farm_reply_init(&r);
+    const char *failure = vf_partial_failure(d->partial);
+    if (!current) {
+      vf_film_destroy(d->film);
+      refuse(w, job, &r, "job %llu [%llu,%llu): its lease ended or the part was dropped while it was being received",
+             jid, b, e);
+    } else if (job->end != VF_JOB_ACTIVE) {
+      vf_film_destroy(d->film);
+      drop_part(l);
+      refuse(w, job, &r, "job %llu is %s", jid, vf_job_state(job, 0));
+    } else if (failure != NULL) {
+      vf_film_destroy(d->film);
+      refuse(w, job, &r, "job %llu [%llu,%llu): %s; the part is dropped", jid, b, e, failure);
+      drop_part(l);
+    } else if (d->film == NULL) { /* tiles sent twice counted among the total: more to come */
+      vf_partial_touch(l->partial, now);
+      snprintf(r.text, sizeof r.text, "tiles of [%llu,%llu) received, some twice: %u tiles, more to come", b, e,
+               vf_partial_total(l->partial));
+      vf_farm_reply_ack(&r, 1, r.text);
+    } else {
+      drop_part(l); /* spent: its film is d->film */
+      merge_part(farm, job, l, d->film, m, now, 1, &r);
+    }
+    if (farm->reply_later) farm->reply_later(farm->reply_ctx, d->token, &r);
+    vf_farm_reply_release(&r);
   }
-  if (farm->reply_later) farm->reply_later(farm->reply_ctx, d->token, &r);
-  vf_farm_reply_release(&r);
+  vf_partial_destroy(d->partial);
   vf_message_free(d->request);
   free(d);
 }
@@ -279,18 +288,22 @@ void vf_results_receive_later(vf_farm *farm, vf_lease *l, const Vcmfarm__LeaseRe
   vf_farm_worker *w = vf_workers_find_any(farm, m->worker_id);
   unsigned long long jid = (unsigned long long)m->job_id, b = (unsigned long long)m->begin;
   unsigned long long e = (unsigned long long)m->end;
-  if (l->busy) return busy(farm, r, "a message of this lease is being merged"); /* sent again meanwhile */
   if (vf_merger_full(farm->merger)) return busy(farm, r, "the merge queue is full");
   if (l->partial != NULL && !vf_partial_same(l->partial, m)) {
     vf_log("lease %016llx: a new part [%llu,%llu) replaces the one being received", (unsigned long long)l->id, b, e);
     drop_part(l);
   }
   if (l->partial == NULL) {
-    size_t staged = farm->staged_parts;
+    size_t staged = 0;
     for (size_t i = 0; i < farm->leases.count; i++) staged += farm->leases.leases[i].partial != NULL;
     if (staged >= VF_PARTS_STAGED_MAX) return busy(farm, r, "as many parts as it holds are being received");
     int err = vf_partial_create(job, m, &l->partial);
     if (err != VF_OK) return refuse(w, job, r, "job %llu [%llu,%llu): %s", jid, b, e, vf_error_detail(err));
+  }
+  const char *failure = vf_partial_failure(l->partial);
+  if (failure != NULL) {
+    refuse(w, job, r, "job %llu [%llu,%llu): %s; the part is dropped", jid, b, e, failure);
+    return drop_part(l);
   }
   decode_item *d = calloc(1, sizeof *d);
   if (d == NULL) return busy(farm, r, "out of memory");
@@ -301,12 +314,17 @@ void vf_results_receive_later(vf_farm *farm, vf_lease *l, const Vcmfarm__LeaseRe
   d->request = farm->request;
   farm->request = NULL; /* ours now */
   d->partial = l->partial;
-  l->partial = NULL;
-  l->busy = 1;
-  farm->staged_parts++;
+  vf_partial_retain(d->partial);
+  uint32_t queued = vf_partial_queue(d->partial, (uint32_t)m->n_tiles), total = vf_partial_total(d->partial);
+  d->answer = queued >= total;
   vf_partial_touch(d->partial, now);
   vf_merger_queue(farm->merger, &d->item);
-  r->deferred = 1;
+  if (d->answer) {
+    r->deferred = 1;
+    return;
+  }
+  snprintf(r->text, sizeof r->text, "tiles %u/%u of [%llu,%llu) queued", queued, total, b, e);
+  vf_farm_reply_ack(r, 1, r->text);
 }
 
 /* ADD: the pixels of a merged part into its job's film. */
@@ -356,9 +374,9 @@ void vf_results_expire(vf_farm *farm, double now) {
   for (size_t i = 0; i < farm->leases.count; i++) {
     vf_lease *l = &farm->leases.leases[i];
     if (l->partial == NULL || now - vf_partial_updated(l->partial) <= farm->config.worker_timeout) continue;
-    vf_log("lease %016llx: part [%llu,...) incomplete (%u/%u tiles) and silent for %.1f s; dropped",
-           (unsigned long long)l->id, (unsigned long long)l->begin, vf_partial_received(l->partial),
-           vf_partial_total(l->partial), now - vf_partial_updated(l->partial));
+    vf_log("lease %016llx: part [%llu,...) incomplete (%u tiles) and silent for %.1f s; dropped",
+           (unsigned long long)l->id, (unsigned long long)l->begin, vf_partial_total(l->partial),
+           now - vf_partial_updated(l->partial));
     drop_part(l);
   }
 }

@@ -113,10 +113,10 @@ static void *flood(void *arg) {
     m.settings = settings;
     m.tiles_total = n_tiles;
     m.render_seconds = 1.0;
-    Vcmfarm__Tile *ptrs[10];
+    Vcmfarm__Tile *ptrs[VF_FILM_TILES_PER_MESSAGE];
     int merged = 0;
     for (uint32_t at = 0; at < n_tiles && atomic_load(&flooding);) {
-      uint32_t n = n_tiles - at < 10 ? n_tiles - at : 10;
+      uint32_t n = n_tiles - at < VF_FILM_TILES_PER_MESSAGE ? n_tiles - at : VF_FILM_TILES_PER_MESSAGE;
       for (uint32_t i = 0; i < n; i++) ptrs[i] = &tiles[at + i];
       m.tiles = ptrs;
       m.n_tiles = n;

@@ -20,9 +20,6 @@
 #define RESULT_TIMEOUT_MS 60000
 #define BACKOFF_MAX_MS 5000
 #define RESULT_ATTEMPTS 8
-/* Tiles per LeaseResult: about 3.3 MB of a 64x64 tile's 10 doubles per pixel, under the
- * coordinator's VF_WIRE_MAX_RESULT. */
-#define TILES_PER_MESSAGE 10
 /* Parts are shipped from the render thread, which waits meanwhile (a 1920x1080 part: about
  * 0.4 s of encoding and framing, plus the coordinator's 0.5 s). The wait is kept to about
  * 2% of the rendering by shipping no more often than 50 times the last part's cost. */
@@ -251,7 +248,7 @@ static int ship(worker *w, const vf_film *film) {
   m.job_id = w->lease->job_id;
   m.begin = w->shipped;
   w->part_merged = 0;
-  int rc = vf_film_send_tiles(film, &m, TILES_PER_MESSAGE, send_tiles_cb, w);
+  int rc = vf_film_send_tiles(film, &m, VF_FILM_TILES_PER_MESSAGE, send_tiles_cb, w);
   /* Every tile taken, yet not merged: the coordinator lost tiles of it (it dropped the
    * part, or restarted); the lease cannot go on from here. */
   if (rc == 1 && !w->part_merged) {

@@ -46,7 +46,7 @@
 #include <unistd.h>
 
 #define PER_PROCESS 200
-#define TILES_PER_MESSAGE 10
+#define TILES_PER_MESSAGE VF_FILM_TILES_PER_MESSAGE
 #define MAX_SAMPLES (1u << 21)
 
 typedef struct {
