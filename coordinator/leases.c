@@ -57,18 +57,6 @@ void vf_leases_revoke(vf_farm *farm, uint64_t job_id, uint64_t begin, uint64_t e
   end_active(farm, job_id, begin, end, except, "a late result covered it", now);
 }
 
-/* Active leases of the job whose workers have no measured rate: the probes. */
-static size_t probes(vf_farm *farm, uint64_t job_id) {
-  size_t n = 0;
-  for (size_t i = 0; i < farm->leases.count; i++) {
-    const vf_lease *l = &farm->leases.leases[i];
-    if (l->job_id != job_id || l->state != VF_LEASE_ACTIVE) continue;
-    vf_farm_worker *w = vf_farm_find_worker(farm, l->worker_id);
-    n += w == NULL || w->rate <= 0.0;
-  }
-  return n;
-}
-
 static int has_free_range(void *ctx, const vf_job *j) {
   vf_farm *farm = ctx;
   uint64_t b, e, free_count;
@@ -126,17 +114,14 @@ void vf_leases_grant(vf_farm *farm, vf_farm_worker *w, double now, vf_farm_reply
     return;
   }
   double rate = w->rate > 0.0 ? w->rate : job->rate;
-  if (rate <= 0.0 && probes(farm, job->id) >= VF_SHIP_PROBES) {
-    vcmfarm__idle__init(&r->idle);
-    r->idle.retry_ms = 250; /* a heartbeat of a probe tells the rate within seconds */
-    r->env.body_case = VCMFARM__ENVELOPE__BODY_IDLE;
-    r->env.idle = &r->idle;
-    return;
-  }
   uint64_t b, e, free_count;
   const vf_iterset *done = &job->film->iterations;
   vf_lease_free_range(&farm->leases, job->id, done, job->first, job->iterations, UINT64_MAX, &b, &e, &free_count);
-  uint64_t size = vf_lease_size(rate, vf_ship_lease_seconds(farm), free_count, farm->num_workers);
+  /* Rate unknown: a fair share of the range, for the lease's time (the worker stops then:
+   * Lease.seconds_ms), so that a thousand workers starting a job neither wait nor all ship
+   * one iteration at once. */
+  uint64_t size = rate > 0.0 ? vf_lease_size(rate, vf_ship_lease_seconds(farm), free_count, farm->num_workers)
+                             : vf_lease_size(VF_LEASE_UNKNOWN_RATE, 1.0, free_count, farm->num_workers);
   if (vf_lease_free_range(&farm->leases, job->id, done, job->first, job->iterations, size, &b, &e, &free_count) != 1 ||
       vf_lease_add(&farm->leases, job->id, w->id, b, e, now, &w->lease_id) != VF_OK)
     return vf_farm_reply_error(r, VCMFARM__ERROR_CODE__ERROR_INTERNAL, "out of memory for leases");
@@ -151,6 +136,7 @@ void vf_leases_grant(vf_farm *farm, vf_farm_worker *w, double now, vf_farm_reply
   vf_log("lease %016llx: job %llu iterations [%llu,%llu) to worker %s", (unsigned long long)w->lease_id,
          (unsigned long long)job->id, (unsigned long long)b, (unsigned long long)e, w->name);
   fill_lease(farm, job, w->lease_id, b, e, r);
+  if (rate <= 0.0) r->lease.seconds_ms = (uint32_t)(1000.0 * vf_ship_lease_seconds(farm));
 }
 
 void vf_leases_heartbeat(vf_farm *farm, vf_farm_worker *w, const Vcmfarm__Heartbeat *m, vf_farm_reply *r) {

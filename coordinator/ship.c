@@ -68,10 +68,7 @@ void vf_ship_tick(vf_farm *farm, double now) {
   double previous = farm->ship_seconds > 0.0 ? farm->ship_seconds : VF_SHIP_MIN_SECONDS;
   double want = (double)busy * vf_ship_part_seconds(farm, pixels) / VF_SHIP_TARGET_LOAD;
   double over = farm->merge_load > farm->loop_load ? farm->merge_load : farm->loop_load;
-  if (over > VF_SHIP_TARGET_LOAD) {
-    double stretched = previous * over / VF_SHIP_TARGET_LOAD;
-    if (stretched > want) want = stretched;
-  }
+  if (over > 0.9 && want < previous) want = previous; /* saturated: no shorter */
   if (want < previous && dt > 0.0) { /* shrink slowly */
     double floor = previous * (1.0 - 0.1 * dt);
     if (want < floor) want = floor;
@@ -89,7 +86,7 @@ uint32_t vf_ship_interval_ms(const vf_farm *farm) {
 
 double vf_ship_lease_seconds(const vf_farm *farm) {
   double s = farm->ship_seconds > 0.0 ? farm->ship_seconds : VF_SHIP_MIN_SECONDS;
-  return s > farm->config.lease_seconds ? s : farm->config.lease_seconds;
+  return s > VF_SHIP_MIN_SECONDS && s > farm->config.lease_seconds ? s : farm->config.lease_seconds;
 }
 
 uint32_t vf_ship_retry_ms(const vf_farm *farm) {

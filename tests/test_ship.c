@@ -1,8 +1,8 @@
 /* How often workers ship (coordinator/ship.c), in process: a farm of a 1920x1080 job and
  * many busy workers. The interval grows with the busy workers and the measured merge work
  * per part, grows at once and shrinks slowly, stays within its bounds, is told in every
- * Lease and HeartbeatAck, and leases last at least as long; a worker's rate comes from its
- * heartbeats, and while a job's rate is unknown only VF_SHIP_PROBES workers get a lease. */
+ * Lease and HeartbeatAck, and leases last at least as long; while a worker's rate is
+ * unknown its lease is bounded by time, and its heartbeats tell the rate. */
 #include "check.h"
 #include "common/error.h"
 #include "common/settings.h"
@@ -110,23 +110,26 @@ static void load(fixture *f, int parts, double seconds, double dt) {
   }
 }
 
-static void test_probes_then_leases_of_the_interval_from_heartbeats(void) {
+static void test_unknown_rates_get_leases_bounded_by_time_then_sized_by_heartbeats(void) {
   fixture f;
   setup(&f, 1920, 1080);
   uint64_t w[4];
   Vcmfarm__Lease l[4];
   for (int i = 0; i < 4; i++) w[i] = register_worker(&f);
-  CHECK_INT_EQ(ask_lease(&f, w[0], &l[0]), VCMFARM__ENVELOPE__BODY_LEASE);
-  CHECK_INT_EQ(ask_lease(&f, w[1], &l[1]), VCMFARM__ENVELOPE__BODY_LEASE);
-  CHECK_INT_EQ(l[0].end - l[0].begin, 1); /* probes: one iteration, the rate is unknown */
-  CHECK(l[0].ship_interval_ms >= (uint32_t)(1000 * VF_SHIP_MIN_SECONDS));
-  /* More workers wait until a rate is known... */
-  CHECK_INT_EQ(ask_lease(&f, w[2], NULL), VCMFARM__ENVELOPE__BODY_IDLE);
-  /* ...which a probe's heartbeat tells: 1 iteration in 2 s. */
+  /* No rate known: every worker gets a lease at once, a share of the range for a time. */
+  for (int i = 0; i < 3; i++) {
+    CHECK_INT_EQ(ask_lease(&f, w[i], &l[i]), VCMFARM__ENVELOPE__BODY_LEASE);
+    CHECK_INT_EQ(l[i].seconds_ms, (uint32_t)(1000.0 * vf_ship_lease_seconds(&f.farm)));
+    CHECK(l[i].end - l[i].begin >= 1000);
+    CHECK(l[i].end - l[i].begin <= (uint64_t)VF_LEASE_UNKNOWN_RATE);
+    CHECK(l[i].ship_interval_ms >= (uint32_t)(1000 * VF_SHIP_MIN_SECONDS));
+  }
+  /* A heartbeat tells the rate (1 iteration in 2 s): the next lease is sized by it. */
   heartbeat(&f, w[0], l[0].lease_id, 1, 2.0);
-  CHECK_INT_EQ(ask_lease(&f, w[2], &l[2]), VCMFARM__ENVELOPE__BODY_LEASE);
-  double lease_seconds = (double)(l[2].end - l[2].begin) * 2.0;
-  CHECK(lease_seconds >= vf_ship_lease_seconds(&f.farm) - 2.0);
+  CHECK_INT_EQ(ask_lease(&f, w[3], &l[3]), VCMFARM__ENVELOPE__BODY_LEASE);
+  CHECK_INT_EQ(l[3].seconds_ms, 0);
+  double lease_seconds = (double)(l[3].end - l[3].begin) * 2.0;
+  CHECK_NEAR(lease_seconds, vf_ship_lease_seconds(&f.farm), 2.0);
   vf_farm_destroy(&f.farm);
 }
 
@@ -179,7 +182,7 @@ int main(void) {
   snprintf(dir, sizeof dir, "/tmp/vf-test-ship-XXXXXX");
   if (mkdtemp(dir) == NULL) return 1;
   vf_log_set_quiet(1);
-  RUN(test_probes_then_leases_of_the_interval_from_heartbeats);
+  RUN(test_unknown_rates_get_leases_bounded_by_time_then_sized_by_heartbeats);
   RUN(test_interval_grows_with_merge_load_within_bounds);
   RUN(test_one_worker_small_film_ships_at_the_minimum);
   char cmd[128];

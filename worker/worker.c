@@ -187,6 +187,8 @@ static void on_progress(void *ctx, const vf_render_status *st) {
     }
   }
   if (vf_heartbeat_revoked(w->heartbeat) || *w->terminating) w->render_stop = 1;
+  /* A lease bounded by time (its rate was unknown): ship what is rendered, hand back the rest. */
+  if (w->lease && w->lease->seconds_ms > 0 && st->seconds >= w->lease->seconds_ms / 1000.0) w->render_stop = 1;
 }
 
 static void stall(worker *w) {

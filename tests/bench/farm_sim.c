@@ -16,8 +16,8 @@
  *
  * Steady state from the start: a real farm's workers ship at moments spread over the
  * interval. Here they all start together, so each worker's first lease is cut at a uniform
- * random fraction of its length (the rest handed back), as if it had started earlier: the
- * coordinator sees from the first minute the rate of parts of a long-running farm.
+ * random fraction of its duration (the rest handed back), as if it had started earlier:
+ * the coordinator sees from the first minute the rate of parts of a long-running farm.
  *
  * Workers are threads of child processes, at most 200 per process (nanomsg allows 512
  * sockets per process); statistics come back through shared memory. Prints worker
@@ -194,17 +194,16 @@ static void release(sim_worker *s, vf_farm_client *c, lease_state *ls) {
 
 /* Renders a lease (the first one cut at a random fraction), shipping as the worker does. */
 static void run_lease(sim_worker *s, vf_farm_client *c, lease_state *ls, uint64_t begin, uint64_t end, int first,
-                      int heartbeat_ms) {
+                      int heartbeat_ms, double seconds) {
   worker_stats *st = &s->sh->workers[s->index];
   uint64_t limit = end;
-  if (first && end - begin > 1) {
-    double u = (double)rand() / RAND_MAX;
-    limit = begin + (uint64_t)ceil(u * (double)(end - begin));
-    if (limit <= begin) limit = begin + 1;
-  }
-  uint64_t part = begin, done = begin;
   double started = vf_seconds_now(), shipped_at = started, next_beat = started + heartbeat_ms / 1000.0;
-  while (done < limit && ls->valid && vf_seconds_now() < s->sh->deadline) {
+  /* The lease's time bound (its rate unknown), else its range's duration. */
+  double duration = seconds > 0.0 ? seconds : (double)(end - begin) * s->iteration_seconds;
+  if (first) duration *= (double)rand() / RAND_MAX; /* as if started earlier: steady state at once */
+  uint64_t part = begin, done = begin;
+  while (done < limit && ls->valid && vf_seconds_now() < s->sh->deadline &&
+         (done == begin || vf_seconds_now() - started < duration)) {
     /* one iteration, heartbeats meanwhile */
     double t0 = vf_seconds_now(), end_at = t0 + s->iteration_seconds;
     for (double now = t0; now < end_at; now = vf_seconds_now()) {
@@ -270,8 +269,9 @@ static void *sim_thread(void *arg) {
     lease_state ls = {worker, reply->lease->lease_id, reply->lease->job_id, reply->lease->ship_interval_ms / 1000.0,
                       0.0, 1};
     uint64_t b = reply->lease->begin, e = reply->lease->end;
+    double seconds = reply->lease->seconds_ms / 1000.0;
     vf_message_free(reply);
-    run_lease(s, c, &ls, b, e, first, heartbeat_ms);
+    run_lease(s, c, &ls, b, e, first, heartbeat_ms, seconds);
     first = 0;
   }
   st->alive = s->sh->deadline - born;
