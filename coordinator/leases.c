@@ -114,6 +114,7 @@ void vf_leases_grant(vf_farm *farm, vf_farm_worker *w, double now, vf_farm_reply
     return;
   }
   double rate = w->rate > 0.0 ? w->rate : job->rate;
+  vf_ship_workers_changed(farm); /* the interval for this many workers, before the lease says it */
   uint64_t b, e, free_count;
   const vf_iterset *done = &job->film->iterations;
   vf_lease_free_range(&farm->leases, job->id, done, job->first, job->iterations, UINT64_MAX, &b, &e, &free_count);

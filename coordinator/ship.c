@@ -24,7 +24,10 @@ void vf_ship_part_work(vf_farm *farm, double seconds, const Vcmfarm__LeaseResult
 static double film_pixels(const vf_farm *farm, size_t *busy) {
   double pixels = 0.0;
   *busy = 0;
-  for (size_t i = 0; i < farm->num_workers; i++) *busy += farm->workers[i].lease_id != 0;
+  /* Workers that may ship: every registered one that is not stopping. Counting only the busy
+   * ones would tell the first workers of a new job a short interval that the rest then
+   * follow all at once. */
+  for (size_t i = 0; i < farm->num_workers; i++) *busy += farm->workers[i].state == VF_WORKER_ACTIVE;
   for (size_t i = 0; i < farm->num_jobs; i++) {
     const vf_job *j = farm->jobs[i];
     if (!vf_job_runnable(j)) continue;
@@ -77,6 +80,14 @@ void vf_ship_tick(vf_farm *farm, double now) {
   if (want > VF_SHIP_MAX_SECONDS) want = VF_SHIP_MAX_SECONDS;
   farm->ship_seconds = want;
   farm->load_at = now;
+}
+
+void vf_ship_workers_changed(vf_farm *farm) {
+  size_t workers;
+  double pixels = film_pixels(farm, &workers);
+  double want = (double)workers * vf_ship_part_seconds(farm, pixels) / VF_SHIP_TARGET_LOAD;
+  if (want > VF_SHIP_MAX_SECONDS) want = VF_SHIP_MAX_SECONDS;
+  if (want > farm->ship_seconds) farm->ship_seconds = want;
 }
 
 uint32_t vf_ship_interval_ms(const vf_farm *farm) {

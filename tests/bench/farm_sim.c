@@ -14,7 +14,8 @@
  * render threads), and honours "busy" answers (retry_ms). Its time alive runs from its
  * registration to the end; its time rendering is the iterations' sleep.
  *
- * Steady state from the start: a real farm's workers ship at moments spread over the
+ * The workers register first and start together once all have (a farm already running
+ * when the job arrives), and the time runs from then. Steady state from the start: a real farm's workers ship at moments spread over the
  * interval. Here they all start together, so each worker's first lease is cut at a uniform
  * random fraction of its duration (the rest handed back), as if it had started earlier:
  * the coordinator sees from the first minute the rate of parts of a long-running farm.
@@ -57,6 +58,7 @@ typedef struct {
 /* In shared memory: written by the children, read by the parent at the end. */
 typedef struct {
   atomic_int start;
+  atomic_int registered; /* workers registered: they start leasing when all are */
   double deadline;         /* vf_seconds_now() (CLOCK_MONOTONIC: one clock for all processes) */
   atomic_uint n_control, n_result;
   atomic_uint ship_ms_last;
@@ -72,7 +74,7 @@ typedef struct {
   uint32_t n_tiles;
   double iteration_seconds, encode_seconds;
   shared *sh;
-  int index;
+  int index, workers;
 } sim_worker;
 
 static void sleep_s(double s) {
@@ -246,6 +248,9 @@ static void *sim_thread(void *arg) {
   uint64_t worker = reply->registered->worker_id;
   int heartbeat_ms = (int)reply->registered->heartbeat_ms;
   vf_message_free(reply);
+  /* A farm whose workers are there when the job comes: they all registered before. */
+  atomic_fetch_add(&s->sh->registered, 1);
+  while (atomic_load(&s->sh->registered) < s->workers) sleep_s(0.01);
   double born = vf_seconds_now();
   int first = 1;
   while (vf_seconds_now() < s->sh->deadline) {
@@ -370,7 +375,7 @@ int vf_bench_farm_simulate(const char *vcmfarm, const char *film_path, int worke
   vf_wire_key key;
   if (vf_wire_key_generate(key_path) != VF_OK || vf_wire_key_load(key_path, &key) != VF_OK) return 1;
   /* Children first, before this process touches nanomsg (its threads do not survive a fork). */
-  sim_worker proto = {url, &key, film, tiles, n_tiles, iteration_seconds, encode_seconds, sh, 0};
+  sim_worker proto = {url, &key, film, tiles, n_tiles, iteration_seconds, encode_seconds, sh, 0, workers};
   int processes = (workers + PER_PROCESS - 1) / PER_PROCESS;
   pid_t *kids = calloc((size_t)processes, sizeof *kids);
   for (int p = 0; p < processes; p++) {
