@@ -184,10 +184,11 @@ static void bench_merge(int width, int height, int runs, const char *dir) {
     m.lease_id = r.lease.lease_id;
     m.job_id = r.lease.job_id;
     m.begin = r.lease.begin;
-    m.end = r.lease.end;
+    m.end = m.begin + 1; /* a part of one iteration (the lease, its rate unknown, is longer) */
+    int leased = r.env.body_case == VCMFARM__ENVELOPE__BODY_LEASE;
     vf_farm_reply_release(&r);
     vf_film *film;
-    if (m.end != m.begin + 1 || noisy_film(width, height, settings, m.begin, &film) != VF_OK) {
+    if (!leased || noisy_film(width, height, settings, m.begin, &film) != VF_OK) {
       fprintf(stderr, "unexpected lease or film failure\n");
       exit(1);
     }
@@ -258,7 +259,7 @@ static void *fake(void *arg) {
     q.body_case = VCMFARM__ENVELOPE__BODY_LEASE_REQUEST;
     q.lease_request = &lr;
     if (vf_farm_call(c, &q, 30000, &reply) != VF_OK) break;
-    if (reply->body_case != VCMFARM__ENVELOPE__BODY_LEASE || reply->lease->end != reply->lease->begin + 1 ||
+    if (reply->body_case != VCMFARM__ENVELOPE__BODY_LEASE ||
         reply->lease->begin >= f->results) {
       vf_message_free(reply);
       break;

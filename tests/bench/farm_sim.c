@@ -216,7 +216,8 @@ static void run_lease(sim_worker *s, vf_farm_client *c, lease_state *ls, uint64_
         next_beat += heartbeat_ms / 1000.0;
       }
     }
-    st->render += vf_seconds_now() - t0;
+    double now = vf_seconds_now();
+    st->render += (now < s->sh->deadline ? now : s->sh->deadline) - t0; /* alive ends at the deadline */
     done++;
     double interval = ls->ship_seconds > 50.0 * ls->ship_cost ? ls->ship_seconds : 50.0 * ls->ship_cost;
     if (done < limit && vf_seconds_now() - shipped_at >= interval && ls->valid) {
