@@ -4,6 +4,7 @@
 #include "../common/error.h"
 #include "log.h"
 #include "merger.h"
+#include "ship.h"
 #include "state.h"
 
 #include <errno.h>
@@ -253,6 +254,7 @@ static void write_work(vf_merge_item *item) {
 
 static void write_done(vf_merge_item *item) {
   write_item *w = (write_item *)item;
+  vf_ship_part_work(w->fw->farm, item->seconds, 0); /* the thread's time, as parts' is */
   work_done(&w->fw->work, 0);
   free(w);
 }

@@ -158,7 +158,7 @@ static void serve(coordinator *c, const uint8_t *frame, size_t len, void *contro
   if (!reply.deferred) send_reply(c, &reply, control);
   vf_farm_reply_release(&reply);
   if (request->body_case == VCMFARM__ENVELOPE__BODY_RESULT) /* the loop's share of a part's cost */
-    vf_ship_part_work(&c->farm, vf_seconds_now() - t0, request->result);
+    vf_ship_part_work(&c->farm, vf_seconds_now() - t0, 0);
   if (c->farm.request != NULL) vf_message_free(c->farm.request); /* else the handler took it */
   c->farm.request = NULL;
   c->farm.loop_busy += vf_seconds_now() - t0;

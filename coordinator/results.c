@@ -232,7 +232,7 @@ static void decode_done(vf_merge_item *item) {
   unsigned long long jid = (unsigned long long)m->job_id, b = (unsigned long long)m->begin;
   unsigned long long e = (unsigned long long)m->end;
   double now = vf_seconds_now();
-  vf_ship_part_work(farm, item->seconds, m);
+  vf_ship_part_work(farm, item->seconds, 0);
   vf_job *job = vf_farm_job(farm, m->job_id);
   vf_lease *l = vf_lease_find(&farm->leases, m->lease_id);
   vf_farm_worker *w = vf_workers_find_any(farm, m->worker_id);
@@ -344,7 +344,7 @@ static void add_work(vf_merge_item *item) {
 static void add_done(vf_merge_item *item) {
   add_item *a = (add_item *)item;
   vf_farm *farm = a->farm;
-  vf_ship_part_work(farm, item->seconds, NULL);
+  vf_ship_part_work(farm, item->seconds, 1);
   vf_job *job = vf_farm_job(farm, a->job_id);
   vf_film_destroy(a->film);
   free(a);

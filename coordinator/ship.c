@@ -15,9 +15,9 @@ double vf_ship_part_seconds(const vf_farm *farm, double pixels) {
   return per_pixel * pixels;
 }
 
-void vf_ship_part_work(vf_farm *farm, double seconds, const Vcmfarm__LeaseResult *m) {
+void vf_ship_part_work(vf_farm *farm, double seconds, int ends_part) {
   farm->part_work += seconds;
-  if (m == NULL) farm->part_work_parts++;
+  if (ends_part) farm->part_work_parts++;
 }
 
 /* The largest film of the running jobs, in pixels: parts of it are what loads the thread. */
@@ -87,6 +87,7 @@ void vf_ship_workers_changed(vf_farm *farm) {
   double pixels = film_pixels(farm, &workers);
   double want = (double)workers * vf_ship_part_seconds(farm, pixels) / VF_SHIP_TARGET_LOAD;
   if (want > VF_SHIP_MAX_SECONDS) want = VF_SHIP_MAX_SECONDS;
+  if (want < VF_SHIP_MIN_SECONDS) want = VF_SHIP_MIN_SECONDS;
   if (want > farm->ship_seconds) farm->ship_seconds = want;
 }
 

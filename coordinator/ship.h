@@ -6,7 +6,8 @@
  * The model: a part of P pixels costs the merge thread s(P) seconds (decoding its tiles,
  * validating, adding), measured as the thread's work per part merged, smoothed, per pixel
  * (a prior of VF_SHIP_PRIOR_SECONDS_PER_PIXEL until measured), plus the loop's time
- * authenticating and unpacking its messages. With N registered workers each
+ * authenticating and unpacking its messages and the thread's checkpoint writes shared out
+ * over the parts (they hold the thread as parts do). With N registered workers each
  * shipping every T seconds the thread is busy rho = N s / T; the interval is the T that
  * makes rho VF_SHIP_TARGET_LOAD, within [VF_SHIP_MIN_SECONDS, VF_SHIP_MAX_SECONDS], and
  * never shorter while the merge thread or the loop is saturated (their measured load above
@@ -40,10 +41,10 @@ void vf_ship_tick(vf_farm *farm, double now);
  * now, before the next tick, so that the leases of a farm starting a job already follow it. */
 void vf_ship_workers_changed(vf_farm *farm);
 
-/* Accounts `seconds` of work for results (the merge thread's, or the loop's on a result
- * message); m is the message of a part's tiles, NULL for a part's addition (which ends
- * the part). */
-void vf_ship_part_work(vf_farm *farm, double seconds, const Vcmfarm__LeaseResult *m);
+/* Accounts `seconds` of work for results (the merge thread's: decoding, adding, and the
+ * film checkpoints it writes between them; the loop's on a result message); ends_part for
+ * a part's addition, which ends the part. */
+void vf_ship_part_work(vf_farm *farm, double seconds, int ends_part);
 
 /* The interval in milliseconds for a Lease or HeartbeatAck. */
 uint32_t vf_ship_interval_ms(const vf_farm *farm);

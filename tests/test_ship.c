@@ -103,7 +103,7 @@ static uint32_t heartbeat(fixture *f, uint64_t worker, uint64_t lease, uint64_t 
 
 /* `parts` parts of `seconds` each of merge work, over `dt` seconds of ticks. */
 static void load(fixture *f, int parts, double seconds, double dt) {
-  for (int i = 0; i < parts; i++) vf_ship_part_work(&f->farm, seconds, NULL);
+  for (int i = 0; i < parts; i++) vf_ship_part_work(&f->farm, seconds, 1);
   for (double t = 0; t < dt; t += 0.2) {
     f->now += 0.2;
     vf_ship_tick(&f->farm, f->now);
