@@ -105,6 +105,13 @@ static int send_tiles(void *ctx, Vcmfarm__LeaseResult *m) {
   q.body_case = VCMFARM__ENVELOPE__BODY_RESULT;
   q.result = m;
   int err = vf_farm_request(ctx, &q, VCMFARM__ENVELOPE__BODY_RESULT_ACK, 60000, &reply);
+  /* "busy" (protocol 7): the merge queue is full, the same message again after retry_ms */
+  for (int tries = 0; err == VF_OK && !reply->result_ack->accepted && reply->result_ack->retry_ms > 0 && tries < 1000;
+       tries++) {
+    usleep(1000u * reply->result_ack->retry_ms);
+    vf_message_free(reply);
+    err = vf_farm_request(ctx, &q, VCMFARM__ENVELOPE__BODY_RESULT_ACK, 60000, &reply);
+  }
   if (err != VF_OK) return err;
   int accepted = reply->result_ack->accepted;
   snprintf(refusal, sizeof refusal, "%s", reply->result_ack->message);
