@@ -26,8 +26,9 @@ static const char usage[] =
     "  -j, --threads T       render threads (default: one per CPU)\n"
     "  -n, --name NAME       name shown in status (default HOST/PID)\n"
     "      --ship-interval S  send the iterations rendered so far every S seconds during\n"
-    "                        a lease (default 5; longer when sending takes more than 2%\n"
-    "                        of the time), and the rest at its end\n"
+    "                        a lease (default: as often as the coordinator says, which\n"
+    "                        it chooses from its load and the film's size; longer when\n"
+    "                        sending takes more than 2% of the time), and the rest at its end\n"
     "      --cache DIR       cache of scene files fetched from the coordinator (default\n"
     "                        $XDG_CACHE_HOME/vcmfarm, else ~/.cache/vcmfarm)\n"
     "      --cache-max SIZE  keep the cache at most SIZE bytes (suffix K, M, G or T):\n"
@@ -51,7 +52,7 @@ int vf_cmd_worker(int argc, char **argv) {
   const char *cmd = "worker", *secret = NULL, *cache = NULL;
   vf_worker_config config;
   memset(&config, 0, sizeof config);
-  config.ship_interval = VF_WORKER_SHIP_SECONDS;
+  config.ship_interval = 0.0; /* the coordinator's */
   long long threads = 0, delay = 0;
   int err = VF_OK, c;
   optind = 0; /* 0: getopt starts again from scratch (glibc), forgetting the last argv */

@@ -91,6 +91,30 @@ int vf_film_clone(const vf_film *film, vf_film **out) {
   return VF_OK;
 }
 
+int vf_film_clone_metadata(const vf_film *film, vf_film **out) {
+  if (film == NULL || out == NULL) return vf_error_set(VF_EINVAL, "vf_film_clone_metadata: NULL argument");
+  vf_film *copy = calloc(1, sizeof *copy);
+  if (copy == NULL) return vf_error_set(VF_ENOMEM, "out of memory for a film");
+  copy->width = film->width;
+  copy->height = film->height;
+  vf_iterset_init(&copy->iterations);
+  vf_convergence_init(&copy->convergence);
+  int err = vf_iterset_copy(&copy->iterations, &film->iterations);
+  if (err == VF_OK) err = vf_convergence_copy(&copy->convergence, &film->convergence);
+  if (err != VF_OK) {
+    vf_film_destroy(copy);
+    return err;
+  }
+  memcpy(copy->scene_hash, film->scene_hash, sizeof copy->scene_hash);
+  memcpy(copy->settings_text, film->settings_text, sizeof copy->settings_text);
+  copy->render_seconds = film->render_seconds;
+  copy->cpu_seconds = film->cpu_seconds;
+  copy->nonfinite_samples = film->nonfinite_samples;
+  memcpy(copy->scene_name, film->scene_name, sizeof copy->scene_name);
+  *out = copy;
+  return VF_OK;
+}
+
 static int finite3(const float *v) { return isfinite(v[0]) && isfinite(v[1]) && isfinite(v[2]); }
 
 /* A NaN or Inf sample would poison its pixel forever, so it is counted and replaced by zero
@@ -170,6 +194,20 @@ void vf_film_mean(const vf_film *film, float *rgb) {
 }
 
 int vf_film_merge(vf_film *dst, const vf_film *src) {
+  int err = vf_film_merge_metadata(dst, src);
+  if (err == VF_OK) vf_film_add_pixels(dst, src);
+  return err;
+}
+
+void vf_film_add_pixels(vf_film *dst, const vf_film *src) {
+  size_t n = (size_t)dst->width * (size_t)dst->height;
+  for (size_t i = 0; i < 3 * n; i++) {
+    dst->sum[i] += src->sum[i];
+    dst->square_sum[i] += src->square_sum[i];
+  }
+}
+
+int vf_film_merge_metadata(vf_film *dst, const vf_film *src) {
   if (dst == NULL || src == NULL) return vf_error_set(VF_EINVAL, "vf_film_merge: NULL argument");
   if (dst->width != src->width || dst->height != src->height)
     return vf_error_set(VF_EMISMATCH, "film sizes differ: %dx%d and %dx%d", dst->width, dst->height, src->width,
@@ -188,11 +226,6 @@ int vf_film_merge(vf_film *dst, const vf_film *src) {
   if (err != VF_OK) return err;
   vf_convergence_append_runs(&dst->convergence, &src->convergence);
   if (dst->scene_name[0] == '\0') memcpy(dst->scene_name, src->scene_name, sizeof dst->scene_name);
-  size_t n = (size_t)dst->width * (size_t)dst->height;
-  for (size_t i = 0; i < 3 * n; i++) {
-    dst->sum[i] += src->sum[i];
-    dst->square_sum[i] += src->square_sum[i];
-  }
   dst->render_seconds += src->render_seconds;
   dst->cpu_seconds += src->cpu_seconds;
   dst->nonfinite_samples += src->nonfinite_samples;

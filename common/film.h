@@ -75,6 +75,19 @@ void vf_film_pixel_mean(const vf_film *film, size_t p, float rgb[3]);
  * (common/convergence.h). */
 int vf_film_merge(vf_film *dst, const vf_film *src);
 
+/* vf_film_merge in two steps, for a caller that adds the pixels on another thread: the
+ * checks and everything but the pixels (iteration set, log, times, counts), with the same
+ * errors and dst unchanged on error; then the pixels alone, which cannot fail. Together
+ * they leave dst exactly as vf_film_merge does. */
+int vf_film_merge_metadata(vf_film *dst, const vf_film *src);
+void vf_film_add_pixels(vf_film *dst, const vf_film *src);
+
+/* A copy of everything of film but its pixels (sum and square_sum NULL): for a caller that
+ * writes a film's pixels as they are with the metadata of a moment (a checkpoint written on
+ * the thread that alone changes the pixels). Point sum and square_sum at the pixels to
+ * write, and back to NULL before vf_film_destroy. *out on success only; VF_ENOMEM. */
+int vf_film_clone_metadata(const vf_film *film, vf_film **out);
+
 /* A deep copy of film into *out (written only on success); VF_EINVAL or VF_ENOMEM. */
 int vf_film_clone(const vf_film *film, vf_film **out);
 

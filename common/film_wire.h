@@ -28,6 +28,10 @@ int vf_film_from_bytes(const uint8_t *data, size_t len, const char *name, vf_fil
  * chunk of the film file (proto/vcmfarm.proto, Tile; common/film_planes.h): what a file
  * holds, as compact, decoded in one pass. */
 uint32_t vf_film_tiles_across(int width);
+/* Tiles per LeaseResult message: a tile's chunk is at most 48 bytes per pixel (196,608
+ * bytes for 64x64, stored when ZIP does not shrink it), so 20 stay under the
+ * coordinator's VF_WIRE_MAX_RESULT of 4 MiB with their header. */
+#define VF_FILM_TILES_PER_MESSAGE 20
 uint32_t vf_film_tile_count(int width, int height);
 
 /* Fills *tile with tile (x, y) of film, its chunk in one malloc'ed block written to

@@ -16,7 +16,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
-#define VF_PROTOCOL_VERSION 6u
+#define VF_PROTOCOL_VERSION 7u
 #define VF_WIRE_MAGIC "VCMF"
 #define VF_WIRE_HEADER_SIZE 12u
 #define VF_WIRE_TAG_SIZE 32u

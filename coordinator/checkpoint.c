@@ -3,6 +3,8 @@
 #include "../common/clock.h"
 #include "../common/error.h"
 #include "log.h"
+#include "merger.h"
+#include "ship.h"
 #include "state.h"
 
 #include <errno.h>
@@ -231,15 +233,68 @@ static int queue_work(vf_farm *farm, uint64_t job_id, vf_film *film, const char 
   return VF_OK;
 }
 
+/* A checkpoint written by the merge thread, the only thread that changes job films' pixels:
+ * the metadata as the loop had it when it queued the write (its iteration set names
+ * exactly the parts queued before, FIFO), the pixels the job film's own, read in place. No
+ * copy of the film: neither its memory nor the loop's time for a memcpy. Merges wait
+ * behind it meanwhile. */
+typedef struct {
+  vf_merge_item item;
+  film_work *fw;
+  const vf_film *pixels; /* the job's film: alive while film_writing (a job is not removed then) */
+} write_item;
+
+static void write_work(vf_merge_item *item) {
+  write_item *w = (write_item *)item;
+  w->fw->film->sum = w->pixels->sum;
+  w->fw->film->square_sum = w->pixels->square_sum;
+  do_work(&w->fw->work);
+  w->fw->film->sum = w->fw->film->square_sum = NULL;
+}
+
+static void write_done(vf_merge_item *item) {
+  write_item *w = (write_item *)item;
+  vf_ship_part_work(w->fw->farm, item->seconds, 0); /* the thread's time, as parts' is */
+  work_done(&w->fw->work, 0);
+  free(w);
+}
+
+static int queue_write(vf_farm *farm, vf_job *job, const char *path, uint64_t snapshot_id) {
+  vf_film *shell;
+  int err = vf_film_clone_metadata(job->film, &shell);
+  if (err != VF_OK) return err;
+  film_work *fw = calloc(1, sizeof *fw);
+  write_item *w = calloc(1, sizeof *w);
+  char *copy = strdup(path);
+  if (fw == NULL || w == NULL || copy == NULL) {
+    free(fw);
+    free(w);
+    free(copy);
+    vf_film_destroy(shell);
+    return vf_error_set(VF_ENOMEM, "out of memory starting a checkpoint of %s", path);
+  }
+  *fw = (film_work){.farm = farm, .job_id = job->id, .film = shell, .path = copy, .snapshot_id = snapshot_id,
+                    .fd = -1};
+  fw->work.data = fw;
+  *w = (write_item){.item = {.work = write_work, .done = write_done}, .fw = fw, .pixels = job->film};
+  farm->checkpoints_pending++;
+  job->film_writing = 1;
+  job->writing_generation = job->film_generation;
+  vf_merger_queue(farm->merger, &w->item);
+  return VF_OK;
+}
+
 /* Starts the checkpoint of one film: written here without a loop (unless for a snapshot),
  * else a copy handed to the thread pool (the job's film keeps changing meanwhile), and
  * hashed after for snapshot_id when nonzero. A job whose write is in flight is left dirty:
  * its landing or the next checkpoint takes it. */
 static int save_film(vf_farm *farm, vf_job *job, uint64_t snapshot_id) {
   if (job->film_writing) return VF_OK;
-  if (farm->checkpoint_loop == NULL && snapshot_id == 0) return vf_state_save_film(farm->config.state_dir, job);
   char path[4096];
   int err = vf_state_film_path(farm->config.state_dir, job->id, path, sizeof path);
+  /* Behind the additions queued before it: no wait for them to land. */
+  if (err == VF_OK && farm->merger != NULL) return queue_write(farm, job, path, snapshot_id);
+  if (farm->checkpoint_loop == NULL && snapshot_id == 0) return vf_state_save_film(farm->config.state_dir, job);
   vf_film *copy;
   if (err != VF_OK || (err = vf_film_clone(job->film, &copy)) != VF_OK) return err;
   job->film_writing = 1;
@@ -285,6 +340,18 @@ int vf_checkpoint_write(vf_farm *farm, int all) {
 }
 
 size_t vf_checkpoint_pending(const vf_farm *farm) { return farm->checkpoints_pending; }
+
+void vf_checkpoint_resume(vf_farm *farm, vf_job *job) {
+  if (job->merging > 0) return;
+  if (job->final_pending) {
+    /* Its last measurement, skipped while pixels were being added: a write in flight
+     * lands with an older generation, and the final film is written again then. */
+    int err = vf_job_log(job);
+    if (err == VF_OK && job->film_dirty && !job->film_writing) err = save_film(farm, job, 0);
+    if (err != VF_OK) checkpoint_failed(job, err);
+  }
+  snapshot_advance(farm, job);
+}
 
 /* ---- fetch snapshots ---- */
 

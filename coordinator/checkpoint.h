@@ -87,4 +87,8 @@ void vf_checkpoint_snapshot_drop(vf_farm *farm, uint64_t job_id);
 /* Drops the snapshots nobody asked for during the last VF_SNAPSHOT_IDLE_SECONDS. */
 void vf_checkpoint_snapshot_expire(vf_farm *farm, double now);
 
+/* A job whose pixels were being added on the merge thread (job->merging, now 0): the
+ * final film and the fetch snapshot that waited for them are started. */
+void vf_checkpoint_resume(vf_farm *farm, vf_job *job);
+
 #endif

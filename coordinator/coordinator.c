@@ -8,6 +8,8 @@
 #include "checkpoint.h"
 #include "farm.h"
 #include "log.h"
+#include "merger.h"
+#include "ship.h"
 #include "state.h"
 
 #include <errno.h>
@@ -19,6 +21,7 @@
 #include <sys/socket.h>
 #include <sys/stat.h>
 #include <sys/un.h>
+#include <stdint.h>
 #include <unistd.h>
 #include <uv.h>
 
@@ -40,10 +43,20 @@ typedef struct {
   double checkpoint_interval, last_checkpoint;
   double last_collect;  /* of blobs no job names (coordinator/blobs.h) */
   volatile sig_atomic_t *stop; /* the caller's stop flag, or NULL */
-  uint8_t *pending;     /* a packed reply waiting for room, owned */
-  size_t pending_len;
+  /* Replies waiting for room to be sent, oldest first, owned (rarely more than one: a raw
+   * REP socket drops a reply its peer's pipe cannot take rather than refuse it). */
+  struct pending_reply *pending, **pending_tail;
   double pending_since;
 } coordinator;
+
+/* A reply and the routing header of its request (a raw REP socket's backtrace, owned as a
+ * nanomsg chunk) that says which peer it goes to. */
+typedef struct pending_reply {
+  struct pending_reply *next;
+  uint8_t *frame;
+  size_t len;
+  void *control;
+} pending_reply;
 
 static void on_readable(uv_poll_t *handle, int status, int events);
 
@@ -52,20 +65,40 @@ static void resume_receiving(coordinator *c) {
   uv_poll_start(&c->recv_poll, UV_READABLE, on_readable);
 }
 
+/* Sends a frame to the peer of `control` (taken on success, and then freed by nanomsg).
+ * Returns 0 sent or dropped for good, -1 when there is no room now. */
+static int send_frame(coordinator *c, uint8_t *frame, size_t len, void **control) {
+  struct nn_iovec iov = {frame, len};
+  struct nn_msghdr hdr = {&iov, 1, control, NN_MSG};
+  if (nn_sendmsg(c->socket, &hdr, NN_DONTWAIT) >= 0) return 0;
+  int e = nn_errno();
+  if (e == EAGAIN) return -1;
+  vf_log("reply dropped: %s", nn_strerror(e));
+  return 0;
+}
+
+static void drop_pending(coordinator *c) {
+  pending_reply *p = c->pending;
+  c->pending = p->next;
+  if (c->pending == NULL) c->pending_tail = &c->pending;
+  free(p->frame);
+  if (p->control) nn_freemsg(p->control);
+  free(p);
+  c->pending_since = vf_seconds_now();
+}
+
 static void on_writable(uv_poll_t *handle, int status, int events) {
   coordinator *c = handle->data;
-  if (c->pending == NULL) return resume_receiving(c);
-  if (nn_send(c->socket, c->pending, c->pending_len, NN_DONTWAIT) < 0) {
-    int e = nn_errno();
-    if (e == EAGAIN) return;
-    vf_log("reply dropped: %s", nn_strerror(e));
+  while (c->pending != NULL) {
+    if (send_frame(c, c->pending->frame, c->pending->len, &c->pending->control) < 0) return;
+    c->pending->control = NULL; /* nanomsg's now */
+    drop_pending(c);
   }
-  free(c->pending);
-  c->pending = NULL;
   resume_receiving(c);
 }
 
-static void send_reply(coordinator *c, vf_farm_reply *reply) {
+/* Packs and sends a reply to the peer of `control`, which this takes. */
+static void send_reply(coordinator *c, vf_farm_reply *reply, void *control) {
   uint8_t *frame;
   size_t len;
   int err = vf_message_pack(&c->key, &reply->env, &frame, &len);
@@ -73,58 +106,82 @@ static void send_reply(coordinator *c, vf_farm_reply *reply) {
     vf_log("cannot encode the %s reply: %s", vf_message_name(&reply->env), vf_error_detail(err));
     vf_farm_reply_release(reply);
     vf_farm_reply_error(reply, VCMFARM__ERROR_CODE__ERROR_INTERNAL, "reply could not be encoded");
-    if (vf_message_pack(&c->key, &reply->env, &frame, &len) != VF_OK) return;
+    if (vf_message_pack(&c->key, &reply->env, &frame, &len) != VF_OK) {
+      nn_freemsg(control);
+      return;
+    }
   }
-  if (nn_send(c->socket, frame, len, NN_DONTWAIT) >= 0) {
+  if (c->pending == NULL && send_frame(c, frame, len, &control) == 0) {
     free(frame);
     return;
   }
-  int e = nn_errno();
-  if (e != EAGAIN) {
-    vf_log("reply dropped: %s", nn_strerror(e));
+  pending_reply *p = malloc(sizeof *p);
+  if (p == NULL) {
+    vf_log("reply dropped: out of memory");
     free(frame);
+    nn_freemsg(control);
     return;
   }
-  c->pending = frame;
-  c->pending_len = len;
-  c->pending_since = vf_seconds_now();
+  *p = (pending_reply){NULL, frame, len, control};
+  if (c->pending == NULL) c->pending_since = vf_seconds_now();
+  *c->pending_tail = p;
+  c->pending_tail = &p->next;
   uv_poll_stop(&c->recv_poll);
   uv_poll_start(&c->send_poll, UV_READABLE, on_writable);
 }
 
-static void serve(coordinator *c, const uint8_t *frame, size_t len) {
+/* The farm answers a result later, from the merge thread's completion on the loop. */
+static void reply_later(void *ctx, uint64_t token, vf_farm_reply *reply) {
+  send_reply(ctx, reply, (void *)(uintptr_t)token);
+}
+
+static void serve(coordinator *c, const uint8_t *frame, size_t len, void *control) {
   Vcmfarm__Envelope *request;
   vf_farm_reply reply;
+  double t0 = vf_seconds_now();
   int err = vf_message_unpack(&c->key, frame, len, &request);
   if (err == VF_EVERSION) {
     vf_log("refused a message: %s", vf_error_detail(err));
     vf_farm_reply_error(&reply, VCMFARM__ERROR_CODE__ERROR_VERSION, vf_error_detail(err));
-    send_reply(c, &reply);
+    send_reply(c, &reply, control);
     vf_farm_reply_release(&reply);
     return;
   }
   if (err != VF_OK) {
     /* No answer: a peer without the key learns nothing from us. */
     vf_log("ignored a message of %zu bytes: %s", len, vf_error_detail(err));
+    nn_freemsg(control);
     return;
   }
+  c->farm.request = request;
+  c->farm.request_token = (uint64_t)(uintptr_t)control;
   vf_farm_handle(&c->farm, request, vf_seconds_now(), &reply);
-  send_reply(c, &reply);
+  if (!reply.deferred) send_reply(c, &reply, control);
   vf_farm_reply_release(&reply);
-  vf_message_free(request);
+  if (request->body_case == VCMFARM__ENVELOPE__BODY_RESULT) /* the loop's share of a part's cost */
+    vf_ship_part_work(&c->farm, vf_seconds_now() - t0, 0);
+  if (c->farm.request != NULL) vf_message_free(c->farm.request); /* else the handler took it */
+  c->farm.request = NULL;
+  c->farm.loop_busy += vf_seconds_now() - t0;
 }
 
 static void on_readable(uv_poll_t *handle, int status, int events) {
   coordinator *c = handle->data;
   for (int i = 0; i < MESSAGES_PER_WAKEUP && c->pending == NULL; i++) {
-    void *buf = NULL;
-    int n = nn_recv(c->socket, &buf, NN_MSG, NN_DONTWAIT);
+    void *buf = NULL, *control = NULL;
+    struct nn_iovec iov = {&buf, NN_MSG};
+    struct nn_msghdr hdr = {&iov, 1, &control, NN_MSG};
+    int n = nn_recvmsg(c->socket, &hdr, NN_DONTWAIT);
     if (n < 0) {
       int e = nn_errno();
       if (e != EAGAIN && e != EINTR) vf_log("receive: %s", nn_strerror(e));
       return;
     }
-    serve(c, buf, (size_t)n);
+    if (control == NULL) { /* a raw REP socket always gives the backtrace; without it, no answer can go */
+      nn_freemsg(buf);
+      continue;
+    }
+    serve(c, buf, (size_t)n, control);
     nn_freemsg(buf);
   }
 }
@@ -143,9 +200,8 @@ static void on_tick(uv_timer_t *timer) {
   vf_farm_tick(&c->farm, now);
   if (c->pending != NULL && now - c->pending_since > REPLY_GIVE_UP_SECONDS) {
     vf_log("reply dropped: the peer did not take it within %.0f s", REPLY_GIVE_UP_SECONDS);
-    free(c->pending);
-    c->pending = NULL;
-    resume_receiving(c);
+    drop_pending(c);
+    if (c->pending == NULL) resume_receiving(c);
   }
   if (now - c->last_collect >= COLLECT_SECONDS) {
     vf_blobs_collect(&c->farm, 86400.0); /* left by submissions that failed, references */
@@ -225,7 +281,10 @@ int vf_coordinator_run(const vf_coordinator_config *config) {
   if ((err = vf_state_load(&c->farm)) != VF_OK) goto unlock;
   vf_blobs_collect(&c->farm, 86400.0); /* before serving anyone, then every hour */
   c->last_collect = vf_seconds_now();
-  if ((c->socket = nn_socket(AF_SP, NN_REP)) < 0) {
+  c->pending_tail = &c->pending;
+  /* Raw: requests are answered in any order, so a result merged on the merge thread is
+   * answered when it is done while heartbeats and leases are answered meanwhile. */
+  if ((c->socket = nn_socket(AF_SP_RAW, NN_REP)) < 0) {
     err = vf_error_set(VF_ENET, "nanomsg socket: %s", nn_strerror(nn_errno()));
     goto unlock;
   }
@@ -243,6 +302,11 @@ int vf_coordinator_run(const vf_coordinator_config *config) {
     goto close_socket;
   }
   c->farm.checkpoint_loop = &c->loop; /* films are checkpointed off the loop */
+  vf_merger *merger = NULL;
+  if ((err = vf_merger_start(&c->loop, &merger)) != VF_OK) goto close_loop;
+  c->farm.merger = merger; /* and results merged off it */
+  c->farm.reply_later = reply_later;
+  c->farm.reply_ctx = c;
   uv_poll_init(&c->loop, &c->recv_poll, recv_fd);
   uv_poll_init(&c->loop, &c->send_poll, send_fd);
   uv_timer_init(&c->loop, &c->tick);
@@ -259,8 +323,11 @@ int vf_coordinator_run(const vf_coordinator_config *config) {
   }
   if (config->http_address &&
       (err = vf_dashboard_start(&c->farm, &c->loop, &c->key, config->http_address, config->status_json,
-                                &c->dashboard)) != VF_OK)
+                                &c->dashboard)) != VF_OK) {
+    vf_merger_stop(merger);
+    c->farm.merger = NULL;
     goto close_loop;
+  }
   c->last_checkpoint = vf_seconds_now();
   vf_log("listening on %s, state in %s, %zu job(s), worker timeout %.1f s", config->listen_url, config->state_dir,
          c->farm.num_jobs, config->worker_timeout);
@@ -274,6 +341,9 @@ int vf_coordinator_run(const vf_coordinator_config *config) {
   uv_timer_stop(&c->tick);
   uv_timer_stop(&c->stop_check);
   vf_dashboard_stop(c->dashboard);
+  while (vf_merger_pending(merger) > 0) uv_run(&c->loop, UV_RUN_ONCE); /* their replies still go out */
+  vf_merger_stop(merger);
+  c->farm.merger = NULL;
   while (vf_checkpoint_pending(&c->farm) > 0) uv_run(&c->loop, UV_RUN_ONCE);
   c->farm.checkpoint_loop = NULL;
   if ((err = vf_farm_checkpoint(&c->farm, 1)) == VF_OK) vf_log("checkpoint written; bye");
@@ -284,7 +354,7 @@ close_loop:
   uv_loop_close(&c->loop);
 close_socket:
   nn_close(c->socket);
-  free(c->pending);
+  while (c->pending != NULL) drop_pending(c);
 unlock:
   close(lock_fd);
 free_farm:

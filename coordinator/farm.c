@@ -5,6 +5,7 @@
 #include "jobs.h"
 #include "leases.h"
 #include "results.h"
+#include "ship.h"
 #include "workers.h"
 
 #include <stdint.h>
@@ -60,6 +61,7 @@ int vf_farm_expire(vf_farm *farm, double now) {
 void vf_farm_tick(vf_farm *farm, double now) {
   double dt = farm->last_tick > 0.0 ? now - farm->last_tick : 0.0;
   farm->last_tick = now;
+  vf_ship_tick(farm, now);
   for (size_t i = 0; i < farm->num_jobs; i++) {
     vf_job *j = farm->jobs[i];
     if (!vf_job_runnable(j)) continue;

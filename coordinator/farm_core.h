@@ -11,6 +11,7 @@
 #ifndef VF_FARM_CORE_H
 #define VF_FARM_CORE_H
 
+#include "../common/message.h"
 #include "events.h"
 #include "job.h"
 #include "lease.h"
@@ -19,6 +20,8 @@
 #include <stdint.h>
 
 struct uv_loop_s; /* libuv's uv_loop_t */
+struct vf_merger;  /* coordinator/merger.h */
+struct vf_farm_reply; /* coordinator/farm_reply.h */
 
 /* A registered worker is active (idle or busy: whether it holds a lease) or stopping (it
  * said goodbye and finishes its lease); one that said it is done has left, one silent for
@@ -75,6 +78,26 @@ typedef struct vf_farm {
    * they had then (coordinator/blobs.c): read again only when those change. */
   struct vf_blob_checked *checked;
   size_t num_checked, checked_capacity;
+  /* Merging off the loop (coordinator/merger.h, results.h): when set (borrowed), results
+   * are decoded and added on the merge thread and answered later; NULL, on the caller's
+   * thread at once (tests, benchmarks). */
+  struct vf_merger *merger;
+  /* The request being handled, set by vf_farm_handle's caller with a token of its own: a
+   * handler that answers later takes the request (sets it NULL, then owns it) and answers
+   * through reply_later(reply_ctx, token, reply), on the loop. */
+  Vcmfarm__Envelope *request;
+  uint64_t request_token;
+  void (*reply_later)(void *ctx, uint64_t token, struct vf_farm_reply *reply);
+  void *reply_ctx;
+  /* How often workers ship (coordinator/ship.h): the loop's and the merge thread's load. */
+  double ship_seconds;     /* the interval now */
+  double part_seconds;     /* merge work per part of the film's size, smoothed; 0 unknown */
+  double part_pixels;      /* pixels of the parts part_seconds was measured on */
+  double part_work, part_work_since; /* merge work since the last sample of it, from when */
+  unsigned part_work_parts;          /* parts merged since then */
+  double load_at, load_busy; /* the merge thread's busy seconds at time load_at */
+  double merge_load;       /* the merge thread's utilisation, smoothed */
+  double loop_busy, loop_load; /* seconds the loop spent handling requests; its utilisation */
 } vf_farm;
 
 /* An empty farm; then vf_state_load fills in the jobs of a state directory. */

@@ -9,8 +9,10 @@
 
 #include <stdint.h>
 
-typedef struct {
+typedef struct vf_farm_reply {
   Vcmfarm__Envelope env;
+  /* The handler took the request and answers later (farm->reply_later): send nothing now. */
+  int deferred;
   Vcmfarm__Registered registered;
   Vcmfarm__Lease lease;
   Vcmfarm__Scene scene;

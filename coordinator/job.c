@@ -152,9 +152,24 @@ int vf_job_check_result(const vf_job *job, const vf_film *film, uint64_t begin, 
   return VF_OK;
 }
 
+static void merged(vf_job *job, const vf_film *film, double now);
+
 int vf_job_merge(vf_job *job, const vf_film *film, double now) {
   int err = vf_film_merge(job->film, film);
   if (err != VF_OK) return err;
+  merged(job, film, now);
+  return VF_OK;
+}
+
+int vf_job_merge_deferred(vf_job *job, const vf_film *film, double now) {
+  int err = vf_film_merge_metadata(job->film, film);
+  if (err != VF_OK) return err;
+  job->merging++;
+  merged(job, film, now);
+  return VF_OK;
+}
+
+static void merged(vf_job *job, const vf_film *film, double now) {
   job->film_dirty = 1;
   job->film_generation++;
   job->merges[job->merges_next].time = now;
@@ -166,7 +181,6 @@ int vf_job_merge(vf_job *job, const vf_film *film, double now) {
     job->rate = job->rate > 0.0 ? 0.7 * job->rate + 0.3 * r : r;
   }
   job->last_merge_time = now;
-  return VF_OK;
 }
 
 int vf_job_set_stop(vf_job *job, double time_limit, double target_rmse, double target_error) {
@@ -203,6 +217,7 @@ int vf_job_load_reference(vf_job *job, const char *path) {
 }
 
 int vf_job_measure(vf_job *job) {
+  if (job->merging > 0) return VF_OK; /* its pixels are being added to: the last measurement stands */
   const vf_film *film = job->film;
   uint64_t n = vf_job_done(job);
   vf_convergence_entry e = {0, film->render_seconds, film->cpu_seconds, n, NAN, NAN, vf_film_estimate_rmse(film)};
@@ -225,7 +240,7 @@ int vf_job_measure(vf_job *job) {
 
 int vf_job_log(vf_job *job) {
   uint64_t n = vf_job_done(job);
-  if (n == 0 || n == job->logged_iterations) return VF_OK;
+  if (n == 0 || n == job->logged_iterations || job->merging > 0) return VF_OK; /* merging: the next one logs */
   const vf_convergence_log *log = &job->film->convergence;
   if (log->count > 0 && log->entries[log->count - 1].iterations == n) {
     job->logged_iterations = n;
@@ -273,6 +288,7 @@ int vf_job_check_stop(vf_job *job) {
     return 1;
   }
   if (job->target_rmse <= 0.0 && job->target_error <= 0.0) return 0;
+  if (job->merging > 0) return 0; /* tested again when the addition lands */
   uint64_t n = vf_job_done(job);
   int err;
   if (job->measured_iterations != n && (err = vf_job_measure(job)) != VF_OK) return err;

@@ -66,6 +66,11 @@ typedef struct {
   uint64_t writing_generation; /* of the snapshot being written */
   int film_writing;            /* a write of this film is in flight */
   int final_pending;           /* completed or stopped, its final film not yet durable */
+  /* Additions of parts to the film's pixels on the merge thread (coordinator/merger.h)
+   * not landed yet. The iteration set and everything else of the film is the loop's and
+   * already holds those parts; the pixels are not to be read on the loop while this is
+   * nonzero (no measurement, copy or checkpoint then; they wait for it to land). */
+  unsigned merging;
   uint64_t results_refused;
   double rate;          /* iterations per second of one worker on this job, smoothed; 0 unknown */
   double last_merge_time;
@@ -166,5 +171,11 @@ int vf_job_check_result(const vf_job *job, const vf_film *film, uint64_t begin, 
 /* Merges a checked result. VF_EOVERLAP (film unchanged) if any of its iterations is
  * already counted. */
 int vf_job_merge(vf_job *job, const vf_film *film, double now);
+
+/* The same, but the addition of the result's pixels is left to the caller (the merge
+ * thread: vf_film_add_pixels), who then lowers job->merging, raised here. Everything
+ * else (iteration set, times, log, rate) is done on return, so the result counts from
+ * now on and nothing can refuse it later. */
+int vf_job_merge_deferred(vf_job *job, const vf_film *film, double now);
 
 #endif

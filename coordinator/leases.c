@@ -5,7 +5,9 @@
 #include "blobs.h"
 #include "log.h"
 #include "schedule.h"
+#include "ship.h"
 
+#include <math.h>
 #include <stdio.h>
 
 static vf_farm_worker *worker_of_lease(vf_farm *farm, const vf_lease *lease) {
@@ -63,7 +65,7 @@ static int has_free_range(void *ctx, const vf_job *j) {
 }
 
 /* The lease's body: the job's scene (and its file table), hash, settings and range. */
-static void fill_lease(vf_job *job, uint64_t lease_id, uint64_t b, uint64_t e, vf_farm_reply *r) {
+static void fill_lease(const vf_farm *farm, vf_job *job, uint64_t lease_id, uint64_t b, uint64_t e, vf_farm_reply *r) {
   vcmfarm__lease__init(&r->lease);
   vcmfarm__scene__init(&r->scene);
   if (job->scene_builtin) {
@@ -83,6 +85,7 @@ static void fill_lease(vf_job *job, uint64_t lease_id, uint64_t b, uint64_t e, v
   r->lease.settings = job->settings_text;
   r->lease.begin = b;
   r->lease.end = e;
+  r->lease.ship_interval_ms = vf_ship_interval_ms(farm);
   r->env.body_case = VCMFARM__ENVELOPE__BODY_LEASE;
   r->env.lease = &r->lease;
 }
@@ -110,15 +113,21 @@ void vf_leases_grant(vf_farm *farm, vf_farm_worker *w, double now, vf_farm_reply
     r->env.idle = &r->idle;
     return;
   }
+  double rate = w->rate > 0.0 ? w->rate : job->rate;
+  vf_ship_workers_changed(farm); /* the interval for this many workers, before the lease says it */
   uint64_t b, e, free_count;
   const vf_iterset *done = &job->film->iterations;
   vf_lease_free_range(&farm->leases, job->id, done, job->first, job->iterations, UINT64_MAX, &b, &e, &free_count);
-  uint64_t size = vf_lease_size(w->rate, farm->config.lease_seconds, free_count, farm->num_workers);
+  /* Rate unknown: a fair share of the range, for the lease's time (the worker stops then:
+   * Lease.seconds_ms), so that a thousand workers starting a job neither wait nor all ship
+   * one iteration at once. */
+  uint64_t size = rate > 0.0 ? vf_lease_size(rate, vf_ship_lease_seconds(farm), free_count, farm->num_workers)
+                             : vf_lease_size(VF_LEASE_UNKNOWN_RATE, 1.0, free_count, farm->num_workers);
   if (vf_lease_free_range(&farm->leases, job->id, done, job->first, job->iterations, size, &b, &e, &free_count) != 1 ||
       vf_lease_add(&farm->leases, job->id, w->id, b, e, now, &w->lease_id) != VF_OK)
     return vf_farm_reply_error(r, VCMFARM__ERROR_CODE__ERROR_INTERNAL, "out of memory for leases");
   vf_lease *granted = vf_lease_find(&farm->leases, w->lease_id);
-  granted->charged = vf_schedule_estimate(e - b, w->rate, job->rate, farm->config.lease_seconds);
+  granted->charged = vf_schedule_estimate(e - b, w->rate, job->rate, vf_ship_lease_seconds(farm));
   vf_schedule_charge(job, granted->charged);
   w->leases++;
   if (job->started_at == 0.0) {
@@ -127,16 +136,26 @@ void vf_leases_grant(vf_farm *farm, vf_farm_worker *w, double now, vf_farm_reply
   }
   vf_log("lease %016llx: job %llu iterations [%llu,%llu) to worker %s", (unsigned long long)w->lease_id,
          (unsigned long long)job->id, (unsigned long long)b, (unsigned long long)e, w->name);
-  fill_lease(job, w->lease_id, b, e, r);
+  fill_lease(farm, job, w->lease_id, b, e, r);
+  if (rate <= 0.0) r->lease.seconds_ms = (uint32_t)(1000.0 * vf_ship_lease_seconds(farm));
 }
 
-void vf_leases_heartbeat(vf_farm *farm, const vf_farm_worker *w, const Vcmfarm__Heartbeat *m, vf_farm_reply *r) {
+void vf_leases_heartbeat(vf_farm *farm, vf_farm_worker *w, const Vcmfarm__Heartbeat *m, vf_farm_reply *r) {
   vf_lease *l = vf_lease_find(&farm->leases, m->lease_id);
   vf_job *job = l ? vf_farm_job(farm, l->job_id) : NULL;
   vcmfarm__heartbeat_ack__init(&r->heartbeat_ack);
   r->heartbeat_ack.lease_valid = l != NULL && l->state == VF_LEASE_ACTIVE && l->worker_id == w->id &&
                                  w->lease_id == l->id && job != NULL && vf_job_runnable(job);
-  if (r->heartbeat_ack.lease_valid) l->reported = m->iterations_done; /* clamped where it is used */
+  if (r->heartbeat_ack.lease_valid) {
+    l->reported = m->iterations_done; /* clamped where it is used */
+    /* A first rate before any part is merged: leases of the ship interval's length at once. */
+    if (m->iterations_done > 0 && m->seconds > 0.0 && isfinite(m->seconds) && m->iterations_done <= l->end - l->first) {
+      double rate = (double)m->iterations_done / m->seconds;
+      if (w->rate <= 0.0) w->rate = rate;
+      if (job->rate <= 0.0) job->rate = rate;
+    }
+  }
+  r->heartbeat_ack.ship_interval_ms = vf_ship_interval_ms(farm);
   r->env.body_case = VCMFARM__ENVELOPE__BODY_HEARTBEAT_ACK;
   r->env.heartbeat_ack = &r->heartbeat_ack;
 }

@@ -20,7 +20,7 @@ void vf_leases_grant(vf_farm *farm, vf_farm_worker *w, double now, vf_farm_reply
 
 /* Heartbeat of w: HeartbeatAck with lease_valid when the lease is w's, active and of a
  * runnable job; then it records the iterations the worker says it has rendered. */
-void vf_leases_heartbeat(vf_farm *farm, const vf_farm_worker *w, const Vcmfarm__Heartbeat *m, vf_farm_reply *r);
+void vf_leases_heartbeat(vf_farm *farm, vf_farm_worker *w, const Vcmfarm__Heartbeat *m, vf_farm_reply *r);
 
 /* LeaseRelease of w: its active lease returns to the pool; with a failure, the job cannot
  * be rendered: it is marked failed (the reason sanitised) and all its leases end. */

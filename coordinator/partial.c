@@ -17,6 +17,13 @@ struct vf_partial {
   double render_seconds, cpu_seconds;
   uint64_t nonfinite;
   double updated;  /* vf_seconds_now() of its last message */
+  /* The loop's, never the merge thread's (coordinator/results.c): */
+  unsigned refs;      /* the lease's and each message on the merge thread */
+  uint32_t queued;    /* tiles handed to the merge thread so far */
+  int width, height;  /* the header, for vf_partial_same without touching the film */
+  uint8_t scene_hash[32];
+  char *settings;     /* owned */
+  char failure[512];  /* set when a message of it was refused; "" */
 };
 
 static int check_header(const vf_job *job, const Vcmfarm__LeaseResult *m) {
@@ -66,6 +73,14 @@ int vf_partial_create(const vf_job *job, const Vcmfarm__LeaseResult *m, vf_parti
   p->film->nonfinite_samples = p->nonfinite = m->nonfinite_samples;
   p->begin = m->begin;
   p->end = m->end;
+  p->refs = 1;
+  p->width = job->film->width;
+  p->height = job->film->height;
+  memcpy(p->scene_hash, job->scene_hash, 32);
+  if ((p->settings = strdup(job->settings_text)) == NULL) {
+    err = vf_error_set(VF_ENOMEM, "out of memory for a partial result");
+    goto free_film;
+  }
   *out = p;
   return VF_OK;
 free_film:
@@ -78,18 +93,32 @@ free_partial:
 }
 
 void vf_partial_destroy(vf_partial *p) {
-  if (p == NULL) return;
+  if (p == NULL || --p->refs > 0) return;
   vf_film_destroy(p->film);
+  free(p->settings);
   free(p->seen);
   free(p);
 }
 
+void vf_partial_retain(vf_partial *p) { p->refs++; }
+
+uint32_t vf_partial_queue(vf_partial *p, uint32_t tiles) {
+  p->queued = tiles > UINT32_MAX - p->queued ? UINT32_MAX : p->queued + tiles;
+  return p->queued;
+}
+
+void vf_partial_fail(vf_partial *p, const char *why) {
+  if (p->failure[0] == '\0') snprintf(p->failure, sizeof p->failure, "%s", why);
+}
+
+const char *vf_partial_failure(const vf_partial *p) { return p->failure[0] ? p->failure : NULL; }
+
 int vf_partial_same(const vf_partial *p, const Vcmfarm__LeaseResult *m) {
-  return p->film != NULL && m->begin == p->begin && m->end == p->end && m->tiles_total == p->total &&
+  return m->begin == p->begin && m->end == p->end && m->tiles_total == p->total &&
          m->render_seconds == p->render_seconds && m->cpu_seconds == p->cpu_seconds &&
-         m->nonfinite_samples == p->nonfinite && m->width == (uint32_t)p->film->width &&
-         m->height == (uint32_t)p->film->height && m->scene_hash.len == 32 &&
-         memcmp(m->scene_hash.data, p->film->scene_hash, 32) == 0 && strcmp(m->settings, p->film->settings_text) == 0;
+         m->nonfinite_samples == p->nonfinite && m->width == (uint32_t)p->width && m->height == (uint32_t)p->height &&
+         m->scene_hash.len == 32 && memcmp(m->scene_hash.data, p->scene_hash, 32) == 0 &&
+         strcmp(m->settings, p->settings) == 0;
 }
 
 int vf_partial_add(vf_partial *p, const Vcmfarm__LeaseResult *m) {

@@ -20,7 +20,20 @@ typedef struct vf_partial vf_partial;
 /* Starts the part [m->begin, m->end) of a job from its first message, checking the header
  * against the job (VF_EMISMATCH or VF_EINVAL with a detail). *out on success only. */
 int vf_partial_create(const vf_job *job, const Vcmfarm__LeaseResult *m, vf_partial **out);
+/* Drops a reference: the part is freed with the last (the lease's, from create, and one
+ * per vf_partial_retain). */
 void vf_partial_destroy(vf_partial *p);
+
+/* Off the loop (coordinator/results.c): the loop keeps these, the merge thread only
+ * vf_partial_add and vf_partial_take, one message at a time, in order. A reference held
+ * by a message on the merge thread. */
+void vf_partial_retain(vf_partial *p);
+/* Counts `tiles` more handed to the merge thread; returns the count so far. */
+uint32_t vf_partial_queue(vf_partial *p, uint32_t tiles);
+/* A message of the part was refused (its first reason kept): the part cannot be merged. */
+void vf_partial_fail(vf_partial *p, const char *why);
+/* Why, or NULL. */
+const char *vf_partial_failure(const vf_partial *p);
 
 /* 1 when m belongs to this part: same range and header. */
 int vf_partial_same(const vf_partial *p, const Vcmfarm__LeaseResult *m);

@@ -105,6 +105,13 @@ static int send_tiles(void *ctx, Vcmfarm__LeaseResult *m) {
   q.body_case = VCMFARM__ENVELOPE__BODY_RESULT;
   q.result = m;
   int err = vf_farm_request(ctx, &q, VCMFARM__ENVELOPE__BODY_RESULT_ACK, 60000, &reply);
+  /* "busy" (protocol 7): the merge queue is full, the same message again after retry_ms */
+  for (int tries = 0; err == VF_OK && !reply->result_ack->accepted && reply->result_ack->retry_ms > 0 && tries < 1000;
+       tries++) {
+    usleep(1000u * reply->result_ack->retry_ms);
+    vf_message_free(reply);
+    err = vf_farm_request(ctx, &q, VCMFARM__ENVELOPE__BODY_RESULT_ACK, 60000, &reply);
+  }
   if (err != VF_OK) return err;
   int accepted = reply->result_ack->accepted;
   snprintf(refusal, sizeof refusal, "%s", reply->result_ack->message);
@@ -129,8 +136,9 @@ static int merge_one_result(vf_farm_client *c, const char *settings, const uint8
   if ((err = vf_farm_request(c, &q, VCMFARM__ENVELOPE__BODY_LEASE, 20000, &reply)) != VF_OK) return err;
   uint64_t lease_id = reply->lease->lease_id, begin = reply->lease->begin, end = reply->lease->end;
   vf_message_free(reply);
-  if (begin != 1 || end != 2) return vf_error_set(VF_EINVAL, "expected a lease of [1,2), got [%llu,%llu)",
-                                                  (unsigned long long)begin, (unsigned long long)end);
+  /* The worker's rate is unknown: a lease bounded by time, of which [1,2) is sent as a part. */
+  if (begin != 1 || end < 2) return vf_error_set(VF_EINVAL, "expected a lease from 1, got [%llu,%llu)",
+                                                 (unsigned long long)begin, (unsigned long long)end);
   vf_film *film;
   if ((err = vf_film_create(WIDTH, HEIGHT, &film)) != VF_OK) return err;
   memcpy(film->scene_hash, hash, 32);

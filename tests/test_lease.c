@@ -271,18 +271,18 @@ static void test_grants_are_sized_by_rate_and_fair_share(void) {
   farm_setup(&f, 100, 4);
   vf_lease *l = grant(&f, 0);
   CHECK(l != NULL);
-  if (l) CHECK_INT_EQ(l->end - l->begin, 1); /* rate unknown */
+  if (l) CHECK_INT_EQ(l->end - l->begin, 25); /* rate unknown: a fair share, bounded by time */
   for (int i = 0; i < 4; i++) vf_farm_find_worker(&f.farm, f.worker[i])->rate = 1000.0;
   l = grant(&f, 1); /* 20 s at 1000/s, but at most ceil(100 / 4) */
   CHECK(l != NULL);
   if (l) {
-    CHECK_INT_EQ(l->begin, 1);
-    CHECK_INT_EQ(l->end, 26);
+    CHECK_INT_EQ(l->begin, 25);
+    CHECK_INT_EQ(l->end, 44); /* ceil(75 free / 4) */
   }
   /* Asking again while holding a lease gives it up: the same range is granted again. */
   l = grant(&f, 1);
   CHECK(l != NULL);
-  if (l) CHECK_INT_EQ(l->begin, 1);
+  if (l) CHECK_INT_EQ(l->begin, 25);
   vf_farm_destroy(&f.farm);
 }
 

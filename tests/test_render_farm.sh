@@ -100,10 +100,14 @@ ls -d "$tmp"/vcmfarm-render-* >/dev/null 2>&1
 check "the private state directories are removed" $((!$?))
 
 # 7. SIGKILL: the output holds the last checkpoint, a valid film of [0, m).
+rm -f "$tmp/g.exr" # step 3's film of another scene: the wait below must see this render's
 "$vcmfarm" render cornell "${common[@]}" -n 100000 --checkpoint-interval 0.5 -q -o "$tmp/g.exr" &
 pid=$!
 pids+=("$pid")
-for _ in $(seq 200); do [ -s "$tmp/g.exr" ] && break; sleep 0.05; done
+# A checkpoint holding a part (the first lease is bounded by time, its first part shipped
+# after the worker's ship interval of 1 s; checkpoints before it hold no iteration), then
+# one more interval.
+for _ in $(seq 200); do [ -s "$tmp/g.exr" ] && [ "$(end_of "$tmp/g.exr")" ] && break; sleep 0.05; done
 sleep 0.6
 kill -9 "$pid"
 wait "$pid" 2>/dev/null

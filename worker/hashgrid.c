@@ -55,6 +55,7 @@
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/mman.h>
 
 enum {
   CHUNK = 8192,          /* points per build task in phases 1 and 3: fixed, not per thread */
@@ -137,6 +138,14 @@ static int axis_cells(double v, double search_radius, double inv_cell, int64_t o
 /* The capacity to grow to for need elements: by half at least, so slowly rising counts
  * from one iteration to the next do not reallocate every time. */
 static size_t grown(size_t cap, size_t need) { return need <= cap ? cap : (need > cap + cap / 2 ? need : cap + cap / 2); }
+
+/* Gives the whole pages inside [p, p + bytes) back to the kernel (they read as zeros when
+ * touched again; the caller rewrites them before reading). Advice: ignored when refused. */
+static void release_pages(void *p, size_t bytes) {
+  const uintptr_t page = 4096;
+  uintptr_t begin = ((uintptr_t)p + page - 1) & ~(page - 1), end = ((uintptr_t)p + bytes) & ~(page - 1);
+  if (bytes >= ((size_t)1 << 20) && end > begin) madvise((void *)begin, end - begin, MADV_DONTNEED);
+}
 
 /* Resizes *buf to cap elements of size elem when cap exceeds old_cap; never shrinks. */
 static int grow(void **buf, size_t old_cap, size_t cap, size_t elem) {
@@ -378,6 +387,11 @@ int vf_hashgrid_build_segments(vf_hashgrid *g, const vf_grid_segment *segments, 
   run_tasks(pool, g->groups, sort_group, g);
   g->cell_start[(size_t)g->lk.mask + 1] = sum;
   g->lk.count = sum;
+  /* Phase 3's output is read by no query: its pages go back to the kernel until the next
+   * build (20 bytes per point, 0.3 GB at 3840x2160, while the camera pass, the peak of an
+   * iteration's memory, runs; docs/BENCHMARKS.md, "Memory"). */
+  release_pages(g->scattered, (size_t)n * sizeof *g->scattered);
+  release_pages(g->scattered_index, (size_t)n * sizeof *g->scattered_index);
   return VF_OK;
 }
 

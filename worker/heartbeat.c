@@ -27,6 +27,7 @@ struct vf_heartbeat {
   atomic_uint_fast64_t iterations_done;
   _Atomic double seconds;
   atomic_int revoked;
+  atomic_uint ship_interval_ms;
 };
 
 static void deadline_after(struct timespec *ts, int ms) {
@@ -91,6 +92,8 @@ static void *beat(void *arg) {
                   (reply->body_case == VCMFARM__ENVELOPE__BODY_ERROR &&
                    reply->error->code == VCMFARM__ERROR_CODE__ERROR_UNKNOWN_WORKER);
     if (invalid && hb->generation == generation) atomic_store(&hb->revoked, 1);
+    if (reply->body_case == VCMFARM__ENVELOPE__BODY_HEARTBEAT_ACK && reply->heartbeat_ack->ship_interval_ms > 0)
+      atomic_store(&hb->ship_interval_ms, reply->heartbeat_ack->ship_interval_ms);
     vf_message_free(reply);
   }
   pthread_mutex_unlock(&hb->lock);
@@ -161,3 +164,5 @@ void vf_heartbeat_progress(vf_heartbeat *hb, uint64_t iterations_done, double se
 }
 
 int vf_heartbeat_revoked(vf_heartbeat *hb) { return atomic_load(&hb->revoked); }
+
+uint32_t vf_heartbeat_ship_interval_ms(vf_heartbeat *hb) { return atomic_load(&hb->ship_interval_ms); }

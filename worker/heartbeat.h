@@ -32,4 +32,8 @@ void vf_heartbeat_progress(vf_heartbeat *hb, uint64_t iterations_done, double se
 /* 1 once the coordinator said the current lease is no longer valid. Any thread. */
 int vf_heartbeat_revoked(vf_heartbeat *hb);
 
+/* The ship interval of the coordinator's latest HeartbeatAck, in milliseconds; 0 none yet
+ * (protocol 7). */
+uint32_t vf_heartbeat_ship_interval_ms(vf_heartbeat *hb);
+
 #endif

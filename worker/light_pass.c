@@ -46,12 +46,6 @@ static int push_splat(light_chunk *c, uint32_t pixel, uint32_t band, vf_vec3 rgb
       return 0;
     }
     c->splats = p;
-    p = realloc(c->sorted_splats, (size_t)cap * sizeof *p);
-    if (p == NULL) {
-      c->out_of_memory = 1;
-      return 0;
-    }
-    c->sorted_splats = p;
     c->splat_capacity = cap;
   }
   c->splats[c->num_splats++] = (splat){pixel, rgb, (uint16_t)path, (uint16_t)band};
@@ -289,17 +283,28 @@ static int light_refill(vf_vcm *v, int thread, light_chunk *c, light_lane *lane,
  * splats keep the order they were made in. The chunk's band b is then
  * splats[band_start[b] .. band_start[b + 1]), band_start being the chunk's row of
  * vf_vcm.band_start. */
-static void sort_splats(const vf_vcm *v, light_chunk *c, uint32_t chunk, uint32_t paths) {
+static void sort_splats(const vf_vcm *v, int thread, light_chunk *c, uint32_t chunk, uint32_t paths) {
+  thread_stats *ts = &v->stats[thread];
+  if (ts->sort_capacity < c->num_splats) {
+    splat *p = realloc(ts->sort_scratch, (size_t)c->splat_capacity * sizeof *p);
+    if (p == NULL) {
+      c->out_of_memory = 1;
+      return;
+    }
+    ts->sort_scratch = p;
+    ts->sort_capacity = c->splat_capacity;
+  }
+  splat *sorted = ts->sort_scratch;
   uint32_t start[LIGHT_CHUNK + 1] = {0};
   for (uint32_t i = 0; i < c->num_splats; i++)
     if (c->splats[i].pixel != DROPPED_SPLAT) start[c->splats[i].path + 1]++;
   for (uint32_t p = 0; p < paths; p++) start[p + 1] += start[p];
   for (uint32_t i = 0; i < c->num_splats; i++)
-    if (c->splats[i].pixel != DROPPED_SPLAT) c->sorted_splats[start[c->splats[i].path]++] = c->splats[i];
+    if (c->splats[i].pixel != DROPPED_SPLAT) sorted[start[c->splats[i].path]++] = c->splats[i];
   uint32_t n = start[paths - 1];
   uint32_t *band_start = &v->band_start[(size_t)chunk * (v->num_bands + 1)];
   memset(band_start, 0, (v->num_bands + 1) * sizeof *band_start);
-  for (uint32_t i = 0; i < n; i++) band_start[c->sorted_splats[i].band + 1]++;
+  for (uint32_t i = 0; i < n; i++) band_start[sorted[i].band + 1]++;
   /* band_start[b + 1] becomes where band b begins, and after the scatter where it ends. */
   for (uint32_t b = 0, sum = 0; b < v->num_bands; b++) {
     uint32_t count = band_start[b + 1];
@@ -307,7 +312,7 @@ static void sort_splats(const vf_vcm *v, light_chunk *c, uint32_t chunk, uint32_
     sum += count;
   }
   for (uint32_t i = 0; i < n; i++) {
-    const splat *sp = &c->sorted_splats[i];
+    const splat *sp = &sorted[i];
     c->splats[band_start[sp->band + 1]++] = *sp;
   }
   c->num_splats = n;
@@ -367,7 +372,7 @@ static void light_task(void *ctx, size_t task, int thread) {
           active |= 1u << i;
   }
   resolve_splats(v, thread, c);
-  sort_splats(v, c, (uint32_t)task, end - begin);
+  sort_splats(v, thread, c, (uint32_t)task, end - begin);
 }
 
 int vf_light_pass_run(vf_vcm *v) {

@@ -289,7 +289,6 @@ void vf_vcm_destroy(vf_vcm *v) {
     for (uint32_t c = 0; c < v->num_chunks; c++) {
       free(v->chunks[c].vertices);
       free(v->chunks[c].splats);
-      free(v->chunks[c].sorted_splats);
     }
   free(v->chunks);
   free(v->band_start);
@@ -302,6 +301,7 @@ void vf_vcm_destroy(vf_vcm *v) {
     for (int t = 0; t < vf_pool_threads(v->pool); t++) {
       free(v->stats[t].queries);
       free(v->stats[t].ring_vertices);
+      free(v->stats[t].sort_scratch);
     }
   free(v->stats);
   free(v->lobes);

@@ -80,7 +80,7 @@ typedef struct splat splat;
 typedef struct {
   light_vertex *vertices;
   uint32_t num_vertices, vertex_capacity;
-  splat *splats, *sorted_splats; /* sorted_splats: room to sort into, splat_capacity */
+  splat *splats;
   uint32_t num_splats, splat_capacity;
   int out_of_memory;
 } light_chunk;
@@ -155,6 +155,10 @@ typedef struct {
   int num_pending;
   float *tile_rgb; /* the camera tile being traced, where pending contributions go */
   light_vertex *ring_vertices; /* the light pass's retire ring: RETIRE_RING slots of lane_capacity */
+  /* Room to sort a chunk's splats into, owned: one per thread, not per chunk (3840x2160 has
+   * 8,100 chunks: a second array each was about 0.25 GB; docs/BENCHMARKS.md, "Memory"). */
+  struct splat *sort_scratch;
+  uint32_t sort_capacity;
   uint32_t ring_count[RETIRE_RING]; /* vertices of each slot's path once it has ended, else RING_IN_FLIGHT */
 } thread_stats;
 

@@ -20,9 +20,6 @@
 #define RESULT_TIMEOUT_MS 60000
 #define BACKOFF_MAX_MS 5000
 #define RESULT_ATTEMPTS 8
-/* Tiles per LeaseResult: about 3.3 MB of a 64x64 tile's 10 doubles per pixel, under the
- * coordinator's VF_WIRE_MAX_RESULT. */
-#define TILES_PER_MESSAGE 10
 /* Parts are shipped from the render thread, which waits meanwhile (a 1920x1080 part: about
  * 0.4 s of encoding and framing, plus the coordinator's 0.5 s). The wait is kept to about
  * 2% of the rendering by shipping no more often than 50 times the last part's cost. */
@@ -190,6 +187,8 @@ static void on_progress(void *ctx, const vf_render_status *st) {
     }
   }
   if (vf_heartbeat_revoked(w->heartbeat) || *w->terminating) w->render_stop = 1;
+  /* A lease bounded by time (its rate was unknown): ship what is rendered, hand back the rest. */
+  if (w->lease && w->lease->seconds_ms > 0 && st->seconds >= w->lease->seconds_ms / 1000.0) w->render_stop = 1;
 }
 
 static void stall(worker *w) {
@@ -208,9 +207,20 @@ static int send_tiles(worker *w, Vcmfarm__LeaseResult *m) {
   Vcmfarm__Envelope q = VCMFARM__ENVELOPE__INIT, *reply;
   q.body_case = VCMFARM__ENVELOPE__BODY_RESULT;
   q.result = m;
-  int err = VF_OK;
+  int err = VF_OK, busy_waits = 0;
   for (int attempt = 0; attempt < RESULT_ATTEMPTS; attempt++) {
     err = vf_farm_request(w->client, &q, VCMFARM__ENVELOPE__BODY_RESULT_ACK, RESULT_TIMEOUT_MS, &reply);
+    if (err == VF_OK && !reply->result_ack->accepted && reply->result_ack->retry_ms > 0) {
+      /* Not refused: the coordinator's merge queue is full. The same message again later,
+       * spread over half to one and a half times the wait it asks for. */
+      int ms = (int)(reply->result_ack->retry_ms > 60000 ? 60000 : reply->result_ack->retry_ms);
+      vf_message_free(reply);
+      if (*w->terminating && busy_waits > 600) break;
+      busy_waits++;
+      attempt--;
+      sleep_ms(w, ms / 2 + rand() % (ms + 1));
+      continue;
+    }
     if (err == VF_OK) {
       int accepted = reply->result_ack->accepted;
       w->part_merged = accepted && (strcmp(reply->result_ack->message, "merged") == 0 ||
@@ -240,7 +250,7 @@ static int ship(worker *w, const vf_film *film) {
   m.job_id = w->lease->job_id;
   m.begin = w->shipped;
   w->part_merged = 0;
-  int rc = vf_film_send_tiles(film, &m, TILES_PER_MESSAGE, send_tiles_cb, w);
+  int rc = vf_film_send_tiles(film, &m, VF_FILM_TILES_PER_MESSAGE, send_tiles_cb, w);
   /* Every tile taken, yet not merged: the coordinator lost tiles of it (it dropped the
    * part, or restarted); the lease cannot go on from here. */
   if (rc == 1 && !w->part_merged) {
@@ -269,6 +279,15 @@ static void film_reset(vf_film *film) {
   film->nonfinite_samples = 0;
 }
 
+/* The interval between parts: --ship-interval when given, else the coordinator's latest
+ * word (its heartbeat acknowledgement, else the lease), else the default. */
+static double ship_interval(worker *w) {
+  if (w->ship_interval > 0.0) return w->ship_interval;
+  uint32_t ms = vf_heartbeat_ship_interval_ms(w->heartbeat);
+  if (ms == 0 && w->lease) ms = w->lease->ship_interval_ms;
+  return ms > 0 ? ms / 1000.0 : VF_WORKER_SHIP_SECONDS;
+}
+
 /* The render loop's delivery, after every iteration: once the ship interval (or 50
  * times the last part's cost, if more) has passed since the last part, the iterations so
  * far go to the coordinator and the film starts again empty. The end of the lease is
@@ -276,8 +295,8 @@ static void film_reset(vf_film *film) {
 static int ship_part(void *ctx, vf_film *film, const vf_render_status *st) {
   worker *w = ctx;
   if (st->final || w->dropped || vf_heartbeat_revoked(w->heartbeat)) return VF_OK;
-  double interval = w->ship_interval > SHIP_COST_FACTOR * w->ship_cost ? w->ship_interval
-                                                                       : SHIP_COST_FACTOR * w->ship_cost;
+  double interval = ship_interval(w);
+  if (interval < SHIP_COST_FACTOR * w->ship_cost) interval = SHIP_COST_FACTOR * w->ship_cost;
   if (st->seconds - w->shipped_at < interval) return VF_OK;
   if (w->shipped + vf_iterset_count(&film->iterations) >= w->lease->end) return VF_OK; /* the last: after the loop */
   double t0 = vf_seconds_now();
@@ -420,7 +439,7 @@ int vf_worker_run(const vf_worker_config *config, volatile sig_atomic_t *stop, v
   w->threads = config->threads;
   w->cache_dir = config->cache_dir;
   w->cache_max_bytes = config->cache_max_bytes;
-  w->ship_interval = config->ship_interval > 0.0 ? config->ship_interval : VF_WORKER_SHIP_SECONDS;
+  w->ship_interval = config->ship_interval; /* 0: the coordinator's */
   w->iteration_delay_ms = config->iteration_delay_ms;
   w->stall_file = config->stall_file;
   if (config->name) {

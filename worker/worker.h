@@ -18,6 +18,7 @@
 #include <stdint.h>
 #include <stdio.h>
 
+/* The interval while the coordinator has said none. */
 #define VF_WORKER_SHIP_SECONDS 5.0
 
 typedef struct {
@@ -27,7 +28,10 @@ typedef struct {
   const char *name;           /* shown in status; NULL: HOST/PID */
   const char *cache_dir;      /* scene files by content hash (worker/blob_cache.h), opened by the caller */
   uint64_t cache_max_bytes;   /* trim the cache to this after fetching a job's files; 0: no limit */
-  double ship_interval;       /* seconds between parts of a lease (at least 50 times a part's cost) */
+  /* Seconds between parts of a lease (at least 50 times a part's cost); 0: the interval
+   * the coordinator says in its Lease and HeartbeatAck replies (protocol 7), which it
+   * chooses from its load; > 0 overrides it. */
+  double ship_interval;
   int quiet;                  /* log failures only, not the ordinary course of leases */
   FILE *describe;             /* non-NULL: each new renderer prints what it enabled and skipped here */
   atomic_ullong *rendered;    /* non-NULL: counts every iteration rendered, as it ends (any thread may read) */
