@@ -132,7 +132,7 @@ static point_set make_queries(point_set pts, uint32_t nq, float radius, uint64_t
 static size_t check_queries(const vf_hashgrid *grid, point_set pts, float radius, point_set queries) {
   index_list got = {0}, want = {0};
   unsigned char *seen = calloc(pts.n ? pts.n : 1, 1);
-  const uint32_t *indices = vf_hashgrid_indices(grid);
+  const vf_grid_point *points = vf_hashgrid_points(grid);
   size_t total = 0;
   int reported = 0;
   for (uint32_t k = 0; k < queries.n && !reported; k++) {
@@ -153,12 +153,12 @@ static size_t check_queries(const vf_hashgrid *grid, point_set pts, float radius
     int cand_dup = 0, cand_missing = 0;
     for (int a = 0; a < nr; a++)
       for (uint32_t j = ranges[a].begin; j < ranges[a].end; j++) {
-        cand_dup |= seen[indices[j]];
-        seen[indices[j]] = 1;
+        cand_dup |= seen[points[j].index];
+        seen[points[j].index] = 1;
       }
     for (uint32_t i = 0; i < pts.n; i++) cand_missing += within_float(pts.p[i], q, radius) && !seen[i];
     for (int a = 0; a < nr; a++)
-      for (uint32_t j = ranges[a].begin; j < ranges[a].end; j++) seen[indices[j]] = 0;
+      for (uint32_t j = ranges[a].begin; j < ranges[a].end; j++) seen[points[j].index] = 0;
 
     if (dup || !same || cand_dup || cand_missing) {
       CHECK_FAIL_("query %u at (%.9g, %.9g, %.9g), r %.9g: %zu found, %zu by brute force%s%s%s, "
@@ -242,9 +242,9 @@ static void test_identical_points_are_each_found_once(void) {
   vf_hashgrid *grid = NULL;
   vf_hashgrid_create(&grid);
   vf_hashgrid_build(grid, pts.p, sizeof(vf_vec3), pts.n, 0.01f, pool2);
-  const uint32_t *indices = vf_hashgrid_indices(grid); /* one cell: ties go by point index */
+  const vf_grid_point *points = vf_hashgrid_points(grid); /* one cell: ties go by point index */
   uint32_t out_of_order = 0;
-  for (uint32_t i = 0; i < pts.n; i++) out_of_order += indices[i] != i;
+  for (uint32_t i = 0; i < pts.n; i++) out_of_order += points[i].index != i;
   CHECK_INT_EQ(out_of_order, 0);
   index_list got = {0};
   vf_hashgrid_query(grid, vf_vec3_make(0.3f, 0.3f, -0.3f), list_push, &got);
@@ -347,12 +347,12 @@ static void test_nonfinite_points_are_skipped(void) {
   vf_hashgrid_create(&grid);
   CHECK_INT_EQ(vf_hashgrid_build(grid, pts.p, sizeof(vf_vec3), pts.n, 0.05f, pool5), VF_OK);
   /* The index array holds the finite points, each once: a permutation of them. */
-  const uint32_t *indices = vf_hashgrid_indices(grid);
+  const vf_grid_point *points = vf_hashgrid_points(grid);
   unsigned char *seen = calloc(pts.n, 1);
   int bad = 0;
   for (uint32_t j = 0; j < finite; j++) {
-    bad += indices[j] >= pts.n || !vf_is_finite(pts.p[indices[j]]) || seen[indices[j]];
-    if (indices[j] < pts.n) seen[indices[j]] = 1;
+    bad += points[j].index >= pts.n || !vf_is_finite(pts.p[points[j].index]) || seen[points[j].index];
+    if (points[j].index < pts.n) seen[points[j].index] = 1;
   }
   CHECK_INT_EQ(bad, 0);
   point_set q = make_queries(pts, 500, 0.05f, 5);
@@ -401,7 +401,7 @@ static build_result build_with(vf_pool *pool, point_set pts, float radius, uint3
   vf_hashgrid *grid = NULL;
   vf_hashgrid_create(&grid);
   CHECK_INT_EQ(vf_hashgrid_build(grid, pts.p, sizeof(vf_vec3), pts.n, radius, pool), VF_OK);
-  memcpy(r.indices, vf_hashgrid_indices(grid), finite * 4);
+  for (uint32_t j = 0; j < finite; j++) r.indices[j] = vf_hashgrid_points(grid)[j].index;
   for (uint32_t k = 0; k < queries.n; k++) {
     r.range_count[k] = vf_hashgrid_candidates(grid, queries.p[k], r.ranges + k * VF_HASHGRID_MAX_RANGES);
     vf_hashgrid_query(grid, queries.p[k], list_push, &r.visits);
@@ -471,13 +471,12 @@ static void test_segments_build_the_grid_of_their_concatenation(void) {
   CHECK_INT_EQ(a->mask, b->mask);
   CHECK(a->mask == b->mask && !memcmp(a->cell_start, b->cell_start, ((size_t)a->mask + 2) * sizeof(uint32_t)));
   const vf_grid_point *pa = vf_hashgrid_points(whole), *pb = vf_hashgrid_points(split);
-  const uint32_t *ia = vf_hashgrid_indices(whole), *ib = vf_hashgrid_indices(split);
   uint32_t mismatches = 0;
   for (uint32_t k = 0; k < n; k++) {
-    uint32_t i = ia[k], seg = 0;
+    uint32_t i = pa[k].index, seg = 0;
     while (start[seg + 1] <= i) seg++;
     uint32_t renamed = ((uint32_t)seg << 20) + (i - start[seg]);
-    mismatches += ib[k] != renamed || pb[k].index != renamed || pa[k].x != pb[k].x || pa[k].y != pb[k].y ||
+    mismatches += pb[k].index != renamed || pa[k].x != pb[k].x || pa[k].y != pb[k].y ||
                   pa[k].z != pb[k].z;
   }
   CHECK_INT_EQ(mismatches, 0);
@@ -505,6 +504,35 @@ static void test_rebuilds_reuse_memory(void) {
     free(pts.p);
   }
   vf_hashgrid_destroy(grid);
+}
+
+/* Vertex merging copies the sorted points and releases them for the camera pass: the
+ * candidates stay those of the build, and the next build (whose pages read as zeros until
+ * written) finds every neighbour again. 200,000 points: 3.2 MB, whole pages to give back. */
+static void test_released_points_keep_candidates_and_come_back(void) {
+  point_set pts = make_clustered(200000, 8, 0.05f, 61);
+  point_set q = make_queries(pts, 400, 0.01f, 62);
+  vf_hashgrid *grid = NULL;
+  vf_hashgrid_create(&grid);
+  for (int round = 0; round < 2; round++) {
+    CHECK_INT_EQ(vf_hashgrid_build(grid, pts.p, sizeof(vf_vec3), pts.n, 0.01f, pool2), VF_OK);
+    CHECK(check_queries(grid, pts, 0.01f, q) > 0);
+    vf_index_range after[VF_HASHGRID_MAX_RANGES];
+    int changed = 0, counts[400];
+    static vf_index_range saved[400][VF_HASHGRID_MAX_RANGES];
+    for (uint32_t k = 0; k < q.n; k++) counts[k] = vf_hashgrid_candidates(grid, q.p[k], saved[k]);
+    vf_hashgrid_release_points(grid);
+    CHECK(vf_hashgrid_points(grid) == NULL);
+    CHECK_INT_EQ(vf_hashgrid_count(grid), 200000);
+    for (uint32_t k = 0; k < q.n; k++) {
+      int na = vf_hashgrid_candidates(grid, q.p[k], after);
+      changed += na != counts[k] || memcmp(after, saved[k], (size_t)na * sizeof *after) != 0;
+    }
+    CHECK_INT_EQ(changed, 0);
+  }
+  vf_hashgrid_destroy(grid);
+  free(q.p);
+  free(pts.p);
 }
 
 static void test_invalid_arguments_leave_an_empty_grid(void) {
@@ -662,6 +690,7 @@ int main(int argc, char **argv) {
     RUN(test_result_independent_of_thread_count);
     RUN(test_segments_build_the_grid_of_their_concatenation);
     RUN(test_rebuilds_reuse_memory);
+    RUN(test_released_points_keep_candidates_and_come_back);
     RUN(test_invalid_arguments_leave_an_empty_grid);
     status = check_finish();
   }

@@ -80,6 +80,7 @@ struct vf_hashgrid {
   double radius_sq;     /* exact square of the float radius */
   unsigned low_bits;    /* bucket bits below the group */
   uint32_t points;      /* n of the build, finite or not */
+  int points_overwritten; /* the caller's since the build (writable or released): no index to trust */
   uint32_t chunks, groups;
   const vf_grid_segment *segments; /* the input: borrowed for the build */
   uint32_t num_segments;
@@ -89,7 +90,6 @@ struct vf_hashgrid {
   grid_point *keyed;      /* phases 1-3 by input index; then sorted (sorted_points) */
   grid_point *scattered;  /* phase 3 output, grouped */
   uint32_t *scattered_index;
-  uint32_t *indices;      /* sorted point indices, count of them */
   uint32_t *segment_start; /* num_segments + 1: where each segment's points begin in input order */
   uint32_t *segment_rename; /* num_segments: index_base - start, so that point i is named i + this */
   size_t segment_cap;
@@ -147,6 +147,27 @@ static void release_pages(void *p, size_t bytes) {
   if (bytes >= ((size_t)1 << 20) && end > begin) madvise((void *)begin, end - begin, MADV_DONTNEED);
 }
 
+/* The sorted points: VF_HASHGRID_POINT_PAD more than cap, on 2 MiB pages where the kernel
+ * has them, as vertex merging reads them at random in place (hashgrid.h). Old contents are
+ * not kept: every build writes them before reading. On failure the grid forgets every
+ * capacity, so that the next build allocates again. */
+#define HUGE_PAGE ((size_t)2 << 20)
+static int grow_points(vf_hashgrid *g, size_t cap) {
+  if (cap <= g->points_cap && g->keyed != NULL) return VF_OK;
+  size_t bytes = (cap + VF_HASHGRID_POINT_PAD) * sizeof *g->keyed;
+  bytes = (bytes + HUGE_PAGE - 1) / HUGE_PAGE * HUGE_PAGE; /* aligned_alloc: a multiple of the alignment */
+  free(g->keyed);
+  g->keyed = aligned_alloc(HUGE_PAGE, bytes);
+  if (g->keyed == NULL) {
+    g->points_cap = 0;
+    return vf_error_set(VF_ENOMEM, "hash grid: cannot allocate %zu bytes", bytes);
+  }
+#ifdef MADV_HUGEPAGE
+  madvise(g->keyed, bytes, MADV_HUGEPAGE); /* advice only: 4 KiB pages if refused */
+#endif
+  return VF_OK;
+}
+
 /* Resizes *buf to cap elements of size elem when cap exceeds old_cap; never shrinks. */
 static int grow(void **buf, size_t old_cap, size_t cap, size_t elem) {
   if (cap <= old_cap) return VF_OK;
@@ -168,7 +189,6 @@ void vf_hashgrid_destroy(vf_hashgrid *g) {
   free(g->keyed);
   free(g->scattered);
   free(g->scattered_index);
-  free(g->indices);
   free(g->segment_start);
   free(g->segment_rename);
   free(g->cell_start);
@@ -276,7 +296,6 @@ static void sort_group(void *ctx, size_t group, int thread) {
     uint32_t at = start[p.index & low_mask]++;
     p.index = g->scattered_index[k];
     sorted[at] = p;
-    g->indices[at] = p.index;
   }
   /* Each counter now holds its bucket's end, the next bucket's start: shift by one. */
   memmove(start + 1, start, (buckets - 1) * sizeof *start);
@@ -299,6 +318,7 @@ int vf_hashgrid_build_segments(vf_hashgrid *g, const vf_grid_segment *segments, 
                                size_t stride, float radius, vf_pool *pool) {
   if (g == NULL) return vf_error_set(VF_EINVAL, "hash grid: NULL grid");
   g->lk.count = 0; /* an empty grid on failure */
+  g->points_overwritten = 0;
   g->points = 0;
   if (!(radius >= 0.0f) || !isfinite(radius))
     return vf_error_set(VF_EINVAL, "hash grid: radius %g is not a finite number >= 0", radius);
@@ -341,10 +361,9 @@ int vf_hashgrid_build_segments(vf_hashgrid *g, const vf_grid_segment *segments, 
   size_t chunk_offset_cap = grown(g->chunk_offset_cap, (size_t)g->chunks * g->groups);
   size_t group_cap = grown(g->group_cap, (size_t)g->groups + 1);
   int err;
-  if ((err = grow((void **)&g->keyed, g->points_cap, points_cap, sizeof *g->keyed)) < 0 ||
+  if ((err = grow_points(g, points_cap)) < 0 ||
       (err = grow((void **)&g->scattered, g->points_cap, points_cap, sizeof *g->scattered)) < 0 ||
       (err = grow((void **)&g->scattered_index, g->points_cap, points_cap, sizeof *g->scattered_index)) < 0 ||
-      (err = grow((void **)&g->indices, g->points_cap, points_cap, sizeof *g->indices)) < 0 ||
       (err = grow((void **)&g->segment_start, g->segment_cap, grown(g->segment_cap, (size_t)num_segments + 1),
                   sizeof *g->segment_start)) < 0 ||
       (err = grow((void **)&g->segment_rename, g->segment_cap, grown(g->segment_cap, (size_t)num_segments + 1),
@@ -387,6 +406,7 @@ int vf_hashgrid_build_segments(vf_hashgrid *g, const vf_grid_segment *segments, 
   run_tasks(pool, g->groups, sort_group, g);
   g->cell_start[(size_t)g->lk.mask + 1] = sum;
   g->lk.count = sum;
+  memset(&g->keyed[sum], 0, VF_HASHGRID_POINT_PAD * sizeof *g->keyed);
   /* Phase 3's output is read by no query: its pages go back to the kernel until the next
    * build (20 bytes per point, 0.3 GB at 3840x2160, while the camera pass, the peak of an
    * iteration's memory, runs; docs/BENCHMARKS.md, "Memory"). */
@@ -445,15 +465,25 @@ int vf_hashgrid_candidates(const vf_hashgrid *g, vf_vec3 q, vf_index_range out[V
   return vf_grid_ranges_of(&g->lk, &cells, out);
 }
 
-const uint32_t *vf_hashgrid_indices(const vf_hashgrid *g) { return g->indices; }
-
-const vf_grid_point *vf_hashgrid_points(const vf_hashgrid *g) { return g->keyed; }
+const vf_grid_point *vf_hashgrid_points(const vf_hashgrid *g) { return g->points_overwritten ? NULL : g->keyed; }
 
 uint32_t vf_hashgrid_count(const vf_hashgrid *g) { return g->lk.count; }
+
+vf_grid_point *vf_hashgrid_points_writable(vf_hashgrid *g) {
+  g->points_overwritten = 1;
+  return g->keyed;
+}
+
+void vf_hashgrid_release_points(vf_hashgrid *g) {
+  if (g->lk.count == 0 || g->keyed == NULL) return;
+  release_pages(g->keyed, ((size_t)g->lk.count + VF_HASHGRID_POINT_PAD) * sizeof *g->keyed);
+  g->points_overwritten = 1;
+}
 
 void vf_hashgrid_query(const vf_hashgrid *g, vf_vec3 q, void (*visit)(void *ctx, uint32_t i), void *ctx) {
   vf_index_range ranges[VF_HASHGRID_MAX_RANGES];
   int nr = vf_hashgrid_candidates(g, q, ranges);
+  if (g->points_overwritten) return; /* a misuse (hashgrid.h): visit nothing rather than what is there now */
   const grid_point *sorted = g->keyed;
   double qx = q.x, qy = q.y, qz = q.z, r2 = g->radius_sq;
   for (int k = 0; k < nr; k++) __builtin_prefetch(&sorted[ranges[k].begin]);

@@ -225,14 +225,27 @@ static inline int vf_grid_ranges_of(const vf_grid_lookup *lk, const vf_grid_cell
   return 4;
 }
 
-/* The sorted point indices that candidate ranges refer to. */
-const uint32_t *vf_hashgrid_indices(const vf_hashgrid *grid);
-
-/* The sorted points that candidate ranges refer to (vf_hashgrid_count of them). */
+/* The sorted points that candidate ranges refer to (vf_hashgrid_count of them), their
+ * indices in the caller's array; NULL after vf_hashgrid_release_points. */
 const vf_grid_point *vf_hashgrid_points(const vf_hashgrid *grid);
 
 /* Number of points indexed by the last build (the finite ones). */
 uint32_t vf_hashgrid_count(const vf_hashgrid *grid);
+
+/* The sorted points for a caller that reads them in place and replaces their index fields
+ * by data of its own, once it has read them (vertex merging keeps each light vertex's
+ * path length there: a second array of positions in the same order would cost 16 bytes
+ * per point at the peak of an iteration's memory). VF_HASHGRID_POINT_PAD zeroed points
+ * follow the last, so that a reader may run past the end of a range; the array is on
+ * 2 MiB pages where the kernel has them. Until the next build the grid reads the points no
+ * more: candidate ranges stay valid (they read only the cell table), while
+ * vf_hashgrid_points is NULL and vf_hashgrid_query visits nothing. */
+#define VF_HASHGRID_POINT_PAD 8u
+vf_grid_point *vf_hashgrid_points_writable(vf_hashgrid *grid);
+
+/* Gives the sorted points' pages back to the kernel until the next build, for a caller
+ * that is done with them (their contents read as zeros), with the same consequences. */
+void vf_hashgrid_release_points(vf_hashgrid *grid);
 
 /* Calls visit(ctx, i) for every point i with |p_i - q|^2 <= radius^2. */
 void vf_hashgrid_query(const vf_hashgrid *grid, vf_vec3 q, void (*visit)(void *ctx, uint32_t i), void *ctx);

@@ -57,6 +57,7 @@ int vf_vcm_iteration(vf_vcm *v, uint64_t iteration, float *camera_rgb, float *li
   double t2 = vf_seconds_now();
   /* 3. Camera sub-paths, vertex merging included (camera_pass.c). */
   vf_camera_pass_run(v);
+  if (v->t.vertex_merging) vf_vertex_merging_release(v);
   double t3 = vf_seconds_now();
   stats->light_seconds += t1 - t0;
   stats->grid_seconds += t2 - t1;
@@ -294,7 +295,6 @@ void vf_vcm_destroy(vf_vcm *v) {
   free(v->band_start);
   free(v->segments);
   free(v->photons);
-  free(v->merge_points);
   free(v->path_begin);
   free(v->path_end);
   if (v->stats)

@@ -195,7 +195,7 @@ struct vf_vcm {
   uint32_t num_vertices;     /* in all chunks */
   vf_grid_segment *segments; /* the chunks' vertex lists, for the grid: num_chunks of them */
   unsigned chunk_shift;      /* the grid names vertex i of chunk c (c << chunk_shift) + i */
-  merge_point *merge_points; /* the same in the grid's order (for vertex merging), or NULL */
+  merge_point *merge_points; /* the grid's sorted points as merge points (borrowed), or NULL */
   photon *photons;
   uint32_t photon_capacity;
   uint32_t *path_begin, *path_end; /* per light sub-path, into its chunk's vertices */

@@ -10,6 +10,7 @@
 #ifdef __x86_64__
 #include <immintrin.h>
 #endif
+#include <stddef.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -25,7 +26,12 @@ struct merge_point {
   uint32_t path_length_shape; /* as in light_vertex */
 };
 _Static_assert(sizeof(merge_point) == 16, "find_hits reads a merge point as four floats");
+/* The merge points are the grid's sorted points, their index fields overwritten. */
+_Static_assert(sizeof(merge_point) == sizeof(vf_grid_point) && offsetof(merge_point, x) == offsetof(vf_grid_point, x) &&
+                   offsetof(merge_point, path_length_shape) == offsetof(vf_grid_point, index),
+               "a merge point is a grid point whose index became the path length");
 #define MERGE_POINT_PAD 7u /* find_hits reads up to this many points past the last */
+_Static_assert(MERGE_POINT_PAD <= VF_HASHGRID_POINT_PAD, "the grid pads its points for find_hits");
 
 struct photon {
   vf_vec3 throughput;
@@ -60,17 +66,19 @@ static const light_vertex *grid_vertex(const vf_vcm *v, uint32_t index) {
 }
 
 /* Copies what vertex merging needs of the light vertices into the grid's order, so that the
- * vertices a query accepts lie next to each other in memory. */
+ * vertices a query accepts lie next to each other in memory: the photons, and in the grid's
+ * own sorted points (whose positions are there already) each vertex's path length in place
+ * of its index, read just before. */
 static void gather_task(void *ctx, size_t task, int thread) {
   vf_vcm *v = ctx;
-  const vf_grid_point *points = vf_hashgrid_points(v->grid);
+  merge_point *points = v->merge_points;
   uint32_t n = vf_hashgrid_count(v->grid);
   uint32_t begin = (uint32_t)task * GATHER_CHUNK, end = begin + GATHER_CHUNK < n ? begin + GATHER_CHUNK : n;
   for (uint32_t k = begin; k < end; k++) {
     /* The vertices are read in grid order, that is at random: fetch ahead of use. */
-    if (k + GATHER_AHEAD < end) __builtin_prefetch(grid_vertex(v, points[k + GATHER_AHEAD].index));
-    const light_vertex *lv = grid_vertex(v, points[k].index);
-    v->merge_points[k] = (merge_point){points[k].x, points[k].y, points[k].z, lv->path_length_shape};
+    if (k + GATHER_AHEAD < end) __builtin_prefetch(grid_vertex(v, points[k + GATHER_AHEAD].path_length_shape));
+    const light_vertex *lv = grid_vertex(v, points[k].path_length_shape); /* still the index */
+    points[k].path_length_shape = lv->path_length_shape;
     v->photons[k] = (photon){lv->throughput, lv->fix, lv->mis.d_vcm, lv->mis.d_vm};
   }
 }
@@ -87,15 +95,32 @@ int vf_vertex_merging_build_grid(vf_vcm *v) {
      * Slack as for the vertices. */
     size_t capacity = n + n / 8 < UINT32_MAX ? (size_t)(n + n / 8) : UINT32_MAX;
     free(v->photons);
-    free(v->merge_points);
     v->photons = huge_alloc(capacity * sizeof(photon));
-    v->merge_points = huge_alloc((capacity + MERGE_POINT_PAD) * sizeof(merge_point));
-    v->photon_capacity = v->photons && v->merge_points ? (uint32_t)capacity : 0;
+    v->photon_capacity = v->photons ? (uint32_t)capacity : 0;
     if (v->photon_capacity == 0) return VF_ENOMEM;
   }
+  /* Borrowed from the grid until its next build; its pad past n reads as zeros, ignored. */
+  v->merge_points = (merge_point *)vf_hashgrid_points_writable(v->grid);
   vf_pool_run(v->pool, (n + GATHER_CHUNK - 1) / GATHER_CHUNK, gather_task, v);
-  memset(&v->merge_points[n], 0, MERGE_POINT_PAD * sizeof *v->merge_points); /* read past a range, ignored */
   return VF_OK;
+}
+
+/* Below this the copies keep their pages: re-faulting them would cost about 1% of a small
+ * image's iteration, and the memory matters only for large ones (docs/BENCHMARKS.md,
+ * "Memory"). Zeroing the pages again costs about 0.2% of an iteration's time at 1920x1080. */
+#define RELEASE_MIN_BYTES ((size_t)64 << 20)
+
+static void release_huge(void *p, size_t bytes) {
+  bytes = bytes / HUGE_PAGE * HUGE_PAGE; /* the arrays start on a huge page: whole ones only */
+  if (p != NULL && bytes > 0) madvise(p, bytes, MADV_DONTNEED);
+}
+
+void vf_vertex_merging_release(vf_vcm *v) {
+  size_t n = vf_hashgrid_count(v->grid);
+  if (n * (sizeof(photon) + sizeof(merge_point)) < RELEASE_MIN_BYTES) return;
+  release_huge(v->photons, n * sizeof(photon));
+  vf_hashgrid_release_points(v->grid); /* the merge points */
+  v->merge_points = NULL;
 }
 
 /* ---------------------------------------------------------------------------------------- */

@@ -18,6 +18,11 @@
  * is on and there are light vertices. Returns VF_OK, VF_ENOMEM, or the grid's error. */
 int vf_vertex_merging_build_grid(vf_vcm *v);
 
+/* After the camera pass: gives the pages of the copies made for it back to the kernel
+ * when they are large, so that the next iteration's light pass and grid build do not hold
+ * them too (48 bytes per light vertex, the peak of an iteration's memory otherwise). */
+void vf_vertex_merging_release(vf_vcm *v);
+
 /* Runs the thread's queued queries (vf_vcm.stats[thread].queries) and adds each one's
  * estimate to its pixel of tile_rgb, in queue order; empties the queue. */
 void vf_vertex_merging_run_tile(vf_vcm *v, int thread, float *tile_rgb);
