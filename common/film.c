@@ -36,6 +36,17 @@ static void sums_free(double *sums, size_t bytes) {
 
 static size_t sums_bytes(const vf_film *film) { return 3 * (size_t)film->width * (size_t)film->height * sizeof(double); }
 
+/* Zeroes sums: a mapped array's pages go back to the kernel, to be zero-filled when touched
+ * again (a private anonymous mapping), so that an empty film costs no memory. */
+static void sums_clear(double *sums, size_t bytes) {
+  if (bytes < MAPPED_SUMS_BYTES || madvise(sums, bytes, MADV_DONTNEED) != 0) memset(sums, 0, bytes);
+}
+
+void vf_film_clear_pixels(vf_film *film) {
+  sums_clear(film->sum, sums_bytes(film));
+  sums_clear(film->square_sum, sums_bytes(film));
+}
+
 int vf_film_create(int width, int height, vf_film **out) {
   if (out == NULL || width < 1 || height < 1 || width > VF_EXR_MAX_SIDE || height > VF_EXR_MAX_SIDE ||
       (int64_t)width * height > VF_EXR_MAX_PIXELS)

@@ -81,6 +81,10 @@ int vf_film_merge(vf_film *dst, const vf_film *src);
  * they leave dst exactly as vf_film_merge does. */
 int vf_film_merge_metadata(vf_film *dst, const vf_film *src);
 void vf_film_add_pixels(vf_film *dst, const vf_film *src);
+/* Zeroes every pixel's sums (nothing else): the pages of a large film's sums go back to the
+ * kernel until written again, so an emptied film costs no memory while it waits (a worker's
+ * film between parts). */
+void vf_film_clear_pixels(vf_film *film);
 
 /* A copy of everything of film but its pixels (sum and square_sum NULL): for a caller that
  * writes a film's pixels as they are with the metadata of a moment (a checkpoint written on

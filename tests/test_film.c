@@ -67,6 +67,34 @@ static void test_add_iteration_and_mean_arithmetic(void) {
   vf_film_destroy(NULL);
 }
 
+/* Emptied films, small (malloc'ed sums) and large (mapped sums, whose pages go back to the
+ * kernel): every sum reads zero, and the next iteration adds to zeros exactly as to a new
+ * film. */
+static void test_clear_pixels_empties_small_and_large_films(void) {
+  const int sizes[2][2] = {{3, 2}, {512, 512}};
+  for (int s = 0; s < 2; s++) {
+    int w = sizes[s][0], h = sizes[s][1];
+    size_t n = 3 * (size_t)w * (size_t)h;
+    float *cam = malloc(n * sizeof *cam), *light = malloc(n * sizeof *light);
+    for (size_t i = 0; i < n; i++) cam[i] = (float)(i % 13) + 0.25f, light[i] = (float)(i % 7);
+    vf_film *f = NULL, *fresh = NULL;
+    CHECK_INT_EQ(vf_film_create(w, h, &f), VF_OK);
+    CHECK_INT_EQ(vf_film_create(w, h, &fresh), VF_OK);
+    CHECK_INT_EQ(vf_film_add_iteration(f, 0, light, cam, NULL), VF_OK);
+    vf_film_clear_pixels(f);
+    size_t nonzero = 0;
+    for (size_t i = 0; i < n; i++) nonzero += f->sum[i] != 0.0 || f->square_sum[i] != 0.0;
+    CHECK_INT_EQ(nonzero, 0);
+    CHECK_INT_EQ(vf_film_add_iteration(f, 1, cam, light, NULL), VF_OK);
+    CHECK_INT_EQ(vf_film_add_iteration(fresh, 1, cam, light, NULL), VF_OK);
+    CHECK(!memcmp(f->sum, fresh->sum, n * sizeof *f->sum) && !memcmp(f->square_sum, fresh->square_sum, n * sizeof *f->sum));
+    vf_film_destroy(fresh);
+    vf_film_destroy(f);
+    free(cam);
+    free(light);
+  }
+}
+
 static void test_create_refuses_bad_sizes(void) {
   vf_film *f = (vf_film *)0x1;
   CHECK_INT_EQ(vf_film_create(0, 10, &f), VF_EINVAL);
@@ -733,6 +761,7 @@ static void test_damaged_corpus_is_refused(void) {
 int main(void) {
   if (fixture_scratch_open("test_film") != 0) return 1;
   RUN(test_add_iteration_and_mean_arithmetic);
+  RUN(test_clear_pixels_empties_small_and_large_films);
   RUN(test_create_refuses_bad_sizes);
   RUN(test_nonfinite_samples_count_as_zero);
   RUN(test_repeated_iteration_is_refused_unchanged);

@@ -270,9 +270,9 @@ static int ship(worker *w, const vf_film *film) {
 
 /* The film after its iterations were shipped: empty again, ready for the next part. */
 static void film_reset(vf_film *film) {
-  size_t n = (size_t)film->width * (size_t)film->height;
-  memset(film->sum, 0, 3 * n * sizeof *film->sum);
-  memset(film->square_sum, 0, 3 * n * sizeof *film->square_sum);
+  /* Its pages are given back: when parts are one iteration long (large images), the film
+   * is not resident while the next iteration renders, the peak of a worker's memory. */
+  vf_film_clear_pixels(film);
   vf_iterset_destroy(&film->iterations);
   vf_iterset_init(&film->iterations);
   film->render_seconds = film->cpu_seconds = 0.0;
