@@ -170,6 +170,7 @@ int vf_job_merge_deferred(vf_job *job, const vf_film *film, double now) {
 }
 
 static void merged(vf_job *job, const vf_film *film, double now) {
+  job->lease_failures = job->failed_workers_count = 0; /* progress: not a poison job */
   job->film_dirty = 1;
   job->film_generation++;
   job->merges[job->merges_next].time = now;

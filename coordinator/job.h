@@ -30,6 +30,9 @@ typedef enum { VF_JOB_ACTIVE, VF_JOB_CANCELLED, VF_JOB_FAILED, VF_JOB_STOPPED } 
 
 /* Recent merges, for the job's rate. */
 #define VF_JOB_RATE_SAMPLES 64
+/* Failed leases in a row from this many distinct workers make a poison job fail
+ * (coordinator/poison.h). */
+#define VF_JOB_FAILED_WORKERS 3
 /* Events kept per job (the latest; older ones are counted, coordinator/events.h). */
 #define VF_JOB_EVENTS 32
 
@@ -72,6 +75,13 @@ typedef struct {
    * nonzero (no measurement, copy or checkpoint then; they wait for it to land). */
   unsigned merging;
   uint64_t results_refused;
+  /* Leases failed since the last merge (coordinator/poison.h), and the distinct workers
+   * whose they were, by name; a merge clears both. */
+  unsigned lease_failures;
+  unsigned failed_workers_count;
+  char failed_workers[VF_JOB_FAILED_WORKERS][128];
+  /* The last checkpoint of its film failed, and why; "" when the last one landed. */
+  char checkpoint_error[256];
   double rate;          /* iterations per second of one worker on this job, smoothed; 0 unknown */
   double last_merge_time;
   double seconds;       /* running so far: wall-clock seconds since its first lease */

@@ -7,6 +7,7 @@
 #include "checkpoint.h"
 #include "leases.h"
 #include "log.h"
+#include "poison.h"
 #include "state.h"
 #include "workers.h"
 
@@ -348,6 +349,7 @@ void vf_jobs_remove(vf_farm *farm, const Vcmfarm__RemoveRequest *m, vf_farm_repl
   }
   vf_state_remove_job_files(farm->config.state_dir, job->id);
   vf_checkpoint_snapshot_drop(farm, job->id);
+  vf_poison_forget_job(farm, job->id);
   unsigned blobs = 0;
   for (size_t k = 0; k < job->files.count; k++) {
     const uint8_t *hash = job->files.refs[k].hash;

@@ -48,7 +48,7 @@ static const char *iterations_of(const vf_film *film) {
 
 /* A farm on the state directory dir, empty. */
 static void open_farm(vf_farm *farm, const char *dir) {
-  vf_farm_config config = {dir, 15.0, 20.0};
+  vf_farm_config config = {dir, 15.0, 20.0, 0.0};
   vf_farm_init(farm, &config);
 }
 
