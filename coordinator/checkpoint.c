@@ -290,6 +290,9 @@ static int queue_write(vf_farm *farm, vf_job *job, const char *path, uint64_t sn
  * its landing or the next checkpoint takes it. */
 static int save_film(vf_farm *farm, vf_job *job, uint64_t snapshot_id) {
   if (job->film_writing) return VF_OK;
+  if (job->film_unreadable) /* left as it is for the user (coordinator/state.h) */
+    return snapshot_id ? vf_error_set(VF_EIO, "job %llu: its film cannot be read back", (unsigned long long)job->id)
+                       : VF_OK;
   char path[4096];
   int err = vf_state_film_path(farm->config.state_dir, job->id, path, sizeof path);
   /* Behind the additions queued before it: no wait for them to land. */

@@ -62,6 +62,7 @@ typedef struct {
   vf_event events_storage[VF_JOB_EVENTS];
   vf_film *film;        /* owned; every accepted result merged */
   int film_dirty;       /* merged into since the last checkpoint */
+  int film_unreadable;  /* its file could not be read back (coordinator/state.h): never written over */
   /* Checkpoints run off the event loop (coordinator/checkpoint.h) on a snapshot of the film:
    * film_generation counts changes of the film, so that a write that lands after further
    * merges does not clear film_dirty; at most one write of a job is in flight. */

@@ -31,8 +31,10 @@
 int vf_state_lock(const char *dir, int *fd);
 
 /* Loads DIR/state.json (if present) and each job's scene and film into an empty farm.
- * A missing film means no iteration done; a film that does not match its job, or any
- * malformed file, is an error naming the file (VF_EINVAL, VF_EFILM...). */
+ * A missing film means no iteration done. A film that cannot be read or does not match
+ * its job (truncated, damaged, extended past the job's range) fails that job alone, with
+ * the reason as its message and an event (job->film_unreadable: its file is never
+ * written over); any other malformed file is an error naming the file (VF_EINVAL...). */
 int vf_state_load(vf_farm *farm);
 
 int vf_state_save_index(vf_farm *farm);          /* state.json; clears farm->state_dirty */
