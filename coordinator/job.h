@@ -163,7 +163,8 @@ double vf_job_farm_rate(const vf_job *job, double now, double window);
 void vf_job_forecast(const vf_job *job, double rate, vf_forecast *out);
 
 /* "queued", "running", "done", "cancelled" or "failed"; `leased` is the number of
- * iterations currently leased out. */
+ * iterations currently leased out. A complete job is "running" until its final film is
+ * durable (final_pending clear). */
 const char *vf_job_state(const vf_job *job, uint64_t leased);
 uint64_t vf_job_done(const vf_job *job);
 /* Its film holds [first, first + iterations), or it was stopped by another condition. */

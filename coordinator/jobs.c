@@ -224,6 +224,7 @@ void vf_jobs_status(vf_farm *farm, const Vcmfarm__StatusRequest *m, double now, 
     s->estimated_rmse = j->measured_iterations != UINT64_MAX ? j->measured.estimated_rmse : NAN;
     s->stop_reason = j->end == VF_JOB_STOPPED ? j->message : "";
     if (j->end == VF_JOB_STOPPED) s->message = "";
+    if (j->checkpoint_error[0] != '\0' && s->message[0] == '\0') s->message = j->checkpoint_error;
     s->stop_code = (char *)vf_stop_reason_name(j->stop);
     s->submitted_at = j->submitted_at;
     s->started_at = j->started_at;

@@ -117,7 +117,7 @@ static int save_events(cJSON *job, const vf_events *log) {
 }
 
 int vf_state_save_index(vf_farm *farm) {
-  int err = vf_error_set(VF_ENOMEM, "out of memory writing state.json");
+  int err = VF_ENOMEM, built = 0; /* until the text is built; its detail is set at `done` only then */
   cJSON *root = cJSON_CreateObject(), *jobs = cJSON_AddArrayToObject(root, "jobs");
   if (root == NULL || jobs == NULL) goto done;
   cJSON_AddNumberToObject(root, "format", STATE_FORMAT);
@@ -155,6 +155,7 @@ int vf_state_save_index(vf_farm *farm) {
   }
   char *text = cJSON_Print(root);
   if (text == NULL) goto done;
+  built = 1;
   char path[4096];
   if ((err = path_of(path, sizeof path, farm->config.state_dir, "state.json", 0, "")) == VF_OK)
     err = vf_file_write_atomic(path, text, strlen(text), 0600);
@@ -165,6 +166,8 @@ int vf_state_save_index(vf_farm *farm) {
   }
 done:
   cJSON_Delete(root);
+  /* Only a detail of its own: an older one (a film's write) must not be blamed on us. */
+  if (!built) err = vf_error_set(VF_ENOMEM, "out of memory writing state.json");
   return err;
 }
 
