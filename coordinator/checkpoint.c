@@ -323,8 +323,9 @@ void vf_checkpoint_final(vf_farm *farm, vf_job *job) {
   job->final_pending = 1;
   int err = vf_job_log(job);
   if (err == VF_OK) err = save_film(farm, job, 0);
-  if (err == VF_OK && farm->state_dirty) err = vf_state_save_index(farm);
-  if (err != VF_OK) checkpoint_failed(job, err);
+  if (err != VF_OK) return checkpoint_failed(job, err);
+  if (farm->state_dirty && (err = vf_state_save_index(farm)) != VF_OK)
+    vf_log("writing the job list failed: %s", vf_error_detail(err)); /* state_dirty: the next checkpoint tries again */
 }
 
 int vf_checkpoint_write(vf_farm *farm, int all) {

@@ -132,9 +132,9 @@ submit() { # scene, iterations, extra options...: sets job
   [ -n "$job" ] || fail "submit printed no job id"
 }
 
-check_film() { # job, scene, iterations
+check_film() { # job, scene, iterations[, resolution]
   client fetch "$1" -o "$tmp/farm-$1.exr" || fail "fetching job $1 failed"
-  "$vcmfarm" render "$2" --direct -n "$3" -R 32x32 --seed 7 -j 1 -q -o "$tmp/reference-$1.exr" ||
+  "$vcmfarm" render "$2" --direct -n "$3" -R "${4:-32x32}" --seed 7 -j 1 -q -o "$tmp/reference-$1.exr" ||
     fail "reference render failed"
   "$compare" "$tmp/farm-$1.exr" "$tmp/reference-$1.exr" "[0,$3)" || fail "job $1's film differs from the reference"
 }
@@ -241,7 +241,7 @@ disk_full)
   wait_until 30 "job $full done once space is back" is_state "$full" done
   [ -z "$(message_of "$full")" ] || fail "job $full still says: $(message_of "$full")"
   echo "ok   checkpoint failures showed in status; the job was done only once its final film was written"
-  check_film "$full" cornell 6
+  check_film "$full" cornell 6 128x128
   # At SIGTERM on a full disk: the exit message names the film and the cause.
   submit cornell 200000 -R 128x128
   fill 2
@@ -254,7 +254,7 @@ disk_full)
   [ "$status" != 0 ] || fail "the coordinator exited 0 although its final checkpoint failed"
   case "$last" in
   *"out of memory"*) fail "the exit message blames memory: $last" ;;
-  *"job $job's film: "*"No space left on device"*) ;;
+  *"job "[0-9]*"'s film: "*"No space left on device"*) ;;
   *) fail "the exit message does not name the film and the full disk: $last" ;;
   esac
   echo "ok   the exit message on a full disk names the film and the cause"
