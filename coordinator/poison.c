@@ -89,8 +89,9 @@ void vf_poison_lease_failed(vf_farm *farm, uint64_t job_id, const char *worker, 
   if (job->failed_workers_count >= VF_POISON_WORKERS)
     fail_job(farm, job, now, "poison job: leases failed on %u workers in a row with no iteration merged; last: worker %s: %s",
              job->failed_workers_count, worker, why);
-  else if (nobody_left(farm, job, now))
-    fail_job(farm, job, now, "every worker failed on it with no iteration merged; last: worker %s: %s", worker, why);
+  else if (job->lease_failures >= VF_POISON_WORKERS && nobody_left(farm, job, now))
+    fail_job(farm, job, now, "poison job: %u leases failed in a row with no iteration merged and every worker is "
+             "blocked from it; last: worker %s: %s", job->lease_failures, worker, why);
 }
 
 void vf_poison_tick(vf_farm *farm, double now) {
@@ -110,9 +111,9 @@ void vf_poison_tick(vf_farm *farm, double now) {
   }
   for (size_t i = 0; i < farm->num_jobs; i++) {
     vf_job *job = farm->jobs[i];
-    if (job->lease_failures > 0 && vf_job_runnable(job) && nobody_left(farm, job, now))
-      fail_job(farm, job, now, "every worker failed on it with no iteration merged (%u failed lease%s in a row)",
-               job->lease_failures, job->lease_failures == 1 ? "" : "s");
+    if (job->lease_failures >= VF_POISON_WORKERS && vf_job_runnable(job) && nobody_left(farm, job, now))
+      fail_job(farm, job, now, "poison job: %u leases failed in a row with no iteration merged and every worker is "
+               "blocked from it", job->lease_failures);
   }
 }
 

@@ -9,10 +9,11 @@
  *   - counts towards the job's failures in a row, which any merged part clears
  *     (vf_job_merge).
  *
- * The job fails (state `failed`, the reason in its message and events) once its failures
- * in a row come from VF_POISON_WORKERS distinct workers, or once every registered worker
- * is blocked from it (no one is left to try it; only after the coordinator has been up
- * for a worker timeout, so that the workers of a farm it restarted have registered again).
+ * The job fails (state `failed`, the reason in its message and events) once it has
+ * VF_POISON_WORKERS (3) failures in a row and they come from as many distinct workers, or
+ * every registered worker is blocked from it (a farm of fewer workers: no one is left to
+ * try it; only after the coordinator has been up for a worker timeout, so that the
+ * workers of a farm it restarted have registered again).
  * The blocklist and the failures in a row live in memory: a restarted coordinator forgives
  * everyone. Single-threaded, as the farm. */
 #ifndef VF_POISON_H
