@@ -69,7 +69,10 @@ int vf_state_save_film(const char *dir, vf_job *job) {
   char path[4096];
   int err = path_of(path, sizeof path, dir, "job-", job->id, ".exr");
   if (err != VF_OK || job->film_unreadable) return err;
-  if ((err = vf_film_write(job->film, path)) == VF_OK) job->film_dirty = job->final_pending = 0;
+  if ((err = vf_film_write(job->film, path)) == VF_OK) {
+    job->film_dirty = job->final_pending = 0;
+    job->checkpoint_error[0] = '\0';
+  }
   return err;
 }
 

@@ -39,7 +39,8 @@ int vf_state_load(vf_farm *farm);
 
 int vf_state_save_index(vf_farm *farm);          /* state.json; clears farm->state_dirty */
 int vf_state_save_scene(const char *dir, const vf_job *job); /* job-ID.files, then job-ID.scene */
-/* Writes the job's film on the calling thread; clears job->film_dirty and final_pending. */
+/* Writes the job's film on the calling thread; clears job->film_dirty, final_pending and
+ * checkpoint_error. Nothing for a film that could not be read back (job->film_unreadable). */
 int vf_state_save_film(const char *dir, vf_job *job);
 /* DIR/job-ID.exr into buf (n bytes); VF_EINVAL when it does not fit. */
 int vf_state_film_path(const char *dir, uint64_t id, char *buf, size_t n);

@@ -246,7 +246,10 @@ static void test_a_failed_checkpoint_is_an_event_of_its_job(void) {
   float rgb[3 * W * H] = {0};
   CHECK_INT_EQ(vf_film_add_iteration(j->film, 0, rgb, rgb, NULL), VF_OK);
   j->film_dirty = 1;
-  CHECK(vf_checkpoint_write(&farm, 0) != VF_OK);
+  int err = vf_checkpoint_write(&farm, 0);
+  CHECK(err != VF_OK);
+  /* The first error, the film's, not what the job list's write left behind. */
+  CHECK_STR_CONTAINS(vf_error_detail(err), "job 1's film: ");
   CHECK_INT_EQ(j->events.count, 1);
   const vf_event *e = vf_events_at(&j->events, 0);
   if (e) {
@@ -255,6 +258,18 @@ static void test_a_failed_checkpoint_is_an_event_of_its_job(void) {
     if (!(e->time > 1.6e9)) CHECK_FAIL_("event time %g, expected a Unix time", e->time);
   }
   CHECK(j->film_dirty); /* the next checkpoint tries again */
+  CHECK_STR_CONTAINS(j->checkpoint_error, "film checkpoint failed (retrying): "); /* status's message */
+  /* Complete, its final film not durable: not done. */
+  for (uint64_t i = 1; i < 10; i++) CHECK_INT_EQ(vf_film_add_iteration(j->film, i, rgb, rgb, NULL), VF_OK);
+  vf_checkpoint_final(&farm, j);
+  CHECK(j->final_pending);
+  CHECK_STR_EQ(vf_job_state(j, 0), "running");
+  /* The directory usable again: the next checkpoint lands, the job is done, the message gone. */
+  farm.config.state_dir = dir;
+  CHECK_INT_EQ(vf_checkpoint_write(&farm, 0), VF_OK);
+  CHECK(!j->final_pending);
+  CHECK_STR_EQ(vf_job_state(j, 0), "done");
+  CHECK_STR_EQ(j->checkpoint_error, "");
   vf_farm_destroy(&farm);
 }
 
