@@ -64,15 +64,17 @@ typedef struct {
   double now;
 } pick_ctx;
 
-/* A job the worker may be handed: runnable, with a free range, and the worker not blocked
- * from it (coordinator/poison.h). */
+/* A job the worker may be handed: runnable and with a free range (else 0), the worker not
+ * blocked from it (else -1: vf_schedule_pick leaves its place to the others alone). */
 static int has_free_range(void *ctx, const vf_job *j) {
   pick_ctx *p = ctx;
   vf_farm *farm = p->farm;
   uint64_t b, e, free_count;
-  return vf_job_runnable(j) && !vf_poison_blocked(farm, p->worker->name, j->id, p->now) &&
-         vf_lease_free_range(&farm->leases, j->id, &j->film->iterations, j->first,
-                                                   j->iterations, 1, &b, &e, &free_count) == 1;
+  if (!vf_job_runnable(j) ||
+      vf_lease_free_range(&farm->leases, j->id, &j->film->iterations, j->first, j->iterations, 1, &b, &e,
+                          &free_count) != 1)
+    return 0;
+  return vf_poison_blocked(farm, p->worker->name, j->id, p->now) ? -1 : 1;
 }
 
 /* The lease's body: the job's scene (and its file table), hash, settings and range. */

@@ -387,6 +387,7 @@ static void test_a_reported_failure_blocks_the_worker_until_forgiven(void) {
     CHECK_STR_CONTAINS(e->message, "scene does not load:?bad"); /* no control characters */
   }
   CHECK(grant(&f, 0) == NULL); /* blocked from its only job: idle */
+  CHECK_INT_EQ(f.job->schedule_idle, 0); /* the job is not idle for the others: it keeps its place */
   CHECK(grant(&f, 1) != NULL);
   f.now += 59.0;
   vf_poison_tick(&f.farm, f.now);
