@@ -179,7 +179,7 @@ poison_scene)
   echo "$log" | awk '{ split($1, t, ":"); now = t[1] * 3600 + t[2] * 60 + t[3] }
                      /lease of worker w4 failed/ { failed = now; next }
                      /forgiven/ { forgiven++; next }
-                     /to worker w4/ { if (failed != "" && now - failed < 3) bad++; else if (failed != "") after++ }
+                     /to worker w4/ { if (failed != "" && now - failed < 2.95) bad++; else if (failed != "") after++ }
                      END { exit !(bad == 0 && forgiven >= 1 && after >= 1) }' ||
     fail "w4 was leased job $forgiven while blocked, or never forgiven and leased it again"
   [ "$(event_count "$forgiven" worker_forgiven)" -ge 1 ] || fail "no worker_forgiven event"
