@@ -21,6 +21,8 @@ static const char usage[] =
     "  -w, --worker-timeout S       a worker silent for S seconds is lost (default 15)\n"
     "      --lease-seconds S        target duration of a lease (default 20)\n"
     "      --checkpoint-interval S  seconds between film checkpoints (default 10)\n"
+    "      --forgive S              a worker whose lease of a job failed is not handed that job\n"
+    "                               again for S seconds (default 300; docs/PROTOCOL.md)\n"
     "      --http [HOST:]PORT       serve the web dashboard there (HOST 127.0.0.1 unless given;\n"
     "                               another address only when given; actions need the key)\n"
     "  -h, --help                   this text\n"
@@ -34,9 +36,10 @@ int vf_cmd_coordinator(int argc, char **argv) {
       {"secret", required_argument, 0, 'k'},         {"worker-timeout", required_argument, 0, 'w'},
       {"lease-seconds", required_argument, 0, 'L'},  {"checkpoint-interval", required_argument, 0, 'C'},
       {"http", required_argument, 0, 'H'},           {"help", no_argument, 0, 'h'},
+      {"forgive", required_argument, 0, 'F'},
       {0, 0, 0, 0}};
   const char *cmd = "coordinator";
-  vf_coordinator_config config = {.worker_timeout = 15.0, .lease_seconds = 20.0, .checkpoint_interval = 10.0,
+  vf_coordinator_config config = {.worker_timeout = 15.0, .lease_seconds = 20.0, .checkpoint_interval = 10.0, .forgive_seconds = 300.0,
                                   .handle_signals = 1, .status_json = vf_status_json_text};
   int err = VF_OK, c;
   optind = 0; /* 0: getopt starts again from scratch (glibc), forgetting the last argv */
@@ -49,6 +52,7 @@ int vf_cmd_coordinator(int argc, char **argv) {
     case 'w': err = vf_cli_double("--worker-timeout", optarg, 0.1, 86400.0, &config.worker_timeout); break;
     case 'L': err = vf_cli_double("--lease-seconds", optarg, 0.01, 86400.0, &config.lease_seconds); break;
     case 'C': err = vf_cli_double("--checkpoint-interval", optarg, 0.1, 86400.0, &config.checkpoint_interval); break;
+    case 'F': err = vf_cli_double("--forgive", optarg, 0.0, 31536000.0, &config.forgive_seconds); break;
     case 'H': config.http_address = optarg; break;
     case 'h': fputs(usage, stdout); return VF_EXIT_OK;
     default:

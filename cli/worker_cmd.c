@@ -39,13 +39,16 @@ static const char usage[] =
     "For tests only:\n"
     "      --test-iteration-delay MS  sleep MS after every iteration (slows leases down)\n"
     "      --test-stall-file PATH     after the first lease, create PATH.stalled and wait,\n"
-    "                                 silent, until PATH exists before sending the result\n";
+    "                                 silent, until PATH exists before sending the result\n"
+    "      --test-abort-scene TEXT    crash (abort) on a lease of the built-in scene TEXT or\n"
+    "                                 of a JSON scene whose text contains TEXT\n";
 
 int vf_cmd_worker(int argc, char **argv) {
   static const struct option options[] = {
       {"connect", required_argument, 0, 'c'}, {"secret", required_argument, 0, 'k'},
       {"threads", required_argument, 0, 'j'}, {"name", required_argument, 0, 'n'},
       {"test-iteration-delay", required_argument, 0, 'D'}, {"test-stall-file", required_argument, 0, 'S'},
+      {"test-abort-scene", required_argument, 0, 'A'},
       {"ship-interval", required_argument, 0, 'I'},
       {"cache", required_argument, 0, 'C'},   {"cache-max", required_argument, 0, 'M'},
       {"help", no_argument, 0, 'h'},          {0, 0, 0, 0}};
@@ -65,6 +68,7 @@ int vf_cmd_worker(int argc, char **argv) {
     case 'n': config.name = optarg; break;
     case 'D': err = vf_cli_int("--test-iteration-delay", optarg, 0, 60000, &delay); break;
     case 'S': config.stall_file = optarg; break;
+    case 'A': config.abort_scene = optarg; break;
     case 'I': err = vf_cli_double("--ship-interval", optarg, 0.01, 86400.0, &config.ship_interval); break;
     case 'C': cache = optarg; break;
     case 'M': err = vf_cli_bytes("--cache-max", optarg, &config.cache_max_bytes); break;

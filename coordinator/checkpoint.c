@@ -144,6 +144,11 @@ static void checkpoint_failed(vf_job *job, int err) {
   vf_log("checkpoint of job %llu failed: %s", (unsigned long long)job->id, vf_error_detail(err));
   vf_events_add(&job->events, vf_unix_now(), "checkpoint_failed", job->id, "", "film checkpoint failed: %s",
                 vf_error_detail(err));
+  /* Shown by status until a checkpoint lands (coordinator/jobs.c). */
+  snprintf(job->checkpoint_error, sizeof job->checkpoint_error, "film checkpoint failed (retrying): %s",
+           vf_error_detail(err));
+  for (char *c = job->checkpoint_error; *c; c++)
+    if ((unsigned char)*c < 0x20 || *c == 0x7f) *c = '?';
 }
 
 static void landed(vf_farm *farm, vf_job *job, int err, double seconds) {
@@ -154,6 +159,11 @@ static void landed(vf_farm *farm, vf_job *job, int err, double seconds) {
     return; /* still dirty: the next checkpoint tries again */
   }
   if (seconds >= 1.0) vf_log("job %llu: film checkpoint written in %.2f s (off the event loop)", jid, seconds);
+  if (job->checkpoint_error[0] != '\0') {
+    vf_log("job %llu: film checkpoint written again after failures", jid);
+    vf_events_add(&job->events, vf_unix_now(), "checkpoint_written", job->id, "", "film checkpoint written again");
+    job->checkpoint_error[0] = '\0';
+  }
   if (job->writing_generation != job->film_generation) {
     /* Changed while being written; a final film is written again at once. */
     if (job->final_pending && (err = save_film(farm, job, 0)) != VF_OK) checkpoint_failed(job, err);
@@ -290,6 +300,9 @@ static int queue_write(vf_farm *farm, vf_job *job, const char *path, uint64_t sn
  * its landing or the next checkpoint takes it. */
 static int save_film(vf_farm *farm, vf_job *job, uint64_t snapshot_id) {
   if (job->film_writing) return VF_OK;
+  if (job->film_unreadable) /* left as it is for the user (coordinator/state.h) */
+    return snapshot_id ? vf_error_set(VF_EIO, "job %llu: its film cannot be read back", (unsigned long long)job->id)
+                       : VF_OK;
   char path[4096];
   int err = vf_state_film_path(farm->config.state_dir, job->id, path, sizeof path);
   /* Behind the additions queued before it: no wait for them to land. */
@@ -310,12 +323,14 @@ void vf_checkpoint_final(vf_farm *farm, vf_job *job) {
   job->final_pending = 1;
   int err = vf_job_log(job);
   if (err == VF_OK) err = save_film(farm, job, 0);
-  if (err == VF_OK && farm->state_dirty) err = vf_state_save_index(farm);
-  if (err != VF_OK) checkpoint_failed(job, err);
+  if (err != VF_OK) return checkpoint_failed(job, err);
+  if (farm->state_dirty && (err = vf_state_save_index(farm)) != VF_OK)
+    vf_log("writing the job list failed: %s", vf_error_detail(err)); /* state_dirty: the next checkpoint tries again */
 }
 
 int vf_checkpoint_write(vf_farm *farm, int all) {
   int first = VF_OK;
+  char first_detail[1024] = ""; /* later calls record details of their own */
   if (all) snapshots_free_if(farm, NULL, 0.0);
   for (size_t i = 0; i < farm->num_jobs; i++) {
     vf_job *j = farm->jobs[i];
@@ -326,17 +341,24 @@ int vf_checkpoint_write(vf_farm *farm, int all) {
     err = save_film(farm, j, 0);
     if (err != VF_OK) {
       checkpoint_failed(j, err);
-      if (first == VF_OK) first = err;
+      if (first == VF_OK) {
+        first = err;
+        snprintf(first_detail, sizeof first_detail, "job %llu's film: %s", (unsigned long long)j->id,
+                 vf_error_detail(err));
+      }
     }
   }
   if (farm->state_dirty || all) {
     int err = vf_state_save_index(farm);
     if (err != VF_OK) {
       vf_log("writing the job list failed: %s", vf_error_detail(err));
-      if (first == VF_OK) first = err;
+      if (first == VF_OK) {
+        first = err;
+        snprintf(first_detail, sizeof first_detail, "%s", vf_error_detail(err));
+      }
     }
   }
-  return first;
+  return first == VF_OK ? VF_OK : vf_error_set(first, "%s", first_detail);
 }
 
 size_t vf_checkpoint_pending(const vf_farm *farm) { return farm->checkpoints_pending; }

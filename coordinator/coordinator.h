@@ -26,6 +26,7 @@ typedef struct {
   double worker_timeout;       /* seconds; default 15 */
   double lease_seconds;        /* target lease duration; default 20 */
   double checkpoint_interval;  /* seconds between film checkpoints; default 10 */
+  double forgive_seconds;      /* a worker blocked from a job is forgiven after this (coordinator/poison.h); default 300 */
   /* How it is stopped: SIGINT and SIGTERM when handle_signals, and always when *stop
    * (if not NULL; any thread may set it) becomes non-zero, seen within 10 ms. */
   int handle_signals;

@@ -4,6 +4,7 @@
 #include "checkpoint.h"
 #include "jobs.h"
 #include "leases.h"
+#include "poison.h"
 #include "results.h"
 #include "ship.h"
 #include "workers.h"
@@ -62,6 +63,7 @@ void vf_farm_tick(vf_farm *farm, double now) {
   double dt = farm->last_tick > 0.0 ? now - farm->last_tick : 0.0;
   farm->last_tick = now;
   vf_ship_tick(farm, now);
+  vf_poison_tick(farm, now);
   for (size_t i = 0; i < farm->num_jobs; i++) {
     vf_job *j = farm->jobs[i];
     if (!vf_job_runnable(j)) continue;

@@ -20,6 +20,7 @@ void vf_farm_destroy(vf_farm *farm) {
   free(farm->jobs);
   free(farm->workers);
   free(farm->checked);
+  free(farm->blocks);
   vf_lease_table_destroy(&farm->leases);
   memset(farm, 0, sizeof *farm);
 }

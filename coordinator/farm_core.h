@@ -52,6 +52,7 @@ typedef struct {
   const char *state_dir;   /* borrowed */
   double worker_timeout;   /* seconds of silence after which a worker is lost */
   double lease_seconds;    /* target duration of a lease */
+  double forgive_seconds;  /* a worker blocked from a job is forgiven after this (coordinator/poison.h) */
 } vf_farm_config;
 
 typedef struct vf_farm {
@@ -74,6 +75,8 @@ typedef struct vf_farm {
    * coordinator's final checkpoint). */
   struct uv_loop_s *checkpoint_loop;
   size_t checkpoints_pending; /* film writes started on the pool, not landed yet */
+  struct vf_poison_block *blocks; /* owned: the blocklist (coordinator/poison.c) */
+  size_t num_blocks, blocks_capacity;
   /* Blobs of the store read back and found intact, with the size and modification time
    * they had then (coordinator/blobs.c): read again only when those change. */
   struct vf_blob_checked *checked;

@@ -118,8 +118,9 @@ int vf_job_runnable(const vf_job *job) { return job->end == VF_JOB_ACTIVE && !vf
 const char *vf_job_state(const vf_job *job, uint64_t leased) {
   if (job->end == VF_JOB_CANCELLED) return "cancelled";
   if (job->end == VF_JOB_FAILED) return "failed";
-  if (job->end == VF_JOB_STOPPED) return "done";
-  if (vf_job_complete(job)) return "done";
+  /* Done only once its final film is durable (coordinator/checkpoint.h): until then a
+   * crash would bring it back short of what it merged. */
+  if (vf_job_complete(job)) return job->final_pending ? "running" : "done";
   return vf_job_done(job) > 0 || leased > 0 ? "running" : "queued";
 }
 
@@ -170,6 +171,7 @@ int vf_job_merge_deferred(vf_job *job, const vf_film *film, double now) {
 }
 
 static void merged(vf_job *job, const vf_film *film, double now) {
+  job->lease_failures = job->failed_workers_count = 0; /* progress: not a poison job */
   job->film_dirty = 1;
   job->film_generation++;
   job->merges[job->merges_next].time = now;

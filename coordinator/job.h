@@ -30,6 +30,9 @@ typedef enum { VF_JOB_ACTIVE, VF_JOB_CANCELLED, VF_JOB_FAILED, VF_JOB_STOPPED } 
 
 /* Recent merges, for the job's rate. */
 #define VF_JOB_RATE_SAMPLES 64
+/* Failed leases in a row from this many distinct workers make a poison job fail
+ * (coordinator/poison.h). */
+#define VF_JOB_FAILED_WORKERS 3
 /* Events kept per job (the latest; older ones are counted, coordinator/events.h). */
 #define VF_JOB_EVENTS 32
 
@@ -59,6 +62,7 @@ typedef struct {
   vf_event events_storage[VF_JOB_EVENTS];
   vf_film *film;        /* owned; every accepted result merged */
   int film_dirty;       /* merged into since the last checkpoint */
+  int film_unreadable;  /* its file could not be read back (coordinator/state.h): never written over */
   /* Checkpoints run off the event loop (coordinator/checkpoint.h) on a snapshot of the film:
    * film_generation counts changes of the film, so that a write that lands after further
    * merges does not clear film_dirty; at most one write of a job is in flight. */
@@ -72,6 +76,13 @@ typedef struct {
    * nonzero (no measurement, copy or checkpoint then; they wait for it to land). */
   unsigned merging;
   uint64_t results_refused;
+  /* Leases failed since the last merge (coordinator/poison.h), and the distinct workers
+   * whose they were, by name; a merge clears both. */
+  unsigned lease_failures;
+  unsigned failed_workers_count;
+  char failed_workers[VF_JOB_FAILED_WORKERS][128];
+  /* The last checkpoint of its film failed, and why; "" when the last one landed. */
+  char checkpoint_error[256];
   double rate;          /* iterations per second of one worker on this job, smoothed; 0 unknown */
   double last_merge_time;
   double seconds;       /* running so far: wall-clock seconds since its first lease */
@@ -152,7 +163,8 @@ double vf_job_farm_rate(const vf_job *job, double now, double window);
 void vf_job_forecast(const vf_job *job, double rate, vf_forecast *out);
 
 /* "queued", "running", "done", "cancelled" or "failed"; `leased` is the number of
- * iterations currently leased out. */
+ * iterations currently leased out. A complete job is "running" until its final film is
+ * durable (final_pending clear). */
 const char *vf_job_state(const vf_job *job, uint64_t leased);
 uint64_t vf_job_done(const vf_job *job);
 /* Its film holds [first, first + iterations), or it was stopped by another condition. */

@@ -7,6 +7,7 @@
 #include "checkpoint.h"
 #include "leases.h"
 #include "log.h"
+#include "poison.h"
 #include "state.h"
 #include "workers.h"
 
@@ -223,6 +224,7 @@ void vf_jobs_status(vf_farm *farm, const Vcmfarm__StatusRequest *m, double now, 
     s->estimated_rmse = j->measured_iterations != UINT64_MAX ? j->measured.estimated_rmse : NAN;
     s->stop_reason = j->end == VF_JOB_STOPPED ? j->message : "";
     if (j->end == VF_JOB_STOPPED) s->message = "";
+    if (j->checkpoint_error[0] != '\0' && s->message[0] == '\0') s->message = j->checkpoint_error;
     s->stop_code = (char *)vf_stop_reason_name(j->stop);
     s->submitted_at = j->submitted_at;
     s->started_at = j->started_at;
@@ -348,6 +350,7 @@ void vf_jobs_remove(vf_farm *farm, const Vcmfarm__RemoveRequest *m, vf_farm_repl
   }
   vf_state_remove_job_files(farm->config.state_dir, job->id);
   vf_checkpoint_snapshot_drop(farm, job->id);
+  vf_poison_forget_job(farm, job->id);
   unsigned blobs = 0;
   for (size_t k = 0; k < job->files.count; k++) {
     const uint8_t *hash = job->files.refs[k].hash;

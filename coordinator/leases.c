@@ -4,6 +4,7 @@
 #include "../common/error.h"
 #include "blobs.h"
 #include "log.h"
+#include "poison.h"
 #include "schedule.h"
 #include "ship.h"
 
@@ -57,11 +58,23 @@ void vf_leases_revoke(vf_farm *farm, uint64_t job_id, uint64_t begin, uint64_t e
   end_active(farm, job_id, begin, end, except, "a late result covered it", now);
 }
 
+typedef struct {
+  vf_farm *farm;
+  const vf_farm_worker *worker;
+  double now;
+} pick_ctx;
+
+/* A job the worker may be handed: runnable and with a free range (else 0), the worker not
+ * blocked from it (else -1: vf_schedule_pick leaves its place to the others alone). */
 static int has_free_range(void *ctx, const vf_job *j) {
-  vf_farm *farm = ctx;
+  pick_ctx *p = ctx;
+  vf_farm *farm = p->farm;
   uint64_t b, e, free_count;
-  return vf_job_runnable(j) && vf_lease_free_range(&farm->leases, j->id, &j->film->iterations, j->first,
-                                                   j->iterations, 1, &b, &e, &free_count) == 1;
+  if (!vf_job_runnable(j) ||
+      vf_lease_free_range(&farm->leases, j->id, &j->film->iterations, j->first, j->iterations, 1, &b, &e,
+                          &free_count) != 1)
+    return 0;
+  return vf_poison_blocked(farm, p->worker->name, j->id, p->now) ? -1 : 1;
 }
 
 /* The lease's body: the job's scene (and its file table), hash, settings and range. */
@@ -103,7 +116,8 @@ void vf_leases_grant(vf_farm *farm, vf_farm_worker *w, double now, vf_farm_reply
     vf_leases_end(farm, old, 1, now);
   }
   w->lease_id = 0;
-  vf_job *job = vf_schedule_pick(farm->jobs, farm->num_jobs, has_free_range, farm);
+  pick_ctx pick = {farm, w, now};
+  vf_job *job = vf_schedule_pick(farm->jobs, farm->num_jobs, has_free_range, &pick);
   if (job == NULL) {
     vcmfarm__idle__init(&r->idle);
     /* Often enough that a new job starts within half a second; cheap for the coordinator. */
@@ -167,15 +181,19 @@ void vf_leases_release(vf_farm *farm, const vf_farm_worker *w, const Vcmfarm__Le
     vf_farm_reply_ack(r, 0, "no such active lease of this worker");
     return;
   }
-  vf_job *job = vf_farm_job(farm, l->job_id);
-  if (m->failure[0] != '\0' && job != NULL && job->end == VF_JOB_ACTIVE) {
-    char text[sizeof job->message];
-    snprintf(text, sizeof text, "worker %s: %s", w->name, m->failure);
-    vf_job_finish(job, VF_STOP_FAILED, vf_unix_now(), text);
-    vf_log("job %llu failed: %s", (unsigned long long)job->id, job->message);
-    vf_events_add(&job->events, job->ended_at, "job_failed", job->id, w->name, "%s", job->message);
-    vf_leases_end_job(farm, job->id, now);
-    farm->state_dirty = 1;
+  if (m->failure[0] != '\0') {
+    /* The worker survived a failure of the renderer on this job: the lease failed
+     * (coordinator/poison.h); the job fails only when others fail on it too. */
+    char why[256];
+    snprintf(why, sizeof why, "%s", m->failure);
+    for (char *c = why; *c; c++)
+      if ((unsigned char)*c < 0x20 || *c == 0x7f) *c = '?';
+    uint64_t job_id = l->job_id;
+    vf_job *job = vf_farm_job(farm, job_id);
+    vf_log("worker %s failed lease %016llx of job %llu: %s", w->name, (unsigned long long)l->id,
+           (unsigned long long)job_id, why);
+    vf_leases_end(farm, l, 0, now);
+    if (job != NULL) vf_poison_lease_failed(farm, job_id, w->name, why, now);
   } else {
     vf_log("worker %s handed back lease %016llx", w->name, (unsigned long long)l->id);
     vf_leases_end(farm, l, 0, now);

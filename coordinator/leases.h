@@ -14,16 +14,17 @@
 
 #include <stdint.h>
 
-/* LeaseRequest of the registered worker w: a Lease of the job the scheduler picks, or Idle
- * when no job has free iterations. A lease the worker still holds returns to the pool. */
+/* LeaseRequest of the registered worker w: a Lease of the job the scheduler picks among
+ * those w is not blocked from (coordinator/poison.h), or Idle when none has free iterations. A lease the worker still holds returns to the pool. */
 void vf_leases_grant(vf_farm *farm, vf_farm_worker *w, double now, vf_farm_reply *r);
 
 /* Heartbeat of w: HeartbeatAck with lease_valid when the lease is w's, active and of a
  * runnable job; then it records the iterations the worker says it has rendered. */
 void vf_leases_heartbeat(vf_farm *farm, vf_farm_worker *w, const Vcmfarm__Heartbeat *m, vf_farm_reply *r);
 
-/* LeaseRelease of w: its active lease returns to the pool; with a failure, the job cannot
- * be rendered: it is marked failed (the reason sanitised) and all its leases end. */
+/* LeaseRelease of w: its active lease returns to the pool; with a failure (the worker
+ * could not load or render the job), the lease failed: the worker is blocked from the job
+ * and the failure counts towards the job's (coordinator/poison.h; the reason sanitised). */
 void vf_leases_release(vf_farm *farm, const vf_farm_worker *w, const Vcmfarm__LeaseRelease *m, double now,
                        vf_farm_reply *r);
 

@@ -12,7 +12,8 @@ vf_job *vf_schedule_pick(vf_job *const *jobs, size_t count, int (*eligible)(void
   /* The least virtual time among jobs already being served: where a newcomer enters. */
   for (size_t i = 0; i < count; i++) {
     vf_job *j = jobs[i];
-    if (!eligible(ctx, j)) {
+    int e = eligible(ctx, j);
+    if (e == 0) {
       j->schedule_idle = 1;
       continue;
     }
@@ -22,7 +23,7 @@ vf_job *vf_schedule_pick(vf_job *const *jobs, size_t count, int (*eligible)(void
   }
   for (size_t i = 0; i < count; i++) {
     vf_job *j = jobs[i];
-    if (!eligible(ctx, j)) continue;
+    if (eligible(ctx, j) <= 0) continue;
     if (j->schedule_idle) {
       /* Entering (again): no credit for the time it was absent, no debt either. */
       double w = (double)(j->priority < VF_PRIORITY_MIN ? VF_PRIORITY_MIN : j->priority);

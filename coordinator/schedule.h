@@ -27,10 +27,12 @@
 /* service / weight. */
 double vf_schedule_vtime(const vf_job *job);
 
-/* Of the jobs for which eligible(ctx, job) is non-zero, the one of least virtual time
+/* Of the jobs for which eligible(ctx, job) is positive, the one of least virtual time
  * (ties: lowest id); NULL when none is. A job eligible for the first time since it was
- * last passed over as ineligible (job->schedule_idle) first has its service raised so
- * that its virtual time is the least of the other eligible jobs'. */
+ * last passed over as ineligible (0: job->schedule_idle) first has its service raised so
+ * that its virtual time is the least of the other eligible jobs'. Negative: eligible, but
+ * not for this request (a worker blocked from it, coordinator/poison.h): skipped, and not
+ * idle, so it keeps its place among the others. */
 vf_job *vf_schedule_pick(vf_job *const *jobs, size_t count, int (*eligible)(void *ctx, const vf_job *job), void *ctx);
 
 /* The worker-seconds to charge when a lease of `size` iterations is granted: at the

@@ -1,6 +1,7 @@
 #include "state.h"
 
 #include "../common/blob.h"
+#include "../common/clock.h"
 #include "../common/error.h"
 #include "../common/file.h"
 #include "log.h"
@@ -67,8 +68,11 @@ int vf_state_film_path(const char *dir, uint64_t id, char *buf, size_t n) {
 int vf_state_save_film(const char *dir, vf_job *job) {
   char path[4096];
   int err = path_of(path, sizeof path, dir, "job-", job->id, ".exr");
-  if (err != VF_OK) return err;
-  if ((err = vf_film_write(job->film, path)) == VF_OK) job->film_dirty = job->final_pending = 0;
+  if (err != VF_OK || job->film_unreadable) return err;
+  if ((err = vf_film_write(job->film, path)) == VF_OK) {
+    job->film_dirty = job->final_pending = 0;
+    job->checkpoint_error[0] = '\0';
+  }
   return err;
 }
 
@@ -116,7 +120,7 @@ static int save_events(cJSON *job, const vf_events *log) {
 }
 
 int vf_state_save_index(vf_farm *farm) {
-  int err = vf_error_set(VF_ENOMEM, "out of memory writing state.json");
+  int err = VF_ENOMEM, built = 0; /* until the text is built; its detail is set at `done` only then */
   cJSON *root = cJSON_CreateObject(), *jobs = cJSON_AddArrayToObject(root, "jobs");
   if (root == NULL || jobs == NULL) goto done;
   cJSON_AddNumberToObject(root, "format", STATE_FORMAT);
@@ -154,6 +158,7 @@ int vf_state_save_index(vf_farm *farm) {
   }
   char *text = cJSON_Print(root);
   if (text == NULL) goto done;
+  built = 1;
   char path[4096];
   if ((err = path_of(path, sizeof path, farm->config.state_dir, "state.json", 0, "")) == VF_OK)
     err = vf_file_write_atomic(path, text, strlen(text), 0600);
@@ -164,6 +169,8 @@ int vf_state_save_index(vf_farm *farm) {
   }
 done:
   cJSON_Delete(root);
+  /* Only a detail of its own: an older one (a film's write) must not be blamed on us. */
+  if (!built) err = vf_error_set(VF_ENOMEM, "out of memory writing state.json");
   return err;
 }
 
@@ -226,6 +233,23 @@ static vf_stop_reason derived_stop(const vf_job *job) {
                                                           : VF_STOP_TARGET_ERROR;
   default: return vf_job_complete(job) ? VF_STOP_ITERATIONS : VF_STOP_NONE;
   }
+}
+
+/* The job's film could not be read back (err, with its detail): the job is failed with
+ * the reason, unless it had ended already, and its film is never written over. 1 when it
+ * failed now. */
+static int unreadable_film(vf_farm *farm, vf_job *job, int err) {
+  job->film_unreadable = 1;
+  vf_log("job %llu: its film cannot be read back: %s", (unsigned long long)job->id, vf_error_detail(err));
+  if (job->end != VF_JOB_ACTIVE) return 0;
+  job->end = VF_JOB_FAILED;
+  snprintf(job->message, sizeof job->message, "its film cannot be read back: %s", vf_error_detail(err));
+  for (char *c = job->message; *c; c++)
+    if ((unsigned char)*c < 0x20 || *c == 0x7f) *c = '?';
+  job->ended_at = vf_unix_now();
+  vf_events_add(&job->events, job->ended_at, "job_failed", job->id, "", "%s", job->message);
+  farm->state_dirty = 1;
+  return 1;
 }
 
 static int load_job(vf_farm *farm, const cJSON *o, const char *state_path, uint64_t format) {
@@ -296,6 +320,7 @@ static int load_job(vf_farm *farm, const cJSON *o, const char *state_path, uint6
     goto destroy_job;
   }
   vf_film *film = NULL;
+  int failed_now = 0;
   /* The files of a JSON scene (absent: it names none); their blobs stay in DIR/blobs. */
   if ((err = path_of(path, sizeof path, dir, "job-", id, ".files")) != VF_OK) goto destroy_job;
   if ((err = vf_blob_table_load(path, &job->files)) == VF_ENOENT) err = VF_OK;
@@ -311,17 +336,21 @@ static int load_job(vf_farm *farm, const cJSON *o, const char *state_path, uint6
   }
   if ((err = path_of(path, sizeof path, dir, "job-", id, ".exr")) != VF_OK) goto destroy_job;
   err = vf_film_read(path, &film);
+  if (err == VF_OK && (err = vf_job_check_film(job, film)) != VF_OK) {
+    err = vf_error_set(VF_EFILM, "%s: does not belong to job %llu: %s", path, (unsigned long long)id,
+                       vf_error_detail(err));
+    vf_film_destroy(film);
+    film = NULL;
+  }
   if (err == VF_ENOENT) {
     err = VF_OK;
   } else if (err != VF_OK) {
-    goto destroy_job;
+    /* One job's film unreadable (truncated, damaged, or extended past the job's range by
+     * a `continue` while we were down): that job comes up failed, saying why, and its file
+     * is left as it is, never written over; the farm's other jobs run. */
+    failed_now = unreadable_film(farm, job, err);
+    err = VF_OK;
   } else {
-    err = vf_job_check_film(job, film);
-    if (err != VF_OK) {
-      err = vf_error_set(VF_EFILM, "%s: does not belong to job %llu: %s", path, (unsigned long long)id,
-                         vf_error_detail(err));
-      goto destroy_film;
-    }
     vf_film_destroy(job->film);
     job->film = film;
   }
@@ -329,14 +358,13 @@ static int load_job(vf_farm *farm, const cJSON *o, const char *state_path, uint6
    * film had not landed resumes from the last one, not complete. */
   job->stop = stop_name ? (vf_stop_reason)vf_stop_reason_parse(stop_name) : derived_stop(job);
   if (job->end == VF_JOB_ACTIVE && !vf_job_complete(job)) job->stop = VF_STOP_NONE, job->ended_at = 0.0;
+  if (failed_now) job->stop = VF_STOP_FAILED;
   vf_job_restore_measure(job);
   if ((err = vf_farm_add_job(farm, job)) != VF_OK) goto destroy_job;
   vf_log("resumed job %llu '%s': %llu/%llu iterations done%s%s", (unsigned long long)id, job->name,
          (unsigned long long)vf_job_done(job), (unsigned long long)iterations, job->end != VF_JOB_ACTIVE ? ", " : "",
          job->end != VF_JOB_ACTIVE ? end_name(job->end) : "");
   return VF_OK;
-destroy_film:
-  vf_film_destroy(film);
 destroy_job:
   vf_job_destroy(job);
   return err;

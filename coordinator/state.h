@@ -31,13 +31,16 @@
 int vf_state_lock(const char *dir, int *fd);
 
 /* Loads DIR/state.json (if present) and each job's scene and film into an empty farm.
- * A missing film means no iteration done; a film that does not match its job, or any
- * malformed file, is an error naming the file (VF_EINVAL, VF_EFILM...). */
+ * A missing film means no iteration done. A film that cannot be read or does not match
+ * its job (truncated, damaged, extended past the job's range) fails that job alone, with
+ * the reason as its message and an event (job->film_unreadable: its file is never
+ * written over); any other malformed file is an error naming the file (VF_EINVAL...). */
 int vf_state_load(vf_farm *farm);
 
 int vf_state_save_index(vf_farm *farm);          /* state.json; clears farm->state_dirty */
 int vf_state_save_scene(const char *dir, const vf_job *job); /* job-ID.files, then job-ID.scene */
-/* Writes the job's film on the calling thread; clears job->film_dirty and final_pending. */
+/* Writes the job's film on the calling thread; clears job->film_dirty, final_pending and
+ * checkpoint_error. Nothing for a film that could not be read back (job->film_unreadable). */
 int vf_state_save_film(const char *dir, vf_job *job);
 /* DIR/job-ID.exr into buf (n bytes); VF_EINVAL when it does not fit. */
 int vf_state_film_path(const char *dir, uint64_t id, char *buf, size_t n);

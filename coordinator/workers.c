@@ -3,6 +3,7 @@
 #include "../common/clock.h"
 #include "leases.h"
 #include "log.h"
+#include "poison.h"
 
 #include <sodium.h>
 #include <stdio.h>
@@ -16,7 +17,51 @@ static void copy_text(char *dst, size_t n, const char *src) {
     if ((unsigned char)*c < 0x20 || *c == 0x7f) *c = '?';
 }
 
+static void depart(vf_farm *farm, size_t i, vf_worker_state state);
+
+/* The worker's lease ends with the worker gone: a failure of the lease when no part of it
+ * was merged (coordinator/poison.h), else it only returns to the pool. */
+static void lose_lease(vf_farm *farm, vf_farm_worker *w, vf_lease *l, const char *why, double now) {
+  uint64_t job_id = l->job_id;
+  int progress = l->begin != l->first;
+  vf_leases_end(farm, l, 1, now);
+  if (!progress) vf_poison_lease_failed(farm, job_id, w->name, why, now);
+}
+
+/* A worker registering under the name of one still registered is that worker restarted:
+ * the old one crashed (or was killed) and is lost now, its lease failed when it had merged
+ * nothing. Names identify workers across restarts (docs/PROTOCOL.md, "Poison jobs"). */
+static void replace_restarted(vf_farm *farm, const char *name, double now) {
+  for (size_t i = 0; i < farm->num_workers;) {
+    vf_farm_worker *old = &farm->workers[i];
+    if (strcmp(old->name, name) != 0) {
+      i++;
+      continue;
+    }
+    double at = vf_unix_now();
+    vf_lease *l = vf_lease_find(&farm->leases, old->lease_id);
+    if (l) {
+      vf_job *job = vf_farm_job(farm, l->job_id);
+      vf_log("worker %s registered again while holding lease %016llx of job %llu [%llu,%llu): it restarted; the lease "
+             "returns to the pool", old->name, (unsigned long long)l->id, (unsigned long long)l->job_id,
+             (unsigned long long)l->begin, (unsigned long long)l->end);
+      if (job)
+        vf_events_add(&job->events, at, "worker_lost", job->id, old->name,
+                      "worker %s restarted while holding lease [%llu,%llu), which returns to the pool", old->name,
+                      (unsigned long long)l->begin, (unsigned long long)l->end);
+      lose_lease(farm, old, l, "it restarted (crashed?) while holding the lease", now);
+    } else {
+      vf_log("worker %s registered again: the earlier one is lost", old->name);
+    }
+    vf_events_add(&farm->events, at, "worker_lost", 0, old->name, "worker %s restarted", old->name);
+    depart(farm, i, VF_WORKER_LOST);
+  }
+}
+
 void vf_workers_register(vf_farm *farm, const Vcmfarm__Register *m, double now, vf_farm_reply *r) {
+  char name[128];
+  copy_text(name, sizeof name, m->name);
+  if (name[0] != '\0') replace_restarted(farm, name, now);
   if (farm->num_workers == farm->workers_capacity) {
     size_t cap = farm->workers_capacity ? 2 * farm->workers_capacity : 8;
     vf_farm_worker *grown = realloc(farm->workers, cap * sizeof *grown);
@@ -29,7 +74,7 @@ void vf_workers_register(vf_farm *farm, const Vcmfarm__Register *m, double now, 
   do {
     randombytes_buf(&w->id, sizeof w->id);
   } while (w->id == 0 || vf_farm_find_worker(farm, w->id) != w);
-  copy_text(w->name, sizeof w->name, m->name);
+  memcpy(w->name, name, sizeof w->name);
   copy_text(w->host, sizeof w->host, m->host);
   copy_text(w->version, sizeof w->version, m->software_version);
   w->cores = m->cores;
@@ -93,7 +138,9 @@ int vf_workers_expire(vf_farm *farm, double now) {
         vf_events_add(&job->events, at, "worker_lost", job->id, w->name,
                       "worker %s lost after %.1f s of silence; its lease [%llu,%llu) expired and returns to the pool",
                       w->name, silent, (unsigned long long)l->begin, (unsigned long long)l->end);
-      vf_leases_end(farm, l, 1, now);
+      char why[96];
+      snprintf(why, sizeof why, "lost after %.1f s of silence while holding the lease", silent);
+      lose_lease(farm, w, l, why, now);
     } else {
       vf_log("worker %s lost (silent for %.1f s)", w->name, silent);
     }

@@ -13,11 +13,14 @@
 #include "farm_core.h"
 #include "farm_reply.h"
 
-/* Register -> Registered: a new worker with a fresh random id, its name sanitised. */
+/* Register -> Registered: a new worker with a fresh random id, its name sanitised. One
+ * still registered under that name is that worker restarted (names identify workers): it
+ * is lost at once, and its lease, if no part of it was merged, failed (coordinator/poison.h). */
 void vf_workers_register(vf_farm *farm, const Vcmfarm__Register *m, double now, vf_farm_reply *r);
 
 /* Declares the workers silent for longer than the worker timeout lost and returns their
- * leases to the pool (kept as expired, for their late results). Returns how many. */
+ * leases to the pool (kept as expired, for their late results); a lease of which no part
+ * was merged failed (coordinator/poison.h). Returns how many. */
 int vf_workers_expire(vf_farm *farm, double now);
 
 /* Goodbye -> ResultAck: stopping (done false) or left (done true; the worker is departed

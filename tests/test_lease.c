@@ -3,12 +3,16 @@
  * is leased again; an expired lease returns its range to the pool but stays findable for
  * late results, up to a limit; sizes are the worker's rate times the lease duration, at
  * most a fair share; a revoked lease is no longer valid to its worker's heartbeats and its
- * job is charged the time it really took. */
+ * job is charged the time it really took. Failed leases (coordinator/poison.h): a worker
+ * whose lease failed is blocked from the job until forgiven, failures on three workers in
+ * a row fail the job, a merge clears them, and a worker registering again under its name
+ * or lost without progress failed its lease. */
 #include "check.h"
 #include "common/error.h"
 #include "common/settings.h"
 #include "coordinator/leases.h"
 #include "coordinator/log.h"
+#include "coordinator/poison.h"
 #include "coordinator/workers.h"
 
 #include <stdlib.h>
@@ -220,7 +224,7 @@ typedef struct {
 } farm_fixture;
 
 static void farm_setup(farm_fixture *f, uint64_t iterations, int workers) {
-  vf_farm_config config = {"/nonexistent/vf_test_lease", 15.0, 20.0};
+  vf_farm_config config = {"/nonexistent/vf_test_lease", 15.0, 20.0, 60.0};
   vf_farm_init(&f->farm, &config);
   f->now = 100.0;
   vf_settings s;
@@ -233,7 +237,9 @@ static void farm_setup(farm_fixture *f, uint64_t iterations, int workers) {
   CHECK_INT_EQ(vf_farm_add_job(&f->farm, f->job), VF_OK);
   for (int i = 0; i < workers; i++) {
     Vcmfarm__Register m = VCMFARM__REGISTER__INIT;
-    m.name = "w";
+    char name[8]; /* distinct: a name registering again is that worker restarted */
+    snprintf(name, sizeof name, "w%d", i);
+    m.name = name;
     vf_farm_reply r;
     vf_farm_reply_init(&r);
     vf_workers_register(&f->farm, &m, f->now, &r);
@@ -338,34 +344,177 @@ static void test_a_revoked_lease_is_invalid_and_charged(void) {
   vf_farm_destroy(&f.farm);
 }
 
-static void test_a_release_returns_the_lease_or_fails_the_job(void) {
+static void release(farm_fixture *f, int i, uint64_t lease_id, const char *failure, int want_accepted) {
+  Vcmfarm__LeaseRelease m = VCMFARM__LEASE_RELEASE__INIT;
+  m.worker_id = f->worker[i];
+  m.lease_id = lease_id;
+  m.failure = (char *)failure;
+  vf_farm_reply r;
+  vf_farm_reply_init(&r);
+  vf_leases_release(&f->farm, vf_farm_find_worker(&f->farm, f->worker[i]), &m, f->now, &r);
+  CHECK_INT_EQ(r.result_ack.accepted, want_accepted);
+  vf_farm_reply_release(&r);
+}
+
+static void test_a_release_returns_the_lease_to_the_pool(void) {
   farm_fixture f;
   farm_setup(&f, 100, 2);
   vf_lease *a = grant(&f, 0);
   CHECK(a != NULL);
   uint64_t id = a ? a->id : 0;
-  Vcmfarm__LeaseRelease m = VCMFARM__LEASE_RELEASE__INIT;
-  m.lease_id = id;
-  vf_farm_reply r;
-  vf_farm_reply_init(&r);
-  vf_leases_release(&f.farm, vf_farm_find_worker(&f.farm, f.worker[1]), &m, f.now, &r);
-  CHECK(!r.result_ack.accepted); /* not worker 1's to give back */
-  vf_farm_reply_release(&r);
-  vf_leases_release(&f.farm, vf_farm_find_worker(&f.farm, f.worker[0]), &m, f.now, &r);
-  CHECK(r.result_ack.accepted);
-  vf_farm_reply_release(&r);
+  release(&f, 1, id, "", 0); /* not worker 1's to give back */
+  release(&f, 0, id, "", 1);
   CHECK(vf_lease_find(&f.farm.leases, id) == NULL);
   CHECK_INT_EQ(f.job->end, VF_JOB_ACTIVE);
-  a = grant(&f, 0);
+  CHECK_INT_EQ(f.job->lease_failures, 0);
+  CHECK(grant(&f, 0) != NULL); /* handing back is no failure: not blocked */
+  vf_farm_destroy(&f.farm);
+}
+
+static void test_a_reported_failure_blocks_the_worker_until_forgiven(void) {
+  farm_fixture f;
+  farm_setup(&f, 100, 2);
+  vf_lease *a = grant(&f, 0);
   CHECK(a != NULL);
-  m.lease_id = a ? a->id : 0;
-  m.failure = "scene does not load:\nbad";
-  vf_leases_release(&f.farm, vf_farm_find_worker(&f.farm, f.worker[0]), &m, f.now, &r);
-  vf_farm_reply_release(&r);
+  release(&f, 0, a ? a->id : 0, "scene does not load:\nbad", 1);
+  /* One worker failing is no reason to fail the job: the others may render it. */
+  CHECK_INT_EQ(f.job->end, VF_JOB_ACTIVE);
+  CHECK_INT_EQ(f.job->lease_failures, 1);
+  const vf_event *e = vf_events_at(&f.job->events, f.job->events.count - 1);
+  CHECK(e != NULL);
+  if (e) {
+    CHECK_STR_EQ(e->kind, "lease_failed");
+    CHECK_STR_CONTAINS(e->message, "scene does not load:?bad"); /* no control characters */
+  }
+  CHECK(grant(&f, 0) == NULL); /* blocked from its only job: idle */
+  CHECK_INT_EQ(f.job->schedule_idle, 0); /* the job is not idle for the others: it keeps its place */
+  CHECK(grant(&f, 1) != NULL);
+  f.now += 59.0;
+  vf_poison_tick(&f.farm, f.now);
+  CHECK(vf_poison_blocked(&f.farm, "w0", f.job->id, f.now));
+  f.now += 2.0; /* the forgive time of 60 s is over */
+  vf_poison_tick(&f.farm, f.now);
+  CHECK(!vf_poison_blocked(&f.farm, "w0", f.job->id, f.now));
+  CHECK(grant(&f, 0) != NULL);
+  e = vf_events_at(&f.job->events, f.job->events.count - 1);
+  if (e) CHECK_STR_EQ(e->kind, "worker_forgiven");
+  vf_farm_destroy(&f.farm);
+}
+
+static void test_failures_on_three_workers_in_a_row_fail_the_job(void) {
+  farm_fixture f;
+  farm_setup(&f, 100, 4);
+  for (int i = 0; i < 2; i++) {
+    vf_lease *l = grant(&f, i);
+    CHECK(l != NULL);
+    release(&f, i, l ? l->id : 0, "renderer: out of memory", 1);
+  }
+  vf_lease *held = grant(&f, 3);
+  CHECK(held != NULL);
+  uint64_t held_id = held ? held->id : 0;
+  CHECK_INT_EQ(f.job->end, VF_JOB_ACTIVE);
+  vf_lease *l = grant(&f, 2);
+  CHECK(l != NULL);
+  release(&f, 2, l ? l->id : 0, "renderer: out of memory", 1);
   CHECK_INT_EQ(f.job->end, VF_JOB_FAILED);
-  CHECK_STR_CONTAINS(f.job->message, "scene does not load:?bad"); /* no control characters */
+  CHECK_INT_EQ(f.job->stop, VF_STOP_FAILED);
+  CHECK_STR_CONTAINS(f.job->message, "3 workers in a row");
+  CHECK_STR_CONTAINS(f.job->message, "w2: renderer: out of memory");
   CHECK(f.farm.state_dirty);
-  CHECK(grant(&f, 1) == NULL);
+  CHECK(!heartbeat_valid(&f, 3, held_id)); /* every lease of the job ended */
+  CHECK(grant(&f, 3) == NULL);
+  vf_farm_destroy(&f.farm);
+}
+
+static void test_a_merge_clears_the_failures_in_a_row(void) {
+  farm_fixture f;
+  farm_setup(&f, 100, 4);
+  for (int i = 0; i < 2; i++) {
+    vf_lease *l = grant(&f, i);
+    release(&f, i, l ? l->id : 0, "renderer: out of memory", 1);
+  }
+  CHECK_INT_EQ(f.job->failed_workers_count, 2);
+  vf_film *part = NULL;
+  CHECK_INT_EQ(vf_film_clone(f.job->film, &part), VF_OK);
+  if (part) {
+    CHECK_INT_EQ(vf_iterset_add(&part->iterations, 50, 51), VF_OK);
+    CHECK_INT_EQ(vf_job_merge(f.job, part, f.now), VF_OK);
+    vf_film_destroy(part);
+  }
+  CHECK_INT_EQ(f.job->lease_failures, 0);
+  CHECK_INT_EQ(f.job->failed_workers_count, 0);
+  vf_lease *l = grant(&f, 2);
+  release(&f, 2, l ? l->id : 0, "renderer: out of memory", 1);
+  CHECK_INT_EQ(f.job->end, VF_JOB_ACTIVE); /* 1 in a row, not 3 */
+  vf_farm_destroy(&f.farm);
+}
+
+static void test_a_job_every_worker_is_blocked_from_fails(void) {
+  farm_fixture f;
+  farm_setup(&f, 100, 1);
+  for (int round = 0; round < 3; round++) {
+    vf_lease *l = grant(&f, 0);
+    CHECK(l != NULL);
+    release(&f, 0, l ? l->id : 0, "cannot fetch tri.ply: damaged", 1);
+    CHECK(grant(&f, 0) == NULL); /* blocked */
+    if (round < 2) {
+      /* Fewer than 3 failures in a row: the worker is forgiven and tries again. */
+      f.farm.started_at -= 16.0;
+      vf_poison_tick(&f.farm, f.now);
+      CHECK_INT_EQ(f.job->end, VF_JOB_ACTIVE);
+      f.farm.started_at += 16.0;
+      f.now += 61.0;
+      vf_poison_tick(&f.farm, f.now);
+    }
+  }
+  /* 3 in a row, and the only worker blocked; but just started: the other workers of a
+   * restarted farm may not have registered yet. */
+  CHECK_INT_EQ(f.job->end, VF_JOB_ACTIVE);
+  vf_poison_tick(&f.farm, f.now);
+  CHECK_INT_EQ(f.job->end, VF_JOB_ACTIVE);
+  f.farm.started_at -= 16.0; /* up for longer than the worker timeout of 15 s */
+  vf_poison_tick(&f.farm, f.now);
+  CHECK_INT_EQ(f.job->end, VF_JOB_FAILED);
+  CHECK_STR_CONTAINS(f.job->message, "3 leases failed in a row with no iteration merged and every worker is blocked");
+  vf_farm_destroy(&f.farm);
+}
+
+static void test_a_worker_registering_again_crashed_on_its_lease(void) {
+  farm_fixture f;
+  farm_setup(&f, 100, 2);
+  vf_lease *l = grant(&f, 0);
+  CHECK(l != NULL);
+  uint64_t id = l ? l->id : 0;
+  Vcmfarm__Register m = VCMFARM__REGISTER__INIT;
+  m.name = "w0";
+  vf_farm_reply r;
+  vf_farm_reply_init(&r);
+  vf_workers_register(&f.farm, &m, f.now, &r);
+  uint64_t again = r.registered.worker_id;
+  vf_farm_reply_release(&r);
+  CHECK(vf_farm_find_worker(&f.farm, f.worker[0]) == NULL); /* the old one is lost */
+  CHECK(vf_farm_find_worker(&f.farm, again) != NULL);
+  CHECK_INT_EQ(f.farm.num_workers, 2);
+  l = vf_lease_find(&f.farm.leases, id);
+  CHECK(l == NULL || l->state == VF_LEASE_EXPIRED);
+  CHECK_INT_EQ(f.job->lease_failures, 1);
+  f.worker[0] = again;
+  CHECK(grant(&f, 0) == NULL); /* known by name: still blocked */
+  vf_farm_destroy(&f.farm);
+}
+
+static void test_a_worker_lost_without_progress_failed_its_lease(void) {
+  farm_fixture f;
+  farm_setup(&f, 100, 2);
+  vf_lease *l0 = grant(&f, 0), *l1 = grant(&f, 1);
+  CHECK(l0 != NULL && l1 != NULL);
+  if (l1) l1->begin++; /* worker 1 had a part merged */
+  f.now += 16.0;
+  CHECK_INT_EQ(vf_workers_expire(&f.farm, f.now), 2);
+  CHECK_INT_EQ(f.job->lease_failures, 1);
+  CHECK_STR_EQ(f.job->failed_workers[0], "w0");
+  CHECK(vf_poison_blocked(&f.farm, "w0", f.job->id, f.now));
+  CHECK(!vf_poison_blocked(&f.farm, "w1", f.job->id, f.now));
   vf_farm_destroy(&f.farm);
 }
 
@@ -382,6 +531,12 @@ int main(void) {
   RUN(test_grants_are_sized_by_rate_and_fair_share);
   RUN(test_no_free_range_means_idle);
   RUN(test_a_revoked_lease_is_invalid_and_charged);
-  RUN(test_a_release_returns_the_lease_or_fails_the_job);
+  RUN(test_a_release_returns_the_lease_to_the_pool);
+  RUN(test_a_reported_failure_blocks_the_worker_until_forgiven);
+  RUN(test_failures_on_three_workers_in_a_row_fail_the_job);
+  RUN(test_a_merge_clears_the_failures_in_a_row);
+  RUN(test_a_job_every_worker_is_blocked_from_fails);
+  RUN(test_a_worker_registering_again_crashed_on_its_lease);
+  RUN(test_a_worker_lost_without_progress_failed_its_lease);
   return check_finish();
 }

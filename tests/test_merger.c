@@ -6,6 +6,8 @@
  * part costs the merge thread a decode of 510 tiles and an addition of 100 MB), parts must
  * be merged meanwhile, and an answer "busy" must come with a time to retry. */
 #include "check.h"
+
+#include <stdio.h>
 #include "common/clock.h"
 #include "common/error.h"
 #include "common/farm_client.h"
@@ -42,7 +44,10 @@ static int call(vf_farm_client *c, Vcmfarm__Envelope *q, Vcmfarm__Envelope__Body
 
 static uint64_t register_worker(vf_farm_client *c) {
   Vcmfarm__Register reg = VCMFARM__REGISTER__INIT;
-  reg.name = "t";
+  static int registered; /* distinct names: a name registering again is that worker restarted */
+  char name[16];
+  snprintf(name, sizeof name, "%s%d", "t", registered++);
+  reg.name = name;
   Vcmfarm__Envelope q = VCMFARM__ENVELOPE__INIT, *reply;
   q.body_case = VCMFARM__ENVELOPE__BODY_REGISTER;
   q.register_ = &reg;

@@ -4,6 +4,8 @@
  * Lease and HeartbeatAck, and leases last at least as long; while a worker's rate is
  * unknown its lease is bounded by time, and its heartbeats tell the rate. */
 #include "check.h"
+
+#include <stdio.h>
 #include "common/error.h"
 #include "common/settings.h"
 #include "coordinator/farm.h"
@@ -25,7 +27,7 @@ typedef struct {
 static void request(fixture *f, Vcmfarm__Envelope *q, vf_farm_reply *r) { vf_farm_handle(&f->farm, q, f->now, r); }
 
 static void setup(fixture *f, int width, int height) {
-  vf_farm_config config = {dir, 1e9, 20.0};
+  vf_farm_config config = {dir, 1e9, 20.0, 0.0};
   vf_farm_init(&f->farm, &config);
   f->now = 1000.0;
   vf_settings s;
@@ -57,7 +59,10 @@ static void setup(fixture *f, int width, int height) {
 
 static uint64_t register_worker(fixture *f) {
   Vcmfarm__Register reg = VCMFARM__REGISTER__INIT;
-  reg.name = "w";
+  static int registered; /* distinct names: a name registering again is that worker restarted */
+  char name[16];
+  snprintf(name, sizeof name, "%s%d", "w", registered++);
+  reg.name = name;
   Vcmfarm__Envelope q = VCMFARM__ENVELOPE__INIT;
   q.body_case = VCMFARM__ENVELOPE__BODY_REGISTER;
   q.register_ = &reg;

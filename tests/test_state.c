@@ -1,7 +1,8 @@
 /* The coordinator's state directory (coordinator/state.h): every job written (job list,
  * scene, file table, film, reference) is read back as it was, a stopped job whose final
  * film is not durable yet is read back active, older formats are read, and a damaged
- * file is refused with an error naming the file and what is wrong with it. */
+ * file is refused with an error naming the file and what is wrong with it, except a job's
+ * film: a broken one fails that job alone. */
 #include "check.h"
 #include "common/error.h"
 #include "common/file.h"
@@ -48,7 +49,7 @@ static const char *iterations_of(const vf_film *film) {
 
 /* A farm on the state directory dir, empty. */
 static void open_farm(vf_farm *farm, const char *dir) {
-  vf_farm_config config = {dir, 15.0, 20.0};
+  vf_farm_config config = {dir, 15.0, 20.0, 0.0};
   vf_farm_init(farm, &config);
 }
 
@@ -245,7 +246,10 @@ static void test_a_failed_checkpoint_is_an_event_of_its_job(void) {
   float rgb[3 * W * H] = {0};
   CHECK_INT_EQ(vf_film_add_iteration(j->film, 0, rgb, rgb, NULL), VF_OK);
   j->film_dirty = 1;
-  CHECK(vf_checkpoint_write(&farm, 0) != VF_OK);
+  int err = vf_checkpoint_write(&farm, 0);
+  CHECK(err != VF_OK);
+  /* The first error, the film's, not what the job list's write left behind. */
+  CHECK_STR_CONTAINS(vf_error_detail(err), "job 1's film: ");
   CHECK_INT_EQ(j->events.count, 1);
   const vf_event *e = vf_events_at(&j->events, 0);
   if (e) {
@@ -254,6 +258,18 @@ static void test_a_failed_checkpoint_is_an_event_of_its_job(void) {
     if (!(e->time > 1.6e9)) CHECK_FAIL_("event time %g, expected a Unix time", e->time);
   }
   CHECK(j->film_dirty); /* the next checkpoint tries again */
+  CHECK_STR_CONTAINS(j->checkpoint_error, "film checkpoint failed (retrying): "); /* status's message */
+  /* Complete, its final film not durable: not done. */
+  for (uint64_t i = 1; i < 10; i++) CHECK_INT_EQ(vf_film_add_iteration(j->film, i, rgb, rgb, NULL), VF_OK);
+  vf_checkpoint_final(&farm, j);
+  CHECK(j->final_pending);
+  CHECK_STR_EQ(vf_job_state(j, 0), "running");
+  /* The directory usable again: the next checkpoint lands, the job is done, the message gone. */
+  farm.config.state_dir = dir;
+  CHECK_INT_EQ(vf_checkpoint_write(&farm, 0), VF_OK);
+  CHECK(!j->final_pending);
+  CHECK_STR_EQ(vf_job_state(j, 0), "done");
+  CHECK_STR_EQ(j->checkpoint_error, "");
   vf_farm_destroy(&farm);
 }
 
@@ -341,6 +357,105 @@ static int load(const char *dir, char *detail, size_t n) {
   return err;
 }
 
+/* Loads dir: 1 when it loads with job 1 failed (its message into detail), 0 when job 1
+ * is not failed, -1 when the load fails (its detail into detail). */
+static int load_failed(const char *dir, char *detail, size_t n) {
+  vf_farm farm;
+  open_farm(&farm, dir);
+  int err = vf_state_load(&farm), rc = -1;
+  snprintf(detail, n, "%s", err != VF_OK ? vf_error_detail(err) : "");
+  vf_job *j = err == VF_OK ? vf_farm_job(&farm, 1) : NULL;
+  if (j) {
+    rc = j->end == VF_JOB_FAILED;
+    snprintf(detail, n, "%s", j->message);
+  }
+  vf_farm_destroy(&farm);
+  return rc;
+}
+
+static long file_size(const char *dir, const char *name) {
+  char path[8192];
+  snprintf(path, sizeof path, "%s/%s", dir, name);
+  FILE *f = fopen(path, "rb");
+  if (f == NULL) return -1;
+  fseek(f, 0, SEEK_END);
+  long n = ftell(f);
+  fclose(f);
+  return n;
+}
+
+/* A film truncated on disk, or extended beyond its job's range (a user's `continue` while
+ * the coordinator was down), fails its job alone: the farm loads, the other job runs, the
+ * failed job says why in its message and events, and its file is never written over. */
+static void test_a_broken_film_fails_its_job_alone(void) {
+  char dir[4200], path[8192];
+  vf_farm farm;
+  fresh_farm(&farm, dir, sizeof dir, "broken_film");
+  vf_job *a = add_job(&farm, 1, "cornell", 0, 10), *b = add_job(&farm, 1, "cornell", 0, 10);
+  if (a == NULL || b == NULL) return vf_farm_destroy(&farm);
+  CHECK_INT_EQ(vf_state_save_scene(dir, a), VF_OK);
+  CHECK_INT_EQ(vf_state_save_scene(dir, b), VF_OK);
+  float rgb[3 * W * H] = {0};
+  for (uint64_t i = 0; i < 3; i++) {
+    CHECK_INT_EQ(vf_film_add_iteration(a->film, i, rgb, rgb, NULL), VF_OK);
+    CHECK_INT_EQ(vf_film_add_iteration(b->film, i, rgb, rgb, NULL), VF_OK);
+  }
+  CHECK_INT_EQ(vf_checkpoint_write(&farm, 1), VF_OK);
+  vf_farm_destroy(&farm);
+  /* Job 1's film truncated to half its bytes. */
+  long full = file_size(dir, "job-1.exr");
+  CHECK(full > 0);
+  snprintf(path, sizeof path, "%s/job-1.exr", dir);
+  CHECK_INT_EQ(truncate(path, full / 2), 0);
+  /* Job 2's film extended past [0, 10) by iterations [10, 12). */
+  vf_film *film = NULL;
+  snprintf(path, sizeof path, "%s/job-2.exr", dir);
+  CHECK_INT_EQ(vf_film_read(path, &film), VF_OK);
+  if (film) {
+    CHECK_INT_EQ(vf_film_add_iteration(film, 10, rgb, rgb, NULL), VF_OK);
+    CHECK_INT_EQ(vf_film_add_iteration(film, 11, rgb, rgb, NULL), VF_OK);
+    CHECK_INT_EQ(vf_film_write(film, path), VF_OK);
+    vf_film_destroy(film);
+  }
+  long extended = file_size(dir, "job-2.exr");
+  vf_job *c = NULL;
+  for (int round = 0; round < 2; round++) { /* and again after the failures were written */
+    open_farm(&farm, dir);
+    int err = vf_state_load(&farm);
+    CHECK_INT_EQ(err, VF_OK);
+    if (err != VF_OK) fprintf(stderr, "  %s\n", vf_error_detail(err));
+    if (round == 0) { /* a third job, intact, that the farm goes on with */
+      c = add_job(&farm, 1, "cornell", 0, 10);
+      if (c) CHECK_INT_EQ(vf_film_add_iteration(c->film, 0, rgb, rgb, NULL), VF_OK);
+      if (c) c->film_dirty = 1;
+      if (c) CHECK_INT_EQ(vf_state_save_scene(dir, c), VF_OK);
+      farm.state_dirty = 1;
+    }
+    a = vf_farm_job(&farm, 1);
+    b = vf_farm_job(&farm, 2);
+    c = vf_farm_job(&farm, 3);
+    CHECK(a != NULL && b != NULL && c != NULL);
+    if (a && b && c) {
+      CHECK_INT_EQ(a->end, VF_JOB_FAILED);
+      CHECK_STR_EQ(vf_stop_reason_name(a->stop), "failed");
+      CHECK_STR_EQ(vf_job_state(a, 0), "failed");
+      CHECK_STR_CONTAINS(a->message, "its film cannot be read back: ");
+      CHECK_STR_CONTAINS(a->message, "job-1.exr");
+      CHECK_INT_EQ(b->end, VF_JOB_FAILED);
+      CHECK_STR_CONTAINS(b->message, "job-2.exr: does not belong to job 2: film holds iterations outside job 2's [0,10)");
+      const vf_event *e = vf_events_at(&b->events, b->events.count - 1);
+      if (e) CHECK_STR_EQ(e->kind, "job_failed");
+      CHECK_INT_EQ(c->end, VF_JOB_ACTIVE);
+      CHECK(vf_job_runnable(c));
+      CHECK_INT_EQ(vf_job_done(c), 1);
+    }
+    CHECK_INT_EQ(vf_checkpoint_write(&farm, 1), VF_OK);
+    vf_farm_destroy(&farm);
+    CHECK_INT_EQ(file_size(dir, "job-1.exr"), full / 2); /* left as they were, for the user */
+    CHECK_INT_EQ(file_size(dir, "job-2.exr"), extended);
+  }
+}
+
 /* A job list of format 3 (no times, reasons or events) with settings in 17 digits: read,
  * the settings in today's form, the stop reason derived from the end. */
 static void test_format_3_is_read_with_old_settings_text(void) {
@@ -424,20 +539,20 @@ static void test_a_damaged_job_list_is_refused_naming_the_problem(void) {
 
 static void test_damaged_job_files_are_refused_naming_the_file(void) {
   char dir[4200], text[4096], detail[2048], path[8192];
+  int err;
   fresh_dir(dir, sizeof dir, "damaged_files");
   job_list(text, sizeof text, 3, NULL, NULL);
   write_file(dir, "state.json", text);
   /* No scene file. */
-  int err = load(dir, detail, sizeof detail);
+  err = load(dir, detail, sizeof detail);
   CHECK_INT_EQ(err, VF_ENOENT);
   CHECK_STR_CONTAINS(detail, "job-1.scene");
   write_file(dir, "job-1.scene", "cornell");
-  /* A film that is not an EXR. */
+  /* A film that is not an EXR, or of another job (another size): the job comes up failed,
+   * naming the file (test_a_broken_film_fails_its_job_alone). */
   write_file(dir, "job-1.exr", "this is no film");
-  err = load(dir, detail, sizeof detail);
-  CHECK(err != VF_OK);
+  CHECK_INT_EQ(load_failed(dir, detail, sizeof detail), 1);
   CHECK_STR_CONTAINS(detail, "job-1.exr");
-  /* A film of another job (another size). */
   vf_film *film = NULL;
   CHECK_INT_EQ(vf_film_create(W * 2, H, &film), VF_OK);
   memcpy(film->scene_hash, scene_hash, 32);
@@ -445,8 +560,7 @@ static void test_damaged_job_files_are_refused_naming_the_file(void) {
   snprintf(path, sizeof path, "%s/job-1.exr", dir);
   CHECK_INT_EQ(vf_film_write(film, path), VF_OK);
   vf_film_destroy(film);
-  err = load(dir, detail, sizeof detail);
-  CHECK_INT_EQ(err, VF_EFILM);
+  CHECK_INT_EQ(load_failed(dir, detail, sizeof detail), 1);
   CHECK_STR_CONTAINS(detail, "job-1.exr: does not belong to job 1: film is 16x4, job 1 is 8x4");
   unlink(path);
   /* A damaged file table. */
@@ -539,6 +653,7 @@ int main(void) {
   RUN(test_a_stop_not_yet_durable_is_written_active);
   RUN(test_a_damaged_job_list_is_refused_naming_the_problem);
   RUN(test_damaged_job_files_are_refused_naming_the_file);
+  RUN(test_a_broken_film_fails_its_job_alone);
   RUN(test_format_1_is_read);
   RUN(test_one_coordinator_per_directory);
   RUN(test_a_refused_jobs_files_are_removed);

@@ -60,6 +60,7 @@ typedef struct {
   int iteration_delay_ms;
   const char *stall_file;
   int stalled;
+  const char *abort_scene;
 } worker;
 
 static void log_v(const char *fmt, va_list ap) {
@@ -159,6 +160,12 @@ static int prepare(worker *w, const Vcmfarm__Lease *l, const vf_settings *settin
   w->scene = NULL;
   char label[64];
   snprintf(label, sizeof label, "job %llu scene", (unsigned long long)l->job_id);
+  if (w->abort_scene != NULL &&
+      (l->scene->source_case == VCMFARM__SCENE__SOURCE_BUILTIN ? strcmp(l->scene->builtin, w->abort_scene) == 0
+                                                                : strstr(l->scene->json, w->abort_scene) != NULL)) {
+    log_line("%s: crashing (test: --test-abort-scene %s)", label, w->abort_scene);
+    abort();
+  }
   /* Its files (if any) come from the cache, fetched first when missing. */
   int err = vf_blob_cache_load_scene(w->client, w->worker_id, w->cache_dir, w->cache_max_bytes, l->scene, label,
                                      w->quiet, &w->scene);
@@ -442,6 +449,7 @@ int vf_worker_run(const vf_worker_config *config, volatile sig_atomic_t *stop, v
   w->ship_interval = config->ship_interval; /* 0: the coordinator's */
   w->iteration_delay_ms = config->iteration_delay_ms;
   w->stall_file = config->stall_file;
+  w->abort_scene = config->abort_scene;
   if (config->name) {
     snprintf(w->name, sizeof w->name, "%s", config->name);
   } else {

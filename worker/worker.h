@@ -38,6 +38,8 @@ typedef struct {
   /* test hooks (vcmfarm worker --help) */
   int iteration_delay_ms;
   const char *stall_file;
+  const char *abort_scene;    /* abort() (a crash, SIGABRT) on a lease whose built-in scene is
+                               * this name or whose JSON scene text contains it */
 } vf_worker_config;
 
 /* What the worker rendered, over all its leases (merged or not). */

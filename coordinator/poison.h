@@ -1,0 +1,43 @@
+/* Poison jobs and the blocklist (docs/PROTOCOL.md, "Poison jobs"). A lease fails when the
+ * worker holding it reports that it cannot render the job (LeaseRelease.failure), or when
+ * the worker is lost (silent for the worker timeout) or comes back under the same name
+ * (it crashed and was restarted) before any part of that lease was merged. A failed lease:
+ *
+ *   - puts its worker on the job's blocklist for the forgive time (--forgive): that worker
+ *     is not handed the job again until then (workers are known by name, so a restarted
+ *     one is still blocked), and is then forgiven;
+ *   - counts towards the job's failures in a row, which any merged part clears
+ *     (vf_job_merge).
+ *
+ * The job fails (state `failed`, the reason in its message and events) once it has
+ * VF_POISON_WORKERS (3) failures in a row and they come from as many distinct workers, or
+ * every registered worker is blocked from it (a farm of fewer workers: no one is left to
+ * try it; only after the coordinator has been up for a worker timeout, so that the
+ * workers of a farm it restarted have registered again).
+ * The blocklist and the failures in a row live in memory: a restarted coordinator forgives
+ * everyone. Single-threaded, as the farm. */
+#ifndef VF_POISON_H
+#define VF_POISON_H
+
+#include "farm_core.h"
+
+#include <stdint.h>
+
+#define VF_POISON_WORKERS VF_JOB_FAILED_WORKERS
+
+/* A lease of job_id held by the worker named `worker` failed for `why` (a sentence): the
+ * worker is blocked from the job, the failure counted, and the job failed (its leases
+ * ended) when the rule above says so. Nothing when the job is gone or has ended. */
+void vf_poison_lease_failed(vf_farm *farm, uint64_t job_id, const char *worker, const char *why, double now);
+
+/* The worker named `worker` may not be handed job_id now. */
+int vf_poison_blocked(const vf_farm *farm, const char *worker, uint64_t job_id, double now);
+
+/* Forgives the workers whose time is up, and fails the jobs every registered worker is
+ * blocked from (see above). Called from the farm's tick. */
+void vf_poison_tick(vf_farm *farm, double now);
+
+/* Forgets the job's blocklist entries (the job was removed). */
+void vf_poison_forget_job(vf_farm *farm, uint64_t job_id);
+
+#endif

@@ -1,0 +1,321 @@
+#!/usr/bin/env bash
+# The farm under faults, end to end over ipc:// in a temporary directory, with the real
+# binary's processes (docs/PROTOCOL.md, "Poison jobs" and "Disk full"):
+#
+#   poison_scene  a scene that crashes every worker that leases it (--test-abort-scene,
+#                 SIGABRT) becomes a failed job naming why, after three workers restarted
+#                 by a supervisor loop crashed on it; another job runs to its end meanwhile,
+#                 equal to `render --direct`; a worker that crashed on a job is not handed
+#                 it again until forgiven (--forgive), then is.
+#   broken_film   the film of one job truncated, that of another extended beyond its range
+#                 by a `continue` while the coordinator was down: the coordinator starts,
+#                 both jobs come up failed naming their film, a third job runs to its end.
+#   disk_full     the state directory on a small tmpfs, filled: checkpoint failures show in
+#                 the job's status message, the job is not `done` while its final film is
+#                 not on disk, and becomes done once space is back (retrying); at SIGTERM
+#                 on a full disk the exit message names the film and the real cause.
+#                 Needs root to mount a tmpfs: exit 77 (skipped) with a message otherwise.
+#   soak          workers and the coordinator SIGKILLed and restarted at random while one
+#                 job renders; the film equals `render --direct`, every iteration exactly
+#                 once (tests/farm_compare.c). SOAK_SECONDS (default 40) bounds the kills;
+#                 SOAK_SECONDS=600 is the benchmark run.
+#
+#   test_farm_faults.sh CASE VCMFARM FARM_COMPARE
+#
+# No fixed sleeps synchronise anything: the script polls `vcmfarm status` with a deadline;
+# every process it starts is killed on exit. KEEP_TMP=1 keeps the logs.
+set -u
+case_name="$1"
+vcmfarm="$2"
+compare="$3"
+tmp=$(mktemp -d /tmp/vf-faults-XXXXXX)
+pids=()
+mounted=""
+cleanup() {
+  for p in "${pids[@]}"; do kill -9 "$p" 2>/dev/null; done
+  wait 2>/dev/null
+  [ -n "$mounted" ] && umount "$mounted" 2>/dev/null
+  [ -n "${KEEP_TMP:-}" ] || rm -rf "$tmp"
+}
+trap cleanup EXIT
+ulimit -c 0 # the crashing workers leave no core files
+url="ipc://$tmp/coordinator.sock"
+key="$tmp/farm.key"
+"$vcmfarm" keygen "$key" || exit 1
+
+fail() {
+  echo "FAIL $case_name: $*"
+  for log in "$tmp"/*.log; do
+    echo "---- $(basename "$log") (last 40 lines)"
+    tail -n 40 "$log"
+  done
+  exit 1
+}
+
+state="$tmp/state"
+start_coordinator() { # extra options...
+  "$vcmfarm" coordinator --listen "$url" --state "$state" --secret "$key" --lease-seconds 0.3 \
+    --checkpoint-interval 0.3 "$@" >>"$tmp/coordinator.log" 2>&1 &
+  coordinator=$!
+  pids+=("$coordinator")
+}
+
+start_worker() { # name, extra options...
+  local name="$1"
+  shift
+  "$vcmfarm" worker --connect "$url" --secret "$key" --threads 1 --name "$name" "$@" >>"$tmp/$name.log" 2>&1 &
+  last_worker=$!
+  pids+=("$last_worker")
+}
+
+# A worker under a supervisor that restarts it whenever it ends (as systemd's
+# Restart=always would), under the same name.
+start_supervised_worker() { # name, extra options...
+  local name="$1"
+  shift
+  (
+    trap 'kill -9 $child 2>/dev/null; exit 0' TERM
+    while :; do
+      "$vcmfarm" worker --connect "$url" --secret "$key" --threads 1 --name "$name" "$@" >>"$tmp/$name.log" 2>&1 &
+      child=$!
+      wait $child
+      echo "supervisor: $name ended with status $?; restarting" >>"$tmp/$name.log"
+      sleep 0.1
+    done
+  ) &
+  pids+=("$!")
+  last_supervisor=$!
+}
+
+client() { # command, arguments...
+  "$vcmfarm" "$@" --coordinator "$url" --secret "$key" --timeout 3
+}
+
+status_of() { client status "$1" --json 2>/dev/null; }
+# A field of the job in `status JOB --json`; "" when the coordinator does not answer.
+job_field() { # job, field
+  status_of "$1" | python3 -c '
+import json, sys
+try:
+    jobs = json.load(sys.stdin)["jobs"]
+    print(next(j for j in jobs if j["id"] == int(sys.argv[1]))[sys.argv[2]])
+except Exception:
+    pass' "$1" "$2"
+}
+state_of() { job_field "$1" state; }
+number_of() { job_field "$1" "$2"; }
+message_of() { job_field "$1" message; }
+event_count() { # job, kind
+  status_of "$1" | python3 -c '
+import json, sys
+try:
+    jobs = json.load(sys.stdin)["jobs"]
+    print(sum(e["kind"] == sys.argv[2] for e in next(j for j in jobs if j["id"] == int(sys.argv[1]))["events"]))
+except Exception:
+    print(0)' "$1" "$2"
+}
+is_state() { [ "$(state_of "$1")" = "$2" ]; }
+
+wait_until() { # seconds, what, command...
+  local limit="$1" deadline=$((SECONDS + $1)) what="$2"
+  shift 2
+  until "$@"; do
+    [ "$SECONDS" -lt "$deadline" ] || fail "timed out after $limit s waiting for: $what"
+    sleep 0.05
+  done
+}
+
+exited() { ! kill -0 "$1" 2>/dev/null; }
+
+submit() { # scene, iterations, extra options...: sets job
+  job=$(client submit "$1" -n "$2" -R 32x32 --seed 7 "${@:3}" | tail -n 1)
+  [ -n "$job" ] || fail "submit printed no job id"
+}
+
+check_film() { # job, scene, iterations[, resolution]
+  client fetch "$1" -o "$tmp/farm-$1.exr" || fail "fetching job $1 failed"
+  "$vcmfarm" render "$2" --direct -n "$3" -R "${4:-32x32}" --seed 7 -j 1 -q -o "$tmp/reference-$1.exr" ||
+    fail "reference render failed"
+  "$compare" "$tmp/farm-$1.exr" "$tmp/reference-$1.exr" "[0,$3)" || fail "job $1's film differs from the reference"
+}
+
+case "$case_name" in
+poison_scene)
+  start_coordinator --forgive 3 --worker-timeout 2
+  submit knot 4
+  poison=$job
+  submit cornell 24
+  healthy=$job
+  for w in w1 w2 w3; do start_supervised_worker "$w" --test-abort-scene knot --test-iteration-delay 20; done
+  wait_until 90 "job $poison to fail" is_state "$poison" failed
+  message=$(message_of "$poison")
+  echo "job $poison: $message"
+  case "$message" in
+  *"poison job: leases failed on 3 workers in a row with no iteration merged"*) ;;
+  *) fail "the failed job's message does not say why: $message" ;;
+  esac
+  [ "$(grep -c "crashing (test: --test-abort-scene knot)" "$tmp"/w[123].log | awk -F: '{ s += $2 } END { print s }')" -ge 3 ] ||
+    fail "fewer than 3 crashes on the poison job"
+  [ "$(event_count "$poison" job_failed)" = 1 ] || fail "no job_failed event"
+  [ "$(event_count "$poison" lease_failed)" -ge 3 ] || fail "fewer than 3 lease_failed events"
+  wait_until 120 "job $healthy done" is_state "$healthy" done
+  check_film "$healthy" cornell 24
+  echo "ok   the poison job failed after 3 crashed workers; the other job ran to its end, equal to --direct"
+  # The blocklist forgives: a worker that crashes on a scene is not handed it again for the
+  # forgive time (3 s); a healthy worker renders it meanwhile; then it is forgiven and
+  # leases it again.
+  for p in "${pids[@]}"; do [ "$p" = "$coordinator" ] || kill -TERM "$p" 2>/dev/null; done
+  submit knot 40
+  forgiven=$job
+  start_supervised_worker w4 --test-abort-scene knot
+  wait_until 30 "w4 to crash on job $forgiven" grep -q "crashing (test" "$tmp/w4.log"
+  start_worker w5 --test-iteration-delay 250
+  wait_until 60 "w4 forgiven on job $forgiven" grep -q "job $forgiven: worker w4 forgiven" "$tmp/coordinator.log"
+  wait_until 60 "job $forgiven done" is_state "$forgiven" done
+  check_film "$forgiven" knot 40
+  log=$(grep -E "job $forgiven: (lease of worker w4 failed|worker w4 forgiven)|job $forgiven iterations .* to worker w4" "$tmp/coordinator.log")
+  echo "$log"
+  # Leases of the job to w4 while blocked (within 3 s of a failure): none; after: some.
+  echo "$log" | awk '{ split($1, t, ":"); now = t[1] * 3600 + t[2] * 60 + t[3] }
+                     /lease of worker w4 failed/ { failed = now; next }
+                     /forgiven/ { forgiven++; next }
+                     /to worker w4/ { if (failed != "" && now - failed < 2.95) bad++; else if (failed != "") after++ }
+                     END { exit !(bad == 0 && forgiven >= 1 && after >= 1) }' ||
+    fail "w4 was leased job $forgiven while blocked, or never forgiven and leased it again"
+  [ "$(event_count "$forgiven" worker_forgiven)" -ge 1 ] || fail "no worker_forgiven event"
+  [ "$(state_of "$forgiven")" = done ] || fail "the job w4 kept crashing on did not end done"
+  echo "ok   a worker that crashed on a job was blocked from it for the forgive time, then forgiven and leased it again; the job ended done, equal to --direct"
+  ;;
+broken_film)
+  start_coordinator
+  submit cornell 4
+  first=$job
+  submit cornell 6
+  second=$job
+  start_worker w1
+  wait_until 60 "jobs $first and $second done" eval "is_state $first done && is_state $second done"
+  kill -TERM "$coordinator" "$last_worker"
+  wait_until 30 "the coordinator to stop" exited "$coordinator"
+  wait_until 30 "the worker to stop" exited "$last_worker"
+  # The first film truncated; the second extended by 2 iterations beyond its [0, 6).
+  size=$(stat -c %s "$state/job-$first.exr")
+  truncate -s $((size / 2)) "$state/job-$first.exr"
+  "$vcmfarm" continue "$state/job-$second.exr" -n 2 -j 1 -q || fail "continue failed"
+  start_coordinator
+  submit cornell 5
+  third=$job
+  start_worker w2
+  wait_until 60 "job $third done" is_state "$third" done
+  exited "$coordinator" && fail "the coordinator exited"
+  is_state "$first" failed || fail "job $first is $(state_of "$first"), expected failed"
+  is_state "$second" failed || fail "job $second is $(state_of "$second"), expected failed"
+  message_of "$first" | grep -q "its film cannot be read back: .*job-$first.exr" ||
+    fail "job $first's message does not name its film: $(message_of "$first")"
+  message_of "$second" | grep -q "job-$second.exr: does not belong to job $second: film holds iterations outside job $second's \[0,6)" ||
+    fail "job $second's message does not say its film is extended: $(message_of "$second")"
+  [ "$(stat -c %s "$state/job-$first.exr")" = $((size / 2)) ] || fail "the truncated film was written over"
+  check_film "$third" cornell 5
+  echo "ok   a truncated film and an extended one failed their jobs alone; the coordinator served a third job to its end"
+  ;;
+disk_full)
+  mkdir -p "$state"
+  if ! mount -t tmpfs -o size=2m tmpfs "$state" 2>"$tmp/mount.err"; then
+    echo "SKIP disk_full: cannot mount a tmpfs (needs root): $(cat "$tmp/mount.err")"
+    exit 77
+  fi
+  mounted="$state"
+  fill() { dd if=/dev/zero of="$state/filler$1" bs=4k 2>/dev/null; sync; }
+  start_coordinator
+  submit cornell 6 -R 128x128
+  full=$job
+  fill 1
+  start_worker w1
+  wait_until 60 "job $full's iterations merged" eval '[ "$(number_of '"$full"' iterations_done)" = 6 ]'
+  wait_until 30 "a checkpoint failure in job $full's status" eval 'message_of '"$full"' | grep -q "film checkpoint failed (retrying): .*No space left on device"'
+  echo "job $full: $(state_of "$full"): $(message_of "$full")"
+  # Several checkpoint intervals later it is still not done: its final film is not on disk.
+  sleep 1.5
+  is_state "$full" done && fail "job $full is done while its final film is not on disk"
+  [ "$(event_count "$full" checkpoint_failed)" -ge 1 ] || fail "no checkpoint_failed event"
+  rm -f "$state/filler1"
+  wait_until 30 "job $full done once space is back" is_state "$full" done
+  [ -z "$(message_of "$full")" ] || fail "job $full still says: $(message_of "$full")"
+  echo "ok   checkpoint failures showed in status; the job was done only once its final film was written"
+  check_film "$full" cornell 6 128x128
+  # At SIGTERM on a full disk: the exit message names the film and the cause.
+  submit cornell 200000 -R 128x128
+  fill 2
+  wait_until 60 "job $job running" eval '[ "$(number_of '"$job"' iterations_done)" -gt 0 ]'
+  kill -TERM "$coordinator"
+  wait "$coordinator"
+  status=$?
+  last=$(tail -n 1 "$tmp/coordinator.log")
+  echo "coordinator exit $status: $last"
+  [ "$status" != 0 ] || fail "the coordinator exited 0 although its final checkpoint failed"
+  case "$last" in
+  *"out of memory"*) fail "the exit message blames memory: $last" ;;
+  *"job "[0-9]*"'s film: "*"No space left on device"*) ;;
+  *) fail "the exit message does not name the film and the full disk: $last" ;;
+  esac
+  echo "ok   the exit message on a full disk names the film and the cause"
+  ;;
+soak)
+  soak_seconds="${SOAK_SECONDS:-40}"
+  iterations="${SOAK_ITERATIONS:-1500}"
+  RANDOM=${SOAK_SEED:-$$}
+  echo "soak: $soak_seconds s of random SIGKILLs, $iterations iterations, RANDOM seed ${SOAK_SEED:-$$}"
+  start_coordinator --worker-timeout 2 --forgive 2
+  job=$(client submit cornell -n "$iterations" -R 32x32 --seed 7 | tail -n 1)
+  [ -n "$job" ] || fail "submit printed no job id"
+  declare -A worker_pid
+  for w in s1 s2 s3; do
+    start_worker "$w" --test-iteration-delay 40
+    worker_pid[$w]=$last_worker
+  done
+  kills_w=0 kills_c=0
+  done_now() { number_of "$job" iterations_done; }
+  answers() { [ -n "$(done_now)" ]; }
+  progressed() { local d; d=$(done_now); [ -n "$d" ] && [ "$d" -gt "$1" ]; }
+  registrations() { grep -c "registered with" "$tmp/$1.log"; }
+  end=$((SECONDS + soak_seconds))
+  while [ "$SECONDS" -lt "$end" ] && ! is_state "$job" done; do
+    sleep "$((RANDOM % 3)).$((RANDOM % 10))"
+    if [ $((RANDOM % 4)) = 0 ]; then
+      kill -9 "$coordinator" 2>/dev/null
+      wait "$coordinator" 2>/dev/null
+      kills_c=$((kills_c + 1))
+      echo "soak: SIGKILL coordinator" >>"$tmp/soak.log"
+      start_coordinator --worker-timeout 2 --forgive 2
+      wait_until 60 "the coordinator to answer" answers
+    else
+      w="s$((RANDOM % 3 + 1))"
+      kill -9 "${worker_pid[$w]}" 2>/dev/null
+      wait "${worker_pid[$w]}" 2>/dev/null
+      kills_w=$((kills_w + 1))
+      echo "soak: SIGKILL $w" >>"$tmp/soak.log"
+      registered=$(registrations "$w")
+      start_worker "$w" --test-iteration-delay 40
+      worker_pid[$w]=$last_worker
+      wait_until 60 "$w to register again" eval '[ "$(registrations '"$w"')" -gt '"$registered"' ]'
+    fi
+    # The next kill once the job has progressed since this one was noticed: kills at random,
+    # but not a poison job of the soak's own making (three workers killed in a row before
+    # any part of theirs merged fail a job by design: docs/PROTOCOL.md, "Poison jobs").
+    base=$(done_now)
+    wait_until 60 "job $job to progress after a kill" eval 'is_state '"$job"' done || progressed '"${base:-0}"
+  done
+  echo "soak: $kills_w worker and $kills_c coordinator SIGKILLs"
+  [ $((kills_w + kills_c)) -gt 0 ] || fail "nothing was killed"
+  wait_until 180 "job $job done" is_state "$job" done
+  is_state "$job" done || fail "job $job is $(state_of "$job")"
+  client fetch "$job" -o "$tmp/farm.exr" || fail "fetch failed"
+  "$vcmfarm" render cornell --direct -n "$iterations" -R 32x32 --seed 7 -j 1 -q -o "$tmp/reference.exr" ||
+    fail "reference render failed"
+  "$compare" "$tmp/farm.exr" "$tmp/reference.exr" "[0,$iterations)" || fail "the soaked film differs from the reference"
+  echo "ok   soak: $kills_w worker and $kills_c coordinator SIGKILLs; the film equals --direct, iterations exactly [0,$iterations)"
+  ;;
+*)
+  echo "unknown case $case_name"
+  exit 2
+  ;;
+esac
