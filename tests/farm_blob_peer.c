@@ -147,7 +147,8 @@ static int serve(const char *url, const vf_wire_key *key, const char *cache) {
     int n = nn_recv(sock, &frame, NN_MSG, 0);
     if (n < 0) break; /* no request for 30 s */
     Vcmfarm__Envelope *q = NULL;
-    int err = vf_message_unpack(key, frame, (size_t)n, &q);
+    vf_wire_stamp stamp;
+    int err = vf_message_unpack(key, NULL, frame, (size_t)n, &q, &stamp);
     nn_freemsg(frame);
     if (err != VF_OK) break;
     Vcmfarm__Envelope r = VCMFARM__ENVELOPE__INIT;
@@ -224,7 +225,7 @@ static int serve(const char *url, const vf_wire_key *key, const char *cache) {
     }
     uint8_t *out;
     size_t out_len;
-    if (r.body_case != VCMFARM__ENVELOPE__BODY__NOT_SET && vf_message_pack(key, &r, &out, &out_len) == VF_OK) {
+    if (r.body_case != VCMFARM__ENVELOPE__BODY__NOT_SET && vf_message_pack(key, &stamp, &r, &out, &out_len, NULL) == VF_OK) {
       nn_send(sock, out, out_len, 0);
       free(out);
     }

@@ -3,8 +3,10 @@
  *   farm_peer URL KEYFILE
  *
  * Run while the coordinator at URL has one queued job and no worker. Sends a frame under
- * another key, a frame of another protocol version, garbage, a frame whose header claims
- * an oversized payload, raw bytes below the nanomsg protocol (ipc:// only), and then, as
+ * another key, frames of other protocol versions (9, and 7 in its own layout), garbage, a
+ * frame whose header claims an oversized payload, raw bytes below the nanomsg protocol
+ * (ipc:// only); captured Register, LeaseRequest and SubmitJob frames sent again, requests
+ * sent too long ago or ahead, a ciphertext altered; and then, as
  * a registered worker holding a lease, results that do not match it (tiles whose chunk is
  * cut short, holds a NaN, or lies outside the film; another film size, other settings,
  * another range; a message above the result size cap). Checks each is refused as
@@ -56,13 +58,36 @@ static void put_u32(uint8_t *p, uint32_t v) {
   p[3] = (uint8_t)v;
 }
 
-/* A frame built by hand: any version, any claimed length, tag under `key`. */
-static uint8_t *hand_frame(const uint8_t *key, uint32_t version, const uint8_t *payload, uint32_t len,
-                           uint32_t claimed, size_t *frame_len) {
-  uint8_t *f = malloc(12 + len + 32);
+/* A request sealed by hand as common/wire.h specifies it: any version, clock and claimed
+ * length, under `key` (the request subkey derived from it). *nonce (may be NULL) gets its
+ * nonce, to open the reply with. */
+static uint8_t *hand_sealed(const uint8_t *key, uint32_t version, int64_t sent_ms, const uint8_t *payload,
+                            uint32_t len, uint32_t claimed, size_t *frame_len, vf_wire_stamp *stamp) {
+  uint8_t *f = malloc(44 + len + 16), k[32];
   memcpy(f, "VCMF", 4);
   put_u32(f + 4, version);
   put_u32(f + 8, claimed);
+  put_u32(f + 12, (uint32_t)((uint64_t)sent_ms >> 32));
+  put_u32(f + 16, (uint32_t)sent_ms);
+  randombytes_buf(f + 20, 24);
+  crypto_kdf_derive_from_key(k, 32, 1, "vcmfarm8", key);
+  crypto_aead_xchacha20poly1305_ietf_encrypt_detached(f + 44, f + 44 + len, NULL, payload, len, f, 44, NULL, f + 20, k);
+  if (stamp) {
+    stamp->version = version;
+    stamp->sent_ms = sent_ms;
+    memcpy(stamp->nonce, f + 20, 24);
+  }
+  *frame_len = 44 + len + 16;
+  return f;
+}
+
+/* A frame of protocol version 7 and earlier: payload in clear, HMAC tag. */
+static uint8_t *legacy_frame(const uint8_t *key, uint32_t version, const uint8_t *payload, uint32_t len,
+                             size_t *frame_len) {
+  uint8_t *f = malloc(12 + len + 32);
+  memcpy(f, "VCMF", 4);
+  put_u32(f + 4, version);
+  put_u32(f + 8, len);
   memcpy(f + 12, payload, len);
   crypto_auth(f + 12 + len, f, 12 + len, key);
   *frame_len = 12 + len + 32;
@@ -79,18 +104,20 @@ static void test_frames(const char *url, const vf_wire_key *key) {
   uint32_t plen = (uint32_t)vcmfarm__envelope__pack(&env, payload);
   void *reply = NULL;
   size_t len;
+  int64_t now = vf_wire_now_ms();
+  vf_wire_stamp stamp;
 
   uint8_t other_key[32];
   randombytes_buf(other_key, sizeof other_key);
-  uint8_t *f = hand_frame(other_key, VF_PROTOCOL_VERSION, payload, plen, plen, &len);
+  uint8_t *f = hand_sealed(other_key, VF_PROTOCOL_VERSION, now, payload, plen, plen, &len, NULL);
   expect(raw_exchange(url, f, len, 500, &reply) < 0, "a frame under another key gets no answer");
   free(f);
 
-  f = hand_frame(key->bytes, VF_PROTOCOL_VERSION + 1, payload, plen, plen, &len);
+  f = hand_sealed(key->bytes, VF_PROTOCOL_VERSION + 1, now, payload, plen, plen, &len, &stamp);
   int n = raw_exchange(url, f, len, 5000, &reply);
   free(f);
   Vcmfarm__Envelope *answer = NULL;
-  int ok = n >= 0 && vf_message_unpack(key, reply, (size_t)n, &answer) == VF_OK &&
+  int ok = n >= 0 && vf_message_unpack(key, &stamp, reply, (size_t)n, &answer, NULL) == VF_OK &&
            answer->body_case == VCMFARM__ENVELOPE__BODY_ERROR &&
            answer->error->code == VCMFARM__ERROR_CODE__ERROR_VERSION && strstr(answer->error->message, "version");
   if (ok) printf("     coordinator says: %s\n", answer->error->message);
@@ -98,15 +125,23 @@ static void test_frames(const char *url, const vf_wire_key *key) {
   vf_message_free(answer);
   if (n >= 0) nn_freemsg(reply);
 
+  f = legacy_frame(key->bytes, 7, payload, plen, &len);
+  n = raw_exchange(url, f, len, 5000, &reply);
+  free(f);
+  ok = n >= 44 && memcmp(reply, "VCMF", 4) == 0 && ((uint8_t *)reply)[7] == 8 &&
+       crypto_auth_verify((uint8_t *)reply + n - 32, reply, (size_t)n - 32, key->bytes) == 0;
+  expect(ok, "a version-7 frame is answered in the version-7 layout, saying version 8 (so a version-7 peer reports it)");
+  if (n >= 0) nn_freemsg(reply);
+
   uint8_t garbage[200];
   randombytes_buf(garbage, sizeof garbage);
   expect(raw_exchange(url, garbage, sizeof garbage, 500, &reply) < 0, "garbage gets no answer");
 
-  f = hand_frame(key->bytes, VF_PROTOCOL_VERSION, payload, plen, 0x7fffffffu, &len);
+  f = hand_sealed(key->bytes, VF_PROTOCOL_VERSION, now, payload, plen, 0x7fffffffu, &len, NULL);
   expect(raw_exchange(url, f, len, 500, &reply) < 0, "a header claiming a 2 GiB payload gets no answer");
   free(f);
 
-  f = hand_frame(key->bytes, VF_PROTOCOL_VERSION, garbage, sizeof garbage, sizeof garbage, &len);
+  f = hand_sealed(key->bytes, VF_PROTOCOL_VERSION, now, garbage, sizeof garbage, sizeof garbage, &len, NULL);
   expect(raw_exchange(url, f, len, 500, &reply) < 0, "an authentic frame holding no Envelope gets no answer");
   free(f);
 
@@ -119,6 +154,140 @@ static void test_frames(const char *url, const vf_wire_key *key) {
     close(s);
     expect(connected, "raw bytes below the nanomsg protocol were delivered (and must be survived)");
   }
+}
+
+/* Sends a request sealed now and returns its reply (NULL when none came in timeout_ms);
+ * *frame and *frame_len keep the frame as it went, to be sent again. */
+static Vcmfarm__Envelope *sealed_exchange(const char *url, const vf_wire_key *key, Vcmfarm__Envelope *q,
+                                          int timeout_ms, uint8_t **frame, size_t *frame_len) {
+  vf_wire_stamp stamp;
+  if (vf_message_pack(key, NULL, q, frame, frame_len, &stamp) != VF_OK) return NULL;
+  void *reply = NULL;
+  int n = raw_exchange(url, *frame, *frame_len, timeout_ms, &reply);
+  Vcmfarm__Envelope *answer = NULL;
+  if (n >= 0 && vf_message_unpack(key, &stamp, reply, (size_t)n, &answer, NULL) != VF_OK) answer = NULL;
+  if (n >= 0) nn_freemsg(reply);
+  return answer;
+}
+
+static Vcmfarm__Status *farm_status(vf_farm_client *c, Vcmfarm__Envelope **reply) {
+  Vcmfarm__StatusRequest sr = VCMFARM__STATUS_REQUEST__INIT;
+  Vcmfarm__Envelope q = VCMFARM__ENVELOPE__INIT;
+  q.body_case = VCMFARM__ENVELOPE__BODY_STATUS_REQUEST;
+  q.status_request = &sr;
+  if (vf_farm_request(c, &q, VCMFARM__ENVELOPE__BODY_STATUS, 10000, reply) != VF_OK) return NULL;
+  return (*reply)->status;
+}
+
+/* Captured requests sent again: Register, LeaseRequest and SubmitJob each have their
+ * effect once, the copy none and no answer; so have a request sent 10 minutes ago or 10
+ * minutes ahead, and one whose ciphertext was altered. */
+static void test_replays(const char *url, const vf_wire_key *key, vf_farm_client *c) {
+  void *reply = NULL;
+  uint8_t *frame;
+  size_t len;
+  Vcmfarm__Envelope *status_reply = NULL, *answer;
+  Vcmfarm__Status *st = farm_status(c, &status_reply);
+  size_t workers_before = st ? st->n_workers : 0, jobs_before = st ? st->n_jobs : 0;
+  vf_message_free(status_reply);
+
+  Vcmfarm__Register reg = VCMFARM__REGISTER__INIT;
+  reg.name = "replayed";
+  Vcmfarm__Envelope q = VCMFARM__ENVELOPE__INIT;
+  q.body_case = VCMFARM__ENVELOPE__BODY_REGISTER;
+  q.register_ = &reg;
+  answer = sealed_exchange(url, key, &q, 10000, &frame, &len);
+  uint64_t worker_id = answer && answer->body_case == VCMFARM__ENVELOPE__BODY_REGISTERED ? answer->registered->worker_id : 0;
+  expect(worker_id != 0, "a register is answered");
+  vf_message_free(answer);
+  expect(raw_exchange(url, frame, len, 1000, &reply) < 0, "the same register sent again gets no answer");
+  free(frame);
+  st = farm_status(c, &status_reply);
+  expect(st && st->n_workers == workers_before + 1, "the replayed register made no phantom worker");
+  vf_message_free(status_reply);
+
+  Vcmfarm__LeaseRequest lr = VCMFARM__LEASE_REQUEST__INIT;
+  lr.worker_id = worker_id;
+  q.body_case = VCMFARM__ENVELOPE__BODY_LEASE_REQUEST;
+  q.lease_request = &lr;
+  Vcmfarm__Envelope *lease = sealed_exchange(url, key, &q, 10000, &frame, &len);
+  int leased = lease && lease->body_case == VCMFARM__ENVELOPE__BODY_LEASE;
+  expect(leased, "a lease request is answered with a lease");
+  expect(raw_exchange(url, frame, len, 1000, &reply) < 0, "the same lease request sent again gets no answer");
+  free(frame);
+  if (leased) {
+    Vcmfarm__Heartbeat hb = VCMFARM__HEARTBEAT__INIT;
+    hb.worker_id = worker_id;
+    hb.lease_id = lease->lease->lease_id;
+    q.body_case = VCMFARM__ENVELOPE__BODY_HEARTBEAT;
+    q.heartbeat = &hb;
+    answer = NULL;
+    int alive = vf_farm_request(c, &q, VCMFARM__ENVELOPE__BODY_HEARTBEAT_ACK, 10000, &answer) == VF_OK &&
+                answer->heartbeat_ack->lease_valid;
+    expect(alive, "the lease is still valid after the replayed lease request");
+    vf_message_free(answer);
+
+    Vcmfarm__SubmitJob sj = VCMFARM__SUBMIT_JOB__INIT;
+    sj.name = "replayed";
+    sj.scene = lease->lease->scene;
+    sj.scene_hash = lease->lease->scene_hash;
+    sj.settings = lease->lease->settings;
+    sj.iterations = 1;
+    sj.priority = 1;
+    q.body_case = VCMFARM__ENVELOPE__BODY_SUBMIT;
+    q.submit = &sj;
+    answer = sealed_exchange(url, key, &q, 10000, &frame, &len);
+    uint64_t job = answer && answer->body_case == VCMFARM__ENVELOPE__BODY_SUBMITTED ? answer->submitted->job_id : 0;
+    if (answer && !job && answer->body_case == VCMFARM__ENVELOPE__BODY_ERROR) printf("     %s\n", answer->error->message);
+    expect(job != 0, "a submission is answered");
+    vf_message_free(answer);
+    expect(raw_exchange(url, frame, len, 1000, &reply) < 0, "the same submission sent again gets no answer");
+    free(frame);
+    st = farm_status(c, &status_reply);
+    expect(st && st->n_jobs == jobs_before + 1, "the replayed submission made no second job");
+    vf_message_free(status_reply);
+    Vcmfarm__CancelRequest cr = VCMFARM__CANCEL_REQUEST__INIT;
+    Vcmfarm__RemoveRequest rr = VCMFARM__REMOVE_REQUEST__INIT;
+    cr.job_id = rr.job_id = job;
+    q.body_case = VCMFARM__ENVELOPE__BODY_CANCEL;
+    q.cancel = &cr;
+    if (vf_farm_request(c, &q, VCMFARM__ENVELOPE__BODY_RESULT_ACK, 10000, &answer) == VF_OK) vf_message_free(answer);
+    q.body_case = VCMFARM__ENVELOPE__BODY_REMOVE;
+    q.remove = &rr;
+    expect(vf_farm_request(c, &q, VCMFARM__ENVELOPE__BODY_RESULT_ACK, 10000, &answer) == VF_OK, "the job is removed");
+    vf_message_free(answer);
+
+    Vcmfarm__LeaseRelease rel = VCMFARM__LEASE_RELEASE__INIT;
+    rel.worker_id = worker_id;
+    rel.lease_id = lease->lease->lease_id;
+    q.body_case = VCMFARM__ENVELOPE__BODY_RELEASE;
+    q.release = &rel;
+    if (vf_farm_request(c, &q, VCMFARM__ENVELOPE__BODY_RESULT_ACK, 10000, &answer) == VF_OK) vf_message_free(answer);
+  }
+  vf_message_free(lease);
+
+  Vcmfarm__StatusRequest sr = VCMFARM__STATUS_REQUEST__INIT;
+  Vcmfarm__Envelope se = VCMFARM__ENVELOPE__INIT;
+  se.body_case = VCMFARM__ENVELOPE__BODY_STATUS_REQUEST;
+  se.status_request = &sr;
+  se.protocol_version = VF_PROTOCOL_VERSION;
+  uint8_t payload[64];
+  uint32_t plen = (uint32_t)vcmfarm__envelope__pack(&se, payload);
+  int64_t now = vf_wire_now_ms();
+  uint8_t *f = hand_sealed(key->bytes, VF_PROTOCOL_VERSION, now, payload, plen, plen, &len, NULL);
+  int n = raw_exchange(url, f, len, 5000, &reply);
+  expect(n >= 0, "a status request sealed by hand now is answered");
+  if (n >= 0) nn_freemsg(reply);
+  f[44] ^= 0x20; /* the ciphertext, with a new nonce so that it is no replay */
+  randombytes_buf(f + 20, 24);
+  expect(raw_exchange(url, f, len, 1000, &reply) < 0, "a request whose ciphertext was altered gets no answer");
+  free(f);
+  f = hand_sealed(key->bytes, VF_PROTOCOL_VERSION, now - 600000, payload, plen, plen, &len, NULL);
+  expect(raw_exchange(url, f, len, 1000, &reply) < 0, "a request sent 10 minutes ago gets no answer");
+  free(f);
+  f = hand_sealed(key->bytes, VF_PROTOCOL_VERSION, now + 600000, payload, plen, plen, &len, NULL);
+  expect(raw_exchange(url, f, len, 1000, &reply) < 0, "a request sent 10 minutes ahead gets no answer");
+  free(f);
 }
 
 /* A film of the lease's job holding [begin, end), black. */
@@ -264,11 +433,9 @@ int main(int argc, char **argv) {
   }
   test_frames(argv[1], &key);
   test_results(c);
-  Vcmfarm__StatusRequest sr = VCMFARM__STATUS_REQUEST__INIT;
-  Vcmfarm__Envelope q = VCMFARM__ENVELOPE__INIT, *reply;
-  q.body_case = VCMFARM__ENVELOPE__BODY_STATUS_REQUEST;
-  q.status_request = &sr;
-  int alive = vf_farm_request(c, &q, VCMFARM__ENVELOPE__BODY_STATUS, 10000, &reply) == VF_OK;
+  test_replays(argv[1], &key, c);
+  Vcmfarm__Envelope *reply;
+  int alive = farm_status(c, &reply) != NULL;
   expect(alive && reply->status->n_jobs == 1 && reply->status->jobs[0]->iterations_done == 0 &&
              reply->status->jobs[0]->results_refused == 7,
          "the coordinator still answers; its job has no iteration and 7 refused results");

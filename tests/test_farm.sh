@@ -540,6 +540,11 @@ hostile_peers)
   submit 24
   "$peer" "$url" "$key" || fail "a hostile peer was not refused as expected"
   exited "$coordinator" && fail "the coordinator died"
+  for refusal in "register message .*replayed" "lease-request message .*replayed" "submit message .*replayed" \
+                 "status-request message .*stale: sent 60[01]" "status-request message .*in the future"; do
+    grep -q "refused a $refusal" "$tmp/coordinator.log" || fail "the coordinator did not log: refused a $refusal"
+  done
+  grep "refused a .* message" "$tmp/coordinator.log"
   start_worker w1
   start_worker w2
   wait_until 60 "job $job done" job_done
