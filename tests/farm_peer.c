@@ -27,7 +27,9 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sys/socket.h>
+#include <sys/time.h>
 #include <sys/un.h>
+#include <signal.h>
 #include <unistd.h>
 
 static int failures;
@@ -420,9 +422,84 @@ static void test_results(vf_farm_client *c) {
   vf_message_free(lease_reply);
 }
 
+/* The resident memory of process pid, in bytes (0 when it cannot be read). */
+static long long rss_bytes(long pid) {
+  char path[64], line[256];
+  snprintf(path, sizeof path, "/proc/%ld/status", pid);
+  FILE *f = fopen(path, "r");
+  long long kb = 0;
+  while (f && fgets(line, sizeof line, f))
+    if (sscanf(line, "VmRSS: %lld kB", &kb) == 1) break;
+  if (f) fclose(f);
+  return kb * 1024;
+}
+
+/* Opens `n` connections below nanomsg (ipc:// only) and on each starts a message of
+ * `claimed` bytes, sending all of it but the last byte, so that the coordinator holds what
+ * it was sent without ever seeing a message it could refuse: what a peer without the key
+ * can cost. Prints the coordinator's resident memory before and after, and checks it still
+ * answers a status request meanwhile; fails when it grew by more than max_growth_mb.
+ *
+ *   farm_peer --flood URL KEYFILE CONNECTIONS CLAIMED_BYTES PID MAX_GROWTH_MB */
+static int flood(const char *url, const vf_wire_key *key, int n, unsigned long long claimed, long pid,
+                 double max_growth_mb) {
+  signal(SIGPIPE, SIG_IGN);
+  long long before = rss_bytes(pid);
+  int *fds = calloc((size_t)n, sizeof *fds);
+  size_t block = 1 << 20;
+  uint8_t *junk = calloc(1, block);
+  int refused = 0;
+  unsigned long long sent_total = 0;
+  for (int i = 0; i < n; i++) {
+    fds[i] = socket(AF_UNIX, SOCK_STREAM, 0);
+    struct sockaddr_un addr = {.sun_family = AF_UNIX};
+    snprintf(addr.sun_path, sizeof addr.sun_path, "%s", url + 6);
+    struct timeval tv = {5, 0};
+    setsockopt(fds[i], SOL_SOCKET, SO_SNDTIMEO, &tv, sizeof tv);
+    if (connect(fds[i], (struct sockaddr *)&addr, sizeof addr) != 0) return 2;
+    /* nanomsg's ipc framing: the SP header, then per message a type byte (1: normal) and
+     * the size, 64 bits big-endian */
+    uint8_t hello[8] = {0, 'S', 'P', 0, 0, NN_REQ, 0, 0}, size[9] = {1};
+    for (int b = 0; b < 8; b++) size[1 + b] = (uint8_t)(claimed >> (56 - 8 * b));
+    if (write(fds[i], hello, 8) != 8 || write(fds[i], size, 9) != 9) return 2;
+    unsigned long long left = claimed - 1;
+    while (left > 0) {
+      ssize_t w = write(fds[i], junk, left < block ? left : block);
+      if (w <= 0) break; /* closed: the coordinator refused the size */
+      left -= (unsigned long long)w;
+      sent_total += (unsigned long long)w;
+    }
+    refused += left > 0;
+  }
+  usleep(500 * 1000);
+  long long after = rss_bytes(pid);
+  vf_farm_client *c;
+  Vcmfarm__Envelope *reply = NULL;
+  int alive = vf_farm_client_open(url, key, &c) == VF_OK && farm_status(c, &reply) != NULL;
+  vf_message_free(reply);
+  if (alive) vf_farm_client_close(c);
+  printf("connections %d claiming %llu bytes each: %d cut off by the coordinator, %.1f MB sent; "
+         "coordinator RSS %.1f MB -> %.1f MB (+%.1f MB); %s\n",
+         n, claimed, refused, (double)sent_total / 1e6, (double)before / 1e6, (double)after / 1e6,
+         (double)(after - before) / 1e6, alive ? "it still answers" : "IT DOES NOT ANSWER");
+  for (int i = 0; i < n; i++) close(fds[i]);
+  free(fds);
+  free(junk);
+  int bounded = (double)(after - before) / 1e6 <= max_growth_mb;
+  if (!bounded) printf("FAIL the coordinator grew by more than %.1f MB\n", max_growth_mb);
+  return alive && bounded ? 0 : 1;
+}
+
 int main(int argc, char **argv) {
+  if (argc == 8 && strcmp(argv[1], "--flood") == 0) {
+    vf_wire_key key;
+    if (vf_wire_key_load(argv[3], &key) != VF_OK) return 2;
+    /* "cap": a message as large as the coordinator takes */
+    unsigned long long claimed = strcmp(argv[5], "cap") == 0 ? VF_WIRE_MAX_REQUEST_FRAME : strtoull(argv[5], NULL, 10);
+    return flood(argv[2], &key, atoi(argv[4]), claimed, atol(argv[6]), atof(argv[7]));
+  }
   if (argc != 3) {
-    fprintf(stderr, "usage: farm_peer URL KEYFILE\n");
+    fprintf(stderr, "usage: farm_peer URL KEYFILE\n       farm_peer --flood URL KEYFILE CONNECTIONS CLAIMED_BYTES PID MAX_GROWTH_MB\n");
     return 2;
   }
   vf_wire_key key;

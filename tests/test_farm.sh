@@ -8,7 +8,7 @@
 #   test_farm.sh CASE VCMFARM FARM_COMPARE FARM_PEER [FARM_BLOB_PEER]
 #
 # CASE: three_workers, worker_killed, worker_killed_after_parts, worker_terminated, coordinator_killed,
-# hostile_peers, late_duplicate, priorities, stop_conditions; mesh_scene, big_file and bad_blobs (scenes
+# hostile_peers, unauthenticated_bound, late_duplicate, priorities, stop_conditions; mesh_scene, big_file and bad_blobs (scenes
 # with files, FARM_BLOB_PEER); render_4k, fetch_4k and bad_fetches (films fetched in chunks, with
 # FARM_FETCH_PEER in the place of FARM_BLOB_PEER).
 # No fixed sleeps synchronise anything: the script polls `vcmfarm status` (or a file) with
@@ -547,6 +547,23 @@ hostile_peers)
   grep "refused a .* message" "$tmp/coordinator.log"
   start_worker w1
   start_worker w2
+  wait_until 60 "job $job done" job_done
+  check_film
+  ;;
+unauthenticated_bound)
+  # What peers without the key can make the coordinator hold (docs/PROTOCOL.md, "What a peer
+  # without the key costs"): a message above the request cap is cut off at its header; one
+  # at the cap, held one byte short of complete, costs its size. Until protocol 7 the cap
+  # was 64 MiB: 4 connections held 268 MB.
+  start_coordinator
+  wait_until 10 "the coordinator to listen" test -S "$tmp/coordinator.sock"
+  "$peer" --flood "$url" "$key" 4 $((64 * 1048576 + 44)) "$coordinator" 5 ||
+    fail "messages above the cap were held"
+  "$peer" --flood "$url" "$key" 4 cap "$coordinator" 82 ||
+    fail "4 connections held more than 4 x 18 MiB and some slack"
+  exited "$coordinator" && fail "the coordinator died"
+  submit 24
+  start_worker w1
   wait_until 60 "job $job done" job_done
   check_film
   ;;
