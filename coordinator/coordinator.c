@@ -108,6 +108,8 @@ static void on_writable(uv_poll_t *handle, int status, int events) {
   resume_receiving(c);
 }
 
+static void deliver(coordinator *c, uint8_t *frame, size_t len, void *control);
+
 /* Packs and sends a reply along `route`, which this takes (and frees). */
 static void send_reply(coordinator *c, vf_farm_reply *reply, reply_route *route) {
   uint8_t *frame;
@@ -125,6 +127,12 @@ static void send_reply(coordinator *c, vf_farm_reply *reply, reply_route *route)
       return;
     }
   }
+  if (request.version == VF_PROTOCOL_VERSION) vf_replay_keep_reply(c->replay, &request, frame, len);
+  deliver(c, frame, len, control);
+}
+
+/* Sends a frame (taken) to the peer of `control` (taken), now or once there is room. */
+static void deliver(coordinator *c, uint8_t *frame, size_t len, void *control) {
   if (c->pending == NULL && send_frame(c, frame, len, &control) == 0) {
     free(frame);
     return;
@@ -170,12 +178,23 @@ static void serve(coordinator *c, const uint8_t *frame, size_t len, void *contro
   }
   if (err == VF_OK) {
     /* Before anything looks at it: a replayed request has no effect at all. */
-    err = vf_replay_check(c->replay, &route->request, vf_wire_now_ms());
+    int64_t now_ms = vf_wire_now_ms();
+    err = vf_replay_check(c->replay, &route->request, now_ms);
     if (err != VF_OK) {
       c->replays_refused++;
-      vf_log("refused a %s message of %zu bytes (%llu refused so far): %s", vf_message_name(request), len,
-             (unsigned long long)c->replays_refused, vf_error_detail(err));
+      size_t kept_len = 0;
+      const uint8_t *kept = vf_replay_reply(c->replay, &route->request, now_ms, &kept_len);
+      uint8_t *again = kept ? malloc(kept_len ? kept_len : 1) : NULL;
+      vf_log("refused a %s message of %zu bytes (%llu refused so far): %s%s", vf_message_name(request), len,
+             (unsigned long long)c->replays_refused, vf_error_detail(err),
+             again ? "; answered with the reply it had" : "");
       vf_message_free(request);
+      if (again) { /* a resend (or a replay, which learns nothing new): its reply again, no effect */
+        memcpy(again, kept, kept_len);
+        deliver(c, again, kept_len, control);
+        free(route);
+        return;
+      }
     }
   } else {
     vf_log("ignored a message of %zu bytes: %s", len, vf_error_detail(err));

@@ -10,9 +10,18 @@ typedef struct {
   int64_t sent_ms;
 } seen_nonce;
 
+typedef struct {
+  uint8_t nonce[VF_WIRE_NONCE_SIZE]; /* of the request */
+  uint8_t *frame;                    /* owned: the sealed reply */
+  size_t len;
+} kept_reply;
+
 /* The nonces in the order they were let through (a ring), and an index of them: a table
- * of open addressing with linear probing, 2 slots per nonce, each 0 or 1 + a ring slot. */
+ * of open addressing with linear probing, 2 slots per nonce, each 0 or 1 + a ring slot.
+ * The latest replies in a ring of their own, searched whole (only a refused request looks). */
 struct vf_replay {
+  kept_reply replies[VF_REPLAY_REPLIES];
+  size_t reply_first, reply_count, reply_bytes;
   seen_nonce *ring;
   size_t capacity, first, count;
   uint32_t *index;
@@ -49,6 +58,7 @@ int vf_replay_create(size_t capacity, vf_replay **out) {
 
 void vf_replay_destroy(vf_replay *r) {
   if (r == NULL) return;
+  for (size_t i = 0; i < r->reply_count; i++) free(r->replies[(r->reply_first + i) % VF_REPLAY_REPLIES].frame);
   free(r->ring);
   free(r->index);
   free(r);
@@ -125,4 +135,40 @@ int vf_replay_check(vf_replay *r, const vf_wire_stamp *stamp, int64_t now_ms) {
   r->index[i] = (uint32_t)(slot + 1);
   r->count++;
   return VF_OK;
+}
+
+static void drop_oldest_reply(vf_replay *r) {
+  kept_reply *k = &r->replies[r->reply_first];
+  r->reply_bytes -= k->len;
+  free(k->frame);
+  k->frame = NULL;
+  r->reply_first = (r->reply_first + 1) % VF_REPLAY_REPLIES;
+  r->reply_count--;
+}
+
+void vf_replay_keep_reply(vf_replay *r, const vf_wire_stamp *request, const uint8_t *frame, size_t len) {
+  if (len > VF_REPLAY_REPLY_MAX) return;
+  uint8_t *copy = malloc(len ? len : 1);
+  if (copy == NULL) return;
+  memcpy(copy, frame, len);
+  while (r->reply_count == VF_REPLAY_REPLIES || (r->reply_count > 0 && r->reply_bytes + len > VF_REPLAY_REPLY_BYTES))
+    drop_oldest_reply(r);
+  kept_reply *k = &r->replies[(r->reply_first + r->reply_count) % VF_REPLAY_REPLIES];
+  memcpy(k->nonce, request->nonce, VF_WIRE_NONCE_SIZE);
+  k->frame = copy;
+  k->len = len;
+  r->reply_count++;
+  r->reply_bytes += len;
+}
+
+const uint8_t *vf_replay_reply(const vf_replay *r, const vf_wire_stamp *request, int64_t now_ms, size_t *len) {
+  if (request->sent_ms < now_ms - VF_WIRE_MAX_AGE_MS || request->sent_ms > now_ms + VF_WIRE_MAX_AHEAD_MS) return NULL;
+  for (size_t i = r->reply_count; i-- > 0;) { /* newest first */
+    const kept_reply *k = &r->replies[(r->reply_first + i) % VF_REPLAY_REPLIES];
+    if (memcmp(k->nonce, request->nonce, VF_WIRE_NONCE_SIZE) == 0) {
+      *len = k->len;
+      return k->frame;
+    }
+  }
+  return NULL;
 }

@@ -10,7 +10,9 @@
  * flood beyond capacity the window only shrinks, it never leaks.
  *
  * Checked after authentication and before anything else looks at the request; a refused
- * request has no effect at all. Not thread-safe (the coordinator's loop owns it). */
+ * request has no effect at all. The guard also keeps the latest small replies, so that a
+ * request sent again is answered as it was (vf_replay_keep_reply). Not thread-safe (the
+ * coordinator's loop owns it). */
 #ifndef VF_REPLAY_H
 #define VF_REPLAY_H
 
@@ -36,5 +38,24 @@ int vf_replay_check(vf_replay *r, const vf_wire_stamp *stamp, int64_t now_ms);
 
 /* How many nonces it holds now. */
 size_t vf_replay_count(const vf_replay *r);
+
+/* The replies to the latest requests, by their requests' nonces, so that a request sent
+ * again (nanomsg resends a request whose connection broke, with the same nonce) is
+ * answered at once with the reply it had, still without effect: at most VF_REPLAY_REPLIES
+ * replies of at most VF_REPLAY_REPLY_MAX bytes each, VF_REPLAY_REPLY_BYTES in all (oldest
+ * first out; larger replies, film and blob chunks and leases of big scenes, are not kept:
+ * their requests are asked again after a timeout). */
+#define VF_REPLAY_REPLIES 256
+#define VF_REPLAY_REPLY_MAX ((size_t)64 << 10)
+#define VF_REPLAY_REPLY_BYTES ((size_t)4 << 20)
+
+/* Keeps a copy of the sealed reply to the request of `request` (quietly not, when it is too
+ * large or memory is short: it is an optimisation). */
+void vf_replay_keep_reply(vf_replay *r, const vf_wire_stamp *request, const uint8_t *frame, size_t len);
+
+/* The kept reply to a request refused as seen already (borrowed, valid until the next call
+ * on r), or NULL: none kept, or the request is outside the window of now_ms (a stale
+ * request gets nothing). */
+const uint8_t *vf_replay_reply(const vf_replay *r, const vf_wire_stamp *request, int64_t now_ms, size_t *len);
 
 #endif

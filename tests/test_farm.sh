@@ -540,7 +540,8 @@ hostile_peers)
   submit 24
   "$peer" "$url" "$key" || fail "a hostile peer was not refused as expected"
   exited "$coordinator" && fail "the coordinator died"
-  for refusal in "register message .*replayed" "lease-request message .*replayed" "submit message .*replayed" \
+  for refusal in "register message .*replayed.*answered with the reply it had" "lease-request message .*replayed" \
+                 "submit message .*replayed.*answered with the reply it had" \
                  "status-request message .*stale: sent 60[01]" "status-request message .*in the future"; do
     grep -q "refused a $refusal" "$tmp/coordinator.log" || fail "the coordinator did not log: refused a $refusal"
   done

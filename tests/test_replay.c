@@ -88,12 +88,38 @@ static void test_overflow_shrinks_the_window(void) {
   vf_replay_destroy(r);
 }
 
+/* Replies kept by their requests' nonces: found for a request seen again within the
+ * window, not outside it; the oldest go first when the bytes run out. */
+static void test_replies_are_kept(void) {
+  vf_replay *r;
+  CHECK_INT_EQ(vf_replay_create(1024, &r), VF_OK);
+  vf_wire_stamp first = stamp_at(now), second = stamp_at(now), unseen = stamp_at(now);
+  uint8_t reply[100] = {1, 2, 3};
+  size_t len = 0;
+  vf_replay_keep_reply(r, &first, reply, sizeof reply);
+  const uint8_t *kept = vf_replay_reply(r, &first, now + 1000, &len);
+  CHECK(kept != NULL && len == sizeof reply && kept[2] == 3);
+  CHECK(vf_replay_reply(r, &unseen, now, &len) == NULL);
+  CHECK(vf_replay_reply(r, &first, now + VF_WIRE_MAX_AGE_MS + 1, &len) == NULL); /* stale: nothing */
+  static uint8_t big[VF_REPLAY_REPLY_MAX + 1];
+  vf_replay_keep_reply(r, &second, big, sizeof big); /* too large to keep */
+  CHECK(vf_replay_reply(r, &second, now, &len) == NULL);
+  /* 4 MiB in all: 80 replies of 64 KiB push the first out */
+  for (int i = 0; i < 80; i++) {
+    vf_wire_stamp s = stamp_at(now);
+    vf_replay_keep_reply(r, &s, big, VF_REPLAY_REPLY_MAX);
+  }
+  CHECK(vf_replay_reply(r, &first, now, &len) == NULL);
+  vf_replay_destroy(r);
+}
+
 int main(void) {
   if (sodium_init() < 0) return 1;
   RUN(test_a_copy_is_refused);
   RUN(test_window);
   RUN(test_nonces_expire);
   RUN(test_overflow_shrinks_the_window);
+  RUN(test_replies_are_kept);
   vf_replay_destroy(NULL);
   return check_finish();
 }
