@@ -45,11 +45,12 @@
 #define VF_WIRE_MAX_FRAME (VF_WIRE_MAX_PAYLOAD + VF_WIRE_OVERHEAD)
 /* What the coordinator receives, and so what a peer without the key can make it hold per
  * connection (nanomsg buffers a message whole before anything can check it): its
- * NN_RCVMAXSIZE. The largest requests are a SubmitJob (a JSON scene of at most 16 MiB,
- * VF_JOB_MAX_SCENE, with a table of at most 1024 file names of at most 1023 bytes) and a
- * BlobPut (a chunk of at most 16 MiB, VF_BLOB_CHUNK_BYTES); results travel as tiles in
- * messages of at most VF_WIRE_MAX_RESULT. Until version 7 this was 64 MiB. */
-#define VF_WIRE_MAX_REQUEST ((size_t)18 << 20)
+ * NN_RCVMAXSIZE. The largest requests are a LeaseResult (VF_WIRE_MAX_RESULT), a BlobPut
+ * (a chunk of VF_BLOB_CHUNK_BYTES and its header) and a SubmitJob (a JSON scene text of at
+ * most VF_WIRE_MAX_INLINE_SCENE, a longer one being sent first as a blob, with a table of
+ * at most 1024 file names of at most 1023 bytes). Until version 7 this was 64 MiB. */
+#define VF_WIRE_MAX_REQUEST (((size_t)4 << 20) + ((size_t)64 << 10))
+#define VF_WIRE_MAX_INLINE_SCENE ((size_t)2 << 20)
 #define VF_WIRE_MAX_REQUEST_FRAME (VF_WIRE_MAX_REQUEST + VF_WIRE_OVERHEAD)
 /* A LeaseResult's payload: a dozen 64x64 tiles (328 KiB each). Larger ones are refused. */
 #define VF_WIRE_MAX_RESULT ((size_t)4 << 20)

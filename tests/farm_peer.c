@@ -350,8 +350,8 @@ static int send_spoiled(void *ctx, Vcmfarm__LeaseResult *m) {
   case TILE_OUTSIDE: t->x = 1; break;
   case OTHER_RANGE: m->begin = m->end; m->end++; break;
   case OVERSIZED:
-    spoilt = calloc(4800000, 1);
-    t->chunk = (ProtobufCBinaryData){spoilt ? 4800000 : 0, spoilt};
+    spoilt = calloc(VF_WIRE_MAX_RESULT + 16384, 1);
+    t->chunk = (ProtobufCBinaryData){spoilt ? VF_WIRE_MAX_RESULT + 16384 : 0, spoilt};
     break;
   default: break;
   }
