@@ -99,7 +99,7 @@ int vf_submit(vf_farm_client *client, int timeout_ms, const vf_submit_job *job, 
   int builtin = vf_job_scene_is_builtin(source);
   uint8_t *text = NULL;
   size_t len = 0;
-  vf_blob_table reference_file = {0};
+  vf_blob_table reference_file = {0}, text_file = {0};
   vf_scene *scene = NULL;
   vf_image reference_image = {0};
   Vcmfarm__Envelope *reply = NULL;
@@ -154,12 +154,28 @@ int vf_submit(vf_farm_client *client, int timeout_ms, const vf_submit_job *job, 
     if (err != VF_OK || (err = vf_blob_table_add(&reference_file, "reference", hash, n)) != VF_OK) goto done;
   }
   Vcmfarm__Scene s = VCMFARM__SCENE__INIT;
+  Vcmfarm__BlobRef text_ref = VCMFARM__BLOB_REF__INIT;
   if (builtin) {
     s.source_case = VCMFARM__SCENE__SOURCE_BUILTIN;
     s.builtin = (char *)source;
-  } else {
+  } else if (len <= VF_WIRE_MAX_INLINE_SCENE) {
     s.source_case = VCMFARM__SCENE__SOURCE_JSON;
     s.json = (char *)text;
+  } else {
+    /* A long text goes first as a blob, so that the submission stays under the
+     * coordinator's request cap (docs/PROTOCOL.md, "What a peer without the key costs"). */
+    uint8_t hash[32];
+    vf_blob_hash(text, len, hash);
+    if ((!stage[0] && (err = vf_file_temp_dir("vcmfarm-submit", stage, sizeof stage)) != VF_OK) ||
+        (err = vf_blob_store_put(stage, hash, text, len)) != VF_OK ||
+        (err = vf_blob_table_add(&text_file, "scene text", hash, len)) != VF_OK ||
+        (err = send_files(client, timeout_ms, NULL, stage, &text_file)) != VF_OK)
+      goto done;
+    text_ref.name = text_file.refs[0].name;
+    text_ref.hash = (ProtobufCBinaryData){32, text_file.refs[0].hash};
+    text_ref.size = len;
+    s.source_case = VCMFARM__SCENE__SOURCE_JSON_BLOB;
+    s.json_blob = &text_ref;
   }
   if (files.count > 0) {
     if ((err = send_files(client, timeout_ms, job->log_prefix, stage, &files)) != VF_OK ||
@@ -207,6 +223,7 @@ done:
   free(file_ref_ptrs);
   vf_blob_table_clear(&files);
   vf_blob_table_clear(&reference_file);
+  vf_blob_table_clear(&text_file);
   vf_message_free(reply);
   vf_scene_destroy(scene);
   vf_image_destroy(&reference_image);

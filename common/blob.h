@@ -25,7 +25,7 @@
 
 /* A blob travels in chunks of at most VF_BLOB_CHUNK_BYTES, one per message, well under
  * the coordinator's request cap (VF_WIRE_MAX_REQUEST); a file can be up to 4 GiB. */
-#define VF_BLOB_CHUNK_BYTES ((size_t)16 << 20)
+#define VF_BLOB_CHUNK_BYTES ((size_t)4 << 20) /* 16 MiB until protocol 7 */
 #define VF_BLOB_MAX_BYTES ((uint64_t)4 << 30)
 #define VF_BLOB_MAX_FILES 1024 /* per scene */
 #define VF_BLOB_MAX_NAME 1023  /* bytes */

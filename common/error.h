@@ -30,7 +30,8 @@
   XX(ETIMEDOUT, "timed out")                                               \
   XX(ENET, "network error")                                                \
   XX(EREFUSED, "refused by the peer")                                      \
-  XX(EBUSY, "in use by another process")
+  XX(EBUSY, "in use by another process")                                 \
+  XX(EREPLAY, "replayed or stale message")
 
 enum {
   VF_OK = 0,

@@ -3,6 +3,7 @@
 #include "error.h"
 
 #include <errno.h>
+#include <limits.h>
 #include <nanomsg/nn.h>
 #include <nanomsg/reqrep.h>
 #include <stdlib.h>
@@ -27,11 +28,14 @@ int vf_farm_client_open(const char *url, const vf_wire_key *key, vf_farm_client 
     err = vf_error_set(VF_ENET, "nanomsg socket: %s", nn_strerror(nn_errno()));
     goto free_url;
   }
-  int max_size = (int)VF_WIRE_MAX_FRAME, ivl_max = 5000, resend = 3600 * 1000, linger = 1000;
+  int max_size = (int)VF_WIRE_MAX_FRAME, ivl_max = 5000, resend = INT_MAX, linger = 1000;
   nn_setsockopt(c->socket, NN_SOL_SOCKET, NN_RCVMAXSIZE, &max_size, sizeof max_size);
   nn_setsockopt(c->socket, NN_SOL_SOCKET, NN_RECONNECT_IVL_MAX, &ivl_max, sizeof ivl_max);
   nn_setsockopt(c->socket, NN_SOL_SOCKET, NN_LINGER, &linger, sizeof linger);
-  /* We resend ourselves after a timeout; nanomsg's own resend would only duplicate. */
+  /* We resend ourselves after a timeout, as a new frame; nanomsg's own resend (of the same
+   * frame: a replay, which the coordinator refuses) is put off for 24 days. nanomsg also
+   * resends a request whose connection broke; the coordinator refuses that too, unless it
+   * restarted meanwhile, and our call times out and is made again. */
   nn_setsockopt(c->socket, NN_REQ, NN_REQ_RESEND_IVL, &resend, sizeof resend);
   if (nn_connect(c->socket, url) < 0) {
     err = vf_error_set(VF_ENET, "%s: %s", url, nn_strerror(nn_errno()));
@@ -60,7 +64,8 @@ const char *vf_farm_client_url(const vf_farm_client *client) { return client->ur
 int vf_farm_call(vf_farm_client *c, Vcmfarm__Envelope *request, int timeout_ms, Vcmfarm__Envelope **reply) {
   uint8_t *frame;
   size_t len;
-  int err = vf_message_pack(&c->key, request, &frame, &len);
+  vf_wire_stamp stamp;
+  int err = vf_message_pack(&c->key, NULL, request, &frame, &len, &stamp);
   if (err != VF_OK) return err;
   nn_setsockopt(c->socket, NN_SOL_SOCKET, NN_SNDTIMEO, &timeout_ms, sizeof timeout_ms);
   nn_setsockopt(c->socket, NN_SOL_SOCKET, NN_RCVTIMEO, &timeout_ms, sizeof timeout_ms);
@@ -82,7 +87,7 @@ int vf_farm_call(vf_farm_client *c, Vcmfarm__Envelope *request, int timeout_ms, 
     return vf_error_set(VF_ENET, "%s: receive: %s", c->url, nn_strerror(e));
   }
   Vcmfarm__Envelope *env;
-  err = vf_message_unpack(&c->key, buf, (size_t)n, &env);
+  err = vf_message_unpack(&c->key, &stamp, buf, (size_t)n, &env, NULL);
   nn_freemsg(buf);
   if (err != VF_OK) return err;
   *reply = env;

@@ -18,10 +18,12 @@ typedef struct vf_farm_client vf_farm_client;
 int vf_farm_client_open(const char *url, const vf_wire_key *key, vf_farm_client **out);
 void vf_farm_client_close(vf_farm_client *client);
 
-/* Sends request (its protocol_version is set here) and waits up to timeout_ms for the
- * reply, which *reply receives (free with vf_message_free) on success, whatever its body,
- * Error included. VF_ETIMEDOUT when no reply came, VF_EVERSION / VF_EAUTH / VF_EPROTO
- * when the reply was refused (see vf_message_unpack). */
+/* Sends request (its protocol_version is set here) as a new frame (fresh nonce and clock,
+ * common/wire.h: calling again after a timeout is never a replay) and waits up to
+ * timeout_ms for the reply, which *reply receives (free with vf_message_free) on success,
+ * whatever its body, Error included; only the reply bound to this request's nonce opens.
+ * VF_ETIMEDOUT when no reply came, VF_EVERSION / VF_EAUTH / VF_EPROTO when the reply was
+ * refused (see vf_message_unpack). */
 int vf_farm_call(vf_farm_client *client, Vcmfarm__Envelope *request, int timeout_ms, Vcmfarm__Envelope **reply);
 
 /* vf_farm_call that also insists on a reply with body `expected`: a reply of type Error

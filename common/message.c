@@ -4,7 +4,8 @@
 
 #include <stdlib.h>
 
-int vf_message_pack(const vf_wire_key *key, Vcmfarm__Envelope *env, uint8_t **frame, size_t *len) {
+int vf_message_pack(const vf_wire_key *key, const vf_wire_stamp *request, Vcmfarm__Envelope *env, uint8_t **frame,
+                    size_t *len, vf_wire_stamp *stamp) {
   env->protocol_version = VF_PROTOCOL_VERSION;
   size_t size = vcmfarm__envelope__get_packed_size(env);
   if (size > VF_WIRE_MAX_PAYLOAD)
@@ -13,17 +14,21 @@ int vf_message_pack(const vf_wire_key *key, Vcmfarm__Envelope *env, uint8_t **fr
   uint8_t *payload = malloc(size ? size : 1);
   if (payload == NULL) return vf_error_set(VF_ENOMEM, "no memory for a %zu-byte message", size);
   vcmfarm__envelope__pack(env, payload);
-  int err = vf_wire_seal(key, payload, size, frame, len);
+  int err = vf_wire_seal(key, request, payload, size, frame, len, stamp);
   free(payload);
   return err;
 }
 
-int vf_message_unpack(const vf_wire_key *key, const uint8_t *frame, size_t len, Vcmfarm__Envelope **out) {
-  const uint8_t *payload;
+int vf_message_unpack(const vf_wire_key *key, const vf_wire_stamp *request, const uint8_t *frame, size_t len,
+                      Vcmfarm__Envelope **out, vf_wire_stamp *stamp) {
+  uint8_t *payload;
   size_t payload_len;
-  int err = vf_wire_open(key, frame, len, &payload, &payload_len);
+  vf_wire_stamp s;
+  int err = vf_wire_open(key, request, frame, len, &payload, &payload_len, &s);
+  if (err == VF_EVERSION && stamp) *stamp = s;
   if (err != VF_OK) return err;
   Vcmfarm__Envelope *env = vcmfarm__envelope__unpack(NULL, payload_len, payload);
+  free(payload);
   if (env == NULL) return vf_error_set(VF_EPROTO, "authentic frame whose payload is not a valid Envelope");
   if (env->protocol_version != VF_PROTOCOL_VERSION) {
     err = vf_error_set(VF_EPROTO, "Envelope says protocol version %u inside a version %u frame",
@@ -35,6 +40,7 @@ int vf_message_unpack(const vf_wire_key *key, const uint8_t *frame, size_t len, 
     goto free_env;
   }
   *out = env;
+  if (stamp) *stamp = s;
   return VF_OK;
 free_env:
   vcmfarm__envelope__free_unpacked(env, NULL);

@@ -98,7 +98,7 @@ unsigned vf_blobs_collect(const vf_farm *farm, double min_age) {
 
 int vf_blobs_attach(const vf_farm *farm, vf_job *job, const Vcmfarm__Scene *scene) {
   if (scene->n_files == 0) return VF_OK;
-  if (scene->source_case != VCMFARM__SCENE__SOURCE_JSON)
+  if (scene->source_case == VCMFARM__SCENE__SOURCE_BUILTIN)
     return vf_error_set(VF_EINVAL, "scene: a built-in scene has no files; the job names %zu", scene->n_files);
   vf_blob_table files;
   int err = vf_blob_table_from_wire(scene->files, scene->n_files, &files);
@@ -135,6 +135,39 @@ int vf_blobs_reference(vf_farm *farm, const Vcmfarm__BlobRef *ref) {
   if (size != ref->size)
     return vf_error_set(VF_EINVAL, "reference: %llu bytes, the blob %.16s... has %llu", (unsigned long long)ref->size,
                         hex, (unsigned long long)size);
+  return VF_OK;
+}
+
+int vf_blobs_scene_text(vf_farm *farm, const Vcmfarm__BlobRef *ref, char **text, size_t *len) {
+  if (ref->hash.len != 32) return vf_error_set(VF_EINVAL, "scene text: hash of %zu bytes, expected 32", ref->hash.len);
+  if (ref->size == 0 || ref->size > VF_JOB_MAX_SCENE)
+    return vf_error_set(VF_EINVAL, "scene text: %llu bytes, must be 1 to %zu", (unsigned long long)ref->size,
+                        VF_JOB_MAX_SCENE);
+  char hex[65];
+  vf_blob_hex(ref->hash.data, hex);
+  uint64_t size, total;
+  int err = check_blob(farm, ref->hash.data, &size);
+  if (err == VF_ENOENT) return vf_error_set(VF_EINVAL, "scene text: the coordinator has no blob %s (send it first)", hex);
+  if (err != VF_OK) return err == VF_EMISMATCH ? vf_error_set(VF_EIO, "scene text: %s", vf_error_detail(err)) : err;
+  if (size != ref->size)
+    return vf_error_set(VF_EINVAL, "scene text: %llu bytes, the blob %.16s... has %llu", (unsigned long long)ref->size,
+                        hex, (unsigned long long)size);
+  uint8_t *bytes;
+  size_t n;
+  if ((err = vf_blob_store_read(farm->config.state_dir, ref->hash.data, 0, (size_t)size, &bytes, &n, &total)) != VF_OK)
+    return err;
+  char *t = realloc(bytes, n + 1);
+  if (t == NULL) {
+    free(bytes);
+    return vf_error_set(VF_ENOMEM, "out of memory for a scene text of %zu bytes", n);
+  }
+  t[n] = '\0';
+  if (strlen(t) != n) {
+    free(t);
+    return vf_error_set(VF_EINVAL, "scene text: blob %.16s... holds a NUL byte", hex);
+  }
+  *text = t;
+  *len = n;
   return VF_OK;
 }
 

@@ -27,6 +27,12 @@ int vf_blobs_attach(const vf_farm *farm, vf_job *job, const Vcmfarm__Scene *scen
  * with the entry's size. VF_EINVAL naming the problem ("send it first"), VF_EIO. */
 int vf_blobs_reference(vf_farm *farm, const Vcmfarm__BlobRef *ref);
 
+/* The text of a JSON scene sent as a blob (Scene.json_blob): the blob must be held, intact,
+ * of the entry's size and at most VF_JOB_MAX_SCENE bytes. *text (malloc'ed and
+ * NUL-terminated, the caller frees) and *len on success; VF_EINVAL naming the problem
+ * ("send it first"), VF_EIO, VF_ENOMEM. */
+int vf_blobs_scene_text(vf_farm *farm, const Vcmfarm__BlobRef *ref, char **text, size_t *len);
+
 /* Puts the job's file table into the lease being built (r->scene.files). VF_ENOMEM. */
 int vf_blobs_lease(const vf_job *job, vf_farm_reply *r);
 

@@ -9,6 +9,7 @@
 #include "farm.h"
 #include "log.h"
 #include "merger.h"
+#include "replay.h"
 #include "ship.h"
 #include "state.h"
 
@@ -38,6 +39,8 @@ typedef struct {
   uv_signal_t sigint, sigterm;
   int socket;
   vf_wire_key key;
+  vf_replay *replay; /* owned: the nonces of the requests let through */
+  uint64_t replays_refused;
   vf_farm farm;
   vf_dashboard *dashboard; /* owned; NULL without --http */
   double checkpoint_interval, last_checkpoint;
@@ -57,6 +60,14 @@ typedef struct pending_reply {
   size_t len;
   void *control;
 } pending_reply;
+
+/* Where a reply goes and what it answers: the routing header (owned, a nanomsg chunk) and
+ * the request's stamp, which the reply is bound to (common/wire.h). Allocated per request;
+ * its address is the farm's token for a reply given later. */
+typedef struct {
+  void *control;
+  vf_wire_stamp request;
+} reply_route;
 
 static void on_readable(uv_poll_t *handle, int status, int events);
 
@@ -97,20 +108,31 @@ static void on_writable(uv_poll_t *handle, int status, int events) {
   resume_receiving(c);
 }
 
-/* Packs and sends a reply to the peer of `control`, which this takes. */
-static void send_reply(coordinator *c, vf_farm_reply *reply, void *control) {
+static void deliver(coordinator *c, uint8_t *frame, size_t len, void *control);
+
+/* Packs and sends a reply along `route`, which this takes (and frees). */
+static void send_reply(coordinator *c, vf_farm_reply *reply, reply_route *route) {
   uint8_t *frame;
   size_t len;
-  int err = vf_message_pack(&c->key, &reply->env, &frame, &len);
+  void *control = route->control;
+  vf_wire_stamp request = route->request;
+  free(route);
+  int err = vf_message_pack(&c->key, &request, &reply->env, &frame, &len, NULL);
   if (err != VF_OK) {
     vf_log("cannot encode the %s reply: %s", vf_message_name(&reply->env), vf_error_detail(err));
     vf_farm_reply_release(reply);
     vf_farm_reply_error(reply, VCMFARM__ERROR_CODE__ERROR_INTERNAL, "reply could not be encoded");
-    if (vf_message_pack(&c->key, &reply->env, &frame, &len) != VF_OK) {
+    if (vf_message_pack(&c->key, &request, &reply->env, &frame, &len, NULL) != VF_OK) {
       nn_freemsg(control);
       return;
     }
   }
+  if (request.version == VF_PROTOCOL_VERSION) vf_replay_keep_reply(c->replay, &request, frame, len);
+  deliver(c, frame, len, control);
+}
+
+/* Sends a frame (taken) to the peer of `control` (taken), now or once there is room. */
+static void deliver(coordinator *c, uint8_t *frame, size_t len, void *control) {
   if (c->pending == NULL && send_frame(c, frame, len, &control) == 0) {
     free(frame);
     return;
@@ -132,31 +154,62 @@ static void send_reply(coordinator *c, vf_farm_reply *reply, void *control) {
 
 /* The farm answers a result later, from the merge thread's completion on the loop. */
 static void reply_later(void *ctx, uint64_t token, vf_farm_reply *reply) {
-  send_reply(ctx, reply, (void *)(uintptr_t)token);
+  send_reply(ctx, reply, (reply_route *)(uintptr_t)token);
 }
 
 static void serve(coordinator *c, const uint8_t *frame, size_t len, void *control) {
   Vcmfarm__Envelope *request;
   vf_farm_reply reply;
   double t0 = vf_seconds_now();
-  int err = vf_message_unpack(&c->key, frame, len, &request);
-  if (err == VF_EVERSION) {
-    vf_log("refused a message: %s", vf_error_detail(err));
-    vf_farm_reply_error(&reply, VCMFARM__ERROR_CODE__ERROR_VERSION, vf_error_detail(err));
-    send_reply(c, &reply, control);
-    vf_farm_reply_release(&reply);
-    return;
-  }
-  if (err != VF_OK) {
-    /* No answer: a peer without the key learns nothing from us. */
-    vf_log("ignored a message of %zu bytes: %s", len, vf_error_detail(err));
+  reply_route *route = malloc(sizeof *route);
+  if (route == NULL) {
+    vf_log("ignored a message of %zu bytes: out of memory", len);
     nn_freemsg(control);
     return;
   }
+  route->control = control;
+  int err = vf_message_unpack(&c->key, NULL, frame, len, &request, &route->request);
+  if (err == VF_EVERSION) {
+    vf_log("refused a message: %s", vf_error_detail(err));
+    vf_farm_reply_error(&reply, VCMFARM__ERROR_CODE__ERROR_VERSION, vf_error_detail(err));
+    send_reply(c, &reply, route);
+    vf_farm_reply_release(&reply);
+    return;
+  }
+  if (err == VF_OK) {
+    /* Before anything looks at it: a replayed request has no effect at all. */
+    int64_t now_ms = vf_wire_now_ms();
+    err = vf_replay_check(c->replay, &route->request, now_ms);
+    if (err != VF_OK) {
+      c->replays_refused++;
+      size_t kept_len = 0;
+      const uint8_t *kept = vf_replay_reply(c->replay, &route->request, now_ms, &kept_len);
+      uint8_t *again = kept ? malloc(kept_len ? kept_len : 1) : NULL;
+      vf_log("refused a %s message of %zu bytes (%llu refused so far): %s%s", vf_message_name(request), len,
+             (unsigned long long)c->replays_refused, vf_error_detail(err),
+             again ? "; answered with the reply it had" : "");
+      vf_message_free(request);
+      if (again) { /* a resend (or a replay, which learns nothing new): its reply again, no effect */
+        memcpy(again, kept, kept_len);
+        deliver(c, again, kept_len, control);
+        free(route);
+        return;
+      }
+    }
+  } else {
+    vf_log("ignored a message of %zu bytes: %s", len, vf_error_detail(err));
+  }
+  if (err != VF_OK) {
+    /* No answer: a peer without the key learns nothing from us, and a replay gets nothing
+     * a captured reply could not already tell. */
+    nn_freemsg(control);
+    free(route);
+    return;
+  }
   c->farm.request = request;
-  c->farm.request_token = (uint64_t)(uintptr_t)control;
+  c->farm.request_token = (uint64_t)(uintptr_t)route;
   vf_farm_handle(&c->farm, request, vf_seconds_now(), &reply);
-  if (!reply.deferred) send_reply(c, &reply, control);
+  if (!reply.deferred) send_reply(c, &reply, route);
   vf_farm_reply_release(&reply);
   if (request->body_case == VCMFARM__ENVELOPE__BODY_RESULT) /* the loop's share of a part's cost */
     vf_ship_part_work(&c->farm, vf_seconds_now() - t0, 0);
@@ -277,6 +330,7 @@ int vf_coordinator_run(const vf_coordinator_config *config) {
   else if ((err = vf_wire_key_load(config->secret_path, &c->key)) != VF_OK) goto free_farm;
   if ((err = check_state_dir(config->state_dir)) != VF_OK || (err = check_ipc_path(config->listen_url)) != VF_OK)
     goto free_farm;
+  if ((err = vf_replay_create(VF_REPLAY_CAPACITY, &c->replay)) != VF_OK) goto free_farm;
   if ((err = vf_state_lock(config->state_dir, &lock_fd)) != VF_OK) goto free_farm;
   if ((err = vf_state_load(&c->farm)) != VF_OK) goto unlock;
   vf_blobs_collect(&c->farm, 86400.0); /* before serving anyone, then every hour */
@@ -358,6 +412,7 @@ close_socket:
 unlock:
   close(lock_fd);
 free_farm:
+  vf_replay_destroy(c->replay);
   vf_farm_destroy(&c->farm);
   free(c);
   return err;

@@ -20,11 +20,22 @@
 void vf_jobs_submit(vf_farm *farm, const Vcmfarm__SubmitJob *m, vf_farm_reply *r) {
   if (m->scene == NULL || m->scene->source_case == VCMFARM__SCENE__SOURCE__NOT_SET)
     return vf_farm_reply_error(r, VCMFARM__ERROR_CODE__ERROR_BAD_REQUEST, "submit without a scene");
-  int builtin = m->scene->source_case == VCMFARM__SCENE__SOURCE_BUILTIN;
+  int builtin = m->scene->source_case == VCMFARM__SCENE__SOURCE_BUILTIN, err;
   const char *text = builtin ? m->scene->builtin : m->scene->json;
+  char *sent_text = NULL; /* owned: a text that came as a blob */
+  size_t text_len;
+  if (m->scene->source_case == VCMFARM__SCENE__SOURCE_JSON_BLOB) {
+    if ((err = vf_blobs_scene_text(farm, m->scene->json_blob, &sent_text, &text_len)) != VF_OK)
+      return vf_farm_reply_error(r, err == VF_EINVAL ? VCMFARM__ERROR_CODE__ERROR_BAD_REQUEST : VCMFARM__ERROR_CODE__ERROR_INTERNAL,
+                                 vf_error_detail(err));
+    text = sent_text;
+  } else {
+    text_len = strlen(text);
+  }
   vf_job *job;
-  int err = vf_job_create(farm->next_job_id, m->name, m->priority, builtin, text, strlen(text), m->scene_hash.data,
-                          m->scene_hash.len, m->settings, m->first_iteration, m->iterations, &job);
+  err = vf_job_create(farm->next_job_id, m->name, m->priority, builtin, text, text_len, m->scene_hash.data,
+                      m->scene_hash.len, m->settings, m->first_iteration, m->iterations, &job);
+  free(sent_text);
   if (err == VF_OK && ((err = vf_job_set_scene_path(job, m->scene_path)) != VF_OK ||
                        (err = vf_blobs_attach(farm, job, m->scene)) != VF_OK))
     vf_job_destroy(job);

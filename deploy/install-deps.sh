@@ -15,7 +15,7 @@ packages=(
   libassimp-dev        # mesh files (OBJ, PLY, glTF)
   libpng-dev           # previews and plots, PNG textures
   libjpeg-dev          # JPEG textures (worker/texture.c; Debian's libjpeg62-turbo)
-  libsodium-dev        # content hashes and message authentication
+  libsodium-dev        # content hashes, message encryption and authentication
   libcairo2-dev        # plots and legends (PNG with text)
   libmicrohttpd-dev    # the coordinator's web dashboard (--http)
   zlib1g-dev           # film chunks are ZIP-compressed in parallel (common/exr_chunk.c)

@@ -5,7 +5,7 @@
  *
  * Run against a coordinator without jobs. Sends a blob whose bytes do not match its hash,
  * one with a malformed hash, transfers in chunks whose whole does not match, out of order,
- * past the size, above 4 GiB or with a chunk above 16 MiB, then jobs whose file tables name a blob the coordinator does
+ * past the size, above 4 GiB or with a chunk above 4 MiB, then jobs whose file tables name a blob the coordinator does
  * not have, a wrong size, a name with a control character, two equal names, or files for
  * a built-in scene; asks for blobs as an unknown worker and for one nobody sent. Checks
  * each is refused with a message naming the problem, that a good blob is stored, queried
@@ -147,7 +147,8 @@ static int serve(const char *url, const vf_wire_key *key, const char *cache) {
     int n = nn_recv(sock, &frame, NN_MSG, 0);
     if (n < 0) break; /* no request for 30 s */
     Vcmfarm__Envelope *q = NULL;
-    int err = vf_message_unpack(key, frame, (size_t)n, &q);
+    vf_wire_stamp stamp;
+    int err = vf_message_unpack(key, NULL, frame, (size_t)n, &q, &stamp);
     nn_freemsg(frame);
     if (err != VF_OK) break;
     Vcmfarm__Envelope r = VCMFARM__ENVELOPE__INIT;
@@ -224,7 +225,7 @@ static int serve(const char *url, const vf_wire_key *key, const char *cache) {
     }
     uint8_t *out;
     size_t out_len;
-    if (r.body_case != VCMFARM__ENVELOPE__BODY__NOT_SET && vf_message_pack(key, &r, &out, &out_len) == VF_OK) {
+    if (r.body_case != VCMFARM__ENVELOPE__BODY__NOT_SET && vf_message_pack(key, &stamp, &r, &out, &out_len, NULL) == VF_OK) {
       nn_send(sock, out, out_len, 0);
       free(out);
     }
@@ -272,7 +273,7 @@ int main(int argc, char **argv) {
   expect(put_chunk(c, good, 32, 9, 0, (uint64_t)5 << 30, mesh, 20, "at most"), "a blob above 4 GiB is refused");
   uint8_t *huge = calloc(1, VF_BLOB_CHUNK_BYTES + 1);
   expect(huge && put_chunk(c, good, 32, 9, 0, VF_BLOB_CHUNK_BYTES + 1, huge, VF_BLOB_CHUNK_BYTES + 1, "a chunk of"),
-         "a chunk above 16 MiB is refused");
+         "a chunk above 4 MiB is refused");
   free(huge);
   expect(put_chunk(c, good, 32, 8, half, sizeof mesh, mesh + half, sizeof mesh - half, NULL),
          "a good blob sent in two chunks is stored (its transfer went on after the refused chunk)");

@@ -207,7 +207,8 @@ static int serve(const char *url, const vf_wire_key *key, const char *mode_name,
     int n = nn_recv(sock, &frame, NN_MSG, 0);
     if (n < 0) break; /* no request for 10 s */
     Vcmfarm__Envelope *q = NULL;
-    int err = vf_message_unpack(key, frame, (size_t)n, &q);
+    vf_wire_stamp stamp;
+    int err = vf_message_unpack(key, NULL, frame, (size_t)n, &q, &stamp);
     nn_freemsg(frame);
     if (err != VF_OK || q->body_case != VCMFARM__ENVELOPE__BODY_FETCH) {
       fprintf(stderr, "farm_fetch_peer: expected only fetch requests\n");
@@ -226,7 +227,7 @@ static int serve(const char *url, const vf_wire_key *key, const char *mode_name,
     r.film = &f;
     uint8_t *out;
     size_t out_len;
-    if (vf_message_pack(key, &r, &out, &out_len) == VF_OK) {
+    if (vf_message_pack(key, &stamp, &r, &out, &out_len, NULL) == VF_OK) {
       nn_send(sock, out, out_len, 0);
       free(out);
     }

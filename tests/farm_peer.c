@@ -3,8 +3,10 @@
  *   farm_peer URL KEYFILE
  *
  * Run while the coordinator at URL has one queued job and no worker. Sends a frame under
- * another key, a frame of another protocol version, garbage, a frame whose header claims
- * an oversized payload, raw bytes below the nanomsg protocol (ipc:// only), and then, as
+ * another key, frames of other protocol versions (9, and 7 in its own layout), garbage, a
+ * frame whose header claims an oversized payload, raw bytes below the nanomsg protocol
+ * (ipc:// only); captured Register, LeaseRequest and SubmitJob frames sent again, requests
+ * sent too long ago or ahead, a ciphertext altered; and then, as
  * a registered worker holding a lease, results that do not match it (tiles whose chunk is
  * cut short, holds a NaN, or lies outside the film; another film size, other settings,
  * another range; a message above the result size cap). Checks each is refused as
@@ -25,7 +27,9 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sys/socket.h>
+#include <sys/time.h>
 #include <sys/un.h>
+#include <signal.h>
 #include <unistd.h>
 
 static int failures;
@@ -56,13 +60,36 @@ static void put_u32(uint8_t *p, uint32_t v) {
   p[3] = (uint8_t)v;
 }
 
-/* A frame built by hand: any version, any claimed length, tag under `key`. */
-static uint8_t *hand_frame(const uint8_t *key, uint32_t version, const uint8_t *payload, uint32_t len,
-                           uint32_t claimed, size_t *frame_len) {
-  uint8_t *f = malloc(12 + len + 32);
+/* A request sealed by hand as common/wire.h specifies it: any version, clock and claimed
+ * length, under `key` (the request subkey derived from it). *nonce (may be NULL) gets its
+ * nonce, to open the reply with. */
+static uint8_t *hand_sealed(const uint8_t *key, uint32_t version, int64_t sent_ms, const uint8_t *payload,
+                            uint32_t len, uint32_t claimed, size_t *frame_len, vf_wire_stamp *stamp) {
+  uint8_t *f = malloc(44 + len + 16), k[32];
   memcpy(f, "VCMF", 4);
   put_u32(f + 4, version);
   put_u32(f + 8, claimed);
+  put_u32(f + 12, (uint32_t)((uint64_t)sent_ms >> 32));
+  put_u32(f + 16, (uint32_t)sent_ms);
+  randombytes_buf(f + 20, 24);
+  crypto_kdf_derive_from_key(k, 32, 1, "vcmfarm8", key);
+  crypto_aead_xchacha20poly1305_ietf_encrypt_detached(f + 44, f + 44 + len, NULL, payload, len, f, 44, NULL, f + 20, k);
+  if (stamp) {
+    stamp->version = version;
+    stamp->sent_ms = sent_ms;
+    memcpy(stamp->nonce, f + 20, 24);
+  }
+  *frame_len = 44 + len + 16;
+  return f;
+}
+
+/* A frame of protocol version 7 and earlier: payload in clear, HMAC tag. */
+static uint8_t *legacy_frame(const uint8_t *key, uint32_t version, const uint8_t *payload, uint32_t len,
+                             size_t *frame_len) {
+  uint8_t *f = malloc(12 + len + 32);
+  memcpy(f, "VCMF", 4);
+  put_u32(f + 4, version);
+  put_u32(f + 8, len);
   memcpy(f + 12, payload, len);
   crypto_auth(f + 12 + len, f, 12 + len, key);
   *frame_len = 12 + len + 32;
@@ -79,18 +106,20 @@ static void test_frames(const char *url, const vf_wire_key *key) {
   uint32_t plen = (uint32_t)vcmfarm__envelope__pack(&env, payload);
   void *reply = NULL;
   size_t len;
+  int64_t now = vf_wire_now_ms();
+  vf_wire_stamp stamp;
 
   uint8_t other_key[32];
   randombytes_buf(other_key, sizeof other_key);
-  uint8_t *f = hand_frame(other_key, VF_PROTOCOL_VERSION, payload, plen, plen, &len);
+  uint8_t *f = hand_sealed(other_key, VF_PROTOCOL_VERSION, now, payload, plen, plen, &len, NULL);
   expect(raw_exchange(url, f, len, 500, &reply) < 0, "a frame under another key gets no answer");
   free(f);
 
-  f = hand_frame(key->bytes, VF_PROTOCOL_VERSION + 1, payload, plen, plen, &len);
+  f = hand_sealed(key->bytes, VF_PROTOCOL_VERSION + 1, now, payload, plen, plen, &len, &stamp);
   int n = raw_exchange(url, f, len, 5000, &reply);
   free(f);
   Vcmfarm__Envelope *answer = NULL;
-  int ok = n >= 0 && vf_message_unpack(key, reply, (size_t)n, &answer) == VF_OK &&
+  int ok = n >= 0 && vf_message_unpack(key, &stamp, reply, (size_t)n, &answer, NULL) == VF_OK &&
            answer->body_case == VCMFARM__ENVELOPE__BODY_ERROR &&
            answer->error->code == VCMFARM__ERROR_CODE__ERROR_VERSION && strstr(answer->error->message, "version");
   if (ok) printf("     coordinator says: %s\n", answer->error->message);
@@ -98,15 +127,23 @@ static void test_frames(const char *url, const vf_wire_key *key) {
   vf_message_free(answer);
   if (n >= 0) nn_freemsg(reply);
 
+  f = legacy_frame(key->bytes, 7, payload, plen, &len);
+  n = raw_exchange(url, f, len, 5000, &reply);
+  free(f);
+  ok = n >= 44 && memcmp(reply, "VCMF", 4) == 0 && ((uint8_t *)reply)[7] == 8 &&
+       crypto_auth_verify((uint8_t *)reply + n - 32, reply, (size_t)n - 32, key->bytes) == 0;
+  expect(ok, "a version-7 frame is answered in the version-7 layout, saying version 8 (so a version-7 peer reports it)");
+  if (n >= 0) nn_freemsg(reply);
+
   uint8_t garbage[200];
   randombytes_buf(garbage, sizeof garbage);
   expect(raw_exchange(url, garbage, sizeof garbage, 500, &reply) < 0, "garbage gets no answer");
 
-  f = hand_frame(key->bytes, VF_PROTOCOL_VERSION, payload, plen, 0x7fffffffu, &len);
+  f = hand_sealed(key->bytes, VF_PROTOCOL_VERSION, now, payload, plen, 0x7fffffffu, &len, NULL);
   expect(raw_exchange(url, f, len, 500, &reply) < 0, "a header claiming a 2 GiB payload gets no answer");
   free(f);
 
-  f = hand_frame(key->bytes, VF_PROTOCOL_VERSION, garbage, sizeof garbage, sizeof garbage, &len);
+  f = hand_sealed(key->bytes, VF_PROTOCOL_VERSION, now, garbage, sizeof garbage, sizeof garbage, &len, NULL);
   expect(raw_exchange(url, f, len, 500, &reply) < 0, "an authentic frame holding no Envelope gets no answer");
   free(f);
 
@@ -119,6 +156,157 @@ static void test_frames(const char *url, const vf_wire_key *key) {
     close(s);
     expect(connected, "raw bytes below the nanomsg protocol were delivered (and must be survived)");
   }
+}
+
+/* Sends a frame (again) and returns the reply to its request, or NULL. */
+static Vcmfarm__Envelope *replayed_exchange(const char *url, const vf_wire_key *key, const uint8_t *frame, size_t len,
+                                            const vf_wire_stamp *stamp, int timeout_ms) {
+  void *reply = NULL;
+  int n = raw_exchange(url, frame, len, timeout_ms, &reply);
+  Vcmfarm__Envelope *answer = NULL;
+  if (n >= 0 && vf_message_unpack(key, stamp, reply, (size_t)n, &answer, NULL) != VF_OK) answer = NULL;
+  if (n >= 0) nn_freemsg(reply);
+  return answer;
+}
+
+/* Sends a request sealed now and returns its reply (NULL when none came in timeout_ms);
+ * *frame and *frame_len keep the frame as it went, to be sent again. */
+static Vcmfarm__Envelope *sealed_exchange(const char *url, const vf_wire_key *key, Vcmfarm__Envelope *q,
+                                          int timeout_ms, uint8_t **frame, size_t *frame_len, vf_wire_stamp *stamp) {
+  if (vf_message_pack(key, NULL, q, frame, frame_len, stamp) != VF_OK) return NULL;
+  return replayed_exchange(url, key, *frame, *frame_len, stamp, timeout_ms);
+}
+
+static Vcmfarm__Status *farm_status(vf_farm_client *c, Vcmfarm__Envelope **reply) {
+  Vcmfarm__StatusRequest sr = VCMFARM__STATUS_REQUEST__INIT;
+  Vcmfarm__Envelope q = VCMFARM__ENVELOPE__INIT;
+  q.body_case = VCMFARM__ENVELOPE__BODY_STATUS_REQUEST;
+  q.status_request = &sr;
+  if (vf_farm_request(c, &q, VCMFARM__ENVELOPE__BODY_STATUS, 10000, reply) != VF_OK) return NULL;
+  return (*reply)->status;
+}
+
+/* Captured requests sent again: Register, LeaseRequest and SubmitJob each have their
+ * effect once; the copy has none, and gets the reply its original had (as a resend by
+ * nanomsg would). A request sent 10 minutes ago or 10 minutes ahead, and one whose
+ * ciphertext was altered, get no answer. */
+static void test_replays(const char *url, const vf_wire_key *key, vf_farm_client *c) {
+  void *reply = NULL;
+  uint8_t *frame;
+  size_t len;
+  Vcmfarm__Envelope *status_reply = NULL, *answer;
+  Vcmfarm__Status *st = farm_status(c, &status_reply);
+  size_t workers_before = st ? st->n_workers : 0, jobs_before = st ? st->n_jobs : 0;
+  vf_message_free(status_reply);
+
+  Vcmfarm__Register reg = VCMFARM__REGISTER__INIT;
+  reg.name = "replayed";
+  Vcmfarm__Envelope q = VCMFARM__ENVELOPE__INIT;
+  q.body_case = VCMFARM__ENVELOPE__BODY_REGISTER;
+  q.register_ = &reg;
+  vf_wire_stamp stamp;
+  answer = sealed_exchange(url, key, &q, 10000, &frame, &len, &stamp);
+  uint64_t worker_id = answer && answer->body_case == VCMFARM__ENVELOPE__BODY_REGISTERED ? answer->registered->worker_id : 0;
+  expect(worker_id != 0, "a register is answered");
+  vf_message_free(answer);
+  answer = replayed_exchange(url, key, frame, len, &stamp, 5000);
+  expect(answer && answer->body_case == VCMFARM__ENVELOPE__BODY_REGISTERED && answer->registered->worker_id == worker_id,
+         "the same register sent again gets the reply it had");
+  vf_message_free(answer);
+  free(frame);
+  st = farm_status(c, &status_reply);
+  expect(st && st->n_workers == workers_before + 1, "the replayed register made no phantom worker");
+  vf_message_free(status_reply);
+
+  Vcmfarm__LeaseRequest lr = VCMFARM__LEASE_REQUEST__INIT;
+  lr.worker_id = worker_id;
+  q.body_case = VCMFARM__ENVELOPE__BODY_LEASE_REQUEST;
+  q.lease_request = &lr;
+  Vcmfarm__Envelope *lease = sealed_exchange(url, key, &q, 10000, &frame, &len, &stamp);
+  int leased = lease && lease->body_case == VCMFARM__ENVELOPE__BODY_LEASE;
+  expect(leased, "a lease request is answered with a lease");
+  answer = replayed_exchange(url, key, frame, len, &stamp, 5000);
+  expect(leased && answer && answer->body_case == VCMFARM__ENVELOPE__BODY_LEASE &&
+             answer->lease->lease_id == lease->lease->lease_id,
+         "the same lease request sent again gets the reply it had");
+  vf_message_free(answer);
+  free(frame);
+  if (leased) {
+    Vcmfarm__Heartbeat hb = VCMFARM__HEARTBEAT__INIT;
+    hb.worker_id = worker_id;
+    hb.lease_id = lease->lease->lease_id;
+    q.body_case = VCMFARM__ENVELOPE__BODY_HEARTBEAT;
+    q.heartbeat = &hb;
+    answer = NULL;
+    int alive = vf_farm_request(c, &q, VCMFARM__ENVELOPE__BODY_HEARTBEAT_ACK, 10000, &answer) == VF_OK &&
+                answer->heartbeat_ack->lease_valid;
+    expect(alive, "the lease is still valid after the replayed lease request");
+    vf_message_free(answer);
+
+    Vcmfarm__SubmitJob sj = VCMFARM__SUBMIT_JOB__INIT;
+    sj.name = "replayed";
+    sj.scene = lease->lease->scene;
+    sj.scene_hash = lease->lease->scene_hash;
+    sj.settings = lease->lease->settings;
+    sj.iterations = 1;
+    sj.priority = 1;
+    q.body_case = VCMFARM__ENVELOPE__BODY_SUBMIT;
+    q.submit = &sj;
+    answer = sealed_exchange(url, key, &q, 10000, &frame, &len, &stamp);
+    uint64_t job = answer && answer->body_case == VCMFARM__ENVELOPE__BODY_SUBMITTED ? answer->submitted->job_id : 0;
+    if (answer && !job && answer->body_case == VCMFARM__ENVELOPE__BODY_ERROR) printf("     %s\n", answer->error->message);
+    expect(job != 0, "a submission is answered");
+    vf_message_free(answer);
+    answer = replayed_exchange(url, key, frame, len, &stamp, 5000);
+    expect(answer && answer->body_case == VCMFARM__ENVELOPE__BODY_SUBMITTED && answer->submitted->job_id == job,
+           "the same submission sent again gets the reply it had");
+    vf_message_free(answer);
+    free(frame);
+    st = farm_status(c, &status_reply);
+    expect(st && st->n_jobs == jobs_before + 1, "the replayed submission made no second job");
+    vf_message_free(status_reply);
+    Vcmfarm__CancelRequest cr = VCMFARM__CANCEL_REQUEST__INIT;
+    Vcmfarm__RemoveRequest rr = VCMFARM__REMOVE_REQUEST__INIT;
+    cr.job_id = rr.job_id = job;
+    q.body_case = VCMFARM__ENVELOPE__BODY_CANCEL;
+    q.cancel = &cr;
+    if (vf_farm_request(c, &q, VCMFARM__ENVELOPE__BODY_RESULT_ACK, 10000, &answer) == VF_OK) vf_message_free(answer);
+    q.body_case = VCMFARM__ENVELOPE__BODY_REMOVE;
+    q.remove = &rr;
+    expect(vf_farm_request(c, &q, VCMFARM__ENVELOPE__BODY_RESULT_ACK, 10000, &answer) == VF_OK, "the job is removed");
+    vf_message_free(answer);
+
+    Vcmfarm__LeaseRelease rel = VCMFARM__LEASE_RELEASE__INIT;
+    rel.worker_id = worker_id;
+    rel.lease_id = lease->lease->lease_id;
+    q.body_case = VCMFARM__ENVELOPE__BODY_RELEASE;
+    q.release = &rel;
+    if (vf_farm_request(c, &q, VCMFARM__ENVELOPE__BODY_RESULT_ACK, 10000, &answer) == VF_OK) vf_message_free(answer);
+  }
+  vf_message_free(lease);
+
+  Vcmfarm__StatusRequest sr = VCMFARM__STATUS_REQUEST__INIT;
+  Vcmfarm__Envelope se = VCMFARM__ENVELOPE__INIT;
+  se.body_case = VCMFARM__ENVELOPE__BODY_STATUS_REQUEST;
+  se.status_request = &sr;
+  se.protocol_version = VF_PROTOCOL_VERSION;
+  uint8_t payload[64];
+  uint32_t plen = (uint32_t)vcmfarm__envelope__pack(&se, payload);
+  int64_t now = vf_wire_now_ms();
+  uint8_t *f = hand_sealed(key->bytes, VF_PROTOCOL_VERSION, now, payload, plen, plen, &len, NULL);
+  int n = raw_exchange(url, f, len, 5000, &reply);
+  expect(n >= 0, "a status request sealed by hand now is answered");
+  if (n >= 0) nn_freemsg(reply);
+  f[44] ^= 0x20; /* the ciphertext, with a new nonce so that it is no replay */
+  randombytes_buf(f + 20, 24);
+  expect(raw_exchange(url, f, len, 1000, &reply) < 0, "a request whose ciphertext was altered gets no answer");
+  free(f);
+  f = hand_sealed(key->bytes, VF_PROTOCOL_VERSION, now - 600000, payload, plen, plen, &len, NULL);
+  expect(raw_exchange(url, f, len, 1000, &reply) < 0, "a request sent 10 minutes ago gets no answer");
+  free(f);
+  f = hand_sealed(key->bytes, VF_PROTOCOL_VERSION, now + 600000, payload, plen, plen, &len, NULL);
+  expect(raw_exchange(url, f, len, 1000, &reply) < 0, "a request sent 10 minutes ahead gets no answer");
+  free(f);
 }
 
 /* A film of the lease's job holding [begin, end), black. */
@@ -162,8 +350,8 @@ static int send_spoiled(void *ctx, Vcmfarm__LeaseResult *m) {
   case TILE_OUTSIDE: t->x = 1; break;
   case OTHER_RANGE: m->begin = m->end; m->end++; break;
   case OVERSIZED:
-    spoilt = calloc(4800000, 1);
-    t->chunk = (ProtobufCBinaryData){spoilt ? 4800000 : 0, spoilt};
+    spoilt = calloc(VF_WIRE_MAX_RESULT + 16384, 1);
+    t->chunk = (ProtobufCBinaryData){spoilt ? VF_WIRE_MAX_RESULT + 16384 : 0, spoilt};
     break;
   default: break;
   }
@@ -251,9 +439,84 @@ static void test_results(vf_farm_client *c) {
   vf_message_free(lease_reply);
 }
 
+/* The resident memory of process pid, in bytes (0 when it cannot be read). */
+static long long rss_bytes(long pid) {
+  char path[64], line[256];
+  snprintf(path, sizeof path, "/proc/%ld/status", pid);
+  FILE *f = fopen(path, "r");
+  long long kb = 0;
+  while (f && fgets(line, sizeof line, f))
+    if (sscanf(line, "VmRSS: %lld kB", &kb) == 1) break;
+  if (f) fclose(f);
+  return kb * 1024;
+}
+
+/* Opens `n` connections below nanomsg (ipc:// only) and on each starts a message of
+ * `claimed` bytes, sending all of it but the last byte, so that the coordinator holds what
+ * it was sent without ever seeing a message it could refuse: what a peer without the key
+ * can cost. Prints the coordinator's resident memory before and after, and checks it still
+ * answers a status request meanwhile; fails when it grew by more than max_growth_mb.
+ *
+ *   farm_peer --flood URL KEYFILE CONNECTIONS CLAIMED_BYTES PID MAX_GROWTH_MB */
+static int flood(const char *url, const vf_wire_key *key, int n, unsigned long long claimed, long pid,
+                 double max_growth_mb) {
+  signal(SIGPIPE, SIG_IGN);
+  long long before = rss_bytes(pid);
+  int *fds = calloc((size_t)n, sizeof *fds);
+  size_t block = 1 << 20;
+  uint8_t *junk = calloc(1, block);
+  int refused = 0;
+  unsigned long long sent_total = 0;
+  for (int i = 0; i < n; i++) {
+    fds[i] = socket(AF_UNIX, SOCK_STREAM, 0);
+    struct sockaddr_un addr = {.sun_family = AF_UNIX};
+    snprintf(addr.sun_path, sizeof addr.sun_path, "%s", url + 6);
+    struct timeval tv = {5, 0};
+    setsockopt(fds[i], SOL_SOCKET, SO_SNDTIMEO, &tv, sizeof tv);
+    if (connect(fds[i], (struct sockaddr *)&addr, sizeof addr) != 0) return 2;
+    /* nanomsg's ipc framing: the SP header, then per message a type byte (1: normal) and
+     * the size, 64 bits big-endian */
+    uint8_t hello[8] = {0, 'S', 'P', 0, 0, NN_REQ, 0, 0}, size[9] = {1};
+    for (int b = 0; b < 8; b++) size[1 + b] = (uint8_t)(claimed >> (56 - 8 * b));
+    if (write(fds[i], hello, 8) != 8 || write(fds[i], size, 9) != 9) return 2;
+    unsigned long long left = claimed - 1;
+    while (left > 0) {
+      ssize_t w = write(fds[i], junk, left < block ? left : block);
+      if (w <= 0) break; /* closed: the coordinator refused the size */
+      left -= (unsigned long long)w;
+      sent_total += (unsigned long long)w;
+    }
+    refused += left > 0;
+  }
+  usleep(500 * 1000);
+  long long after = rss_bytes(pid);
+  vf_farm_client *c;
+  Vcmfarm__Envelope *reply = NULL;
+  int alive = vf_farm_client_open(url, key, &c) == VF_OK && farm_status(c, &reply) != NULL;
+  vf_message_free(reply);
+  if (alive) vf_farm_client_close(c);
+  printf("connections %d claiming %llu bytes each: %d cut off by the coordinator, %.1f MB sent; "
+         "coordinator RSS %.1f MB -> %.1f MB (+%.1f MB); %s\n",
+         n, claimed, refused, (double)sent_total / 1e6, (double)before / 1e6, (double)after / 1e6,
+         (double)(after - before) / 1e6, alive ? "it still answers" : "IT DOES NOT ANSWER");
+  for (int i = 0; i < n; i++) close(fds[i]);
+  free(fds);
+  free(junk);
+  int bounded = (double)(after - before) / 1e6 <= max_growth_mb;
+  if (!bounded) printf("FAIL the coordinator grew by more than %.1f MB\n", max_growth_mb);
+  return alive && bounded ? 0 : 1;
+}
+
 int main(int argc, char **argv) {
+  if (argc == 8 && strcmp(argv[1], "--flood") == 0) {
+    vf_wire_key key;
+    if (vf_wire_key_load(argv[3], &key) != VF_OK) return 2;
+    /* "cap": a message as large as the coordinator takes */
+    unsigned long long claimed = strcmp(argv[5], "cap") == 0 ? VF_WIRE_MAX_REQUEST_FRAME : strtoull(argv[5], NULL, 10);
+    return flood(argv[2], &key, atoi(argv[4]), claimed, atol(argv[6]), atof(argv[7]));
+  }
   if (argc != 3) {
-    fprintf(stderr, "usage: farm_peer URL KEYFILE\n");
+    fprintf(stderr, "usage: farm_peer URL KEYFILE\n       farm_peer --flood URL KEYFILE CONNECTIONS CLAIMED_BYTES PID MAX_GROWTH_MB\n");
     return 2;
   }
   vf_wire_key key;
@@ -264,11 +527,9 @@ int main(int argc, char **argv) {
   }
   test_frames(argv[1], &key);
   test_results(c);
-  Vcmfarm__StatusRequest sr = VCMFARM__STATUS_REQUEST__INIT;
-  Vcmfarm__Envelope q = VCMFARM__ENVELOPE__INIT, *reply;
-  q.body_case = VCMFARM__ENVELOPE__BODY_STATUS_REQUEST;
-  q.status_request = &sr;
-  int alive = vf_farm_request(c, &q, VCMFARM__ENVELOPE__BODY_STATUS, 10000, &reply) == VF_OK;
+  test_replays(argv[1], &key, c);
+  Vcmfarm__Envelope *reply;
+  int alive = farm_status(c, &reply) != NULL;
   expect(alive && reply->status->n_jobs == 1 && reply->status->jobs[0]->iterations_done == 0 &&
              reply->status->jobs[0]->results_refused == 7,
          "the coordinator still answers; its job has no iteration and 7 refused results");

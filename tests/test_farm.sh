@@ -7,8 +7,8 @@
 #
 #   test_farm.sh CASE VCMFARM FARM_COMPARE FARM_PEER [FARM_BLOB_PEER]
 #
-# CASE: three_workers, worker_killed, worker_killed_after_parts, worker_terminated, coordinator_killed,
-# hostile_peers, late_duplicate, priorities, stop_conditions; mesh_scene, big_file and bad_blobs (scenes
+# CASE: long_scene_text, three_workers, worker_killed, worker_killed_after_parts, worker_terminated, coordinator_killed,
+# hostile_peers, unauthenticated_bound, late_duplicate, priorities, stop_conditions; mesh_scene, big_file and bad_blobs (scenes
 # with files, FARM_BLOB_PEER); render_4k, fetch_4k and bad_fetches (films fetched in chunks, with
 # FARM_FETCH_PEER in the place of FARM_BLOB_PEER).
 # No fixed sleeps synchronise anything: the script polls `vcmfarm status` (or a file) with
@@ -148,6 +148,20 @@ served() { grep -c "served blob" "$tmp/coordinator.log"; }
 fetched() { grep -c "fetched blob" "$tmp/$1.log"; }
 
 case "$case_name" in
+long_scene_text)
+  # A JSON text above VF_WIRE_MAX_INLINE_SCENE (2 MiB) travels as a blob before the job,
+  # so that the submission stays under the coordinator's request cap (protocol 8): this one,
+  # of 5 MB, would be cut off by nanomsg if it came inline.
+  make_project
+  head -c 5000000 /dev/zero | tr '\0' ' ' >>"$scene"
+  start_coordinator
+  start_worker w1 --cache "$tmp/cache-w1"
+  submit_scene 8 7
+  [ "$(stat -c %s "$tmp/state/job-$job.scene")" = "$(stat -c %s "$scene")" ] ||
+    fail "the coordinator's copy of the scene text is not the submitted text"
+  wait_until 60 "job $job done" job_done
+  check_scene_film
+  ;;
 mesh_scene)
   make_project
   start_coordinator
@@ -542,8 +556,31 @@ hostile_peers)
   submit 24
   "$peer" "$url" "$key" || fail "a hostile peer was not refused as expected"
   exited "$coordinator" && fail "the coordinator died"
+  for refusal in "register message .*replayed.*answered with the reply it had" "lease-request message .*replayed" \
+                 "submit message .*replayed.*answered with the reply it had" \
+                 "status-request message .*stale: sent 60[01]" "status-request message .*in the future"; do
+    grep -q "refused a $refusal" "$tmp/coordinator.log" || fail "the coordinator did not log: refused a $refusal"
+  done
+  grep "refused a .* message" "$tmp/coordinator.log"
   start_worker w1
   start_worker w2
+  wait_until 60 "job $job done" job_done
+  check_film
+  ;;
+unauthenticated_bound)
+  # What peers without the key can make the coordinator hold (docs/PROTOCOL.md, "What a peer
+  # without the key costs"): a message above the request cap is cut off at its header; one
+  # at the cap (4 MiB + 64 KiB), held one byte short of complete, costs its size. Until
+  # protocol 7 the cap was 64 MiB: 10 connections held 671 MB.
+  start_coordinator
+  wait_until 10 "the coordinator to listen" test -S "$tmp/coordinator.sock"
+  "$peer" --flood "$url" "$key" 10 $((64 * 1048576 + 44)) "$coordinator" 5 ||
+    fail "messages above the cap were held"
+  "$peer" --flood "$url" "$key" 10 cap "$coordinator" 46 ||
+    fail "10 connections held more than 10 x 4.3 MB and some slack"
+  exited "$coordinator" && fail "the coordinator died"
+  submit 24
+  start_worker w1
   wait_until 60 "job $job done" job_done
   check_film
   ;;

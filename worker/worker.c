@@ -317,6 +317,7 @@ static void run_lease(worker *w, const Vcmfarm__Lease *l) {
   vf_settings settings;
   const char *bad = NULL;
   if (l->scene == NULL || l->scene->source_case == VCMFARM__SCENE__SOURCE__NOT_SET) bad = "no scene";
+  else if (l->scene->source_case == VCMFARM__SCENE__SOURCE_JSON_BLOB) bad = "scene text as a blob (only a submission has one)";
   else if (l->scene_hash.len != 32) bad = "scene hash is not 32 bytes";
   else if (l->begin >= l->end || l->end - l->begin > 1000000000ull) bad = "empty or huge iteration range";
   else if (vf_settings_parse(&settings, l->settings) != VF_OK || vf_settings_validate(&settings) != VF_OK)

@@ -126,11 +126,11 @@ static int handle_tiles(void *ctx, Vcmfarm__LeaseResult *m) {
   q.result = m;
   uint8_t *frame;
   size_t len;
-  if (vf_message_pack(&ip->key, &q, &frame, &len) != VF_OK) return -1;
+  if (vf_message_pack(&ip->key, NULL, &q, &frame, &len, NULL) != VF_OK) return -1;
   ip->bytes += len;
   vf_farm_reply r;
   double c0 = cpu_now(), w0 = vf_seconds_now();
-  if (vf_message_unpack(&ip->key, frame, len, &request) != VF_OK) {
+  if (vf_message_unpack(&ip->key, NULL, frame, len, &request, NULL) != VF_OK) {
     free(frame);
     return -1;
   }

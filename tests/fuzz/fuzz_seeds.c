@@ -5,6 +5,7 @@
 #include "common/film_wire.h"
 #include "common/message.h"
 
+#include <sodium.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -20,18 +21,29 @@ static int put(const char *dir, const char *target, const char *name, const void
   return fclose(f) != 0;
 }
 
-/* A frame and its payload alone, for the two ways fuzz_message tries an input. */
+/* For the ways fuzz_message tries an input: the message as a request, as the reply to
+ * fuzz_message's fixed request, and its payload alone (the packed Envelope). */
 static int put_message(const char *dir, const char *name, Vcmfarm__Envelope *env) {
   vf_wire_key key;
   memset(key.bytes, 0x5a, sizeof key.bytes);
-  uint8_t *frame = NULL;
-  size_t len = 0;
-  if (vf_message_pack(&key, env, &frame, &len) != 0) return 1;
-  char payload[64];
-  snprintf(payload, sizeof payload, "%s.payload", name);
-  int err = put(dir, "fuzz_message", name, frame, len) ||
-            put(dir, "fuzz_message", payload, frame + VF_WIRE_HEADER_SIZE, len - VF_WIRE_HEADER_SIZE - VF_WIRE_TAG_SIZE);
+  vf_wire_stamp request = {VF_PROTOCOL_VERSION, 0, {0}};
+  memset(request.nonce, 0xa5, sizeof request.nonce);
+  uint8_t *frame = NULL, *reply = NULL;
+  size_t len = 0, reply_len = 0;
+  if (vf_message_pack(&key, NULL, env, &frame, &len, NULL) != 0) return 1;
+  if (vf_message_pack(&key, &request, env, &reply, &reply_len, NULL) != 0) return 1;
+  size_t payload_len = vcmfarm__envelope__get_packed_size(env);
+  uint8_t *payload = malloc(payload_len ? payload_len : 1);
+  if (payload == NULL) return 1;
+  vcmfarm__envelope__pack(env, payload);
+  char payload_name[64], reply_name[64];
+  snprintf(payload_name, sizeof payload_name, "%s.payload", name);
+  snprintf(reply_name, sizeof reply_name, "%s.reply", name);
+  int err = put(dir, "fuzz_message", name, frame, len) || put(dir, "fuzz_message", reply_name, reply, reply_len) ||
+            put(dir, "fuzz_message", payload_name, payload, payload_len);
   free(frame);
+  free(reply);
+  free(payload);
   return err;
 }
 
@@ -62,6 +74,14 @@ int main(int argc, char **argv) {
   env.body_case = VCMFARM__ENVELOPE__BODY_REGISTER;
   env.register_ = &reg;
   err = err || put_message(dir, "register", &env);
+  {
+    /* a frame of protocol version 7 (payload in clear, HMAC tag): refused as another version */
+    vf_wire_key key;
+    memset(key.bytes, 0x5a, sizeof key.bytes);
+    uint8_t legacy[12 + 4 + 32] = {'V', 'C', 'M', 'F', 0, 0, 0, 7, 0, 0, 0, 4, 0x08, 0x07, 0x52, 0x00};
+    crypto_auth(legacy + 16, legacy, 16, key.bytes);
+    err = err || put(dir, "fuzz_message", "version7", legacy, sizeof legacy);
+  }
   Vcmfarm__Tile tile = VCMFARM__TILE__INIT, *tiles[1] = {&tile};
   uint8_t *storage = NULL;
   err = err || vf_film_tile_encode(film, 0, 0, &tile, &storage) != 0;
