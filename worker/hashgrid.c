@@ -184,6 +184,21 @@ int vf_hashgrid_create(vf_hashgrid **out) {
   return VF_OK;
 }
 
+void vf_hashgrid_trim(vf_hashgrid *g) {
+  if (g == NULL) return;
+  void **buffers[] = {(void **)&g->keyed, (void **)&g->scattered, (void **)&g->scattered_index,
+                      (void **)&g->segment_start, (void **)&g->segment_rename, (void **)&g->cell_start,
+                      (void **)&g->chunk_offset, (void **)&g->group_start};
+  for (size_t i = 0; i < sizeof buffers / sizeof *buffers; i++) {
+    free(*buffers[i]);
+    *buffers[i] = NULL;
+  }
+  g->points_cap = g->segment_cap = g->table_cap = g->chunk_offset_cap = g->group_cap = 0;
+  g->lk.cell_start = NULL;
+  g->lk.count = 0;
+  g->points = 0;
+}
+
 void vf_hashgrid_destroy(vf_hashgrid *g) {
   if (g == NULL) return;
   free(g->keyed);

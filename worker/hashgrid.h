@@ -36,6 +36,8 @@ typedef struct {
 
 int vf_hashgrid_create(vf_hashgrid **out);
 void vf_hashgrid_destroy(vf_hashgrid *grid);
+/* Frees the grid's buffers, leaving an empty grid that the next build allocates again. */
+void vf_hashgrid_trim(vf_hashgrid *grid);
 
 /* Builds over n points, positions read at base + i * stride (a vf_vec3 at offset 0 of each
  * record), for queries of the given radius. Reuses the grid's memory between builds.

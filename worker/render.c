@@ -127,6 +127,9 @@ int vf_render_range(vf_renderer *r, vf_film *film, uint64_t begin, uint64_t end,
     if (control && control->progress) control->progress(control->ctx, &st);
   }
   st.seconds = vf_seconds_now() - start;
+  /* The iterations' buffers are not needed while the film is delivered (shipped, written)
+   * and the next range starts: gone, they leave room for the film's copies then. */
+  vf_vcm_trim(r->vcm);
   if (err == VF_OK && since_delivery && control && control->deliver) {
     st.delivery_due = st.final = 1;
     int rc = control->deliver(control->ctx, film, &st);

@@ -13,6 +13,9 @@
 
 #include <math.h>
 #include <stdlib.h>
+#ifdef __GLIBC__
+#include <malloc.h>
+#endif
 #include <string.h>
 
 /* ---------------------------------------------------------------------------------------- */
@@ -282,6 +285,30 @@ int vf_vcm_create(const vf_scene *scene, const vf_accel *accel, const vf_setting
 fail:
   vf_vcm_destroy(v);
   return err;
+}
+
+void vf_vcm_trim(vf_vcm *v) {
+  if (v == NULL) return;
+  if (v->chunks)
+    for (uint32_t c = 0; c < v->num_chunks; c++) {
+      light_chunk *ch = &v->chunks[c];
+      free(ch->vertices);
+      free(ch->splats);
+      ch->vertices = NULL;
+      ch->splats = NULL;
+      ch->num_vertices = ch->vertex_capacity = ch->num_splats = ch->splat_capacity = 0;
+    }
+  v->num_vertices = 0;
+  free(v->photons);
+  v->photons = NULL;
+  v->photon_capacity = 0;
+  v->merge_points = NULL;
+  vf_hashgrid_trim(v->grid);
+#ifdef __GLIBC__
+  /* The chunks' lists are small allocations from malloc's heap, whose free pages glibc
+   * keeps: handed back, or the trim would free nothing the kernel sees. */
+  malloc_trim(0);
+#endif
 }
 
 void vf_vcm_destroy(vf_vcm *v) {

@@ -46,6 +46,12 @@ int vf_vcm_create(const vf_scene *scene, const vf_accel *accel, const vf_setting
                   vf_vcm **out);
 void vf_vcm_destroy(vf_vcm *vcm);
 
+/* Frees what an iteration allocates and the next one would reuse (light vertices, splats,
+ * photons, the grid's arrays: hundreds of bytes per pixel), for a renderer that is done
+ * for a while: after a range of iterations, while its film is shipped or written. The
+ * next iteration allocates them again; renders are unchanged. */
+void vf_vcm_trim(vf_vcm *vcm);
+
 /* Renders global iteration `iteration`: writes one camera-path estimate per pixel into
  * camera_rgb and the light-tracing frame into light_rgb (3 floats per pixel each, top row
  * first, overwritten). Adds to *stats. */
