@@ -1,6 +1,7 @@
 /* Writes the seed corpora of the fuzz targets into DIR/<target>/ (tests/fuzz/corpus is
  * what it wrote, committed): valid inputs of each kind, from which libFuzzer's mutations
  * start.   fuzz_seeds DIR */
+#include "common/blob.h"
 #include "common/film.h"
 #include "common/film_wire.h"
 #include "common/message.h"
@@ -45,6 +46,39 @@ static int put_message(const char *dir, const char *name, Vcmfarm__Envelope *env
   free(reply);
   free(payload);
   return err;
+}
+
+/* fuzz_blob: a scene's file table as a Scene message, the same table as a table file, and
+ * a blob of some bytes (its first byte chooses the chunk length). */
+static int blob_seeds(const char *dir) {
+  static const char mesh[] = "ply\nformat ascii 1.0\nelement vertex 0\nend_header\n";
+  uint8_t hash[32];
+  vf_blob_hash(mesh, sizeof mesh - 1, hash);
+  vf_blob_table table = {0};
+  int err = vf_blob_table_add(&table, "meshes/empty.ply", hash, sizeof mesh - 1) != 0 ||
+            vf_blob_table_add(&table, "../textures/wood.png", hash, sizeof mesh - 1) != 0;
+  Vcmfarm__BlobRef *storage = NULL, **ptrs = NULL;
+  err = err || vf_blob_table_to_wire(&table, &storage, &ptrs) != 0;
+  if (!err) {
+    Vcmfarm__Scene scene = VCMFARM__SCENE__INIT;
+    scene.n_files = table.count;
+    scene.files = ptrs;
+    size_t len = vcmfarm__scene__get_packed_size(&scene);
+    uint8_t *bytes = malloc(len ? len : 1);
+    err = bytes == NULL;
+    if (!err) vcmfarm__scene__pack(&scene, bytes);
+    err = err || put(dir, "fuzz_blob", "scene_files", bytes, len);
+    free(bytes);
+  }
+  free(storage);
+  free(ptrs);
+  char path[4096];
+  snprintf(path, sizeof path, "%s/fuzz_blob/table.json", dir);
+  err = err || vf_blob_table_save(&table, path) != 0;
+  vf_blob_table_clear(&table);
+  char blob[sizeof mesh + 1] = {7};
+  memcpy(blob + 1, mesh, sizeof mesh - 1);
+  return err || put(dir, "fuzz_blob", "chunks", blob, sizeof mesh);
 }
 
 int main(int argc, char **argv) {
@@ -97,5 +131,5 @@ int main(int argc, char **argv) {
   vf_film_destroy(film);
   free(camera);
   free(light);
-  return err;
+  return err || blob_seeds(dir);
 }
