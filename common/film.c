@@ -79,29 +79,6 @@ void vf_film_destroy(vf_film *film) {
   free(film);
 }
 
-int vf_film_clone(const vf_film *film, vf_film **out) {
-  if (film == NULL || out == NULL) return vf_error_set(VF_EINVAL, "vf_film_clone: NULL argument");
-  vf_film *copy = NULL;
-  int err = vf_film_create(film->width, film->height, &copy);
-  if (err != VF_OK) return err;
-  if ((err = vf_iterset_copy(&copy->iterations, &film->iterations)) != VF_OK ||
-      (err = vf_convergence_copy(&copy->convergence, &film->convergence)) != VF_OK) {
-    vf_film_destroy(copy);
-    return err;
-  }
-  size_t n = (size_t)film->width * (size_t)film->height;
-  memcpy(copy->sum, film->sum, 3 * n * sizeof(double));
-  memcpy(copy->square_sum, film->square_sum, 3 * n * sizeof(double));
-  memcpy(copy->scene_hash, film->scene_hash, sizeof copy->scene_hash);
-  memcpy(copy->settings_text, film->settings_text, sizeof copy->settings_text);
-  copy->render_seconds = film->render_seconds;
-  copy->cpu_seconds = film->cpu_seconds;
-  copy->nonfinite_samples = film->nonfinite_samples;
-  memcpy(copy->scene_name, film->scene_name, sizeof copy->scene_name);
-  *out = copy;
-  return VF_OK;
-}
-
 int vf_film_clone_metadata(const vf_film *film, vf_film **out) {
   if (film == NULL || out == NULL) return vf_error_set(VF_EINVAL, "vf_film_clone_metadata: NULL argument");
   vf_film *copy = calloc(1, sizeof *copy);
@@ -122,6 +99,22 @@ int vf_film_clone_metadata(const vf_film *film, vf_film **out) {
   copy->cpu_seconds = film->cpu_seconds;
   copy->nonfinite_samples = film->nonfinite_samples;
   memcpy(copy->scene_name, film->scene_name, sizeof copy->scene_name);
+  *out = copy;
+  return VF_OK;
+}
+
+int vf_film_clone(const vf_film *film, vf_film **out) {
+  if (film == NULL || out == NULL) return vf_error_set(VF_EINVAL, "vf_film_clone: NULL argument");
+  vf_film *copy = NULL;
+  int err = vf_film_clone_metadata(film, &copy);
+  if (err != VF_OK) return err;
+  size_t bytes = sums_bytes(film);
+  if ((copy->sum = sums_alloc(bytes)) == NULL || (copy->square_sum = sums_alloc(bytes)) == NULL) {
+    vf_film_destroy(copy);
+    return vf_error_set(VF_ENOMEM, "out of memory for a %dx%d film", film->width, film->height);
+  }
+  memcpy(copy->sum, film->sum, bytes);
+  memcpy(copy->square_sum, film->square_sum, bytes);
   *out = copy;
   return VF_OK;
 }
