@@ -438,13 +438,21 @@ int vf_blob_table_load(const char *path, vf_blob_table *out) {
                 *size = cJSON_GetObjectItemCaseSensitive(o, "size");
     uint8_t hash[32];
     size_t hash_len = 0;
-    if (!cJSON_IsString(name) || !cJSON_IsString(hex) || !cJSON_IsNumber(size) || size->valuedouble < 0 ||
+    if (!cJSON_IsString(name) || !cJSON_IsString(hex) || !cJSON_IsNumber(size) ||
         sodium_hex2bin(hash, 32, hex->valuestring, strlen(hex->valuestring), NULL, &hash_len, NULL) != 0 ||
         hash_len != 32) {
       err = vf_error_set(VF_EINVAL, "%s: entry %zu is not {\"name\", \"hash\" (64 hex digits), \"size\"}", path, i);
       break;
     }
-    if ((err = vf_blob_table_add(&t, name->valuestring, hash, (uint64_t)size->valuedouble)) != VF_OK) {
+    /* Checked as a double before it becomes an integer (a conversion out of range is
+     * undefined): a whole number of bytes, at most a blob's limit. */
+    double bytes = size->valuedouble;
+    if (!(bytes >= 0.0 && bytes <= (double)VF_BLOB_MAX_BYTES) || bytes != (double)(uint64_t)bytes) {
+      err = vf_error_set(VF_EINVAL, "%s: entry %zu: size %g is not a whole number of bytes from 0 to %llu", path, i,
+                         bytes, (unsigned long long)VF_BLOB_MAX_BYTES);
+      break;
+    }
+    if ((err = vf_blob_table_add(&t, name->valuestring, hash, (uint64_t)bytes)) != VF_OK) {
       err = vf_error_set(err, "%s: entry %zu: %s", path, i, vf_error_detail(err));
       break;
     }

@@ -177,6 +177,19 @@ static void test_table_refuses_bad_entries(void) {
   CHECK(back.count == 1 && strcmp(back.refs[0].name, "meshes/a.ply") == 0 && back.refs[0].size == 10 &&
         memcmp(back.refs[0].hash, hash, 32) == 0);
   vf_blob_table_clear(&back);
+  /* Sizes that are no number of bytes are refused by name, before any conversion (5e30
+   * reached an undefined conversion to uint64_t, found by fuzz_blob). */
+  const char *bad_sizes[] = {"5e30", "-1", "0.5", "4294967297", "1e400"};
+  for (size_t k = 0; k < sizeof bad_sizes / sizeof *bad_sizes; k++) {
+    FILE *f = fopen(path, "w");
+    fprintf(f, "[{\"name\": \"a.obj\", \"hash\": \"%064d\", \"size\": %s}]", 0, bad_sizes[k]);
+    fclose(f);
+    vf_blob_table none = {0};
+    err = vf_blob_table_load(path, &none);
+    CHECK_INT_EQ(err, VF_EINVAL);
+    CHECK_STR_CONTAINS(vf_error_detail(err), "entry 0");
+    CHECK_INT_EQ(none.count, 0);
+  }
   vf_blob_table_clear(&t);
 }
 
