@@ -61,7 +61,7 @@ void vf_farm_client_close(vf_farm_client *client) {
 
 const char *vf_farm_client_url(const vf_farm_client *client) { return client->url; }
 
-int vf_farm_call(vf_farm_client *c, Vcmfarm__Envelope *request, int timeout_ms, Vcmfarm__Envelope **reply) {
+static int call_once(vf_farm_client *c, Vcmfarm__Envelope *request, int timeout_ms, Vcmfarm__Envelope **reply) {
   uint8_t *frame;
   size_t len;
   vf_wire_stamp stamp;
@@ -92,6 +92,26 @@ int vf_farm_call(vf_farm_client *c, Vcmfarm__Envelope *request, int timeout_ms, 
   if (err != VF_OK) return err;
   *reply = env;
   return VF_OK;
+}
+
+/* A coordinator refuses requests sent before it started (it keeps no nonce across a
+ * restart, docs/PROTOCOL.md, "Freshness") and asks for them again: a request queued while
+ * it started, or in flight across its restart, is sent again at once as a new frame. */
+#define RESENDS_MAX 3
+
+int vf_farm_call(vf_farm_client *c, Vcmfarm__Envelope *request, int timeout_ms, Vcmfarm__Envelope **reply) {
+  for (int attempt = 0;; attempt++) {
+    Vcmfarm__Envelope *env = NULL;
+    int err = call_once(c, request, timeout_ms, &env);
+    if (err != VF_OK) return err;
+    if (attempt < RESENDS_MAX && env->body_case == VCMFARM__ENVELOPE__BODY_ERROR &&
+        env->error->code == VCMFARM__ERROR_CODE__ERROR_RESEND) {
+      vf_message_free(env);
+      continue;
+    }
+    *reply = env;
+    return VF_OK;
+  }
 }
 
 int vf_farm_request(vf_farm_client *c, Vcmfarm__Envelope *request, Vcmfarm__Envelope__BodyCase expected,

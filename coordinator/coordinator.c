@@ -195,6 +195,13 @@ static void serve(coordinator *c, const uint8_t *frame, size_t len, void *contro
         free(route);
         return;
       }
+      if (vf_replay_before_start(c->replay, &route->request, now_ms)) { /* still no effect: "send it again" */
+        vf_farm_reply_error(&reply, VCMFARM__ERROR_CODE__ERROR_RESEND,
+                            "sent before this coordinator started: send it again");
+        send_reply(c, &reply, route);
+        vf_farm_reply_release(&reply);
+        return;
+      }
     }
   } else {
     vf_log("ignored a message of %zu bytes: %s", len, vf_error_detail(err));
@@ -331,6 +338,7 @@ int vf_coordinator_run(const vf_coordinator_config *config) {
   if ((err = check_state_dir(config->state_dir)) != VF_OK || (err = check_ipc_path(config->listen_url)) != VF_OK)
     goto free_farm;
   if ((err = vf_replay_create(VF_REPLAY_CAPACITY, &c->replay)) != VF_OK) goto free_farm;
+  vf_replay_start(c->replay, vf_wire_now_ms());
   if ((err = vf_state_lock(config->state_dir, &lock_fd)) != VF_OK) goto free_farm;
   if ((err = vf_state_load(&c->farm)) != VF_OK) goto unlock;
   vf_blobs_collect(&c->farm, 86400.0); /* before serving anyone, then every hour */

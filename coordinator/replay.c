@@ -27,6 +27,7 @@ struct vf_replay {
   uint32_t *index;
   size_t index_mask;
   int64_t floor_ms; /* requests sent at or before this are refused: their nonces may be forgotten */
+  int64_t start_ms; /* vf_replay_start's: requests sent before it are refused */
 };
 
 /* The nonces come from peers holding the farm key, drawn by randombytes: their first bytes
@@ -51,7 +52,7 @@ int vf_replay_create(size_t capacity, vf_replay **out) {
   }
   r->capacity = capacity;
   r->index_mask = slots - 1;
-  r->floor_ms = INT64_MIN;
+  r->floor_ms = r->start_ms = INT64_MIN;
   *out = r;
   return VF_OK;
 }
@@ -101,6 +102,12 @@ static void forget_oldest(vf_replay *r) {
   r->count--;
 }
 
+void vf_replay_start(vf_replay *r, int64_t now_ms) { r->start_ms = now_ms; }
+
+int vf_replay_before_start(const vf_replay *r, const vf_wire_stamp *stamp, int64_t now_ms) {
+  return stamp->sent_ms >= now_ms - VF_WIRE_MAX_AGE_MS && stamp->sent_ms < r->start_ms;
+}
+
 int vf_replay_check(vf_replay *r, const vf_wire_stamp *stamp, int64_t now_ms) {
   while (r->count > 0 && r->ring[r->first].sent_ms < now_ms - VF_WIRE_MAX_AGE_MS) forget_oldest(r);
   long long age = (long long)(now_ms - stamp->sent_ms);
@@ -112,6 +119,10 @@ int vf_replay_check(vf_replay *r, const vf_wire_stamp *stamp, int64_t now_ms) {
     return vf_error_set(VF_EREPLAY, "sent %.1f s in the future of this clock, more than the %d s of skew allowed "
                         "(set the farm's machines' clocks with NTP)",
                         (double)-age / 1000.0, VF_WIRE_MAX_AHEAD_MS / 1000);
+  if (stamp->sent_ms < r->start_ms)
+    return vf_error_set(VF_EREPLAY, "sent %.1f s ago, before this coordinator started (a replay of a request to its "
+                        "earlier run, or a clock behind this one: set the farm's machines' clocks with NTP)",
+                        (double)age / 1000.0);
   if (stamp->sent_ms <= r->floor_ms)
     return vf_error_set(VF_EREPLAY, "sent %.1f s ago, before the oldest request of the %zu remembered (more requests "
                         "arrived in %d s than the replay guard holds)",

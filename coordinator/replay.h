@@ -30,6 +30,18 @@ typedef struct vf_replay vf_replay;
 int vf_replay_create(size_t capacity, vf_replay **out);
 void vf_replay_destroy(vf_replay *r);
 
+/* The guard of a coordinator starting at now_ms: it remembers no nonce of its earlier runs,
+ * so it refuses every request sent before it started (a request captured before a restart
+ * cannot be replayed to it). A worker whose clock lags the coordinator's is refused for as
+ * long as the lag after a restart; its retries, new frames, pass then. */
+void vf_replay_start(vf_replay *r, int64_t now_ms);
+
+/* 1 when the request of `stamp` lies in the window of now_ms but was sent before the
+ * guard's start, the one reason vf_replay_check refuses it: the coordinator asks its sender to send it again, as a new frame, instead of leaving
+ * it unanswered (a request queued while the coordinator started, or sent to its earlier
+ * run). A replayer learns nothing from that answer and cannot make the new frame. */
+int vf_replay_before_start(const vf_replay *r, const vf_wire_stamp *stamp, int64_t now_ms);
+
 /* Checks the request of `stamp` at now_ms (Unix milliseconds) and, when it is fresh,
  * remembers its nonce. VF_EREPLAY with a detail saying why otherwise: sent too long ago,
  * sent in the future (clocks too far apart), or its nonce seen already (a replay, or

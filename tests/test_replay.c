@@ -29,6 +29,28 @@ static void test_a_copy_is_refused(void) {
   vf_replay_destroy(r);
 }
 
+/* A coordinator remembers no nonce across a restart: what was sent before it started is
+ * refused, what is sent from then on passes. */
+static void test_requests_before_the_start_are_refused(void) {
+  vf_replay *r;
+  CHECK_INT_EQ(vf_replay_create(64, &r), VF_OK);
+  vf_wire_stamp before = stamp_at(now - 1000), edge = stamp_at(now - 1), at = stamp_at(now), later = stamp_at(now + 10);
+  CHECK_INT_EQ(vf_replay_check(r, &before, now), VF_OK); /* a guard not started: the window alone */
+  vf_replay_destroy(r);
+  CHECK_INT_EQ(vf_replay_create(64, &r), VF_OK);
+  vf_replay_start(r, now);
+  CHECK_INT_EQ(vf_replay_check(r, &before, now + 5), VF_EREPLAY);
+  CHECK_STR_CONTAINS(vf_error_detail(VF_EREPLAY), "before this coordinator started");
+  CHECK_INT_EQ(vf_replay_before_start(r, &before, now + 5), 1); /* answered "send it again" */
+  CHECK_INT_EQ(vf_replay_check(r, &edge, now + 5), VF_EREPLAY);
+  vf_wire_stamp stale = stamp_at(now - VF_WIRE_MAX_AGE_MS - 10);
+  CHECK_INT_EQ(vf_replay_before_start(r, &stale, now + 5), 0); /* stale: no answer at all */
+  CHECK_INT_EQ(vf_replay_before_start(r, &at, now + 5), 0);
+  CHECK_INT_EQ(vf_replay_check(r, &at, now + 5), VF_OK);
+  CHECK_INT_EQ(vf_replay_check(r, &later, now + 20), VF_OK);
+  vf_replay_destroy(r);
+}
+
 static void test_window(void) {
   vf_replay *r;
   CHECK_INT_EQ(vf_replay_create(64, &r), VF_OK);
@@ -117,6 +139,7 @@ int main(void) {
   if (sodium_init() < 0) return 1;
   RUN(test_a_copy_is_refused);
   RUN(test_window);
+  RUN(test_requests_before_the_start_are_refused);
   RUN(test_nonces_expire);
   RUN(test_overflow_shrinks_the_window);
   RUN(test_replies_are_kept);
