@@ -61,25 +61,13 @@ typedef enum { VF_SAMPLER_INDEPENDENT, VF_SAMPLER_SOBOL, VF_SAMPLER_COUNT_ } vf_
 typedef struct {
   vf_rng rng;        /* independent: the stream; sobol: the fallback stream */
   uint32_t index;    /* sobol: the sample index, iteration / VF_SOBOL_REPLICATES (mod 2^32) */
+  uint32_t index_reversed; /* its bits reversed, as the scrambling wants them */
   uint32_t scramble; /* sobol: the path's seed, from (job seed, replicate, path, kind) */
   int sobol;
 } vf_sampler;
 
-/* The sampler of sub-path `path` (a pixel for camera sub-paths, a light sub-path index) of
- * `kind` (VF_STREAM_*) in global iteration `iteration`. */
-static inline void vf_sampler_start(vf_sampler *s, vf_sampler_kind kind, uint64_t seed, uint64_t iteration,
-                                    uint64_t path, uint32_t stream) {
-  s->rng = vf_rng_for_path(seed, iteration, path, stream);
-  s->sobol = kind == VF_SAMPLER_SOBOL;
-  s->index = (uint32_t)(iteration / VF_SOBOL_REPLICATES);
-  uint64_t replicate = iteration % VF_SOBOL_REPLICATES;
-  s->scramble = (uint32_t)vf_splitmix64(vf_splitmix64(seed ^ 0x5851f42d4c957f2dULL) ^
-                                        vf_splitmix64(path ^ (replicate << 40) ^ ((uint64_t)stream << 56)));
-}
-
 static inline uint32_t vf_reverse_bits32(uint32_t x) {
-  x = (x << 16) | (x >> 16);
-  x = ((x & 0x00ff00ffu) << 8) | ((x & 0xff00ff00u) >> 8);
+  x = __builtin_bswap32(x);
   x = ((x & 0x0f0f0f0fu) << 4) | ((x & 0xf0f0f0f0u) >> 4);
   x = ((x & 0x33333333u) << 2) | ((x & 0xccccccccu) >> 2);
   x = ((x & 0x55555555u) << 1) | ((x & 0xaaaaaaaau) >> 1);
@@ -87,9 +75,11 @@ static inline uint32_t vf_reverse_bits32(uint32_t x) {
 }
 
 /* A permutation of 32-bit words in which bit b of the result depends only on bits 0..b of
- * x (and on the seed): a nested uniform scramble of the bit-reversed value. The even
- * constants are the first fractional bits of the square roots of 2, 3 and 5 with the low
- * bit cleared; the seed enters through an addition and an odd multiplier. */
+ * x (and on the seed). Applied to a binary fraction with its digits reversed (digit j of
+ * the fraction at bit j) it is a nested uniform scramble: digit j changes only as a
+ * function of the digits before it. The even constants are the first fractional bits of
+ * the square roots of 2, 3, 5 and 7 with the low bit cleared; the seed enters through
+ * additions and an odd multiplier. */
 static inline uint32_t vf_nested_permute(uint32_t x, uint32_t seed) {
   x += seed;
   x ^= x * 0x6a09e666u;
@@ -106,25 +96,62 @@ static inline uint32_t vf_owen_scramble(uint32_t x, uint32_t seed) {
   return vf_reverse_bits32(vf_nested_permute(vf_reverse_bits32(x), seed));
 }
 
-/* The second dimension of Sobol': the upper-triangular Pascal matrix mod 2, direction
- * numbers v_1 = 1/2, v_{k+1} = v_k xor v_k / 2. */
-static inline uint32_t vf_sobol_second(uint32_t i) {
-  uint32_t r = 0;
-  for (uint32_t v = 0x80000000u; i; i >>= 1, v ^= v >> 1)
-    if (i & 1u) r ^= v;
-  return r;
+/* The second dimension of Sobol' with its digits reversed (digit j of the fraction at bit
+ * j) for index i: its generator is the Pascal matrix mod 2, digit j = xor of the bits i_k
+ * with C(k, j) odd, that is (Lucas) with k a superset of j's bits. Five steps of the
+ * superset-sum transform compute all 32 digits. */
+static inline uint32_t vf_sobol_second_reversed(uint32_t i) {
+  i ^= (i >> 1) & 0x55555555u;
+  i ^= (i >> 2) & 0x33333333u;
+  i ^= (i >> 4) & 0x0f0f0f0fu;
+  i ^= (i >> 8) & 0x00ff00ffu;
+  i ^= (i >> 16) & 0x0000ffffu;
+  return i;
 }
 
-/* Point `index` of pair `pair` as two 32-bit fractions, scrambled with `scramble`. */
-static inline void vf_sobol_pair_bits(uint32_t index, uint32_t scramble, uint32_t pair, uint32_t out[2]) {
+/* The same as a fraction, bit 31 first. */
+static inline uint32_t vf_sobol_second(uint32_t i) { return vf_reverse_bits32(vf_sobol_second_reversed(i)); }
+
+/* The seeds of pair `pair`: [0] shuffles the index, [1] and [2] scramble the coordinates. */
+static inline void vf_sobol_pair_seeds(uint32_t scramble, uint32_t pair, uint32_t seeds[3]) {
   uint64_t h = vf_splitmix64(((uint64_t)scramble << 32) | pair);
-  uint32_t h2 = (uint32_t)vf_splitmix64(h);
-  uint32_t i = vf_owen_scramble(index, (uint32_t)h); /* the shuffle: Owen on the index's digits */
-  out[0] = vf_owen_scramble(vf_reverse_bits32(i), (uint32_t)(h >> 32));
-  out[1] = vf_owen_scramble(vf_sobol_second(i), h2);
+  seeds[0] = (uint32_t)h;
+  seeds[1] = (uint32_t)(h >> 32);
+  seeds[2] = (uint32_t)((h * 0xd1342543de82ef95ULL) >> 32);
+}
+
+/* The shuffled index of pair seeds `seeds` for an index whose bits are reversed
+ * (index_reversed): Owen scrambling of the index's digits, which keeps each aligned block
+ * of 2^m indices an aligned block of 2^m. Returned as an integer (bit 0 its lowest). */
+static inline uint32_t vf_sobol_shuffle(uint32_t index_reversed, uint32_t seed) {
+  return vf_reverse_bits32(vf_nested_permute(index_reversed, seed));
+}
+
+/* Point `index` of pair `pair` as two 32-bit fractions (bit 31 first), scrambled with
+ * `scramble`. The first coordinate is van der Corput, whose reversed digits are the index
+ * itself. */
+static inline void vf_sobol_pair_bits(uint32_t index, uint32_t scramble, uint32_t pair, uint32_t out[2]) {
+  uint32_t seeds[3];
+  vf_sobol_pair_seeds(scramble, pair, seeds);
+  uint32_t i = vf_sobol_shuffle(vf_reverse_bits32(index), seeds[0]);
+  out[0] = vf_reverse_bits32(vf_nested_permute(i, seeds[1]));
+  out[1] = vf_reverse_bits32(vf_nested_permute(vf_sobol_second_reversed(i), seeds[2]));
 }
 
 static inline float vf_sampler_bits_float(uint32_t x) { return (float)(x >> 8) * 0x1p-24f; }
+
+/* The sampler of sub-path `path` (a pixel for camera sub-paths, a light sub-path index) of
+ * `kind` (VF_STREAM_*) in global iteration `iteration`. */
+static inline void vf_sampler_start(vf_sampler *s, vf_sampler_kind kind, uint64_t seed, uint64_t iteration,
+                                    uint64_t path, uint32_t stream) {
+  s->rng = vf_rng_for_path(seed, iteration, path, stream);
+  s->sobol = kind == VF_SAMPLER_SOBOL;
+  s->index = (uint32_t)(iteration / VF_SOBOL_REPLICATES);
+  s->index_reversed = vf_reverse_bits32(s->index);
+  uint64_t replicate = iteration % VF_SOBOL_REPLICATES;
+  s->scramble = (uint32_t)vf_splitmix64(vf_splitmix64(seed ^ 0x5851f42d4c957f2dULL) ^
+                                        vf_splitmix64(path ^ (replicate << 40) ^ ((uint64_t)stream << 56)));
+}
 
 /* Two numbers in [0, 1) of pair `pair`; the independent sampler's next two instead. */
 static inline void vf_sampler_2d(vf_sampler *s, uint32_t pair, float out[2]) {
@@ -133,8 +160,11 @@ static inline void vf_sampler_2d(vf_sampler *s, uint32_t pair, float out[2]) {
     out[1] = vf_rng_float(&s->rng);
     return;
   }
-  uint32_t b[2];
-  vf_sobol_pair_bits(s->index, s->scramble, pair, b);
+  uint32_t seeds[3];
+  vf_sobol_pair_seeds(s->scramble, pair, seeds);
+  uint32_t i = vf_sobol_shuffle(s->index_reversed, seeds[0]);
+  uint32_t b[2] = {vf_reverse_bits32(vf_nested_permute(i, seeds[1])),
+                   vf_reverse_bits32(vf_nested_permute(vf_sobol_second_reversed(i), seeds[2]))};
   out[0] = vf_sampler_bits_float(b[0]);
   out[1] = vf_sampler_bits_float(b[1]);
 }
@@ -143,9 +173,10 @@ static inline void vf_sampler_2d(vf_sampler *s, uint32_t pair, float out[2]) {
  * component, Owen-scrambled, with the index shuffled); the independent sampler's next. */
 static inline float vf_sampler_1d(vf_sampler *s, uint32_t pair) {
   if (!s->sobol || pair == VF_SAMPLER_FALLBACK) return vf_rng_float(&s->rng);
-  uint64_t h = vf_splitmix64(((uint64_t)s->scramble << 32) | pair);
-  uint32_t i = vf_owen_scramble(s->index, (uint32_t)h);
-  return vf_sampler_bits_float(vf_owen_scramble(vf_reverse_bits32(i), (uint32_t)(h >> 32)));
+  uint32_t seeds[3];
+  vf_sobol_pair_seeds(s->scramble, pair, seeds);
+  uint32_t i = vf_sobol_shuffle(s->index_reversed, seeds[0]);
+  return vf_sampler_bits_float(vf_reverse_bits32(vf_nested_permute(i, seeds[1])));
 }
 
 #endif
