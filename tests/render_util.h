@@ -6,6 +6,7 @@
 
 #include "common/error.h"
 #include "common/pool.h"
+#include "common/rng.h"
 #include "worker/accel.h"
 #include "worker/scene.h"
 #include "worker/vcm.h"
@@ -62,6 +63,42 @@ static void mean_and_standard_error(const double *v, int n, int stride, int col,
   }
   *mean = m;
   *se = sqrt(s2 / (n - 1) / n);
+}
+
+/* Per-block mean and standard error of the mean of `iterations` iterations of the
+ * settings' sampler. Independent iterations: from their spread. The sobol sampler's
+ * iterations of one seed are points of one scrambled sequence, whose spread overstates the
+ * error of their mean: its estimates are then BATCH_SEEDS independent renders of
+ * iterations / BATCH_SEEDS iterations each, under seeds of their own, and the standard
+ * error comes from the spread of their means (BATCH_SEEDS - 1 degrees of freedom: 31
+ * makes a |t| of 5 as rare as about 2e-5 per block). mean and se have blocks^2 entries;
+ * 0 on success. */
+#define BATCH_SEEDS 32
+static inline int render_block_estimates(const vf_scene *scene, const vf_settings *settings, int threads, int iterations,
+                                         int blocks, double *mean, double *se, vf_vcm_stats *stats) {
+  int nb = blocks * blocks, batches = settings->sampler == VF_SAMPLER_SOBOL ? BATCH_SEEDS : 1;
+  int per_batch = iterations / batches;
+  double *means = malloc((size_t)iterations * nb * sizeof *means), *batch = malloc((size_t)batches * nb * sizeof *batch);
+  int err = means && batch ? VF_OK : VF_ENOMEM;
+  for (int k = 0; k < batches && err == VF_OK; k++) {
+    vf_settings s = *settings;
+    if (batches > 1) s.seed = vf_splitmix64(settings->seed * 7919u + (uint64_t)k);
+    err = render_block_means(scene, &s, threads, 0, per_batch, blocks, means + (size_t)k * per_batch * nb, stats);
+  }
+  if (err == VF_OK && batches == 1) {
+    for (int b = 0; b < nb; b++) mean_and_standard_error(means, iterations, nb, b, &mean[b], &se[b]);
+  } else if (err == VF_OK) {
+    for (int k = 0; k < batches; k++)
+      for (int b = 0; b < nb; b++) {
+        double m, unused;
+        mean_and_standard_error(means + (size_t)k * per_batch * nb, per_batch, nb, b, &m, &unused);
+        batch[(size_t)k * nb + b] = m;
+      }
+    for (int b = 0; b < nb; b++) mean_and_standard_error(batch, batches, nb, b, &mean[b], &se[b]);
+  }
+  free(means);
+  free(batch);
+  return err;
 }
 
 /* Whether two independent estimates of nb image blocks agree: every block's difference
