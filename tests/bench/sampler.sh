@@ -1,0 +1,50 @@
+#!/usr/bin/env bash
+# Samplers side by side (issue 21, docs/BENCHMARKS.md "Samplers"):
+#
+#     bash tests/bench/sampler.sh [BUILD_DIR] [REPEATS]
+#
+# For cornell, cornell-diffuse, cornell-glossy and cornell-bulb at 64 x 64 and for pt, bpt
+# and vcm, renders ITERATIONS iterations with each sampler (`render --direct -j 1`, the
+# render loop alone on one thread), REPEATS times with different seeds, the two samplers
+# interleaved run by run so that a change in the machine's load touches both alike. Each
+# film's convergence log holds its error against the scene's reference at many iteration
+# counts. sampler_report.py then prints the tables: per-iteration CPU cost, iterations
+# and CPU time to relative-RMSE targets, and the fitted slope of error against iterations,
+# as medians over the repeats.
+#
+# References are long runs of an algorithm of another family where one exists (bpt; bpm
+# for cornell-bulb, see convergence.sh), with the independent sampler and another seed,
+# cached in BUILD_DIR/bench/sampler/; their own noise (the film's estimate, honest for
+# independent numbers) is subtracted from every error.
+set -euo pipefail
+build=${1:-build}
+repeats=${2:-3}
+build=$(cd "$build" && pwd)
+here=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
+vcmfarm=$build/vcmfarm
+out=$build/bench/sampler
+mkdir -p "$out"
+res=64
+radius=$(awk -v r="$res" 'BEGIN { printf "%.6g", 0.003 * 512 / r }')
+scenes=${SCENES:-"cornell-diffuse cornell cornell-glossy cornell-bulb"}
+algorithms=${ALGORITHMS:-"pt bpt vcm"}
+iterations=${ITERATIONS:-2048}
+ref_s=${REF_SECONDS:-150}
+common=(--direct -j 1 -R "${res}x${res}" -r "$radius" -q)
+for scene in $scenes; do
+  ref=$out/ref-$scene.exr
+  ralgo=bpt; [ "$scene" = cornell-bulb ] && ralgo=bpm
+  [ -f "$ref" ] || "$vcmfarm" render "$scene" "${common[@]}" -a $ralgo -s 99 --sampler independent -t "$ref_s" -o "$ref"
+done
+for rep in $(seq 1 "$repeats"); do
+  for scene in $scenes; do
+    for algo in $algorithms; do
+      for sampler in independent sobol; do
+        "$vcmfarm" render "$scene" "${common[@]}" -a "$algo" -s $((rep * 1000 + 1)) --sampler $sampler \
+          -n "$iterations" --reference "$out/ref-$scene.exr" --checkpoint-interval 0.1 \
+          -o "$out/$scene-$algo-$sampler-$rep.exr"
+      done
+    done
+  done
+done
+python3 "$here/sampler_report.py" "$vcmfarm" "$out" "$scenes" "$algorithms" "$repeats"
