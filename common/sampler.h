@@ -153,6 +153,19 @@ static inline void vf_sampler_start(vf_sampler *s, vf_sampler_kind kind, uint64_
                                         vf_splitmix64(path ^ (replicate << 40) ^ ((uint64_t)stream << 56)));
 }
 
+/* A sobol sampler over another index: point `index` of the sequence scrambled by `key`
+ * (in place of the iteration's replicate and the path), for sub-paths stratified across
+ * one another rather than across iterations. The fallback stream is the path's as above. */
+static inline void vf_sampler_start_across(vf_sampler *s, uint64_t seed, uint64_t iteration, uint64_t path,
+                                           uint32_t stream, uint64_t key, uint32_t index) {
+  s->rng = vf_rng_for_path(seed, iteration, path, stream);
+  s->sobol = 1;
+  s->index = index;
+  s->index_reversed = vf_reverse_bits32(index);
+  s->scramble = (uint32_t)vf_splitmix64(vf_splitmix64(seed ^ 0x2545f4914f6cdd1dULL) ^
+                                        vf_splitmix64(key ^ ((uint64_t)stream << 56)));
+}
+
 /* Two numbers in [0, 1) of pair `pair`; the independent sampler's next two instead. */
 static inline void vf_sampler_2d(vf_sampler *s, uint32_t pair, float out[2]) {
   if (!s->sobol || pair == VF_SAMPLER_FALLBACK) {

@@ -26,7 +26,7 @@ static void test_furnace_every_algorithm_gives_the_analytic_value(void) {
     s.algorithm = all_algorithms[a];
     s.sampler = sampler_under_test;
     vf_vcm_stats stats = {0};
-    double mean, se;
+    double mean = NAN, se = NAN;
     CHECK_INT_EQ(render_block_estimates(scene, &s, 2, N, 1, &mean, &se, &stats), VF_OK);
     double exact = 1.0 - pow(0.5, s.max_path_length);
     printf("  furnace %-4s %-11s mean %.5f +- %.5f (exact %.5f), %llu non-finite\n", vf_algorithm_name(s.algorithm),

@@ -197,12 +197,31 @@ typedef struct {
   light_vertex *vertices; /* the path's slot of the retire ring: room for the longest path */
 } light_lane;
 
+/* How the sobol sampler stratifies light sub-paths (docs/BENCHMARKS.md, "Stratifying the
+ * light sub-paths", measured all three): 0 across iterations (each light sub-path index has
+ * its scramble, the iteration is the sample index, as camera sub-paths do), 1 across the
+ * paths of an iteration (the path index is the sample index, each iteration its own
+ * scramble), 2 not at all (independent numbers). A build-time choice for measuring. */
+#ifndef VF_LIGHT_STRATIFICATION
+#define VF_LIGHT_STRATIFICATION 0
+#endif
+
+static void light_sampler_start(const vf_vcm *v, vf_sampler *sampler, uint32_t path) {
+  vf_sampler_kind kind = v->settings.sampler;
+  if (VF_LIGHT_STRATIFICATION == 1 && kind == VF_SAMPLER_SOBOL) {
+    vf_sampler_start_across(sampler, v->settings.seed, v->iteration, path, VF_STREAM_LIGHT, v->iteration, path);
+    return;
+  }
+  if (VF_LIGHT_STRATIFICATION == 2) kind = VF_SAMPLER_INDEPENDENT;
+  vf_sampler_start(sampler, kind, v->settings.seed, v->iteration, path, VF_STREAM_LIGHT);
+}
+
 /* Emits light sub-path `path` into the lane; returns 1 when it has a ray to trace. */
 static int light_start(vf_vcm *v, int thread, light_chunk *c, light_lane *lane, uint32_t path, uint32_t begin) {
   lane->path = path;
   lane->num_vertices = 0;
   vf_sampler *sampler = &lane->sampler;
-  vf_sampler_start(sampler, v->settings.sampler, v->settings.seed, v->iteration, path, VF_STREAM_LIGHT);
+  light_sampler_start(v, sampler, path);
   path_state *s = &lane->s;
   const vf_light *l = vf_lights_pick(v->lights, vf_sampler_1d(sampler, VF_DIM_LIGHT_PICK));
   float rnd[4];
