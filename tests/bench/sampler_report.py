@@ -9,7 +9,8 @@ value (as convergence_report.py). Per scene, algorithm and sampler, medians over
 repeats of: CPU milliseconds per iteration, the iterations and the CPU seconds to reach each
 target (log-log interpolation between log entries), and the slope of log error against
 log iterations (fitted over entries whose error against the reference is at least 1.5 times
-the reference's noise, so its floor does not flatten the fit)."""
+the reference's noise, so its floor does not flatten the fit). A target a run does not
+reach is extrapolated from its last entry along its fitted slope and marked "~"."""
 import json
 import math
 import statistics
@@ -52,12 +53,18 @@ def slope(points):
 
 
 def median(xs):
+    """Median of the magnitudes; negative (extrapolated) when any value is."""
     xs = [x for x in xs if x is not None]
-    return statistics.median(xs) if xs else None
+    if not xs:
+        return None
+    m = statistics.median([abs(x) for x in xs])
+    return -m if any(x < 0 for x in xs) else m
 
 
 def fmt(x, spec):
-    return "-" if x is None else format(x, spec)
+    if x is None:
+        return "-"
+    return ("~" if x < 0 else "") + format(abs(x), spec)
 
 
 def main():
@@ -93,16 +100,23 @@ def main():
                     slopes.append(slope(fit))
                     for t in TARGETS:
                         k = iterations_to(pts, t)
+                        if k is None and pts and slopes[-1] is not None and slopes[-1] < -0.3:
+                            # not reached: extrapolated from the last entry along the fitted
+                            # slope, kept negative to mark it ("~" in the tables)
+                            n_last, e_last = pts[-1]
+                            k = -n_last * (e_last / t) ** (-1.0 / slopes[-1])
                         its[t].append(k)
                         secs[t].append(None if k is None else k * ms / 1000.0)
-                rows[sampler] = (median(cost), median(slopes), {t: median(its[t]) for t in TARGETS},
+                rows[sampler] = (median(cost), None if not [x for x in slopes if x is not None] else
+                                 statistics.median([x for x in slopes if x is not None]), {t: median(its[t]) for t in TARGETS},
                                  {t: median(secs[t]) for t in TARGETS})
                 c, s, it, sc = rows[sampler]
-                print(f"| {scene} | {algo} | {sampler} | {fmt(c, '.3f')} | {fmt(s, '.2f')} | " +
+                print(f"| {scene} | {algo} | {sampler} | {fmt(c, '.3f')} | {'-' if s is None else format(s, '.2f')} | " +
                       " | ".join(fmt(it[t], '.0f') for t in TARGETS) + " | " +
                       " | ".join(fmt(sc[t], '.2f') for t in TARGETS) + " |")
             a, b = rows["independent"][3], rows["sobol"][3]
-            speedups.append((scene, algo, {t: (a[t] / b[t] if a[t] and b[t] else None) for t in TARGETS}))
+            speedups.append((scene, algo, {t: (math.copysign(abs(a[t]) / abs(b[t]), -1.0 if a[t] < 0 or b[t] < 0 else 1.0)
+                                               if a[t] and b[t] else None) for t in TARGETS}))
     print()
     print("| scene | algorithm | " + " | ".join(f"speed-up to {t} (CPU time)" for t in TARGETS) + " |")
     print("|---|---|" + "---|" * len(TARGETS))
