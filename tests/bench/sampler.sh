@@ -41,7 +41,9 @@ for scene in $scenes; do
   rs=$ref_s; [ "$scene" = cornell-bulb ] && rs=$((3 * ref_s / 2))
   [ -f "$ref" ] || "$vcmfarm" render "$scene" "${common[@]}" -a $ralgo -s 99 --sampler sobol -t "$rs" -o "$ref"
 done
-for rep in $(seq 1 "$repeats"); do
+# FIRST_REPEAT=k with REPEATS=k runs repeat k alone (two such runs side by side fill two
+# cores; the report then reads repeats 1..k).
+for rep in $(seq "${FIRST_REPEAT:-1}" "$repeats"); do
   for scene in $scenes; do
     for algo in $algorithms; do
       for sampler in independent sobol; do
@@ -52,4 +54,5 @@ for rep in $(seq 1 "$repeats"); do
     done
   done
 done
+[ "${FIRST_REPEAT:-1}" = 1 ] || exit 0
 python3 "$here/sampler_report.py" "$vcmfarm" "$out" "$scenes" "$algorithms" "$repeats"
