@@ -68,24 +68,27 @@ static void mean_and_standard_error(const double *v, int n, int stride, int col,
 /* Per-block mean and standard error of the mean of `iterations` iterations of the
  * settings' sampler. Independent iterations: from their spread. The sobol sampler's
  * iterations of one seed are points of one scrambled sequence, whose spread overstates the
- * error of their mean: its estimates are then BATCH_SEEDS independent renders of
- * iterations / BATCH_SEEDS iterations each, under seeds of their own, and the standard
- * error comes from the spread of their means (BATCH_SEEDS - 1 degrees of freedom: 31
- * makes a |t| of 5 as rare as about 2e-5 per block). mean and se have blocks^2 entries;
- * 0 on success. */
-#define BATCH_SEEDS 32
+ * error of their mean: its estimates are then iterations / 2 independent renders of two
+ * iterations each (one of each replicate), each under a seed of its own, batch k at
+ * iterations [2k, 2k + 2) so that the batches together cover the sample indices
+ * 0 .. iterations / 2 - 1; the standard error comes from the spread of the batches' means.
+ * (Batches of more iterations keep more of the sequence's stratification, but their few
+ * degrees of freedom make the error bars of heavy-tailed blocks, glass and cut-outs, too
+ * unsteady for a 5-sigma test: 32 batches of three failed one seed in three.) mean and se
+ * have blocks^2 entries; 0 on success. */
 static inline int render_block_estimates(const vf_scene *scene, const vf_settings *settings, int threads, int iterations,
                                          int blocks, double *mean, double *se, vf_vcm_stats *stats) {
-  int nb = blocks * blocks, batches = settings->sampler == VF_SAMPLER_SOBOL ? BATCH_SEEDS : 1;
-  int per_batch = iterations / batches;
+  int nb = blocks * blocks, sobol = settings->sampler == VF_SAMPLER_SOBOL;
+  int per_batch = sobol ? (int)VF_SOBOL_REPLICATES : iterations, batches = iterations / per_batch;
   double *means = malloc((size_t)iterations * nb * sizeof *means), *batch = malloc((size_t)batches * nb * sizeof *batch);
   int err = means && batch ? VF_OK : VF_ENOMEM;
   for (int k = 0; k < batches && err == VF_OK; k++) {
     vf_settings s = *settings;
-    if (batches > 1) s.seed = vf_splitmix64(settings->seed * 7919u + (uint64_t)k);
-    err = render_block_means(scene, &s, threads, 0, per_batch, blocks, means + (size_t)k * per_batch * nb, stats);
+    if (sobol) s.seed = vf_splitmix64(settings->seed * 7919u + (uint64_t)k);
+    err = render_block_means(scene, &s, threads, sobol ? (uint64_t)k * (uint64_t)per_batch : 0, per_batch, blocks,
+                             means + (size_t)k * per_batch * nb, stats);
   }
-  if (err == VF_OK && batches == 1) {
+  if (err == VF_OK && !sobol) {
     for (int b = 0; b < nb; b++) mean_and_standard_error(means, iterations, nb, b, &mean[b], &se[b]);
   } else if (err == VF_OK) {
     for (int k = 0; k < batches; k++)
