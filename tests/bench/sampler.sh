@@ -55,4 +55,11 @@ for rep in $(seq "${FIRST_REPEAT:-1}" "$repeats"); do
   done
 done
 [ "${FIRST_REPEAT:-1}" = 1 ] || exit 0
+# docs/plots/sampler-SCENE.png: error against iterations of the first repeat's films.
+root=$(cd "$here/../.." && pwd)
+for scene in $scenes; do
+  films=()
+  for algo in $algorithms; do films+=("$out/$scene-$algo-independent-1.exr" "$out/$scene-$algo-sobol-1.exr"); done
+  "$vcmfarm" plot "${films[@]}" --x iterations -o "$root/docs/plots/sampler-$scene.png"
+done
 python3 "$here/sampler_report.py" "$vcmfarm" "$out" "$scenes" "$algorithms" "$repeats"

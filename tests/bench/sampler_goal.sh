@@ -22,3 +22,5 @@ for rep in 1 2 3; do
   done
 done
 python3 "$here/sampler_report.py" "$build/vcmfarm" "$out" cornell-diffuse pt 3
+"$build/vcmfarm" plot "$out/cornell-diffuse-pt-independent-1.exr" "$out/cornell-diffuse-pt-sobol-1.exr" \
+  -o "$here/../../docs/plots/sampler-goal.png"
