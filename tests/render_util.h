@@ -107,12 +107,16 @@ static inline int render_block_estimates(const vf_scene *scene, const vf_setting
 /* Whether two independent estimates of nb image blocks agree: every block's difference
  * within 5 combined standard errors (with 64 blocks a Gaussian reaches 4 once in ~250
  * runs) and mean z^2 below 2 (a small bias everywhere shows there before it does in any
- * one block). Prints "  WHAT A vs B: max |z| .., mean z^2 ..". */
+ * one block; a block without spread agrees only with equal means). Prints "  WHAT A vs B:
+ * max |z| .., mean z^2 ..". */
 static inline int blocks_agree(const char *what, const char *a, const char *b, const double *mean_a, const double *se_a,
                         const double *mean_b, const double *se_b, int nb) {
   double max_z = 0.0, sum_z2 = 0.0;
   for (int k = 0; k < nb; k++) {
-    double z = (mean_a[k] - mean_b[k]) / sqrt(se_a[k] * se_a[k] + se_b[k] * se_b[k]);
+    /* A block every sample of which has the same value (sky seen directly through a
+     * constant texel) has no spread: equal means agree, unequal ones do not. */
+    double d = mean_a[k] - mean_b[k], se = sqrt(se_a[k] * se_a[k] + se_b[k] * se_b[k]);
+    double z = se > 0.0 ? d / se : (d == 0.0 ? 0.0 : INFINITY);
     max_z = fmax(max_z, fabs(z));
     sum_z2 += z * z;
   }
