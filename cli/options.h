@@ -35,14 +35,15 @@ int vf_cli_not_input(const char *output_option, const char *output, const char *
 
 /* The render settings a command line may override (render, submit): -a/--algorithm,
  * -s/--seed, -l/--max-path-length, -r/--radius-factor, --alpha (option value 'A'),
- * -R/--resolution. Unset fields leave the scene's settings as they are. The commands take
+ * -R/--resolution, --sampler (option value 'Q'). Unset fields leave the scene's settings as they are. The commands take
  * them through VF_CLI_SETTINGS_OPTIONS (getopt_long entries), VF_CLI_SETTINGS_SHORT (its
  * short letters) and VF_CLI_SETTINGS_HELP (their lines of --help), so the options and
  * their help exist once. */
 #define VF_CLI_SETTINGS_OPTIONS                                                                              \
   {"algorithm", required_argument, 0, 'a'}, {"seed", required_argument, 0, 's'},                            \
       {"max-path-length", required_argument, 0, 'l'}, {"radius-factor", required_argument, 0, 'r'},         \
-      {"alpha", required_argument, 0, 'A'}, {"resolution", required_argument, 0, 'R'}
+      {"alpha", required_argument, 0, 'A'}, {"resolution", required_argument, 0, 'R'},                      \
+      {"sampler", required_argument, 0, 'Q'}
 #define VF_CLI_SETTINGS_SHORT "a:s:l:r:R:"
 #define VF_CLI_SETTINGS_HELP                                                                 \
   "  -a, --algorithm A        vcm (default), bpt, pt, lt, ppm, bpm or auto (the cheapest\n"  \
@@ -51,10 +52,13 @@ int vf_cli_not_input(const char *output_option, const char *output, const char *
   "  -l, --max-path-length L  maximum path segments (default 10)\n"                          \
   "  -r, --radius-factor F    initial merge radius / scene radius (default 0.003)\n"         \
   "      --alpha A            radius reduction exponent in (0, 1] (default 0.75)\n"          \
-  "  -R, --resolution WxH     image size (default: the scene camera's)\n"
+  "  -R, --resolution WxH     image size (default: the scene camera's)\n"                   \
+  "      --sampler S          sobol (default: Owen-scrambled Sobol' over the iterations)\n" \
+  "                           or independent (films of the two never merge)\n"
 
 typedef struct {
   const char *algorithm; /* borrowed from argv, or NULL */
+  const char *sampler;   /* borrowed from argv, or NULL */
   uint64_t seed;
   int have_seed, have_resolution, width, height;
   long long max_path_length; /* <= 0: unset */

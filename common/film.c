@@ -5,6 +5,8 @@
  * merging must be exact enough that merged films equal films rendered in one go. */
 #include "film.h"
 
+#include "settings.h"
+
 #include "error.h"
 #include "exr_util.h" /* VF_EXR_MAX_SIDE, VF_EXR_MAX_PIXELS: a film must fit in its file */
 
@@ -132,6 +134,8 @@ typedef struct {
   vf_film *film;
   const float *camera_rgb, *light_rgb;
   uint64_t *nonfinite; /* per task */
+  int second_moment;   /* square_sum takes the squares (independent films), else the estimates */
+  int replicate_one;   /* a sobol film's iteration of replicate 1: square_sum takes nothing */
 } add_ctx;
 
 static void add_task(void *ctx, size_t task, int thread) {
@@ -154,8 +158,12 @@ static void add_task(void *ctx, size_t task, int thread) {
     }
     for (int k = 0; k < 3; k++) {
       double estimate = (double)cam[k] + (double)light[k];
+      if (c->replicate_one) {
+        film->sum[3 * p + k] += estimate;
+        continue;
+      }
       film->sum[3 * p + k] += estimate;
-      film->square_sum[3 * p + k] += estimate * estimate;
+      film->square_sum[3 * p + k] += c->second_moment ? estimate * estimate : estimate;
     }
   }
   c->nonfinite[task] = nonfinite;
@@ -174,7 +182,8 @@ int vf_film_add_iteration(vf_film *film, uint64_t iteration, const float *camera
     free(nonfinite);
     return err;
   }
-  add_ctx c = {film, camera_rgb, light_rgb, nonfinite};
+  int sobol = vf_film_sobol(film);
+  add_ctx c = {film, camera_rgb, light_rgb, nonfinite, !sobol, sobol && iteration % VF_SOBOL_REPLICATES != 0};
   if (pool) vf_pool_run(pool, tasks, add_task, &c);
   else
     for (size_t t = 0; t < tasks; t++) add_task(&c, t, 0);
@@ -236,17 +245,49 @@ int vf_film_merge_metadata(vf_film *dst, const vf_film *src) {
   return VF_OK;
 }
 
-/* Per pixel and channel, with n iterations and X_i the pixel's estimate of iteration i
- * (camera + light), mean m = sum X_i / n: the sample variance (sum X_i^2 - n m^2) / (n - 1)
- * estimates Var X, and Var X / n is the mean squared error of m if the X_i are
- * independent, which they are (each iteration has its own random streams). The average
- * over pixels and channels is the expected squared error of the image, RMSE its root. It
- * leaves out bias (vertex merging's, which shrinks with the radius). */
+int vf_film_sobol(const vf_film *film) {
+  vf_settings s;
+  return vf_settings_parse(&s, film->settings_text) == VF_OK && s.sampler == VF_SAMPLER_SOBOL;
+}
+
+/* Iterations of the set in replicate 0 (even indices). */
+static uint64_t replicate_zero_count(const vf_iterset *set) {
+  uint64_t n = 0;
+  for (size_t i = 0; i < set->count; i++) n += (set->ranges[i].end + 1) / 2 - (set->ranges[i].begin + 1) / 2;
+  return n;
+}
+
+/* Independent films: per pixel and channel, with n iterations and X_i the pixel's
+ * estimate of iteration i (camera + light), mean m = sum X_i / n: the sample variance
+ * (sum X_i^2 - n m^2) / (n - 1) estimates Var X, and Var X / n is the mean squared error of
+ * m if the X_i are independent, which they are (each iteration has its own random streams).
+ *
+ * Sobol films: the X_i of one replicate are points of one scrambled sequence, not
+ * independent (their mean converges faster than Var X / n says), but the two replicates
+ * (common/sampler.h) are independent of each other. With S_0 the sum over replicate 0
+ * (square_sum) and n_0 its iterations, S_1 = sum - S_0 and n_1 the rest, the replicate means
+ * m_r = S_r / n_r scatter about m by Q = n_0 (m_0 - m)^2 + n_1 (m_1 - m)^2, which (one
+ * degree of freedom) estimates the variance of a single replicate's mean times its count,
+ * so Q / n estimates the mean squared error of m; with n_0 = n_1 it is (m_0 - m_1)^2 / 4.
+ * Per pixel this is a rough estimate; averaged over the image's pixels and channels (whose
+ * scrambles are independent) it is a sharp one.
+ *
+ * The average over pixels and channels is the expected squared error of the image, RMSE
+ * its root. It leaves out bias (vertex merging's, which shrinks with the radius). */
 double vf_film_estimate_rmse(const vf_film *film) {
   uint64_t iterations = vf_iterset_count(&film->iterations);
   if (iterations < 2) return NAN;
   double n = (double)iterations, total = 0.0;
   size_t values = 3 * (size_t)film->width * (size_t)film->height;
+  if (vf_film_sobol(film)) {
+    double n0 = (double)replicate_zero_count(&film->iterations), n1 = n - n0;
+    if (!(n0 > 0) || !(n1 > 0)) return NAN;
+    for (size_t i = 0; i < values; i++) {
+      double m = film->sum[i] / n, m0 = film->square_sum[i] / n0, m1 = (film->sum[i] - film->square_sum[i]) / n1;
+      total += (n0 * (m0 - m) * (m0 - m) + n1 * (m1 - m) * (m1 - m)) / n;
+    }
+    return sqrt(total / (double)values);
+  }
   for (size_t i = 0; i < values; i++) {
     double m = film->sum[i] / n;
     double variance = (film->square_sum[i] - n * m * m) / (n - 1.0);

@@ -5,7 +5,9 @@
  *                plus its light-tracing frame (the light-to-camera technique splats
  *                anywhere in the image, so every iteration adds one whole frame)
  *   square_sum   sum of the squares of those estimates (RGB): with the mean it gives
- *                each pixel's variance and so an error estimate without a reference
+ *                each pixel's variance and so an error estimate without a reference;
+ *                on a film of the sobol sampler, the sum of the estimates of the even
+ *                iterations instead (vf_film_sobol)
  * Every iteration adds one camera sample to every pixel (a non-finite one as zero, still
  * counted) and one light frame, so every pixel holds N = vf_iterset_count(&iterations)
  * samples and nothing per pixel needs counting: the mean radiance is sum / N.
@@ -101,6 +103,12 @@ int vf_film_clone(const vf_film *film, vf_film **out);
  * NaN when the film holds fewer than 2 iterations. Uses only sums, so it is the same for a
  * merged or continued film as for one rendered in one go. */
 double vf_film_estimate_rmse(const vf_film *film);
+
+/* Whether the film's settings name the sobol sampler (common/sampler.h). Its square_sum
+ * then holds not the squares but the sum of the estimates of the iterations of replicate
+ * 0 (even global indices), which is what its error estimate needs (above) and, like the
+ * squares, adds up exactly under merging. */
+int vf_film_sobol(const vf_film *film);
 
 /* Checks the invariants every film built by this module keeps: sums finite, square sums
  * >= 0, times finite and >= 0, non-finite samples at most two per pixel and iteration,

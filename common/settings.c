@@ -9,6 +9,7 @@
 #include <string.h>
 
 static const char *const algorithm_names[VF_ALGO_COUNT_] = {"vcm", "bpt", "pt", "lt", "ppm", "bpm", "auto"};
+static const char *const sampler_names[VF_SAMPLER_COUNT_] = {"independent", "sobol"};
 
 void vf_settings_default(vf_settings *s) {
   s->algorithm = VF_ALGO_VCM;
@@ -18,6 +19,20 @@ void vf_settings_default(vf_settings *s) {
   s->seed = 1;
   s->width = 512;
   s->height = 512;
+  s->sampler = VF_SAMPLER_SOBOL;
+}
+
+const char *vf_sampler_name(vf_sampler_kind k) {
+  return (unsigned)k < VF_SAMPLER_COUNT_ ? sampler_names[k] : "unknown";
+}
+
+int vf_sampler_parse(const char *name, vf_sampler_kind *out) {
+  for (int i = 0; i < VF_SAMPLER_COUNT_; i++)
+    if (strcmp(name, sampler_names[i]) == 0) {
+      *out = (vf_sampler_kind)i;
+      return VF_OK;
+    }
+  return vf_error_set(VF_EUSAGE, "unknown sampler '%s' (expected independent or sobol)", name);
 }
 
 const char *vf_algorithm_name(vf_algorithm a) {
@@ -35,6 +50,7 @@ int vf_algorithm_parse(const char *name, vf_algorithm *out) {
 
 int vf_settings_validate(const vf_settings *s) {
   if ((unsigned)s->algorithm >= VF_ALGO_COUNT_) return vf_error_set(VF_EINVAL, "unknown algorithm");
+  if ((unsigned)s->sampler >= VF_SAMPLER_COUNT_) return vf_error_set(VF_EINVAL, "unknown sampler");
   if (s->max_path_length < 1 || s->max_path_length > VF_MAX_PATH_LENGTH)
     return vf_error_set(VF_EINVAL, "max path length %d is outside [1, %d]", s->max_path_length, VF_MAX_PATH_LENGTH);
   if (!(s->radius_factor > 0.0) || !isfinite(s->radius_factor))
@@ -63,6 +79,8 @@ int vf_settings_format(const vf_settings *s, char *buf, size_t n) {
   vf_double_format(s->alpha, alpha, sizeof alpha);
   int w = snprintf(buf, n, "algorithm=%s max_path_length=%d radius_factor=%s alpha=%s seed=%" PRIu64 " resolution=%dx%d",
                    vf_algorithm_name(s->algorithm), s->max_path_length, radius, alpha, s->seed, s->width, s->height);
+  if (w >= 0 && (size_t)w < n && s->sampler != VF_SAMPLER_INDEPENDENT)
+    w += snprintf(buf + w, n - (size_t)w, " sampler=%s", vf_sampler_name(s->sampler));
   if (w < 0 || (size_t)w >= n) return vf_error_set(VF_EINVAL, "settings text too long");
   return VF_OK;
 }
@@ -70,6 +88,7 @@ int vf_settings_format(const vf_settings *s, char *buf, size_t n) {
 int vf_settings_parse(vf_settings *s, const char *text) {
   vf_settings out;
   vf_settings_default(&out);
+  out.sampler = VF_SAMPLER_INDEPENDENT; /* what a text without one was rendered with */
   unsigned seen = 0;
   char key[64], value[128];
   const char *p = text;
@@ -94,6 +113,9 @@ int vf_settings_parse(vf_settings *s, const char *text) {
     } else if (strcmp(key, "resolution") == 0) {
       if (sscanf(value, "%dx%d", &out.width, &out.height) != 2) goto bad;
       seen |= 32;
+    } else if (strcmp(key, "sampler") == 0) {
+      if (seen & 64 || vf_sampler_parse(value, &out.sampler) != VF_OK) goto bad;
+      seen |= 64;
     } else {
       return vf_error_set(VF_EINVAL, "settings: unknown key '%s'", key);
     }
@@ -101,7 +123,7 @@ int vf_settings_parse(vf_settings *s, const char *text) {
     p += used;
   }
   while (*p == ' ') p++;
-  if (*p != '\0' || seen != 63) return vf_error_set(VF_EINVAL, "settings: malformed or incomplete text \"%.60s\"", text);
+  if (*p != '\0' || (seen & 63) != 63) return vf_error_set(VF_EINVAL, "settings: malformed or incomplete text \"%.60s\"", text);
   int err = vf_settings_validate(&out);
   if (err != VF_OK) return err;
   *s = out;

@@ -6,6 +6,8 @@
 #ifndef VF_SETTINGS_H
 #define VF_SETTINGS_H
 
+#include "sampler.h"
+
 #include <stddef.h>
 #include <stdint.h>
 
@@ -34,20 +36,29 @@ typedef struct {
   double alpha;         /* radius reduction exponent, r_i = r_1 sqrt(i^(alpha-1)) */
   uint64_t seed;
   int width, height;    /* film resolution in pixels */
+  vf_sampler_kind sampler; /* where the paths' random numbers come from (common/sampler.h) */
 } vf_settings;
 
-/* Defaults: vcm, path length 10, radius factor 0.003, alpha 0.75, seed 1, 512x512. */
+/* Defaults: vcm, path length 10, radius factor 0.003, alpha 0.75, seed 1, 512x512, the
+ * sobol sampler (docs/BENCHMARKS.md, "Samplers": it reaches an error sooner). */
 void vf_settings_default(vf_settings *s);
 
 const char *vf_algorithm_name(vf_algorithm a);
 /* VF_EUSAGE with a detail listing the valid names when `name` is not one. */
 int vf_algorithm_parse(const char *name, vf_algorithm *out);
 
+const char *vf_sampler_name(vf_sampler_kind k);
+/* VF_EUSAGE with a detail listing the valid names when `name` is not one. */
+int vf_sampler_parse(const char *name, vf_sampler_kind *out);
+
 /* Checks ranges (path length, radius factor > 0, 0 < alpha <= 1, resolution). */
 int vf_settings_validate(const vf_settings *s);
 
 /* Canonical text, e.g. "algorithm=vcm max_path_length=10 radius_factor=0.003 alpha=0.75
- * seed=1 resolution=512x512": numbers in their shortest text that reads back exactly
+ * seed=1 resolution=512x512 sampler=sobol". The sampler is written only when it is not
+ * the independent one: every film and state file written before samplers existed was
+ * rendered with independent numbers, and its text, which has no sampler, reads (and
+ * merges) as independent, while a sobol film never merges with one. Numbers in their shortest text that reads back exactly
  * (vf_double_format), so parse(format(s)) == s. VF_EINVAL if it does not fit in n bytes.
  * Before protocol version 6 the numbers had 17 digits ("0.0030000000000000001"): films and
  * state files of then are brought to this form when read (vf_settings_canonicalize). */
@@ -57,7 +68,8 @@ int vf_settings_format(const vf_settings *s, char *buf, size_t n);
 int vf_settings_canonicalize(char *text, size_t n);
 /* The shortest "%g" text of v that reads back as v (at most 24 bytes with the NUL). */
 void vf_double_format(double v, char *buf, size_t n);
-/* Parses the canonical text (keys in any order, all required). */
+/* Parses the canonical text (keys in any order, all required but the sampler, which is
+ * independent when absent). */
 int vf_settings_parse(vf_settings *s, const char *text);
 
 #endif

@@ -38,15 +38,20 @@ static double max_sum_difference(const vf_film *a, const vf_film *b) {
   return d;
 }
 
+/* Continuing in steps equals rendering at once, with each sampler (common/sampler.h):
+ * continue renders the film's own settings, its sampler included. */
 static void test_continue_in_three_steps_equals_one_render(void) {
   static const char *const algorithms[] = {"vcm", "bpt", "ppm"};
-  for (size_t a = 0; a < sizeof algorithms / sizeof *algorithms; a++) {
+  static const char *const samplers[] = {"independent", "sobol"};
+  for (size_t k = 0; k < 2 * sizeof algorithms / sizeof *algorithms; k++) {
+    size_t a = k % 3;
+    const char *sampler = samplers[k / 3];
     const char *whole = fixture_path("whole.exr"), *steps = fixture_path("steps.exr");
     const char *out = fixture_path("steps2.exr");
-    CHECK_INT_EQ(fixture_run(vf_cmd_render, "render", "cornell", "-a", algorithms[a], "-n", "9", "-R", "40x32", "-s",
-                             "5", "-q", "-o", whole, NULL), 0);
-    CHECK_INT_EQ(fixture_run(vf_cmd_render, "render", "cornell", "-a", algorithms[a], "-n", "2", "-R", "40x32", "-s",
-                             "5", "-q", "-o", steps, NULL), 0);
+    CHECK_INT_EQ(fixture_run(vf_cmd_render, "render", "cornell", "-a", algorithms[a], "--sampler", sampler, "-n", "9",
+                             "-R", "40x32", "-s", "5", "-q", "-o", whole, NULL), 0);
+    CHECK_INT_EQ(fixture_run(vf_cmd_render, "render", "cornell", "-a", algorithms[a], "--sampler", sampler, "-n", "2",
+                             "-R", "40x32", "-s", "5", "-q", "-o", steps, NULL), 0);
     CHECK_INT_EQ(fixture_run(vf_cmd_continue, "continue", steps, "-n", "3", "-q", NULL), 0);          /* in place */
     CHECK_INT_EQ(fixture_run(vf_cmd_continue, "continue", steps, "-n", "4", "-q", "-o", out, NULL), 0); /* elsewhere */
     vf_film *w = read_film(whole), *s = read_film(out), *mid = read_film(steps);
@@ -55,7 +60,9 @@ static void test_continue_in_three_steps_equals_one_render(void) {
     CHECK(vf_iterset_equal(&w->iterations, &s->iterations));
     CHECK(strcmp(w->settings_text, s->settings_text) == 0);
     double diff = max_sum_difference(w, s), mean = image_mean(w);
-    printf("  %s: continued 2+3+4 vs 9 at once: max |difference| %.3g, image mean %.3g\n", algorithms[a], diff, mean);
+    printf("  %s %s: continued 2+3+4 vs 9 at once: max |difference| %.3g, image mean %.3g\n", algorithms[a], sampler,
+           diff, mean);
+    CHECK((strstr(s->settings_text, "sampler=sobol") != NULL) == (k / 3 == 1));
     CHECK(diff <= 1e-5 * mean);
     CHECK_NEAR(vf_film_estimate_rmse(s), vf_film_estimate_rmse(w), 1e-6 * vf_film_estimate_rmse(w));
     /* one log entry per session, all in run 0: the film never changed between sessions */

@@ -71,10 +71,12 @@ static void test_malformed_log_text_is_refused(void) {
   }
 }
 
-/* A film whose iterations are a fixed function of their index, as in test_film. */
-static vf_film *synthetic_film(int w, int h, uint64_t begin, uint64_t end) {
+/* A film whose iterations are a fixed function of their index, as in test_film, of the
+ * settings `settings` ("algorithm=vcm resolution=WxH" when NULL). */
+static vf_film *synthetic_film_of(int w, int h, uint64_t begin, uint64_t end, const char *settings) {
   vf_film *film = NULL;
   if (vf_film_create(w, h, &film) != VF_OK) return NULL;
+  if (settings) snprintf(film->settings_text, sizeof film->settings_text, "%s", settings);
   float *cam = malloc(sizeof(float) * 3 * (size_t)(w * h)), *light = malloc(sizeof(float) * 3 * (size_t)(w * h));
   for (uint64_t k = begin; k < end; k++) {
     for (int i = 0; i < 3 * w * h; i++) {
@@ -86,10 +88,44 @@ static vf_film *synthetic_film(int w, int h, uint64_t begin, uint64_t end) {
   free(cam);
   free(light);
   memset(film->scene_hash, 0x5a, sizeof film->scene_hash);
-  snprintf(film->settings_text, sizeof film->settings_text, "algorithm=vcm resolution=%dx%d", w, h);
+  if (!settings) snprintf(film->settings_text, sizeof film->settings_text, "algorithm=vcm resolution=%dx%d", w, h);
   film->render_seconds = 0.5 * (double)(end - begin);
   film->cpu_seconds = 0.9 * (double)(end - begin);
   return film;
+}
+
+static vf_film *synthetic_film(int w, int h, uint64_t begin, uint64_t end) {
+  return synthetic_film_of(w, h, begin, end, NULL);
+}
+
+/* A sobol film's estimate is the spread of its two replicates' means (even and odd
+ * iterations, common/film.c), whatever the split of its iterations between films. */
+#define SOBOL_SETTINGS "algorithm=pt max_path_length=10 radius_factor=0.003 alpha=0.75 seed=1 resolution=4x3 sampler=sobol"
+static void test_sobol_estimate_is_the_spread_of_the_replicates(void) {
+  vf_film *f = synthetic_film_of(4, 3, 0, 7, SOBOL_SETTINGS);
+  if (!f) return;
+  CHECK(vf_film_sobol(f));
+  double total = 0.0;
+  for (int i = 0; i < 3 * 4 * 3; i++) {
+    double s[2] = {0, 0}, n[2] = {0, 0};
+    for (int k = 0; k < 7; k++) {
+      double x = (double)(float)((float)((k * 7 + i * 13) % 10) * 0.1f) + ((k % 2) ? (double)0.05f : 0.0);
+      s[k % 2] += x;
+      n[k % 2] += 1;
+    }
+    double m = (s[0] + s[1]) / 7, m0 = s[0] / n[0], m1 = s[1] / n[1];
+    total += (n[0] * (m0 - m) * (m0 - m) + n[1] * (m1 - m) * (m1 - m)) / 7;
+  }
+  CHECK_NEAR(vf_film_estimate_rmse(f), sqrt(total / 36), 1e-12);
+  vf_film *a = synthetic_film_of(4, 3, 0, 3, SOBOL_SETTINGS), *b = synthetic_film_of(4, 3, 3, 7, SOBOL_SETTINGS);
+  CHECK_INT_EQ(vf_film_merge(a, b), VF_OK);
+  CHECK_NEAR(vf_film_estimate_rmse(a), vf_film_estimate_rmse(f), 1e-12);
+  vf_film *even = synthetic_film_of(4, 3, 2, 3, SOBOL_SETTINGS); /* one replicate alone: no estimate */
+  CHECK(isnan(vf_film_estimate_rmse(even)));
+  vf_film_destroy(even);
+  vf_film_destroy(a);
+  vf_film_destroy(b);
+  vf_film_destroy(f);
 }
 
 static void test_estimate_is_the_standard_error_of_the_mean(void) {
@@ -195,10 +231,11 @@ static void test_film_file_keeps_log_scene_and_cpu_time(void) {
 #define REF_ITERATIONS 4096
 #define REF_SEED 777
 
-static vf_film *render_film(const vf_scene *scene, vf_algorithm algorithm, uint64_t seed, uint64_t begin, uint64_t end,
-                            vf_film *into) {
+static vf_film *render_film(const vf_scene *scene, vf_algorithm algorithm, vf_sampler_kind sampler, uint64_t seed,
+                            uint64_t begin, uint64_t end, vf_film *into) {
   vf_settings s = scene->settings;
   s.algorithm = algorithm;
+  s.sampler = sampler;
   s.seed = seed;
   s.width = s.height = EST_SIZE;
   vf_renderer *r = NULL;
@@ -210,7 +247,8 @@ static vf_film *render_film(const vf_scene *scene, vf_algorithm algorithm, uint6
   return film;
 }
 
-/* The reference is expensive (~30 s on 2 cores), so it is cached in the build directory
+/* The reference has independent numbers, whose estimate has long been checked (the film's
+ * square sums then are squares). It is expensive (~30 s on 2 cores), so it is cached in the build directory
  * under a name made of its settings; a cached film is used only if its scene hash, settings
  * and iteration set are exactly those asked for. Never committed. */
 static vf_film *reference_film(const vf_scene *scene) {
@@ -221,7 +259,7 @@ static vf_film *reference_film(const vf_scene *scene) {
            REF_ITERATIONS);
   vf_film *ref = NULL;
   if (vf_film_read(path, &ref) == VF_OK) {
-    vf_film *probe = render_film(scene, VF_ALGO_BPT, REF_SEED, 0, 0, NULL); /* stamped, empty */
+    vf_film *probe = render_film(scene, VF_ALGO_BPT, VF_SAMPLER_INDEPENDENT, REF_SEED, 0, 0, NULL); /* stamped, empty */
     int ok = probe && memcmp(probe->scene_hash, ref->scene_hash, 32) == 0 &&
              strcmp(probe->settings_text, ref->settings_text) == 0 && ref->iterations.count == 1 &&
              ref->iterations.ranges[0].begin == 0 && ref->iterations.ranges[0].end == REF_ITERATIONS;
@@ -234,7 +272,7 @@ static vf_film *reference_film(const vf_scene *scene) {
   }
   printf("  reference: rendering %d bpt iterations (seed %d) into %s\n", REF_ITERATIONS, REF_SEED, path);
   fflush(stdout);
-  ref = render_film(scene, VF_ALGO_BPT, REF_SEED, 0, REF_ITERATIONS, NULL);
+  ref = render_film(scene, VF_ALGO_BPT, VF_SAMPLER_INDEPENDENT, REF_SEED, 0, REF_ITERATIONS, NULL);
   if (ref) vf_film_write(ref, path);
   return ref;
 }
@@ -262,19 +300,23 @@ static void test_estimate_matches_true_rmse_on_cornell(void) {
   float *ref_mean = malloc(3 * (size_t)ref->width * (size_t)ref->height * sizeof *ref_mean);
   vf_film_mean(ref, ref_mean);
   static const vf_algorithm algorithms[] = {VF_ALGO_VCM, VF_ALGO_PT};
-  for (size_t a = 0; a < sizeof algorithms / sizeof *algorithms; a++) {
-    vf_film *film = render_film(scene, algorithms[a], 1, 0, 16, NULL);
-    if (!film) break;
-    for (int stage = 0; stage < 2; stage++) {
-      if (stage == 1) render_film(scene, algorithms[a], 1, 16, 256, film);
-      double est = vf_film_estimate_rmse(film), truth = true_rmse(film, ref, ref_mean);
-      double factor = est / truth;
-      printf("  %-3s %3d iterations: estimated RMSE %.5f, true RMSE %.5f (reference's own %.5f): factor %.3f\n",
-             vf_algorithm_name(algorithms[a]), stage ? 256 : 16, est, truth, vf_film_estimate_rmse(ref), factor);
-      CHECK(factor >= 1.0 / 1.5 && factor <= 1.5);
+  for (int k = 0; k < VF_SAMPLER_COUNT_; k++)
+    for (size_t a = 0; a < sizeof algorithms / sizeof *algorithms; a++) {
+      vf_sampler_kind sampler = (vf_sampler_kind)k;
+      vf_film *film = render_film(scene, algorithms[a], sampler, 1, 0, 16, NULL);
+      if (!film) break;
+      for (int stage = 0; stage < 2; stage++) {
+        if (stage == 1) render_film(scene, algorithms[a], sampler, 1, 16, 256, film);
+        double est = vf_film_estimate_rmse(film), truth = true_rmse(film, ref, ref_mean);
+        double factor = est / truth;
+        printf("  %-3s %-11s %3d iterations: estimated RMSE %.5f, true RMSE %.5f (reference's own %.5f): factor "
+               "%.3f\n",
+               vf_algorithm_name(algorithms[a]), vf_sampler_name(sampler), stage ? 256 : 16, est, truth,
+               vf_film_estimate_rmse(ref), factor);
+        CHECK(factor >= 1.0 / 1.5 && factor <= 1.5);
+      }
+      vf_film_destroy(film);
     }
-    vf_film_destroy(film);
-  }
   free(ref_mean);
   vf_film_destroy(ref);
   vf_scene_destroy(scene);
@@ -285,6 +327,7 @@ int main(void) {
   RUN(test_log_text_round_trips);
   RUN(test_malformed_log_text_is_refused);
   RUN(test_estimate_is_the_standard_error_of_the_mean);
+  RUN(test_sobol_estimate_is_the_spread_of_the_replicates);
   RUN(test_merge_appends_the_source_log_as_new_runs);
   RUN(test_film_file_keeps_log_scene_and_cpu_time);
   RUN(test_estimate_matches_true_rmse_on_cornell);

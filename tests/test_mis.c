@@ -33,7 +33,7 @@
 #include "feature_scene.h"
 
 #include "common/error.h"
-#include "common/rng.h"
+#include "common/sampler.h"
 #include "worker/accel.h"
 #include "worker/bsdf.h"
 #include "worker/camera.h"
@@ -518,16 +518,28 @@ static void add_path(const test_scene *ts, const full_path *x, path_set *diffuse
 
 /* The lens point of a camera sub-path or a connection to the camera: lens_sample() of
  * worker/light_pass.c. */
-static vf_vec3 lens_point(const test_scene *ts, vf_rng *rng) {
+/* Where the walks' numbers come from: the sampler under test (common/sampler.h), each
+ * number of a walk from a pair of its own (its first coordinate), the walk's index the
+ * sample index. The identities hold path by path, whatever numbers made the path; the
+ * walks of each sampler are other paths. */
+static vf_sampler_kind walk_sampler = VF_SAMPLER_INDEPENDENT;
+typedef struct {
+  vf_sampler s;
+  uint32_t pair;
+} walk_numbers;
+
+static float walk_float(walk_numbers *n) { return vf_sampler_1d(&n->s, n->pair++); }
+
+static vf_vec3 lens_point(const test_scene *ts, walk_numbers *rng) {
   if (!(ts->camera.lens_radius > 0.0f)) return ts->camera.position;
-  float u1 = vf_rng_float(rng), u2 = vf_rng_float(rng);
+  float u1 = walk_float(rng), u2 = walk_float(rng);
   return vf_camera_lens_point(&ts->camera, u1, u2);
 }
 
 /* From the light: every non-specular vertex that sees the camera closes a path. */
-static void walk_from_light(const test_scene *ts, vf_rng *rng, path_set *diffuse, path_set *specular) {
+static void walk_from_light(const test_scene *ts, walk_numbers *rng, path_set *diffuse, path_set *specular) {
   full_path x = {0};
-  float rnd[4] = {vf_rng_float(rng), vf_rng_float(rng), vf_rng_float(rng), vf_rng_float(rng)};
+  float rnd[4] = {walk_float(rng), walk_float(rng), walk_float(rng), walk_float(rng)};
   vf_vec3 dir, n;
   float emission_pdf, direct_pdf, cos_light;
   vf_light_emit(ts->lights, ts->light, rnd, &x.position[0], &dir, &n, &emission_pdf, &direct_pdf, &cos_light);
@@ -553,7 +565,7 @@ static void walk_from_light(const test_scene *ts, vf_rng *rng, path_set *diffuse
       x.position[m + 1] = lens;
       add_path(ts, &x, diffuse, specular);
     }
-    float srnd[3] = {vf_rng_float(rng), vf_rng_float(rng), vf_rng_float(rng)};
+    float srnd[3] = {walk_float(rng), walk_float(rng), walk_float(rng)};
     float pdf, rev, cos_gen;
     unsigned event;
     if (vf_is_zero(vf_bsdf_sample(&b, srnd, &dir, &pdf, &rev, &cos_gen, &event))) return;
@@ -563,10 +575,10 @@ static void walk_from_light(const test_scene *ts, vf_rng *rng, path_set *diffuse
 
 /* From the camera: every non-specular vertex closes a path with a point sampled on the
  * light, and hitting the light closes one too (camera vertices are reversed into x). */
-static void walk_from_camera(const test_scene *ts, vf_rng *rng, path_set *diffuse, path_set *specular) {
+static void walk_from_camera(const test_scene *ts, walk_numbers *rng, path_set *diffuse, path_set *specular) {
   full_path z = {0}; /* z.position[j] = z_j, z_0 on the lens */
   full_path x = {0};
-  float rx = vf_rng_float(rng) * (float)ts->camera.width, ry = vf_rng_float(rng) * (float)ts->camera.height;
+  float rx = walk_float(rng) * (float)ts->camera.width, ry = walk_float(rng) * (float)ts->camera.height;
   z.position[0] = lens_point(ts, rng);
   vf_vec3 dir = ts->camera.lens_radius > 0.0f ? vf_camera_lens_direction(&ts->camera, z.position[0], rx, ry)
                                               : vf_camera_direction(&ts->camera, rx, ry);
@@ -594,7 +606,7 @@ static void walk_from_camera(const test_scene *ts, vf_rng *rng, path_set *diffus
     z.bu[m] = hit.u;
     z.bv[m] = hit.v;
     if (!b.is_delta) {
-      float rnd[2] = {vf_rng_float(rng), vf_rng_float(rng)};
+      float rnd[2] = {walk_float(rng), walk_float(rng)};
       vf_vec3 to_light, lp, ln;
       float dist, direct_pdf_w, emission_pdf_w, cos_at_light;
       vf_vec3 le = vf_light_illuminate(ts->lights, ts->light, hit.position, rnd, &to_light, &dist, &lp, &ln,
@@ -608,7 +620,7 @@ static void walk_from_camera(const test_scene *ts, vf_rng *rng, path_set *diffus
         add_path(ts, &x, diffuse, specular);
       }
     }
-    float srnd[3] = {vf_rng_float(rng), vf_rng_float(rng), vf_rng_float(rng)};
+    float srnd[3] = {walk_float(rng), walk_float(rng), walk_float(rng)};
     float pdf, rev, cos_gen;
     unsigned event;
     if (vf_is_zero(vf_bsdf_sample(&b, srnd, &dir, &pdf, &rev, &cos_gen, &event))) return;
@@ -846,7 +858,11 @@ static int walk_scene(const char *name, vf_light_kind light) {
          g_scene.spot ? "spot light" : "area light");
   g_diffuse.count = g_specular.count = 0;
   for (uint64_t w = 0; w < WALKS; w++) {
-    vf_rng rng = vf_rng_for_path(20240611u, 0, w, VF_STREAM_TEST);
+    walk_numbers rng = {.pair = 0};
+    if (walk_sampler == VF_SAMPLER_INDEPENDENT)
+      vf_sampler_start(&rng.s, walk_sampler, 20240611u, 0, w, VF_STREAM_TEST);
+    else /* the walks from the light and from the camera each a sequence over their index */
+      vf_sampler_start(&rng.s, walk_sampler, 20240611u, w / 2 * VF_SOBOL_REPLICATES, w % 2, VF_STREAM_TEST);
     if (w % 2 == 0) walk_from_light(&g_scene, &rng, &g_diffuse, &g_specular);
     else walk_from_camera(&g_scene, &rng, &g_diffuse, &g_specular);
   }
@@ -860,24 +876,28 @@ static const struct {
 } test_scenes[] = {{"cornell", VF_LIGHT_AREA_MESH}, {"cornell-dof", VF_LIGHT_AREA_MESH}, {"cornell-spot", VF_LIGHT_SPOT}};
 
 int main(void) {
-  for (size_t i = 0; i < sizeof test_scenes / sizeof *test_scenes; i++) {
-    if (!walk_scene(test_scenes[i].name, test_scenes[i].light)) return 1;
-    RUN(test_path_sets_are_large_enough);
-    RUN(test_vcm_weights_match_eq12_without_specular_vertices);
-    RUN(test_vcm_weights_match_eq12_with_one_specular_vertex);
-    RUN(test_bpt_weights_match_eq12);
-    RUN(test_bpm_weights_match_eq12);
-    RUN(test_pt_weights_match_eq12);
-    RUN(test_vcm_weights_match_eq12_with_light_selection);
+  for (int k = 0; k < VF_SAMPLER_COUNT_; k++) {
+    walk_sampler = (vf_sampler_kind)k;
+    printf("sampler %s\n", vf_sampler_name(walk_sampler));
+    for (size_t i = 0; i < sizeof test_scenes / sizeof *test_scenes; i++) {
+      if (!walk_scene(test_scenes[i].name, test_scenes[i].light)) return 1;
+      RUN(test_path_sets_are_large_enough);
+      RUN(test_vcm_weights_match_eq12_without_specular_vertices);
+      RUN(test_vcm_weights_match_eq12_with_one_specular_vertex);
+      RUN(test_bpt_weights_match_eq12);
+      RUN(test_bpm_weights_match_eq12);
+      RUN(test_pt_weights_match_eq12);
+      RUN(test_vcm_weights_match_eq12_with_light_selection);
+      destroy_test_scene(&g_scene);
+    }
+    if (!walk_scene("cornell-rough", VF_LIGHT_AREA_MESH)) return 1;
+    RUN(test_rough_paths_reach_every_rough_lobe);
+    RUN(test_weights_match_eq12_through_rough_lobes);
+    destroy_test_scene(&g_scene);
+    if (!walk_scene("features", VF_LIGHT_AREA_MESH)) return 1;
+    RUN(test_feature_paths_reach_every_feature);
+    RUN(test_weights_match_eq12_through_shaded_and_textured_vertices);
     destroy_test_scene(&g_scene);
   }
-  if (!walk_scene("cornell-rough", VF_LIGHT_AREA_MESH)) return 1;
-  RUN(test_rough_paths_reach_every_rough_lobe);
-  RUN(test_weights_match_eq12_through_rough_lobes);
-  destroy_test_scene(&g_scene);
-  if (!walk_scene("features", VF_LIGHT_AREA_MESH)) return 1;
-  RUN(test_feature_paths_reach_every_feature);
-  RUN(test_weights_match_eq12_through_shaded_and_textured_vertices);
-  destroy_test_scene(&g_scene);
   return check_finish();
 }

@@ -9,8 +9,8 @@
 #include <string.h>
 #include <unistd.h>
 
-static vf_film *render(const char *scene_name, vf_algorithm algorithm, uint64_t seed, int threads, uint64_t begin,
-                       uint64_t end) {
+static vf_film *render_with(const char *scene_name, vf_sampler_kind sampler, vf_algorithm algorithm, uint64_t seed,
+                            int threads, uint64_t begin, uint64_t end) {
   vf_scene *scene = NULL;
   vf_renderer *r = NULL;
   vf_film *film = NULL;
@@ -18,6 +18,7 @@ static vf_film *render(const char *scene_name, vf_algorithm algorithm, uint64_t 
   if (scene == NULL) return NULL;
   vf_settings s = scene->settings;
   s.algorithm = algorithm;
+  s.sampler = sampler;
   s.seed = seed;
   s.width = 96;
   s.height = 64;
@@ -30,6 +31,14 @@ static vf_film *render(const char *scene_name, vf_algorithm algorithm, uint64_t 
   vf_renderer_destroy(r);
   vf_scene_destroy(scene);
   return film;
+}
+
+/* The promises hold for every sampler (common/sampler.h): each test runs with each. */
+static vf_sampler_kind sampler_under_test = VF_SAMPLER_INDEPENDENT;
+
+static vf_film *render(const char *scene_name, vf_algorithm algorithm, uint64_t seed, int threads, uint64_t begin,
+                       uint64_t end) {
+  return render_with(scene_name, sampler_under_test, algorithm, seed, threads, begin, end);
 }
 
 static int same_doubles(const double *a, const double *b, size_t n) { return memcmp(a, b, n * sizeof *a) == 0; }
@@ -56,7 +65,8 @@ static void test_one_and_two_threads_give_bitwise_identical_films(void) {
     vf_film *one = render("cornell", (vf_algorithm)a, 7, 1, 0, 3);
     vf_film *two = render("cornell", (vf_algorithm)a, 7, 2, 0, 3);
     if (!one || !two) return;
-    if (!films_bitwise_equal(one, two)) printf("  %s differs between 1 and 2 threads\n", vf_algorithm_name(a));
+    if (!films_bitwise_equal(one, two))
+      printf("  %s (%s) differs between 1 and 2 threads\n", vf_algorithm_name(a), vf_sampler_name(sampler_under_test));
     CHECK(films_bitwise_equal(one, two));
     vf_film_destroy(one);
     vf_film_destroy(two);
@@ -118,7 +128,10 @@ static void test_split_ranges_merge_into_the_whole(void) {
     for (size_t i = 0; i < n; i++) {
       max_diff = fmax(max_diff, fabs(late->sum[i] - whole->sum[i]));
     }
-    printf("  %-3s split vs whole: max |difference| %.3g (image mean %.3g)\n", vf_algorithm_name(a), max_diff, scale);
+    printf("  %-3s %-11s split vs whole: max |difference| %.3g (image mean %.3g)\n", vf_algorithm_name(a),
+           vf_sampler_name(sampler_under_test), max_diff, scale);
+    for (size_t i = 0; i < n; i++) max_diff = fmax(max_diff, fabs(late->square_sum[i] - whole->square_sum[i]));
+    CHECK(max_diff <= 1e-5 * scale);
     CHECK(max_diff <= 1e-5 * scale);
     vf_film_destroy(whole);
     vf_film_destroy(late);
@@ -146,10 +159,30 @@ static void test_auto_renders_exactly_its_choice(void) {
   }
 }
 
+/* The sampler is part of the settings: films of the two samplers differ, say which they
+ * used (independent by saying nothing, as every film before samplers), and refuse to merge
+ * even over disjoint iterations. */
+static void test_films_of_different_samplers_refuse_to_merge(void) {
+  vf_film *independent = render_with("cornell", VF_SAMPLER_INDEPENDENT, VF_ALGO_VCM, 5, 2, 0, 2);
+  vf_film *sobol = render_with("cornell", VF_SAMPLER_SOBOL, VF_ALGO_VCM, 5, 2, 2, 4);
+  if (!independent || !sobol) return;
+  CHECK_STR_CONTAINS(sobol->settings_text, " sampler=sobol");
+  CHECK(strstr(independent->settings_text, "sampler=") == NULL);
+  CHECK_INT_EQ(vf_film_merge(independent, sobol), VF_EMISMATCH);
+  CHECK_INT_EQ(vf_iterset_count(&independent->iterations), 2);
+  vf_film_destroy(independent);
+  vf_film_destroy(sobol);
+}
+
 int main(void) {
-  RUN(test_auto_renders_exactly_its_choice);
-  RUN(test_one_and_two_threads_give_bitwise_identical_films);
-  RUN(test_same_seed_twice_gives_identical_files);
-  RUN(test_split_ranges_merge_into_the_whole);
+  RUN(test_films_of_different_samplers_refuse_to_merge);
+  for (int k = 0; k < VF_SAMPLER_COUNT_; k++) {
+    sampler_under_test = (vf_sampler_kind)k;
+    printf("sampler %s\n", vf_sampler_name(sampler_under_test));
+    RUN(test_auto_renders_exactly_its_choice);
+    RUN(test_one_and_two_threads_give_bitwise_identical_films);
+    RUN(test_same_seed_twice_gives_identical_files);
+    RUN(test_split_ranges_merge_into_the_whole);
+  }
   return check_finish();
 }

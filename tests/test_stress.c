@@ -21,6 +21,10 @@ static int render_estimate(const vf_scene *scene, vf_algorithm algorithm, uint64
   s.algorithm = algorithm;
   s.width = s.height = RES;
   s.seed = seed;
+  /* Renders start at `first`, and their error bars come from the spread of the iterations:
+   * independent numbers (the sobol sampler's error bars need independent seeds,
+   * render_block_estimates). */
+  s.sampler = VF_SAMPLER_INDEPENDENT;
   if (max_path > 0) s.max_path_length = max_path;
   static double means[ITERATIONS * NB];
   vf_vcm_stats stats = {0};

@@ -200,11 +200,9 @@ static void block_estimates(const vf_scene *scene, vf_algorithm algorithm, doubl
   s.width = s.height = RES;
   s.max_path_length = 6;
   s.seed = 3000 + (uint64_t)algorithm;
-  static double means[ITERATIONS * NB];
   vf_vcm_stats stats = {0};
-  CHECK_INT_EQ(render_block_means(scene, &s, 2, 0, ITERATIONS, BLOCKS, means, &stats), VF_OK);
+  CHECK_INT_EQ(render_block_estimates(scene, &s, 2, ITERATIONS, BLOCKS, mean, se, &stats), VF_OK);
   CHECK_INT_EQ(stats.nonfinite, 0);
-  for (int b = 0; b < NB; b++) mean_and_standard_error(means, ITERATIONS, NB, b, &mean[b], &se[b]);
 }
 
 static void check_agreement(const char *what, unsigned features) {

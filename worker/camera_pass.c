@@ -1,7 +1,7 @@
 /* Phase 3 of an iteration, the camera sub-paths: camera_pass.h. */
 #include "camera_pass.h"
 
-#include "../common/rng.h"
+#include "../common/sampler.h"
 #include "vcm_internal.h"
 #include "vertex_merging.h"
 #include "wavefront.h"
@@ -13,11 +13,6 @@
 /* Camera sub-paths are traced in square tiles: neighbouring pixels query neighbouring grid
  * cells at their first hit, so a tile reuses what its previous rows brought into cache. */
 #define CAMERA_TILE 32u
-
-static void rnd2(vf_rng *r, float out[2]) {
-  out[0] = vf_rng_float(r);
-  out[1] = vf_rng_float(r);
-}
 
 /* The BSDF a stored light vertex had. */
 static void bsdf_of_vertex(const vf_vcm *v, vf_bsdf *b, const light_vertex *lv) {
@@ -87,11 +82,11 @@ static void packet_queued(vf_vcm *v, int thread) {
 
 /* s = 1: next-event estimation, added to tile_pixel if the light is visible. */
 static void light_sample(vf_vcm *v, int thread, const vf_hit *hit, const vf_bsdf *b, const path_state *s,
-                         vf_rng *rng, uint32_t tile_pixel) {
+                         vf_sampler *sampler, uint32_t vertex_dims, uint32_t tile_pixel) {
   vf_vec3 zero = vf_vec3_splat(0.0f);
-  const vf_light *l = vf_lights_pick(v->lights, vf_rng_float(rng));
+  const vf_light *l = vf_lights_pick(v->lights, vf_sampler_1d(sampler, vf_dim_at(vertex_dims, VF_DIM_NEE_LIGHT)));
   float rnd[2];
-  rnd2(rng, rnd);
+  vf_sampler_2d(sampler, vf_dim_at(vertex_dims, VF_DIM_NEE_POINT), rnd);
   vf_vec3 dir, lp, ln;
   float dist, direct_pdf, emission_pdf, cos_at_light;
   vf_vec3 radiance = vf_light_illuminate(v->lights, l, hit->position, rnd, &dir, &dist, &lp, &ln, &direct_pdf,
@@ -194,7 +189,7 @@ static void defer_unshadowed(vf_vcm *v, int thread, vf_vec3 value, uint32_t tile
  * same order as when its path was traced alone. */
 typedef struct {
   path_state s;
-  vf_rng rng;
+  vf_sampler sampler;
   uint32_t pixel, tile_pixel;
   light_bsdf_cache cache; /* of the light sub-path this camera sub-path connects to */
 } camera_lane;
@@ -205,15 +200,18 @@ static void camera_start(vf_vcm *v, camera_lane *lane, uint32_t px, uint32_t py,
   lane->pixel = pixel;
   lane->tile_pixel = tile_pixel;
   lane->cache.ready = 0;
-  lane->rng = vf_rng_for_path(v->settings.seed, v->iteration, pixel, VF_STREAM_CAMERA);
-  float jx = vf_rng_float(&lane->rng), jy = vf_rng_float(&lane->rng);
+  vf_sampler_start(&lane->sampler, v->settings.sampler, v->settings.seed, v->iteration, pixel, VF_STREAM_CAMERA);
+  float jitter[2];
+  vf_sampler_2d(&lane->sampler, VF_DIM_PIXEL, jitter);
+  float jx = jitter[0], jy = jitter[1];
   path_state *s = &lane->s;
   if (v->camera.lens_radius > 0.0f) {
     /* A point on the thin lens, then the ray through the raster position in focus. The
      * lens numbers come after the pixel's, and only for a lens: a pinhole's stream is
      * what it always was. */
-    float u1 = vf_rng_float(&lane->rng), u2 = vf_rng_float(&lane->rng);
-    s->origin = vf_camera_lens_point(&v->camera, u1, u2);
+    float u[2];
+    vf_sampler_2d(&lane->sampler, VF_DIM_LENS, u);
+    s->origin = vf_camera_lens_point(&v->camera, u[0], u[1]);
     s->direction = vf_camera_lens_direction(&v->camera, s->origin, (float)px + jx, (float)py + jy);
   } else {
     s->origin = v->camera.position;
@@ -258,8 +256,9 @@ static int camera_bounce(vf_vcm *v, int thread, camera_lane *lane, const vf_hit 
   vf_bsdf b;
   if (!bsdf_at(v, &b, hit, vf_neg(s->direction))) return 0;
   b.radiance = 1; /* its connections and merges evaluate radiance's BTDF (worker/bsdf.h) */
+  uint32_t vertex_dims = vf_dim_vertex(VF_DIM_CAMERA_VERTEX, s->path_length);
   if (!b.is_delta) {
-    if (v->t.light_sample) light_sample(v, thread, hit, &b, s, &lane->rng, tile_pixel);
+    if (v->t.light_sample) light_sample(v, thread, hit, &b, s, &lane->sampler, vertex_dims, tile_pixel);
     if (v->t.connection) {
       const light_vertex *path = v->chunks[lane->pixel / LIGHT_CHUNK].vertices;
       uint32_t first = v->path_begin[lane->pixel];
@@ -280,7 +279,7 @@ static int camera_bounce(vf_vcm *v, int thread, camera_lane *lane, const vf_hit 
       if (v->t.ppm) return 0;
     }
   }
-  if (!vf_wavefront_scatter(v, &b, hit, s, &lane->rng, 1)) return 0;
+  if (!vf_wavefront_scatter(v, &b, hit, s, &lane->sampler, vertex_dims, 1)) return 0;
   s->path_length++;
   return 1;
 }

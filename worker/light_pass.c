@@ -2,7 +2,7 @@
 #include "light_pass.h"
 
 #include "../common/error.h"
-#include "../common/rng.h"
+#include "../common/sampler.h"
 #include "vcm_internal.h"
 #include "wavefront.h"
 
@@ -89,10 +89,11 @@ static void splat_if_visible(vf_vcm *v, int thread, light_chunk *c, uint32_t pat
  * pinhole renders keep their streams). Its density 1 / (pi r^2) is the camera
  * sub-paths' too (p_connect = p_trace, tech. rep. eq. 46), and it cancels against the
  * importance's (camera.h). */
-static vf_vec3 lens_sample(const vf_vcm *v, vf_rng *rng) {
+static vf_vec3 lens_sample(const vf_vcm *v, vf_sampler *sampler, uint32_t pair) {
   if (!(v->camera.lens_radius > 0.0f)) return v->camera.position;
-  float u1 = vf_rng_float(rng), u2 = vf_rng_float(rng);
-  return vf_camera_lens_point(&v->camera, u1, u2);
+  float u[2];
+  vf_sampler_2d(sampler, pair, u);
+  return vf_camera_lens_point(&v->camera, u[0], u[1]);
 }
 
 /* Projects point p, seen from lens point `lens` along -dir_to_camera, onto the image: its
@@ -120,8 +121,8 @@ static float camera_pdf_a(float image_to_solid_angle, float dist, float cos_at_p
 
 /* t = 1: connects light vertex (hit, b) to a lens point and projects it onto the image. */
 static void connect_to_camera(vf_vcm *v, int thread, light_chunk *c, uint32_t path, const vf_hit *hit,
-                              const vf_bsdf *b, const path_state *s, vf_rng *rng) {
-  vf_vec3 lens = lens_sample(v, rng);
+                              const vf_bsdf *b, const path_state *s, vf_sampler *sampler, uint32_t vertex_dims) {
+  vf_vec3 lens = lens_sample(v, sampler, vf_dim_at(vertex_dims, VF_DIM_CAMERA_LENS));
   vf_vec3 to_camera = vf_sub(lens, hit->position);
   float dist = vf_length(to_camera);
   if (!(dist > 0.0f)) return;
@@ -146,8 +147,8 @@ static void connect_to_camera(vf_vcm *v, int thread, light_chunk *c, uint32_t pa
 /* Light tracing alone also projects the light's own point y0 (the s = 1, t = 1 technique,
  * which the full estimator leaves to emission hits). */
 static void connect_emitter_to_camera(vf_vcm *v, int thread, light_chunk *c, uint32_t path, vf_vec3 radiance,
-                                      vf_vec3 p, vf_vec3 n, float pick_and_area_pdf, vf_rng *rng) {
-  vf_vec3 lens = lens_sample(v, rng);
+                                      vf_vec3 p, vf_vec3 n, float pick_and_area_pdf, vf_sampler *sampler) {
+  vf_vec3 lens = lens_sample(v, sampler, VF_DIM_EMITTER_LENS);
   vf_vec3 to_camera = vf_sub(lens, p);
   float dist = vf_length(to_camera);
   if (!(dist > 0.0f)) return;
@@ -163,6 +164,25 @@ static void connect_emitter_to_camera(vf_vcm *v, int thread, light_chunk *c, uin
   splat_if_visible(v, thread, c, path, pixel, band, contrib, p, n, lens);
 }
 
+/* The four numbers of vf_light_emit. Area lights read rnd[1], rnd[2] as the point and
+ * rnd[0], rnd[3] as the direction (worker/light.c), the other kinds rnd[0], rnd[1] as their
+ * first decision and rnd[2], rnd[3] as their second: each decision gets one pair
+ * (sample_dims.h). The independent sampler draws them in index order, as it always did. */
+static void emission_numbers(vf_sampler *sampler, const vf_light *l, float rnd[4]) {
+  if (!sampler->sobol) {
+    for (int k = 0; k < 4; k++) rnd[k] = vf_sampler_1d(sampler, VF_SAMPLER_FALLBACK);
+    return;
+  }
+  float point[2], direction[2];
+  vf_sampler_2d(sampler, VF_DIM_EMIT_POINT, point);
+  vf_sampler_2d(sampler, VF_DIM_EMIT_DIRECTION, direction);
+  if (l->kind == VF_LIGHT_AREA_MESH || l->kind == VF_LIGHT_AREA_SPHERE) {
+    rnd[0] = direction[0], rnd[1] = point[0], rnd[2] = point[1], rnd[3] = direction[1];
+  } else {
+    rnd[0] = direction[0], rnd[1] = direction[1], rnd[2] = point[0], rnd[3] = point[1];
+  }
+}
+
 /* A light sub-path in flight. The light pass traces VF_ACCEL_PACKET of them at once, as a
  * wavefront: each step sends the rays of all lanes to Embree as one packet (8 unrelated
  * rays in one packet are traced ~1.3 times faster than single rays on cornell), then
@@ -171,21 +191,41 @@ static void connect_emitter_to_camera(vf_vcm *v, int thread, light_chunk *c, uin
  * older path of the chunk has been stored. */
 typedef struct {
   path_state s;
-  vf_rng rng;
+  vf_sampler sampler;
   uint32_t path;          /* global index */
   uint32_t num_vertices;
   light_vertex *vertices; /* the path's slot of the retire ring: room for the longest path */
 } light_lane;
 
+/* How the sobol sampler stratifies light sub-paths (docs/BENCHMARKS.md, "Stratifying the
+ * light sub-paths", measured all three): 0 across iterations (each light sub-path index has
+ * its scramble, the iteration is the sample index, as camera sub-paths do), 1 across the
+ * paths of an iteration (the path index is the sample index, each iteration its own
+ * scramble), 2 not at all (independent numbers). A build-time choice for measuring. */
+#ifndef VF_LIGHT_STRATIFICATION
+#define VF_LIGHT_STRATIFICATION 0
+#endif
+
+static void light_sampler_start(const vf_vcm *v, vf_sampler *sampler, uint32_t path) {
+  vf_sampler_kind kind = v->settings.sampler;
+  if (VF_LIGHT_STRATIFICATION == 1 && kind == VF_SAMPLER_SOBOL) {
+    vf_sampler_start_across(sampler, v->settings.seed, v->iteration, path, VF_STREAM_LIGHT, v->iteration, path);
+    return;
+  }
+  if (VF_LIGHT_STRATIFICATION == 2) kind = VF_SAMPLER_INDEPENDENT;
+  vf_sampler_start(sampler, kind, v->settings.seed, v->iteration, path, VF_STREAM_LIGHT);
+}
+
 /* Emits light sub-path `path` into the lane; returns 1 when it has a ray to trace. */
 static int light_start(vf_vcm *v, int thread, light_chunk *c, light_lane *lane, uint32_t path, uint32_t begin) {
   lane->path = path;
   lane->num_vertices = 0;
-  lane->rng = vf_rng_for_path(v->settings.seed, v->iteration, path, VF_STREAM_LIGHT);
-  vf_rng *rng = &lane->rng;
+  vf_sampler *sampler = &lane->sampler;
+  light_sampler_start(v, sampler, path);
   path_state *s = &lane->s;
-  const vf_light *l = vf_lights_pick(v->lights, vf_rng_float(rng));
-  float rnd[4] = {vf_rng_float(rng), vf_rng_float(rng), vf_rng_float(rng), vf_rng_float(rng)};
+  const vf_light *l = vf_lights_pick(v->lights, vf_sampler_1d(sampler, VF_DIM_LIGHT_PICK));
+  float rnd[4];
+  emission_numbers(sampler, l, rnd);
   vf_vec3 normal;
   float emission_pdf, direct_pdf, cos_light;
   vf_vec3 energy = vf_light_emit(v->lights, l, rnd, &s->origin, &s->direction, &normal, &emission_pdf, &direct_pdf,
@@ -193,7 +233,7 @@ static int light_start(vf_vcm *v, int thread, light_chunk *c, light_lane *lane, 
   if (vf_is_zero(energy) || !(emission_pdf > 0.0f)) return 0;
   if (v->t.lt && l->is_finite && !l->is_delta)
     connect_emitter_to_camera(v, thread, c, path - begin, l->textured ? vf_scale(energy, 1.0f / cos_light) : l->radiance,
-                              s->origin, normal, l->pick_probability * direct_pdf, rng);
+                              s->origin, normal, l->pick_probability * direct_pdf, sampler);
   emission_pdf *= l->pick_probability;
   direct_pdf *= l->pick_probability;
   s->throughput = vf_scale(energy, 1.0f / emission_pdf);
@@ -216,6 +256,7 @@ static int light_bounce(vf_vcm *v, int thread, light_chunk *c, light_lane *lane,
   /* The geometric cosine (the BSDF's local_fix.z is the shading one where they differ;
    * both are the same bits where they do not). */
   vf_mis_hit(&s->mis, hit->t, fabsf(vf_dot(hit->normal, s->direction)), s->path_length > 1 || s->is_finite_light);
+  uint32_t vertex_dims = vf_dim_vertex(VF_DIM_LIGHT_VERTEX, s->path_length);
   if (!b.is_delta) {
     if (v->t.store_vertices) {
       light_vertex *lv = &lane->vertices[lane->num_vertices++];
@@ -232,10 +273,10 @@ static int light_bounce(vf_vcm *v, int thread, light_chunk *c, light_lane *lane,
       lv->mis = s->mis;
       lv->path_length_shape = (uint32_t)s->path_length | hit->shape << VERTEX_LENGTH_BITS;
     }
-    if (v->t.light_to_camera) connect_to_camera(v, thread, c, lane->path - begin, hit, &b, s, &lane->rng);
+    if (v->t.light_to_camera) connect_to_camera(v, thread, c, lane->path - begin, hit, &b, s, &lane->sampler, vertex_dims);
   }
   if (s->path_length + 2 > v->settings.max_path_length) return 0;
-  return vf_wavefront_scatter(v, &b, hit, s, &lane->rng, 0);
+  return vf_wavefront_scatter(v, &b, hit, s, &lane->sampler, vertex_dims, 0);
 }
 
 /* The ring slot of light sub-path `path`. */

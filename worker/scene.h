@@ -79,6 +79,7 @@ enum {
   VF_SET_ALPHA = 1u << 3,
   VF_SET_SEED = 1u << 4,
   VF_SET_RESOLUTION = 1u << 5,
+  VF_SET_SAMPLER = 1u << 6,
 };
 
 typedef struct {

@@ -502,7 +502,7 @@ static int has_light(const vf_scene *s) {
 /* ---- render settings --------------------------------------------------------------------- */
 
 static int parse_render(const parse_ctx *c, const cJSON *j) {
-  static const char *const fields[] = {"algorithm", "max_path_length", "radius_factor", "alpha", "seed", NULL};
+  static const char *const fields[] = {"algorithm", "max_path_length", "radius_factor", "alpha", "seed", "sampler", NULL};
   vf_scene *s = c->scene;
   vf_settings *st = &s->settings;
   const cJSON *m;
@@ -516,6 +516,13 @@ static int parse_render(const parse_ctx *c, const cJSON *j) {
       return vf_scene_fail(c, VF_ESCENE, "render.algorithm", "unknown algorithm '%s' (expected vcm, bpt, pt, lt, ppm, bpm or auto)",
                   algorithm);
     s->settings_given |= VF_SET_ALGORITHM;
+  }
+  const char *sampler;
+  if ((err = vf_scene_string_field(c, j, "render", "sampler", OPTIONAL, &sampler)) < 0) return err;
+  if (err > 0) {
+    if (vf_sampler_parse(sampler, &st->sampler) < 0)
+      return vf_scene_fail(c, VF_ESCENE, "render.sampler", "unknown sampler '%s' (expected independent or sobol)", sampler);
+    s->settings_given |= VF_SET_SAMPLER;
   }
   if ((m = cJSON_GetObjectItemCaseSensitive(j, "max_path_length")) != NULL) {
     if ((err = vf_scene_to_integer(c, m, "render.max_path_length", 1, 1000, &d)) < 0) return err;

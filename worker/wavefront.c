@@ -33,9 +33,12 @@ uint32_t vf_wavefront_trace(vf_vcm *v, int thread, path_state *const *states, ui
   return intersect_rays(v, thread, org, dir, n, hits);
 }
 
-int vf_wavefront_scatter(vf_vcm *v, const vf_bsdf *b, const vf_hit *hit, path_state *s, vf_rng *rng, int radiance) {
-  if (vf_rng_float(rng) >= b->continuation) return 0;
-  float rnd[3] = {vf_rng_float(rng), vf_rng_float(rng), vf_rng_float(rng)};
+int vf_wavefront_scatter(vf_vcm *v, const vf_bsdf *b, const vf_hit *hit, path_state *s, vf_sampler *sampler,
+                         uint32_t vertex_dims, int radiance) {
+  if (vf_sampler_1d(sampler, vf_dim_at(vertex_dims, VF_DIM_ROULETTE)) >= b->continuation) return 0;
+  float rnd[3];
+  vf_sampler_2d(sampler, vf_dim_at(vertex_dims, VF_DIM_BSDF_DIRECTION), rnd);
+  rnd[2] = vf_sampler_1d(sampler, vf_dim_at(vertex_dims, VF_DIM_BSDF_LOBE));
   vf_vec3 gen;
   float pdf, rev_pdf, cos_gen;
   unsigned event;

@@ -11,7 +11,8 @@
 #ifndef VF_WAVEFRONT_H
 #define VF_WAVEFRONT_H
 
-#include "../common/rng.h"
+#include "../common/sampler.h"
+#include "sample_dims.h"
 #include "surface.h"
 #include "vcm_internal.h"
 
@@ -64,8 +65,10 @@ uint32_t vf_wavefront_trace(vf_vcm *v, int thread, path_state *const *states, ui
 
 /* Continues a sub-path from vertex `hit` with BSDF b: Russian roulette, direction sampling,
  * throughput and MIS update. A camera sub-path carries radiance, which a refraction
- * scales by 1/eta^2 (bsdf.h); a light sub-path carries flux, which it does not. Returns 0
- * when the path ends. */
-int vf_wavefront_scatter(vf_vcm *v, const vf_bsdf *b, const vf_hit *hit, path_state *s, vf_rng *rng, int radiance);
+ * scales by 1/eta^2 (bsdf.h); a light sub-path carries flux, which it does not. The numbers
+ * come from the sampler's pairs of the vertex whose first pair is vertex_dims
+ * (sample_dims.h). Returns 0 when the path ends. */
+int vf_wavefront_scatter(vf_vcm *v, const vf_bsdf *b, const vf_hit *hit, path_state *s, vf_sampler *sampler,
+                         uint32_t vertex_dims, int radiance);
 
 #endif

@@ -55,6 +55,9 @@ step 04-film "$build/tests/bench_film" 3
 # Time against error (issue 5): tables in report.md, plots in docs/plots/.
 step 05-convergence bash tests/bench/convergence.sh "$size" "$build"
 cp "$build/bench/$size/report.md" "$out/05-convergence-report.md"
+# Samplers (issue 21): both samplers side by side, and the goal measured.
+step 05b-samplers bash tests/bench/sampler.sh "$build" 2
+step 05c-sampler-goal bash tests/bench/sampler_goal.sh "$build"
 # The farm (issue 4).
 step 06-farm-merge "$build/tests/bench_farm" merge 5
 step 07-farm-checkpoint env VF_TEST_VERBOSE=1 "$build/tests/test_farm_checkpoint" "$build/vcmfarm"
