@@ -182,8 +182,9 @@ int vf_cmd_continue(int argc, char **argv) {
   if (!quiet) {
     char set[256];
     if (vf_iterset_format(&film->iterations, set, sizeof set) != VF_OK) snprintf(set, sizeof set, "(long)");
-    fprintf(stderr, "added %" PRIu64 " iteration(s) in %.2f s%s; the film holds %s\nestimated RMSE %.4g", r.iterations,
-            r.seconds, r.interrupted ? " (interrupted)" : "", set, r.last.estimated_rmse);
+    fprintf(stderr, "added %" PRIu64 " iteration(s) in %.2f s%s; the film holds %s\n", r.iterations, r.seconds,
+            r.interrupted ? " (interrupted)" : "", set);
+    vf_render_job_print_estimate(r.last.estimated_rmse);
     if (stop.reference) fprintf(stderr, ", RMSE %.4g against %s", r.last.rmse, stop.reference);
     fprintf(stderr, "%s\nwrote %s%s%s\n", r.target_reached ? " (target reached)" : "", output, preview ? " and " : "",
             preview ? preview : "");

@@ -3,6 +3,7 @@
 #include "../common/error.h"
 #include "../common/image.h"
 
+#include <math.h>
 #include <stdio.h>
 
 int vf_preview_write(const vf_film *film, const char *path, double exposure) {
@@ -40,8 +41,15 @@ void vf_render_job_print_summary(const vf_film *film, double seconds, const vf_v
           interrupted ? " (interrupted)" : "");
 }
 
+void vf_render_job_print_estimate(double estimated_rmse) {
+  if (isfinite(estimated_rmse))
+    fprintf(stderr, "estimated RMSE %.4g", estimated_rmse);
+  else /* one iteration, or one of each replicate missing: no spread to measure yet */
+    fprintf(stderr, "estimated RMSE not known yet (it needs at least two iterations)");
+}
+
 void vf_render_job_print_result(const vf_render_job *job, double estimated_rmse, double rmse, const char *stopped_by) {
-  fprintf(stderr, "estimated RMSE %.4g", estimated_rmse);
+  vf_render_job_print_estimate(estimated_rmse);
   if (job->stop.reference) fprintf(stderr, ", RMSE %.4g against %s", rmse, job->stop.reference);
   if (stopped_by && stopped_by[0]) fprintf(stderr, " (%s)", stopped_by);
   fprintf(stderr, "\nwrote %s%s%s\n", job->output, job->preview ? " and " : "", job->preview ? job->preview : "");

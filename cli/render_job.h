@@ -43,5 +43,8 @@ int vf_cli_preview_check(const char *preview);
 
 /* The summary's last lines: the error, why it stopped (or NULL), and what was written. */
 void vf_render_job_print_result(const vf_render_job *job, double estimated_rmse, double rmse, const char *stopped_by);
+/* "estimated RMSE X" on stderr, or that it is not known yet (NaN: fewer than two
+ * iterations to compare). */
+void vf_render_job_print_estimate(double estimated_rmse);
 
 #endif

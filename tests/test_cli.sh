@@ -39,6 +39,10 @@ expect_refusal "negative iterations" "--iterations" "$vcmfarm" render furnace -n
 expect_refusal "iterations and time" "not both" "$vcmfarm" render furnace -n 3 -t 2 -o "$tmp/out.exr"
 expect_refusal "alpha out of range" "--alpha" "$vcmfarm" render furnace --alpha 1.5 -o "$tmp/out.exr"
 expect_refusal "unknown option" "unknown or incomplete option" "$vcmfarm" render furnace --frobnicate -o "$tmp/out.exr"
+# One iteration has no spread to estimate its error from: said so, not printed as nan.
+"$vcmfarm" render furnace --direct -n 1 -R 8x8 -o "$tmp/one.exr" 2>"$tmp/stderr"
+check "one iteration: the estimate is not known yet, not nan" \
+  "$(grep -q 'estimated RMSE not known yet' "$tmp/stderr" && ! grep -qi 'nan' "$tmp/stderr"; echo $?)"
 expect_refusal "missing output" "missing -o" "$vcmfarm" render furnace -n 1
 # An output that cannot be written is refused before rendering, with and without --direct.
 expect_refusal "output in a missing directory" "no directory $tmp/absent" "$vcmfarm" render furnace -n 1 -o "$tmp/absent/out.exr"
