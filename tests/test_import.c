@@ -65,6 +65,7 @@ static void write_textures(void) {
   write_png("base.png", 4, rgba, 2, 2);
   write_png("mr.png", 3, rgb, 2, 2);
   write_png("nrm.png", 3, normal, 2, 2);
+  write_png("normal map.png", 3, normal, 2, 2); /* the glTF names it by URI: "normal%20map.png" */
   write_png("bump.png", 1, grey, 2, 2);
 }
 
@@ -102,7 +103,7 @@ static const char gltf_head[] =
     "  {\"name\": \"Glass\", \"pbrMetallicRoughness\": {\"baseColorFactor\": [0.9, 0.95, 1, 1], \"roughnessFactor\": 0.1},\n"
     "   \"extensions\": {\"KHR_materials_transmission\": {\"transmissionFactor\": 1}, \"KHR_materials_ior\": {\"ior\": 1.45}}}],\n"
     " \"samplers\": [{\"wrapS\": 33071, \"wrapT\": 33648}],\n"
-    " \"images\": [{\"uri\": \"base.png\"}, {\"uri\": \"mr.png\"}, {\"uri\": \"nrm.png\"}],\n"
+    " \"images\": [{\"uri\": \"base.png\"}, {\"uri\": \"mr.png\"}, {\"uri\": \"normal%20map.png\"}],\n"
     " \"textures\": [{\"source\": 0, \"sampler\": 0}, {\"source\": 1}, {\"source\": 2}],\n"
     " \"buffers\": [{\"uri\": \"model.bin\", \"byteLength\": 150}],\n";
 
@@ -302,6 +303,9 @@ static void test_gltf_materials_every_parameter_and_texture_slot(void) {
     CHECK_INT_EQ(base->channels, 4);
     CHECK_STR_CONTAINS(base->name, "base.png");
   }
+  /* A URI is percent-decoded (glTF 2.0, "URIs"; RFC 3986): %20 names the file with a space. */
+  if (t[VF_TEXTURE_NORMAL].texture > 0 && t[VF_TEXTURE_NORMAL].texture <= s->num_textures)
+    CHECK_STR_CONTAINS(s->textures[t[VF_TEXTURE_NORMAL].texture - 1].name, "normal map.png");
   /* Emission = emissiveFactor x KHR_materials_emissive_strength, on the shape. */
   const vf_shape *tri = shape_named(s, "Tri");
   if (tri) CHECK_VEC(tri->emission, 4, 2, 0, 1e-6);
@@ -470,11 +474,11 @@ static void test_bad_files_are_refused_naming_file_and_problem(void) {
   write_gltf(NULL);
 
   char p[256];
-  path_of(p, sizeof p, "nrm.png");
+  path_of(p, sizeof p, "normal map.png");
   unlink(p);
   CHECK_INT_EQ(load_error("model.gltf", NULL, detail, sizeof detail), VF_ENOENT);
   CHECK_STR_CONTAINS(detail, "model.gltf: material 'Red'");
-  CHECK_STR_CONTAINS(detail, "nrm.png");
+  CHECK_STR_CONTAINS(detail, "normal map.png"); /* the file the URI names, decoded */
   write_textures();
 }
 

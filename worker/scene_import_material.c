@@ -47,6 +47,30 @@ static int wrap_of(int mode) {
 
 /* ---- textures ------------------------------------------------------------------------------ */
 
+static int hex_digit(char h) {
+  return h >= '0' && h <= '9' ? h - '0' : h >= 'a' && h <= 'f' ? h - 'a' + 10 : h >= 'A' && h <= 'F' ? h - 'A' + 10 : -1;
+}
+
+/* A glTF file names its images by URI, whose reserved characters are percent-encoded
+ * (glTF 2.0, "URIs"; RFC 3986 section 2.1: Blender writes "wood%20floor.png"); Assimp
+ * hands the URI over as it is. Decoded in place; a '%' that starts no escape is kept, and
+ * an escape of a NUL (no file name holds one) is refused. */
+static int uri_decode(const parse_ctx *c, const char *where, char *uri) {
+  char *out = uri;
+  for (const char *in = uri; *in; in++) {
+    int hi = in[0] == '%' ? hex_digit(in[1]) : -1, lo = hi >= 0 ? hex_digit(in[2]) : -1;
+    if (lo < 0) {
+      *out++ = *in;
+      continue;
+    }
+    if (hi == 0 && lo == 0) return vf_scene_fail(c, VF_ETEXTURE, where, "image URI '%s' encodes a NUL byte", uri);
+    *out++ = (char)(hi * 16 + lo);
+    in += 2;
+  }
+  *out = '\0';
+  return 0;
+}
+
 /* The texture of `type` (slot 0) into *slot: an image embedded in the file ("*N", glTF
  * binaries and data URIs) by its bytes, else a file relative to the model's directory (so
  * farm jobs ship it). 0: the material has none; 1: loaded; < 0: error. */
@@ -78,6 +102,7 @@ static int load_texture(const parse_ctx *c, const vf_import_file *f, const char 
     if ((err = vf_scene_texture_bytes(c, name, t->pcData, t->mWidth, where, &index)) < 0) return err;
   } else {
     char file[2 * sizeof path.data + 8];
+    if (f->gltf_file && (err = uri_decode(c, where, path.data)) < 0) return err;
     for (char *p = path.data; *p; p++)
       if (*p == '\\') *p = '/'; /* .mtl files written on Windows */
     if (path.data[0] == '/' || f->dir[0] == '\0') snprintf(file, sizeof file, "%s", path.data);
