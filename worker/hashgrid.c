@@ -49,6 +49,7 @@
  *     2^-12 relative (and at least 2^-74 absolute), so callers testing in float, with its
  *     rounding and underflow, never miss a point either. */
 #include "hashgrid.h"
+#include "huge_pages.h"
 
 #include "../common/error.h"
 
@@ -147,24 +148,18 @@ static void release_pages(void *p, size_t bytes) {
   if (bytes >= ((size_t)1 << 20) && end > begin) madvise((void *)begin, end - begin, MADV_DONTNEED);
 }
 
-/* The sorted points: VF_HASHGRID_POINT_PAD more than cap, on 2 MiB pages where the kernel
- * has them, as vertex merging reads them at random in place (hashgrid.h). Old contents are
- * not kept: every build writes them before reading. On failure the grid forgets every
- * capacity, so that the next build allocates again. */
-#define HUGE_PAGE ((size_t)2 << 20)
+/* The sorted points: VF_HASHGRID_POINT_PAD more than cap, on huge pages
+ * (worker/huge_pages.h), as vertex merging reads them at random in place (hashgrid.h). Old
+ * contents are not kept: every build writes them before reading. On failure the grid
+ * forgets every capacity, so that the next build allocates again. */
 static int grow_points(vf_hashgrid *g, size_t cap) {
   if (cap <= g->points_cap && g->keyed != NULL) return VF_OK;
   size_t bytes = (cap + VF_HASHGRID_POINT_PAD) * sizeof *g->keyed;
-  bytes = (bytes + HUGE_PAGE - 1) / HUGE_PAGE * HUGE_PAGE; /* aligned_alloc: a multiple of the alignment */
   free(g->keyed);
-  g->keyed = aligned_alloc(HUGE_PAGE, bytes);
-  if (g->keyed == NULL) {
+  if ((g->keyed = vf_huge_alloc(bytes)) == NULL) {
     g->points_cap = 0;
     return vf_error_set(VF_ENOMEM, "hash grid: cannot allocate %zu bytes", bytes);
   }
-#ifdef MADV_HUGEPAGE
-  madvise(g->keyed, bytes, MADV_HUGEPAGE); /* advice only: 4 KiB pages if refused */
-#endif
   return VF_OK;
 }
 

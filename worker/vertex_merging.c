@@ -1,9 +1,9 @@
 /* Vertex merging, phases 2 and 3 of an iteration: vertex_merging.h. */
 #include "vertex_merging.h"
+#include "huge_pages.h"
 
 #include "../common/error.h"
 
-#include <sys/mman.h>
 #ifdef __SSE2__
 #include <emmintrin.h>
 #endif
@@ -40,22 +40,11 @@ struct photon {
 };
 _Static_assert(sizeof(photon) == 32, "two photons to a cache line");
 
-/* An array that vertex merging reads at random (photons, merge points): on 2 MiB pages where
- * the kernel has them (transparent huge pages, which Debian enables on request), so that
- * its tens of megabytes need a few dozen TLB entries instead of thousands. Freed with
- * free(). Measured on cornell 512x512, vcm, alternating 4 rounds: camera pass 174.5-176.8
- * -> 171.6-173.3 ms, 2% more iterations per second (with the light vertices, then one
- * joined array). The grid's own arrays gained nothing, nor did the chunks' vertex lists
- * once aligned to the cache line (docs/BENCHMARKS.md). */
-#define HUGE_PAGE ((size_t)2 << 20)
-static void *huge_alloc(size_t size) {
-  size = (size + HUGE_PAGE - 1) / HUGE_PAGE * HUGE_PAGE; /* aligned_alloc: a multiple of the alignment */
-  void *p = aligned_alloc(HUGE_PAGE, size);
-#ifdef MADV_HUGEPAGE
-  if (p != NULL) madvise(p, size, MADV_HUGEPAGE); /* advice only: 4 KiB pages if refused */
-#endif
-  return p;
-}
+/* Photons and merge points on huge pages (worker/huge_pages.h). Measured on cornell 512x512,
+ * vcm, alternating 4 rounds: camera pass 174.5-176.8 -> 171.6-173.3 ms, 2% more iterations
+ * per second (with the light vertices, then one joined array). The grid's other arrays
+ * gained nothing, nor did the chunks' vertex lists once aligned to the cache line
+ * (docs/BENCHMARKS.md). */
 
 /* ---------------------------------------------------------------------------------------- */
 /* Phase 2: the grid                                                                         */
@@ -95,7 +84,7 @@ int vf_vertex_merging_build_grid(vf_vcm *v) {
      * Slack as for the vertices. */
     size_t capacity = n + n / 8 < UINT32_MAX ? (size_t)(n + n / 8) : UINT32_MAX;
     free(v->photons);
-    v->photons = huge_alloc(capacity * sizeof(photon));
+    v->photons = vf_huge_alloc(capacity * sizeof(photon));
     v->photon_capacity = v->photons ? (uint32_t)capacity : 0;
     if (v->photon_capacity == 0) return VF_ENOMEM;
   }
@@ -110,15 +99,10 @@ int vf_vertex_merging_build_grid(vf_vcm *v) {
  * "Memory"). Zeroing the pages again costs about 0.2% of an iteration's time at 1920x1080. */
 #define RELEASE_MIN_BYTES ((size_t)64 << 20)
 
-static void release_huge(void *p, size_t bytes) {
-  bytes = bytes / HUGE_PAGE * HUGE_PAGE; /* the arrays start on a huge page: whole ones only */
-  if (p != NULL && bytes > 0) madvise(p, bytes, MADV_DONTNEED);
-}
-
 void vf_vertex_merging_release(vf_vcm *v) {
   size_t n = vf_hashgrid_count(v->grid);
   if (n * (sizeof(photon) + sizeof(merge_point)) < RELEASE_MIN_BYTES) return;
-  release_huge(v->photons, n * sizeof(photon));
+  vf_huge_release(v->photons, n * sizeof(photon));
   vf_hashgrid_release_points(v->grid); /* the merge points */
   v->merge_points = NULL;
 }
