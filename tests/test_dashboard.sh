@@ -16,19 +16,9 @@ set -u
 vcmfarm="$1"
 src="$2"
 work="$3"
-fail() {
-  echo "FAIL test_dashboard: $*"
-  for log in "$tmp"/*.log; do [ -e "$log" ] && { echo "---- $(basename "$log")"; tail -n 30 "$log"; }; done
-  exit 1
-}
-tmp=$(mktemp -d /tmp/vf-dash-XXXXXX)
-pids=()
-cleanup() {
-  for p in "${pids[@]}"; do kill -9 "$p" 2>/dev/null; done
-  wait 2>/dev/null
-  [ -n "${KEEP_TMP:-}" ] || rm -rf "$tmp"
-}
-trap cleanup EXIT
+fail_label=test_dashboard
+source "$(dirname "$0")/farm_test_lib.sh"
+farm_test_tmp dash
 command -v node >/dev/null && command -v npm >/dev/null ||
   fail "node and npm not found (Debian packages nodejs and npm: bash deploy/install-deps.sh)"
 chromium=$(command -v chromium) || fail "chromium not found (Debian package chromium: bash deploy/install-deps.sh)"
@@ -42,19 +32,11 @@ if ! cmp -s "$src/package-lock.json" "$work/node_modules/.vcmfarm-lock" 2>/dev/n
   cp "$src/package-lock.json" "$work/node_modules/.vcmfarm-lock"
 fi
 
-url="ipc://$tmp/coordinator.sock"
-key="$tmp/farm.key"
-"$vcmfarm" keygen "$key" >/dev/null || fail "keygen"
+farm_test_key
 "$vcmfarm" coordinator --listen "$url" --state "$tmp/state" --secret "$key" --checkpoint-interval 1 \
   --http 127.0.0.1:0 >"$tmp/coordinator.log" 2>&1 &
 pids+=($!)
-base=""
-for _ in $(seq 100); do
-  base=$(grep -o 'dashboard on http://127\.0\.0\.1:[0-9]*' "$tmp/coordinator.log" | sed 's/dashboard on //')
-  [ -n "$base" ] && break
-  sleep 0.1
-done
-[ -n "$base" ] || fail "the coordinator did not say where its dashboard is"
+dashboard_address
 "$vcmfarm" worker --connect "$url" --secret "$key" --threads 1 --name w1 --test-iteration-delay 150 \
   --ship-interval 0.5 >"$tmp/worker.log" 2>&1 &
 pids+=($!)

@@ -12,34 +12,16 @@
 #   test_dashboard_http.sh VCMFARM
 set -u
 vcmfarm="$1"
-fail() {
-  echo "FAIL test_dashboard_http: $*"
-  for log in "$tmp"/*.log; do echo "---- $(basename "$log")"; tail -n 30 "$log"; done
-  exit 1
-}
-tmp=$(mktemp -d /tmp/vf-dash-http-XXXXXX)
-pids=()
-cleanup() {
-  for p in "${pids[@]}"; do kill -9 "$p" 2>/dev/null; done
-  wait 2>/dev/null
-  [ -n "${KEEP_TMP:-}" ] || rm -rf "$tmp"
-}
-trap cleanup EXIT
+fail_label=test_dashboard_http
+source "$(dirname "$0")/farm_test_lib.sh"
+farm_test_tmp dash-http
 for tool in curl python3; do command -v "$tool" >/dev/null || fail "$tool not found (bash deploy/install-deps.sh)"; done
 
-url="ipc://$tmp/coordinator.sock"
-key="$tmp/farm.key"
-"$vcmfarm" keygen "$key" >/dev/null || fail "keygen"
+farm_test_key
 "$vcmfarm" coordinator --listen "$url" --state "$tmp/state" --secret "$key" --checkpoint-interval 0.5 \
   --http 127.0.0.1:0 >"$tmp/coordinator.log" 2>&1 &
 pids+=($!)
-base=""
-for _ in $(seq 100); do
-  base=$(grep -o 'dashboard on http://127\.0\.0\.1:[0-9]*' "$tmp/coordinator.log" | sed 's/dashboard on //')
-  [ -n "$base" ] && break
-  sleep 0.1
-done
-[ -n "$base" ] || fail "the coordinator did not say where its dashboard is"
+dashboard_address
 "$vcmfarm" worker --connect "$url" --secret "$key" --threads 1 --name w1 --test-iteration-delay 100 --ship-interval 0.3 \
   >"$tmp/worker.log" 2>&1 &
 pids+=($!)

@@ -20,41 +20,10 @@ compare="$3"
 peer="$4"
 blob_peer="${5:-}"
 fetch_peer="${5:-}"
-tmp=$(mktemp -d /tmp/vf-farm-XXXXXX)
-pids=()
-cleanup() {
-  for p in "${pids[@]}"; do kill -9 "$p" 2>/dev/null; done
-  wait 2>/dev/null
-  [ -n "${KEEP_TMP:-}" ] || rm -rf "$tmp"
-}
-trap cleanup EXIT
-url="ipc://$tmp/coordinator.sock"
-key="$tmp/farm.key"
-"$vcmfarm" keygen "$key" || exit 1
-
-fail() {
-  echo "FAIL $case_name: $*"
-  for log in "$tmp"/*.log; do
-    echo "---- $(basename "$log") (last 40 lines)"
-    tail -n 40 "$log"
-  done
-  exit 1
-}
-
-start_coordinator() { # extra options...
-  "$vcmfarm" coordinator --listen "$url" --state "$tmp/state" --secret "$key" --lease-seconds 0.3 \
-    --checkpoint-interval 0.3 "$@" >>"$tmp/coordinator.log" 2>&1 &
-  coordinator=$!
-  pids+=("$coordinator")
-}
-
-start_worker() { # name, extra options...
-  local name="$1"
-  shift
-  "$vcmfarm" worker --connect "$url" --secret "$key" --threads 1 --name "$name" "$@" >>"$tmp/$name.log" 2>&1 &
-  last_worker=$!
-  pids+=("$last_worker")
-}
+fail_label="$case_name"
+source "$(dirname "$0")/farm_test_lib.sh"
+farm_test_tmp farm
+farm_test_key
 
 client() { # command, arguments...
   "$vcmfarm" "$@" --coordinator "$url" --secret "$key" --timeout 3

@@ -28,45 +28,13 @@ set -u
 case_name="$1"
 vcmfarm="$2"
 compare="$3"
-tmp=$(mktemp -d /tmp/vf-faults-XXXXXX)
-pids=()
+fail_label="$case_name"
+source "$(dirname "$0")/farm_test_lib.sh"
 mounted=""
-cleanup() {
-  for p in "${pids[@]}"; do kill -9 "$p" 2>/dev/null; done
-  wait 2>/dev/null
-  [ -n "$mounted" ] && umount "$mounted" 2>/dev/null
-  [ -n "${KEEP_TMP:-}" ] || rm -rf "$tmp"
-}
-trap cleanup EXIT
+farm_test_on_exit() { [ -n "$mounted" ] && umount "$mounted" 2>/dev/null; }
+farm_test_tmp faults
 ulimit -c 0 # the crashing workers leave no core files
-url="ipc://$tmp/coordinator.sock"
-key="$tmp/farm.key"
-"$vcmfarm" keygen "$key" || exit 1
-
-fail() {
-  echo "FAIL $case_name: $*"
-  for log in "$tmp"/*.log; do
-    echo "---- $(basename "$log") (last 40 lines)"
-    tail -n 40 "$log"
-  done
-  exit 1
-}
-
-state="$tmp/state"
-start_coordinator() { # extra options...
-  "$vcmfarm" coordinator --listen "$url" --state "$state" --secret "$key" --lease-seconds 0.3 \
-    --checkpoint-interval 0.3 "$@" >>"$tmp/coordinator.log" 2>&1 &
-  coordinator=$!
-  pids+=("$coordinator")
-}
-
-start_worker() { # name, extra options...
-  local name="$1"
-  shift
-  "$vcmfarm" worker --connect "$url" --secret "$key" --threads 1 --name "$name" "$@" >>"$tmp/$name.log" 2>&1 &
-  last_worker=$!
-  pids+=("$last_worker")
-}
+farm_test_key
 
 # A worker under a supervisor that restarts it whenever it ends (as systemd's
 # Restart=always would), under the same name.

@@ -9,15 +9,9 @@ set -u
 vcmfarm="$1"
 compare="$2"
 source_dir="$3"
-tmp=$(mktemp -d /tmp/vf-render-farm-XXXXXX)
+source "$(dirname "$0")/farm_test_lib.sh"
+farm_test_tmp render-farm
 export TMPDIR="$tmp" # the renders' private state directories land here
-pids=()
-cleanup() {
-  for p in "${pids[@]}"; do kill -9 "$p" 2>/dev/null; done
-  wait 2>/dev/null
-  [ -n "${KEEP_TMP:-}" ] || rm -rf "$tmp"
-}
-trap cleanup EXIT
 failures=0
 check() { # NAME STATUS
   if [ "$2" -eq 0 ]; then echo "ok   $1"; else echo "FAIL $1"; failures=$((failures + 1)); fi

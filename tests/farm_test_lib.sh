@@ -1,0 +1,71 @@
+# Shared set-up of the farm's end-to-end test scripts (test_farm.sh, test_farm_faults.sh,
+# test_dashboard.sh, test_dashboard_http.sh, test_render_farm.sh), sourced after `vcmfarm`
+# is set:
+#
+#   farm_test_tmp NAME      a private directory $tmp (/tmp/vf-NAME-XXXXXX); every process
+#                           appended to `pids` is killed on exit, then farm_test_on_exit
+#                           (when the script defines it) runs and $tmp is removed
+#                           (KEEP_TMP=1 keeps it)
+#   farm_test_key           a farm key $key in it and an ipc:// $url beside it
+#   fail MESSAGE            "FAIL $fail_label: MESSAGE" and the end of every log in $tmp
+#   start_coordinator ARGS  a coordinator on $url with state in $state ($tmp/state), short
+#                           leases and checkpoints; its pid in $coordinator
+#   start_worker NAME ARGS  a one-thread worker named NAME logging to $tmp/NAME.log; its pid
+#                           in $last_worker
+#   dashboard_address       waits for the coordinator's log to say where its dashboard
+#                           listens and sets $base to that http://127.0.0.1:PORT
+
+farm_test_cleanup() {
+  for p in "${pids[@]}"; do kill -9 "$p" 2>/dev/null; done
+  wait 2>/dev/null
+  declare -F farm_test_on_exit >/dev/null && farm_test_on_exit
+  [ -n "${KEEP_TMP:-}" ] || rm -rf "$tmp"
+}
+
+farm_test_tmp() { # name
+  tmp=$(mktemp -d "/tmp/vf-$1-XXXXXX")
+  pids=()
+  state="$tmp/state"
+  trap farm_test_cleanup EXIT
+}
+
+fail() {
+  echo "FAIL ${fail_label:-test}: $*"
+  for log in "$tmp"/*.log; do
+    [ -e "$log" ] || continue
+    echo "---- $(basename "$log") (last 40 lines)"
+    tail -n 40 "$log"
+  done
+  exit 1
+}
+
+farm_test_key() {
+  url="ipc://$tmp/coordinator.sock"
+  key="$tmp/farm.key"
+  "$vcmfarm" keygen "$key" >/dev/null || fail "keygen"
+}
+
+start_coordinator() { # extra options...
+  "$vcmfarm" coordinator --listen "$url" --state "$state" --secret "$key" --lease-seconds 0.3 \
+    --checkpoint-interval 0.3 "$@" >>"$tmp/coordinator.log" 2>&1 &
+  coordinator=$!
+  pids+=("$coordinator")
+}
+
+start_worker() { # name, extra options...
+  local name="$1"
+  shift
+  "$vcmfarm" worker --connect "$url" --secret "$key" --threads 1 --name "$name" "$@" >>"$tmp/$name.log" 2>&1 &
+  last_worker=$!
+  pids+=("$last_worker")
+}
+
+dashboard_address() {
+  base=""
+  for _ in $(seq 100); do
+    base=$(grep -o 'dashboard on http://127\.0\.0\.1:[0-9]*' "$tmp/coordinator.log" | sed 's/dashboard on //')
+    [ -n "$base" ] && return 0
+    sleep 0.1
+  done
+  fail "the coordinator did not say where its dashboard is"
+}
