@@ -12,6 +12,9 @@
 #                           leases and checkpoints; its pid in $coordinator
 #   start_worker NAME ARGS  a one-thread worker named NAME logging to $tmp/NAME.log; its pid
 #                           in $last_worker
+#   wait_until S WHAT CMD   runs CMD every 50 ms until it succeeds; after S seconds fails
+#                           saying what it waited for
+#   exited PID              whether that process has ended
 #   dashboard_address       waits for the coordinator's log to say where its dashboard
 #                           listens and sets $base to that http://127.0.0.1:PORT
 
@@ -69,3 +72,14 @@ dashboard_address() {
   done
   fail "the coordinator did not say where its dashboard is"
 }
+
+wait_until() { # seconds, what, command...
+  local limit="$1" deadline=$((SECONDS + $1)) what="$2"
+  shift 2
+  until "$@"; do
+    [ "$SECONDS" -lt "$deadline" ] || fail "timed out after $limit s waiting for: $what"
+    sleep 0.05
+  done
+}
+
+exited() { ! kill -0 "$1" 2>/dev/null; }

@@ -36,17 +36,6 @@ job_done() { status_json | grep -q '"state":"done"'; }
 job_value() { status_json | sed -n "s/.*\"$1\":\([-0-9.eE+]*\).*/\1/p"; }
 at_most() { awk -v a="$1" -v b="$2" 'BEGIN { exit !(a != "" && a + 0 <= b + 0) }'; }
 
-wait_until() { # seconds, what, command...
-  local deadline=$((SECONDS + $1)) what="$2"
-  shift 2
-  until "$@"; do
-    [ "$SECONDS" -lt "$deadline" ] || fail "timed out after $1 s waiting for: $what"
-    sleep 0.05
-  done
-}
-
-exited() { ! kill -0 "$1" 2>/dev/null; }
-
 submit() { # iterations, extra options...
   iterations="$1"
   shift

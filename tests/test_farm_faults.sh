@@ -84,17 +84,6 @@ except Exception:
 }
 is_state() { [ "$(state_of "$1")" = "$2" ]; }
 
-wait_until() { # seconds, what, command...
-  local limit="$1" deadline=$((SECONDS + $1)) what="$2"
-  shift 2
-  until "$@"; do
-    [ "$SECONDS" -lt "$deadline" ] || fail "timed out after $limit s waiting for: $what"
-    sleep 0.05
-  done
-}
-
-exited() { ! kill -0 "$1" 2>/dev/null; }
-
 submit() { # scene, iterations, extra options...: sets job
   job=$(client submit "$1" -n "$2" -R 32x32 --seed 7 "${@:3}" | tail -n 1)
   [ -n "$job" ] || fail "submit printed no job id"
