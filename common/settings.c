@@ -26,13 +26,18 @@ const char *vf_sampler_name(vf_sampler_kind k) {
   return (unsigned)k < VF_SAMPLER_COUNT_ ? sampler_names[k] : "unknown";
 }
 
+/* The index of name in names[0 .. count), or -1. */
+static int name_index(const char *const *names, int count, const char *name) {
+  for (int i = 0; i < count; i++)
+    if (strcmp(name, names[i]) == 0) return i;
+  return -1;
+}
+
 int vf_sampler_parse(const char *name, vf_sampler_kind *out) {
-  for (int i = 0; i < VF_SAMPLER_COUNT_; i++)
-    if (strcmp(name, sampler_names[i]) == 0) {
-      *out = (vf_sampler_kind)i;
-      return VF_OK;
-    }
-  return vf_error_set(VF_EUSAGE, "unknown sampler '%s' (expected independent or sobol)", name);
+  int i = name_index(sampler_names, VF_SAMPLER_COUNT_, name);
+  if (i < 0) return vf_error_set(VF_EUSAGE, "unknown sampler '%s' (expected independent or sobol)", name);
+  *out = (vf_sampler_kind)i;
+  return VF_OK;
 }
 
 const char *vf_algorithm_name(vf_algorithm a) {
@@ -40,11 +45,11 @@ const char *vf_algorithm_name(vf_algorithm a) {
 }
 
 int vf_algorithm_parse(const char *name, vf_algorithm *out) {
-  for (int i = 0; i < VF_ALGO_COUNT_; i++)
-    if (strcmp(name, algorithm_names[i]) == 0) {
-      *out = (vf_algorithm)i;
-      return VF_OK;
-    }
+  int i = name_index(algorithm_names, VF_ALGO_COUNT_, name);
+  if (i >= 0) {
+    *out = (vf_algorithm)i;
+    return VF_OK;
+  }
   return vf_error_set(VF_EUSAGE, "unknown algorithm '%s' (expected vcm, bpt, pt, lt, ppm, bpm or auto)", name);
 }
 

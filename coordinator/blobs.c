@@ -124,37 +124,36 @@ int vf_blobs_attach(const vf_farm *farm, vf_job *job, const Vcmfarm__Scene *scen
   return VF_OK;
 }
 
-int vf_blobs_reference(vf_farm *farm, const Vcmfarm__BlobRef *ref) {
-  if (ref->hash.len != 32) return vf_error_set(VF_EINVAL, "reference: hash of %zu bytes, expected 32", ref->hash.len);
+/* A blob a request names by reference (`what` in errors): a hash of 32 bytes, held
+ * undamaged, of the size the reference says. */
+static int check_ref(vf_farm *farm, const Vcmfarm__BlobRef *ref, const char *what) {
+  if (ref->hash.len != 32) return vf_error_set(VF_EINVAL, "%s: hash of %zu bytes, expected 32", what, ref->hash.len);
   char hex[65];
   vf_blob_hex(ref->hash.data, hex);
   uint64_t size;
   int err = check_blob(farm, ref->hash.data, &size);
-  if (err == VF_ENOENT) return vf_error_set(VF_EINVAL, "reference: the coordinator has no blob %s (send it first)", hex);
-  if (err != VF_OK) return err == VF_EMISMATCH ? vf_error_set(VF_EIO, "reference: %s", vf_error_detail(err)) : err;
+  if (err == VF_ENOENT) return vf_error_set(VF_EINVAL, "%s: the coordinator has no blob %s (send it first)", what, hex);
+  if (err != VF_OK) return err == VF_EMISMATCH ? vf_error_set(VF_EIO, "%s: %s", what, vf_error_detail(err)) : err;
   if (size != ref->size)
-    return vf_error_set(VF_EINVAL, "reference: %llu bytes, the blob %.16s... has %llu", (unsigned long long)ref->size,
+    return vf_error_set(VF_EINVAL, "%s: %llu bytes, the blob %.16s... has %llu", what, (unsigned long long)ref->size,
                         hex, (unsigned long long)size);
   return VF_OK;
 }
+
+int vf_blobs_reference(vf_farm *farm, const Vcmfarm__BlobRef *ref) { return check_ref(farm, ref, "reference"); }
 
 int vf_blobs_scene_text(vf_farm *farm, const Vcmfarm__BlobRef *ref, char **text, size_t *len) {
   if (ref->hash.len != 32) return vf_error_set(VF_EINVAL, "scene text: hash of %zu bytes, expected 32", ref->hash.len);
   if (ref->size == 0 || ref->size > VF_JOB_MAX_SCENE)
     return vf_error_set(VF_EINVAL, "scene text: %llu bytes, must be 1 to %zu", (unsigned long long)ref->size,
                         VF_JOB_MAX_SCENE);
-  char hex[65];
-  vf_blob_hex(ref->hash.data, hex);
-  uint64_t size, total;
-  int err = check_blob(farm, ref->hash.data, &size);
-  if (err == VF_ENOENT) return vf_error_set(VF_EINVAL, "scene text: the coordinator has no blob %s (send it first)", hex);
-  if (err != VF_OK) return err == VF_EMISMATCH ? vf_error_set(VF_EIO, "scene text: %s", vf_error_detail(err)) : err;
-  if (size != ref->size)
-    return vf_error_set(VF_EINVAL, "scene text: %llu bytes, the blob %.16s... has %llu", (unsigned long long)ref->size,
-                        hex, (unsigned long long)size);
+  int err = check_ref(farm, ref, "scene text");
+  if (err != VF_OK) return err;
   uint8_t *bytes;
   size_t n;
-  if ((err = vf_blob_store_read(farm->config.state_dir, ref->hash.data, 0, (size_t)size, &bytes, &n, &total)) != VF_OK)
+  uint64_t total;
+  if ((err = vf_blob_store_read(farm->config.state_dir, ref->hash.data, 0, (size_t)ref->size, &bytes, &n, &total)) !=
+      VF_OK)
     return err;
   char *t = realloc(bytes, n + 1);
   if (t == NULL) {
@@ -164,6 +163,8 @@ int vf_blobs_scene_text(vf_farm *farm, const Vcmfarm__BlobRef *ref, char **text,
   t[n] = '\0';
   if (strlen(t) != n) {
     free(t);
+    char hex[65];
+    vf_blob_hex(ref->hash.data, hex);
     return vf_error_set(VF_EINVAL, "scene text: blob %.16s... holds a NUL byte", hex);
   }
   *text = t;
