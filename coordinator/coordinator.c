@@ -311,6 +311,21 @@ static int check_ipc_path(const char *url) {
   return VF_OK; /* a socket left by a process that ended */
 }
 
+/* nn_bind, with an ipc:// socket file that only this user may connect to (mode 0700):
+ * connecting needs write permission on the file. Other local users are kept out before
+ * they can send a byte; this matters beyond the key, because nanomsg 1.1.5's ipc transport
+ * aborts the process on a malformed message-type byte (docs/PROTOCOL.md, "Not yet"). The
+ * file is created with these bits by nn_bind itself (synchronous for ipc://), under a
+ * umask set around the call, so that no other user can connect in between; the umask is
+ * the process's, and the coordinator binds before it starts any thread that writes files. */
+static int bind_socket(int socket, const char *url) {
+  if (strncmp(url, "ipc://", 6) != 0) return nn_bind(socket, url);
+  mode_t previous = umask(077);
+  int endpoint = nn_bind(socket, url);
+  umask(previous);
+  return endpoint;
+}
+
 /* A worker's blob cache (worker/blob_cache.h) is not a state directory: the worker's
  * eviction would delete the coordinator's scene files. */
 static int check_state_dir(const char *dir) {
@@ -352,7 +367,7 @@ int vf_coordinator_run(const vf_coordinator_config *config) {
   }
   int max_size = (int)VF_WIRE_MAX_REQUEST_FRAME; /* nanomsg drops larger messages unread */
   nn_setsockopt(c->socket, NN_SOL_SOCKET, NN_RCVMAXSIZE, &max_size, sizeof max_size);
-  if (nn_bind(c->socket, config->listen_url) < 0) {
+  if (bind_socket(c->socket, config->listen_url) < 0) {
     err = vf_error_set(VF_ENET, "cannot listen on %s: %s", config->listen_url, nn_strerror(nn_errno()));
     goto close_socket;
   }

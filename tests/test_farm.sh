@@ -532,6 +532,10 @@ unauthenticated_bound)
   # protocol 7 the cap was 64 MiB: 10 connections held 671 MB.
   start_coordinator
   wait_until 10 "the coordinator to listen" test -S "$tmp/coordinator.sock"
+  # Only the coordinator's user may connect to its ipc:// socket (connecting needs write
+  # permission on the file): other local users cannot reach nanomsg's ipc transport at all.
+  mode=$(stat -c %a "$tmp/coordinator.sock")
+  [ "$mode" = 700 ] || fail "the ipc socket's mode is $mode, not 700"
   "$peer" --flood "$url" "$key" 10 $((64 * 1048576 + 44)) "$coordinator" 5 ||
     fail "messages above the cap were held"
   "$peer" --flood "$url" "$key" 10 cap "$coordinator" 46 ||
