@@ -18,9 +18,9 @@
 /* Blocks of this size and above are mapped on their own and unmapped when freed. glibc's
  * default threshold rises, up to 32 MiB, each time such a block is freed, after which the
  * farm's messages (up to 4 MiB each, a part's worth in flight at once) come from malloc's
- * heaps and their pages stay with the process when freed: at 1920x1080 `render` kept about
- * 90 MiB that way (docs/BENCHMARKS.md, "Memory"). A fixed threshold keeps the rule of the
- * first allocation: every large block goes back to the kernel. */
+ * heaps and their pages stay with the process when freed: at 1920x1080 `render` kept 65
+ * to 88 MiB more that way (docs/BENCHMARKS.md, "Memory"). A fixed threshold keeps the rule
+ * of the first allocation: every large block goes back to the kernel. */
 #define LARGE_BLOCK_BYTES (1 << 20)
 
 typedef struct {

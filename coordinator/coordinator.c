@@ -290,12 +290,15 @@ static void close_handle(uv_handle_t *h, void *arg) {
   if (!uv_is_closing(h)) uv_close(h, NULL);
 }
 
+/* The socket file of an ipc:// URL, or NULL for another transport. */
+static const char *ipc_path(const char *url) { return strncmp(url, "ipc://", 6) == 0 ? url + 6 : NULL; }
+
 /* nanomsg's ipc:// bind unlinks whatever is at the path first. Refuse a path that holds
  * anything but a socket (a user's file would be deleted), and a socket that another
  * process still listens on (its clients would be taken over). */
 static int check_ipc_path(const char *url) {
-  if (strncmp(url, "ipc://", 6) != 0) return VF_OK;
-  const char *path = url + 6;
+  const char *path = ipc_path(url);
+  if (path == NULL) return VF_OK;
   struct stat st;
   if (lstat(path, &st) != 0) return VF_OK; /* nothing there */
   if (!S_ISSOCK(st.st_mode))
@@ -319,7 +322,7 @@ static int check_ipc_path(const char *url) {
  * umask set around the call, so that no other user can connect in between; the umask is
  * the process's, and the coordinator binds before it starts any thread that writes files. */
 static int bind_socket(int socket, const char *url) {
-  if (strncmp(url, "ipc://", 6) != 0) return nn_bind(socket, url);
+  if (ipc_path(url) == NULL) return nn_bind(socket, url);
   mode_t previous = umask(077);
   int endpoint = nn_bind(socket, url);
   umask(previous);
