@@ -27,9 +27,9 @@ int vf_poison_blocked(const vf_farm *farm, const char *worker, uint64_t job_id, 
   return b != NULL && now < b->until;
 }
 
-/* Blocks the worker from the job for the forgive time (again from now, if it was). Out of
- * memory, the worker is not blocked: the job's failures still count. */
-static void block(vf_farm *farm, const char *worker, uint64_t job_id, double now) {
+/* Blocks the worker from the job until `until` (again, if it was). Out of memory, the
+ * worker is not blocked: the job's failures still count. */
+static void block(vf_farm *farm, const char *worker, uint64_t job_id, double until) {
   vf_poison_block *b = find_block(farm, worker, job_id);
   if (b == NULL) {
     if (farm->num_blocks == farm->blocks_capacity) {
@@ -43,7 +43,17 @@ static void block(vf_farm *farm, const char *worker, uint64_t job_id, double now
     snprintf(b->worker, sizeof b->worker, "%s", worker);
     b->job_id = job_id;
   }
-  b->until = now + farm->config.forgive_seconds;
+  b->until = until;
+}
+
+const char *vf_poison_block_at(const vf_farm *farm, size_t i, uint64_t *job_id, double *until) {
+  *job_id = farm->blocks[i].job_id;
+  *until = farm->blocks[i].until;
+  return farm->blocks[i].worker;
+}
+
+void vf_poison_restore(vf_farm *farm, const char *worker, uint64_t job_id, double until) {
+  block(farm, worker, job_id, until);
 }
 
 static void fail_job(vf_farm *farm, vf_job *job, double now, const char *fmt, ...) __attribute__((format(printf, 4, 5)));
@@ -72,8 +82,9 @@ static int nobody_left(const vf_farm *farm, const vf_job *job, double now) {
 void vf_poison_lease_failed(vf_farm *farm, uint64_t job_id, const char *worker, const char *why, double now) {
   vf_job *job = vf_farm_job(farm, job_id);
   if (job == NULL || job->end != VF_JOB_ACTIVE) return;
-  block(farm, worker, job_id, now);
+  block(farm, worker, job_id, now + farm->config.forgive_seconds);
   job->lease_failures++;
+  farm->state_dirty = 1; /* the count and the block are in state.json */
   unsigned k = 0;
   while (k < job->failed_workers_count && strcmp(job->failed_workers[k], worker) != 0) k++;
   if (k == job->failed_workers_count && k < VF_POISON_WORKERS) {

@@ -14,8 +14,9 @@
  * every registered worker is blocked from it (a farm of fewer workers: no one is left to
  * try it; only after the coordinator has been up for a worker timeout, so that the
  * workers of a farm it restarted have registered again).
- * The blocklist and the failures in a row live in memory: a restarted coordinator forgives
- * everyone. Single-threaded, as the farm. */
+ * The failures in a row, their workers and the blocklist are saved with the job list
+ * (coordinator/state.c), so a restarted coordinator goes on counting and keeps blocking
+ * until each forgive time that was set. Single-threaded, as the farm. */
 #ifndef VF_POISON_H
 #define VF_POISON_H
 
@@ -36,6 +37,12 @@ int vf_poison_blocked(const vf_farm *farm, const char *worker, uint64_t job_id, 
 /* Forgives the workers whose time is up, and fails the jobs every registered worker is
  * blocked from (see above). Called from the farm's tick. */
 void vf_poison_tick(vf_farm *farm, double now);
+
+/* Blocklist entry i (i < farm->num_blocks), for saving: its worker's name (the farm's),
+ * job, and the vf_seconds_now() time it is forgiven at. */
+const char *vf_poison_block_at(const vf_farm *farm, size_t i, uint64_t *job_id, double *until);
+/* Blocks `worker` from job_id until `until` (vf_seconds_now() time), as saved. */
+void vf_poison_restore(vf_farm *farm, const char *worker, uint64_t job_id, double until);
 
 /* Forgets the job's blocklist entries (the job was removed). */
 void vf_poison_forget_job(vf_farm *farm, uint64_t job_id);

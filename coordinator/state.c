@@ -5,6 +5,7 @@
 #include "../common/error.h"
 #include "../common/file.h"
 #include "log.h"
+#include "poison.h"
 
 #include <cjson/cJSON.h>
 #include <errno.h>
@@ -119,6 +120,28 @@ static int save_events(cJSON *job, const vf_events *log) {
   return VF_OK;
 }
 
+/* The job's failed leases in a row, their workers and its blocklist (coordinator/poison.h);
+ * a block's end as Unix time, since the monotonic clock starts again with the process. */
+static int save_poison(cJSON *o, const vf_farm *farm, const vf_job *job) {
+  cJSON *names = cJSON_AddArrayToObject(o, "failed_workers"), *blocked = cJSON_AddArrayToObject(o, "blocked");
+  if (names == NULL || blocked == NULL || cJSON_AddNumberToObject(o, "lease_failures", job->lease_failures) == NULL)
+    return VF_ENOMEM;
+  for (unsigned k = 0; k < job->failed_workers_count; k++)
+    if (!cJSON_AddItemToArray(names, cJSON_CreateString(job->failed_workers[k]))) return VF_ENOMEM;
+  double now = vf_seconds_now(), unix_now = vf_unix_now();
+  for (size_t i = 0; i < farm->num_blocks; i++) {
+    uint64_t job_id;
+    double until;
+    const char *worker = vf_poison_block_at(farm, i, &job_id, &until);
+    if (job_id != job->id || until <= now) continue;
+    cJSON *b = cJSON_CreateObject();
+    if (b == NULL || !cJSON_AddItemToArray(blocked, b) || cJSON_AddStringToObject(b, "worker", worker) == NULL ||
+        cJSON_AddNumberToObject(b, "until", unix_now + (until - now)) == NULL)
+      return VF_ENOMEM;
+  }
+  return VF_OK;
+}
+
 int vf_state_save_index(vf_farm *farm) {
   int err = VF_ENOMEM, built = 0; /* until the text is built; its detail is set at `done` only then */
   cJSON *root = cJSON_CreateObject(), *jobs = cJSON_AddArrayToObject(root, "jobs");
@@ -153,7 +176,7 @@ int vf_state_save_index(vf_farm *farm) {
     cJSON_AddNumberToObject(o, "started_at", j->started_at);
     cJSON_AddNumberToObject(o, "ended_at", unsettled ? 0.0 : j->ended_at);
     cJSON_AddStringToObject(o, "algorithm_resolved", j->algorithm_resolved);
-    if (save_events(o, &j->events) != VF_OK) goto done;
+    if (save_events(o, &j->events) != VF_OK || save_poison(o, farm, j) != VF_OK) goto done;
     if (cJSON_AddStringToObject(o, "message", unsettled ? "" : j->message) == NULL) goto done;
   }
   char *text = cJSON_Print(root);
@@ -223,6 +246,50 @@ static int load_events(const cJSON *o, vf_job *job) {
 }
 
 /* A stop reason from a state file older than format 4: from how the job ended. */
+/* A worker's name as saved: a string that fits vf_job.failed_workers. */
+static const char *worker_name(const cJSON *v) {
+  return cJSON_IsString(v) && strlen(v->valuestring) < sizeof ((vf_job *)0)->failed_workers[0] ? v->valuestring
+                                                                                               : NULL;
+}
+
+/* save_poison's fields into the job, which is not the farm's yet; its blocks are checked
+ * here and restored by restore_blocks once it is. Absent in a state of before they were
+ * saved: nothing counted, nobody blocked. */
+static int load_poison(vf_job *job, const cJSON *o, const char *state_path) {
+  const cJSON *count = cJSON_GetObjectItemCaseSensitive(o, "lease_failures");
+  const cJSON *names = cJSON_GetObjectItemCaseSensitive(o, "failed_workers");
+  const cJSON *blocked = cJSON_GetObjectItemCaseSensitive(o, "blocked"), *e;
+  int ok = (count == NULL || (cJSON_IsNumber(count) && count->valuedouble >= 0.0 && count->valuedouble <= 1e6)) &&
+           (names == NULL || (cJSON_IsArray(names) && cJSON_GetArraySize(names) <= VF_JOB_FAILED_WORKERS)) &&
+           (blocked == NULL || cJSON_IsArray(blocked));
+  cJSON_ArrayForEach(e, names) ok = ok && worker_name(e) != NULL;
+  cJSON_ArrayForEach(e, blocked) {
+    const cJSON *until = cJSON_GetObjectItemCaseSensitive(e, "until");
+    ok = ok && worker_name(cJSON_GetObjectItemCaseSensitive(e, "worker")) != NULL && cJSON_IsNumber(until) &&
+         isfinite(until->valuedouble);
+  }
+  if (!ok)
+    return vf_error_set(VF_EINVAL, "%s: job %llu: its failed leases or blocked workers are malformed", state_path,
+                        (unsigned long long)job->id);
+  job->lease_failures = count ? (unsigned)count->valuedouble : 0;
+  job->failed_workers_count = 0;
+  cJSON_ArrayForEach(e, names) snprintf(job->failed_workers[job->failed_workers_count++], sizeof job->failed_workers[0],
+                                        "%s", e->valuestring);
+  return VF_OK;
+}
+
+/* The job's blocks as load_poison checked them, those not over yet. */
+static void restore_blocks(vf_farm *farm, uint64_t job_id, const cJSON *o) {
+  double now = vf_seconds_now(), unix_now = vf_unix_now();
+  const cJSON *e;
+  cJSON_ArrayForEach(e, cJSON_GetObjectItemCaseSensitive(o, "blocked")) {
+    double until = cJSON_GetObjectItemCaseSensitive(e, "until")->valuedouble;
+    if (until > unix_now)
+      vf_poison_restore(farm, cJSON_GetObjectItemCaseSensitive(e, "worker")->valuestring, job_id,
+                        now + (until - unix_now));
+  }
+}
+
 static vf_stop_reason derived_stop(const vf_job *job) {
   switch (job->end) {
   case VF_JOB_CANCELLED: return VF_STOP_CANCELLED;
@@ -319,6 +386,7 @@ static int load_job(vf_farm *farm, const cJSON *o, const char *state_path, uint6
     err = vf_error_set(VF_EINVAL, "%s: job %llu: an event is malformed", state_path, (unsigned long long)id);
     goto destroy_job;
   }
+  if ((err = load_poison(job, o, state_path)) != VF_OK) goto destroy_job;
   vf_film *film = NULL;
   int failed_now = 0;
   /* The files of a JSON scene (absent: it names none); their blobs stay in DIR/blobs. */
@@ -361,6 +429,7 @@ static int load_job(vf_farm *farm, const cJSON *o, const char *state_path, uint6
   if (failed_now) job->stop = VF_STOP_FAILED;
   vf_job_restore_measure(job);
   if ((err = vf_farm_add_job(farm, job)) != VF_OK) goto destroy_job;
+  restore_blocks(farm, id, o);
   vf_log("resumed job %llu '%s': %llu/%llu iterations done%s%s", (unsigned long long)id, job->name,
          (unsigned long long)vf_job_done(job), (unsigned long long)iterations, job->end != VF_JOB_ACTIVE ? ", " : "",
          job->end != VF_JOB_ACTIVE ? end_name(job->end) : "");

@@ -1,14 +1,17 @@
 /* The coordinator's state directory (coordinator/state.h): every job written (job list,
  * scene, file table, film, reference) is read back as it was, a stopped job whose final
- * film is not durable yet is read back active, older formats are read, and a damaged
+ * film is not durable yet is read back active, a job's failed leases and blocked workers
+ * outlive a restart (coordinator/poison.h), older formats are read, and a damaged
  * file is refused with an error naming the file and what is wrong with it, except a job's
  * film: a broken one fails that job alone. */
 #include "check.h"
+#include "common/clock.h"
 #include "common/error.h"
 #include "common/file.h"
 #include "common/settings.h"
 #include "coordinator/checkpoint.h"
 #include "coordinator/log.h"
+#include "coordinator/poison.h"
 #include "coordinator/state.h"
 
 #include <stdlib.h>
@@ -233,6 +236,48 @@ static void test_a_finished_jobs_errors_come_back(void) {
   vf_farm_destroy(&b);
 }
 
+/* A restarted coordinator goes on counting a job's failed leases and keeps its workers
+ * blocked until their forgive time: a third failure after the restart fails the poison
+ * job, and a block already over is not brought back. */
+static void test_failed_leases_and_blocks_outlive_a_restart(void) {
+  char dir[4200];
+  fresh_dir(dir, sizeof dir, "poison");
+  vf_farm a, b;
+  vf_farm_config config = {dir, 15.0, 20.0, 600.0}; /* forgive after 600 s */
+  vf_farm_init(&a, &config);
+  vf_job *j = add_job(&a, 1, "knot", 0, 4);
+  if (j == NULL) return;
+  double now = vf_seconds_now();
+  vf_poison_lease_failed(&a, j->id, "w1", "it crashed", now);
+  vf_poison_lease_failed(&a, j->id, "w2", "it crashed", now);
+  vf_poison_restore(&a, "w9", j->id, now - 1.0); /* forgiven a second ago */
+  CHECK_INT_EQ(a.state_dirty, 1);
+  CHECK_INT_EQ(vf_state_save_scene(dir, j), VF_OK);
+  CHECK_INT_EQ(vf_state_save_index(&a), VF_OK);
+  vf_farm_init(&b, &config);
+  CHECK_INT_EQ(vf_state_load(&b), VF_OK);
+  CHECK_INT_EQ(b.num_jobs, 1);
+  if (b.num_jobs == 1) {
+    vf_job *r = b.jobs[0];
+    now = vf_seconds_now();
+    CHECK_INT_EQ(r->lease_failures, 2);
+    CHECK_INT_EQ(r->failed_workers_count, 2);
+    CHECK_STR_EQ(r->failed_workers[0], "w1");
+    CHECK_STR_EQ(r->failed_workers[1], "w2");
+    CHECK(vf_poison_blocked(&b, "w1", r->id, now));
+    CHECK(vf_poison_blocked(&b, "w2", r->id, now));
+    CHECK(!vf_poison_blocked(&b, "w1", r->id, now + 601.0)); /* still forgiven after 600 s */
+    CHECK(!vf_poison_blocked(&b, "w9", r->id, now));
+    CHECK(!vf_poison_blocked(&b, "w3", r->id, now));
+    CHECK_INT_EQ(b.num_blocks, 2);
+    vf_poison_lease_failed(&b, r->id, "w3", "it crashed", now);
+    CHECK_INT_EQ(r->end, VF_JOB_FAILED);
+    CHECK_STR_CONTAINS(r->message, "poison job: leases failed on 3 workers in a row");
+  }
+  vf_farm_destroy(&a);
+  vf_farm_destroy(&b);
+}
+
 /* A film checkpoint that fails is an event of its job (and is tried again later). */
 static void test_a_failed_checkpoint_is_an_event_of_its_job(void) {
   char dir[4200], blocked[4300];
@@ -334,6 +379,7 @@ static void job_list(char *out, size_t n, int format, const char *key, const cha
       /* format 4 */
       {"stop_reason", "\"\""}, {"submitted_at", "1714550000"}, {"started_at", "0"}, {"ended_at", "0"},
       {"algorithm_resolved", "\"\""}, {"events", "[]"}, {"events_dropped", "0"},
+      {"lease_failures", "0"}, {"failed_workers", "[]"}, {"blocked", "[]"}, /* optional in format 4 */
   };
   size_t num_fields = format >= 4 ? sizeof fields / sizeof *fields : 15;
   size_t len = (size_t)snprintf(out, n, "{\"format\": %d, \"next_job_id\": 2, \"jobs\": [{", format);
@@ -525,6 +571,12 @@ static void test_a_damaged_job_list_is_refused_naming_the_problem(void) {
       {NULL, "started_at", "-1", "job 1: a time, the stop reason or the resolved algorithm is malformed"},
       {NULL, "events", "[{\"time\": 1}]", "job 1: an event is malformed"},
       {NULL, "events", "{}", "job 1: an event is malformed"},
+      {NULL, "lease_failures", "-1", "job 1: its failed leases or blocked workers are malformed"},
+      {NULL, "failed_workers", "[\"w1\", 2]", "job 1: its failed leases or blocked workers are malformed"},
+      {NULL, "failed_workers", "[\"a\", \"b\", \"c\", \"d\"]",
+       "job 1: its failed leases or blocked workers are malformed"},
+      {NULL, "blocked", "[{\"worker\": \"w1\"}]", "job 1: its failed leases or blocked workers are malformed"},
+      {NULL, "blocked", "{}", "job 1: its failed leases or blocked workers are malformed"},
   };
   for (size_t i = 0; i < sizeof cases / sizeof *cases; i++) {
     if (cases[i].text) snprintf(text, sizeof text, "%s", cases[i].text);
@@ -649,6 +701,7 @@ int main(void) {
   RUN(test_a_finished_jobs_errors_come_back);
   RUN(test_format_3_is_read_with_old_settings_text);
   RUN(test_a_failed_checkpoint_is_an_event_of_its_job);
+  RUN(test_failed_leases_and_blocks_outlive_a_restart);
   RUN(test_an_empty_directory_is_an_empty_farm);
   RUN(test_a_stop_not_yet_durable_is_written_active);
   RUN(test_a_damaged_job_list_is_refused_naming_the_problem);
