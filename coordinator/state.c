@@ -245,7 +245,6 @@ static int load_events(const cJSON *o, vf_job *job) {
   return 1;
 }
 
-/* A stop reason from a state file older than format 4: from how the job ended. */
 /* A worker's name as saved: a string that fits vf_job.failed_workers. */
 static const char *worker_name(const cJSON *v) {
   return cJSON_IsString(v) && strlen(v->valuestring) < sizeof ((vf_job *)0)->failed_workers[0] ? v->valuestring
@@ -290,6 +289,7 @@ static void restore_blocks(vf_farm *farm, uint64_t job_id, const cJSON *o) {
   }
 }
 
+/* A stop reason from a state file older than format 4: from how the job ended. */
 static vf_stop_reason derived_stop(const vf_job *job) {
   switch (job->end) {
   case VF_JOB_CANCELLED: return VF_STOP_CANCELLED;
