@@ -166,7 +166,46 @@ static void *run_coordinator(void *arg) {
   return (void *)err;
 }
 
+/* What the merge thread does for one part, timed here on this thread: decode its 510
+ * tiles, store them in a staged film, validate it, add its pixels to the job's film. The
+ * latencies below are judged against this, measured on the same machine in the same build
+ * (a sanitized build is several times slower throughout): a loop that merged would keep a
+ * request waiting for up to a whole merge. */
+static double one_merge_seconds(void) {
+  Vcmfarm__LeaseResult m = VCMFARM__LEASE_RESULT__INIT;
+  m.begin = 0;
+  m.end = 1;
+  m.width = W;
+  m.height = H;
+  Vcmfarm__Tile **ptrs = malloc(n_tiles * sizeof *ptrs);
+  vf_film *staged = NULL, *job = NULL;
+  double best = 1e9;
+  if (ptrs == NULL || vf_film_create(W, H, &staged) != VF_OK || vf_film_create(W, H, &job) != VF_OK ||
+      vf_iterset_add(&staged->iterations, 0, 1) != VF_OK)
+    goto done;
+  for (uint32_t i = 0; i < n_tiles; i++) ptrs[i] = &tiles[i];
+  m.tiles = ptrs;
+  m.n_tiles = n_tiles;
+  for (int round = 0; round < 3; round++) {
+    double t0 = vf_seconds_now();
+    vf_film_tile *decoded;
+    if (vf_film_tiles_decode(&m, W, H, &decoded) != VF_OK) goto done;
+    for (uint32_t i = 0; i < n_tiles; i++) vf_film_tile_store(staged, &decoded[i]);
+    vf_film_tiles_free(decoded, n_tiles);
+    if (vf_film_validate(staged, "part") != VF_OK) goto done;
+    vf_film_add_pixels(job, staged);
+    double t = vf_seconds_now() - t0;
+    if (t < best) best = t;
+  }
+done:
+  vf_film_destroy(staged);
+  vf_film_destroy(job);
+  free(ptrs);
+  return best;
+}
+
 static void test_heartbeats_and_leases_answered_under_a_flood_of_parts(void) {
+  double merge = one_merge_seconds();
   volatile sig_atomic_t stop = 0;
   pthread_t coordinator;
   pthread_create(&coordinator, NULL, run_coordinator, (void *)&stop);
@@ -216,15 +255,20 @@ static void test_heartbeats_and_leases_answered_under_a_flood_of_parts(void) {
   qsort(leases, nl, sizeof *leases, cmp);
   double b50 = beats[nb / 2], b99 = beats[(size_t)(0.99 * (double)(nb - 1))], bmax = beats[nb - 1];
   double l99 = nl ? leases[(size_t)(0.99 * (double)(nl - 1))] : 1e9;
-  printf("  %zu heartbeats: median %.1f ms, p99 %.1f ms, max %.1f ms; %zu lease requests, p99 %.1f ms; "
-         "%u parts merged, %u busy answers\n",
-         nb, 1e3 * b50, 1e3 * b99, 1e3 * bmax, nl, 1e3 * l99, atomic_load(&parts_merged), atomic_load(&busy_answers));
+  printf("  a part's merge alone: %.0f ms; %zu heartbeats: median %.1f ms, p99 %.1f ms, max %.1f ms; %zu lease "
+         "requests, p99 %.1f ms; %u parts merged, %u busy answers\n",
+         1e3 * merge, nb, 1e3 * b50, 1e3 * b99, 1e3 * bmax, nl, 1e3 * l99, atomic_load(&parts_merged),
+         atomic_load(&busy_answers));
   CHECK(atomic_load(&parts_merged) >= 2);         /* the merge thread merged meanwhile */
   CHECK_INT_EQ(atomic_load(&refused), 0);
   CHECK(nb > 100);
-  CHECK(b99 < 0.1);   /* a merge of a 1080p part takes the merge thread ~0.5 s of work */
-  CHECK(bmax < 0.5);
-  CHECK(l99 < 0.1);
+  CHECK(merge < 1e9);
+  /* Were merges on the loop, back to back as here, a request would wait for the rest of
+   * the merge under way: half a merge at the median, nearly a whole one at p99. This loop
+   * answers between the messages it decrypts, whatever the merge thread is doing. */
+  CHECK(b99 < 0.5 * merge);
+  CHECK(l99 < 0.5 * merge);
+  CHECK(bmax < merge);
   stop = 1;
   void *err;
   pthread_join(coordinator, &err);
