@@ -471,6 +471,11 @@ int main(void) {
     sampler_under_test = (vf_sampler_kind)k;
     printf("sampler %s\n", vf_sampler_name(sampler_under_test));
     RUN(test_furnace_every_algorithm_gives_the_analytic_value);
+#ifdef __SANITIZE_ADDRESS__
+    /* tests/sanitize.sh looks for memory errors, not statistics: the furnace has taken
+     * every algorithm through this sampler; the agreement runs with the default only. */
+    if (sampler_under_test != VF_SAMPLER_SOBOL) continue;
+#endif
     RUN(test_pt_bpt_vcm_agree_on_area_and_environment_variants);
   }
   sampler_under_test = VF_SAMPLER_SOBOL;
