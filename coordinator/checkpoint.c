@@ -337,7 +337,7 @@ int vf_checkpoint_write(vf_farm *farm, int all) {
     int err = vf_job_log(j);
     if (err != VF_OK) vf_log("job %llu: convergence entry: %s", (unsigned long long)j->id, vf_error_detail(err));
     if (j->seconds != j->seconds_saved) farm->state_dirty = 1;
-    if (!j->film_dirty && !all) continue;
+    if (!j->film_dirty) continue; /* on disk as it is: also when stopping */
     err = save_film(farm, j, 0);
     if (err != VF_OK) {
       checkpoint_failed(j, err);

@@ -39,9 +39,11 @@
 
 /* Appends a convergence entry to the film of every job merged into since its last entry,
  * then checkpoints the film of every job changed since its last checkpoint, then state.json
- * if the job list or a running time changed; with `all` (the coordinator stopping), every
- * film and the state, and every fetch snapshot is dropped. Logs and returns the first
- * error, carrying on with the other jobs. */
+ * if the job list or a running time changed; with `all` (the coordinator stopping),
+ * state.json in any case, and every fetch snapshot is dropped. A film whose checkpoint
+ * landed and that has not changed since is not written again, not even then: a farm of
+ * many finished 1920x1080 jobs stops without seconds of writing each. Logs and returns
+ * the first error, carrying on with the other jobs. */
 int vf_checkpoint_write(vf_farm *farm, int all);
 
 /* The final checkpoint of a job that completed or stopped: a last convergence entry, its

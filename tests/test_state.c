@@ -16,6 +16,7 @@
 
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #define W 8
@@ -316,6 +317,52 @@ static void test_a_failed_checkpoint_is_an_event_of_its_job(void) {
   CHECK_STR_EQ(vf_job_state(j, 0), "done");
   CHECK_STR_EQ(j->checkpoint_error, "");
   vf_farm_destroy(&farm);
+}
+
+/* The stopping coordinator's checkpoint (all) writes what changed and the job list, never a
+ * film already on disk as it is: the file of a finished job stays the one written. */
+static void test_stopping_writes_only_changed_films(void) {
+  char dir[4200], path[8192];
+  vf_farm farm;
+  fresh_farm(&farm, dir, sizeof dir, "stopping");
+  vf_job *a = add_job(&farm, 1, "cornell", 0, 10), *b = add_job(&farm, 1, "cornell", 0, 10);
+  if (a == NULL || b == NULL) return;
+  CHECK_INT_EQ(vf_state_save_scene(dir, a), VF_OK); /* as at submission */
+  CHECK_INT_EQ(vf_state_save_scene(dir, b), VF_OK);
+  float rgb[3 * W * H] = {0};
+  CHECK_INT_EQ(vf_film_add_iteration(a->film, 0, rgb, rgb, NULL), VF_OK);
+  CHECK_INT_EQ(vf_film_add_iteration(b->film, 0, rgb, rgb, NULL), VF_OK);
+  a->film_dirty = b->film_dirty = 1;
+  CHECK_INT_EQ(vf_checkpoint_write(&farm, 0), VF_OK);
+  CHECK(!a->film_dirty && !b->film_dirty);
+  struct stat before[2], after[2];
+  for (int k = 0; k < 2; k++) {
+    snprintf(path, sizeof path, "%s/job-%d.exr", dir, k + 1);
+    CHECK_INT_EQ(stat(path, &before[k]), 0);
+  }
+  /* b changes; a does not. */
+  CHECK_INT_EQ(vf_film_add_iteration(b->film, 1, rgb, rgb, NULL), VF_OK);
+  b->film_dirty = 1;
+  CHECK_INT_EQ(vf_checkpoint_write(&farm, 1), VF_OK);
+  for (int k = 0; k < 2; k++) {
+    snprintf(path, sizeof path, "%s/job-%d.exr", dir, k + 1);
+    CHECK_INT_EQ(stat(path, &after[k]), 0);
+  }
+  CHECK(after[0].st_ino == before[0].st_ino); /* not replaced (films are written by rename) */
+  CHECK(after[1].st_ino != before[1].st_ino); /* replaced */
+  vf_farm_destroy(&farm);
+  /* And what is on disk is what the farm held: b's two iterations. */
+  vf_farm back;
+  open_farm(&back, dir);
+  int err = vf_state_load(&back);
+  CHECK_INT_EQ(err, VF_OK);
+  if (err != VF_OK) fprintf(stderr, "  %s\n", vf_error_detail(err));
+  CHECK_INT_EQ(back.num_jobs, 2);
+  if (back.num_jobs == 2) {
+    CHECK_INT_EQ(vf_job_done(back.jobs[0]), 1);
+    CHECK_INT_EQ(vf_job_done(back.jobs[1]), 2);
+  }
+  vf_farm_destroy(&back);
 }
 
 static void test_an_empty_directory_is_an_empty_farm(void) {
@@ -702,6 +749,7 @@ int main(void) {
   RUN(test_format_3_is_read_with_old_settings_text);
   RUN(test_a_failed_checkpoint_is_an_event_of_its_job);
   RUN(test_failed_leases_and_blocks_outlive_a_restart);
+  RUN(test_stopping_writes_only_changed_films);
   RUN(test_an_empty_directory_is_an_empty_farm);
   RUN(test_a_stop_not_yet_durable_is_written_active);
   RUN(test_a_damaged_job_list_is_refused_naming_the_problem);
