@@ -57,6 +57,14 @@ static void open_farm(vf_farm *farm, const char *dir) {
   vf_farm_init(farm, &config);
 }
 
+/* The same, its state loaded: a failed load fails the case, its detail printed. */
+static void open_loaded(vf_farm *farm, const char *dir) {
+  open_farm(farm, dir);
+  int err = vf_state_load(farm);
+  CHECK_INT_EQ(err, VF_OK);
+  if (err != VF_OK) fprintf(stderr, "  %s\n", vf_error_detail(err));
+}
+
 /* A fresh empty state directory under root. */
 static void fresh_dir(char *dir, size_t n, const char *name) {
   snprintf(dir, n, "%s/%s", root, name);
@@ -191,10 +199,7 @@ static void test_every_job_is_read_back_as_written(void) {
   CHECK_INT_EQ(a.state_dirty, 0);
   CHECK_NEAR(a.jobs[0]->seconds_saved, 12.5, 0.0);
 
-  open_farm(&b, dir);
-  int err = vf_state_load(&b);
-  CHECK_INT_EQ(err, VF_OK);
-  if (err != VF_OK) fprintf(stderr, "  %s\n", vf_error_detail(err));
+  open_loaded(&b, dir);
   CHECK_INT_EQ(b.num_jobs, a.num_jobs);
   CHECK_INT_EQ(b.next_job_id, 6);
   for (size_t i = 0; i < a.num_jobs && i < b.num_jobs; i++) check_same_job(a.jobs[i], b.jobs[i]);
@@ -353,10 +358,7 @@ static void test_stopping_writes_only_changed_films(void) {
   vf_farm_destroy(&farm);
   /* And what is on disk is what the farm held: b's two iterations. */
   vf_farm back;
-  open_farm(&back, dir);
-  int err = vf_state_load(&back);
-  CHECK_INT_EQ(err, VF_OK);
-  if (err != VF_OK) fprintf(stderr, "  %s\n", vf_error_detail(err));
+  open_loaded(&back, dir);
   CHECK_INT_EQ(back.num_jobs, 2);
   if (back.num_jobs == 2) {
     CHECK_INT_EQ(vf_job_done(back.jobs[0]), 1);
@@ -513,10 +515,7 @@ static void test_a_broken_film_fails_its_job_alone(void) {
   long extended = file_size(dir, "job-2.exr");
   vf_job *c = NULL;
   for (int round = 0; round < 2; round++) { /* and again after the failures were written */
-    open_farm(&farm, dir);
-    int err = vf_state_load(&farm);
-    CHECK_INT_EQ(err, VF_OK);
-    if (err != VF_OK) fprintf(stderr, "  %s\n", vf_error_detail(err));
+    open_loaded(&farm, dir);
     if (round == 0) { /* a third job, intact, that the farm goes on with */
       c = add_job(&farm, 1, "cornell", 0, 10);
       if (c) CHECK_INT_EQ(vf_film_add_iteration(c->film, 0, rgb, rgb, NULL), VF_OK);
@@ -687,10 +686,7 @@ static void test_format_1_is_read(void) {
     job_list(text, sizeof text, 1, change[i][0], change[i][1]);
     write_file(dir, "state.json", text);
     vf_farm farm;
-    open_farm(&farm, dir);
-    int err = vf_state_load(&farm);
-    CHECK_INT_EQ(err, VF_OK);
-    if (err != VF_OK) fprintf(stderr, "  %s\n", vf_error_detail(err));
+    open_loaded(&farm, dir);
     CHECK_INT_EQ(farm.num_jobs, 1);
     if (farm.num_jobs == 1) {
       CHECK_INT_EQ(farm.jobs[0]->priority, i == 0 ? 2 : 1);
