@@ -7,6 +7,7 @@
 #include "blobs.h"
 #include "checkpoint.h"
 #include "farm.h"
+#include "gate.h"
 #include "log.h"
 #include "merger.h"
 #include "replay.h"
@@ -43,6 +44,9 @@ typedef struct {
   uint64_t replays_refused;
   vf_farm farm;
   vf_dashboard *dashboard; /* owned; NULL without --http */
+  vf_gate *gate;           /* owned; NULL unless listening on tcp:// */
+  char gate_dir[4096];     /* the private directory of the REP socket behind the gate, or "" */
+  char gate_url[4200];
   double checkpoint_interval, last_checkpoint;
   double last_collect;  /* of blobs no job names (coordinator/blobs.h) */
   volatile sig_atomic_t *stop; /* the caller's stop flag, or NULL */
@@ -329,6 +333,34 @@ static int bind_socket(int socket, const char *url) {
   return endpoint;
 }
 
+static int is_tcp(const char *url) { return strncmp(url, "tcp://", 6) == 0; }
+
+/* Behind the gate the REP socket listens on a unix socket in a directory of its own, that
+ * only this user may enter; gate_url is set to it. */
+static int make_gate_dir(coordinator *c) {
+  const char *tmp = getenv("TMPDIR");
+  if (tmp == NULL || *tmp == '\0') tmp = "/tmp";
+  snprintf(c->gate_dir, sizeof c->gate_dir, "%s/vcmfarm-gate-XXXXXX", tmp);
+  struct sockaddr_un addr;
+  if (strlen(c->gate_dir) + 3 > sizeof addr.sun_path) { /* "/s" and the NUL */
+    c->gate_dir[0] = '\0';
+    return vf_error_set(VF_EUSAGE, "TMPDIR %s is too long a path for a unix socket", tmp);
+  }
+  if (mkdtemp(c->gate_dir) == NULL) {
+    int e = errno;
+    c->gate_dir[0] = '\0';
+    return vf_error_set(VF_EIO, "cannot create a directory in %s: %s", tmp, strerror(e));
+  }
+  snprintf(c->gate_url, sizeof c->gate_url, "ipc://%s/s", c->gate_dir);
+  return VF_OK;
+}
+
+static void remove_gate_dir(coordinator *c) {
+  if (c->gate_dir[0] == '\0') return;
+  unlink(c->gate_url + 6);
+  rmdir(c->gate_dir);
+}
+
 /* A worker's blob cache (worker/blob_cache.h) is not a state directory: the worker's
  * eviction would delete the coordinator's scene files. */
 static int check_state_dir(const char *dir) {
@@ -370,8 +402,13 @@ int vf_coordinator_run(const vf_coordinator_config *config) {
   }
   int max_size = (int)VF_WIRE_MAX_REQUEST_FRAME; /* nanomsg drops larger messages unread */
   nn_setsockopt(c->socket, NN_SOL_SOCKET, NN_RCVMAXSIZE, &max_size, sizeof max_size);
-  if (bind_socket(c->socket, config->listen_url) < 0) {
-    err = vf_error_set(VF_ENET, "cannot listen on %s: %s", config->listen_url, nn_strerror(nn_errno()));
+  const char *bind_url = config->listen_url;
+  if (is_tcp(config->listen_url)) {
+    if ((err = make_gate_dir(c)) != VF_OK) goto close_socket;
+    bind_url = c->gate_url;
+  }
+  if (bind_socket(c->socket, bind_url) < 0) {
+    err = vf_error_set(VF_ENET, "cannot listen on %s: %s", bind_url, nn_strerror(nn_errno()));
     goto close_socket;
   }
   if ((err = socket_fd(c->socket, NN_RCVFD, &recv_fd)) != VF_OK ||
@@ -380,6 +417,13 @@ int vf_coordinator_run(const vf_coordinator_config *config) {
   if (uv_loop_init(&c->loop) != 0) {
     err = vf_error_set(VF_ENOMEM, "libuv: cannot create the loop");
     goto close_socket;
+  }
+  if (c->gate_dir[0] != '\0') {
+    vf_gate_limits limits = vf_gate_defaults(VF_WIRE_MAX_REQUEST_FRAME, VF_WIRE_MAX_FRAME + 64);
+    limits.max_connections = config->max_connections;
+    limits.max_bytes = config->max_in_flight;
+    if ((err = vf_gate_start(&c->loop, config->listen_url, c->gate_url + 6, &limits, &c->gate)) != VF_OK)
+      goto close_loop;
   }
   c->farm.checkpoint_loop = &c->loop; /* films are checkpointed off the loop */
   vf_merger *merger = NULL;
@@ -411,6 +455,11 @@ int vf_coordinator_run(const vf_coordinator_config *config) {
   c->last_checkpoint = vf_seconds_now();
   vf_log("listening on %s, state in %s, %zu job(s), worker timeout %.1f s", config->listen_url, config->state_dir,
          c->farm.num_jobs, config->worker_timeout);
+  if (c->gate) {
+    const vf_gate_limits *l = vf_gate_get_limits(c->gate);
+    vf_log("tcp: port %d, at most %zu connections and %.0f MiB of requests in flight", vf_gate_port(c->gate),
+           l->max_connections, (double)l->max_bytes / 1048576.0);
+  }
 
   uv_run(&c->loop, UV_RUN_DEFAULT);
 
@@ -428,12 +477,15 @@ int vf_coordinator_run(const vf_coordinator_config *config) {
   c->farm.checkpoint_loop = NULL;
   if ((err = vf_farm_checkpoint(&c->farm, 1)) == VF_OK) vf_log("checkpoint written; bye");
 close_loop:
+  vf_gate_close(c->gate); /* its connections' memory is freed by the callbacks of the run below */
   uv_walk(&c->loop, close_handle, NULL);
   uv_run(&c->loop, UV_RUN_DEFAULT);
+  vf_gate_destroy(c->gate);
   vf_dashboard_destroy(c->dashboard);
   uv_loop_close(&c->loop);
 close_socket:
   nn_close(c->socket);
+  remove_gate_dir(c);
   while (c->pending != NULL) drop_pending(c);
 unlock:
   close(lock_fd);

@@ -8,6 +8,10 @@
  * socket answers one request at a time: while a reply waits for room to be sent, the loop
  * stops receiving (backpressure instead of an unbounded queue).
  *
+ * On tcp:// the TCP port is the gate's (coordinator/gate.h), which bounds connections and
+ * the bytes of requests in flight and hands whole messages to the REP socket, bound to a
+ * private ipc:// socket in a directory of its own (mode 0700) under $TMPDIR.
+ *
  * Messages that fail authentication or decoding are logged and get no answer; an
  * authentic message of another protocol version gets an Error saying so. */
 #ifndef VF_COORDINATOR_H
@@ -19,7 +23,9 @@
 #include <signal.h>
 
 typedef struct {
-  const char *listen_url;      /* nanomsg URL: tcp://HOST:PORT, ipc://PATH or inproc://NAME */
+  const char *listen_url;      /* tcp://HOST:PORT (through coordinator/gate.h), ipc://PATH or inproc://NAME */
+  size_t max_connections;      /* tcp:// only: connections at once (0: 1024) */
+  size_t max_in_flight;        /* tcp:// only: bytes of requests held at once (0: 256 MiB) */
   const char *state_dir;
   const char *secret_path;     /* key file (vcmfarm keygen), read when key is NULL */
   const vf_wire_key *key;      /* else this key (copied) */
