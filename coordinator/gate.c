@@ -28,8 +28,14 @@
 typedef struct {
   uint32_t id;     /* the request id nanomsg's REQ puts first; a reply starts with it */
   size_t bytes;
+  int lane;
   double since;
 } outstanding;
+
+/* Requests of at most small_message bytes (heartbeats, leases, status, ...) take their room
+ * from a lane of their own, so that they never queue behind large ones (results, blob
+ * chunks) that peers may announce and never finish. */
+enum { LARGE, SMALL };
 
 typedef enum { IN_HELLO, IN_HEADER, IN_BODY, IN_WAITING_ROOM, IN_FORWARDING } in_state;
 
@@ -51,6 +57,8 @@ typedef struct conn {
   size_t hello_got, header_got;
   uint8_t *body;
   size_t body_len, body_got, reserved; /* reserved: the message being read or forwarded */
+  int lane;                            /* its lane (SMALL or LARGE) */
+  double body_deadline;                /* the whole message by then */
   outstanding out[OUTSTANDING_MAX];
   int num_out;
   /* replies, coordinator -> peer */
@@ -76,7 +84,8 @@ struct vf_gate {
   vf_gate_limits limits;
   vf_gate_stats stats;
   conn *conns;
-  conn *wait_head, **wait_tail;
+  conn *wait_head[2], **wait_tail[2];
+  size_t lane_bytes[2];
   int port, closed, handles_open, free_when_closed;
   double last_refusal_log;
   uint64_t refusals_logged;
@@ -88,6 +97,9 @@ static const uint8_t hello_req[8] = {0, 'S', 'P', 0, 0, SP_REQ, 0, 0};
 vf_gate_limits vf_gate_defaults(size_t max_message, size_t max_reply) {
   vf_gate_limits l = {.max_connections = 1024,
                       .max_bytes = (size_t)256 << 20,
+                      .small_message = (size_t)64 << 10,
+                      .max_small_bytes = (size_t)16 << 20,
+                      .min_rate = 65536.0,
                       .max_message = max_message,
                       .max_reply = max_reply,
                       .max_unsent = (size_t)64 << 20,
@@ -116,15 +128,20 @@ static uint32_t get_be32(const uint8_t *p) {
 
 static void read_downstream(conn *c);
 
-static void give_back(vf_gate *g, size_t bytes) {
+static size_t lane_limit(const vf_gate *g, int lane) {
+  return lane == SMALL ? g->limits.max_small_bytes : g->limits.max_bytes;
+}
+
+static void give_back(vf_gate *g, int lane, size_t bytes) {
+  g->lane_bytes[lane] -= bytes;
   g->stats.bytes_reserved -= bytes;
   /* Wake waiters in arrival order while the first fits: a large message is not overtaken
-   * forever by small ones behind it. */
-  while (g->wait_head != NULL) {
-    conn *w = g->wait_head;
-    if (g->stats.bytes_reserved + w->body_len > g->limits.max_bytes) break;
-    g->wait_head = w->wait_next;
-    if (g->wait_head == NULL) g->wait_tail = &g->wait_head;
+   * forever by smaller ones behind it. */
+  while (g->wait_head[lane] != NULL) {
+    conn *w = g->wait_head[lane];
+    if (g->lane_bytes[lane] + w->body_len > lane_limit(g, lane)) break;
+    g->wait_head[lane] = w->wait_next;
+    if (g->wait_head[lane] == NULL) g->wait_tail[lane] = &g->wait_head[lane];
     w->wait_next = NULL;
     w->waiting = 0;
     g->stats.waiting--;
@@ -140,14 +157,15 @@ static void want_room(conn *c) {
     c->blocked_self = 1;
     return;
   }
-  if (g->wait_head == NULL && g->stats.bytes_reserved + c->body_len <= g->limits.max_bytes) {
+  int lane = c->lane = c->body_len <= g->limits.small_message ? SMALL : LARGE;
+  if (g->wait_head[lane] == NULL && g->lane_bytes[lane] + c->body_len <= lane_limit(g, lane)) {
     read_downstream(c);
     return;
   }
   c->waiting = 1;
   c->wait_next = NULL;
-  *g->wait_tail = c;
-  g->wait_tail = &c->wait_next;
+  *g->wait_tail[lane] = c;
+  g->wait_tail[lane] = &c->wait_next;
   g->stats.waiting++;
 }
 
@@ -155,21 +173,22 @@ static void want_room(conn *c) {
 static void settle(conn *c, int i) {
   vf_gate *g = c->gate;
   size_t bytes = c->out[i].bytes;
+  int lane = c->out[i].lane;
   c->out[i] = c->out[--c->num_out];
   if (c->blocked_self && !c->closing) {
     c->blocked_self = 0;
     want_room(c);
   }
-  give_back(g, bytes);
+  give_back(g, lane, bytes);
 }
 
 static void unqueue(conn *c) {
   vf_gate *g = c->gate;
   if (!c->waiting) return;
-  conn **p = &g->wait_head;
+  conn **p = &g->wait_head[c->lane];
   while (*p != c) p = &(*p)->wait_next;
   *p = c->wait_next;
-  if (*p == NULL) g->wait_tail = p;
+  if (*p == NULL) g->wait_tail[c->lane] = p;
   c->wait_next = NULL;
   c->waiting = 0;
   g->stats.waiting--;
@@ -181,8 +200,9 @@ static void on_closed(uv_handle_t *h) {
   conn *c = h->data;
   if (--c->handles_open > 0) return;
   vf_gate *g = c->gate;
-  size_t held = c->reserved;
-  for (int i = 0; i < c->num_out; i++) held += c->out[i].bytes;
+  size_t held[2] = {0, 0};
+  held[c->lane] = c->reserved;
+  for (int i = 0; i < c->num_out; i++) held[c->out[i].lane] += c->out[i].bytes;
   c->reserved = 0;
   c->num_out = 0;
   if (c->prev) c->prev->next = c->next;
@@ -192,7 +212,8 @@ static void on_closed(uv_handle_t *h) {
   free(c->body);
   free(c->reply);
   free(c);
-  if (held > 0) give_back(g, held);
+  for (int lane = 0; lane < 2; lane++)
+    if (held[lane] > 0) give_back(g, lane, held[lane]);
 }
 
 static void close_conn(conn *c) {
@@ -226,6 +247,7 @@ static void forward(conn *c) {
   outstanding *o = &c->out[c->num_out++];
   o->id = c->body_len >= 4 ? get_be32(c->body) : 0;
   o->bytes = c->reserved;
+  o->lane = c->lane;
   o->since = vf_seconds_now();
   c->reserved = 0;
   c->in = IN_FORWARDING;
@@ -255,7 +277,10 @@ static int check_size(conn *c) {
 static void take_room(conn *c) {
   vf_gate *g = c->gate;
   c->reserved = c->body_len;
+  g->lane_bytes[c->lane] += c->body_len;
   g->stats.bytes_reserved += c->body_len;
+  c->last_byte = vf_seconds_now(); /* the wait was the gate's, not the peer's */
+  c->body_deadline = c->last_byte + g->limits.stall_seconds + (double)c->body_len / g->limits.min_rate;
   if (g->stats.bytes_reserved > g->stats.peak_bytes_reserved) g->stats.peak_bytes_reserved = g->stats.bytes_reserved;
   c->in = IN_BODY;
 }
@@ -556,6 +581,8 @@ static void on_sweep(uv_timer_t *t) {
       why = "no protocol header";
     else if (((c->in == IN_HEADER && c->header_got > 0) || c->in == IN_BODY) && now - c->last_byte > l->stall_seconds)
       why = "a message stalled";
+    else if (c->in == IN_BODY && now > c->body_deadline)
+      why = "a message came too slowly";
     if (why != NULL) {
       vf_log("tcp: %s within the time allowed; connection closed", why);
       g->stats.closed_for_time++;
@@ -626,6 +653,10 @@ int vf_gate_start(uv_loop_t *loop, const char *tcp_url, const char *upstream_pat
   g->limits = *limits;
   if (!g->limits.max_connections) g->limits.max_connections = d.max_connections;
   if (!g->limits.max_bytes) g->limits.max_bytes = d.max_bytes;
+  if (!g->limits.small_message) g->limits.small_message = d.small_message;
+  if (!g->limits.max_small_bytes) g->limits.max_small_bytes = d.max_small_bytes;
+  if (g->limits.min_rate <= 0) g->limits.min_rate = d.min_rate;
+  if (g->limits.max_small_bytes < g->limits.small_message) g->limits.max_small_bytes = g->limits.small_message;
   if (!g->limits.max_unsent) g->limits.max_unsent = d.max_unsent;
   if (g->limits.handshake_seconds <= 0) g->limits.handshake_seconds = d.handshake_seconds;
   if (g->limits.stall_seconds <= 0) g->limits.stall_seconds = d.stall_seconds;
@@ -639,7 +670,8 @@ int vf_gate_start(uv_loop_t *loop, const char *tcp_url, const char *upstream_pat
     g->limits.max_connections = room;
   }
   g->loop = loop;
-  g->wait_tail = &g->wait_head;
+  g->wait_tail[LARGE] = &g->wait_head[LARGE];
+  g->wait_tail[SMALL] = &g->wait_head[SMALL];
   uv_tcp_init(loop, &g->server);
   uv_timer_init(loop, &g->sweep);
   g->server.data = g->sweep.data = g;

@@ -17,11 +17,15 @@
  * - bytes: a message's size is read from its header and reserved before its first byte is
  *   read (more than max_message closes the connection); at most max_bytes are reserved over
  *   all connections, and a connection whose next message does not fit waits, unread (TCP
- *   backpressure), in arrival order. A message stays reserved until the coordinator answers
- *   it (its reply carries the request's id) or for answer_seconds, so the bound covers the
- *   copies inside nanomsg and the coordinator as well as the gate's own buffer;
+ *   backpressure), in arrival order. Messages of at most small_message bytes (heartbeats,
+ *   leases, status) have a lane of their own, max_small_bytes, so that they never wait
+ *   behind large ones a peer announced and never finishes. A message stays reserved until
+ *   the coordinator answers it (its reply carries the request's id) or for answer_seconds,
+ *   so the bound covers the copies inside nanomsg and the coordinator as well as the
+ *   gate's own buffer; one connection has at most 8 requests unanswered;
  * - time: the protocol header within handshake_seconds; a message once begun keeps coming
- *   (stall_seconds between bytes); a connection with nothing in flight for idle_seconds is
+ *   (stall_seconds between bytes, and all of it within stall_seconds + its size / min_rate,
+ *   counted from when it got its room); a connection with nothing in flight for idle_seconds is
  *   closed (nanomsg's REQ sockets connect again by themselves); a peer that leaves more
  *   than max_unsent bytes of replies unread is closed.
  * Each connection costs the process three descriptors (the TCP socket, and both ends of its
@@ -36,7 +40,10 @@ struct uv_loop_s;
 
 typedef struct {
   size_t max_connections;   /* default 1024 */
-  size_t max_bytes;         /* bytes reserved for requests over all connections; default 256 MiB */
+  size_t max_bytes;         /* bytes reserved for large requests over all connections; default 256 MiB */
+  size_t small_message;     /* default 64 KiB */
+  size_t max_small_bytes;   /* bytes reserved for small requests; default 16 MiB */
+  double min_rate;          /* bytes per second a message must average; default 64 KiB/s */
   size_t max_message;       /* a request's size on the wire (with nanomsg's 4-byte header) */
   size_t max_reply;         /* a reply's; larger is a broken upstream, and closes */
   size_t max_unsent;        /* reply bytes a peer may leave unread; default 64 MiB */

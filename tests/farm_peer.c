@@ -11,7 +11,10 @@
  * cut short, holds a NaN, or lies outside the film; another film size, other settings,
  * another range; a message above the result size cap). Checks each is refused as
  * docs/PROTOCOL.md says, hands the lease back, and that the coordinator still answers.
- * Exit status 0 when every expectation held. */
+ * Exit status 0 when every expectation held.
+ *
+ *   farm_peer --flood ...        what unfinished messages cost (flood, below)
+ *   farm_peer --connections ...  how many connections the TCP gate serves (count_connections) */
 #include "common/error.h"
 #include "common/farm_client.h"
 #include "common/film_wire.h"
@@ -29,6 +32,9 @@
 #include <sys/socket.h>
 #include <sys/time.h>
 #include <sys/un.h>
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <poll.h>
 #include <signal.h>
 #include <unistd.h>
 
@@ -451,42 +457,66 @@ static long long rss_bytes(long pid) {
   return kb * 1024;
 }
 
-/* Opens `n` connections below nanomsg (ipc:// only) and on each starts a message of
- * `claimed` bytes, sending all of it but the last byte, so that the coordinator holds what
- * it was sent without ever seeing a message it could refuse: what a peer without the key
- * can cost. Prints the coordinator's resident memory before and after, and checks it still
- * answers a status request meanwhile; fails when it grew by more than max_growth_mb.
+/* A stream socket to the coordinator below nanomsg: the unix socket of an ipc:// URL, or
+ * TCP to the gate (coordinator/gate.h) of a tcp://127.0.0.1:PORT one. -1 on failure. */
+static int raw_connect(const char *url) {
+  int fd;
+  if (strncmp(url, "ipc://", 6) == 0) {
+    fd = socket(AF_UNIX, SOCK_STREAM, 0);
+    struct sockaddr_un addr = {.sun_family = AF_UNIX};
+    snprintf(addr.sun_path, sizeof addr.sun_path, "%s", url + 6);
+    if (connect(fd, (struct sockaddr *)&addr, sizeof addr) != 0) return close(fd), -1;
+  } else {
+    const char *colon = strrchr(url, ':');
+    if (strncmp(url, "tcp://127.0.0.1:", 16) != 0 || colon == NULL) return -1;
+    fd = socket(AF_INET, SOCK_STREAM, 0);
+    struct sockaddr_in addr = {.sin_family = AF_INET, .sin_port = htons((uint16_t)atoi(colon + 1)),
+                               .sin_addr.s_addr = htonl(INADDR_LOOPBACK)};
+    if (connect(fd, (struct sockaddr *)&addr, sizeof addr) != 0) return close(fd), -1;
+  }
+  return fd;
+}
+
+/* Opens `n` connections below nanomsg and on each starts a message of `claimed` bytes,
+ * sending all of it but the last byte, so that the coordinator holds what it was sent
+ * without ever seeing a message it could refuse: what a peer without the key can cost.
+ * Over tcp:// the gate reads a message only once it has room for it, so a write that makes
+ * no progress for a second leaves that connection waiting. Prints the coordinator's
+ * resident memory before and after, and checks it still answers a status request
+ * meanwhile; fails when it grew by more than max_growth_mb.
  *
  *   farm_peer --flood URL KEYFILE CONNECTIONS CLAIMED_BYTES PID MAX_GROWTH_MB */
 static int flood(const char *url, const vf_wire_key *key, int n, unsigned long long claimed, long pid,
                  double max_growth_mb) {
   signal(SIGPIPE, SIG_IGN);
+  int tcp = strncmp(url, "tcp://", 6) == 0;
   long long before = rss_bytes(pid);
   int *fds = calloc((size_t)n, sizeof *fds);
   size_t block = 1 << 20;
   uint8_t *junk = calloc(1, block);
-  int refused = 0;
+  int refused = 0, unread = 0;
   unsigned long long sent_total = 0;
   for (int i = 0; i < n; i++) {
-    fds[i] = socket(AF_UNIX, SOCK_STREAM, 0);
-    struct sockaddr_un addr = {.sun_family = AF_UNIX};
-    snprintf(addr.sun_path, sizeof addr.sun_path, "%s", url + 6);
-    struct timeval tv = {5, 0};
+    if ((fds[i] = raw_connect(url)) < 0) return 2;
+    struct timeval tv = {tcp ? 1 : 5, 0};
     setsockopt(fds[i], SOL_SOCKET, SO_SNDTIMEO, &tv, sizeof tv);
-    if (connect(fds[i], (struct sockaddr *)&addr, sizeof addr) != 0) return 2;
-    /* nanomsg's ipc framing: the SP header, then per message a type byte (1: normal) and
-     * the size, 64 bits big-endian */
+    /* The SP header, then per message (ipc://) a type byte, 1: normal, and the size, 64
+     * bits big-endian; over tcp:// the size alone. */
     uint8_t hello[8] = {0, 'S', 'P', 0, 0, NN_REQ, 0, 0}, size[9] = {1};
     for (int b = 0; b < 8; b++) size[1 + b] = (uint8_t)(claimed >> (56 - 8 * b));
-    if (write(fds[i], hello, 8) != 8 || write(fds[i], size, 9) != 9) return 2;
+    size_t skip = tcp ? 1 : 0;
+    if (write(fds[i], hello, 8) != 8 || write(fds[i], size + skip, 9 - skip) != (ssize_t)(9 - skip)) return 2;
     unsigned long long left = claimed - 1;
+    int stuck = 0;
     while (left > 0) {
       ssize_t w = write(fds[i], junk, left < block ? left : block);
-      if (w <= 0) break; /* closed: the coordinator refused the size */
+      if (w < 0 && errno == EAGAIN) stuck = 1; /* the gate does not read it: no room */
+      if (w <= 0) break;                       /* or closed: the coordinator refused the size */
       left -= (unsigned long long)w;
       sent_total += (unsigned long long)w;
     }
-    refused += left > 0;
+    unread += stuck;
+    refused += left > 0 && !stuck;
   }
   usleep(500 * 1000);
   long long after = rss_bytes(pid);
@@ -495,9 +525,9 @@ static int flood(const char *url, const vf_wire_key *key, int n, unsigned long l
   int alive = vf_farm_client_open(url, key, &c) == VF_OK && farm_status(c, &reply) != NULL;
   vf_message_free(reply);
   if (alive) vf_farm_client_close(c);
-  printf("connections %d claiming %llu bytes each: %d cut off by the coordinator, %.1f MB sent; "
+  printf("connections %d claiming %llu bytes each: %d cut off by the coordinator, %d left unread, %.1f MB sent; "
          "coordinator RSS %.1f MB -> %.1f MB (+%.1f MB); %s\n",
-         n, claimed, refused, (double)sent_total / 1e6, (double)before / 1e6, (double)after / 1e6,
+         n, claimed, refused, unread, (double)sent_total / 1e6, (double)before / 1e6, (double)after / 1e6,
          (double)(after - before) / 1e6, alive ? "it still answers" : "IT DOES NOT ANSWER");
   for (int i = 0; i < n; i++) close(fds[i]);
   free(fds);
@@ -507,7 +537,33 @@ static int flood(const char *url, const vf_wire_key *key, int n, unsigned long l
   return alive && bounded ? 0 : 1;
 }
 
+/* Opens `n` TCP connections to the gate at once and counts those it serves (its SP header
+ * arrives) and those it refuses (reset or closed before a byte): prints
+ * "served S refused R". The connections stay open until all are counted.
+ *
+ *   farm_peer --connections URL N */
+static int count_connections(const char *url, int n) {
+  int *fds = calloc((size_t)n, sizeof *fds), served = 0, refused = 0;
+  for (int i = 0; i < n; i++) {
+    if ((fds[i] = raw_connect(url)) < 0) {
+      refused++;
+      continue;
+    }
+    struct pollfd p = {fds[i], POLLIN, 0};
+    uint8_t header[8];
+    ssize_t got = poll(&p, 1, 5000) == 1 ? recv(fds[i], header, sizeof header, MSG_WAITALL) : -1;
+    if (got == 8 && memcmp(header, "\0SP\0", 4) == 0) served++;
+    else refused++;
+  }
+  printf("served %d refused %d\n", served, refused);
+  for (int i = 0; i < n; i++)
+    if (fds[i] >= 0) close(fds[i]);
+  free(fds);
+  return 0;
+}
+
 int main(int argc, char **argv) {
+  if (argc == 4 && strcmp(argv[1], "--connections") == 0) return count_connections(argv[2], atoi(argv[3]));
   if (argc == 8 && strcmp(argv[1], "--flood") == 0) {
     vf_wire_key key;
     if (vf_wire_key_load(argv[3], &key) != VF_OK) return 2;
@@ -516,7 +572,8 @@ int main(int argc, char **argv) {
     return flood(argv[2], &key, atoi(argv[4]), claimed, atol(argv[6]), atof(argv[7]));
   }
   if (argc != 3) {
-    fprintf(stderr, "usage: farm_peer URL KEYFILE\n       farm_peer --flood URL KEYFILE CONNECTIONS CLAIMED_BYTES PID MAX_GROWTH_MB\n");
+    fprintf(stderr, "usage: farm_peer URL KEYFILE\n       farm_peer --flood URL KEYFILE CONNECTIONS CLAIMED_BYTES PID "
+                    "MAX_GROWTH_MB\n       farm_peer --connections URL N\n");
     return 2;
   }
   vf_wire_key key;

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The farm end to end, over ipc:// in a temporary directory: one coordinator, workers and
+# The farm end to end, over ipc:// in a temporary directory (tcp_gate: over tcp:// on loopback): one coordinator, workers and
 # clients as separate processes of the real binary. Every case ends by fetching the job's
 # film and comparing it with a single-process `vcmfarm render` of the same iterations and
 # seed (tests/farm_compare.c: the iteration set exactly [0,N), max |difference| <= 1e-5 x
@@ -8,7 +8,7 @@
 #   test_farm.sh CASE VCMFARM FARM_COMPARE FARM_PEER [FARM_BLOB_PEER]
 #
 # CASE: long_scene_text, three_workers, worker_killed, worker_killed_after_parts, worker_terminated, coordinator_killed,
-# hostile_peers, unauthenticated_bound, late_duplicate, priorities, stop_conditions; mesh_scene, big_file and bad_blobs (scenes
+# hostile_peers, unauthenticated_bound, tcp_gate, late_duplicate, priorities, stop_conditions; mesh_scene, big_file and bad_blobs (scenes
 # with files, FARM_BLOB_PEER); render_4k, fetch_4k and bad_fetches (films fetched in chunks, with
 # FARM_FETCH_PEER in the place of FARM_BLOB_PEER).
 # No fixed sleeps synchronise anything: the script polls `vcmfarm status` (or a file) with
@@ -545,6 +545,34 @@ unauthenticated_bound)
   start_worker w1
   wait_until 60 "job $job done" job_done
   check_film
+  ;;
+tcp_gate)
+  # Over tcp:// the port is the coordinator's gate (coordinator/gate.h; docs/PROTOCOL.md,
+  # "What a peer without the key costs"): connections are capped, and what unfinished
+  # messages may hold is bounded over all connections, not per connection.
+  export TMPDIR="$tmp" # where the coordinator's private socket directory goes
+  url="tcp://127.0.0.1:0"
+  start_coordinator --max-connections 12 --max-in-flight 16
+  wait_until 10 "the coordinator to say its port" grep -q "tcp: port [1-9]" "$tmp/coordinator.log"
+  url="tcp://127.0.0.1:$(sed -n 's/.*tcp: port \([0-9]*\),.*/\1/p' "$tmp/coordinator.log")"
+  gate_dir=$(ls -d "$tmp"/vcmfarm-gate-*) || fail "no private socket directory in TMPDIR"
+  [ "$(stat -c %a "$gate_dir")" = 700 ] || fail "the private socket directory is not mode 700"
+  counted=$("$peer" --connections "$url" 14)
+  echo "14 connections at once: $counted"
+  [ "$counted" = "served 12 refused 2" ] || fail "expected 12 connections served and 2 refused: $counted"
+  grep -q "refused at the cap of 12" "$tmp/coordinator.log" || fail "the refusals were not logged"
+  # 10 unfinished messages of the request cap (4.26 MB): 42.6 MB without a bound on all
+  # connections; the gate gives room to 3 (16 MiB) and reads nothing of the others.
+  "$peer" --flood "$url" "$key" 10 cap "$coordinator" 20 ||
+    fail "10 connections held more than the 16 MiB in flight and some slack"
+  exited "$coordinator" && fail "the coordinator died"
+  submit 24
+  start_worker w1
+  wait_until 60 "job $job done" job_done
+  check_film
+  kill -TERM "$coordinator"
+  wait_until 20 "the coordinator to stop" exited "$coordinator"
+  [ ! -e "$gate_dir" ] || fail "the private socket directory was left behind"
   ;;
 late_duplicate)
   start_coordinator --worker-timeout 1

@@ -264,34 +264,70 @@ static void test_bytes_in_flight_are_bounded(void) {
   }
   pump(&r, 0.1);
   CHECK_INT_EQ(stats(&r).bytes_reserved, 3 * MIB);
-  /* A fourth waits, unread, and so does a worker's small request behind it. */
+  /* A fourth waits, unread; a worker's small request does not wait behind it. */
   fds[3] = raw_open(&r, 8);
   CHECK(raw_message(&r, fds[3], MIB, 0, 3));
+  pump(&r, 0.05);
   int s = req_open(&r);
   uint8_t q[] = "heartbeat";
-  CHECK(nn_send(s, q, sizeof q, 0) == sizeof q);
-  pump(&r, 0.2);
+  double asked = vf_seconds_now();
+  CHECK(req_call(&r, s, q, sizeof q, 5.0));
+  CHECK(vf_seconds_now() - asked < l.stall_seconds); /* answered while the large lane is full */
   vf_gate_stats st = stats(&r);
-  CHECK_INT_EQ(st.waiting, 2);
+  CHECK_INT_EQ(st.waiting, 1);
   CHECK_INT_EQ(st.bytes_reserved, 3 * MIB);
-  CHECK(st.peak_bytes_reserved <= l.max_bytes);
-  /* The stalled three are cut off after stall_seconds; their room goes to the waiters in
-   * arrival order, and the worker is answered. */
-  void *buf = NULL;
-  int n = -1;
-  double end = vf_seconds_now() + 5.0;
-  while (n < 0 && vf_seconds_now() < end) {
-    pump(&r, 0.002);
-    n = nn_recv(s, &buf, NN_MSG, NN_DONTWAIT);
-  }
-  CHECK(n == sizeof q && memcmp(buf, q, sizeof q) == 0);
-  if (n >= 0) nn_freemsg(buf);
-  for (int i = 0; i < 3; i++) CHECK(raw_closed(&r, fds[i], 1.0));
+  CHECK(st.peak_bytes_reserved <= l.max_bytes + l.max_small_bytes);
+  /* The stalled three are cut off after stall_seconds; their room goes to the fourth, which
+   * is cut off in its turn. */
+  for (int i = 0; i < 3; i++) CHECK(raw_closed(&r, fds[i], 2.0));
+  pump(&r, 0.05);
   st = stats(&r);
-  CHECK(st.closed_for_time >= 3);
-  CHECK(st.peak_bytes_reserved <= l.max_bytes);
+  CHECK_INT_EQ(st.waiting, 0);
+  CHECK_INT_EQ(st.bytes_reserved, MIB);
+  CHECK(raw_closed(&r, fds[3], 2.0));
+  st = stats(&r);
+  CHECK_INT_EQ(st.closed_for_time, 4);
+  CHECK_INT_EQ(st.bytes_reserved, 0);
   nn_close(s);
   for (int i = 0; i < 4; i++) close(fds[i]);
+  rig_close(&r);
+}
+
+static void test_small_requests_have_a_bounded_lane(void) {
+  rig r;
+  vf_gate_limits l = small_limits();
+  l.max_small_bytes = 4 * l.small_message;
+  CHECK(rig_open(&r, &l) == 0);
+  int fds[5];
+  for (int i = 0; i < 5; i++) {
+    fds[i] = raw_open(&r, 8);
+    CHECK(raw_message(&r, fds[i], l.small_message, 100, (uint32_t)i));
+  }
+  pump(&r, 0.1);
+  vf_gate_stats st = stats(&r);
+  CHECK_INT_EQ(st.bytes_reserved, 4 * l.small_message);
+  CHECK_INT_EQ(st.waiting, 1);
+  /* A message that trickles (a byte every 0.3 s, under stall_seconds) is cut off when
+   * its whole-message deadline passes: stall_seconds + size / min_rate. */
+  vf_gate_limits slow = small_limits();
+  slow.min_rate = 64.0 * 1024.0; /* 1 MiB in 16 s: 16.5 s for a 1 MiB message */
+  for (int i = 0; i < 5; i++) close(fds[i]);
+  rig_close(&r);
+  CHECK(rig_open(&r, &slow) == 0);
+  int fd = raw_open(&r, 8);
+  CHECK(raw_message(&r, fd, 65536, 4, 9)); /* 64 KiB: 1.5 s allowed */
+  double start = vf_seconds_now();
+  uint8_t byte = 0;
+  int closed = 0;
+  while (!closed && vf_seconds_now() - start < 4.0) {
+    send(fd, &byte, 1, MSG_NOSIGNAL);
+    closed = raw_closed(&r, fd, 0.3);
+  }
+  double took = vf_seconds_now() - start;
+  CHECK(closed);
+  CHECK(took > 1.2 && took < 2.5);
+  CHECK_INT_EQ(stats(&r).closed_for_time, 1);
+  close(fd);
   rig_close(&r);
 }
 
@@ -399,6 +435,7 @@ int main(void) {
   RUN(test_requests_and_replies_pass_unchanged);
   RUN(test_connections_beyond_the_cap_are_refused);
   RUN(test_bytes_in_flight_are_bounded);
+  RUN(test_small_requests_have_a_bounded_lane);
   RUN(test_unanswered_requests_give_their_room_back);
   RUN(test_bad_framing_and_silence_are_cut_off);
   RUN(test_replies_left_unread_close_the_connection);
