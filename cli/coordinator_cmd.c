@@ -24,7 +24,7 @@ static const char usage[] =
     "      --checkpoint-interval S  seconds between film checkpoints (default 10)\n"
     "      --forgive S              a worker whose lease of a job failed is not handed that job\n"
     "                               again for S seconds (default 300; docs/PROTOCOL.md)\n"
-    "      --max-connections N      tcp://: connections at once (default 1024); one more is\n"
+    "      --max-connections N      tcp://: connections at once (default 4096); one more is\n"
     "                               refused at once (docs/PROTOCOL.md)\n"
     "      --max-in-flight MIB      tcp://: MiB of requests held at once, over all connections\n"
     "                               (default 256; at least 5); the rest wait, unread\n"

@@ -24,7 +24,7 @@
 
 typedef struct {
   const char *listen_url;      /* tcp://HOST:PORT (through coordinator/gate.h), ipc://PATH or inproc://NAME */
-  size_t max_connections;      /* tcp:// only: connections at once (0: 1024) */
+  size_t max_connections;      /* tcp:// only: connections at once (0: 4096) */
   size_t max_in_flight;        /* tcp:// only: bytes of requests held at once (0: 256 MiB) */
   const char *state_dir;
   const char *secret_path;     /* key file (vcmfarm keygen), read when key is NULL */

@@ -6,6 +6,8 @@
 
 #include <arpa/inet.h>
 #include <netdb.h>
+#include <stdarg.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/resource.h>
@@ -14,9 +16,13 @@
 
 #define SWEEP_MS 250
 #define OUTSTANDING_MAX 8     /* requests of one connection forwarded and not yet answered */
-#define REFUSAL_LOG_SECONDS 10.0
+#define PEER_LOG_SECONDS 10.0 /* what peers cause is logged at most once per kind in this time */
 #define DESCRIPTORS_PER_CONNECTION 3
 #define DESCRIPTORS_KEPT 256  /* for the state directory, nanomsg, the dashboard, ... */
+/* Unix connections to the REP socket that nanomsg has not accepted yet (its SP header has
+ * not come back). nanomsg listens with a backlog of 10, and a connect beyond a full
+ * backlog fails at once (EAGAIN): a burst of TCP connections is passed on a few at a time. */
+#define CONNECT_WINDOW 8
 
 /* SP's protocol header (nanomsg's streamhdr): "\0SP\0", the protocol in 16 bits
  * big-endian, two zero bytes. REQ is 3 * 16 + 0, REP 3 * 16 + 1. */
@@ -37,10 +43,16 @@ typedef struct {
  * chunks) that peers may announce and never finish. */
 enum { LARGE, SMALL };
 
+enum { LOG_REFUSED, LOG_SIZE, LOG_FRAMING, LOG_TIME, LOG_UNREAD, LOG_KINDS };
+
 typedef enum { IN_HELLO, IN_HEADER, IN_BODY, IN_WAITING_ROOM, IN_FORWARDING } in_state;
+
+typedef enum { CONNECT_NONE, CONNECT_QUEUED, CONNECT_WAITING } connect_state;
 
 typedef struct conn {
   struct conn *prev, *next;       /* every connection */
+  struct conn *connect_next;      /* waiting to connect to the REP socket, in arrival order */
+  connect_state connecting;
   struct conn *wait_next;         /* waiting for room, in arrival order */
   vf_gate *gate;
   uv_tcp_t tcp;
@@ -85,17 +97,19 @@ struct vf_gate {
   vf_gate_stats stats;
   conn *conns;
   conn *wait_head[2], **wait_tail[2];
+  conn *connect_head, **connect_tail;
+  int connecting; /* CONNECT_WAITING connections, at most CONNECT_WINDOW */
   size_t lane_bytes[2];
   int port, closed, handles_open, free_when_closed;
-  double last_refusal_log;
-  uint64_t refusals_logged;
+  double log_last[LOG_KINDS];
+  uint64_t log_skipped[LOG_KINDS];
 };
 
 static const uint8_t hello_rep[8] = {0, 'S', 'P', 0, 0, SP_REP, 0, 0};
 static const uint8_t hello_req[8] = {0, 'S', 'P', 0, 0, SP_REQ, 0, 0};
 
 vf_gate_limits vf_gate_defaults(size_t max_message, size_t max_reply) {
-  vf_gate_limits l = {.max_connections = 1024,
+  vf_gate_limits l = {.max_connections = 4096,
                       .max_bytes = (size_t)256 << 20,
                       .small_message = (size_t)64 << 10,
                       .max_small_bytes = (size_t)16 << 20,
@@ -122,6 +136,29 @@ static void put_be64(uint8_t *p, uint64_t v) {
 
 static uint32_t get_be32(const uint8_t *p) {
   return (uint32_t)p[0] << 24 | (uint32_t)p[1] << 16 | (uint32_t)p[2] << 8 | p[3];
+}
+
+/* A line about what a peer did, at most one of a kind per PEER_LOG_SECONDS, with the count
+ * of those left out: peers cannot fill the log. */
+static void peer_log(vf_gate *g, int kind, const char *fmt, ...) __attribute__((format(printf, 3, 4)));
+static void peer_log(vf_gate *g, int kind, const char *fmt, ...) {
+  double now = vf_seconds_now();
+  if (g->log_last[kind] > 0 && now - g->log_last[kind] < PEER_LOG_SECONDS) {
+    g->log_skipped[kind]++;
+    return;
+  }
+  char line[512];
+  va_list ap;
+  va_start(ap, fmt);
+  vsnprintf(line, sizeof line, fmt, ap);
+  va_end(ap);
+  if (g->log_skipped[kind] > 0)
+    vf_log("tcp: %s (and %llu more like it in the last %.0f s)", line, (unsigned long long)g->log_skipped[kind],
+           now - g->log_last[kind]);
+  else
+    vf_log("tcp: %s", line);
+  g->log_last[kind] = now;
+  g->log_skipped[kind] = 0;
 }
 
 /* ---- room: the bytes reserved over all connections ---- */
@@ -216,10 +253,23 @@ static void on_closed(uv_handle_t *h) {
     if (held[lane] > 0) give_back(g, lane, held[lane]);
 }
 
+static void pump_connects(vf_gate *g);
+
 static void close_conn(conn *c) {
   if (c->closing) return;
   c->closing = 1;
   unqueue(c);
+  vf_gate *g = c->gate;
+  if (c->connecting == CONNECT_QUEUED) {
+    conn **p = &g->connect_head;
+    while (*p != c) p = &(*p)->connect_next;
+    *p = c->connect_next;
+    if (*p == NULL) g->connect_tail = p;
+  } else if (c->connecting == CONNECT_WAITING) {
+    g->connecting--;
+  }
+  c->connecting = CONNECT_NONE;
+  pump_connects(g);
   uv_close((uv_handle_t *)&c->tcp, on_closed);
   uv_close((uv_handle_t *)&c->pipe, on_closed);
 }
@@ -264,8 +314,8 @@ static int check_size(conn *c) {
   vf_gate *g = c->gate;
   uint64_t size = get_be64(c->header);
   if (size > g->limits.max_message) {
-    vf_log("tcp: a peer announced a message of %llu bytes, more than the %zu a request may have; closed",
-           (unsigned long long)size, g->limits.max_message);
+    peer_log(g, LOG_SIZE, "a peer announced a message of %llu bytes, more than the %zu a request may have; closed",
+             (unsigned long long)size, g->limits.max_message);
     g->stats.closed_for_size++;
     return -1;
   }
@@ -336,7 +386,7 @@ static void on_downstream(uv_stream_t *s, ssize_t n, const uv_buf_t *buf) {
     if ((c->hello_got += (size_t)n) < 8) return;
     if (memcmp(c->hello, hello_req, 8) != 0) {
       g->stats.closed_for_framing++;
-      vf_log("tcp: a peer's first bytes are not the SP header of a REQ socket; closed");
+      peer_log(g, LOG_FRAMING, "a peer's first bytes are not the SP header of a REQ socket; closed");
       close_conn(c);
       return;
     }
@@ -413,7 +463,7 @@ static void send_reply(conn *c) {
     return;
   }
   if (c->unsent > g->limits.max_unsent) {
-    vf_log("tcp: a peer left %zu bytes of replies unread; closed", c->unsent);
+    peer_log(g, LOG_UNREAD, "a peer left %zu bytes of replies unread; closed", c->unsent);
     g->stats.closed_for_unread++;
     close_conn(c);
   }
@@ -446,7 +496,11 @@ static void on_upstream(uv_stream_t *s, ssize_t n, const uv_buf_t *buf) {
     if (memcmp(c->up_hello, hello_rep, 8) != 0) {
       vf_log("tcp: the coordinator's socket did not answer as a REP socket; connection closed");
       close_conn(c);
+      return;
     }
+    c->connecting = CONNECT_NONE; /* nanomsg accepted it: room in its backlog for the next */
+    g->connecting--;
+    pump_connects(g);
     return;
   }
   if (c->reply == NULL) {
@@ -491,6 +545,18 @@ static void on_pipe_connected(uv_connect_t *req, int status) {
   if (c->in == IN_FORWARDING) forward(c); /* a request was whole before the socket was */
 }
 
+static void pump_connects(vf_gate *g) {
+  while (!g->closed && g->connecting < CONNECT_WINDOW && g->connect_head != NULL) {
+    conn *c = g->connect_head;
+    g->connect_head = c->connect_next;
+    if (g->connect_head == NULL) g->connect_tail = &g->connect_head;
+    c->connect_next = NULL;
+    c->connecting = CONNECT_WAITING;
+    g->connecting++;
+    uv_pipe_connect(&c->connect, &c->pipe, g->upstream, on_pipe_connected);
+  }
+}
+
 /* ---- accepting ---- */
 
 static void on_refused_closed(uv_handle_t *h) { free(h); }
@@ -506,13 +572,7 @@ static void refuse(vf_gate *g, uv_stream_t *server) {
     uv_close((uv_handle_t *)t, on_refused_closed);
   }
   g->stats.refused_at_cap++;
-  double now = vf_seconds_now();
-  if (now - g->last_refusal_log >= REFUSAL_LOG_SECONDS) {
-    vf_log("tcp: %llu connection(s) refused at the cap of %zu", (unsigned long long)(g->stats.refused_at_cap - g->refusals_logged),
-           g->limits.max_connections);
-    g->refusals_logged = g->stats.refused_at_cap;
-    g->last_refusal_log = now;
-  }
+  peer_log(g, LOG_REFUSED, "a connection refused at the cap of %zu", g->limits.max_connections);
 }
 
 static void on_connection(uv_stream_t *server, int status) {
@@ -554,7 +614,10 @@ static void on_connection(uv_stream_t *server, int status) {
     close_conn(c);
     return;
   }
-  uv_pipe_connect(&c->connect, &c->pipe, g->upstream, on_pipe_connected);
+  c->connecting = CONNECT_QUEUED;
+  *g->connect_tail = c;
+  g->connect_tail = &c->connect_next;
+  pump_connects(g);
   uv_read_start((uv_stream_t *)&c->tcp, alloc_downstream, on_downstream);
 }
 
@@ -584,7 +647,7 @@ static void on_sweep(uv_timer_t *t) {
     else if (c->in == IN_BODY && now > c->body_deadline)
       why = "a message came too slowly";
     if (why != NULL) {
-      vf_log("tcp: %s within the time allowed; connection closed", why);
+      peer_log(g, LOG_TIME, "%s within the time allowed; connection closed", why);
       g->stats.closed_for_time++;
       close_conn(c);
     } else if (c->in == IN_HEADER && c->header_got == 0 && c->num_out == 0 && c->unsent == 0 &&
@@ -672,6 +735,7 @@ int vf_gate_start(uv_loop_t *loop, const char *tcp_url, const char *upstream_pat
   g->loop = loop;
   g->wait_tail[LARGE] = &g->wait_head[LARGE];
   g->wait_tail[SMALL] = &g->wait_head[SMALL];
+  g->connect_tail = &g->connect_head;
   uv_tcp_init(loop, &g->server);
   uv_timer_init(loop, &g->sweep);
   g->server.data = g->sweep.data = g;

@@ -39,7 +39,7 @@
 struct uv_loop_s;
 
 typedef struct {
-  size_t max_connections;   /* default 1024 */
+  size_t max_connections;   /* default 4096 */
   size_t max_bytes;         /* bytes reserved for large requests over all connections; default 256 MiB */
   size_t small_message;     /* default 64 KiB */
   size_t max_small_bytes;   /* bytes reserved for small requests; default 16 MiB */

@@ -560,7 +560,7 @@ tcp_gate)
   counted=$("$peer" --connections "$url" 14)
   echo "14 connections at once: $counted"
   [ "$counted" = "served 12 refused 2" ] || fail "expected 12 connections served and 2 refused: $counted"
-  grep -q "refused at the cap of 12" "$tmp/coordinator.log" || fail "the refusals were not logged"
+  grep -q "a connection refused at the cap of 12" "$tmp/coordinator.log" || fail "the refusals were not logged"
   # 10 unfinished messages of the request cap (4.26 MB): 42.6 MB without a bound on all
   # connections; the gate gives room to 3 (16 MiB) and reads nothing of the others.
   "$peer" --flood "$url" "$key" 10 cap "$coordinator" 20 ||

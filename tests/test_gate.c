@@ -224,6 +224,42 @@ static void test_requests_and_replies_pass_unchanged(void) {
   rig_close(&r);
 }
 
+/* A farm starting: 200 workers connect at once. nanomsg accepts unix connections with a
+ * backlog of 10; the gate passes connections on a few at a time, and every worker is
+ * answered. */
+static void test_a_burst_of_connections_is_served(void) {
+  rig r;
+  vf_gate_limits l = small_limits();
+  l.max_connections = 256;
+  CHECK(rig_open(&r, &l) == 0);
+  enum { N = 200 };
+  int s[N], answered = 0;
+  for (int i = 0; i < N; i++) {
+    s[i] = req_open(&r);
+    char q[32];
+    int len = snprintf(q, sizeof q, "register %d", i);
+    nn_send(s[i], q, (size_t)len, 0);
+  }
+  double end = vf_seconds_now() + 20.0;
+  int got[N] = {0};
+  while (answered < N && vf_seconds_now() < end) {
+    pump(&r, 0.001);
+    for (int i = 0; i < N; i++) {
+      void *buf = NULL;
+      if (got[i] || nn_recv(s[i], &buf, NN_MSG, NN_DONTWAIT) < 0) continue;
+      got[i] = 1;
+      answered++;
+      nn_freemsg(buf);
+    }
+  }
+  CHECK_INT_EQ(answered, N);
+  vf_gate_stats st = stats(&r);
+  CHECK_INT_EQ(st.connections, N);
+  printf("     %d workers connected at once: %d answered, peak %zu connections\n", N, answered, st.peak_connections);
+  for (int i = 0; i < N; i++) nn_close(s[i]);
+  rig_close(&r);
+}
+
 static void test_connections_beyond_the_cap_are_refused(void) {
   rig r;
   vf_gate_limits l = small_limits();
@@ -418,6 +454,49 @@ static void test_replies_left_unread_close_the_connection(void) {
   rig_close(&r);
 }
 
+/* Peers that send what they like and leave at any moment: afterwards nothing is held.
+ * Random streams after a valid protocol header, most with a small random size first so that
+ * some messages are whole and reach the echo, some cut short, some of sizes above the cap. */
+static void test_random_streams_leave_nothing_behind(void) {
+  rig r;
+  vf_gate_limits l = small_limits();
+  l.max_connections = 64;
+  CHECK(rig_open(&r, &l) == 0);
+  uint64_t state = 0x9e3779b97f4a7c15ull;
+#define NEXT() (state ^= state << 13, state ^= state >> 7, state ^= state << 17, state)
+  for (int round = 0; round < 8; round++) {
+    int fds[40];
+    for (int i = 0; i < 40; i++) {
+      fds[i] = raw_open(&r, NEXT() % 4 == 0 ? NEXT() % 8 : 8);
+      if (fds[i] < 0) continue;
+      uint8_t buf[3000];
+      for (size_t k = 0; k < sizeof buf; k++) buf[k] = (uint8_t)NEXT();
+      size_t len = NEXT() % sizeof buf;
+      if (NEXT() % 2 == 0 && len >= 12) { /* a plausible message: size, REQ id, body */
+        uint64_t size = NEXT() % 3 == 0 ? NEXT() : len - 8 - NEXT() % 4;
+        put_be64(buf, size);
+        buf[8] |= 0x80;
+      }
+      raw_send(&r, fds[i], buf, len, 0.2);
+    }
+    pump(&r, 0.05);
+    for (int i = 0; i < 40; i++)
+      if (fds[i] >= 0) close(fds[i]);
+  }
+#undef NEXT
+  pump(&r, 1.0); /* unanswered requests give their room back after answer_seconds */
+  vf_gate_stats st = stats(&r);
+  CHECK_INT_EQ(st.connections, 0);
+  CHECK_INT_EQ(st.bytes_reserved, 0);
+  CHECK_INT_EQ(st.waiting, 0);
+  CHECK(st.forwarded > 0); /* some messages were whole */
+  CHECK(st.closed_for_size > 0);
+  printf("     320 random peers: %llu messages forwarded, %llu answered, %llu closed for size, %llu for framing\n",
+         (unsigned long long)st.forwarded, (unsigned long long)st.answered, (unsigned long long)st.closed_for_size,
+         (unsigned long long)st.closed_for_framing);
+  rig_close(&r);
+}
+
 static void test_a_port_in_use_and_bad_urls_are_refused(void) {
   rig r;
   vf_gate_limits l = small_limits();
@@ -433,12 +512,14 @@ static void test_a_port_in_use_and_bad_urls_are_refused(void) {
 
 int main(void) {
   RUN(test_requests_and_replies_pass_unchanged);
+  RUN(test_a_burst_of_connections_is_served);
   RUN(test_connections_beyond_the_cap_are_refused);
   RUN(test_bytes_in_flight_are_bounded);
   RUN(test_small_requests_have_a_bounded_lane);
   RUN(test_unanswered_requests_give_their_room_back);
   RUN(test_bad_framing_and_silence_are_cut_off);
   RUN(test_replies_left_unread_close_the_connection);
+  RUN(test_random_streams_leave_nothing_behind);
   RUN(test_a_port_in_use_and_bad_urls_are_refused);
   return check_finish();
 }

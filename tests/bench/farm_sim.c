@@ -1,7 +1,8 @@
 /* bench_farm simulate VCMFARM --film FILM.exr WORKERS SECONDS ITERATION_SECONDS ENCODE_SECONDS
  *
  * A farm of WORKERS simulated workers against a real coordinator process (VCMFARM
- * coordinator over ipc://, default settings), for docs/BENCHMARKS.md ("A coordinator for
+ * coordinator over ipc://, default settings; over tcp:// on loopback, through the
+ * coordinator's gate, with SIM_TRANSPORT=tcp in the environment), for docs/BENCHMARKS.md ("A coordinator for
  * 1000 workers"). The job is FILM's (its size, scene hash and settings); every part a
  * worker ships is FILM's tiles as a worker encodes them (precomputed once: real compressed
  * chunks), so the coordinator decodes, checks and merges what a real farm sends it.
@@ -33,7 +34,9 @@
 #include "common/film.h"
 #include "common/film_wire.h"
 
+#include <arpa/inet.h>
 #include <math.h>
+#include <netinet/in.h>
 #include <pthread.h>
 #include <signal.h>
 #include <stdatomic.h>
@@ -42,6 +45,7 @@
 #include <string.h>
 #include <sys/mman.h>
 #include <sys/resource.h>
+#include <sys/socket.h>
 #include <sys/wait.h>
 #include <time.h>
 #include <unistd.h>
@@ -306,6 +310,18 @@ static void child(sim_worker *proto, int from, int to) {
   _exit(0);
 }
 
+/* A loopback port nobody listens on now (the kernel's pick for port 0). */
+static int free_port(void) {
+  int fd = socket(AF_INET, SOCK_STREAM, 0);
+  struct sockaddr_in a = {.sin_family = AF_INET, .sin_addr.s_addr = htonl(INADDR_LOOPBACK)};
+  socklen_t len = sizeof a;
+  int port = -1;
+  if (fd >= 0 && bind(fd, (struct sockaddr *)&a, sizeof a) == 0 && getsockname(fd, (struct sockaddr *)&a, &len) == 0)
+    port = ntohs(a.sin_port);
+  if (fd >= 0) close(fd);
+  return port;
+}
+
 static double proc_field(pid_t pid, const char *file, const char *key) {
   char path[64], line[256];
   snprintf(path, sizeof path, "/proc/%d/%s", (int)pid, file);
@@ -372,6 +388,13 @@ int vf_bench_farm_simulate(const char *vcmfarm, const char *film_path, int worke
   if (mkdtemp(dir) == NULL) return 1;
   snprintf(key_path, sizeof key_path, "%s/farm.key", dir);
   snprintf(url, sizeof url, "ipc://%s/coordinator.sock", dir);
+  const char *transport = getenv("SIM_TRANSPORT");
+  if (transport != NULL && strcmp(transport, "tcp") == 0) {
+    int port = free_port();
+    if (port <= 0) return 1;
+    snprintf(url, sizeof url, "tcp://127.0.0.1:%d", port);
+  }
+  printf("transport: %s\n", url);
   snprintf(state, sizeof state, "%s/state", dir);
   vf_wire_key key;
   if (vf_wire_key_generate(key_path) != VF_OK || vf_wire_key_load(key_path, &key) != VF_OK) return 1;
