@@ -457,8 +457,9 @@ int vf_coordinator_run(const vf_coordinator_config *config) {
          c->farm.num_jobs, config->worker_timeout);
   if (c->gate) {
     const vf_gate_limits *l = vf_gate_get_limits(c->gate);
-    vf_log("tcp: port %d, at most %zu connections and %.0f MiB of requests in flight", vf_gate_port(c->gate),
-           l->max_connections, (double)l->max_bytes / 1048576.0);
+    vf_log("tcp: port %d, at most %zu connections and %.0f MiB of requests in flight (and %.0f MiB of small ones)",
+           vf_gate_port(c->gate), l->max_connections, (double)l->max_bytes / 1048576.0,
+           (double)l->max_small_bytes / 1048576.0);
   }
 
   uv_run(&c->loop, UV_RUN_DEFAULT);

@@ -59,6 +59,7 @@ for _ in $(seq 50); do
 done
 [ -n "$port" ] || fail "no free port"
 export VCMFARM_LISTEN="tcp://127.0.0.1:$port" VCMFARM_CONNECT="tcp://127.0.0.1:$port"
+export TMPDIR="$tmp" # PrivateTmp=yes: the socket behind the coordinator's TCP gate goes there
 export VCMFARM_COORDINATOR_OPTIONS="--checkpoint-interval 0.5" VCMFARM_WORKER_OPTIONS="--threads 1"
 # systemd splits ${VAR} as one word and $VAR into words; eval with the unit's quoting does the same here.
 coordinator_line=$(exec_start vcmfarm-coordinator.service | sed -e 's/\${\([A-Z_]*\)}/"${\1}"/g')

@@ -411,6 +411,7 @@ int vf_bench_farm_simulate(const char *vcmfarm, const char *film_path, int worke
     char log[300];
     snprintf(log, sizeof log, "%s/coordinator.log", dir);
     if (freopen(log, "w", stderr) == NULL) _exit(127);
+    setenv("TMPDIR", dir, 1); /* the private socket behind the TCP gate, removed with dir */
     execl(vcmfarm, vcmfarm, "coordinator", "--listen", url, "--state", state, "--secret", key_path, (char *)NULL);
     _exit(127);
   }

@@ -2,7 +2,7 @@
 # What the coordinator's TCP gate costs (docs/BENCHMARKS.md, "The TCP gate"): two builds
 # side by side over tcp:// on loopback, one coordinator and one job each, runs alternated.
 # Each job is a 3840x2160 film (pt, two bounces, one iteration, rendered by one worker);
-# then, RUNS times per build: the film fetched (replies of up to 4 MiB, about 60 of them),
+# then, RUNS times per build: the film fetched (replies of up to 4 MiB, about 22 of them),
 # and 100 `vcmfarm status` calls in a row (small requests; each a process, so the
 # difference between builds is what the transport adds).
 #
@@ -11,6 +11,7 @@ set -u
 builds=("$1" "$2")
 runs=${3:-5}
 tmp=$(mktemp -d /tmp/vf-bench-gate-XXXXXX)
+export TMPDIR="$tmp" # the coordinators' private sockets, removed with it
 pids=()
 trap 'for p in "${pids[@]}"; do kill -9 "$p" 2>/dev/null; done; wait 2>/dev/null; rm -rf "$tmp"' EXIT
 "${builds[0]}/vcmfarm" keygen "$tmp/key" >/dev/null || exit 1
@@ -27,7 +28,7 @@ for i in 0 1; do
   "$v" worker --connect "${urls[$i]}" --secret "$tmp/key" --threads 2 --name "w$i" >"$tmp/worker$i.log" 2>&1 &
   pids+=($!)
   "$v" submit cornell -R 3840x2160 -n 1 -l 2 -a pt --seed 7 --coordinator "${urls[$i]}" --secret "$tmp/key" \
-    --wait -o "$tmp/first$i.exr" >/dev/null || { echo "build $i: the job failed" >&2; exit 1; }
+    --wait -o "$tmp/first$i.exr" >/dev/null 2>&1 || { echo "build $i: the job failed" >&2; exit 1; }
 done
 echo "film: $(stat -c %s "$tmp/first0.exr") bytes"
 
