@@ -335,17 +335,20 @@ static void take_room(conn *c) {
   c->in = IN_BODY;
 }
 
+/* What is left to read of a message of `len` bytes, `got` read: the whole rest (in pieces of
+ * at most 1 GiB, what a uv_buf_t holds), never a byte of the next message. */
+static uv_buf_t rest_of(uint8_t *message, size_t got, size_t len) {
+  size_t left = len - got;
+  return uv_buf_init((char *)message + got, (unsigned)(left < (1u << 30) ? left : (1u << 30)));
+}
+
 static void alloc_downstream(uv_handle_t *h, size_t suggested, uv_buf_t *buf) {
   conn *c = h->data;
   (void)suggested;
   switch (c->in) {
   case IN_HELLO: *buf = uv_buf_init((char *)c->hello + c->hello_got, (unsigned)(8 - c->hello_got)); break;
   case IN_HEADER: *buf = uv_buf_init((char *)c->header + c->header_got, (unsigned)(8 - c->header_got)); break;
-  case IN_BODY: {
-    size_t left = c->body_len - c->body_got;
-    *buf = uv_buf_init((char *)c->body + c->body_got, (unsigned)(left < (1u << 30) ? left : (1u << 30)));
-    break;
-  }
+  case IN_BODY: *buf = rest_of(c->body, c->body_got, c->body_len); break;
   default: *buf = uv_buf_init(NULL, 0); break; /* not reading: libuv stops with UV_ENOBUFS */
   }
 }
@@ -476,10 +479,8 @@ static void alloc_upstream(uv_handle_t *h, size_t suggested, uv_buf_t *buf) {
     *buf = uv_buf_init((char *)c->up_hello + c->up_hello_got, (unsigned)(8 - c->up_hello_got));
   else if (c->reply == NULL)
     *buf = uv_buf_init((char *)c->reply_header + c->reply_header_got, (unsigned)(9 - c->reply_header_got));
-  else {
-    size_t left = c->reply_len - c->reply_got;
-    *buf = uv_buf_init((char *)c->reply + c->reply_got, (unsigned)(left < (1u << 30) ? left : (1u << 30)));
-  }
+  else
+    *buf = rest_of(c->reply, c->reply_got, c->reply_len);
 }
 
 static void on_upstream(uv_stream_t *s, ssize_t n, const uv_buf_t *buf) {

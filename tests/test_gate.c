@@ -131,9 +131,10 @@ static int req_call(rig *r, int s, const uint8_t *data, size_t len, double timeo
 }
 
 /* A plain TCP connection to the gate, non-blocking, after `hello` bytes of a REQ's
- * protocol header (8: all of it). */
-static int raw_open(rig *r, size_t hello) {
+ * protocol header (8: all of it); with a receive buffer of `rcvbuf` bytes unless 0. */
+static int raw_open_rcvbuf(rig *r, size_t hello, int rcvbuf) {
   int fd = socket(AF_INET, SOCK_STREAM, 0);
+  if (rcvbuf > 0) setsockopt(fd, SOL_SOCKET, SO_RCVBUF, &rcvbuf, sizeof rcvbuf);
   struct sockaddr_in a = {.sin_family = AF_INET, .sin_port = htons((uint16_t)vf_gate_port(r->gate)),
                           .sin_addr.s_addr = htonl(INADDR_LOOPBACK)};
   if (connect(fd, (struct sockaddr *)&a, sizeof a) != 0) {
@@ -148,6 +149,8 @@ static int raw_open(rig *r, size_t hello) {
   }
   return fd;
 }
+
+static int raw_open(rig *r, size_t hello) { return raw_open_rcvbuf(r, hello, 0); }
 
 /* Writes all of data, running the rig while the socket is full; 0 when the gate closed it
  * or it stayed full for `timeout` seconds. */
@@ -428,15 +431,8 @@ static void test_replies_left_unread_close_the_connection(void) {
   l.max_bytes = 16 * MIB;
   l.max_unsent = 2 * MIB;
   CHECK(rig_open(&r, &l) == 0);
-  int fd = socket(AF_INET, SOCK_STREAM, 0);
-  int tiny = 4096;
-  setsockopt(fd, SOL_SOCKET, SO_RCVBUF, &tiny, sizeof tiny);
-  struct sockaddr_in a = {.sin_family = AF_INET, .sin_port = htons((uint16_t)vf_gate_port(r.gate)),
-                          .sin_addr.s_addr = htonl(INADDR_LOOPBACK)};
-  CHECK(connect(fd, (struct sockaddr *)&a, sizeof a) == 0);
-  fcntl(fd, F_SETFL, O_NONBLOCK);
-  static const uint8_t req_hello[8] = {0, 'S', 'P', 0, 0, NN_REQ, 0, 0};
-  CHECK(write(fd, req_hello, 8) == 8);
+  int fd = raw_open_rcvbuf(&r, 8, 4096);
+  CHECK(fd >= 0);
   /* Eight echoed requests of 1 MiB, none of their replies read. */
   uint8_t header[8];
   put_be64(header, MIB);
