@@ -153,7 +153,7 @@ static int wait_and_fetch(vf_farm_client *client, const connection *conn, uint64
     return VF_OK;
   }
   vf_film *film = NULL;
-  if ((err = vf_fetch_film(client, job_id, output, (int)(conn->timeout * 1000.0) * 6, &film)) != VF_OK) return err;
+  if ((err = vf_fetch_film(client, job_id, output, (int)(conn->timeout * 1000.0) * 6, 0, &film)) != VF_OK) return err;
   if (preview) err = vf_preview_write(film, preview, exposure);
   if (err == VF_OK)
     fprintf(stderr, "vcmfarm submit: job %llu %s; wrote %s%s%s\n", (unsigned long long)job_id, state, output,
@@ -350,7 +350,7 @@ int vf_cmd_fetch(int argc, char **argv) {
     return vf_cli_fail(cmd, err);
   /* Read back before it replaces FILM.exr: what lands there is a checked film. */
   vf_film *film = NULL;
-  err = vf_fetch_film(client, job_id, output, (int)(conn.timeout * 1000.0), &film);
+  err = vf_fetch_film(client, job_id, output, (int)(conn.timeout * 1000.0), 0, &film);
   vf_farm_client_close(client);
   if (err == VF_OK && preview) err = vf_preview_write(film, preview, exposure);
   vf_film_destroy(film);

@@ -5,7 +5,9 @@
  * another thread; then, as a client, submits the job (cli/submit.h), follows it through
  * status requests (the progress line), fetches its film at every checkpoint interval and
  * at the end, and writes it atomically to -o. Every iteration thus goes through leases,
- * tiles, checks and merging exactly as on a farm of many machines. */
+ * checks and merging exactly as on a farm of many machines; only the parts' pixels pass as
+ * films in memory (common/film_handoff.h) rather than encoded tiles, so that the process
+ * holds no second copy of a part and spends no time deflating it. */
 #include "farm_render.h"
 
 #include "../common/clock.h"
@@ -40,6 +42,9 @@ _Static_assert(VF_CLI_ITERATIONS_OPEN_ENDED <= VF_JOB_MAX_ITERATIONS, "open-ende
 /* The worker ships a part of its lease this often (or 50 times a part's cost, if more):
  * the granularity of the progress line and of the target checks. */
 #define PART_SECONDS 1.0
+/* In-process, a request costs no round trip: small chunks keep the copies of a chunk in
+ * flight (read, sealed, received, opened, unpacked) from adding to the render's peak. */
+#define FETCH_CHUNK_BYTES ((size_t)1 << 20)
 
 /* Each thread's result is read after pthread_join; `ended` says, meanwhile, that it
  * returned (the coordinator only does so early when it could not start). */
@@ -164,6 +169,12 @@ int vf_farm_render(const vf_render_job *o) {
     return vf_cli_fail(cmd, err);
   }
 
+  /* The worker's parts reach the coordinator as films in memory, not encoded tiles. */
+  vf_film_handoff *handoff = NULL;
+  if ((err = vf_film_handoff_create(&handoff)) != VF_OK) {
+    vf_file_remove_tree(dir);
+    return vf_cli_fail(cmd, err);
+  }
   volatile sig_atomic_t coordinator_stop = 0, worker_stop = 0;
   atomic_ullong rendered = 0;
   coordinator_thread ct = {.config = {.listen_url = FARM_URL, .state_dir = state, .key = &key,
@@ -171,10 +182,12 @@ int vf_farm_render(const vf_render_job *o) {
                                       /* each fetch below logs and checkpoints the film; the
                                        * coordinator's own checkpoints would only write copies
                                        * nobody reads */
-                                      .checkpoint_interval = 1e9, .stop = &coordinator_stop, .quiet = 1}};
+                                      .checkpoint_interval = 1e9, .stop = &coordinator_stop, .quiet = 1,
+                                      .handoff = handoff}};
   worker_thread wt = {.config = {.url = FARM_URL, .key = key, .threads = o->threads, .name = "render",
                                  .cache_dir = cache, .ship_interval = PART_SECONDS, .quiet = 1,
-                                 .describe = o->quiet ? NULL : stderr, .rendered = &rendered},
+                                 .describe = o->quiet ? NULL : stderr, .rendered = &rendered,
+                                 .handoff = handoff},
                       .stop = &worker_stop};
   /* The threads leave SIGINT and SIGTERM to this one. */
   sigset_t block, old_mask;
@@ -233,7 +246,7 @@ int vf_farm_render(const vf_render_job *o) {
     if (tty) progress_line(o, job, atomic_load(&rendered), now - start);
     finished = strcmp(job->state, "queued") != 0 && strcmp(job->state, "running") != 0;
     if (!finished && o->checkpoint_interval > 0.0 && now - last_fetch >= o->checkpoint_interval) {
-      if ((err = vf_fetch_film(client, job_id, o->output, REQUEST_MS, NULL)) != VF_OK) goto stop;
+      if ((err = vf_fetch_film(client, job_id, o->output, REQUEST_MS, FETCH_CHUNK_BYTES, NULL)) != VF_OK) goto stop;
       last_fetch = vf_seconds_now();
     }
   }
@@ -255,7 +268,7 @@ int vf_farm_render(const vf_render_job *o) {
     err = vf_error_set(VF_EINVAL, "no iteration finished; nothing written");
     goto stop;
   }
-  if ((err = vf_fetch_film(client, job_id, o->output, REQUEST_MS, &film)) != VF_OK) goto stop;
+  if ((err = vf_fetch_film(client, job_id, o->output, REQUEST_MS, FETCH_CHUNK_BYTES, &film)) != VF_OK) goto stop;
   if ((err = vf_render_job_write_preview(o, film)) != VF_OK) goto stop;
   if (!o->quiet) {
     const vf_worker_totals *t = &wt.totals;
@@ -278,6 +291,7 @@ stop:
     if (err == VF_OK) err = ct.err; /* it could not start, or not write its final checkpoint */
   }
   vf_interrupt_restore(&saved);
+  vf_film_handoff_destroy(handoff);
   vf_file_remove_tree(dir);
   return err == VF_OK ? VF_EXIT_OK : vf_cli_fail(cmd, err);
 }

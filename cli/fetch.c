@@ -23,6 +23,7 @@ typedef struct {
   vf_farm_client *client;
   uint64_t job_id;
   int timeout_ms;
+  uint32_t chunk_bytes;             /* FetchRequest.max_chunk_bytes */
   uint64_t snapshot, offset, total; /* offset: bytes received, in order */
   uint8_t hash[32];                 /* announced with the first chunk */
   crypto_generichash_state received;
@@ -49,6 +50,7 @@ static int ask(transfer *t, Vcmfarm__Envelope **reply) {
   m.job_id = t->job_id;
   m.snapshot = t->snapshot;
   m.offset = t->offset;
+  m.max_chunk_bytes = t->chunk_bytes;
   Vcmfarm__Envelope q = VCMFARM__ENVELOPE__INIT;
   q.body_case = VCMFARM__ENVELOPE__BODY_FETCH;
   q.fetch = &m;
@@ -160,12 +162,14 @@ static int receive(transfer *t, vf_atomic_file *file) {
   return VF_OK;
 }
 
-int vf_fetch_film(vf_farm_client *client, uint64_t job_id, const char *output, int timeout_ms, vf_film **film) {
+int vf_fetch_film(vf_farm_client *client, uint64_t job_id, const char *output, int timeout_ms, size_t chunk_bytes,
+                  vf_film **film) {
   if (sodium_init() < 0) return vf_error_set(VF_EINVAL, "libsodium failed to initialise");
   vf_atomic_file file;
   int err = vf_atomic_open(&file, output);
   if (err != VF_OK) return err;
-  transfer t = {.client = client, .job_id = job_id, .timeout_ms = timeout_ms};
+  transfer t = {.client = client, .job_id = job_id, .timeout_ms = timeout_ms,
+                .chunk_bytes = chunk_bytes > UINT32_MAX ? UINT32_MAX : (uint32_t)chunk_bytes};
   restart(&t);
   vf_film *read_back = NULL;
   if ((err = receive(&t, &file)) == VF_OK && film != NULL && (err = vf_film_read(file.tmp_path, &read_back)) != VF_OK)

@@ -16,11 +16,13 @@
 #include <stdint.h>
 
 /* Fetches the film of job_id into output, each request waiting up to timeout_ms for its
- * reply. With film not NULL the file is also read back as a film (vf_film_read's checks)
+ * reply, in chunks of at most chunk_bytes (0: as large as the coordinator sends them;
+ * smaller chunks hold less memory in flight, larger ones take fewer requests). With film not NULL the file is also read back as a film (vf_film_read's checks)
  * before it replaces the output, and *film (the caller destroys it) receives it on success.
  * Errors: those of vf_farm_request (the coordinator's refusal, a timeout), VF_EPROTO for a
  * reply out of place, VF_EMISMATCH for bytes whose hash or size differ from the announced
  * ones, VF_EIO, VF_EFILM / VF_EEXR; each with a detail naming the job and the output. */
-int vf_fetch_film(vf_farm_client *client, uint64_t job_id, const char *output, int timeout_ms, vf_film **film);
+int vf_fetch_film(vf_farm_client *client, uint64_t job_id, const char *output, int timeout_ms, size_t chunk_bytes,
+                  vf_film **film);
 
 #endif

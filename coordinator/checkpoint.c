@@ -431,8 +431,8 @@ int vf_checkpoint_snapshot_start(vf_farm *farm, vf_job *job, double now, uint64_
   return VF_OK;
 }
 
-int vf_checkpoint_snapshot_read(vf_farm *farm, uint64_t job_id, uint64_t id, uint64_t offset, double now,
-                                size_t room, uint8_t **data, size_t *n, vf_snapshot_info *info) {
+int vf_checkpoint_snapshot_read(vf_farm *farm, uint64_t job_id, uint64_t id, uint64_t offset, size_t most,
+                                double now, size_t room, uint8_t **data, size_t *n, vf_snapshot_info *info) {
   snapshot *s = snapshot_find(farm, job_id);
   if (s == NULL || s->id != id)
     return vf_error_set(VF_ENOENT, "job %llu has no fetch snapshot %016llx (read whole, unasked for %.0f s, or "
@@ -449,7 +449,10 @@ int vf_checkpoint_snapshot_read(vf_farm *farm, uint64_t job_id, uint64_t id, uin
   if (offset > s->info.size)
     return vf_error_set(VF_EINVAL, "fetch at offset %llu, past the end of job %llu's film of %llu bytes",
                         (unsigned long long)offset, (unsigned long long)job_id, (unsigned long long)s->info.size);
-  size_t len = s->info.size - offset < VF_FETCH_CHUNK_BYTES ? (size_t)(s->info.size - offset) : VF_FETCH_CHUNK_BYTES;
+  size_t limit = most == 0 || most > VF_FETCH_CHUNK_BYTES ? VF_FETCH_CHUNK_BYTES
+                 : most < VF_FETCH_CHUNK_MIN                 ? VF_FETCH_CHUNK_MIN
+                                                             : most;
+  size_t len = s->info.size - offset < limit ? (size_t)(s->info.size - offset) : limit;
   uint8_t *chunk = malloc(len + room + 1);
   if (chunk == NULL) return vf_error_set(VF_ENOMEM, "out of memory for a chunk of %zu bytes", len);
   for (size_t at = 0; at < len;) {

@@ -58,6 +58,7 @@ size_t vf_checkpoint_pending(const vf_farm *farm);
 /* ---- fetch snapshots ---- */
 
 #define VF_FETCH_CHUNK_BYTES ((size_t)16 << 20) /* the most one reply carries */
+#define VF_FETCH_CHUNK_MIN ((size_t)64 << 10)    /* the least a client may ask for (FetchRequest) */
 #define VF_SNAPSHOT_IDLE_SECONDS 20.0            /* unasked this long, a snapshot is dropped */
 #define VF_SNAPSHOT_RETRY_MS 50u                 /* what a client waits before asking again */
 
@@ -73,15 +74,16 @@ typedef struct {
  * still in use: ask again. VF_ENOMEM, VF_EIO with a detail. */
 int vf_checkpoint_snapshot_start(vf_farm *farm, vf_job *job, double now, uint64_t *id);
 
-/* Reads the chunk of snapshot `id` of the job at offset (at most VF_FETCH_CHUNK_BYTES) at
+/* Reads the chunk of snapshot `id` of the job at offset (at most VF_FETCH_CHUNK_BYTES, and
+ * at most `most` bytes when that is not 0, but never less than VF_FETCH_CHUNK_MIN) at
  * `now`. Returns 1 with the chunk in *data (malloc'ed with `room` bytes more after the
  * chunk, for the caller; the caller frees it), *n and *info; the snapshot is dropped once
  * its last chunk has been read as often as fetches began with it. Returns 0 while the snapshot is being written or hashed (ask again).
  * Errors: VF_ENOENT when the job has no snapshot `id` (gone: start again), VF_EINVAL for
  * an offset past its end, VF_EIO (with the detail; the snapshot is dropped) when its
  * checkpoint or the read failed. */
-int vf_checkpoint_snapshot_read(vf_farm *farm, uint64_t job_id, uint64_t id, uint64_t offset, double now,
-                                size_t room, uint8_t **data, size_t *n, vf_snapshot_info *info);
+int vf_checkpoint_snapshot_read(vf_farm *farm, uint64_t job_id, uint64_t id, uint64_t offset, size_t most,
+                                double now, size_t room, uint8_t **data, size_t *n, vf_snapshot_info *info);
 
 /* Drops the job's snapshot (a removed job); no-op when it has none. */
 void vf_checkpoint_snapshot_drop(vf_farm *farm, uint64_t job_id);

@@ -298,7 +298,7 @@ void vf_jobs_fetch(vf_farm *farm, const Vcmfarm__FetchRequest *m, double now, vf
   /* The chunk and, after it, the hash: one block the reply owns. */
   vf_snapshot_info info;
   size_t len;
-  err = vf_checkpoint_snapshot_read(farm, job->id, id, m->offset, now, sizeof info.hash, &r->film_bytes, &len, &info);
+  err = vf_checkpoint_snapshot_read(farm, job->id, id, m->offset, m->max_chunk_bytes, now, sizeof info.hash, &r->film_bytes, &len, &info);
   if (err == 0) return film_reply(r, VCMFARM__FILM__STATE__WAIT, id);
   if (err == VF_ENOENT) {
     snprintf(r->text, sizeof r->text, "%s", vf_error_detail(err));

@@ -10,6 +10,13 @@
  * one nobody asks for is dropped after VF_SNAPSHOT_IDLE_SECONDS. Exit status 0 when every
  * expectation held.
  *
+ *   farm_fetch_peer --chunks URL KEYFILE JOB
+ *
+ * The size of chunks (FetchRequest.max_chunk_bytes), on a job whose film is several times
+ * VF_FETCH_CHUNK_BYTES: the first chunk of one snapshot asked for with no limit, 1 MiB, 1
+ * byte and 1 GiB is 16 MiB, 1 MiB, 64 KiB (the least) and 16 MiB long, and a chunk at
+ * 1 MiB follows on. Nothing more is read; the snapshot is left to expire.
+ *
  *   farm_fetch_peer --serve URL KEYFILE MODE FILM
  *
  * A coordinator that answers every FetchRequest with the bytes of FILM in chunks of
@@ -41,16 +48,22 @@ static void expect(int cond, const char *what) {
   if (!cond) failures++;
 }
 
-/* The reply to FetchRequest {job, snapshot, offset}, or NULL when none came. */
-static Vcmfarm__Envelope *fetch(vf_farm_client *c, uint64_t job, uint64_t snapshot, uint64_t offset) {
+/* The reply to FetchRequest {job, snapshot, offset, max_chunk_bytes}, or NULL when none came. */
+static Vcmfarm__Envelope *fetch_at_most(vf_farm_client *c, uint64_t job, uint64_t snapshot, uint64_t offset,
+                                        uint32_t most) {
   Vcmfarm__FetchRequest m = VCMFARM__FETCH_REQUEST__INIT;
   m.job_id = job;
   m.snapshot = snapshot;
   m.offset = offset;
+  m.max_chunk_bytes = most;
   Vcmfarm__Envelope q = VCMFARM__ENVELOPE__INIT, *reply;
   q.body_case = VCMFARM__ENVELOPE__BODY_FETCH;
   q.fetch = &m;
   return vf_farm_call(c, &q, 10000, &reply) == VF_OK ? reply : NULL;
+}
+
+static Vcmfarm__Envelope *fetch(vf_farm_client *c, uint64_t job, uint64_t snapshot, uint64_t offset) {
+  return fetch_at_most(c, job, snapshot, offset, 0);
 }
 
 static int is_error(const Vcmfarm__Envelope *r, Vcmfarm__ErrorCode code, const char *needle) {
@@ -64,15 +77,54 @@ static int is_film(const Vcmfarm__Envelope *r, Vcmfarm__Film__State state) {
   return r && r->body_case == VCMFARM__ENVELOPE__BODY_FILM && r->film->state == state;
 }
 
-/* Asks for snapshot id at offset until it is no longer "wait"; the last reply. */
-static Vcmfarm__Envelope *await(vf_farm_client *c, uint64_t job, uint64_t id, uint64_t offset) {
+/* Asks for snapshot id at offset (chunks of at most `most` bytes) until it is no longer
+ * "wait"; the last reply. */
+static Vcmfarm__Envelope *await_at_most(vf_farm_client *c, uint64_t job, uint64_t id, uint64_t offset, uint32_t most) {
   for (int i = 0; i < 2000; i++) {
-    Vcmfarm__Envelope *r = fetch(c, job, id, offset);
+    Vcmfarm__Envelope *r = fetch_at_most(c, job, id, offset, most);
     if (!is_film(r, VCMFARM__FILM__STATE__WAIT)) return r;
     vf_message_free(r);
     usleep(10000);
   }
   return NULL;
+}
+
+static Vcmfarm__Envelope *await(vf_farm_client *c, uint64_t job, uint64_t id, uint64_t offset) {
+  return await_at_most(c, job, id, offset, 0);
+}
+
+/* The length of the chunk at offset of snapshot id, asked for with max_chunk_bytes most;
+ * 0 when the reply is not a chunk there. */
+static size_t chunk_length(vf_farm_client *c, uint64_t job, uint64_t id, uint64_t offset, uint32_t most) {
+  Vcmfarm__Envelope *r = await_at_most(c, job, id, offset, most);
+  size_t len = is_film(r, VCMFARM__FILM__STATE__CHUNK) && r->film->snapshot == id && r->film->offset == offset
+                   ? r->film->data.len
+                   : 0;
+  vf_message_free(r);
+  return len;
+}
+
+static int chunks(const char *url, const vf_wire_key *key, uint64_t job) {
+  vf_farm_client *c;
+  if (vf_farm_client_open(url, key, &c) != VF_OK) return 2;
+  Vcmfarm__Envelope *r = fetch(c, job, 0, 0);
+  uint64_t id = r && r->body_case == VCMFARM__ENVELOPE__BODY_FILM ? r->film->snapshot : 0;
+  uint64_t total = r && r->body_case == VCMFARM__ENVELOPE__BODY_FILM ? r->film->total_size : 0;
+  vf_message_free(r);
+  if (id != 0 && total == 0) { /* waited: the size comes with the first chunk */
+    r = await(c, job, id, 0);
+    total = is_film(r, VCMFARM__FILM__STATE__CHUNK) ? r->film->total_size : 0;
+    vf_message_free(r);
+  }
+  printf("     snapshot %016llx of %llu bytes\n", (unsigned long long)id, (unsigned long long)total);
+  expect(id != 0 && total > 3 * VF_FETCH_CHUNK_BYTES, "the job's film is several chunks long");
+  expect(chunk_length(c, job, id, 0, 0) == VF_FETCH_CHUNK_BYTES, "no limit asked for: chunks of 16 MiB");
+  expect(chunk_length(c, job, id, 0, 1u << 20) == 1u << 20, "1 MiB asked for: chunks of 1 MiB");
+  expect(chunk_length(c, job, id, 1u << 20, 1u << 20) == 1u << 20, "the next chunk of 1 MiB follows on");
+  expect(chunk_length(c, job, id, 0, 1) == VF_FETCH_CHUNK_MIN, "1 byte asked for: chunks of 64 KiB, the least");
+  expect(chunk_length(c, job, id, 0, 1u << 30) == VF_FETCH_CHUNK_BYTES, "1 GiB asked for: chunks of 16 MiB");
+  vf_farm_client_close(c);
+  return failures ? 1 : 0;
 }
 
 static int client(const char *url, const vf_wire_key *key, uint64_t job) {
@@ -242,11 +294,15 @@ static int serve(const char *url, const vf_wire_key *key, const char *mode_name,
 int main(int argc, char **argv) {
   vf_wire_key key;
   int serving = argc == 6 && strcmp(argv[1], "--serve") == 0;
+  int sizing = argc == 5 && strcmp(argv[1], "--chunks") == 0;
+  char **a = argv + sizing; /* URL KEYFILE JOB */
   unsigned long long job = 0;
-  if ((!serving && (argc != 4 || sscanf(argv[3], "%llu", &job) != 1)) || sodium_init() < 0 ||
-      vf_wire_key_load(argv[serving ? 3 : 2], &key) != VF_OK) {
-    fprintf(stderr, "usage: farm_fetch_peer URL KEYFILE JOB | farm_fetch_peer --serve URL KEYFILE MODE FILM\n");
+  if ((!serving && (argc != 4 + sizing || sscanf(a[3], "%llu", &job) != 1)) || sodium_init() < 0 ||
+      vf_wire_key_load(argv[serving ? 3 : 2 + sizing], &key) != VF_OK) {
+    fprintf(stderr, "usage: farm_fetch_peer URL KEYFILE JOB | farm_fetch_peer --chunks URL KEYFILE JOB | "
+                    "farm_fetch_peer --serve URL KEYFILE MODE FILM\n");
     return 2;
   }
-  return serving ? serve(argv[2], &key, argv[4], argv[5]) : client(argv[1], &key, job);
+  if (serving) return serve(argv[2], &key, argv[4], argv[5]);
+  return sizing ? chunks(a[1], &key, job) : client(a[1], &key, job);
 }

@@ -403,8 +403,8 @@ worker_terminated)
   check_film
   ;;
 render_4k)
-  # The in-process farm at 3840x2160: its film (hundreds of MB) is fetched in chunks of
-  # 16 MiB, and equals the film of --direct.
+  # The in-process farm at 3840x2160: its worker's parts handed over in memory, its film
+  # (hundreds of MB) fetched in chunks of 1 MiB; the film equals that of --direct.
   export TMPDIR="$tmp"
   "$vcmfarm" render cornell "${big_film[@]}" -q -o "$tmp/farm.exr" || fail "render failed"
   "$vcmfarm" render cornell "${big_film[@]}" --direct -q -o "$tmp/reference.exr" || fail "reference render failed"
@@ -416,7 +416,8 @@ render_4k)
 fetch_4k)
   # A coordinator and a worker process at 3840x2160; two clients fetch the finished job's
   # film at once (one joins the other's snapshot, or starts again once it is dropped), an
-  # earlier film at the output is replaced, and both equal the film of --direct.
+  # earlier film at the output is replaced, and both equal the film of --direct. Chunks
+  # are as large as a client asks, within 64 KiB to 16 MiB.
   start_coordinator --checkpoint-interval 5
   start_worker w1 --threads 2
   job=$(client submit cornell "${big_film[@]}" | tail -n 1)
@@ -431,6 +432,7 @@ fetch_4k)
   cmp "$tmp/a.exr" "$tmp/b.exr" || fail "two fetches of the same film differ"
   ls "$tmp" | grep -q '\.tmp\.' && fail "a fetch left its temporary file: $(ls "$tmp")"
   grep "film of [0-9]* bytes fetched" "$tmp/coordinator.log" || fail "the coordinator logged no fetch"
+  "$fetch_peer" --chunks "$url" "$key" "$job" || fail "chunks are not of the sizes asked for"
   "$vcmfarm" render cornell "${big_film[@]}" --direct -q -o "$tmp/reference.exr" || fail "reference render failed"
   "$compare" "$tmp/a.exr" "$tmp/reference.exr" "[0,2)" || fail "the fetched 4K film differs from --direct's"
   ;;

@@ -2,6 +2,7 @@
 
 #include "../common/error.h"
 #include "../common/farm_client.h"
+#include "../common/film_handoff.h"
 #include "../common/film_wire.h"
 #include "blob_cache.h"
 #include "heartbeat.h"
@@ -40,6 +41,7 @@ typedef struct {
   int threads;
   char name[128];
   const char *cache_dir; /* scene files by content hash (worker/blob_cache.h) */
+  vf_film_handoff *handoff; /* the in-process coordinator's, or NULL */
   uint64_t cache_max_bytes;
   int backoff_ms;
   /* the renderer of the last job, kept for its next lease */
@@ -248,16 +250,36 @@ static int send_tiles(worker *w, Vcmfarm__LeaseResult *m) {
 
 static int send_tiles_cb(void *ctx, Vcmfarm__LeaseResult *m) { return send_tiles(ctx, m); }
 
-/* Ships the film of [w->shipped, ...) as tiles (docs/PROTOCOL.md). Returns 1 when the
- * coordinator merged it; otherwise the lease is dropped (w->dropped). */
-static int ship(worker *w, const vf_film *film) {
+/* The part to the coordinator of this process (common/film_handoff.h): film's pixels move
+ * into a deposited film, film is left empty, and one message without tiles names the
+ * deposit. Returns as vf_film_send_tiles does; the deposit is taken back and dropped when
+ * the coordinator did not take it (the lease is dropped then, as after refused tiles). */
+static int hand_over(worker *w, vf_film *film, Vcmfarm__LeaseResult *m) {
+  vf_film *part = NULL;
+  int err = vf_film_move(film, &part);
+  if (err != VF_OK) return err;
+  vf_film_result_header(part, m);
+  if ((err = vf_film_handoff_put(w->handoff, part, &m->film_handoff)) != VF_OK) {
+    vf_film_destroy(part);
+    return err;
+  }
+  int rc = send_tiles(w, m);
+  vf_film_destroy(vf_film_handoff_take(w->handoff, m->film_handoff));
+  m->film_handoff = 0;
+  return rc;
+}
+
+/* Ships the film of [w->shipped, ...) as tiles (docs/PROTOCOL.md), or hands it over when
+ * the coordinator is in this process. Returns 1 when the coordinator merged it; otherwise
+ * the lease is dropped (w->dropped). */
+static int ship(worker *w, vf_film *film) {
   Vcmfarm__LeaseResult m = VCMFARM__LEASE_RESULT__INIT;
   m.worker_id = w->worker_id;
   m.lease_id = w->lease->lease_id;
   m.job_id = w->lease->job_id;
   m.begin = w->shipped;
   w->part_merged = 0;
-  int rc = vf_film_send_tiles(film, &m, VF_FILM_TILES_PER_MESSAGE, send_tiles_cb, w);
+  int rc = w->handoff ? hand_over(w, film, &m) : vf_film_send_tiles(film, &m, VF_FILM_TILES_PER_MESSAGE, send_tiles_cb, w);
   /* Every tile taken, yet not merged: the coordinator lost tiles of it (it dropped the
    * part, or restarted); the lease cannot go on from here. */
   if (rc == 1 && !w->part_merged) {
@@ -447,6 +469,7 @@ int vf_worker_run(const vf_worker_config *config, volatile sig_atomic_t *stop, v
   w->threads = config->threads;
   w->cache_dir = config->cache_dir;
   w->cache_max_bytes = config->cache_max_bytes;
+  w->handoff = config->handoff;
   w->ship_interval = config->ship_interval; /* 0: the coordinator's */
   w->iteration_delay_ms = config->iteration_delay_ms;
   w->stall_file = config->stall_file;

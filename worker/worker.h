@@ -10,6 +10,7 @@
 #ifndef VF_WORKER_H
 #define VF_WORKER_H
 
+#include "../common/film_handoff.h"
 #include "../common/wire.h"
 #include "vcm.h"
 
@@ -35,6 +36,9 @@ typedef struct {
   int quiet;                  /* log failures only, not the ordinary course of leases */
   FILE *describe;             /* non-NULL: each new renderer prints what it enabled and skipped here */
   atomic_ullong *rendered;    /* non-NULL: counts every iteration rendered, as it ends (any thread may read) */
+  /* Non-NULL: the coordinator runs in this process and takes parts from here, without
+   * tiles (common/film_handoff.h; `vcmfarm render`). */
+  vf_film_handoff *handoff;
   /* test hooks (vcmfarm worker --help) */
   int iteration_delay_ms;
   const char *stall_file;
