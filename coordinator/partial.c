@@ -49,10 +49,22 @@ static int check_header(const vf_job *job, const Vcmfarm__LeaseResult *m) {
   return VF_OK;
 }
 
-int vf_partial_create(const vf_job *job, const Vcmfarm__LeaseResult *m, vf_partial **out) {
+/* A part's range and header, whether its pixels come as tiles or as a film. */
+static int check_part(const vf_job *job, const Vcmfarm__LeaseResult *m) {
   if (m->begin >= m->end) return vf_error_set(VF_EINVAL, "empty range [%llu,%llu)", (unsigned long long)m->begin,
                                               (unsigned long long)m->end);
-  int err = check_header(job, m);
+  return check_header(job, m);
+}
+
+/* A whole part's film checked as every film is (vf_film_validate), named by its range. */
+static int validate_part(const vf_film *film, uint64_t begin, uint64_t end) {
+  char name[96];
+  snprintf(name, sizeof name, "result [%llu,%llu)", (unsigned long long)begin, (unsigned long long)end);
+  return vf_film_validate(film, name);
+}
+
+int vf_partial_create(const vf_job *job, const Vcmfarm__LeaseResult *m, vf_partial **out) {
+  int err = check_part(job, m);
   if (err != VF_OK) return err;
   vf_partial *p = calloc(1, sizeof *p);
   if (p == NULL) return vf_error_set(VF_ENOMEM, "out of memory for a partial result");
@@ -148,9 +160,7 @@ int vf_partial_add(vf_partial *p, const Vcmfarm__LeaseResult *m) {
 }
 
 int vf_partial_adopt(const vf_job *job, const Vcmfarm__LeaseResult *m, vf_film *film) {
-  if (m->begin >= m->end) return vf_error_set(VF_EINVAL, "empty range [%llu,%llu)", (unsigned long long)m->begin,
-                                              (unsigned long long)m->end);
-  int err = check_header(job, m);
+  int err = check_part(job, m);
   if (err != VF_OK) return err;
   if (film->width != job->film->width || film->height != job->film->height)
     return vf_error_set(VF_EMISMATCH, "a %dx%d film handed over, job %llu is %dx%d", film->width, film->height,
@@ -162,9 +172,7 @@ int vf_partial_adopt(const vf_job *job, const Vcmfarm__LeaseResult *m, vf_film *
   film->nonfinite_samples = m->nonfinite_samples;
   vf_convergence_destroy(&film->convergence);
   vf_convergence_init(&film->convergence);
-  char name[96];
-  snprintf(name, sizeof name, "result [%llu,%llu)", (unsigned long long)m->begin, (unsigned long long)m->end);
-  return vf_film_validate(film, name);
+  return validate_part(film, m->begin, m->end);
 }
 
 void vf_partial_touch(vf_partial *p, double now) { p->updated = now; }
@@ -176,9 +184,7 @@ uint32_t vf_partial_total(const vf_partial *p) { return p->total; }
 int vf_partial_take(vf_partial *p, vf_film **out) {
   if (p->film == NULL || p->received != p->total)
     return vf_error_set(VF_EINVAL, "%u of %u tiles received", p->received, p->total);
-  char name[96];
-  snprintf(name, sizeof name, "result [%llu,%llu)", (unsigned long long)p->begin, (unsigned long long)p->end);
-  int err = vf_film_validate(p->film, name);
+  int err = validate_part(p->film, p->begin, p->end);
   if (err != VF_OK) return err;
   *out = p->film;
   p->film = NULL;
