@@ -96,8 +96,8 @@ static void test_without_offset_rays_hit_their_own_surface(void) {
   vf_scene_destroy(s);
 }
 
-/* The packet tests' scene: `cornell` (triangles and spheres), with Embree's packets at most
- * `width` wide. 0 when it cannot be loaded (the failed check is recorded). */
+/* The packet tests' scene: `cornell` (triangles and spheres). 0 when it cannot be loaded
+ * (the failed check is recorded). */
 typedef struct {
   vf_scene *scene;
   vf_accel *accel;
@@ -105,7 +105,7 @@ typedef struct {
   float radius;
 } packet_scene;
 
-static int open_packet_scene(packet_scene *ps, int width) {
+static int open_packet_scene(packet_scene *ps) {
   ps->scene = NULL;
   ps->accel = NULL;
   CHECK_INT_EQ(vf_scene_load("cornell", &ps->scene), VF_OK);
@@ -115,8 +115,7 @@ static int open_packet_scene(packet_scene *ps, int width) {
     vf_scene_destroy(ps->scene);
     return 0;
   }
-  vf_accel_limit_packet_width(ps->accel, width);
-  printf("  packets of up to %d rays, Embree's packets %d wide\n", VF_ACCEL_PACKET, vf_accel_packet_width(ps->accel));
+  printf("  packets of up to %d rays, Embree's %s kernels\n", VF_ACCEL_PACKET, vf_accel_kernels());
   vf_scene_bounding_sphere(ps->scene, &ps->center, &ps->radius);
   return 1;
 }
@@ -137,9 +136,9 @@ static vf_vec3 random_point(const packet_scene *ps, float scale, vf_rng *rng) {
 /* Packets of shadow rays answer as the rays one by one: on `cornell`, segments between
  * random points of the box and rays to infinity, in packets of every fill from one ray to
  * VF_ACCEL_PACKET. */
-static void packets_answer_as_single_rays(int width) {
+static void test_packets_answer_as_single_rays(void) {
   packet_scene ps;
-  if (!open_packet_scene(&ps, width)) return;
+  if (!open_packet_scene(&ps)) return;
   vf_accel *a = ps.accel;
   vf_rng rng = vf_rng_for_path(11, 0, 0, VF_STREAM_TEST);
   int rays = 0, blocked = 0, mismatches = 0;
@@ -170,9 +169,9 @@ static void packets_answer_as_single_rays(int width) {
 /* Packets of closest-hit rays find the hits of single rays, bit for bit (sphere distances
  * are solved again in double either way, since Embree's kernels differ in the last bits):
  * on `cornell`, rays in random directions from random points of the box. */
-static void intersect_packets_find_single_ray_hits(int width) {
+static void test_intersect_packets_find_single_ray_hits(void) {
   packet_scene ps;
-  if (!open_packet_scene(&ps, width)) return;
+  if (!open_packet_scene(&ps)) return;
   vf_accel *a = ps.accel;
   vf_rng rng = vf_rng_for_path(12, 0, 0, VF_STREAM_TEST);
   int rays = 0, found = 0, spheres = 0, mismatches = 0;
@@ -208,18 +207,6 @@ static void intersect_packets_find_single_ray_hits(int width) {
   CHECK_INT_EQ(mismatches, 0);
   CHECK(spheres > found / 50); /* the spheres, where Embree's kernels differ, are exercised */
   close_packet_scene(&ps);
-}
-
-/* At the widest native packet width of this machine, and split into 8-wide packets as on
- * machines without AVX-512. */
-static void test_packets_answer_as_single_rays(void) {
-  packets_answer_as_single_rays(16);
-  packets_answer_as_single_rays(8);
-}
-
-static void test_intersect_packets_find_single_ray_hits(void) {
-  intersect_packets_find_single_ray_hits(16);
-  intersect_packets_find_single_ray_hits(8);
 }
 
 int main(void) {

@@ -13,7 +13,6 @@ struct vf_accel {
   RTCScene scene;
   const vf_scene *source; /* borrowed: positions and spheres for hit reconstruction */
   float scale;            /* bounding-sphere radius, for ray offsets */
-  int packet_width;       /* Embree's widest native packet: 16 or 8 */
   unsigned char *interpolated; /* per shape: vf_surface_interpolated */
   struct cutout *cutouts;      /* per shape: what its filter functions read */
 };
@@ -103,15 +102,19 @@ int vf_accel_create(const vf_scene *scene, vf_accel **out) {
   vf_vec3 center;
   vf_scene_bounding_sphere(scene, &center, &a->scale);
   if (!(a->scale > 0.0f)) a->scale = 1.0f; /* a single point or sphere of radius 0: any unit */
-  a->device = rtcNewDevice("threads=1,set_affinity=0");
+  /* Embree's kernels are capped at AVX2 (8-wide packets). Its kernels for each instruction
+   * set find hits that differ in their last bits (AVX-512 against AVX2: films of `cornell`
+   * differ by up to 1e-2 after 2 vcm iterations), and a farm's machines must agree to the
+   * bit: with the cap every x86 machine with AVX2, AVX-512 or not, runs the same kernels.
+   * It is also the faster choice on Intel's server cores, where 512-bit code lowers the
+   * clock of everything around it: on an Ice Lake Xeon, pt ran 7% faster on `cornell` and
+   * 17% on the showcase, with Embree's own rate unchanged (docs/BENCHMARKS.md). */
+  a->device = rtcNewDevice("threads=1,set_affinity=0,max_isa=avx2");
   if (a->device == NULL) {
-    free(a);
+    vf_accel_destroy(a);
     return vf_error_set(VF_EEMBREE, "cannot create the Embree device (error %d)", (int)rtcGetDeviceError(NULL));
   }
   rtcSetDeviceErrorFunction(a->device, device_error, NULL);
-  /* 16-wide packets are native where Embree runs AVX-512 (build and CPU); elsewhere it
-   * would split them itself, so we split into 8-wide ones, native from AVX on. */
-  a->packet_width = rtcGetDeviceProperty(a->device, RTC_DEVICE_PROPERTY_NATIVE_RAY16_SUPPORTED) ? 16 : 8;
   a->scene = rtcNewScene(a->device);
   if (a->scene == NULL) goto fail;
   /* Robust mode: watertight edges, or about 1.5e-4 of the rays leaving the inside of a
@@ -254,9 +257,9 @@ int vf_accel_occluded(const vf_accel *a, vf_vec3 org, vf_vec3 dir, float tfar) {
   return r.tfar < 0.0f;
 }
 
-/* The packet functions for Embree's packets of W = 8 and 16 rays: the same code for both
- * widths, the types and calls named after W. Lanes past n are switched off but still
- * given a harmless ray. PACKET_RAYS fills packet r and `valid` from the enclosing
+/* The packet functions for Embree's packets of W = 8 rays, the widest its AVX2 kernels
+ * trace natively (the types and calls are named after W). Lanes past n are switched off
+ * but still given a harmless ray. PACKET_RAYS fills packet r and `valid` from the enclosing
  * function's n, org and dir: the fields that are the same for every ray in loops of their
  * own, which the compiler turns into vector stores, and only origins, directions and
  * lengths lane by lane. */
@@ -320,28 +323,31 @@ int vf_accel_occluded(const vf_accel *a, vf_vec3 org, vf_vec3 dir, float tfar) {
   }
 
 PACKET_FUNCTIONS(8)
-PACKET_FUNCTIONS(16)
 
-/* Packets of up to 8 rays go to Embree as 8-wide packets; larger ones as one 16-wide packet
- * where the CPU runs those natively, else as two 8-wide ones. */
+/* Packets of up to 8 rays go to Embree as one 8-wide packet, larger ones as two. */
 uint32_t vf_accel_occluded_packet(const vf_accel *a, const vf_vec3 *org, const vf_vec3 *dir, const float *tfar,
                                   int n) {
   if (n <= 8) return occluded8(a, org, dir, tfar, n);
-  if (a->packet_width == 16) return occluded16(a, org, dir, tfar, n);
   return occluded8(a, org, dir, tfar, 8) | occluded8(a, org + 8, dir + 8, tfar + 8, n - 8) << 8;
 }
 
 uint32_t vf_accel_intersect_packet(const vf_accel *a, const vf_vec3 *org, const vf_vec3 *dir, int n,
                                    vf_hit *hits) {
   if (n <= 8) return intersect8(a, org, dir, n, hits);
-  if (a->packet_width == 16) return intersect16(a, org, dir, n, hits);
   return intersect8(a, org, dir, 8, hits) | intersect8(a, org + 8, dir + 8, n - 8, hits + 8) << 8;
 }
 
-int vf_accel_packet_width(const vf_accel *a) { return a->packet_width; }
-
-void vf_accel_limit_packet_width(vf_accel *a, int width) {
-  if (width < 16) a->packet_width = 8; /* the only narrower width there is */
+const char *vf_accel_kernels(void) {
+#if defined(__x86_64__) || defined(__i386__)
+  __builtin_cpu_init();
+  if (__builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma")) return "AVX2";
+  if (__builtin_cpu_supports("avx")) return "AVX (no AVX2 here: hits differ from AVX2 machines' in their last bits)";
+  if (__builtin_cpu_supports("sse4.2"))
+    return "SSE4.2 (no AVX2 here: hits differ from AVX2 machines' in their last bits)";
+  return "SSE2 (no AVX2 here: hits differ from AVX2 machines' in their last bits)";
+#else
+  return "this architecture's (hits differ from x86 machines' in their last bits)";
+#endif
 }
 
 float vf_accel_scale(const vf_accel *a) { return a->scale; }

@@ -42,7 +42,8 @@ int vf_accel_occluded(const vf_accel *accel, vf_vec3 org, vf_vec3 dir, float tfa
 /* Occlusion of up to VF_ACCEL_PACKET segments at once, as Embree ray packets: bit i of
  * the result is set when anything blocks org[i] + t dir[i] for t in (0, tfar[i]). The
  * answers are vf_accel_occluded's for each segment (tests/test_accel.c); Embree traces a
- * packet of 8 or 16 rays faster per ray than single rays, even unrelated ones. */
+ * packet of 8 rays (two for more than 8) faster per ray than single rays, even unrelated
+ * ones. */
 #define VF_ACCEL_PACKET 16
 uint32_t vf_accel_occluded_packet(const vf_accel *accel, const vf_vec3 *org, const vf_vec3 *dir, const float *tfar,
                                   int n);
@@ -54,11 +55,10 @@ uint32_t vf_accel_occluded_packet(const vf_accel *accel, const vf_vec3 *org, con
 uint32_t vf_accel_intersect_packet(const vf_accel *accel, const vf_vec3 *org, const vf_vec3 *dir, int n,
                                    vf_hit *hits);
 
-/* The widest packet Embree traces natively here: 16 with AVX-512, else 8 (wider packets
- * are split). vf_accel_limit_packet_width(accel, 8) makes 8 the width on any machine,
- * for tests and benchmarks of the split path; results are the same bit for bit. */
-int vf_accel_packet_width(const vf_accel *accel);
-void vf_accel_limit_packet_width(vf_accel *accel, int width);
+/* The instruction set of the Embree kernels that trace here: "AVX2" on every x86 machine
+ * that has it (vf_accel_create caps Embree there, so that machines with AVX-512 find the
+ * same hits), else a description saying that hits differ from those of AVX2 machines. */
+const char *vf_accel_kernels(void);
 
 /* One coordinate of vf_offset_ray_origin: p moved by 256 n units in its last place, or by
  * float_scale n when |p| < origin. */

@@ -211,6 +211,7 @@ void vf_vcm_describe(const vf_vcm *v, FILE *out) {
   if (v->camera.lens_radius > 0.0f)
     fprintf(out, "camera: thin lens of radius %g, in focus at %g\n", v->camera.lens_radius, v->camera.focus_distance);
   describe_geometry(v->scene, out);
+  fprintf(out, "rays: Embree's %s kernels\n", vf_accel_kernels());
   if (v->requested == VF_ALGO_AUTO)
     fprintf(out, "auto: %s (%s)\n", vf_algorithm_name(v->settings.algorithm), v->auto_reason);
   fprintf(out,

@@ -139,8 +139,8 @@ int main(int argc, char **argv) {
   printf("  shadow rays   rtcOccluded1   %7.2f Mrays/s\n", r[2][RUNS / 2] * 1e-6);
   double mix = mix_rate(r[0][RUNS / 2], r[1][RUNS / 2], r[2][RUNS / 2]);
   printf("  mix 15%% camera, 30%% bounce, 55%% shadow: %.2f Mrays/s\n", mix * 1e-6);
-  printf("the same rays in packets of %d, as the renderer traces them (Embree's packets %d wide):\n",
-         VF_ACCEL_PACKET, vf_accel_packet_width(accel));
+  printf("the same rays in packets of %d, as the renderer traces them (Embree's %s kernels, 8 wide):\n",
+         VF_ACCEL_PACKET, vf_accel_kernels());
   printf("  camera rays   packets        %7.2f Mrays/s\n", r[3][RUNS / 2] * 1e-6);
   printf("  bounce rays   packets        %7.2f Mrays/s\n", r[4][RUNS / 2] * 1e-6);
   printf("  shadow rays   packets        %7.2f Mrays/s\n", r[5][RUNS / 2] * 1e-6);
