@@ -4,6 +4,7 @@
 #include "../common/farm_client.h"
 #include "../common/film_handoff.h"
 #include "../common/film_wire.h"
+#include "accel.h"
 #include "blob_cache.h"
 #include "heartbeat.h"
 #include "job_scene.h"
@@ -128,7 +129,8 @@ static int register_worker(worker *w) {
       w->heartbeat_ms = (int)reply->registered->heartbeat_ms;
       vf_message_free(reply);
       w->backoff_ms = 0;
-      note(w, "registered with %s as %016llx", w->url, (unsigned long long)w->worker_id);
+      note(w, "registered with %s as %016llx; Embree's %s kernels", w->url, (unsigned long long)w->worker_id,
+           vf_accel_kernels());
       return VF_OK;
     }
     if (fatal(err) || err == VF_EREFUSED) return err;
