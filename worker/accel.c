@@ -107,8 +107,8 @@ int vf_accel_create(const vf_scene *scene, vf_accel **out) {
    * differ by up to 1e-2 after 2 vcm iterations), and a farm's machines must agree to the
    * bit: with the cap every x86 machine with AVX2, AVX-512 or not, runs the same kernels.
    * It is also the faster choice on Intel's server cores, where 512-bit code lowers the
-   * clock of everything around it: on an Ice Lake Xeon, pt ran 7% faster on `cornell` and
-   * 17% on the showcase, with Embree's own rate unchanged (docs/BENCHMARKS.md). */
+   * clock of everything around it: on an Ice Lake Xeon, pt and bpt ran 14-38% faster on
+   * `cornell` and the showcase, with Embree's own rate unchanged (docs/BENCHMARKS.md). */
   a->device = rtcNewDevice("threads=1,set_affinity=0,max_isa=avx2");
   if (a->device == NULL) {
     vf_accel_destroy(a);

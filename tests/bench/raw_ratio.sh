@@ -6,7 +6,7 @@
 # measurement is set against the host's state of that moment; many pairs show how the
 # ratio is spread, which one table of renderer.sh cannot.
 #
-#   tests/bench/raw_ratio.sh [BUILD_DIR] [SCENE] [ALGORITHM] [PAIRS]
+#   [RESOLUTION=WxH] [ITERATIONS=N] tests/bench/raw_ratio.sh [BUILD_DIR] [SCENE] [ALGORITHM] [PAIRS]
 #   defaults: build cornell vcm 16   (512x512, max path length 10, 2 threads, 12 iterations,
 #   the rate after the first iteration, as renderer.sh's "steady" column)
 set -euo pipefail
@@ -18,7 +18,8 @@ tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 source "$(dirname "$0")/renderer_lib.sh"
 
-echo "scene $scene, $algorithm, 512x512, max path length 10, 2 threads, 12 iterations, $pairs pairs"
+iterations="${ITERATIONS:-12}"
+echo "scene $scene, $algorithm, ${RESOLUTION:-512x512}, max path length 10, 2 threads, $iterations iterations, $pairs pairs"
 echo
 echo "| time | raw Embree mix Mrays/s | steady Mrays/s | of raw |"
 echo "|---|---|---|---|"
@@ -26,7 +27,7 @@ echo "|---|---|---|---|"
 for _ in $(seq "$pairs"); do
   raw_bench "$build" "$scene" "$tmp/raw"
   raw=$(raw_mix "$tmp/raw")
-  render_bench "$build" "$scene" "$algorithm" 12 "$tmp/film.exr" "$tmp/log"
+  render_bench "$build" "$scene" "$algorithm" "$iterations" "$tmp/film.exr" "$tmp/log"
   steady=$(steady_rates "$tmp/log" | awk '{print $2}')
   ratio=$(awk -v r="$steady" -v m="$raw" 'BEGIN {printf "%.1f", 100 * r / m}')
   echo "$ratio" >>"$tmp/ratios"
