@@ -24,8 +24,6 @@ tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 source "$(dirname "$0")/renderer_lib.sh"
 
-median() { sort -g | awk '{v[NR] = $1} END {print v[int((NR + 1) / 2)]}'; }
-
 echo "scene $scene, ${RESOLUTION:-512x512}, max path length 10, 2 threads, $iterations iterations per run, median of $runs runs"
 echo
 echo "| algorithm | iterations/s | Mrays/s | steady iterations/s | steady Mrays/s | raw Embree mix Mrays/s | of raw (steady) | packet mix Mrays/s | light pass ms/it | grid ms/it | camera pass ms/it |"

@@ -20,8 +20,6 @@ tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 source "$(dirname "$0")/renderer_lib.sh"
 
-median() { sort -g | awk '{v[NR] = $1} END {print v[int((NR + 1) / 2)]}'; }
-
 echo "scene $scene, ${RESOLUTION:-512x512}, $algorithm, $iterations iterations per run, $rounds rounds, steady iterations/s"
 for _ in $(seq "$rounds"); do
   for b in 0 1; do

@@ -1,5 +1,8 @@
-# The renderer benchmarks' common measurements, sourced by renderer.sh and raw_ratio.sh so
-# that both set a render against the same raw rate, measured the same way.
+# The renderer benchmarks' common measurements, sourced by renderer.sh, raw_ratio.sh and
+# renderer_ab.sh so that they set a render against the same raw rate, measured the same way.
+
+# The median of the numbers on standard input, one per line.
+median() { sort -g | awk '{v[NR] = $1} END {print v[int((NR + 1) / 2)]}'; }
 
 # bench_embree on SCENE with 2 threads and 2M rays per kind, into FILE:
 #   raw_bench BUILD SCENE FILE
