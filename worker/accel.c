@@ -257,94 +257,95 @@ int vf_accel_occluded(const vf_accel *a, vf_vec3 org, vf_vec3 dir, float tfar) {
   return r.tfar < 0.0f;
 }
 
-/* The packet functions for Embree's packets of W = 8 rays, the widest its AVX2 kernels
- * trace natively (the types and calls are named after W). Lanes past n are switched off
- * but still given a harmless ray. PACKET_RAYS fills packet r and `valid` from the enclosing
- * function's n, org and dir: the fields that are the same for every ray in loops of their
- * own, which the compiler turns into vector stores, and only origins, directions and
- * lengths lane by lane. */
-#define PACKET_RAYS(W, r, tfar_of)                                                                          \
-  for (int i = 0; i < W; i++) {                                                                              \
-    valid[i] = i < n ? -1 : 0;                                                                               \
-    r.tnear[i] = 0.0f;                                                                                       \
-    r.time[i] = 0.0f;                                                                                        \
-    r.mask[i] = 0xFFFFFFFFu;                                                                                 \
-    r.id[i] = 0;                                                                                             \
-    r.flags[i] = 0;                                                                                          \
-  }                                                                                                          \
-  for (int i = 0; i < n; i++) {                                                                              \
-    r.org_x[i] = org[i].x;                                                                                   \
-    r.org_y[i] = org[i].y;                                                                                   \
-    r.org_z[i] = org[i].z;                                                                                   \
-    r.dir_x[i] = dir[i].x;                                                                                   \
-    r.dir_y[i] = dir[i].y;                                                                                   \
-    r.dir_z[i] = dir[i].z;                                                                                   \
-    r.tfar[i] = tfar_of;                                                                                     \
-  }                                                                                                          \
-  for (int i = n; i < W; i++) {                                                                              \
-    r.org_x[i] = r.org_y[i] = r.org_z[i] = 0.0f;                                                             \
-    r.dir_x[i] = r.dir_y[i] = 0.0f;                                                                          \
-    r.dir_z[i] = 1.0f;                                                                                       \
-    r.tfar[i] = 0.0f;                                                                                        \
+/* Embree's packets of 8 rays, the widest its AVX2 kernels trace natively. */
+#define WIDTH 8
+
+/* Fills packet r and `valid` for rays org[i] + t dir[i], t in (0, tfar[i]) (tfar NULL:
+ * infinity), i < n. Lanes past n are switched off but still given a harmless ray. The
+ * fields that are the same for every ray are set in loops of their own, which the compiler
+ * turns into vector stores, and only origins, directions and lengths lane by lane. */
+static inline __attribute__((always_inline)) void packet_rays(struct RTCRay8 *r, int *valid, const vf_vec3 *org,
+                                                              const vf_vec3 *dir, const float *tfar, int n) {
+  for (int i = 0; i < WIDTH; i++) {
+    valid[i] = i < n ? -1 : 0;
+    r->tnear[i] = 0.0f;
+    r->time[i] = 0.0f;
+    r->mask[i] = 0xFFFFFFFFu;
+    r->id[i] = 0;
+    r->flags[i] = 0;
   }
-
-#define PACKET_FUNCTIONS(W)                                                                                  \
-  static uint32_t occluded##W(const vf_accel *a, const vf_vec3 *org, const vf_vec3 *dir, const float *tfar, \
-                              int n) {                                                                       \
-    struct RTCIntersectContext ctx;                                                                          \
-    rtcInitIntersectContext(&ctx);                                                                           \
-    ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT;                                                       \
-    struct RTCRay##W r; /* aligned as Embree declares it */                                                  \
-    RTC_ALIGN(4 * W) int valid[W];                                                                           \
-    PACKET_RAYS(W, r, tfar[i])                                                                               \
-    rtcOccluded##W(valid, a->scene, &ctx, &r);                                                               \
-    uint32_t blocked = 0;                                                                                    \
-    for (int i = 0; i < n; i++) blocked |= (uint32_t)(r.tfar[i] < 0.0f) << i;                                \
-    return blocked;                                                                                          \
-  }                                                                                                          \
-                                                                                                             \
-  static uint32_t intersect##W(const vf_accel *a, const vf_vec3 *org, const vf_vec3 *dir, int n,            \
-                               vf_hit *hits) {                                                               \
-    struct RTCIntersectContext ctx;                                                                          \
-    rtcInitIntersectContext(&ctx);                                                                           \
-    ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT;                                                       \
-    struct RTCRayHit##W rh;                                                                                  \
-    RTC_ALIGN(4 * W) int valid[W];                                                                           \
-    PACKET_RAYS(W, rh.ray, INFINITY)                                                                         \
-    for (int i = 0; i < W; i++) rh.hit.geomID[i] = rh.hit.instID[0][i] = RTC_INVALID_GEOMETRY_ID;            \
-    rtcIntersect##W(valid, a->scene, &ctx, &rh);                                                             \
-    uint32_t found = 0;                                                                                      \
-    for (int i = 0; i < n; i++)                                                                              \
-      if (rh.hit.geomID[i] != RTC_INVALID_GEOMETRY_ID &&                                                     \
-          complete_hit(a, org[i], dir[i], rh.ray.tfar[i], rh.hit.geomID[i], rh.hit.primID[i], rh.hit.u[i],  \
-                       rh.hit.v[i], vf_vec3_make(rh.hit.Ng_x[i], rh.hit.Ng_y[i], rh.hit.Ng_z[i]), &hits[i])) \
-        found |= 1u << i;                                                                                    \
-    return found;                                                                                            \
+  for (int i = 0; i < n; i++) {
+    r->org_x[i] = org[i].x;
+    r->org_y[i] = org[i].y;
+    r->org_z[i] = org[i].z;
+    r->dir_x[i] = dir[i].x;
+    r->dir_y[i] = dir[i].y;
+    r->dir_z[i] = dir[i].z;
+    r->tfar[i] = tfar != NULL ? tfar[i] : INFINITY;
   }
+  for (int i = n; i < WIDTH; i++) {
+    r->org_x[i] = r->org_y[i] = r->org_z[i] = 0.0f;
+    r->dir_x[i] = r->dir_y[i] = 0.0f;
+    r->dir_z[i] = 1.0f;
+    r->tfar[i] = 0.0f;
+  }
+}
 
-PACKET_FUNCTIONS(8)
+static uint32_t occluded8(const vf_accel *a, const vf_vec3 *org, const vf_vec3 *dir, const float *tfar, int n) {
+  struct RTCIntersectContext ctx;
+  rtcInitIntersectContext(&ctx);
+  ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT;
+  struct RTCRay8 r; /* aligned as Embree declares it */
+  RTC_ALIGN(4 * WIDTH) int valid[WIDTH];
+  packet_rays(&r, valid, org, dir, tfar, n);
+  rtcOccluded8(valid, a->scene, &ctx, &r);
+  uint32_t blocked = 0;
+  for (int i = 0; i < n; i++) blocked |= (uint32_t)(r.tfar[i] < 0.0f) << i;
+  return blocked;
+}
 
-/* Packets of up to 8 rays go to Embree as one 8-wide packet, larger ones as two. */
+static uint32_t intersect8(const vf_accel *a, const vf_vec3 *org, const vf_vec3 *dir, int n, vf_hit *hits) {
+  struct RTCIntersectContext ctx;
+  rtcInitIntersectContext(&ctx);
+  ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT;
+  struct RTCRayHit8 rh;
+  RTC_ALIGN(4 * WIDTH) int valid[WIDTH];
+  packet_rays(&rh.ray, valid, org, dir, NULL, n);
+  for (int i = 0; i < WIDTH; i++) rh.hit.geomID[i] = rh.hit.instID[0][i] = RTC_INVALID_GEOMETRY_ID;
+  rtcIntersect8(valid, a->scene, &ctx, &rh);
+  uint32_t found = 0;
+  for (int i = 0; i < n; i++)
+    if (rh.hit.geomID[i] != RTC_INVALID_GEOMETRY_ID &&
+        complete_hit(a, org[i], dir[i], rh.ray.tfar[i], rh.hit.geomID[i], rh.hit.primID[i], rh.hit.u[i], rh.hit.v[i],
+                     vf_vec3_make(rh.hit.Ng_x[i], rh.hit.Ng_y[i], rh.hit.Ng_z[i]), &hits[i]))
+      found |= 1u << i;
+  return found;
+}
+
+/* Packets of up to WIDTH rays go to Embree as one packet, larger ones as two. */
 uint32_t vf_accel_occluded_packet(const vf_accel *a, const vf_vec3 *org, const vf_vec3 *dir, const float *tfar,
                                   int n) {
-  if (n <= 8) return occluded8(a, org, dir, tfar, n);
-  return occluded8(a, org, dir, tfar, 8) | occluded8(a, org + 8, dir + 8, tfar + 8, n - 8) << 8;
+  if (n <= WIDTH) return occluded8(a, org, dir, tfar, n);
+  return occluded8(a, org, dir, tfar, WIDTH) |
+         occluded8(a, org + WIDTH, dir + WIDTH, tfar + WIDTH, n - WIDTH) << WIDTH;
 }
 
 uint32_t vf_accel_intersect_packet(const vf_accel *a, const vf_vec3 *org, const vf_vec3 *dir, int n,
                                    vf_hit *hits) {
-  if (n <= 8) return intersect8(a, org, dir, n, hits);
-  return intersect8(a, org, dir, 8, hits) | intersect8(a, org + 8, dir + 8, n - 8, hits + 8) << 8;
+  if (n <= WIDTH) return intersect8(a, org, dir, n, hits);
+  return intersect8(a, org, dir, WIDTH, hits) | intersect8(a, org + WIDTH, dir + WIDTH, n - WIDTH, hits + WIDTH)
+                                                    << WIDTH;
 }
 
 const char *vf_accel_kernels(void) {
 #if defined(__x86_64__) || defined(__i386__)
   __builtin_cpu_init();
+#define DIFFER " (no AVX2 here: hits differ from AVX2 machines' in their last bits)"
   if (__builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma")) return "AVX2";
-  if (__builtin_cpu_supports("avx")) return "AVX (no AVX2 here: hits differ from AVX2 machines' in their last bits)";
-  if (__builtin_cpu_supports("sse4.2"))
-    return "SSE4.2 (no AVX2 here: hits differ from AVX2 machines' in their last bits)";
-  return "SSE2 (no AVX2 here: hits differ from AVX2 machines' in their last bits)";
+  if (__builtin_cpu_supports("avx")) return "AVX" DIFFER;
+  if (__builtin_cpu_supports("sse4.2")) return "SSE4.2" DIFFER;
+  return "SSE2" DIFFER;
+#undef DIFFER
 #else
   return "this architecture's (hits differ from x86 machines' in their last bits)";
 #endif
