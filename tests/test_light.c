@@ -173,6 +173,89 @@ static void test_area_emission_density_integrates(void) {
   vf_scene_destroy(s);
 }
 
+/* Picking a triangle of an emissive mesh: the guided walk gives the binary search's triangle
+ * and rescaled number for every u, on a mesh of unequal triangles with degenerate ones among
+ * them, and over a grid of u each triangle's share is its share of the area. */
+static void test_triangle_pick_is_the_cdf_search_and_follows_area(void) {
+  enum { N = 300 };
+  size_t cap = 64 * N + 512;
+  char *text = malloc(cap);
+  if (text == NULL) return;
+  /* A strip of N triangles along x with widths growing and shrinking; every 7th has zero width. */
+  size_t len = (size_t)snprintf(text, cap,
+                                "{\"camera\": {\"position\": [0, 0, 3], \"target\": [0, 0, 0], \"fov\": 40},"
+                                " \"materials\": {\"m\": {\"diffuse\": [0.5, 0.5, 0.5]}},"
+                                " \"shapes\": [{\"type\": \"mesh\", \"material\": \"m\", \"emission\": [1, 1, 1], \"positions\": [");
+  double x = 0.0, width[N];
+  for (int t = 0; t < N; t++) {
+    double w = t % 7 == 3 ? 0.0 : 0.01 + 0.05 * (1.0 + sin(0.1 * t)) * (t % 5 + 1);
+    width[t] = w;
+    len += (size_t)snprintf(text + len, cap - len, "%s%.6f,0,0, %.6f,0,0, %.6f,1,0", t ? ", " : "", x, x + w, x);
+    x += w;
+  }
+  len += (size_t)snprintf(text + len, cap - len, "], \"indices\": [");
+  for (int t = 0; t < N; t++) len += (size_t)snprintf(text + len, cap - len, "%s%d,%d,%d", t ? ", " : "", 3 * t, 3 * t + 1, 3 * t + 2);
+  snprintf(text + len, cap - len, "]}]}");
+  vf_scene *s = NULL;
+  vf_lights *ls = NULL;
+  CHECK_INT_EQ(vf_scene_parse(text, strlen(text), "strip.json", ".", NULL, 0, &s), VF_OK);
+  free(text);
+  if (s == NULL) return;
+  CHECK_INT_EQ(vf_lights_create(s, &ls), VF_OK);
+  const vf_light *l = ls ? light_of_kind(ls, VF_LIGHT_AREA_MESH) : NULL;
+  CHECK(l != NULL);
+  if (l != NULL) {
+    CHECK_INT_EQ((int)l->shape->num_triangles, N);
+    /* Every u of a fine grid, the bucket edges k / N and the floats beside them, 0 and 1. */
+    enum { GRID = 200000 };
+    static unsigned count[N];
+    int mismatches = 0, picked_degenerate = 0;
+    for (int i = -3 * N - 2; i <= GRID; i++) {
+      float u;
+      if (i >= 0)
+        u = ((float)i + 0.5f) / (float)GRID;
+      else {
+        int k = (-i - 1) / 3, side = (-i - 1) % 3;
+        u = (float)k / (float)N;
+        if (side == 1) u = nextafterf(u, 0.0f);
+        if (side == 2) u = nextafterf(u, 1.0f);
+        if (k == N) u = side == 0 ? 1.0f : nextafterf(1.0f, 0.0f);
+      }
+      float guided = u, searched = u;
+      uint32_t t = vf_light_pick_triangle(l, &guided);
+      int expect = vf_cdf_search(l->triangle_cdf, N, searched);
+      float lo = l->triangle_cdf[expect], hi = l->triangle_cdf[expect + 1];
+      float rescaled = (searched - lo) / (hi - lo);
+      searched = hi > lo ? fminf(rescaled, 0.99999994f) : 0.5f;
+      if ((int)t != expect || guided != searched) mismatches++;
+      if (i >= 0) count[t]++;
+      if (!(hi > lo)) picked_degenerate++;
+    }
+    /* The walk itself from every start, as a bad guide would give it. */
+    vf_rng rng = vf_rng_for_path(6, 0, 0, VF_STREAM_TEST);
+    int walks_wrong = 0;
+    for (int i = 0; i < 1000; i++) {
+      float u = i == 0 ? 0.0f : i == 1 ? 1.0f : vf_rng_float(&rng);
+      int expect = vf_cdf_search(l->triangle_cdf, N, u);
+      for (int start = 0; start < N; start++) walks_wrong += vf_cdf_walk(l->triangle_cdf, N, u, start) != expect;
+    }
+    printf("  %d triangles, %d picks: %d differ from the binary search, %d degenerate triangles picked;"
+           " walks from every start: %d wrong\n", N, GRID + 3 * N + 3, mismatches, picked_degenerate, walks_wrong);
+    CHECK_INT_EQ(walks_wrong, 0);
+    CHECK_INT_EQ(mismatches, 0);
+    CHECK_INT_EQ(picked_degenerate, 0);
+    /* A grid point per 1 / GRID of u: each triangle's count is its area (width / 2) over
+     * the strip's (x / 2) times GRID, to within the two grid cells its interval's ends can
+     * cut and the float rounding of the cumulative areas. */
+    double worst = 0.0;
+    for (int t = 0; t < N; t++) worst = fmax(worst, fabs((double)count[t] - width[t] / x * GRID));
+    printf("  largest difference of a triangle's picks from its area share: %.2f of %d\n", worst, GRID);
+    CHECK(worst <= 2.0);
+  }
+  vf_lights_destroy(ls);
+  vf_scene_destroy(s);
+}
+
 /* ---- spot lights ------------------------------------------------------------------------ */
 
 /* A scene of one floor and the spot light `light` (a JSON object); NULL when it does not
@@ -345,6 +428,7 @@ int main(void) {
   RUN(test_environment_sampling_density_is_consistent_and_normalised);
   RUN(test_area_light_densities_agree_with_hits);
   RUN(test_area_emission_density_integrates);
+  RUN(test_triangle_pick_is_the_cdf_search_and_follows_area);
   RUN(test_spot_irradiance_on_a_plane);
   RUN(test_spot_emission_samples_the_cone);
   RUN(test_spot_fields_are_validated);

@@ -202,8 +202,9 @@ static int add_area_light(vf_lights *ls, const vf_scene *scene, const vf_shape *
   } else {
     l->kind = VF_LIGHT_AREA_MESH;
     l->triangle_cdf = malloc(((size_t)s->num_triangles + 1) * sizeof(float));
+    l->triangle_guide = malloc((size_t)s->num_triangles * sizeof *l->triangle_guide);
     l->triangles = malloc((size_t)s->num_triangles * sizeof *l->triangles);
-    if (l->triangle_cdf == NULL || l->triangles == NULL) return VF_ENOMEM;
+    if (l->triangle_cdf == NULL || l->triangle_guide == NULL || l->triangles == NULL) return VF_ENOMEM;
     for (uint32_t t = 0; t < s->num_triangles; t++) {
       const uint32_t *i = &s->indices[3 * (size_t)t];
       const float *a = &s->positions[3 * (size_t)i[0]], *b = &s->positions[3 * (size_t)i[1]],
@@ -222,6 +223,8 @@ static int add_area_light(vf_lights *ls, const vf_scene *scene, const vf_shape *
     }
     for (uint32_t t = 1; t <= s->num_triangles; t++) l->triangle_cdf[t] = (float)(l->triangle_cdf[t] / sum);
     l->triangle_cdf[s->num_triangles] = 1.0f;
+    int n = (int)s->num_triangles;
+    for (int k = 0; k < n; k++) l->triangle_guide[k] = (uint32_t)vf_cdf_search(l->triangle_cdf, n, (float)k / (float)n);
     l->area = (float)sum;
   }
   (void)ls;
@@ -301,6 +304,7 @@ void vf_lights_destroy(vf_lights *ls) {
   if (ls->lights)
     for (int i = 0; i < ls->count; i++) {
       free(ls->lights[i].triangle_cdf);
+      free(ls->lights[i].triangle_guide);
       free(ls->lights[i].triangles);
     }
   free(ls->lights);

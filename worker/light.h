@@ -51,6 +51,7 @@ typedef struct {
   vf_vec3 radiance;          /* area: Le; point: intensity; spot: intensity on the axis; directional: irradiance */
   const vf_shape *shape;     /* area lights; borrowed from the scene */
   float *triangle_cdf;       /* area meshes: cumulative triangle areas / total, owned */
+  uint32_t *triangle_guide;  /* area meshes: per k < num_triangles, the triangle u = k / num_triangles picks, owned */
   vf_light_triangle *triangles; /* area meshes: per triangle, owned */
   float area, inv_area;
   vf_vec3 position;          /* point and spot */
@@ -107,11 +108,27 @@ static inline int vf_cdf_search(const float *cdf, int n, float u) {
   return lo;
 }
 
+/* vf_cdf_search's answer for u in [0, 1], found by walking from index i: a step or two
+ * when i is close to it. Walking back while cdf[i] > u ends at or before the answer (every
+ * index after it has cdf[i] >= cdf[answer + 1] > u); walking on while cdf[i + 1] <= u then
+ * ends on it. */
+static inline int vf_cdf_walk(const float *cdf, int n, float u, int i) {
+  while (i > 0 && cdf[i] > u) i--;
+  while (i < n - 1 && cdf[i + 1] <= u) i++;
+  return i;
+}
+
 /* Picks a triangle of area mesh l in proportion to area with uniform number *u, and
  * replaces *u by its rescaling to [0, 1) within the chosen triangle's interval, a fresh
- * uniform number. */
+ * uniform number. The triangle is vf_cdf_search's over triangle_cdf, found from the guide
+ * entry of u's bucket, one of num_triangles equal parts of [0, 1): a binary search over a
+ * mesh of 17688 triangles took 15 dependent loads of a 70 KB table for every light sample,
+ * the guide takes one and a step or two. */
 static inline uint32_t vf_light_pick_triangle(const vf_light *l, float *u) {
-  int t = vf_cdf_search(l->triangle_cdf, (int)l->shape->num_triangles, *u);
+  int n = (int)l->shape->num_triangles;
+  float x = *u * (float)n;
+  int k = x > 0.0f ? (x < (float)n ? (int)x : n - 1) : 0;
+  int t = vf_cdf_walk(l->triangle_cdf, n, *u, (int)l->triangle_guide[k]);
   float lo = l->triangle_cdf[t], hi = l->triangle_cdf[t + 1];
   float rescaled = (*u - lo) / (hi - lo);
   /* fminf(rescaled, 0.99999994f) without its libm call (see vf_fmaxf_zero): the same value,

@@ -447,6 +447,11 @@ static inline void filter_axis(float s, int n, int wrap, int *i0, int *i1, float
   *i1 = b;
 }
 
+/* Channel k of four 8-bit texels q[] decoded by `table` and blended with weights w[]. */
+static inline float blend8(const float *table, const uint8_t *const q[4], int k, const float w[4]) {
+  return w[0] * table[q[0][k]] + w[1] * table[q[1][k]] + w[2] * table[q[2][k]] + w[3] * table[q[3][k]];
+}
+
 void vf_texture_lookup(const vf_texture *t, float s, float t_coord, int wrap_s, int wrap_t, int srgb, float out[4]) {
   int x0 = 0, x1 = 0, y0 = 0, y1 = 0;
   float fx = 0.0f, fy = 0.0f;
@@ -464,12 +469,22 @@ void vf_texture_lookup(const vf_texture *t, float s, float t_coord, int wrap_s, 
     const float *p = t->texels;
     for (int k = 0; k < n; k++) v[k] = w00 * p[o00 + k] + w10 * p[o10 + k] + w01 * p[o01 + k] + w11 * p[o11 + k];
   } else {
-    /* Each texel is decoded before the blend: filtering happens on linear values. */
+    /* Each texel is decoded before the blend: filtering happens on linear values. The
+     * channel counts are spelled out: a loop over n choosing each channel's table cost
+     * more than the blends. */
     const uint8_t *p = t->texels;
-    const int colour = n < 3 ? 1 : 3; /* grey, or R, G, B; the channel after them is alpha */
-    for (int k = 0; k < n; k++) {
-      const float *table = srgb && k < colour ? srgb_table : linear_table;
-      v[k] = w00 * table[p[o00 + k]] + w10 * table[p[o10 + k]] + w01 * table[p[o01 + k]] + w11 * table[p[o11 + k]];
+    const float *colour = srgb ? srgb_table : linear_table; /* grey, or R, G, B; alpha is linear */
+    const float weight[4] = {w00, w10, w01, w11};
+    const uint8_t *q[4] = {p + o00, p + o10, p + o01, p + o11};
+    switch (n) {
+    case 4: v[3] = blend8(linear_table, q, 3, weight); /* fall through */
+    case 3:
+      v[0] = blend8(colour, q, 0, weight);
+      v[1] = blend8(colour, q, 1, weight);
+      v[2] = blend8(colour, q, 2, weight);
+      break;
+    case 2: v[1] = blend8(linear_table, q, 1, weight); /* fall through */
+    default: v[0] = blend8(colour, q, 0, weight);
     }
   }
   if (n < 3) { /* grey (and alpha) to RGB(A) */
