@@ -124,7 +124,7 @@ typedef struct {
 /* Shadow rays are not traced one by one where they arise but gathered into packets of
  * VF_ACCEL_PACKET and traced together (vf_accel_occluded_packet): Embree traverses a
  * packet of 8 rays 1.1 to 1.6 times faster per ray than single rays, whether or not they
- * share an origin, and one of 16 faster again with AVX-512 (docs/BENCHMARKS.md). No
+ * share an origin (docs/BENCHMARKS.md). No
  * path's course depends on a shadow ray's answer, only the contribution it guards, so the
  * contributions wait in a queue until their packet is traced and are then added in the
  * order they arose: films stay bit for bit those of tracing each ray at once. */
