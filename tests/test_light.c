@@ -175,7 +175,8 @@ static void test_area_emission_density_integrates(void) {
 
 /* Picking a triangle of an emissive mesh: the guided walk gives the binary search's triangle
  * and rescaled number for every u, on a mesh of unequal triangles with degenerate ones among
- * them, and over a grid of u each triangle's share is its share of the area. */
+ * them, and over a grid of u each triangle's share is its share of the area. Coarser guides
+ * (the environment map's) and walks from any start give the search's answer too. */
 static void test_triangle_pick_is_the_cdf_search_and_follows_area(void) {
   enum { N = 300 };
   size_t cap = 64 * N + 512;
@@ -231,6 +232,19 @@ static void test_triangle_pick_is_the_cdf_search_and_follows_area(void) {
       if (i >= 0) count[t]++;
       if (!(hi > lo)) picked_degenerate++;
     }
+    /* Coarser guides, as the environment map's columns have (a quarter of the entries),
+     * down to one bucket. */
+    const int buckets[] = {N / 4, 7, 1};
+    int coarse_wrong = 0;
+    for (size_t b = 0; b < sizeof buckets / sizeof *buckets; b++) {
+      uint32_t guide[N];
+      vf_cdf_guide(l->triangle_cdf, N, guide, buckets[b]);
+      for (int i = 0; i <= 20000; i++) {
+        float u = (float)i / 20000.0f;
+        coarse_wrong += vf_cdf_guided(l->triangle_cdf, N, guide, buckets[b], u) != vf_cdf_search(l->triangle_cdf, N, u);
+      }
+    }
+    CHECK_INT_EQ(coarse_wrong, 0);
     /* The walk itself from every start, as a bad guide would give it. */
     vf_rng rng = vf_rng_for_path(6, 0, 0, VF_STREAM_TEST);
     int walks_wrong = 0;

@@ -16,6 +16,9 @@ struct vf_envmap {
   vf_vec3 *radiance;   /* background + scale * map, per texel */
   float *row_cdf;      /* height + 1 */
   float *column_cdf;   /* height rows of width + 1 */
+  uint32_t *row_guide; /* height buckets (vf_cdf_guided) */
+  uint32_t *column_guide; /* height rows of column_buckets */
+  int column_buckets;  /* a quarter of the width: 1 byte a texel, a walk of 4 entries on average */
   float integral;      /* of the unnormalised density over [0,1]^2 */
 };
 
@@ -39,11 +42,17 @@ static void uv_of_direction(vf_vec3 d, float *u, float *v) {
   *v = acosf(fmaxf(-1.0f, fminf(1.0f, d.y))) * VF_INV_PI;
 }
 
+void vf_cdf_guide(const float *cdf, int n, uint32_t *guide, int m) {
+  for (int k = 0; k < m; k++) guide[k] = (uint32_t)vf_cdf_search(cdf, n, (float)k / (float)m);
+}
+
 static void envmap_destroy(vf_envmap *e) {
   if (e == NULL) return;
   free(e->radiance);
   free(e->row_cdf);
   free(e->column_cdf);
+  free(e->row_guide);
+  free(e->column_guide);
   free(e);
 }
 
@@ -57,7 +66,10 @@ static int envmap_create(const vf_scene *scene, vf_envmap **out) {
   e->radiance = malloc((size_t)w * h * sizeof *e->radiance);
   e->row_cdf = malloc(((size_t)h + 1) * sizeof(float));
   e->column_cdf = malloc((size_t)h * ((size_t)w + 1) * sizeof(float));
-  if (!e->radiance || !e->row_cdf || !e->column_cdf) {
+  e->column_buckets = (w + 3) / 4;
+  e->row_guide = malloc((size_t)h * sizeof *e->row_guide);
+  e->column_guide = malloc((size_t)h * (size_t)e->column_buckets * sizeof *e->column_guide);
+  if (!e->radiance || !e->row_cdf || !e->column_cdf || !e->row_guide || !e->column_guide) {
     envmap_destroy(e);
     return VF_ENOMEM;
   }
@@ -86,6 +98,10 @@ static int envmap_create(const vf_scene *scene, vf_envmap **out) {
   }
   for (int y = 1; y <= h; y++) e->row_cdf[y] = (float)(e->row_cdf[y] / total);
   e->row_cdf[h] = 1.0f;
+  vf_cdf_guide(e->row_cdf, h, e->row_guide, h);
+  for (int y = 0; y < h; y++)
+    vf_cdf_guide(&e->column_cdf[(size_t)y * (w + 1)], w, &e->column_guide[(size_t)y * e->column_buckets],
+                 e->column_buckets);
   e->integral = (float)(total / h);
   *out = e;
   return VF_OK;
@@ -133,9 +149,9 @@ static vf_vec3 environment_sample(const vf_lights *ls, const vf_light *l, float 
     *pdf_w = VF_UNIFORM_SPHERE_PDF_W;
     return l->radiance;
   }
-  int y = vf_cdf_search(e->row_cdf, e->height, u2);
+  int y = vf_cdf_guided(e->row_cdf, e->height, e->row_guide, e->height, u2);
   const float *cdf = &e->column_cdf[(size_t)y * (e->width + 1)];
-  int x = vf_cdf_search(cdf, e->width, u1);
+  int x = vf_cdf_guided(cdf, e->width, &e->column_guide[(size_t)y * e->column_buckets], e->column_buckets, u1);
   /* Position within the texel from the leftover of each uniform number. */
   float fy = (u2 - e->row_cdf[y]) / fmaxf(e->row_cdf[y + 1] - e->row_cdf[y], 1e-30f);
   float fx = (u1 - cdf[x]) / fmaxf(cdf[x + 1] - cdf[x], 1e-30f);
@@ -223,8 +239,7 @@ static int add_area_light(vf_lights *ls, const vf_scene *scene, const vf_shape *
     }
     for (uint32_t t = 1; t <= s->num_triangles; t++) l->triangle_cdf[t] = (float)(l->triangle_cdf[t] / sum);
     l->triangle_cdf[s->num_triangles] = 1.0f;
-    int n = (int)s->num_triangles;
-    for (int k = 0; k < n; k++) l->triangle_guide[k] = (uint32_t)vf_cdf_search(l->triangle_cdf, n, (float)k / (float)n);
+    vf_cdf_guide(l->triangle_cdf, (int)s->num_triangles, l->triangle_guide, (int)s->num_triangles);
     l->area = (float)sum;
   }
   (void)ls;

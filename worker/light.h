@@ -51,7 +51,7 @@ typedef struct {
   vf_vec3 radiance;          /* area: Le; point: intensity; spot: intensity on the axis; directional: irradiance */
   const vf_shape *shape;     /* area lights; borrowed from the scene */
   float *triangle_cdf;       /* area meshes: cumulative triangle areas / total, owned */
-  uint32_t *triangle_guide;  /* area meshes: per k < num_triangles, the triangle u = k / num_triangles picks, owned */
+  uint32_t *triangle_guide;  /* area meshes: its guide, num_triangles buckets (vf_cdf_guided), owned */
   vf_light_triangle *triangles; /* area meshes: per triangle, owned */
   float area, inv_area;
   vf_vec3 position;          /* point and spot */
@@ -118,17 +118,26 @@ static inline int vf_cdf_walk(const float *cdf, int n, float u, int i) {
   return i;
 }
 
+/* Fills guide[0..m) for vf_cdf_guided over a cdf of n + 1 entries. */
+void vf_cdf_guide(const float *cdf, int n, uint32_t *guide, int m);
+
+/* vf_cdf_search's answer for u in [0, 1] through a guide of m buckets, guide[k] the answer
+ * for u = k / m (vf_cdf_guide): one load, then a walk past the cdf entries in u's bucket,
+ * n / m of them on average over uniform u. A binary search instead takes log2(n)
+ * dependent loads: 15 of a 70 KB table for a mesh of 17688 triangles. */
+static inline int vf_cdf_guided(const float *cdf, int n, const uint32_t *guide, int m, float u) {
+  float x = u * (float)m;
+  int k = x > 0.0f ? (x < (float)m ? (int)x : m - 1) : 0;
+  return vf_cdf_walk(cdf, n, u, (int)guide[k]);
+}
+
 /* Picks a triangle of area mesh l in proportion to area with uniform number *u, and
  * replaces *u by its rescaling to [0, 1) within the chosen triangle's interval, a fresh
- * uniform number. The triangle is vf_cdf_search's over triangle_cdf, found from the guide
- * entry of u's bucket, one of num_triangles equal parts of [0, 1): a binary search over a
- * mesh of 17688 triangles took 15 dependent loads of a 70 KB table for every light sample,
- * the guide takes one and a step or two. */
+ * uniform number. The triangle is vf_cdf_search's over triangle_cdf, found through a guide
+ * of one bucket per triangle. */
 static inline uint32_t vf_light_pick_triangle(const vf_light *l, float *u) {
   int n = (int)l->shape->num_triangles;
-  float x = *u * (float)n;
-  int k = x > 0.0f ? (x < (float)n ? (int)x : n - 1) : 0;
-  int t = vf_cdf_walk(l->triangle_cdf, n, *u, (int)l->triangle_guide[k]);
+  int t = vf_cdf_guided(l->triangle_cdf, n, l->triangle_guide, n, *u);
   float lo = l->triangle_cdf[t], hi = l->triangle_cdf[t + 1];
   float rescaled = (*u - lo) / (hi - lo);
   /* fminf(rescaled, 0.99999994f) without its libm call (see vf_fmaxf_zero): the same value,
