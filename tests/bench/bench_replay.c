@@ -174,7 +174,7 @@ static int compare(const void *a, const void *b) {
 
 static double median(double *v, int n) {
   qsort(v, (size_t)n, sizeof *v, compare);
-  return v[n / 2];
+  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
 }
 
 static void clear_logs(void) {
