@@ -470,8 +470,8 @@ void vf_texture_lookup(const vf_texture *t, float s, float t_coord, int wrap_s, 
     for (int k = 0; k < n; k++) v[k] = w00 * p[o00 + k] + w10 * p[o10 + k] + w01 * p[o01 + k] + w11 * p[o11 + k];
   } else {
     /* Each texel is decoded before the blend: filtering happens on linear values. The
-     * channel counts are spelled out: a loop over n choosing each channel's table cost
-     * more than the blends. */
+     * channel counts are spelled out, each channel's table chosen once rather than inside
+     * a loop over n. */
     const uint8_t *p = t->texels;
     const float *colour = srgb ? srgb_table : linear_table; /* grey, or R, G, B; alpha is linear */
     const float weight[4] = {w00, w10, w01, w11};
