@@ -5,7 +5,8 @@
 'use strict';
 
 const POLL_MS = 2000, JOB_POLL_MS = 3000;
-const state = { status: null, job: null, selected: null, token: null, tokenExpires: 0, lastPreview: 0 };
+const state = { status: null, job: null, selected: null, token: null, tokenExpires: 0, lastPreview: 0,
+  noticeFromPoll: false };
 const $ = (id) => document.getElementById(id);
 
 function el(tag, attrs, ...children) {
@@ -32,7 +33,15 @@ function stopText(j) {
   if (s.target_error != null) parts.push('error ' + s.target_error);
   return parts.join(' or ') + (j.progress_by ? ' (' + j.progress_by + ')' : '');
 }
-function notice(text) { const n = $('notice'); n.textContent = text || ''; n.hidden = !text; }
+// One line of notice for two speakers: the poll loop (the coordinator does not answer) and
+// the person's own actions (signing in). The poll clears only a notice it put up itself, so
+// an answer to the person stays until their next action, not until the next poll.
+function notice(text, fromPoll = false) {
+  const n = $('notice');
+  n.textContent = text || '';
+  n.hidden = !text;
+  state.noticeFromPoll = fromPoll && !!text;
+}
 
 async function getJSON(url) {
   const r = await fetch(url, { cache: 'no-store' });
@@ -93,9 +102,9 @@ async function poll() {
     if (state.selected == null && st.jobs.length) select(st.jobs[st.jobs.length - 1].id);
     else if (state.selected != null && !st.jobs.some((j) => j.id === state.selected)) select(null);
     renderEvents(await getJSON('/api/events'));
-    notice('');
+    if (state.noticeFromPoll) notice('');
   } catch (e) {
-    notice('The coordinator does not answer (' + e.message + '); trying again.');
+    notice('The coordinator does not answer (' + e.message + '); trying again.', true);
   }
 }
 

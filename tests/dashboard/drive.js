@@ -5,8 +5,9 @@
 // Opens the dashboard of a coordinator that runs one job on one worker and checks what a
 // person would: the job listed, its progress rising, its preview changing between two
 // screenshots, the plot drawn, the worker listed; an action without a session refused; a
-// wrong key refused; the job cancelled with the right key through the page. With
-// SCREENSHOT_DIR, writes dashboard.png (the page) and dashboard-job.png (the job).
+// wrong key refused, the refusal still shown after the page's next poll; the job cancelled
+// with the right key through the page. With SCREENSHOT_DIR, writes dashboard.png (the page)
+// and dashboard-job.png (the job).
 'use strict';
 const fs = require('fs');
 const { chromium } = require('playwright-core');
@@ -74,6 +75,9 @@ const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
   const refused = await page.textContent('#notice');
   check('a wrong key does not sign in', refused.includes('Not signed in') && await page.isHidden('#signed-in'), refused);
   check('the key field is emptied', (await page.inputValue('#key')) === '');
+  await sleep(2500); // longer than the page's poll (2 s), whose answers must not clear it
+  check('the refusal stays after the next poll', (await page.isVisible('#notice')) &&
+    (await page.textContent('#notice')) === refused, await page.textContent('#notice'));
 
   await page.fill('#key', key);
   await page.click('#sign-in-button');
