@@ -188,6 +188,7 @@ int vf_local_render(vf_renderer *renderer, vf_film *film, uint64_t first, const 
     if (err != VF_OK || st.iterations_done < end - begin) break;
   }
   result->seconds = vf_seconds_now() - start;
+  result->render_seconds = lr.seconds_before;
   result->interrupted = vf_interrupted != 0;
   vf_interrupt_restore(&saved);
   if (o->progress) fputc('\n', stderr);

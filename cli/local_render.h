@@ -30,6 +30,8 @@ typedef struct {
 typedef struct {
   uint64_t iterations;        /* added to the film by this run */
   double seconds;             /* wall time of the run */
+  double render_seconds;      /* of it, the render loop's: every iteration and the
+                               * checkpoints due between them, not the final write */
   vf_vcm_stats stats;         /* summed over the run */
   double first_seconds;       /* seconds and rays when the run's first iteration ended: */
   uint64_t first_rays;        /* it also paid for first touches of the renderer's buffers */

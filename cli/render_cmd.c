@@ -87,10 +87,12 @@ static int render_direct(const vf_render_job *o) {
   if ((err = vf_render_job_write_preview(o, film)) != VF_OK) goto done;
   if (!o->quiet) {
     vf_render_job_print_summary(film, r.seconds, &r.stats, r.iterations, r.interrupted);
-    if (r.iterations >= 2 && r.seconds > r.first_seconds) {
+    if (r.iterations >= 2 && r.render_seconds > r.first_seconds) {
       /* The rate a long render settles at: the first iteration also pays for the first
-       * touches of the renderer's buffers (tens of thousands of page faults). */
-      double s = r.seconds - r.first_seconds;
+       * touches of the renderer's buffers (tens of thousands of page faults), and the film
+       * written at the end is paid once per run, not per iteration (checkpoints due
+       * between iterations are counted). */
+      double s = r.render_seconds - r.first_seconds;
       fprintf(stderr, "after the first iteration: %.3f it/s, %.2f Mrays/s\n", (double)(r.iterations - 1) / s,
               (double)(r.stats.rays - r.first_rays) / s * 1e-6);
     }
