@@ -15,9 +15,9 @@ threads="${4:-2}"
 vcmfarm="$build/vcmfarm"
 compare="$build/tests/farm_compare"
 source "$(dirname "${BASH_SOURCE[0]}")/farm_lib.sh"
+source "$(dirname "${BASH_SOURCE[0]}")/renderer_lib.sh" # median
 farm_setup render-farm
 now() { date +%s.%N; }
-median() { sort -g | awk '{v[NR] = $1} END {print v[int((NR + 1) / 2)]}'; }
 
 echo "cornell 512x512, $iterations iterations, $threads render threads, $runs alternating runs"
 echo
