@@ -59,11 +59,16 @@ typedef enum { VF_SAMPLER_INDEPENDENT, VF_SAMPLER_SOBOL, VF_SAMPLER_COUNT_ } vf_
 #define VF_SAMPLER_FALLBACK UINT32_MAX
 
 typedef struct {
-  vf_rng rng;        /* independent: the stream; sobol: the fallback stream */
+  vf_rng rng;        /* independent: the stream; sobol: the fallback stream, once rng_ready */
   uint32_t index;    /* sobol: the sample index, iteration / VF_SOBOL_REPLICATES (mod 2^32) */
   uint32_t index_reversed; /* its bits reversed, as the scrambling wants them */
   uint32_t scramble; /* sobol: the path's seed, from (job seed, replicate, path, kind) */
   int sobol;
+  /* The fallback stream is seeded when first drawn from (most sub-paths end before they
+   * need it): from these, as vf_rng_for_path. */
+  int rng_ready;
+  uint32_t stream;
+  uint64_t seed, iteration, path;
 } vf_sampler;
 
 static inline uint32_t vf_reverse_bits32(uint32_t x) {
@@ -144,8 +149,13 @@ static inline float vf_sampler_bits_float(uint32_t x) { return (float)(x >> 8) *
  * `kind` (VF_STREAM_*) in global iteration `iteration`. */
 static inline void vf_sampler_start(vf_sampler *s, vf_sampler_kind kind, uint64_t seed, uint64_t iteration,
                                     uint64_t path, uint32_t stream) {
-  s->rng = vf_rng_for_path(seed, iteration, path, stream);
   s->sobol = kind == VF_SAMPLER_SOBOL;
+  s->seed = seed;
+  s->iteration = iteration;
+  s->path = path;
+  s->stream = stream;
+  s->rng_ready = !s->sobol;
+  if (!s->sobol) s->rng = vf_rng_for_path(seed, iteration, path, stream);
   s->index = (uint32_t)(iteration / VF_SOBOL_REPLICATES);
   s->index_reversed = vf_reverse_bits32(s->index);
   uint64_t replicate = iteration % VF_SOBOL_REPLICATES;
@@ -158,19 +168,33 @@ static inline void vf_sampler_start(vf_sampler *s, vf_sampler_kind kind, uint64_
  * one another rather than across iterations. The fallback stream is the path's as above. */
 static inline void vf_sampler_start_across(vf_sampler *s, uint64_t seed, uint64_t iteration, uint64_t path,
                                            uint32_t stream, uint64_t key, uint32_t index) {
-  s->rng = vf_rng_for_path(seed, iteration, path, stream);
   s->sobol = 1;
+  s->seed = seed;
+  s->iteration = iteration;
+  s->path = path;
+  s->stream = stream;
+  s->rng_ready = 0;
   s->index = index;
   s->index_reversed = vf_reverse_bits32(index);
   s->scramble = (uint32_t)vf_splitmix64(vf_splitmix64(seed ^ 0x2545f4914f6cdd1dULL) ^
                                         vf_splitmix64(key ^ ((uint64_t)stream << 56)));
 }
 
+/* The path's PCG32 stream, seeded on first use. */
+static inline vf_rng *vf_sampler_rng(vf_sampler *s) {
+  if (__builtin_expect(!s->rng_ready, 0)) {
+    s->rng = vf_rng_for_path(s->seed, s->iteration, s->path, s->stream);
+    s->rng_ready = 1;
+  }
+  return &s->rng;
+}
+
 /* Two numbers in [0, 1) of pair `pair`; the independent sampler's next two instead. */
 static inline void vf_sampler_2d(vf_sampler *s, uint32_t pair, float out[2]) {
   if (!s->sobol || pair == VF_SAMPLER_FALLBACK) {
-    out[0] = vf_rng_float(&s->rng);
-    out[1] = vf_rng_float(&s->rng);
+    vf_rng *r = vf_sampler_rng(s);
+    out[0] = vf_rng_float(r);
+    out[1] = vf_rng_float(r);
     return;
   }
   uint32_t seeds[3];
@@ -185,7 +209,7 @@ static inline void vf_sampler_2d(vf_sampler *s, uint32_t pair, float out[2]) {
 /* One number in [0, 1): the first coordinate of pair `pair`, alone (its van der Corput
  * component, Owen-scrambled, with the index shuffled); the independent sampler's next. */
 static inline float vf_sampler_1d(vf_sampler *s, uint32_t pair) {
-  if (!s->sobol || pair == VF_SAMPLER_FALLBACK) return vf_rng_float(&s->rng);
+  if (!s->sobol || pair == VF_SAMPLER_FALLBACK) return vf_rng_float(vf_sampler_rng(s));
   uint32_t seeds[3];
   vf_sobol_pair_seeds(s->scramble, pair, seeds);
   uint32_t i = vf_sobol_shuffle(s->index_reversed, seeds[0]);

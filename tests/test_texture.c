@@ -221,6 +221,64 @@ static void test_wrap_modes(void) {
   CHECK(along(INFINITY, VF_WRAP_MIRROR) == 0.0f);
 }
 
+/* Texel index and weight along one axis of n texels by texture.h's definition, written
+ * with floorf: the coordinate wrapped into [0, 1], then x = s n - 0.5 between the centres
+ * of texels floor(x) and floor(x) + 1, those wrapped (repeat) or clamped to the edge. */
+static void reference_axis(float s, int n, int wrap, int *i0, int *i1, float *weight) {
+  if (wrap == VF_WRAP_REPEAT) {
+    s -= floorf(s);
+  } else if (wrap == VF_WRAP_MIRROR) {
+    float m = s - 2.0f * floorf(0.5f * s);
+    s = m > 1.0f ? 2.0f - m : m;
+  } else {
+    s = s < 0.0f ? 0.0f : s > 1.0f ? 1.0f : s;
+  }
+  float x = s * (float)n - 0.5f, left = floorf(x);
+  int a = (int)left, b = a + 1;
+  *weight = x - left;
+  if (a < 0) a = wrap == VF_WRAP_REPEAT ? n - 1 : 0;
+  if (b >= n) b = wrap == VF_WRAP_REPEAT ? 0 : n - 1;
+  *i0 = a;
+  *i1 = b;
+}
+
+/* The lookup's own floor (a truncation and a step, for speed) against floorf: equal to the
+ * bit on coordinates at and beside texel edges and centres, at whole numbers and their
+ * neighbouring floats, at -0, and up to and past 2^23, where every float is whole, for
+ * every wrap mode. */
+static void test_lookup_matches_the_floorf_definition(void) {
+  enum { W = 7, H = 5 };
+  float v[W * H];
+  for (int i = 0; i < W * H; i++) v[i] = (float)((i * 53 + 7) % 97);
+  vf_texture t = make_texture(W, H, 1, 1, v);
+  float bases[] = {0.0f, -0.0f, 0.5f, 1.0f, -1.0f, 1.0f / 7.0f, 3.0f / 14.0f, 0.2f, -2.6f, 7.9999f, 1e6f, -1e6f,
+                   0x1p22f, 0x1p23f - 1.0f, 0x1p23f, -0x1p23f, 0x1p24f + 2.0f, 1e30f, -3e9f};
+  int compared = 0;
+  for (size_t bi = 0; bi < sizeof bases / sizeof bases[0]; bi++)
+    for (int step = -3; step <= 3; step++) {
+      float s = bases[bi];
+      for (int k = 0; k < (step < 0 ? -step : step); k++) s = nextafterf(s, step < 0 ? -INFINITY : INFINITY);
+      for (int wrap = VF_WRAP_REPEAT; wrap <= VF_WRAP_MIRROR; wrap++) {
+        float tc = 0.37f - 0.11f * (float)step;
+        int x0, x1, y0, y1;
+        float fx, fy, out[4];
+        reference_axis(s, W, wrap, &x0, &x1, &fx);
+        reference_axis(tc, H, wrap, &y0, &y1, &fy);
+        float want = (1.0f - fx) * (1.0f - fy) * v[y0 * W + x0] + fx * (1.0f - fy) * v[y0 * W + x1] +
+                     (1.0f - fx) * fy * v[y1 * W + x0] + fx * fy * v[y1 * W + x1];
+        vf_texture_lookup(&t, s, tc, wrap, wrap, 0, out);
+        compared++;
+        if (!(out[0] == want)) {
+          fprintf(stderr, "s %.9g (wrap %d): lookup %.9g, definition %.9g\n", (double)s, wrap, (double)out[0],
+                  (double)want);
+          CHECK(out[0] == want);
+          return;
+        }
+      }
+    }
+  CHECK_INT_EQ(compared, 19 * 7 * 3);
+}
+
 /* ---- PNG ---- */
 
 static void check_hash_of_file(const vf_texture *t, const char *name) {
@@ -734,6 +792,7 @@ int main(void) {
   RUN(test_srgb_and_linear_tables_match_the_formula);
   RUN(test_bilinear_is_exact_at_centres_and_averages_between);
   RUN(test_wrap_modes);
+  RUN(test_lookup_matches_the_floorf_definition);
   RUN(test_channel_lookup_is_the_full_lookups_channel);
   RUN(test_png_rgb_keeps_stored_bytes);
   RUN(test_png_channel_counts);
