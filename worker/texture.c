@@ -419,11 +419,6 @@ size_t vf_texture_bytes(const vf_texture *t) {
 /* ---- lookup: called at every textured hit, so no division, allocation or branch per
  * channel beyond the table choice ---- */
 
-/* Along one axis of n texels: the two texels the filter blends (i0 left of the sample,
- * i1 right of it) and the weight of i1. The coordinate is first brought into [0, 1] per
- * wrap mode, which also keeps huge coordinates from overflowing the index; the filter's
- * neighbour beyond an edge then wraps around (repeat) or is the edge texel (clamp, and
- * mirror, whose reflection repeats the edge texel). */
 /* floorf(x) for finite x, as a truncation and a correction: the build targets baseline
  * x86-64, without SSE4.1's roundss, and GCC's own sequence for floorf there is longer
  * (callgrind: a showcase lookup 222 instructions with it, 182 with this). Floats of
@@ -435,6 +430,11 @@ static inline float floor_finite(float x) {
   return t > x ? t - 1.0f : t;
 }
 
+/* Along one axis of n texels: the two texels the filter blends (i0 left of the sample,
+ * i1 right of it) and the weight of i1. The coordinate is first brought into [0, 1] per
+ * wrap mode, which also keeps huge coordinates from overflowing the index; the filter's
+ * neighbour beyond an edge then wraps around (repeat) or is the edge texel (clamp, and
+ * mirror, whose reflection repeats the edge texel). */
 static inline void filter_axis(float s, int n, int wrap, int *i0, int *i1, float *weight) {
   if (wrap == VF_WRAP_REPEAT) {
     s -= floor_finite(s);
