@@ -477,13 +477,30 @@ static int raw_connect(const char *url) {
   return fd;
 }
 
+/* AddressSanitizer keeps a byte of shadow memory for every 8 bytes of the program's, and
+ * the coordinator's resident size counts the shadow of what it holds: in the sanitized
+ * build (tests/sanitize.sh), where the coordinator is instrumented as this program is,
+ * 10 messages of 4.26 MB grow it by 48.1 MB against 42.7 MB without the sanitizer. The
+ * bound on its growth is then 9/8 of the one given. */
+#if defined(__SANITIZE_ADDRESS__)
+#define SHADOW_FACTOR (9.0 / 8.0)
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer)
+#define SHADOW_FACTOR (9.0 / 8.0)
+#endif
+#endif
+#ifndef SHADOW_FACTOR
+#define SHADOW_FACTOR 1.0
+#endif
+
 /* Opens `n` connections below nanomsg and on each starts a message of `claimed` bytes,
  * sending all of it but the last byte, so that the coordinator holds what it was sent
  * without ever seeing a message it could refuse: what a peer without the key can cost.
  * Over tcp:// the gate reads a message only once it has room for it, so a write that makes
  * no progress for a second leaves that connection waiting. Prints the coordinator's
  * resident memory before and after, and checks it still answers a status request
- * meanwhile; fails when it grew by more than max_growth_mb.
+ * meanwhile; fails when it grew by more than max_growth_mb (with AddressSanitizer's
+ * shadow, SHADOW_FACTOR of it).
  *
  *   farm_peer --flood URL KEYFILE CONNECTIONS CLAIMED_BYTES PID MAX_GROWTH_MB */
 static int flood(const char *url, const vf_wire_key *key, int n, unsigned long long claimed, long pid,
@@ -532,8 +549,9 @@ static int flood(const char *url, const vf_wire_key *key, int n, unsigned long l
   for (int i = 0; i < n; i++) close(fds[i]);
   free(fds);
   free(junk);
-  int bounded = (double)(after - before) / 1e6 <= max_growth_mb;
-  if (!bounded) printf("FAIL the coordinator grew by more than %.1f MB\n", max_growth_mb);
+  double limit_mb = max_growth_mb * SHADOW_FACTOR;
+  int bounded = (double)(after - before) / 1e6 <= limit_mb;
+  if (!bounded) printf("FAIL the coordinator grew by more than %.1f MB\n", limit_mb);
   return alive && bounded ? 0 : 1;
 }
 
