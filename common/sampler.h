@@ -189,9 +189,16 @@ static inline vf_rng *vf_sampler_rng(vf_sampler *s) {
   return &s->rng;
 }
 
+/* Whether pair `pair`'s numbers come from the path's stream, one after another, so that
+ * whether they are drawn moves every later number; else they are a function of the pair
+ * alone, and a caller that needs none of them may leave them undrawn. */
+static inline int vf_sampler_in_order(const vf_sampler *s, uint32_t pair) {
+  return !s->sobol || pair == VF_SAMPLER_FALLBACK;
+}
+
 /* Two numbers in [0, 1) of pair `pair`; the independent sampler's next two instead. */
 static inline void vf_sampler_2d(vf_sampler *s, uint32_t pair, float out[2]) {
-  if (!s->sobol || pair == VF_SAMPLER_FALLBACK) {
+  if (vf_sampler_in_order(s, pair)) {
     vf_rng *r = vf_sampler_rng(s);
     out[0] = vf_rng_float(r);
     out[1] = vf_rng_float(r);
@@ -209,7 +216,7 @@ static inline void vf_sampler_2d(vf_sampler *s, uint32_t pair, float out[2]) {
 /* One number in [0, 1): the first coordinate of pair `pair`, alone (its van der Corput
  * component, Owen-scrambled, with the index shuffled); the independent sampler's next. */
 static inline float vf_sampler_1d(vf_sampler *s, uint32_t pair) {
-  if (!s->sobol || pair == VF_SAMPLER_FALLBACK) return vf_rng_float(vf_sampler_rng(s));
+  if (vf_sampler_in_order(s, pair)) return vf_rng_float(vf_sampler_rng(s));
   uint32_t seeds[3];
   vf_sobol_pair_seeds(s->scramble, pair, seeds);
   uint32_t i = vf_sobol_shuffle(s->index_reversed, seeds[0]);

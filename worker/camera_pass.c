@@ -86,12 +86,10 @@ static void light_sample(vf_vcm *v, int thread, const vf_hit *hit, const vf_bsdf
   vf_vec3 zero = vf_vec3_splat(0.0f);
   const vf_light *l = vf_lights_pick(v->lights, vf_sampler_1d(sampler, vf_dim_at(vertex_dims, VF_DIM_NEE_LIGHT)));
   /* A delta light (point, spot, directional) has one point to offer and leaves the numbers
-   * unused. A pair of the sequence is a function of its number alone, so it need not be
-   * drawn; past the sequence's vertices the numbers come one after another from the
-   * path's stream, where every draw moves the later ones and is made all the same. */
+   * unused: they are drawn only where drawing them moves the later ones. */
   float rnd[2] = {0.0f, 0.0f};
   uint32_t point_pair = vf_dim_at(vertex_dims, VF_DIM_NEE_POINT);
-  if (!l->is_delta || point_pair == VF_SAMPLER_FALLBACK || !sampler->sobol) vf_sampler_2d(sampler, point_pair, rnd);
+  if (!l->is_delta || vf_sampler_in_order(sampler, point_pair)) vf_sampler_2d(sampler, point_pair, rnd);
   vf_vec3 dir, lp, ln;
   float dist, direct_pdf, emission_pdf, cos_at_light;
   vf_vec3 radiance = vf_light_illuminate(v->lights, l, hit->position, rnd, &dir, &dist, &lp, &ln, &direct_pdf,
