@@ -59,13 +59,13 @@ typedef enum { VF_SAMPLER_INDEPENDENT, VF_SAMPLER_SOBOL, VF_SAMPLER_COUNT_ } vf_
 #define VF_SAMPLER_FALLBACK UINT32_MAX
 
 typedef struct {
-  vf_rng rng;        /* independent: the stream; sobol: the fallback stream, once rng_ready */
+  vf_rng rng;        /* independent: the stream; sobol: the fallback stream; once rng_ready */
   uint32_t index;    /* sobol: the sample index, iteration / VF_SOBOL_REPLICATES (mod 2^32) */
   uint32_t index_reversed; /* its bits reversed, as the scrambling wants them */
   uint32_t scramble; /* sobol: the path's seed, from (job seed, replicate, path, kind) */
   int sobol;
-  /* The fallback stream is seeded when first drawn from (most sub-paths end before they
-   * need it): from these, as vf_rng_for_path. */
+  /* The stream is seeded when first drawn from (most sobol sub-paths never need their
+   * fallback): from these, as vf_rng_for_path. */
   int rng_ready;
   uint32_t stream;
   uint64_t seed, iteration, path;
@@ -145,17 +145,23 @@ static inline void vf_sobol_pair_bits(uint32_t index, uint32_t scramble, uint32_
 
 static inline float vf_sampler_bits_float(uint32_t x) { return (float)(x >> 8) * 0x1p-24f; }
 
+/* Keeps what seeds the path's PCG32 stream, which vf_sampler_rng seeds when first drawn
+ * from. */
+static inline void vf_sampler_defer_rng(vf_sampler *s, uint64_t seed, uint64_t iteration, uint64_t path,
+                                        uint32_t stream) {
+  s->seed = seed;
+  s->iteration = iteration;
+  s->path = path;
+  s->stream = stream;
+  s->rng_ready = 0;
+}
+
 /* The sampler of sub-path `path` (a pixel for camera sub-paths, a light sub-path index) of
  * `kind` (VF_STREAM_*) in global iteration `iteration`. */
 static inline void vf_sampler_start(vf_sampler *s, vf_sampler_kind kind, uint64_t seed, uint64_t iteration,
                                     uint64_t path, uint32_t stream) {
   s->sobol = kind == VF_SAMPLER_SOBOL;
-  s->seed = seed;
-  s->iteration = iteration;
-  s->path = path;
-  s->stream = stream;
-  s->rng_ready = !s->sobol;
-  if (!s->sobol) s->rng = vf_rng_for_path(seed, iteration, path, stream);
+  vf_sampler_defer_rng(s, seed, iteration, path, stream);
   s->index = (uint32_t)(iteration / VF_SOBOL_REPLICATES);
   s->index_reversed = vf_reverse_bits32(s->index);
   uint64_t replicate = iteration % VF_SOBOL_REPLICATES;
@@ -169,11 +175,7 @@ static inline void vf_sampler_start(vf_sampler *s, vf_sampler_kind kind, uint64_
 static inline void vf_sampler_start_across(vf_sampler *s, uint64_t seed, uint64_t iteration, uint64_t path,
                                            uint32_t stream, uint64_t key, uint32_t index) {
   s->sobol = 1;
-  s->seed = seed;
-  s->iteration = iteration;
-  s->path = path;
-  s->stream = stream;
-  s->rng_ready = 0;
+  vf_sampler_defer_rng(s, seed, iteration, path, stream);
   s->index = index;
   s->index_reversed = vf_reverse_bits32(index);
   s->scramble = (uint32_t)vf_splitmix64(vf_splitmix64(seed ^ 0x2545f4914f6cdd1dULL) ^
