@@ -31,8 +31,7 @@ static const char usage[] =
     "film of all its iterations rendered at once.\n"
     "\n"
     "\n" VF_CLI_STOP_HELP
-    "      --checkpoint-interval S  log an error entry and write OUT every S seconds\n"
-    "                           (default 10; 0: only at the end)\n"
+    VF_CLI_CHECKPOINT_HELP
     "      --scene SCENE        the scene to load (default: the one the film names); its\n"
     "                           content hash must equal the film's\n"
     "      --camera NAME|INDEX  the glTF file's camera the film was rendered with (as render's)\n"
@@ -103,7 +102,7 @@ int vf_cmd_continue(int argc, char **argv) {
   double exposure = 0.0;
   vf_cli_stop stop = {0};
   long long threads = 0;
-  double checkpoint_interval = 10.0;
+  vf_cli_checkpoint checkpoint = VF_CLI_CHECKPOINT_DEFAULT;
   int quiet = 0, err = VF_OK, c;
   optind = 0; /* 0: getopt starts again from scratch (glibc), forgetting the last argv */
   opterr = 0;
@@ -113,7 +112,7 @@ int vf_cmd_continue(int argc, char **argv) {
       continue;
     }
     switch (c) {
-    case 'C': err = vf_cli_double("--checkpoint-interval", optarg, 0.0, 1e9, &checkpoint_interval); break;
+    case 'C': err = vf_cli_checkpoint_option(&checkpoint, optarg); break;
     case 'S': scene_arg = optarg; break;
     case 'M': camera = optarg; break;
     case 'o': output = optarg; break;
@@ -167,7 +166,7 @@ int vf_cmd_continue(int argc, char **argv) {
             vf_iterset_count(&film->iterations), scene->source, film->settings_text);
     vf_vcm_describe(vf_renderer_vcm(renderer), stderr);
   }
-  vf_local_render_options lo = {output, stop.reference ? &reference : NULL, &stop, checkpoint_interval,
+  vf_local_render_options lo = {output, stop.reference ? &reference : NULL, &stop, checkpoint,
                                 !quiet && isatty(STDERR_FILENO)};
   vf_local_render_result r;
   err = vf_local_render(renderer, film, 0, &lo, &r);

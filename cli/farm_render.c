@@ -207,7 +207,7 @@ int vf_farm_render(const vf_render_job *o) {
   vf_film *film = NULL;
   vf_submitted_job submitted;
   uint64_t job_id = 0;
-  double start = 0.0, last_fetch = 0.0;
+  double start = 0.0, last_fetch = 0.0, fetch_interval = vf_cli_checkpoint_next(&o->checkpoint, 0.0);
   int tty = !o->quiet && isatty(STDERR_FILENO), finished = 0;
   if (!coordinator_started) {
     err = vf_error_set(VF_ENOMEM, "cannot start the coordinator's thread");
@@ -245,9 +245,11 @@ int vf_farm_render(const vf_render_job *o) {
     if ((err = job_status(client, job_id, &reply, &job)) != VF_OK) goto stop;
     if (tty) progress_line(o, job, atomic_load(&rendered), now - start);
     finished = strcmp(job->state, "queued") != 0 && strcmp(job->state, "running") != 0;
-    if (!finished && o->checkpoint_interval > 0.0 && now - last_fetch >= o->checkpoint_interval) {
+    if (!finished && fetch_interval > 0.0 && now - last_fetch >= fetch_interval) {
       if ((err = vf_fetch_film(client, job_id, o->output, REQUEST_MS, FETCH_CHUNK_BYTES, NULL)) != VF_OK) goto stop;
       last_fetch = vf_seconds_now();
+      /* The coordinator's checkpoint and the copy take CPU from the render threads. */
+      fetch_interval = vf_cli_checkpoint_next(&o->checkpoint, last_fetch - now);
     }
   }
   /* The worker finishes its iteration, ships what it rendered and hands back the rest. */

@@ -19,6 +19,7 @@
 /* What the render loop's delivery callback and progress line share during one run. */
 typedef struct {
   const vf_local_render_options *o;
+  vf_render_control *control; /* its delivery interval follows the checkpoints' cost */
   uint32_t run;              /* of the entries this run appends to the convergence log */
   float *mean;               /* owned scratch: the film's mean image */
   vf_convergence_entry last; /* the latest measurement (valid when measured) */
@@ -82,9 +83,11 @@ static int deliver(void *ctx, vf_film *film, const vf_render_status *st) {
     lr->last_measure_time = st->seconds;
   }
   if (st->delivery_due) {
+    double t0 = vf_seconds_now();
     int err = vf_convergence_append(&film->convergence, &lr->last);
     if (err == VF_OK && lr->o->output) err = vf_film_write(film, lr->o->output);
     if (err != VF_OK) return err;
+    lr->control->delivery_interval = vf_cli_checkpoint_next(&lr->o->checkpoint, vf_seconds_now() - t0);
   }
   return lr->target_reached ? VF_RENDER_STOP : VF_OK;
 }
@@ -160,7 +163,8 @@ int vf_local_render(vf_renderer *renderer, vf_film *film, uint64_t first, const 
   if (lr.target_reached) goto done; /* a film that already meets its target stays as it is */
 
   vf_render_control control = {.interrupt = &vf_interrupted, .ctx = &lr, .progress = o->progress ? progress : NULL,
-                               .delivery_interval = o->checkpoint_interval, .deliver = deliver};
+                               .delivery_interval = vf_cli_checkpoint_next(&o->checkpoint, 0.0), .deliver = deliver};
+  lr.control = &control;
   uint64_t remaining = vf_cli_stop_iterations(o->stop);
   vf_interrupt_saved saved;
   vf_interrupt_catch(&saved);

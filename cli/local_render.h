@@ -23,7 +23,7 @@ typedef struct {
   const char *output;          /* borrowed: the film path written at every due checkpoint */
   const vf_image *reference;   /* borrowed, or NULL; the film's size */
   const vf_cli_stop *stop;     /* borrowed: iterations, time, targets */
-  double checkpoint_interval;  /* seconds between film checkpoints; 0: only at the end */
+  vf_cli_checkpoint checkpoint; /* when film checkpoints are due */
   int progress;                /* show the progress line on stderr */
 } vf_local_render_options;
 

@@ -130,6 +130,18 @@ uint64_t vf_cli_stop_iterations(const vf_cli_stop *s) {
   return vf_cli_stop_open_ended(s) ? VF_CLI_ITERATIONS_OPEN_ENDED : VF_CLI_ITERATIONS_DEFAULT;
 }
 
+int vf_cli_checkpoint_option(vf_cli_checkpoint *c, const char *arg) {
+  c->given = 1;
+  return vf_cli_double("--checkpoint-interval", arg, 0.0, 1e9, &c->seconds);
+}
+
+double vf_cli_checkpoint_next(const vf_cli_checkpoint *c, double cost) {
+  if (c->given) return c->seconds;
+  double scaled = VF_CLI_CHECKPOINT_COST * cost;
+  if (scaled > VF_CLI_CHECKPOINT_MAX_SECONDS) scaled = VF_CLI_CHECKPOINT_MAX_SECONDS;
+  return scaled > c->seconds ? scaled : c->seconds;
+}
+
 int vf_cli_bytes(const char *option, const char *text, uint64_t *out) {
   char *end;
   errno = 0;

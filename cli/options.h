@@ -112,6 +112,34 @@ int vf_cli_stop_open_ended(const vf_cli_stop *s);
 #define VF_CLI_ITERATIONS_OPEN_ENDED 1000000000ull /* also the most one farm job holds */
 uint64_t vf_cli_stop_iterations(const vf_cli_stop *s);
 
+/* --checkpoint-interval of the commands that render into a film (render, continue): how
+ * often the film is logged and written (a film checkpoint). Given, every `seconds` (0:
+ * only at the end). Not given, every VF_CLI_CHECKPOINT_SECONDS, or VF_CLI_CHECKPOINT_COST
+ * times as long as the last checkpoint took when that is longer, up to
+ * VF_CLI_CHECKPOINT_MAX_SECONDS: checkpoints then take about 1% of the render, where a
+ * 1920x1080 film written every 10 s cost 6% of a local render and 10% of one through the
+ * in-process farm (docs/BENCHMARKS.md, "Checkpoints at production size"), and a crash
+ * loses at most 5 minutes. */
+typedef struct {
+  double seconds;
+  int given;
+} vf_cli_checkpoint;
+#define VF_CLI_CHECKPOINT_SECONDS 10.0
+#define VF_CLI_CHECKPOINT_COST 100.0
+#define VF_CLI_CHECKPOINT_MAX_SECONDS 300.0
+#define VF_CLI_CHECKPOINT_DEFAULT ((vf_cli_checkpoint){VF_CLI_CHECKPOINT_SECONDS, 0})
+#define VF_CLI_CHECKPOINT_HELP                                                                \
+  "      --checkpoint-interval S  append an entry to the film's convergence log and write\n"  \
+  "                           the film every S seconds, so a killed render keeps its\n"      \
+  "                           work; 0: only at the end (default: every 10 s, or 100\n"       \
+  "                           times as long as the last checkpoint took if longer, at\n"     \
+  "                           most 300 s)\n"
+/* Parses the option's value into c. */
+int vf_cli_checkpoint_option(vf_cli_checkpoint *c, const char *arg);
+/* Seconds from a checkpoint that took `cost` seconds (0 before the first) to the next; 0:
+ * none before the end. */
+double vf_cli_checkpoint_next(const vf_cli_checkpoint *c, double cost);
+
 /* Prints what the loaded scene's files ask for that vcmfarm does not do (vf_scene.notes),
  * each line as "SCENE: note: ...", to stderr: once, where the command loads the scene. */
 void vf_cli_print_notes(const char *source, const char *notes);

@@ -30,9 +30,7 @@ static const char usage[] =
     "worker in this process (the farm's own code path, docs/PROTOCOL.md); --direct renders\n"
     "without them.\n"
     "\n" VF_CLI_STOP_HELP
-    "      --checkpoint-interval S  every S seconds (default 10) append an entry to the\n"
-    "                           film's convergence log and write the film, so a killed\n"
-    "                           render keeps its work; 0: only at the end\n"
+    VF_CLI_CHECKPOINT_HELP
     "  -k, --start-iteration K  first global iteration index (default 0)\n"
     "  -j, --threads T          render threads (default: one per CPU)\n" VF_CLI_SETTINGS_HELP
     "      --camera NAME|INDEX  the glTF file's camera to render (default: its first)\n"
@@ -80,7 +78,7 @@ static int render_direct(const vf_render_job *o) {
     fprintf(stderr, "vcmfarm render: %s, %s\n", scene->source, text);
     vf_vcm_describe(vf_renderer_vcm(renderer), stderr);
   }
-  vf_local_render_options lo = {o->output, o->stop.reference ? &reference : NULL, &o->stop, o->checkpoint_interval,
+  vf_local_render_options lo = {o->output, o->stop.reference ? &reference : NULL, &o->stop, o->checkpoint,
                                 !o->quiet && isatty(STDERR_FILENO)};
   vf_local_render_result r;
   if ((err = vf_local_render(renderer, film, o->start, &lo, &r)) != VF_OK) goto done;
@@ -117,7 +115,7 @@ int vf_cmd_render(int argc, char **argv) {
       {"direct", no_argument, 0, 'D'},                {"camera", required_argument, 0, 'M'},
       {0, 0, 0, 0}};
   const char *cmd = "render";
-  vf_render_job o = {.checkpoint_interval = 10.0};
+  vf_render_job o = {.checkpoint = VF_CLI_CHECKPOINT_DEFAULT};
   long long threads = 0;
   int err = VF_OK, c, direct = 0;
   vf_cli_settings_init(&o.overrides);
@@ -137,7 +135,7 @@ int vf_cmd_render(int argc, char **argv) {
     case 'q': o.quiet = 1; break;
     case 'D': direct = 1; break;
     case 'M': o.camera = optarg; break;
-    case 'C': err = vf_cli_double("--checkpoint-interval", optarg, 0.0, 1e9, &o.checkpoint_interval); break;
+    case 'C': err = vf_cli_checkpoint_option(&o.checkpoint, optarg); break;
     case 'h': fputs(usage, stdout); return VF_EXIT_OK;
     default:
       return vf_cli_bad_option("render", argv, usage);

@@ -15,7 +15,8 @@ typedef struct {
   const char *camera;                   /* --camera NAME|INDEX of a model file, or NULL */
   vf_cli_settings overrides;
   vf_cli_stop stop;
-  double checkpoint_interval, exposure;
+  vf_cli_checkpoint checkpoint;
+  double exposure;
   int threads;    /* 0: one per CPU */
   uint64_t start; /* the first global iteration */
   int quiet;

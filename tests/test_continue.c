@@ -8,6 +8,7 @@
 #include "common/film.h"
 #include "common/image.h"
 #include "cli/continue_cmd.h"
+#include "cli/options.h"
 #include "cli/render_cmd.h"
 
 #include <stdlib.h>
@@ -185,12 +186,28 @@ static void test_targets_stop_and_checkpoints_log(void) {
   CHECK(!fixture_exists(out));
 }
 
+/* The default interval is 10 s or 100 times the last checkpoint's cost, whichever is
+ * longer, up to 300 s; a given interval is kept whatever checkpoints cost. */
+static void test_checkpoint_intervals(void) {
+  vf_cli_checkpoint automatic = VF_CLI_CHECKPOINT_DEFAULT, given = VF_CLI_CHECKPOINT_DEFAULT;
+  CHECK(vf_cli_checkpoint_next(&automatic, 0.0) == 10.0);
+  CHECK(vf_cli_checkpoint_next(&automatic, 0.05) == 10.0); /* a small film: its cost is below 1% */
+  CHECK(fabs(vf_cli_checkpoint_next(&automatic, 0.6) - 60.0) < 1e-9);
+  CHECK(vf_cli_checkpoint_next(&automatic, 4.6) == 300.0); /* a crash loses at most 5 minutes */
+  CHECK_INT_EQ(vf_cli_checkpoint_option(&given, "2.5"), VF_OK);
+  CHECK(vf_cli_checkpoint_next(&given, 0.6) == 2.5);
+  CHECK_INT_EQ(vf_cli_checkpoint_option(&given, "0"), VF_OK);
+  CHECK(vf_cli_checkpoint_next(&given, 0.6) == 0.0); /* only at the end */
+  CHECK(vf_cli_checkpoint_option(&given, "-1") != VF_OK);
+}
+
 int main(void) {
   if (fixture_scratch_open("test_continue") != 0) return 1;
   RUN(test_continue_in_three_steps_equals_one_render);
   RUN(test_continue_fills_gaps_first);
   RUN(test_bad_inputs_are_refused_and_nothing_is_written);
   RUN(test_targets_stop_and_checkpoints_log);
+  RUN(test_checkpoint_intervals);
   if (fixture_scratch_close() != 0) return 1;
   return check_finish();
 }

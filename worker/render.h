@@ -46,7 +46,9 @@ typedef struct {
    * happens only if an iteration entered the film since the last due delivery. Cheap work
    * (a target test) may run at every call, expensive work (writing the film) only when due.
    * Returns VF_OK to go on, VF_RENDER_STOP to stop (a last, final call follows), or a
-   * negative error, which stops the loop without a final call and is returned. NULL: none. */
+   * negative error, which stops the loop without a final call and is returned. NULL: none.
+   * The interval is read after every iteration: a delivery may change it (the local render
+   * spaces its checkpoints by their cost). */
   double delivery_interval;
   int (*deliver)(void *ctx, vf_film *film, const vf_render_status *status);
 } vf_render_control;
