@@ -174,8 +174,65 @@ static void test_films_of_different_samplers_refuse_to_merge(void) {
   vf_film_destroy(sobol);
 }
 
+typedef struct {
+  int calls, due, final, due_with_iterations[8];
+  uint64_t iterations_at_final;
+} delivery_log;
+
+static int log_delivery(void *ctx, vf_film *film, const vf_render_status *st) {
+  delivery_log *log = ctx;
+  log->calls++;
+  if (st->final) {
+    log->final++;
+    log->iterations_at_final = vf_iterset_count(&film->iterations);
+  } else if (st->delivery_due && log->due < 8) {
+    log->due_with_iterations[log->due++] = (int)vf_iterset_count(&film->iterations);
+  }
+  return VF_OK;
+}
+
+/* The delivery contract (worker/render.h): a call after every iteration; due ones at the
+ * interval, but never after the range's last iteration, which the one final call
+ * delivers, so that the write at the end of a range is not counted in its seconds. */
+static void test_the_end_of_a_range_is_delivered_once_as_final(void) {
+  vf_scene *scene = NULL;
+  vf_renderer *r = NULL;
+  vf_film *film = NULL;
+  CHECK_INT_EQ(vf_scene_load("cornell", &scene), VF_OK);
+  if (scene == NULL) return;
+  vf_settings s = scene->settings;
+  s.width = 16;
+  s.height = 12;
+  CHECK_INT_EQ(vf_renderer_create(scene, &s, 1, &r), VF_OK);
+  CHECK_INT_EQ(vf_film_create(s.width, s.height, &film), VF_OK);
+  if (r && film && vf_renderer_stamp(r, film) == VF_OK) {
+    delivery_log log = {0};
+    vf_render_control control = {.ctx = &log, .delivery_interval = 1e-9, .deliver = log_delivery};
+    vf_render_status st;
+    CHECK_INT_EQ(vf_render_range(r, film, 0, 4, &control, &st), VF_OK);
+    CHECK_INT_EQ(log.calls, 5); /* one after each of the 4 iterations, then the final one */
+    CHECK_INT_EQ(log.due, 3);   /* after iterations 1, 2 and 3, not 4 */
+    for (int i = 0; i < log.due; i++) CHECK_INT_EQ(log.due_with_iterations[i], i + 1);
+    CHECK_INT_EQ(log.final, 1);
+    CHECK_INT_EQ(log.iterations_at_final, 4);
+    CHECK_INT_EQ(st.iterations_done, 4);
+    /* No interval: nothing due before the final call. */
+    delivery_log quiet = {0};
+    control = (vf_render_control){.ctx = &quiet, .deliver = log_delivery};
+    CHECK_INT_EQ(vf_render_range(r, film, 4, 6, &control, &st), VF_OK);
+    CHECK_INT_EQ(quiet.calls, 3);
+    CHECK_INT_EQ(quiet.due, 0);
+    CHECK_INT_EQ(quiet.final, 1);
+    CHECK_INT_EQ(quiet.iterations_at_final, 6);
+  }
+  vf_film_destroy(film);
+  vf_renderer_destroy(r);
+  vf_scene_destroy(scene);
+}
+
 int main(void) {
   RUN(test_films_of_different_samplers_refuse_to_merge);
+  RUN(test_the_end_of_a_range_is_delivered_once_as_final);
   for (int k = 0; k < VF_SAMPLER_COUNT_; k++) {
     sampler_under_test = (vf_sampler_kind)k;
     printf("sampler %s\n", vf_sampler_name(sampler_under_test));

@@ -111,7 +111,9 @@ int vf_render_range(vf_renderer *r, vf_film *film, uint64_t begin, uint64_t end,
       st.first_rays = st.stats.rays;
     }
     if (control && control->deliver) {
-      st.delivery_due = control->delivery_interval > 0.0 && now - last_delivery >= control->delivery_interval;
+      /* After the range's last iteration the final delivery follows: it is the one due. */
+      st.delivery_due = k + 1 < end && control->delivery_interval > 0.0 &&
+                        now - last_delivery >= control->delivery_interval;
       int rc = control->deliver(control->ctx, film, &st);
       if (rc < 0) {
         err = rc;

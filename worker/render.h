@@ -42,8 +42,10 @@ typedef struct {
    * its lease to the coordinator and empties the film (worker/worker.c). Called after every
    * iteration, before progress, with the film holding it, and once more after the last
    * iteration of the call with status->final set. Its status->delivery_due is set every
-   * delivery_interval seconds of this call (> 0; else never) and on the final call, which
-   * happens only if an iteration entered the film since the last due delivery. Cheap work
+   * delivery_interval seconds of this call (> 0; else never), except after the range's last
+   * iteration, and on the final call, which happens only if an iteration entered the film
+   * since the last due delivery: a range that runs to its end is delivered once at its end,
+   * outside status->seconds, however the interval falls. Cheap work
    * (a target test) may run at every call, expensive work (writing the film) only when due.
    * Returns VF_OK to go on, VF_RENDER_STOP to stop (a last, final call follows), or a
    * negative error, which stops the loop without a final call and is returned. NULL: none.
