@@ -137,9 +137,7 @@ int vf_cli_checkpoint_option(vf_cli_checkpoint *c, const char *arg) {
 
 double vf_cli_checkpoint_next(const vf_cli_checkpoint *c, double cost) {
   if (c->given) return c->seconds;
-  double scaled = VF_CLI_CHECKPOINT_COST * cost;
-  if (scaled > VF_CLI_CHECKPOINT_MAX_SECONDS) scaled = VF_CLI_CHECKPOINT_MAX_SECONDS;
-  return scaled > c->seconds ? scaled : c->seconds;
+  return fmin(fmax(VF_CLI_CHECKPOINT_COST * cost, VF_CLI_CHECKPOINT_SECONDS), VF_CLI_CHECKPOINT_MAX_SECONDS);
 }
 
 int vf_cli_bytes(const char *option, const char *text, uint64_t *out) {

@@ -121,13 +121,13 @@ uint64_t vf_cli_stop_iterations(const vf_cli_stop *s);
  * in-process farm (docs/BENCHMARKS.md, "Checkpoints at production size"), and a crash
  * loses at most 5 minutes. */
 typedef struct {
-  double seconds;
+  double seconds; /* the interval given */
   int given;
 } vf_cli_checkpoint;
 #define VF_CLI_CHECKPOINT_SECONDS 10.0
 #define VF_CLI_CHECKPOINT_COST 100.0
 #define VF_CLI_CHECKPOINT_MAX_SECONDS 300.0
-#define VF_CLI_CHECKPOINT_DEFAULT ((vf_cli_checkpoint){VF_CLI_CHECKPOINT_SECONDS, 0})
+#define VF_CLI_CHECKPOINT_DEFAULT ((vf_cli_checkpoint){0.0, 0})
 #define VF_CLI_CHECKPOINT_HELP                                                                \
   "      --checkpoint-interval S  append an entry to the film's convergence log and write\n"  \
   "                           the film every S seconds, so a killed render keeps its\n"      \
