@@ -85,14 +85,9 @@ wait_until() { # seconds, what, command...
   done
 }
 
-free_port() { # a TCP port on loopback that nothing listens on now
-  local port
-  for _ in $(seq 50); do
-    port=$((20000 + RANDOM % 30000))
-    (exec 3<>"/dev/tcp/127.0.0.1/$port") 2>/dev/null || { echo "$port"; return; }
-  done
-  fail "no free port found"
-}
+source "$(dirname "$0")/free_port.sh"
+ctld_port=$(free_port) || fail "no free TCP port found"
+slurmd_port=$(free_port "$ctld_port") || fail "no second free TCP port found"
 
 # --- munge: its own key, socket, pid, log and seed files ------------------------------
 mkdir -m 755 "$tmp/munge"
@@ -113,8 +108,8 @@ mkdir -p "$tmp/ctld" "$tmp/spool"
 cat >"$tmp/slurm.conf" <<CONF
 ClusterName=vcmfarmtest
 SlurmctldHost=$host(127.0.0.1)
-SlurmctldPort=$(free_port)
-SlurmdPort=$(free_port)
+SlurmctldPort=$ctld_port
+SlurmdPort=$slurmd_port
 SlurmUser=root
 SlurmdUser=root
 AuthType=auth/munge

@@ -52,12 +52,8 @@ install -m 400 "$tmp/farm.key" "$tmp/credentials/farm.key"
 [ "$(setting vcmfarm-coordinator.service VCMFARM_LISTEN)" = "tcp://0.0.0.0:5555" ] ||
   fail "the coordinator's default VCMFARM_LISTEN is not tcp://0.0.0.0:5555"
 # Port 5555 may be taken on a shared machine: the same line, on a free loopback port.
-port=""
-for _ in $(seq 50); do
-  p=$((20000 + RANDOM % 30000))
-  (exec 3<>"/dev/tcp/127.0.0.1/$p") 2>/dev/null || { port=$p; break; }
-done
-[ -n "$port" ] || fail "no free port"
+source "$(dirname "$0")/free_port.sh"
+port=$(free_port) || fail "no free TCP port found"
 export VCMFARM_LISTEN="tcp://127.0.0.1:$port" VCMFARM_CONNECT="tcp://127.0.0.1:$port"
 export TMPDIR="$tmp" # PrivateTmp=yes: the socket behind the coordinator's TCP gate goes there
 export VCMFARM_COORDINATOR_OPTIONS="--checkpoint-interval 0.5" VCMFARM_WORKER_OPTIONS="--threads 1"
