@@ -8,7 +8,7 @@
 # found in 200 tries.
 free_port() {
   local low=32768 high=60999 lo hi
-  read -r low high </proc/sys/net/ipv4/ip_local_port_range 2>/dev/null
+  read -r low high 2>/dev/null </proc/sys/net/ipv4/ip_local_port_range
   if [ "$low" -gt 11024 ]; then
     lo=10000 hi=$((low - 1))
   elif [ "$high" -lt 64511 ]; then
@@ -16,13 +16,13 @@ free_port() {
   else
     lo=1024 hi=65535
   fi
-  local used=" $* " line fields port
+  # Every socket's local address, ADDRESS:PORT in hex, is the second field of its line;
+  # the header's second field is not hex and is skipped.
+  local used=" $* " table address port
   for table in /proc/net/tcp /proc/net/tcp6; do
     [ -r "$table" ] || continue
-    while read -r line; do
-      read -r -a fields <<<"$line"
-      case "${fields[1]:-}" in *:[0-9A-Fa-f][0-9A-Fa-f][0-9A-Fa-f][0-9A-Fa-f]) ;; *) continue ;; esac
-      used+="$((16#${fields[1]##*:})) "
+    while read -r _ address _; do
+      case "$address" in *:[0-9A-Fa-f][0-9A-Fa-f][0-9A-Fa-f][0-9A-Fa-f]) used+="$((16#${address##*:})) " ;; esac
     done <"$table"
   done
   for _ in $(seq 200); do
