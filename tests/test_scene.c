@@ -327,6 +327,44 @@ static void test_gltf_node_transform_and_scene_transform_compose(void) {
   vf_scene_destroy(s);
 }
 
+/* Identical vertices are joined only where every face corner has a vertex of its own (the OBJ
+ * quad of meshes.json: 6 corners, joined to 4 vertices). An indexed glTF quad whose fifth
+ * vertex repeats its first keeps all five: joining would not change a ray's result, and on
+ * a large indexed file it costs more than the rest of the load. */
+static void test_indexed_mesh_keeps_its_vertices(void) {
+  static const char gltf[] =
+      "{\"asset\": {\"version\": \"2.0\"}, \"scene\": 0, \"scenes\": [{\"nodes\": [0]}],"
+      " \"nodes\": [{\"mesh\": 0}], \"meshes\": [{\"primitives\": [{\"attributes\": {\"POSITION\": 0},"
+      " \"indices\": 1, \"mode\": 4}]}],"
+      " \"buffers\": [{\"byteLength\": 72, \"uri\": \"data:application/octet-stream;base64,"
+      "AAAAAAAAAAAAAAAAAACAPwAAAAAAAAAAAACAPwAAgD8AAAAAAAAAAAAAgD8AAAAAAAAAAAAAAAAAAAAAAAABAAIABAACAAMA\"}],"
+      " \"bufferViews\": [{\"buffer\": 0, \"byteOffset\": 0, \"byteLength\": 60, \"target\": 34962},"
+      " {\"buffer\": 0, \"byteOffset\": 60, \"byteLength\": 12, \"target\": 34963}],"
+      " \"accessors\": [{\"bufferView\": 0, \"componentType\": 5126, \"count\": 5, \"type\": \"VEC3\","
+      " \"min\": [0, 0, 0], \"max\": [1, 1, 0]},"
+      " {\"bufferView\": 1, \"componentType\": 5123, \"count\": 6, \"type\": \"SCALAR\"}]}\n";
+  char dir[64], path[256];
+  make_temp_dir(dir);
+  snprintf(path, sizeof path, "%s/quad.gltf", dir);
+  write_all(path, gltf);
+  snprintf(path, sizeof path, "%s/scene.json", dir);
+  write_all(path, "{\"camera\": {\"position\": [0, 0, 10], \"target\": [0, 0, 0], \"fov\": 30},"
+                  " \"materials\": {\"white\": {\"diffuse\": [0.5, 0.5, 0.5]}},"
+                  " \"shapes\": [{\"type\": \"mesh\", \"file\": \"quad.gltf\", \"material\": \"white\","
+                  " \"emission\": [1, 1, 1]}]}\n");
+  vf_scene *s = load_ok(path);
+  if (s) {
+    CHECK_INT_EQ(s->shapes[0].num_triangles, 2);
+    CHECK_INT_EQ(s->shapes[0].num_vertices, 5);
+  }
+  vf_scene_destroy(s);
+  s = load_ok(SCENES "/good/meshes.json");
+  const vf_shape *quad = s ? shape_named(s, "quad") : NULL;
+  if (quad) CHECK_INT_EQ(quad->num_vertices, 4);
+  vf_scene_destroy(s);
+  remove_tree(dir);
+}
+
 static void test_hash_ignores_path_and_layout_but_sees_one_value(void) {
   char dir[64], path[256];
   make_temp_dir(dir);
@@ -551,6 +589,7 @@ int main(void) {
   RUN(test_builtin_hashes_are_stable_and_distinct);
   RUN(test_file_scene_loads_meshes_and_applies_transforms);
   RUN(test_gltf_node_transform_and_scene_transform_compose);
+  RUN(test_indexed_mesh_keeps_its_vertices);
   RUN(test_hash_ignores_path_and_layout_but_sees_one_value);
   RUN(test_environment_map_is_loaded_and_hashed);
   RUN(test_every_bad_scene_fails_naming_file_and_field);
