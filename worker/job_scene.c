@@ -4,6 +4,7 @@
 #include "../common/file.h"
 #include "scene_files.h"
 
+#include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -62,7 +63,12 @@ int vf_job_scene_collect(const char *path, const char *text, size_t len, const c
   vf_scene *from_dir = NULL, *from_stage = NULL;
   int err = vf_scene_files_recording(dir, &recorder);
   if (err != VF_OK) return err;
+  uint8_t dir_hash[32];
   if ((err = vf_scene_load_with_files(text, len, path, recorder, &from_dir)) != VF_OK) goto done;
+  /* Only its hash is needed from here on: the second load need not share memory with it. */
+  memcpy(dir_hash, from_dir->hash, sizeof dir_hash);
+  vf_scene_destroy(from_dir);
+  from_dir = NULL;
   for (size_t i = 0; i < vf_scene_files_count(recorder); i++)
     if ((err = stage_file(stage_dir, vf_scene_files_name(recorder, i), vf_scene_files_path(recorder, i), files)) !=
         VF_OK)
@@ -70,7 +76,7 @@ int vf_job_scene_collect(const char *path, const char *text, size_t len, const c
   if ((err = vf_job_scene_load(0, text, len, files, stage_dir, path, &from_stage)) != VF_OK) goto done;
   /* Differs only if a file changed between the two loads, or the loader read something it
    * did not ask for by name: either way the workers would not render what was asked. */
-  if (memcmp(from_dir->hash, from_stage->hash, 32) != 0) {
+  if (memcmp(dir_hash, from_stage->hash, 32) != 0) {
     err = vf_error_set(VF_EMISMATCH, "%s: loads differently from its %zu files as sent (did a file change while "
                        "submitting?)", path, files->count);
     goto done;
