@@ -327,11 +327,11 @@ static void test_gltf_node_transform_and_scene_transform_compose(void) {
   vf_scene_destroy(s);
 }
 
-/* Identical vertices are joined only where every face corner has a vertex of its own (the OBJ
- * quad of meshes.json: 6 corners, joined to 4 vertices). An indexed glTF quad whose fifth
- * vertex repeats its first keeps all five: joining would not change a ray's result, and on
- * a large indexed file it costs more than the rest of the load. */
-static void test_indexed_mesh_keeps_its_vertices(void) {
+/* Identical vertices are joined for an OBJ file, whose importer gives every corner of a face
+ * a vertex of its own: two quads sharing an edge keep 6 of their 8. An indexed glTF quad
+ * whose fifth vertex repeats its first keeps all five: joining would not change a ray's
+ * result, and on a large indexed file it costs more than the rest of the load. */
+static void test_obj_vertices_joined_indexed_gltf_vertices_kept(void) {
   static const char gltf[] =
       "{\"asset\": {\"version\": \"2.0\"}, \"scene\": 0, \"scenes\": [{\"nodes\": [0]}],"
       " \"nodes\": [{\"mesh\": 0}], \"meshes\": [{\"primitives\": [{\"attributes\": {\"POSITION\": 0},"
@@ -358,9 +358,17 @@ static void test_indexed_mesh_keeps_its_vertices(void) {
     CHECK_INT_EQ(s->shapes[0].num_vertices, 5);
   }
   vf_scene_destroy(s);
-  s = load_ok(SCENES "/good/meshes.json");
-  const vf_shape *quad = s ? shape_named(s, "quad") : NULL;
-  if (quad) CHECK_INT_EQ(quad->num_vertices, 4);
+  snprintf(path, sizeof path, "%s/quads.obj", dir);
+  write_all(path, "v 0 0 0\nv 1 0 0\nv 2 0 0\nv 0 1 0\nv 1 1 0\nv 2 1 0\nf 1 2 5 4\nf 2 3 6 5\n");
+  snprintf(path, sizeof path, "%s/scene.json", dir);
+  write_all(path, "{\"camera\": {\"position\": [0, 0, 10], \"target\": [0, 0, 0], \"fov\": 30},"
+                  " \"materials\": {\"white\": {\"diffuse\": [0.5, 0.5, 0.5]}},"
+                  " \"shapes\": [{\"type\": \"mesh\", \"file\": \"quads.obj\", \"material\": \"white\","
+                  " \"emission\": [1, 1, 1]}]}\n");
+  if ((s = load_ok(path)) != NULL) {
+    CHECK_INT_EQ(s->shapes[0].num_triangles, 4);
+    CHECK_INT_EQ(s->shapes[0].num_vertices, 6);
+  }
   vf_scene_destroy(s);
   remove_tree(dir);
 }
@@ -589,7 +597,7 @@ int main(void) {
   RUN(test_builtin_hashes_are_stable_and_distinct);
   RUN(test_file_scene_loads_meshes_and_applies_transforms);
   RUN(test_gltf_node_transform_and_scene_transform_compose);
-  RUN(test_indexed_mesh_keeps_its_vertices);
+  RUN(test_obj_vertices_joined_indexed_gltf_vertices_kept);
   RUN(test_hash_ignores_path_and_layout_but_sees_one_value);
   RUN(test_environment_map_is_loaded_and_hashed);
   RUN(test_every_bad_scene_fails_naming_file_and_field);

@@ -24,6 +24,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <strings.h>
 
 /* Assimp's last error, trailing whitespace trimmed. The text is process-global: concurrent
  * imports on several threads may report each other's message (the codes stay right). */
@@ -80,12 +81,16 @@ static int check_values(const parse_ctx *c, const char *what, const struct aiSce
   return VF_OK;
 }
 
-/* Whether a mesh of the file gives every face corner a vertex of its own, as Assimp's OBJ
- * and STL importers do: then joining identical vertices shrinks its arrays several times.
- * An indexed file (glTF, PLY) shares its vertices already, and the join would cost more
- * than the rest of its load (3 of 4.6 s and 330 MB for the 1.2 M triangles of the
- * showcase) to merge the few duplicates its exporter left. */
-static int corners_unshared(const struct aiScene *ai) {
+/* Whether to join the file's identical vertices. Assimp's OBJ and STL importers give every
+ * corner of a face a vertex of its own, so joining shrinks their arrays several times.
+ * Indexed formats (glTF, PLY) share their vertices already, and there the join would cost
+ * more than the rest of the load (3 of 4.6 s and 330 MB for the 1.2 M triangles of the
+ * showcase) to merge the few duplicates an exporter leaves; it runs only for a mesh of
+ * theirs without indices, whose every vertex serves one corner. */
+static int join_vertices(const char *name, const struct aiScene *ai) {
+  const char *dot = strrchr(name, '.');
+  if (dot == NULL || (strcasecmp(dot, ".gltf") != 0 && strcasecmp(dot, ".glb") != 0 && strcasecmp(dot, ".ply") != 0))
+    return 1;
   for (unsigned m = 0; m < ai->mNumMeshes; m++) {
     const struct aiMesh *mesh = ai->mMeshes[m];
     uint64_t corners = 0;
@@ -125,7 +130,8 @@ int vf_scene_import_file(const parse_ctx *c, const char *file, const char *fpath
     return err;
   }
   /* On failure Assimp has released the scene. */
-  if (corners_unshared(ai) && (ai = aiApplyPostProcessing(ai, aiProcess_JoinIdenticalVertices)) == NULL)
+  if (join_vertices(mf != NULL ? mf->name : file, ai) &&
+      (ai = aiApplyPostProcessing(ai, aiProcess_JoinIdenticalVertices)) == NULL)
     return vf_scene_fail(c, VF_EMESH, what, "post-processing failed: %s", assimp_error(why, sizeof why));
   *out = ai;
   return VF_OK;
