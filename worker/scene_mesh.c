@@ -85,8 +85,8 @@ static int check_values(const parse_ctx *c, const char *what, const struct aiSce
  * corner of a face a vertex of its own, so joining shrinks their arrays several times.
  * Indexed formats (glTF, PLY) share their vertices already, and there the join would cost
  * more than the rest of the load (3 of 4.6 s and 330 MB for the 1.2 M triangles of the
- * showcase) to merge the few duplicates an exporter leaves; it runs only for a mesh of
- * theirs without indices, whose every vertex serves one corner. */
+ * showcase) to merge the few duplicates an exporter leaves; it runs for such a file only
+ * when one of its meshes has no indices (every vertex serves one corner). */
 static int join_vertices(const char *name, const struct aiScene *ai) {
   const char *dot = strrchr(name, '.');
   if (dot == NULL || (strcasecmp(dot, ".gltf") != 0 && strcasecmp(dot, ".glb") != 0 && strcasecmp(dot, ".ply") != 0))
