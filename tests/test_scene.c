@@ -327,6 +327,19 @@ static void test_gltf_node_transform_and_scene_transform_compose(void) {
   vf_scene_destroy(s);
 }
 
+/* DIR/scene.json: one emitting mesh shape read from DIR/FILE; its path into path. */
+static void write_mesh_scene(const char *dir, const char *file, char *path, size_t n) {
+  char text[512];
+  snprintf(text, sizeof text,
+           "{\"camera\": {\"position\": [0, 0, 10], \"target\": [0, 0, 0], \"fov\": 30},"
+           " \"materials\": {\"white\": {\"diffuse\": [0.5, 0.5, 0.5]}},"
+           " \"shapes\": [{\"type\": \"mesh\", \"file\": \"%s\", \"material\": \"white\","
+           " \"emission\": [1, 1, 1]}]}\n",
+           file);
+  snprintf(path, n, "%s/scene.json", dir);
+  write_all(path, text);
+}
+
 /* Identical vertices are joined for an OBJ file, whose importer gives every corner of a face
  * a vertex of its own: two quads sharing an edge keep 6 of their 8. An indexed glTF quad
  * whose fifth vertex repeats its first keeps all five: joining would not change a ray's
@@ -347,11 +360,7 @@ static void test_obj_vertices_joined_indexed_gltf_vertices_kept(void) {
   make_temp_dir(dir);
   snprintf(path, sizeof path, "%s/quad.gltf", dir);
   write_all(path, gltf);
-  snprintf(path, sizeof path, "%s/scene.json", dir);
-  write_all(path, "{\"camera\": {\"position\": [0, 0, 10], \"target\": [0, 0, 0], \"fov\": 30},"
-                  " \"materials\": {\"white\": {\"diffuse\": [0.5, 0.5, 0.5]}},"
-                  " \"shapes\": [{\"type\": \"mesh\", \"file\": \"quad.gltf\", \"material\": \"white\","
-                  " \"emission\": [1, 1, 1]}]}\n");
+  write_mesh_scene(dir, "quad.gltf", path, sizeof path);
   vf_scene *s = load_ok(path);
   if (s) {
     CHECK_INT_EQ(s->shapes[0].num_triangles, 2);
@@ -360,11 +369,7 @@ static void test_obj_vertices_joined_indexed_gltf_vertices_kept(void) {
   vf_scene_destroy(s);
   snprintf(path, sizeof path, "%s/quads.obj", dir);
   write_all(path, "v 0 0 0\nv 1 0 0\nv 2 0 0\nv 0 1 0\nv 1 1 0\nv 2 1 0\nf 1 2 5 4\nf 2 3 6 5\n");
-  snprintf(path, sizeof path, "%s/scene.json", dir);
-  write_all(path, "{\"camera\": {\"position\": [0, 0, 10], \"target\": [0, 0, 0], \"fov\": 30},"
-                  " \"materials\": {\"white\": {\"diffuse\": [0.5, 0.5, 0.5]}},"
-                  " \"shapes\": [{\"type\": \"mesh\", \"file\": \"quads.obj\", \"material\": \"white\","
-                  " \"emission\": [1, 1, 1]}]}\n");
+  write_mesh_scene(dir, "quads.obj", path, sizeof path);
   if ((s = load_ok(path)) != NULL) {
     CHECK_INT_EQ(s->shapes[0].num_triangles, 4);
     CHECK_INT_EQ(s->shapes[0].num_vertices, 6);

@@ -88,9 +88,8 @@ static int check_values(const parse_ctx *c, const char *what, const struct aiSce
  * showcase) to merge the few duplicates an exporter leaves; it runs for such a file only
  * when one of its meshes has no indices (every vertex serves one corner). */
 static int join_vertices(const char *name, const struct aiScene *ai) {
-  const char *dot = strrchr(name, '.');
-  if (dot == NULL || (strcasecmp(dot, ".gltf") != 0 && strcasecmp(dot, ".glb") != 0 && strcasecmp(dot, ".ply") != 0))
-    return 1;
+  size_t n = strlen(name);
+  if (!vf_gltf_is_gltf(name) && !(n >= 4 && strcasecmp(name + n - 4, ".ply") == 0)) return 1;
   for (unsigned m = 0; m < ai->mNumMeshes; m++) {
     const struct aiMesh *mesh = ai->mMeshes[m];
     uint64_t corners = 0;
