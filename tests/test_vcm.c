@@ -417,7 +417,7 @@ static void test_auto_chooses_by_the_scene(void) {
 /* One iteration's camera and light frames from a renderer of scene with settings s, with
  * merging limited to SSE2 or not; returns 0 on failure. */
 static int iteration_frames(const vf_scene *scene, const vf_settings *s, int limit_simd, uint64_t iteration,
-                            float *camera, float *light, const char **simd) {
+                            float *camera, float *light, const char **simd, vf_vcm_stats *out) {
   vf_accel *accel = NULL;
   vf_pool *pool = NULL;
   vf_vcm *vcm = NULL;
@@ -430,6 +430,7 @@ static int iteration_frames(const vf_scene *scene, const vf_settings *s, int lim
     *simd = vf_vcm_merge_simd(vcm);
     vf_vcm_stats stats = {0};
     CHECK_INT_EQ(vf_vcm_iteration(vcm, iteration, camera, light, &stats), VF_OK);
+    if (out) *out = stats;
     ok = !check_failed_in_case;
   }
   vf_vcm_destroy(vcm);
@@ -457,8 +458,8 @@ static void test_merging_simd_paths_give_identical_frames(void) {
       s.height = H;
       const char *simd[2];
       for (uint64_t it = 0; it < 2; it++) {
-        if (!iteration_frames(scene, &s, 0, it, camera[0], light[0], &simd[0]) ||
-            !iteration_frames(scene, &s, 1, it, camera[1], light[1], &simd[1]))
+        if (!iteration_frames(scene, &s, 0, it, camera[0], light[0], &simd[0], NULL) ||
+            !iteration_frames(scene, &s, 1, it, camera[1], light[1], &simd[1], NULL))
           break;
         int same = memcmp(camera[0], camera[1], sizeof camera[0]) == 0 &&
                    memcmp(light[0], light[1], sizeof light[0]) == 0;
@@ -472,7 +473,40 @@ static void test_merging_simd_paths_give_identical_frames(void) {
   }
 }
 
+/* bpt traces the light sub-paths of each camera tile just before its camera sub-paths
+ * (worker/camera_pass.c), vcm all of them first in runs of pixels (worker/light_pass.c):
+ * both trace each pixel's light sub-path once, from the same numbers, so they store the
+ * same vertices, on images whose sides are not multiples of the tile's. */
+static void test_bpt_tiles_trace_the_light_sub_paths_of_vcm(void) {
+  static const char *scenes[] = {"cornell", "cornell-glossy"};
+  enum { W = 100, H = 70 };
+  static float camera[3 * W * H], light[3 * W * H];
+  for (size_t c = 0; c < sizeof scenes / sizeof *scenes; c++) {
+    vf_scene *scene = NULL;
+    CHECK_INT_EQ(vf_scene_load(scenes[c], &scene), VF_OK);
+    if (scene == NULL) return;
+    vf_settings s = scene->settings;
+    s.width = W;
+    s.height = H;
+    for (uint64_t it = 0; it < 3; it++) {
+      vf_vcm_stats bpt, vcm;
+      const char *simd;
+      s.algorithm = VF_ALGO_BPT;
+      if (!iteration_frames(scene, &s, 0, it, camera, light, &simd, &bpt)) break;
+      s.algorithm = VF_ALGO_VCM;
+      if (!iteration_frames(scene, &s, 0, it, camera, light, &simd, &vcm)) break;
+      if (bpt.light_vertices != vcm.light_vertices)
+        printf("  %s iteration %llu: bpt stored %llu light vertices, vcm %llu\n", scenes[c], (unsigned long long)it,
+               (unsigned long long)bpt.light_vertices, (unsigned long long)vcm.light_vertices);
+      CHECK(bpt.light_vertices > 0);
+      CHECK(bpt.light_vertices == vcm.light_vertices);
+    }
+    vf_scene_destroy(scene);
+  }
+}
+
 int main(void) {
+  RUN(test_bpt_tiles_trace_the_light_sub_paths_of_vcm);
   RUN(test_merging_simd_paths_give_identical_frames);
   RUN(test_auto_chooses_by_the_scene);
   for (int k = 0; k < VF_SAMPLER_COUNT_; k++) {

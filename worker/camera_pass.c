@@ -1,7 +1,9 @@
 /* Phase 3 of an iteration, the camera sub-paths: camera_pass.h. */
 #include "camera_pass.h"
 
+#include "../common/clock.h"
 #include "../common/sampler.h"
+#include "light_pass.h"
 #include "vcm_internal.h"
 #include "vertex_merging.h"
 #include "wavefront.h"
@@ -10,9 +12,9 @@
 #include <stdlib.h>
 #include <string.h>
 
-/* Camera sub-paths are traced in square tiles: neighbouring pixels query neighbouring grid
- * cells at their first hit, so a tile reuses what its previous rows brought into cache. */
-#define CAMERA_TILE 32u
+/* Camera sub-paths are traced in square tiles (CAMERA_TILE): neighbouring pixels query
+ * neighbouring grid cells at their first hit, so a tile reuses what its previous rows
+ * brought into cache. */
 
 /* The BSDF a stored light vertex had. */
 static void bsdf_of_vertex(const vf_vcm *v, vf_bsdf *b, const light_vertex *lv) {
@@ -137,9 +139,11 @@ static const vf_bsdf *light_bsdf(const vf_vcm *v, light_bsdf_cache *cache, uint3
 }
 
 /* s > 1, t > 1: connection of camera vertex (hit, b) to light vertex lv, the i-th of its
- * light sub-path, added to tile_pixel if the two see each other. */
+ * light sub-path, added to tile_pixel if the two see each other. The light vertex's BSDF is
+ * `kept` where the fused pass kept it, else set up through the cache. */
 static void connect_vertices(vf_vcm *v, int thread, const vf_hit *hit, const vf_bsdf *b, const path_state *s,
-                             const light_vertex *lv, uint32_t i, light_bsdf_cache *cache, uint32_t tile_pixel) {
+                             const light_vertex *lv, const vf_bsdf *kept, uint32_t i, light_bsdf_cache *cache,
+                             uint32_t tile_pixel) {
   vf_vec3 d = vf_sub(lv->position, hit->position);
   float dist2 = vf_length_sq(d);
   if (!(dist2 > 0.0f)) return;
@@ -149,7 +153,7 @@ static void connect_vertices(vf_vcm *v, int thread, const vf_hit *hit, const vf_
   vf_vec3 fc = vf_bsdf_evaluate(b, d, &cos_camera, &camera_pdf, &camera_rev_pdf);
   if (vf_is_zero(fc)) return;
   vf_bsdf scratch;
-  const vf_bsdf *lb = light_bsdf(v, cache, i, lv, &scratch);
+  const vf_bsdf *lb = kept ? kept : light_bsdf(v, cache, i, lv, &scratch);
   float cos_light, light_pdf, light_rev_pdf;
   vf_vec3 fl = vf_bsdf_evaluate(lb, vf_neg(d), &cos_light, &light_pdf, &light_rev_pdf);
   if (vf_is_zero(fl)) return;
@@ -263,12 +267,24 @@ static int camera_bounce(vf_vcm *v, int thread, camera_lane *lane, const vf_hit 
   if (!b.is_delta) {
     if (v->t.light_sample) light_sample(v, thread, hit, &b, s, &lane->sampler, vertex_dims, tile_pixel);
     if (v->t.connection) {
-      const light_vertex *path = v->chunks[lane->pixel / LIGHT_CHUNK].vertices;
-      uint32_t first = v->path_begin[lane->pixel];
-      for (uint32_t i = first; i < v->path_end[lane->pixel]; i++) {
+      const light_vertex *path;
+      const vf_bsdf *kept = NULL;
+      uint32_t first, end;
+      if (v->fused) {
+        const thread_stats *ts = &v->stats[thread];
+        path = ts->tile_vertices;
+        kept = ts->tile_bsdfs;
+        first = ts->tile_begin[tile_pixel];
+        end = ts->tile_end[tile_pixel];
+      } else {
+        path = v->chunks[lane->pixel / LIGHT_CHUNK].vertices;
+        first = v->path_begin[lane->pixel];
+        end = v->path_end[lane->pixel];
+      }
+      for (uint32_t i = first; i < end; i++) {
         const light_vertex *lv = &path[i];
         if (vertex_path_length(lv) + 1 + s->path_length > v->settings.max_path_length) break;
-        connect_vertices(v, thread, hit, &b, s, lv, i - first, &lane->cache, tile_pixel);
+        connect_vertices(v, thread, hit, &b, s, lv, kept ? &kept[i] : NULL, i - first, &lane->cache, tile_pixel);
       }
     }
     if (v->t.vertex_merging && v->num_vertices > 0) {
@@ -333,6 +349,11 @@ static void camera_task(void *ctx, size_t task, int thread) {
   float tile_rgb[3 * CAMERA_TILE * CAMERA_TILE];
   memset(tile_rgb, 0, 3 * sizeof(float) * tw * (y1 - y0));
   v->stats[thread].tile_rgb = tile_rgb;
+  if (v->fused) {
+    double t0 = vf_seconds_now();
+    vf_light_pass_tile(v, thread, (uint32_t)task, x0, y0, tw, tw * (y1 - y0));
+    v->stats[thread].light_seconds += vf_seconds_now() - t0;
+  }
   if (v->t.camera_paths) trace_camera_tile(v, thread, x0, y0, tw, tw * (y1 - y0));
   resolve_deferred(v, thread);
   vf_vertex_merging_run_tile(v, thread, tile_rgb);
@@ -351,8 +372,12 @@ static void camera_task(void *ctx, size_t task, int thread) {
     }
 }
 
+uint32_t vf_camera_pass_tiles(const vf_vcm *v) {
+  return ((uint32_t)v->camera.width + CAMERA_TILE - 1) / CAMERA_TILE *
+         (((uint32_t)v->camera.height + CAMERA_TILE - 1) / CAMERA_TILE);
+}
+
 void vf_camera_pass_run(vf_vcm *v) {
-  uint32_t tiles = ((uint32_t)v->camera.width + CAMERA_TILE - 1) / CAMERA_TILE *
-                   (((uint32_t)v->camera.height + CAMERA_TILE - 1) / CAMERA_TILE);
-  vf_pool_run(v->pool, tiles, camera_task, v);
+  for (int t = 0; t < vf_pool_threads(v->pool); t++) v->stats[t].light_seconds = 0.0;
+  vf_pool_run(v->pool, vf_camera_pass_tiles(v), camera_task, v);
 }

@@ -13,8 +13,12 @@
 #include "vcm.h"
 
 /* Runs the camera pass of the iteration vf_vcm holds, after vf_light_pass_run and (when
- * vertex merging is on) vf_vertex_merging_build_grid. NaN or Inf pixel estimates are
- * written as 0 and counted. */
+ * vertex merging is on) vf_vertex_merging_build_grid; for bpt's fused pass (vf_vcm.fused)
+ * before vf_light_pass_finish, each tile tracing its own light sub-paths first. NaN or Inf
+ * pixel estimates are written as 0 and counted. */
 void vf_camera_pass_run(vf_vcm *v);
+
+/* The camera tiles of the image: tasks of the camera pass, and bpt's chunks. */
+uint32_t vf_camera_pass_tiles(const vf_vcm *v);
 
 #endif

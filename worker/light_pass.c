@@ -19,20 +19,32 @@ struct splat {
 };
 _Static_assert(LIGHT_CHUNK <= 65536 && VF_MAX_IMAGE_SIDE / SPLAT_BAND < 65536, "splat's fields hold their values");
 
-static int append_vertices(light_chunk *c, const light_vertex *lv, uint32_t n) {
+/* Appends n vertices, and when the chunk keeps them (light_chunk.bsdfs) their BSDFs. */
+static int append_vertices(light_chunk *c, int keep_bsdfs, const light_vertex *lv, const vf_bsdf *b, uint32_t n) {
   if (n > c->vertex_capacity - c->num_vertices) {
     uint32_t cap = c->vertex_capacity ? 2 * c->vertex_capacity : 4 * LIGHT_CHUNK;
     while (cap - c->num_vertices < n) cap *= 2;
     /* Aligned to the cache line, as realloc's memory is not: each vertex is then one line,
      * which the grid's gather and the connections read at random. */
     light_vertex *p = aligned_alloc(64, (size_t)cap * sizeof *p);
-    if (p == NULL) return 0;
-    if (c->num_vertices > 0) memcpy(p, c->vertices, (size_t)c->num_vertices * sizeof *p);
+    vf_bsdf *q = keep_bsdfs ? malloc((size_t)cap * sizeof *q) : NULL;
+    if (p == NULL || (keep_bsdfs && q == NULL)) {
+      free(p);
+      free(q);
+      return 0;
+    }
+    if (c->num_vertices > 0) {
+      memcpy(p, c->vertices, (size_t)c->num_vertices * sizeof *p);
+      if (keep_bsdfs) memcpy(q, c->bsdfs, (size_t)c->num_vertices * sizeof *q);
+    }
     free(c->vertices);
+    free(c->bsdfs);
     c->vertices = p;
+    c->bsdfs = q;
     c->vertex_capacity = cap;
   }
   memcpy(&c->vertices[c->num_vertices], lv, (size_t)n * sizeof *lv);
+  if (keep_bsdfs) memcpy(&c->bsdfs[c->num_vertices], b, (size_t)n * sizeof *b);
   c->num_vertices += n;
   return 1;
 }
@@ -193,9 +205,25 @@ typedef struct {
   path_state s;
   vf_sampler sampler;
   uint32_t path;          /* global index */
+  uint32_t local;         /* index within the chunk (chunk_paths) */
   uint32_t num_vertices;
   light_vertex *vertices; /* the path's slot of the retire ring: room for the longest path */
+  vf_bsdf *bsdfs;         /* the slot's BSDFs, where the chunk keeps them (vf_vcm.fused) */
 } light_lane;
+
+/* The light sub-paths of a chunk: count of them, path `local` being the pixel at column
+ * local % width and row local / width of a block whose top-left pixel is `first`. A chunk
+ * of the light pass is a run of LIGHT_CHUNK pixels (width = count), a chunk of bpt's fused
+ * pass a camera tile. Each path's range of the chunk's vertex list goes to begin[local]
+ * and end[local]. */
+typedef struct {
+  uint32_t first, width, count;
+  uint32_t *begin, *end;
+} chunk_paths;
+
+static uint32_t path_of(const vf_vcm *v, const chunk_paths *cp, uint32_t local) {
+  return cp->first + local / cp->width * (uint32_t)v->camera.width + local % cp->width;
+}
 
 /* How the sobol sampler stratifies light sub-paths (docs/BENCHMARKS.md, "Stratifying the
  * light sub-paths", measured all three): 0 across iterations (each light sub-path index has
@@ -216,9 +244,11 @@ static void light_sampler_start(const vf_vcm *v, vf_sampler *sampler, uint32_t p
   vf_sampler_start(sampler, kind, v->settings.seed, v->iteration, path, VF_STREAM_LIGHT);
 }
 
-/* Emits light sub-path `path` into the lane; returns 1 when it has a ray to trace. */
-static int light_start(vf_vcm *v, int thread, light_chunk *c, light_lane *lane, uint32_t path, uint32_t begin) {
+/* Emits light sub-path `path`, the chunk's path `local`, into the lane; returns 1 when it
+ * has a ray to trace. */
+static int light_start(vf_vcm *v, int thread, light_chunk *c, light_lane *lane, uint32_t path, uint32_t local) {
   lane->path = path;
+  lane->local = local;
   lane->num_vertices = 0;
   vf_sampler *sampler = &lane->sampler;
   light_sampler_start(v, sampler, path);
@@ -232,7 +262,7 @@ static int light_start(vf_vcm *v, int thread, light_chunk *c, light_lane *lane, 
                                  &cos_light);
   if (vf_is_zero(energy) || !(emission_pdf > 0.0f)) return 0;
   if (v->t.lt && l->is_finite && !l->is_delta)
-    connect_emitter_to_camera(v, thread, c, path - begin, l->textured ? vf_scale(energy, 1.0f / cos_light) : l->radiance,
+    connect_emitter_to_camera(v, thread, c, local, l->textured ? vf_scale(energy, 1.0f / cos_light) : l->radiance,
                               s->origin, normal, l->pick_probability * direct_pdf, sampler);
   emission_pdf *= l->pick_probability;
   direct_pdf *= l->pick_probability;
@@ -248,7 +278,7 @@ static int light_start(vf_vcm *v, int thread, light_chunk *c, light_lane *lane, 
 
 /* Continues the lane's light sub-path at the hit of its last ray: stores the vertex,
  * projects it onto the camera and scatters. Returns 0 when the path ends there. */
-static int light_bounce(vf_vcm *v, int thread, light_chunk *c, light_lane *lane, const vf_hit *hit, uint32_t begin) {
+static int light_bounce(vf_vcm *v, int thread, light_chunk *c, light_lane *lane, const vf_hit *hit) {
   path_state *s = &lane->s;
   vf_bsdf b;
   if (!bsdf_at(v, &b, hit, vf_neg(s->direction))) return 0;
@@ -259,6 +289,7 @@ static int light_bounce(vf_vcm *v, int thread, light_chunk *c, light_lane *lane,
   uint32_t vertex_dims = vf_dim_vertex(VF_DIM_LIGHT_VERTEX, s->path_length);
   if (!b.is_delta) {
     if (v->t.store_vertices) {
+      if (v->fused) lane->bsdfs[lane->num_vertices] = b;
       light_vertex *lv = &lane->vertices[lane->num_vertices++];
       lv->position = hit->position;
       lv->throughput = s->throughput;
@@ -273,48 +304,51 @@ static int light_bounce(vf_vcm *v, int thread, light_chunk *c, light_lane *lane,
       lv->mis = s->mis;
       lv->path_length_shape = (uint32_t)s->path_length | hit->shape << VERTEX_LENGTH_BITS;
     }
-    if (v->t.light_to_camera) connect_to_camera(v, thread, c, lane->path - begin, hit, &b, s, &lane->sampler, vertex_dims);
+    if (v->t.light_to_camera) connect_to_camera(v, thread, c, lane->local, hit, &b, s, &lane->sampler, vertex_dims);
   }
   if (s->path_length + 2 > v->settings.max_path_length) return 0;
   return vf_wavefront_scatter(v, &b, hit, s, &lane->sampler, vertex_dims, 0);
 }
 
-/* The ring slot of light sub-path `path`. */
-static light_vertex *ring_slot(const vf_vcm *v, int thread, uint32_t path) {
-  return v->stats[thread].ring_vertices + (size_t)(path % RETIRE_RING) * v->lane_capacity;
-}
+/* The ring slot of the chunk's path `local`. */
+static size_t ring_slot(const vf_vcm *v, uint32_t local) { return (size_t)(local % RETIRE_RING) * v->lane_capacity; }
 
 /* The lane's path has ended, its vertices in its ring slot. Every ended path at the head
  * of the ring, from *oldest (the chunk's oldest path not yet stored) up to `next` (the
  * next to start), then goes to the chunk's list in path order, its range recorded: a
  * chunk's list is in path order, as connections want it (a camera tile reads the light
  * paths of its pixels, which are neighbours in the list only in path order), without a
- * pass that would sort it afterwards. */
-static void light_retire(vf_vcm *v, int thread, light_chunk *c, const light_lane *lane, uint32_t *oldest,
-                         uint32_t next) {
+ * pass that would sort it afterwards. Numbers here are the chunk's (chunk_paths). */
+static void light_retire(vf_vcm *v, int thread, light_chunk *c, const chunk_paths *cp, const light_lane *lane,
+                         uint32_t *oldest, uint32_t next) {
   thread_stats *ts = &v->stats[thread];
-  ts->ring_count[lane->path % RETIRE_RING] = lane->num_vertices;
+  ts->ring_count[lane->local % RETIRE_RING] = lane->num_vertices;
   while (*oldest < next && ts->ring_count[*oldest % RETIRE_RING] != RING_IN_FLIGHT) {
     uint32_t p = (*oldest)++, n = ts->ring_count[p % RETIRE_RING];
     ts->ring_count[p % RETIRE_RING] = RING_IN_FLIGHT;
-    v->path_begin[p] = c->num_vertices;
-    if (n > 0 && !append_vertices(c, ring_slot(v, thread, p), n)) c->out_of_memory = 1;
-    v->path_end[p] = c->num_vertices;
+    cp->begin[p] = c->num_vertices;
+    size_t slot = ring_slot(v, p);
+    if (n > 0 && !append_vertices(c, v->fused, ts->ring_vertices + slot, v->fused ? ts->ring_bsdfs + slot : NULL, n))
+      c->out_of_memory = 1;
+    cp->end[p] = c->num_vertices;
   }
 }
 
 /* Gives the lane the chunk's next path that has a ray to trace; returns 0 when none is
  * left, or when the ring is full (the oldest path still in flight): the caller tries again
  * after the next step. */
-static int light_refill(vf_vcm *v, int thread, light_chunk *c, light_lane *lane, uint32_t *next, uint32_t *oldest,
-                        uint32_t begin, uint32_t end) {
-  while (*next < end && *next - *oldest < RETIRE_RING) {
-    uint32_t path = (*next)++;
-    lane->vertices = ring_slot(v, thread, path);
-    if (v->t.light_paths && light_start(v, thread, c, lane, path, begin)) return 1;
-    lane->path = path; /* ended at its light, or no light paths at all: no vertices */
+static int light_refill(vf_vcm *v, int thread, light_chunk *c, const chunk_paths *cp, light_lane *lane,
+                        uint32_t *next, uint32_t *oldest) {
+  thread_stats *ts = &v->stats[thread];
+  while (*next < cp->count && *next - *oldest < RETIRE_RING) {
+    uint32_t local = (*next)++;
+    size_t slot = ring_slot(v, local);
+    lane->vertices = ts->ring_vertices + slot;
+    lane->bsdfs = v->fused ? ts->ring_bsdfs + slot : NULL;
+    if (v->t.light_paths && light_start(v, thread, c, lane, path_of(v, cp, local), local)) return 1;
+    lane->local = local; /* ended at its light, or no light paths at all: no vertices */
     lane->num_vertices = 0;
-    light_retire(v, thread, c, lane, oldest, *next);
+    light_retire(v, thread, c, cp, lane, oldest, *next);
   }
   return 0;
 }
@@ -381,19 +415,16 @@ static void splat_band_task(void *ctx, size_t band, int thread) {
   }
 }
 
-static void light_task(void *ctx, size_t task, int thread) {
-  vf_vcm *v = ctx;
-  light_chunk *c = &v->chunks[task];
+/* Traces the light sub-paths of chunk `chunk` (c, its paths cp) into its lists. */
+static void trace_chunk(vf_vcm *v, int thread, uint32_t chunk, light_chunk *c, const chunk_paths *cp) {
   c->num_vertices = c->num_splats = 0;
   c->out_of_memory = 0;
-  uint32_t begin = (uint32_t)task * LIGHT_CHUNK;
-  uint32_t end = begin + LIGHT_CHUNK < v->num_pixels ? begin + LIGHT_CHUNK : v->num_pixels;
   light_lane lanes[VF_ACCEL_PACKET];
   path_state *states[VF_ACCEL_PACKET];
-  uint32_t next = begin, oldest = begin, active = 0;
+  uint32_t next = 0, oldest = 0, active = 0;
   for (int i = 0; i < VF_ACCEL_PACKET; i++) {
     states[i] = &lanes[i].s;
-    if (light_refill(v, thread, c, &lanes[i], &next, &oldest, begin, end)) active |= 1u << i;
+    if (light_refill(v, thread, c, cp, &lanes[i], &next, &oldest)) active |= 1u << i;
   }
   while (active) {
     vf_hit hits[VF_ACCEL_PACKET];
@@ -401,23 +432,48 @@ static void light_task(void *ctx, size_t task, int thread) {
     uint32_t found = vf_wavefront_trace(v, thread, states, active, lane_of, &m, hits);
     for (int k = 0; k < m; k++) {
       light_lane *lane = &lanes[lane_of[k]];
-      if ((found >> k & 1u) && light_bounce(v, thread, c, lane, &hits[k], begin)) continue;
-      light_retire(v, thread, c, lane, &oldest, next);
-      if (!light_refill(v, thread, c, lane, &next, &oldest, begin, end)) active &= ~(1u << lane_of[k]);
+      if ((found >> k & 1u) && light_bounce(v, thread, c, lane, &hits[k])) continue;
+      light_retire(v, thread, c, cp, lane, &oldest, next);
+      if (!light_refill(v, thread, c, cp, lane, &next, &oldest)) active &= ~(1u << lane_of[k]);
     }
     /* Lanes left idle by a full ring start again once it has drained (a rare event: the
      * ring holds many times the paths of the lanes). */
-    if (next < end && active != (1u << VF_ACCEL_PACKET) - 1u)
+    if (next < cp->count && active != (1u << VF_ACCEL_PACKET) - 1u)
       for (int i = 0; i < VF_ACCEL_PACKET; i++)
-        if (!(active >> i & 1u) && light_refill(v, thread, c, &lanes[i], &next, &oldest, begin, end))
-          active |= 1u << i;
+        if (!(active >> i & 1u) && light_refill(v, thread, c, cp, &lanes[i], &next, &oldest)) active |= 1u << i;
   }
   resolve_splats(v, thread, c);
-  sort_splats(v, thread, c, (uint32_t)task, end - begin);
+  sort_splats(v, thread, c, chunk, cp->count);
 }
 
-int vf_light_pass_run(vf_vcm *v) {
-  vf_pool_run(v->pool, v->num_chunks, light_task, v);
+static void light_task(void *ctx, size_t task, int thread) {
+  vf_vcm *v = ctx;
+  uint32_t begin = (uint32_t)task * LIGHT_CHUNK;
+  uint32_t count = begin + LIGHT_CHUNK < v->num_pixels ? LIGHT_CHUNK : v->num_pixels - begin;
+  chunk_paths cp = {begin, count, count, v->path_begin + begin, v->path_end + begin};
+  trace_chunk(v, thread, (uint32_t)task, &v->chunks[task], &cp);
+}
+
+void vf_light_pass_tile(vf_vcm *v, int thread, uint32_t tile, uint32_t x0, uint32_t y0, uint32_t width,
+                        uint32_t pixels) {
+  thread_stats *ts = &v->stats[thread];
+  light_chunk *c = &v->chunks[tile];
+  /* The thread's lists, lent to the tile: its splats stay in the chunk until the light
+   * image is made, its vertices and BSDFs serve only the tile's camera sub-paths. */
+  c->vertices = ts->tile_vertices;
+  c->bsdfs = ts->tile_bsdfs;
+  c->vertex_capacity = ts->tile_capacity;
+  chunk_paths cp = {y0 * (uint32_t)v->camera.width + x0, width, pixels, ts->tile_begin, ts->tile_end};
+  trace_chunk(v, thread, tile, c, &cp);
+  ts->tile_vertices = c->vertices;
+  ts->tile_bsdfs = c->bsdfs;
+  ts->tile_capacity = c->vertex_capacity;
+  c->vertices = NULL; /* num_vertices stays, for the iteration's count */
+  c->bsdfs = NULL;
+  c->vertex_capacity = 0;
+}
+
+int vf_light_pass_finish(vf_vcm *v) {
   uint64_t total = 0;
   uint32_t largest = 0;
   for (uint32_t c = 0; c < v->num_chunks; c++) {
@@ -436,4 +492,9 @@ int vf_light_pass_run(vf_vcm *v) {
   v->num_vertices = (uint32_t)total;
   vf_pool_run(v->pool, v->num_bands, splat_band_task, v); /* the light image, band by band */
   return VF_OK;
+}
+
+int vf_light_pass_run(vf_vcm *v) {
+  vf_pool_run(v->pool, v->num_chunks, light_task, v);
+  return vf_light_pass_finish(v);
 }

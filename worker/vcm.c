@@ -41,12 +41,37 @@ static void setup_iteration(vf_vcm *v, uint64_t iteration) {
   v->mis.pt = v->settings.algorithm == VF_ALGO_PT;
 }
 
+static void add_counts(const vf_vcm *v, vf_vcm_stats *stats) {
+  for (int t = 0; t < vf_pool_threads(v->pool); t++) {
+    stats->rays += v->stats[t].rays;
+    stats->nonfinite += v->stats[t].nonfinite;
+  }
+  stats->light_vertices += v->num_vertices;
+}
+
 int vf_vcm_iteration(vf_vcm *v, uint64_t iteration, float *camera_rgb, float *light_rgb, vf_vcm_stats *stats) {
   setup_iteration(v, iteration);
   v->camera_rgb = camera_rgb;
   v->light_rgb = light_rgb;
   int threads = vf_pool_threads(v->pool);
   for (int t = 0; t < threads; t++) v->stats[t].rays = v->stats[t].nonfinite = 0;
+
+  if (v->fused) {
+    /* bpt: light and camera sub-paths tile by tile (camera_pass.c), then the light image. */
+    double t0 = vf_seconds_now();
+    vf_camera_pass_run(v);
+    double t1 = vf_seconds_now();
+    int err = vf_light_pass_finish(v);
+    if (err != VF_OK) return err;
+    double t2 = vf_seconds_now(), light = 0.0;
+    for (int t = 0; t < threads; t++) light += v->stats[t].light_seconds;
+    light /= threads; /* the tiles' light sub-paths, as a share of the pass's wall time */
+    if (light > t1 - t0) light = t1 - t0;
+    stats->light_seconds += light + (t2 - t1);
+    stats->camera_seconds += t1 - t0 - light;
+    add_counts(v, stats);
+    return VF_OK;
+  }
 
   /* 1. Light sub-paths, their vertices and their projections onto the camera (light_pass.c). */
   double t0 = vf_seconds_now();
@@ -65,12 +90,7 @@ int vf_vcm_iteration(vf_vcm *v, uint64_t iteration, float *camera_rgb, float *li
   stats->light_seconds += t1 - t0;
   stats->grid_seconds += t2 - t1;
   stats->camera_seconds += t3 - t2;
-
-  for (int t = 0; t < threads; t++) {
-    stats->rays += v->stats[t].rays;
-    stats->nonfinite += v->stats[t].nonfinite;
-  }
-  stats->light_vertices += v->num_vertices;
+  add_counts(v, stats);
   return VF_OK;
 }
 
@@ -251,13 +271,16 @@ int vf_vcm_create(const vf_scene *scene, const vf_accel *accel, const vf_setting
   choose_techniques(v);
   if ((err = vf_lights_create(scene, &v->lights)) != VF_OK) goto fail;
   err = VF_ENOMEM;
-  v->num_chunks = (v->num_pixels + LIGHT_CHUNK - 1) / LIGHT_CHUNK;
+  v->fused = v->t.connection && !v->t.vertex_merging && v->t.light_paths && v->t.camera_paths;
+  v->num_chunks = v->fused ? vf_camera_pass_tiles(v) : (v->num_pixels + LIGHT_CHUNK - 1) / LIGHT_CHUNK;
   v->chunks = calloc(v->num_chunks, sizeof *v->chunks);
   v->band_pixels = SPLAT_BAND * (uint32_t)v->camera.width;
   v->num_bands = (v->num_pixels + v->band_pixels - 1) / v->band_pixels;
   v->band_start = calloc((size_t)v->num_chunks * (v->num_bands + 1), sizeof *v->band_start);
-  v->path_begin = calloc(v->num_pixels, sizeof(uint32_t));
-  v->path_end = calloc(v->num_pixels, sizeof(uint32_t));
+  if (!v->fused) { /* the fused pass keeps each tile's ranges in thread_stats */
+    v->path_begin = calloc(v->num_pixels, sizeof(uint32_t));
+    v->path_end = calloc(v->num_pixels, sizeof(uint32_t));
+  }
   v->segments = calloc(v->num_chunks, sizeof *v->segments);
   v->stats = aligned_alloc(64, (size_t)vf_pool_threads(pool) * sizeof *v->stats);
   if (v->stats != NULL) memset(v->stats, 0, (size_t)vf_pool_threads(pool) * sizeof *v->stats);
@@ -265,7 +288,8 @@ int vf_vcm_create(const vf_scene *scene, const vf_accel *accel, const vf_setting
   size_t shapes = scene->num_shapes > 0 ? (size_t)scene->num_shapes : 1;
   v->interpolated = calloc(shapes, sizeof *v->interpolated);
   v->shape_continuation = calloc(shapes, sizeof *v->shape_continuation);
-  if (!v->chunks || !v->band_start || !v->path_begin || !v->path_end || !v->segments || !v->stats || !v->lobes ||
+  if (!v->chunks || !v->band_start || (!v->fused && (!v->path_begin || !v->path_end)) || !v->segments || !v->stats ||
+      !v->lobes ||
       !v->interpolated || !v->shape_continuation)
     goto fail;
   for (int m = 0; m < scene->num_materials; m++) vf_bsdf_lobes_of(&scene->materials[m], &v->lobes[m]);
@@ -277,6 +301,8 @@ int vf_vcm_create(const vf_scene *scene, const vf_accel *accel, const vf_setting
   for (int t = 0; t < vf_pool_threads(pool); t++) {
     v->stats[t].ring_vertices = aligned_alloc(64, (size_t)RETIRE_RING * v->lane_capacity * sizeof(light_vertex));
     if (v->stats[t].ring_vertices == NULL) goto fail;
+    if (v->fused && (v->stats[t].ring_bsdfs = malloc((size_t)RETIRE_RING * v->lane_capacity * sizeof(vf_bsdf))) == NULL)
+      goto fail;
     for (uint32_t i = 0; i < RETIRE_RING; i++) v->stats[t].ring_count[i] = RING_IN_FLIGHT;
   }
   if (v->t.vertex_merging && (err = vf_hashgrid_create(&v->grid)) != VF_OK) goto fail;
@@ -288,17 +314,29 @@ fail:
   return err;
 }
 
+static void free_tile_lists(thread_stats *ts) {
+  free(ts->tile_vertices);
+  free(ts->tile_bsdfs);
+  ts->tile_vertices = NULL;
+  ts->tile_bsdfs = NULL;
+  ts->tile_capacity = 0;
+}
+
 void vf_vcm_trim(vf_vcm *v) {
   if (v == NULL) return;
   if (v->chunks)
     for (uint32_t c = 0; c < v->num_chunks; c++) {
       light_chunk *ch = &v->chunks[c];
       free(ch->vertices);
+      free(ch->bsdfs);
       free(ch->splats);
       ch->vertices = NULL;
+      ch->bsdfs = NULL;
       ch->splats = NULL;
       ch->num_vertices = ch->vertex_capacity = ch->num_splats = ch->splat_capacity = 0;
     }
+  if (v->stats)
+    for (int t = 0; t < vf_pool_threads(v->pool); t++) free_tile_lists(&v->stats[t]);
   v->num_vertices = 0;
   free(v->photons);
   v->photons = NULL;
@@ -317,6 +355,7 @@ void vf_vcm_destroy(vf_vcm *v) {
   if (v->chunks)
     for (uint32_t c = 0; c < v->num_chunks; c++) {
       free(v->chunks[c].vertices);
+      free(v->chunks[c].bsdfs);
       free(v->chunks[c].splats);
     }
   free(v->chunks);
@@ -329,6 +368,8 @@ void vf_vcm_destroy(vf_vcm *v) {
     for (int t = 0; t < vf_pool_threads(v->pool); t++) {
       free(v->stats[t].queries);
       free(v->stats[t].ring_vertices);
+      free(v->stats[t].ring_bsdfs);
+      free_tile_lists(&v->stats[t]);
       free(v->stats[t].sort_scratch);
     }
   free(v->stats);

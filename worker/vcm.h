@@ -8,7 +8,9 @@
  *      sampling (s = 1), connection to the vertices of the pixel's own light sub-path, and
  *      vertex merging with every light vertex within r_k; then continue.
  * Each technique is weighted by the recursive MIS scheme of worker/mis.h. The algorithms
- * bpt, pt, lt, ppm and bpm are this same iteration with techniques switched off.
+ * bpt, pt, lt, ppm and bpm are this same iteration with techniques switched off. bpt,
+ * which needs no grid, runs 1 and 3 tile by tile: each camera tile first traces its own
+ * pixels' light sub-paths and keeps their BSDFs for its connections (camera_pass.c).
  * The phases are files of their own: 1. worker/light_pass.c, 2. worker/vertex_merging.c
  * (over worker/hashgrid.c), 3. worker/camera_pass.c, whose vertex merging queries
  * vertex_merging.c runs; both passes trace with worker/wavefront.c and share the state of

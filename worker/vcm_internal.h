@@ -36,11 +36,15 @@
 /* The light pass's splats are added to the image in bands of this many rows, one band per
  * task. */
 #define SPLAT_BAND 32u
+/* Camera sub-paths are traced in square tiles of this side (camera_pass.c). */
+#define CAMERA_TILE 32u
 
 /* A stored light vertex: one cache line. Its BSDF is not stored but set up again from
  * shape, normal and fix when a connection needs it (vf_bsdf_setup is a pure function
  * of them, so it is the BSDF the light sub-path had): rebuilding a frame costs less than
- * moving twice the bytes through the light pass and the gather. On a shape shaded from
+ * moving twice the bytes through the light pass and the gather. bpt's fused pass, whose
+ * vertices live only as long as their camera tile, keeps the BSDFs beside them
+ * (light_chunk.bsdfs). On a shape shaded from
  * its barycentrics (vf_vcm.interpolated: vertex normals, textures) the vertex holds the
  * triangle and barycentrics instead of the normal, and the set-up starts from them
  * (vf_surface_bsdf, with the geometric normal the hit had: worker/surface.h). */
@@ -79,6 +83,7 @@ typedef struct splat splat;
  * all chunks where they are (vf_hashgrid_build_segments): nothing copies them together. */
 typedef struct {
   light_vertex *vertices;
+  vf_bsdf *bsdfs; /* the vertices' BSDFs, kept only by bpt's fused pass (vf_vcm.fused) */
   uint32_t num_vertices, vertex_capacity;
   splat *splats;
   uint32_t num_splats, splat_capacity;
@@ -148,6 +153,7 @@ typedef struct {
  * two threads' fields. */
 typedef struct {
   _Alignas(64) uint64_t rays, nonfinite;
+  double light_seconds; /* bpt's fused pass: wall time in the tiles' light sub-paths */
   vertex_merging_query *queries; /* this thread's pending vertex merging queries, owned */
   uint32_t num_queries, query_capacity;
   shadow_packet packet;
@@ -160,6 +166,14 @@ typedef struct {
   struct splat *sort_scratch;
   uint32_t sort_capacity;
   uint32_t ring_count[RETIRE_RING]; /* vertices of each slot's path once it has ended, else RING_IN_FLIGHT */
+  /* bpt's fused pass (vf_vcm.fused): the BSDFs of the retire ring's vertices, and the
+   * vertex and BSDF lists of the tile being traced with each path's range, owned, lent to
+   * the tile's chunk while its light sub-paths are traced (vf_light_pass_tile). */
+  vf_bsdf *ring_bsdfs;
+  light_vertex *tile_vertices;
+  vf_bsdf *tile_bsdfs;
+  uint32_t tile_capacity;
+  uint32_t tile_begin[CAMERA_TILE * CAMERA_TILE], tile_end[CAMERA_TILE * CAMERA_TILE];
 } thread_stats;
 
 /* What vertex merging reads of the light vertices, in the grid's order (vertex_merging.c). */
@@ -182,6 +196,10 @@ struct vf_vcm {
   float offset_scale; /* for vf_offset_ray_origin */
   uint32_t num_pixels;
   uint32_t lane_capacity; /* most vertices a light sub-path stores */
+  /* bpt: each camera tile traces its own pixels' light sub-paths first, keeping their
+   * vertices' BSDFs, and connects to them while they are in cache; nothing is stored for
+   * the whole iteration (camera_pass.c). The chunks are then the camera tiles. */
+  int fused;
   int has_specular, has_glossy, has_diffuse;
   vf_algorithm requested;    /* settings.algorithm as given; settings.algorithm is what runs */
   const char *auto_reason;   /* why auto chose settings.algorithm, NULL unless requested auto */
