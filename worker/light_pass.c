@@ -19,8 +19,10 @@ struct splat {
 };
 _Static_assert(LIGHT_CHUNK <= 65536 && VF_MAX_IMAGE_SIDE / SPLAT_BAND < 65536, "splat's fields hold their values");
 
-/* Appends n vertices, and when the chunk keeps them (light_chunk.bsdfs) their BSDFs. */
-static int append_vertices(light_chunk *c, int keep_bsdfs, const light_vertex *lv, const vf_bsdf *b, uint32_t n) {
+/* Appends n vertices, and their BSDFs b where the chunk keeps them (light_chunk.bsdfs;
+ * else b is NULL). */
+static int append_vertices(light_chunk *c, const light_vertex *lv, const vf_bsdf *b, uint32_t n) {
+  const int keep_bsdfs = b != NULL;
   if (n > c->vertex_capacity - c->num_vertices) {
     uint32_t cap = c->vertex_capacity ? 2 * c->vertex_capacity : 4 * LIGHT_CHUNK;
     while (cap - c->num_vertices < n) cap *= 2;
@@ -204,7 +206,6 @@ static void emission_numbers(vf_sampler *sampler, const vf_light *l, float rnd[4
 typedef struct {
   path_state s;
   vf_sampler sampler;
-  uint32_t path;          /* global index */
   uint32_t local;         /* index within the chunk (chunk_paths) */
   uint32_t num_vertices;
   light_vertex *vertices; /* the path's slot of the retire ring: room for the longest path */
@@ -247,7 +248,6 @@ static void light_sampler_start(const vf_vcm *v, vf_sampler *sampler, uint32_t p
 /* Emits light sub-path `path`, the chunk's path `local`, into the lane; returns 1 when it
  * has a ray to trace. */
 static int light_start(vf_vcm *v, int thread, light_chunk *c, light_lane *lane, uint32_t path, uint32_t local) {
-  lane->path = path;
   lane->local = local;
   lane->num_vertices = 0;
   vf_sampler *sampler = &lane->sampler;
@@ -328,7 +328,7 @@ static void light_retire(vf_vcm *v, int thread, light_chunk *c, const chunk_path
     ts->ring_count[p % RETIRE_RING] = RING_IN_FLIGHT;
     cp->begin[p] = c->num_vertices;
     size_t slot = ring_slot(v, p);
-    if (n > 0 && !append_vertices(c, v->fused, ts->ring_vertices + slot, v->fused ? ts->ring_bsdfs + slot : NULL, n))
+    if (n > 0 && !append_vertices(c, ts->ring_vertices + slot, v->fused ? ts->ring_bsdfs + slot : NULL, n))
       c->out_of_memory = 1;
     cp->end[p] = c->num_vertices;
   }
