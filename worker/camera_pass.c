@@ -326,6 +326,7 @@ static void trace_camera_tile(vf_vcm *v, int thread, uint32_t x0, uint32_t y0, u
     vf_hit hits[VF_ACCEL_PACKET];
     int lane_of[VF_ACCEL_PACKET], m;
     uint32_t found = vf_wavefront_trace(v, thread, states, active, lane_of, &m, hits);
+    prefetch_shading(v, hits, found, m);
     for (int k = 0; k < m; k++) {
       int i = lane_of[k];
       if (camera_bounce(v, thread, &lanes[i], (found >> k & 1u) ? &hits[k] : NULL)) continue;

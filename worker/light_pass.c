@@ -430,6 +430,7 @@ static void trace_chunk(vf_vcm *v, int thread, uint32_t chunk, light_chunk *c, c
     vf_hit hits[VF_ACCEL_PACKET];
     int lane_of[VF_ACCEL_PACKET], m;
     uint32_t found = vf_wavefront_trace(v, thread, states, active, lane_of, &m, hits);
+    prefetch_shading(v, hits, found, m);
     for (int k = 0; k < m; k++) {
       light_lane *lane = &lanes[lane_of[k]];
       if ((found >> k & 1u) && light_bounce(v, thread, c, lane, &hits[k])) continue;

@@ -140,6 +140,32 @@ int vf_surface_bsdf(vf_bsdf *b, const vf_scene *scene, const vf_bsdf_lobes *lobe
   return ok;
 }
 
+void vf_surface_prefetch_vertices(const vf_shape *sh, uint32_t prim) {
+  const uint32_t *tri = &sh->indices[3 * (size_t)prim];
+  for (int k = 0; k < 3; k++) {
+    size_t i = tri[k];
+    if (sh->normals != NULL) __builtin_prefetch(&sh->normals[3 * i]);
+    if (sh->uvs != NULL) __builtin_prefetch(&sh->uvs[2 * i]);
+    if (sh->tangents != NULL) __builtin_prefetch(&sh->tangents[4 * i]);
+  }
+}
+
+void vf_surface_prefetch_texels(const vf_scene *scene, const vf_shape *sh, uint32_t prim, float u, float v) {
+  static const int slots[] = {VF_TEXTURE_COLOR, VF_TEXTURE_ROUGHNESS_METALLIC, VF_TEXTURE_NORMAL};
+  const vf_material *m = &scene->materials[sh->material];
+  float st[2];
+  int have_st = 0;
+  for (size_t k = 0; k < sizeof slots / sizeof slots[0]; k++) {
+    const vf_texture_slot *ts = &m->textures[slots[k]];
+    if (ts->texture == 0) continue;
+    if (!have_st) {
+      vf_surface_uv(sh, prim, u, v, st);
+      have_st = 1;
+    }
+    vf_texture_prefetch(&scene->textures[ts->texture - 1], st[0], st[1], ts->wrap_s, ts->wrap_t);
+  }
+}
+
 int vf_surface_covered(const vf_scene *scene, const vf_shape *sh, uint32_t prim, float u, float v) {
   const vf_material *m = &scene->materials[sh->material];
   if (!(m->alpha_cutoff > 0.0f)) return 1;

@@ -52,6 +52,16 @@ vf_vec3 vf_surface_shading_normal(const vf_scene *scene, const vf_shape *sh, uin
 int vf_surface_bsdf(vf_bsdf *b, const vf_scene *scene, const vf_bsdf_lobes *lobes, uint32_t shape, uint32_t prim,
                     float u, float v, vf_vec3 ng, vf_vec3 world_fix);
 
+/* Prefetching, for a renderer with several hits in hand (a wavefront): the loads that
+ * vf_surface_bsdf at triangle prim will make, started now and not waited for, so that the
+ * cache misses of all the hits overlap rather than each stalling its own shading.
+ * vf_surface_prefetch_vertices starts those of the vertex normals, texture coordinates and
+ * tangents; vf_surface_prefetch_texels, called after it for the same hits, reads the
+ * texture coordinates and starts those of the texels of the shading slots (colour,
+ * roughness-metallic, normal map). Neither changes anything the renderer computes. */
+void vf_surface_prefetch_vertices(const vf_shape *sh, uint32_t prim);
+void vf_surface_prefetch_texels(const vf_scene *scene, const vf_shape *sh, uint32_t prim, float u, float v);
+
 /* Coverage of the material of sh at barycentrics (u, v) of triangle prim: 1 where it is
  * opaque, 0 in a hole (coverage below alpha_cutoff), for alpha cut-outs. */
 int vf_surface_covered(const vf_scene *scene, const vf_shape *sh, uint32_t prim, float u, float v);

@@ -513,6 +513,22 @@ void vf_texture_lookup(const vf_texture *t, float s, float t_coord, int wrap_s, 
   }
 }
 
+void vf_texture_prefetch(const vf_texture *t, float s, float t_coord, int wrap_s, int wrap_t) {
+  int x0 = 0, x1 = 0, y0 = 0, y1 = 0;
+  float fx, fy;
+  if (isfinite(s) && isfinite(t_coord)) {
+    filter_axis(s, (int)t->width, wrap_s, &x0, &x1, &fx);
+    filter_axis(t_coord, (int)t->height, wrap_t, &y0, &y1, &fy);
+  }
+  const size_t texel = (size_t)t->channels * (t->is_float ? sizeof(float) : 1u), w = t->width;
+  const char *p = t->texels;
+  /* The four texels; on one row, x0 and x1 share a line but where a line ends. */
+  __builtin_prefetch(p + ((size_t)y0 * w + (size_t)x0) * texel);
+  __builtin_prefetch(p + ((size_t)y0 * w + (size_t)x1) * texel);
+  __builtin_prefetch(p + ((size_t)y1 * w + (size_t)x0) * texel);
+  __builtin_prefetch(p + ((size_t)y1 * w + (size_t)x1) * texel);
+}
+
 float vf_texture_lookup_channel(const vf_texture *t, float s, float t_coord, int wrap_s, int wrap_t, int channel) {
   const int n = t->channels;
   /* Where the RGBA channel lives in the stored ones: grey is R, G and B; no alpha is 1. */

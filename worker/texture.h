@@ -52,4 +52,9 @@ void vf_texture_lookup(const vf_texture *t, float s, float t_coord, int wrap_s, 
  * cut-outs test it for every candidate hit of every ray. */
 float vf_texture_lookup_channel(const vf_texture *t, float s, float t_coord, int wrap_s, int wrap_t, int channel);
 
+/* Starts the loads of the texels vf_texture_lookup at (s, t_coord) will read, and returns
+ * without waiting for them: a renderer that knows its next lookups early issues them all
+ * at once, so that their cache misses overlap instead of following one another. */
+void vf_texture_prefetch(const vf_texture *t, float s, float t_coord, int wrap_s, int wrap_t);
+
 #endif

@@ -57,6 +57,20 @@ static inline int bsdf_at(const vf_vcm *v, vf_bsdf *b, const vf_hit *hit, vf_vec
   return vf_bsdf_setup(b, &v->scene->materials[m], &v->lobes[m], hit->normal, world_fix);
 }
 
+/* Before the lanes continue from their hits (bit k of `found`: hits[k], of m): starts the
+ * loads that setting up their BSDFs will make (worker/surface.h), so that the cache misses
+ * of the packet's hits overlap. A lane shades its hit among thousands of instructions of
+ * connections and scattering, too far from the next lane's for the processor to overlap
+ * them on its own. */
+static inline void prefetch_shading(const vf_vcm *v, const vf_hit *hits, uint32_t found, int m) {
+  for (int k = 0; k < m; k++)
+    if ((found >> k & 1u) && v->interpolated[hits[k].shape])
+      vf_surface_prefetch_vertices(&v->scene->shapes[hits[k].shape], hits[k].primitive);
+  for (int k = 0; k < m; k++)
+    if ((found >> k & 1u) && v->interpolated[hits[k].shape])
+      vf_surface_prefetch_texels(v->scene, &v->scene->shapes[hits[k].shape], hits[k].primitive, hits[k].u, hits[k].v);
+}
+
 /* One step of a wavefront: the closest hits of the next rays of the active lanes (bit i of
  * `active`: lane i, whose path state is states[i]), as one packet. Ray k is lane
  * lane_of[k]'s, *m rays in all; bit k of the result is set when ray k hit, in hits[k]. */
