@@ -35,7 +35,13 @@ uint32_t vf_wavefront_trace(vf_vcm *v, int thread, path_state *const *states, ui
 
 int vf_wavefront_scatter(vf_vcm *v, const vf_bsdf *b, const vf_hit *hit, path_state *s, vf_sampler *sampler,
                          uint32_t vertex_dims, int radiance) {
-  if (vf_sampler_1d(sampler, vf_dim_at(vertex_dims, VF_DIM_ROULETTE)) >= b->continuation) return 0;
+  /* Russian roulette. Every number is below 1, so a continuation of 1 (most materials of
+   * bright albedo) always survives, and its number is drawn only where drawing moves the
+   * later ones (vf_sampler_in_order). */
+  uint32_t roulette = vf_dim_at(vertex_dims, VF_DIM_ROULETTE);
+  if ((b->continuation < 1.0f || vf_sampler_in_order(sampler, roulette)) &&
+      vf_sampler_1d(sampler, roulette) >= b->continuation)
+    return 0;
   float rnd[3];
   vf_sampler_2d(sampler, vf_dim_at(vertex_dims, VF_DIM_BSDF_DIRECTION), rnd);
   rnd[2] = vf_sampler_1d(sampler, vf_dim_at(vertex_dims, VF_DIM_BSDF_LOBE));
