@@ -467,18 +467,36 @@ static inline float blend8(const float *table, const uint8_t *const q[4], int k,
   return w[0] * table[q[0][k]] + w[1] * table[q[1][k]] + w[2] * table[q[2][k]] + w[3] * table[q[3][k]];
 }
 
-void vf_texture_lookup(const vf_texture *t, float s, float t_coord, int wrap_s, int wrap_t, int srgb, float out[4]) {
+/* The bilinear filter's four texels at (s, t_coord), as texel indices (row * width +
+ * column) in the order 00, 10, 01, 11, and their weights in that order; non-finite
+ * coordinates give texel (0, 0). Shared by the lookups and the prefetch, so that the
+ * prefetch starts the loads of the very texels a lookup reads. */
+static inline void footprint(const vf_texture *t, float s, float t_coord, int wrap_s, int wrap_t, size_t texel[4],
+                             float weight[4]) {
   int x0 = 0, x1 = 0, y0 = 0, y1 = 0;
   float fx = 0.0f, fy = 0.0f;
   if (isfinite(s) && isfinite(t_coord)) {
     filter_axis(s, (int)t->width, wrap_s, &x0, &x1, &fx);
     filter_axis(t_coord, (int)t->height, wrap_t, &y0, &y1, &fy);
   }
-  const int n = t->channels;
   const size_t w = t->width, r0 = (size_t)y0 * w, r1 = (size_t)y1 * w;
-  const size_t o00 = (r0 + (size_t)x0) * (size_t)n, o10 = (r0 + (size_t)x1) * (size_t)n;
-  const size_t o01 = (r1 + (size_t)x0) * (size_t)n, o11 = (r1 + (size_t)x1) * (size_t)n;
-  const float w00 = (1.0f - fx) * (1.0f - fy), w10 = fx * (1.0f - fy), w01 = (1.0f - fx) * fy, w11 = fx * fy;
+  texel[0] = r0 + (size_t)x0;
+  texel[1] = r0 + (size_t)x1;
+  texel[2] = r1 + (size_t)x0;
+  texel[3] = r1 + (size_t)x1;
+  weight[0] = (1.0f - fx) * (1.0f - fy);
+  weight[1] = fx * (1.0f - fy);
+  weight[2] = (1.0f - fx) * fy;
+  weight[3] = fx * fy;
+}
+
+void vf_texture_lookup(const vf_texture *t, float s, float t_coord, int wrap_s, int wrap_t, int srgb, float out[4]) {
+  size_t i[4];
+  float weight[4];
+  footprint(t, s, t_coord, wrap_s, wrap_t, i, weight);
+  const int n = t->channels;
+  const size_t o00 = i[0] * (size_t)n, o10 = i[1] * (size_t)n, o01 = i[2] * (size_t)n, o11 = i[3] * (size_t)n;
+  const float w00 = weight[0], w10 = weight[1], w01 = weight[2], w11 = weight[3];
   float v[4] = {0.0f, 0.0f, 0.0f, 1.0f};
   if (t->is_float) {
     const float *p = t->texels;
@@ -489,7 +507,6 @@ void vf_texture_lookup(const vf_texture *t, float s, float t_coord, int wrap_s, 
      * a loop over n. */
     const uint8_t *p = t->texels;
     const float *colour = srgb ? srgb_table : linear_table; /* grey, or R, G, B; alpha is linear */
-    const float weight[4] = {w00, w10, w01, w11};
     const uint8_t *q[4] = {p + o00, p + o10, p + o01, p + o11};
     switch (n) {
     case 4: v[3] = blend8(linear_table, q, 3, weight); /* fall through */
@@ -514,19 +531,13 @@ void vf_texture_lookup(const vf_texture *t, float s, float t_coord, int wrap_s, 
 }
 
 void vf_texture_prefetch(const vf_texture *t, float s, float t_coord, int wrap_s, int wrap_t) {
-  int x0 = 0, x1 = 0, y0 = 0, y1 = 0;
-  float fx, fy;
-  if (isfinite(s) && isfinite(t_coord)) {
-    filter_axis(s, (int)t->width, wrap_s, &x0, &x1, &fx);
-    filter_axis(t_coord, (int)t->height, wrap_t, &y0, &y1, &fy);
-  }
-  const size_t texel = (size_t)t->channels * (t->is_float ? sizeof(float) : 1u), w = t->width;
+  size_t i[4];
+  float weight[4];
+  footprint(t, s, t_coord, wrap_s, wrap_t, i, weight);
+  const size_t texel = (size_t)t->channels * (t->is_float ? sizeof(float) : 1u);
   const char *p = t->texels;
-  /* The four texels; on one row, x0 and x1 share a line but where a line ends. */
-  __builtin_prefetch(p + ((size_t)y0 * w + (size_t)x0) * texel);
-  __builtin_prefetch(p + ((size_t)y0 * w + (size_t)x1) * texel);
-  __builtin_prefetch(p + ((size_t)y1 * w + (size_t)x0) * texel);
-  __builtin_prefetch(p + ((size_t)y1 * w + (size_t)x1) * texel);
+  /* The four texels; on one row, the two share a line but where a line ends. */
+  for (int k = 0; k < 4; k++) __builtin_prefetch(p + i[k] * texel);
 }
 
 float vf_texture_lookup_channel(const vf_texture *t, float s, float t_coord, int wrap_s, int wrap_t, int channel) {
@@ -534,16 +545,12 @@ float vf_texture_lookup_channel(const vf_texture *t, float s, float t_coord, int
   /* Where the RGBA channel lives in the stored ones: grey is R, G and B; no alpha is 1. */
   int k = n >= 3 ? channel : channel < 3 ? 0 : 1;
   if (k >= n) return 1.0f;
-  int x0 = 0, x1 = 0, y0 = 0, y1 = 0;
-  float fx = 0.0f, fy = 0.0f;
-  if (isfinite(s) && isfinite(t_coord)) {
-    filter_axis(s, (int)t->width, wrap_s, &x0, &x1, &fx);
-    filter_axis(t_coord, (int)t->height, wrap_t, &y0, &y1, &fy);
-  }
-  const size_t w = t->width, r0 = (size_t)y0 * w, r1 = (size_t)y1 * w;
-  const size_t o00 = (r0 + (size_t)x0) * (size_t)n + (size_t)k, o10 = (r0 + (size_t)x1) * (size_t)n + (size_t)k;
-  const size_t o01 = (r1 + (size_t)x0) * (size_t)n + (size_t)k, o11 = (r1 + (size_t)x1) * (size_t)n + (size_t)k;
-  const float w00 = (1.0f - fx) * (1.0f - fy), w10 = fx * (1.0f - fy), w01 = (1.0f - fx) * fy, w11 = fx * fy;
+  size_t i[4];
+  float weight[4];
+  footprint(t, s, t_coord, wrap_s, wrap_t, i, weight);
+  const size_t o00 = i[0] * (size_t)n + (size_t)k, o10 = i[1] * (size_t)n + (size_t)k;
+  const size_t o01 = i[2] * (size_t)n + (size_t)k, o11 = i[3] * (size_t)n + (size_t)k;
+  const float w00 = weight[0], w10 = weight[1], w01 = weight[2], w11 = weight[3];
   if (t->is_float) {
     const float *p = t->texels;
     return w00 * p[o00] + w10 * p[o10] + w01 * p[o01] + w11 * p[o11];
