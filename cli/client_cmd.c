@@ -5,7 +5,7 @@
 #include "../common/farm_client.h"
 #include "../common/file.h"
 #include "../common/image.h"
-#include "../worker/job_scene.h"
+#include "../worker/scene/job_scene.h"
 #include "../coordinator/job.h"
 #include "../coordinator/schedule.h"
 #include "../common/clock.h"

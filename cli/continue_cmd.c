@@ -9,7 +9,7 @@
 #include "../common/file_lock.h"
 #include "../common/film.h"
 #include "../common/image.h"
-#include "../worker/render.h"
+#include "../worker/render/render.h"
 #include "local_render.h"
 #include "options.h"
 #include "render_job.h"

@@ -14,7 +14,7 @@
 
 #include "../common/film.h"
 #include "../common/image.h"
-#include "../worker/render.h"
+#include "../worker/render/render.h"
 #include "options.h"
 
 #include <stdint.h>

@@ -11,7 +11,7 @@
 #include "../common/file_lock.h"
 #include "../common/film.h"
 #include "../common/image.h"
-#include "../worker/render.h"
+#include "../worker/render/render.h"
 #include "farm_render.h"
 #include "local_render.h"
 #include "options.h"

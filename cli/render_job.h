@@ -5,7 +5,7 @@
 #define VF_RENDER_JOB_H
 
 #include "../common/film.h"
-#include "../worker/vcm.h"
+#include "../worker/render/vcm.h"
 #include "options.h"
 
 #include <stdint.h>

@@ -4,9 +4,9 @@
 #include "../common/file.h"
 #include "../common/image.h"
 #include "../common/wire.h"
-#include "../worker/job_scene.h"
-#include "../worker/vcm.h"
-#include "../worker/scene_builtin.h"
+#include "../worker/scene/job_scene.h"
+#include "../worker/render/vcm.h"
+#include "../worker/scene/builtin.h"
 
 #include <sodium.h>
 #include <errno.h>

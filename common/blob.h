@@ -10,7 +10,7 @@
  *
  * A blob table maps the names a scene's loader asks for (exactly as it asks: the scene's
  * "file" strings, and the paths mesh files derive from them) to blobs. Names are keys,
- * never opened as paths on a worker or the coordinator (worker/scene_files.h), so a name
+ * never opened as paths on a worker or the coordinator (worker/scene/files.h), so a name
  * such as "../meshes/bunny.ply" is as harmless as any other; names are still checked as
  * untrusted text (length, control characters, uniqueness). */
 #ifndef VF_BLOB_H

@@ -21,7 +21,7 @@ typedef struct {
  * EXR (truncated, corrupt, missing channels, absurd size, deep or multi-part data). */
 int vf_image_read_exr(const char *path, vf_image *out);
 
-/* Texels of an EXR file held in memory (worker/texture.c): interleaved floats of R, G, B and
+/* Texels of an EXR file held in memory (worker/scene/texture.c): interleaved floats of R, G, B and
  * A when it has A, or of Y (and A) for a luminance image, so *channels is 3, 4, 1 or 2; rows
  * top first. Channel rules as vf_image_read_exr; sides above max_side are refused before
  * anything is allocated. *texels (the caller frees it) and the rest are written only on

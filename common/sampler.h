@@ -10,7 +10,7 @@
  *                still render any iteration.
  *
  * The sobol sampler is Owen-scrambled Sobol' in padded pairs. Every pair of dimensions
- * (a "pair" below, numbered by worker/sample_dims.h) is the first two dimensions of
+ * (a "pair" below, numbered by worker/render/sample_dims.h) is the first two dimensions of
  * Sobol' -- van der Corput and its companion, together a (0,2)-sequence in base 2 -- with
  *   - the index shuffled per pair by a nested uniform (Owen) permutation of its bits, so
  *     that pairs are decorrelated from one another while each aligned block of 2^m indices

@@ -19,7 +19,7 @@ typedef enum {
   VF_ALGO_PPM, /* progressive photon mapping: merge at the first non-specular camera vertex */
   VF_ALGO_BPM, /* bidirectional photon mapping: merging only, MIS-weighted (tech. rep. 5.6) */
   VF_ALGO_AUTO, /* the cheapest of the above that covers the scene's light transport, chosen
-                 * by the renderer from the scene (worker/vcm.c, vf_vcm_algorithm). The
+                 * by the renderer from the scene (worker/render/vcm.c, vf_vcm_algorithm). The
                  * settings text keeps "auto": the choice is a pure function of scene and
                  * settings, so every worker and every continue makes the same one. */
   VF_ALGO_COUNT_

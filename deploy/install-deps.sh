@@ -14,7 +14,7 @@ packages=(
   libcjson-dev         # scene files and --json output
   libassimp-dev        # mesh files (OBJ, PLY, glTF)
   libpng-dev           # previews and plots, PNG textures
-  libjpeg-dev          # JPEG textures (worker/texture.c; Debian's libjpeg62-turbo)
+  libjpeg-dev          # JPEG textures (worker/scene/texture.c; Debian's libjpeg62-turbo)
   libsodium-dev        # content hashes, message encryption and authentication
   libcairo2-dev        # plots and legends (PNG with text)
   libmicrohttpd-dev    # the coordinator's web dashboard (--http)

@@ -21,8 +21,8 @@
 
 #include "common/rng.h"
 #include "common/vec3.h"
-#include "worker/bsdf.h"
-#include "worker/material.h"
+#include "worker/render/bsdf.h"
+#include "worker/scene/material.h"
 
 #include <math.h>
 #include <stdint.h>
@@ -288,7 +288,7 @@ double glossy_rounding(double scale, double n, double cos_a);
 double rel_err(double a, double b, double abs_allowance);
 
 /* ---- a double-precision reference of the rough lobes ----
- * Written from the papers apart from worker/bsdf.c and worker/microfacet.h, in other forms:
+ * Written from the papers apart from worker/render/bsdf.c and worker/render/microfacet.h, in other forms:
  * the Fresnel equations in complex arithmetic (Born and Wolf), GGX through its slope-space
  * CDF (Walter et al. 2007 eq. 35), refraction by Walter's eq. 40. */
 

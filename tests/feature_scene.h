@@ -1,4 +1,4 @@
-/* Test scenes with the features of worker/surface.h, built from the Cornell family in
+/* Test scenes with the features of worker/render/surface.h, built from the Cornell family in
  * memory (tests/test_surface.c, tests/test_mis.c): coarse smooth-normal balls, textures of
  * every slot, a normal map and an alpha cut-out. The textures are made texel by texel here,
  * so the scenes need no files. */
@@ -7,7 +7,7 @@
 
 #include "check.h"
 #include "common/error.h"
-#include "worker/scene.h"
+#include "worker/scene/scene.h"
 
 #include <math.h>
 #include <stdint.h>

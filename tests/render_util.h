@@ -7,9 +7,9 @@
 #include "common/error.h"
 #include "common/pool.h"
 #include "common/rng.h"
-#include "worker/accel.h"
-#include "worker/scene.h"
-#include "worker/vcm.h"
+#include "worker/render/accel.h"
+#include "worker/scene/scene.h"
+#include "worker/render/vcm.h"
 
 #include <math.h>
 #include <stdio.h>

@@ -5,10 +5,10 @@
 #include "check.h"
 #include "common/error.h"
 #include "common/rng.h"
-#include "worker/accel.h"
-#include "worker/sampling.h"
-#include "worker/scene.h"
-#include "worker/scene_builtin.h"
+#include "worker/render/accel.h"
+#include "worker/render/sampling.h"
+#include "worker/scene/scene.h"
+#include "worker/scene/builtin.h"
 
 #include <stdio.h>
 #include <string.h>

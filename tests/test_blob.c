@@ -1,5 +1,5 @@
-/* Blobs (common/blob.c) and scenes loaded through their files (worker/scene_files.c,
- * worker/job_scene.c): stores refuse bytes that do not match their hash and notice damage,
+/* Blobs (common/blob.c) and scenes loaded through their files (worker/scene/files.c,
+ * worker/scene/job_scene.c): stores refuse bytes that do not match their hash and notice damage,
  * blobs arrive in chunks,
  * tables refuse bad entries, and a scene collected as blobs loads from a store with the
  * hash it has from its own directory, its glTF buffer included. */
@@ -9,7 +9,7 @@
 #include "common/error.h"
 #include "common/file.h"
 #include "worker/blob_cache.h"
-#include "worker/job_scene.h"
+#include "worker/scene/job_scene.h"
 
 #include <fcntl.h>
 #include <stdio.h>

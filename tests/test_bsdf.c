@@ -1,4 +1,4 @@
-/* Tests of worker/bsdf.c and worker/sampling.h against probability, never against numbers
+/* Tests of worker/render/bsdf.c and worker/render/sampling.h against probability, never against numbers
  * copied from an earlier run: the densities and the directions drawn from them.
  * - pdf identities: the density vf_bsdf_sample() reports is the one vf_bsdf_evaluate() reports
  *   for the same direction, the reverse density is the direct density of the swapped edge
@@ -14,7 +14,7 @@
  * budget. */
 #include "check.h"
 #include "bsdf_cases.h"
-#include "worker/sampling.h"
+#include "worker/render/sampling.h"
 
 #include <float.h>
 #include <math.h>

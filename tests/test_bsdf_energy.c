@@ -1,4 +1,4 @@
-/* Tests of worker/bsdf.c against energy conservation, never against numbers copied from an
+/* Tests of worker/render/bsdf.c against energy conservation, never against numbers copied from an
  * earlier run: the density integrates to the probability of a non-specular event, and no
  * material reflects more than it receives (directional albedo, by importance sampling against
  * an independent mixture sampler and against the analytic value where there is one).

@@ -1,10 +1,10 @@
-/* Tests of the rough lobes of worker/bsdf.c (GGX conductor and dielectric, the glTF
+/* Tests of the rough lobes of worker/render/bsdf.c (GGX conductor and dielectric, the glTF
  * metallic-roughness model, and their mixtures with the older lobes) against probability
  * and an independent double-precision reference, never against numbers copied from an
  * earlier run:
  * 1. the density vf_bsdf_sample() reports is vf_bsdf_evaluate()'s for that direction, and a
  *    camera sub-path's vertex evaluates a transmission to the radiance BTDF, 1/eta^2 times
- *    the light sub-path's f that sample() returns (worker/bsdf.h);
+ *    the light sub-path's f that sample() returns (worker/render/bsdf.h);
  * 2. the reverse density is the direct density of the edge walked the other way
  *    (tech. rep. sec. 3-5), f is reciprocal for reflection, and for transmission obeys the
  *    generalised reciprocity f(i, o) / eta_o^2 = f(o, i) / eta_i^2;

@@ -1,4 +1,4 @@
-/* Tests of worker/bsdf.c's specular lobes against optics, never against numbers copied from
+/* Tests of worker/render/bsdf.c's specular lobes against optics, never against numbers copied from
  * an earlier run: the mirror law, Snell's law, total internal reflection and the Fresnel
  * equations (against the angle forms, known values and Stokes' relation), and the
  * reflect/refract frequencies of the dielectric.

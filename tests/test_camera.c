@@ -1,4 +1,4 @@
-/* The camera, pinhole and thin lens (worker/camera.h): raster and direction invert each
+/* The camera, pinhole and thin lens (worker/render/camera.h): raster and direction invert each
  * other through any lens point, points in focus land where the pinhole sees them, the
  * direction density given a lens point is the inverse Jacobian of raster -> direction and
  * integrates to the image's pixel count, lens points are uniform on the disk, and the
@@ -6,9 +6,9 @@
 #include "check.h"
 #include "common/error.h"
 #include "common/rng.h"
-#include "worker/camera.h"
-#include "worker/scene.h"
-#include "worker/scene_builtin.h"
+#include "worker/render/camera.h"
+#include "worker/scene/scene.h"
+#include "worker/scene/builtin.h"
 
 #include <stdio.h>
 #include <stdlib.h>

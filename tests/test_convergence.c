@@ -7,7 +7,7 @@
 #include "common/convergence.h"
 #include "common/error.h"
 #include "common/film.h"
-#include "worker/render.h"
+#include "worker/render/render.h"
 
 #include <stdint.h>
 #include <stdlib.h>

@@ -5,7 +5,7 @@
 #include "common/error.h"
 #include "common/pool.h"
 #include "common/rng.h"
-#include "worker/hashgrid.h"
+#include "worker/render/hashgrid.h"
 
 #include <float.h>
 #include <stdint.h>

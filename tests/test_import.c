@@ -1,10 +1,10 @@
-/* Whole-scene import (worker/scene_import.c): a glTF 2.0 file and an OBJ+MTL written here,
+/* Whole-scene import (worker/scene/import.c): a glTF 2.0 file and an OBJ+MTL written here,
  * checked field by field against what they say (world positions through a node hierarchy,
  * normals by the inverse transpose, the uv convention, cameras, lights, every material
  * parameter and texture slot), their notes, and bad files refused naming file and problem. */
 #include "check.h"
 #include "common/error.h"
-#include "worker/scene.h"
+#include "worker/scene/scene.h"
 
 #include <png.h>
 

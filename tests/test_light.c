@@ -6,10 +6,10 @@
 #include "common/error.h"
 #include "common/image.h"
 #include "common/rng.h"
-#include "worker/light.h"
-#include "worker/sampling.h"
-#include "worker/scene.h"
-#include "worker/scene_builtin.h"
+#include "worker/render/light.h"
+#include "worker/render/sampling.h"
+#include "worker/scene/scene.h"
+#include "worker/scene/builtin.h"
 
 #include <stdio.h>
 #include <stdlib.h>

@@ -1,5 +1,5 @@
-/* Tests of worker/microfacet.h (GGX and the Fresnel reflectances) and of what the rough lobes
- * of worker/bsdf.c become at their extremes, against numerical integration and optics, never
+/* Tests of worker/render/microfacet.h (GGX and the Fresnel reflectances) and of what the rough lobes
+ * of worker/render/bsdf.c become at their extremes, against numerical integration and optics, never
  * against numbers copied from an earlier run:
  * 1. D is normalised (int D cos_m = 1) and the visible normals' density integrates to 1 for
  *    every direction (which ties Lambda to D), anisotropic alphas included;
@@ -18,8 +18,8 @@
 #include "check.h"
 #include "bsdf_cases.h"
 #include "common/error.h"
-#include "worker/microfacet.h"
-#include "worker/scene_builtin.h"
+#include "worker/render/microfacet.h"
+#include "worker/scene/builtin.h"
 
 #include <float.h>
 #include <math.h>

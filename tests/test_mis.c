@@ -1,6 +1,6 @@
 /* The MIS identity: for a full path x_0 .. x_k (x_0 on the light, x_k on the camera's lens),
- * the recursive weights of worker/mis.h, driven exactly as the renderer's passes drive them
- * (worker/light_pass.c, camera_pass.c), must
+ * the recursive weights of worker/render/mis.h, driven exactly as the renderer's passes drive them
+ * (worker/render/light_pass.c, camera_pass.c), must
  * (1) sum to 1 over every technique the renderer uses to sample that path, and
  * (2) each equal a direct evaluation of the balance heuristic, tech. rep. eq. (12), from
  *     the path's vertex densities computed one by one in double precision (eq. 2-8, 10).
@@ -12,14 +12,14 @@
  * the light. The first family has no specular vertex; the second has exactly one (a
  * reflection off the mirror or glass ball), where eq. (51) removes three techniques and
  * the rest must still sum to 1. In "cornell-rough" the balls are rough gold and rough glass
- * and the floor a glTF material (worker/bsdf.h): no vertex is specular, and the paths
+ * and the floor a glTF material (worker/render/bsdf.h): no vertex is specular, and the paths
  * reflect off and refract through GGX lobes. The "features" scene (tests/feature_scene.h)
  * has smooth-normal balls, textured diffuse and glTF materials, a normal-mapped wall, an
  * emission-textured light and a cut-out grating: its BSDFs are set up as the renderer's
- * (worker/surface.h), with shading normals.
+ * (worker/render/surface.h), with shading normals.
  *
- * Which techniques exist (mirrors choose_techniques() of worker/vcm.c and the guards of
- * worker/light_pass.c and camera_pass.c):
+ * Which techniques exist (mirrors choose_techniques() of worker/render/vcm.c and the guards of
+ * worker/render/light_pass.c and camera_pass.c):
  *   VC, s = 0 (t = k + 1): emission hit; a path of one segment has only this technique.
  *   VC, s = 1 (t = k):     light sampling from x_1, unless x_1 is specular.
  *   VC, 2 <= s <= k - 1:   connection of x_{s-1} and x_s, both non-specular.
@@ -34,14 +34,14 @@
 
 #include "common/error.h"
 #include "common/sampler.h"
-#include "worker/accel.h"
-#include "worker/bsdf.h"
-#include "worker/camera.h"
-#include "worker/light.h"
-#include "worker/mis.h"
-#include "worker/sampling.h"
-#include "worker/scene.h"
-#include "worker/surface.h"
+#include "worker/render/accel.h"
+#include "worker/render/bsdf.h"
+#include "worker/render/camera.h"
+#include "worker/render/light.h"
+#include "worker/render/mis.h"
+#include "worker/render/sampling.h"
+#include "worker/scene/scene.h"
+#include "worker/render/surface.h"
 
 #include <math.h>
 #include <stdio.h>
@@ -97,7 +97,7 @@ static double abs_cos_d(vf_vec3 p, vf_vec3 n, vf_vec3 q) {
   return fabs((dx * n.x + dy * n.y + dz * n.z) / sqrt(dx * dx + dy * dy + dz * dz));
 }
 
-/* As the renderer's shadow segments (queue_segment, worker/wavefront.h): both ends moved off
+/* As the renderer's shadow segments (queue_segment, worker/render/wavefront.h): both ends moved off
  * their surfaces (nq zero: a point). */
 static int occluded(const test_scene *ts, vf_vec3 p, vf_vec3 n, vf_vec3 q, vf_vec3 nq) {
   vf_vec3 d = vf_sub(q, p);
@@ -107,7 +107,7 @@ static int occluded(const test_scene *ts, vf_vec3 p, vf_vec3 n, vf_vec3 q, vf_ve
 }
 
 /* The BSDF at hit h for a path arriving from fix, as the renderer sets it up (bsdf_at of
- * worker/wavefront.h): through the shading normal and textures of an interpolated shape. */
+ * worker/render/wavefront.h): through the shading normal and textures of an interpolated shape. */
 static int bsdf_at_hit(const test_scene *ts, uint32_t shape, uint32_t prim, float u, float v, vf_vec3 normal,
                        vf_vec3 fix, vf_bsdf *b) {
   const vf_shape *sh = &ts->scene->shapes[shape];
@@ -324,7 +324,7 @@ static void direct_weights(const full_path *x, const path_data *pd, const techni
 /* ---------------------------------------------------------------------------------------- */
 /* The recursive weights, with the call sequence of the renderer's passes                  */
 
-/* camera_pdf_a() of worker/light_pass.c: the camera's area density of generating p seen from
+/* camera_pdf_a() of worker/render/light_pass.c: the camera's area density of generating p seen from
  * lens point `lens` along -dir_to_camera; 0 off the image. */
 static float camera_pdf_a(const vf_camera *cam, vf_vec3 lens, vf_vec3 p, vf_vec3 dir_to_camera, float dist,
                           float cos_at_p) {
@@ -471,7 +471,7 @@ static void recursive_weights(const test_scene *ts, const full_path *x, const pa
 static int load_test_scene(test_scene *ts, const char *name, vf_light_kind kind) {
   memset(ts, 0, sizeof *ts);
   int err = VF_OK;
-  if (strcmp(name, "features") == 0) /* tests/feature_scene.h: every feature of worker/surface.h */
+  if (strcmp(name, "features") == 0) /* tests/feature_scene.h: every feature of worker/render/surface.h */
     err = (ts->scene = feature_scene(FEATURE_SMOOTH | FEATURE_TEXTURED | FEATURE_NORMAL_MAP | FEATURE_CUTOUT))
               ? VF_OK
               : VF_ESCENE;
@@ -517,7 +517,7 @@ static void add_path(const test_scene *ts, const full_path *x, path_set *diffuse
 }
 
 /* The lens point of a camera sub-path or a connection to the camera: lens_sample() of
- * worker/light_pass.c. */
+ * worker/render/light_pass.c. */
 /* Where the walks' numbers come from: the sampler under test (common/sampler.h), each
  * number of a walk from a pair of its own (its first coordinate), the walk's index the
  * sample index. The identities hold path by path, whatever numbers made the path; the

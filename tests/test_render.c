@@ -3,7 +3,7 @@
 #include "check.h"
 #include "common/error.h"
 #include "common/film.h"
-#include "worker/render.h"
+#include "worker/render/render.h"
 
 #include <stdlib.h>
 #include <string.h>
@@ -191,7 +191,7 @@ static int log_delivery(void *ctx, vf_film *film, const vf_render_status *st) {
   return VF_OK;
 }
 
-/* The delivery contract (worker/render.h): a call after every iteration; due ones at the
+/* The delivery contract (worker/render/render.h): a call after every iteration; due ones at the
  * interval, but never after the range's last iteration, which the one final call
  * delivers, so that the write at the end of a range is not counted in its seconds. */
 static void test_the_end_of_a_range_is_delivered_once_as_final(void) {

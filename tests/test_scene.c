@@ -1,7 +1,7 @@
 #include "check.h"
 #include "common/error.h"
 #include "common/image.h"
-#include "worker/scene.h"
+#include "worker/scene/scene.h"
 
 #include <dirent.h>
 #include <math.h>

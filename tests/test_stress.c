@@ -4,7 +4,7 @@
  * benign setting, never against stored pixels. */
 #include "check.h"
 #include "render_util.h"
-#include "worker/scene_builtin.h"
+#include "worker/scene/builtin.h"
 
 #include <string.h>
 

@@ -1,9 +1,9 @@
-/* Shading normals, textures and cut-outs (worker/surface.h, vf_bsdf_setup_shading), tested
+/* Shading normals, textures and cut-outs (worker/render/surface.h, vf_bsdf_setup_shading), tested
  * on physics and on identities, never on pixels of an earlier run:
  * 1. with a shading normal, the value a camera sub-path's vertex evaluates for (fix a,
  *    gen b) equals the value a light sub-path's vertex evaluates for (fix b, gen a), and
  *    each side's direct density is the other's reverse one: the same path vertex gets the
- *    same contribution and densities from every technique (worker/bsdf.h);
+ *    same contribution and densities from every technique (worker/render/bsdf.h);
  * 2. sampling reports the density and value that evaluation gives for the sampled
  *    direction, and never a direction through the geometric surface of an opaque material;
  * 3. f cos of the folded value is f_s |gen.ns| for radiance and the adjoint of Veach's
@@ -17,8 +17,8 @@
 #include "check.h"
 #include "feature_scene.h"
 #include "render_util.h"
-#include "worker/bsdf.h"
-#include "worker/surface.h"
+#include "worker/render/bsdf.h"
+#include "worker/render/surface.h"
 
 #include "common/rng.h"
 

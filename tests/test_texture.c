@@ -1,5 +1,5 @@
-/* worker/texture.c and the scene's textures (worker/scene_textures.c, the material fields
- * of worker/scene_json.c): every image here is written by the test itself (libpng,
+/* worker/scene/texture.c and the scene's textures (worker/scene/textures.c, the material fields
+ * of worker/scene/json.c): every image here is written by the test itself (libpng,
  * libjpeg, common/'s EXR writer), so the expected texels are known exactly; the damaged
  * files of the OpenEXR corpus must be refused without a crash. */
 #include "check.h"
@@ -8,9 +8,9 @@
 
 #include "common/error.h"
 #include "common/exr_util.h"
-#include "worker/scene.h"
-#include "worker/scene_files.h"
-#include "worker/texture.h"
+#include "worker/scene/scene.h"
+#include "worker/scene/files.h"
+#include "worker/scene/texture.h"
 
 #include <math.h>
 #include <stdint.h>

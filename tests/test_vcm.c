@@ -1,7 +1,7 @@
 /* Physics of the whole renderer: the furnace and the agreement of independent algorithms. */
 #include "check.h"
 #include "render_util.h"
-#include "worker/scene_builtin.h"
+#include "worker/scene/builtin.h"
 
 #include <stdlib.h>
 #include <string.h>
@@ -193,7 +193,7 @@ static void check_lamp_in_glass(const char *name, const char *glass) {
 
 /* A lamp inside a glass ball: every path from it to the camera crosses the glass an odd
  * number of times, so radiance (camera sub-paths) and flux (light sub-paths) differ by
- * 1/ior^2 at the crossing that does not cancel (worker/bsdf.h). Path tracing reaches the
+ * 1/ior^2 at the crossing that does not cancel (worker/render/bsdf.h). Path tracing reaches the
  * lamp only by emission hits through the glass, light tracing never sees the glass from the
  * camera side, BPT and VCM mix both: they agree only if each side transports its own
  * quantity. Without the camera side's 1/eta^2, pt was 2.25 times too bright. */
@@ -205,7 +205,7 @@ static void test_light_inside_glass_agrees(void) {
  * and connections and merges evaluate them: cornell-rough (a glTF floor, rough gold, rough
  * glass), and the lamp inside rough glass, where a connection or merge across the glass
  * needs the radiance BTDF on the camera side and its adjoint, eta^2 times it, on the light
- * side (worker/bsdf.h); with either side's form on both, bpt and vcm are off by 2.25. */
+ * side (worker/render/bsdf.h); with either side's form on both, bpt and vcm are off by 2.25. */
 static void test_pt_bpt_vcm_agree_on_rough_materials(void) {
   vf_scene *scene;
   CHECK_INT_EQ(vf_scene_load("cornell-rough", &scene), VF_OK);
@@ -474,7 +474,7 @@ static void test_merging_simd_paths_give_identical_frames(void) {
 }
 
 /* bpt traces the light sub-paths of each camera tile just before its camera sub-paths
- * (worker/camera_pass.c), vcm all of them first in runs of pixels (worker/light_pass.c):
+ * (worker/render/camera_pass.c), vcm all of them first in runs of pixels (worker/render/light_pass.c):
  * both trace each pixel's light sub-path once, from the same numbers, so they store the
  * same vertices, on images whose sides are not multiples of the tile's. */
 static void test_bpt_tiles_trace_the_light_sub_paths_of_vcm(void) {

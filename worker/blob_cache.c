@@ -2,7 +2,7 @@
 
 #include "../common/clock.h"
 #include "../common/error.h"
-#include "job_scene.h"
+#include "scene/job_scene.h"
 
 #include <sodium.h>
 

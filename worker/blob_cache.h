@@ -10,7 +10,7 @@
 
 #include "../common/blob.h"
 #include "../common/farm_client.h"
-#include "scene.h"
+#include "scene/scene.h"
 
 #include <stddef.h>
 #include <stdint.h>

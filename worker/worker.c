@@ -4,11 +4,11 @@
 #include "../common/farm_client.h"
 #include "../common/film_handoff.h"
 #include "../common/film_wire.h"
-#include "accel.h"
+#include "render/accel.h"
 #include "blob_cache.h"
 #include "heartbeat.h"
-#include "job_scene.h"
-#include "render.h"
+#include "scene/job_scene.h"
+#include "render/render.h"
 
 #include <errno.h>
 #include <stdarg.h>

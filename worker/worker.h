@@ -1,5 +1,5 @@
 /* The farm worker's loop (docs/PROTOCOL.md): register with a coordinator, then ask for a
- * lease, render it with the one render loop (vf_render_range, worker/render.h), ship its
+ * lease, render it with the one render loop (vf_render_range, worker/render/render.h), ship its
  * film as tiles during and at the end of the lease, and ask again, until told to stop.
  *
  * `vcmfarm worker` runs it in its own process; `vcmfarm render` runs it on a thread beside
@@ -12,7 +12,7 @@
 
 #include "../common/film_handoff.h"
 #include "../common/wire.h"
-#include "vcm.h"
+#include "render/vcm.h"
 
 #include <signal.h>
 #include <stdatomic.h>

@@ -13,10 +13,10 @@
 #include "common/error.h"
 #include "common/pool.h"
 #include "common/rng.h"
-#include "worker/accel.h"
-#include "worker/camera.h"
-#include "worker/sampling.h"
-#include "worker/scene.h"
+#include "worker/render/accel.h"
+#include "worker/render/camera.h"
+#include "worker/render/sampling.h"
+#include "worker/scene/scene.h"
 
 #include <stdio.h>
 #include <stdlib.h>

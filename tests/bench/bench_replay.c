@@ -24,9 +24,9 @@
 #include "common/error.h"
 #include "common/pool.h"
 #include "common/settings.h"
-#include "worker/accel.h"
-#include "worker/scene.h"
-#include "worker/vcm.h"
+#include "worker/render/accel.h"
+#include "worker/scene/scene.h"
+#include "worker/render/vcm.h"
 
 #include <math.h>
 #include <pthread.h>

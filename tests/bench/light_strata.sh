@@ -5,7 +5,7 @@
 #
 #     bash tests/bench/light_strata.sh REF_DIR ITERATIONS BIN0 BIN1 BIN2
 #
-# BINm is a vcmfarm built with -DVF_LIGHT_STRATIFICATION=m (worker/light_pass.c: 0 across
+# BINm is a vcmfarm built with -DVF_LIGHT_STRATIFICATION=m (worker/render/light_pass.c: 0 across
 # iterations, 1 across paths, 2 none); REF_DIR holds the references of sampler.sh. Renders
 # vcm (and bpm, merging alone) on cornell, cornell-bulb and cornell-glossy with each and
 # prints the relative RMSE after ITERATIONS, corrected for the reference's noise.

@@ -2,8 +2,8 @@
  * transforms, materials and textures. The scene may name two files held in memory, a
  * mesh "m.obj" with normals and texture coordinates and a texture "t.png", so that the
  * mesh and texture paths of a scene are reached as well; no other file exists. */
-#include "worker/scene.h"
-#include "worker/scene_builtin.h"
+#include "worker/scene/scene.h"
+#include "worker/scene/builtin.h"
 
 #include <stdint.h>
 #include <stdlib.h>

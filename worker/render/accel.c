@@ -1,0 +1,354 @@
+#include "accel.h"
+
+#include "../../common/error.h"
+#include "surface.h"
+
+#include <embree3/rtcore.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+struct vf_accel {
+  RTCDevice device;
+  RTCScene scene;
+  const vf_scene *source; /* borrowed: positions and spheres for hit reconstruction */
+  float scale;            /* bounding-sphere radius, for ray offsets */
+  unsigned char *interpolated; /* per shape: vf_surface_interpolated */
+  struct cutout *cutouts;      /* per shape: what its filter functions read */
+};
+
+/* A cut-out mesh's filter functions' user data. */
+struct cutout {
+  const vf_scene *scene;
+  const vf_shape *shape;
+};
+
+/* Embree's filter for hits on a cut-out mesh (closest hit and occlusion): hits in a hole
+ * are refused, and the ray goes on. */
+static void cutout_filter(const struct RTCFilterFunctionNArguments *args) {
+  const struct cutout *c = args->geometryUserPtr;
+  for (unsigned i = 0; i < args->N; i++) {
+    if (args->valid[i] == 0) continue;
+    /* RTCHitN is N-wide structure-of-arrays Ng_x, Ng_y, Ng_z, u, v, primID, ...; Embree's
+     * accessors for it (rtcore_ray.h) are C++ only. */
+    const float *f = (const float *)args->hit;
+    const unsigned *w = (const unsigned *)args->hit;
+    unsigned prim = w[5 * args->N + i];
+    float u = f[3 * args->N + i], v = f[4 * args->N + i];
+    if (!vf_surface_covered(c->scene, c->shape, prim, u, v)) args->valid[i] = 0;
+  }
+}
+
+static void device_error(void *user, enum RTCError code, const char *msg) {
+  (void)user;
+  vf_error_set(VF_EEMBREE, "Embree error %d: %s", (int)code, msg ? msg : "");
+}
+
+static int add_mesh(vf_accel *a, const vf_shape *s, unsigned id) {
+  RTCGeometry g = rtcNewGeometry(a->device, RTC_GEOMETRY_TYPE_TRIANGLE);
+  if (g == NULL) return VF_EEMBREE;
+  /* Embree reads vertex buffers with 16-byte loads: the new buffer it allocates is padded. */
+  float *v = rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float),
+                                     s->num_vertices);
+  uint32_t *idx = rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(uint32_t),
+                                          s->num_triangles);
+  if (v == NULL || idx == NULL) {
+    rtcReleaseGeometry(g);
+    return VF_EEMBREE;
+  }
+  memcpy(v, s->positions, (size_t)s->num_vertices * 3 * sizeof(float));
+  memcpy(idx, s->indices, (size_t)s->num_triangles * 3 * sizeof(uint32_t));
+  if (a->source->materials[s->material].alpha_cutoff > 0.0f) {
+    a->cutouts[id] = (struct cutout){a->source, s};
+    rtcSetGeometryUserData(g, &a->cutouts[id]);
+    rtcSetGeometryIntersectFilterFunction(g, cutout_filter);
+    rtcSetGeometryOccludedFilterFunction(g, cutout_filter);
+  }
+  rtcCommitGeometry(g);
+  rtcAttachGeometryByID(a->scene, g, id);
+  rtcReleaseGeometry(g);
+  return VF_OK;
+}
+
+static int add_sphere(vf_accel *a, const vf_shape *s, unsigned id) {
+  RTCGeometry g = rtcNewGeometry(a->device, RTC_GEOMETRY_TYPE_SPHERE_POINT);
+  if (g == NULL) return VF_EEMBREE;
+  float *v = rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT4, 4 * sizeof(float), 1);
+  if (v == NULL) {
+    rtcReleaseGeometry(g);
+    return VF_EEMBREE;
+  }
+  v[0] = s->center.x;
+  v[1] = s->center.y;
+  v[2] = s->center.z;
+  v[3] = s->radius;
+  rtcCommitGeometry(g);
+  rtcAttachGeometryByID(a->scene, g, id);
+  rtcReleaseGeometry(g);
+  return VF_OK;
+}
+
+int vf_accel_create(const vf_scene *scene, vf_accel **out) {
+  vf_accel *a = calloc(1, sizeof *a);
+  if (a == NULL) return VF_ENOMEM;
+  a->source = scene;
+  a->interpolated = calloc((size_t)scene->num_shapes + 1, 1);
+  a->cutouts = calloc((size_t)scene->num_shapes + 1, sizeof *a->cutouts);
+  if (a->interpolated == NULL || a->cutouts == NULL) {
+    vf_accel_destroy(a);
+    return VF_ENOMEM;
+  }
+  for (int i = 0; i < scene->num_shapes; i++) a->interpolated[i] = (unsigned char)vf_surface_interpolated(scene, &scene->shapes[i]);
+  vf_vec3 center;
+  vf_scene_bounding_sphere(scene, &center, &a->scale);
+  if (!(a->scale > 0.0f)) a->scale = 1.0f; /* a single point or sphere of radius 0: any unit */
+  /* Embree's kernels are capped at AVX2 (8-wide packets). Its kernels for each instruction
+   * set find hits that differ in their last bits (AVX-512 against AVX2: films of `cornell`
+   * differ by up to 1e-2 after 2 vcm iterations), and a farm's machines must agree to the
+   * bit: with the cap every x86 machine with AVX2, AVX-512 or not, runs the same kernels.
+   * It is also the faster choice on Intel's server cores, where 512-bit code lowers the
+   * clock of everything around it: on an Ice Lake Xeon, pt and bpt ran 14-38% faster on
+   * `cornell` and the showcase, with Embree's own rate unchanged (docs/BENCHMARKS.md). */
+  a->device = rtcNewDevice("threads=1,set_affinity=0,max_isa=avx2");
+  if (a->device == NULL) {
+    vf_accel_destroy(a);
+    return vf_error_set(VF_EEMBREE, "cannot create the Embree device (error %d)", (int)rtcGetDeviceError(NULL));
+  }
+  rtcSetDeviceErrorFunction(a->device, device_error, NULL);
+  a->scene = rtcNewScene(a->device);
+  if (a->scene == NULL) goto fail;
+  /* Robust mode: watertight edges, or about 1.5e-4 of the rays leaving the inside of a
+   * closed mesh escape between its triangles (tests/test_accel.c fails without it).
+   * Low build quality (the Morton builder): with robust mode, measured faster to trace than
+   * medium or high on our scenes (Embree 3.13, bench_embree, one thread: cornell 10.1
+   * against 7.4 Mrays/s, the 115k-triangle knot 5.0 against 4.4), and within 7% either way
+   * of medium on tube meshes of 240k, 600k and 2.4M triangles; the build is cheaper too. */
+  rtcSetSceneBuildQuality(a->scene, RTC_BUILD_QUALITY_LOW);
+  rtcSetSceneFlags(a->scene, RTC_SCENE_FLAG_ROBUST);
+  for (int i = 0; i < scene->num_shapes; i++) {
+    const vf_shape *s = &scene->shapes[i];
+    int err = s->kind == VF_SHAPE_SPHERE ? add_sphere(a, s, (unsigned)i) : add_mesh(a, s, (unsigned)i);
+    if (err != VF_OK) goto fail;
+  }
+  rtcCommitScene(a->scene);
+  if (rtcGetDeviceError(a->device) != RTC_ERROR_NONE) goto fail;
+  *out = a;
+  return VF_OK;
+fail:
+  vf_accel_destroy(a);
+  return vf_error_set(VF_EEMBREE, "cannot build the Embree scene");
+}
+
+void vf_accel_destroy(vf_accel *a) {
+  if (a == NULL) return;
+  if (a->scene) rtcReleaseScene(a->scene);
+  if (a->device) rtcReleaseDevice(a->device);
+  free(a->interpolated);
+  free(a->cutouts);
+  free(a);
+}
+
+/* The distance to sphere s along org + t dir: the root of |org + t dir - center| = radius
+ * nearest to Embree's t_embree, solved in double. Embree's own t is good to a few parts in
+ * a million and differs between its single-ray and packet kernels; this one is exact to
+ * float rounding whichever kernel found the hit, so a ray gives the same hit either way. */
+static float sphere_root(const vf_shape *s, vf_vec3 org, vf_vec3 dir, float t_embree) {
+  /* Products of floats are exact in double: the only rounding is in the sums. */
+  double ox = (double)org.x - s->center.x, oy = (double)org.y - s->center.y, oz = (double)org.z - s->center.z;
+  double a = (double)dir.x * dir.x + (double)dir.y * dir.y + (double)dir.z * dir.z;
+  double b = ox * dir.x + oy * dir.y + oz * dir.z;
+  double c = ox * ox + oy * oy + oz * oz - (double)s->radius * s->radius;
+  double disc = b * b - a * c;
+  double root = sqrt(disc > 0.0 ? disc : 0.0);
+  /* The two roots without cancellation: q = -(b + sign(b) root), t = q / a and c / q. */
+  double q = b < 0.0 ? root - b : -(b + root);
+  double t0 = q / a, t1 = q != 0.0 ? c / q : t0;
+  double t = fabs(t0 - t_embree) <= fabs(t1 - t_embree) ? t0 : t1;
+  return t > 0.0 ? (float)t : t_embree; /* a root behind the origin: keep Embree's */
+}
+
+#define VF_UNLIKELY_HIT(x) __builtin_expect(!!(x), 0)
+
+/* Fills *hit from what Embree reported for the ray org + t dir; 0 for a degenerate hit. */
+static inline __attribute__((always_inline)) int complete_hit(const vf_accel *a, vf_vec3 org, vf_vec3 dir, float t,
+                                                              unsigned geom, unsigned prim, float u, float v,
+                                                              vf_vec3 ng, vf_hit *hit) {
+  const vf_shape *s = &a->source->shapes[geom];
+  hit->t = t;
+  hit->shape = geom;
+  hit->primitive = prim;
+  if (s->kind == VF_SHAPE_SPHERE) {
+    t = hit->t = sphere_root(s, org, dir, t);
+    vf_vec3 p = vf_add(org, vf_scale(dir, t));
+    vf_vec3 n = vf_normalize(vf_sub(p, s->center));
+    hit->normal = n;
+    /* Project back onto the sphere: removes the error of org + t dir along the normal. */
+    hit->position = vf_add(s->center, vf_scale(n, s->radius));
+    return 1;
+  }
+  const uint32_t *tri = &s->indices[3 * (size_t)prim];
+  const float *p0 = &s->positions[3 * (size_t)tri[0]];
+  const float *p1 = &s->positions[3 * (size_t)tri[1]];
+  const float *p2 = &s->positions[3 * (size_t)tri[2]];
+  float w = 1.0f - u - v;
+  hit->position = vf_vec3_make(w * p0[0] + u * p1[0] + v * p2[0], w * p0[1] + u * p1[1] + v * p2[1],
+                               w * p0[2] + u * p1[2] + v * p2[2]);
+  hit->u = u;
+  hit->v = v;
+  if (VF_UNLIKELY_HIT(a->interpolated[geom])) {
+    /* Our own normal, which a light vertex rebuilt from the triangle gets again. */
+    hit->normal = vf_surface_triangle_normal(s, prim);
+    return !vf_is_zero(hit->normal);
+  }
+  float len = vf_length(ng);
+  if (!(len > 0.0f)) return 0; /* degenerate triangle: Embree should not report it */
+  hit->normal = vf_scale(ng, 1.0f / len);
+  return 1;
+}
+
+int vf_accel_intersect(const vf_accel *a, vf_vec3 org, vf_vec3 dir, float tfar, vf_hit *hit) {
+  struct RTCIntersectContext ctx;
+  rtcInitIntersectContext(&ctx);
+  ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT;
+  struct RTCRayHit rh;
+  rh.ray.org_x = org.x;
+  rh.ray.org_y = org.y;
+  rh.ray.org_z = org.z;
+  rh.ray.dir_x = dir.x;
+  rh.ray.dir_y = dir.y;
+  rh.ray.dir_z = dir.z;
+  rh.ray.tnear = 0.0f;
+  rh.ray.tfar = tfar;
+  rh.ray.time = 0.0f;
+  rh.ray.mask = 0xFFFFFFFFu;
+  rh.ray.id = 0;
+  rh.ray.flags = 0;
+  rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+  rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+  rtcIntersect1(a->scene, &ctx, &rh);
+  if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return 0;
+  /* org and dir as Embree holds them (it writes only tfar and the hit): reading them back
+   * keeps the arguments from living across the call in stack slots, whose reloads GCC
+   * fuses into loads that straddle two stores and miss store forwarding, which cost more
+   * than the rest of this function on every ray. */
+  return complete_hit(a, vf_vec3_make(rh.ray.org_x, rh.ray.org_y, rh.ray.org_z),
+                      vf_vec3_make(rh.ray.dir_x, rh.ray.dir_y, rh.ray.dir_z), rh.ray.tfar, rh.hit.geomID,
+                      rh.hit.primID, rh.hit.u, rh.hit.v, vf_vec3_make(rh.hit.Ng_x, rh.hit.Ng_y, rh.hit.Ng_z), hit);
+}
+
+int vf_accel_occluded(const vf_accel *a, vf_vec3 org, vf_vec3 dir, float tfar) {
+  struct RTCIntersectContext ctx;
+  rtcInitIntersectContext(&ctx);
+  ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT;
+  struct RTCRay r;
+  r.org_x = org.x;
+  r.org_y = org.y;
+  r.org_z = org.z;
+  r.dir_x = dir.x;
+  r.dir_y = dir.y;
+  r.dir_z = dir.z;
+  r.tnear = 0.0f;
+  r.tfar = tfar;
+  r.time = 0.0f;
+  r.mask = 0xFFFFFFFFu;
+  r.id = 0;
+  r.flags = 0;
+  rtcOccluded1(a->scene, &ctx, &r);
+  return r.tfar < 0.0f;
+}
+
+/* Embree's packets of 8 rays, the widest its AVX2 kernels trace natively. */
+#define WIDTH 8
+
+/* Fills packet r and `valid` for rays org[i] + t dir[i], t in (0, tfar[i]) (tfar NULL:
+ * infinity), i < n. Lanes past n are switched off but still given a harmless ray. The
+ * fields that are the same for every ray are set in loops of their own, which the compiler
+ * turns into vector stores, and only origins, directions and lengths lane by lane. */
+static inline __attribute__((always_inline)) void packet_rays(struct RTCRay8 *r, int *valid, const vf_vec3 *org,
+                                                              const vf_vec3 *dir, const float *tfar, int n) {
+  for (int i = 0; i < WIDTH; i++) {
+    valid[i] = i < n ? -1 : 0;
+    r->tnear[i] = 0.0f;
+    r->time[i] = 0.0f;
+    r->mask[i] = 0xFFFFFFFFu;
+    r->id[i] = 0;
+    r->flags[i] = 0;
+  }
+  for (int i = 0; i < n; i++) {
+    r->org_x[i] = org[i].x;
+    r->org_y[i] = org[i].y;
+    r->org_z[i] = org[i].z;
+    r->dir_x[i] = dir[i].x;
+    r->dir_y[i] = dir[i].y;
+    r->dir_z[i] = dir[i].z;
+    r->tfar[i] = tfar != NULL ? tfar[i] : INFINITY;
+  }
+  for (int i = n; i < WIDTH; i++) {
+    r->org_x[i] = r->org_y[i] = r->org_z[i] = 0.0f;
+    r->dir_x[i] = r->dir_y[i] = 0.0f;
+    r->dir_z[i] = 1.0f;
+    r->tfar[i] = 0.0f;
+  }
+}
+
+static uint32_t occluded8(const vf_accel *a, const vf_vec3 *org, const vf_vec3 *dir, const float *tfar, int n) {
+  struct RTCIntersectContext ctx;
+  rtcInitIntersectContext(&ctx);
+  ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT;
+  struct RTCRay8 r; /* aligned as Embree declares it */
+  RTC_ALIGN(4 * WIDTH) int valid[WIDTH];
+  packet_rays(&r, valid, org, dir, tfar, n);
+  rtcOccluded8(valid, a->scene, &ctx, &r);
+  uint32_t blocked = 0;
+  for (int i = 0; i < n; i++) blocked |= (uint32_t)(r.tfar[i] < 0.0f) << i;
+  return blocked;
+}
+
+static uint32_t intersect8(const vf_accel *a, const vf_vec3 *org, const vf_vec3 *dir, int n, vf_hit *hits) {
+  struct RTCIntersectContext ctx;
+  rtcInitIntersectContext(&ctx);
+  ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT;
+  struct RTCRayHit8 rh;
+  RTC_ALIGN(4 * WIDTH) int valid[WIDTH];
+  packet_rays(&rh.ray, valid, org, dir, NULL, n);
+  for (int i = 0; i < WIDTH; i++) rh.hit.geomID[i] = rh.hit.instID[0][i] = RTC_INVALID_GEOMETRY_ID;
+  rtcIntersect8(valid, a->scene, &ctx, &rh);
+  uint32_t found = 0;
+  for (int i = 0; i < n; i++)
+    if (rh.hit.geomID[i] != RTC_INVALID_GEOMETRY_ID &&
+        complete_hit(a, org[i], dir[i], rh.ray.tfar[i], rh.hit.geomID[i], rh.hit.primID[i], rh.hit.u[i], rh.hit.v[i],
+                     vf_vec3_make(rh.hit.Ng_x[i], rh.hit.Ng_y[i], rh.hit.Ng_z[i]), &hits[i]))
+      found |= 1u << i;
+  return found;
+}
+
+/* Packets of up to WIDTH rays go to Embree as one packet, larger ones as two. */
+uint32_t vf_accel_occluded_packet(const vf_accel *a, const vf_vec3 *org, const vf_vec3 *dir, const float *tfar,
+                                  int n) {
+  if (n <= WIDTH) return occluded8(a, org, dir, tfar, n);
+  return occluded8(a, org, dir, tfar, WIDTH) |
+         occluded8(a, org + WIDTH, dir + WIDTH, tfar + WIDTH, n - WIDTH) << WIDTH;
+}
+
+uint32_t vf_accel_intersect_packet(const vf_accel *a, const vf_vec3 *org, const vf_vec3 *dir, int n,
+                                   vf_hit *hits) {
+  if (n <= WIDTH) return intersect8(a, org, dir, n, hits);
+  return intersect8(a, org, dir, WIDTH, hits) | intersect8(a, org + WIDTH, dir + WIDTH, n - WIDTH, hits + WIDTH)
+                                                    << WIDTH;
+}
+
+const char *vf_accel_kernels(void) {
+#if defined(__x86_64__) || defined(__i386__)
+  __builtin_cpu_init();
+#define DIFFER " (no AVX2 here: hits differ from AVX2 machines' in their last bits)"
+  if (__builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma")) return "AVX2";
+  if (__builtin_cpu_supports("avx")) return "AVX" DIFFER;
+  if (__builtin_cpu_supports("sse4.2")) return "SSE4.2" DIFFER;
+  return "SSE2" DIFFER;
+#undef DIFFER
+#else
+  return "this architecture's (hits differ from x86 machines' in their last bits)";
+#endif
+}
+
+float vf_accel_scale(const vf_accel *a) { return a->scale; }

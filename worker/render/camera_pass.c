@@ -1,0 +1,384 @@
+/* Phase 3 of an iteration, the camera sub-paths: camera_pass.h. */
+#include "camera_pass.h"
+
+#include "../../common/clock.h"
+#include "../../common/sampler.h"
+#include "light_pass.h"
+#include "vcm_internal.h"
+#include "vertex_merging.h"
+#include "wavefront.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* Camera sub-paths are traced in square tiles (CAMERA_TILE): neighbouring pixels query
+ * neighbouring grid cells at their first hit, so a tile reuses what its previous rows
+ * brought into cache. */
+
+/* The BSDF a stored light vertex had. */
+static void bsdf_of_vertex(const vf_vcm *v, vf_bsdf *b, const light_vertex *lv) {
+  uint32_t shape = vertex_shape(lv);
+  if (__builtin_expect(v->interpolated[shape], 0)) {
+    const vf_shape *sh = &v->scene->shapes[shape];
+    vf_vec3 ng = vf_surface_triangle_normal(sh, lv->at.point.primitive);
+    vf_surface_bsdf(b, v->scene, v->lobes, shape, lv->at.point.primitive, lv->at.point.u, lv->at.point.v, ng, lv->fix);
+    return;
+  }
+  uint32_t m = (uint32_t)v->scene->shapes[shape].material;
+  vf_bsdf_setup(b, &v->scene->materials[m], &v->lobes[m], lv->at.normal, lv->fix);
+}
+
+/* The geometric normal of a stored light vertex whose BSDF is lb, for its shadow rays'
+ * offsets (which orient it themselves): on an interpolated shape the one its BSDF was set
+ * up with (vf_bsdf.geometric), not recomputed for every connection. */
+static vf_vec3 normal_of_vertex(const vf_vcm *v, const light_vertex *lv, const vf_bsdf *lb) {
+  return __builtin_expect(v->interpolated[vertex_shape(lv)], 0) ? lb->geometric : lv->at.normal;
+}
+
+/* s = 0: radiance of a light found by the camera sub-path, weighted. */
+static vf_vec3 emission_weighted(const vf_vcm *v, const vf_light *l, const path_state *s, vf_vec3 radiance,
+                                 float direct_pdf, float emission_pdf) {
+  if (vf_is_zero(radiance)) return radiance;
+  if (s->path_length == 1) return radiance; /* seen directly: no other technique can */
+  if (v->t.emission_specular_only) return s->specular_path ? radiance : vf_vec3_splat(0.0f);
+  float w = vf_mis_weight_emission(&s->mis, direct_pdf * l->pick_probability, emission_pdf * l->pick_probability);
+  return vf_scale(radiance, w);
+}
+
+/* Adds the camera sub-paths' waiting contributions to their pixels, in the order they
+ * arose, once the queued shadow rays are traced: those whose ray was blocked are left out. */
+static void resolve_deferred(vf_vcm *v, int thread) {
+  thread_stats *ts = &v->stats[thread];
+  shadow_packet *pk = &ts->packet;
+  int n = pk->n;
+  if (n > 0) {
+    uint32_t blocked = trace_packet(v, thread, pk);
+    for (int i = 0; i < n; i++) ts->pending[pk->owner[i]].blocked = (int)(blocked >> i & 1u);
+  }
+  for (int i = 0; i < ts->num_pending; i++) {
+    const deferred *d = &ts->pending[i];
+    if (d->blocked) continue;
+    float *rgb = &ts->tile_rgb[3 * (size_t)d->tile_pixel];
+    rgb[0] += d->value.x;
+    rgb[1] += d->value.y;
+    rgb[2] += d->value.z;
+  }
+  ts->num_pending = 0;
+}
+
+/* Adds value to the pixel after the contributions before it; returns the index of its
+ * queue entry, the owner of the shadow ray that guards it (queue_segment or
+ * queue_direction, then packet_queued), if any. */
+static int defer(vf_vcm *v, int thread, vf_vec3 value, uint32_t tile_pixel) {
+  thread_stats *ts = &v->stats[thread];
+  if (ts->num_pending == DEFERRED_MAX) resolve_deferred(v, thread);
+  ts->pending[ts->num_pending] = (deferred){value, tile_pixel, 0};
+  return ts->num_pending++;
+}
+
+/* After queue_segment or queue_direction for an entry: traces the packet when full. */
+static void packet_queued(vf_vcm *v, int thread) {
+  if (v->stats[thread].packet.n == VF_ACCEL_PACKET) resolve_deferred(v, thread);
+}
+
+/* s = 1: next-event estimation, added to tile_pixel if the light is visible. */
+static void light_sample(vf_vcm *v, int thread, const vf_hit *hit, const vf_bsdf *b, const path_state *s,
+                         vf_sampler *sampler, uint32_t vertex_dims, uint32_t tile_pixel) {
+  vf_vec3 zero = vf_vec3_splat(0.0f);
+  const vf_light *l = vf_lights_pick(v->lights, vf_sampler_1d(sampler, vf_dim_at(vertex_dims, VF_DIM_NEE_LIGHT)));
+  /* A delta light (point, spot, directional) has one point to offer and leaves the numbers
+   * unused: they are drawn only where drawing them moves the later ones. */
+  float rnd[2] = {0.0f, 0.0f};
+  uint32_t point_pair = vf_dim_at(vertex_dims, VF_DIM_NEE_POINT);
+  if (!l->is_delta || vf_sampler_in_order(sampler, point_pair)) vf_sampler_2d(sampler, point_pair, rnd);
+  vf_vec3 dir, lp, ln;
+  float dist, direct_pdf, emission_pdf, cos_at_light;
+  vf_vec3 radiance = vf_light_illuminate(v->lights, l, hit->position, rnd, &dir, &dist, &lp, &ln, &direct_pdf,
+                                         &emission_pdf, &cos_at_light);
+  if (vf_is_zero(radiance) || !(direct_pdf > 0.0f)) return;
+  float cos_to_light, bsdf_pdf, bsdf_rev_pdf;
+  vf_vec3 f = vf_bsdf_evaluate(b, dir, &cos_to_light, &bsdf_pdf, &bsdf_rev_pdf);
+  if (vf_is_zero(f)) return;
+  if (l->is_delta) bsdf_pdf = 0.0f; /* a delta light cannot be hit by a sampled direction */
+  float pick = l->pick_probability;
+  float w = vf_mis_weight_light_sample(&s->mis, &v->mis, bsdf_pdf, bsdf_rev_pdf, direct_pdf * pick,
+                                       emission_pdf * pick, cos_to_light, cos_at_light);
+  vf_vec3 contrib = vf_scale(vf_mul(radiance, f), w * cos_to_light / (pick * direct_pdf));
+  if (vf_is_zero(contrib)) return;
+  int entry = defer(v, thread, vf_mul(s->throughput, contrib), tile_pixel);
+  shadow_packet *pk = &v->stats[thread].packet;
+  if (isinf(dist))
+    queue_direction(v, pk, entry, hit->position, hit->normal, dir);
+  else
+    queue_segment(v, pk, entry, hit->position, hit->normal, lp, l->is_delta ? zero : ln); /* punctual: no surface */
+  packet_queued(v, thread);
+}
+
+/* The BSDFs of the light vertices a camera sub-path connects to: every camera vertex
+ * connects to the same light sub-path, so each light vertex's BSDF is set up once per
+ * camera sub-path, when first needed, instead of once per connection. Light sub-paths
+ * longer than the cache set up the rest per connection. */
+#define LIGHT_BSDF_CACHE 16
+typedef struct {
+  vf_bsdf bsdf[LIGHT_BSDF_CACHE];
+  uint32_t ready; /* bit i: bsdf[i] is set up */
+} light_bsdf_cache;
+
+static const vf_bsdf *light_bsdf(const vf_vcm *v, light_bsdf_cache *cache, uint32_t i, const light_vertex *lv,
+                                 vf_bsdf *scratch) {
+  if (i >= LIGHT_BSDF_CACHE) {
+    bsdf_of_vertex(v, scratch, lv);
+    return scratch;
+  }
+  if (!(cache->ready >> i & 1u)) {
+    bsdf_of_vertex(v, &cache->bsdf[i], lv);
+    cache->ready |= 1u << i;
+  }
+  return &cache->bsdf[i];
+}
+
+/* s > 1, t > 1: connection of camera vertex (hit, b) to light vertex lv, the i-th of its
+ * light sub-path, added to tile_pixel if the two see each other. The light vertex's BSDF is
+ * `kept` where the fused pass kept it, else set up through the cache. */
+static void connect_vertices(vf_vcm *v, int thread, const vf_hit *hit, const vf_bsdf *b, const path_state *s,
+                             const light_vertex *lv, const vf_bsdf *kept, uint32_t i, light_bsdf_cache *cache,
+                             uint32_t tile_pixel) {
+  vf_vec3 d = vf_sub(lv->position, hit->position);
+  float dist2 = vf_length_sq(d);
+  if (!(dist2 > 0.0f)) return;
+  float dist = sqrtf(dist2);
+  d = vf_scale(d, 1.0f / dist);
+  float cos_camera, camera_pdf, camera_rev_pdf;
+  vf_vec3 fc = vf_bsdf_evaluate(b, d, &cos_camera, &camera_pdf, &camera_rev_pdf);
+  if (vf_is_zero(fc)) return;
+  vf_bsdf scratch;
+  const vf_bsdf *lb = kept ? kept : light_bsdf(v, cache, i, lv, &scratch);
+  float cos_light, light_pdf, light_rev_pdf;
+  vf_vec3 fl = vf_bsdf_evaluate(lb, vf_neg(d), &cos_light, &light_pdf, &light_rev_pdf);
+  if (vf_is_zero(fl)) return;
+  /* Each side's density of sampling the other vertex, in area measure there. */
+  float camera_pdf_a = camera_pdf * cos_light / dist2;
+  float light_pdf_a = light_pdf * cos_camera / dist2;
+  float w = vf_mis_weight_connection(&lv->mis, &s->mis, &v->mis, camera_pdf_a, light_pdf_a, light_rev_pdf,
+                                     camera_rev_pdf);
+  vf_vec3 contrib = vf_scale(vf_mul(vf_mul(fc, fl), lv->throughput), w * cos_camera * cos_light / dist2);
+  if (vf_is_zero(contrib)) return;
+  int entry = defer(v, thread, vf_mul(s->throughput, contrib), tile_pixel);
+  queue_segment(v, &v->stats[thread].packet, entry, hit->position, hit->normal, lv->position, normal_of_vertex(v, lv, lb));
+  packet_queued(v, thread);
+}
+
+/* A slot in the queue of vertex merging queries run at the end of the tile, or NULL if
+ * the queue cannot grow (the caller then merges at once). The caller writes the query
+ * into the slot itself: built elsewhere and copied, its 150 bytes were written twice. */
+static vertex_merging_query *queue_vertex_merging(vf_vcm *v, int thread) {
+  thread_stats *ts = &v->stats[thread];
+  if (ts->num_queries == ts->query_capacity) {
+    uint32_t cap = ts->query_capacity ? 2 * ts->query_capacity : 4096;
+    vertex_merging_query *p = realloc(ts->queries, (size_t)cap * sizeof *p);
+    if (p == NULL) return NULL;
+    ts->queries = p;
+    ts->query_capacity = cap;
+  }
+  return &ts->queries[ts->num_queries++];
+}
+
+/* A contribution without a shadow ray, in its turn. */
+static void defer_unshadowed(vf_vcm *v, int thread, vf_vec3 value, uint32_t tile_pixel) {
+  if (!vf_is_zero(value)) defer(v, thread, value, tile_pixel);
+}
+
+/* A camera sub-path in flight. The camera pass, like the light pass, traces
+ * VF_ACCEL_PACKET of them at once as a wavefront over the tile's pixels. Its contributions
+ * go to its pixel through the deferred queue and its vertex merging queries to their
+ * queue, each in the path's own order, so that every pixel sums the same terms in the
+ * same order as when its path was traced alone. */
+typedef struct {
+  path_state s;
+  vf_sampler sampler;
+  uint32_t pixel, tile_pixel;
+  light_bsdf_cache cache; /* of the light sub-path this camera sub-path connects to */
+} camera_lane;
+
+/* Starts the camera sub-path of pixel (px, py), the tile's pixel tile_pixel. */
+static void camera_start(vf_vcm *v, camera_lane *lane, uint32_t px, uint32_t py, uint32_t tile_pixel) {
+  uint32_t pixel = py * (uint32_t)v->camera.width + px;
+  lane->pixel = pixel;
+  lane->tile_pixel = tile_pixel;
+  lane->cache.ready = 0;
+  vf_sampler_start(&lane->sampler, v->settings.sampler, v->settings.seed, v->iteration, pixel, VF_STREAM_CAMERA);
+  float jitter[2];
+  vf_sampler_2d(&lane->sampler, VF_DIM_PIXEL, jitter);
+  float jx = jitter[0], jy = jitter[1];
+  path_state *s = &lane->s;
+  if (v->camera.lens_radius > 0.0f) {
+    /* A point on the thin lens, then the ray through the raster position in focus. The
+     * lens numbers come after the pixel's, and only for a lens: a pinhole's stream is
+     * what it always was. */
+    float u[2];
+    vf_sampler_2d(&lane->sampler, VF_DIM_LENS, u);
+    s->origin = vf_camera_lens_point(&v->camera, u[0], u[1]);
+    s->direction = vf_camera_lens_direction(&v->camera, s->origin, (float)px + jx, (float)py + jy);
+  } else {
+    s->origin = v->camera.position;
+    s->direction = vf_camera_direction(&v->camera, (float)px + jx, (float)py + jy);
+  }
+  s->throughput = vf_vec3_splat(1.0f); /* W_e cos / (p(z0) pdf_w) = 1: camera.h */
+  s->path_length = 1;
+  s->specular_path = 1;
+  /* z1's quantities, tech. rep. eq. (31)-(33): p_connect / p_trace of the lens point is 1. */
+  vf_mis_camera_start(&s->mis, &v->mis, vf_camera_pdf_w(&v->camera, s->direction));
+}
+
+/* Continues the lane's camera sub-path where its last ray ended (hit NULL: it left the
+ * scene): emission, light sampling, connections, vertex merging, scattering. Returns 0 when the
+ * path ends there. */
+static int camera_bounce(vf_vcm *v, int thread, camera_lane *lane, const vf_hit *hit) {
+  path_state *s = &lane->s;
+  uint32_t tile_pixel = lane->tile_pixel;
+  if (hit == NULL) {
+    if (v->lights->environment >= 0 && v->t.emission) {
+      const vf_light *l = &v->lights->lights[v->lights->environment];
+      float direct_pdf, emission_pdf;
+      vf_vec3 le = vf_light_radiance_environment(v->lights, l, s->direction, &direct_pdf, &emission_pdf);
+      defer_unshadowed(v, thread, vf_mul(s->throughput, emission_weighted(v, l, s, le, direct_pdf, emission_pdf)),
+                       tile_pixel);
+    }
+    return 0;
+  }
+  float cos_fix = fabsf(vf_dot(hit->normal, s->direction));
+  if (!(cos_fix > 1e-7f)) return 0; /* grazing: no emission or scattering to speak of */
+  vf_mis_hit(&s->mis, hit->t, cos_fix, 1);
+  int light_index = v->lights->shape_light[hit->shape];
+  if (light_index >= 0 && v->t.emission) {
+    const vf_light *l = &v->lights->lights[light_index];
+    float direct_pdf, emission_pdf;
+    vf_vec3 le = vf_light_radiance_area(l, s->direction, hit->normal, &direct_pdf, &emission_pdf);
+    if (__builtin_expect(l->textured, 0)) le = vf_mul(le, vf_light_emission_factor(l, hit->primitive, hit->u, hit->v));
+    defer_unshadowed(v, thread, vf_mul(s->throughput, emission_weighted(v, l, s, le, direct_pdf, emission_pdf)),
+                     tile_pixel);
+  }
+  if (s->path_length >= v->settings.max_path_length) return 0;
+  vf_bsdf b;
+  if (!bsdf_at(v, &b, hit, vf_neg(s->direction))) return 0;
+  b.radiance = 1; /* its connections and merges evaluate radiance's BTDF (worker/render/bsdf.h) */
+  uint32_t vertex_dims = vf_dim_vertex(VF_DIM_CAMERA_VERTEX, s->path_length);
+  if (!b.is_delta) {
+    if (v->t.light_sample) light_sample(v, thread, hit, &b, s, &lane->sampler, vertex_dims, tile_pixel);
+    if (v->t.connection) {
+      const light_vertex *path;
+      const vf_bsdf *kept = NULL;
+      uint32_t first, end;
+      if (v->fused) {
+        const thread_stats *ts = &v->stats[thread];
+        path = ts->tile_vertices;
+        kept = ts->tile_bsdfs;
+        first = ts->tile_begin[tile_pixel];
+        end = ts->tile_end[tile_pixel];
+      } else {
+        path = v->chunks[lane->pixel / LIGHT_CHUNK].vertices;
+        first = v->path_begin[lane->pixel];
+        end = v->path_end[lane->pixel];
+      }
+      for (uint32_t i = first; i < end; i++) {
+        const light_vertex *lv = &path[i];
+        if (vertex_path_length(lv) + 1 + s->path_length > v->settings.max_path_length) break;
+        connect_vertices(v, thread, hit, &b, s, lv, kept ? &kept[i] : NULL, i - first, &lane->cache, tile_pixel);
+      }
+    }
+    if (v->t.vertex_merging && v->num_vertices > 0) {
+      vertex_merging_query *q = queue_vertex_merging(v, thread);
+      if (q != NULL) {
+        *q = (vertex_merging_query){b, hit->position, s->throughput, s->mis, s->path_length, tile_pixel};
+      } else {
+        vertex_merging_query now = {b, hit->position, s->throughput, s->mis, s->path_length, tile_pixel};
+        defer_unshadowed(v, thread, vf_mul(s->throughput, vf_vertex_merging_now(v, &now)), tile_pixel);
+      }
+      if (v->t.ppm) return 0;
+    }
+  }
+  if (!vf_wavefront_scatter(v, &b, hit, s, &lane->sampler, vertex_dims, 1)) return 0;
+  s->path_length++;
+  return 1;
+}
+
+/* Traces the camera sub-paths of the tile's pixels (tile_pixel = row * tw + column). */
+static void trace_camera_tile(vf_vcm *v, int thread, uint32_t x0, uint32_t y0, uint32_t tw, uint32_t pixels) {
+  camera_lane lanes[VF_ACCEL_PACKET];
+  path_state *states[VF_ACCEL_PACKET];
+  /* The next pixel to start: tile_pixel next, at column tx and row ty of the tile (kept
+   * apart so that no pixel costs a division). */
+  uint32_t next = 0, tx = 0, ty = 0, active = 0;
+#define START_NEXT_PIXEL(lane)                                \
+  do {                                                        \
+    camera_start(v, (lane), x0 + tx, y0 + ty, next++);        \
+    if (++tx == tw) tx = 0, ty++;                             \
+  } while (0)
+  for (int i = 0; i < VF_ACCEL_PACKET; i++) {
+    states[i] = &lanes[i].s;
+    if (next < pixels) {
+      START_NEXT_PIXEL(&lanes[i]);
+      active |= 1u << i;
+    }
+  }
+  while (active) {
+    vf_hit hits[VF_ACCEL_PACKET];
+    int lane_of[VF_ACCEL_PACKET], m;
+    uint32_t found = vf_wavefront_trace(v, thread, states, active, lane_of, &m, hits);
+    prefetch_shading(v, hits, found, m);
+    for (int k = 0; k < m; k++) {
+      int i = lane_of[k];
+      if (camera_bounce(v, thread, &lanes[i], (found >> k & 1u) ? &hits[k] : NULL)) continue;
+      if (next < pixels)
+        START_NEXT_PIXEL(&lanes[i]);
+      else
+        active &= ~(1u << i);
+    }
+  }
+#undef START_NEXT_PIXEL
+}
+
+static void camera_task(void *ctx, size_t task, int thread) {
+  vf_vcm *v = ctx;
+  uint32_t width = (uint32_t)v->camera.width, height = (uint32_t)v->camera.height;
+  uint32_t tiles_x = (width + CAMERA_TILE - 1) / CAMERA_TILE;
+  uint32_t x0 = (uint32_t)(task % tiles_x) * CAMERA_TILE, y0 = (uint32_t)(task / tiles_x) * CAMERA_TILE;
+  uint32_t x1 = x0 + CAMERA_TILE < width ? x0 + CAMERA_TILE : width;
+  uint32_t y1 = y0 + CAMERA_TILE < height ? y0 + CAMERA_TILE : height;
+  uint32_t tw = x1 - x0;
+  float tile_rgb[3 * CAMERA_TILE * CAMERA_TILE];
+  memset(tile_rgb, 0, 3 * sizeof(float) * tw * (y1 - y0));
+  v->stats[thread].tile_rgb = tile_rgb;
+  if (v->fused) {
+    double t0 = vf_seconds_now();
+    vf_light_pass_tile(v, thread, (uint32_t)task, x0, y0, tw, tw * (y1 - y0));
+    v->stats[thread].light_seconds += vf_seconds_now() - t0;
+  }
+  if (v->t.camera_paths) trace_camera_tile(v, thread, x0, y0, tw, tw * (y1 - y0));
+  resolve_deferred(v, thread);
+  vf_vertex_merging_run_tile(v, thread, tile_rgb);
+  for (uint32_t y = y0; y < y1; y++)
+    for (uint32_t x = x0; x < x1; x++) {
+      const float *c = &tile_rgb[3 * ((y - y0) * tw + (x - x0))];
+      float *out = &v->camera_rgb[3 * ((size_t)y * width + x)];
+      if (isfinite(c[0]) && isfinite(c[1]) && isfinite(c[2])) {
+        out[0] = c[0];
+        out[1] = c[1];
+        out[2] = c[2];
+      } else {
+        v->stats[thread].nonfinite++;
+        out[0] = out[1] = out[2] = 0.0f;
+      }
+    }
+}
+
+uint32_t vf_camera_pass_tiles(const vf_vcm *v) {
+  return ((uint32_t)v->camera.width + CAMERA_TILE - 1) / CAMERA_TILE *
+         (((uint32_t)v->camera.height + CAMERA_TILE - 1) / CAMERA_TILE);
+}
+
+void vf_camera_pass_run(vf_vcm *v) {
+  for (int t = 0; t < vf_pool_threads(v->pool); t++) v->stats[t].light_seconds = 0.0;
+  vf_pool_run(v->pool, vf_camera_pass_tiles(v), camera_task, v);
+}

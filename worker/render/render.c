@@ -1,0 +1,142 @@
+#include "render.h"
+
+#include "../../common/clock.h"
+#include "../../common/error.h"
+#include "../../common/pool.h"
+#include "accel.h"
+
+#include <limits.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+struct vf_renderer {
+  const vf_scene *scene; /* borrowed */
+  vf_settings settings;
+  vf_accel *accel;
+  vf_pool *pool;
+  vf_vcm *vcm;
+  float *camera_rgb, *light_rgb; /* one iteration's output */
+};
+
+int vf_renderer_create(const vf_scene *scene, const vf_settings *settings, int threads, vf_renderer **out) {
+  int err = vf_settings_validate(settings);
+  if (err != VF_OK) return err;
+  vf_renderer *r = calloc(1, sizeof *r);
+  if (r == NULL) return VF_ENOMEM;
+  r->scene = scene;
+  r->settings = *settings;
+  size_t n = 3 * (size_t)settings->width * (size_t)settings->height;
+  err = VF_ENOMEM;
+  r->camera_rgb = malloc(n * sizeof(float));
+  r->light_rgb = malloc(n * sizeof(float));
+  if (r->camera_rgb == NULL || r->light_rgb == NULL) goto fail;
+  if ((err = vf_accel_create(scene, &r->accel)) != VF_OK) goto fail;
+  if ((err = vf_pool_create(threads, &r->pool)) != VF_OK) goto fail;
+  if ((err = vf_vcm_create(scene, r->accel, settings, r->pool, &r->vcm)) != VF_OK) goto fail;
+  *out = r;
+  return VF_OK;
+fail:
+  vf_renderer_destroy(r);
+  return err;
+}
+
+void vf_renderer_destroy(vf_renderer *r) {
+  if (r == NULL) return;
+  vf_vcm_destroy(r->vcm);
+  vf_pool_destroy(r->pool);
+  vf_accel_destroy(r->accel);
+  free(r->camera_rgb);
+  free(r->light_rgb);
+  free(r);
+}
+
+const vf_vcm *vf_renderer_vcm(const vf_renderer *r) { return r->vcm; }
+
+/* Process CPU time of all threads: with the wall time it shows how well threads were used. */
+static double cpu_seconds_now(void) {
+  struct timespec ts;
+  if (clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts) != 0) return 0.0;
+  return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+/* "builtin:cornell" is stored as "cornell", the name vf_scene_load takes; a file as its
+ * absolute path, so that `continue` finds it from another working directory. */
+static void scene_name(const char *source, char *out, size_t n) {
+  static const char prefix[] = "builtin:";
+  char resolved[PATH_MAX];
+  if (strncmp(source, prefix, sizeof prefix - 1) == 0) snprintf(out, n, "%s", source + sizeof prefix - 1);
+  else if (realpath(source, resolved) != NULL && strlen(resolved) < n) snprintf(out, n, "%s", resolved);
+  else snprintf(out, n, "%s", source);
+}
+
+int vf_renderer_stamp(const vf_renderer *r, vf_film *film) {
+  memcpy(film->scene_hash, r->scene->hash, sizeof film->scene_hash);
+  scene_name(r->scene->source, film->scene_name, sizeof film->scene_name);
+  return vf_settings_format(&r->settings, film->settings_text, sizeof film->settings_text);
+}
+
+int vf_render_range(vf_renderer *r, vf_film *film, uint64_t begin, uint64_t end, const vf_render_control *control,
+                    vf_render_status *status) {
+  if (film->width != r->settings.width || film->height != r->settings.height)
+    return vf_error_set(VF_EMISMATCH, "film is %dx%d but the settings say %dx%d", film->width, film->height,
+                        r->settings.width, r->settings.height);
+  vf_render_status st;
+  memset(&st, 0, sizeof st);
+  st.iterations_total = end - begin;
+  double start = vf_seconds_now(), last_delivery = start;
+  int err = VF_OK, stop = 0, since_delivery = 0;
+  for (uint64_t k = begin; k < end && !stop; k++) {
+    if (control && control->interrupt && *control->interrupt) break;
+    if (control && control->time_limit > 0.0 && vf_seconds_now() - start >= control->time_limit) break;
+    if (vf_iterset_contains(&film->iterations, k)) {
+      err = vf_error_set(VF_EOVERLAP, "iteration %llu is already in the film", (unsigned long long)k);
+      break;
+    }
+    double t0 = vf_seconds_now(), cpu0 = cpu_seconds_now();
+    uint64_t nonfinite0 = st.stats.nonfinite;
+    if ((err = vf_vcm_iteration(r->vcm, k, r->camera_rgb, r->light_rgb, &st.stats)) != VF_OK) break;
+    if ((err = vf_film_add_iteration(film, k, r->camera_rgb, r->light_rgb, r->pool)) != VF_OK) break;
+    /* Counted per iteration so that a delivery sees a consistent film. */
+    film->nonfinite_samples += st.stats.nonfinite - nonfinite0;
+    film->render_seconds += vf_seconds_now() - t0;
+    film->cpu_seconds += cpu_seconds_now() - cpu0;
+    st.iterations_done++;
+    since_delivery = 1;
+    double now = vf_seconds_now();
+    st.seconds = now - start;
+    if (st.iterations_done == 1) {
+      st.first_seconds = st.seconds;
+      st.first_rays = st.stats.rays;
+    }
+    if (control && control->deliver) {
+      /* After the range's last iteration the final delivery follows: it is the one due. */
+      st.delivery_due = k + 1 < end && control->delivery_interval > 0.0 &&
+                        now - last_delivery >= control->delivery_interval;
+      int rc = control->deliver(control->ctx, film, &st);
+      if (rc < 0) {
+        err = rc;
+        break;
+      }
+      if (st.delivery_due) {
+        last_delivery = vf_seconds_now();
+        since_delivery = 0;
+      }
+      stop = rc == VF_RENDER_STOP;
+      st.delivery_due = 0;
+    }
+    if (control && control->progress) control->progress(control->ctx, &st);
+  }
+  st.seconds = vf_seconds_now() - start;
+  /* The iterations' buffers are not needed while the film is delivered (shipped, written)
+   * and the next range starts: gone, they leave room for the film's copies then. */
+  vf_vcm_trim(r->vcm);
+  if (err == VF_OK && since_delivery && control && control->deliver) {
+    st.delivery_due = st.final = 1;
+    int rc = control->deliver(control->ctx, film, &st);
+    if (rc < 0) err = rc;
+  }
+  if (status) *status = st;
+  return err;
+}

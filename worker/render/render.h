@@ -1,0 +1,74 @@
+/* "Render global iterations [begin, end) of a job into a film": the one render loop.
+ *
+ * `vcmfarm render`, `continue` and the farm's workers all call vf_render_range; nothing
+ * else loops over iterations. A renderer owns the Embree scene, the thread pool and the
+ * VCM state for one scene and one set of settings; it can render any iterations, in any
+ * order, into any film whose size matches. */
+#ifndef VF_RENDER_H
+#define VF_RENDER_H
+
+#include "../../common/clock.h"
+#include "../../common/film.h"
+#include "../../common/settings.h"
+#include "../scene/scene.h"
+#include "vcm.h"
+
+#include <signal.h>
+#include <stdint.h>
+
+typedef struct vf_renderer vf_renderer;
+
+typedef struct {
+  uint64_t iterations_done; /* in this call */
+  uint64_t iterations_total; /* requested in this call (UINT64_MAX when open-ended) */
+  double seconds;           /* wall time of this call so far */
+  vf_vcm_stats stats;       /* of this call so far */
+  double first_seconds;     /* seconds and stats.rays when the call's first iteration ended: */
+  uint64_t first_rays;      /* the first pays for first touches of the renderer's buffers */
+  int delivery_due;         /* for the delivery callback: a delivery is due (below) */
+  int final;                /* for the delivery callback: the call after the last iteration */
+} vf_render_status;
+
+/* A delivery callback's "stop rendering" answer (a target error was reached). */
+#define VF_RENDER_STOP 1
+
+typedef struct {
+  double time_limit; /* > 0: no new iteration starts after this many seconds */
+  void (*progress)(void *ctx, const vf_render_status *status); /* after each iteration, or NULL */
+  void *ctx;
+  volatile sig_atomic_t *interrupt; /* when it becomes non-zero, stop after the current iteration */
+  /* Delivery: where the film's iterations go while the loop runs. The local render writes
+   * the film to its output (a film checkpoint, cli/local_render.c); a worker ships a part of
+   * its lease to the coordinator and empties the film (worker/worker.c). Called after every
+   * iteration, before progress, with the film holding it, and once more after the last
+   * iteration of the call with status->final set. Its status->delivery_due is set every
+   * delivery_interval seconds of this call (> 0; else never), except after the range's last
+   * iteration, and on the final call, which happens only if an iteration entered the film
+   * since the last due delivery: a range that runs to its end is delivered once at its end,
+   * outside status->seconds, however the interval falls. Cheap work
+   * (a target test) may run at every call, expensive work (writing the film) only when due.
+   * Returns VF_OK to go on, VF_RENDER_STOP to stop (a last, final call follows), or a
+   * negative error, which stops the loop without a final call and is returned. NULL: none.
+   * The interval is read after every iteration: a delivery may change it (the local render
+   * spaces its checkpoints by their cost). */
+  double delivery_interval;
+  int (*deliver)(void *ctx, vf_film *film, const vf_render_status *status);
+} vf_render_control;
+
+/* The scene is borrowed and must outlive the renderer. threads <= 0: one per CPU. */
+int vf_renderer_create(const vf_scene *scene, const vf_settings *settings, int threads, vf_renderer **out);
+void vf_renderer_destroy(vf_renderer *r);
+const vf_vcm *vf_renderer_vcm(const vf_renderer *r);
+
+/* Renders iterations begin, begin + 1, ... < end into film (its size must match the
+ * settings), stopping early as `control` says (NULL: never). The film's scene hash and
+ * settings must be those of this renderer (set them with vf_renderer_stamp). Each
+ * iteration enters the film whole or not at all. *status (may be NULL) gets the totals. */
+int vf_render_range(vf_renderer *r, vf_film *film, uint64_t begin, uint64_t end, const vf_render_control *control,
+                    vf_render_status *status);
+
+/* Writes the renderer's scene hash, settings text and scene name (a built-in name, or the
+ * scene file's absolute path) into an empty film. */
+int vf_renderer_stamp(const vf_renderer *r, vf_film *film);
+
+#endif

@@ -1,0 +1,382 @@
+/* Set-up of the renderer (scene analysis, `auto`, the techniques of each algorithm) and
+ * one iteration as its three phases: vcm.h. The phases are light_pass.c, vertex_merging.c
+ * (the grid) and camera_pass.c; the MIS scheme that weights their techniques is mis.h. */
+#include "vcm.h"
+
+#include "../../common/clock.h"
+#include "../../common/error.h"
+#include "camera_pass.h"
+#include "light_pass.h"
+#include "surface.h"
+#include "vcm_internal.h"
+#include "vertex_merging.h"
+
+#include <math.h>
+#include <stdlib.h>
+#ifdef __GLIBC__
+#include <malloc.h>
+#endif
+#include <string.h>
+
+/* ---------------------------------------------------------------------------------------- */
+/* The iteration                                                                             */
+
+double vf_vcm_merge_radius(const vf_vcm *v, uint64_t iteration) {
+  double i = (double)iteration + 1.0;
+  return v->settings.radius_factor * v->scene_radius * sqrt(pow(i, v->settings.alpha - 1.0));
+}
+
+static void setup_iteration(vf_vcm *v, uint64_t iteration) {
+  v->iteration = iteration;
+  double r = vf_vcm_merge_radius(v, iteration);
+  double eta = M_PI * r * r * (double)v->num_pixels; /* n_VM / n_VC * pi r^2 (eq. 20), n_VC = 1 */
+  v->radius = (float)r;
+  v->radius_sq = (float)(r * r);
+  v->vm_normalization = (float)(1.0 / eta);
+  int vc_in_weights = v->settings.algorithm == VF_ALGO_VCM || v->settings.algorithm == VF_ALGO_BPT;
+  int vm_in_weights = v->settings.algorithm == VF_ALGO_VCM || v->settings.algorithm == VF_ALGO_BPM;
+  v->mis.vm_weight = vm_in_weights ? vf_mis_h((float)eta) : 0.0f;
+  v->mis.vc_weight = vc_in_weights ? vf_mis_h((float)(1.0 / eta)) : 0.0f;
+  v->mis.light_paths = (float)v->num_pixels;
+  v->mis.pt = v->settings.algorithm == VF_ALGO_PT;
+}
+
+static void add_counts(const vf_vcm *v, vf_vcm_stats *stats) {
+  for (int t = 0; t < vf_pool_threads(v->pool); t++) {
+    stats->rays += v->stats[t].rays;
+    stats->nonfinite += v->stats[t].nonfinite;
+  }
+  stats->light_vertices += v->num_vertices;
+}
+
+int vf_vcm_iteration(vf_vcm *v, uint64_t iteration, float *camera_rgb, float *light_rgb, vf_vcm_stats *stats) {
+  setup_iteration(v, iteration);
+  v->camera_rgb = camera_rgb;
+  v->light_rgb = light_rgb;
+  int threads = vf_pool_threads(v->pool);
+  for (int t = 0; t < threads; t++) v->stats[t].rays = v->stats[t].nonfinite = 0;
+
+  if (v->fused) {
+    /* bpt: light and camera sub-paths tile by tile (camera_pass.c), then the light image. */
+    double t0 = vf_seconds_now();
+    vf_camera_pass_run(v);
+    double t1 = vf_seconds_now();
+    int err = vf_light_pass_finish(v);
+    if (err != VF_OK) return err;
+    double t2 = vf_seconds_now(), light = 0.0;
+    for (int t = 0; t < threads; t++) light += v->stats[t].light_seconds;
+    light /= threads; /* the tiles' light sub-paths, as a share of the pass's wall time */
+    if (light > t1 - t0) light = t1 - t0;
+    stats->light_seconds += light + (t2 - t1);
+    stats->camera_seconds += t1 - t0 - light;
+    add_counts(v, stats);
+    return VF_OK;
+  }
+
+  /* 1. Light sub-paths, their vertices and their projections onto the camera (light_pass.c). */
+  double t0 = vf_seconds_now();
+  int err = vf_light_pass_run(v);
+  if (err != VF_OK) return err;
+
+  double t1 = vf_seconds_now();
+  /* 2. The range-search grid, only when vertex merging (vertex_merging.c, hashgrid.c). */
+  if (v->t.vertex_merging && v->num_vertices > 0 && (err = vf_vertex_merging_build_grid(v)) != VF_OK) return err;
+
+  double t2 = vf_seconds_now();
+  /* 3. Camera sub-paths, vertex merging included (camera_pass.c). */
+  vf_camera_pass_run(v);
+  if (v->t.vertex_merging) vf_vertex_merging_release(v);
+  double t3 = vf_seconds_now();
+  stats->light_seconds += t1 - t0;
+  stats->grid_seconds += t2 - t1;
+  stats->camera_seconds += t3 - t2;
+  add_counts(v, stats);
+  return VF_OK;
+}
+
+/* ---------------------------------------------------------------------------------------- */
+/* Set-up                                                                                    */
+
+static void choose_techniques(vf_vcm *v) {
+  techniques *t = &v->t;
+  memset(t, 0, sizeof *t);
+  switch (v->settings.algorithm) {
+  case VF_ALGO_VCM:
+    t->light_paths = t->camera_paths = t->light_to_camera = t->emission = t->light_sample = 1;
+    t->connection = t->vertex_merging = 1;
+    break;
+  case VF_ALGO_BPT:
+    t->light_paths = t->camera_paths = t->light_to_camera = t->emission = t->light_sample = t->connection = 1;
+    break;
+  case VF_ALGO_PT: t->camera_paths = t->emission = t->light_sample = 1; break;
+  case VF_ALGO_LT: t->light_paths = t->light_to_camera = t->lt = 1; break;
+  case VF_ALGO_PPM:
+    t->light_paths = t->camera_paths = t->emission = t->vertex_merging = t->ppm = 1;
+    t->emission_specular_only = 1;
+    break;
+  case VF_ALGO_BPM:
+    t->light_paths = t->camera_paths = t->emission = t->vertex_merging = 1;
+    t->emission_specular_only = 1;
+    break;
+  default: break;
+  }
+  t->store_vertices = t->connection || t->vertex_merging;
+}
+
+typedef struct {
+  int has_specular, has_glossy, has_diffuse;
+} material_kinds;
+
+static material_kinds scene_kinds(const vf_scene *sc) {
+  material_kinds k = {0, 0, 0};
+  for (int i = 0; i < sc->num_materials; i++) {
+    unsigned kinds = vf_material_kinds(&sc->materials[i]);
+    if (kinds & VF_KIND_SPECULAR) k.has_specular = 1;
+    if (kinds & VF_KIND_GLOSSY) k.has_glossy = 1;
+    if (kinds & VF_KIND_DIFFUSE) k.has_diffuse = 1;
+  }
+  return k;
+}
+
+static void analyse_scene(vf_vcm *v) {
+  material_kinds k = scene_kinds(v->scene);
+  v->has_specular = k.has_specular;
+  v->has_glossy = k.has_glossy;
+  v->has_diffuse = k.has_diffuse;
+}
+
+/* --algorithm auto: the cheapest technique set that covers the scene's light transport
+ * (docs/BENCHMARKS.md, "Time against error", has the measurements behind each branch).
+ *
+ * - Specular surfaces next to diffuse or glossy ones: SDS paths can exist. Of our
+ *   techniques only vertex merging samples them when they start at a point or directional light
+ *   (paper sec. 6.1, "Limitations"), and with area lights connections see them only
+ *   through chance emission hits: vcm.
+ * - Otherwise every path has two consecutive non-specular vertices somewhere, so the
+ *   unbiased techniques reach all of them and vertex merging adds only a higher-variance
+ *   duplicate of what connections already sample (its weight shrinks to nothing as the
+ *   radius does). Of the unbiased sets, path tracing with light sampling reached every
+ *   error target first on all such scenes of the suite (diffuse, knot, sharp glossy up to
+ *   exponent 5000): light sub-paths cost more per iteration than they save: pt.
+ * The choice reads only the scene's materials, so it is a pure function of scene and
+ * settings: every worker and every `continue` makes the same one, and films keep "auto"
+ * in their settings text. It cannot tell how much light the SDS paths carry: with area
+ * lights in view of the light sampler (`cornell`) pt would be faster than the vcm chosen. */
+vf_algorithm vf_vcm_auto_algorithm(const vf_scene *scene, const char **reason) {
+  material_kinds k = scene_kinds(scene);
+  const char *why;
+  vf_algorithm a;
+  if (k.has_specular && (k.has_diffuse || k.has_glossy)) {
+    why = "specular next to non-specular surfaces: SDS paths possible";
+    a = VF_ALGO_VCM;
+  } else {
+    why = k.has_specular ? "only specular surfaces: emission hits along specular chains suffice"
+                         : "no specular surfaces, so no SDS paths: light sampling suffices";
+    a = VF_ALGO_PT;
+  }
+  if (reason) *reason = why;
+  return a;
+}
+
+static vf_algorithm resolve_auto(vf_vcm *v) { return vf_vcm_auto_algorithm(v->scene, &v->auto_reason); }
+
+vf_algorithm vf_vcm_algorithm(const vf_vcm *v) { return v->settings.algorithm; }
+
+void vf_vcm_limit_simd(vf_vcm *v) { v->vertex_merging_avx512 = 0; }
+
+const char *vf_vcm_merge_simd(const vf_vcm *v) {
+#ifdef __SSE2__
+  return v->vertex_merging_avx512 ? "AVX-512" : "SSE2";
+#else
+  return "scalar";
+#endif
+}
+
+/* Triangles, shapes shaded from their barycentrics, textures and the memory they take. */
+static void describe_geometry(const vf_scene *sc, FILE *out) {
+  uint64_t triangles = 0;
+  int spheres = 0, interpolated = 0;
+  for (int i = 0; i < sc->num_shapes; i++) {
+    const vf_shape *sh = &sc->shapes[i];
+    if (sh->kind == VF_SHAPE_SPHERE) spheres++;
+    else triangles += sh->num_triangles;
+    interpolated += vf_surface_interpolated(sc, sh);
+  }
+  size_t texels = 0;
+  for (int i = 0; i < sc->num_textures; i++) texels += vf_texture_bytes(&sc->textures[i]);
+  fprintf(out, "geometry: %llu triangle%s, %d sphere%s, %d shape%s with vertex normals or textures; %d texture%s (%.1f MiB)\n",
+          (unsigned long long)triangles, triangles == 1 ? "" : "s", spheres, spheres == 1 ? "" : "s", interpolated,
+          interpolated == 1 ? "" : "s", sc->num_textures, sc->num_textures == 1 ? "" : "s",
+          (double)texels / (1024.0 * 1024.0));
+}
+
+void vf_vcm_describe(const vf_vcm *v, FILE *out) {
+  const techniques *t = &v->t;
+  int area = 0, point = 0, spot = 0, directional = 0;
+  for (int i = 0; i < v->lights->count; i++) {
+    vf_light_kind k = v->lights->lights[i].kind;
+    area += k == VF_LIGHT_AREA_MESH || k == VF_LIGHT_AREA_SPHERE;
+    point += k == VF_LIGHT_POINT;
+    spot += k == VF_LIGHT_SPOT;
+    directional += k == VF_LIGHT_DIRECTIONAL;
+  }
+  int sds = v->has_specular && (v->has_diffuse || v->has_glossy);
+  char surfaces[64];
+  snprintf(surfaces, sizeof surfaces, "%s%s%s%s%s", v->has_diffuse ? "diffuse" : "",
+           v->has_diffuse && v->has_glossy ? " " : "", v->has_glossy ? "glossy" : "",
+           (v->has_diffuse || v->has_glossy) && v->has_specular ? " " : "", v->has_specular ? "specular" : "");
+  fprintf(out, "scene: %d area, %d point, %d spot, %d directional light(s)%s; %s surfaces; SDS paths %s\n", area,
+          point, spot, directional, v->lights->environment >= 0 ? ", environment" : "",
+          surfaces[0] ? surfaces : "no scattering", sds ? "possible" : "impossible");
+  if (v->camera.lens_radius > 0.0f)
+    fprintf(out, "camera: thin lens of radius %g, in focus at %g\n", v->camera.lens_radius, v->camera.focus_distance);
+  describe_geometry(v->scene, out);
+  fprintf(out, "rays: Embree's %s kernels\n", vf_accel_kernels());
+  if (v->requested == VF_ALGO_AUTO)
+    fprintf(out, "auto: %s (%s)\n", vf_algorithm_name(v->settings.algorithm), v->auto_reason);
+  fprintf(out,
+          "techniques (%s): emission hits %s, light sampling %s, light tracing %s, connections %s, merging %s\n",
+          vf_algorithm_name(v->settings.algorithm), t->emission ? (t->emission_specular_only ? "specular paths" : "on") : "off",
+          t->light_sample ? "on" : "off", t->light_to_camera ? "on" : "off", t->connection ? "on" : "off",
+          t->vertex_merging ? (t->ppm ? "first diffuse vertex" : "on") : "off");
+  if (t->vertex_merging) fprintf(out, "merging tests its candidates with %s\n", vf_vcm_merge_simd(v));
+  fprintf(out, "skipped: %s%s%s%s\n", t->store_vertices ? "" : "light-vertex storage, ",
+          t->vertex_merging ? "" : "range-search grid, ", v->lights->environment >= 0 ? "" : "environment lookups, ",
+          "connections at specular vertices, shadow rays for zero contributions");
+  if (t->vertex_merging && sds == 0 && v->settings.algorithm == VF_ALGO_VCM)
+    fprintf(out, "note: no specular surfaces, so merging only adds to paths connections already cover\n");
+}
+
+int vf_vcm_create(const vf_scene *scene, const vf_accel *accel, const vf_settings *settings, vf_pool *pool,
+                  vf_vcm **out) {
+  int err = VF_ENOMEM;
+  vf_vcm *v = calloc(1, sizeof *v);
+  if (v == NULL) return VF_ENOMEM;
+  v->scene = scene;
+  v->accel = accel;
+  v->settings = *settings;
+  v->pool = pool;
+  vf_camera_init(&v->camera, &scene->camera, settings->width, settings->height);
+  vf_scene_bounding_sphere(scene, &v->scene_center, &v->scene_radius);
+  v->offset_scale = vf_accel_scale(accel);
+  v->num_pixels = (uint32_t)settings->width * (uint32_t)settings->height;
+  if ((uint32_t)scene->num_shapes > VERTEX_MAX_SHAPES) {
+    free(v);
+    return vf_error_set(VF_ESCENE, "the scene has %d shapes; the renderer handles at most %u", scene->num_shapes,
+                        VERTEX_MAX_SHAPES);
+  }
+  analyse_scene(v);
+  v->requested = settings->algorithm;
+  if (v->requested == VF_ALGO_AUTO) v->settings.algorithm = resolve_auto(v);
+  choose_techniques(v);
+  if ((err = vf_lights_create(scene, &v->lights)) != VF_OK) goto fail;
+  err = VF_ENOMEM;
+  v->fused = v->t.connection && !v->t.vertex_merging && v->t.light_paths && v->t.camera_paths;
+  v->num_chunks = v->fused ? vf_camera_pass_tiles(v) : (v->num_pixels + LIGHT_CHUNK - 1) / LIGHT_CHUNK;
+  v->chunks = calloc(v->num_chunks, sizeof *v->chunks);
+  v->band_pixels = SPLAT_BAND * (uint32_t)v->camera.width;
+  v->num_bands = (v->num_pixels + v->band_pixels - 1) / v->band_pixels;
+  v->band_start = calloc((size_t)v->num_chunks * (v->num_bands + 1), sizeof *v->band_start);
+  if (!v->fused) { /* the fused pass keeps each tile's ranges in thread_stats */
+    v->path_begin = calloc(v->num_pixels, sizeof(uint32_t));
+    v->path_end = calloc(v->num_pixels, sizeof(uint32_t));
+  }
+  v->segments = calloc(v->num_chunks, sizeof *v->segments);
+  v->stats = aligned_alloc(64, (size_t)vf_pool_threads(pool) * sizeof *v->stats);
+  if (v->stats != NULL) memset(v->stats, 0, (size_t)vf_pool_threads(pool) * sizeof *v->stats);
+  v->lobes = calloc(scene->num_materials > 0 ? (size_t)scene->num_materials : 1, sizeof *v->lobes);
+  size_t shapes = scene->num_shapes > 0 ? (size_t)scene->num_shapes : 1;
+  v->interpolated = calloc(shapes, sizeof *v->interpolated);
+  v->shape_continuation = calloc(shapes, sizeof *v->shape_continuation);
+  if (!v->chunks || !v->band_start || (!v->fused && (!v->path_begin || !v->path_end)) || !v->segments || !v->stats ||
+      !v->lobes ||
+      !v->interpolated || !v->shape_continuation)
+    goto fail;
+  for (int m = 0; m < scene->num_materials; m++) vf_bsdf_lobes_of(&scene->materials[m], &v->lobes[m]);
+  for (int i = 0; i < scene->num_shapes; i++) {
+    v->interpolated[i] = (unsigned char)vf_surface_interpolated(scene, &scene->shapes[i]);
+    v->shape_continuation[i] = v->lobes[scene->shapes[i].material].continuation;
+  }
+  v->lane_capacity = settings->max_path_length > 1 ? (uint32_t)settings->max_path_length : 1u;
+  for (int t = 0; t < vf_pool_threads(pool); t++) {
+    v->stats[t].ring_vertices = aligned_alloc(64, (size_t)RETIRE_RING * v->lane_capacity * sizeof(light_vertex));
+    if (v->stats[t].ring_vertices == NULL) goto fail;
+    if (v->fused && (v->stats[t].ring_bsdfs = malloc((size_t)RETIRE_RING * v->lane_capacity * sizeof(vf_bsdf))) == NULL)
+      goto fail;
+    for (uint32_t i = 0; i < RETIRE_RING; i++) v->stats[t].ring_count[i] = RING_IN_FLIGHT;
+  }
+  if (v->t.vertex_merging && (err = vf_hashgrid_create(&v->grid)) != VF_OK) goto fail;
+  v->vertex_merging_avx512 = vf_vertex_merging_detect_avx512();
+  *out = v;
+  return VF_OK;
+fail:
+  vf_vcm_destroy(v);
+  return err;
+}
+
+static void free_tile_lists(thread_stats *ts) {
+  free(ts->tile_vertices);
+  free(ts->tile_bsdfs);
+  ts->tile_vertices = NULL;
+  ts->tile_bsdfs = NULL;
+  ts->tile_capacity = 0;
+}
+
+void vf_vcm_trim(vf_vcm *v) {
+  if (v == NULL) return;
+  if (v->chunks)
+    for (uint32_t c = 0; c < v->num_chunks; c++) {
+      light_chunk *ch = &v->chunks[c];
+      free(ch->vertices);
+      free(ch->bsdfs);
+      free(ch->splats);
+      ch->vertices = NULL;
+      ch->bsdfs = NULL;
+      ch->splats = NULL;
+      ch->num_vertices = ch->vertex_capacity = ch->num_splats = ch->splat_capacity = 0;
+    }
+  if (v->stats)
+    for (int t = 0; t < vf_pool_threads(v->pool); t++) free_tile_lists(&v->stats[t]);
+  v->num_vertices = 0;
+  free(v->photons);
+  v->photons = NULL;
+  v->photon_capacity = 0;
+  v->merge_points = NULL;
+  vf_hashgrid_trim(v->grid);
+#ifdef __GLIBC__
+  /* The chunks' lists are small allocations from malloc's heap, whose free pages glibc
+   * keeps: handed back, or the trim would free nothing the kernel sees. */
+  malloc_trim(0);
+#endif
+}
+
+void vf_vcm_destroy(vf_vcm *v) {
+  if (v == NULL) return;
+  if (v->chunks)
+    for (uint32_t c = 0; c < v->num_chunks; c++) {
+      free(v->chunks[c].vertices);
+      free(v->chunks[c].bsdfs);
+      free(v->chunks[c].splats);
+    }
+  free(v->chunks);
+  free(v->band_start);
+  free(v->segments);
+  free(v->photons);
+  free(v->path_begin);
+  free(v->path_end);
+  if (v->stats)
+    for (int t = 0; t < vf_pool_threads(v->pool); t++) {
+      free(v->stats[t].queries);
+      free(v->stats[t].ring_vertices);
+      free(v->stats[t].ring_bsdfs);
+      free_tile_lists(&v->stats[t]);
+      free(v->stats[t].sort_scratch);
+    }
+  free(v->stats);
+  free(v->lobes);
+  free(v->interpolated);
+  free(v->shape_continuation);
+  vf_hashgrid_destroy(v->grid);
+  vf_lights_destroy(v->lights);
+  free(v);
+}

@@ -1,0 +1,228 @@
+/* The renderer's state, as the phases of an iteration share it.
+ *
+ * Private to the renderer: vcm.c sets it up and runs the iteration as three phases, each
+ * in a file of its own (vcm.h has the overview):
+ *   1. light_pass.c      light sub-paths, their stored vertices, light tracing to the camera;
+ *   2. vertex_merging.c  the range-search grid over those vertices (hashgrid.c);
+ *   3. camera_pass.c     camera sub-paths and their techniques, tile by tile, whose vertex
+ *                        merging queries vertex_merging.c runs at the end of each tile.
+ * Both passes trace with wavefront.h. Everything here is read and written by those files
+ * only; nothing outside worker/ sees it. */
+#ifndef VF_VCM_INTERNAL_H
+#define VF_VCM_INTERNAL_H
+
+#include "../../common/pool.h"
+#include "../../common/settings.h"
+#include "../../common/vec3.h"
+#include "accel.h"
+#include "bsdf.h"
+#include "camera.h"
+#include "hashgrid.h"
+#include "light.h"
+#include "mis.h"
+#include "../scene/scene.h"
+#include "vcm.h"
+
+#include <stdint.h>
+
+/* Light sub-paths are traced in fixed chunks, each writing its own vertex and splat lists,
+ * which are then read in chunk order. Results therefore do not depend on which thread
+ * traced which chunk. */
+#define LIGHT_CHUNK 1024u
+/* Light sub-paths end out of order but are stored in path order (light_retire): a path
+ * that ends before an older one waits in a ring of this many slots, one per path. */
+#define RETIRE_RING 256u
+#define RING_IN_FLIGHT UINT32_MAX /* thread_stats.ring_count of a slot whose path has not ended */
+/* The light pass's splats are added to the image in bands of this many rows, one band per
+ * task. */
+#define SPLAT_BAND 32u
+/* Camera sub-paths are traced in square tiles of this side (camera_pass.c). */
+#define CAMERA_TILE 32u
+
+/* A stored light vertex: one cache line. Its BSDF is not stored but set up again from
+ * shape, normal and fix when a connection needs it (vf_bsdf_setup is a pure function
+ * of them, so it is the BSDF the light sub-path had): rebuilding a frame costs less than
+ * moving twice the bytes through the light pass and the gather. bpt's fused pass, whose
+ * vertices live only as long as their camera tile, keeps the BSDFs beside them
+ * (light_chunk.bsdfs). On a shape shaded from
+ * its barycentrics (vf_vcm.interpolated: vertex normals, textures) the vertex holds the
+ * triangle and barycentrics instead of the normal, and the set-up starts from them
+ * (vf_surface_bsdf, with the geometric normal the hit had: worker/render/surface.h). */
+typedef struct {
+  vf_vec3 position; /* first: the hash grid reads it at offset 0 */
+  vf_vec3 throughput;
+  vf_vec3 fix;      /* world, unit, towards the previous light vertex */
+  union {
+    vf_vec3 normal; /* geometric normal at the vertex, as the hit reported it */
+    struct {
+      uint32_t primitive;
+      float u, v;
+    } point;        /* on an interpolated shape */
+  } at;
+  vf_mis mis;
+  uint32_t path_length_shape; /* segments from the light (low bits) and shape index */
+} light_vertex;
+_Static_assert(sizeof(light_vertex) == 64, "a light vertex is one cache line");
+
+/* Path lengths are at most VF_MAX_PATH_LENGTH (common/settings.h): 10 bits. */
+#define VERTEX_LENGTH_BITS 10u
+_Static_assert(VF_MAX_PATH_LENGTH < (1 << VERTEX_LENGTH_BITS), "path lengths fit their bits");
+#define VERTEX_MAX_SHAPES (1u << (32u - VERTEX_LENGTH_BITS))
+static inline int vertex_path_length(const light_vertex *lv) {
+  return (int)(lv->path_length_shape & ((1u << VERTEX_LENGTH_BITS) - 1u));
+}
+static inline uint32_t vertex_shape(const light_vertex *lv) { return lv->path_length_shape >> VERTEX_LENGTH_BITS; }
+
+/* What the light pass makes for the light image (light_pass.c). */
+typedef struct splat splat;
+
+/* Light sub-paths finish out of order (wavefront.h). A chunk's vertex list holds them in
+ * path order all the same (light_retire), and the splats are sorted back into it, so
+ * that every list is what tracing the paths one by one would give. Connections read the
+ * vertices of their pixel's path from this list, and the grid is built over the lists of
+ * all chunks where they are (vf_hashgrid_build_segments): nothing copies them together. */
+typedef struct {
+  light_vertex *vertices;
+  vf_bsdf *bsdfs; /* the vertices' BSDFs, kept only by bpt's fused pass (vf_vcm.fused) */
+  uint32_t num_vertices, vertex_capacity;
+  splat *splats;
+  uint32_t num_splats, splat_capacity;
+  int out_of_memory;
+} light_chunk;
+
+/* A sub-path's state between vertices. */
+typedef struct {
+  vf_vec3 origin, direction;
+  vf_vec3 throughput;
+  int path_length;
+  int is_finite_light; /* light sub-paths: whether the first segment has a distance */
+  int specular_path;   /* camera sub-paths: every scattering so far was specular */
+  vf_mis mis;
+} path_state;
+
+typedef struct {
+  int light_paths;       /* trace light sub-paths at all */
+  int store_vertices;    /* keep light vertices for connection or vertex merging */
+  int camera_paths;
+  int light_to_camera;   /* t = 1 */
+  int emission;          /* s = 0 */
+  int emission_specular_only; /* ppm and bpm: s = 0 only along purely specular camera paths */
+  int light_sample;      /* s = 1 */
+  int connection;        /* s > 1, t > 1 */
+  int vertex_merging;
+  int ppm;               /* merge once, at the first non-specular camera vertex, unweighted */
+  int lt;                /* light tracing alone: unweighted, includes y0 */
+} techniques;
+
+/* A camera vertex waiting for vertex merging: it is deferred to the end of each camera
+ * tile, where the queries of the whole tile run as a software pipeline that keeps several
+ * grid lookups in flight (vertex_merging.c). */
+typedef struct {
+  vf_bsdf bsdf;
+  vf_vec3 position;
+  vf_vec3 throughput;
+  vf_mis mis;
+  int path_length;
+  uint32_t tile_pixel; /* index into the tile's color buffer */
+} vertex_merging_query;
+
+/* Shadow rays are not traced one by one where they arise but gathered into packets of
+ * VF_ACCEL_PACKET and traced together (vf_accel_occluded_packet): Embree traverses a
+ * packet of 8 rays 1.1 to 1.6 times faster per ray than single rays, whether or not they
+ * share an origin (docs/BENCHMARKS.md). No
+ * path's course depends on a shadow ray's answer, only the contribution it guards, so the
+ * contributions wait in a queue until their packet is traced and are then added in the
+ * order they arose: films stay bit for bit those of tracing each ray at once. */
+typedef struct {
+  vf_vec3 org[VF_ACCEL_PACKET], dir[VF_ACCEL_PACKET];
+  float tfar[VF_ACCEL_PACKET];
+  int owner[VF_ACCEL_PACKET]; /* what each ray guards: a queue entry or a splat */
+  int n;
+} shadow_packet;
+
+/* A camera sub-path's contribution waiting for its shadow ray (or, without one, for those
+ * of the contributions before it): added to its pixel of the tile when its turn comes. */
+#define DEFERRED_MAX 64
+typedef struct {
+  vf_vec3 value;
+  uint32_t tile_pixel;
+  int blocked;
+} deferred;
+
+/* One thread's state: aligned to the cache line (and allocated so), so that no line holds
+ * two threads' fields. */
+typedef struct {
+  _Alignas(64) uint64_t rays, nonfinite;
+  double light_seconds; /* bpt's fused pass: wall time in the tiles' light sub-paths */
+  vertex_merging_query *queries; /* this thread's pending vertex merging queries, owned */
+  uint32_t num_queries, query_capacity;
+  shadow_packet packet;
+  deferred pending[DEFERRED_MAX];
+  int num_pending;
+  float *tile_rgb; /* the camera tile being traced, where pending contributions go */
+  light_vertex *ring_vertices; /* the light pass's retire ring: RETIRE_RING slots of lane_capacity */
+  /* Room to sort a chunk's splats into, owned: one per thread, not per chunk (3840x2160 has
+   * 8,100 chunks: a second array each was about 0.25 GB; docs/BENCHMARKS.md, "Memory"). */
+  struct splat *sort_scratch;
+  uint32_t sort_capacity;
+  uint32_t ring_count[RETIRE_RING]; /* vertices of each slot's path once it has ended, else RING_IN_FLIGHT */
+  /* bpt's fused pass (vf_vcm.fused): the BSDFs of the retire ring's vertices, and the
+   * vertex and BSDF lists of the tile being traced with each path's range, owned, lent to
+   * the tile's chunk while its light sub-paths are traced (vf_light_pass_tile). */
+  vf_bsdf *ring_bsdfs;
+  light_vertex *tile_vertices;
+  vf_bsdf *tile_bsdfs;
+  uint32_t tile_capacity;
+  uint32_t tile_begin[CAMERA_TILE * CAMERA_TILE], tile_end[CAMERA_TILE * CAMERA_TILE];
+} thread_stats;
+
+/* What vertex merging reads of the light vertices, in the grid's order (vertex_merging.c). */
+typedef struct merge_point merge_point;
+typedef struct photon photon;
+
+struct vf_vcm {
+  const vf_scene *scene;
+  const vf_accel *accel;
+  vf_settings settings;
+  vf_pool *pool;
+  vf_camera camera;
+  vf_lights *lights;
+  techniques t;
+  vf_bsdf_lobes *lobes; /* per material, owned */
+  unsigned char *interpolated; /* per shape: vf_surface_interpolated, owned */
+  float *shape_continuation;   /* per shape: its material's Russian-roulette probability, owned */
+  vf_vec3 scene_center;
+  float scene_radius;
+  float offset_scale; /* for vf_offset_ray_origin */
+  uint32_t num_pixels;
+  uint32_t lane_capacity; /* most vertices a light sub-path stores */
+  /* bpt: each camera tile traces its own pixels' light sub-paths first, keeping their
+   * vertices' BSDFs, and connects to them while they are in cache; nothing is stored for
+   * the whole iteration (camera_pass.c). The chunks are then the camera tiles. */
+  int fused;
+  int has_specular, has_glossy, has_diffuse;
+  vf_algorithm requested;    /* settings.algorithm as given; settings.algorithm is what runs */
+  const char *auto_reason;   /* why auto chose settings.algorithm, NULL unless requested auto */
+
+  /* Per iteration. */
+  uint64_t iteration;
+  float radius, radius_sq, vm_normalization;
+  vf_mis_config mis;
+  light_chunk *chunks;
+  uint32_t num_chunks;
+  uint32_t num_vertices;     /* in all chunks */
+  vf_grid_segment *segments; /* the chunks' vertex lists, for the grid: num_chunks of them */
+  unsigned chunk_shift;      /* the grid names vertex i of chunk c (c << chunk_shift) + i */
+  merge_point *merge_points; /* the grid's sorted points as merge points (borrowed), or NULL */
+  photon *photons;
+  uint32_t photon_capacity;
+  uint32_t *path_begin, *path_end; /* per light sub-path, into its chunk's vertices */
+  uint32_t num_bands, band_pixels; /* the light image's bands of SPLAT_BAND rows, band_pixels each */
+  uint32_t *band_start;            /* per chunk, num_bands + 1: where its splats of each band begin */
+  vf_hashgrid *grid;
+  int vertex_merging_avx512; /* the CPU runs AVX-512 F and VL: vertex merging tests eight candidates at once */
+  float *camera_rgb, *light_rgb;
+  thread_stats *stats;
+};
+
+#endif

@@ -1,0 +1,88 @@
+/* Rays, shadow packets and scattering: what the light pass and the camera pass both trace
+ * with.
+ *
+ * Both passes trace VF_ACCEL_PACKET sub-paths at once, as a wavefront: each step sends the
+ * rays of all lanes to Embree as one packet (vf_wavefront_trace), then continues each
+ * lane's path (vf_wavefront_scatter); a lane whose path ends takes its pass's next path.
+ * Shadow rays wait in the thread's shadow_packet (vcm_internal.h) until it is full.
+ *
+ * Private to the renderer. The helpers below are inline here, not in wavefront.c, because
+ * they run at every vertex and every shadow ray of both passes. */
+#ifndef VF_WAVEFRONT_H
+#define VF_WAVEFRONT_H
+
+#include "../../common/sampler.h"
+#include "sample_dims.h"
+#include "surface.h"
+#include "vcm_internal.h"
+
+#include <math.h>
+
+/* Traces the packet's shadow rays; returns the mask of those blocked. */
+static inline uint32_t trace_packet(vf_vcm *v, int thread, shadow_packet *pk) {
+  v->stats[thread].rays += (uint64_t)pk->n;
+  uint32_t blocked = vf_accel_occluded_packet(v->accel, pk->org, pk->dir, pk->tfar, pk->n);
+  pk->n = 0;
+  return blocked;
+}
+
+/* Adds the shadow ray of the segment from p (normal n) to q (normal nq; zero vector: a
+ * point in space) to the packet, for `owner`. Both ends are moved off their surfaces
+ * towards each other. Always inline: as a call, its four vectors were packed into
+ * registers and spilled at every shadow ray. */
+static inline __attribute__((always_inline)) void queue_segment(vf_vcm *v, shadow_packet *pk, int owner, vf_vec3 p,
+                                                                vf_vec3 n, vf_vec3 q, vf_vec3 nq) {
+  vf_vec3 d = vf_sub(q, p);
+  vf_vec3 o = vf_offset_ray_origin(p, vf_dot(n, d) > 0.0f ? n : vf_neg(n), v->offset_scale);
+  vf_vec3 e = vf_is_zero(nq) ? q : vf_offset_ray_origin(q, vf_dot(nq, d) < 0.0f ? nq : vf_neg(nq), v->offset_scale);
+  pk->org[pk->n] = o;
+  pk->dir[pk->n] = vf_sub(e, o);
+  pk->tfar[pk->n] = 1.0f;
+  pk->owner[pk->n++] = owner;
+}
+
+/* The same for the ray from p (normal n) along dir to infinity. */
+static inline void queue_direction(vf_vcm *v, shadow_packet *pk, int owner, vf_vec3 p, vf_vec3 n, vf_vec3 dir) {
+  pk->org[pk->n] = vf_offset_ray_origin(p, vf_dot(n, dir) > 0.0f ? n : vf_neg(n), v->offset_scale);
+  pk->dir[pk->n] = dir;
+  pk->tfar[pk->n] = INFINITY;
+  pk->owner[pk->n++] = owner;
+}
+
+/* The BSDF at a hit for a path arriving from world_fix; 0 when nothing scatters there. */
+static inline int bsdf_at(const vf_vcm *v, vf_bsdf *b, const vf_hit *hit, vf_vec3 world_fix) {
+  if (__builtin_expect(v->interpolated[hit->shape], 0))
+    return vf_surface_bsdf(b, v->scene, v->lobes, hit->shape, hit->primitive, hit->u, hit->v, hit->normal, world_fix);
+  int m = v->scene->shapes[hit->shape].material;
+  return vf_bsdf_setup(b, &v->scene->materials[m], &v->lobes[m], hit->normal, world_fix);
+}
+
+/* Before the lanes continue from their hits (bit k of `found`: hits[k], of m): starts the
+ * loads that setting up their BSDFs will make (worker/render/surface.h), so that the cache misses
+ * of the packet's hits overlap. A lane shades its hit among thousands of instructions of
+ * connections and scattering, too far from the next lane's for the processor to overlap
+ * them on its own. */
+static inline void prefetch_shading(const vf_vcm *v, const vf_hit *hits, uint32_t found, int m) {
+  for (int k = 0; k < m; k++)
+    if ((found >> k & 1u) && v->interpolated[hits[k].shape])
+      vf_surface_prefetch_vertices(&v->scene->shapes[hits[k].shape], hits[k].primitive);
+  for (int k = 0; k < m; k++)
+    if ((found >> k & 1u) && v->interpolated[hits[k].shape])
+      vf_surface_prefetch_texels(v->scene, &v->scene->shapes[hits[k].shape], hits[k].primitive, hits[k].u, hits[k].v);
+}
+
+/* One step of a wavefront: the closest hits of the next rays of the active lanes (bit i of
+ * `active`: lane i, whose path state is states[i]), as one packet. Ray k is lane
+ * lane_of[k]'s, *m rays in all; bit k of the result is set when ray k hit, in hits[k]. */
+uint32_t vf_wavefront_trace(vf_vcm *v, int thread, path_state *const *states, uint32_t active, int *lane_of, int *m,
+                            vf_hit *hits);
+
+/* Continues a sub-path from vertex `hit` with BSDF b: Russian roulette, direction sampling,
+ * throughput and MIS update. A camera sub-path carries radiance, which a refraction
+ * scales by 1/eta^2 (bsdf.h); a light sub-path carries flux, which it does not. The numbers
+ * come from the sampler's pairs of the vertex whose first pair is vertex_dims
+ * (sample_dims.h). Returns 0 when the path ends. */
+int vf_wavefront_scatter(vf_vcm *v, const vf_bsdf *b, const vf_hit *hit, path_state *s, vf_sampler *sampler,
+                         uint32_t vertex_dims, int radiance);
+
+#endif

@@ -1,0 +1,460 @@
+/* Whole-scene import: a glTF 2.0 or OBJ+MTL file (anything Assimp reads) brought into the
+ * scene with its meshes, materials, cameras and lights (docs/SCENES.md, "import").
+ *
+ * The JSON field "import" lists the files; a model file given to vf_scene_load is loaded
+ * through the same field, from the JSON text vf_scene_model_text writes, so a farm job
+ * carries that text and ships exactly the files the load reads (files.h).
+ *
+ * Each mesh instance of the node hierarchy becomes one shape with its own material; a
+ * material named like one of the JSON's "materials" is replaced by it. Cameras and lights
+ * take their node's world transform. Everything the file asks for that vcmfarm cannot do
+ * becomes a note (vf_scene_note) naming the file. */
+#include "parse.h"
+
+#include "../../common/error.h"
+
+#include <assimp/cimport.h>
+#include <assimp/material.h>
+#include <assimp/scene.h>
+#include <cjson/cJSON.h>
+
+#include <ctype.h>
+#include <float.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <strings.h>
+
+/* Width of the image a file's camera gets when the scene does not set a resolution; the
+ * height follows the camera's aspect ratio. */
+#define IMPORT_WIDTH 1280
+
+typedef struct {
+  vf_import_file f;
+  const vf_affine *root;  /* the entry's "transform" */
+  int json_materials;     /* materials [0, json_materials) are the JSON's: they override by name */
+  int *material_of;       /* aiMaterial index -> scene material, -1 not made yet */
+  vf_vec3 *emission_of;   /* aiMaterial index -> its emission */
+  unsigned dropped;
+  int took_camera;        /* this file gave the scene its camera */
+} import_state;
+
+/* ---- materials ------------------------------------------------------------------------------- */
+
+static int json_material(const vf_scene *s, int json_materials, const char *name) {
+  for (int i = 0; i < json_materials; i++)
+    if (strcmp(s->materials[i].name, name) == 0) return i;
+  return -1;
+}
+
+/* The scene material of aiMaterial k: made on first use, or the JSON's of the same name. */
+static int material_for(const parse_ctx *c, import_state *st, unsigned k, int *out) {
+  vf_scene *s = c->scene;
+  if (k >= st->f.ai->mNumMaterials) return vf_scene_fail(c, VF_EMESH, st->f.what, "a mesh names a missing material");
+  if (st->material_of[k] >= 0) {
+    *out = st->material_of[k];
+    return VF_OK;
+  }
+  /* An override replaces the file's material whole, emission included: the file's is not
+   * read, so its textures need not exist. */
+  struct aiString name;
+  int j = -1;
+  if (aiGetMaterialString(st->f.ai->mMaterials[k], AI_MATKEY_NAME, &name) == aiReturn_SUCCESS && name.length > 0)
+    j = json_material(s, st->json_materials, name.data);
+  if (j < 0) {
+    vf_material m;
+    int err = vf_scene_import_material(c, &st->f, k, &m, &st->emission_of[k]);
+    if (err < 0) return err;
+    vf_material *grown = realloc(s->materials, (size_t)(s->num_materials + 1) * sizeof *grown);
+    if (grown == NULL) return vf_error_set(VF_ENOMEM, "out of memory");
+    s->materials = grown;
+    s->materials[j = s->num_materials++] = m;
+  }
+  *out = st->material_of[k] = j;
+  return VF_OK;
+}
+
+/* ---- shapes ---------------------------------------------------------------------------------- */
+
+static int add_shape(vf_scene *s, vf_shape **out) {
+  vf_shape *grown = realloc(s->shapes, (size_t)(s->num_shapes + 1) * sizeof *grown);
+  if (grown == NULL) return vf_error_set(VF_ENOMEM, "out of memory");
+  s->shapes = grown;
+  *out = memset(&s->shapes[s->num_shapes++], 0, sizeof *grown); /* zero: safe to destroy */
+  return VF_OK;
+}
+
+/* One shape per (node, mesh) of the hierarchy: instances of a mesh are shapes of their own. */
+static int import_instance(void *user, const struct aiNode *node, unsigned mesh_index, const vf_affine *world) {
+  import_state *st = user;
+  const parse_ctx *c = st->f.c;
+  const struct aiMesh *mesh = st->f.ai->mMeshes[mesh_index];
+  vf_affine a;
+  vf_shape *s = NULL;
+  int material = 0, err;
+  unsigned triangles = 0;
+  for (unsigned f = 0; f < mesh->mNumFaces; f++) triangles += mesh->mFaces[f].mNumIndices == 3;
+  if (triangles == 0) return VF_OK; /* points and lines only: not a surface */
+  if ((err = material_for(c, st, mesh->mMaterialIndex, &material)) < 0) return err;
+  a = *world; /* the walk started from the entry's transform */
+  if ((err = add_shape(c->scene, &s)) < 0) return err;
+  s->kind = VF_SHAPE_MESH;
+  s->material = material;
+  if ((err = vf_scene_append_mesh(c, st->f.what, mesh, mesh_index, &a, s, &st->dropped)) < 0) return err;
+  const char *name = mesh->mName.length ? mesh->mName.data : node->mName.data;
+  snprintf(s->name, sizeof s->name, "%.63s", name[0] ? name : st->f.file); /* names only name: cut is fine */
+  s->emission = st->emission_of[mesh->mMaterialIndex];
+  /* An emitter without area would have infinite radiance per unit power. */
+  if (!vf_is_zero(s->emission) && !(vf_scene_mesh_area(s) > 0.0)) {
+    s->emission = vf_vec3_splat(0.0f);
+    if ((err = vf_scene_note(c, "%s: emissive meshes without area do not emit", st->f.file)) < 0) return err;
+  }
+  if (mesh->mColors[0] != NULL && (err = vf_scene_note(c, "%s: vertex colours are ignored", st->f.file)) < 0)
+    return err;
+  if (mesh->mTextureCoords[1] != NULL &&
+      (err = vf_scene_note(c, "%s: meshes with several uv sets: only set 0 is read", st->f.file)) < 0)
+    return err;
+  return VF_OK;
+}
+
+/* ---- cameras ----------------------------------------------------------------------------------- */
+
+static const struct aiNode *find_node(const struct aiNode *n, const struct aiString *name, int depth) {
+  if (n == NULL || depth > 256) return NULL;
+  if (n->mName.length == name->length && memcmp(n->mName.data, name->data, name->length) == 0) return n;
+  for (unsigned i = 0; i < n->mNumChildren; i++) {
+    const struct aiNode *found = find_node(n->mChildren[i], name, depth + 1);
+    if (found) return found;
+  }
+  return NULL;
+}
+
+/* The world transform of the node named `name` (a camera's or light's), after the entry's. */
+static void world_of(const import_state *st, const struct aiString *name, vf_affine *out) {
+  vf_affine node;
+  const struct aiNode *n = find_node(st->f.ai->mRootNode, name, 0);
+  if (n != NULL) vf_scene_node_world(n, &node);
+  else vf_affine_identity(&node);
+  vf_affine_mul(st->root, &node, out);
+}
+
+static vf_vec3 vec_of(const double d[3]) { return vf_vec3_make((float)d[0], (float)d[1], (float)d[2]); }
+
+static int is_perspective(const struct aiCamera *cam) {
+  return cam->mHorizontalFOV > 0.0f && cam->mOrthographicWidth == 0.0f;
+}
+
+/* The camera's view into the scene's camera, and the resolution its aspect ratio asks for. */
+static int take_camera(const parse_ctx *c, const import_state *st, unsigned index) {
+  const struct aiCamera *cam = st->f.ai->mCameras[index];
+  vf_scene *s = c->scene;
+  vf_affine w;
+  world_of(st, &cam->mName, &w);
+  /* Assimp 5.2.5's glTF reader copies the node's translation into mPosition as well,
+   * although the node's transform holds it: a glTF camera sits at its node's origin. */
+  double p[3] = {cam->mPosition.x, cam->mPosition.y, cam->mPosition.z}, wp[3];
+  if (st->f.gltf_file) p[0] = p[1] = p[2] = 0.0;
+  double l[3] = {cam->mLookAt.x, cam->mLookAt.y, cam->mLookAt.z}, wl[3];
+  double u[3] = {cam->mUp.x, cam->mUp.y, cam->mUp.z}, wu[3];
+  vf_affine_point(&w, p, wp);
+  vf_affine_vector(&w, l, wl);
+  vf_affine_vector(&w, u, wu);
+  vf_camera_desc d = {.position = vec_of(wp)};
+  vf_vec3 up = vec_of(wu);
+  if (!vf_scene_unit(vec_of(wl), &d.forward)) return vf_scene_fail(c, VF_ESCENE, st->f.what, "camera %u has no viewing direction", index);
+  vf_vec3 up_orth = vf_sub(up, vf_scale(d.forward, vf_dot(up, d.forward)));
+  if (!(vf_length(up_orth) > 1e-4f * vf_length(up)) || !vf_scene_unit(up_orth, &d.up))
+    return vf_scene_fail(c, VF_ESCENE, st->f.what, "camera %u: up is zero or parallel to the viewing direction", index);
+  double aspect = cam->mAspect > 0.0f && isfinite(cam->mAspect) ? cam->mAspect : 0.0, fov;
+  /* Assimp 5.2.5's glTF reader stores yfov x aspect in mHorizontalFOV (not the half angle
+   * other readers store, as aiCamera documents): each is undone as it was made. */
+  if (st->f.gltf_file) fov = cam->mHorizontalFOV / (aspect > 0.0 ? aspect : 1.0);
+  else fov = 2.0 * atan(tan(cam->mHorizontalFOV) / (aspect > 0.0 ? aspect : 1.0));
+  d.vertical_fov_degrees = (float)(fov * 180.0 / M_PI);
+  if (!(d.vertical_fov_degrees > 0.0f && d.vertical_fov_degrees < 180.0f))
+    return vf_scene_fail(c, VF_ESCENE, st->f.what, "camera %u: vertical field of view %g degrees is not in (0, 180)",
+                         index, d.vertical_fov_degrees);
+  s->camera = d;
+  if (!(s->settings_given & VF_SET_RESOLUTION)) {
+    double h = aspect > 0.0 ? IMPORT_WIDTH / aspect : IMPORT_WIDTH * 9.0 / 16.0;
+    s->settings.width = IMPORT_WIDTH;
+    s->settings.height = (int)fmin(fmax(floor(h + 0.5), 1.0), 65536.0);
+    s->settings_given |= VF_SET_RESOLUTION;
+  }
+  return VF_OK;
+}
+
+/* The list of the file's cameras for an error: "0 'Main', 1 'Top'". */
+static void camera_names(const struct aiScene *ai, char *out, size_t n) {
+  size_t used = 0;
+  out[0] = '\0';
+  for (unsigned i = 0; i < ai->mNumCameras && used + 1 < n; i++) {
+    int w = snprintf(out + used, n - used, "%s%u '%s'", i ? ", " : "", i, ai->mCameras[i]->mName.data);
+    if (w < 0) break;
+    used += (size_t)w;
+  }
+}
+
+/* A camera selection: a name, else a whole number as an index. */
+static int select_camera(const parse_ctx *c, const import_state *st, const cJSON *sel, const char *path) {
+  const struct aiScene *ai = st->f.ai;
+  char names[1024];
+  long index = -1;
+  if (cJSON_IsString(sel)) {
+    for (unsigned i = 0; i < ai->mNumCameras && index < 0; i++)
+      if (strcmp(ai->mCameras[i]->mName.data, sel->valuestring) == 0) index = i;
+    char *end;
+    if (index < 0 && isdigit((unsigned char)sel->valuestring[0])) {
+      long k = strtol(sel->valuestring, &end, 10);
+      if (*end == '\0') index = k < (long)ai->mNumCameras ? k : -2;
+    }
+  } else if (cJSON_IsNumber(sel) && sel->valuedouble >= 0 && sel->valuedouble == floor(sel->valuedouble)) {
+    index = sel->valuedouble < ai->mNumCameras ? (long)sel->valuedouble : -2;
+  } else {
+    return vf_scene_fail(c, VF_ESCENE, path, "expected a camera name or index, found %s", vf_scene_kind(sel));
+  }
+  if (index < 0) {
+    camera_names(ai, names, sizeof names);
+    char what[64];
+    if (cJSON_IsString(sel)) snprintf(what, sizeof what, "'%.40s'", sel->valuestring);
+    else snprintf(what, sizeof what, "%g", sel->valuedouble);
+    if (ai->mNumCameras == 0) return vf_scene_fail(c, VF_ESCENE, path, "no camera %s: %s has no camera", what, st->f.file);
+    return vf_scene_fail(c, VF_ESCENE, path, "no camera %s in %s (its cameras: %s)", what, st->f.file, names);
+  }
+  if (!is_perspective(ai->mCameras[index]))
+    return vf_scene_fail(c, VF_ESCENE, path, "camera %ld '%s' of %s is not a perspective camera", index,
+                         ai->mCameras[index]->mName.data, st->f.file);
+  return take_camera(c, st, (unsigned)index);
+}
+
+static int note_cameras(const parse_ctx *c, const import_state *st) {
+  for (unsigned i = 0; i < st->f.ai->mNumCameras; i++)
+    if (!is_perspective(st->f.ai->mCameras[i])) {
+      int err = vf_scene_note(c, "%s: orthographic cameras are not supported: ignored", st->f.file);
+      if (err < 0) return err;
+    }
+  return VF_OK;
+}
+
+/* ---- lights ------------------------------------------------------------------------------------ */
+
+static int grow_lights(void **p, int count, size_t size) {
+  void *q = realloc(*p, (size_t)(count + 1) * size);
+  if (q == NULL) return vf_error_set(VF_ENOMEM, "out of memory");
+  *p = q;
+  return VF_OK;
+}
+
+/* A spot's cone: glTF's are half-angles, as Assimp's glTF reader copies them; Assimp's
+ * documented convention (other readers) is the full angle. */
+static int spot_cone(const parse_ctx *c, const import_state *st, const struct aiLight *l, vf_point_light_desc *d) {
+  double k = st->f.gltf_file ? 1.0 : 0.5, inner = k * l->mAngleInnerCone, outer = k * l->mAngleOuterCone;
+  int err;
+  if (!(outer > 0.0)) return vf_scene_fail(c, VF_ESCENE, st->f.what, "spot light '%s' has no cone", l->mName.data);
+  if (outer > M_PI / 2) {
+    if ((err = vf_scene_note(c, "%s: spot cones wider than 90 degrees are narrowed to 90", st->f.file)) < 0) return err;
+    outer = M_PI / 2;
+  }
+  if (!(inner >= 0.0)) inner = 0.0;
+  if (inner >= outer) inner = 0.999 * outer; /* a hard edge; the falloff needs inner < outer */
+  d->inner_cone_angle = (float)inner;
+  d->outer_cone_angle = (float)outer;
+  return VF_OK;
+}
+
+/* KHR_lights_punctual's intensities are photometric (candela, lux): vcmfarm reads them as
+ * radiometric, candela as W/sr and lux as W/m^2 (docs/SCENES.md). */
+static int import_light(const parse_ctx *c, const import_state *st, const struct aiLight *l) {
+  vf_scene *s = c->scene;
+  vf_affine w;
+  world_of(st, &l->mName, &w);
+  vf_vec3 color = vf_vec3_make(l->mColorDiffuse.r, l->mColorDiffuse.g, l->mColorDiffuse.b);
+  if (!(vf_min_component(color) >= 0.0f && vf_max_component(color) <= FLT_MAX))
+    return vf_scene_fail(c, VF_ESCENE, st->f.what, "light '%s' has a negative or non-finite intensity", l->mName.data);
+  double p[3] = {l->mPosition.x, l->mPosition.y, l->mPosition.z}, dir[3] = {l->mDirection.x, l->mDirection.y, l->mDirection.z};
+  double wp[3], wd[3];
+  vf_affine_point(&w, p, wp);
+  vf_affine_vector(&w, dir, wd);
+  int err;
+  if (l->mType == aiLightSource_POINT || l->mType == aiLightSource_SPOT) {
+    if ((err = grow_lights((void **)&s->point_lights, s->num_point_lights, sizeof *s->point_lights)) < 0) return err;
+    vf_point_light_desc d = {.position = vec_of(wp), .intensity = color};
+    if (l->mType == aiLightSource_SPOT) {
+      d.is_spot = 1;
+      if (!vf_scene_unit(vec_of(wd), &d.direction))
+        return vf_scene_fail(c, VF_ESCENE, st->f.what, "spot light '%s' has no direction", l->mName.data);
+      if ((err = spot_cone(c, st, l, &d)) < 0) return err;
+    }
+    s->point_lights[s->num_point_lights++] = d;
+  } else if (l->mType == aiLightSource_DIRECTIONAL) {
+    if ((err = grow_lights((void **)&s->directional_lights, s->num_directional_lights, sizeof *s->directional_lights)) < 0)
+      return err;
+    vf_directional_light_desc d = {.irradiance = color};
+    if (!vf_scene_unit(vec_of(wd), &d.direction))
+      return vf_scene_fail(c, VF_ESCENE, st->f.what, "directional light '%s' has no direction", l->mName.data);
+    s->directional_lights[s->num_directional_lights++] = d;
+  } else {
+    return vf_scene_note(c, "%s: ambient and area lights are not supported: ignored", st->f.file);
+  }
+  return VF_OK;
+}
+
+/* ---- one "import" entry ------------------------------------------------------------------------ */
+
+/* Whether the scene is the model file itself (vf_scene_model_text): messages then name the
+ * file alone, without the JSON field a user never wrote. */
+static int is_model_scene(const parse_ctx *c, const char *file) {
+  size_t n = strlen(c->label), k = strlen(file);
+  return strcmp(c->label, file) == 0 || (n > k && c->label[n - k - 1] == '/' && strcmp(c->label + n - k, file) == 0);
+}
+
+static int import_contents(const parse_ctx *c, import_state *st, const cJSON *camera_sel, const char *camera_path,
+                           int take_first_camera) {
+  const struct aiScene *ai = st->f.ai;
+  int err;
+  if ((err = vf_scene_walk_nodes(c, st->f.what, ai, st->root, import_instance, st)) < 0) return err;
+  if ((err = vf_scene_note_dropped(c, st->f.file, st->dropped)) < 0) return err;
+  for (unsigned i = 0; i < ai->mNumLights; i++)
+    if ((err = import_light(c, st, ai->mLights[i])) < 0) return err;
+  if ((err = note_cameras(c, st)) < 0) return err;
+  if (camera_sel != NULL) {
+    if ((err = select_camera(c, st, camera_sel, camera_path)) < 0) return err;
+    st->took_camera = 1;
+  }
+  for (unsigned i = 0; take_first_camera && !st->took_camera && i < ai->mNumCameras; i++)
+    if (is_perspective(ai->mCameras[i])) {
+      if ((err = take_camera(c, st, i)) < 0) return err;
+      st->took_camera = 1;
+    }
+  if (ai->mNumAnimations > 0 && (err = vf_scene_note(c, "%s: animations are ignored: the scene is rendered at rest",
+                                                     st->f.file)) < 0)
+    return err;
+  return VF_OK;
+}
+
+static int import_entry(const parse_ctx *c, const cJSON *j, int index, int json_materials, int *camera_wanted,
+                        int selects_here) {
+  static const char *const fields[] = {"file", "transform", "camera", NULL};
+  char path[PATH_LEN], fpath[PATH_LEN], cpath[PATH_LEN], what[PATH_LEN + 80], dir[PATH_LEN];
+  const char *file;
+  const cJSON *tj, *camera_sel = NULL;
+  vf_affine root;
+  int err;
+  vf_scene_join_index(path, "import", index);
+  if ((err = vf_scene_check_object(c, j, path, fields)) < 0) return err;
+  if ((err = vf_scene_string_field(c, j, path, "file", REQUIRED, &file)) < 0) return err;
+  vf_affine_identity(&root);
+  if (vf_scene_member(c, j, path, "transform", OPTIONAL, &tj) &&
+      (err = vf_scene_parse_transform(c, tj, vf_scene_join(cpath, path, "transform"), &root)) < 0)
+    return err;
+  int model = is_model_scene(c, file);
+  vf_scene_join(cpath, path, "camera");
+  if (vf_scene_member(c, j, path, "camera", OPTIONAL, &camera_sel) && !*camera_wanted)
+    return vf_scene_fail(c, VF_ESCENE, cpath, "the scene has a 'camera' already");
+  if (model) snprintf(cpath, sizeof cpath, "--camera");
+  snprintf(what, sizeof what, "%s (%s)", path, file);
+  vf_scene_join(fpath, path, "file");
+  const char *slash = strrchr(file, '/');
+  snprintf(dir, sizeof dir, "%.*s", slash ? (int)(slash - file) : 0, file);
+  import_state st = {.f = {.c = c, .file = file, .what = model ? NULL : what, .dir = dir,
+                           .gltf_file = vf_gltf_is_gltf(file)},
+                     .root = &root, .json_materials = json_materials};
+  if ((err = vf_scene_import_file(c, file, model ? NULL : fpath, st.f.what, &st.f.ai)) < 0) return err;
+  if (st.f.gltf_file) err = vf_gltf_read_info(c, file, st.f.what, &st.f.gltf);
+  unsigned nm = st.f.ai->mNumMaterials;
+  st.material_of = malloc((nm ? nm : 1) * sizeof *st.material_of);
+  st.emission_of = calloc(nm ? nm : 1, sizeof *st.emission_of);
+  if (err == VF_OK && (st.material_of == NULL || st.emission_of == NULL)) err = vf_error_set(VF_ENOMEM, "out of memory");
+  for (unsigned k = 0; err == VF_OK && k < nm; k++) st.material_of[k] = -1;
+  int take_first = *camera_wanted && selects_here < 0;
+  if (err == VF_OK)
+    err = import_contents(c, &st, selects_here == index ? camera_sel : NULL, cpath, take_first);
+  if (err == VF_OK && st.took_camera) *camera_wanted = 0;
+  free(st.material_of);
+  free(st.emission_of);
+  vf_gltf_info_release(&st.f.gltf);
+  aiReleaseImport(st.f.ai);
+  return err;
+}
+
+int vf_scene_parse_imports(const parse_ctx *c, const cJSON *j, int json_materials, int *camera_wanted) {
+  if (!cJSON_IsArray(j) || cJSON_GetArraySize(j) == 0)
+    return vf_scene_fail(c, VF_ESCENE, "import", "expected a non-empty array of objects");
+  int i = 0, selects = -1, err;
+  const cJSON *e;
+  /* At most one entry chooses the scene's camera; without one, the first file that has a
+   * perspective camera gives its first. */
+  cJSON_ArrayForEach(e, j) {
+    if (cJSON_IsObject(e) && cJSON_HasObjectItem(e, "camera")) {
+      if (selects >= 0)
+        return vf_scene_fail(c, VF_ESCENE, "import", "only one entry may choose the camera (entries %d and %d do)",
+                             selects, i);
+      selects = i;
+    }
+    i++;
+  }
+  i = 0;
+  cJSON_ArrayForEach(e, j) {
+    if ((err = import_entry(c, e, i++, json_materials, camera_wanted, selects)) < 0) return err;
+  }
+  return VF_OK;
+}
+
+/* ---- what a scene without a camera or a light gets ----------------------------------------------- */
+
+int vf_scene_default_camera(const parse_ctx *c) {
+  vf_scene *s = c->scene;
+  vf_vec3 center;
+  float radius;
+  vf_scene_compute_bounds(s);
+  vf_scene_bounding_sphere(s, &center, &radius);
+  if (!(radius > 0.0f)) radius = 1.0f;
+  /* From the front (+z, glTF's front), a little above, far enough that the bounding sphere
+   * fits the 40-degree vertical field of view. */
+  const float fov = 40.0f;
+  vf_vec3 from;
+  vf_scene_unit(vf_vec3_make(0.0f, 0.3f, 1.0f), &from);
+  float distance = 1.1f * radius / sinf(0.5f * fov * (float)(M_PI / 180.0));
+  s->camera = (vf_camera_desc){.position = vf_add(center, vf_scale(from, distance)), .vertical_fov_degrees = fov};
+  vf_scene_unit(vf_scale(from, -1.0f), &s->camera.forward);
+  vf_vec3 up = vf_vec3_make(0.0f, 1.0f, 0.0f);
+  vf_scene_unit(vf_sub(up, vf_scale(s->camera.forward, vf_dot(up, s->camera.forward))), &s->camera.up);
+  if (!(s->settings_given & VF_SET_RESOLUTION)) {
+    s->settings.width = IMPORT_WIDTH;
+    s->settings.height = IMPORT_WIDTH * 9 / 16;
+    s->settings_given |= VF_SET_RESOLUTION;
+  }
+  return vf_scene_note(c, "no camera: a default camera looks at the scene's bounds from +z (fov 40 degrees)");
+}
+
+int vf_scene_default_light(const parse_ctx *c) {
+  c->scene->background = vf_vec3_splat(1.0f);
+  return vf_scene_note(c, "no light: the scene is lit by a white background of radiance 1");
+}
+
+/* ---- model files as scenes ---------------------------------------------------------------------- */
+
+int vf_scene_is_model_file(const char *path) {
+  size_t n = strlen(path);
+  return vf_gltf_is_gltf(path) || (n >= 4 && strcasecmp(path + n - 4, ".obj") == 0);
+}
+
+int vf_scene_model_text(const char *path, const char *camera, char **text, size_t *len) {
+  const char *slash = strrchr(path, '/');
+  cJSON *root = cJSON_CreateObject(), *list = root ? cJSON_AddArrayToObject(root, "import") : NULL;
+  cJSON *entry = list ? cJSON_CreateObject() : NULL;
+  if (entry != NULL && !cJSON_AddItemToArray(list, entry)) {
+    cJSON_Delete(entry);
+    entry = NULL;
+  }
+  /* The file by its name alone: it is read from the directory the scene's label names. */
+  int ok = entry && cJSON_AddStringToObject(entry, "file", slash ? slash + 1 : path) &&
+           (camera == NULL || cJSON_AddStringToObject(entry, "camera", camera));
+  char *out = ok ? cJSON_PrintUnformatted(root) : NULL;
+  cJSON_Delete(root);
+  if (out == NULL) return vf_error_set(VF_ENOMEM, "out of memory");
+  *text = out;
+  *len = strlen(out);
+  return VF_OK;
+}

@@ -1,0 +1,653 @@
+/* Scene files: JSON (cJSON) -> validated world-space vf_scene.
+ *
+ * The format is documented in docs/SCENES.md; this file is its only implementation, and the
+ * built-in scenes (builtin.c) go through it too. Everything read from the file is
+ * untrusted: every field is type-checked, every number must be finite, unknown fields are
+ * errors (a misspelt "emision" silently ignored would cost someone a night of rendering),
+ * and every error names the file, the field path and the problem.
+ *
+ * Parsing fills a calloc'ed scene step by step; on any failure vf_scene_destroy() frees
+ * whatever was filled so far, which is why every array is counted as soon as it is
+ * allocated and zero-filled until used. */
+#include "parse.h"
+
+#include "../../common/error.h"
+
+#include <cjson/cJSON.h>
+
+#include <errno.h>
+#include <float.h>
+#include <math.h>
+#include <stdarg.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* Albedo sums are written in decimal and summed in float: allow the rounding of that. */
+#define ALBEDO_SUM_TOLERANCE 1e-5f
+
+/* ---- errors and field paths ------------------------------------------------------------ */
+
+/* Formats into a local buffer first, so arguments may point into the thread's error detail
+ * (vf_error_detail) that vf_error_set is about to overwrite. */
+int vf_scene_fail(const parse_ctx *c, int err, const char *path, const char *fmt, ...) {
+  char msg[768];
+  va_list ap;
+  va_start(ap, fmt);
+  vsnprintf(msg, sizeof msg, fmt, ap);
+  va_end(ap);
+  if (path != NULL && path[0] != '\0') return vf_error_set(err, "%s: %s: %s", c->label, path, msg);
+  return vf_error_set(err, "%s: %s", c->label, msg);
+}
+
+/* Field paths longer than PATH_LEN only come from absurd keys: they end in "..." instead. */
+const char *vf_scene_join(char *dst, const char *path, const char *key) {
+  int w = path[0] == '\0' ? snprintf(dst, PATH_LEN, "%s", key) : snprintf(dst, PATH_LEN, "%s.%s", path, key);
+  if (w >= PATH_LEN) memcpy(dst + PATH_LEN - 4, "...", 4);
+  return dst;
+}
+
+const char *vf_scene_join_index(char *dst, const char *path, long index) {
+  if (snprintf(dst, PATH_LEN, "%s[%ld]", path, index) >= PATH_LEN) memcpy(dst + PATH_LEN - 4, "...", 4);
+  return dst;
+}
+
+/* ---- camera ------------------------------------------------------------------------------- */
+
+static int parse_resolution(const parse_ctx *c, const cJSON *item, vf_settings *settings) {
+  const char *path = "camera.resolution";
+  char p[PATH_LEN];
+  if (!cJSON_IsArray(item) || cJSON_GetArraySize(item) != 2)
+    return vf_scene_fail(c, VF_ESCENE, path, "expected [width, height]");
+  double wh[2];
+  for (int i = 0; i < 2; i++) {
+    int err = vf_scene_to_integer(c, cJSON_GetArrayItem(item, i), vf_scene_join_index(p, path, i), -1e18, 1e18, &wh[i]);
+    if (err < 0) return err;
+  }
+  if (wh[0] < 1 || wh[1] < 1)
+    return vf_scene_fail(c, VF_ESCENE, path, "must be positive, found %.0fx%.0f", wh[0], wh[1]);
+  if (wh[0] > 65536 || wh[1] > 65536 || wh[0] * wh[1] > (double)(1 << 28))
+    return vf_scene_fail(c, VF_ESCENE, path, "%.0fx%.0f is larger than 65536x65536 or 2^28 pixels", wh[0], wh[1]);
+  settings->width = (int)wh[0];
+  settings->height = (int)wh[1];
+  return VF_OK;
+}
+
+/* The thin lens: a radius and the distance in focus, by default the target's. */
+static int parse_lens(const parse_ctx *c, const cJSON *cam, const vf_vec3 *target, vf_camera_desc *d) {
+  int err = vf_scene_float_field(c, cam, "camera", "aperture", OPTIONAL, &d->aperture);
+  if (err < 0) return err;
+  if (!(d->aperture >= 0.0f))
+    return vf_scene_fail(c, VF_ESCENE, "camera.aperture", "the lens radius must be >= 0, found %g", d->aperture);
+  int has_focus = vf_scene_float_field(c, cam, "camera", "focus_distance", OPTIONAL, &d->focus_distance);
+  if (has_focus < 0) return has_focus;
+  if (has_focus && !(d->focus_distance > 0.0f))
+    return vf_scene_fail(c, VF_ESCENE, "camera.focus_distance", "must be > 0, found %g", d->focus_distance);
+  if (!has_focus && d->aperture > 0.0f) {
+    if (target == NULL) return vf_scene_fail(c, VF_ESCENE, "camera", "missing field 'focus_distance' (or 'target')");
+    d->focus_distance = vf_length(vf_sub(*target, d->position));
+  }
+  return VF_OK;
+}
+
+static int parse_camera(const parse_ctx *c, const cJSON *cam) {
+  static const char *const fields[] = {"position", "target", "forward", "up", "fov", "resolution", "aperture", "focus_distance", NULL};
+  vf_scene *s = c->scene;
+  vf_camera_desc d = {.aperture = 0.0f, .focus_distance = 0.0f};
+  vf_vec3 target, forward, up = vf_vec3_make(0.0f, 1.0f, 0.0f);
+  int err = vf_scene_check_object(c, cam, "camera", fields);
+  if (err < 0) return err;
+  if ((err = vf_scene_vec3_field(c, cam, "camera", "position", REQUIRED, &d.position)) < 0) return err;
+  int has_target = vf_scene_vec3_field(c, cam, "camera", "target", OPTIONAL, &target);
+  if (has_target < 0) return has_target;
+  int has_forward = vf_scene_vec3_field(c, cam, "camera", "forward", OPTIONAL, &forward);
+  if (has_forward < 0) return has_forward;
+  if (has_target && has_forward)
+    return vf_scene_fail(c, VF_ESCENE, "camera", "give either 'target' or 'forward', not both");
+  if (!has_target && !has_forward)
+    return vf_scene_fail(c, VF_ESCENE, "camera", "missing field 'target' (or 'forward')");
+  if (has_target && !vf_scene_unit(vf_sub(target, d.position), &d.forward))
+    return vf_scene_fail(c, VF_ESCENE, "camera.target", "equals camera.position: no viewing direction");
+  if (has_forward && !vf_scene_unit(forward, &d.forward))
+    return vf_scene_fail(c, VF_ESCENE, "camera.forward", "zero vector");
+  if ((err = vf_scene_vec3_field(c, cam, "camera", "up", OPTIONAL, &up)) < 0) return err;
+  /* Gram-Schmidt: the up the user gives only picks the roll; a nearly parallel one would
+   * make the roll numerically meaningless, so it is refused rather than guessed. */
+  vf_vec3 up_orth = vf_sub(up, vf_scale(d.forward, vf_dot(up, d.forward)));
+  if (!(vf_length(up_orth) > 1e-4f * vf_length(up)) || !vf_scene_unit(up_orth, &d.up))
+    return vf_scene_fail(c, VF_ESCENE, "camera.up", "zero or parallel to the viewing direction");
+  if ((err = vf_scene_float_field(c, cam, "camera", "fov", REQUIRED, &d.vertical_fov_degrees)) < 0) return err;
+  if (!(d.vertical_fov_degrees > 0.0f && d.vertical_fov_degrees < 180.0f))
+    return vf_scene_fail(c, VF_ESCENE, "camera.fov", "must be in (0, 180) degrees, found %g", d.vertical_fov_degrees);
+  if ((err = parse_lens(c, cam, has_target ? &target : NULL, &d)) < 0) return err;
+  const cJSON *res;
+  int has_resolution = vf_scene_member(c, cam, "camera", "resolution", OPTIONAL, &res);
+  if (has_resolution) {
+    if ((err = parse_resolution(c, res, &s->settings)) < 0) return err;
+    s->settings_given |= VF_SET_RESOLUTION;
+  }
+  s->camera = d;
+  return VF_OK;
+}
+
+/* ---- materials ---------------------------------------------------------------------------- */
+
+/* A number in [0, 1] (roughness, metallic). */
+static int unit_field(const parse_ctx *c, const cJSON *obj, const char *path, const char *key, int required,
+                      float *out) {
+  char p[PATH_LEN];
+  int has = vf_scene_float_field(c, obj, path, key, required, out);
+  if (has > 0 && !(*out >= 0.0f && *out <= 1.0f))
+    return vf_scene_fail(c, VF_ESCENE, vf_scene_join(p, path, key), "must be in [0, 1], found %g", *out);
+  return has;
+}
+
+/* ---- textures of a material (docs/SCENES.md, "Textures") ---- */
+
+/* Index = VF_WRAP_* (worker/scene/texture.h). */
+static const char *const wrap_names[] = {"repeat", "clamp", "mirror"};
+
+/* The member `key` of obj as a wrap mode: 1 read, 0 absent, < 0 error. */
+static int wrap_field(const parse_ctx *c, const cJSON *obj, const char *path, const char *key, int *out) {
+  char p[PATH_LEN];
+  const char *name;
+  int has = vf_scene_string_field(c, obj, path, key, OPTIONAL, &name);
+  if (has <= 0) return has;
+  for (int i = 0; i < 3; i++)
+    if (strcmp(name, wrap_names[i]) == 0) {
+      *out = i;
+      return 1;
+    }
+  return vf_scene_fail(c, VF_ESCENE, vf_scene_join(p, path, key), "unknown wrap mode '%s' (expected repeat, clamp or mirror)",
+                       name);
+}
+
+/* A texture field: a file name, or {"file", "wrap"} or {"file", "wrap_s", "wrap_t"};
+ * repeat by default (glTF's default sampler). 1 and *slot set, 0 absent, < 0 error. */
+static int texture_field(const parse_ctx *c, const cJSON *obj, const char *path, const char *key, vf_texture_slot *slot) {
+  static const char *const fields[] = {"file", "wrap", "wrap_s", "wrap_t", NULL};
+  char p[PATH_LEN], fp[PATH_LEN];
+  const cJSON *item;
+  const char *file;
+  int err = vf_scene_member(c, obj, path, key, OPTIONAL, &item);
+  if (err <= 0) return err;
+  vf_scene_join(p, path, key);
+  vf_texture_slot sl = {0, VF_WRAP_REPEAT, VF_WRAP_REPEAT};
+  if (cJSON_IsString(item)) {
+    file = item->valuestring;
+    snprintf(fp, sizeof fp, "%s", p);
+  } else if (cJSON_IsObject(item)) {
+    int wrap = VF_WRAP_REPEAT;
+    if ((err = vf_scene_check_object(c, item, p, fields)) < 0) return err;
+    if ((err = vf_scene_string_field(c, item, p, "file", REQUIRED, &file)) < 0) return err;
+    vf_scene_join(fp, p, "file");
+    int has_wrap = wrap_field(c, item, p, "wrap", &wrap);
+    if (has_wrap < 0) return has_wrap;
+    sl.wrap_s = sl.wrap_t = wrap;
+    int has_s = wrap_field(c, item, p, "wrap_s", &sl.wrap_s);
+    int has_t = has_s < 0 ? has_s : wrap_field(c, item, p, "wrap_t", &sl.wrap_t);
+    if (has_t < 0) return has_t;
+    if (has_wrap && (has_s || has_t)) return vf_scene_fail(c, VF_ESCENE, p, "give 'wrap' or 'wrap_s'/'wrap_t', not both");
+  } else {
+    return vf_scene_fail(c, VF_ESCENE, p, "expected a file name or an object {\"file\": ...}, found %s", vf_scene_kind(item));
+  }
+  if ((err = vf_scene_texture_file(c, file, fp, &sl.texture)) < 0) return err;
+  *slot = sl;
+  return 1;
+}
+
+/* Float (EXR) texels a slot would read out of its range: colour and roughness-metallic
+ * multiply albedos and parameters bounded by 1, so they must lie in [0, 1] (the albedo-sum
+ * rule of worker/scene/material.h then still holds at every texel; 8-bit texels always do);
+ * emission must not be negative; alpha and normal maps take any finite value. Refused at
+ * load rather than clamped at lookup, which stays one code path for every slot. */
+static int check_texel_range(const parse_ctx *c, const char *path, int slot, const vf_texture *t) {
+  if (!t->is_float || slot == VF_TEXTURE_ALPHA || slot == VF_TEXTURE_NORMAL) return VF_OK;
+  const int n = t->channels, colour = n < 3 ? 1 : 3;
+  const int first = slot == VF_TEXTURE_ROUGHNESS_METALLIC && n >= 3 ? 1 : 0; /* G and B */
+  const float hi = slot == VF_TEXTURE_EMISSION ? FLT_MAX : 1.0f;
+  const float *v = t->texels;
+  for (size_t i = 0; i < (size_t)t->width * t->height; i++)
+    for (int k = first; k < colour; k++)
+      if (!(v[i * (size_t)n + (size_t)k] >= 0.0f && v[i * (size_t)n + (size_t)k] <= hi))
+        return vf_scene_fail(c, VF_ESCENE, path, "texel (%zu, %zu) of '%s' is %g in channel %d, outside %s",
+                             i % t->width, i / t->width, t->name, v[i * (size_t)n + (size_t)k], k,
+                             hi == 1.0f ? "[0, 1] (it multiplies a value bounded by 1)" : "[0, inf)");
+  return VF_OK;
+}
+
+/* Texture field `key` into slot `slot` of m, its texels checked for the slot. */
+static int slot_field(const parse_ctx *c, const cJSON *j, const char *path, const char *key, int slot, vf_material *m) {
+  char p[PATH_LEN];
+  int has = texture_field(c, j, path, key, &m->textures[slot]);
+  if (has <= 0) return has;
+  int err = check_texel_range(c, vf_scene_join(p, path, key), slot, &c->scene->textures[m->textures[slot].texture - 1]);
+  return err < 0 ? err : 1;
+}
+
+/* alpha, alpha_cutoff and alpha_channel, once the alpha texture (if any) is known.
+ * alpha_channel indexes the RGBA the lookup returns: by default the texture's alpha when
+ * it has one (2 or 4 channels), else its first channel (grey, or red). */
+static int parse_alpha(const parse_ctx *c, const cJSON *j, const char *path, vf_material *m) {
+  char p[PATH_LEN];
+  const int tex = m->textures[VF_TEXTURE_ALPHA].texture;
+  const vf_texture *t = tex ? &c->scene->textures[tex - 1] : NULL;
+  m->alpha = 1.0f;
+  int has_alpha = unit_field(c, j, path, "alpha", OPTIONAL, &m->alpha);
+  if (has_alpha < 0) return has_alpha;
+  m->alpha_cutoff = t != NULL || has_alpha ? 0.5f : 0.0f; /* glTF's alphaCutoff default */
+  int err = unit_field(c, j, path, "alpha_cutoff", OPTIONAL, &m->alpha_cutoff);
+  if (err < 0) return err;
+  if (err > 0 && t == NULL && !has_alpha)
+    return vf_scene_fail(c, VF_ESCENE, vf_scene_join(p, path, "alpha_cutoff"), "needs 'alpha_texture' or 'alpha'");
+  const cJSON *item;
+  if ((err = vf_scene_member(c, j, path, "alpha_channel", OPTIONAL, &item)) < 0) return err;
+  m->alpha_channel = t != NULL && (t->channels == 2 || t->channels == 4) ? 3 : 0;
+  if (err == 0) return VF_OK;
+  vf_scene_join(p, path, "alpha_channel");
+  double channel;
+  if (t == NULL) return vf_scene_fail(c, VF_ESCENE, p, "needs 'alpha_texture'");
+  if ((err = vf_scene_to_integer(c, item, p, 0, 3, &channel)) < 0) return err;
+  if (channel == 3 && t->channels != 2 && t->channels != 4)
+    return vf_scene_fail(c, VF_ESCENE, p, "'%s' has no alpha channel (%d channels)", t->name, t->channels);
+  m->alpha_channel = (int)channel;
+  return VF_OK;
+}
+
+/* The texture fields both material models share, and their parameters. */
+static int parse_shared_textures(const parse_ctx *c, const cJSON *j, const char *path, vf_material *m) {
+  char p[PATH_LEN];
+  int err;
+  if ((err = slot_field(c, j, path, "emission_texture", VF_TEXTURE_EMISSION, m)) < 0) return err;
+  if ((err = slot_field(c, j, path, "alpha_texture", VF_TEXTURE_ALPHA, m)) < 0) return err;
+  if ((err = parse_alpha(c, j, path, m)) < 0) return err;
+  int has_normal = slot_field(c, j, path, "normal_texture", VF_TEXTURE_NORMAL, m);
+  if (has_normal < 0) return has_normal;
+  m->normal_scale = 1.0f;
+  if ((err = vf_scene_float_field(c, j, path, "normal_scale", OPTIONAL, &m->normal_scale)) < 0) return err;
+  if (err > 0 && !has_normal)
+    return vf_scene_fail(c, VF_ESCENE, vf_scene_join(p, path, "normal_scale"), "needs 'normal_texture'");
+  return VF_OK;
+}
+
+/* The glTF 2.0 metallic-roughness model. A factor whose texture is given defaults to 1,
+ * as glTF's baseColorFactor, metallicFactor and roughnessFactor do. */
+static int parse_gltf_material(const parse_ctx *c, const cJSON *j, const char *path, vf_material *m) {
+  char p[PATH_LEN];
+  int err, has_color, has_rm;
+  if ((has_color = slot_field(c, j, path, "base_color_texture", VF_TEXTURE_COLOR, m)) < 0) return has_color;
+  if ((has_rm = slot_field(c, j, path, "roughness_metallic_texture", VF_TEXTURE_ROUGHNESS_METALLIC, m)) < 0) return has_rm;
+  m->base_color = vf_vec3_splat(1.0f);
+  m->metallic = m->roughness = 1.0f;
+  if ((err = vf_scene_rgb_field(c, j, path, "base_color", has_color ? OPTIONAL : REQUIRED, "colour", &m->base_color)) < 0 ||
+      (err = unit_field(c, j, path, "metallic", has_rm ? OPTIONAL : REQUIRED, &m->metallic)) < 0 ||
+      (err = unit_field(c, j, path, "roughness", has_rm ? OPTIONAL : REQUIRED, &m->roughness)) < 0)
+    return err;
+  if (vf_max_component(m->base_color) > 1.0f)
+    return vf_scene_fail(c, VF_ESCENE, vf_scene_join(p, path, "base_color"), "exceeds 1 in a channel");
+  return parse_shared_textures(c, j, path, m);
+}
+
+/* The classic lobes. diffuse_texture multiplies `diffuse`, 1 when absent. */
+static int parse_lobes(const parse_ctx *c, const cJSON *j, const char *path, vf_material *m) {
+  char p[PATH_LEN];
+  int err;
+  int has_diffuse = vf_scene_rgb_field(c, j, path, "diffuse", OPTIONAL, "albedo", &m->diffuse);
+  if (has_diffuse < 0) return has_diffuse;
+  int has_texture = slot_field(c, j, path, "diffuse_texture", VF_TEXTURE_COLOR, m);
+  if (has_texture < 0) return has_texture;
+  if (has_texture && !has_diffuse) m->diffuse = vf_vec3_splat(1.0f);
+  if (has_texture && vf_is_zero(m->diffuse))
+    return vf_scene_fail(c, VF_ESCENE, vf_scene_join(p, path, "diffuse_texture"),
+                         "multiplies 'diffuse', which is zero: the material has no diffuse lobe");
+  if ((err = vf_scene_rgb_field(c, j, path, "glossy", OPTIONAL, "albedo", &m->glossy)) < 0) return err;
+  if ((err = vf_scene_rgb_field(c, j, path, "mirror", OPTIONAL, "albedo", &m->mirror)) < 0) return err;
+  if ((err = vf_scene_rgb_field(c, j, path, "dielectric", OPTIONAL, "albedo", &m->dielectric)) < 0) return err;
+  if ((err = vf_scene_rgb_field(c, j, path, "conductor", OPTIONAL, "albedo", &m->conductor)) < 0) return err;
+  int has = vf_scene_float_field(c, j, path, "exponent", vf_is_zero(m->glossy) ? OPTIONAL : REQUIRED, &m->phong_exponent);
+  if (has < 0) return has;
+  if (has && !(m->phong_exponent >= 1.0f))
+    return vf_scene_fail(c, VF_ESCENE, vf_scene_join(p, path, "exponent"), "must be >= 1, found %g", m->phong_exponent);
+  has = vf_scene_float_field(c, j, path, "ior", vf_is_zero(m->dielectric) ? OPTIONAL : REQUIRED, &m->ior);
+  if (has < 0) return has;
+  if (has && !(m->ior > 0.0f))
+    return vf_scene_fail(c, VF_ESCENE, vf_scene_join(p, path, "ior"), "must be > 0, found %g", m->ior);
+  /* The conductor's complex index of refraction eta + i k, per channel. */
+  int has_eta = vf_scene_rgb_field(c, j, path, "eta", OPTIONAL, "index of refraction", &m->conductor_eta);
+  int has_k = has_eta < 0 ? has_eta
+                          : vf_scene_rgb_field(c, j, path, "k", OPTIONAL, "extinction coefficient", &m->conductor_k);
+  if (has_k < 0) return has_k;
+  if (has_eta != has_k || (has_eta && vf_is_zero(m->conductor)))
+    return vf_scene_fail(c, VF_ESCENE, vf_scene_join(p, path, has_eta ? "eta" : "k"), "needs 'eta', 'k' and 'conductor'");
+  if ((has = unit_field(c, j, path, "roughness", OPTIONAL, &m->roughness)) < 0) return has;
+  if (has && vf_is_zero(m->conductor) && vf_is_zero(m->dielectric))
+    return vf_scene_fail(c, VF_ESCENE, vf_scene_join(p, path, "roughness"), "needs a 'conductor' or 'dielectric' lobe");
+  vf_vec3 sum = vf_add(vf_add(vf_add(m->diffuse, m->glossy), vf_add(m->mirror, m->dielectric)), m->conductor);
+  for (int i = 0; i < 3; i++)
+    if (vf_vec3_get(sum, i) > 1.0f + ALBEDO_SUM_TOLERANCE)
+      return vf_scene_fail(c, VF_ESCENE, path, "albedo sum of the lobes exceeds 1 (channel %c: %g)%s", "rgb"[i],
+                           vf_vec3_get(sum, i),
+                           has_texture && !has_diffuse ? "; 'diffuse' is 1 by default with a 'diffuse_texture'" : "");
+  return parse_shared_textures(c, j, path, m);
+}
+
+static int parse_material(const parse_ctx *c, const cJSON *j, vf_material *m) {
+#define TEXTURE_FIELDS "emission_texture", "alpha_texture", "alpha", "alpha_cutoff", "alpha_channel", "normal_texture", "normal_scale"
+  static const char *const fields[] = {"diffuse", "glossy", "exponent",  "mirror", "dielectric", "ior",
+                                       "conductor", "eta",  "k", "roughness", "diffuse_texture", TEXTURE_FIELDS, NULL};
+  /* The glTF 2.0 metallic-roughness model has these fields and none of the lobes'. */
+  static const char *const gltf_fields[] = {"base_color", "metallic", "roughness", "base_color_texture",
+                                            "roughness_metallic_texture", TEXTURE_FIELDS, NULL};
+#undef TEXTURE_FIELDS
+  char path[PATH_LEN];
+  vf_scene_join(path, "materials", j->string);
+  /* Fields only the glTF model has ("roughness" both have) tell the models apart. */
+  static const char *const gltf_markers[] = {"base_color", "metallic", "base_color_texture", "roughness_metallic_texture"};
+  int gltf = 0;
+  for (size_t i = 0; i < sizeof gltf_markers / sizeof gltf_markers[0]; i++)
+    gltf |= cJSON_GetObjectItemCaseSensitive(j, gltf_markers[i]) != NULL;
+  int err = vf_scene_check_object(c, j, path, gltf ? gltf_fields : fields);
+  if (err < 0) return err;
+  if (j->string[0] == '\0' || strlen(j->string) >= sizeof m->name)
+    return vf_scene_fail(c, VF_ESCENE, path, "a material name must have 1 to %zu bytes", sizeof m->name - 1);
+  memset(m, 0, sizeof *m);
+  snprintf(m->name, sizeof m->name, "%s", j->string);
+  /* Unused parameters get harmless values (1), so no consumer ever divides by zero. */
+  m->phong_exponent = m->ior = 1.0f;
+  m->gltf = gltf;
+  return gltf ? parse_gltf_material(c, j, path, m) : parse_lobes(c, j, path, m);
+}
+
+static int parse_materials(const parse_ctx *c, const cJSON *j) {
+  vf_scene *s = c->scene;
+  int err = vf_scene_check_object(c, j, "materials", NULL);
+  if (err < 0) return err;
+  int n = cJSON_GetArraySize(j);
+  if (n == 0) return VF_OK;
+  if ((s->materials = calloc((size_t)n, sizeof *s->materials)) == NULL) return vf_error_set(VF_ENOMEM, "out of memory");
+  const cJSON *m;
+  cJSON_ArrayForEach(m, j) {
+    if ((err = parse_material(c, m, &s->materials[s->num_materials])) < 0) return err;
+    s->num_materials++;
+  }
+  return VF_OK;
+}
+
+/* ---- lights ------------------------------------------------------------------------------ */
+
+static int load_envmap(const parse_ctx *c, const char *file, const char *path) {
+  char fpath[PATH_LEN], full[4096];
+  vf_image img;
+  vf_scene_join(fpath, path, "file");
+  int err = vf_scene_resolve(c, file, fpath, full, sizeof full);
+  if (err < 0) return err;
+  FILE *f = fopen(full, "rb");
+  if (f == NULL) return vf_scene_fail(c, VF_ENOENT, fpath, "cannot open '%s': %s", file, strerror(errno));
+  fclose(f);
+  if ((err = vf_image_read_exr(full, &img)) < 0)
+    return vf_scene_fail(c, err == VF_ENOMEM ? VF_ENOMEM : VF_ESCENE, fpath, "%s", vf_error_detail(err));
+  for (long i = 0; i < 3L * img.width * img.height; i++)
+    if (!(img.rgb[i] >= 0.0f && img.rgb[i] <= FLT_MAX)) {
+      long x = (i / 3) % img.width, y = (i / 3) / img.width;
+      vf_image_destroy(&img);
+      return vf_scene_fail(c, VF_ESCENE, fpath, "pixel (%ld, %ld) of '%s' is negative or not finite", x, y, file);
+    }
+  c->scene->envmap = img;
+  return VF_OK;
+}
+
+/* A spot's axis and cone, given in degrees (the format's angles) and kept in radians. */
+static int parse_spot(const parse_ctx *c, const cJSON *j, const char *path, vf_point_light_desc *l) {
+  char p[PATH_LEN];
+  vf_vec3 d;
+  float inner = 0.0f, outer = 45.0f; /* KHR_lights_punctual's defaults */
+  int err = vf_scene_vec3_field(c, j, path, "direction", REQUIRED, &d);
+  if (err < 0) return err;
+  if (!vf_scene_unit(d, &l->direction))
+    return vf_scene_fail(c, VF_ESCENE, vf_scene_join(p, path, "direction"), "zero vector");
+  if ((err = vf_scene_float_field(c, j, path, "inner_cone_angle", OPTIONAL, &inner)) < 0) return err;
+  if ((err = vf_scene_float_field(c, j, path, "outer_cone_angle", OPTIONAL, &outer)) < 0) return err;
+  if (!(outer > 0.0f && outer <= 90.0f))
+    return vf_scene_fail(c, VF_ESCENE, vf_scene_join(p, path, "outer_cone_angle"), "must be in (0, 90] degrees, found %g", outer);
+  if (!(inner >= 0.0f && inner < outer))
+    return vf_scene_fail(c, VF_ESCENE, vf_scene_join(p, path, "inner_cone_angle"),
+                         "must be in [0, outer_cone_angle = %g) degrees, found %g", outer, inner);
+  l->is_spot = 1;
+  l->inner_cone_angle = inner * (float)(M_PI / 180.0);
+  l->outer_cone_angle = outer * (float)(M_PI / 180.0);
+  return VF_OK;
+}
+
+static int parse_light(const parse_ctx *c, const cJSON *j, int index, int *num_distant) {
+  static const char *const point_fields[] = {"type", "position", "intensity", NULL};
+  static const char *const spot_fields[] = {"type", "position", "intensity", "direction", "inner_cone_angle", "outer_cone_angle", NULL};
+  static const char *const directional_fields[] = {"type", "direction", "irradiance", NULL};
+  static const char *const background_fields[] = {"type", "radiance", NULL};
+  static const char *const environment_fields[] = {"type", "file", "scale", NULL};
+  vf_scene *s = c->scene;
+  char path[PATH_LEN], p[PATH_LEN];
+  const char *type, *file;
+  int err;
+  vf_scene_join_index(path, "lights", index);
+  if (!cJSON_IsObject(j)) return vf_scene_fail(c, VF_ESCENE, path, "expected an object, found %s", vf_scene_kind(j));
+  if ((err = vf_scene_string_field(c, j, path, "type", REQUIRED, &type)) < 0) return err;
+  if (strcmp(type, "point") == 0 || strcmp(type, "spot") == 0) {
+    vf_point_light_desc *l = &s->point_lights[s->num_point_lights];
+    int spot = type[0] == 's';
+    if ((err = vf_scene_check_object(c, j, path, spot ? spot_fields : point_fields)) < 0) return err;
+    if ((err = vf_scene_vec3_field(c, j, path, "position", REQUIRED, &l->position)) < 0) return err;
+    if ((err = vf_scene_rgb_field(c, j, path, "intensity", REQUIRED, "intensity", &l->intensity)) < 0) return err;
+    if (spot && (err = parse_spot(c, j, path, l)) < 0) return err;
+    s->num_point_lights++;
+  } else if (strcmp(type, "directional") == 0) {
+    vf_directional_light_desc *l = &s->directional_lights[s->num_directional_lights];
+    vf_vec3 d;
+    if ((err = vf_scene_check_object(c, j, path, directional_fields)) < 0) return err;
+    if ((err = vf_scene_vec3_field(c, j, path, "direction", REQUIRED, &d)) < 0) return err;
+    if (!vf_scene_unit(d, &l->direction))
+      return vf_scene_fail(c, VF_ESCENE, vf_scene_join(p, path, "direction"), "zero vector");
+    if ((err = vf_scene_rgb_field(c, j, path, "irradiance", REQUIRED, "irradiance", &l->irradiance)) < 0) return err;
+    s->num_directional_lights++;
+  } else if (strcmp(type, "background") == 0 || strcmp(type, "environment") == 0) {
+    /* One distant light at infinity keeps the renderer's emission-at-miss term unambiguous. */
+    if ((*num_distant)++ > 0)
+      return vf_scene_fail(c, VF_ESCENE, path, "only one background or environment light is allowed");
+    if (type[0] == 'b') {
+      if ((err = vf_scene_check_object(c, j, path, background_fields)) < 0) return err;
+      if ((err = vf_scene_rgb_field(c, j, path, "radiance", REQUIRED, "radiance", &s->background)) < 0) return err;
+    } else {
+      vf_vec3 scale = vf_vec3_splat(1.0f);
+      if ((err = vf_scene_check_object(c, j, path, environment_fields)) < 0) return err;
+      if ((err = vf_scene_rgb_field(c, j, path, "scale", OPTIONAL, "scale", &scale)) < 0) return err;
+      if ((err = vf_scene_string_field(c, j, path, "file", REQUIRED, &file)) < 0) return err;
+      if ((err = load_envmap(c, file, path)) < 0) return err;
+      s->envmap_scale = scale;
+    }
+  } else {
+    return vf_scene_fail(c, VF_ESCENE, vf_scene_join(p, path, "type"),
+                "unknown light type '%s' (expected point, spot, directional, background or environment)", type);
+  }
+  return VF_OK;
+}
+
+static int parse_lights(const parse_ctx *c, const cJSON *j) {
+  vf_scene *s = c->scene;
+  if (!cJSON_IsArray(j)) return vf_scene_fail(c, VF_ESCENE, "lights", "expected an array, found %s", vf_scene_kind(j));
+  int n = cJSON_GetArraySize(j);
+  if (n == 0) return VF_OK;
+  /* Sized for the worst case of every light being of one type; a few bytes per light. */
+  s->point_lights = calloc((size_t)n, sizeof *s->point_lights);
+  s->directional_lights = calloc((size_t)n, sizeof *s->directional_lights);
+  if (s->point_lights == NULL || s->directional_lights == NULL) return vf_error_set(VF_ENOMEM, "out of memory");
+  int i = 0, num_distant = 0;
+  const cJSON *e;
+  cJSON_ArrayForEach(e, j) {
+    int err = parse_light(c, e, i++, &num_distant);
+    if (err < 0) return err;
+  }
+  return VF_OK;
+}
+
+static int has_light(const vf_scene *s) {
+  for (int i = 0; i < s->num_shapes; i++)
+    if (!vf_is_zero(s->shapes[i].emission)) return 1;
+  for (int i = 0; i < s->num_point_lights; i++)
+    if (!vf_is_zero(s->point_lights[i].intensity)) return 1;
+  for (int i = 0; i < s->num_directional_lights; i++)
+    if (!vf_is_zero(s->directional_lights[i].irradiance)) return 1;
+  return !vf_is_zero(s->background) || (s->envmap.width > 0 && !vf_is_zero(s->envmap_scale));
+}
+
+/* ---- render settings --------------------------------------------------------------------- */
+
+static int parse_render(const parse_ctx *c, const cJSON *j) {
+  static const char *const fields[] = {"algorithm", "max_path_length", "radius_factor", "alpha", "seed", "sampler", NULL};
+  vf_scene *s = c->scene;
+  vf_settings *st = &s->settings;
+  const cJSON *m;
+  const char *algorithm;
+  double d = 0.0;
+  int err = vf_scene_check_object(c, j, "render", fields);
+  if (err < 0) return err;
+  if ((err = vf_scene_string_field(c, j, "render", "algorithm", OPTIONAL, &algorithm)) < 0) return err;
+  if (err > 0) {
+    if (vf_algorithm_parse(algorithm, &st->algorithm) < 0)
+      return vf_scene_fail(c, VF_ESCENE, "render.algorithm", "unknown algorithm '%s' (expected vcm, bpt, pt, lt, ppm, bpm or auto)",
+                  algorithm);
+    s->settings_given |= VF_SET_ALGORITHM;
+  }
+  const char *sampler;
+  if ((err = vf_scene_string_field(c, j, "render", "sampler", OPTIONAL, &sampler)) < 0) return err;
+  if (err > 0) {
+    if (vf_sampler_parse(sampler, &st->sampler) < 0)
+      return vf_scene_fail(c, VF_ESCENE, "render.sampler", "unknown sampler '%s' (expected independent or sobol)", sampler);
+    s->settings_given |= VF_SET_SAMPLER;
+  }
+  if ((m = cJSON_GetObjectItemCaseSensitive(j, "max_path_length")) != NULL) {
+    if ((err = vf_scene_to_integer(c, m, "render.max_path_length", 1, 1000, &d)) < 0) return err;
+    st->max_path_length = (int)d;
+    s->settings_given |= VF_SET_MAX_PATH_LENGTH;
+  }
+  if ((m = cJSON_GetObjectItemCaseSensitive(j, "radius_factor")) != NULL) {
+    if ((err = vf_scene_to_double(c, m, "render.radius_factor", &st->radius_factor)) < 0) return err;
+    if (!(st->radius_factor > 0.0)) return vf_scene_fail(c, VF_ESCENE, "render.radius_factor", "must be > 0");
+    s->settings_given |= VF_SET_RADIUS_FACTOR;
+  }
+  if ((m = cJSON_GetObjectItemCaseSensitive(j, "alpha")) != NULL) {
+    if ((err = vf_scene_to_double(c, m, "render.alpha", &st->alpha)) < 0) return err;
+    if (!(st->alpha > 0.0 && st->alpha <= 1.0)) return vf_scene_fail(c, VF_ESCENE, "render.alpha", "must be in (0, 1]");
+    s->settings_given |= VF_SET_ALPHA;
+  }
+  if ((m = cJSON_GetObjectItemCaseSensitive(j, "seed")) != NULL) {
+    /* JSON numbers are doubles: integers beyond 2^53 would silently change. */
+    if ((err = vf_scene_to_integer(c, m, "render.seed", 0, 9007199254740992.0, &d)) < 0) return err;
+    st->seed = (uint64_t)d;
+    s->settings_given |= VF_SET_SEED;
+  }
+  return VF_OK;
+}
+
+/* ---- whole scene ------------------------------------------------------------------------- */
+
+/* The files of "import" and what a scene made of them lacks: a camera, a light. */
+static int parse_import(const parse_ctx *c, const cJSON *root, int camera_wanted) {
+  vf_scene *s = c->scene;
+  int err = vf_scene_parse_imports(c, cJSON_GetObjectItemCaseSensitive(root, "import"), s->num_materials,
+                                   &camera_wanted);
+  if (err < 0) return err;
+  if (s->num_shapes == 0) return vf_scene_fail(c, VF_ESCENE, NULL, "the scene has no shape (its files have no triangles)");
+  if (camera_wanted && (err = vf_scene_default_camera(c)) < 0) return err;
+  if (!has_light(s) && !cJSON_HasObjectItem(root, "lights") && (err = vf_scene_default_light(c)) < 0) return err;
+  return VF_OK;
+}
+
+static int parse_root(const parse_ctx *c, const cJSON *root) {
+  static const char *const fields[] = {"camera", "materials", "shapes", "lights", "render", "import", NULL};
+  const cJSON *m;
+  int err = vf_scene_check_object(c, root, "", fields);
+  if (err < 0) return err;
+  /* A scene that imports files may take all of camera, materials and shapes from them. */
+  int imports = cJSON_HasObjectItem(root, "import"), need = imports ? OPTIONAL : REQUIRED;
+  int has_camera = vf_scene_member(c, root, "", "camera", need, &m);
+  if (has_camera < 0 || (has_camera && (err = parse_camera(c, m)) < 0)) return has_camera < 0 ? has_camera : err;
+  if ((err = vf_scene_member(c, root, "", "materials", need, &m)) < 0 || (err > 0 && (err = parse_materials(c, m)) < 0))
+    return err;
+  if ((err = vf_scene_member(c, root, "", "shapes", need, &m)) < 0 || (err > 0 && (err = vf_scene_parse_shapes(c, m)) < 0))
+    return err;
+  if ((err = vf_scene_member(c, root, "", "lights", OPTIONAL, &m)) < 0 || (err > 0 && (err = parse_lights(c, m)) < 0))
+    return err;
+  if (imports && (err = parse_import(c, root, !has_camera)) < 0) return err;
+  if ((err = vf_scene_member(c, root, "", "render", OPTIONAL, &m)) < 0 || (err > 0 && (err = parse_render(c, m)) < 0))
+    return err;
+  if (!has_light(c->scene))
+    return vf_scene_fail(c, VF_ESCENE, NULL, "the scene has no light (no emissive shape and nothing in 'lights' emits)");
+  if ((err = vf_settings_validate(&c->scene->settings)) < 0)
+    return vf_scene_fail(c, VF_ESCENE, "render", "%s", vf_error_detail(err));
+  return VF_OK;
+}
+
+static int syntax_error(const char *label, const char *text, size_t length, const char *at) {
+  if (at == NULL || at < text || at > text + length) at = text + length;
+  int line = 1;
+  for (const char *p = text; p < at; p++) line += *p == '\n';
+  char near[32];
+  size_t n = 0;
+  for (const char *p = at; p < text + length && *p != '\n' && n < 24; p++)
+    near[n++] = (*p >= 0x20 && *p < 0x7f) ? *p : '?';
+  near[n] = '\0';
+  if (n == 0)
+    return vf_error_set(VF_ESCENE, "%s: line %d: JSON syntax error near the end of the line or file", label, line);
+  return vf_error_set(VF_ESCENE, "%s: line %d: JSON syntax error near '%s'", label, line, near);
+}
+
+static int parse(const char *text, size_t length, const char *label, const char *base_dir,
+                 const vf_scene_memfile *memfiles, int num_memfiles, struct vf_scene_files *files, vf_scene **out) {
+  const char *end = NULL;
+  if (memchr(text, '\0', length) != NULL) return vf_error_set(VF_ESCENE, "%s: contains a NUL byte", label);
+  /* cJSON reads a NUL after the text (the length below includes it, so that
+   * require_null_terminated rejects anything but whitespace after the top-level value):
+   * the text is given in a copy that has one, whatever the caller's buffer holds after
+   * its `length` bytes (every caller had one there; tests/fuzz/fuzz_scene.c's buffers,
+   * which do not, made cJSON read past them). */
+  char *terminated = malloc(length + 1);
+  if (terminated == NULL) return vf_error_set(VF_ENOMEM, "out of memory");
+  memcpy(terminated, text, length);
+  terminated[length] = '\0';
+  cJSON *root = cJSON_ParseWithLengthOpts(terminated, length + 1, &end, 1);
+  if (root == NULL) {
+    int err = syntax_error(label, terminated, length, end);
+    free(terminated);
+    return err;
+  }
+  free(terminated);
+  int err = VF_OK;
+  vf_scene *scene = calloc(1, sizeof *scene);
+  if (scene == NULL) {
+    err = vf_error_set(VF_ENOMEM, "out of memory");
+    goto fail;
+  }
+  snprintf(scene->source, sizeof scene->source, "%s", label);
+  vf_settings_default(&scene->settings);
+  parse_ctx c = {label, base_dir, memfiles, num_memfiles, scene, files};
+  if ((err = parse_root(&c, root)) < 0 || (err = vf_scene_check_extent(scene, label)) < 0) goto fail;
+  vf_scene_compute_bounds(scene);
+  vf_scene_hash(scene);
+  cJSON_Delete(root);
+  *out = scene;
+  return VF_OK;
+fail:
+  vf_scene_destroy(scene);
+  cJSON_Delete(root);
+  return err;
+}
+
+int vf_scene_parse(const char *text, size_t length, const char *label, const char *base_dir,
+                   const vf_scene_memfile *memfiles, int num_memfiles, vf_scene **out) {
+  return parse(text, length, label, base_dir, memfiles, num_memfiles, NULL, out);
+}
+
+int vf_scene_parse_files(const char *text, size_t length, const char *label, struct vf_scene_files *files,
+                         vf_scene **out) {
+  return parse(text, length, label, "", NULL, 0, files, out);
+}

@@ -1,0 +1,419 @@
+/* Scenes: loading by name or path, scaling, bounds, content hash, destruction. Parsing is
+ * json.c, mesh files mesh.c, built-in scenes builtin.c. */
+#include "parse.h"
+
+#include "../../common/error.h"
+
+#include <sodium.h>
+
+#include <errno.h>
+#include <math.h>
+#include <stdarg.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* Inline meshes make big scene files plausible; anything larger is a mistake or an attack. */
+#define MAX_SCENE_FILE_BYTES ((size_t)512 << 20)
+
+void vf_scene_compute_bounds(vf_scene *s) {
+  vf_vec3 lo = vf_vec3_splat(INFINITY), hi = vf_vec3_splat(-INFINITY);
+  for (int i = 0; i < s->num_shapes; i++) {
+    const vf_shape *sh = &s->shapes[i];
+    if (sh->kind == VF_SHAPE_SPHERE) {
+      vf_vec3 r = vf_vec3_splat(sh->radius);
+      lo = vf_vec3_make(fminf(lo.x, sh->center.x - r.x), fminf(lo.y, sh->center.y - r.y), fminf(lo.z, sh->center.z - r.z));
+      hi = vf_vec3_make(fmaxf(hi.x, sh->center.x + r.x), fmaxf(hi.y, sh->center.y + r.y), fmaxf(hi.z, sh->center.z + r.z));
+      continue;
+    }
+    for (uint32_t v = 0; v < sh->num_vertices; v++) {
+      const float *p = &sh->positions[3 * v];
+      lo = vf_vec3_make(fminf(lo.x, p[0]), fminf(lo.y, p[1]), fminf(lo.z, p[2]));
+      hi = vf_vec3_make(fmaxf(hi.x, p[0]), fmaxf(hi.y, p[1]), fmaxf(hi.z, p[2]));
+    }
+  }
+  s->bounds_min = lo;
+  s->bounds_max = hi;
+}
+
+static int beyond(float v) { return !(fabsf(v) <= VF_SCENE_MAX_COORDINATE); }
+static int beyond3(vf_vec3 v) { return beyond(v.x) || beyond(v.y) || beyond(v.z); }
+
+int vf_scene_check_extent(const vf_scene *s, const char *label) {
+  const char *what = NULL;
+  int index = -1;
+  for (int i = 0; i < s->num_shapes && what == NULL; i++) {
+    const vf_shape *sh = &s->shapes[i];
+    if (sh->kind == VF_SHAPE_SPHERE) {
+      if (beyond3(sh->center) || beyond(sh->radius) || beyond(fabsf(sh->center.x) + sh->radius) ||
+          beyond(fabsf(sh->center.y) + sh->radius) || beyond(fabsf(sh->center.z) + sh->radius))
+        what = "shapes", index = i;
+      continue;
+    }
+    for (uint32_t k = 0; k < 3 * sh->num_vertices; k++)
+      if (beyond(sh->positions[k])) {
+        what = "shapes", index = i;
+        break;
+      }
+  }
+  if (what == NULL && beyond3(s->camera.position)) what = "camera.position";
+  if (what == NULL && (beyond(s->camera.aperture) || beyond(s->camera.focus_distance))) what = "camera (lens)";
+  for (int i = 0; i < s->num_point_lights && what == NULL; i++)
+    if (beyond3(s->point_lights[i].position)) what = "lights", index = i;
+  if (what == NULL) return VF_OK;
+  if (index >= 0)
+    return vf_error_set(VF_ESCENE, "%s: %s[%d]: a coordinate beyond %g in world space: the renderer cannot trace it "
+                        "(scale the scene down)", label, what, index, (double)VF_SCENE_MAX_COORDINATE);
+  return vf_error_set(VF_ESCENE, "%s: %s: a coordinate beyond %g in world space: the renderer cannot trace it", label,
+                      what, (double)VF_SCENE_MAX_COORDINATE);
+}
+
+/* Reads a whole file into a NUL-terminated buffer the caller frees. */
+static int read_text(const char *path, char **text, size_t *length) {
+  FILE *f = fopen(path, "rb");
+  if (f == NULL) return vf_error_set(VF_ENOENT, "%s: cannot open: %s", path, strerror(errno));
+  char *buf = NULL;
+  size_t n = 0, cap = 0;
+  int err = VF_OK;
+  for (;;) {
+    if (cap - n < 65536) {
+      cap = cap ? 2 * cap : 65536;
+      char *grown = cap > MAX_SCENE_FILE_BYTES + 65536 ? NULL : realloc(buf, cap + 1);
+      if (grown == NULL) {
+        err = vf_error_set(VF_ESCENE, "%s: larger than %zu MiB or out of memory", path, MAX_SCENE_FILE_BYTES >> 20);
+        goto done;
+      }
+      buf = grown;
+    }
+    size_t got = fread(buf + n, 1, cap - n, f);
+    n += got;
+    if (got == 0) break;
+  }
+  if (ferror(f) || n > MAX_SCENE_FILE_BYTES) {
+    err = ferror(f) ? vf_error_set(VF_ENOENT, "%s: read error", path)
+                    : vf_error_set(VF_ESCENE, "%s: larger than %zu MiB", path, MAX_SCENE_FILE_BYTES >> 20);
+    goto done;
+  }
+  buf[n] = '\0';
+  *text = buf;
+  *length = n;
+  buf = NULL;
+done:
+  free(buf);
+  fclose(f);
+  return err;
+}
+
+int vf_scene_not_found(const char *name, int err) {
+  size_t n = strlen(name);
+  if (err != VF_ENOENT || strchr(name, '/') != NULL || (n >= 5 && strcmp(name + n - 5, ".json") == 0)) return err;
+  char names[512] = "";
+  size_t used = 0;
+  for (const char *const *b = vf_scene_builtin_names(); *b != NULL && used < sizeof names; b++) {
+    int w = snprintf(names + used, sizeof names - used, "%s%s", used ? ", " : "", *b);
+    if (w < 0) break;
+    used += (size_t)w;
+  }
+  char detail[256];
+  snprintf(detail, sizeof detail, "%s", vf_error_detail(err));
+  return vf_error_set(err, "%s; '%s' is not a built-in scene either (built-in: %s)", detail, name, names);
+}
+
+int vf_scene_load_camera(const char *name_or_path, const char *camera, vf_scene **out) {
+  int model = vf_scene_is_model_file(name_or_path);
+  for (const char *const *n = vf_scene_builtin_names(); *n != NULL && !model; n++)
+    if (strcmp(*n, name_or_path) == 0) {
+      if (camera != NULL) return vf_error_set(VF_EUSAGE, "--camera chooses a camera of a glTF or OBJ file, not of a built-in scene");
+      return vf_scene_builtin_load(name_or_path, out);
+    }
+  if (camera != NULL && !model)
+    return vf_error_set(VF_EUSAGE, "--camera chooses a camera of a glTF or OBJ file; a JSON scene chooses it in "
+                        "import[i].camera (docs/SCENES.md)");
+  char *text = NULL, dir[4096];
+  size_t length = 0;
+  const char *slash = strrchr(name_or_path, '/');
+  if (slash == NULL) snprintf(dir, sizeof dir, ".");
+  else if (slash == name_or_path) snprintf(dir, sizeof dir, "/");
+  else snprintf(dir, sizeof dir, "%.*s", (int)(slash - name_or_path), name_or_path);
+  /* A model file is read as the JSON scene that imports it, so local renders and farm jobs
+   * (which carry that text) load it by one path. */
+  int err = model ? vf_scene_model_text(name_or_path, camera, &text, &length) : read_text(name_or_path, &text, &length);
+  if (err < 0) return model ? err : vf_scene_not_found(name_or_path, err);
+  err = vf_scene_parse(text, length, name_or_path, dir, NULL, 0, out);
+  free(text);
+  return err;
+}
+
+int vf_scene_load(const char *name_or_path, vf_scene **out) { return vf_scene_load_camera(name_or_path, NULL, out); }
+
+int vf_scene_note(const parse_ctx *c, const char *fmt, ...) {
+  char line[512];
+  va_list ap;
+  va_start(ap, fmt);
+  vsnprintf(line, sizeof line - 1, fmt, ap);
+  va_end(ap);
+  strcat(line, "\n");
+  vf_scene *s = c->scene;
+  size_t have = s->notes ? strlen(s->notes) : 0, len = strlen(line);
+  for (const char *p = s->notes; p != NULL && *p != '\0'; p = strchr(p, '\n') + 1)
+    if (strncmp(p, line, len) == 0) return VF_OK;
+  char *grown = realloc(s->notes, have + len + 1);
+  if (grown == NULL) return vf_error_set(VF_ENOMEM, "out of memory");
+  memcpy(grown + have, line, len + 1);
+  s->notes = grown;
+  return VF_OK;
+}
+
+void vf_scene_destroy(vf_scene *scene) {
+  if (scene == NULL) return;
+  for (int i = 0; i < scene->num_shapes; i++) {
+    free(scene->shapes[i].positions);
+    free(scene->shapes[i].indices);
+    free(scene->shapes[i].normals);
+    free(scene->shapes[i].uvs);
+    free(scene->shapes[i].tangents);
+  }
+  free(scene->shapes);
+  free(scene->materials);
+  free(scene->point_lights);
+  free(scene->directional_lights);
+  for (int i = 0; i < scene->num_textures; i++) vf_texture_release(&scene->textures[i]);
+  free(scene->textures);
+  free(scene->notes);
+  vf_image_destroy(&scene->envmap);
+  free(scene);
+}
+
+int vf_scene_scale(vf_scene *s, double factor) {
+  if (!(factor > 0.0) || !isfinite(factor))
+    return vf_error_set(VF_EINVAL, "scene scale %g must be a positive number", factor);
+  float f = (float)factor;
+  for (int i = 0; i < s->num_shapes; i++) {
+    vf_shape *sh = &s->shapes[i];
+    for (uint32_t k = 0; k < 3 * sh->num_vertices; k++) sh->positions[k] *= f;
+    sh->center = vf_scale(sh->center, f);
+    sh->radius *= f;
+  }
+  s->camera.position = vf_scale(s->camera.position, f);
+  s->camera.aperture *= f; /* a thin lens is a length, and so is its distance in focus */
+  s->camera.focus_distance *= f;
+  /* Irradiance from a point light falls with the square of the distance: its intensity
+   * grows with the square of the scale. Area lights keep their radiance, directional lights
+   * their irradiance, the environment its radiance: none depends on distance. */
+  for (int i = 0; i < s->num_point_lights; i++) {
+    s->point_lights[i].position = vf_scale(s->point_lights[i].position, f);
+    s->point_lights[i].intensity = vf_scale(s->point_lights[i].intensity, (float)(factor * factor));
+  }
+  int err = vf_scene_check_extent(s, s->source);
+  if (err != VF_OK) return err;
+  vf_scene_compute_bounds(s);
+  vf_scene_hash(s);
+  return VF_OK;
+}
+
+void vf_scene_bounding_sphere(const vf_scene *scene, vf_vec3 *center, float *radius) {
+  *center = vf_scale(vf_add(scene->bounds_min, scene->bounds_max), 0.5f);
+  *radius = 0.5f * vf_length(vf_sub(scene->bounds_max, scene->bounds_min));
+}
+
+/* ---- content hash ------------------------------------------------------------------------ */
+
+/* The canonical serialisation: little-endian integers and IEEE-754 bit patterns (-0 folded
+ * into +0), each section introduced by a NUL-terminated tag. Names and the source path are
+ * left out: they do not change a single pixel, and films rendered from a renamed copy of a
+ * scene must still merge. Bump the version tag whenever the layout changes. */
+typedef struct {
+  crypto_generichash_state state;
+  unsigned char buf[4096];
+  size_t n;
+} hasher;
+
+static void h_flush(hasher *h) {
+  crypto_generichash_update(&h->state, h->buf, h->n);
+  h->n = 0;
+}
+
+static void h_bytes(hasher *h, const void *p, size_t n) {
+  if (h->n + n > sizeof h->buf) h_flush(h);
+  if (n > sizeof h->buf) {
+    crypto_generichash_update(&h->state, p, n);
+    return;
+  }
+  memcpy(h->buf + h->n, p, n);
+  h->n += n;
+}
+
+static void h_u64(hasher *h, uint64_t v) {
+  unsigned char b[8];
+  for (int i = 0; i < 8; i++) b[i] = (unsigned char)(v >> (8 * i));
+  h_bytes(h, b, 8);
+}
+
+static void h_u32(hasher *h, uint32_t v) {
+  unsigned char b[4] = {(unsigned char)v, (unsigned char)(v >> 8), (unsigned char)(v >> 16), (unsigned char)(v >> 24)};
+  h_bytes(h, b, 4);
+}
+
+static void h_f32(hasher *h, float f) {
+  uint32_t u;
+  f = f == 0.0f ? 0.0f : f;
+  memcpy(&u, &f, sizeof u);
+  h_u32(h, u);
+}
+
+static void h_f64(hasher *h, double d) {
+  uint64_t u;
+  d = d == 0.0 ? 0.0 : d;
+  memcpy(&u, &d, sizeof u);
+  h_u64(h, u);
+}
+
+static void h_vec3(hasher *h, vf_vec3 v) {
+  h_f32(h, v.x);
+  h_f32(h, v.y);
+  h_f32(h, v.z);
+}
+
+static void h_tag(hasher *h, const char *tag) { h_bytes(h, tag, strlen(tag) + 1); }
+
+void vf_scene_hash(vf_scene *s) {
+  hasher h;
+  h.n = 0;
+  if (sodium_init() < 0) abort(); /* cannot happen once libsodium is linked; never hash garbage */
+  crypto_generichash_init(&h.state, NULL, 0, sizeof s->hash);
+  h_tag(&h, "vcmfarm-scene-1");
+  h_tag(&h, "camera");
+  h_vec3(&h, s->camera.position);
+  h_vec3(&h, s->camera.forward);
+  h_vec3(&h, s->camera.up);
+  h_f32(&h, s->camera.vertical_fov_degrees);
+  if (s->camera.aperture > 0.0f) { /* only then: pinhole scenes keep the hashes they had */
+    h_tag(&h, "thin lens");
+    h_f32(&h, s->camera.aperture);
+    h_f32(&h, s->camera.focus_distance);
+  }
+  h_tag(&h, "materials");
+  h_u32(&h, (uint32_t)s->num_materials);
+  for (int i = 0; i < s->num_materials; i++) {
+    const vf_material *m = &s->materials[i];
+    h_vec3(&h, m->diffuse);
+    h_vec3(&h, m->glossy);
+    h_f32(&h, m->phong_exponent);
+    h_vec3(&h, m->mirror);
+    h_vec3(&h, m->dielectric);
+    h_f32(&h, m->ior);
+  }
+  /* The microfacet fields, only of the materials that use them: a scene without them keeps
+   * the hash it had before they existed. */
+  for (int i = 0; i < s->num_materials; i++) {
+    const vf_material *m = &s->materials[i];
+    if (m->roughness == 0.0f && vf_is_zero(m->conductor) && vf_is_zero(m->conductor_eta) &&
+        vf_is_zero(m->conductor_k) && !m->gltf)
+      continue;
+    h_tag(&h, "microfacet material");
+    h_u32(&h, (uint32_t)i);
+    h_f32(&h, m->roughness);
+    h_vec3(&h, m->conductor);
+    h_vec3(&h, m->conductor_eta);
+    h_vec3(&h, m->conductor_k);
+    h_u32(&h, (uint32_t)m->gltf);
+    h_vec3(&h, m->base_color);
+    h_f32(&h, m->metallic);
+  }
+  /* Textures and the materials' use of them, only when there are any: untextured scenes
+   * keep the hashes they had before textures existed. A texture counts by the hash of its
+   * file's bytes (vf_texture.hash). */
+  if (s->num_textures > 0) {
+    h_tag(&h, "textures");
+    h_u32(&h, (uint32_t)s->num_textures);
+    for (int i = 0; i < s->num_textures; i++) h_bytes(&h, s->textures[i].hash, sizeof s->textures[i].hash);
+  }
+  for (int i = 0; i < s->num_materials; i++) {
+    const vf_material *m = &s->materials[i];
+    if (!vf_material_textured(m) && m->alpha_cutoff == 0.0f) continue;
+    h_tag(&h, "textured material");
+    h_u32(&h, (uint32_t)i);
+    for (int k = 0; k < VF_TEXTURE_SLOTS; k++) {
+      h_u32(&h, (uint32_t)m->textures[k].texture);
+      h_u32(&h, (uint32_t)m->textures[k].wrap_s);
+      h_u32(&h, (uint32_t)m->textures[k].wrap_t);
+    }
+    h_f32(&h, m->alpha);
+    h_f32(&h, m->alpha_cutoff);
+    h_u32(&h, (uint32_t)m->alpha_channel);
+    h_f32(&h, m->normal_scale);
+  }
+  h_tag(&h, "shapes");
+  h_u32(&h, (uint32_t)s->num_shapes);
+  for (int i = 0; i < s->num_shapes; i++) {
+    const vf_shape *sh = &s->shapes[i];
+    h_u32(&h, (uint32_t)sh->kind);
+    h_u32(&h, (uint32_t)sh->material);
+    h_vec3(&h, sh->emission);
+    if (sh->kind == VF_SHAPE_SPHERE) {
+      h_vec3(&h, sh->center);
+      h_f32(&h, sh->radius);
+      continue;
+    }
+    h_u32(&h, sh->num_vertices);
+    h_u32(&h, sh->num_triangles);
+    for (uint64_t k = 0; k < 3ull * sh->num_vertices; k++) h_f32(&h, sh->positions[k]);
+    for (uint64_t k = 0; k < 3ull * sh->num_triangles; k++) h_u32(&h, sh->indices[k]);
+    /* Vertex attributes, each only when present (so meshes without them keep their hashes). */
+    if (sh->normals != NULL) {
+      h_tag(&h, "normals");
+      for (uint64_t k = 0; k < 3ull * sh->num_vertices; k++) h_f32(&h, sh->normals[k]);
+    }
+    if (sh->uvs != NULL) {
+      h_tag(&h, "uvs");
+      for (uint64_t k = 0; k < 2ull * sh->num_vertices; k++) h_f32(&h, sh->uvs[k]);
+    }
+    if (sh->tangents != NULL) {
+      h_tag(&h, "tangents");
+      for (uint64_t k = 0; k < 4ull * sh->num_vertices; k++) h_f32(&h, sh->tangents[k]);
+    }
+  }
+  h_tag(&h, "lights");
+  h_u32(&h, (uint32_t)s->num_point_lights);
+  for (int i = 0; i < s->num_point_lights; i++) {
+    h_vec3(&h, s->point_lights[i].position);
+    h_vec3(&h, s->point_lights[i].intensity);
+    if (s->point_lights[i].is_spot) { /* only then: point lights keep the hashes they had */
+      h_tag(&h, "spot");
+      h_vec3(&h, s->point_lights[i].direction);
+      h_f32(&h, s->point_lights[i].inner_cone_angle);
+      h_f32(&h, s->point_lights[i].outer_cone_angle);
+    }
+  }
+  h_u32(&h, (uint32_t)s->num_directional_lights);
+  for (int i = 0; i < s->num_directional_lights; i++) {
+    h_vec3(&h, s->directional_lights[i].direction);
+    h_vec3(&h, s->directional_lights[i].irradiance);
+  }
+  h_vec3(&h, s->background);
+  h_tag(&h, "envmap");
+  h_u32(&h, (uint32_t)s->envmap.width);
+  h_u32(&h, (uint32_t)s->envmap.height);
+  if (s->envmap.width > 0) {
+    for (long k = 0; k < 3L * s->envmap.width * s->envmap.height; k++) h_f32(&h, s->envmap.rgb[k]);
+    h_vec3(&h, s->envmap_scale);
+  }
+  h_tag(&h, "settings");
+  h_u32(&h, s->settings_given);
+  if (s->settings_given & VF_SET_ALGORITHM) h_u32(&h, (uint32_t)s->settings.algorithm);
+  if (s->settings_given & VF_SET_MAX_PATH_LENGTH) h_u32(&h, (uint32_t)s->settings.max_path_length);
+  if (s->settings_given & VF_SET_RADIUS_FACTOR) h_f64(&h, s->settings.radius_factor);
+  if (s->settings_given & VF_SET_ALPHA) h_f64(&h, s->settings.alpha);
+  if (s->settings_given & VF_SET_SEED) h_u64(&h, s->settings.seed);
+  if (s->settings_given & VF_SET_RESOLUTION) {
+    h_u32(&h, (uint32_t)s->settings.width);
+    h_u32(&h, (uint32_t)s->settings.height);
+  }
+  h_flush(&h);
+  crypto_generichash_final(&h.state, s->hash, sizeof s->hash);
+}
+
+void vf_scene_hash_hex(const vf_scene *scene, char out[65]) {
+  sodium_bin2hex(out, 65, scene->hash, sizeof scene->hash);
+}

@@ -1,0 +1,156 @@
+/* The scene description: camera, shapes with materials and emission, lights, and the
+ * render settings the scene asks for. Independent of Embree (worker/render/accel.h builds the
+ * ray-tracing structures from it) so it can be hashed, validated and shipped.
+ *
+ * Scenes come from a JSON file (docs/SCENES.md) whose meshes are loaded through Assimp, or
+ * from a built-in name (vf_scene_builtin_names()). All geometry is stored in world space:
+ * per-shape transforms are applied at load. */
+#ifndef VF_SCENE_H
+#define VF_SCENE_H
+
+#include "../../common/image.h"
+#include "../../common/settings.h"
+#include "../../common/vec3.h"
+#include "material.h"
+#include "texture.h"
+
+#include <stddef.h>
+#include <stdint.h>
+
+typedef struct {
+  vf_vec3 position;
+  vf_vec3 forward; /* unit */
+  vf_vec3 up;      /* unit, orthogonal to forward */
+  float vertical_fov_degrees;
+  float aperture;       /* thin lens: radius of the lens, >= 0; 0 is a pinhole */
+  float focus_distance; /* thin lens: distance along forward of the plane in focus, > 0 when aperture > 0 */
+} vf_camera_desc;
+
+typedef enum { VF_SHAPE_MESH, VF_SHAPE_SPHERE } vf_shape_kind;
+
+typedef struct {
+  vf_shape_kind kind;
+  char name[64];    /* from the file, else the mesh file name or "shapes[i]"; not hashed */
+  int material;     /* index into vf_scene.materials */
+  vf_vec3 emission; /* emitted radiance, on the side a triangle faces (counter-clockwise
+                     * winding, right-hand rule) and outward from a sphere; zero: not a light */
+  /* VF_SHAPE_MESH: world-space triangles, at least one; degenerate ones may occur (except in
+   * emitters, whose total area is > 0). A mirroring transform has already had its winding
+   * reversed, so fronts are the fronts of the file. Arrays owned by the scene. */
+  uint32_t num_vertices, num_triangles;
+  float *positions;  /* 3 per vertex */
+  uint32_t *indices; /* 3 per triangle */
+  /* Optional per-vertex attributes (NULL: absent), world space like the positions:
+   * normals: 3 per vertex, unit, the shading normals interpolated across each triangle
+   *   (absent: the triangle's geometric normal, a faceted surface);
+   * uvs: 2 per vertex, texture coordinates (s, t) with t = 0 the top row of an image
+   *   (glTF's convention; OBJ's v is flipped to it at load);
+   * tangents: 4 per vertex, a unit tangent along increasing s and in w the sign of the
+   *   bitangent (glTF's TANGENT); absent with a normal map: derived from the uvs. */
+  float *normals;
+  float *uvs;
+  float *tangents;
+  /* VF_SHAPE_SPHERE */
+  vf_vec3 center;
+  float radius;
+} vf_shape;
+
+/* A point light, or a spot light (is_spot): a point light whose intensity is that of the
+ * axis inside the inner cone, falls off smoothly to zero at the outer cone and is zero
+ * beyond (KHR_lights_punctual's spot). Both are "punctual": a delta in position. */
+typedef struct {
+  vf_vec3 position;
+  vf_vec3 intensity; /* radiant intensity, W/sr per channel (a spot's on its axis) */
+  int is_spot;
+  vf_vec3 direction; /* spot: unit axis, the way the light shines */
+  float inner_cone_angle, outer_cone_angle; /* spot: half-angles in radians, 0 <= inner < outer <= pi/2 */
+} vf_point_light_desc;
+
+typedef struct {
+  vf_vec3 direction;  /* unit, the direction the light travels (from the sun towards the scene) */
+  vf_vec3 irradiance; /* irradiance on a surface facing the sun, per channel */
+} vf_directional_light_desc;
+
+/* Bits of vf_scene.settings_given: which settings the scene file sets explicitly. */
+enum {
+  VF_SET_ALGORITHM = 1u << 0,
+  VF_SET_MAX_PATH_LENGTH = 1u << 1,
+  VF_SET_RADIUS_FACTOR = 1u << 2,
+  VF_SET_ALPHA = 1u << 3,
+  VF_SET_SEED = 1u << 4,
+  VF_SET_RESOLUTION = 1u << 5,
+  VF_SET_SAMPLER = 1u << 6,
+};
+
+typedef struct {
+  char source[512]; /* file path, or "builtin:NAME" */
+  vf_texture *textures; /* what vf_texture_slot.texture indexes (minus one) */
+  int num_textures;
+  /* What the scene's files ask for that vcmfarm does not do (an unsupported extension, a
+   * texture transform, ...), one line each ending in '\n', each kind once; NULL: nothing.
+   * The command line prints it at load; it is not part of the hash. */
+  char *notes;
+  vf_camera_desc camera;
+  vf_material *materials;
+  int num_materials;
+  vf_shape *shapes;
+  int num_shapes;
+  vf_point_light_desc *point_lights;
+  int num_point_lights;
+  vf_directional_light_desc *directional_lights;
+  int num_directional_lights;
+  vf_vec3 background;     /* constant background radiance; zero = none */
+  vf_image envmap;        /* latitude-longitude radiance map, +y up, top row first, pixel
+                           * for direction d at u = 0.5 + atan2(d.x, -d.z) / 2pi,
+                           * v = acos(d.y) / pi (docs/SCENES.md); width 0 = none */
+  vf_vec3 envmap_scale;   /* multiplies the map; zero when there is no map */
+  /* Render settings: defaults (vf_settings_default, resolution from the scene) overridden
+   * by the scene's "render" object; settings_given says which the file set. */
+  vf_settings settings;
+  unsigned settings_given;
+  uint8_t hash[32];       /* BLAKE2b-256 of the loaded content (see vf_scene_hash) */
+  vf_vec3 bounds_min, bounds_max; /* of all shapes */
+} vf_scene;
+
+/* Loads a built-in scene by name, or else a JSON scene file (docs/SCENES.md). On failure
+ * returns VF_ENOENT (scene, mesh or map file missing), VF_EMESH (a mesh file's content),
+ * VF_ESCENE (anything else wrong with the scene, including unreadable EXR maps) or
+ * VF_ENOMEM, with a detail naming the file, the field and the problem, e.g.
+ * "box.json: shapes[2].material: unknown material 'gold'". *out is written only on success
+ * and the caller owns the scene (vf_scene_destroy). Thread-safe apart from Assimp's
+ * process-global error text, which concurrent failing imports may mix up. */
+int vf_scene_load(const char *name_or_path, vf_scene **out);
+void vf_scene_destroy(vf_scene *scene);
+
+/* A model file (vf_scene_is_model_file: .gltf, .glb or .obj) loads as a whole scene: its
+ * meshes, materials, lights and cameras (docs/SCENES.md, "import"). vf_scene_load_camera
+ * is vf_scene_load choosing the file's camera by name or index (`camera`; NULL: its first
+ * perspective camera, else a default one). A camera that is not there is VF_ESCENE listing
+ * the file's cameras; a camera for a built-in or JSON scene is VF_EUSAGE. */
+int vf_scene_load_camera(const char *name_or_path, const char *camera, vf_scene **out);
+int vf_scene_is_model_file(const char *path);
+/* The JSON scene text that imports model file `path` (by its name alone, from its own
+ * directory), choosing `camera` (may be NULL): what vf_scene_load parses for a model file
+ * and what a farm job carries. *text (free) and *len on success only; VF_ENOMEM. */
+int vf_scene_model_text(const char *path, const char *camera, char **text, size_t *len);
+
+/* NULL-terminated list of built-in scene names. */
+const char *const *vf_scene_builtin_names(void);
+
+/* Scales the whole scene, camera and lights by factor about the origin so that the exact
+ * image is unchanged: point-light intensities grow with factor^2, radiances and directional
+ * irradiances stay. Recomputes bounds and hash. For numerical stress tests (issue 5). */
+int vf_scene_scale(vf_scene *scene, double factor);
+
+/* Bounding sphere of all shapes: center of the bounding box and half its diagonal. */
+void vf_scene_bounding_sphere(const vf_scene *scene, vf_vec3 *center, float *radius);
+
+/* Recomputes scene->hash from the content (camera, materials, shapes, lights, environment,
+ * settings the file set), in a canonical order: equal content gives equal hashes. Names,
+ * the source path and the JSON layout are not part of it; material order is. Call it after
+ * changing a loaded scene. */
+void vf_scene_hash(vf_scene *scene);
+/* Lower-case hex of the hash into out (65 bytes with the NUL). */
+void vf_scene_hash_hex(const vf_scene *scene, char out[65]);
+
+#endif
