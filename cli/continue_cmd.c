@@ -10,6 +10,7 @@
 #include "../common/film.h"
 #include "../common/image.h"
 #include "../worker/render/render.h"
+#include "../worker/scene/load.h"
 #include "local_render.h"
 #include "options.h"
 #include "render_job.h"

@@ -12,6 +12,7 @@
 #include "../common/film.h"
 #include "../common/image.h"
 #include "../worker/render/render.h"
+#include "../worker/scene/load.h"
 #include "farm_render.h"
 #include "local_render.h"
 #include "options.h"

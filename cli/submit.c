@@ -5,6 +5,7 @@
 #include "../common/image.h"
 #include "../common/wire.h"
 #include "../worker/scene/job_scene.h"
+#include "../worker/scene/load.h"
 #include "../worker/render/vcm.h"
 #include "../worker/scene/builtin.h"
 

@@ -8,6 +8,7 @@
 #include "check.h"
 #include "common/error.h"
 #include "worker/scene/scene.h"
+#include "worker/scene/load.h"
 
 #include <math.h>
 #include <stdint.h>

@@ -8,6 +8,8 @@
 #include "worker/render/accel.h"
 #include "worker/render/sampling.h"
 #include "worker/scene/scene.h"
+#include "worker/scene/json.h"
+#include "worker/scene/load.h"
 #include "worker/scene/builtin.h"
 
 #include <stdio.h>

@@ -10,6 +10,7 @@
 #include "common/file.h"
 #include "worker/blob_cache.h"
 #include "worker/scene/job_scene.h"
+#include "worker/scene/load.h"
 
 #include <fcntl.h>
 #include <stdio.h>

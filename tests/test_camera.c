@@ -8,6 +8,7 @@
 #include "common/rng.h"
 #include "worker/render/camera.h"
 #include "worker/scene/scene.h"
+#include "worker/scene/json.h"
 #include "worker/scene/builtin.h"
 
 #include <stdio.h>

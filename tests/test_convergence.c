@@ -8,6 +8,7 @@
 #include "common/error.h"
 #include "common/film.h"
 #include "worker/render/render.h"
+#include "worker/scene/load.h"
 
 #include <stdint.h>
 #include <stdlib.h>

@@ -5,6 +5,7 @@
 #include "check.h"
 #include "common/error.h"
 #include "worker/scene/scene.h"
+#include "worker/scene/load.h"
 
 #include <png.h>
 

@@ -20,6 +20,7 @@
 #include "common/error.h"
 #include "worker/render/microfacet.h"
 #include "worker/scene/builtin.h"
+#include "worker/scene/json.h"
 
 #include <float.h>
 #include <math.h>

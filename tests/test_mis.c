@@ -41,6 +41,7 @@
 #include "worker/render/mis.h"
 #include "worker/render/sampling.h"
 #include "worker/scene/scene.h"
+#include "worker/scene/load.h"
 #include "worker/render/surface.h"
 
 #include <math.h>

@@ -4,6 +4,7 @@
 #include "common/error.h"
 #include "common/film.h"
 #include "worker/render/render.h"
+#include "worker/scene/load.h"
 
 #include <stdlib.h>
 #include <string.h>

@@ -2,6 +2,8 @@
 #include "common/error.h"
 #include "common/image.h"
 #include "worker/scene/scene.h"
+#include "worker/scene/builtin.h"
+#include "worker/scene/load.h"
 
 #include <dirent.h>
 #include <math.h>

@@ -5,6 +5,8 @@
 #include "check.h"
 #include "render_util.h"
 #include "worker/scene/builtin.h"
+#include "worker/scene/json.h"
+#include "worker/scene/load.h"
 
 #include <string.h>
 

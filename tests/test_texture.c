@@ -9,7 +9,10 @@
 #include "common/error.h"
 #include "common/exr_util.h"
 #include "worker/scene/scene.h"
+#include "worker/scene/json.h"
+#include "worker/scene/load.h"
 #include "worker/scene/files.h"
+#include "worker/render/texture_lookup.h"
 #include "worker/scene/texture.h"
 
 #include <math.h>
@@ -776,7 +779,7 @@ static void test_recording_load_records_the_texture(void) {
     free(text);
     return;
   }
-  int err = vf_scene_load_with_files(text, size, "scene.json", files, &s);
+  int err = vf_scene_parse_files(text, size, "scene.json", files, &s);
   if (err != VF_OK) CHECK_FAIL_("%s", vf_error_detail(err));
   int found = 0;
   for (size_t i = 0; i < vf_scene_files_count(files); i++) found |= strcmp(vf_scene_files_name(files, i), "rgb.png") == 0;

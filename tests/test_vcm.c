@@ -2,6 +2,8 @@
 #include "check.h"
 #include "render_util.h"
 #include "worker/scene/builtin.h"
+#include "worker/scene/json.h"
+#include "worker/scene/load.h"
 
 #include <stdlib.h>
 #include <string.h>

@@ -17,6 +17,7 @@
 #include "worker/render/camera.h"
 #include "worker/render/sampling.h"
 #include "worker/scene/scene.h"
+#include "worker/scene/load.h"
 
 #include <stdio.h>
 #include <stdlib.h>

@@ -26,6 +26,7 @@
 #include "common/settings.h"
 #include "worker/render/accel.h"
 #include "worker/scene/scene.h"
+#include "worker/scene/load.h"
 #include "worker/render/vcm.h"
 
 #include <math.h>

@@ -3,6 +3,7 @@
  * mesh "m.obj" with normals and texture coordinates and a texture "t.png", so that the
  * mesh and texture paths of a scene are reached as well; no other file exists. */
 #include "worker/scene/scene.h"
+#include "worker/scene/json.h"
 #include "worker/scene/builtin.h"
 
 #include <stdint.h>

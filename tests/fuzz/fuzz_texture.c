@@ -1,6 +1,7 @@
 /* libFuzzer target: the texture decoders (PNG through libpng, JPEG through libjpeg, EXR
  * through OpenEXRCore), told apart by their first bytes as a scene's files are, and a
  * lookup of what decoded. */
+#include "worker/render/texture_lookup.h"
 #include "worker/scene/texture.h"
 
 #include <stdint.h>

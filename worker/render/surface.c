@@ -1,7 +1,7 @@
 /* Shading of mesh points from their barycentrics: worker/render/surface.h. */
 #include "surface.h"
 
-#include "../scene/texture.h"
+#include "texture_lookup.h"
 
 #include <math.h>
 #include <string.h>

@@ -12,6 +12,7 @@
 #include "builtin.h"
 
 #include "../../common/error.h"
+#include "json.h"
 
 #include <math.h>
 #include <stdarg.h>

@@ -1,6 +1,6 @@
 /* Typed access to the fields of a JSON scene, for the scene parser (parse.h): every
  * value type-checked and finite, every error naming the field path. */
-#include "parse.h"
+#include "fields.h"
 
 #include "../../common/error.h"
 

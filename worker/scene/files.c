@@ -3,7 +3,6 @@
 #include "files.h"
 
 #include "../../common/error.h"
-#include "builtin.h"
 
 #include <assimp/cfileio.h>
 #include <assimp/cimport.h>
@@ -159,9 +158,4 @@ static void io_close(struct aiFileIO *io, struct aiFile *file) {
 const struct aiScene *vf_scene_files_import(vf_scene_files *f, const char *name, unsigned flags) {
   f->io = (struct aiFileIO){io_open, io_close, (aiUserData)f};
   return aiImportFileEx(name, flags, &f->io);
-}
-
-int vf_scene_load_with_files(const char *text, size_t length, const char *label, vf_scene_files *files,
-                             vf_scene **out) {
-  return vf_scene_parse_files(text, length, label, files, out);
 }

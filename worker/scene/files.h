@@ -24,6 +24,15 @@
 
 typedef struct vf_scene_files vf_scene_files;
 
+/* A file held in memory, as a built-in scene carries its generated meshes (builtin.c); the
+ * format is taken from the extension of `name`. Borrowed: the parser only reads it during
+ * the call. */
+typedef struct {
+  const char *name;
+  const void *data;
+  size_t size;
+} vf_scene_memfile;
+
 /* *out (vf_scene_files_destroy) on success only; VF_ENOMEM. The mapping mode borrows
  * table and store_dir for its lifetime. */
 int vf_scene_files_recording(const char *base_dir, vf_scene_files **out);
@@ -35,12 +44,6 @@ void vf_scene_files_destroy(vf_scene_files *files);
 size_t vf_scene_files_count(const vf_scene_files *files);
 const char *vf_scene_files_name(const vf_scene_files *files, size_t i);
 const char *vf_scene_files_path(const vf_scene_files *files, size_t i);
-
-/* Parses JSON scene text whose files come from `files` (label names the scene in errors).
- * Errors and *out as vf_scene_load; a name the mapping does not hold is VF_ENOENT
- * "cannot open 'NAME': not among the job's files". */
-int vf_scene_load_with_files(const char *text, size_t length, const char *label, vf_scene_files *files,
-                             vf_scene **out);
 
 /* For the scene module (mesh.c, json.c): the path to open for `name`, into
  * out (recorded in recording mode); VF_ENOENT with a detail when there is none. */

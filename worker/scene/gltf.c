@@ -3,7 +3,7 @@
  * KHR_materials_emissive_strength, and the facts worth a note (light ranges, occlusion
  * textures, several scenes). Read from the file's own JSON with cJSON: the .gltf text, or
  * a .glb's first chunk. */
-#include "parse.h"
+#include "gltf.h"
 
 #include "../../common/error.h"
 

@@ -9,9 +9,13 @@
  * material named like one of the JSON's "materials" is replaced by it. Cameras and lights
  * take their node's world transform. Everything the file asks for that vcmfarm cannot do
  * becomes a note (vf_scene_note) naming the file. */
-#include "parse.h"
+#include "import.h"
 
 #include "../../common/error.h"
+#include "fields.h"
+#include "gltf.h"
+#include "mesh.h"
+#include "shapes.h"
 
 #include <assimp/cimport.h>
 #include <assimp/material.h>
@@ -431,30 +435,4 @@ int vf_scene_default_camera(const parse_ctx *c) {
 int vf_scene_default_light(const parse_ctx *c) {
   c->scene->background = vf_vec3_splat(1.0f);
   return vf_scene_note(c, "no light: the scene is lit by a white background of radiance 1");
-}
-
-/* ---- model files as scenes ---------------------------------------------------------------------- */
-
-int vf_scene_is_model_file(const char *path) {
-  size_t n = strlen(path);
-  return vf_gltf_is_gltf(path) || (n >= 4 && strcasecmp(path + n - 4, ".obj") == 0);
-}
-
-int vf_scene_model_text(const char *path, const char *camera, char **text, size_t *len) {
-  const char *slash = strrchr(path, '/');
-  cJSON *root = cJSON_CreateObject(), *list = root ? cJSON_AddArrayToObject(root, "import") : NULL;
-  cJSON *entry = list ? cJSON_CreateObject() : NULL;
-  if (entry != NULL && !cJSON_AddItemToArray(list, entry)) {
-    cJSON_Delete(entry);
-    entry = NULL;
-  }
-  /* The file by its name alone: it is read from the directory the scene's label names. */
-  int ok = entry && cJSON_AddStringToObject(entry, "file", slash ? slash + 1 : path) &&
-           (camera == NULL || cJSON_AddStringToObject(entry, "camera", camera));
-  char *out = ok ? cJSON_PrintUnformatted(root) : NULL;
-  cJSON_Delete(root);
-  if (out == NULL) return vf_error_set(VF_ENOMEM, "out of memory");
-  *text = out;
-  *len = strlen(out);
-  return VF_OK;
 }

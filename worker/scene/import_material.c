@@ -4,9 +4,10 @@
  * format's, an OBJ's .mtl above all, the classic lobes: Kd diffuse, Ks and Ns a Phong
  * lobe, glass a dielectric. Whatever a material asks for that has no counterpart is noted
  * once (vf_scene_note), never dropped silently. */
-#include "parse.h"
+#include "import.h"
 
 #include "../../common/error.h"
+#include "textures.h"
 
 #include <assimp/GltfMaterial.h>
 #include <assimp/ObjMaterial.h>

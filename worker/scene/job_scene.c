@@ -2,7 +2,10 @@
 
 #include "../../common/error.h"
 #include "../../common/file.h"
+#include "builtin.h"
 #include "files.h"
+#include "json.h"
+#include "load.h"
 
 #include <stdint.h>
 #include <stdio.h>
@@ -28,7 +31,7 @@ int vf_job_scene_load(int builtin, const char *text, size_t len, const vf_blob_t
   vf_scene_files *fs;
   int err = vf_scene_files_mapping(files ? files : &none, store_dir ? store_dir : "", &fs);
   if (err != VF_OK) return err;
-  err = vf_scene_load_with_files(text, len, label, fs, out);
+  err = vf_scene_parse_files(text, len, label, fs, out);
   vf_scene_files_destroy(fs);
   return err;
 }
@@ -64,7 +67,7 @@ int vf_job_scene_collect(const char *path, const char *text, size_t len, const c
   int err = vf_scene_files_recording(dir, &recorder);
   if (err != VF_OK) return err;
   uint8_t dir_hash[32];
-  if ((err = vf_scene_load_with_files(text, len, path, recorder, &from_dir)) != VF_OK) goto done;
+  if ((err = vf_scene_parse_files(text, len, path, recorder, &from_dir)) != VF_OK) goto done;
   /* Only its hash is needed from here on: the second load need not share memory with it. */
   memcpy(dir_hash, from_dir->hash, sizeof dir_hash);
   vf_scene_destroy(from_dir);

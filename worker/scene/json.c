@@ -9,9 +9,14 @@
  * Parsing fills a calloc'ed scene step by step; on any failure vf_scene_destroy() frees
  * whatever was filled so far, which is why every array is counted as soon as it is
  * allocated and zero-filled until used. */
-#include "parse.h"
+#include "json.h"
 
 #include "../../common/error.h"
+#include "fields.h"
+#include "import.h"
+#include "parse.h"
+#include "shapes.h"
+#include "textures.h"
 
 #include <cjson/cJSON.h>
 
@@ -26,32 +31,6 @@
 
 /* Albedo sums are written in decimal and summed in float: allow the rounding of that. */
 #define ALBEDO_SUM_TOLERANCE 1e-5f
-
-/* ---- errors and field paths ------------------------------------------------------------ */
-
-/* Formats into a local buffer first, so arguments may point into the thread's error detail
- * (vf_error_detail) that vf_error_set is about to overwrite. */
-int vf_scene_fail(const parse_ctx *c, int err, const char *path, const char *fmt, ...) {
-  char msg[768];
-  va_list ap;
-  va_start(ap, fmt);
-  vsnprintf(msg, sizeof msg, fmt, ap);
-  va_end(ap);
-  if (path != NULL && path[0] != '\0') return vf_error_set(err, "%s: %s: %s", c->label, path, msg);
-  return vf_error_set(err, "%s: %s", c->label, msg);
-}
-
-/* Field paths longer than PATH_LEN only come from absurd keys: they end in "..." instead. */
-const char *vf_scene_join(char *dst, const char *path, const char *key) {
-  int w = path[0] == '\0' ? snprintf(dst, PATH_LEN, "%s", key) : snprintf(dst, PATH_LEN, "%s.%s", path, key);
-  if (w >= PATH_LEN) memcpy(dst + PATH_LEN - 4, "...", 4);
-  return dst;
-}
-
-const char *vf_scene_join_index(char *dst, const char *path, long index) {
-  if (snprintf(dst, PATH_LEN, "%s[%ld]", path, index) >= PATH_LEN) memcpy(dst + PATH_LEN - 4, "...", 4);
-  return dst;
-}
 
 /* ---- camera ------------------------------------------------------------------------------- */
 

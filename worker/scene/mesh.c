@@ -8,9 +8,10 @@
  * transpose like normals, which bends them off the surface under a non-uniform scale.
  * Positions and tangents go through the node's matrix M, normals through M^-T, and a
  * mirroring M reverses the winding and the bitangent sign, so fronts stay the file's. */
-#include "parse.h"
+#include "mesh.h"
 
 #include "../../common/error.h"
+#include "gltf.h"
 #include "files.h"
 
 #include <assimp/cimport.h>
@@ -38,16 +39,6 @@ static const vf_scene_memfile *find_memfile(const parse_ctx *c, const char *file
   for (int i = 0; i < c->num_memfiles; i++)
     if (strcmp(c->memfiles[i].name, file) == 0) return &c->memfiles[i];
   return NULL;
-}
-
-int vf_scene_resolve(const parse_ctx *c, const char *file, const char *path, char *out, size_t n) {
-  if (c->files != NULL) { /* a farm job's scene: its files by name (files.h) */
-    int err = vf_scene_files_resolve(c->files, file, out, n);
-    return err < 0 ? vf_scene_fail(c, err, path, "%s", vf_error_detail(err)) : VF_OK;
-  }
-  int w = file[0] == '/' ? snprintf(out, n, "%s", file) : snprintf(out, n, "%s/%s", c->base_dir, file);
-  if (w < 0 || (size_t)w >= n) return vf_scene_fail(c, VF_ESCENE, path, "path too long");
-  return VF_OK;
 }
 
 /* ---- checking the file's values --------------------------------------------------------- */

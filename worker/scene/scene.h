@@ -2,9 +2,9 @@
  * render settings the scene asks for. Independent of Embree (worker/render/accel.h builds the
  * ray-tracing structures from it) so it can be hashed, validated and shipped.
  *
- * Scenes come from a JSON file (docs/SCENES.md) whose meshes are loaded through Assimp, or
- * from a built-in name (vf_scene_builtin_names()). All geometry is stored in world space:
- * per-shape transforms are applied at load. */
+ * Scenes come from a JSON file (docs/SCENES.md) whose meshes are loaded through Assimp, a
+ * model file, or a built-in name: load.h is the entry point. All geometry is stored in
+ * world space: per-shape transforms are applied at load. */
 #ifndef VF_SCENE_H
 #define VF_SCENE_H
 
@@ -112,30 +112,8 @@ typedef struct {
   vf_vec3 bounds_min, bounds_max; /* of all shapes */
 } vf_scene;
 
-/* Loads a built-in scene by name, or else a JSON scene file (docs/SCENES.md). On failure
- * returns VF_ENOENT (scene, mesh or map file missing), VF_EMESH (a mesh file's content),
- * VF_ESCENE (anything else wrong with the scene, including unreadable EXR maps) or
- * VF_ENOMEM, with a detail naming the file, the field and the problem, e.g.
- * "box.json: shapes[2].material: unknown material 'gold'". *out is written only on success
- * and the caller owns the scene (vf_scene_destroy). Thread-safe apart from Assimp's
- * process-global error text, which concurrent failing imports may mix up. */
-int vf_scene_load(const char *name_or_path, vf_scene **out);
+/* Frees the scene and everything it owns; NULL is a no-op. */
 void vf_scene_destroy(vf_scene *scene);
-
-/* A model file (vf_scene_is_model_file: .gltf, .glb or .obj) loads as a whole scene: its
- * meshes, materials, lights and cameras (docs/SCENES.md, "import"). vf_scene_load_camera
- * is vf_scene_load choosing the file's camera by name or index (`camera`; NULL: its first
- * perspective camera, else a default one). A camera that is not there is VF_ESCENE listing
- * the file's cameras; a camera for a built-in or JSON scene is VF_EUSAGE. */
-int vf_scene_load_camera(const char *name_or_path, const char *camera, vf_scene **out);
-int vf_scene_is_model_file(const char *path);
-/* The JSON scene text that imports model file `path` (by its name alone, from its own
- * directory), choosing `camera` (may be NULL): what vf_scene_load parses for a model file
- * and what a farm job carries. *text (free) and *len on success only; VF_ENOMEM. */
-int vf_scene_model_text(const char *path, const char *camera, char **text, size_t *len);
-
-/* NULL-terminated list of built-in scene names. */
-const char *const *vf_scene_builtin_names(void);
 
 /* Scales the whole scene, camera and lights by factor about the origin so that the exact
  * image is unchanged: point-light intensities grow with factor^2, radiances and directional
@@ -152,5 +130,18 @@ void vf_scene_bounding_sphere(const vf_scene *scene, vf_vec3 *center, float *rad
 void vf_scene_hash(vf_scene *scene);
 /* Lower-case hex of the hash into out (65 bytes with the NUL). */
 void vf_scene_hash_hex(const vf_scene *scene, char out[65]);
+
+/* Sets the scene's bounds from its shapes. */
+void vf_scene_compute_bounds(vf_scene *scene);
+
+/* The largest coordinate magnitude a scene may have, in world space after every transform
+ * (vertices, sphere bounds, the camera, point lights). Embree asserts that ray origins
+ * stay below 1.8e18 and the renderer squares distances in floats (3.4e38 at most): 1e15
+ * keeps both with a wide margin. docs/SCENES.md states it. */
+#define VF_SCENE_MAX_COORDINATE 1e15f
+
+/* Refuses (VF_ESCENE naming the scene, what and where) a scene with a coordinate beyond
+ * VF_SCENE_MAX_COORDINATE: the renderer could not trace it. */
+int vf_scene_check_extent(const vf_scene *scene, const char *label);
 
 #endif

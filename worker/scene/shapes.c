@@ -1,8 +1,10 @@
 /* The "shapes" of a JSON scene (parse.h): transforms, inline and file meshes,
  * spheres, all brought into world space and checked. docs/SCENES.md, "shapes". */
-#include "parse.h"
+#include "shapes.h"
 
 #include "../../common/error.h"
+#include "fields.h"
+#include "mesh.h"
 
 #include <cjson/cJSON.h>
 

@@ -1,6 +1,6 @@
 /* Textures of a scene (parse.h): decoded once per name into scene->textures, from
  * files resolved as mesh files are, or from bytes embedded in another file. */
-#include "parse.h"
+#include "textures.h"
 
 #include "../../common/error.h"
 
