@@ -19,17 +19,17 @@ packages=(
   libcairo2-dev        # plots and legends (PNG with text)
   libmicrohttpd-dev    # the coordinator's web dashboard (--http)
   zlib1g-dev           # film chunks are ZIP-compressed in parallel (common/exr_chunk.c)
-  slurm-wlm munge      # tests/test_slurm.sh: a one-node Slurm cluster (deploy/slurm)
-  systemd              # tests/test_systemd.sh: systemd-analyze verify (deploy/systemd)
+  slurm-wlm munge      # tests/deploy/test_slurm.sh: a one-node Slurm cluster (deploy/slurm)
+  systemd              # tests/deploy/test_systemd.sh: systemd-analyze verify (deploy/systemd)
   python3              # tests/bench/convergence_report.py (standard library only)
-  jq                   # tests/bench/convergence.sh, tests/test_film_tools.sh: fields of --json output
+  jq                   # tests/bench/convergence.sh, tests/cli/test_film_tools.sh: fields of --json output
   clang                # tests/test_fuzz.sh: the libFuzzer targets of tests/fuzz, with
   libclang-rt-14-dev   #   compiler-rt's libFuzzer, ASan and UBSan (only recommended by clang)
-  curl                 # tests/test_dashboard_http.sh: the dashboard's endpoints
-  chromium             # tests/test_dashboard.sh: the dashboard in a headless browser (playwright-core)
-  assimp-testmodels    # tests/test_import.c: Khronos glTF 2.0 sample models as import smoke tests
+  curl                 # tests/coordinator/dashboard/test_dashboard_http.sh: the dashboard's endpoints
+  chromium             # tests/coordinator/dashboard/test_dashboard.sh: the dashboard in a headless browser (playwright-core)
+  assimp-testmodels    # tests/worker/scene/test_import.c: Khronos glTF 2.0 sample models as import smoke tests
 )
-# tests/test_k8s.sh validates deploy/k8s, and tests/test_dashboard.sh drives chromium, with
+# tests/deploy/test_k8s.sh validates deploy/k8s, and tests/coordinator/dashboard/test_dashboard.sh drives chromium, with
 # packages from the npm registry (each test installs its own with npm ci). Debian's
 # nodejs and npm are installed only where no node and npm are on the PATH: a machine
 # with another Node.js (NodeSource's nodejs carries its own npm) keeps it.

@@ -2,16 +2,16 @@
 # The dashboard's cost to the coordinator (docs/BENCHMARKS.md, "Dashboard"): CPU seconds
 # of the coordinator process (utime + stime of /proc/PID/stat) over SECONDS while a job
 # renders on one worker, first with nobody watching, then with one headless chromium
-# keeping the page open (tests/dashboard/watch.js: status and events every 2 s, the job,
+# keeping the page open (tests/coordinator/dashboard/browser/watch.js: status and events every 2 s, the job,
 # its preview every 3 s).
 #
 #   dashboard_cpu.sh VCMFARM WORK_DIR [SECONDS]   (WORK_DIR: where test_dashboard installed
-#                                                  playwright-core, build/tests/dashboard)
+#                                                  playwright-core, build/tests/coordinator/dashboard/browser)
 set -eu
 vcmfarm="$1"
 work="$2"
 seconds="${3:-60}"
-src=$(cd "$(dirname "$0")/../dashboard" && pwd)
+src=$(cd "$(dirname "$0")/../coordinator/dashboard/browser" && pwd)
 cp "$src/watch.js" "$work/"
 tmp=$(mktemp -d /tmp/vf-dash-cpu-XXXXXX)
 pids=()

@@ -49,7 +49,7 @@ if command -v valgrind >/dev/null; then
 else
   echo "== 02b-instructions: skipped, valgrind is not installed"
 fi
-step 03-hashgrid "$build/tests/test_hashgrid" --bench
+step 03-hashgrid "$build/tests/worker/render/test_hashgrid" --bench
 # Films (issue 3).
 step 04-film "$build/tests/bench_film" 3
 # Time against error (issue 5): tables in report.md, plots in docs/plots/.
@@ -60,7 +60,7 @@ step 05b-samplers bash tests/bench/sampler.sh "$build" 2
 step 05c-sampler-goal bash tests/bench/sampler_goal.sh "$build"
 # The farm (issue 4).
 step 06-farm-merge "$build/tests/bench_farm" merge 5
-step 07-farm-checkpoint env VF_TEST_VERBOSE=1 "$build/tests/test_farm_checkpoint" "$build/vcmfarm"
+step 07-farm-checkpoint env VF_TEST_VERBOSE=1 "$build/tests/coordinator/test_farm_checkpoint" "$build/vcmfarm"
 step 08-farm-workers bash tests/bench/farm.sh "$build" 48 256x256
 step 09-render-farm bash tests/bench/render_farm.sh "$build" 40 5 2
 step 10-farm-simulated "$build/tests/bench_farm" simulate "$build/vcmfarm" 64 0 512

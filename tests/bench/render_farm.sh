@@ -3,7 +3,7 @@
 # `vcmfarm render --direct` (the render loop alone), by `vcmfarm render` (its in-process
 # coordinator and worker), and by a coordinator and one worker as processes over ipc://,
 # submit to "done", all with the same threads. Runs alternate, so the machine's drift hits
-# every column alike; every farm film is compared with the direct one (tests/farm_compare.c:
+# every column alike; every farm film is compared with the direct one (tests/farm/farm_compare.c:
 # iteration set and pixels). Prints a Markdown table and the medians.
 #
 #   bash tests/bench/render_farm.sh BUILD_DIR [ITERATIONS] [RUNS] [THREADS]   defaults: 40 6 2

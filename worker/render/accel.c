@@ -118,7 +118,7 @@ int vf_accel_create(const vf_scene *scene, vf_accel **out) {
   a->scene = rtcNewScene(a->device);
   if (a->scene == NULL) goto fail;
   /* Robust mode: watertight edges, or about 1.5e-4 of the rays leaving the inside of a
-   * closed mesh escape between its triangles (tests/test_accel.c fails without it).
+   * closed mesh escape between its triangles (tests/worker/render/test_accel.c fails without it).
    * Low build quality (the Morton builder): with robust mode, measured faster to trace than
    * medium or high on our scenes (Embree 3.13, bench_embree, one thread: cornell 10.1
    * against 7.4 Mrays/s, the 115k-triangle knot 5.0 against 4.4), and within 7% either way

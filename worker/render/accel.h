@@ -41,7 +41,7 @@ int vf_accel_occluded(const vf_accel *accel, vf_vec3 org, vf_vec3 dir, float tfa
 
 /* Occlusion of up to VF_ACCEL_PACKET segments at once, as Embree ray packets: bit i of
  * the result is set when anything blocks org[i] + t dir[i] for t in (0, tfar[i]). The
- * answers are vf_accel_occluded's for each segment (tests/test_accel.c); Embree traces a
+ * answers are vf_accel_occluded's for each segment (tests/worker/render/test_accel.c); Embree traces a
  * packet of 8 rays (two for more than 8) faster per ray than single rays, even unrelated
  * ones. */
 #define VF_ACCEL_PACKET 16

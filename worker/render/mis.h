@@ -19,7 +19,7 @@
  *
  * mis() is the heuristic's exponent applied to each density ratio; we use the balance
  * heuristic (beta = 1), as the report's derivation does. All functions are pure, so the
- * test suite drives the same code over hand-built paths (tests/test_mis.c). */
+ * test suite drives the same code over hand-built paths (tests/worker/render/test_mis.c). */
 #ifndef VF_MIS_H
 #define VF_MIS_H
 

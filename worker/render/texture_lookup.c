@@ -8,7 +8,7 @@
 
 /* 8-bit value -> linear value: v / 255, and the sRGB decoding of IEC 61966-2-1,
  * c <= 0.04045 ? c / 12.92 : ((c + 0.055) / 1.055)^2.4 with c = v / 255, both computed in
- * double and rounded to float. Written out (tests/test_texture.c checks every entry
+ * double and rounded to float. Written out (tests/worker/scene/test_texture.c checks every entry
  * against the formula) so the lookup needs no initialisation, no lock and no pow. */
 static const float linear_table[256] = {
   0.0f, 0.00392156886f, 0.00784313772f, 0.0117647061f, 0.0156862754f, 0.0196078438f,

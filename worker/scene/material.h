@@ -30,7 +30,7 @@
  * <= 1 (no surface reflects more energy than it receives); the scene loader enforces it.
  * Single-scattering GGX reflects less than its weight at high roughness (docs/SCENES.md has
  * the figures), and the glTF model more than 1 at grazing angles for a bright base colour:
- * that is the specification's BRDF, measured in tests/test_microfacet.c. */
+ * that is the specification's BRDF, measured in tests/worker/render/test_microfacet.c. */
 #ifndef VF_MATERIAL_H
 #define VF_MATERIAL_H
 

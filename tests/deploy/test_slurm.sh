@@ -4,7 +4,7 @@
 # coordinator over ipc://, two workers submitted as a job array by
 # deploy/slurm/submit-workers.sh, one job. One array task is scancel'ed while it holds a
 # lease; the job must still complete, and its film must equal a single-process
-# `vcmfarm render` of the same iterations (tests/farm_compare.c).
+# `vcmfarm render` of the same iterations (tests/farm/farm_compare.c).
 #
 #   test_slurm.sh VCMFARM FARM_COMPARE DEPLOY_DIR
 #
@@ -85,7 +85,7 @@ wait_until() { # seconds, what, command...
   done
 }
 
-source "$(dirname "$0")/free_port.sh"
+source "$(dirname "$0")/../free_port.sh"
 ctld_port=$(free_port) || fail "no free TCP port found"
 slurmd_port=$(free_port "$ctld_port") || fail "no second free TCP port found"
 

@@ -1,5 +1,5 @@
 /* Test scenes with the features of worker/render/surface.h, built from the Cornell family in
- * memory (tests/test_surface.c, tests/test_mis.c): coarse smooth-normal balls, textures of
+ * memory (tests/worker/render/test_surface.c, tests/worker/render/test_mis.c): coarse smooth-normal balls, textures of
  * every slot, a normal map and an alpha cut-out. The textures are made texel by texel here,
  * so the scenes need no files. */
 #ifndef VF_TEST_FEATURE_SCENE_H

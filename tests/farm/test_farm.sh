@@ -2,7 +2,7 @@
 # The farm end to end, over ipc:// in a temporary directory (tcp_gate: over tcp:// on loopback): one coordinator, workers and
 # clients as separate processes of the real binary. Every case ends by fetching the job's
 # film and comparing it with a single-process `vcmfarm render` of the same iterations and
-# seed (tests/farm_compare.c: the iteration set exactly [0,N), max |difference| <= 1e-5 x
+# seed (tests/farm/farm_compare.c: the iteration set exactly [0,N), max |difference| <= 1e-5 x
 # image mean).
 #
 #   test_farm.sh CASE VCMFARM FARM_COMPARE FARM_PEER [FARM_BLOB_PEER]
@@ -57,7 +57,7 @@ check_film() {
 # A project directory: scenes/scene.json names an OBJ, a PLY, a glTF whose buffer is a
 # file of its own, and an EXR environment map, all by paths leading out of the scene's
 # directory ("../meshes/..."). Workers start with empty caches of their own.
-good_meshes="$(cd "$(dirname "$0")" && pwd)/scenes/good/meshes"
+good_meshes="$(cd "$(dirname "$0")/.." && pwd)/scenes/good/meshes"
 scene="$tmp/project/scenes/scene.json"
 make_project() {
   local d="$tmp/project"

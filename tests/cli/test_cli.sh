@@ -94,7 +94,7 @@ expect_refusal "info refuses a film with a flipped bit" "flipped.exr: damaged: i
 expect_refusal "continue refuses a film with a flipped bit" "flipped.exr: damaged" \
   "$vcmfarm" continue "$tmp/flipped.exr" -n 1 -o "$tmp/out.exr"
 
-# glTF import (tests/scenes/import: the file tests/test_import.c writes, with external
+# glTF import (tests/scenes/import: the file tests/worker/scene/test_import.c writes, with external
 # textures): notes at load, --camera, and broken copies refused naming file and problem.
 import="$scenes/import"
 "$vcmfarm" render "$import/model.gltf" --direct -n 1 -R 16x12 -q -o "$tmp/gltf.exr" 2>"$tmp/stderr"

@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
-# deploy/k8s: every manifest validates against the Kubernetes API schemas (tests/k8s/
+# deploy/k8s: every manifest validates against the Kubernetes API schemas (tests/deploy/k8s/
 # validate.js: kubernetes-models' JSON schemas and TypeScript types, both generated from
 # the official OpenAPI definitions, from the npm registry at the versions in
-# tests/k8s/package-lock.json), and the validator is shown to catch a misspelt field, a
+# tests/deploy/k8s/package-lock.json), and the validator is shown to catch a misspelt field, a
 # wrong type and worker threads that do not match the CPU request.
 #
 #   test_k8s.sh DEPLOY_DIR SOURCE_DIR WORK_DIR

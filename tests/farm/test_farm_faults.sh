@@ -17,7 +17,7 @@
 #                 Needs root to mount a tmpfs: exit 77 (skipped) with a message otherwise.
 #   soak          workers and the coordinator SIGKILLed and restarted at random while one
 #                 job renders; the film equals `render --direct`, every iteration exactly
-#                 once (tests/farm_compare.c). SOAK_SECONDS (default 40) bounds the kills;
+#                 once (tests/farm/farm_compare.c). SOAK_SECONDS (default 40) bounds the kills;
 #                 SOAK_SECONDS=600 is the benchmark run.
 #
 #   test_farm_faults.sh CASE VCMFARM FARM_COMPARE

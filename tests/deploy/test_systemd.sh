@@ -52,7 +52,7 @@ install -m 400 "$tmp/farm.key" "$tmp/credentials/farm.key"
 [ "$(setting vcmfarm-coordinator.service VCMFARM_LISTEN)" = "tcp://0.0.0.0:5555" ] ||
   fail "the coordinator's default VCMFARM_LISTEN is not tcp://0.0.0.0:5555"
 # Port 5555 may be taken on a shared machine: the same line, on a free loopback port.
-source "$(dirname "$0")/free_port.sh"
+source "$(dirname "$0")/../free_port.sh"
 port=$(free_port) || fail "no free TCP port found"
 export VCMFARM_LISTEN="tcp://127.0.0.1:$port" VCMFARM_CONNECT="tcp://127.0.0.1:$port"
 export TMPDIR="$tmp" # PrivateTmp=yes: the socket behind the coordinator's TCP gate goes there

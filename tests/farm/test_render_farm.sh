@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # `vcmfarm render` runs an in-process coordinator and worker (cli/farm_render.c).
 # Every case compares its film with `vcmfarm render --direct` of the same global
-# iterations, the render loop on one thread with no farm (tests/farm_compare.c: iteration
+# iterations, the render loop on one thread with no farm (tests/farm/farm_compare.c: iteration
 # set exactly as expected, max |difference| <= 1e-5 x image mean).
 #
 #   test_render_farm.sh VCMFARM FARM_COMPARE SOURCE_DIR

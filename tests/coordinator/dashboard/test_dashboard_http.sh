@@ -13,7 +13,7 @@
 set -u
 vcmfarm="$1"
 fail_label=test_dashboard_http
-source "$(dirname "$0")/farm_test_lib.sh"
+source "$(dirname "$0")/../../farm/farm_test_lib.sh"
 farm_test_tmp dash-http
 for tool in curl python3; do command -v "$tool" >/dev/null || fail "$tool not found (bash deploy/install-deps.sh)"; done
 

@@ -1,4 +1,4 @@
-// tests/test_dashboard.sh's browser: Debian's chromium, headless, driven by playwright-core.
+// tests/coordinator/dashboard/test_dashboard.sh's browser: Debian's chromium, headless, driven by playwright-core.
 //
 //   node drive.js BASE_URL KEY_FILE CHROMIUM [SCREENSHOT_DIR]
 //

@@ -13,7 +13,7 @@
  * reflection off the mirror or glass ball), where eq. (51) removes three techniques and
  * the rest must still sum to 1. In "cornell-rough" the balls are rough gold and rough glass
  * and the floor a glTF material (worker/render/bsdf.h): no vertex is specular, and the paths
- * reflect off and refract through GGX lobes. The "features" scene (tests/feature_scene.h)
+ * reflect off and refract through GGX lobes. The "features" scene (tests/worker/render/feature_scene.h)
  * has smooth-normal balls, textured diffuse and glTF materials, a normal-mapped wall, an
  * emission-textured light and a cut-out grating: its BSDFs are set up as the renderer's
  * (worker/render/surface.h), with shading normals.
@@ -472,7 +472,7 @@ static void recursive_weights(const test_scene *ts, const full_path *x, const pa
 static int load_test_scene(test_scene *ts, const char *name, vf_light_kind kind) {
   memset(ts, 0, sizeof *ts);
   int err = VF_OK;
-  if (strcmp(name, "features") == 0) /* tests/feature_scene.h: every feature of worker/render/surface.h */
+  if (strcmp(name, "features") == 0) /* tests/worker/render/feature_scene.h: every feature of worker/render/surface.h */
     err = (ts->scene = feature_scene(FEATURE_SMOOTH | FEATURE_TEXTURED | FEATURE_NORMAL_MAP | FEATURE_CUTOUT))
               ? VF_OK
               : VF_ESCENE;

@@ -4,7 +4,7 @@
 # machine where things were installed by hand, so only this shows that the commands
 # install what they need.
 #
-#   bash tests/fresh_root.sh [WORK_DIR]        (as root; WORK_DIR: /var/tmp/vcmfarm-fresh)
+#   bash tests/deploy/fresh_root.sh [WORK_DIR]        (as root; WORK_DIR: /var/tmp/vcmfarm-fresh)
 #
 # The pristine root is made once (WORK_DIR/pristine) and copied for every run, so each
 # run starts from nothing installed. The checkout's committed HEAD is cloned into the

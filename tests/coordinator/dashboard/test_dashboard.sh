@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # The web dashboard end to end in a real browser: a coordinator with --http on a loopback
 # port and a worker over ipc:// run a cornell job slowed by --test-iteration-delay;
-# Debian's chromium, headless, driven by playwright-core (tests/dashboard/drive.js, from
-# the npm registry at the version in tests/dashboard/package-lock.json), opens the page and
+# Debian's chromium, headless, driven by playwright-core (tests/coordinator/dashboard/browser/drive.js, from
+# the npm registry at the version in tests/coordinator/dashboard/browser/package-lock.json), opens the page and
 # checks that the job's progress rises, its preview changes between two screenshots, the
 # plots are drawn, the worker is listed, an action without a session is refused, and the
 # job is cancelled with the farm key through the page.
@@ -17,7 +17,7 @@ vcmfarm="$1"
 src="$2"
 work="$3"
 fail_label=test_dashboard
-source "$(dirname "$0")/farm_test_lib.sh"
+source "$(dirname "$0")/../../farm/farm_test_lib.sh"
 farm_test_tmp dash
 command -v node >/dev/null && command -v npm >/dev/null ||
   fail "node and npm not found (Debian packages nodejs and npm: bash deploy/install-deps.sh)"
