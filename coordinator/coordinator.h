@@ -19,7 +19,7 @@
 
 #include "../common/film_handoff.h"
 #include "../common/wire.h"
-#include "dashboard.h"
+#include "dashboard/dashboard.h"
 
 #include <signal.h>
 
@@ -39,7 +39,7 @@ typedef struct {
   int handle_signals;
   volatile sig_atomic_t *stop;
   int quiet;                   /* no log lines (coordinator/log.h) */
-  /* The web dashboard (coordinator/dashboard.h): served on http_address when it is not
+  /* The web dashboard (coordinator/dashboard/dashboard.h): served on http_address when it is not
    * NULL, with status_json as the status document's form (required then). */
   const char *http_address;
   vf_status_json_fn status_json;

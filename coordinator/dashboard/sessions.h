@@ -14,7 +14,7 @@
 #ifndef VF_SESSIONS_H
 #define VF_SESSIONS_H
 
-#include "../common/wire.h"
+#include "../../common/wire.h"
 
 #include <stddef.h>
 

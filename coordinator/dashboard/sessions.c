@@ -1,7 +1,7 @@
 #include "sessions.h"
 
-#include "../common/clock.h"
-#include "../common/error.h"
+#include "../../common/clock.h"
+#include "../../common/error.h"
 
 #include <pthread.h>
 #include <sodium.h>

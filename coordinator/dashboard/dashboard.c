@@ -1,13 +1,13 @@
 #include "dashboard.h"
 
-#include "../common/clock.h"
-#include "../common/error.h"
-#include "farm_reply.h"
+#include "../../common/clock.h"
+#include "../../common/error.h"
+#include "../farm_reply.h"
 #include "http.h"
-#include "jobs.h"
-#include "log.h"
-#include "schedule.h"
-#include "state.h"
+#include "../jobs.h"
+#include "../log.h"
+#include "../schedule.h"
+#include "../state.h"
 
 #include <errno.h>
 #include <pthread.h>

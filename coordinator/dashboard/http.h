@@ -1,9 +1,9 @@
 /* The dashboard's HTTP server (docs/PROTOCOL.md, "Dashboard"), through libmicrohttpd:
  * its own listening thread and one thread per connection (at most VF_HTTP_CONNECTIONS),
- * never the coordinator's loop. It serves the page (coordinator/web/, embedded at build
- * time: coordinator/web_assets.h) and the JSON, PNG and film endpoints; what it knows of
- * the farm comes from coordinator/dashboard.h, pictures from coordinator/preview.h,
- * sessions from coordinator/sessions.h.
+ * never the coordinator's loop. It serves the page (coordinator/dashboard/web/, embedded at build
+ * time: coordinator/dashboard/web_assets.h) and the JSON, PNG and film endpoints; what it knows of
+ * the farm comes from coordinator/dashboard/dashboard.h, pictures from coordinator/dashboard/preview.h,
+ * sessions from coordinator/dashboard/sessions.h.
  *
  * Reading is open to whoever reaches the address; every action is a POST carrying a
  * session token in the X-Vcmfarm-Session header (401 without one, 403 with a bad or
@@ -13,7 +13,7 @@
 #ifndef VF_HTTP_H
 #define VF_HTTP_H
 
-#include "../common/wire.h"
+#include "../../common/wire.h"
 
 #define VF_HTTP_CONNECTIONS 32
 #define VF_HTTP_SESSION_HEADER "X-Vcmfarm-Session"

@@ -1,8 +1,8 @@
 #include "preview.h"
 
-#include "../common/clock.h"
-#include "../common/error.h"
-#include "../common/image.h"
+#include "../../common/clock.h"
+#include "../../common/error.h"
+#include "../../common/image.h"
 
 #include <errno.h>
 #include <pthread.h>

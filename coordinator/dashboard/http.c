@@ -1,8 +1,8 @@
 #include "http.h"
 
-#include "../common/error.h"
+#include "../../common/error.h"
 #include "dashboard.h"
-#include "log.h"
+#include "../log.h"
 #include "preview.h"
 #include "sessions.h"
 #include "web_assets.h"

@@ -1,5 +1,5 @@
-/* The dashboard's page, its script and its style (coordinator/web/), compiled into the
- * binary: coordinator/web/embed.cmake writes them as C arrays at build time, so the
+/* The dashboard's page, its script and its style (coordinator/dashboard/web/), compiled into the
+ * binary: coordinator/dashboard/web/embed.cmake writes them as C arrays at build time, so the
  * coordinator serves the page it was built with and needs no files installed. */
 #ifndef VF_WEB_ASSETS_H
 #define VF_WEB_ASSETS_H

@@ -1,5 +1,5 @@
 /* The web dashboard's side of the coordinator (docs/PROTOCOL.md, "Dashboard"): what the
- * HTTP server (coordinator/http.h, libmicrohttpd's own threads) may know of the farm, and
+ * HTTP server (coordinator/dashboard/http.h, libmicrohttpd's own threads) may know of the farm, and
  * what it may ask of it, without ever touching the farm itself.
  *
  * The farm is single-threaded (coordinator/farm_core.h), so the two threads meet in this
@@ -12,14 +12,14 @@
  *  - an action (cancel, remove, priority) is queued and the loop woken (uv_async); the
  *    loop runs it through the same handlers as the farm's messages (coordinator/jobs.h)
  *    and hands back an HTTP status and a sentence.
- * Films, previews and sessions need no loop: coordinator/preview.h reads the checkpoint
- * files, coordinator/sessions.h keeps its own table. */
+ * Films, previews and sessions need no loop: coordinator/dashboard/preview.h reads the checkpoint
+ * files, coordinator/dashboard/sessions.h keeps its own table. */
 #ifndef VF_DASHBOARD_H
 #define VF_DASHBOARD_H
 
-#include "../common/message.h"
-#include "../common/wire.h"
-#include "farm_core.h"
+#include "../../common/message.h"
+#include "../../common/wire.h"
+#include "../farm_core.h"
 
 #include <stddef.h>
 #include <stdint.h>
@@ -39,7 +39,7 @@ typedef struct vf_dashboard vf_dashboard;
  * host or "localhost", or "PORT" alone for 127.0.0.1; port 0 picks a free one, which the
  * log line names) for this farm, on this loop's thread (both borrowed until
  * vf_dashboard_destroy); key (copied) is the farm's, which signs in a browser
- * (coordinator/sessions.h). *out is written only on success. VF_EUSAGE for an address it
+ * (coordinator/dashboard/sessions.h). *out is written only on success. VF_EUSAGE for an address it
  * cannot read, VF_ENET when it cannot listen, VF_ENOMEM. */
 int vf_dashboard_start(vf_farm *farm, struct uv_loop_s *loop, const vf_wire_key *key, const char *address,
                        vf_status_json_fn status_json, vf_dashboard **out);
@@ -50,7 +50,7 @@ int vf_dashboard_start(vf_farm *farm, struct uv_loop_s *loop, const vf_wire_key 
 void vf_dashboard_stop(vf_dashboard *dashboard);
 void vf_dashboard_destroy(vf_dashboard *dashboard);
 
-/* ---- for the HTTP threads (coordinator/http.c) ---- */
+/* ---- for the HTTP threads (coordinator/dashboard/http.c) ---- */
 
 /* A copy of the latest status JSON (job_id 0), or of job_id's (`status --json JOB`, with
  * its convergence log), no older than about a second unless the loop is busy (then what
