@@ -42,6 +42,7 @@ typedef struct {
   vf_vec3 *emission_of;   /* aiMaterial index -> its emission */
   unsigned dropped;
   int took_camera;        /* this file gave the scene its camera */
+  float kd_ks_largest;    /* f.kd_ks_largest points here */
 } import_state;
 
 /* ---- materials ------------------------------------------------------------------------------- */
@@ -319,6 +320,10 @@ static int import_contents(const parse_ctx *c, import_state *st, const cJSON *ca
   int err;
   if ((err = vf_scene_walk_nodes(c, st->f.what, ai, st->root, import_instance, st)) < 0) return err;
   if ((err = vf_scene_note_dropped(c, st->f.file, st->dropped)) < 0) return err;
+  if (st->kd_ks_largest > 0.0f &&
+      (err = vf_scene_note(c, "%s: materials with Kd + Ks above 1 are scaled down to 1 (the largest sum: %g)",
+                           st->f.file, (double)st->kd_ks_largest)) < 0)
+    return err;
   for (unsigned i = 0; i < ai->mNumLights; i++)
     if ((err = import_light(c, st, ai->mLights[i])) < 0) return err;
   if ((err = note_cameras(c, st)) < 0) return err;
@@ -364,6 +369,7 @@ static int import_entry(const parse_ctx *c, const cJSON *j, int index, int json_
   import_state st = {.f = {.c = c, .file = file, .what = model ? NULL : what, .dir = dir,
                            .gltf_file = vf_gltf_is_gltf(file)},
                      .root = &root, .json_materials = json_materials};
+  st.f.kd_ks_largest = &st.kd_ks_largest;
   if ((err = vf_scene_import_file(c, file, model ? NULL : fpath, st.f.what, &st.f.ai)) < 0) return err;
   if (st.f.gltf_file) err = vf_gltf_read_info(c, file, st.f.what, &st.f.gltf);
   unsigned nm = st.f.ai->mNumMaterials;

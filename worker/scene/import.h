@@ -20,6 +20,8 @@ typedef struct {
   int gltf_file;               /* a glTF file: its materials are glTF's */
   const struct aiScene *ai;
   vf_gltf_info gltf;           /* glTF files only */
+  float *kd_ks_largest;        /* borrowed, written: the largest Kd + Ks above 1 that a material
+                                * of the file had scaled down (0: none), noted once per file */
 } vf_import_file;
 
 /* Material `index` of the file as a vf_material (docs/SCENES.md, "import"), with its

@@ -87,7 +87,8 @@ static int load_texture(const parse_ctx *c, const vf_import_file *f, const char 
     return err;
   struct aiUVTransform tr;
   unsigned n = sizeof tr / sizeof(ai_real);
-  if (aiGetMaterialFloatArray(am, _AI_MATKEY_UVTRANSFORM_BASE, type, 0, (ai_real *)&tr, &n) == aiReturn_SUCCESS &&
+  /* A glTF file's transforms are noted once from its extensionsUsed (gltf.c). */
+  if (!f->gltf_file && aiGetMaterialFloatArray(am, _AI_MATKEY_UVTRANSFORM_BASE, type, 0, (ai_real *)&tr, &n) == aiReturn_SUCCESS &&
       (err = vf_scene_note(c, "%s: texture transforms are ignored: textures are read at the mesh's own coordinates",
                            f->file)) < 0)
     return err;
@@ -276,9 +277,7 @@ static int classic_material(const parse_ctx *c, const vf_import_file *f, const c
   if (top > 1.0f) {
     m->diffuse = vf_scale(m->diffuse, 1.0f / top);
     m->glossy = vf_scale(m->glossy, 1.0f / top);
-    if ((err = vf_scene_note(c, "%s: materials with Kd + Ks above 1 are scaled down to 1 (the largest sum: %g)",
-                             f->file, (double)top)) < 0)
-      return err;
+    if (top > *f->kd_ks_largest) *f->kd_ks_largest = top;
   }
   return VF_OK;
 }

@@ -483,6 +483,48 @@ static void test_bad_files_are_refused_naming_file_and_problem(void) {
   write_textures();
 }
 
+/* ---- notes: each once per file ---------------------------------------------------------------- */
+
+static int occurrences(const char *text, const char *needle) {
+  int n = 0;
+  for (const char *p = text ? strstr(text, needle) : NULL; p != NULL; p = strstr(p + 1, needle)) n++;
+  return n;
+}
+
+/* Two materials above Kd + Ks = 1: one note naming the file's largest sum, not one per
+ * material each claiming to be the largest. */
+static void test_obj_kd_ks_noted_once_with_the_largest_sum(void) {
+  const char obj[] = "mtllib sums.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\n"
+                     "o a\nusemtl a\nf 1 2 3\no b\nusemtl b\nf 1 2 4\no c\nusemtl c\nf 1 3 4\n";
+  const char mtl[] = "newmtl a\nKd 0.6 0.6 0.6\nKs 0.6 0.6 0.6\nillum 2\n"
+                     "newmtl b\nKd 0.9 0.5 0.5\nKs 0.6 0.6 0.6\nillum 2\n"
+                     "newmtl c\nKd 0.2 0.2 0.2\nKs 0.1 0.1 0.1\nillum 2\n";
+  write_file("sums.obj", obj, sizeof obj - 1);
+  write_file("sums.mtl", mtl, sizeof mtl - 1);
+  vf_scene *s = load("sums.obj", NULL);
+  if (s == NULL) return;
+  CHECK_INT_EQ(occurrences(s->notes, "Kd + Ks above 1"), 1);
+  CHECK_STR_CONTAINS(s->notes, "sums.obj: materials with Kd + Ks above 1 are scaled down to 1 (the largest sum: 1.5)");
+  vf_scene_destroy(s);
+}
+
+/* A glTF texture transform is noted once: from the file's extensionsUsed, not again from
+ * each texture Assimp reads a transform for. */
+static void test_gltf_texture_transform_noted_once(void) {
+  const char *p = "/usr/share/assimp/models/glTF2/textureTransform/TextureTransformTest.gltf";
+  if (access(p, R_OK) != 0) {
+    printf("  skipped: %s not installed (apt-get install assimp-testmodels)\n", p);
+    return;
+  }
+  vf_scene *s = NULL;
+  int err = vf_scene_load(p, &s);
+  if (err != VF_OK) CHECK_FAIL_("%s: %s", p, vf_error_detail(err));
+  if (s == NULL) return;
+  CHECK_INT_EQ(occurrences(s->notes, "texture transforms"), 1);
+  CHECK_STR_CONTAINS(s->notes, "KHR_texture_transform");
+  vf_scene_destroy(s);
+}
+
 /* ---- the glTF sample models of Debian's assimp-testmodels --------------------------------------- */
 
 static void test_assimp_testmodels_glTF2_load_with_notes(void) {
@@ -526,6 +568,8 @@ int main(void) {
   RUN(test_obj_mtl_materials_uvs_and_notes);
   RUN(test_obj_bump_map_that_is_a_height_map_is_noted);
   RUN(test_bad_files_are_refused_naming_file_and_problem);
+  RUN(test_obj_kd_ks_noted_once_with_the_largest_sum);
+  RUN(test_gltf_texture_transform_noted_once);
   RUN(test_assimp_testmodels_glTF2_load_with_notes);
   if (getenv("KEEP_TMP") == NULL) remove_dir();
   else printf("kept %s\n", dir);
