@@ -13,7 +13,7 @@ iterations="${2:-40}"
 runs="${3:-6}"
 threads="${4:-2}"
 vcmfarm="$build/vcmfarm"
-compare="$build/tests/farm_compare"
+compare="$build/tests/farm/farm_compare"
 source "$(dirname "${BASH_SOURCE[0]}")/farm_lib.sh"
 source "$(dirname "${BASH_SOURCE[0]}")/renderer_lib.sh" # median
 farm_setup render-farm
