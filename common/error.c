@@ -10,11 +10,21 @@ static _Thread_local int detail_err; /* the code detail belongs to; VF_OK when t
 const char *vf_strerror(int err) {
   switch (err) {
   case VF_OK: return "success";
-#define XX(code, msg) case VF_##code: return msg;
+#define XX(code, msg, _) case VF_##code: return msg;
     VF_ERRNO_MAP(XX)
 #undef XX
   }
   return "unknown error";
+}
+
+int vf_error_is_input(int err) {
+  enum { INPUT = 1, SYSTEM = 0 };
+  switch (err) {
+#define XX(code, _, fault) case VF_##code: return fault;
+    VF_ERRNO_MAP(XX)
+#undef XX
+  }
+  return 0;
 }
 
 int vf_error_set(int err, const char *fmt, ...) {

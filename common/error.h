@@ -9,33 +9,39 @@
 #ifndef VF_ERROR_H
 #define VF_ERROR_H
 
-#define VF_ERRNO_MAP(XX)                                                   \
-  XX(EINVAL, "invalid argument")                                           \
-  XX(ENOMEM, "out of memory")                                              \
-  XX(EIO, "input/output error")                                            \
-  XX(ENOENT, "no such file")                                               \
-  XX(EUSAGE, "bad command line")                                           \
-  XX(ESCENE, "invalid scene")                                              \
-  XX(EMESH, "invalid mesh file")                                           \
-  XX(ETEXTURE, "invalid or unreadable texture")                            \
-  XX(EEXR, "invalid or unreadable EXR file")                               \
-  XX(EFILM, "invalid film")                                                \
-  XX(EMISMATCH, "films or inputs do not match")                            \
-  XX(EOVERLAP, "iteration ranges overlap")                                 \
-  XX(EEMBREE, "Embree error")                                              \
-  XX(ENONFINITE, "non-finite value")                                       \
-  XX(EPROTO, "malformed message")                                          \
-  XX(EVERSION, "protocol version mismatch")                                \
-  XX(EAUTH, "message authentication failed")                               \
-  XX(ETIMEDOUT, "timed out")                                               \
-  XX(ENET, "network error")                                                \
-  XX(EREFUSED, "refused by the peer")                                      \
-  XX(EBUSY, "in use by another process")                                 \
-  XX(EREPLAY, "replayed or stale message")
+/* The table of error codes: each code, its fixed message, and whose fault it is: INPUT when
+ * what was given (a file, a command line, a message, a request) is wrong and giving it again
+ * fails again; SYSTEM when this machine or its link failed (memory, disk, network, Embree)
+ * and the same request may succeed later. The coordinator answers a request from this
+ * table (coordinator/farm_reply.h, vf_farm_wire_code), so that clients can tell a request
+ * to fix from one to retry. */
+#define VF_ERRNO_MAP(XX)                                \
+  XX(EINVAL, "invalid argument", INPUT)                 \
+  XX(ENOMEM, "out of memory", SYSTEM)                   \
+  XX(EIO, "input/output error", SYSTEM)                 \
+  XX(ENOENT, "no such file", INPUT)                     \
+  XX(EUSAGE, "bad command line", INPUT)                 \
+  XX(ESCENE, "invalid scene", INPUT)                    \
+  XX(EMESH, "invalid mesh file", INPUT)                 \
+  XX(ETEXTURE, "invalid or unreadable texture", INPUT)  \
+  XX(EEXR, "invalid or unreadable EXR file", INPUT)     \
+  XX(EFILM, "invalid film", INPUT)                      \
+  XX(EMISMATCH, "films or inputs do not match", INPUT)  \
+  XX(EOVERLAP, "iteration ranges overlap", INPUT)       \
+  XX(EEMBREE, "Embree error", SYSTEM)                   \
+  XX(ENONFINITE, "non-finite value", INPUT)             \
+  XX(EPROTO, "malformed message", INPUT)                \
+  XX(EVERSION, "protocol version mismatch", INPUT)      \
+  XX(EAUTH, "message authentication failed", INPUT)     \
+  XX(ETIMEDOUT, "timed out", SYSTEM)                    \
+  XX(ENET, "network error", SYSTEM)                     \
+  XX(EREFUSED, "refused by the peer", INPUT)            \
+  XX(EBUSY, "in use by another process", SYSTEM)        \
+  XX(EREPLAY, "replayed or stale message", INPUT)
 
 enum {
   VF_OK = 0,
-#define XX(code, _) VF_##code,
+#define XX(code, _, __) VF_##code,
   VF_ERRNO_FIRST_ = -1000,
   VF_ERRNO_MAP(XX)
 #undef XX
@@ -43,6 +49,9 @@ enum {
 
 /* The fixed message of an error code ("invalid scene"); never NULL. */
 const char *vf_strerror(int err);
+
+/* 1 when err is an INPUT error of the table, 0 for a SYSTEM one and for codes outside it. */
+int vf_error_is_input(int err);
 
 /* Records a detail message for the calling thread, belonging to err, and returns err, so a
  * failing function can write `return vf_error_set(VF_ESCENE, "%s: ...", path);`. */

@@ -188,7 +188,7 @@ void vf_blobs_query(vf_farm *farm, const Vcmfarm__BlobQuery *m, vf_farm_reply *r
       return vf_farm_reply_errorf(r, BAD_REQUEST, "blob query: hashes[%zu] is %zu bytes, expected 32", i, m->hashes[i].len);
   vcmfarm__blob_have__init(&r->blob_have);
   if (m->n_hashes > 0 && (r->missing = calloc(m->n_hashes, sizeof *r->missing)) == NULL)
-    return vf_farm_reply_error(r, VCMFARM__ERROR_CODE__ERROR_INTERNAL, "out of memory");
+    return vf_farm_reply_fail(r, vf_error_set(VF_ENOMEM, "out of memory"));
   /* Each held blob is read and checked: a query comes once per submission, and a damaged
    * copy found here is dropped and reported missing, so the client sends it again. */
   for (size_t i = 0; i < m->n_hashes; i++) {
@@ -217,8 +217,7 @@ void vf_blobs_put(vf_farm *farm, const Vcmfarm__BlobPut *m, vf_farm_reply *r) {
                                  m->data.data, m->data.len, &complete);
   if (err != VF_OK) {
     vf_log("refused a blob chunk: %s", vf_error_detail(err));
-    return vf_farm_reply_error(r, err == VF_EIO ? VCMFARM__ERROR_CODE__ERROR_INTERNAL : BAD_REQUEST,
-                               vf_error_detail(err));
+    return vf_farm_reply_fail(r, err);
   }
   if (complete) {
     char path[4200];
@@ -247,13 +246,11 @@ void vf_blobs_request(vf_farm *farm, const vf_farm_worker *w, const Vcmfarm__Blo
   if (err != VF_OK) {
     vf_log("worker %s asked for blob %s at %llu: %s", w->name, hex, (unsigned long long)m->offset,
            vf_error_detail(err));
-    if (err == VF_ENOENT) return vf_farm_reply_errorf(r, BAD_REQUEST, "the coordinator has no blob %s", hex);
-    if (err == VF_EINVAL) return vf_farm_reply_error(r, BAD_REQUEST, vf_error_detail(err));
-    /* Short: the worker's failure message carries it into the job's status. */
-    if (err == VF_EMISMATCH)
-      return vf_farm_reply_errorf(r, VCMFARM__ERROR_CODE__ERROR_INTERNAL, "blob %.16s... is damaged in the coordinator's store",
-                          hex);
-    return vf_farm_reply_error(r, VCMFARM__ERROR_CODE__ERROR_INTERNAL, vf_error_detail(err));
+    /* Short details: the worker's failure message carries them into the job's status. A
+     * damaged blob in the store is the coordinator's failure, not the request's. */
+    if (err == VF_ENOENT) err = vf_error_set(VF_ENOENT, "the coordinator has no blob %s", hex);
+    else if (err == VF_EMISMATCH) err = vf_error_set(VF_EIO, "blob %.16s... is damaged in the coordinator's store", hex);
+    return vf_farm_reply_fail(r, err);
   }
   if (m->offset + len == total)
     vf_log("served blob %s (%llu bytes) to worker %s", hex, (unsigned long long)total, w->name);

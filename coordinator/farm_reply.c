@@ -1,5 +1,7 @@
 #include "farm_reply.h"
 
+#include "../common/error.h"
+
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -30,6 +32,13 @@ void vf_farm_reply_errorf(vf_farm_reply *r, Vcmfarm__ErrorCode code, const char 
   va_end(ap);
   vf_farm_reply_error(r, code, text);
 }
+
+Vcmfarm__ErrorCode vf_farm_wire_code(int err) {
+  if (err == VF_EVERSION) return VCMFARM__ERROR_CODE__ERROR_VERSION;
+  return vf_error_is_input(err) ? VCMFARM__ERROR_CODE__ERROR_BAD_REQUEST : VCMFARM__ERROR_CODE__ERROR_INTERNAL;
+}
+
+void vf_farm_reply_fail(vf_farm_reply *r, int err) { vf_farm_reply_error(r, vf_farm_wire_code(err), vf_error_detail(err)); }
 
 void vf_farm_reply_ack(vf_farm_reply *r, int accepted, const char *message) {
   vcmfarm__result_ack__init(&r->result_ack);

@@ -46,6 +46,13 @@ void vf_farm_reply_error(vf_farm_reply *reply, Vcmfarm__ErrorCode code, const ch
 /* The same with a formatted message. */
 void vf_farm_reply_errorf(vf_farm_reply *reply, Vcmfarm__ErrorCode code, const char *fmt, ...)
     __attribute__((format(printf, 3, 4)));
+/* The wire code of an error code of common/error.h, from its table: INPUT errors are
+ * ERROR_BAD_REQUEST (fix the request), SYSTEM errors ERROR_INTERNAL (the coordinator
+ * failed; the same request may succeed later), VF_EVERSION is ERROR_VERSION. */
+Vcmfarm__ErrorCode vf_farm_wire_code(int err);
+/* Makes the reply the Error of err: its wire code and its detail (vf_error_detail). Every
+ * handler answers a failed call this way, so one code always means one thing. */
+void vf_farm_reply_fail(vf_farm_reply *reply, int err);
 /* A ResultAck; message may be reply->text itself. */
 void vf_farm_reply_ack(vf_farm_reply *reply, int accepted, const char *message);
 /* Frees what the reply owns and leaves it empty (as vf_farm_reply_init). */

@@ -26,8 +26,7 @@ void vf_jobs_submit(vf_farm *farm, const Vcmfarm__SubmitJob *m, vf_farm_reply *r
   size_t text_len;
   if (m->scene->source_case == VCMFARM__SCENE__SOURCE_JSON_BLOB) {
     if ((err = vf_blobs_scene_text(farm, m->scene->json_blob, &sent_text, &text_len)) != VF_OK)
-      return vf_farm_reply_error(r, err == VF_EINVAL ? VCMFARM__ERROR_CODE__ERROR_BAD_REQUEST : VCMFARM__ERROR_CODE__ERROR_INTERNAL,
-                                 vf_error_detail(err));
+      return vf_farm_reply_fail(r, err);
     text = sent_text;
   } else {
     text_len = strlen(text);
@@ -39,14 +38,13 @@ void vf_jobs_submit(vf_farm *farm, const Vcmfarm__SubmitJob *m, vf_farm_reply *r
   if (err == VF_OK && ((err = vf_job_set_scene_path(job, m->scene_path)) != VF_OK ||
                        (err = vf_blobs_attach(farm, job, m->scene)) != VF_OK))
     vf_job_destroy(job);
-  if (err != VF_OK) return vf_farm_reply_error(r, VCMFARM__ERROR_CODE__ERROR_BAD_REQUEST, vf_error_detail(err));
+  if (err != VF_OK) return vf_farm_reply_fail(r, err);
   /* The reference is a blob sent first, checked against its hash, then read as an image. */
   if (m->reference && (err = vf_blobs_reference(farm, m->reference)) == VF_OK)
     err = vf_state_save_reference(farm->config.state_dir, job, m->reference->hash.data);
   if (err != VF_OK) {
     vf_job_destroy(job);
-    return vf_farm_reply_error(r, err == VF_EIO ? VCMFARM__ERROR_CODE__ERROR_INTERNAL : VCMFARM__ERROR_CODE__ERROR_BAD_REQUEST,
-                               vf_error_detail(err));
+    return vf_farm_reply_fail(r, err);
   }
   vf_algorithm resolved;
   if (m->algorithm_resolved[0] != '\0' &&
@@ -62,18 +60,18 @@ void vf_jobs_submit(vf_farm *farm, const Vcmfarm__SubmitJob *m, vf_farm_reply *r
   if ((err = vf_job_set_stop(job, m->time_limit, m->target_rmse, m->target_error)) != VF_OK) {
     vf_state_remove_job_files(farm->config.state_dir, job->id);
     vf_job_destroy(job);
-    return vf_farm_reply_error(r, VCMFARM__ERROR_CODE__ERROR_BAD_REQUEST, vf_error_detail(err));
+    return vf_farm_reply_fail(r, err);
   }
   /* Durable before acknowledged: scene text first, then the job list naming it. */
   if ((err = vf_state_save_scene(farm->config.state_dir, job)) != VF_OK || (err = vf_farm_add_job(farm, job)) != VF_OK) {
     vf_state_remove_job_files(farm->config.state_dir, job->id);
     vf_job_destroy(job);
-    return vf_farm_reply_error(r, VCMFARM__ERROR_CODE__ERROR_INTERNAL, vf_error_detail(err));
+    return vf_farm_reply_fail(r, err);
   }
   if ((err = vf_state_save_index(farm)) != VF_OK) {
     farm->num_jobs--;
     vf_job_destroy(job);
-    return vf_farm_reply_error(r, VCMFARM__ERROR_CODE__ERROR_INTERNAL, vf_error_detail(err));
+    return vf_farm_reply_fail(r, err);
   }
   farm->next_job_id++;
   char limits[256];
@@ -186,7 +184,7 @@ void vf_jobs_status(vf_farm *farm, const Vcmfarm__StatusRequest *m, double now, 
   r->event_ptrs = calloc(ne ? ne : 1, sizeof *r->event_ptrs);
   if (!r->job_status || !r->job_status_ptrs || !r->worker_status || !r->worker_status_ptrs || !r->events ||
       !r->event_ptrs)
-    return vf_farm_reply_error(r, VCMFARM__ERROR_CODE__ERROR_INTERNAL, "out of memory");
+    return vf_farm_reply_fail(r, vf_error_set(VF_ENOMEM, "out of memory"));
   vcmfarm__status__init(&r->status);
   r->status.time = vf_unix_now();
   r->status.protocol_version = VF_PROTOCOL_VERSION;
@@ -292,7 +290,7 @@ void vf_jobs_fetch(vf_farm *farm, const Vcmfarm__FetchRequest *m, double now, vf
       return vf_farm_reply_errorf(r, VCMFARM__ERROR_CODE__ERROR_BAD_REQUEST, "a fetch starts at offset 0, not %llu",
                                   (unsigned long long)m->offset);
     if ((err = vf_checkpoint_snapshot_start(farm, job, now, &id)) != VF_OK)
-      return vf_farm_reply_error(r, VCMFARM__ERROR_CODE__ERROR_INTERNAL, vf_error_detail(err));
+      return vf_farm_reply_fail(r, err);
     if (id == 0) return film_reply(r, VCMFARM__FILM__STATE__WAIT, 0);
   }
   /* The chunk and, after it, the hash: one block the reply owns. */
@@ -307,8 +305,7 @@ void vf_jobs_fetch(vf_farm *farm, const Vcmfarm__FetchRequest *m, double now, vf
     return;
   }
   if (err < 0)
-    return vf_farm_reply_error(r, err == VF_EINVAL ? VCMFARM__ERROR_CODE__ERROR_BAD_REQUEST : VCMFARM__ERROR_CODE__ERROR_INTERNAL,
-                               vf_error_detail(err));
+    return vf_farm_reply_fail(r, err);
   film_reply(r, VCMFARM__FILM__STATE__CHUNK, id);
   memcpy(r->film_bytes + len, info.hash, sizeof info.hash);
   r->film.offset = m->offset;
@@ -330,7 +327,7 @@ void vf_jobs_cancel(vf_farm *farm, const Vcmfarm__CancelRequest *m, double now, 
   farm->state_dirty = 1;
   int err = vf_state_save_index(farm);
   vf_log("job %llu cancelled", (unsigned long long)job->id);
-  if (err != VF_OK) return vf_farm_reply_error(r, VCMFARM__ERROR_CODE__ERROR_INTERNAL, vf_error_detail(err));
+  if (err != VF_OK) return vf_farm_reply_fail(r, err);
   vf_farm_reply_ack(r, 1, "cancelled");
 }
 
@@ -357,7 +354,7 @@ void vf_jobs_remove(vf_farm *farm, const Vcmfarm__RemoveRequest *m, vf_farm_repl
     memmove(&farm->jobs[at + 1], &farm->jobs[at], (farm->num_jobs - at) * sizeof *farm->jobs);
     farm->jobs[at] = job;
     farm->num_jobs++;
-    return vf_farm_reply_error(r, VCMFARM__ERROR_CODE__ERROR_INTERNAL, vf_error_detail(err));
+    return vf_farm_reply_fail(r, err);
   }
   vf_state_remove_job_files(farm->config.state_dir, job->id);
   vf_checkpoint_snapshot_drop(farm, job->id);

@@ -89,7 +89,7 @@ static void fill_lease(const vf_farm *farm, vf_job *job, uint64_t lease_id, uint
     r->scene.json = job->scene_text;
   }
   if (vf_blobs_lease(job, r) != VF_OK)
-    return vf_farm_reply_error(r, VCMFARM__ERROR_CODE__ERROR_INTERNAL, "out of memory for the lease's file table");
+    return vf_farm_reply_fail(r, vf_error_set(VF_ENOMEM, "out of memory for the lease's file table"));
   r->lease.lease_id = lease_id;
   r->lease.job_id = job->id;
   r->lease.scene = &r->scene;
@@ -139,7 +139,7 @@ void vf_leases_grant(vf_farm *farm, vf_farm_worker *w, double now, vf_farm_reply
                              : vf_lease_size(VF_LEASE_UNKNOWN_RATE, 1.0, free_count, farm->num_workers);
   if (vf_lease_free_range(&farm->leases, job->id, done, job->first, job->iterations, size, &b, &e, &free_count) != 1 ||
       vf_lease_add(&farm->leases, job->id, w->id, b, e, now, &w->lease_id) != VF_OK)
-    return vf_farm_reply_error(r, VCMFARM__ERROR_CODE__ERROR_INTERNAL, "out of memory for leases");
+    return vf_farm_reply_fail(r, vf_error_set(VF_ENOMEM, "out of memory for leases"));
   vf_lease *granted = vf_lease_find(&farm->leases, w->lease_id);
   granted->charged = vf_schedule_estimate(e - b, w->rate, job->rate, vf_ship_lease_seconds(farm));
   vf_schedule_charge(job, granted->charged);

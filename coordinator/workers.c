@@ -1,6 +1,7 @@
 #include "workers.h"
 
 #include "../common/clock.h"
+#include "../common/error.h"
 #include "leases.h"
 #include "log.h"
 #include "poison.h"
@@ -65,7 +66,7 @@ void vf_workers_register(vf_farm *farm, const Vcmfarm__Register *m, double now, 
   if (farm->num_workers == farm->workers_capacity) {
     size_t cap = farm->workers_capacity ? 2 * farm->workers_capacity : 8;
     vf_farm_worker *grown = realloc(farm->workers, cap * sizeof *grown);
-    if (grown == NULL) return vf_farm_reply_error(r, VCMFARM__ERROR_CODE__ERROR_INTERNAL, "out of memory");
+    if (grown == NULL) return vf_farm_reply_fail(r, vf_error_set(VF_ENOMEM, "out of memory"));
     farm->workers = grown;
     farm->workers_capacity = cap;
   }

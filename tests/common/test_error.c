@@ -74,7 +74,7 @@ static void test_details_are_per_thread(void) {
 }
 
 static void test_strerror_covers_every_code(void) {
-#define XX(code, msg) CHECK(strcmp(vf_strerror(VF_##code), msg) == 0);
+#define XX(code, msg, _) CHECK(strcmp(vf_strerror(VF_##code), msg) == 0);
   VF_ERRNO_MAP(XX)
 #undef XX
   CHECK(strcmp(vf_strerror(VF_OK), "success") == 0);
