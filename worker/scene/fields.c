@@ -1,4 +1,4 @@
-/* Typed access to the fields of a JSON scene, for the scene parser (parse.h): every
+/* Typed access to the fields of a JSON scene, for the scene parser (fields.h): every
  * value type-checked and finite, every error naming the field path. */
 #include "fields.h"
 

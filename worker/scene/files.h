@@ -45,7 +45,7 @@ size_t vf_scene_files_count(const vf_scene_files *files);
 const char *vf_scene_files_name(const vf_scene_files *files, size_t i);
 const char *vf_scene_files_path(const vf_scene_files *files, size_t i);
 
-/* For the scene module (mesh.c, json.c): the path to open for `name`, into
+/* For the readers of a scene (parse.c, vf_scene_resolve): the path to open for `name`, into
  * out (recorded in recording mode); VF_ENOENT with a detail when there is none. */
 int vf_scene_files_resolve(vf_scene_files *files, const char *name, char *out, size_t n);
 /* Imports mesh `name` through Assimp with every file it opens resolved as above; Assimp's

@@ -1,4 +1,4 @@
-/* The "shapes" of a JSON scene (parse.h): transforms, inline and file meshes,
+/* The "shapes" of a JSON scene (shapes.h): transforms, inline and file meshes,
  * spheres, all brought into world space and checked. docs/SCENES.md, "shapes". */
 #include "shapes.h"
 

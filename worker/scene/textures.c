@@ -1,4 +1,4 @@
-/* Textures of a scene (parse.h): decoded once per name into scene->textures, from
+/* Textures of a scene (textures.h): decoded once per name into scene->textures, from
  * files resolved as mesh files are, or from bytes embedded in another file. */
 #include "textures.h"
 
