@@ -293,7 +293,7 @@ static int camera_bounce(vf_vcm *v, int thread, camera_lane *lane, const vf_hit 
         *q = (vertex_merging_query){b, hit->position, s->throughput, s->mis, s->path_length, tile_pixel};
       } else {
         vertex_merging_query now = {b, hit->position, s->throughput, s->mis, s->path_length, tile_pixel};
-        defer_unshadowed(v, thread, vf_mul(s->throughput, vf_vertex_merging_now(v, &now)), tile_pixel);
+        defer_unshadowed(v, thread, vf_mul(s->throughput, vf_vertex_merging_estimate(v, &now)), tile_pixel);
       }
       if (v->t.ppm) return 0;
     }

@@ -7,6 +7,7 @@
 #include "../../common/error.h"
 #include "camera_pass.h"
 #include "light_pass.h"
+#include "merge_pipeline.h"
 #include "surface.h"
 #include "vcm_internal.h"
 #include "vertex_merging.h"
@@ -185,7 +186,7 @@ vf_algorithm vf_vcm_algorithm(const vf_vcm *v) { return v->settings.algorithm; }
 void vf_vcm_limit_simd(vf_vcm *v) { v->vertex_merging_avx512 = 0; }
 
 const char *vf_vcm_merge_simd(const vf_vcm *v) {
-#ifdef __SSE2__
+#ifdef VF_MERGE_PIPELINE
   return v->vertex_merging_avx512 ? "AVX-512" : "SSE2";
 #else
   return "scalar";
@@ -306,7 +307,7 @@ int vf_vcm_create(const vf_scene *scene, const vf_accel *accel, const vf_setting
     for (uint32_t i = 0; i < RETIRE_RING; i++) v->stats[t].ring_count[i] = RING_IN_FLIGHT;
   }
   if (v->t.vertex_merging && (err = vf_hashgrid_create(&v->grid)) != VF_OK) goto fail;
-  v->vertex_merging_avx512 = vf_vertex_merging_detect_avx512();
+  v->vertex_merging_avx512 = vf_merge_pipeline_detect_avx512();
   *out = v;
   return VF_OK;
 fail:

@@ -5,7 +5,8 @@
  *   1. light_pass.c      light sub-paths, their stored vertices, light tracing to the camera;
  *   2. vertex_merging.c  the range-search grid over those vertices (hashgrid.c);
  *   3. camera_pass.c     camera sub-paths and their techniques, tile by tile, whose vertex
- *                        merging queries vertex_merging.c runs at the end of each tile.
+ *                        merging queries vertex_merging.c runs at the end of each tile
+ *                        (through the fast path of merge_pipeline.c).
  * Both passes trace with wavefront.h. Everything here is read and written by those files
  * only; nothing outside worker/ sees it. */
 #ifndef VF_VCM_INTERNAL_H
@@ -116,7 +117,8 @@ typedef struct {
 
 /* A camera vertex waiting for vertex merging: it is deferred to the end of each camera
  * tile, where the queries of the whole tile run as a software pipeline that keeps several
- * grid lookups in flight (vertex_merging.c). */
+ * grid lookups in flight (merge_pipeline.c; the reference, one query at a time, is
+ * vertex_merging.c's). */
 typedef struct {
   vf_bsdf bsdf;
   vf_vec3 position;
@@ -176,7 +178,7 @@ typedef struct {
   uint32_t tile_begin[CAMERA_TILE * CAMERA_TILE], tile_end[CAMERA_TILE * CAMERA_TILE];
 } thread_stats;
 
-/* What vertex merging reads of the light vertices, in the grid's order (vertex_merging.c). */
+/* What vertex merging reads of the light vertices, in the grid's order (vertex_merging.h). */
 typedef struct merge_point merge_point;
 typedef struct photon photon;
 
