@@ -243,7 +243,7 @@ static void check_hits(const vf_vcm *v, const vertex_merging_query *qs, uint32_t
 /* The tile's queries run by the renderer's path (vf_vertex_merging_run_tile) against the
  * reference added query by query in queue order; queries share pixels, three to a pixel. */
 static void check_sums(vf_vcm *v, const vertex_merging_query *qs, uint32_t nq, uint32_t pixels) {
-  thread_stats *ts = &v->stats[0];
+  thread_scratch *ts = &v->scratch[0];
   if (ts->query_capacity < nq) {
     free(ts->queries);
     ts->queries = malloc(nq * sizeof *ts->queries);

@@ -49,7 +49,7 @@ static vf_vec3 emission_weighted(const vf_vcm *v, const vf_light *l, const path_
 /* Adds the camera sub-paths' waiting contributions to their pixels, in the order they
  * arose, once the queued shadow rays are traced: those whose ray was blocked are left out. */
 static void resolve_deferred(vf_vcm *v, int thread) {
-  thread_stats *ts = &v->stats[thread];
+  thread_scratch *ts = &v->scratch[thread];
   shadow_packet *pk = &ts->packet;
   int n = pk->n;
   if (n > 0) {
@@ -71,7 +71,7 @@ static void resolve_deferred(vf_vcm *v, int thread) {
  * queue entry, the owner of the shadow ray that guards it (queue_segment or
  * queue_direction, then packet_queued), if any. */
 static int defer(vf_vcm *v, int thread, vf_vec3 value, uint32_t tile_pixel) {
-  thread_stats *ts = &v->stats[thread];
+  thread_scratch *ts = &v->scratch[thread];
   if (ts->num_pending == DEFERRED_MAX) resolve_deferred(v, thread);
   ts->pending[ts->num_pending] = (deferred){value, tile_pixel, 0};
   return ts->num_pending++;
@@ -79,7 +79,7 @@ static int defer(vf_vcm *v, int thread, vf_vec3 value, uint32_t tile_pixel) {
 
 /* After queue_segment or queue_direction for an entry: traces the packet when full. */
 static void packet_queued(vf_vcm *v, int thread) {
-  if (v->stats[thread].packet.n == VF_ACCEL_PACKET) resolve_deferred(v, thread);
+  if (v->scratch[thread].packet.n == VF_ACCEL_PACKET) resolve_deferred(v, thread);
 }
 
 /* s = 1: next-event estimation, added to tile_pixel if the light is visible. */
@@ -107,7 +107,7 @@ static void light_sample(vf_vcm *v, int thread, const vf_hit *hit, const vf_bsdf
   vf_vec3 contrib = vf_scale(vf_mul(radiance, f), w * cos_to_light / (pick * direct_pdf));
   if (vf_is_zero(contrib)) return;
   int entry = defer(v, thread, vf_mul(s->throughput, contrib), tile_pixel);
-  shadow_packet *pk = &v->stats[thread].packet;
+  shadow_packet *pk = &v->scratch[thread].packet;
   if (isinf(dist))
     queue_direction(v, pk, entry, hit->position, hit->normal, dir);
   else
@@ -165,7 +165,7 @@ static void connect_vertices(vf_vcm *v, int thread, const vf_hit *hit, const vf_
   vf_vec3 contrib = vf_scale(vf_mul(vf_mul(fc, fl), lv->throughput), w * cos_camera * cos_light / dist2);
   if (vf_is_zero(contrib)) return;
   int entry = defer(v, thread, vf_mul(s->throughput, contrib), tile_pixel);
-  queue_segment(v, &v->stats[thread].packet, entry, hit->position, hit->normal, lv->position, normal_of_vertex(v, lv, lb));
+  queue_segment(v, &v->scratch[thread].packet, entry, hit->position, hit->normal, lv->position, normal_of_vertex(v, lv, lb));
   packet_queued(v, thread);
 }
 
@@ -173,7 +173,7 @@ static void connect_vertices(vf_vcm *v, int thread, const vf_hit *hit, const vf_
  * the queue cannot grow (the caller then merges at once). The caller writes the query
  * into the slot itself: built elsewhere and copied, its 150 bytes were written twice. */
 static vertex_merging_query *queue_vertex_merging(vf_vcm *v, int thread) {
-  thread_stats *ts = &v->stats[thread];
+  thread_scratch *ts = &v->scratch[thread];
   if (ts->num_queries == ts->query_capacity) {
     uint32_t cap = ts->query_capacity ? 2 * ts->query_capacity : 4096;
     vertex_merging_query *p = realloc(ts->queries, (size_t)cap * sizeof *p);
@@ -271,7 +271,7 @@ static int camera_bounce(vf_vcm *v, int thread, camera_lane *lane, const vf_hit 
       const vf_bsdf *kept = NULL;
       uint32_t first, end;
       if (v->fused) {
-        const thread_stats *ts = &v->stats[thread];
+        const thread_scratch *ts = &v->scratch[thread];
         path = ts->tile_vertices;
         kept = ts->tile_bsdfs;
         first = ts->tile_begin[tile_pixel];
@@ -349,7 +349,7 @@ static void camera_task(void *ctx, size_t task, int thread) {
   uint32_t tw = x1 - x0;
   float tile_rgb[3 * CAMERA_TILE * CAMERA_TILE];
   memset(tile_rgb, 0, 3 * sizeof(float) * tw * (y1 - y0));
-  v->stats[thread].tile_rgb = tile_rgb;
+  v->scratch[thread].tile_rgb = tile_rgb;
   if (v->fused) {
     double t0 = vf_seconds_now();
     vf_light_pass_tile(v, thread, (uint32_t)task, x0, y0, tw, tw * (y1 - y0));

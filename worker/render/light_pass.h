@@ -16,7 +16,7 @@ int vf_light_pass_run(vf_vcm *v);
 
 /* bpt's fused pass (vf_vcm.fused): traces the light sub-paths of camera tile `tile` (top
  * left pixel x0, y0; `width` columns, `pixels` in all) on `thread`, their vertices and BSDFs
- * into the thread's tile lists (thread_stats.tile_*), path `local` of the tile (row-major)
+ * into the thread's tile lists (thread_scratch.tile_*), path `local` of the tile (row-major)
  * at tile_begin[local] .. tile_end[local], their splats into the tile's chunk. */
 void vf_light_pass_tile(vf_vcm *v, int thread, uint32_t tile, uint32_t x0, uint32_t y0, uint32_t width,
                         uint32_t pixels);

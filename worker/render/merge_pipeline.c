@@ -210,7 +210,7 @@ static inline void merge_hits(const vf_vcm *v, const vertex_merging_query *q, co
 /* Step i of the loop runs stage A of query i, B of query i - AHEAD, C of query
  * i - 2 AHEAD and D of query i - 3 AHEAD; query j lives in slot j % RING. */
 static inline __attribute__((always_inline)) void run_pipeline(vf_vcm *v, int thread, float *tile_rgb, int avx512) {
-  thread_stats *ts = &v->stats[thread];
+  thread_scratch *ts = &v->scratch[thread];
   int n = (int)ts->num_queries;
   if (n == 0) return; /* nothing queued: no vertex merging, or no grid this iteration */
   const vertex_merging_query *q = ts->queries;

@@ -33,7 +33,7 @@
 /* Light sub-paths end out of order but are stored in path order (light_retire): a path
  * that ends before an older one waits in a ring of this many slots, one per path. */
 #define RETIRE_RING 256u
-#define RING_IN_FLIGHT UINT32_MAX /* thread_stats.ring_count of a slot whose path has not ended */
+#define RING_IN_FLIGHT UINT32_MAX /* thread_scratch.ring_count of a slot whose path has not ended */
 /* The light pass's splats are added to the image in bands of this many rows, one band per
  * task. */
 #define SPLAT_BAND 32u
@@ -151,12 +151,21 @@ typedef struct {
   int blocked;
 } deferred;
 
-/* One thread's state: aligned to the cache line (and allocated so), so that no line holds
+/* One thread's counts of the iteration, which vf_vcm_iteration adds up into its
+ * vf_vcm_stats. Aligned to the cache line (and allocated so), so that no line holds two
+ * threads' counters. */
+typedef struct {
+  _Alignas(64) uint64_t rays; /* closest-hit and occlusion queries */
+  uint64_t nonfinite;         /* NaN or Inf estimates refused */
+  double light_seconds;       /* bpt's fused pass: wall time in the tiles' light sub-paths */
+} thread_stats;
+
+/* One thread's working memory: the queues and buffers its tasks of both passes work in,
+ * kept from task to task and from iteration to iteration so that nothing is allocated per
+ * path or per vertex. Aligned to the cache line (and allocated so), so that no line holds
  * two threads' fields. */
 typedef struct {
-  _Alignas(64) uint64_t rays, nonfinite;
-  double light_seconds; /* bpt's fused pass: wall time in the tiles' light sub-paths */
-  vertex_merging_query *queries; /* this thread's pending vertex merging queries, owned */
+  _Alignas(64) vertex_merging_query *queries; /* this thread's pending vertex merging queries, owned */
   uint32_t num_queries, query_capacity;
   shadow_packet packet;
   deferred pending[DEFERRED_MAX];
@@ -176,7 +185,7 @@ typedef struct {
   vf_bsdf *tile_bsdfs;
   uint32_t tile_capacity;
   uint32_t tile_begin[CAMERA_TILE * CAMERA_TILE], tile_end[CAMERA_TILE * CAMERA_TILE];
-} thread_stats;
+} thread_scratch;
 
 /* What vertex merging reads of the light vertices, in the grid's order (vertex_merging.h). */
 typedef struct merge_point merge_point;
@@ -224,7 +233,8 @@ struct vf_vcm {
   vf_hashgrid *grid;
   int vertex_merging_avx512; /* the CPU runs AVX-512 F and VL: vertex merging tests eight candidates at once */
   float *camera_rgb, *light_rgb;
-  thread_stats *stats;
+  thread_stats *stats;     /* one per pool thread, owned */
+  thread_scratch *scratch; /* one per pool thread, owned */
 };
 
 #endif

@@ -127,7 +127,7 @@ void vf_vertex_merging_run_tile(vf_vcm *v, int thread, float *tile_rgb) {
 #ifdef VF_MERGE_PIPELINE
   vf_merge_pipeline_run(v, thread, tile_rgb);
 #else
-  thread_stats *ts = &v->stats[thread];
+  thread_scratch *ts = &v->scratch[thread];
   for (uint32_t i = 0; i < ts->num_queries; i++) {
     const vertex_merging_query *q = &ts->queries[i];
     vf_vec3 contrib = vf_mul(q->throughput, vf_vertex_merging_estimate(v, q));

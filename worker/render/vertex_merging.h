@@ -77,7 +77,7 @@ vf_vec3 vf_vertex_merging_estimate(const vf_vcm *v, const vertex_merging_query *
  * weight of eq. 38-39; zero when the joined path would be longer than the maximum. */
 vf_vec3 vf_vertex_merging_one(const vf_vcm *v, const vertex_merging_query *q, uint32_t k);
 
-/* Runs the thread's queued queries (vf_vcm.stats[thread].queries) and adds each one's
+/* Runs the thread's queued queries (vf_vcm.scratch[thread].queries) and adds each one's
  * estimate times its throughput to its pixel of tile_rgb, in queue order; empties the
  * queue. The fast path where the target has it (merge_pipeline.h), else the reference. */
 void vf_vertex_merging_run_tile(vf_vcm *v, int thread, float *tile_rgb);
