@@ -1,9 +1,7 @@
 /* Phase 3 of an iteration, the camera sub-paths: camera_pass.h. */
 #include "camera_pass.h"
 
-#include "../../common/clock.h"
 #include "../../common/sampler.h"
-#include "light_pass.h"
 #include "vcm_internal.h"
 #include "vertex_merging.h"
 #include "wavefront.h"
@@ -304,7 +302,7 @@ static int camera_bounce(vf_vcm *v, int thread, camera_lane *lane, const vf_hit 
 }
 
 /* Traces the camera sub-paths of the tile's pixels (tile_pixel = row * tw + column). */
-static void trace_camera_tile(vf_vcm *v, int thread, uint32_t x0, uint32_t y0, uint32_t tw, uint32_t pixels) {
+static void trace_camera_sub_paths(vf_vcm *v, int thread, uint32_t x0, uint32_t y0, uint32_t tw, uint32_t pixels) {
   camera_lane lanes[VF_ACCEL_PACKET];
   path_state *states[VF_ACCEL_PACKET];
   /* The next pixel to start: tile_pixel next, at column tx and row ty of the tile (kept
@@ -339,29 +337,18 @@ static void trace_camera_tile(vf_vcm *v, int thread, uint32_t x0, uint32_t y0, u
 #undef START_NEXT_PIXEL
 }
 
-static void camera_task(void *ctx, size_t task, int thread) {
-  vf_vcm *v = ctx;
-  uint32_t width = (uint32_t)v->camera.width, height = (uint32_t)v->camera.height;
-  uint32_t tiles_x = (width + CAMERA_TILE - 1) / CAMERA_TILE;
-  uint32_t x0 = (uint32_t)(task % tiles_x) * CAMERA_TILE, y0 = (uint32_t)(task / tiles_x) * CAMERA_TILE;
-  uint32_t x1 = x0 + CAMERA_TILE < width ? x0 + CAMERA_TILE : width;
-  uint32_t y1 = y0 + CAMERA_TILE < height ? y0 + CAMERA_TILE : height;
-  uint32_t tw = x1 - x0;
+void vf_camera_pass_run_tile(vf_vcm *v, int thread, const camera_tile *tile) {
+  uint32_t width = (uint32_t)v->camera.width, tw = tile->width;
   float tile_rgb[3 * CAMERA_TILE * CAMERA_TILE];
-  memset(tile_rgb, 0, 3 * sizeof(float) * tw * (y1 - y0));
+  memset(tile_rgb, 0, 3 * sizeof(float) * tw * tile->height);
   v->scratch[thread].tile_rgb = tile_rgb;
-  if (v->fused) {
-    double t0 = vf_seconds_now();
-    vf_light_pass_tile(v, thread, (uint32_t)task, x0, y0, tw, tw * (y1 - y0));
-    v->stats[thread].light_seconds += vf_seconds_now() - t0;
-  }
-  if (v->t.camera_paths) trace_camera_tile(v, thread, x0, y0, tw, tw * (y1 - y0));
+  if (v->t.camera_paths) trace_camera_sub_paths(v, thread, tile->x0, tile->y0, tw, tw * tile->height);
   resolve_deferred(v, thread);
   vf_vertex_merging_run_tile(v, thread, tile_rgb);
-  for (uint32_t y = y0; y < y1; y++)
-    for (uint32_t x = x0; x < x1; x++) {
-      const float *c = &tile_rgb[3 * ((y - y0) * tw + (x - x0))];
-      float *out = &v->camera_rgb[3 * ((size_t)y * width + x)];
+  for (uint32_t y = 0; y < tile->height; y++)
+    for (uint32_t x = 0; x < tw; x++) {
+      const float *c = &tile_rgb[3 * (y * tw + x)];
+      float *out = &v->camera_rgb[3 * ((size_t)(tile->y0 + y) * width + tile->x0 + x)];
       if (isfinite(c[0]) && isfinite(c[1]) && isfinite(c[2])) {
         out[0] = c[0];
         out[1] = c[1];
@@ -378,7 +365,19 @@ uint32_t vf_camera_pass_tiles(const vf_vcm *v) {
          (((uint32_t)v->camera.height + CAMERA_TILE - 1) / CAMERA_TILE);
 }
 
-void vf_camera_pass_run(vf_vcm *v) {
-  for (int t = 0; t < vf_pool_threads(v->pool); t++) v->stats[t].light_seconds = 0.0;
-  vf_pool_run(v->pool, vf_camera_pass_tiles(v), camera_task, v);
+camera_tile vf_camera_pass_tile(const vf_vcm *v, uint32_t index) {
+  uint32_t width = (uint32_t)v->camera.width, height = (uint32_t)v->camera.height;
+  uint32_t tiles_x = (width + CAMERA_TILE - 1) / CAMERA_TILE;
+  uint32_t x0 = index % tiles_x * CAMERA_TILE, y0 = index / tiles_x * CAMERA_TILE;
+  uint32_t x1 = x0 + CAMERA_TILE < width ? x0 + CAMERA_TILE : width;
+  uint32_t y1 = y0 + CAMERA_TILE < height ? y0 + CAMERA_TILE : height;
+  return (camera_tile){index, x0, y0, x1 - x0, y1 - y0};
 }
+
+static void camera_task(void *ctx, size_t task, int thread) {
+  vf_vcm *v = ctx;
+  camera_tile tile = vf_camera_pass_tile(v, (uint32_t)task);
+  vf_camera_pass_run_tile(v, thread, &tile);
+}
+
+void vf_camera_pass_run(vf_vcm *v) { vf_pool_run(v->pool, vf_camera_pass_tiles(v), camera_task, v); }

@@ -455,17 +455,17 @@ static void light_task(void *ctx, size_t task, int thread) {
   trace_chunk(v, thread, (uint32_t)task, &v->chunks[task], &cp);
 }
 
-void vf_light_pass_tile(vf_vcm *v, int thread, uint32_t tile, uint32_t x0, uint32_t y0, uint32_t width,
-                        uint32_t pixels) {
+void vf_light_pass_tile(vf_vcm *v, int thread, const camera_tile *tile) {
   thread_scratch *ts = &v->scratch[thread];
-  light_chunk *c = &v->chunks[tile];
+  light_chunk *c = &v->chunks[tile->index];
   /* The thread's lists, lent to the tile: its splats stay in the chunk until the light
    * image is made, its vertices and BSDFs serve only the tile's camera sub-paths. */
   c->vertices = ts->tile_vertices;
   c->bsdfs = ts->tile_bsdfs;
   c->vertex_capacity = ts->tile_capacity;
-  chunk_paths cp = {y0 * (uint32_t)v->camera.width + x0, width, pixels, ts->tile_begin, ts->tile_end};
-  trace_chunk(v, thread, tile, c, &cp);
+  chunk_paths cp = {tile->y0 * (uint32_t)v->camera.width + tile->x0, tile->width, tile->width * tile->height,
+                    ts->tile_begin, ts->tile_end};
+  trace_chunk(v, thread, tile->index, c, &cp);
   ts->tile_vertices = c->vertices;
   ts->tile_bsdfs = c->bsdfs;
   ts->tile_capacity = c->vertex_capacity;

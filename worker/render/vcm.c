@@ -1,11 +1,13 @@
 /* Set-up of the renderer (scene analysis, `auto`, the techniques of each algorithm) and
  * one iteration as its three phases: vcm.h. The phases are light_pass.c, vertex_merging.c
- * (the grid) and camera_pass.c; the MIS scheme that weights their techniques is mis.h. */
+ * (the grid) and camera_pass.c, or for bpt the fused pass of fused_pass.c; the MIS scheme
+ * that weights their techniques is mis.h. */
 #include "vcm.h"
 
 #include "../../common/clock.h"
 #include "../../common/error.h"
 #include "camera_pass.h"
+#include "fused_pass.h"
 #include "light_pass.h"
 #include "merge_pipeline.h"
 #include "surface.h"
@@ -55,12 +57,15 @@ int vf_vcm_iteration(vf_vcm *v, uint64_t iteration, float *camera_rgb, float *li
   v->camera_rgb = camera_rgb;
   v->light_rgb = light_rgb;
   int threads = vf_pool_threads(v->pool);
-  for (int t = 0; t < threads; t++) v->stats[t].rays = v->stats[t].nonfinite = 0;
+  for (int t = 0; t < threads; t++) v->stats[t] = (thread_stats){0};
 
   if (v->fused) {
-    /* bpt: light and camera sub-paths tile by tile (camera_pass.c), then the light image. */
+    /* bpt, which connects but never merges: phases 1 and 3 as one pass over the camera
+     * tiles, each tracing its pixels' light sub-paths just before their camera sub-paths,
+     * which connect to those vertices while they are in cache; no grid needs them all at
+     * once (fused_pass.c). Then the light image. */
     double t0 = vf_seconds_now();
-    vf_camera_pass_run(v);
+    vf_fused_pass_run(v);
     double t1 = vf_seconds_now();
     int err = vf_light_pass_finish(v);
     if (err != VF_OK) return err;

@@ -7,6 +7,8 @@
  *   3. camera_pass.c     camera sub-paths and their techniques, tile by tile, whose vertex
  *                        merging queries vertex_merging.c runs at the end of each tile
  *                        (through the fast path of merge_pipeline.c).
+ * bpt runs 1 and 3 as one pass instead, fused_pass.c: each camera tile traces its own
+ * pixels' light sub-paths, then its camera sub-paths.
  * Both passes trace with wavefront.h. Everything here is read and written by those files
  * only; nothing outside worker/ sees it. */
 #ifndef VF_VCM_INTERNAL_H
@@ -39,6 +41,13 @@
 #define SPLAT_BAND 32u
 /* Camera sub-paths are traced in square tiles of this side (camera_pass.c). */
 #define CAMERA_TILE 32u
+
+/* A camera tile: task `index` of the camera pass (and, in bpt's fused pass, the chunk of
+ * its pixels' light sub-paths), its top-left pixel (x0, y0) and its size, less than
+ * CAMERA_TILE at the image's right and bottom edges. */
+typedef struct {
+  uint32_t index, x0, y0, width, height;
+} camera_tile;
 
 /* A stored light vertex: one cache line. Its BSDF is not stored but set up again from
  * shape, normal and fix when a connection needs it (vf_bsdf_setup is a pure function
@@ -209,7 +218,7 @@ struct vf_vcm {
   uint32_t lane_capacity; /* most vertices a light sub-path stores */
   /* bpt: each camera tile traces its own pixels' light sub-paths first, keeping their
    * vertices' BSDFs, and connects to them while they are in cache; nothing is stored for
-   * the whole iteration (camera_pass.c). The chunks are then the camera tiles. */
+   * the whole iteration (fused_pass.h). The chunks are then the camera tiles. */
   int fused;
   int has_specular, has_glossy, has_diffuse;
   vf_algorithm requested;    /* settings.algorithm as given; settings.algorithm is what runs */
