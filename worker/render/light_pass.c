@@ -198,11 +198,11 @@ static void emission_numbers(vf_sampler *sampler, const vf_light *l, float rnd[4
 }
 
 /* A light sub-path in flight. The light pass traces VF_ACCEL_PACKET of them at once, as a
- * wavefront: each step sends the rays of all lanes to Embree as one packet (8 unrelated
- * rays in one packet are traced ~1.3 times faster than single rays on cornell), then
- * continues each lane's path; a lane whose path ends starts the chunk's next path. A
- * path's vertices are written to its slot of the retire ring, where they wait until every
- * older path of the chunk has been stored. */
+ * wavefront: each step sends the rays of all lanes to Embree as one packet (Embree traces
+ * even unrelated rays faster in packets than one by one: docs/BENCHMARKS.md, "Raw Embree
+ * rate"), then continues each lane's path; a lane whose path ends starts the chunk's next
+ * path. A path's vertices are written to its slot of the retire ring, where they wait
+ * until every older path of the chunk has been stored. */
 typedef struct {
   path_state s;
   vf_sampler sampler;

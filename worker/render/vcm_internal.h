@@ -139,11 +139,11 @@ typedef struct {
 
 /* Shadow rays are not traced one by one where they arise but gathered into packets of
  * VF_ACCEL_PACKET and traced together (vf_accel_occluded_packet): Embree traverses a
- * packet of 8 rays 1.1 to 1.6 times faster per ray than single rays, whether or not they
- * share an origin (docs/BENCHMARKS.md). No
- * path's course depends on a shadow ray's answer, only the contribution it guards, so the
- * contributions wait in a queue until their packet is traced and are then added in the
- * order they arose: films stay bit for bit those of tracing each ray at once. */
+ * packet of 8 rays faster per ray than single rays, whether or not they share an origin
+ * (docs/BENCHMARKS.md, "Raw Embree rate"). No path's course depends on a shadow ray's
+ * answer, only the contribution it guards, so the contributions wait in a queue until
+ * their packet is traced and are then added in the order they arose: films stay bit for
+ * bit those of tracing each ray at once. */
 typedef struct {
   vf_vec3 org[VF_ACCEL_PACKET], dir[VF_ACCEL_PACKET];
   float tfar[VF_ACCEL_PACKET];
@@ -181,8 +181,9 @@ typedef struct {
   int num_pending;
   float *tile_rgb; /* the camera tile being traced, where pending contributions go */
   light_vertex *ring_vertices; /* the light pass's retire ring: RETIRE_RING slots of lane_capacity */
-  /* Room to sort a chunk's splats into, owned: one per thread, not per chunk (3840x2160 has
-   * 8,100 chunks: a second array each was about 0.25 GB; docs/BENCHMARKS.md, "Memory"). */
+  /* Room to sort a chunk's splats into, owned: one per thread, not per chunk (a large
+   * image has thousands of chunks, and a second array each doubled the splats' memory;
+   * docs/BENCHMARKS.md, "Memory"). */
   struct splat *sort_scratch;
   uint32_t sort_capacity;
   uint32_t ring_count[RETIRE_RING]; /* vertices of each slot's path once it has ended, else RING_IN_FLIGHT */
