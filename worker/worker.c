@@ -22,9 +22,10 @@
 #define RESULT_TIMEOUT_MS 60000
 #define BACKOFF_MAX_MS 5000
 #define RESULT_ATTEMPTS 8
-/* Parts are shipped from the render thread, which waits meanwhile (a 1920x1080 part: about
- * 0.4 s of encoding and framing, plus the coordinator's 0.5 s). The wait is kept to about
- * 2% of the rendering by shipping no more often than 50 times the last part's cost. */
+/* Parts are shipped from the render thread, which waits meanwhile: a part is encoded and
+ * framed, then the coordinator takes it in (docs/BENCHMARKS.md, "A coordinator for 1000
+ * workers", has what each costs). Shipping no more often than SHIP_COST_FACTOR times the
+ * last part's cost keeps that wait to one part in SHIP_COST_FACTOR of the rendering. */
 #define SHIP_COST_FACTOR 50.0
 
 typedef struct {

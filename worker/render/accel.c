@@ -103,12 +103,12 @@ int vf_accel_create(const vf_scene *scene, vf_accel **out) {
   vf_scene_bounding_sphere(scene, &center, &a->scale);
   if (!(a->scale > 0.0f)) a->scale = 1.0f; /* a single point or sphere of radius 0: any unit */
   /* Embree's kernels are capped at AVX2 (8-wide packets). Its kernels for each instruction
-   * set find hits that differ in their last bits (AVX-512 against AVX2: films of `cornell`
-   * differ by up to 1e-2 after 2 vcm iterations), and a farm's machines must agree to the
-   * bit: with the cap every x86 machine with AVX2, AVX-512 or not, runs the same kernels.
-   * It is also the faster choice on Intel's server cores, where 512-bit code lowers the
-   * clock of everything around it: on an Ice Lake Xeon, pt and bpt ran 14-38% faster on
-   * `cornell` and the showcase, with Embree's own rate unchanged (docs/BENCHMARKS.md). */
+   * set find hits that differ in their last bits, enough for the films of an AVX-512 and an
+   * AVX2 machine to differ visibly, and a farm's machines must agree to the bit: with the
+   * cap every x86 machine with AVX2, AVX-512 or not, runs the same kernels. It is also the
+   * faster choice on Intel's server cores, where 512-bit code lowers the clock of
+   * everything around it while Embree's own rate stays the same (docs/BENCHMARKS.md,
+   * "Embree's kernels capped at AVX2"). */
   a->device = rtcNewDevice("threads=1,set_affinity=0,max_isa=avx2");
   if (a->device == NULL) {
     vf_accel_destroy(a);
@@ -117,12 +117,11 @@ int vf_accel_create(const vf_scene *scene, vf_accel **out) {
   rtcSetDeviceErrorFunction(a->device, device_error, NULL);
   a->scene = rtcNewScene(a->device);
   if (a->scene == NULL) goto fail;
-  /* Robust mode: watertight edges, or about 1.5e-4 of the rays leaving the inside of a
-   * closed mesh escape between its triangles (tests/worker/render/test_accel.c fails without it).
-   * Low build quality (the Morton builder): with robust mode, measured faster to trace than
-   * medium or high on our scenes (Embree 3.13, bench_embree, one thread: cornell 10.1
-   * against 7.4 Mrays/s, the 115k-triangle knot 5.0 against 4.4), and within 7% either way
-   * of medium on tube meshes of 240k, 600k and 2.4M triangles; the build is cheaper too. */
+  /* Robust mode: watertight edges, or some of the rays leaving the inside of a closed mesh
+   * escape between its triangles (tests/worker/render/test_accel.c fails without it). Low build quality
+   * (the Morton builder): with robust mode, faster to trace than medium or high on our
+   * scenes and as fast as medium on large meshes, and the build is cheaper too
+   * (docs/BENCHMARKS.md, "Raw Embree rate"). */
   rtcSetSceneBuildQuality(a->scene, RTC_BUILD_QUALITY_LOW);
   rtcSetSceneFlags(a->scene, RTC_SCENE_FLAG_ROBUST);
   for (int i = 0; i < scene->num_shapes; i++) {

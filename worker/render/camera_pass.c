@@ -1,9 +1,7 @@
 /* Phase 3 of an iteration, the camera sub-paths: camera_pass.h. */
 #include "camera_pass.h"
 
-#include "../../common/clock.h"
 #include "../../common/sampler.h"
-#include "light_pass.h"
 #include "vcm_internal.h"
 #include "vertex_merging.h"
 #include "wavefront.h"
@@ -49,7 +47,7 @@ static vf_vec3 emission_weighted(const vf_vcm *v, const vf_light *l, const path_
 /* Adds the camera sub-paths' waiting contributions to their pixels, in the order they
  * arose, once the queued shadow rays are traced: those whose ray was blocked are left out. */
 static void resolve_deferred(vf_vcm *v, int thread) {
-  thread_stats *ts = &v->stats[thread];
+  thread_scratch *ts = &v->scratch[thread];
   shadow_packet *pk = &ts->packet;
   int n = pk->n;
   if (n > 0) {
@@ -71,7 +69,7 @@ static void resolve_deferred(vf_vcm *v, int thread) {
  * queue entry, the owner of the shadow ray that guards it (queue_segment or
  * queue_direction, then packet_queued), if any. */
 static int defer(vf_vcm *v, int thread, vf_vec3 value, uint32_t tile_pixel) {
-  thread_stats *ts = &v->stats[thread];
+  thread_scratch *ts = &v->scratch[thread];
   if (ts->num_pending == DEFERRED_MAX) resolve_deferred(v, thread);
   ts->pending[ts->num_pending] = (deferred){value, tile_pixel, 0};
   return ts->num_pending++;
@@ -79,7 +77,7 @@ static int defer(vf_vcm *v, int thread, vf_vec3 value, uint32_t tile_pixel) {
 
 /* After queue_segment or queue_direction for an entry: traces the packet when full. */
 static void packet_queued(vf_vcm *v, int thread) {
-  if (v->stats[thread].packet.n == VF_ACCEL_PACKET) resolve_deferred(v, thread);
+  if (v->scratch[thread].packet.n == VF_ACCEL_PACKET) resolve_deferred(v, thread);
 }
 
 /* s = 1: next-event estimation, added to tile_pixel if the light is visible. */
@@ -107,7 +105,7 @@ static void light_sample(vf_vcm *v, int thread, const vf_hit *hit, const vf_bsdf
   vf_vec3 contrib = vf_scale(vf_mul(radiance, f), w * cos_to_light / (pick * direct_pdf));
   if (vf_is_zero(contrib)) return;
   int entry = defer(v, thread, vf_mul(s->throughput, contrib), tile_pixel);
-  shadow_packet *pk = &v->stats[thread].packet;
+  shadow_packet *pk = &v->scratch[thread].packet;
   if (isinf(dist))
     queue_direction(v, pk, entry, hit->position, hit->normal, dir);
   else
@@ -165,7 +163,7 @@ static void connect_vertices(vf_vcm *v, int thread, const vf_hit *hit, const vf_
   vf_vec3 contrib = vf_scale(vf_mul(vf_mul(fc, fl), lv->throughput), w * cos_camera * cos_light / dist2);
   if (vf_is_zero(contrib)) return;
   int entry = defer(v, thread, vf_mul(s->throughput, contrib), tile_pixel);
-  queue_segment(v, &v->stats[thread].packet, entry, hit->position, hit->normal, lv->position, normal_of_vertex(v, lv, lb));
+  queue_segment(v, &v->scratch[thread].packet, entry, hit->position, hit->normal, lv->position, normal_of_vertex(v, lv, lb));
   packet_queued(v, thread);
 }
 
@@ -173,7 +171,7 @@ static void connect_vertices(vf_vcm *v, int thread, const vf_hit *hit, const vf_
  * the queue cannot grow (the caller then merges at once). The caller writes the query
  * into the slot itself: built elsewhere and copied, its 150 bytes were written twice. */
 static vertex_merging_query *queue_vertex_merging(vf_vcm *v, int thread) {
-  thread_stats *ts = &v->stats[thread];
+  thread_scratch *ts = &v->scratch[thread];
   if (ts->num_queries == ts->query_capacity) {
     uint32_t cap = ts->query_capacity ? 2 * ts->query_capacity : 4096;
     vertex_merging_query *p = realloc(ts->queries, (size_t)cap * sizeof *p);
@@ -271,7 +269,7 @@ static int camera_bounce(vf_vcm *v, int thread, camera_lane *lane, const vf_hit 
       const vf_bsdf *kept = NULL;
       uint32_t first, end;
       if (v->fused) {
-        const thread_stats *ts = &v->stats[thread];
+        const thread_scratch *ts = &v->scratch[thread];
         path = ts->tile_vertices;
         kept = ts->tile_bsdfs;
         first = ts->tile_begin[tile_pixel];
@@ -293,7 +291,7 @@ static int camera_bounce(vf_vcm *v, int thread, camera_lane *lane, const vf_hit 
         *q = (vertex_merging_query){b, hit->position, s->throughput, s->mis, s->path_length, tile_pixel};
       } else {
         vertex_merging_query now = {b, hit->position, s->throughput, s->mis, s->path_length, tile_pixel};
-        defer_unshadowed(v, thread, vf_mul(s->throughput, vf_vertex_merging_now(v, &now)), tile_pixel);
+        defer_unshadowed(v, thread, vf_mul(s->throughput, vf_vertex_merging_estimate(v, &now)), tile_pixel);
       }
       if (v->t.ppm) return 0;
     }
@@ -304,7 +302,7 @@ static int camera_bounce(vf_vcm *v, int thread, camera_lane *lane, const vf_hit 
 }
 
 /* Traces the camera sub-paths of the tile's pixels (tile_pixel = row * tw + column). */
-static void trace_camera_tile(vf_vcm *v, int thread, uint32_t x0, uint32_t y0, uint32_t tw, uint32_t pixels) {
+static void trace_camera_sub_paths(vf_vcm *v, int thread, uint32_t x0, uint32_t y0, uint32_t tw, uint32_t pixels) {
   camera_lane lanes[VF_ACCEL_PACKET];
   path_state *states[VF_ACCEL_PACKET];
   /* The next pixel to start: tile_pixel next, at column tx and row ty of the tile (kept
@@ -339,29 +337,18 @@ static void trace_camera_tile(vf_vcm *v, int thread, uint32_t x0, uint32_t y0, u
 #undef START_NEXT_PIXEL
 }
 
-static void camera_task(void *ctx, size_t task, int thread) {
-  vf_vcm *v = ctx;
-  uint32_t width = (uint32_t)v->camera.width, height = (uint32_t)v->camera.height;
-  uint32_t tiles_x = (width + CAMERA_TILE - 1) / CAMERA_TILE;
-  uint32_t x0 = (uint32_t)(task % tiles_x) * CAMERA_TILE, y0 = (uint32_t)(task / tiles_x) * CAMERA_TILE;
-  uint32_t x1 = x0 + CAMERA_TILE < width ? x0 + CAMERA_TILE : width;
-  uint32_t y1 = y0 + CAMERA_TILE < height ? y0 + CAMERA_TILE : height;
-  uint32_t tw = x1 - x0;
+void vf_camera_pass_run_tile(vf_vcm *v, int thread, const camera_tile *tile) {
+  uint32_t width = (uint32_t)v->camera.width, tw = tile->width;
   float tile_rgb[3 * CAMERA_TILE * CAMERA_TILE];
-  memset(tile_rgb, 0, 3 * sizeof(float) * tw * (y1 - y0));
-  v->stats[thread].tile_rgb = tile_rgb;
-  if (v->fused) {
-    double t0 = vf_seconds_now();
-    vf_light_pass_tile(v, thread, (uint32_t)task, x0, y0, tw, tw * (y1 - y0));
-    v->stats[thread].light_seconds += vf_seconds_now() - t0;
-  }
-  if (v->t.camera_paths) trace_camera_tile(v, thread, x0, y0, tw, tw * (y1 - y0));
+  memset(tile_rgb, 0, 3 * sizeof(float) * tw * tile->height);
+  v->scratch[thread].tile_rgb = tile_rgb;
+  if (v->t.camera_paths) trace_camera_sub_paths(v, thread, tile->x0, tile->y0, tw, tw * tile->height);
   resolve_deferred(v, thread);
   vf_vertex_merging_run_tile(v, thread, tile_rgb);
-  for (uint32_t y = y0; y < y1; y++)
-    for (uint32_t x = x0; x < x1; x++) {
-      const float *c = &tile_rgb[3 * ((y - y0) * tw + (x - x0))];
-      float *out = &v->camera_rgb[3 * ((size_t)y * width + x)];
+  for (uint32_t y = 0; y < tile->height; y++)
+    for (uint32_t x = 0; x < tw; x++) {
+      const float *c = &tile_rgb[3 * (y * tw + x)];
+      float *out = &v->camera_rgb[3 * ((size_t)(tile->y0 + y) * width + tile->x0 + x)];
       if (isfinite(c[0]) && isfinite(c[1]) && isfinite(c[2])) {
         out[0] = c[0];
         out[1] = c[1];
@@ -378,7 +365,19 @@ uint32_t vf_camera_pass_tiles(const vf_vcm *v) {
          (((uint32_t)v->camera.height + CAMERA_TILE - 1) / CAMERA_TILE);
 }
 
-void vf_camera_pass_run(vf_vcm *v) {
-  for (int t = 0; t < vf_pool_threads(v->pool); t++) v->stats[t].light_seconds = 0.0;
-  vf_pool_run(v->pool, vf_camera_pass_tiles(v), camera_task, v);
+camera_tile vf_camera_pass_tile(const vf_vcm *v, uint32_t index) {
+  uint32_t width = (uint32_t)v->camera.width, height = (uint32_t)v->camera.height;
+  uint32_t tiles_x = (width + CAMERA_TILE - 1) / CAMERA_TILE;
+  uint32_t x0 = index % tiles_x * CAMERA_TILE, y0 = index / tiles_x * CAMERA_TILE;
+  uint32_t x1 = x0 + CAMERA_TILE < width ? x0 + CAMERA_TILE : width;
+  uint32_t y1 = y0 + CAMERA_TILE < height ? y0 + CAMERA_TILE : height;
+  return (camera_tile){index, x0, y0, x1 - x0, y1 - y0};
 }
+
+static void camera_task(void *ctx, size_t task, int thread) {
+  vf_vcm *v = ctx;
+  camera_tile tile = vf_camera_pass_tile(v, (uint32_t)task);
+  vf_camera_pass_run_tile(v, thread, &tile);
+}
+
+void vf_camera_pass_run(vf_vcm *v) { vf_pool_run(v->pool, vf_camera_pass_tiles(v), camera_task, v); }

@@ -10,15 +10,22 @@
 #ifndef VF_CAMERA_PASS_H
 #define VF_CAMERA_PASS_H
 
-#include "vcm.h"
+#include "vcm_internal.h"
 
 /* Runs the camera pass of the iteration vf_vcm holds, after vf_light_pass_run and (when
- * vertex merging is on) vf_vertex_merging_build_grid; for bpt's fused pass (vf_vcm.fused)
- * before vf_light_pass_finish, each tile tracing its own light sub-paths first. NaN or Inf
- * pixel estimates are written as 0 and counted. */
+ * vertex merging is on) vf_vertex_merging_build_grid, one task per camera tile. NaN or Inf
+ * pixel estimates are written as 0 and counted. bpt runs its tiles from its fused pass
+ * instead (fused_pass.h). */
 void vf_camera_pass_run(vf_vcm *v);
 
 /* The camera tiles of the image: tasks of the camera pass, and bpt's chunks. */
 uint32_t vf_camera_pass_tiles(const vf_vcm *v);
+
+/* Camera tile `index` (< vf_camera_pass_tiles, row-major over the image). */
+camera_tile vf_camera_pass_tile(const vf_vcm *v, uint32_t index);
+
+/* The camera pass of one tile on `thread`: its pixels' camera sub-paths, their shadow
+ * rays and vertex merging queries, and their estimates written to vf_vcm.camera_rgb. */
+void vf_camera_pass_run_tile(vf_vcm *v, int thread, const camera_tile *tile);
 
 #endif

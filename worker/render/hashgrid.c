@@ -418,8 +418,8 @@ int vf_hashgrid_build_segments(vf_hashgrid *g, const vf_grid_segment *segments, 
   g->lk.count = sum;
   memset(&g->keyed[sum], 0, VF_HASHGRID_POINT_PAD * sizeof *g->keyed);
   /* Phase 3's output is read by no query: its pages go back to the kernel until the next
-   * build (20 bytes per point, 0.3 GB at 3840x2160, while the camera pass, the peak of an
-   * iteration's memory, runs; docs/BENCHMARKS.md, "Memory"). */
+   * build (20 bytes per point, while the camera pass, the peak of an iteration's memory,
+   * runs; docs/BENCHMARKS.md, "Memory"). */
   release_pages(g->scattered, (size_t)n * sizeof *g->scattered);
   release_pages(g->scattered_index, (size_t)n * sizeof *g->scattered_index);
   return VF_OK;

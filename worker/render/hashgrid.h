@@ -69,7 +69,8 @@ int vf_hashgrid_candidates(const vf_hashgrid *grid, vf_vec3 q, vf_index_range ou
  * vf_grid_cells_of computes the buckets of q and prefetches their table entries;
  * vf_grid_ranges_of, called later, reads them. Both read the grid through its lookup
  * view (vf_hashgrid_lookup), and their common case is inline, below: merging calls them
- * for every camera vertex, and as calls into hashgrid.c they took ~4% of vcm's time. */
+ * for every camera vertex, where calls into hashgrid.c took a visible share of vcm's
+ * time. */
 typedef struct {
   uint32_t bucket[VF_HASHGRID_MAX_RANGES];
   int count;

@@ -73,7 +73,7 @@ static int push_splat(light_chunk *c, uint32_t pixel, uint32_t band, vf_vec3 rgb
  * or not finite, are dropped (the check of finiteness comes after the shadow ray's, as for
  * every contribution). */
 static void resolve_splats(vf_vcm *v, int thread, light_chunk *c) {
-  shadow_packet *pk = &v->stats[thread].packet;
+  shadow_packet *pk = &v->scratch[thread].packet;
   int n = pk->n;
   if (n == 0) return;
   uint32_t blocked = trace_packet(v, thread, pk);
@@ -93,7 +93,7 @@ static void resolve_splats(vf_vcm *v, int thread, light_chunk *c) {
 static void splat_if_visible(vf_vcm *v, int thread, light_chunk *c, uint32_t path, uint32_t pixel, uint32_t band,
                              vf_vec3 rgb, vf_vec3 p, vf_vec3 n, vf_vec3 lens) {
   if (!push_splat(c, pixel, band, rgb, path)) return;
-  shadow_packet *pk = &v->stats[thread].packet;
+  shadow_packet *pk = &v->scratch[thread].packet;
   queue_segment(v, pk, (int)(c->num_splats - 1), p, n, lens, vf_vec3_splat(0.0f));
   if (pk->n == VF_ACCEL_PACKET) resolve_splats(v, thread, c);
 }
@@ -198,11 +198,11 @@ static void emission_numbers(vf_sampler *sampler, const vf_light *l, float rnd[4
 }
 
 /* A light sub-path in flight. The light pass traces VF_ACCEL_PACKET of them at once, as a
- * wavefront: each step sends the rays of all lanes to Embree as one packet (8 unrelated
- * rays in one packet are traced ~1.3 times faster than single rays on cornell), then
- * continues each lane's path; a lane whose path ends starts the chunk's next path. A
- * path's vertices are written to its slot of the retire ring, where they wait until every
- * older path of the chunk has been stored. */
+ * wavefront: each step sends the rays of all lanes to Embree as one packet (Embree traces
+ * even unrelated rays faster in packets than one by one: docs/BENCHMARKS.md, "Raw Embree
+ * rate"), then continues each lane's path; a lane whose path ends starts the chunk's next
+ * path. A path's vertices are written to its slot of the retire ring, where they wait
+ * until every older path of the chunk has been stored. */
 typedef struct {
   path_state s;
   vf_sampler sampler;
@@ -321,7 +321,7 @@ static size_t ring_slot(const vf_vcm *v, uint32_t local) { return (size_t)(local
  * pass that would sort it afterwards. Numbers here are the chunk's (chunk_paths). */
 static void light_retire(vf_vcm *v, int thread, light_chunk *c, const chunk_paths *cp, const light_lane *lane,
                          uint32_t *oldest, uint32_t next) {
-  thread_stats *ts = &v->stats[thread];
+  thread_scratch *ts = &v->scratch[thread];
   ts->ring_count[lane->local % RETIRE_RING] = lane->num_vertices;
   while (*oldest < next && ts->ring_count[*oldest % RETIRE_RING] != RING_IN_FLIGHT) {
     uint32_t p = (*oldest)++, n = ts->ring_count[p % RETIRE_RING];
@@ -339,7 +339,7 @@ static void light_retire(vf_vcm *v, int thread, light_chunk *c, const chunk_path
  * after the next step. */
 static int light_refill(vf_vcm *v, int thread, light_chunk *c, const chunk_paths *cp, light_lane *lane,
                         uint32_t *next, uint32_t *oldest) {
-  thread_stats *ts = &v->stats[thread];
+  thread_scratch *ts = &v->scratch[thread];
   while (*next < cp->count && *next - *oldest < RETIRE_RING) {
     uint32_t local = (*next)++;
     size_t slot = ring_slot(v, local);
@@ -359,7 +359,7 @@ static int light_refill(vf_vcm *v, int thread, light_chunk *c, const chunk_paths
  * splats[band_start[b] .. band_start[b + 1]), band_start being the chunk's row of
  * vf_vcm.band_start. */
 static void sort_splats(const vf_vcm *v, int thread, light_chunk *c, uint32_t chunk, uint32_t paths) {
-  thread_stats *ts = &v->stats[thread];
+  thread_scratch *ts = &v->scratch[thread];
   if (ts->sort_capacity < c->num_splats) {
     splat *p = realloc(ts->sort_scratch, (size_t)c->splat_capacity * sizeof *p);
     if (p == NULL) {
@@ -455,17 +455,17 @@ static void light_task(void *ctx, size_t task, int thread) {
   trace_chunk(v, thread, (uint32_t)task, &v->chunks[task], &cp);
 }
 
-void vf_light_pass_tile(vf_vcm *v, int thread, uint32_t tile, uint32_t x0, uint32_t y0, uint32_t width,
-                        uint32_t pixels) {
-  thread_stats *ts = &v->stats[thread];
-  light_chunk *c = &v->chunks[tile];
+void vf_light_pass_tile(vf_vcm *v, int thread, const camera_tile *tile) {
+  thread_scratch *ts = &v->scratch[thread];
+  light_chunk *c = &v->chunks[tile->index];
   /* The thread's lists, lent to the tile: its splats stay in the chunk until the light
    * image is made, its vertices and BSDFs serve only the tile's camera sub-paths. */
   c->vertices = ts->tile_vertices;
   c->bsdfs = ts->tile_bsdfs;
   c->vertex_capacity = ts->tile_capacity;
-  chunk_paths cp = {y0 * (uint32_t)v->camera.width + x0, width, pixels, ts->tile_begin, ts->tile_end};
-  trace_chunk(v, thread, tile, c, &cp);
+  chunk_paths cp = {tile->y0 * (uint32_t)v->camera.width + tile->x0, tile->width, tile->width * tile->height,
+                    ts->tile_begin, ts->tile_end};
+  trace_chunk(v, thread, tile->index, c, &cp);
   ts->tile_vertices = c->vertices;
   ts->tile_bsdfs = c->bsdfs;
   ts->tile_capacity = c->vertex_capacity;

@@ -8,18 +8,17 @@
 #ifndef VF_LIGHT_PASS_H
 #define VF_LIGHT_PASS_H
 
-#include "vcm.h"
+#include "vcm_internal.h"
 
 /* Runs the light pass of the iteration vf_vcm holds (setup_iteration in vcm.c). Returns
  * VF_OK, or VF_ENOMEM when the vertices did not fit in memory or in the grid's names. */
 int vf_light_pass_run(vf_vcm *v);
 
-/* bpt's fused pass (vf_vcm.fused): traces the light sub-paths of camera tile `tile` (top
- * left pixel x0, y0; `width` columns, `pixels` in all) on `thread`, their vertices and BSDFs
- * into the thread's tile lists (thread_stats.tile_*), path `local` of the tile (row-major)
- * at tile_begin[local] .. tile_end[local], their splats into the tile's chunk. */
-void vf_light_pass_tile(vf_vcm *v, int thread, uint32_t tile, uint32_t x0, uint32_t y0, uint32_t width,
-                        uint32_t pixels);
+/* bpt's fused pass (fused_pass.h): traces the light sub-paths of the camera tile's pixels on
+ * `thread`, their vertices and BSDFs into the thread's tile lists (thread_scratch.tile_*),
+ * path `local` of the tile (row-major) at tile_begin[local] .. tile_end[local], their splats
+ * into the tile's chunk. */
+void vf_light_pass_tile(vf_vcm *v, int thread, const camera_tile *tile);
 
 /* After the chunks are traced (vf_light_pass_run does both): checks them, counts the
  * vertices and writes the light image. */

@@ -37,7 +37,7 @@ static inline vf_vec3 vf_sample_uniform_sphere(float u1, float u2) {
 
 /* cos_a^n for the Phong lobe, evaluated about five times per vertex. Exponents are
  * integers in practice (our scenes: 40 to 5000); those are taken by repeated squaring, a
- * few multiplications where powf is a libm call (about 1% of vcm's time on cornell), and
+ * few multiplications where powf is a libm call that showed in vcm's profile, and
  * within (log2 n + popcount n) float roundings of the exact power: 2e-6 relative at most
  * for n = 5000. Other exponents go to powf. */
 static inline float vf_phong_power(float cos_a, float n) {

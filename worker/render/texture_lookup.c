@@ -106,8 +106,8 @@ static const float srgb_table[256] = {
  * channel beyond the table choice ---- */
 
 /* floorf(x) for finite x, as a truncation and a correction: the build targets baseline
- * x86-64, without SSE4.1's roundss, and GCC's own sequence for floorf there is longer
- * (callgrind: a showcase lookup 222 instructions with it, 182 with this). Floats of
+ * x86-64, without SSE4.1's roundss, and GCC's own sequence for floorf there is longer, four
+ * times a lookup (docs/BENCHMARKS.md, "The renderer's own rays replayed"). Floats of
  * magnitude 2^23 or more are integers already. The one difference, +0 for -0, changes no
  * coordinate or weight below. */
 static inline float floor_finite(float x) {

@@ -1,12 +1,15 @@
 /* Set-up of the renderer (scene analysis, `auto`, the techniques of each algorithm) and
  * one iteration as its three phases: vcm.h. The phases are light_pass.c, vertex_merging.c
- * (the grid) and camera_pass.c; the MIS scheme that weights their techniques is mis.h. */
+ * (the grid) and camera_pass.c, or for bpt the fused pass of fused_pass.c; the MIS scheme
+ * that weights their techniques is mis.h. */
 #include "vcm.h"
 
 #include "../../common/clock.h"
 #include "../../common/error.h"
 #include "camera_pass.h"
+#include "fused_pass.h"
 #include "light_pass.h"
+#include "merge_pipeline.h"
 #include "surface.h"
 #include "vcm_internal.h"
 #include "vertex_merging.h"
@@ -54,12 +57,15 @@ int vf_vcm_iteration(vf_vcm *v, uint64_t iteration, float *camera_rgb, float *li
   v->camera_rgb = camera_rgb;
   v->light_rgb = light_rgb;
   int threads = vf_pool_threads(v->pool);
-  for (int t = 0; t < threads; t++) v->stats[t].rays = v->stats[t].nonfinite = 0;
+  for (int t = 0; t < threads; t++) v->stats[t] = (thread_stats){0};
 
   if (v->fused) {
-    /* bpt: light and camera sub-paths tile by tile (camera_pass.c), then the light image. */
+    /* bpt, which connects but never merges: phases 1 and 3 as one pass over the camera
+     * tiles, each tracing its pixels' light sub-paths just before their camera sub-paths,
+     * which connect to those vertices while they are in cache; no grid needs them all at
+     * once (fused_pass.c). Then the light image. */
     double t0 = vf_seconds_now();
-    vf_camera_pass_run(v);
+    vf_fused_pass_run(v);
     double t1 = vf_seconds_now();
     int err = vf_light_pass_finish(v);
     if (err != VF_OK) return err;
@@ -185,7 +191,7 @@ vf_algorithm vf_vcm_algorithm(const vf_vcm *v) { return v->settings.algorithm; }
 void vf_vcm_limit_simd(vf_vcm *v) { v->vertex_merging_avx512 = 0; }
 
 const char *vf_vcm_merge_simd(const vf_vcm *v) {
-#ifdef __SSE2__
+#ifdef VF_MERGE_PIPELINE
   return v->vertex_merging_avx512 ? "AVX-512" : "SSE2";
 #else
   return "scalar";
@@ -277,20 +283,22 @@ int vf_vcm_create(const vf_scene *scene, const vf_accel *accel, const vf_setting
   v->band_pixels = SPLAT_BAND * (uint32_t)v->camera.width;
   v->num_bands = (v->num_pixels + v->band_pixels - 1) / v->band_pixels;
   v->band_start = calloc((size_t)v->num_chunks * (v->num_bands + 1), sizeof *v->band_start);
-  if (!v->fused) { /* the fused pass keeps each tile's ranges in thread_stats */
+  if (!v->fused) { /* the fused pass keeps each tile's ranges in thread_scratch */
     v->path_begin = calloc(v->num_pixels, sizeof(uint32_t));
     v->path_end = calloc(v->num_pixels, sizeof(uint32_t));
   }
   v->segments = calloc(v->num_chunks, sizeof *v->segments);
-  v->stats = aligned_alloc(64, (size_t)vf_pool_threads(pool) * sizeof *v->stats);
-  if (v->stats != NULL) memset(v->stats, 0, (size_t)vf_pool_threads(pool) * sizeof *v->stats);
+  size_t threads = (size_t)vf_pool_threads(pool);
+  v->stats = aligned_alloc(64, threads * sizeof *v->stats);
+  if (v->stats != NULL) memset(v->stats, 0, threads * sizeof *v->stats);
+  v->scratch = aligned_alloc(64, threads * sizeof *v->scratch);
+  if (v->scratch != NULL) memset(v->scratch, 0, threads * sizeof *v->scratch);
   v->lobes = calloc(scene->num_materials > 0 ? (size_t)scene->num_materials : 1, sizeof *v->lobes);
   size_t shapes = scene->num_shapes > 0 ? (size_t)scene->num_shapes : 1;
   v->interpolated = calloc(shapes, sizeof *v->interpolated);
   v->shape_continuation = calloc(shapes, sizeof *v->shape_continuation);
   if (!v->chunks || !v->band_start || (!v->fused && (!v->path_begin || !v->path_end)) || !v->segments || !v->stats ||
-      !v->lobes ||
-      !v->interpolated || !v->shape_continuation)
+      !v->scratch || !v->lobes || !v->interpolated || !v->shape_continuation)
     goto fail;
   for (int m = 0; m < scene->num_materials; m++) vf_bsdf_lobes_of(&scene->materials[m], &v->lobes[m]);
   for (int i = 0; i < scene->num_shapes; i++) {
@@ -299,14 +307,14 @@ int vf_vcm_create(const vf_scene *scene, const vf_accel *accel, const vf_setting
   }
   v->lane_capacity = settings->max_path_length > 1 ? (uint32_t)settings->max_path_length : 1u;
   for (int t = 0; t < vf_pool_threads(pool); t++) {
-    v->stats[t].ring_vertices = aligned_alloc(64, (size_t)RETIRE_RING * v->lane_capacity * sizeof(light_vertex));
-    if (v->stats[t].ring_vertices == NULL) goto fail;
-    if (v->fused && (v->stats[t].ring_bsdfs = malloc((size_t)RETIRE_RING * v->lane_capacity * sizeof(vf_bsdf))) == NULL)
+    v->scratch[t].ring_vertices = aligned_alloc(64, (size_t)RETIRE_RING * v->lane_capacity * sizeof(light_vertex));
+    if (v->scratch[t].ring_vertices == NULL) goto fail;
+    if (v->fused && (v->scratch[t].ring_bsdfs = malloc((size_t)RETIRE_RING * v->lane_capacity * sizeof(vf_bsdf))) == NULL)
       goto fail;
-    for (uint32_t i = 0; i < RETIRE_RING; i++) v->stats[t].ring_count[i] = RING_IN_FLIGHT;
+    for (uint32_t i = 0; i < RETIRE_RING; i++) v->scratch[t].ring_count[i] = RING_IN_FLIGHT;
   }
   if (v->t.vertex_merging && (err = vf_hashgrid_create(&v->grid)) != VF_OK) goto fail;
-  v->vertex_merging_avx512 = vf_vertex_merging_detect_avx512();
+  v->vertex_merging_avx512 = vf_merge_pipeline_detect_avx512();
   *out = v;
   return VF_OK;
 fail:
@@ -314,7 +322,7 @@ fail:
   return err;
 }
 
-static void free_tile_lists(thread_stats *ts) {
+static void free_tile_lists(thread_scratch *ts) {
   free(ts->tile_vertices);
   free(ts->tile_bsdfs);
   ts->tile_vertices = NULL;
@@ -335,8 +343,8 @@ void vf_vcm_trim(vf_vcm *v) {
       ch->splats = NULL;
       ch->num_vertices = ch->vertex_capacity = ch->num_splats = ch->splat_capacity = 0;
     }
-  if (v->stats)
-    for (int t = 0; t < vf_pool_threads(v->pool); t++) free_tile_lists(&v->stats[t]);
+  if (v->scratch)
+    for (int t = 0; t < vf_pool_threads(v->pool); t++) free_tile_lists(&v->scratch[t]);
   v->num_vertices = 0;
   free(v->photons);
   v->photons = NULL;
@@ -364,14 +372,15 @@ void vf_vcm_destroy(vf_vcm *v) {
   free(v->photons);
   free(v->path_begin);
   free(v->path_end);
-  if (v->stats)
+  if (v->scratch)
     for (int t = 0; t < vf_pool_threads(v->pool); t++) {
-      free(v->stats[t].queries);
-      free(v->stats[t].ring_vertices);
-      free(v->stats[t].ring_bsdfs);
-      free_tile_lists(&v->stats[t]);
-      free(v->stats[t].sort_scratch);
+      free(v->scratch[t].queries);
+      free(v->scratch[t].ring_vertices);
+      free(v->scratch[t].ring_bsdfs);
+      free_tile_lists(&v->scratch[t]);
+      free(v->scratch[t].sort_scratch);
     }
+  free(v->scratch);
   free(v->stats);
   free(v->lobes);
   free(v->interpolated);

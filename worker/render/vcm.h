@@ -10,7 +10,8 @@
  * Each technique is weighted by the recursive MIS scheme of worker/render/mis.h. The algorithms
  * bpt, pt, lt, ppm and bpm are this same iteration with techniques switched off. bpt,
  * which needs no grid, runs 1 and 3 tile by tile: each camera tile first traces its own
- * pixels' light sub-paths and keeps their BSDFs for its connections (camera_pass.c).
+ * pixels' light sub-paths and keeps their BSDFs for its connections (its fused pass,
+ * worker/render/fused_pass.c).
  * The phases are files of their own: 1. worker/render/light_pass.c, 2. worker/render/vertex_merging.c
  * (over worker/render/hashgrid.c), 3. worker/render/camera_pass.c, whose vertex merging queries
  * vertex_merging.c runs; both passes trace with worker/render/wavefront.c and share the state of

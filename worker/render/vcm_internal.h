@@ -5,7 +5,10 @@
  *   1. light_pass.c      light sub-paths, their stored vertices, light tracing to the camera;
  *   2. vertex_merging.c  the range-search grid over those vertices (hashgrid.c);
  *   3. camera_pass.c     camera sub-paths and their techniques, tile by tile, whose vertex
- *                        merging queries vertex_merging.c runs at the end of each tile.
+ *                        merging queries vertex_merging.c runs at the end of each tile
+ *                        (through the fast path of merge_pipeline.c).
+ * bpt runs 1 and 3 as one pass instead, fused_pass.c: each camera tile traces its own
+ * pixels' light sub-paths, then its camera sub-paths.
  * Both passes trace with wavefront.h. Everything here is read and written by those files
  * only; nothing outside worker/ sees it. */
 #ifndef VF_VCM_INTERNAL_H
@@ -32,12 +35,19 @@
 /* Light sub-paths end out of order but are stored in path order (light_retire): a path
  * that ends before an older one waits in a ring of this many slots, one per path. */
 #define RETIRE_RING 256u
-#define RING_IN_FLIGHT UINT32_MAX /* thread_stats.ring_count of a slot whose path has not ended */
+#define RING_IN_FLIGHT UINT32_MAX /* thread_scratch.ring_count of a slot whose path has not ended */
 /* The light pass's splats are added to the image in bands of this many rows, one band per
  * task. */
 #define SPLAT_BAND 32u
 /* Camera sub-paths are traced in square tiles of this side (camera_pass.c). */
 #define CAMERA_TILE 32u
+
+/* A camera tile: task `index` of the camera pass (and, in bpt's fused pass, the chunk of
+ * its pixels' light sub-paths), its top-left pixel (x0, y0) and its size, less than
+ * CAMERA_TILE at the image's right and bottom edges. */
+typedef struct {
+  uint32_t index, x0, y0, width, height;
+} camera_tile;
 
 /* A stored light vertex: one cache line. Its BSDF is not stored but set up again from
  * shape, normal and fix when a connection needs it (vf_bsdf_setup is a pure function
@@ -116,7 +126,8 @@ typedef struct {
 
 /* A camera vertex waiting for vertex merging: it is deferred to the end of each camera
  * tile, where the queries of the whole tile run as a software pipeline that keeps several
- * grid lookups in flight (vertex_merging.c). */
+ * grid lookups in flight (merge_pipeline.c; the reference, one query at a time, is
+ * vertex_merging.c's). */
 typedef struct {
   vf_bsdf bsdf;
   vf_vec3 position;
@@ -128,11 +139,11 @@ typedef struct {
 
 /* Shadow rays are not traced one by one where they arise but gathered into packets of
  * VF_ACCEL_PACKET and traced together (vf_accel_occluded_packet): Embree traverses a
- * packet of 8 rays 1.1 to 1.6 times faster per ray than single rays, whether or not they
- * share an origin (docs/BENCHMARKS.md). No
- * path's course depends on a shadow ray's answer, only the contribution it guards, so the
- * contributions wait in a queue until their packet is traced and are then added in the
- * order they arose: films stay bit for bit those of tracing each ray at once. */
+ * packet of 8 rays faster per ray than single rays, whether or not they share an origin
+ * (docs/BENCHMARKS.md, "Raw Embree rate"). No path's course depends on a shadow ray's
+ * answer, only the contribution it guards, so the contributions wait in a queue until
+ * their packet is traced and are then added in the order they arose: films stay bit for
+ * bit those of tracing each ray at once. */
 typedef struct {
   vf_vec3 org[VF_ACCEL_PACKET], dir[VF_ACCEL_PACKET];
   float tfar[VF_ACCEL_PACKET];
@@ -149,20 +160,30 @@ typedef struct {
   int blocked;
 } deferred;
 
-/* One thread's state: aligned to the cache line (and allocated so), so that no line holds
+/* One thread's counts of the iteration, which vf_vcm_iteration adds up into its
+ * vf_vcm_stats. Aligned to the cache line (and allocated so), so that no line holds two
+ * threads' counters. */
+typedef struct {
+  _Alignas(64) uint64_t rays; /* closest-hit and occlusion queries */
+  uint64_t nonfinite;         /* NaN or Inf estimates refused */
+  double light_seconds;       /* bpt's fused pass: wall time in the tiles' light sub-paths */
+} thread_stats;
+
+/* One thread's working memory: the queues and buffers its tasks of both passes work in,
+ * kept from task to task and from iteration to iteration so that nothing is allocated per
+ * path or per vertex. Aligned to the cache line (and allocated so), so that no line holds
  * two threads' fields. */
 typedef struct {
-  _Alignas(64) uint64_t rays, nonfinite;
-  double light_seconds; /* bpt's fused pass: wall time in the tiles' light sub-paths */
-  vertex_merging_query *queries; /* this thread's pending vertex merging queries, owned */
+  _Alignas(64) vertex_merging_query *queries; /* this thread's pending vertex merging queries, owned */
   uint32_t num_queries, query_capacity;
   shadow_packet packet;
   deferred pending[DEFERRED_MAX];
   int num_pending;
   float *tile_rgb; /* the camera tile being traced, where pending contributions go */
   light_vertex *ring_vertices; /* the light pass's retire ring: RETIRE_RING slots of lane_capacity */
-  /* Room to sort a chunk's splats into, owned: one per thread, not per chunk (3840x2160 has
-   * 8,100 chunks: a second array each was about 0.25 GB; docs/BENCHMARKS.md, "Memory"). */
+  /* Room to sort a chunk's splats into, owned: one per thread, not per chunk (a large
+   * image has thousands of chunks, and a second array each doubled the splats' memory;
+   * docs/BENCHMARKS.md, "Memory"). */
   struct splat *sort_scratch;
   uint32_t sort_capacity;
   uint32_t ring_count[RETIRE_RING]; /* vertices of each slot's path once it has ended, else RING_IN_FLIGHT */
@@ -174,9 +195,9 @@ typedef struct {
   vf_bsdf *tile_bsdfs;
   uint32_t tile_capacity;
   uint32_t tile_begin[CAMERA_TILE * CAMERA_TILE], tile_end[CAMERA_TILE * CAMERA_TILE];
-} thread_stats;
+} thread_scratch;
 
-/* What vertex merging reads of the light vertices, in the grid's order (vertex_merging.c). */
+/* What vertex merging reads of the light vertices, in the grid's order (vertex_merging.h). */
 typedef struct merge_point merge_point;
 typedef struct photon photon;
 
@@ -198,7 +219,7 @@ struct vf_vcm {
   uint32_t lane_capacity; /* most vertices a light sub-path stores */
   /* bpt: each camera tile traces its own pixels' light sub-paths first, keeping their
    * vertices' BSDFs, and connects to them while they are in cache; nothing is stored for
-   * the whole iteration (camera_pass.c). The chunks are then the camera tiles. */
+   * the whole iteration (fused_pass.h). The chunks are then the camera tiles. */
   int fused;
   int has_specular, has_glossy, has_diffuse;
   vf_algorithm requested;    /* settings.algorithm as given; settings.algorithm is what runs */
@@ -222,7 +243,8 @@ struct vf_vcm {
   vf_hashgrid *grid;
   int vertex_merging_avx512; /* the CPU runs AVX-512 F and VL: vertex merging tests eight candidates at once */
   float *camera_rgb, *light_rgb;
-  thread_stats *stats;
+  thread_stats *stats;     /* one per pool thread, owned */
+  thread_scratch *scratch; /* one per pool thread, owned */
 };
 
 #endif

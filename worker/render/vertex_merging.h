@@ -1,11 +1,20 @@
 /* Vertex merging: each camera vertex merged with every light vertex within the radius r_k
  * of the iteration, found by a range search over the hashed grid of hashgrid.c, and
- * weighted by eq. 38-39 of the tech. rep. (mis.h). Not to be confused with merging films (vf_film_merge) or the `merge`
- * command: here it is always light vertices into camera vertices.
+ * weighted by eq. 38-39 of the tech. rep. (mis.h). Not to be confused with merging films
+ * (vf_film_merge) or the `merge` command: here it is always light vertices into camera
+ * vertices.
  *
- * Phase 2 of an iteration builds the grid (vf_vertex_merging_build_grid); phase 3, the
- * camera pass, queues a vertex_merging_query (vcm_internal.h) at each camera vertex that
- * merges and runs a tile's queries at the end of the tile (vf_vertex_merging_run_tile).
+ * Phase 2 of an iteration builds the grid and copies what merging reads of the light
+ * vertices into the grid's order (vf_vertex_merging_build_grid); phase 3, the camera pass,
+ * queues a vertex_merging_query (vcm_internal.h) at each camera vertex that merges and runs
+ * a tile's queries at the end of the tile (vf_vertex_merging_run_tile).
+ *
+ * A query has two implementations, which give the same bits (tests/worker/render/test_vertex_merging.c):
+ *   vertex_merging.c  the reference, SmallVCM's range query: for each cell of the query's
+ *                     neighbourhood, for each light vertex in it, the distance test and
+ *                     the merge (vf_vertex_merging_estimate, vf_vertex_merging_one);
+ *   merge_pipeline.c  the fast path the renderer runs: a tile's queries as a software
+ *                     pipeline whose candidate tests are SIMD (merge_pipeline.h).
  * Private to the renderer. */
 #ifndef VF_VERTEX_MERGING_H
 #define VF_VERTEX_MERGING_H
@@ -13,9 +22,42 @@
 #include "../../common/vec3.h"
 #include "vcm_internal.h"
 
+#include <stddef.h>
+#include <stdint.h>
+
+/* What vertex merging reads of the light vertices, in the grid's order (index k of the
+ * grid's sorted points), in two arrays: the distance and path-length tests of a query's
+ * candidates read only merge_point (16 bytes, four to a line), and only the candidates that
+ * pass read their photon (32 bytes, aligned: one line). A query is bound by the lines it
+ * misses, not by its arithmetic.
+ *
+ * The merge points are the grid's own sorted points (vf_hashgrid_points_writable), whose
+ * positions are there already: the gather writes each light vertex's path length and shape
+ * over its grid index, once it has read the index, so that the positions cost no second
+ * array at the peak of an iteration's memory. */
+struct merge_point {
+  float x, y, z;
+  uint32_t path_length_shape; /* as in light_vertex */
+};
+_Static_assert(sizeof(merge_point) == 16, "the SIMD candidate tests read a merge point as four floats");
+_Static_assert(sizeof(merge_point) == sizeof(vf_grid_point) && offsetof(merge_point, x) == offsetof(vf_grid_point, x) &&
+                   offsetof(merge_point, path_length_shape) == offsetof(vf_grid_point, index),
+               "a merge point is a grid point whose index became the path length");
+/* The fast path's candidate tests read up to this many points past the last. */
+#define MERGE_POINT_PAD 7u
+_Static_assert(MERGE_POINT_PAD <= VF_HASHGRID_POINT_PAD, "the grid pads its points for the candidate tests");
+
+struct photon {
+  vf_vec3 throughput;
+  vf_vec3 direction; /* world, towards the previous light vertex */
+  float d_vcm, d_vm;
+};
+_Static_assert(sizeof(photon) == 32, "two photons to a cache line");
+
 /* Phase 2: the range-search grid over every chunk's light vertices where they are, and
- * what vertex merging reads of them copied into the grid's order. Only when vertex merging
- * is on and there are light vertices. Returns VF_OK, VF_ENOMEM, or the grid's error. */
+ * what vertex merging reads of them copied into the grid's order (vf_vcm.merge_points,
+ * vf_vcm.photons). Only when vertex merging is on and there are light vertices. Returns
+ * VF_OK, VF_ENOMEM, or the grid's error. */
 int vf_vertex_merging_build_grid(vf_vcm *v);
 
 /* After the camera pass: gives the pages of the copies made for it back to the kernel
@@ -23,16 +65,21 @@ int vf_vertex_merging_build_grid(vf_vcm *v);
  * them too (48 bytes per light vertex, the peak of an iteration's memory otherwise). */
 void vf_vertex_merging_release(vf_vcm *v);
 
-/* Runs the thread's queued queries (vf_vcm.stats[thread].queries) and adds each one's
- * estimate to its pixel of tile_rgb, in queue order; empties the queue. */
+/* The reference. The vertex merging estimate of camera vertex q, not yet scaled by its
+ * throughput: the sum over the light vertices within the radius of vf_vertex_merging_one,
+ * in the grid's order, times the normalisation 1 / (pi r^2 n_light). Used as it is for a
+ * query that could not be queued, for a query with more hits than the fast path keeps,
+ * and on targets without the fast path. */
+vf_vec3 vf_vertex_merging_estimate(const vf_vcm *v, const vertex_merging_query *q);
+
+/* Merges camera vertex q with light vertex k (an index into the grid's order), which lies
+ * within the radius: the light vertex's throughput times the camera BSDF, with the MIS
+ * weight of eq. 38-39; zero when the joined path would be longer than the maximum. */
+vf_vec3 vf_vertex_merging_one(const vf_vcm *v, const vertex_merging_query *q, uint32_t k);
+
+/* Runs the thread's queued queries (vf_vcm.scratch[thread].queries) and adds each one's
+ * estimate times its throughput to its pixel of tile_rgb, in queue order; empties the
+ * queue. The fast path where the target has it (merge_pipeline.h), else the reference. */
 void vf_vertex_merging_run_tile(vf_vcm *v, int thread, float *tile_rgb);
-
-/* The vertex merging estimate of one query at once, not yet scaled by its throughput: for
- * a query that could not be queued. */
-vf_vec3 vf_vertex_merging_now(const vf_vcm *v, const vertex_merging_query *q);
-
-/* Whether this CPU and build test candidates with AVX-512 (F and VL), for
- * vf_vcm.vertex_merging_avx512; else SSE2 (or one at a time without it). */
-int vf_vertex_merging_detect_avx512(void);
 
 #endif

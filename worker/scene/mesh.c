@@ -75,8 +75,8 @@ static int check_values(const parse_ctx *c, const char *what, const struct aiSce
 /* Whether to join the file's identical vertices. Assimp's OBJ and STL importers give every
  * corner of a face a vertex of its own, so joining shrinks their arrays several times.
  * Indexed formats (glTF, PLY) share their vertices already, and there the join would cost
- * more than the rest of the load (3 of 4.6 s and 330 MB for the 1.2 M triangles of the
- * showcase) to merge the few duplicates an exporter leaves; it runs for such a file only
+ * more time and memory than the rest of the load (docs/BENCHMARKS.md, "Loading the
+ * showcase") to merge the few duplicates an exporter leaves; it runs for such a file only
  * when one of its meshes has no indices (every vertex serves one corner). */
 static int join_vertices(const char *name, const struct aiScene *ai) {
   size_t n = strlen(name);
