@@ -185,8 +185,7 @@ int vf_cmd_submit(int argc, char **argv) {
   int err = VF_OK, c;
   vf_cli_settings_init(&overrides);
   optind = 0; /* 0: getopt starts again from scratch (glibc), forgetting the last argv */
-  opterr = 0;
-  while ((c = getopt_long(argc, argv, VF_CLI_STOP_SHORT VF_CLI_SETTINGS_SHORT "P:N:c:k:wo:p:e:h", options, NULL)) !=
+  while ((c = vf_cli_getopt(argc, argv, VF_CLI_STOP_SHORT VF_CLI_SETTINGS_SHORT "P:N:c:k:wo:p:e:h", options)) !=
          -1) {
     if (connection_option(&conn, c, &err) || vf_cli_settings_option(&overrides, c, optarg, &err) ||
         vf_cli_stop_option(&stop, c, optarg, &err)) {
@@ -203,14 +202,11 @@ int vf_cmd_submit(int argc, char **argv) {
     case 'p': preview = optarg; break;
     case 'e': err = vf_cli_double("--exposure", optarg, -64.0, 64.0, &exposure); break;
     case 'h': fputs(submit_usage, stdout); return VF_EXIT_OK;
-    default: return vf_cli_bad_option(cmd, argv, submit_usage);
+    default: return vf_cli_bad_option(cmd);
     }
     if (err != VF_OK) return vf_cli_fail(cmd, err);
   }
-  if (optind != argc - 1) {
-    fprintf(stderr, "vcmfarm submit: expected exactly one SCENE\n%s", submit_usage);
-    return VF_EXIT_BAD_INPUT;
-  }
+  if (optind != argc - 1) return vf_cli_usage_error("submit", "expected exactly one SCENE");
   /* A farm job stops at the first of its conditions to hold: iterations and time together too. */
   if ((err = vf_cli_stop_check(&stop, 0)) != VF_OK) return vf_cli_fail(cmd, err);
   if ((output || preview) && !wait)
@@ -275,22 +271,20 @@ int vf_cmd_status(int argc, char **argv) {
   connection conn = {NULL, NULL, 10.0};
   int json = 0, err = VF_OK, c;
   optind = 0; /* 0: getopt starts again from scratch (glibc), forgetting the last argv */
-  opterr = 0;
-  while ((c = getopt_long(argc, argv, "Jc:k:h", options, NULL)) != -1) {
+  while ((c = vf_cli_getopt(argc, argv, "Jc:k:h", options)) != -1) {
     if (connection_option(&conn, c, &err)) {
       if (err != VF_OK) return vf_cli_fail(cmd, err);
       continue;
     }
     if (c == 'J') json = 1;
     else if (c == 'h') return fputs(status_usage, stdout), VF_EXIT_OK;
-    else return vf_cli_bad_option(cmd, argv, status_usage);
+    else return vf_cli_bad_option(cmd);
   }
   Vcmfarm__StatusRequest m = VCMFARM__STATUS_REQUEST__INIT;
   if (optind == argc - 1) {
     if ((err = parse_job_id(argv[optind], &m.job_id)) != VF_OK) return vf_cli_fail(cmd, err);
   } else if (optind != argc) {
-    fprintf(stderr, "vcmfarm status: at most one JOB\n%s", status_usage);
-    return VF_EXIT_BAD_INPUT;
+    return vf_cli_usage_error("status", "at most one JOB");
   }
   Vcmfarm__Envelope q = VCMFARM__ENVELOPE__INIT, *reply;
   q.body_case = VCMFARM__ENVELOPE__BODY_STATUS_REQUEST;
@@ -324,8 +318,7 @@ int vf_cmd_fetch(int argc, char **argv) {
   connection conn = {NULL, NULL, 60.0};
   int err = VF_OK, c;
   optind = 0; /* 0: getopt starts again from scratch (glibc), forgetting the last argv */
-  opterr = 0;
-  while ((c = getopt_long(argc, argv, "o:p:e:c:k:h", options, NULL)) != -1) {
+  while ((c = vf_cli_getopt(argc, argv, "o:p:e:c:k:h", options)) != -1) {
     if (connection_option(&conn, c, &err)) {
       if (err != VF_OK) return vf_cli_fail(cmd, err);
       continue;
@@ -334,13 +327,10 @@ int vf_cmd_fetch(int argc, char **argv) {
     else if (c == 'p') preview = optarg;
     else if (c == 'e') err = vf_cli_double("--exposure", optarg, -64.0, 64.0, &exposure);
     else if (c == 'h') return fputs(fetch_usage, stdout), VF_EXIT_OK;
-    else return vf_cli_bad_option(cmd, argv, fetch_usage);
+    else return vf_cli_bad_option(cmd);
     if (err != VF_OK) return vf_cli_fail(cmd, err);
   }
-  if (optind != argc - 1 || output == NULL) {
-    fprintf(stderr, "vcmfarm fetch: expected one JOB and -o FILM.exr\n%s", fetch_usage);
-    return VF_EXIT_BAD_INPUT;
-  }
+  if (optind != argc - 1 || output == NULL) return vf_cli_usage_error("fetch", "expected one JOB and -o FILM.exr");
   if ((err = vf_cli_extension("-o", output, ".exr", "an OpenEXR film")) != VF_OK ||
       (preview && (err = vf_cli_preview_check(preview)) != VF_OK))
     return vf_cli_fail(cmd, err);
@@ -381,19 +371,15 @@ static int job_request(int argc, char **argv, const char *cmd, const char *usage
   connection conn = {NULL, NULL, 10.0};
   int err = VF_OK, c;
   optind = 0; /* 0: getopt starts again from scratch (glibc), forgetting the last argv */
-  opterr = 0;
-  while ((c = getopt_long(argc, argv, "c:k:h", options, NULL)) != -1) {
+  while ((c = vf_cli_getopt(argc, argv, "c:k:h", options)) != -1) {
     if (connection_option(&conn, c, &err)) {
       if (err != VF_OK) return vf_cli_fail(cmd, err);
       continue;
     }
     if (c == 'h') return fputs(usage, stdout), VF_EXIT_OK;
-    return vf_cli_bad_option(cmd, argv, usage);
+    return vf_cli_bad_option(cmd);
   }
-  if (optind != argc - 1) {
-    fprintf(stderr, "vcmfarm %s: expected one JOB\n%s", cmd, usage);
-    return VF_EXIT_BAD_INPUT;
-  }
+  if (optind != argc - 1) return vf_cli_usage_error(cmd, "expected one JOB");
   uint64_t job_id;
   if ((err = parse_job_id(argv[optind], &job_id)) != VF_OK) return vf_cli_fail(cmd, err);
   Vcmfarm__CancelRequest cancel = VCMFARM__CANCEL_REQUEST__INIT;
@@ -424,16 +410,23 @@ int vf_cmd_remove(int argc, char **argv) {
 
 /* ---- keygen ---- */
 
+static const char keygen_usage[] =
+    "usage: vcmfarm keygen FILE\n"
+    "\n"
+    "Writes a new random farm key (64 hex digits) to FILE with permissions 0600;\n"
+    "coordinator, workers and clients all need a copy. Never replaces an existing file.\n"
+    "\n"
+    "  -h, --help  this text\n";
+
 int vf_cmd_keygen(int argc, char **argv) {
-  if (argc == 2 && (strcmp(argv[1], "--help") == 0 || strcmp(argv[1], "-h") == 0)) {
-    printf("usage: vcmfarm keygen FILE\n\nWrites a new random farm key (64 hex digits) to FILE with permissions 0600;\n"
-           "coordinator, workers and clients all need a copy. Never replaces an existing file.\n");
-    return VF_EXIT_OK;
+  static const struct option options[] = {{"help", no_argument, 0, 'h'}, {0, 0, 0, 0}};
+  int c;
+  optind = 0; /* 0: getopt starts again from scratch (glibc), forgetting the last argv */
+  while ((c = vf_cli_getopt(argc, argv, "h", options)) != -1) {
+    if (c == 'h') return fputs(keygen_usage, stdout), VF_EXIT_OK;
+    return vf_cli_bad_option("keygen");
   }
-  if (argc != 2) {
-    fprintf(stderr, "usage: vcmfarm keygen FILE\n");
-    return VF_EXIT_BAD_INPUT;
-  }
-  int err = vf_wire_key_generate(argv[1]);
+  if (optind != argc - 1) return vf_cli_usage_error("keygen", "expected one FILE");
+  int err = vf_wire_key_generate(argv[optind]);
   return err == VF_OK ? VF_EXIT_OK : vf_cli_fail("keygen", err);
 }

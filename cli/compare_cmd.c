@@ -151,8 +151,7 @@ int vf_cmd_errors(int argc, char **argv) {
   int have_window = 0, json = 0, err = VF_OK, c;
   vf_error_clear();
   optind = 0;
-  opterr = 0;
-  while ((c = getopt_long(argc, argv, "w:jh", options, NULL)) != -1) {
+  while ((c = vf_cli_getopt(argc, argv, "w:jh", options)) != -1) {
     switch (c) {
     case 'w':
       err = parse_window(optarg, &window);
@@ -161,14 +160,11 @@ int vf_cmd_errors(int argc, char **argv) {
     case 'j': json = 1; break;
     case 'h': fputs(errors_usage, stdout); return VF_EXIT_OK;
     default:
-      return vf_cli_bad_option("errors", argv, errors_usage);
+      return vf_cli_bad_option("errors");
     }
     if (err != VF_OK) return vf_cli_fail("errors", err);
   }
-  if (optind != argc - 2) {
-    fprintf(stderr, "vcmfarm errors: expected IMAGE and REF\n%s", errors_usage);
-    return VF_EXIT_BAD_INPUT;
-  }
+  if (optind != argc - 2) return vf_cli_usage_error("errors", "expected IMAGE and REF");
   const char *image_path = argv[optind], *ref_path = argv[optind + 1];
   vf_image image = {0}, ref = {0};
   int image_film = 0, ref_film = 0;
@@ -376,8 +372,7 @@ int vf_cmd_diff(int argc, char **argv) {
   int scale_given = 0, err = VF_OK, c;
   vf_error_clear();
   optind = 0;
-  opterr = 0;
-  while ((c = getopt_long(argc, argv, "o:s:h", options, NULL)) != -1) {
+  while ((c = vf_cli_getopt(argc, argv, "o:s:h", options)) != -1) {
     switch (c) {
     case 'o': output = optarg; break;
     case 's':
@@ -386,18 +381,12 @@ int vf_cmd_diff(int argc, char **argv) {
       break;
     case 'h': fputs(diff_usage, stdout); return VF_EXIT_OK;
     default:
-      return vf_cli_bad_option("diff", argv, diff_usage);
+      return vf_cli_bad_option("diff");
     }
     if (err != VF_OK) return vf_cli_fail("diff", err);
   }
-  if (optind != argc - 2) {
-    fprintf(stderr, "vcmfarm diff: expected A and B\n%s", diff_usage);
-    return VF_EXIT_BAD_INPUT;
-  }
-  if (output == NULL) {
-    fprintf(stderr, "vcmfarm diff: missing -o DIFF.png\n");
-    return VF_EXIT_BAD_INPUT;
-  }
+  if (optind != argc - 2) return vf_cli_usage_error("diff", "expected A and B");
+  if (output == NULL) return vf_cli_usage_error("diff", "missing -o DIFF.png");
   if ((err = vf_cli_extension("-o", output, ".png", "a PNG image")) != VF_OK) return vf_cli_fail("diff", err);
 
   vf_image a = {0}, b = {0};

@@ -105,8 +105,7 @@ int vf_cmd_continue(int argc, char **argv) {
   vf_cli_checkpoint checkpoint = VF_CLI_CHECKPOINT_DEFAULT;
   int quiet = 0, err = VF_OK, c;
   optind = 0; /* 0: getopt starts again from scratch (glibc), forgetting the last argv */
-  opterr = 0;
-  while ((c = getopt_long(argc, argv, VF_CLI_STOP_SHORT "o:j:p:e:qh", options, NULL)) != -1) {
+  while ((c = vf_cli_getopt(argc, argv, VF_CLI_STOP_SHORT "o:j:p:e:qh", options)) != -1) {
     if (vf_cli_stop_option(&stop, c, optarg, &err)) {
       if (err != VF_OK) return vf_cli_fail(cmd, err);
       continue;
@@ -122,14 +121,11 @@ int vf_cmd_continue(int argc, char **argv) {
     case 'e': err = vf_cli_double("--exposure", optarg, -64.0, 64.0, &exposure); break;
     case 'h': fputs(usage, stdout); return VF_EXIT_OK;
     default:
-      return vf_cli_bad_option("continue", argv, usage);
+      return vf_cli_bad_option("continue");
     }
     if (err != VF_OK) return vf_cli_fail(cmd, err);
   }
-  if (optind != argc - 1) {
-    fprintf(stderr, "vcmfarm continue: expected exactly one FILM\n%s", usage);
-    return VF_EXIT_BAD_INPUT;
-  }
+  if (optind != argc - 1) return vf_cli_usage_error("continue", "expected exactly one FILM");
   const char *film_path = argv[optind];
   if (output == NULL) output = film_path;
   if ((err = vf_cli_stop_check(&stop, 1)) != VF_OK || (err = vf_cli_writable("-o", output)) != VF_OK ||

@@ -172,25 +172,18 @@ int vf_cmd_merge(int argc, char **argv) {
   int quiet = 0, c;
   vf_error_clear();
   optind = 0;
-  opterr = 0;
-  while ((c = getopt_long(argc, argv, "o:qh", options, NULL)) != -1) {
+  while ((c = vf_cli_getopt(argc, argv, "o:qh", options)) != -1) {
     switch (c) {
     case 'o': output = optarg; break;
     case 'q': quiet = 1; break;
     case 'h': fputs(merge_usage, stdout); return VF_EXIT_OK;
     default:
-      return vf_cli_bad_option("merge", argv, merge_usage);
+      return vf_cli_bad_option("merge");
     }
   }
-  if (output == NULL) {
-    fprintf(stderr, "vcmfarm merge: missing -o OUT.exr\n%s", merge_usage);
-    return VF_EXIT_BAD_INPUT;
-  }
+  if (output == NULL) return vf_cli_usage_error("merge", "missing -o OUT.exr");
   int n = argc - optind;
-  if (n < 2) {
-    fprintf(stderr, "vcmfarm merge: expected at least two input films, got %d\n%s", n, merge_usage);
-    return VF_EXIT_BAD_INPUT;
-  }
+  if (n < 2) return vf_cli_usage_error("merge", "expected at least two input films, got %d", n);
   /* OUT may be one of the inputs (it then grows by the others), but no other vcmfarm
    * process may write it meanwhile. */
   vf_film *sum = NULL;
@@ -239,8 +232,7 @@ int vf_cmd_bake(int argc, char **argv) {
   int have_exposure = 0, err = VF_OK, c;
   vf_error_clear();
   optind = 0;
-  opterr = 0;
-  while ((c = getopt_long(argc, argv, "o:e:h", options, NULL)) != -1) {
+  while ((c = vf_cli_getopt(argc, argv, "o:e:h", options)) != -1) {
     switch (c) {
     case 'o': output = optarg; break;
     case 'e':
@@ -249,18 +241,12 @@ int vf_cmd_bake(int argc, char **argv) {
       break;
     case 'h': fputs(bake_usage, stdout); return VF_EXIT_OK;
     default:
-      return vf_cli_bad_option("bake", argv, bake_usage);
+      return vf_cli_bad_option("bake");
     }
     if (err != VF_OK) return vf_cli_fail("bake", err);
   }
-  if (optind != argc - 1) {
-    fprintf(stderr, "vcmfarm bake: expected exactly one FILM\n%s", bake_usage);
-    return VF_EXIT_BAD_INPUT;
-  }
-  if (output == NULL) {
-    fprintf(stderr, "vcmfarm bake: missing -o IMAGE.exr or IMAGE.png\n");
-    return VF_EXIT_BAD_INPUT;
-  }
+  if (optind != argc - 1) return vf_cli_usage_error("bake", "expected exactly one FILM");
+  if (output == NULL) return vf_cli_usage_error("bake", "missing -o IMAGE.exr or IMAGE.png");
   int png = has_extension(output, ".png");
   if (!png && !has_extension(output, ".exr"))
     return vf_cli_fail("bake", vf_error_set(VF_EUSAGE, "%s: unknown output type (the name must end in .exr or .png)",

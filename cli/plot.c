@@ -312,8 +312,7 @@ int vf_cmd_plot(int argc, char **argv) {
   vf_plot_x axis = VF_PLOT_BOTH;
   int c;
   optind = 0; /* 0: getopt starts again from scratch (glibc), forgetting the last argv */
-  opterr = 0;
-  while ((c = getopt_long(argc, argv, "o:x:h", options, NULL)) != -1) {
+  while ((c = vf_cli_getopt(argc, argv, "o:x:h", options)) != -1) {
     switch (c) {
     case 'o': output = optarg; break;
     case 'x':
@@ -324,17 +323,11 @@ int vf_cmd_plot(int argc, char **argv) {
       break;
     case 'h': fputs(usage, stdout); return VF_EXIT_OK;
     default:
-      return vf_cli_bad_option("plot", argv, usage);
+      return vf_cli_bad_option("plot");
     }
   }
-  if (optind >= argc) {
-    fprintf(stderr, "vcmfarm plot: expected at least one FILM\n%s", usage);
-    return VF_EXIT_BAD_INPUT;
-  }
-  if (output == NULL) {
-    fprintf(stderr, "vcmfarm plot: missing -o PLOT.png\n");
-    return VF_EXIT_BAD_INPUT;
-  }
+  if (optind >= argc) return vf_cli_usage_error("plot", "expected at least one FILM");
+  if (output == NULL) return vf_cli_usage_error("plot", "missing -o PLOT.png");
   int n = argc - optind, err = vf_cli_extension("-o", output, ".png", "a PNG image");
   if (err != VF_OK) return vf_cli_fail("plot", err);
   vf_film **films = calloc((size_t)n, sizeof *films);

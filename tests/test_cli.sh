@@ -38,7 +38,39 @@ expect_refusal "zero resolution" "--resolution" "$vcmfarm" render furnace -R 0x1
 expect_refusal "negative iterations" "--iterations" "$vcmfarm" render furnace -n -3 -o "$tmp/out.exr"
 expect_refusal "iterations and time" "not both" "$vcmfarm" render furnace -n 3 -t 2 -o "$tmp/out.exr"
 expect_refusal "alpha out of range" "--alpha" "$vcmfarm" render furnace --alpha 1.5 -o "$tmp/out.exr"
-expect_refusal "unknown option" "unknown or incomplete option" "$vcmfarm" render furnace --frobnicate -o "$tmp/out.exr"
+# A bad option is refused on one line naming it, with a hint, not under the whole --help;
+# every subcommand alike.
+expect_one_line() { # name, expected substring, command...
+  local name="$1"
+  expect_refusal "$@"
+  check "$name: one line" "$([ "$(wc -l <"$tmp/stderr")" -eq 1 ]; echo $?)"
+}
+expect_one_line "unknown option" "vcmfarm render: unknown option '--frobnicate'; try 'vcmfarm render --help'" \
+  "$vcmfarm" render furnace --frobnicate -o "$tmp/out.exr"
+for c in render continue info plot merge bake errors diff coordinator worker submit status fetch cancel remove keygen; do
+  expect_one_line "$c: unknown option" "vcmfarm $c: unknown option '--frobnicate'; try 'vcmfarm $c --help'" \
+    "$vcmfarm" "$c" --frobnicate
+done
+expect_one_line "unknown command" "vcmfarm: unknown command 'rendr' (did you mean render?); try 'vcmfarm --help'" \
+  "$vcmfarm" rendr furnace
+expect_one_line "missing operand" "vcmfarm render: expected exactly one SCENE; try 'vcmfarm render --help'" \
+  "$vcmfarm" render -o "$tmp/out.exr"
+expect_one_line "option without its value" "vcmfarm render: option '--output' needs a value" "$vcmfarm" render furnace --output
+expect_one_line "keygen with an option for a file" "vcmfarm keygen: unknown option '--force'" "$vcmfarm" keygen --force
+check "keygen wrote no file named like an option" "$([ ! -e ./--force ]; echo $?)"
+# Long options are matched exactly: a prefix is not taken for the option it begins.
+expect_one_line "a prefix of --iterations" "unknown option '--iteration' (did you mean --iterations?)" \
+  "$vcmfarm" render furnace --iteration 4 -o "$tmp/out.exr"
+expect_one_line "a prefix, with =" "unknown option '--iter' (did you mean --iterations?)" \
+  "$vcmfarm" render furnace --iter=4 -o "$tmp/out.exr"
+expect_one_line "a typo of --iterations" "unknown option '--iteratons' (did you mean --iterations?)" \
+  "$vcmfarm" continue "$tmp/none.exr" --iteratons 4
+expect_one_line "a prefix of --coordinator" "vcmfarm submit: unknown option '--coord' (did you mean --coordinator?)" \
+  "$vcmfarm" submit furnace --coord ipc://x --secret x
+expect_one_line "a prefix of two options" "unknown option '--re' (did you mean --reference or --resolution?)" \
+  "$vcmfarm" render furnace --re 8x8 -o "$tmp/out.exr"
+expect_one_line "a long option with one dash" "unknown option '-d' (did you mean --direct?)" \
+  "$vcmfarm" render furnace -direct -o "$tmp/out.exr"
 # One iteration has no spread to estimate its error from: said so, not printed as nan.
 "$vcmfarm" render furnace --direct -n 1 -R 8x8 -o "$tmp/one.exr" 2>"$tmp/stderr"
 check "one iteration: the estimate is not known yet, not nan" \
