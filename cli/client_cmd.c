@@ -40,7 +40,10 @@ typedef struct {
 
 static int connection_option(connection *conn, int c, int *err) {
   switch (c) {
-  case 'c': conn->url = optarg; return 1;
+  case 'c':
+    conn->url = optarg;
+    *err = vf_cli_address("--coordinator", optarg);
+    return 1;
   case 'k': conn->secret = optarg; return 1;
   case 'T': *err = vf_cli_double("--timeout", optarg, 0.01, 86400.0, &conn->timeout); return 1;
   default: return 0;

@@ -52,7 +52,10 @@ int vf_cmd_coordinator(int argc, char **argv) {
   optind = 0; /* 0: getopt starts again from scratch (glibc), forgetting the last argv */
   while ((c = vf_cli_getopt(argc, argv, "l:d:k:w:h", options)) != -1) {
     switch (c) {
-    case 'l': config.listen_url = optarg; break;
+    case 'l':
+      config.listen_url = optarg;
+      err = vf_cli_address("--listen", optarg);
+      break;
     case 'd': config.state_dir = optarg; break;
     case 'k': config.secret_path = optarg; break;
     case 'w': err = vf_cli_double("--worker-timeout", optarg, 0.1, 86400.0, &config.worker_timeout); break;

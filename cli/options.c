@@ -88,6 +88,45 @@ int vf_cli_settings_apply(const vf_cli_settings *o, vf_settings *settings) {
   return VF_OK;
 }
 
+/* Whether text is a port number: 1 to 5 digits and nothing else. */
+static int is_port(const char *text) {
+  size_t n = strspn(text, "0123456789");
+  return n >= 1 && n <= 5 && text[n] == '\0' && atol(text) <= 65535;
+}
+
+int vf_cli_address(const char *option, const char *url) {
+  static const char forms[] = "tcp://HOST:PORT or ipc://PATH";
+  const char *sep = strstr(url, "://");
+  if (sep == NULL) {
+    const char *colon = strrchr(url, ':');
+    if (colon != NULL && colon > url && is_port(colon + 1))
+      return vf_error_set(VF_EUSAGE, "%s %s: an address starts with its scheme: write tcp://%s", option, url, url);
+    if (strchr(url, '/') != NULL || strstr(url, ".sock") != NULL)
+      return vf_error_set(VF_EUSAGE, "%s %s: an address starts with its scheme: write ipc://%s for this socket file",
+                          option, url, url);
+    return vf_error_set(VF_EUSAGE, "%s %s: not an address; write %s (tcp://%s:PORT for a host)", option, url, forms,
+                        url[0] ? url : "HOST");
+  }
+  size_t scheme = (size_t)(sep - url);
+  const char *rest = sep + 3;
+  if (scheme == 3 && strncmp(url, "tcp", 3) == 0) {
+    const char *colon = strrchr(rest, ':');
+    if (colon == NULL || colon == rest || !is_port(colon + 1))
+      return vf_error_set(VF_EUSAGE, "%s %s: a tcp:// address is tcp://HOST:PORT, with a port number", option, url);
+    return VF_OK;
+  }
+  if (scheme == 3 && strncmp(url, "ipc", 3) == 0) {
+    if (rest[0] == '\0')
+      return vf_error_set(VF_EUSAGE, "%s %s: an ipc:// address names a socket file: ipc://PATH", option, url);
+    return VF_OK;
+  }
+  if (scheme == 6 && strncmp(url, "inproc", 6) == 0)
+    return vf_error_set(VF_EUSAGE, "%s %s: inproc:// reaches only a coordinator inside the same process; write %s",
+                        option, url, forms);
+  return vf_error_set(VF_EUSAGE, "%s %s: unknown scheme '%.*s://'; write %s (tcp://%s for a host and port)", option,
+                      url, (int)scheme, url, forms, rest[0] ? rest : "HOST:PORT");
+}
+
 int vf_cli_extension(const char *option, const char *path, const char *ext, const char *what) {
   size_t n = strlen(path), e = strlen(ext);
   if (n > e && strcasecmp(path + n - e, ext) == 0) return VF_OK;

@@ -24,6 +24,13 @@ int vf_cli_bytes(const char *option, const char *text, uint64_t *out);
  * and is writable, and path is not a directory. VF_EUSAGE naming the option and the path. */
 int vf_cli_writable(const char *option, const char *path);
 
+/* Checks a coordinator's address as an option (--coordinator, --connect, --listen) takes
+ * it: tcp://HOST:PORT or ipc://PATH, which nanomsg alone would refuse with "Invalid
+ * argument". VF_EUSAGE naming the option and what to write instead: an address without a
+ * scheme ("127.0.0.1:7450": write tcp://127.0.0.1:7450), another scheme, inproc:// (which
+ * reaches only a coordinator inside the same process), tcp:// without a port. */
+int vf_cli_address(const char *option, const char *url);
+
 /* Checks that path ends in ext (".exr", ".png"; any case), so that a file is never written
  * under a name that says another format. VF_EUSAGE naming the option, the path and `what`
  * the command writes there ("an OpenEXR film"). */

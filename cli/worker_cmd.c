@@ -61,7 +61,10 @@ int vf_cmd_worker(int argc, char **argv) {
   optind = 0; /* 0: getopt starts again from scratch (glibc), forgetting the last argv */
   while ((c = vf_cli_getopt(argc, argv, "c:k:j:n:h", options)) != -1) {
     switch (c) {
-    case 'c': config.url = optarg; break;
+    case 'c':
+      config.url = optarg;
+      err = vf_cli_address("--connect", optarg);
+      break;
     case 'k': secret = optarg; break;
     case 'j': err = vf_cli_int("--threads", optarg, 1, 1024, &threads); break;
     case 'n': config.name = optarg; break;

@@ -93,6 +93,18 @@ expect_refusal "cache size not a size" "--cache-max: '12Q' is not a size" "$vcmf
 # The roles' directories and sockets are never taken from someone else.
 "$vcmfarm" keygen "$tmp/farm.key" >/dev/null 2>&1
 echo "a user's file" >"$tmp/regular"
+# An address without its scheme is refused saying what to write, not "Invalid argument".
+expect_one_line "--coordinator without tcp://" \
+  "vcmfarm status: --coordinator 127.0.0.1:7450: an address starts with its scheme: write tcp://127.0.0.1:7450" \
+  "$vcmfarm" status --coordinator 127.0.0.1:7450 --secret "$tmp/farm.key"
+expect_one_line "--connect of a socket file without ipc://" "--connect $tmp/c.sock: an address starts with its scheme: write ipc://$tmp/c.sock" \
+  "$vcmfarm" worker --connect "$tmp/c.sock" --secret "$tmp/farm.key"
+expect_one_line "--listen of another scheme" "--listen http://127.0.0.1:7450: unknown scheme 'http://'; write tcp://HOST:PORT or ipc://PATH" \
+  "$vcmfarm" coordinator --listen http://127.0.0.1:7450 --state "$tmp/state-x" --secret "$tmp/farm.key"
+expect_one_line "tcp:// without a port" "--coordinator tcp://127.0.0.1: a tcp:// address is tcp://HOST:PORT, with a port number" \
+  "$vcmfarm" fetch 1 -o "$tmp/f.exr" --coordinator tcp://127.0.0.1 --secret "$tmp/farm.key"
+expect_one_line "inproc:// from another process" "--coordinator inproc://farm: inproc:// reaches only a coordinator inside the same process" \
+  "$vcmfarm" cancel 1 --coordinator inproc://farm --secret "$tmp/farm.key"
 expect_refusal "ipc:// path that is a regular file" "is not a socket; refusing to replace it" \
   timeout 20 "$vcmfarm" coordinator --listen "ipc://$tmp/regular" --state "$tmp/state-a" --secret "$tmp/farm.key"
 grep -q "a user's file" "$tmp/regular"
