@@ -50,14 +50,22 @@ static int connection_option(connection *conn, int c, int *err) {
   }
 }
 
-/* A client of the coordinator the options name; *client on success only. */
+/* A client of the coordinator the options name, connected: a coordinator that is down is
+ * said so within a second (vf_farm_client_wait_connected), not after --timeout. *client on
+ * success only. */
 static int connect_to(const connection *conn, vf_farm_client **client) {
   if (conn->url == NULL || conn->secret == NULL)
     return vf_error_set(VF_EUSAGE, "--coordinator URL and --secret FILE are required");
   vf_wire_key key;
+  vf_farm_client *c = NULL;
   int err = vf_wire_key_load(conn->secret, &key);
-  if (err == VF_OK) err = vf_farm_client_open(conn->url, &key, client);
+  if (err == VF_OK) err = vf_farm_client_open(conn->url, &key, &c);
   sodium_memzero(&key, sizeof key);
+  if (err == VF_OK && (err = vf_farm_client_wait_connected(c, (int)(conn->timeout * 1000.0))) != VF_OK) {
+    vf_farm_client_close(c);
+    return err;
+  }
+  if (err == VF_OK) *client = c;
   return err;
 }
 

@@ -8,6 +8,7 @@
 #include <nanomsg/reqrep.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 
 struct vf_farm_client {
   int socket;
@@ -61,6 +62,28 @@ void vf_farm_client_close(vf_farm_client *client) {
 
 const char *vf_farm_client_url(const vf_farm_client *client) { return client->url; }
 
+/* One of the socket's connection statistics, 0 when nanomsg cannot say. */
+static uint64_t statistic(const vf_farm_client *c, int which) {
+  uint64_t v = nn_get_statistic(c->socket, which);
+  return v == (uint64_t)-1 ? 0 : v;
+}
+
+int vf_farm_client_wait_connected(vf_farm_client *c, int timeout_ms) {
+  const struct timespec step = {0, 10000000L};
+  for (int waited_ms = 0;; waited_ms += 10) {
+    if (statistic(c, NN_STAT_CURRENT_CONNECTIONS) > 0) return VF_OK;
+    /* Something listens when a connection is being made or was made (a handshake, a
+     * coordinator's gate at its cap): then only the caller's timeout ends the wait. */
+    int listener = statistic(c, NN_STAT_INPROGRESS_CONNECTIONS) > 0 || statistic(c, NN_STAT_ESTABLISHED_CONNECTIONS) > 0;
+    if (!listener && waited_ms >= VF_FARM_CONNECT_MS)
+      return vf_error_set(VF_ENET, "no coordinator answered at %s (nothing accepts connections there)", c->url);
+    if (waited_ms >= timeout_ms)
+      return vf_error_set(VF_ETIMEDOUT, "no coordinator answered at %s within %d ms (the connection did not complete)",
+                          c->url, timeout_ms);
+    nanosleep(&step, NULL);
+  }
+}
+
 static int call_once(vf_farm_client *c, Vcmfarm__Envelope *request, int timeout_ms, Vcmfarm__Envelope **reply) {
   uint8_t *frame;
   size_t len;
@@ -82,9 +105,14 @@ static int call_once(vf_farm_client *c, Vcmfarm__Envelope *request, int timeout_
     int e = nn_errno();
     if (e == ETIMEDOUT || e == EAGAIN || e == EINTR)
       return vf_error_set(e == EINTR ? VF_ENET : VF_ETIMEDOUT,
-                          "%s: no reply within %d ms (is the coordinator running, with the same key file?)",
+                          "%s: no reply within %d ms (is the coordinator running? one that predates key "
+                          "refusals also stays silent to a wrong key)",
                           c->url, timeout_ms);
     return vf_error_set(VF_ENET, "%s: receive: %s", c->url, nn_strerror(e));
+  }
+  if (vf_wire_is_refusal(buf, (size_t)n)) {
+    nn_freemsg(buf);
+    return vf_error_set(VF_EAUTH, "the coordinator at %s refused the key (wrong --secret?)", c->url);
   }
   Vcmfarm__Envelope *env;
   err = vf_message_unpack(&c->key, &stamp, buf, (size_t)n, &env, NULL);

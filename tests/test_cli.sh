@@ -116,6 +116,32 @@ expect_refusal "ipc:// socket another coordinator listens on" "another process l
   timeout 20 "$vcmfarm" coordinator --listen "ipc://$tmp/live.sock" --state "$tmp/state-b" --secret "$tmp/farm.key"
 expect_refusal "worker cache in a coordinator's state directory" "is a coordinator's state directory" \
   timeout 20 "$vcmfarm" worker --connect "ipc://$tmp/live.sock" --secret "$tmp/farm.key" --cache "$tmp/state-live" --cache-max 1
+# A wrong key and a coordinator that is down are told apart at once (the coordinator
+# answers a request it cannot authenticate with a fixed refusal; nothing accepting the
+# connection means nobody is there): each in well under a second on an idle machine, 2 s
+# allowed here for a busy one, where --timeout would have waited 10 s for either.
+expect_quick() { # name, expected exit status, expected substring, command...
+  local name="$1" want="$2" expected="$3"
+  shift 3
+  local start=${EPOCHREALTIME/./}
+  timeout 20 "$@" >"$tmp/stdout" 2>"$tmp/stderr"
+  local status=$? ms=$(((${EPOCHREALTIME/./} - start) / 1000)) ok=0
+  [ "$status" -eq "$want" ] || { echo "  exit status $status, expected $want"; ok=1; }
+  grep -qF -- "$expected" "$tmp/stderr" || { echo "  stderr lacks '$expected':"; sed 's/^/    /' "$tmp/stderr"; ok=1; }
+  [ "$ms" -le 2000 ] || { echo "  took $ms ms"; ok=1; }
+  check "$name ($ms ms)" $ok
+}
+"$vcmfarm" keygen "$tmp/other.key" >/dev/null 2>&1
+expect_quick "status with another key" 2 \
+  "vcmfarm status: the coordinator at ipc://$tmp/live.sock refused the key (wrong --secret?)" \
+  "$vcmfarm" status --coordinator "ipc://$tmp/live.sock" --secret "$tmp/other.key"
+expect_quick "worker with another key stops" 2 "vcmfarm worker: the coordinator at ipc://$tmp/live.sock refused the key" \
+  "$vcmfarm" worker --connect "ipc://$tmp/live.sock" --secret "$tmp/other.key" --cache "$tmp/other-cache"
+expect_quick "status of a coordinator that is down" 1 \
+  "vcmfarm status: no coordinator answered at ipc://$tmp/down.sock (nothing accepts connections there)" \
+  "$vcmfarm" status --coordinator "ipc://$tmp/down.sock" --secret "$tmp/farm.key"
+expect_quick "submit to a coordinator that is down, over tcp://" 1 "no coordinator answered at tcp://127.0.0.1:1 " \
+  "$vcmfarm" submit furnace --coordinator tcp://127.0.0.1:1 --secret "$tmp/farm.key"
 kill -TERM "$live" && wait "$live"
 mkdir -p "$tmp/cache" && touch "$tmp/cache/vcmfarm-worker-cache"
 expect_refusal "coordinator state in a worker's cache" "is a worker's scene-file cache" \
