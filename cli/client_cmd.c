@@ -310,26 +310,28 @@ int vf_cmd_status(int argc, char **argv) {
 /* ---- fetch ---- */
 
 static const char fetch_usage[] =
-    "usage: vcmfarm fetch JOB -o FILM.exr [--preview IMAGE.png] --coordinator URL --secret FILE\n"
+    "usage: vcmfarm fetch JOB -o FILM.exr [--preview IMAGE.png] [-q] --coordinator URL --secret FILE\n"
     "\n"
     "Writes the current film of JOB (a valid film at any moment, holding the iterations\n"
     "merged so far) to FILM.exr, atomically: it arrives in chunks, is checked whole (size,\n"
     "hash, film) and only then replaces FILM.exr, which a failed fetch leaves as it was.\n"
     "\n"
-    "  -o, --output FILM.exr  the film to write (required)\n" VF_CLI_PREVIEW_HELP CONNECTION_HELP;
+    "  -o, --output FILM.exr  the film to write (required)\n" VF_CLI_PREVIEW_HELP
+    "  -q, --quiet            no line saying what was written\n" CONNECTION_HELP;
 
 int vf_cmd_fetch(int argc, char **argv) {
   static const struct option options[] = {
       {"output", required_argument, 0, 'o'}, {"coordinator", required_argument, 0, 'c'},
       {"secret", required_argument, 0, 'k'}, {"timeout", required_argument, 0, 'T'},
       {"preview", required_argument, 0, 'p'}, {"exposure", required_argument, 0, 'e'},
-      {"help", no_argument, 0, 'h'},         {0, 0, 0, 0}};
+      {"quiet", no_argument, 0, 'q'},        {"help", no_argument, 0, 'h'},
+      {0, 0, 0, 0}};
   const char *cmd = "fetch", *output = NULL, *preview = NULL;
   double exposure = 0.0;
   connection conn = {NULL, NULL, 60.0};
-  int err = VF_OK, c;
+  int quiet = 0, err = VF_OK, c;
   optind = 0; /* 0: getopt starts again from scratch (glibc), forgetting the last argv */
-  while ((c = vf_cli_getopt(argc, argv, "o:p:e:c:k:h", options)) != -1) {
+  while ((c = vf_cli_getopt(argc, argv, "o:p:e:c:k:qh", options)) != -1) {
     if (connection_option(&conn, c, &err)) {
       if (err != VF_OK) return vf_cli_fail(cmd, err);
       continue;
@@ -337,6 +339,7 @@ int vf_cmd_fetch(int argc, char **argv) {
     if (c == 'o') output = optarg;
     else if (c == 'p') preview = optarg;
     else if (c == 'e') err = vf_cli_double("--exposure", optarg, -64.0, 64.0, &exposure);
+    else if (c == 'q') quiet = 1;
     else if (c == 'h') return fputs(fetch_usage, stdout), VF_EXIT_OK;
     else return vf_cli_bad_option(cmd);
     if (err != VF_OK) return vf_cli_fail(cmd, err);
@@ -354,6 +357,14 @@ int vf_cmd_fetch(int argc, char **argv) {
   err = vf_fetch_film(client, job_id, output, (int)(conn.timeout * 1000.0), 0, &film);
   vf_farm_client_close(client);
   if (err == VF_OK && preview) err = vf_preview_write(film, preview, exposure);
+  if (err == VF_OK && !quiet) {
+    char set[256];
+    uint64_t count = vf_iterset_count(&film->iterations);
+    if (vf_iterset_format(&film->iterations, set, sizeof set) != VF_OK) snprintf(set, sizeof set, "(long)");
+    fprintf(stderr, "wrote %s%s%s: job %llu, %llu %s %s\n", output, preview ? " and " : "", preview ? preview : "",
+            (unsigned long long)job_id, (unsigned long long)count, vf_cli_plural(count, "iteration", "iterations"),
+            set);
+  }
   vf_film_destroy(film);
   return err == VF_OK ? VF_EXIT_OK : vf_cli_fail(cmd, err);
 }
@@ -422,22 +433,28 @@ int vf_cmd_remove(int argc, char **argv) {
 /* ---- keygen ---- */
 
 static const char keygen_usage[] =
-    "usage: vcmfarm keygen FILE\n"
+    "usage: vcmfarm keygen FILE [-q]\n"
     "\n"
     "Writes a new random farm key (64 hex digits) to FILE with permissions 0600;\n"
     "coordinator, workers and clients all need a copy. Never replaces an existing file.\n"
     "\n"
-    "  -h, --help  this text\n";
+    "  -q, --quiet  no line saying what was written\n"
+    "  -h, --help   this text\n";
 
 int vf_cmd_keygen(int argc, char **argv) {
-  static const struct option options[] = {{"help", no_argument, 0, 'h'}, {0, 0, 0, 0}};
-  int c;
+  static const struct option options[] = {{"quiet", no_argument, 0, 'q'}, {"help", no_argument, 0, 'h'}, {0, 0, 0, 0}};
+  int quiet = 0, c;
   optind = 0; /* 0: getopt starts again from scratch (glibc), forgetting the last argv */
-  while ((c = vf_cli_getopt(argc, argv, "h", options)) != -1) {
-    if (c == 'h') return fputs(keygen_usage, stdout), VF_EXIT_OK;
-    return vf_cli_bad_option("keygen");
+  while ((c = vf_cli_getopt(argc, argv, "qh", options)) != -1) {
+    if (c == 'q') quiet = 1;
+    else if (c == 'h') return fputs(keygen_usage, stdout), VF_EXIT_OK;
+    else return vf_cli_bad_option("keygen");
   }
   if (optind != argc - 1) return vf_cli_usage_error("keygen", "expected one FILE");
   int err = vf_wire_key_generate(argv[optind]);
-  return err == VF_OK ? VF_EXIT_OK : vf_cli_fail("keygen", err);
+  if (err != VF_OK) return vf_cli_fail("keygen", err);
+  if (!quiet)
+    fprintf(stderr, "wrote %s: a new farm key, readable by you only; copy it to every machine of the farm\n",
+            argv[optind]);
+  return VF_EXIT_OK;
 }

@@ -158,8 +158,9 @@ int vf_cmd_continue(int argc, char **argv) {
     vf_film_destroy(stamped);
   }
   if (!quiet) {
-    fprintf(stderr, "vcmfarm continue: %s (%" PRIu64 " iterations), scene %s, %s\n", film_path,
-            vf_iterset_count(&film->iterations), scene->source, film->settings_text);
+    uint64_t held = vf_iterset_count(&film->iterations);
+    fprintf(stderr, "vcmfarm continue: %s (%" PRIu64 " %s), scene %s, %s\n", film_path, held,
+            vf_cli_plural(held, "iteration", "iterations"), scene->source, film->settings_text);
     vf_vcm_describe(vf_renderer_vcm(renderer), stderr);
   }
   vf_local_render_options lo = {output, stop.reference ? &reference : NULL, &stop, checkpoint,
@@ -177,8 +178,9 @@ int vf_cmd_continue(int argc, char **argv) {
   if (!quiet) {
     char set[256];
     if (vf_iterset_format(&film->iterations, set, sizeof set) != VF_OK) snprintf(set, sizeof set, "(long)");
-    fprintf(stderr, "added %" PRIu64 " iteration(s) in %.2f s%s; the film holds %s\n", r.iterations, r.seconds,
-            r.interrupted ? " (interrupted)" : "", set);
+    fprintf(stderr, "added %" PRIu64 " %s in %.2f s%s; the film holds %s\n", r.iterations,
+            vf_cli_plural(r.iterations, "iteration", "iterations"), r.seconds, r.interrupted ? " (interrupted)" : "",
+            set);
     vf_render_job_print_estimate(r.last.estimated_rmse);
     if (stop.reference) fprintf(stderr, ", RMSE %.4g against %s", r.last.rmse, stop.reference);
     fprintf(stderr, "%s\nwrote %s%s%s\n", r.target_reached ? " (target reached)" : "", output, preview ? " and " : "",

@@ -247,6 +247,8 @@ int vf_cli_fail(const char *command, int err) {
 /* What vf_cli_getopt refused, for vf_cli_bad_option: "unknown option '--x'". */
 static char refused_option[512];
 
+const char *vf_cli_plural(unsigned long long n, const char *one, const char *many) { return n == 1 ? one : many; }
+
 /* Levenshtein distance of a[0, n) and b, or a large number when either is too long to
  * be a typo of the other. */
 static size_t edit_distance(const char *a, size_t n, const char *b) {

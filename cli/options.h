@@ -178,6 +178,9 @@ int vf_cli_bad_option(const char *command);
  * <detail>; try 'vcmfarm CMD --help'" on one line and returns VF_EXIT_BAD_INPUT. */
 int vf_cli_usage_error(const char *command, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
 
+/* one when n is 1, else many: "1 file", "2 files". */
+const char *vf_cli_plural(unsigned long long n, const char *one, const char *many);
+
 /* The name among names[0, count) nearest to word[0, n) by edit distance, when one is
  * nearest and at most 2 edits away (a typo); else NULL. */
 const char *vf_cli_nearest(const char *word, size_t n, const char *const *names, size_t count);

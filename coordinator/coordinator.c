@@ -498,8 +498,8 @@ int vf_coordinator_run(const vf_coordinator_config *config) {
     goto close_loop;
   }
   c->last_checkpoint = vf_seconds_now();
-  vf_log("listening on %s, state in %s, %zu job(s), worker timeout %.1f s", config->listen_url, config->state_dir,
-         c->farm.num_jobs, config->worker_timeout);
+  vf_log("listening on %s, state in %s, %zu job%s, worker timeout %.1f s", config->listen_url, config->state_dir,
+         c->farm.num_jobs, c->farm.num_jobs == 1 ? "" : "s", config->worker_timeout);
   if (c->gate) {
     const vf_gate_limits *l = vf_gate_get_limits(c->gate);
     vf_log("tcp: port %d, at most %zu connections and %.0f MiB of requests in flight (and %.0f MiB of small ones)",

@@ -214,6 +214,45 @@ check "no empty fields or wrong plurals in the render's lines" $?
 "$vcmfarm" continue "$tmp/ok.exr" -n 1 -q -p "$tmp/continued.png"
 check "continue --preview writes the preview" $([ -s "$tmp/continued.png" ]; echo $?)
 expect_refusal "continue --preview named .exr" "does not end in .png" "$vcmfarm" continue "$tmp/ok.exr" -n 1 -p "$tmp/p.exr"
+
+# Every command that writes a file says so on one line of stderr, "wrote FILE: what", and
+# nothing with -q; counts are in words ("1 iteration", never "1 iterations" or "(s)").
+expect_wrote() { # name, expected line (a substring of it), command...
+  local name="$1" expected="$2"
+  shift 2
+  "$@" >"$tmp/stdout" 2>"$tmp/stderr"
+  local status=$? ok=0
+  [ "$status" -eq 0 ] || { echo "  exit status $status"; ok=1; }
+  [ "$(wc -l <"$tmp/stderr")" -eq 1 ] && grep -qF -- "$expected" "$tmp/stderr" ||
+    { echo "  stderr is not the one line '$expected':"; sed 's/^/    /' "$tmp/stderr"; ok=1; }
+  check "$name" $ok
+}
+expect_quiet() { # name, command...
+  local name="$1"
+  shift
+  "$@" >"$tmp/stdout" 2>"$tmp/stderr"
+  check "$name" "$([ $? -eq 0 ] && [ ! -s "$tmp/stderr" ]; echo $?)"
+}
+expect_wrote "keygen says what it wrote" "wrote $tmp/said.key: a new farm key" "$vcmfarm" keygen "$tmp/said.key"
+expect_quiet "keygen -q" "$vcmfarm" keygen -q "$tmp/quiet.key"
+expect_wrote "bake says what it wrote" "wrote $tmp/baked.png: the mean of $tmp/ok.exr (16x16, 3 iterations) as an 8-bit sRGB PNG" \
+  "$vcmfarm" bake "$tmp/ok.exr" -o "$tmp/baked.png"
+expect_wrote "bake of one iteration" "(8x8, 1 iteration) as a float RGB EXR" "$vcmfarm" bake "$tmp/one.exr" -o "$tmp/baked.exr"
+expect_quiet "bake -q" "$vcmfarm" bake -q "$tmp/ok.exr" -o "$tmp/baked.png"
+expect_wrote "plot says what it wrote" "wrote $tmp/plot.png: error against time and iterations of 1 film" \
+  "$vcmfarm" plot "$tmp/ok.exr" -o "$tmp/plot.png"
+expect_quiet "plot -q" "$vcmfarm" plot -q "$tmp/ok.exr" -o "$tmp/plot.png"
+"$vcmfarm" render furnace --direct -n 1 -k 2 -R 8x8 -q -o "$tmp/one-more.exr"
+expect_wrote "merge says what it wrote, on one line" "wrote $tmp/merged.exr: 2 films merged, 2 iterations [0,1) [2,3)" \
+  "$vcmfarm" merge -o "$tmp/merged.exr" "$tmp/one.exr" "$tmp/one-more.exr"
+expect_wrote "diff says what it wrote" "wrote $tmp/diff.png: 8x8, clamped at" "$vcmfarm" diff "$tmp/one.exr" "$tmp/one-more.exr" -o "$tmp/diff.png"
+expect_quiet "diff -q" "$vcmfarm" diff -q "$tmp/one.exr" "$tmp/one-more.exr" -o "$tmp/diff.png"
+"$vcmfarm" errors --window 0,0,1,1 "$tmp/one.exr" "$tmp/one-more.exr" >"$tmp/errors.txt"
+check "errors counts one pixel in words" "$(grep -q ': 1 pixel compared, 0 skipped' "$tmp/errors.txt"; echo $?)"
+cp "$tmp/one.exr" "$tmp/grown.exr"
+"$vcmfarm" continue "$tmp/grown.exr" -n 1 -j 1 2>"$tmp/continue.err"
+check "continue counts in words" "$(grep -q "grown.exr (1 iteration), scene" "$tmp/continue.err" &&
+  grep -q "^added 1 iteration in" "$tmp/continue.err"; echo $?)"
 expect_refusal "submit -o without --wait" "go with --wait" "$vcmfarm" submit furnace -o "$tmp/out.exr" --coordinator ipc://x --secret "$tmp/farm.key"
 expect_refusal "submit --wait without -o" "--wait needs -o" "$vcmfarm" submit furnace --wait --coordinator ipc://x --secret "$tmp/farm.key"
 expect_refusal "fetch -o named .png" "does not end in .exr" "$vcmfarm" fetch 1 -o "$tmp/f.png" --coordinator ipc://x --secret "$tmp/farm.key"
@@ -232,13 +271,30 @@ check "submit --wait exits 0 when the job is done" $?
 check "submit --wait writes the film and the preview" $([ -s "$tmp/waited.exr" ] && [ -s "$tmp/waited.png" ]; echo $?)
 "$vcmfarm" info "$tmp/waited.exr" 2>/dev/null | grep -q '\[0,6)'
 check "the waited-for film holds the job's iterations" $?
-"$vcmfarm" fetch "$(tail -n 1 "$tmp/wait.out")" -o "$tmp/fetched.exr" -p "$tmp/fetched.png" "${client[@]}"
+job=$(tail -n 1 "$tmp/wait.out")
+expect_wrote "fetch says what it wrote" "wrote $tmp/fetched.exr and $tmp/fetched.png: job $job, 6 iterations [0,6)" \
+  "$vcmfarm" fetch "$job" -o "$tmp/fetched.exr" -p "$tmp/fetched.png" "${client[@]}"
 check "fetch --preview writes the preview" $([ -s "$tmp/fetched.png" ]; echo $?)
+expect_quiet "fetch -q" "$vcmfarm" fetch "$job" -q -o "$tmp/fetched.exr" "${client[@]}"
+# A scene naming one file: "1 file", on submit and on remove.
+mkdir -p "$tmp/one-file"
+cp "$scenes/good/meshes/quad.obj" "$tmp/one-file/"
+printf '%s' '{"camera":{"position":[0.5,0.5,3],"target":[0.5,0.5,0],"up":[0,1,0],"fov":40},
+  "materials":{"m":{"diffuse":[0.5,0.5,0.5]}},
+  "shapes":[{"type":"mesh","file":"quad.obj","material":"m"}],
+  "lights":[{"type":"background","radiance":[1,1,1]}]}' >"$tmp/one-file/scene.json"
+one_file_job=$("$vcmfarm" submit "$tmp/one-file/scene.json" -R 8x8 -n 1 "${client[@]}" 2>"$tmp/submit.err" | tail -n 1)
+check "submit counts one file in words" "$(grep -q ': 1 file named by the scene; sent 1 (' "$tmp/submit.err"; echo $?)"
+"$vcmfarm" cancel "$one_file_job" "${client[@]}" 2>/dev/null
+"$vcmfarm" remove "$one_file_job" "${client[@]}" 2>"$tmp/remove.err"
+check "remove counts one file in words" "$(grep -q "removed job $one_file_job and 1 of its 1 file no other job names" "$tmp/remove.err"; echo $?)"
 "$vcmfarm" status "${client[@]}" >"$tmp/status.txt"
 grep -q '1 thread, ' "$tmp/status.txt" && grep -q 'of 1 worker busy' "$tmp/status.txt" && ! grep -q '1 threads\|1 workers' "$tmp/status.txt"
 check "status counts in words" $?
 grep -q "submitted: built-in furnace, at most 6 iterations from 0, priority 1" "$tmp/coordinator-w.log"
 check "the coordinator's submission line has no empty field" $?
+! grep -H '\b1 \(files\|blobs\|jobs\|films\|pixels\|samples\)\b\|(s)' "$tmp"/{wait,submit,remove}.err "$tmp/coordinator-w.log"
+check "no '1 files' and no '(s)' in what submit, remove and the coordinator said" $?
 kill -TERM "$worker" "$coordinator"
 wait "$worker" "$coordinator" 2>/dev/null
 
