@@ -92,10 +92,13 @@ static int parse_job_id(const char *text, uint64_t *id) {
 static const char submit_usage[] =
     "usage: vcmfarm submit SCENE --coordinator URL --secret FILE [options]\n"
     "\n"
-    "Submits a job rendering global iterations K, K+1, ... (K = 0 by default) of SCENE (a built-in name or a\n"
-    "JSON scene file) and prints the job id as the last line. The mesh and map files the\n"
-    "scene names are sent by content hash, those the coordinator lacks first. The job\n"
-    "stops at the first stop condition that holds.\n"
+    "Submits a job rendering global iterations K, K+1, ... (K = 0 by default) of SCENE and\n"
+    "prints the job id as the last line. SCENE is a built-in name (cornell, furnace...,\n"
+    "docs/SCENES.md), a JSON scene file, a glTF 2.0 file (.gltf, .glb) or an OBJ file (with\n"
+    "its .mtl), a model file rendered as a whole scene as `render` does. The files the scene\n"
+    "names (meshes, maps, textures, a glTF's buffers, an OBJ's .mtl) are sent by content\n"
+    "hash, those the coordinator lacks first. The job stops at the first stop condition\n"
+    "that holds.\n"
     "\n"
     "      --start-iteration K  the first global iteration (default 0; at most 2^53), to\n"
     "                           continue a film that holds [0, K)\n" VF_CLI_STOP_HELP
