@@ -149,6 +149,11 @@ expect_refusal "coordinator state in a worker's cache" "is a worker's scene-file
 
 "$vcmfarm" --version | grep -q '^vcmfarm [0-9]'
 check "--version" $?
+# The install rule (README, "Set-up"): cmake --install puts the executable in PREFIX/bin.
+cmake --install "$(dirname "$vcmfarm")" --prefix "$tmp/prefix" >"$tmp/install.log" 2>&1
+installed=$?
+check "cmake --install puts vcmfarm in PREFIX/bin" "$([ "$installed" -eq 0 ] && cmp -s "$vcmfarm" "$tmp/prefix/bin/vcmfarm" &&
+  "$tmp/prefix/bin/vcmfarm" --version | grep -q '^vcmfarm [0-9]'; echo $?)"
 "$vcmfarm" render --help | grep -q 'usage: vcmfarm render'
 check "render --help" $?
 # submit takes every kind of scene render takes, and its --help says so.
