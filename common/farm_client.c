@@ -1,5 +1,6 @@
 #include "farm_client.h"
 
+#include "clock.h"
 #include "error.h"
 
 #include <errno.h>
@@ -11,7 +12,7 @@
 #include <time.h>
 
 struct vf_farm_client {
-  int socket;
+  int socket, endpoint;
   vf_wire_key key;
   char *url; /* owned */
 };
@@ -38,7 +39,7 @@ int vf_farm_client_open(const char *url, const vf_wire_key *key, vf_farm_client 
    * resends a request whose connection broke; the coordinator refuses that too, unless it
    * restarted meanwhile, and our call times out and is made again. */
   nn_setsockopt(c->socket, NN_REQ, NN_REQ_RESEND_IVL, &resend, sizeof resend);
-  if (nn_connect(c->socket, url) < 0) {
+  if ((c->endpoint = nn_connect(c->socket, url)) < 0) {
     err = vf_error_set(VF_ENET, "%s: %s", url, nn_strerror(nn_errno()));
     goto close_socket;
   }
@@ -68,18 +69,32 @@ static uint64_t statistic(const vf_farm_client *c, int which) {
   return v == (uint64_t)-1 ? 0 : v;
 }
 
+/* While nothing accepts connections, nanomsg tries again after 0.1, 0.3, 0.7 s... (its
+ * backoff); the wait connects anew every RECONNECT_MS instead, so that a coordinator that
+ * starts meanwhile is found at once. */
+#define RECONNECT_MS 50
+
 int vf_farm_client_wait_connected(vf_farm_client *c, int timeout_ms) {
-  const struct timespec step = {0, 10000000L};
-  for (int waited_ms = 0;; waited_ms += 10) {
+  const struct timespec step = {0, 5000000L};
+  double start = vf_seconds_now(), attempt = start;
+  for (;;) {
     if (statistic(c, NN_STAT_CURRENT_CONNECTIONS) > 0) return VF_OK;
+    double now = vf_seconds_now(), waited_ms = (now - start) * 1000.0;
     /* Something listens when a connection is being made or was made (a handshake, a
      * coordinator's gate at its cap): then only the caller's timeout ends the wait. */
-    int listener = statistic(c, NN_STAT_INPROGRESS_CONNECTIONS) > 0 || statistic(c, NN_STAT_ESTABLISHED_CONNECTIONS) > 0;
-    if (!listener && waited_ms >= VF_FARM_CONNECT_MS)
+    int listener =
+        statistic(c, NN_STAT_INPROGRESS_CONNECTIONS) > 0 || statistic(c, NN_STAT_ESTABLISHED_CONNECTIONS) > 0;
+    if (!listener && (waited_ms >= VF_FARM_CONNECT_MS || waited_ms >= timeout_ms))
       return vf_error_set(VF_ENET, "no coordinator answered at %s (nothing accepts connections there)", c->url);
     if (waited_ms >= timeout_ms)
       return vf_error_set(VF_ETIMEDOUT, "no coordinator answered at %s within %d ms (the connection did not complete)",
                           c->url, timeout_ms);
+    if (!listener && (now - attempt) * 1000.0 >= RECONNECT_MS) {
+      nn_shutdown(c->socket, c->endpoint);
+      if ((c->endpoint = nn_connect(c->socket, c->url)) < 0)
+        return vf_error_set(VF_ENET, "%s: %s", c->url, nn_strerror(nn_errno()));
+      attempt = now;
+    }
     nanosleep(&step, NULL);
   }
 }

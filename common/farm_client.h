@@ -35,12 +35,14 @@ int vf_farm_request(vf_farm_client *client, Vcmfarm__Envelope *request, Vcmfarm_
                     int timeout_ms, Vcmfarm__Envelope **reply);
 
 /* Waits until the connection nanomsg makes in the background is up: VF_OK at once when it
- * is. VF_ENET "no coordinator answered at URL" when, after VF_FARM_CONNECT_MS, nothing
- * accepts connections there (no socket file, a refused TCP connection: a coordinator that
- * is down), VF_ETIMEDOUT when a connection is being made but is not up after timeout_ms.
+ * is. VF_ENET "no coordinator answered at URL" when, for VF_FARM_CONNECT_MS (or timeout_ms
+ * if shorter), nothing accepts connections there (no socket file, a refused TCP
+ * connection: a coordinator that is down; one that starts meanwhile is found, the wait
+ * connects anew every 50 ms), VF_ETIMEDOUT when a connection is being made but is not up
+ * after timeout_ms.
  * For the commands of a user, who should not wait for a coordinator that is down; a
  * worker waits for its coordinator instead. */
-#define VF_FARM_CONNECT_MS 500
+#define VF_FARM_CONNECT_MS 800
 int vf_farm_client_wait_connected(vf_farm_client *client, int timeout_ms);
 
 /* The URL given to vf_farm_client_open (borrowed). */
