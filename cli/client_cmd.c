@@ -36,7 +36,11 @@ typedef struct {
   "  -c, --coordinator URL  the coordinator: tcp://HOST:PORT or ipc://PATH (required)\n"  \
   "  -k, --secret FILE      the farm's key file (required)\n"                              \
   "      --timeout S        give up after S seconds without an answer (default 10)\n"     \
-  "  -h, --help             this text\n"
+  "  -h, --help             this text\n"                                                 \
+  "\n"                                                                                    \
+  "Exit status: 0 done, 1 failure (no coordinator answered, the network, the disk), 2\n"  \
+  "bad input: the command line, a key the coordinator refuses, a job it does not have\n" \
+  "or a request that does not fit the job's state (then nothing is written or done).\n"
 
 static int connection_option(connection *conn, int c, int *err) {
   switch (c) {
@@ -141,7 +145,7 @@ static int wait_and_fetch(vf_farm_client *client, const connection *conn, uint64
     }
     vf_message_free(reply);
     reply = NULL;
-    if (err == VF_EREFUSED || err == VF_EPROTO || err == VF_EVERSION || err == VF_EAUTH) break;
+    if (err == VF_EREFUSED || err == VF_EPROTO || err == VF_EVERSION || err == VF_EAUTH || err == VF_ENOJOB) break;
     double now = vf_seconds_now();
     if (err != VF_OK) { /* the coordinator away (restarting?): keep asking */
       fprintf(stderr, "%svcmfarm submit: %s; asking again\n", tty ? "\n" : "", vf_error_detail(err));
@@ -348,7 +352,8 @@ int vf_cmd_fetch(int argc, char **argv) {
     if (err != VF_OK) return vf_cli_fail(cmd, err);
   }
   if (optind != argc - 1 || output == NULL) return vf_cli_usage_error("fetch", "expected one JOB and -o FILM.exr");
-  if ((err = vf_cli_extension("-o", output, ".exr", "an OpenEXR film")) != VF_OK ||
+  if ((err = vf_cli_writable("-o", output)) != VF_OK ||
+      (err = vf_cli_extension("-o", output, ".exr", "an OpenEXR film")) != VF_OK ||
       (preview && (err = vf_cli_preview_check(preview)) != VF_OK))
     return vf_cli_fail(cmd, err);
   uint64_t job_id;
@@ -419,10 +424,12 @@ static int job_request(int argc, char **argv, const char *cmd, const char *usage
     q.remove = &remove;
   }
   if ((err = request(&conn, &q, VCMFARM__ENVELOPE__BODY_RESULT_ACK, &reply)) != VF_OK) return vf_cli_fail(cmd, err);
+  /* A refusal (a job ended already, or not yet) did nothing: the request did not fit the
+   * job, a mistake of the command line like a job that does not exist. */
   int accepted = reply->result_ack->accepted;
   fprintf(stderr, "vcmfarm %s: %s\n", cmd, reply->result_ack->message);
   vf_message_free(reply);
-  return accepted ? VF_EXIT_OK : VF_EXIT_FAILURE;
+  return accepted ? VF_EXIT_OK : VF_EXIT_BAD_INPUT;
 }
 
 int vf_cmd_cancel(int argc, char **argv) {
@@ -454,7 +461,8 @@ int vf_cmd_keygen(int argc, char **argv) {
     else return vf_cli_bad_option("keygen");
   }
   if (optind != argc - 1) return vf_cli_usage_error("keygen", "expected one FILE");
-  int err = vf_wire_key_generate(argv[optind]);
+  int err = vf_cli_writable("FILE", argv[optind]);
+  if (err == VF_OK) err = vf_wire_key_generate(argv[optind]);
   if (err != VF_OK) return vf_cli_fail("keygen", err);
   if (!quiet)
     fprintf(stderr, "wrote %s: a new farm key, readable by you only; copy it to every machine of the farm\n",

@@ -234,6 +234,7 @@ int vf_cli_exit_status(int err) {
   case VF_EOVERLAP:
   case VF_EBUSY: /* refused before anything was written, like bad input */
   case VF_EAUTH: /* the coordinator refused the key: the key file given is not the farm's */
+  case VF_ENOJOB: /* the command line named a job the coordinator does not have */
     return VF_EXIT_BAD_INPUT;
   default: return VF_EXIT_FAILURE;
   }

@@ -1,6 +1,7 @@
 /* Command-line helpers shared by the subcommands: strict number parsing with ranges and
  * the exit-status convention (0 success, 1 failure while working, 2 bad input: command
- * line, scene, EXR file or film). */
+ * line, scene, EXR file or film, a key the coordinator refuses, a job it does not have or
+ * a request it refuses for the job's state; nothing is written then). */
 #ifndef VF_OPTIONS_H
 #define VF_OPTIONS_H
 

@@ -31,7 +31,8 @@
   XX(ENET, "network error")                                                \
   XX(EREFUSED, "refused by the peer")                                      \
   XX(EBUSY, "in use by another process")                                 \
-  XX(EREPLAY, "replayed or stale message")
+  XX(EREPLAY, "replayed or stale message")                                \
+  XX(ENOJOB, "no such job")
 
 enum {
   VF_OK = 0,

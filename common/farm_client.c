@@ -157,15 +157,25 @@ int vf_farm_call(vf_farm_client *c, Vcmfarm__Envelope *request, int timeout_ms, 
   }
 }
 
+/* The code of a coordinator's Error, as our callers tell them apart: a version mismatch, a
+ * job that does not exist (a user's mistake: the command line named it), every other
+ * refusal. */
+static int error_code(Vcmfarm__ErrorCode code) {
+  switch (code) {
+  case VCMFARM__ERROR_CODE__ERROR_VERSION: return VF_EVERSION;
+  case VCMFARM__ERROR_CODE__ERROR_UNKNOWN_JOB: return VF_ENOJOB;
+  default: return VF_EREFUSED;
+  }
+}
+
 int vf_farm_request(vf_farm_client *c, Vcmfarm__Envelope *request, Vcmfarm__Envelope__BodyCase expected,
                     int timeout_ms, Vcmfarm__Envelope **reply) {
   Vcmfarm__Envelope *env = NULL;
   int err = vf_farm_call(c, request, timeout_ms, &env);
   if (err != VF_OK) return err;
   if (env->body_case == VCMFARM__ENVELOPE__BODY_ERROR) {
-    int code = env->error->code == VCMFARM__ERROR_CODE__ERROR_VERSION ? VF_EVERSION : VF_EREFUSED;
-    err = vf_error_set(code, "%s: coordinator refused the %s: %s", c->url, vf_message_name(request),
-                       env->error->message);
+    err = vf_error_set(error_code(env->error->code), "%s: coordinator refused the %s: %s", c->url,
+                       vf_message_name(request), env->error->message);
   } else if (env->body_case != expected) {
     err = vf_error_set(VF_EPROTO, "%s: coordinator answered the %s with a %s", c->url, vf_message_name(request),
                        vf_message_name(env));

@@ -29,8 +29,9 @@ void vf_farm_client_close(vf_farm_client *client);
 int vf_farm_call(vf_farm_client *client, Vcmfarm__Envelope *request, int timeout_ms, Vcmfarm__Envelope **reply);
 
 /* vf_farm_call that also insists on a reply with body `expected`: a reply of type Error
- * becomes VF_EREFUSED (VF_EVERSION for a version refusal) with the coordinator's message
- * as detail, any other unexpected body VF_EPROTO; *reply is written only on success. */
+ * becomes VF_EREFUSED (VF_EVERSION for a version refusal, VF_ENOJOB for a job the
+ * coordinator does not have) with the coordinator's message as detail, any other
+ * unexpected body VF_EPROTO; *reply is written only on success. */
 int vf_farm_request(vf_farm_client *client, Vcmfarm__Envelope *request, Vcmfarm__Envelope__BodyCase expected,
                     int timeout_ms, Vcmfarm__Envelope **reply);
 

@@ -285,6 +285,18 @@ expect_wrote "fetch says what it wrote" "wrote $tmp/fetched.exr and $tmp/fetched
   "$vcmfarm" fetch "$job" -o "$tmp/fetched.exr" -p "$tmp/fetched.png" "${client[@]}"
 check "fetch --preview writes the preview" $([ -s "$tmp/fetched.png" ]; echo $?)
 expect_quiet "fetch -q" "$vcmfarm" fetch "$job" -q -o "$tmp/fetched.exr" "${client[@]}"
+# A job the coordinator does not have, or one a request does not fit, is bad input: exit
+# status 2 (README), as for every other mistake of the command line.
+expect_refusal "fetch of an unknown job" "coordinator refused the fetch: no job 999" \
+  "$vcmfarm" fetch 999 -o "$tmp/out.exr" "${client[@]}"
+expect_refusal "status of an unknown job" "no job 999" "$vcmfarm" status 999 "${client[@]}"
+expect_refusal "cancel of an unknown job" "no job 999" "$vcmfarm" cancel 999 "${client[@]}"
+expect_refusal "remove of an unknown job" "no job 999" "$vcmfarm" remove 999 "${client[@]}"
+expect_refusal "cancel of a job that ended" "vcmfarm cancel: job $job is done already" "$vcmfarm" cancel "$job" "${client[@]}"
+expect_refusal "fetch into a missing directory" "-o $tmp/absent/out.exr: no directory $tmp/absent" \
+  "$vcmfarm" fetch "$job" -o "$tmp/absent/out.exr" "${client[@]}"
+expect_refusal "keygen into a missing directory" "FILE $tmp/absent/k: no directory $tmp/absent" \
+  "$vcmfarm" keygen "$tmp/absent/k"
 # A scene naming one file: "1 file", on submit and on remove.
 mkdir -p "$tmp/one-file"
 cp "$scenes/good/meshes/quad.obj" "$tmp/one-file/"
