@@ -36,25 +36,40 @@ typedef struct {
   "  -c, --coordinator URL  the coordinator: tcp://HOST:PORT or ipc://PATH (required)\n"  \
   "  -k, --secret FILE      the farm's key file (required)\n"                              \
   "      --timeout S        give up after S seconds without an answer (default 10)\n"     \
-  "  -h, --help             this text\n"
+  "  -h, --help             this text\n"                                                 \
+  "\n"                                                                                    \
+  "Exit status: 0 done, 1 failure (no coordinator answered, the network, the disk), 2\n"  \
+  "bad input: the command line, a key the coordinator refuses, a job it does not have\n" \
+  "or a request that does not fit the job's state (then nothing is written or done).\n"
 
 static int connection_option(connection *conn, int c, int *err) {
   switch (c) {
-  case 'c': conn->url = optarg; return 1;
+  case 'c':
+    conn->url = optarg;
+    *err = vf_cli_address("--coordinator", optarg);
+    return 1;
   case 'k': conn->secret = optarg; return 1;
   case 'T': *err = vf_cli_double("--timeout", optarg, 0.01, 86400.0, &conn->timeout); return 1;
   default: return 0;
   }
 }
 
-/* A client of the coordinator the options name; *client on success only. */
+/* A client of the coordinator the options name, connected: a coordinator that is down is
+ * said so within a second (vf_farm_client_wait_connected), not after --timeout. *client on
+ * success only. */
 static int connect_to(const connection *conn, vf_farm_client **client) {
   if (conn->url == NULL || conn->secret == NULL)
     return vf_error_set(VF_EUSAGE, "--coordinator URL and --secret FILE are required");
   vf_wire_key key;
+  vf_farm_client *c = NULL;
   int err = vf_wire_key_load(conn->secret, &key);
-  if (err == VF_OK) err = vf_farm_client_open(conn->url, &key, client);
+  if (err == VF_OK) err = vf_farm_client_open(conn->url, &key, &c);
   sodium_memzero(&key, sizeof key);
+  if (err == VF_OK && (err = vf_farm_client_wait_connected(c, (int)(conn->timeout * 1000.0))) != VF_OK) {
+    vf_farm_client_close(c);
+    return err;
+  }
+  if (err == VF_OK) *client = c;
   return err;
 }
 
@@ -81,10 +96,13 @@ static int parse_job_id(const char *text, uint64_t *id) {
 static const char submit_usage[] =
     "usage: vcmfarm submit SCENE --coordinator URL --secret FILE [options]\n"
     "\n"
-    "Submits a job rendering global iterations K, K+1, ... (K = 0 by default) of SCENE (a built-in name or a\n"
-    "JSON scene file) and prints the job id as the last line. The mesh and map files the\n"
-    "scene names are sent by content hash, those the coordinator lacks first. The job\n"
-    "stops at the first stop condition that holds.\n"
+    "Submits a job rendering global iterations K, K+1, ... (K = 0 by default) of SCENE and\n"
+    "prints the job id as the last line. SCENE is a built-in name (cornell, furnace...,\n"
+    "docs/SCENES.md), a JSON scene file, a glTF 2.0 file (.gltf, .glb) or an OBJ file (with\n"
+    "its .mtl), a model file rendered as a whole scene as `render` does. The files the scene\n"
+    "names (meshes, maps, textures, a glTF's buffers, an OBJ's .mtl) are sent by content\n"
+    "hash, those the coordinator lacks first. The job stops at the first stop condition\n"
+    "that holds.\n"
     "\n"
     "      --start-iteration K  the first global iteration (default 0; at most 2^53), to\n"
     "                           continue a film that holds [0, K)\n" VF_CLI_STOP_HELP
@@ -127,7 +145,7 @@ static int wait_and_fetch(vf_farm_client *client, const connection *conn, uint64
     }
     vf_message_free(reply);
     reply = NULL;
-    if (err == VF_EREFUSED || err == VF_EPROTO || err == VF_EVERSION || err == VF_EAUTH) break;
+    if (err == VF_EREFUSED || err == VF_EPROTO || err == VF_EVERSION || err == VF_EAUTH || err == VF_ENOJOB) break;
     double now = vf_seconds_now();
     if (err != VF_OK) { /* the coordinator away (restarting?): keep asking */
       fprintf(stderr, "%svcmfarm submit: %s; asking again\n", tty ? "\n" : "", vf_error_detail(err));
@@ -185,8 +203,7 @@ int vf_cmd_submit(int argc, char **argv) {
   int err = VF_OK, c;
   vf_cli_settings_init(&overrides);
   optind = 0; /* 0: getopt starts again from scratch (glibc), forgetting the last argv */
-  opterr = 0;
-  while ((c = getopt_long(argc, argv, VF_CLI_STOP_SHORT VF_CLI_SETTINGS_SHORT "P:N:c:k:wo:p:e:h", options, NULL)) !=
+  while ((c = vf_cli_getopt(argc, argv, VF_CLI_STOP_SHORT VF_CLI_SETTINGS_SHORT "P:N:c:k:wo:p:e:h", options)) !=
          -1) {
     if (connection_option(&conn, c, &err) || vf_cli_settings_option(&overrides, c, optarg, &err) ||
         vf_cli_stop_option(&stop, c, optarg, &err)) {
@@ -203,14 +220,11 @@ int vf_cmd_submit(int argc, char **argv) {
     case 'p': preview = optarg; break;
     case 'e': err = vf_cli_double("--exposure", optarg, -64.0, 64.0, &exposure); break;
     case 'h': fputs(submit_usage, stdout); return VF_EXIT_OK;
-    default: return vf_cli_bad_option(cmd, argv, submit_usage);
+    default: return vf_cli_bad_option(cmd);
     }
     if (err != VF_OK) return vf_cli_fail(cmd, err);
   }
-  if (optind != argc - 1) {
-    fprintf(stderr, "vcmfarm submit: expected exactly one SCENE\n%s", submit_usage);
-    return VF_EXIT_BAD_INPUT;
-  }
+  if (optind != argc - 1) return vf_cli_usage_error("submit", "expected exactly one SCENE");
   /* A farm job stops at the first of its conditions to hold: iterations and time together too. */
   if ((err = vf_cli_stop_check(&stop, 0)) != VF_OK) return vf_cli_fail(cmd, err);
   if ((output || preview) && !wait)
@@ -275,22 +289,20 @@ int vf_cmd_status(int argc, char **argv) {
   connection conn = {NULL, NULL, 10.0};
   int json = 0, err = VF_OK, c;
   optind = 0; /* 0: getopt starts again from scratch (glibc), forgetting the last argv */
-  opterr = 0;
-  while ((c = getopt_long(argc, argv, "Jc:k:h", options, NULL)) != -1) {
+  while ((c = vf_cli_getopt(argc, argv, "Jc:k:h", options)) != -1) {
     if (connection_option(&conn, c, &err)) {
       if (err != VF_OK) return vf_cli_fail(cmd, err);
       continue;
     }
     if (c == 'J') json = 1;
     else if (c == 'h') return fputs(status_usage, stdout), VF_EXIT_OK;
-    else return vf_cli_bad_option(cmd, argv, status_usage);
+    else return vf_cli_bad_option(cmd);
   }
   Vcmfarm__StatusRequest m = VCMFARM__STATUS_REQUEST__INIT;
   if (optind == argc - 1) {
     if ((err = parse_job_id(argv[optind], &m.job_id)) != VF_OK) return vf_cli_fail(cmd, err);
   } else if (optind != argc) {
-    fprintf(stderr, "vcmfarm status: at most one JOB\n%s", status_usage);
-    return VF_EXIT_BAD_INPUT;
+    return vf_cli_usage_error("status", "at most one JOB");
   }
   Vcmfarm__Envelope q = VCMFARM__ENVELOPE__INIT, *reply;
   q.body_case = VCMFARM__ENVELOPE__BODY_STATUS_REQUEST;
@@ -305,27 +317,28 @@ int vf_cmd_status(int argc, char **argv) {
 /* ---- fetch ---- */
 
 static const char fetch_usage[] =
-    "usage: vcmfarm fetch JOB -o FILM.exr [--preview IMAGE.png] --coordinator URL --secret FILE\n"
+    "usage: vcmfarm fetch JOB -o FILM.exr [--preview IMAGE.png] [-q] --coordinator URL --secret FILE\n"
     "\n"
     "Writes the current film of JOB (a valid film at any moment, holding the iterations\n"
     "merged so far) to FILM.exr, atomically: it arrives in chunks, is checked whole (size,\n"
     "hash, film) and only then replaces FILM.exr, which a failed fetch leaves as it was.\n"
     "\n"
-    "  -o, --output FILM.exr  the film to write (required)\n" VF_CLI_PREVIEW_HELP CONNECTION_HELP;
+    "  -o, --output FILM.exr  the film to write (required)\n" VF_CLI_PREVIEW_HELP
+    "  -q, --quiet            no line saying what was written\n" CONNECTION_HELP;
 
 int vf_cmd_fetch(int argc, char **argv) {
   static const struct option options[] = {
       {"output", required_argument, 0, 'o'}, {"coordinator", required_argument, 0, 'c'},
       {"secret", required_argument, 0, 'k'}, {"timeout", required_argument, 0, 'T'},
       {"preview", required_argument, 0, 'p'}, {"exposure", required_argument, 0, 'e'},
-      {"help", no_argument, 0, 'h'},         {0, 0, 0, 0}};
+      {"quiet", no_argument, 0, 'q'},        {"help", no_argument, 0, 'h'},
+      {0, 0, 0, 0}};
   const char *cmd = "fetch", *output = NULL, *preview = NULL;
   double exposure = 0.0;
   connection conn = {NULL, NULL, 60.0};
-  int err = VF_OK, c;
+  int quiet = 0, err = VF_OK, c;
   optind = 0; /* 0: getopt starts again from scratch (glibc), forgetting the last argv */
-  opterr = 0;
-  while ((c = getopt_long(argc, argv, "o:p:e:c:k:h", options, NULL)) != -1) {
+  while ((c = vf_cli_getopt(argc, argv, "o:p:e:c:k:qh", options)) != -1) {
     if (connection_option(&conn, c, &err)) {
       if (err != VF_OK) return vf_cli_fail(cmd, err);
       continue;
@@ -333,15 +346,14 @@ int vf_cmd_fetch(int argc, char **argv) {
     if (c == 'o') output = optarg;
     else if (c == 'p') preview = optarg;
     else if (c == 'e') err = vf_cli_double("--exposure", optarg, -64.0, 64.0, &exposure);
+    else if (c == 'q') quiet = 1;
     else if (c == 'h') return fputs(fetch_usage, stdout), VF_EXIT_OK;
-    else return vf_cli_bad_option(cmd, argv, fetch_usage);
+    else return vf_cli_bad_option(cmd);
     if (err != VF_OK) return vf_cli_fail(cmd, err);
   }
-  if (optind != argc - 1 || output == NULL) {
-    fprintf(stderr, "vcmfarm fetch: expected one JOB and -o FILM.exr\n%s", fetch_usage);
-    return VF_EXIT_BAD_INPUT;
-  }
-  if ((err = vf_cli_extension("-o", output, ".exr", "an OpenEXR film")) != VF_OK ||
+  if (optind != argc - 1 || output == NULL) return vf_cli_usage_error("fetch", "expected one JOB and -o FILM.exr");
+  if ((err = vf_cli_writable("-o", output)) != VF_OK ||
+      (err = vf_cli_extension("-o", output, ".exr", "an OpenEXR film")) != VF_OK ||
       (preview && (err = vf_cli_preview_check(preview)) != VF_OK))
     return vf_cli_fail(cmd, err);
   uint64_t job_id;
@@ -353,6 +365,14 @@ int vf_cmd_fetch(int argc, char **argv) {
   err = vf_fetch_film(client, job_id, output, (int)(conn.timeout * 1000.0), 0, &film);
   vf_farm_client_close(client);
   if (err == VF_OK && preview) err = vf_preview_write(film, preview, exposure);
+  if (err == VF_OK && !quiet) {
+    char set[256];
+    uint64_t count = vf_iterset_count(&film->iterations);
+    if (vf_iterset_format(&film->iterations, set, sizeof set) != VF_OK) snprintf(set, sizeof set, "(long)");
+    fprintf(stderr, "wrote %s%s%s: job %llu, %llu %s %s\n", output, preview ? " and " : "", preview ? preview : "",
+            (unsigned long long)job_id, (unsigned long long)count, vf_cli_plural(count, "iteration", "iterations"),
+            set);
+  }
   vf_film_destroy(film);
   return err == VF_OK ? VF_EXIT_OK : vf_cli_fail(cmd, err);
 }
@@ -381,19 +401,15 @@ static int job_request(int argc, char **argv, const char *cmd, const char *usage
   connection conn = {NULL, NULL, 10.0};
   int err = VF_OK, c;
   optind = 0; /* 0: getopt starts again from scratch (glibc), forgetting the last argv */
-  opterr = 0;
-  while ((c = getopt_long(argc, argv, "c:k:h", options, NULL)) != -1) {
+  while ((c = vf_cli_getopt(argc, argv, "c:k:h", options)) != -1) {
     if (connection_option(&conn, c, &err)) {
       if (err != VF_OK) return vf_cli_fail(cmd, err);
       continue;
     }
     if (c == 'h') return fputs(usage, stdout), VF_EXIT_OK;
-    return vf_cli_bad_option(cmd, argv, usage);
+    return vf_cli_bad_option(cmd);
   }
-  if (optind != argc - 1) {
-    fprintf(stderr, "vcmfarm %s: expected one JOB\n%s", cmd, usage);
-    return VF_EXIT_BAD_INPUT;
-  }
+  if (optind != argc - 1) return vf_cli_usage_error(cmd, "expected one JOB");
   uint64_t job_id;
   if ((err = parse_job_id(argv[optind], &job_id)) != VF_OK) return vf_cli_fail(cmd, err);
   Vcmfarm__CancelRequest cancel = VCMFARM__CANCEL_REQUEST__INIT;
@@ -408,10 +424,12 @@ static int job_request(int argc, char **argv, const char *cmd, const char *usage
     q.remove = &remove;
   }
   if ((err = request(&conn, &q, VCMFARM__ENVELOPE__BODY_RESULT_ACK, &reply)) != VF_OK) return vf_cli_fail(cmd, err);
+  /* A refusal (a job ended already, or not yet) did nothing: the request did not fit the
+   * job, a mistake of the command line like a job that does not exist. */
   int accepted = reply->result_ack->accepted;
   fprintf(stderr, "vcmfarm %s: %s\n", cmd, reply->result_ack->message);
   vf_message_free(reply);
-  return accepted ? VF_EXIT_OK : VF_EXIT_FAILURE;
+  return accepted ? VF_EXIT_OK : VF_EXIT_BAD_INPUT;
 }
 
 int vf_cmd_cancel(int argc, char **argv) {
@@ -424,16 +442,30 @@ int vf_cmd_remove(int argc, char **argv) {
 
 /* ---- keygen ---- */
 
+static const char keygen_usage[] =
+    "usage: vcmfarm keygen FILE [-q]\n"
+    "\n"
+    "Writes a new random farm key (64 hex digits) to FILE with permissions 0600;\n"
+    "coordinator, workers and clients all need a copy. Never replaces an existing file.\n"
+    "\n"
+    "  -q, --quiet  no line saying what was written\n"
+    "  -h, --help   this text\n";
+
 int vf_cmd_keygen(int argc, char **argv) {
-  if (argc == 2 && (strcmp(argv[1], "--help") == 0 || strcmp(argv[1], "-h") == 0)) {
-    printf("usage: vcmfarm keygen FILE\n\nWrites a new random farm key (64 hex digits) to FILE with permissions 0600;\n"
-           "coordinator, workers and clients all need a copy. Never replaces an existing file.\n");
-    return VF_EXIT_OK;
+  static const struct option options[] = {{"quiet", no_argument, 0, 'q'}, {"help", no_argument, 0, 'h'}, {0, 0, 0, 0}};
+  int quiet = 0, c;
+  optind = 0; /* 0: getopt starts again from scratch (glibc), forgetting the last argv */
+  while ((c = vf_cli_getopt(argc, argv, "qh", options)) != -1) {
+    if (c == 'q') quiet = 1;
+    else if (c == 'h') return fputs(keygen_usage, stdout), VF_EXIT_OK;
+    else return vf_cli_bad_option("keygen");
   }
-  if (argc != 2) {
-    fprintf(stderr, "usage: vcmfarm keygen FILE\n");
-    return VF_EXIT_BAD_INPUT;
-  }
-  int err = vf_wire_key_generate(argv[1]);
-  return err == VF_OK ? VF_EXIT_OK : vf_cli_fail("keygen", err);
+  if (optind != argc - 1) return vf_cli_usage_error("keygen", "expected one FILE");
+  int err = vf_cli_writable("FILE", argv[optind]);
+  if (err == VF_OK) err = vf_wire_key_generate(argv[optind]);
+  if (err != VF_OK) return vf_cli_fail("keygen", err);
+  if (!quiet)
+    fprintf(stderr, "wrote %s: a new farm key, readable by you only; copy it to every machine of the farm\n",
+            argv[optind]);
+  return VF_EXIT_OK;
 }

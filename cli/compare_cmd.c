@@ -132,8 +132,8 @@ static void print_table(const char *image, int image_film, const char *ref, int 
                         const vf_window *w, const vf_error_metrics *m) {
   printf("image      %s (%s, %dx%d)\n", image, image_film ? "film" : "image", width, height);
   printf("reference  %s (%s, %dx%d)\n", ref, ref_film ? "film" : "image", width, height);
-  printf("window     %d,%d,%d,%d: %llu pixels compared, %llu skipped (non-finite)\n", w->x, w->y, w->width,
-         w->height, (unsigned long long)m->pixels, (unsigned long long)m->skipped);
+  printf("window     %d,%d,%d,%d: %llu %s compared, %llu skipped (non-finite)\n", w->x, w->y, w->width, w->height,
+         (unsigned long long)m->pixels, vf_cli_plural(m->pixels, "pixel", "pixels"), (unsigned long long)m->skipped);
   printf("mean       image %.9g, reference %.9g\n", m->mean_image, m->mean_reference);
   printf("%-10s %15s %15s %15s %15s\n", "", "R", "G", "B", "all");
   printf("%-10s %15.9g %15.9g %15.9g %15.9g\n", "rmse", m->rmse[0], m->rmse[1], m->rmse[2], m->rmse_all);
@@ -151,8 +151,7 @@ int vf_cmd_errors(int argc, char **argv) {
   int have_window = 0, json = 0, err = VF_OK, c;
   vf_error_clear();
   optind = 0;
-  opterr = 0;
-  while ((c = getopt_long(argc, argv, "w:jh", options, NULL)) != -1) {
+  while ((c = vf_cli_getopt(argc, argv, "w:jh", options)) != -1) {
     switch (c) {
     case 'w':
       err = parse_window(optarg, &window);
@@ -161,14 +160,11 @@ int vf_cmd_errors(int argc, char **argv) {
     case 'j': json = 1; break;
     case 'h': fputs(errors_usage, stdout); return VF_EXIT_OK;
     default:
-      return vf_cli_bad_option("errors", argv, errors_usage);
+      return vf_cli_bad_option("errors");
     }
     if (err != VF_OK) return vf_cli_fail("errors", err);
   }
-  if (optind != argc - 2) {
-    fprintf(stderr, "vcmfarm errors: expected IMAGE and REF\n%s", errors_usage);
-    return VF_EXIT_BAD_INPUT;
-  }
+  if (optind != argc - 2) return vf_cli_usage_error("errors", "expected IMAGE and REF");
   const char *image_path = argv[optind], *ref_path = argv[optind + 1];
   vf_image image = {0}, ref = {0};
   int image_film = 0, ref_film = 0;
@@ -190,7 +186,7 @@ done:
 /* ---- diff ---- */
 
 static const char diff_usage[] =
-    "usage: vcmfarm diff A B -o DIFF.png [--scale S]\n"
+    "usage: vcmfarm diff A B -o DIFF.png [--scale S] [-q]\n"
     "\n"
     "Writes a false-colour image of the relative difference of luminance per pixel,\n"
     "(Y_A - Y_B) / (|Y_B| + 0.01): blue where A is darker, white where equal, red where\n"
@@ -200,6 +196,7 @@ static const char diff_usage[] =
     "\n"
     "  -o, --output DIFF.png  the image to write (required, .png)\n"
     "  -s, --scale S          clamp at +-S (default: the 99th percentile of |difference|)\n"
+    "  -q, --quiet            no line saying what was written\n"
     "  -h, --help             this text\n"
     "\n"
     "Exit status: 0 done, 1 failure while writing, 2 bad input (nothing is written).\n";
@@ -298,8 +295,8 @@ static void draw_legend(cairo_t *cr, int canvas_width, int y0, double scale, con
     double tx = k == -2 ? fmax(x, margin + 16) : k == 2 ? fmin(x, margin + width - 16) : x;
     show_text(cr, text, tx, bar_top + bar_height + 16, 10, width / 5, 1);
   }
-  snprintf(text, sizeof text, "clamped at \xc2\xb1%.3g (%s); black: non-finite (%llu pixels)", scale, scale_source,
-           (unsigned long long)nonfinite);
+  snprintf(text, sizeof text, "clamped at \xc2\xb1%.3g (%s); black: non-finite (%llu %s)", scale, scale_source,
+           (unsigned long long)nonfinite, vf_cli_plural(nonfinite, "pixel", "pixels"));
   show_text(cr, text, margin, y0 + 70, 11, width, 0);
 }
 
@@ -369,35 +366,30 @@ destroy:
 int vf_cmd_diff(int argc, char **argv) {
   static const struct option options[] = {{"output", required_argument, 0, 'o'},
                                           {"scale", required_argument, 0, 's'},
+                                          {"quiet", no_argument, 0, 'q'},
                                           {"help", no_argument, 0, 'h'},
                                           {0, 0, 0, 0}};
   const char *output = NULL;
   double scale = 0.0;
-  int scale_given = 0, err = VF_OK, c;
+  int scale_given = 0, quiet = 0, err = VF_OK, c;
   vf_error_clear();
   optind = 0;
-  opterr = 0;
-  while ((c = getopt_long(argc, argv, "o:s:h", options, NULL)) != -1) {
+  while ((c = vf_cli_getopt(argc, argv, "o:s:qh", options)) != -1) {
     switch (c) {
     case 'o': output = optarg; break;
+    case 'q': quiet = 1; break;
     case 's':
       err = vf_cli_double("--scale", optarg, 1e-30, 1e30, &scale);
       scale_given = 1;
       break;
     case 'h': fputs(diff_usage, stdout); return VF_EXIT_OK;
     default:
-      return vf_cli_bad_option("diff", argv, diff_usage);
+      return vf_cli_bad_option("diff");
     }
     if (err != VF_OK) return vf_cli_fail("diff", err);
   }
-  if (optind != argc - 2) {
-    fprintf(stderr, "vcmfarm diff: expected A and B\n%s", diff_usage);
-    return VF_EXIT_BAD_INPUT;
-  }
-  if (output == NULL) {
-    fprintf(stderr, "vcmfarm diff: missing -o DIFF.png\n");
-    return VF_EXIT_BAD_INPUT;
-  }
+  if (optind != argc - 2) return vf_cli_usage_error("diff", "expected A and B");
+  if (output == NULL) return vf_cli_usage_error("diff", "missing -o DIFF.png");
   if ((err = vf_cli_extension("-o", output, ".png", "a PNG image")) != VF_OK) return vf_cli_fail("diff", err);
 
   vf_image a = {0}, b = {0};
@@ -417,8 +409,9 @@ int vf_cmd_diff(int argc, char **argv) {
     scale_source = p99 > 0.0 ? "99th percentile of |difference|" : "the images are equal";
   }
   if ((err = write_diff_png(output, &a, d, scale, scale_source, nonfinite)) != VF_OK) goto done;
-  fprintf(stderr, "wrote %s: %dx%d, clamped at +-%.3g (%s), %llu non-finite pixel(s)\n", output, a.width, a.height,
-          scale, scale_source, (unsigned long long)nonfinite);
+  if (!quiet)
+    fprintf(stderr, "wrote %s: %dx%d, clamped at +-%.3g (%s), %llu non-finite %s\n", output, a.width, a.height, scale,
+            scale_source, (unsigned long long)nonfinite, vf_cli_plural(nonfinite, "pixel", "pixels"));
 done:
   free(d);
   vf_image_destroy(&b);

@@ -12,7 +12,7 @@
  * pixels compared and skipped (non-finite), on stdout as text or as one JSON object. */
 int vf_cmd_errors(int argc, char **argv);
 
-/* vcmfarm diff A B -o DIFF.png [--scale S]: a false-colour PNG of the per-pixel relative
+/* vcmfarm diff A B -o DIFF.png [--scale S] [-q]: a false-colour PNG of the per-pixel relative
  * difference of luminance, (Y_A - Y_B) / (|Y_B| + 0.01), blue negative, white zero, red
  * positive, clamped at +-S (default: the 99th percentile of |difference|); pixels where
  * either input is non-finite are black. The PNG is the image (W x H) above a legend

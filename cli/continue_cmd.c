@@ -106,8 +106,7 @@ int vf_cmd_continue(int argc, char **argv) {
   vf_cli_checkpoint checkpoint = VF_CLI_CHECKPOINT_DEFAULT;
   int quiet = 0, err = VF_OK, c;
   optind = 0; /* 0: getopt starts again from scratch (glibc), forgetting the last argv */
-  opterr = 0;
-  while ((c = getopt_long(argc, argv, VF_CLI_STOP_SHORT "o:j:p:e:qh", options, NULL)) != -1) {
+  while ((c = vf_cli_getopt(argc, argv, VF_CLI_STOP_SHORT "o:j:p:e:qh", options)) != -1) {
     if (vf_cli_stop_option(&stop, c, optarg, &err)) {
       if (err != VF_OK) return vf_cli_fail(cmd, err);
       continue;
@@ -123,14 +122,11 @@ int vf_cmd_continue(int argc, char **argv) {
     case 'e': err = vf_cli_double("--exposure", optarg, -64.0, 64.0, &exposure); break;
     case 'h': fputs(usage, stdout); return VF_EXIT_OK;
     default:
-      return vf_cli_bad_option("continue", argv, usage);
+      return vf_cli_bad_option("continue");
     }
     if (err != VF_OK) return vf_cli_fail(cmd, err);
   }
-  if (optind != argc - 1) {
-    fprintf(stderr, "vcmfarm continue: expected exactly one FILM\n%s", usage);
-    return VF_EXIT_BAD_INPUT;
-  }
+  if (optind != argc - 1) return vf_cli_usage_error("continue", "expected exactly one FILM");
   const char *film_path = argv[optind];
   if (output == NULL) output = film_path;
   if ((err = vf_cli_stop_check(&stop, 1)) != VF_OK || (err = vf_cli_writable("-o", output)) != VF_OK ||
@@ -163,8 +159,9 @@ int vf_cmd_continue(int argc, char **argv) {
     vf_film_destroy(stamped);
   }
   if (!quiet) {
-    fprintf(stderr, "vcmfarm continue: %s (%" PRIu64 " iterations), scene %s, %s\n", film_path,
-            vf_iterset_count(&film->iterations), scene->source, film->settings_text);
+    uint64_t held = vf_iterset_count(&film->iterations);
+    fprintf(stderr, "vcmfarm continue: %s (%" PRIu64 " %s), scene %s, %s\n", film_path, held,
+            vf_cli_plural(held, "iteration", "iterations"), scene->source, film->settings_text);
     vf_vcm_describe(vf_renderer_vcm(renderer), stderr);
   }
   vf_local_render_options lo = {output, stop.reference ? &reference : NULL, &stop, checkpoint,
@@ -182,8 +179,9 @@ int vf_cmd_continue(int argc, char **argv) {
   if (!quiet) {
     char set[256];
     if (vf_iterset_format(&film->iterations, set, sizeof set) != VF_OK) snprintf(set, sizeof set, "(long)");
-    fprintf(stderr, "added %" PRIu64 " iteration(s) in %.2f s%s; the film holds %s\n", r.iterations, r.seconds,
-            r.interrupted ? " (interrupted)" : "", set);
+    fprintf(stderr, "added %" PRIu64 " %s in %.2f s%s; the film holds %s\n", r.iterations,
+            vf_cli_plural(r.iterations, "iteration", "iterations"), r.seconds, r.interrupted ? " (interrupted)" : "",
+            set);
     vf_render_job_print_estimate(r.last.estimated_rmse);
     if (stop.reference) fprintf(stderr, ", RMSE %.4g against %s", r.last.rmse, stop.reference);
     fprintf(stderr, "%s\nwrote %s%s%s\n", r.target_reached ? " (target reached)" : "", output, preview ? " and " : "",

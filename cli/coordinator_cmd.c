@@ -50,10 +50,12 @@ int vf_cmd_coordinator(int argc, char **argv) {
   int err = VF_OK, c;
   long long n;
   optind = 0; /* 0: getopt starts again from scratch (glibc), forgetting the last argv */
-  opterr = 0;
-  while ((c = getopt_long(argc, argv, "l:d:k:w:h", options, NULL)) != -1) {
+  while ((c = vf_cli_getopt(argc, argv, "l:d:k:w:h", options)) != -1) {
     switch (c) {
-    case 'l': config.listen_url = optarg; break;
+    case 'l':
+      config.listen_url = optarg;
+      err = vf_cli_address("--listen", optarg);
+      break;
     case 'd': config.state_dir = optarg; break;
     case 'k': config.secret_path = optarg; break;
     case 'w': err = vf_cli_double("--worker-timeout", optarg, 0.1, 86400.0, &config.worker_timeout); break;
@@ -69,13 +71,12 @@ int vf_cmd_coordinator(int argc, char **argv) {
       break;
     case 'h': fputs(usage, stdout); return VF_EXIT_OK;
     default:
-      return vf_cli_bad_option("coordinator", argv, usage);
+      return vf_cli_bad_option("coordinator");
     }
     if (err != VF_OK) return vf_cli_fail(cmd, err);
   }
   if (optind != argc || !config.listen_url || !config.state_dir || !config.secret_path) {
-    fprintf(stderr, "vcmfarm coordinator: --listen, --state and --secret are required, nothing else\n%s", usage);
-    return VF_EXIT_BAD_INPUT;
+    return vf_cli_usage_error("coordinator", "--listen, --state and --secret are required, nothing else");
   }
   err = vf_coordinator_run(&config);
   return err == VF_OK ? VF_EXIT_OK : vf_cli_fail(cmd, err);

@@ -59,7 +59,7 @@ static const char merge_usage[] =
     "is written. OUT may be one of the inputs: it is replaced atomically.\n"
     "\n"
     "  -o, --output OUT.exr  the merged film (required)\n"
-    "  -q, --quiet           no summary\n"
+    "  -q, --quiet           no line saying what was written\n"
     "  -h, --help            this text\n"
     "\n"
     "Exit status: 0 done, 1 failure while writing, 2 bad input (nothing is written).\n";
@@ -172,25 +172,18 @@ int vf_cmd_merge(int argc, char **argv) {
   int quiet = 0, c;
   vf_error_clear();
   optind = 0;
-  opterr = 0;
-  while ((c = getopt_long(argc, argv, "o:qh", options, NULL)) != -1) {
+  while ((c = vf_cli_getopt(argc, argv, "o:qh", options)) != -1) {
     switch (c) {
     case 'o': output = optarg; break;
     case 'q': quiet = 1; break;
     case 'h': fputs(merge_usage, stdout); return VF_EXIT_OK;
     default:
-      return vf_cli_bad_option("merge", argv, merge_usage);
+      return vf_cli_bad_option("merge");
     }
   }
-  if (output == NULL) {
-    fprintf(stderr, "vcmfarm merge: missing -o OUT.exr\n%s", merge_usage);
-    return VF_EXIT_BAD_INPUT;
-  }
+  if (output == NULL) return vf_cli_usage_error("merge", "missing -o OUT.exr");
   int n = argc - optind;
-  if (n < 2) {
-    fprintf(stderr, "vcmfarm merge: expected at least two input films, got %d\n%s", n, merge_usage);
-    return VF_EXIT_BAD_INPUT;
-  }
+  if (n < 2) return vf_cli_usage_error("merge", "expected at least two input films, got %d", n);
   /* OUT may be one of the inputs (it then grows by the others), but no other vcmfarm
    * process may write it meanwhile. */
   vf_film *sum = NULL;
@@ -202,8 +195,9 @@ int vf_cmd_merge(int argc, char **argv) {
   if (err == VF_OK && !quiet) {
     char set[256];
     if (vf_iterset_format(&sum->iterations, set, sizeof set) != VF_OK) snprintf(set, sizeof set, "(long)");
-    fprintf(stderr, "merged %d films: %" PRIu64 " iterations %s, %.2f s of rendering\nwrote %s\n", n,
-            vf_iterset_count(&sum->iterations), set, sum->render_seconds, output);
+    uint64_t count = vf_iterset_count(&sum->iterations);
+    fprintf(stderr, "wrote %s: %d films merged, %" PRIu64 " %s %s, %.2f s of rendering\n", output, n, count,
+            vf_cli_plural(count, "iteration", "iterations"), set, sum->render_seconds);
   }
   vf_film_destroy(sum);
   return err == VF_OK ? VF_EXIT_OK : vf_cli_fail("merge", err);
@@ -212,7 +206,7 @@ int vf_cmd_merge(int argc, char **argv) {
 /* ---- bake ---- */
 
 static const char bake_usage[] =
-    "usage: vcmfarm bake FILM.exr -o IMAGE.exr|IMAGE.png [--exposure E]\n"
+    "usage: vcmfarm bake FILM.exr -o IMAGE.exr|IMAGE.png [--exposure E] [-q]\n"
     "\n"
     "Writes the film's mean radiance as a clean image: a FLOAT RGB EXR (R, G, B only, no\n"
     "film channels or attributes) or an 8-bit sRGB PNG. The output type follows the\n"
@@ -220,6 +214,7 @@ static const char bake_usage[] =
     "\n"
     "  -o, --output IMAGE    the image to write (required)\n"
     "  -e, --exposure E      PNG only: scale radiance by 2^E before tone mapping (default 0)\n"
+    "  -q, --quiet           no line saying what was written\n"
     "  -h, --help            this text\n"
     "\n"
     "Exit status: 0 done, 1 failure while writing, 2 bad input (nothing is written).\n";
@@ -232,35 +227,30 @@ static int has_extension(const char *path, const char *ext) {
 int vf_cmd_bake(int argc, char **argv) {
   static const struct option options[] = {{"output", required_argument, 0, 'o'},
                                           {"exposure", required_argument, 0, 'e'},
+                                          {"quiet", no_argument, 0, 'q'},
                                           {"help", no_argument, 0, 'h'},
                                           {0, 0, 0, 0}};
   const char *output = NULL;
   double exposure = 0.0;
-  int have_exposure = 0, err = VF_OK, c;
+  int have_exposure = 0, quiet = 0, err = VF_OK, c;
   vf_error_clear();
   optind = 0;
-  opterr = 0;
-  while ((c = getopt_long(argc, argv, "o:e:h", options, NULL)) != -1) {
+  while ((c = vf_cli_getopt(argc, argv, "o:e:qh", options)) != -1) {
     switch (c) {
     case 'o': output = optarg; break;
     case 'e':
       err = vf_cli_double("--exposure", optarg, -64.0, 64.0, &exposure);
       have_exposure = 1;
       break;
+    case 'q': quiet = 1; break;
     case 'h': fputs(bake_usage, stdout); return VF_EXIT_OK;
     default:
-      return vf_cli_bad_option("bake", argv, bake_usage);
+      return vf_cli_bad_option("bake");
     }
     if (err != VF_OK) return vf_cli_fail("bake", err);
   }
-  if (optind != argc - 1) {
-    fprintf(stderr, "vcmfarm bake: expected exactly one FILM\n%s", bake_usage);
-    return VF_EXIT_BAD_INPUT;
-  }
-  if (output == NULL) {
-    fprintf(stderr, "vcmfarm bake: missing -o IMAGE.exr or IMAGE.png\n");
-    return VF_EXIT_BAD_INPUT;
-  }
+  if (optind != argc - 1) return vf_cli_usage_error("bake", "expected exactly one FILM");
+  if (output == NULL) return vf_cli_usage_error("bake", "missing -o IMAGE.exr or IMAGE.png");
   int png = has_extension(output, ".png");
   if (!png && !has_extension(output, ".exr"))
     return vf_cli_fail("bake", vf_error_set(VF_EUSAGE, "%s: unknown output type (the name must end in .exr or .png)",
@@ -276,6 +266,12 @@ int vf_cmd_bake(int argc, char **argv) {
   if ((err = vf_image_alloc(&img, film->width, film->height)) != VF_OK) goto done;
   vf_film_mean(film, img.rgb);
   err = png ? vf_image_write_png(output, &img, (float)exposure) : vf_image_write_exr(output, &img);
+  if (err == VF_OK && !quiet) {
+    uint64_t count = vf_iterset_count(&film->iterations);
+    fprintf(stderr, "wrote %s: the mean of %s (%dx%d, %" PRIu64 " %s) as %s\n", output, argv[optind], img.width,
+            img.height, count, vf_cli_plural(count, "iteration", "iterations"),
+            png ? "an 8-bit sRGB PNG" : "a float RGB EXR");
+  }
 done:
   vf_image_destroy(&img);
   vf_film_destroy(film);

@@ -16,11 +16,13 @@
 
 /* vcmfarm merge -o OUT IN...: the exact sum of two or more films. Refuses films whose
  * size, scene hash or settings text differ from the first input's, and films whose
- * iteration sets overlap, naming both files. OUT may be one of the inputs. */
+ * iteration sets overlap, naming both files. OUT may be one of the inputs. Says on
+ * stderr what it wrote, one line, unless -q. */
 int vf_cmd_merge(int argc, char **argv);
 
 /* vcmfarm bake FILM -o IMAGE.exr|IMAGE.png [--exposure E]: the film's mean as a clean
- * FLOAT RGB EXR, or as an 8-bit sRGB PNG scaled by 2^E. Other extensions are refused. */
+ * FLOAT RGB EXR, or as an 8-bit sRGB PNG scaled by 2^E. Other extensions are refused.
+ * Says on stderr what it wrote, one line, unless -q. */
 int vf_cmd_bake(int argc, char **argv);
 
 /* Reads path as an RGB image into *out (written only on success; the caller frees it with

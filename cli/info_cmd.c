@@ -138,19 +138,15 @@ int vf_cmd_info(int argc, char **argv) {
   static const struct option options[] = {{"json", no_argument, 0, 'J'}, {"help", no_argument, 0, 'h'}, {0, 0, 0, 0}};
   int json = 0, c;
   optind = 0; /* 0: getopt starts again from scratch (glibc), forgetting the last argv */
-  opterr = 0;
-  while ((c = getopt_long(argc, argv, "h", options, NULL)) != -1) {
+  while ((c = vf_cli_getopt(argc, argv, "h", options)) != -1) {
     switch (c) {
     case 'J': json = 1; break;
     case 'h': fputs(usage, stdout); return VF_EXIT_OK;
     default:
-      return vf_cli_bad_option("info", argv, usage);
+      return vf_cli_bad_option("info");
     }
   }
-  if (optind != argc - 1) {
-    fprintf(stderr, "vcmfarm info: expected exactly one FILM\n%s", usage);
-    return VF_EXIT_BAD_INPUT;
-  }
+  if (optind != argc - 1) return vf_cli_usage_error("info", "expected exactly one FILM");
   const char *path = argv[optind];
   vf_film *film = NULL;
   summary s = {0};

@@ -7,6 +7,7 @@
 #include "compare_cmd.h"
 #include "film_cmd.h"
 #include "info_cmd.h"
+#include "options.h"
 #include "plot.h"
 
 #ifdef __GLIBC__
@@ -71,9 +72,14 @@ int main(int argc, char **argv) {
     print_usage(stdout);
     return 0;
   }
-  for (size_t i = 0; i < sizeof commands / sizeof *commands; i++)
+  enum { COUNT = sizeof commands / sizeof *commands };
+  const char *names[COUNT];
+  for (size_t i = 0; i < COUNT; i++) {
     if (strcmp(argv[1], commands[i].name) == 0) return commands[i].run(argc - 1, argv + 1);
-  fprintf(stderr, "vcmfarm: unknown command '%s'\n", argv[1]);
-  print_usage(stderr);
+    names[i] = commands[i].name;
+  }
+  const char *nearest = vf_cli_nearest(argv[1], strlen(argv[1]), names, COUNT);
+  fprintf(stderr, "vcmfarm: unknown command '%s'%s%s%s; try 'vcmfarm --help'\n", argv[1],
+          nearest ? " (did you mean " : "", nearest ? nearest : "", nearest ? "?)" : "");
   return 2;
 }

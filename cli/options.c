@@ -5,6 +5,7 @@
 #include <errno.h>
 #include <getopt.h>
 #include <math.h>
+#include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -85,6 +86,45 @@ int vf_cli_settings_apply(const vf_cli_settings *o, vf_settings *settings) {
     settings->height = o->height;
   }
   return VF_OK;
+}
+
+/* Whether text is a port number: 1 to 5 digits and nothing else. */
+static int is_port(const char *text) {
+  size_t n = strspn(text, "0123456789");
+  return n >= 1 && n <= 5 && text[n] == '\0' && atol(text) <= 65535;
+}
+
+int vf_cli_address(const char *option, const char *url) {
+  static const char forms[] = "tcp://HOST:PORT or ipc://PATH";
+  const char *sep = strstr(url, "://");
+  if (sep == NULL) {
+    const char *colon = strrchr(url, ':');
+    if (colon != NULL && colon > url && is_port(colon + 1))
+      return vf_error_set(VF_EUSAGE, "%s %s: an address starts with its scheme: write tcp://%s", option, url, url);
+    if (strchr(url, '/') != NULL || strstr(url, ".sock") != NULL)
+      return vf_error_set(VF_EUSAGE, "%s %s: an address starts with its scheme: write ipc://%s for this socket file",
+                          option, url, url);
+    return vf_error_set(VF_EUSAGE, "%s %s: not an address; write %s (tcp://%s:PORT for a host)", option, url, forms,
+                        url[0] ? url : "HOST");
+  }
+  size_t scheme = (size_t)(sep - url);
+  const char *rest = sep + 3;
+  if (scheme == 3 && strncmp(url, "tcp", 3) == 0) {
+    const char *colon = strrchr(rest, ':');
+    if (colon == NULL || colon == rest || !is_port(colon + 1))
+      return vf_error_set(VF_EUSAGE, "%s %s: a tcp:// address is tcp://HOST:PORT, with a port number", option, url);
+    return VF_OK;
+  }
+  if (scheme == 3 && strncmp(url, "ipc", 3) == 0) {
+    if (rest[0] == '\0')
+      return vf_error_set(VF_EUSAGE, "%s %s: an ipc:// address names a socket file: ipc://PATH", option, url);
+    return VF_OK;
+  }
+  if (scheme == 6 && strncmp(url, "inproc", 6) == 0)
+    return vf_error_set(VF_EUSAGE, "%s %s: inproc:// reaches only a coordinator inside the same process; write %s",
+                        option, url, forms);
+  return vf_error_set(VF_EUSAGE, "%s %s: unknown scheme '%.*s://'; write %s (tcp://%s for a host and port)", option,
+                      url, (int)scheme, url, forms, rest[0] ? rest : "HOST:PORT");
 }
 
 int vf_cli_extension(const char *option, const char *path, const char *ext, const char *what) {
@@ -193,6 +233,8 @@ int vf_cli_exit_status(int err) {
   case VF_EMISMATCH:
   case VF_EOVERLAP:
   case VF_EBUSY: /* refused before anything was written, like bad input */
+  case VF_EAUTH: /* the coordinator refused the key: the key file given is not the farm's */
+  case VF_ENOJOB: /* the command line named a job the coordinator does not have */
     return VF_EXIT_BAD_INPUT;
   default: return VF_EXIT_FAILURE;
   }
@@ -203,8 +245,149 @@ int vf_cli_fail(const char *command, int err) {
   return vf_cli_exit_status(err);
 }
 
-int vf_cli_bad_option(const char *command, char **argv, const char *usage) {
-  fprintf(stderr, "vcmfarm %s: unknown or incomplete option '%s'\n%s", command, argv[optind - 1], usage);
+/* What vf_cli_getopt refused, for vf_cli_bad_option: "unknown option '--x'". */
+static char refused_option[512];
+
+const char *vf_cli_plural(unsigned long long n, const char *one, const char *many) { return n == 1 ? one : many; }
+
+/* Levenshtein distance of a[0, n) and b, or a large number when either is too long to
+ * be a typo of the other. */
+static size_t edit_distance(const char *a, size_t n, const char *b) {
+  enum { LONGEST = 64 };
+  size_t m = strlen(b), row[LONGEST + 1];
+  if (n > LONGEST || m > LONGEST) return (size_t)-1;
+  for (size_t j = 0; j <= m; j++) row[j] = j;
+  for (size_t i = 1; i <= n; i++) {
+    size_t diagonal = row[0];
+    row[0] = i;
+    for (size_t j = 1; j <= m; j++) {
+      size_t above = row[j], best = diagonal + (a[i - 1] != b[j - 1]);
+      if (above + 1 < best) best = above + 1;
+      if (row[j - 1] + 1 < best) best = row[j - 1] + 1;
+      row[j] = best;
+      diagonal = above;
+    }
+  }
+  return row[m];
+}
+
+const char *vf_cli_nearest(const char *word, size_t n, const char *const *names, size_t count) {
+  const char *nearest = NULL;
+  size_t best = 3; /* at most 2 edits */
+  int tie = 0;
+  for (size_t i = 0; i < count; i++) {
+    size_t d = edit_distance(word, n, names[i]);
+    if (d < best) {
+      best = d;
+      nearest = names[i];
+      tie = 0;
+    } else if (d == best) {
+      tie = 1;
+    }
+  }
+  return tie ? NULL : nearest;
+}
+
+/* The long option named exactly name[0, n), or NULL. */
+static const struct option *long_option(const struct option *longopts, const char *name, size_t n) {
+  for (const struct option *o = longopts; o->name != NULL; o++)
+    if (strlen(o->name) == n && strncmp(o->name, name, n) == 0) return o;
+  return NULL;
+}
+
+/* " (did you mean --iterations?)" for an unknown long option name[0, n): the options it
+ * begins (what getopt_long would have taken it for), else the one it is a typo of; or "". */
+static void suggest(const struct option *longopts, const char *name, size_t n, char *out, size_t size) {
+  const char *names[128], *prefixed[3];
+  size_t count = 0, matches = 0;
+  for (const struct option *o = longopts; o->name != NULL && count < 128; o++) {
+    names[count++] = o->name;
+    if (n > 0 && strncmp(o->name, name, n) == 0 && matches < 3) prefixed[matches++] = o->name;
+  }
+  out[0] = '\0';
+  if (matches == 1) snprintf(out, size, " (did you mean --%s?)", prefixed[0]);
+  else if (matches == 2) snprintf(out, size, " (did you mean --%s or --%s?)", prefixed[0], prefixed[1]);
+  else if (matches == 0) {
+    const char *nearest = vf_cli_nearest(name, n, names, count);
+    if (nearest) snprintf(out, size, " (did you mean --%s?)", nearest);
+  }
+}
+
+/* Checks argv as getopt_long will read it (operands anywhere, "--" ends the options),
+ * with long options matched exactly; 0, or -1 with refused_option set. */
+static int check_argv(int argc, char **argv, const char *shortopts, const struct option *longopts) {
+  char hint[256];
+  for (int i = 1; i < argc; i++) {
+    const char *a = argv[i];
+    if (strcmp(a, "--") == 0) return 0;
+    if (a[0] != '-' || a[1] == '\0') continue; /* an operand */
+    if (a[1] == '-') {
+      const char *name = a + 2, *eq = strchr(name, '=');
+      size_t n = eq ? (size_t)(eq - name) : strlen(name);
+      const struct option *o = long_option(longopts, name, n);
+      if (o == NULL) {
+        suggest(longopts, name, n, hint, sizeof hint);
+        snprintf(refused_option, sizeof refused_option, "unknown option '--%.*s'%s", (int)n, name, hint);
+        return -1;
+      }
+      if (o->has_arg == no_argument && eq) {
+        snprintf(refused_option, sizeof refused_option, "option '--%s' takes no value", o->name);
+        return -1;
+      }
+      if (o->has_arg == required_argument && eq == NULL && ++i >= argc) {
+        snprintf(refused_option, sizeof refused_option, "option '--%s' needs a value", o->name);
+        return -1;
+      }
+      continue;
+    }
+    for (const char *p = a + 1; *p != '\0'; p++) {
+      const char *spec = *p == ':' ? NULL : strchr(shortopts, *p);
+      if (spec == NULL) {
+        /* "-iterations": a long option written with one dash */
+        hint[0] = '\0';
+        if (p == a + 1 && long_option(longopts, a + 1, strlen(a + 1)) != NULL)
+          snprintf(hint, sizeof hint, " (did you mean --%s?)", a + 1);
+        snprintf(refused_option, sizeof refused_option, "unknown option '-%c'%s", *p, hint);
+        return -1;
+      }
+      if (spec[1] == ':') { /* its value is the rest of this word, or the next word */
+        if (p[1] == '\0' && ++i >= argc) {
+          snprintf(refused_option, sizeof refused_option, "option '-%c' needs a value", *p);
+          return -1;
+        }
+        break;
+      }
+    }
+  }
+  return 0;
+}
+
+int vf_cli_getopt(int argc, char **argv, const char *shortopts, const struct option *longopts) {
+  if (optind == 0) {
+    opterr = 0;
+    refused_option[0] = '\0';
+    if (check_argv(argc, argv, shortopts, longopts) != 0) return '?';
+  }
+  int c = getopt_long(argc, argv, shortopts, longopts, NULL);
+  if ((c == '?' || c == ':') && refused_option[0] == '\0') /* not foreseen by check_argv */
+    snprintf(refused_option, sizeof refused_option, "unknown or incomplete option '%s'",
+             optind > 0 && optind <= argc ? argv[optind - 1] : "?");
+  return c == ':' ? '?' : c;
+}
+
+int vf_cli_bad_option(const char *command) {
+  fprintf(stderr, "vcmfarm %s: %s; try 'vcmfarm %s --help'\n", command,
+          refused_option[0] ? refused_option : "bad option", command);
+  return VF_EXIT_BAD_INPUT;
+}
+
+int vf_cli_usage_error(const char *command, const char *fmt, ...) {
+  char detail[512];
+  va_list ap;
+  va_start(ap, fmt);
+  vsnprintf(detail, sizeof detail, fmt, ap);
+  va_end(ap);
+  fprintf(stderr, "vcmfarm %s: %s; try 'vcmfarm %s --help'\n", command, detail, command);
   return VF_EXIT_BAD_INPUT;
 }
 

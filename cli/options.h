@@ -1,12 +1,14 @@
 /* Command-line helpers shared by the subcommands: strict number parsing with ranges and
  * the exit-status convention (0 success, 1 failure while working, 2 bad input: command
- * line, scene, EXR file or film). */
+ * line, scene, EXR file or film, a key the coordinator refuses, a job it does not have or
+ * a request it refuses for the job's state; nothing is written then). */
 #ifndef VF_OPTIONS_H
 #define VF_OPTIONS_H
 
 #include "../common/settings.h"
 
 #include <getopt.h>
+#include <stddef.h>
 #include <stdint.h>
 
 enum { VF_EXIT_OK = 0, VF_EXIT_FAILURE = 1, VF_EXIT_BAD_INPUT = 2 };
@@ -22,6 +24,13 @@ int vf_cli_bytes(const char *option, const char *text, uint64_t *out);
 /* Checks, before hours of work, that a file can be written at path: its directory exists
  * and is writable, and path is not a directory. VF_EUSAGE naming the option and the path. */
 int vf_cli_writable(const char *option, const char *path);
+
+/* Checks a coordinator's address as an option (--coordinator, --connect, --listen) takes
+ * it: tcp://HOST:PORT or ipc://PATH, which nanomsg alone would refuse with "Invalid
+ * argument". VF_EUSAGE naming the option and what to write instead: an address without a
+ * scheme ("127.0.0.1:7450": write tcp://127.0.0.1:7450), another scheme, inproc:// (which
+ * reaches only a coordinator inside the same process), tcp:// without a port. */
+int vf_cli_address(const char *option, const char *url);
 
 /* Checks that path ends in ext (".exr", ".png"; any case), so that a file is never written
  * under a name that says another format. VF_EUSAGE naming the option, the path and `what`
@@ -150,8 +159,31 @@ int vf_cli_exit_status(int err);
 /* Prints "vcmfarm CMD: detail" to stderr and returns vf_cli_exit_status(err). */
 int vf_cli_fail(const char *command, int err);
 
-/* getopt_long's answer '?' or ':' for `vcmfarm CMD`: names the option it could not take
- * (argv[optind - 1]), prints the command's usage and returns VF_EXIT_BAD_INPUT. */
-int vf_cli_bad_option(const char *command, char **argv, const char *usage);
+/* getopt_long for every subcommand, with two differences. A long option is taken only
+ * spelled in full: getopt_long takes any unambiguous prefix, so `--iteration 4` would be
+ * --iterations and a prefix would change meaning as options are added. And an option
+ * refused (unknown, inexact, missing its value or given one it does not take) is described
+ * for vf_cli_bad_option, with the option the user probably meant.
+ * The caller sets optind = 0 before the first call, which checks the whole of argv before
+ * getopt_long sees any of it (so nothing is parsed from a command line that will be
+ * refused). Returns what getopt_long returns, and '?' for every refusal. Not thread-safe
+ * (getopt's state is global). */
+int vf_cli_getopt(int argc, char **argv, const char *shortopts, const struct option *longopts);
+
+/* After vf_cli_getopt returned '?' for `vcmfarm CMD`: prints one line, "vcmfarm CMD:
+ * unknown option '--iteration' (did you mean --iterations?); try 'vcmfarm CMD --help'", to
+ * stderr and returns VF_EXIT_BAD_INPUT. */
+int vf_cli_bad_option(const char *command);
+
+/* A command line whose operands are wrong (a missing or extra one): prints "vcmfarm CMD:
+ * <detail>; try 'vcmfarm CMD --help'" on one line and returns VF_EXIT_BAD_INPUT. */
+int vf_cli_usage_error(const char *command, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
+
+/* one when n is 1, else many: "1 file", "2 files". */
+const char *vf_cli_plural(unsigned long long n, const char *one, const char *many);
+
+/* The name among names[0, count) nearest to word[0, n) by edit distance, when one is
+ * nearest and at most 2 edits away (a typo); else NULL. */
+const char *vf_cli_nearest(const char *word, size_t n, const char *const *names, size_t count);
 
 #endif

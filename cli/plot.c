@@ -292,7 +292,7 @@ cleanup:
 }
 
 static const char usage[] =
-    "usage: vcmfarm plot FILM... -o PLOT.png [--x time|iterations|both]\n"
+    "usage: vcmfarm plot FILM... -o PLOT.png [--x time|iterations|both] [-q]\n"
     "\n"
     "Plots each film's error against wall-clock render time and against iterations,\n"
     "log-log, one labelled curve per film (its algorithm; plus its file name when two films\n"
@@ -301,21 +301,23 @@ static const char usage[] =
     "\n"
     "  -o, --output PLOT.png  the PNG to write (atomically)\n"
     "  -x, --x AXIS           time, iterations, or both (default: two panels)\n"
+    "  -q, --quiet            no line saying what was written\n"
     "  -h, --help             this text\n"
     "\n"
     "Exit status: 0 done, 1 failure while writing, 2 bad input (nothing is written).\n";
 
 int vf_cmd_plot(int argc, char **argv) {
   static const struct option options[] = {
-      {"output", required_argument, 0, 'o'}, {"x", required_argument, 0, 'x'}, {"help", no_argument, 0, 'h'}, {0, 0, 0, 0}};
+      {"output", required_argument, 0, 'o'}, {"x", required_argument, 0, 'x'}, {"quiet", no_argument, 0, 'q'},
+      {"help", no_argument, 0, 'h'},         {0, 0, 0, 0}};
   const char *output = NULL;
   vf_plot_x axis = VF_PLOT_BOTH;
-  int c;
+  int quiet = 0, c;
   optind = 0; /* 0: getopt starts again from scratch (glibc), forgetting the last argv */
-  opterr = 0;
-  while ((c = getopt_long(argc, argv, "o:x:h", options, NULL)) != -1) {
+  while ((c = vf_cli_getopt(argc, argv, "o:x:qh", options)) != -1) {
     switch (c) {
     case 'o': output = optarg; break;
+    case 'q': quiet = 1; break;
     case 'x':
       if (strcmp(optarg, "time") == 0) axis = VF_PLOT_TIME;
       else if (strcmp(optarg, "iterations") == 0) axis = VF_PLOT_ITERATIONS;
@@ -324,17 +326,11 @@ int vf_cmd_plot(int argc, char **argv) {
       break;
     case 'h': fputs(usage, stdout); return VF_EXIT_OK;
     default:
-      return vf_cli_bad_option("plot", argv, usage);
+      return vf_cli_bad_option("plot");
     }
   }
-  if (optind >= argc) {
-    fprintf(stderr, "vcmfarm plot: expected at least one FILM\n%s", usage);
-    return VF_EXIT_BAD_INPUT;
-  }
-  if (output == NULL) {
-    fprintf(stderr, "vcmfarm plot: missing -o PLOT.png\n");
-    return VF_EXIT_BAD_INPUT;
-  }
+  if (optind >= argc) return vf_cli_usage_error("plot", "expected at least one FILM");
+  if (output == NULL) return vf_cli_usage_error("plot", "missing -o PLOT.png");
   int n = argc - optind, err = vf_cli_extension("-o", output, ".png", "a PNG image");
   if (err != VF_OK) return vf_cli_fail("plot", err);
   vf_film **films = calloc((size_t)n, sizeof *films);
@@ -342,6 +338,10 @@ int vf_cmd_plot(int argc, char **argv) {
   for (int i = 0; i < n && err == VF_OK; i++) err = vf_film_read(argv[optind + i], &films[i]);
   if (err == VF_OK)
     err = vf_plot_write(output, (const vf_film *const *)films, (const char *const *)(argv + optind), n, axis);
+  if (err == VF_OK && !quiet)
+    fprintf(stderr, "wrote %s: error against %s of %d %s\n", output,
+            axis == VF_PLOT_TIME ? "time" : axis == VF_PLOT_ITERATIONS ? "iterations" : "time and iterations", n,
+            vf_cli_plural((unsigned long long)n, "film", "films"));
   for (int i = 0; i < n; i++) vf_film_destroy(films[i]);
   free(films);
   return err == VF_OK ? VF_EXIT_OK : vf_cli_fail("plot", err);

@@ -30,6 +30,8 @@ void vf_plot_color(int i, unsigned char rgb[3]);
  * VF_EINVAL with a detail when no film has a point to draw, VF_EIO on write failure. */
 int vf_plot_write(const char *path, const vf_film *const *films, const char *const *names, int n, vf_plot_x x);
 
+/* vcmfarm plot FILM... -o PLOT.png: vf_plot_write, then one line on stderr saying what it
+ * wrote, unless -q. */
 int vf_cmd_plot(int argc, char **argv);
 
 #endif

@@ -121,8 +121,7 @@ int vf_cmd_render(int argc, char **argv) {
   int err = VF_OK, c, direct = 0;
   vf_cli_settings_init(&o.overrides);
   optind = 0; /* 0: getopt starts again from scratch (glibc), forgetting the last argv */
-  opterr = 0;
-  while ((c = getopt_long(argc, argv, VF_CLI_STOP_SHORT VF_CLI_SETTINGS_SHORT "k:j:o:p:e:qh", options, NULL)) != -1) {
+  while ((c = vf_cli_getopt(argc, argv, VF_CLI_STOP_SHORT VF_CLI_SETTINGS_SHORT "k:j:o:p:e:qh", options)) != -1) {
     if (vf_cli_settings_option(&o.overrides, c, optarg, &err) || vf_cli_stop_option(&o.stop, c, optarg, &err)) {
       if (err != VF_OK) return vf_cli_fail(cmd, err);
       continue;
@@ -139,14 +138,11 @@ int vf_cmd_render(int argc, char **argv) {
     case 'C': err = vf_cli_checkpoint_option(&o.checkpoint, optarg); break;
     case 'h': fputs(usage, stdout); return VF_EXIT_OK;
     default:
-      return vf_cli_bad_option("render", argv, usage);
+      return vf_cli_bad_option("render");
     }
     if (err != VF_OK) return vf_cli_fail(cmd, err);
   }
-  if (optind != argc - 1) {
-    fprintf(stderr, "vcmfarm render: expected exactly one SCENE\n%s", usage);
-    return VF_EXIT_BAD_INPUT;
-  }
+  if (optind != argc - 1) return vf_cli_usage_error("render", "expected exactly one SCENE");
   if (o.output == NULL) {
     fprintf(stderr, "vcmfarm render: missing -o FILM.exr\n");
     return VF_EXIT_BAD_INPUT;

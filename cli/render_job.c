@@ -32,13 +32,13 @@ void vf_render_job_print_summary(const vf_film *film, double seconds, const vf_v
   uint64_t n = vf_iterset_count(&film->iterations);
   double per = rendered ? 1000.0 / (double)rendered : 0.0;
   fprintf(stderr,
-          "rendered %llu iteration(s) %s in %.2f s: %.3f it/s, %.2f Mrays/s, %llu light vertices/it\n"
+          "rendered %llu %s %s in %.2f s: %.3f it/s, %.2f Mrays/s, %llu light vertices/it\n"
           "per iteration: light sub-paths %.1f ms, grid %.1f ms, camera sub-paths %.1f ms; "
-          "%llu non-finite sample(s)%s\n",
-          (unsigned long long)n, set, seconds, (double)n / seconds, (double)stats->rays / seconds * 1e-6,
+          "%llu non-finite %s%s\n",
+          (unsigned long long)n, vf_cli_plural(n, "iteration", "iterations"), set, seconds, (double)n / seconds, (double)stats->rays / seconds * 1e-6,
           (unsigned long long)(rendered ? stats->light_vertices / rendered : 0), stats->light_seconds * per,
           stats->grid_seconds * per, stats->camera_seconds * per, (unsigned long long)stats->nonfinite,
-          interrupted ? " (interrupted)" : "");
+          vf_cli_plural(stats->nonfinite, "sample", "samples"), interrupted ? " (interrupted)" : "");
 }
 
 void vf_render_job_print_estimate(double estimated_rmse) {

@@ -1,5 +1,6 @@
 #include "status_report.h"
 
+#include "options.h"
 #include "../common/forecast.h"
 #include "../common/settings.h"
 #include "../coordinator/farm_core.h"
@@ -27,7 +28,6 @@ static void add_string_or_null(cJSON *o, const char *key, const char *s) {
   else cJSON_AddNullToObject(o, key);
 }
 
-static const char *plural(unsigned long long n, const char *one, const char *many) { return n == 1 ? one : many; }
 
 /* The job's iteration count is a stop condition unless it is the open-ended cap that a
  * time or a target comes with (cli/options.h). */
@@ -232,7 +232,7 @@ void vf_status_job_line(const Vcmfarm__JobStatus *j, char *buf, size_t n) {
   size_t left = n;
   buf[0] = '\0';
   append(&p, &left, "%s, %llu %s done", j->state, (unsigned long long)j->iterations_done,
-         plural(j->iterations_done, "iteration", "iterations"));
+         vf_cli_plural(j->iterations_done, "iteration", "iterations"));
   if (j->progress_by[0] && (strcmp(j->state, "running") == 0 || strcmp(j->state, "queued") == 0))
     append(&p, &left, ", %.0f%% (%s), ETA %s", 100.0 * j->progress, j->progress_by, eta);
   if (isfinite(j->estimated_rmse)) append(&p, &left, ", est. RMSE %.4g", j->estimated_rmse);
@@ -246,7 +246,7 @@ static void stop_text(const Vcmfarm__JobStatus *j, char *buf, size_t n) {
   const char *sep = "";
   buf[0] = '\0';
   if (iterations_is_condition(j)) {
-    append(&p, &left, "%llu %s", (unsigned long long)j->iterations_total, plural(j->iterations_total, "iteration", "iterations"));
+    append(&p, &left, "%llu %s", (unsigned long long)j->iterations_total, vf_cli_plural(j->iterations_total, "iteration", "iterations"));
     sep = ", ";
   }
   if (j->time_limit > 0.0) {
@@ -277,7 +277,7 @@ void vf_status_print_text(const Vcmfarm__Status *st, FILE *out) {
   for (size_t i = 0; i < st->n_workers; i++)
     registered += strcmp(st->workers[i]->state, "left") != 0 && strcmp(st->workers[i]->state, "lost") != 0;
   fprintf(out, "farm: %.2f iterations/s, %u of %u %s busy\n", st->iterations_per_second, st->workers_busy, registered,
-          plural(registered, "worker", "workers"));
+          vf_cli_plural(registered, "worker", "workers"));
   int one_job = st->n_jobs == 1 && st->jobs[0]->n_convergence > 0;
   for (size_t i = 0; i < st->n_jobs; i++) {
     const Vcmfarm__JobStatus *j = st->jobs[i];
@@ -289,10 +289,10 @@ void vf_status_print_text(const Vcmfarm__Status *st, FILE *out) {
     fprintf(out, "  %llu leased (%llu of them rendered, not merged yet), priority %d; stops at the first of: %s\n",
             (unsigned long long)j->iterations_leased, (unsigned long long)j->iterations_rendering, j->priority, stop);
     fprintf(out, "  ran %s, %.2f it/s on %u %s", ran, j->iterations_per_second, j->workers,
-            plural(j->workers, "worker", "workers"));
+            vf_cli_plural(j->workers, "worker", "workers"));
     if (j->results_refused)
       fprintf(out, ", %llu %s refused", (unsigned long long)j->results_refused,
-              plural(j->results_refused, "result", "results"));
+              vf_cli_plural(j->results_refused, "result", "results"));
     fprintf(out, "\n");
     format_time(submitted, sizeof submitted, j->submitted_at);
     format_time(started, sizeof started, j->started_at);
@@ -321,15 +321,15 @@ void vf_status_print_text(const Vcmfarm__Status *st, FILE *out) {
   for (size_t i = 0; i < st->n_workers; i++) {
     const Vcmfarm__WorkerStatus *w = st->workers[i];
     fprintf(out, "worker %s (%s%s%u %s, %u %s): %s", w->name, w->host[0] ? w->host : "", w->host[0] ? ", " : "",
-            w->threads, plural(w->threads, "thread", "threads"), w->cores, plural(w->cores, "core", "cores"), w->state);
+            w->threads, vf_cli_plural(w->threads, "thread", "threads"), w->cores, vf_cli_plural(w->cores, "core", "cores"), w->state);
     if (w->lease_job)
       fprintf(out, ", job %llu [%llu,%llu)", (unsigned long long)w->lease_job, (unsigned long long)w->lease_begin,
               (unsigned long long)w->lease_end);
     fprintf(out, ", %.2f it/s, seen %.1f s ago, %llu %s merged", w->iterations_per_second, w->last_seen_seconds,
-            (unsigned long long)w->iterations_merged, plural(w->iterations_merged, "iteration", "iterations"));
+            (unsigned long long)w->iterations_merged, vf_cli_plural(w->iterations_merged, "iteration", "iterations"));
     if (w->results_refused)
       fprintf(out, ", %llu %s refused", (unsigned long long)w->results_refused,
-              plural(w->results_refused, "result", "results"));
+              vf_cli_plural(w->results_refused, "result", "results"));
     fprintf(out, "\n");
   }
   if (!one_job) print_events(out, st->events, st->n_events, st->events_dropped, "");

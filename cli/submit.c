@@ -88,8 +88,9 @@ static int send_files(vf_farm_client *client, int timeout_ms, const char *log_pr
     }
   }
   if (err == VF_OK && log_prefix)
-    fprintf(stderr, "%s: %zu files named by the scene; sent %zu (%llu bytes), the coordinator held the rest\n",
-            log_prefix, files->count, sent, (unsigned long long)bytes_sent);
+    fprintf(stderr, "%s: %zu %s named by the scene; sent %zu (%llu %s), the coordinator held the rest\n", log_prefix,
+            files->count, vf_cli_plural(files->count, "file", "files"), sent, (unsigned long long)bytes_sent,
+            vf_cli_plural(bytes_sent, "byte", "bytes"));
   vf_message_free(have);
   return err;
 }

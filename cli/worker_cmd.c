@@ -59,10 +59,12 @@ int vf_cmd_worker(int argc, char **argv) {
   long long threads = 0, delay = 0;
   int err = VF_OK, c;
   optind = 0; /* 0: getopt starts again from scratch (glibc), forgetting the last argv */
-  opterr = 0;
-  while ((c = getopt_long(argc, argv, "c:k:j:n:h", options, NULL)) != -1) {
+  while ((c = vf_cli_getopt(argc, argv, "c:k:j:n:h", options)) != -1) {
     switch (c) {
-    case 'c': config.url = optarg; break;
+    case 'c':
+      config.url = optarg;
+      err = vf_cli_address("--connect", optarg);
+      break;
     case 'k': secret = optarg; break;
     case 'j': err = vf_cli_int("--threads", optarg, 1, 1024, &threads); break;
     case 'n': config.name = optarg; break;
@@ -74,13 +76,12 @@ int vf_cmd_worker(int argc, char **argv) {
     case 'M': err = vf_cli_bytes("--cache-max", optarg, &config.cache_max_bytes); break;
     case 'h': fputs(usage, stdout); return VF_EXIT_OK;
     default:
-      return vf_cli_bad_option("worker", argv, usage);
+      return vf_cli_bad_option("worker");
     }
     if (err != VF_OK) return vf_cli_fail(cmd, err);
   }
   if (optind != argc || config.url == NULL || secret == NULL) {
-    fprintf(stderr, "vcmfarm worker: --connect and --secret are required, nothing else\n%s", usage);
-    return VF_EXIT_BAD_INPUT;
+    return vf_cli_usage_error("worker", "--connect and --secret are required, nothing else");
   }
   char cache_dir[4096];
   if (cache == NULL) err = vf_blob_cache_default_dir(cache_dir, sizeof cache_dir);

@@ -37,7 +37,8 @@
   XX(ENET, "network error", SYSTEM)                     \
   XX(EREFUSED, "refused by the peer", INPUT)            \
   XX(EBUSY, "in use by another process", SYSTEM)        \
-  XX(EREPLAY, "replayed or stale message", INPUT)
+  XX(EREPLAY, "replayed or stale message", INPUT)       \
+  XX(ENOJOB, "no such job", INPUT)
 
 enum {
   VF_OK = 0,

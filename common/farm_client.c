@@ -1,5 +1,6 @@
 #include "farm_client.h"
 
+#include "clock.h"
 #include "error.h"
 
 #include <errno.h>
@@ -8,9 +9,10 @@
 #include <nanomsg/reqrep.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 
 struct vf_farm_client {
-  int socket;
+  int socket, endpoint;
   vf_wire_key key;
   char *url; /* owned */
 };
@@ -37,7 +39,7 @@ int vf_farm_client_open(const char *url, const vf_wire_key *key, vf_farm_client 
    * resends a request whose connection broke; the coordinator refuses that too, unless it
    * restarted meanwhile, and our call times out and is made again. */
   nn_setsockopt(c->socket, NN_REQ, NN_REQ_RESEND_IVL, &resend, sizeof resend);
-  if (nn_connect(c->socket, url) < 0) {
+  if ((c->endpoint = nn_connect(c->socket, url)) < 0) {
     err = vf_error_set(VF_ENET, "%s: %s", url, nn_strerror(nn_errno()));
     goto close_socket;
   }
@@ -61,6 +63,42 @@ void vf_farm_client_close(vf_farm_client *client) {
 
 const char *vf_farm_client_url(const vf_farm_client *client) { return client->url; }
 
+/* One of the socket's connection statistics, 0 when nanomsg cannot say. */
+static uint64_t statistic(const vf_farm_client *c, int which) {
+  uint64_t v = nn_get_statistic(c->socket, which);
+  return v == (uint64_t)-1 ? 0 : v;
+}
+
+/* While nothing accepts connections, nanomsg tries again after 0.1, 0.3, 0.7 s... (its
+ * backoff); the wait connects anew every RECONNECT_MS instead, so that a coordinator that
+ * starts meanwhile is found at once. */
+#define RECONNECT_MS 50
+
+int vf_farm_client_wait_connected(vf_farm_client *c, int timeout_ms) {
+  const struct timespec step = {0, 5000000L};
+  double start = vf_seconds_now(), attempt = start;
+  for (;;) {
+    if (statistic(c, NN_STAT_CURRENT_CONNECTIONS) > 0) return VF_OK;
+    double now = vf_seconds_now(), waited_ms = (now - start) * 1000.0;
+    /* Something listens when a connection is being made or was made (a handshake, a
+     * coordinator's gate at its cap): then only the caller's timeout ends the wait. */
+    int listener =
+        statistic(c, NN_STAT_INPROGRESS_CONNECTIONS) > 0 || statistic(c, NN_STAT_ESTABLISHED_CONNECTIONS) > 0;
+    if (!listener && (waited_ms >= VF_FARM_CONNECT_MS || waited_ms >= timeout_ms))
+      return vf_error_set(VF_ENET, "no coordinator answered at %s (nothing accepts connections there)", c->url);
+    if (waited_ms >= timeout_ms)
+      return vf_error_set(VF_ETIMEDOUT, "no coordinator answered at %s within %d ms (the connection did not complete)",
+                          c->url, timeout_ms);
+    if (!listener && (now - attempt) * 1000.0 >= RECONNECT_MS) {
+      nn_shutdown(c->socket, c->endpoint);
+      if ((c->endpoint = nn_connect(c->socket, c->url)) < 0)
+        return vf_error_set(VF_ENET, "%s: %s", c->url, nn_strerror(nn_errno()));
+      attempt = now;
+    }
+    nanosleep(&step, NULL);
+  }
+}
+
 static int call_once(vf_farm_client *c, Vcmfarm__Envelope *request, int timeout_ms, Vcmfarm__Envelope **reply) {
   uint8_t *frame;
   size_t len;
@@ -82,9 +120,14 @@ static int call_once(vf_farm_client *c, Vcmfarm__Envelope *request, int timeout_
     int e = nn_errno();
     if (e == ETIMEDOUT || e == EAGAIN || e == EINTR)
       return vf_error_set(e == EINTR ? VF_ENET : VF_ETIMEDOUT,
-                          "%s: no reply within %d ms (is the coordinator running, with the same key file?)",
+                          "%s: no reply within %d ms (is the coordinator running? one that predates key "
+                          "refusals also stays silent to a wrong key)",
                           c->url, timeout_ms);
     return vf_error_set(VF_ENET, "%s: receive: %s", c->url, nn_strerror(e));
+  }
+  if (vf_wire_is_refusal(buf, (size_t)n)) {
+    nn_freemsg(buf);
+    return vf_error_set(VF_EAUTH, "the coordinator at %s refused the key (wrong --secret?)", c->url);
   }
   Vcmfarm__Envelope *env;
   err = vf_message_unpack(&c->key, &stamp, buf, (size_t)n, &env, NULL);
@@ -114,15 +157,25 @@ int vf_farm_call(vf_farm_client *c, Vcmfarm__Envelope *request, int timeout_ms, 
   }
 }
 
+/* The code of a coordinator's Error, as our callers tell them apart: a version mismatch, a
+ * job that does not exist (a user's mistake: the command line named it), every other
+ * refusal. */
+static int error_code(Vcmfarm__ErrorCode code) {
+  switch (code) {
+  case VCMFARM__ERROR_CODE__ERROR_VERSION: return VF_EVERSION;
+  case VCMFARM__ERROR_CODE__ERROR_UNKNOWN_JOB: return VF_ENOJOB;
+  default: return VF_EREFUSED;
+  }
+}
+
 int vf_farm_request(vf_farm_client *c, Vcmfarm__Envelope *request, Vcmfarm__Envelope__BodyCase expected,
                     int timeout_ms, Vcmfarm__Envelope **reply) {
   Vcmfarm__Envelope *env = NULL;
   int err = vf_farm_call(c, request, timeout_ms, &env);
   if (err != VF_OK) return err;
   if (env->body_case == VCMFARM__ENVELOPE__BODY_ERROR) {
-    int code = env->error->code == VCMFARM__ERROR_CODE__ERROR_VERSION ? VF_EVERSION : VF_EREFUSED;
-    err = vf_error_set(code, "%s: coordinator refused the %s: %s", c->url, vf_message_name(request),
-                       env->error->message);
+    err = vf_error_set(error_code(env->error->code), "%s: coordinator refused the %s: %s", c->url,
+                       vf_message_name(request), env->error->message);
   } else if (env->body_case != expected) {
     err = vf_error_set(VF_EPROTO, "%s: coordinator answered the %s with a %s", c->url, vf_message_name(request),
                        vf_message_name(env));

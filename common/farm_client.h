@@ -23,14 +23,28 @@ void vf_farm_client_close(vf_farm_client *client);
  * timeout_ms for the reply, which *reply receives (free with vf_message_free) on success,
  * whatever its body, Error included; only the reply bound to this request's nonce opens.
  * VF_ETIMEDOUT when no reply came, VF_EVERSION / VF_EAUTH / VF_EPROTO when the reply was
- * refused (see vf_message_unpack). */
+ * refused (see vf_message_unpack); VF_EAUTH "the coordinator at URL refused the key" when
+ * the reply is the coordinator's refusal of a request it could not authenticate
+ * (vf_wire_refusal: this client's key is not the farm's). */
 int vf_farm_call(vf_farm_client *client, Vcmfarm__Envelope *request, int timeout_ms, Vcmfarm__Envelope **reply);
 
 /* vf_farm_call that also insists on a reply with body `expected`: a reply of type Error
- * becomes VF_EREFUSED (VF_EVERSION for a version refusal) with the coordinator's message
- * as detail, any other unexpected body VF_EPROTO; *reply is written only on success. */
+ * becomes VF_EREFUSED (VF_EVERSION for a version refusal, VF_ENOJOB for a job the
+ * coordinator does not have) with the coordinator's message as detail, any other
+ * unexpected body VF_EPROTO; *reply is written only on success. */
 int vf_farm_request(vf_farm_client *client, Vcmfarm__Envelope *request, Vcmfarm__Envelope__BodyCase expected,
                     int timeout_ms, Vcmfarm__Envelope **reply);
+
+/* Waits until the connection nanomsg makes in the background is up: VF_OK at once when it
+ * is. VF_ENET "no coordinator answered at URL" when, for VF_FARM_CONNECT_MS (or timeout_ms
+ * if shorter), nothing accepts connections there (no socket file, a refused TCP
+ * connection: a coordinator that is down; one that starts meanwhile is found, the wait
+ * connects anew every 50 ms), VF_ETIMEDOUT when a connection is being made but is not up
+ * after timeout_ms.
+ * For the commands of a user, who should not wait for a coordinator that is down; a
+ * worker waits for its coordinator instead. */
+#define VF_FARM_CONNECT_MS 800
+int vf_farm_client_wait_connected(vf_farm_client *client, int timeout_ms);
 
 /* The URL given to vf_farm_client_open (borrowed). */
 const char *vf_farm_client_url(const vf_farm_client *client);

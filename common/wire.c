@@ -174,6 +174,17 @@ static int open_legacy(const vf_wire_key *key, uint32_t version, const uint8_t *
                       VF_PROTOCOL_VERSION);
 }
 
+const uint8_t vf_wire_refusal[VF_WIRE_REFUSAL_SIZE] = {'V', 'C', 'M', 'F', 0, 0, 0, FIRST_SEALED_VERSION};
+
+int vf_wire_is_refusal(const uint8_t *frame, size_t len) {
+  return len == VF_WIRE_REFUSAL_SIZE && memcmp(frame, vf_wire_refusal, VF_WIRE_REFUSAL_SIZE) == 0;
+}
+
+int vf_wire_knows_refusal(const uint8_t *frame, size_t len) {
+  return len >= VF_WIRE_LEGACY_HEADER_SIZE && memcmp(frame, VF_WIRE_MAGIC, 4) == 0 &&
+         get_u32(frame + 4) >= FIRST_SEALED_VERSION;
+}
+
 int vf_wire_open(const vf_wire_key *key, const vf_wire_stamp *request, const uint8_t *frame, size_t len,
                  uint8_t **payload, size_t *payload_len, vf_wire_stamp *stamp) {
   if (len < VF_WIRE_LEGACY_HEADER_SIZE)

@@ -23,7 +23,8 @@
  *
  * Frames are untrusted: vf_wire_open checks size, magic, length and tag, in that order,
  * before anything looks at the payload, and the version only once the tag is good, so a
- * peer without the key learns nothing and provokes nothing. */
+ * peer without the key learns nothing from what it sent. What it is told is one fixed
+ * refusal (vf_wire_refusal below): that the coordinator could not authenticate it. */
 #ifndef VF_WIRE_H
 #define VF_WIRE_H
 
@@ -92,6 +93,22 @@ int64_t vf_wire_now_ms(void);
  * NULL) are written only on success. VF_EINVAL when len exceeds VF_WIRE_MAX_PAYLOAD. */
 int vf_wire_seal(const vf_wire_key *key, const vf_wire_stamp *request, const uint8_t *payload, size_t len,
                  uint8_t **frame, size_t *frame_len, vf_wire_stamp *stamp);
+
+/* The coordinator's answer to a request it cannot authenticate (docs/PROTOCOL.md, "A wrong
+ * key"): a frame of version 8 with an empty payload and every other byte zero (sent_ms,
+ * nonce and tag). It is the same for every request, key and coordinator, so it tells the
+ * peer nothing but that its request did not authenticate; it is no longer than the
+ * shortest request it answers; no authentic reply ever equals it (its nonce is random).
+ * A version-8 peer that predates it fails to open it as a reply, as not authenticated. */
+#define VF_WIRE_REFUSAL_SIZE VF_WIRE_OVERHEAD
+extern const uint8_t vf_wire_refusal[VF_WIRE_REFUSAL_SIZE];
+
+/* Whether frame is the refusal above, byte for byte. */
+int vf_wire_is_refusal(const uint8_t *frame, size_t len);
+
+/* Whether the peer of a request frame that did not authenticate knows the refusal: its
+ * header (unauthenticated) says version 8 or later. Peers of versions 1 to 7 do not. */
+int vf_wire_knows_refusal(const uint8_t *frame, size_t len);
 
 /* Opens a received frame: a request when request is NULL, else the reply to the request of
  * that stamp. On success *payload (malloc'ed, the caller frees; never NULL, even for an

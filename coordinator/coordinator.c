@@ -15,6 +15,7 @@
 #include "state.h"
 
 #include <errno.h>
+#include <math.h>
 #include <nanomsg/nn.h>
 #include <nanomsg/reqrep.h>
 #include <signal.h>
@@ -32,6 +33,15 @@
 #define COLLECT_SECONDS 3600.0
 #define MESSAGES_PER_WAKEUP 32
 #define REPLY_GIVE_UP_SECONDS 30.0
+/* Requests that do not authenticate get the fixed refusal (common/wire.h, docs/PROTOCOL.md
+ * "A wrong key") within a budget over all peers: the requests refused so weigh at most
+ * REFUSED_BYTES_PER_SECOND, in bursts of one request of the largest size, each counted as
+ * at least REFUSAL_MIN_COST (so at most 16 refusals a second); beyond it, no answer, as
+ * before refusals existed. They are logged at most once per UNAUTHENTICATED_LOG_SECONDS. */
+#define REFUSED_BYTES_PER_SECOND ((double)(1 << 20))
+#define REFUSED_BYTES_BURST ((double)VF_WIRE_MAX_REQUEST_FRAME)
+#define REFUSAL_MIN_COST ((size_t)64 << 10)
+#define UNAUTHENTICATED_LOG_SECONDS 10.0
 
 typedef struct {
   uv_loop_t loop;
@@ -42,6 +52,9 @@ typedef struct {
   vf_wire_key key;
   vf_replay *replay; /* owned: the nonces of the requests let through */
   uint64_t replays_refused;
+  double refusal_budget, refusal_time; /* bytes the next refusals may answer, and when it was topped up */
+  uint64_t unauthenticated, refusals;  /* since the last line of the log about them */
+  double unauthenticated_logged;
   vf_farm farm;
   vf_dashboard *dashboard; /* owned; NULL without --http */
   vf_gate *gate;           /* owned; NULL unless listening on tcp:// */
@@ -156,6 +169,31 @@ static void deliver(coordinator *c, uint8_t *frame, size_t len, void *control) {
   uv_poll_start(&c->send_poll, UV_READABLE, on_writable);
 }
 
+/* A request that failed authentication (err, its detail): answered with the fixed refusal
+ * when it is small and the budget allows, else dropped; control is taken either way. */
+static void refuse_unauthenticated(coordinator *c, const uint8_t *frame, size_t len, int err, void *control) {
+  double now = vf_seconds_now(), cost = (double)(len > REFUSAL_MIN_COST ? len : REFUSAL_MIN_COST);
+  c->refusal_budget = fmin(REFUSED_BYTES_BURST, c->refusal_budget + (now - c->refusal_time) * REFUSED_BYTES_PER_SECOND);
+  c->refusal_time = now;
+  uint8_t *refusal = NULL;
+  if (err == VF_EAUTH && vf_wire_knows_refusal(frame, len) && c->refusal_budget >= cost &&
+      (refusal = malloc(VF_WIRE_REFUSAL_SIZE)) != NULL) {
+    c->refusal_budget -= cost;
+    c->refusals++;
+    memcpy(refusal, vf_wire_refusal, VF_WIRE_REFUSAL_SIZE);
+    deliver(c, refusal, VF_WIRE_REFUSAL_SIZE, control);
+  } else {
+    nn_freemsg(control);
+  }
+  c->unauthenticated++;
+  if (now - c->unauthenticated_logged < UNAUTHENTICATED_LOG_SECONDS) return;
+  vf_log("refused a message of %zu bytes: %s%s (%llu refused since the last such line, %llu answered)", len,
+         vf_error_detail(err), refusal ? "; answered that the key is refused" : "",
+         (unsigned long long)c->unauthenticated, (unsigned long long)c->refusals);
+  c->unauthenticated = c->refusals = 0;
+  c->unauthenticated_logged = now;
+}
+
 /* The farm answers a result later, from the merge thread's completion on the loop. */
 static void reply_later(void *ctx, uint64_t token, vf_farm_reply *reply) {
   send_reply(ctx, reply, (reply_route *)(uintptr_t)token);
@@ -208,11 +246,14 @@ static void serve(coordinator *c, const uint8_t *frame, size_t len, void *contro
       }
     }
   } else {
-    vf_log("ignored a message of %zu bytes: %s", len, vf_error_detail(err));
+    /* A peer without the key gets the fixed refusal at most, which tells it nothing but
+     * that it is refused; a malformed message nothing. */
+    free(route);
+    refuse_unauthenticated(c, frame, len, err, control);
+    return;
   }
   if (err != VF_OK) {
-    /* No answer: a peer without the key learns nothing from us, and a replay gets nothing
-     * a captured reply could not already tell. */
+    /* No answer: a replay gets nothing a captured reply could not already tell. */
     nn_freemsg(control);
     free(route);
     return;
@@ -380,6 +421,9 @@ int vf_coordinator_run(const vf_coordinator_config *config) {
                        config->handoff};
   vf_farm_init(&c->farm, &fc);
   c->checkpoint_interval = config->checkpoint_interval;
+  c->refusal_budget = REFUSED_BYTES_BURST;
+  c->refusal_time = vf_seconds_now();
+  c->unauthenticated_logged = c->refusal_time - UNAUTHENTICATED_LOG_SECONDS;
   c->stop = config->stop;
   vf_log_set_quiet(config->quiet);
   int err = VF_OK, lock_fd = -1, recv_fd, send_fd;
@@ -454,8 +498,8 @@ int vf_coordinator_run(const vf_coordinator_config *config) {
     goto close_loop;
   }
   c->last_checkpoint = vf_seconds_now();
-  vf_log("listening on %s, state in %s, %zu job(s), worker timeout %.1f s", config->listen_url, config->state_dir,
-         c->farm.num_jobs, config->worker_timeout);
+  vf_log("listening on %s, state in %s, %zu job%s, worker timeout %.1f s", config->listen_url, config->state_dir,
+         c->farm.num_jobs, c->farm.num_jobs == 1 ? "" : "s", config->worker_timeout);
   if (c->gate) {
     const vf_gate_limits *l = vf_gate_get_limits(c->gate);
     vf_log("tcp: port %d, at most %zu connections and %.0f MiB of requests in flight (and %.0f MiB of small ones)",

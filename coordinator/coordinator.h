@@ -12,8 +12,10 @@
  * the bytes of requests in flight and hands whole messages to the REP socket, bound to a
  * private ipc:// socket in a directory of its own (mode 0700) under $TMPDIR.
  *
- * Messages that fail authentication or decoding are logged and get no answer; an
- * authentic message of another protocol version gets an Error saying so. */
+ * Messages that fail decoding are logged and get no answer; those that fail
+ * authentication get the fixed refusal (common/wire.h), within a budget of bytes a second,
+ * else no answer; an authentic message of another protocol version gets an Error saying
+ * so. */
 #ifndef VF_COORDINATOR_H
 #define VF_COORDINATOR_H
 

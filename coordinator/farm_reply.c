@@ -35,6 +35,7 @@ void vf_farm_reply_errorf(vf_farm_reply *r, Vcmfarm__ErrorCode code, const char 
 
 Vcmfarm__ErrorCode vf_farm_wire_code(int err) {
   if (err == VF_EVERSION) return VCMFARM__ERROR_CODE__ERROR_VERSION;
+  if (err == VF_ENOJOB) return VCMFARM__ERROR_CODE__ERROR_UNKNOWN_JOB;
   return vf_error_is_input(err) ? VCMFARM__ERROR_CODE__ERROR_BAD_REQUEST : VCMFARM__ERROR_CODE__ERROR_INTERNAL;
 }
 

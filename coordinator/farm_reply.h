@@ -48,7 +48,8 @@ void vf_farm_reply_errorf(vf_farm_reply *reply, Vcmfarm__ErrorCode code, const c
     __attribute__((format(printf, 3, 4)));
 /* The wire code of an error code of common/error.h, from its table: INPUT errors are
  * ERROR_BAD_REQUEST (fix the request), SYSTEM errors ERROR_INTERNAL (the coordinator
- * failed; the same request may succeed later), VF_EVERSION is ERROR_VERSION. */
+ * failed; the same request may succeed later); VF_EVERSION is ERROR_VERSION and VF_ENOJOB
+ * ERROR_UNKNOWN_JOB. */
 Vcmfarm__ErrorCode vf_farm_wire_code(int err);
 /* Makes the reply the Error of err: its wire code and its detail (vf_error_detail). Every
  * handler answers a failed call this way, so one code always means one thing. */

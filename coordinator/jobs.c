@@ -367,9 +367,10 @@ void vf_jobs_remove(vf_farm *farm, const Vcmfarm__RemoveRequest *m, vf_farm_repl
     if (!earlier && !vf_blobs_named(farm, hash, job) && vf_blob_store_remove(farm->config.state_dir, hash) == VF_OK)
       blobs++;
   }
-  vf_log("job %llu removed, with %u blob(s) no other job names", (unsigned long long)job->id, blobs);
-  snprintf(r->text, sizeof r->text, "removed job %llu and %u of its %zu file(s) no other job names",
-           (unsigned long long)job->id, blobs, job->files.count);
+  vf_log("job %llu removed, with %u blob%s no other job names", (unsigned long long)job->id, blobs,
+         blobs == 1 ? "" : "s");
+  snprintf(r->text, sizeof r->text, "removed job %llu and %u of its %zu file%s no other job names",
+           (unsigned long long)job->id, blobs, job->files.count, job->files.count == 1 ? "" : "s");
   vf_job_destroy(job);
   vf_farm_reply_ack(r, 1, r->text);
 }

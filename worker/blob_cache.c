@@ -176,8 +176,8 @@ int vf_blob_cache_load_scene(vf_farm_client *client, uint64_t worker_id, const c
   else if (files.count > 0 && max_bytes > 0) {
     unsigned removed = vf_blob_cache_trim(cache_dir, max_bytes, &files);
     if (removed && !quiet)
-      fprintf(stderr, "vcmfarm worker %d: removed %u least recently used blob(s) from the cache %s\n", (int)getpid(),
-              removed, cache_dir);
+      fprintf(stderr, "vcmfarm worker %d: removed %u least recently used blob%s from the cache %s\n", (int)getpid(),
+              removed, removed == 1 ? "" : "s", cache_dir);
   }
   if (err == VF_OK)
     err = vf_job_scene_load(builtin, text, strlen(text), &files, cache_dir, label, out);

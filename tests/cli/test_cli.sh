@@ -38,7 +38,39 @@ expect_refusal "zero resolution" "--resolution" "$vcmfarm" render furnace -R 0x1
 expect_refusal "negative iterations" "--iterations" "$vcmfarm" render furnace -n -3 -o "$tmp/out.exr"
 expect_refusal "iterations and time" "not both" "$vcmfarm" render furnace -n 3 -t 2 -o "$tmp/out.exr"
 expect_refusal "alpha out of range" "--alpha" "$vcmfarm" render furnace --alpha 1.5 -o "$tmp/out.exr"
-expect_refusal "unknown option" "unknown or incomplete option" "$vcmfarm" render furnace --frobnicate -o "$tmp/out.exr"
+# A bad option is refused on one line naming it, with a hint, not under the whole --help;
+# every subcommand alike.
+expect_one_line() { # name, expected substring, command...
+  local name="$1"
+  expect_refusal "$@"
+  check "$name: one line" "$([ "$(wc -l <"$tmp/stderr")" -eq 1 ]; echo $?)"
+}
+expect_one_line "unknown option" "vcmfarm render: unknown option '--frobnicate'; try 'vcmfarm render --help'" \
+  "$vcmfarm" render furnace --frobnicate -o "$tmp/out.exr"
+for c in render continue info plot merge bake errors diff coordinator worker submit status fetch cancel remove keygen; do
+  expect_one_line "$c: unknown option" "vcmfarm $c: unknown option '--frobnicate'; try 'vcmfarm $c --help'" \
+    "$vcmfarm" "$c" --frobnicate
+done
+expect_one_line "unknown command" "vcmfarm: unknown command 'rendr' (did you mean render?); try 'vcmfarm --help'" \
+  "$vcmfarm" rendr furnace
+expect_one_line "missing operand" "vcmfarm render: expected exactly one SCENE; try 'vcmfarm render --help'" \
+  "$vcmfarm" render -o "$tmp/out.exr"
+expect_one_line "option without its value" "vcmfarm render: option '--output' needs a value" "$vcmfarm" render furnace --output
+expect_one_line "keygen with an option for a file" "vcmfarm keygen: unknown option '--force'" "$vcmfarm" keygen --force
+check "keygen wrote no file named like an option" "$([ ! -e ./--force ]; echo $?)"
+# Long options are matched exactly: a prefix is not taken for the option it begins.
+expect_one_line "a prefix of --iterations" "unknown option '--iteration' (did you mean --iterations?)" \
+  "$vcmfarm" render furnace --iteration 4 -o "$tmp/out.exr"
+expect_one_line "a prefix, with =" "unknown option '--iter' (did you mean --iterations?)" \
+  "$vcmfarm" render furnace --iter=4 -o "$tmp/out.exr"
+expect_one_line "a typo of --iterations" "unknown option '--iteratons' (did you mean --iterations?)" \
+  "$vcmfarm" continue "$tmp/none.exr" --iteratons 4
+expect_one_line "a prefix of --coordinator" "vcmfarm submit: unknown option '--coord' (did you mean --coordinator?)" \
+  "$vcmfarm" submit furnace --coord ipc://x --secret x
+expect_one_line "a prefix of two options" "unknown option '--re' (did you mean --reference or --resolution?)" \
+  "$vcmfarm" render furnace --re 8x8 -o "$tmp/out.exr"
+expect_one_line "a long option with one dash" "unknown option '-d' (did you mean --direct?)" \
+  "$vcmfarm" render furnace -direct -o "$tmp/out.exr"
 # One iteration has no spread to estimate its error from: said so, not printed as nan.
 "$vcmfarm" render furnace --direct -n 1 -R 8x8 -o "$tmp/one.exr" 2>"$tmp/stderr"
 check "one iteration: the estimate is not known yet, not nan" \
@@ -61,6 +93,18 @@ expect_refusal "cache size not a size" "--cache-max: '12Q' is not a size" "$vcmf
 # The roles' directories and sockets are never taken from someone else.
 "$vcmfarm" keygen "$tmp/farm.key" >/dev/null 2>&1
 echo "a user's file" >"$tmp/regular"
+# An address without its scheme is refused saying what to write, not "Invalid argument".
+expect_one_line "--coordinator without tcp://" \
+  "vcmfarm status: --coordinator 127.0.0.1:7450: an address starts with its scheme: write tcp://127.0.0.1:7450" \
+  "$vcmfarm" status --coordinator 127.0.0.1:7450 --secret "$tmp/farm.key"
+expect_one_line "--connect of a socket file without ipc://" "--connect $tmp/c.sock: an address starts with its scheme: write ipc://$tmp/c.sock" \
+  "$vcmfarm" worker --connect "$tmp/c.sock" --secret "$tmp/farm.key"
+expect_one_line "--listen of another scheme" "--listen http://127.0.0.1:7450: unknown scheme 'http://'; write tcp://HOST:PORT or ipc://PATH" \
+  "$vcmfarm" coordinator --listen http://127.0.0.1:7450 --state "$tmp/state-x" --secret "$tmp/farm.key"
+expect_one_line "tcp:// without a port" "--coordinator tcp://127.0.0.1: a tcp:// address is tcp://HOST:PORT, with a port number" \
+  "$vcmfarm" fetch 1 -o "$tmp/f.exr" --coordinator tcp://127.0.0.1 --secret "$tmp/farm.key"
+expect_one_line "inproc:// from another process" "--coordinator inproc://farm: inproc:// reaches only a coordinator inside the same process" \
+  "$vcmfarm" cancel 1 --coordinator inproc://farm --secret "$tmp/farm.key"
 expect_refusal "ipc:// path that is a regular file" "is not a socket; refusing to replace it" \
   timeout 20 "$vcmfarm" coordinator --listen "ipc://$tmp/regular" --state "$tmp/state-a" --secret "$tmp/farm.key"
 grep -q "a user's file" "$tmp/regular"
@@ -72,6 +116,32 @@ expect_refusal "ipc:// socket another coordinator listens on" "another process l
   timeout 20 "$vcmfarm" coordinator --listen "ipc://$tmp/live.sock" --state "$tmp/state-b" --secret "$tmp/farm.key"
 expect_refusal "worker cache in a coordinator's state directory" "is a coordinator's state directory" \
   timeout 20 "$vcmfarm" worker --connect "ipc://$tmp/live.sock" --secret "$tmp/farm.key" --cache "$tmp/state-live" --cache-max 1
+# A wrong key and a coordinator that is down are told apart at once (the coordinator
+# answers a request it cannot authenticate with a fixed refusal; nothing accepting the
+# connection means nobody is there): each in well under a second on an idle machine, 2 s
+# allowed here for a busy one, where --timeout would have waited 10 s for either.
+expect_quick() { # name, expected exit status, expected substring, command...
+  local name="$1" want="$2" expected="$3"
+  shift 3
+  local start=${EPOCHREALTIME/./}
+  timeout 20 "$@" >"$tmp/stdout" 2>"$tmp/stderr"
+  local status=$? ms=$(((${EPOCHREALTIME/./} - start) / 1000)) ok=0
+  [ "$status" -eq "$want" ] || { echo "  exit status $status, expected $want"; ok=1; }
+  grep -qF -- "$expected" "$tmp/stderr" || { echo "  stderr lacks '$expected':"; sed 's/^/    /' "$tmp/stderr"; ok=1; }
+  [ "$ms" -le 2000 ] || { echo "  took $ms ms"; ok=1; }
+  check "$name ($ms ms)" $ok
+}
+"$vcmfarm" keygen "$tmp/other.key" >/dev/null 2>&1
+expect_quick "status with another key" 2 \
+  "vcmfarm status: the coordinator at ipc://$tmp/live.sock refused the key (wrong --secret?)" \
+  "$vcmfarm" status --coordinator "ipc://$tmp/live.sock" --secret "$tmp/other.key"
+expect_quick "worker with another key stops" 2 "vcmfarm worker: the coordinator at ipc://$tmp/live.sock refused the key" \
+  "$vcmfarm" worker --connect "ipc://$tmp/live.sock" --secret "$tmp/other.key" --cache "$tmp/other-cache"
+expect_quick "status of a coordinator that is down" 1 \
+  "vcmfarm status: no coordinator answered at ipc://$tmp/down.sock (nothing accepts connections there)" \
+  "$vcmfarm" status --coordinator "ipc://$tmp/down.sock" --secret "$tmp/farm.key"
+expect_quick "submit to a coordinator that is down, over tcp://" 1 "no coordinator answered at tcp://127.0.0.1:1 " \
+  "$vcmfarm" submit furnace --coordinator tcp://127.0.0.1:1 --secret "$tmp/farm.key"
 kill -TERM "$live" && wait "$live"
 mkdir -p "$tmp/cache" && touch "$tmp/cache/vcmfarm-worker-cache"
 expect_refusal "coordinator state in a worker's cache" "is a worker's scene-file cache" \
@@ -79,8 +149,17 @@ expect_refusal "coordinator state in a worker's cache" "is a worker's scene-file
 
 "$vcmfarm" --version | grep -q '^vcmfarm [0-9]'
 check "--version" $?
+# The install rule (README, "Set-up"): cmake --install puts the executable in PREFIX/bin.
+cmake --install "$(dirname "$vcmfarm")" --prefix "$tmp/prefix" >"$tmp/install.log" 2>&1
+installed=$?
+check "cmake --install puts vcmfarm in PREFIX/bin" "$([ "$installed" -eq 0 ] && cmp -s "$vcmfarm" "$tmp/prefix/bin/vcmfarm" &&
+  "$tmp/prefix/bin/vcmfarm" --version | grep -q '^vcmfarm [0-9]'; echo $?)"
 "$vcmfarm" render --help | grep -q 'usage: vcmfarm render'
 check "render --help" $?
+# submit takes every kind of scene render takes, and its --help says so.
+"$vcmfarm" submit --help >"$tmp/submit-help.txt"
+check "submit --help names every kind of scene" "$([ $? -eq 0 ] && tr '\n' ' ' <"$tmp/submit-help.txt" |
+  grep -q 'SCENE is a built-in name .* a JSON scene file, a glTF 2.0 file (.gltf, .glb) or an OBJ file'; echo $?)"
 
 "$vcmfarm" render furnace -n 2 -R 16x16 -q -o "$tmp/ok.exr" -p "$tmp/ok.png"
 check "good render writes film and preview" $([ -s "$tmp/ok.exr" ] && [ -s "$tmp/ok.png" ]; echo $?)
@@ -144,6 +223,45 @@ check "no empty fields or wrong plurals in the render's lines" $?
 "$vcmfarm" continue "$tmp/ok.exr" -n 1 -q -p "$tmp/continued.png"
 check "continue --preview writes the preview" $([ -s "$tmp/continued.png" ]; echo $?)
 expect_refusal "continue --preview named .exr" "does not end in .png" "$vcmfarm" continue "$tmp/ok.exr" -n 1 -p "$tmp/p.exr"
+
+# Every command that writes a file says so on one line of stderr, "wrote FILE: what", and
+# nothing with -q; counts are in words ("1 iteration", never "1 iterations" or "(s)").
+expect_wrote() { # name, expected line (a substring of it), command...
+  local name="$1" expected="$2"
+  shift 2
+  "$@" >"$tmp/stdout" 2>"$tmp/stderr"
+  local status=$? ok=0
+  [ "$status" -eq 0 ] || { echo "  exit status $status"; ok=1; }
+  [ "$(wc -l <"$tmp/stderr")" -eq 1 ] && grep -qF -- "$expected" "$tmp/stderr" ||
+    { echo "  stderr is not the one line '$expected':"; sed 's/^/    /' "$tmp/stderr"; ok=1; }
+  check "$name" $ok
+}
+expect_quiet() { # name, command...
+  local name="$1"
+  shift
+  "$@" >"$tmp/stdout" 2>"$tmp/stderr"
+  check "$name" "$([ $? -eq 0 ] && [ ! -s "$tmp/stderr" ]; echo $?)"
+}
+expect_wrote "keygen says what it wrote" "wrote $tmp/said.key: a new farm key" "$vcmfarm" keygen "$tmp/said.key"
+expect_quiet "keygen -q" "$vcmfarm" keygen -q "$tmp/quiet.key"
+expect_wrote "bake says what it wrote" "wrote $tmp/baked.png: the mean of $tmp/ok.exr (16x16, 3 iterations) as an 8-bit sRGB PNG" \
+  "$vcmfarm" bake "$tmp/ok.exr" -o "$tmp/baked.png"
+expect_wrote "bake of one iteration" "(8x8, 1 iteration) as a float RGB EXR" "$vcmfarm" bake "$tmp/one.exr" -o "$tmp/baked.exr"
+expect_quiet "bake -q" "$vcmfarm" bake -q "$tmp/ok.exr" -o "$tmp/baked.png"
+expect_wrote "plot says what it wrote" "wrote $tmp/plot.png: error against time and iterations of 1 film" \
+  "$vcmfarm" plot "$tmp/ok.exr" -o "$tmp/plot.png"
+expect_quiet "plot -q" "$vcmfarm" plot -q "$tmp/ok.exr" -o "$tmp/plot.png"
+"$vcmfarm" render furnace --direct -n 1 -k 2 -R 8x8 -q -o "$tmp/one-more.exr"
+expect_wrote "merge says what it wrote, on one line" "wrote $tmp/merged.exr: 2 films merged, 2 iterations [0,1) [2,3)" \
+  "$vcmfarm" merge -o "$tmp/merged.exr" "$tmp/one.exr" "$tmp/one-more.exr"
+expect_wrote "diff says what it wrote" "wrote $tmp/diff.png: 8x8, clamped at" "$vcmfarm" diff "$tmp/one.exr" "$tmp/one-more.exr" -o "$tmp/diff.png"
+expect_quiet "diff -q" "$vcmfarm" diff -q "$tmp/one.exr" "$tmp/one-more.exr" -o "$tmp/diff.png"
+"$vcmfarm" errors --window 0,0,1,1 "$tmp/one.exr" "$tmp/one-more.exr" >"$tmp/errors.txt"
+check "errors counts one pixel in words" "$(grep -q ': 1 pixel compared, 0 skipped' "$tmp/errors.txt"; echo $?)"
+cp "$tmp/one.exr" "$tmp/grown.exr"
+"$vcmfarm" continue "$tmp/grown.exr" -n 1 -j 1 2>"$tmp/continue.err"
+check "continue counts in words" "$(grep -q "grown.exr (1 iteration), scene" "$tmp/continue.err" &&
+  grep -q "^added 1 iteration in" "$tmp/continue.err"; echo $?)"
 expect_refusal "submit -o without --wait" "go with --wait" "$vcmfarm" submit furnace -o "$tmp/out.exr" --coordinator ipc://x --secret "$tmp/farm.key"
 expect_refusal "submit --wait without -o" "--wait needs -o" "$vcmfarm" submit furnace --wait --coordinator ipc://x --secret "$tmp/farm.key"
 expect_refusal "fetch -o named .png" "does not end in .exr" "$vcmfarm" fetch 1 -o "$tmp/f.png" --coordinator ipc://x --secret "$tmp/farm.key"
@@ -162,13 +280,42 @@ check "submit --wait exits 0 when the job is done" $?
 check "submit --wait writes the film and the preview" $([ -s "$tmp/waited.exr" ] && [ -s "$tmp/waited.png" ]; echo $?)
 "$vcmfarm" info "$tmp/waited.exr" 2>/dev/null | grep -q '\[0,6)'
 check "the waited-for film holds the job's iterations" $?
-"$vcmfarm" fetch "$(tail -n 1 "$tmp/wait.out")" -o "$tmp/fetched.exr" -p "$tmp/fetched.png" "${client[@]}"
+job=$(tail -n 1 "$tmp/wait.out")
+expect_wrote "fetch says what it wrote" "wrote $tmp/fetched.exr and $tmp/fetched.png: job $job, 6 iterations [0,6)" \
+  "$vcmfarm" fetch "$job" -o "$tmp/fetched.exr" -p "$tmp/fetched.png" "${client[@]}"
 check "fetch --preview writes the preview" $([ -s "$tmp/fetched.png" ]; echo $?)
+expect_quiet "fetch -q" "$vcmfarm" fetch "$job" -q -o "$tmp/fetched.exr" "${client[@]}"
+# A job the coordinator does not have, or one a request does not fit, is bad input: exit
+# status 2 (README), as for every other mistake of the command line.
+expect_refusal "fetch of an unknown job" "coordinator refused the fetch: no job 999" \
+  "$vcmfarm" fetch 999 -o "$tmp/out.exr" "${client[@]}"
+expect_refusal "status of an unknown job" "no job 999" "$vcmfarm" status 999 "${client[@]}"
+expect_refusal "cancel of an unknown job" "no job 999" "$vcmfarm" cancel 999 "${client[@]}"
+expect_refusal "remove of an unknown job" "no job 999" "$vcmfarm" remove 999 "${client[@]}"
+expect_refusal "cancel of a job that ended" "vcmfarm cancel: job $job is done already" "$vcmfarm" cancel "$job" "${client[@]}"
+expect_refusal "fetch into a missing directory" "-o $tmp/absent/out.exr: no directory $tmp/absent" \
+  "$vcmfarm" fetch "$job" -o "$tmp/absent/out.exr" "${client[@]}"
+expect_refusal "keygen into a missing directory" "FILE $tmp/absent/k: no directory $tmp/absent" \
+  "$vcmfarm" keygen "$tmp/absent/k"
+# A scene naming one file: "1 file", on submit and on remove.
+mkdir -p "$tmp/one-file"
+cp "$scenes/good/meshes/quad.obj" "$tmp/one-file/"
+printf '%s' '{"camera":{"position":[0.5,0.5,3],"target":[0.5,0.5,0],"up":[0,1,0],"fov":40},
+  "materials":{"m":{"diffuse":[0.5,0.5,0.5]}},
+  "shapes":[{"type":"mesh","file":"quad.obj","material":"m"}],
+  "lights":[{"type":"background","radiance":[1,1,1]}]}' >"$tmp/one-file/scene.json"
+one_file_job=$("$vcmfarm" submit "$tmp/one-file/scene.json" -R 8x8 -n 1 "${client[@]}" 2>"$tmp/submit.err" | tail -n 1)
+check "submit counts one file in words" "$(grep -q ': 1 file named by the scene; sent 1 (' "$tmp/submit.err"; echo $?)"
+"$vcmfarm" cancel "$one_file_job" "${client[@]}" 2>/dev/null
+"$vcmfarm" remove "$one_file_job" "${client[@]}" 2>"$tmp/remove.err"
+check "remove counts one file in words" "$(grep -q "removed job $one_file_job and 1 of its 1 file no other job names" "$tmp/remove.err"; echo $?)"
 "$vcmfarm" status "${client[@]}" >"$tmp/status.txt"
 grep -q '1 thread, ' "$tmp/status.txt" && grep -q 'of 1 worker busy' "$tmp/status.txt" && ! grep -q '1 threads\|1 workers' "$tmp/status.txt"
 check "status counts in words" $?
 grep -q "submitted: built-in furnace, at most 6 iterations from 0, priority 1" "$tmp/coordinator-w.log"
 check "the coordinator's submission line has no empty field" $?
+! grep -H '\b1 \(files\|blobs\|jobs\|films\|pixels\|samples\)\b\|(s)' "$tmp"/{wait,submit,remove}.err "$tmp/coordinator-w.log"
+check "no '1 files' and no '(s)' in what submit, remove and the coordinator said" $?
 kill -TERM "$worker" "$coordinator"
 wait "$worker" "$coordinator" 2>/dev/null
 

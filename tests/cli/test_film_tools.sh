@@ -135,7 +135,8 @@ expect_refusal "diff: sizes differ" "16x16" "$vcmfarm" diff "$good" "$tmp/small.
 for c in merge bake errors diff; do
   "$vcmfarm" "$c" --help | grep -q "usage: vcmfarm $c"
   check "$c --help" $?
-  expect_refusal "$c: unknown option" "unknown or incomplete option" "$vcmfarm" "$c" --frobnicate
+  expect_refusal "$c: unknown option" "vcmfarm $c: unknown option '--frobnicate'; try 'vcmfarm $c --help'" \
+    "$vcmfarm" "$c" --frobnicate
 done
 
 # ---- damaged files ----

@@ -167,6 +167,41 @@ static void test_reply_is_bound_to_its_request(void) {
   free(reply);
 }
 
+/* The refusal of a request without the key: fixed bytes, recognised as such, told apart
+ * from every sealed reply, and one that an earlier version-8 peer refuses as not authentic
+ * (it cannot open it as the reply to its request). */
+static void test_refusal_of_a_wrong_key(void) {
+  CHECK_INT_EQ(VF_WIRE_REFUSAL_SIZE, VF_WIRE_OVERHEAD); /* no longer than the shortest request */
+  CHECK(memcmp(vf_wire_refusal, "VCMF\0\0\0\x08", 8) == 0);
+  int zeros = 1;
+  for (size_t i = 8; i < VF_WIRE_REFUSAL_SIZE; i++) zeros &= vf_wire_refusal[i] == 0;
+  CHECK(zeros);
+  CHECK(vf_wire_is_refusal(vf_wire_refusal, VF_WIRE_REFUSAL_SIZE));
+  CHECK(!vf_wire_is_refusal(vf_wire_refusal, VF_WIRE_REFUSAL_SIZE - 1));
+  CHECK(vf_wire_knows_refusal((const uint8_t *)"VCMF\0\0\0\x08\0\0\0\0", 12));
+  CHECK(vf_wire_knows_refusal((const uint8_t *)"VCMF\0\0\0\x09\0\0\0\0", 12));
+  CHECK(!vf_wire_knows_refusal((const uint8_t *)"VCMF\0\0\0\x07\0\0\0\0", 12)); /* versions 1 to 7 */
+  CHECK(!vf_wire_knows_refusal((const uint8_t *)"VCMG\0\0\0\x08\0\0\0\0", 12));
+  CHECK(!vf_wire_knows_refusal((const uint8_t *)"VCMF\0\0\0", 7));
+  Vcmfarm__StatusRequest sr;
+  Vcmfarm__Envelope env, *out = NULL;
+  uint8_t *request, *reply;
+  size_t request_len, reply_len;
+  vf_wire_stamp stamp, seen;
+  vf_message_pack(&key_a, NULL, status_request(&sr, &env), &request, &request_len, &stamp);
+  CHECK(request_len >= VF_WIRE_REFUSAL_SIZE);
+  CHECK_INT_EQ(vf_message_unpack(&key_a, &stamp, vf_wire_refusal, VF_WIRE_REFUSAL_SIZE, &out, NULL), VF_EAUTH);
+  CHECK(out == NULL);
+  /* An empty sealed reply has the refusal's size, never its bytes. */
+  CHECK_INT_EQ(vf_message_unpack(&key_a, NULL, request, request_len, &out, &seen), VF_OK);
+  vf_message_free(out);
+  CHECK_INT_EQ(vf_wire_seal(&key_a, &seen, NULL, 0, &reply, &reply_len, NULL), VF_OK);
+  CHECK_INT_EQ(reply_len, VF_WIRE_REFUSAL_SIZE);
+  CHECK(!vf_wire_is_refusal(reply, reply_len));
+  free(request);
+  free(reply);
+}
+
 /* Frames of version 9 (this layout) and of version 7 (HMAC in clear) under the farm key
  * are authentic and refused as another version, and answered so that their sender can
  * tell. */
@@ -275,6 +310,7 @@ int main(void) {
   RUN(test_wrong_key_is_refused);
   RUN(test_every_altered_byte_is_refused);
   RUN(test_reply_is_bound_to_its_request);
+  RUN(test_refusal_of_a_wrong_key);
   RUN(test_other_versions_are_told_apart);
   RUN(test_lengths_are_checked);
   RUN(test_authentic_garbage_is_refused);

@@ -28,6 +28,7 @@ static void test_every_code_has_one_wire_code(void) {
   {                                                                                                         \
     int err = VF_##code;                                                                                    \
     Vcmfarm__ErrorCode want = err == VF_EVERSION ? VCMFARM__ERROR_CODE__ERROR_VERSION                       \
+                              : err == VF_ENOJOB ? VCMFARM__ERROR_CODE__ERROR_UNKNOWN_JOB                   \
                               : is_system(err)   ? VCMFARM__ERROR_CODE__ERROR_INTERNAL                      \
                                                  : VCMFARM__ERROR_CODE__ERROR_BAD_REQUEST;                  \
     if (vf_farm_wire_code(err) != want) CHECK_FAIL_("VF_%s answers %d, expected %d", #code, vf_farm_wire_code(err), want); \

@@ -2,8 +2,9 @@
  *
  *   farm_peer URL KEYFILE
  *
- * Run while the coordinator at URL has one queued job and no worker. Sends a frame under
- * another key, frames of other protocol versions (9, and 7 in its own layout), garbage, a
+ * Run while the coordinator at URL has one queued job and no worker. Sends frames under
+ * another key (answered with the fixed refusal within a budget of bytes a second), frames
+ * of other protocol versions (9, and 7 in its own layout), garbage, a
  * frame whose header claims an oversized payload, raw bytes below the nanomsg protocol
  * (ipc:// only); captured Register, LeaseRequest and SubmitJob frames sent again, requests
  * sent too long ago or ahead, a ciphertext altered; and then, as
@@ -15,6 +16,7 @@
  *
  *   farm_peer --flood ...        what unfinished messages cost (flood, below)
  *   farm_peer --connections ...  how many connections the TCP gate serves (count_connections) */
+#include "common/clock.h"
 #include "common/error.h"
 #include "common/farm_client.h"
 #include "common/film_wire.h"
@@ -118,11 +120,21 @@ static void test_frames(const char *url, const vf_wire_key *key) {
   uint8_t other_key[32];
   randombytes_buf(other_key, sizeof other_key);
   uint8_t *f = hand_sealed(other_key, VF_PROTOCOL_VERSION, now, payload, plen, plen, &len, NULL);
-  expect(raw_exchange(url, f, len, 500, &reply) < 0, "a frame under another key gets no answer");
+  int n = raw_exchange(url, f, len, 5000, &reply);
+  expect(n >= 0 && vf_wire_is_refusal(reply, (size_t)n),
+         "a frame under another key gets the fixed refusal (60 bytes, the same for every request)");
+  if (n >= 0) nn_freemsg(reply);
   free(f);
+  uint8_t *filler = calloc(1, 1 << 20);
+  f = hand_sealed(other_key, VF_PROTOCOL_VERSION, now, filler, 1u << 20, 1u << 20, &len, NULL);
+  n = raw_exchange(url, f, len, 5000, &reply);
+  expect(n >= 0 && vf_wire_is_refusal(reply, (size_t)n), "a frame of 1 MiB under another key gets the same refusal");
+  if (n >= 0) nn_freemsg(reply);
+  free(f);
+  free(filler);
 
   f = hand_sealed(key->bytes, VF_PROTOCOL_VERSION + 1, now, payload, plen, plen, &len, &stamp);
-  int n = raw_exchange(url, f, len, 5000, &reply);
+  n = raw_exchange(url, f, len, 5000, &reply);
   free(f);
   Vcmfarm__Envelope *answer = NULL;
   int ok = n >= 0 && vf_message_unpack(key, &stamp, reply, (size_t)n, &answer, NULL) == VF_OK &&
@@ -305,7 +317,10 @@ static void test_replays(const char *url, const vf_wire_key *key, vf_farm_client
   if (n >= 0) nn_freemsg(reply);
   f[44] ^= 0x20; /* the ciphertext, with a new nonce so that it is no replay */
   randombytes_buf(f + 20, 24);
-  expect(raw_exchange(url, f, len, 1000, &reply) < 0, "a request whose ciphertext was altered gets no answer");
+  n = raw_exchange(url, f, len, 1000, &reply);
+  expect(n >= 0 && vf_wire_is_refusal(reply, (size_t)n),
+         "a request whose ciphertext was altered gets the refusal, as one under another key");
+  if (n >= 0) nn_freemsg(reply);
   free(f);
   f = hand_sealed(key->bytes, VF_PROTOCOL_VERSION, now - 600000, payload, plen, plen, &len, NULL);
   expect(raw_exchange(url, f, len, 1000, &reply) < 0, "a request sent 10 minutes ago gets no answer");
@@ -313,6 +328,34 @@ static void test_replays(const char *url, const vf_wire_key *key, vf_farm_client
   f = hand_sealed(key->bytes, VF_PROTOCOL_VERSION, now + 600000, payload, plen, plen, &len, NULL);
   expect(raw_exchange(url, f, len, 1000, &reply) < 0, "a request sent 10 minutes ahead gets no answer");
   free(f);
+}
+
+/* Requests of 1 MiB under another key, sent one after the other as fast as they are
+ * answered or given up (after 200 ms): the coordinator refuses at most 1 MiB of them a
+ * second after a burst of its largest request (4.26 MB: 4 of them), and answers nothing
+ * but the refusal. */
+static void test_refusal_rate(const char *url) {
+  uint8_t other_key[32], *payload = calloc(1, 1 << 20);
+  randombytes_buf(other_key, sizeof other_key);
+  int answered = 0, unanswered = 0, other = 0, sent = 16;
+  double start = vf_seconds_now();
+  for (int i = 0; i < sent; i++) {
+    size_t len;
+    void *reply = NULL;
+    uint8_t *f = hand_sealed(other_key, VF_PROTOCOL_VERSION, vf_wire_now_ms(), payload, 1u << 20, 1u << 20, &len, NULL);
+    int n = raw_exchange(url, f, len, 200, &reply);
+    free(f);
+    if (n < 0) unanswered++;
+    else if (vf_wire_is_refusal(reply, (size_t)n)) answered++;
+    else other++;
+    if (n >= 0) nn_freemsg(reply);
+  }
+  free(payload);
+  double seconds = vf_seconds_now() - start;
+  printf("     %d requests of 1 MiB under another key in %.2f s: %d refused, %d unanswered\n", sent, seconds, answered,
+         unanswered);
+  expect(other == 0 && answered >= 4 && answered <= 4 + (int)seconds + 1 && unanswered > 0,
+         "requests under another key get refusals of at most 1 MiB a second after a burst, nothing else");
 }
 
 /* A film of the lease's job holding [begin, end), black. */
@@ -603,6 +646,7 @@ int main(int argc, char **argv) {
   test_frames(argv[1], &key);
   test_results(c);
   test_replays(argv[1], &key, c);
+  test_refusal_rate(argv[1]);
   Vcmfarm__Envelope *reply;
   int alive = farm_status(c, &reply) != NULL;
   expect(alive && reply->status->n_jobs == 1 && reply->status->jobs[0]->iterations_done == 0 &&

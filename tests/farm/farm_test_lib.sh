@@ -9,7 +9,8 @@
 #   farm_test_key           a farm key $key in it and an ipc:// $url beside it
 #   fail MESSAGE            "FAIL $fail_label: MESSAGE" and the end of every log in $tmp
 #   start_coordinator ARGS  a coordinator on $url with state in $state ($tmp/state), short
-#                           leases and checkpoints; its pid in $coordinator
+#                           leases and checkpoints; its pid in $coordinator; returns once
+#                           an ipc:// one listens (or has ended)
 #   start_worker NAME ARGS  a one-thread worker named NAME logging to $tmp/NAME.log; its pid
 #                           in $last_worker
 #   wait_until S WHAT CMD   runs CMD every 50 ms until it succeeds; after S seconds fails
@@ -53,6 +54,15 @@ start_coordinator() { # extra options...
     --checkpoint-interval 0.3 "$@" >>"$tmp/coordinator.log" 2>&1 &
   coordinator=$!
   pids+=("$coordinator")
+  # A client's wait for a connection gives up after 0.8 s with "no coordinator answered":
+  # give an ipc:// coordinator up to 10 s to listen (a socket left by a killed one counts),
+  # unless it ends first.
+  if [[ "$url" == ipc://* ]]; then
+    for _ in $(seq 200); do
+      { [ -S "${url#ipc://}" ] || ! kill -0 "$coordinator" 2>/dev/null; } && break
+      sleep 0.05
+    done
+  fi
 }
 
 start_worker() { # name, extra options...
