@@ -19,8 +19,26 @@
 #   dashboard_address       waits for the coordinator's log to say where its dashboard
 #                           listens and sets $base to that http://127.0.0.1:PORT
 
+# The children of a process (a supervisor's worker), from /proc: procps may be absent.
+children_of() { # pid
+  local parent="$1" stat fields
+  for stat in /proc/[0-9]*/stat; do
+    read -r fields <"$stat" 2>/dev/null || continue
+    fields=${fields##*) } # the fields after the command name, which may hold spaces
+    set -- $fields        # state, parent, ...
+    [ "${2:-}" = "$parent" ] || continue
+    stat=${stat#/proc/}
+    echo "${stat%/stat}"
+  done
+}
+
 farm_test_cleanup() {
-  for p in "${pids[@]}"; do kill -9 "$p" 2>/dev/null; done
+  local p c
+  # A supervisor's worker first: killing the supervisor alone would leave it running.
+  for p in "${pids[@]}"; do
+    for c in $(children_of "$p"); do kill -9 "$c" 2>/dev/null; done
+    kill -9 "$p" 2>/dev/null
+  done
   wait 2>/dev/null
   declare -F farm_test_on_exit >/dev/null && farm_test_on_exit
   [ -n "${KEEP_TMP:-}" ] || rm -rf "$tmp"
