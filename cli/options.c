@@ -54,7 +54,7 @@ int vf_cli_resolution(const char *option, const char *text, int *width, int *hei
 }
 
 void vf_cli_settings_init(vf_cli_settings *o) {
-  *o = (vf_cli_settings){NULL, NULL, 0, 0, 0, 0, 0, -1, -1.0, -1.0};
+  *o = (vf_cli_settings){NULL, NULL, 0, 0, 0, 0, 0, -1, -1.0, -1.0, -1.0};
 }
 
 int vf_cli_settings_option(vf_cli_settings *o, int c, const char *arg, int *err) {
@@ -65,6 +65,7 @@ int vf_cli_settings_option(vf_cli_settings *o, int c, const char *arg, int *err)
   case 'l': *err = vf_cli_int("--max-path-length", arg, 1, VF_MAX_PATH_LENGTH, &o->max_path_length); return 1;
   case 'r': *err = vf_cli_double("--radius-factor", arg, 1e-12, 1.0, &o->radius_factor); return 1;
   case 'A': *err = vf_cli_double("--alpha", arg, 1e-6, 1.0, &o->alpha); return 1;
+  case 'B': *err = vf_cli_double("--mis-beta", arg, 1.0, VF_MAX_MIS_BETA, &o->mis_beta); return 1;
   case 'R':
     o->have_resolution = 1;
     *err = vf_cli_resolution("--resolution", arg, &o->width, &o->height);
@@ -81,6 +82,7 @@ int vf_cli_settings_apply(const vf_cli_settings *o, vf_settings *settings) {
   if (o->max_path_length > 0) settings->max_path_length = (int)o->max_path_length;
   if (o->radius_factor > 0.0) settings->radius_factor = o->radius_factor;
   if (o->alpha > 0.0) settings->alpha = o->alpha;
+  if (o->mis_beta > 0.0) settings->mis_beta = o->mis_beta;
   if (o->have_resolution) {
     settings->width = o->width;
     settings->height = o->height;

@@ -44,7 +44,7 @@ int vf_cli_not_input(const char *output_option, const char *output, const char *
 
 /* The render settings a command line may override (render, submit): -a/--algorithm,
  * -s/--seed, -l/--max-path-length, -r/--radius-factor, --alpha (option value 'A'),
- * -R/--resolution, --sampler (option value 'Q'). Unset fields leave the scene's settings as they are. The commands take
+ * -R/--resolution, --sampler (option value 'Q'), --mis-beta (option value 'B'). Unset fields leave the scene's settings as they are. The commands take
  * them through VF_CLI_SETTINGS_OPTIONS (getopt_long entries), VF_CLI_SETTINGS_SHORT (its
  * short letters) and VF_CLI_SETTINGS_HELP (their lines of --help), so the options and
  * their help exist once. */
@@ -52,7 +52,7 @@ int vf_cli_not_input(const char *output_option, const char *output, const char *
   {"algorithm", required_argument, 0, 'a'}, {"seed", required_argument, 0, 's'},                            \
       {"max-path-length", required_argument, 0, 'l'}, {"radius-factor", required_argument, 0, 'r'},         \
       {"alpha", required_argument, 0, 'A'}, {"resolution", required_argument, 0, 'R'},                      \
-      {"sampler", required_argument, 0, 'Q'}
+      {"sampler", required_argument, 0, 'Q'}, {"mis-beta", required_argument, 0, 'B'}
 #define VF_CLI_SETTINGS_SHORT "a:s:l:r:R:"
 #define VF_CLI_SETTINGS_HELP                                                                 \
   "  -a, --algorithm A        vcm (default), bpt, pt, lt, ppm, bpm or auto (the cheapest\n"  \
@@ -63,7 +63,9 @@ int vf_cli_not_input(const char *output_option, const char *output, const char *
   "      --alpha A            radius reduction exponent in (0, 1] (default 0.75)\n"          \
   "  -R, --resolution WxH     image size (default: the scene camera's)\n"                   \
   "      --sampler S          sobol (default: Owen-scrambled Sobol' over the iterations)\n" \
-  "                           or independent (films of the two never merge)\n"
+  "                           or independent (films of the two never merge)\n"            \
+  "      --mis-beta B         the MIS heuristic's exponent in [1, 4]: 1 balance (default),\n" \
+  "                           2 and more power (films of different ones never merge)\n"
 
 typedef struct {
   const char *algorithm; /* borrowed from argv, or NULL */
@@ -71,7 +73,7 @@ typedef struct {
   uint64_t seed;
   int have_seed, have_resolution, width, height;
   long long max_path_length; /* <= 0: unset */
-  double radius_factor, alpha; /* <= 0: unset */
+  double radius_factor, alpha, mis_beta; /* <= 0: unset */
 } vf_cli_settings;
 
 void vf_cli_settings_init(vf_cli_settings *o);

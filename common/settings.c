@@ -20,6 +20,7 @@ void vf_settings_default(vf_settings *s) {
   s->width = 512;
   s->height = 512;
   s->sampler = VF_SAMPLER_SOBOL;
+  s->mis_beta = 1.0;
 }
 
 const char *vf_sampler_name(vf_sampler_kind k) {
@@ -62,6 +63,8 @@ int vf_settings_validate(const vf_settings *s) {
     return vf_error_set(VF_EINVAL, "radius factor %g must be a positive number", s->radius_factor);
   if (!(s->alpha > 0.0 && s->alpha <= 1.0))
     return vf_error_set(VF_EINVAL, "alpha %g is outside (0, 1]", s->alpha);
+  if (!(s->mis_beta >= 1.0 && s->mis_beta <= VF_MAX_MIS_BETA))
+    return vf_error_set(VF_EINVAL, "MIS beta %g is outside [1, %g]", s->mis_beta, VF_MAX_MIS_BETA);
   if (s->width < 1 || s->height < 1 || s->width > VF_MAX_IMAGE_SIDE || s->height > VF_MAX_IMAGE_SIDE ||
       (int64_t)s->width * s->height > (int64_t)1 << 28)
     return vf_error_set(VF_EINVAL, "resolution %dx%d is outside 1x1 .. 65536x65536 (at most 2^28 pixels)",
@@ -86,6 +89,11 @@ int vf_settings_format(const vf_settings *s, char *buf, size_t n) {
                    vf_algorithm_name(s->algorithm), s->max_path_length, radius, alpha, s->seed, s->width, s->height);
   if (w >= 0 && (size_t)w < n && s->sampler != VF_SAMPLER_INDEPENDENT)
     w += snprintf(buf + w, n - (size_t)w, " sampler=%s", vf_sampler_name(s->sampler));
+  if (w >= 0 && (size_t)w < n && s->mis_beta != 1.0) {
+    char beta[32];
+    vf_double_format(s->mis_beta, beta, sizeof beta);
+    w += snprintf(buf + w, n - (size_t)w, " mis_beta=%s", beta);
+  }
   if (w < 0 || (size_t)w >= n) return vf_error_set(VF_EINVAL, "settings text too long");
   return VF_OK;
 }
@@ -121,6 +129,10 @@ int vf_settings_parse(vf_settings *s, const char *text) {
     } else if (strcmp(key, "sampler") == 0) {
       if (seen & 64 || vf_sampler_parse(value, &out.sampler) != VF_OK) goto bad;
       seen |= 64;
+    } else if (strcmp(key, "mis_beta") == 0) {
+      if (seen & 128) goto bad;
+      out.mis_beta = strtod(value, &end);
+      seen |= 128;
     } else {
       return vf_error_set(VF_EINVAL, "settings: unknown key '%s'", key);
     }

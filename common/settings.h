@@ -37,10 +37,18 @@ typedef struct {
   uint64_t seed;
   int width, height;    /* film resolution in pixels */
   vf_sampler_kind sampler; /* where the paths' random numbers come from (common/sampler.h) */
+  double mis_beta;      /* the MIS heuristic's exponent: 1 balance (the default), >= 1 power
+                         * (paper eq. 10; worker/render/mis.h) */
 } vf_settings;
 
+/* The power heuristic's largest exponent: weights are sums of products of density ratios
+ * raised to beta, in float, and ratios of 1e9 (a light seen at a grazing angle through a
+ * small radius) must not overflow: (1e9)^4 = 1e36 < 3.4e38. */
+#define VF_MAX_MIS_BETA 4.0
+
 /* Defaults: vcm, path length 10, radius factor 0.003, alpha 0.75, seed 1, 512x512, the
- * sobol sampler (docs/BENCHMARKS.md, "Samplers": it reaches an error sooner). */
+ * sobol sampler (docs/BENCHMARKS.md, "Samplers": it reaches an error sooner), the balance
+ * heuristic (mis_beta 1). */
 void vf_settings_default(vf_settings *s);
 
 const char *vf_algorithm_name(vf_algorithm a);
@@ -51,14 +59,17 @@ const char *vf_sampler_name(vf_sampler_kind k);
 /* VF_EUSAGE with a detail listing the valid names when `name` is not one. */
 int vf_sampler_parse(const char *name, vf_sampler_kind *out);
 
-/* Checks ranges (path length, radius factor > 0, 0 < alpha <= 1, resolution). */
+/* Checks ranges (path length, radius factor > 0, 0 < alpha <= 1, resolution, 1 <= mis_beta
+ * <= VF_MAX_MIS_BETA). */
 int vf_settings_validate(const vf_settings *s);
 
 /* Canonical text, e.g. "algorithm=vcm max_path_length=10 radius_factor=0.003 alpha=0.75
  * seed=1 resolution=512x512 sampler=sobol". The sampler is written only when it is not
  * the independent one: every film and state file written before samplers existed was
  * rendered with independent numbers, and its text, which has no sampler, reads (and
- * merges) as independent, while a sobol film never merges with one. Numbers in their shortest text that reads back exactly
+ * merges) as independent, while a sobol film never merges with one. The MIS exponent is
+ * written (" mis_beta=2") only when it is not 1, for the same reason: every text before it
+ * existed was rendered with the balance heuristic. Numbers in their shortest text that reads back exactly
  * (vf_double_format), so parse(format(s)) == s. VF_EINVAL if it does not fit in n bytes.
  * Before protocol version 6 the numbers had 17 digits ("0.0030000000000000001"): films and
  * state files of then are brought to this form when read (vf_settings_canonicalize). */
@@ -69,7 +80,7 @@ int vf_settings_canonicalize(char *text, size_t n);
 /* The shortest "%g" text of v that reads back as v (at most 24 bytes with the NUL). */
 void vf_double_format(double v, char *buf, size_t n);
 /* Parses the canonical text (keys in any order, all required but the sampler, which is
- * independent when absent). */
+ * independent when absent, and mis_beta, 1 when absent). */
 int vf_settings_parse(vf_settings *s, const char *text);
 
 #endif

@@ -38,6 +38,13 @@ expect_refusal "zero resolution" "--resolution" "$vcmfarm" render furnace -R 0x1
 expect_refusal "negative iterations" "--iterations" "$vcmfarm" render furnace -n -3 -o "$tmp/out.exr"
 expect_refusal "iterations and time" "not both" "$vcmfarm" render furnace -n 3 -t 2 -o "$tmp/out.exr"
 expect_refusal "alpha out of range" "--alpha" "$vcmfarm" render furnace --alpha 1.5 -o "$tmp/out.exr"
+expect_refusal "MIS beta below 1" "--mis-beta" "$vcmfarm" render furnace --mis-beta 0.5 -o "$tmp/out.exr"
+expect_refusal "MIS beta above 4" "--mis-beta" "$vcmfarm" render furnace --mis-beta 5 -o "$tmp/out.exr"
+# Films of different MIS exponents are different estimators: they never merge.
+"$vcmfarm" render furnace -R 8x8 -n 1 -q -o "$tmp/beta1.exr" &&
+  "$vcmfarm" render furnace -R 8x8 -n 1 -k 1 --mis-beta 2 -q -o "$tmp/beta2.exr"
+check "films of MIS beta 1 and 2 rendered" $?
+expect_refusal "films of MIS beta 1 and 2 do not merge" "mis_beta=2" "$vcmfarm" merge -o "$tmp/out.exr" "$tmp/beta1.exr" "$tmp/beta2.exr"
 # A bad option is refused on one line naming it, with a hint, not under the whole --help;
 # every subcommand alike.
 expect_one_line() { # name, expected substring, command...

@@ -40,7 +40,7 @@ static vf_vec3 emission_weighted(const vf_vcm *v, const vf_light *l, const path_
   if (vf_is_zero(radiance)) return radiance;
   if (s->path_length == 1) return radiance; /* seen directly: no other technique can */
   if (v->t.emission_specular_only) return s->specular_path ? radiance : vf_vec3_splat(0.0f);
-  float w = vf_mis_weight_emission(&s->mis, direct_pdf * l->pick_probability, emission_pdf * l->pick_probability);
+  float w = vf_mis_weight_emission(&s->mis, &v->mis, direct_pdf * l->pick_probability, emission_pdf * l->pick_probability);
   return vf_scale(radiance, w);
 }
 
@@ -247,7 +247,7 @@ static int camera_bounce(vf_vcm *v, int thread, camera_lane *lane, const vf_hit 
   }
   float cos_fix = fabsf(vf_dot(hit->normal, s->direction));
   if (!(cos_fix > 1e-7f)) return 0; /* grazing: no emission or scattering to speak of */
-  vf_mis_hit(&s->mis, hit->t, cos_fix, 1);
+  vf_mis_hit(&s->mis, &v->mis, hit->t, cos_fix, 1);
   int light_index = v->lights->shape_light[hit->shape];
   if (light_index >= 0 && v->t.emission) {
     const vf_light *l = &v->lights->lights[light_index];

@@ -285,7 +285,8 @@ static int light_bounce(vf_vcm *v, int thread, light_chunk *c, light_lane *lane,
   s->path_length++;
   /* The geometric cosine (the BSDF's local_fix.z is the shading one where they differ;
    * both are the same bits where they do not). */
-  vf_mis_hit(&s->mis, hit->t, fabsf(vf_dot(hit->normal, s->direction)), s->path_length > 1 || s->is_finite_light);
+  vf_mis_hit(&s->mis, &v->mis, hit->t, fabsf(vf_dot(hit->normal, s->direction)),
+             s->path_length > 1 || s->is_finite_light);
   uint32_t vertex_dims = vf_dim_vertex(VF_DIM_LIGHT_VERTEX, s->path_length);
   if (!b.is_delta) {
     if (v->t.store_vertices) {

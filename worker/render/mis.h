@@ -17,11 +17,17 @@
  * merging factor eta_VCM to zero (sec. 5.5), BPM the connection factor 1 / eta_VCM (5.6),
  * and path tracing keeps only emission hits and next-event estimation.
  *
- * mis() is the heuristic's exponent applied to each density ratio; we use the balance
- * heuristic (beta = 1), as the report's derivation does. All functions are pure, so the
- * test suite drives the same code over hand-built paths (tests/worker/render/test_mis.c). */
+ * vf_mis_pow() is the heuristic's exponent applied to each density ratio (the report's
+ * mis() of eq. 12 and 31-47): beta = 1 is the balance heuristic, as the report derives
+ * the scheme; any beta >= 1 is the power heuristic (paper eq. 10), exact in the recursion
+ * because every quantity is a sum of products of density ratios, and a product's power is
+ * the product of its factors' powers. --mis-beta chooses it (common/settings.h). All
+ * functions are pure, so the test suite drives the same code over hand-built paths
+ * (tests/worker/render/test_mis.c). */
 #ifndef VF_MIS_H
 #define VF_MIS_H
+
+#include <math.h>
 
 typedef struct {
   float d_vcm, d_vc, d_vm;
@@ -31,32 +37,40 @@ typedef struct {
   float vm_weight; /* mis(eta_VCM) when merging takes part in the weights, else 0 */
   float vc_weight; /* mis(1 / eta_VCM) when connections take part, else 0 */
   float light_paths; /* n_light: light sub-paths per iteration (one per pixel) */
+  float beta;      /* the heuristic's exponent: 1 balance, 2 and more power */
   int pt;          /* path tracing: only emission hits (s = 0) and light sampling (s = 1) */
 } vf_mis_config;
 
-static inline float vf_mis_h(float x) { return x; }
+/* mis(x) = x^beta, the heuristic applied to one density ratio. The balance heuristic, the
+ * default, is x itself; beta = 2 a product. */
+static inline float vf_mis_pow(float x, float beta) {
+  if (beta == 1.0f) return x;
+  if (beta == 2.0f) return x * x;
+  return powf(x, beta);
+}
+static inline float vf_mis_h(const vf_mis_config *c, float x) { return vf_mis_pow(x, c->beta); }
 
 /* Light sub-path start, y0 (eq. 31-33; point and directional lights eq. 48-50; infinite
  * lights sec. 5.1). Densities include the light-selection probability. */
 static inline void vf_mis_light_start(vf_mis *m, const vf_mis_config *c, float direct_pdf_a, float emission_pdf_w,
                                       float cos_light, int is_delta, int is_finite) {
-  m->d_vcm = vf_mis_h(direct_pdf_a / emission_pdf_w);
-  m->d_vc = is_delta ? 0.0f : vf_mis_h((is_finite ? cos_light : 1.0f) / emission_pdf_w);
+  m->d_vcm = vf_mis_h(c, direct_pdf_a / emission_pdf_w);
+  m->d_vc = is_delta ? 0.0f : vf_mis_h(c, (is_finite ? cos_light : 1.0f) / emission_pdf_w);
   m->d_vm = m->d_vc * c->vc_weight;
 }
 
 /* Camera sub-path start, z0 (eq. 31-33, eye side): d_vcm = n_light / p(z1) in solid angle. */
 static inline void vf_mis_camera_start(vf_mis *m, const vf_mis_config *c, float camera_pdf_w) {
-  m->d_vcm = vf_mis_h(c->light_paths / camera_pdf_w);
+  m->d_vcm = vf_mis_h(c, c->light_paths / camera_pdf_w);
   m->d_vc = 0.0f;
   m->d_vm = 0.0f;
 }
 
 /* A sub-path's ray of length dist found vertex i with |cos| cos_fix against its normal.
  * Infinite lights have no distance factor on their first segment (sec. 5.1). */
-static inline void vf_mis_hit(vf_mis *m, float dist, float cos_fix, int apply_distance) {
-  if (apply_distance) m->d_vcm *= vf_mis_h(dist * dist);
-  float inv = 1.0f / vf_mis_h(cos_fix);
+static inline void vf_mis_hit(vf_mis *m, const vf_mis_config *c, float dist, float cos_fix, int apply_distance) {
+  if (apply_distance) m->d_vcm *= vf_mis_h(c, dist * dist);
+  float inv = 1.0f / vf_mis_h(c, cos_fix);
   m->d_vcm *= inv;
   m->d_vc *= inv;
   m->d_vm *= inv;
@@ -67,19 +81,20 @@ static inline void vf_mis_scatter(vf_mis *m, const vf_mis_config *c, float cos_g
                                   int specular) {
   if (specular) {
     m->d_vcm = 0.0f;
-    m->d_vc *= vf_mis_h(cos_gen);
-    m->d_vm *= vf_mis_h(cos_gen);
+    m->d_vc *= vf_mis_h(c, cos_gen);
+    m->d_vm *= vf_mis_h(c, cos_gen);
     return;
   }
-  float g = vf_mis_h(cos_gen / pdf_w);
-  m->d_vc = c->pt ? 0.0f : g * (m->d_vc * vf_mis_h(rev_pdf_w) + m->d_vcm + c->vm_weight);
-  m->d_vm = c->pt ? 0.0f : g * (m->d_vm * vf_mis_h(rev_pdf_w) + m->d_vcm * c->vc_weight + 1.0f);
-  m->d_vcm = vf_mis_h(1.0f / pdf_w);
+  float g = vf_mis_h(c, cos_gen / pdf_w);
+  m->d_vc = c->pt ? 0.0f : g * (m->d_vc * vf_mis_h(c, rev_pdf_w) + m->d_vcm + c->vm_weight);
+  m->d_vm = c->pt ? 0.0f : g * (m->d_vm * vf_mis_h(c, rev_pdf_w) + m->d_vcm * c->vc_weight + 1.0f);
+  m->d_vcm = vf_mis_h(c, 1.0f / pdf_w);
 }
 
 /* s = 0: the camera sub-path hit a light (eq. 42-43). Densities include light selection. */
-static inline float vf_mis_weight_emission(const vf_mis *cam, float direct_pdf_a, float emission_pdf_w) {
-  float w_camera = vf_mis_h(direct_pdf_a) * cam->d_vcm + vf_mis_h(emission_pdf_w) * cam->d_vc;
+static inline float vf_mis_weight_emission(const vf_mis *cam, const vf_mis_config *c, float direct_pdf_a,
+                                            float emission_pdf_w) {
+  float w_camera = vf_mis_h(c, direct_pdf_a) * cam->d_vcm + vf_mis_h(c, emission_pdf_w) * cam->d_vc;
   return 1.0f / (1.0f + w_camera);
 }
 
@@ -88,10 +103,10 @@ static inline float vf_mis_weight_emission(const vf_mis *cam, float direct_pdf_a
 static inline float vf_mis_weight_light_sample(const vf_mis *cam, const vf_mis_config *c, float bsdf_dir_pdf_w,
                                                float bsdf_rev_pdf_w, float direct_pdf_w, float emission_pdf_w,
                                                float cos_to_light, float cos_at_light) {
-  float w_light = vf_mis_h(bsdf_dir_pdf_w / direct_pdf_w);
+  float w_light = vf_mis_h(c, bsdf_dir_pdf_w / direct_pdf_w);
   float w_camera = c->pt ? 0.0f
-                         : vf_mis_h(emission_pdf_w * cos_to_light / (direct_pdf_w * cos_at_light)) *
-                               (c->vm_weight + cam->d_vcm + cam->d_vc * vf_mis_h(bsdf_rev_pdf_w));
+                         : vf_mis_h(c, emission_pdf_w * cos_to_light / (direct_pdf_w * cos_at_light)) *
+                               (c->vm_weight + cam->d_vcm + cam->d_vc * vf_mis_h(c, bsdf_rev_pdf_w));
   return 1.0f / (w_light + 1.0f + w_camera);
 }
 
@@ -99,8 +114,8 @@ static inline float vf_mis_weight_light_sample(const vf_mis *cam, const vf_mis_c
  * camera's density of generating y_{s-1}, in area measure at y_{s-1}. */
 static inline float vf_mis_weight_camera_connection(const vf_mis *light, const vf_mis_config *c, float camera_pdf_a,
                                                     float bsdf_rev_pdf_w) {
-  float w_light = vf_mis_h(camera_pdf_a / c->light_paths) *
-                  (c->vm_weight + light->d_vcm + light->d_vc * vf_mis_h(bsdf_rev_pdf_w));
+  float w_light = vf_mis_h(c, camera_pdf_a / c->light_paths) *
+                  (c->vm_weight + light->d_vcm + light->d_vc * vf_mis_h(c, bsdf_rev_pdf_w));
   return 1.0f / (w_light + 1.0f);
 }
 
@@ -109,8 +124,8 @@ static inline float vf_mis_weight_camera_connection(const vf_mis *light, const v
 static inline float vf_mis_weight_connection(const vf_mis *light, const vf_mis *cam, const vf_mis_config *c,
                                              float camera_dir_pdf_a, float light_dir_pdf_a, float light_rev_pdf_w,
                                              float camera_rev_pdf_w) {
-  float w_light = vf_mis_h(camera_dir_pdf_a) * (c->vm_weight + light->d_vcm + light->d_vc * vf_mis_h(light_rev_pdf_w));
-  float w_camera = vf_mis_h(light_dir_pdf_a) * (c->vm_weight + cam->d_vcm + cam->d_vc * vf_mis_h(camera_rev_pdf_w));
+  float w_light = vf_mis_h(c, camera_dir_pdf_a) * (c->vm_weight + light->d_vcm + light->d_vc * vf_mis_h(c, light_rev_pdf_w));
+  float w_camera = vf_mis_h(c, light_dir_pdf_a) * (c->vm_weight + cam->d_vcm + cam->d_vc * vf_mis_h(c, camera_rev_pdf_w));
   return 1.0f / (w_light + 1.0f + w_camera);
 }
 
@@ -118,8 +133,8 @@ static inline float vf_mis_weight_connection(const vf_mis *light, const vf_mis *
  * BSDF's density of the light vertex's incoming direction; camera_rev_pdf_w the reverse. */
 static inline float vf_mis_weight_merge(const vf_mis *light, const vf_mis *cam, const vf_mis_config *c,
                                         float camera_dir_pdf_w, float camera_rev_pdf_w) {
-  float w_light = light->d_vcm * c->vc_weight + light->d_vm * vf_mis_h(camera_dir_pdf_w);
-  float w_camera = cam->d_vcm * c->vc_weight + cam->d_vm * vf_mis_h(camera_rev_pdf_w);
+  float w_light = light->d_vcm * c->vc_weight + light->d_vm * vf_mis_h(c, camera_dir_pdf_w);
+  float w_camera = cam->d_vcm * c->vc_weight + cam->d_vm * vf_mis_h(c, camera_rev_pdf_w);
   return 1.0f / (w_light + 1.0f + w_camera);
 }
 

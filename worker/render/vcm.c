@@ -38,8 +38,9 @@ static void setup_iteration(vf_vcm *v, uint64_t iteration) {
   v->vm_normalization = (float)(1.0 / eta);
   int vc_in_weights = v->settings.algorithm == VF_ALGO_VCM || v->settings.algorithm == VF_ALGO_BPT;
   int vm_in_weights = v->settings.algorithm == VF_ALGO_VCM || v->settings.algorithm == VF_ALGO_BPM;
-  v->mis.vm_weight = vm_in_weights ? vf_mis_h((float)eta) : 0.0f;
-  v->mis.vc_weight = vc_in_weights ? vf_mis_h((float)(1.0 / eta)) : 0.0f;
+  v->mis.beta = (float)v->settings.mis_beta;
+  v->mis.vm_weight = vm_in_weights ? vf_mis_h(&v->mis, (float)eta) : 0.0f;
+  v->mis.vc_weight = vc_in_weights ? vf_mis_h(&v->mis, (float)(1.0 / eta)) : 0.0f;
   v->mis.light_paths = (float)v->num_pixels;
   v->mis.pt = v->settings.algorithm == VF_ALGO_PT;
 }

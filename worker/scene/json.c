@@ -481,7 +481,8 @@ static int has_light(const vf_scene *s) {
 /* ---- render settings --------------------------------------------------------------------- */
 
 static int parse_render(const parse_ctx *c, const cJSON *j) {
-  static const char *const fields[] = {"algorithm", "max_path_length", "radius_factor", "alpha", "seed", "sampler", NULL};
+  static const char *const fields[] = {"algorithm", "max_path_length", "radius_factor", "alpha", "seed", "sampler",
+                                       "mis_beta",  NULL};
   vf_scene *s = c->scene;
   vf_settings *st = &s->settings;
   const cJSON *m;
@@ -517,6 +518,12 @@ static int parse_render(const parse_ctx *c, const cJSON *j) {
     if ((err = vf_scene_to_double(c, m, "render.alpha", &st->alpha)) < 0) return err;
     if (!(st->alpha > 0.0 && st->alpha <= 1.0)) return vf_scene_fail(c, VF_ESCENE, "render.alpha", "must be in (0, 1]");
     s->settings_given |= VF_SET_ALPHA;
+  }
+  if ((m = cJSON_GetObjectItemCaseSensitive(j, "mis_beta")) != NULL) {
+    if ((err = vf_scene_to_double(c, m, "render.mis_beta", &st->mis_beta)) < 0) return err;
+    if (!(st->mis_beta >= 1.0 && st->mis_beta <= VF_MAX_MIS_BETA))
+      return vf_scene_fail(c, VF_ESCENE, "render.mis_beta", "must be in [1, %g]", VF_MAX_MIS_BETA);
+    s->settings_given |= VF_SET_MIS_BETA;
   }
   if ((m = cJSON_GetObjectItemCaseSensitive(j, "seed")) != NULL) {
     /* JSON numbers are doubles: integers beyond 2^53 would silently change. */

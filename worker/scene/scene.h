@@ -80,6 +80,7 @@ enum {
   VF_SET_SEED = 1u << 4,
   VF_SET_RESOLUTION = 1u << 5,
   VF_SET_SAMPLER = 1u << 6,
+  VF_SET_MIS_BETA = 1u << 7,
 };
 
 typedef struct {

@@ -3,7 +3,8 @@
  * (worker/render/light_pass.c, camera_pass.c), must
  * (1) sum to 1 over every technique the renderer uses to sample that path, and
  * (2) each equal a direct evaluation of the balance heuristic, tech. rep. eq. (12), from
- *     the path's vertex densities computed one by one in double precision (eq. 2-8, 10).
+ *     the path's vertex densities computed one by one in double precision (eq. 2-8, 10),
+ *     and of the power heuristic with beta 2 and 3 (paper eq. 10).
  *
  * Paths come from random walks in the built-in "cornell" (an area light and a pinhole),
  * "cornell-dof" (a thin lens: x_k is a point sampled on the lens) and "cornell-spot" (a
@@ -281,20 +282,24 @@ static void implemented_techniques(const full_path *x, vf_algorithm a, int delta
   if (delta_light) t->vc[0] = t->emission_unweighted = 0;
 }
 
+/* The heuristic's exponent of the checks: 1 the balance heuristic, else the power one. */
+static double g_beta = 1.0;
+
 /* vf_mis_config as setup_iteration() builds it for eta = pi r^2 n_light. */
 static vf_mis_config config_for(vf_algorithm a, double eta, double n_light) {
   vf_mis_config c;
   int vc_in_weights = a == VF_ALGO_VCM || a == VF_ALGO_BPT;
   int vm_in_weights = a == VF_ALGO_VCM || a == VF_ALGO_BPM;
-  c.vm_weight = vm_in_weights ? vf_mis_h((float)eta) : 0.0f;
-  c.vc_weight = vc_in_weights ? vf_mis_h((float)(1.0 / eta)) : 0.0f;
+  c.beta = (float)g_beta;
+  c.vm_weight = vm_in_weights ? vf_mis_h(&c, (float)eta) : 0.0f;
+  c.vc_weight = vc_in_weights ? vf_mis_h(&c, (float)(1.0 / eta)) : 0.0f;
   c.light_paths = (float)n_light;
   c.pt = a == VF_ALGO_PT;
   return c;
 }
 
 /* ---------------------------------------------------------------------------------------- */
-/* Direct evaluation of eq. (12), beta = 1, in double                                       */
+/* Direct evaluation of eq. (12), w_i = (n_i p_i)^beta / sum_j (n_j p_j)^beta, in double  */
 
 static void direct_weights(const full_path *x, const path_data *pd, const technique_set *t, double eta,
                            double n_light, double w_vc[], double w_vm[]) {
@@ -314,7 +319,11 @@ static void direct_weights(const full_path *x, const path_data *pd, const techni
       p_vm[s] = eta * q;
     }
   }
-  for (int s = 0; s <= k; s++) total += (t->vc[s] ? p_vc[s] : 0.0) + (t->vm[s] ? p_vm[s] : 0.0);
+  for (int s = 0; s <= k; s++) {
+    p_vc[s] = pow(p_vc[s], g_beta);
+    p_vm[s] = pow(p_vm[s], g_beta);
+    total += (t->vc[s] ? p_vc[s] : 0.0) + (t->vm[s] ? p_vm[s] : 0.0);
+  }
   for (int s = 0; s <= k; s++) {
     w_vc[s] = t->vc[s] ? p_vc[s] / total : 0.0;
     w_vm[s] = t->vm[s] ? p_vm[s] / total : 0.0;
@@ -378,7 +387,7 @@ static void trace_quantities(const test_scene *ts, const full_path *x, const pat
     float dist;
     direction_between(x->position[i - 1], x->position[i], &dist);
     /* the geometric cosine, as light_bounce() (local_fix.z is the shading one) */
-    vf_mis_hit(&m, dist, fabsf(vf_dot(x->normal[i], direction_between(x->position[i], x->position[i - 1], &dist))), 1);
+    vf_mis_hit(&m, c, dist, fabsf(vf_dot(x->normal[i], direction_between(x->position[i], x->position[i - 1], &dist))), 1);
     light[i] = m;
     if (i == k - 1) break;
     vf_vec3 gen = direction_between(x->position[i], x->position[i + 1], &dist);
@@ -397,7 +406,7 @@ static void trace_quantities(const test_scene *ts, const full_path *x, const pat
   for (int j = 1; j <= k; j++) {
     int i = k - j;
     vf_vec3 dir = direction_between(x->position[i + 1], x->position[i], &dist);
-    vf_mis_hit(&m, dist, fabsf(vf_dot(x->normal[i], dir)), 1);
+    vf_mis_hit(&m, c, dist, fabsf(vf_dot(x->normal[i], dir)), 1);
     camera[j] = m;
     if (j == k) break;
     const vf_bsdf *b = &pd->from_camera[i];
@@ -428,7 +437,7 @@ static void recursive_weights(const test_scene *ts, const full_path *x, const pa
   if (t->vc[0]) /* s = 0 */
     w_vc[0] = t->emission_unweighted
                   ? 1.0
-                  : vf_mis_weight_emission(&camera[k], inv_area * pick, cos0 * VF_INV_PI * inv_area * pick);
+                  : vf_mis_weight_emission(&camera[k], c, inv_area * pick, cos0 * VF_INV_PI * inv_area * pick);
   if (t->vc[1]) { /* s = 1: x_1 sees x_0 as a light sample */
     float dist, cos_to_light, bsdf_pdf, bsdf_rev_pdf;
     vf_vec3 dir = direction_between(x->position[1], x->position[0], &dist);
@@ -785,6 +794,27 @@ static void test_vcm_weights_match_eq12_with_light_selection(void) {
   l->pick_probability = pick;
 }
 
+/* The power heuristic (--mis-beta, paper eq. 10): the same recursion with every density
+ * ratio raised to beta must give w_i = (n_i p_i)^beta / sum_j (n_j p_j)^beta, and still sum
+ * to 1, for every algorithm that combines techniques. */
+static void check_power_heuristic(const char *family, int with_specular) {
+  static const double betas[] = {2.0, 3.0};
+  for (size_t b = 0; b < sizeof betas / sizeof *betas; b++) {
+    g_beta = betas[b];
+    printf("  beta %g\n", g_beta);
+    check_algorithm(&g_diffuse, family, VF_ALGO_VCM, etas, NUM_ETAS, 0);
+    if (with_specular) check_algorithm(&g_specular, "specular", VF_ALGO_VCM, etas, 1, 0);
+    check_algorithm(&g_diffuse, family, VF_ALGO_BPT, etas, 1, 0);
+    check_algorithm(&g_diffuse, family, VF_ALGO_BPM, etas, 1, 0);
+    check_algorithm(&g_diffuse, family, VF_ALGO_PT, etas, 1, 0);
+  }
+  g_beta = 1.0;
+}
+
+static void test_power_heuristic_weights_match_eq12(void) { check_power_heuristic("diffuse", 1); }
+
+static void test_power_heuristic_weights_match_eq12_through_rough_lobes(void) { check_power_heuristic("rough", 0); }
+
 /* The rough family's vertices by lobe: on the gold ball, reflecting off and refracting
  * through the glass ball (the path's neighbours on one side of its surface, or on both),
  * on the glTF floor. */
@@ -889,11 +919,13 @@ int main(void) {
       RUN(test_bpm_weights_match_eq12);
       RUN(test_pt_weights_match_eq12);
       RUN(test_vcm_weights_match_eq12_with_light_selection);
+      RUN(test_power_heuristic_weights_match_eq12);
       destroy_test_scene(&g_scene);
     }
     if (!walk_scene("cornell-rough", VF_LIGHT_AREA_MESH)) return 1;
     RUN(test_rough_paths_reach_every_rough_lobe);
     RUN(test_weights_match_eq12_through_rough_lobes);
+    RUN(test_power_heuristic_weights_match_eq12_through_rough_lobes);
     destroy_test_scene(&g_scene);
     if (!walk_scene("features", VF_LIGHT_AREA_MESH)) return 1;
     RUN(test_feature_paths_reach_every_feature);

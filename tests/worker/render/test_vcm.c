@@ -507,6 +507,48 @@ static void test_bpt_tiles_trace_the_light_sub_paths_of_vcm(void) {
   }
 }
 
+/* The power heuristic (--mis-beta): the weights of every technique still sum to 1
+ * (test_mis checks the identity path by path), so the furnace keeps its value and the
+ * combining algorithms still agree with path tracing under the balance heuristic. */
+static void test_power_heuristic_keeps_the_furnace_and_the_agreement(void) {
+  static const vf_algorithm combining[] = {VF_ALGO_VCM, VF_ALGO_BPT, VF_ALGO_BPM, VF_ALGO_PT};
+  static const double betas[] = {2.0, 3.0};
+  vf_scene *scene;
+  CHECK_INT_EQ(vf_scene_load("furnace", &scene), VF_OK);
+  if (check_failed_in_case) return;
+  for (size_t b = 0; b < sizeof betas / sizeof *betas; b++)
+    for (size_t a = 0; a < sizeof combining / sizeof *combining; a++) {
+      vf_settings s = scene->settings;
+      s.algorithm = combining[a];
+      s.mis_beta = betas[b];
+      vf_vcm_stats stats = {0};
+      double mean = NAN, se = NAN;
+      CHECK_INT_EQ(render_block_estimates(scene, &s, 2, 64, 1, &mean, &se, &stats), VF_OK);
+      double exact = 1.0 - pow(0.5, s.max_path_length);
+      printf("  furnace %-4s beta %g mean %.5f +- %.5f (exact %.5f)\n", vf_algorithm_name(s.algorithm), betas[b], mean,
+             se, exact);
+      CHECK_NEAR(mean, exact, 3.0 * se);
+      CHECK(se < 0.005);
+      CHECK_INT_EQ(stats.nonfinite, 0);
+    }
+  vf_scene_destroy(scene);
+
+  const char *names[] = {"cornell", "cornell-rough"};
+  for (int i = 0; i < 2; i++) {
+    CHECK_INT_EQ(vf_scene_load(names[i], &scene), VF_OK);
+    if (check_failed_in_case) return;
+    double mean[3][NB], se[3][NB];
+    block_estimates(scene, VF_ALGO_PT, mean[0], se[0]);
+    scene->settings.mis_beta = 2.0;
+    block_estimates(scene, VF_ALGO_VCM, mean[1], se[1]);
+    scene->settings.mis_beta = 3.0;
+    block_estimates(scene, VF_ALGO_BPT, mean[2], se[2]);
+    CHECK(blocks_agree(names[i], "pt", "vcm beta 2", mean[0], se[0], mean[1], se[1], NB));
+    CHECK(blocks_agree(names[i], "pt", "bpt beta 3", mean[0], se[0], mean[2], se[2], NB));
+    vf_scene_destroy(scene);
+  }
+}
+
 int main(void) {
   RUN(test_bpt_tiles_trace_the_light_sub_paths_of_vcm);
   RUN(test_merging_simd_paths_give_identical_frames);
@@ -530,5 +572,6 @@ int main(void) {
   RUN(test_emitter_through_the_thin_lens_has_its_radiance);
   RUN(test_spot_light_on_a_floor_has_the_analytic_radiance);
   RUN(test_pt_bpt_vcm_agree_on_rough_materials);
+  RUN(test_power_heuristic_keeps_the_furnace_and_the_agreement);
   return check_finish();
 }

@@ -1,0 +1,59 @@
+/* Render settings' canonical text (common/settings.h): what a film and a farm job carry,
+ * and what decides whether two films may merge. */
+#include "check.h"
+
+#include "common/error.h"
+#include "common/settings.h"
+
+#include <string.h>
+
+static void test_text_round_trips(void) {
+  vf_settings s, back;
+  vf_settings_default(&s);
+  s.alpha = 0.6;
+  s.radius_factor = 0.01;
+  s.mis_beta = 2.5;
+  char text[512];
+  CHECK_INT_EQ(vf_settings_format(&s, text, sizeof text), VF_OK);
+  CHECK_STR_CONTAINS(text, " mis_beta=2.5");
+  CHECK_INT_EQ(vf_settings_parse(&back, text), VF_OK);
+  CHECK(back.mis_beta == 2.5 && back.alpha == 0.6 && back.radius_factor == 0.01 && back.sampler == s.sampler);
+}
+
+/* Every text written before the power heuristic existed was rendered with the balance
+ * heuristic: it has no mis_beta and reads as 1, and a film of beta 1 writes none, so the
+ * two still merge; a film of another beta never does (its text differs). */
+static void test_balance_heuristic_is_the_text_without_beta(void) {
+  vf_settings s;
+  const char *old = "algorithm=vcm max_path_length=10 radius_factor=0.003 alpha=0.75 seed=1 resolution=4x3 sampler=sobol";
+  CHECK_INT_EQ(vf_settings_parse(&s, old), VF_OK);
+  CHECK(s.mis_beta == 1.0);
+  char text[512];
+  CHECK_INT_EQ(vf_settings_format(&s, text, sizeof text), VF_OK);
+  CHECK(strcmp(text, old) == 0);
+}
+
+static void test_beta_out_of_range_or_twice_is_refused(void) {
+  vf_settings s;
+  const char *base = "algorithm=vcm max_path_length=10 radius_factor=0.003 alpha=0.75 seed=1 resolution=4x3";
+  const char *bad[] = {" mis_beta=0.5", " mis_beta=4.5", " mis_beta=nan", " mis_beta=2x", " mis_beta=2 mis_beta=2"};
+  for (size_t i = 0; i < sizeof bad / sizeof *bad; i++) {
+    char text[512];
+    snprintf(text, sizeof text, "%s%s", base, bad[i]);
+    int err = vf_settings_parse(&s, text);
+    if (err != VF_EINVAL) CHECK_FAIL_("'%s' parsed (%d)", bad[i], err);
+  }
+  vf_settings_default(&s);
+  s.mis_beta = VF_MAX_MIS_BETA;
+  CHECK_INT_EQ(vf_settings_validate(&s), VF_OK);
+  s.mis_beta = 0.999;
+  CHECK_INT_EQ(vf_settings_validate(&s), VF_EINVAL);
+  CHECK_STR_CONTAINS(vf_error_detail(VF_EINVAL), "MIS beta");
+}
+
+int main(void) {
+  RUN(test_text_round_trips);
+  RUN(test_balance_heuristic_is_the_text_without_beta);
+  RUN(test_beta_out_of_range_or_twice_is_refused);
+  return check_finish();
+}
