@@ -1,4 +1,4 @@
-/* The local render: `render --direct` and `continue`, one driver.
+/* The local render: `render` and `continue`, one driver.
  *
  * Renders a film's free global iterations, from a first index upward (gaps first, then
  * after its last), on this machine through the one render loop (vf_render_range), until

@@ -1,6 +1,5 @@
-/* A render as `vcmfarm render` takes it, whichever way it runs (cli/render_cmd.c on this
- * thread with --direct, cli/farm_render.c through an in-process farm): its options, and the
- * preview and summary both ways write the same. */
+/* A render as `vcmfarm render` takes it (cli/render_cmd.c): its options, and the preview and
+ * summary lines that `continue`, `fetch` and `submit --wait` share with it. */
 #ifndef VF_RENDER_JOB_H
 #define VF_RENDER_JOB_H
 

@@ -52,7 +52,7 @@ expect_refusal "preview in a missing directory" "--preview" "$vcmfarm" render fu
 expect_refusal "film named .png" "does not end in .exr" "$vcmfarm" render furnace -n 1 -o "$tmp/film.png"
 expect_refusal "preview named .exr" "does not end in .png" "$vcmfarm" render furnace -n 1 -o "$tmp/out.exr" -p "$tmp/p.exr"
 expect_refusal "plot named .svg" "does not end in .png" "$vcmfarm" plot "$tmp/any.exr" -o "$tmp/p.svg"
-# A misspelt built-in scene lists the built-in names, through the farm path and --direct.
+# A misspelt built-in scene lists the built-in names, with and without --direct.
 expect_refusal "misspelt built-in" "not a built-in scene either (built-in: cornell," "$vcmfarm" render cornel -n 1 -o "$tmp/out.exr"
 expect_refusal "misspelt built-in, --direct" "built-in: cornell," "$vcmfarm" render cornel --direct -n 1 -o "$tmp/out.exr"
 expect_refusal "unknown command" "unknown command" "$vcmfarm" frobnicate
@@ -110,7 +110,7 @@ expect_refusal "--camera with a built-in scene" "--camera chooses a camera of a 
 broken="$tmp/broken"
 fresh_copy() { rm -rf "$broken"; mkdir "$broken"; cp "$import"/* "$broken"/; }
 fresh_copy; rm "$broken/nrm.png"
-expect_refusal "glTF with a missing texture" "model.gltf: material 'Red': cannot open" \
+expect_refusal "glTF with a missing texture" "model.gltf: material 'Red': nrm.png: cannot open" \
   "$vcmfarm" render "$broken/model.gltf" -n 1 -R 8x8 -o "$tmp/out.exr"
 fresh_copy; printf '\x00\x00\xc0\x7f' | dd of="$broken/model.bin" bs=1 seek=48 conv=notrunc status=none
 expect_refusal "glTF with a NaN normal" "model.gltf: vertex 1 has a non-finite normal" \

@@ -2,9 +2,8 @@
  * lease, render it with the one render loop (vf_render_range, worker/render/render.h), ship its
  * film as tiles during and at the end of the lease, and ask again, until told to stop.
  *
- * `vcmfarm worker` runs it in its own process; `vcmfarm render` runs it on a thread beside
- * an in-process coordinator (cli/farm_render.c). Every exchange is a request from
- * here answered by the coordinator, so a coordinator that restarts or a network that drops
+ * `vcmfarm worker` runs it (cli/worker_cmd.c). Every exchange is a request from here
+ * answered by the coordinator, so a coordinator that restarts or a network that drops
  * only delays us: requests time out and are sent again with backoff, and an unknown-worker
  * answer makes us register again. */
 #ifndef VF_WORKER_H
