@@ -19,7 +19,6 @@
 #include <inttypes.h>
 #include <stdio.h>
 #include <string.h>
-#include <unistd.h>
 
 static const char usage[] =
     "usage: vcmfarm continue FILM [--iterations N | --time S | --target-rmse X --reference REF |\n"
@@ -29,8 +28,8 @@ static const char usage[] =
     "Renders the next global iterations FILM does not hold (its gaps first, then after its\n"
     "last), with the film's own settings and the merge radius of each global index, adds them\n"
     "and writes the result to OUT (default: FILM itself, atomically). The result equals the\n"
-    "film of all its iterations rendered at once.\n"
-    "\n"
+    "film of all its iterations rendered at once. Progress shows as render's does: one line\n"
+    "rewritten on a terminal, elsewhere a plain line every 10 s.\n"
     "\n" VF_CLI_STOP_HELP
     VF_CLI_CHECKPOINT_HELP
     "      --scene SCENE        the scene to load (default: the one the film names); its\n"
@@ -168,7 +167,7 @@ int vf_cmd_continue(int argc, char **argv) {
     vf_vcm_describe(vf_renderer_vcm(renderer), stderr);
   }
   vf_local_render_options lo = {output, stop.reference ? &reference : NULL, &stop, checkpoint,
-                                !quiet && isatty(STDERR_FILENO)};
+                                vf_progress_mode_for_stderr(quiet)};
   vf_local_render_result r;
   err = vf_local_render(renderer, film, 0, &lo, &r);
   if (err == VF_OK && r.iterations == 0 && r.target_reached) {

@@ -21,7 +21,6 @@
 
 #include <getopt.h>
 #include <stdio.h>
-#include <unistd.h>
 
 static const char usage[] =
     "usage: vcmfarm render SCENE [options] -o FILM.exr\n"
@@ -48,6 +47,8 @@ static const char usage[] =
     "With a target and neither --iterations nor --time, it renders until the target is met;\n"
     "a target is tested after every iteration and stops the render right after the\n"
     "iteration that meets it.\n"
+    "Progress goes to stderr: on a terminal one line rewritten after every iteration,\n"
+    "elsewhere (a log file, a batch system's output) a plain line every 10 s.\n"
     "Exit status: 0 done, 1 failure while rendering, 2 bad input (nothing is written).\n";
 
 /* The render of the job, its film written to job->output (and the preview); progress and
@@ -83,7 +84,7 @@ static int render(const vf_render_job *o) {
     vf_vcm_describe(vf_renderer_vcm(renderer), stderr);
   }
   vf_local_render_options lo = {o->output, o->stop.reference ? &reference : NULL, &o->stop, o->checkpoint,
-                                !o->quiet && isatty(STDERR_FILENO)};
+                                vf_progress_mode_for_stderr(o->quiet)};
   vf_local_render_result r;
   if ((err = vf_local_render(renderer, film, o->start, &lo, &r)) != VF_OK) goto done;
   if ((err = vf_render_job_write_preview(o, film)) != VF_OK) goto done;

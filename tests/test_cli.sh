@@ -141,6 +141,23 @@ grep -q 'radius_factor=0.003 alpha=0.75 ' "$tmp/words.err"
 check "settings line without 17-digit numbers" $?
 ! grep -qE ';  surfaces;| 1 threads|on 1 workers|JSON scene ,' "$tmp/words.err"
 check "no empty fields or wrong plurals in the render's lines" $?
+# Progress where stderr is not a terminal (a log file, Slurm's output): a plain line after
+# the first iteration, then one every 10 s, without carriage returns; on a terminal (a
+# pseudo-terminal from script(1)), the one line rewritten with carriage returns.
+"$vcmfarm" render cornell -R 32x32 -t 11 -j 1 -o "$tmp/progress.exr" 2>"$tmp/progress.err"
+grep '^  iteration [0-9]' "$tmp/progress.err" | sed -n 's/.* elapsed \([0-9.]*\) s.*/\1/p' >"$tmp/elapsed"
+[ "$(wc -l <"$tmp/elapsed")" -ge 2 ] && ! grep -q $'\r' "$tmp/progress.err" &&
+  awk 'NR > 1 && $1 - last < 9.8 {bad = 1} {last = $1} END {exit bad}' "$tmp/elapsed"
+check "progress in a log: a line after the first iteration, then every 10 s ($(tr '\n' ' ' <"$tmp/elapsed")s)" $?
+"$vcmfarm" continue "$tmp/progress.exr" -t 11 -j 1 -o "$tmp/continued-progress.exr" 2>"$tmp/progress.err"
+[ "$(grep -c '^  iteration [0-9]' "$tmp/progress.err")" -ge 2 ] && ! grep -q $'\r' "$tmp/progress.err"
+check "progress in a log: continue too" $?
+script -qec "'$vcmfarm' render cornell -R 16x16 -n 30 -j 1 -o '$tmp/tty.exr'" /dev/null >"$tmp/tty.out" 2>&1
+[ "$(grep -o $'\r  iteration [0-9]' "$tmp/tty.out" | wc -l)" -ge 2 ] && [ "$(grep -c '  iteration [0-9]' "$tmp/tty.out")" -eq 1 ]
+check "progress on a terminal: one line, rewritten" $?
+"$vcmfarm" render cornell -R 16x16 -n 3 -j 1 -q -o "$tmp/quiet.exr" 2>"$tmp/quiet.err"
+[ ! -s "$tmp/quiet.err" ]
+check "-q: nothing on stderr" $?
 "$vcmfarm" continue "$tmp/ok.exr" -n 1 -q -p "$tmp/continued.png"
 check "continue --preview writes the preview" $([ -s "$tmp/continued.png" ]; echo $?)
 expect_refusal "continue --preview named .exr" "does not end in .png" "$vcmfarm" continue "$tmp/ok.exr" -n 1 -p "$tmp/p.exr"
