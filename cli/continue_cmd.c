@@ -23,7 +23,7 @@
 static const char usage[] =
     "usage: vcmfarm continue FILM [--iterations N | --time S | --target-rmse X --reference REF |\n"
     "                              --target-error E] [--scene SCENE] [-o OUT] [--preview PNG]\n"
-    "                              [--threads T]\n"
+    "                              [--threads T] [-v]\n"
     "\n"
     "Renders the next global iterations FILM does not hold (its gaps first, then after its\n"
     "last), with the film's own settings and the merge radius of each global index, adds them\n"
@@ -38,6 +38,8 @@ static const char usage[] =
     "  -o, --output OUT         where to write (default: FILM)\n" VF_CLI_PREVIEW_HELP
     "  -j, --threads T          render threads (default: one per CPU)\n"
     "  -q, --quiet              no progress line or summary\n"
+    "  -v, --verbose            also the settings text and what the renderer enabled and\n"
+    "                           skipped, as render -v\n"
     "  -h, --help               this text\n"
     "\n"
     "Exit status: 0 done (or the target was already met: nothing written), 1 failure while\n"
@@ -97,16 +99,17 @@ int vf_cmd_continue(int argc, char **argv) {
       {"output", required_argument, 0, 'o'},              {"threads", required_argument, 0, 'j'},
       {"quiet", no_argument, 0, 'q'},                     {"help", no_argument, 0, 'h'},
       {"camera", required_argument, 0, 'M'},              {"preview", required_argument, 0, 'p'},
-      {"exposure", required_argument, 0, 'e'},            {0, 0, 0, 0}};
+      {"exposure", required_argument, 0, 'e'},            {"verbose", no_argument, 0, 'v'},
+      {0, 0, 0, 0}};
   const char *cmd = "continue", *output = NULL, *scene_arg = NULL, *camera = NULL, *preview = NULL;
   double exposure = 0.0;
   vf_cli_stop stop = {0};
   long long threads = 0;
   vf_cli_checkpoint checkpoint = VF_CLI_CHECKPOINT_DEFAULT;
-  int quiet = 0, err = VF_OK, c;
+  int quiet = 0, verbose = 0, err = VF_OK, c;
   optind = 0; /* 0: getopt starts again from scratch (glibc), forgetting the last argv */
   opterr = 0;
-  while ((c = getopt_long(argc, argv, VF_CLI_STOP_SHORT "o:j:p:e:qh", options, NULL)) != -1) {
+  while ((c = getopt_long(argc, argv, VF_CLI_STOP_SHORT "o:j:p:e:qvh", options, NULL)) != -1) {
     if (vf_cli_stop_option(&stop, c, optarg, &err)) {
       if (err != VF_OK) return vf_cli_fail(cmd, err);
       continue;
@@ -118,6 +121,7 @@ int vf_cmd_continue(int argc, char **argv) {
     case 'o': output = optarg; break;
     case 'j': err = vf_cli_int("--threads", optarg, 1, 1024, &threads); break;
     case 'q': quiet = 1; break;
+    case 'v': verbose = 1; break;
     case 'p': preview = optarg; break;
     case 'e': err = vf_cli_double("--exposure", optarg, -64.0, 64.0, &exposure); break;
     case 'h': fputs(usage, stdout); return VF_EXIT_OK;
@@ -162,9 +166,14 @@ int vf_cmd_continue(int argc, char **argv) {
     vf_film_destroy(stamped);
   }
   if (!quiet) {
-    fprintf(stderr, "vcmfarm continue: %s (%" PRIu64 " iterations), scene %s, %s\n", film_path,
-            vf_iterset_count(&film->iterations), scene->source, film->settings_text);
-    vf_vcm_describe(vf_renderer_vcm(renderer), stderr);
+    char what[512], until[512];
+    vf_render_job_format_what(scene->source, &settings, vf_vcm_algorithm(vf_renderer_vcm(renderer)), what,
+                              sizeof what);
+    vf_render_job_format_stop(&stop, 0, until, sizeof until);
+    uint64_t held = vf_iterset_count(&film->iterations);
+    fprintf(stderr, "vcmfarm continue: %s holds %" PRIu64 " iteration%s of %s; rendering %s -> %s\n", film_path, held,
+            held == 1 ? "" : "s", what, until, output);
+    if (verbose) vf_render_job_print_details(&settings, renderer);
   }
   vf_local_render_options lo = {output, stop.reference ? &reference : NULL, &stop, checkpoint,
                                 vf_progress_mode_for_stderr(quiet)};

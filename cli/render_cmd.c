@@ -40,6 +40,8 @@ static const char usage[] =
     "      --direct             accepted for compatibility: what render always does now\n"
     "                           (it used to skip an in-process coordinator and worker)\n"
     "  -q, --quiet              no progress line or summary\n"
+    "  -v, --verbose            also the settings text and what the renderer enabled and\n"
+    "                           skipped (techniques, kernels, geometry) before it starts\n"
     "  -h, --help               this text\n"
     "\n"
     "The random numbers of an iteration depend only on (seed, iteration index, pixel), so\n"
@@ -78,10 +80,12 @@ static int render(const vf_render_job *o) {
   if ((err = vf_film_create(settings.width, settings.height, &film)) != VF_OK) goto done;
   if ((err = vf_renderer_stamp(renderer, film)) != VF_OK) goto done;
   if (!o->quiet) {
-    char text[512];
-    vf_settings_format(&settings, text, sizeof text);
-    fprintf(stderr, "vcmfarm render: %s, %s\n", scene->source, text);
-    vf_vcm_describe(vf_renderer_vcm(renderer), stderr);
+    char what[512], until[512];
+    vf_render_job_format_what(scene->source, &settings, vf_vcm_algorithm(vf_renderer_vcm(renderer)), what,
+                              sizeof what);
+    vf_render_job_format_stop(&o->stop, o->start, until, sizeof until);
+    fprintf(stderr, "vcmfarm render: %s, %s -> %s\n", what, until, o->output);
+    if (o->verbose) vf_render_job_print_details(&settings, renderer);
   }
   vf_local_render_options lo = {o->output, o->stop.reference ? &reference : NULL, &o->stop, o->checkpoint,
                                 vf_progress_mode_for_stderr(o->quiet)};
@@ -118,6 +122,7 @@ int vf_cmd_render(int argc, char **argv) {
       {"exposure", required_argument, 0, 'e'},        {"quiet", no_argument, 0, 'q'},
       {"help", no_argument, 0, 'h'},                  {"checkpoint-interval", required_argument, 0, 'C'},
       {"direct", no_argument, 0, 'D'},                {"camera", required_argument, 0, 'M'},
+      {"verbose", no_argument, 0, 'v'},
       {0, 0, 0, 0}};
   const char *cmd = "render";
   vf_render_job o = {.checkpoint = VF_CLI_CHECKPOINT_DEFAULT};
@@ -126,7 +131,7 @@ int vf_cmd_render(int argc, char **argv) {
   vf_cli_settings_init(&o.overrides);
   optind = 0; /* 0: getopt starts again from scratch (glibc), forgetting the last argv */
   opterr = 0;
-  while ((c = getopt_long(argc, argv, VF_CLI_STOP_SHORT VF_CLI_SETTINGS_SHORT "k:j:o:p:e:qh", options, NULL)) != -1) {
+  while ((c = getopt_long(argc, argv, VF_CLI_STOP_SHORT VF_CLI_SETTINGS_SHORT "k:j:o:p:e:qvh", options, NULL)) != -1) {
     if (vf_cli_settings_option(&o.overrides, c, optarg, &err) || vf_cli_stop_option(&o.stop, c, optarg, &err)) {
       if (err != VF_OK) return vf_cli_fail(cmd, err);
       continue;
@@ -138,6 +143,7 @@ int vf_cmd_render(int argc, char **argv) {
     case 'p': o.preview = optarg; break;
     case 'e': err = vf_cli_double("--exposure", optarg, -64.0, 64.0, &o.exposure); break;
     case 'q': o.quiet = 1; break;
+    case 'v': o.verbose = 1; break;
     case 'D': break; /* --direct: the default, kept for the scripts that say it */
     case 'M': o.camera = optarg; break;
     case 'C': err = vf_cli_checkpoint_option(&o.checkpoint, optarg); break;

@@ -136,11 +136,35 @@ expect_refusal "negative roughness" "negative.json: materials.m.roughness: must 
   "$vcmfarm" render "$tmp/negative.json" -n 1 -R 8x8 -o "$tmp/out.exr"
 
 # Settings lines give numbers in their shortest exact form, and messages count in words.
-"$vcmfarm" render furnace -n 1 -R 8x8 -j 1 -o "$tmp/words.exr" 2>"$tmp/words.err"
+"$vcmfarm" render furnace -n 1 -R 8x8 -j 1 -v -o "$tmp/words.exr" 2>"$tmp/words.err"
 grep -q 'radius_factor=0.003 alpha=0.75 ' "$tmp/words.err"
 check "settings line without 17-digit numbers" $?
 ! grep -qE ';  surfaces;| 1 threads|on 1 workers|JSON scene ,' "$tmp/words.err"
 check "no empty fields or wrong plurals in the render's lines" $?
+# The header says what a user needs (scene, size, algorithm, what ends the render, the
+# output) in one line; the settings text and the renderer's internals (techniques,
+# kernels, geometry, skipped work) only with -v.
+internals='^settings: |^scene: [0-9]|^geometry: |^rays: |^techniques |^merging tests |^skipped: |^auto: '
+"$vcmfarm" render cornell -R 16x16 -n 2 -j 1 -o "$tmp/header.exr" 2>"$tmp/header.err"
+head -n 1 "$tmp/header.err" | grep -qxF "vcmfarm render: builtin:cornell, 16x16, vcm, 2 iterations -> $tmp/header.exr" &&
+  sed -n 2p "$tmp/header.err" | grep -q '^  iteration 1/2 ' && ! grep -qE "$internals" "$tmp/header.err"
+check "render's header: one line, no internals" $?
+"$vcmfarm" render cornell-diffuse -R 16x16 -a auto -t 0.2 --target-error 0.5 -k 4 -j 1 -o "$tmp/header.exr" 2>"$tmp/header.err"
+head -n 1 "$tmp/header.err" | grep -qxF "vcmfarm render: builtin:cornell-diffuse, 16x16, pt (auto), the first of 0.2 s, estimated RMSE <= 0.5 -> $tmp/header.exr"
+check "render's header: what auto chose, the stop conditions" $?
+"$vcmfarm" render cornell -R 16x16 -n 2 -j 1 -v -o "$tmp/header.exr" 2>"$tmp/header.err"
+for line in '^settings: algorithm=vcm ' '^techniques \(vcm\): ' '^rays: Embree' '^skipped: ' '^geometry: '; do
+  grep -qE "$line" "$tmp/header.err" || { echo "  -v lacks $line"; false; }
+done
+check "render -v: the settings text and the internals" $?
+"$vcmfarm" continue "$tmp/header.exr" -n 1 -j 1 2>"$tmp/header.err"
+head -n 1 "$tmp/header.err" | grep -qxF "vcmfarm continue: $tmp/header.exr holds 2 iterations of builtin:cornell, 16x16, vcm; rendering 1 iteration -> $tmp/header.exr" &&
+  ! grep -qE "$internals" "$tmp/header.err"
+check "continue's header: one line, no internals" $?
+"$vcmfarm" continue "$tmp/header.exr" -n 1 -j 1 -v 2>"$tmp/header.err"
+grep -q '^techniques (vcm): ' "$tmp/header.err" && grep -q '^settings: ' "$tmp/header.err"
+check "continue -v: the internals" $?
+
 # Progress where stderr is not a terminal (a log file, Slurm's output): a plain line after
 # the first iteration, then one every 10 s, without carriage returns; on a terminal (a
 # pseudo-terminal from script(1)), the one line rewritten with carriage returns.
