@@ -26,6 +26,9 @@
 #include <string.h>
 #include <unistd.h>
 
+/* An open-ended submit (a time or a target, no --iterations) is one farm job. */
+_Static_assert(VF_CLI_ITERATIONS_OPEN_ENDED <= VF_JOB_MAX_ITERATIONS, "open-ended jobs must fit in a job");
+
 /* Options every client command shares. */
 typedef struct {
   const char *url, *secret;

@@ -19,18 +19,17 @@
 #include <inttypes.h>
 #include <stdio.h>
 #include <string.h>
-#include <unistd.h>
 
 static const char usage[] =
     "usage: vcmfarm continue FILM [--iterations N | --time S | --target-rmse X --reference REF |\n"
     "                              --target-error E] [--scene SCENE] [-o OUT] [--preview PNG]\n"
-    "                              [--threads T]\n"
+    "                              [--threads T] [-v]\n"
     "\n"
     "Renders the next global iterations FILM does not hold (its gaps first, then after its\n"
     "last), with the film's own settings and the merge radius of each global index, adds them\n"
     "and writes the result to OUT (default: FILM itself, atomically). The result equals the\n"
-    "film of all its iterations rendered at once.\n"
-    "\n"
+    "film of all its iterations rendered at once. Progress shows as render's does: one line\n"
+    "rewritten on a terminal, elsewhere a plain line every 10 s.\n"
     "\n" VF_CLI_STOP_HELP
     VF_CLI_CHECKPOINT_HELP
     "      --scene SCENE        the scene to load (default: the one the film names); its\n"
@@ -39,6 +38,8 @@ static const char usage[] =
     "  -o, --output OUT         where to write (default: FILM)\n" VF_CLI_PREVIEW_HELP
     "  -j, --threads T          render threads (default: one per CPU)\n"
     "  -q, --quiet              no progress line or summary\n"
+    "  -v, --verbose            also the settings text and what the renderer enabled and\n"
+    "                           skipped, as render -v\n"
     "  -h, --help               this text\n"
     "\n"
     "Exit status: 0 done (or the target was already met: nothing written), 1 failure while\n"
@@ -98,15 +99,16 @@ int vf_cmd_continue(int argc, char **argv) {
       {"output", required_argument, 0, 'o'},              {"threads", required_argument, 0, 'j'},
       {"quiet", no_argument, 0, 'q'},                     {"help", no_argument, 0, 'h'},
       {"camera", required_argument, 0, 'M'},              {"preview", required_argument, 0, 'p'},
-      {"exposure", required_argument, 0, 'e'},            {0, 0, 0, 0}};
+      {"exposure", required_argument, 0, 'e'},            {"verbose", no_argument, 0, 'v'},
+      {0, 0, 0, 0}};
   const char *cmd = "continue", *output = NULL, *scene_arg = NULL, *camera = NULL, *preview = NULL;
   double exposure = 0.0;
   vf_cli_stop stop = {0};
   long long threads = 0;
   vf_cli_checkpoint checkpoint = VF_CLI_CHECKPOINT_DEFAULT;
-  int quiet = 0, err = VF_OK, c;
+  int quiet = 0, verbose = 0, err = VF_OK, c;
   optind = 0; /* 0: getopt starts again from scratch (glibc), forgetting the last argv */
-  while ((c = vf_cli_getopt(argc, argv, VF_CLI_STOP_SHORT "o:j:p:e:qh", options)) != -1) {
+  while ((c = vf_cli_getopt(argc, argv, VF_CLI_STOP_SHORT "o:j:p:e:qvh", options)) != -1) {
     if (vf_cli_stop_option(&stop, c, optarg, &err)) {
       if (err != VF_OK) return vf_cli_fail(cmd, err);
       continue;
@@ -118,6 +120,7 @@ int vf_cmd_continue(int argc, char **argv) {
     case 'o': output = optarg; break;
     case 'j': err = vf_cli_int("--threads", optarg, 1, 1024, &threads); break;
     case 'q': quiet = 1; break;
+    case 'v': verbose = 1; break;
     case 'p': preview = optarg; break;
     case 'e': err = vf_cli_double("--exposure", optarg, -64.0, 64.0, &exposure); break;
     case 'h': fputs(usage, stdout); return VF_EXIT_OK;
@@ -159,13 +162,17 @@ int vf_cmd_continue(int argc, char **argv) {
     vf_film_destroy(stamped);
   }
   if (!quiet) {
+    char what[512], until[512];
+    vf_render_job_format_what(scene->source, &settings, vf_vcm_algorithm(vf_renderer_vcm(renderer)), what,
+                              sizeof what);
+    vf_render_job_format_stop(&stop, 0, until, sizeof until);
     uint64_t held = vf_iterset_count(&film->iterations);
-    fprintf(stderr, "vcmfarm continue: %s (%" PRIu64 " %s), scene %s, %s\n", film_path, held,
-            vf_cli_plural(held, "iteration", "iterations"), scene->source, film->settings_text);
-    vf_vcm_describe(vf_renderer_vcm(renderer), stderr);
+    fprintf(stderr, "vcmfarm continue: %s holds %" PRIu64 " %s of %s; rendering %s -> %s\n", film_path, held,
+            vf_cli_plural(held, "iteration", "iterations"), what, until, output);
+    if (verbose) vf_render_job_print_details(&settings, renderer);
   }
   vf_local_render_options lo = {output, stop.reference ? &reference : NULL, &stop, checkpoint,
-                                !quiet && isatty(STDERR_FILENO)};
+                                vf_progress_mode_for_stderr(quiet)};
   vf_local_render_result r;
   err = vf_local_render(renderer, film, 0, &lo, &r);
   if (err == VF_OK && r.iterations == 0 && r.target_reached) {

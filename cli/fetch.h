@@ -1,5 +1,5 @@
 /* Fetching a job's film from a coordinator (docs/PROTOCOL.md, "Fetching a film"): the one
- * client loop of `vcmfarm fetch` and of `vcmfarm render`.
+ * client loop of `vcmfarm fetch` and of `submit --wait`.
  *
  * The film travels in chunks of a snapshot the coordinator holds (coordinator/checkpoint.h).
  * They are written, in order, to a temporary file next to the output (common/atomic_file.h),

@@ -10,10 +10,11 @@
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
+#include <unistd.h>
 
 /* Measuring costs a pass over the pixels (~1% of an iteration): done after every
- * iteration only when a target may stop the render, else for the progress line at most
- * this often. */
+ * iteration only when a target may stop the render, else for the live line at most this
+ * often, and for each plain progress line. */
 #define PROGRESS_MEASURE_SECONDS 1.0
 
 /* What the render loop's delivery callback and progress line share during one run. */
@@ -28,6 +29,8 @@ typedef struct {
   uint64_t done_before;      /* iterations of the run's earlier render calls */
   double seconds_before;     /* and their wall time */
   uint64_t film_before;      /* iterations the film held when the run began */
+  unsigned lines;            /* plain progress lines printed (VF_PROGRESS_LINES) */
+  double last_line_seconds;  /* the run's seconds at the last of them */
   /* measurements for the forecast's slope, each at 1.1 times the iterations of the one
    * before (so that the latest VF_FORECAST_POINTS span a factor 4.6), ring of the latest */
   vf_error_point rmse_points[VF_FORECAST_POINTS], estimated_points[VF_FORECAST_POINTS];
@@ -73,12 +76,23 @@ static void measure(local_run *lr, const vf_film *film) {
     lr->target_reached = 1;
 }
 
+/* Whether the progress shows after the iteration that ends `seconds` into the run. */
+static int progress_due(const local_run *lr, double seconds) {
+  switch (lr->o->progress) {
+  case VF_PROGRESS_LIVE: return 1;
+  case VF_PROGRESS_LINES: return lr->lines == 0 || seconds - lr->last_line_seconds >= VF_PROGRESS_LINE_SECONDS;
+  default: return 0;
+  }
+}
+
 /* The render loop's delivery: measure, and at a due checkpoint log and write the film. */
 static int deliver(void *ctx, vf_film *film, const vf_render_status *st) {
   local_run *lr = ctx;
   int targets = lr->o->stop->target_rmse > 0 || lr->o->stop->target_error > 0;
+  int shown = progress_due(lr, lr->seconds_before + st->seconds);
   if (st->delivery_due || targets ||
-      (lr->o->progress && st->seconds - lr->last_measure_time >= PROGRESS_MEASURE_SECONDS)) {
+      (shown && (lr->o->progress == VF_PROGRESS_LINES ||
+                 st->seconds - lr->last_measure_time >= PROGRESS_MEASURE_SECONDS))) {
     measure(lr, film);
     lr->last_measure_time = st->seconds;
   }
@@ -93,18 +107,20 @@ static int deliver(void *ctx, vf_film *film, const vf_render_status *st) {
 }
 
 /* The progress line: progress and ETA towards the stop condition that will end the run
- * (common/forecast.h), never against an iteration count nobody asked for. */
+ * (common/forecast.h), never against an iteration count nobody asked for; errors once they
+ * are known (the estimate needs two iterations). */
 static void progress(void *ctx, const vf_render_status *st) {
   local_run *lr = ctx;
   const vf_cli_stop *stop = lr->o->stop;
-  char error[96] = "", total[32] = "", eta[64] = "";
-  if (lr->measured) {
-    int n = snprintf(error, sizeof error, "  est. RMSE %.3g", lr->last.estimated_rmse);
-    if (lr->o->reference && n > 0 && (size_t)n < sizeof error)
-      snprintf(error + n, sizeof error - (size_t)n, "  RMSE %.3g", lr->last.rmse);
-  }
-  uint64_t done = lr->done_before + st->iterations_done;
   double seconds = lr->seconds_before + st->seconds;
+  if (!progress_due(lr, seconds)) return;
+  char error[96] = "", total[32] = "", eta[64] = "";
+  int n = 0;
+  if (lr->measured && isfinite(lr->last.estimated_rmse))
+    n = snprintf(error, sizeof error, "  est. RMSE %.3g", lr->last.estimated_rmse);
+  if (lr->measured && lr->o->reference && isfinite(lr->last.rmse) && n >= 0 && (size_t)n < sizeof error)
+    snprintf(error + n, sizeof error - (size_t)n, "  RMSE %.3g", lr->last.rmse);
+  uint64_t done = lr->done_before + st->iterations_done;
   double rate = seconds > 0.0 ? (double)done / seconds : 0.0;
   double mrays = st->seconds > 0.0 ? (double)st->stats.rays / st->seconds * 1e-6 : 0.0;
   uint64_t limit = vf_cli_stop_open_ended(stop) ? (uint64_t)stop->iterations : vf_cli_stop_iterations(stop);
@@ -128,8 +144,16 @@ static void progress(void *ctx, const vf_render_status *st) {
   vf_forecast_compute(&in, &f);
   if (f.by != VF_STOP_NONE && f.eta >= 0.0)
     snprintf(eta, sizeof eta, "  %.0f%% (%s)  ETA %.1f s", 100.0 * f.progress, vf_stop_reason_name(f.by), f.eta);
-  fprintf(stderr, "\r  iteration %llu%s  %.2f it/s  %.1f Mrays/s%s  elapsed %.1f s%s   ", (unsigned long long)done,
-          total, rate, mrays, error, seconds, eta);
+  char line[320];
+  snprintf(line, sizeof line, "  iteration %llu%s  %.2f it/s  %.1f Mrays/s%s  elapsed %.1f s%s",
+           (unsigned long long)done, total, rate, mrays, error, seconds, eta);
+  if (lr->o->progress == VF_PROGRESS_LIVE) {
+    fprintf(stderr, "\r%s   ", line); /* the spaces cover the end of a longer line before */
+  } else {
+    fprintf(stderr, "%s\n", line);
+    lr->lines++;
+    lr->last_line_seconds = seconds;
+  }
 }
 
 static void stats_add(vf_vcm_stats *sum, const vf_vcm_stats *s) {
@@ -162,7 +186,8 @@ int vf_local_render(vf_renderer *renderer, vf_film *film, uint64_t first, const 
   int err = VF_OK;
   if (lr.target_reached) goto done; /* a film that already meets its target stays as it is */
 
-  vf_render_control control = {.interrupt = &vf_interrupted, .ctx = &lr, .progress = o->progress ? progress : NULL,
+  vf_render_control control = {.interrupt = &vf_interrupted, .ctx = &lr,
+                               .progress = o->progress != VF_PROGRESS_NONE ? progress : NULL,
                                .delivery_interval = vf_cli_checkpoint_next(&o->checkpoint, 0.0), .deliver = deliver};
   lr.control = &control;
   uint64_t remaining = vf_cli_stop_iterations(o->stop);
@@ -195,7 +220,7 @@ int vf_local_render(vf_renderer *renderer, vf_film *film, uint64_t first, const 
   result->render_seconds = lr.seconds_before;
   result->interrupted = vf_interrupted != 0;
   vf_interrupt_restore(&saved);
-  if (o->progress) fputc('\n', stderr);
+  if (o->progress == VF_PROGRESS_LIVE) fputc('\n', stderr);
   /* Every call's final delivery wrote the film. */
   if (err == VF_OK && result->iterations == 0) err = vf_error_set(VF_EINVAL, "no iteration finished; nothing written");
 done:
@@ -203,6 +228,11 @@ done:
   result->target_reached = lr.target_reached;
   free(lr.mean);
   return err;
+}
+
+vf_progress_mode vf_progress_mode_for_stderr(int quiet) {
+  if (quiet) return VF_PROGRESS_NONE;
+  return isatty(STDERR_FILENO) ? VF_PROGRESS_LIVE : VF_PROGRESS_LINES;
 }
 
 int vf_reference_load(const char *path, int width, int height, vf_image *out) {

@@ -1,10 +1,10 @@
-/* The local render: `render --direct` and `continue`, one driver.
+/* The local render: `render` and `continue`, one driver.
  *
  * Renders a film's free global iterations, from a first index upward (gaps first, then
  * after its last), on this machine through the one render loop (vf_render_range), until
  * the stop conditions end it or SIGINT/SIGTERM (cli/interrupt.h) interrupts it. Meanwhile
  * it measures the film's error (against a reference when there is one, and the
- * no-reference estimate), shows the progress line, stops at a target, and at every due
+ * no-reference estimate), shows its progress, stops at a target, and at every due
  * film checkpoint appends an entry to the film's convergence log and writes the film
  * atomically to the output. A killed render therefore keeps its work up to its last
  * checkpoint: the file at the output path is always a complete, valid film, at most one
@@ -19,12 +19,26 @@
 
 #include <stdint.h>
 
+/* How a render shows its progress on stderr. A terminal gets one line rewritten after
+ * every iteration; a log (a file, a pipe, a batch system's output) gets a plain line after
+ * the first iteration and then one every VF_PROGRESS_LINE_SECONDS, so that it shows the
+ * render is alive without filling up. */
+typedef enum {
+  VF_PROGRESS_NONE,  /* -q: nothing */
+  VF_PROGRESS_LIVE,  /* the live line, "\r"-rewritten */
+  VF_PROGRESS_LINES, /* plain lines, spaced in time */
+} vf_progress_mode;
+#define VF_PROGRESS_LINE_SECONDS 10.0
+
+/* The mode for this process's stderr: NONE when quiet, LIVE on a terminal, else LINES. */
+vf_progress_mode vf_progress_mode_for_stderr(int quiet);
+
 typedef struct {
   const char *output;          /* borrowed: the film path written at every due checkpoint */
   const vf_image *reference;   /* borrowed, or NULL; the film's size */
   const vf_cli_stop *stop;     /* borrowed: iterations, time, targets */
   vf_cli_checkpoint checkpoint; /* when film checkpoints are due */
-  int progress;                /* show the progress line on stderr */
+  vf_progress_mode progress;   /* how progress shows on stderr */
 } vf_local_render_options;
 
 typedef struct {

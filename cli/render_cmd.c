@@ -1,10 +1,12 @@
-/* `vcmfarm render`: one machine, no set-up, the farm's own code path.
+/* `vcmfarm render`: one machine, no set-up.
  *
- * By default the render goes through an in-process coordinator and worker
- * (cli/farm_render.c), so every iteration passes through leases, tiles, checks and merging
- * exactly as on a farm. --direct runs the local render on this thread instead
- * (cli/local_render.c, as `continue` does): benchmarks of the renderer alone, and the
- * independent reference the farm tests compare with. */
+ * The scene is loaded once, the renderer built from it, and the iterations handed to the
+ * local render (cli/local_render.c), the driver `continue` also uses over the one render
+ * loop (vf_render_range): the film written atomically at every due checkpoint with an
+ * entry of its convergence log, a target tested after every iteration. A farm's workers
+ * call the same loop, so a farm job of the same iterations gives this film, but for the
+ * rounding of the order in which its coordinator adds the parts (tests/farm/test_render_farm.sh
+ * holds the two to it). */
 #include "render_cmd.h"
 
 #include "../common/error.h"
@@ -13,23 +15,21 @@
 #include "../common/image.h"
 #include "../worker/render/render.h"
 #include "../worker/scene/load.h"
-#include "farm_render.h"
 #include "local_render.h"
 #include "options.h"
 #include "render_job.h"
 
 #include <getopt.h>
 #include <stdio.h>
-#include <unistd.h>
 
 static const char usage[] =
     "usage: vcmfarm render SCENE [options] -o FILM.exr\n"
     "\n"
     "Renders global iterations [K, K+N) of SCENE (a built-in name, a JSON scene file or a\n"
     "glTF 2.0 (.gltf, .glb) or OBJ file, see docs/SCENES.md) into FILM.exr, an OpenEXR film that any viewer opens and that\n"
-    "`vcmfarm merge` and `continue` extend exactly. It runs a farm's coordinator and one\n"
-    "worker in this process (the farm's own code path, docs/PROTOCOL.md); --direct renders\n"
-    "without them.\n"
+    "`vcmfarm merge` and `continue` extend exactly. It renders on this machine's threads;\n"
+    "a farm (`vcmfarm submit`, docs/PROTOCOL.md) renders the same iterations into the same\n"
+    "film.\n"
     "\n" VF_CLI_STOP_HELP
     VF_CLI_CHECKPOINT_HELP
     "  -k, --start-iteration K  first global iteration index (default 0)\n"
@@ -37,19 +37,25 @@ static const char usage[] =
     "      --camera NAME|INDEX  the glTF file's camera to render (default: its first)\n"
     "  -o, --output FILM.exr    the film to write (required)\n"
     VF_CLI_PREVIEW_HELP
-    "      --direct             render on this thread, without coordinator and worker: a\n"
-    "                           target then stops right after the iteration meeting it\n"
-    "                           (through the farm, after the part of a lease meeting it)\n"
+    "      --direct             accepted for compatibility: what render always does now\n"
+    "                           (it used to skip an in-process coordinator and worker)\n"
     "  -q, --quiet              no progress line or summary\n"
+    "  -v, --verbose            also the settings text and what the renderer enabled and\n"
+    "                           skipped (techniques, kernels, geometry) before it starts\n"
     "  -h, --help               this text\n"
     "\n"
     "The random numbers of an iteration depend only on (seed, iteration index, pixel), so\n"
     "renders of disjoint iteration ranges merge into exactly the render of their union.\n"
-    "With a target and neither --iterations nor --time, it renders until the target is met.\n"
+    "With a target and neither --iterations nor --time, it renders until the target is met;\n"
+    "a target is tested after every iteration and stops the render right after the\n"
+    "iteration that meets it.\n"
+    "Progress goes to stderr: on a terminal one line rewritten after every iteration,\n"
+    "elsewhere (a log file, a batch system's output) a plain line every 10 s.\n"
     "Exit status: 0 done, 1 failure while rendering, 2 bad input (nothing is written).\n";
 
-/* --direct: the local render on this thread, no farm. */
-static int render_direct(const vf_render_job *o) {
+/* The render of the job, its film written to job->output (and the preview); progress and
+ * summary on stderr unless quiet. Returns an exit status, having printed the error. */
+static int render(const vf_render_job *o) {
   int err;
   vf_scene *scene = NULL;
   vf_renderer *renderer = NULL;
@@ -74,13 +80,15 @@ static int render_direct(const vf_render_job *o) {
   if ((err = vf_film_create(settings.width, settings.height, &film)) != VF_OK) goto done;
   if ((err = vf_renderer_stamp(renderer, film)) != VF_OK) goto done;
   if (!o->quiet) {
-    char text[512];
-    vf_settings_format(&settings, text, sizeof text);
-    fprintf(stderr, "vcmfarm render: %s, %s\n", scene->source, text);
-    vf_vcm_describe(vf_renderer_vcm(renderer), stderr);
+    char what[512], until[512];
+    vf_render_job_format_what(scene->source, &settings, vf_vcm_algorithm(vf_renderer_vcm(renderer)), what,
+                              sizeof what);
+    vf_render_job_format_stop(&o->stop, o->start, until, sizeof until);
+    fprintf(stderr, "vcmfarm render: %s, %s -> %s\n", what, until, o->output);
+    if (o->verbose) vf_render_job_print_details(&settings, renderer);
   }
   vf_local_render_options lo = {o->output, o->stop.reference ? &reference : NULL, &o->stop, o->checkpoint,
-                                !o->quiet && isatty(STDERR_FILENO)};
+                                vf_progress_mode_for_stderr(o->quiet)};
   vf_local_render_result r;
   if ((err = vf_local_render(renderer, film, o->start, &lo, &r)) != VF_OK) goto done;
   if ((err = vf_render_job_write_preview(o, film)) != VF_OK) goto done;
@@ -114,14 +122,15 @@ int vf_cmd_render(int argc, char **argv) {
       {"exposure", required_argument, 0, 'e'},        {"quiet", no_argument, 0, 'q'},
       {"help", no_argument, 0, 'h'},                  {"checkpoint-interval", required_argument, 0, 'C'},
       {"direct", no_argument, 0, 'D'},                {"camera", required_argument, 0, 'M'},
+      {"verbose", no_argument, 0, 'v'},
       {0, 0, 0, 0}};
   const char *cmd = "render";
   vf_render_job o = {.checkpoint = VF_CLI_CHECKPOINT_DEFAULT};
   long long threads = 0;
-  int err = VF_OK, c, direct = 0;
+  int err = VF_OK, c;
   vf_cli_settings_init(&o.overrides);
   optind = 0; /* 0: getopt starts again from scratch (glibc), forgetting the last argv */
-  while ((c = vf_cli_getopt(argc, argv, VF_CLI_STOP_SHORT VF_CLI_SETTINGS_SHORT "k:j:o:p:e:qh", options)) != -1) {
+  while ((c = vf_cli_getopt(argc, argv, VF_CLI_STOP_SHORT VF_CLI_SETTINGS_SHORT "k:j:o:p:e:qvh", options)) != -1) {
     if (vf_cli_settings_option(&o.overrides, c, optarg, &err) || vf_cli_stop_option(&o.stop, c, optarg, &err)) {
       if (err != VF_OK) return vf_cli_fail(cmd, err);
       continue;
@@ -133,7 +142,8 @@ int vf_cmd_render(int argc, char **argv) {
     case 'p': o.preview = optarg; break;
     case 'e': err = vf_cli_double("--exposure", optarg, -64.0, 64.0, &o.exposure); break;
     case 'q': o.quiet = 1; break;
-    case 'D': direct = 1; break;
+    case 'v': o.verbose = 1; break;
+    case 'D': break; /* --direct: the default, kept for the scripts that say it */
     case 'M': o.camera = optarg; break;
     case 'C': err = vf_cli_checkpoint_option(&o.checkpoint, optarg); break;
     case 'h': fputs(usage, stdout); return VF_EXIT_OK;
@@ -158,7 +168,7 @@ int vf_cmd_render(int argc, char **argv) {
   /* Two renders into one film would each replace the other's checkpoints. */
   vf_file_lock lock;
   if ((err = vf_file_lock_acquire(o.output, "render", &lock)) != VF_OK) return vf_cli_fail(cmd, err);
-  int status = direct ? render_direct(&o) : vf_farm_render(&o);
+  int status = render(&o);
   vf_file_lock_release(&lock);
   return status;
 }

@@ -4,7 +4,9 @@
 #include "../common/image.h"
 
 #include <math.h>
+#include <stdarg.h>
 #include <stdio.h>
+#include <string.h>
 
 int vf_preview_write(const vf_film *film, const char *path, double exposure) {
   vf_image img;
@@ -53,4 +55,54 @@ void vf_render_job_print_result(const vf_render_job *job, double estimated_rmse,
   if (job->stop.reference) fprintf(stderr, ", RMSE %.4g against %s", rmse, job->stop.reference);
   if (stopped_by && stopped_by[0]) fprintf(stderr, " (%s)", stopped_by);
   fprintf(stderr, "\nwrote %s%s%s\n", job->output, job->preview ? " and " : "", job->preview ? job->preview : "");
+}
+
+void vf_render_job_format_what(const char *scene, const vf_settings *settings, vf_algorithm chosen, char *out,
+                               size_t n) {
+  snprintf(out, n, "%s, %dx%d, %s%s", scene, settings->width, settings->height, vf_algorithm_name(chosen),
+           settings->algorithm == VF_ALGO_AUTO ? " (auto)" : "");
+}
+
+/* Appends to out (of n bytes, holding a string) as snprintf would at its end. */
+static void append(char *out, size_t n, const char *fmt, ...) __attribute__((format(printf, 3, 4)));
+static void append(char *out, size_t n, const char *fmt, ...) {
+  size_t used = strlen(out);
+  if (used + 1 >= n) return;
+  va_list ap;
+  va_start(ap, fmt);
+  vsnprintf(out + used, n - used, fmt, ap);
+  va_end(ap);
+}
+
+void vf_render_job_format_stop(const vf_cli_stop *stop, uint64_t start, char *out, size_t n) {
+  int count = stop->iterations > 0 || !vf_cli_stop_open_ended(stop);
+  int conditions = count + (stop->time_limit > 0.0) + (stop->target_rmse > 0.0) + (stop->target_error > 0.0);
+  const char *sep = "";
+  out[0] = '\0';
+  if (conditions > 1) append(out, n, "the first of ");
+  if (count) {
+    uint64_t k = vf_cli_stop_iterations(stop);
+    if (start > 0)
+      append(out, n, "iterations [%llu,%llu)", (unsigned long long)start, (unsigned long long)(start + k));
+    else
+      append(out, n, "%llu iteration%s", (unsigned long long)k, k == 1 ? "" : "s");
+    sep = ", ";
+  }
+  if (stop->time_limit > 0.0) {
+    append(out, n, "%s%s%g s", sep, conditions > 1 ? "" : "for ", stop->time_limit);
+    sep = ", ";
+  }
+  if (stop->target_rmse > 0.0) {
+    append(out, n, "%s%sRMSE <= %g against %s", sep, conditions > 1 ? "" : "until ", stop->target_rmse,
+           stop->reference ? stop->reference : "the reference");
+    sep = ", ";
+  }
+  if (stop->target_error > 0.0)
+    append(out, n, "%s%sestimated RMSE <= %g", sep, conditions > 1 ? "" : "until ", stop->target_error);
+}
+
+void vf_render_job_print_details(const vf_settings *settings, const vf_renderer *renderer) {
+  char text[512];
+  if (vf_settings_format(settings, text, sizeof text) == VF_OK) fprintf(stderr, "settings: %s\n", text);
+  vf_vcm_describe(vf_renderer_vcm(renderer), stderr);
 }

@@ -1,13 +1,15 @@
-/* A render as `vcmfarm render` takes it, whichever way it runs (cli/render_cmd.c on this
- * thread with --direct, cli/farm_render.c through an in-process farm): its options, and the
- * preview and summary both ways write the same. */
+/* A render as `vcmfarm render` takes it (cli/render_cmd.c): its options, and the preview and
+ * summary lines that `continue`, `fetch` and `submit --wait` share with it. */
 #ifndef VF_RENDER_JOB_H
 #define VF_RENDER_JOB_H
 
 #include "../common/film.h"
+#include "../common/settings.h"
+#include "../worker/render/render.h"
 #include "../worker/render/vcm.h"
 #include "options.h"
 
+#include <stddef.h>
 #include <stdint.h>
 
 typedef struct {
@@ -20,7 +22,21 @@ typedef struct {
   int threads;    /* 0: one per CPU */
   uint64_t start; /* the first global iteration */
   int quiet;
+  int verbose;    /* -v: the settings text and the renderer's set-up in the header */
 } vf_render_job;
+
+/* The header of render and continue, what a user needs to know of the render before it
+ * starts: "SCENE, WxH, ALGORITHM" (" (auto)" after what --algorithm auto chose), into
+ * out (truncated to n). */
+void vf_render_job_format_what(const char *scene, const vf_settings *settings, vf_algorithm chosen, char *out,
+                               size_t n);
+/* And what ends it: "16 iterations", "iterations [5,9)" (start > 0), "for 10 s", "until
+ * estimated RMSE <= 0.01", or with several conditions "the first of 100 iterations, 10 s,
+ * estimated RMSE <= 0.01". */
+void vf_render_job_format_stop(const vf_cli_stop *stop, uint64_t start, char *out, size_t n);
+/* With -v, the header's further lines: the settings text and what the renderer enabled and
+ * skipped (vf_vcm_describe). */
+void vf_render_job_print_details(const vf_settings *settings, const vf_renderer *renderer);
 
 /* Writes the film's mean, tone-mapped (exposure in stops) to sRGB, as the PNG `path`:
  * the preview of render, continue, fetch and submit --wait. */

@@ -1,6 +1,5 @@
-/* Submitting a job to a coordinator, shared by `vcmfarm submit` and by `vcmfarm render`,
- * which submits to its in-process coordinator: the scene is loaded here as the workers
- * will load it, so that a broken scene, bad settings or a wrong reference are refused
+/* Submitting a job to a coordinator (`vcmfarm submit`): the scene is loaded here as the
+ * workers will load it, so that a broken scene, bad settings or a wrong reference are refused
  * before anything is sent; a JSON scene's files then go to the coordinator by content
  * hash (those it lacks), and the job last. */
 #ifndef VF_SUBMIT_H

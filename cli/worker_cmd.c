@@ -97,7 +97,7 @@ int vf_cmd_worker(int argc, char **argv) {
   vf_interrupt_saved saved;
   vf_interrupt_catch(&saved);
   signal(SIGPIPE, SIG_IGN);
-  err = vf_worker_run(&config, &vf_interrupted, NULL);
+  err = vf_worker_run(&config, &vf_interrupted);
   vf_interrupt_restore(&saved);
   return err == VF_OK ? VF_EXIT_OK : vf_cli_fail(cmd, err);
 }

@@ -105,31 +105,6 @@ int vf_film_clone_metadata(const vf_film *film, vf_film **out) {
   return VF_OK;
 }
 
-int vf_film_move(vf_film *film, vf_film **out) {
-  if (film == NULL || out == NULL) return vf_error_set(VF_EINVAL, "vf_film_move: NULL argument");
-  vf_film *part = NULL;
-  int err = vf_film_create(film->width, film->height, &part); /* its zero sums become film's */
-  if (err != VF_OK) return err;
-  double *sum = part->sum, *square_sum = part->square_sum;
-  part->sum = film->sum;
-  part->square_sum = film->square_sum;
-  film->sum = sum;
-  film->square_sum = square_sum;
-  vf_iterset swap = part->iterations;
-  part->iterations = film->iterations;
-  film->iterations = swap;
-  memcpy(part->scene_hash, film->scene_hash, sizeof part->scene_hash);
-  memcpy(part->settings_text, film->settings_text, sizeof part->settings_text);
-  memcpy(part->scene_name, film->scene_name, sizeof part->scene_name);
-  part->render_seconds = film->render_seconds;
-  part->cpu_seconds = film->cpu_seconds;
-  part->nonfinite_samples = film->nonfinite_samples;
-  film->render_seconds = film->cpu_seconds = 0.0;
-  film->nonfinite_samples = 0;
-  *out = part;
-  return VF_OK;
-}
-
 int vf_film_clone(const vf_film *film, vf_film **out) {
   if (film == NULL || out == NULL) return vf_error_set(VF_EINVAL, "vf_film_clone: NULL argument");
   vf_film *copy = NULL;

@@ -94,11 +94,6 @@ void vf_film_clear_pixels(vf_film *film);
  * write, and back to NULL before vf_film_destroy. *out on success only; VF_ENOMEM. */
 int vf_film_clone_metadata(const vf_film *film, vf_film **out);
 
-/* Moves film's pixels, iteration set, times and texts (not its convergence log) into a new
- * film *out without copying a pixel, and leaves film empty, as vf_film_create made it but
- * for its texts: what a worker hands on as a part and goes on rendering into (common/
- * film_handoff.h). *out on success only; VF_EINVAL, VF_ENOMEM (film unchanged). */
-int vf_film_move(vf_film *film, vf_film **out);
 /* A deep copy of film into *out (written only on success); VF_EINVAL or VF_ENOMEM. */
 int vf_film_clone(const vf_film *film, vf_film **out);
 

@@ -219,7 +219,9 @@ static void encode_task(void *ctx, size_t i, int thread) {
   if (j->errors[i] != VF_OK) snprintf(j->details[i], sizeof j->details[i], "%s", vf_error_detail(j->errors[i]));
 }
 
-void vf_film_result_header(const vf_film *film, Vcmfarm__LeaseResult *m) {
+/* The header of a part's LeaseResult messages from film, m->begin set by the caller: end,
+ * size, scene hash and settings (pointing into film), tile count, times. */
+static void result_header(const vf_film *film, Vcmfarm__LeaseResult *m) {
   m->end = m->begin + vf_iterset_count(&film->iterations);
   m->width = (uint32_t)film->width;
   m->height = (uint32_t)film->height;
@@ -235,7 +237,7 @@ void vf_film_result_header(const vf_film *film, Vcmfarm__LeaseResult *m) {
 int vf_film_send_tiles(const vf_film *film, Vcmfarm__LeaseResult *m, size_t tiles_per_message,
                        int (*send)(void *ctx, Vcmfarm__LeaseResult *m), void *ctx) {
   if (tiles_per_message == 0) return vf_error_set(VF_EINVAL, "vf_film_send_tiles: no tile per message");
-  vf_film_result_header(film, m);
+  result_header(film, m);
   int threads = vf_exr_chunk_threads(tiles_per_message);
   encode_job job = {film, 0, vf_film_tiles_across(film->width), calloc(tiles_per_message, sizeof(Vcmfarm__Tile)),
                     calloc(tiles_per_message, sizeof(uint8_t *)), calloc((size_t)threads, sizeof(vf_exr_coder)),

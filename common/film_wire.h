@@ -59,10 +59,6 @@ int vf_film_tile_matches(const vf_film *film, const vf_film_tile *t);
 /* Copies t into its place in film (of the size t was decoded for). */
 void vf_film_tile_store(vf_film *film, const vf_film_tile *t);
 
-/* The header of a part's LeaseResult messages from film, m->begin set by the caller: end,
- * size, scene hash and settings (pointing into film), tile count, times. */
-void vf_film_result_header(const vf_film *film, Vcmfarm__LeaseResult *m);
-
 /* A film as the LeaseResult messages of a part [m->begin, m->begin + its iterations): the
  * caller sets worker_id, lease_id, job_id and begin in *m; this fills in the rest of the
  * header and, message after message, up to tiles_per_message tiles (encoded on one thread

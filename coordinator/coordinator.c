@@ -417,8 +417,7 @@ static int check_state_dir(const char *dir) {
 int vf_coordinator_run(const vf_coordinator_config *config) {
   coordinator *c = calloc(1, sizeof *c);
   if (c == NULL) return vf_error_set(VF_ENOMEM, "out of memory");
-  vf_farm_config fc = {config->state_dir, config->worker_timeout, config->lease_seconds, config->forgive_seconds,
-                       config->handoff};
+  vf_farm_config fc = {config->state_dir, config->worker_timeout, config->lease_seconds, config->forgive_seconds};
   vf_farm_init(&c->farm, &fc);
   c->checkpoint_interval = config->checkpoint_interval;
   c->refusal_budget = REFUSED_BYTES_BURST;

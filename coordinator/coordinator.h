@@ -19,7 +19,6 @@
 #ifndef VF_COORDINATOR_H
 #define VF_COORDINATOR_H
 
-#include "../common/film_handoff.h"
 #include "../common/wire.h"
 #include "dashboard/dashboard.h"
 
@@ -45,9 +44,6 @@ typedef struct {
    * NULL, with status_json as the status document's form (required then). */
   const char *http_address;
   vf_status_json_fn status_json;
-  /* Films handed over in memory by a worker of this process (common/film_handoff.h;
-   * `vcmfarm render`), or NULL: results that name a film so are refused. */
-  vf_film_handoff *handoff;
 } vf_coordinator_config;
 
 /* Resumes the jobs of the state directory and serves until stopped (above), then stops

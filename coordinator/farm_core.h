@@ -11,7 +11,6 @@
 #ifndef VF_FARM_CORE_H
 #define VF_FARM_CORE_H
 
-#include "../common/film_handoff.h"
 #include "../common/message.h"
 #include "events.h"
 #include "job.h"
@@ -54,7 +53,6 @@ typedef struct {
   double worker_timeout;   /* seconds of silence after which a worker is lost */
   double lease_seconds;    /* target duration of a lease */
   double forgive_seconds;  /* a worker blocked from a job is forgiven after this (coordinator/poison.h) */
-  vf_film_handoff *handoff; /* borrowed: the in-process worker's films (common/film_handoff.h), or NULL */
 } vf_farm_config;
 
 typedef struct vf_farm {

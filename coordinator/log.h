@@ -5,8 +5,7 @@
 
 void vf_log(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
 
-/* Process-wide: 1 drops every line (`vcmfarm render`'s in-process coordinator, whose
- * user reads a progress line and learns of failures from the job's state). */
+/* Process-wide: 1 drops every line (tests that run a coordinator in their own process). */
 void vf_log_set_quiet(int quiet);
 
 #endif

@@ -159,22 +159,6 @@ int vf_partial_add(vf_partial *p, const Vcmfarm__LeaseResult *m) {
   return err;
 }
 
-int vf_partial_adopt(const vf_job *job, const Vcmfarm__LeaseResult *m, vf_film *film) {
-  int err = check_part(job, m);
-  if (err != VF_OK) return err;
-  if (film->width != job->film->width || film->height != job->film->height)
-    return vf_error_set(VF_EMISMATCH, "a %dx%d film handed over, job %llu is %dx%d", film->width, film->height,
-                        (unsigned long long)job->id, job->film->width, job->film->height);
-  /* What a staged part would hold: the header's times, the job's texts, no log. */
-  memcpy(film->scene_name, job->film->scene_name, sizeof film->scene_name);
-  film->render_seconds = m->render_seconds;
-  film->cpu_seconds = m->cpu_seconds;
-  film->nonfinite_samples = m->nonfinite_samples;
-  vf_convergence_destroy(&film->convergence);
-  vf_convergence_init(&film->convergence);
-  return validate_part(film, m->begin, m->end);
-}
-
 void vf_partial_touch(vf_partial *p, double now) { p->updated = now; }
 double vf_partial_updated(const vf_partial *p) { return p->updated; }
 

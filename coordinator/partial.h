@@ -20,12 +20,6 @@ typedef struct vf_partial vf_partial;
 /* Starts the part [m->begin, m->end) of a job from its first message, checking the header
  * against the job (VF_EMISMATCH or VF_EINVAL with a detail). *out on success only. */
 int vf_partial_create(const vf_job *job, const Vcmfarm__LeaseResult *m, vf_partial **out);
-/* A part handed over whole in memory (common/film_handoff.h), `film` the caller's: the
- * header checks of vf_partial_create, film's size, then film set up as a staged part of m
- * would be (the job's scene name, m's times and non-finite count, no convergence log) and
- * validated as vf_partial_take validates one (VF_EFILM). The caller still checks its
- * iterations and texts against the job when merging (vf_job_check_result). */
-int vf_partial_adopt(const vf_job *job, const Vcmfarm__LeaseResult *m, vf_film *film);
 /* Drops a reference: the part is freed with the last (the lease's, from create, and one
  * per vf_partial_retain). */
 void vf_partial_destroy(vf_partial *p);

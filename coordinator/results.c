@@ -2,7 +2,6 @@
 
 #include "../common/clock.h"
 #include "../common/error.h"
-#include "../common/film_handoff.h"
 #include "../common/wire.h"
 #include "jobs.h"
 #include "checkpoint.h"
@@ -150,13 +149,9 @@ static vf_lease *admit(vf_farm *farm, const Vcmfarm__LeaseResult *m, vf_farm_rep
 static void merge_part(vf_farm *farm, vf_job *job, vf_lease *l, vf_film *film, const Vcmfarm__LeaseResult *m,
                        double now, int deferred, vf_farm_reply *r);
 
-static void receive_handoff(vf_farm *farm, vf_lease *l, const Vcmfarm__LeaseResult *m, double now,
-                            vf_farm_reply *r);
-
 void vf_results_receive(vf_farm *farm, const Vcmfarm__LeaseResult *m, double now, vf_farm_reply *r) {
   vf_lease *l = admit(farm, m, r);
   if (l == NULL) return;
-  if (m->film_handoff != 0) return receive_handoff(farm, l, m, now, r);
   if (farm->merger != NULL) return vf_results_receive_later(farm, l, m, now, r);
   vf_job *job = vf_farm_job(farm, m->job_id);
   vf_farm_worker *w = vf_workers_find_any(farm, m->worker_id);
@@ -285,40 +280,6 @@ static void busy(vf_farm *farm, vf_farm_reply *r, const char *why) {
   snprintf(r->text, sizeof r->text, "busy: %s; send it again later", why);
   vf_farm_reply_ack(r, 0, r->text);
   r->result_ack.retry_ms = vf_ship_retry_ms(farm);
-}
-
-/* A part handed over in memory by the worker of this process (common/film_handoff.h): no
- * tiles to decode or stage. The film stays deposited until every check of the message has
- * passed (refused or busy, the worker takes it back or sends the message again), then
- * passes a staged part's checks and is merged as one. */
-static void receive_handoff(vf_farm *farm, vf_lease *l, const Vcmfarm__LeaseResult *m, double now,
-                            vf_farm_reply *r) {
-  vf_job *job = vf_farm_job(farm, m->job_id);
-  vf_farm_worker *w = vf_workers_find_any(farm, m->worker_id);
-  unsigned long long jid = (unsigned long long)m->job_id, b = (unsigned long long)m->begin;
-  unsigned long long e = (unsigned long long)m->end;
-  if (farm->config.handoff == NULL)
-    return refuse(w, job, r, "job %llu [%llu,%llu): a film handed over in memory, which only a coordinator in the "
-                  "worker's own process can take", jid, b, e);
-  if (m->n_tiles != 0)
-    return refuse(w, job, r, "job %llu [%llu,%llu): a film handed over in memory, and %zu tile(s) besides", jid, b, e,
-                  m->n_tiles);
-  if (farm->merger != NULL && vf_merger_full(farm->merger)) return busy(farm, r, "the merge queue is full");
-  if (l->partial != NULL) {
-    vf_log("lease %016llx: a part [%llu,%llu) handed over replaces the one being received", (unsigned long long)l->id,
-           b, e);
-    drop_part(l);
-  }
-  vf_film *film = vf_film_handoff_take(farm->config.handoff, m->film_handoff);
-  if (film == NULL)
-    return refuse(w, job, r, "job %llu [%llu,%llu): no film was handed over under token %llu", jid, b, e,
-                  (unsigned long long)m->film_handoff);
-  int err = vf_partial_adopt(job, m, film);
-  if (err != VF_OK) {
-    vf_film_destroy(film);
-    return refuse(w, job, r, "job %llu [%llu,%llu): %s", jid, b, e, vf_error_detail(err));
-  }
-  merge_part(farm, job, l, film, m, now, farm->merger != NULL, r);
 }
 
 void vf_results_receive_later(vf_farm *farm, vf_lease *l, const Vcmfarm__LeaseResult *m, double now,

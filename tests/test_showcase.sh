@@ -58,7 +58,7 @@ damage extensions_used "extensionsUsed" 'g["extensionsUsed"].remove("KHR_materia
 
 # vcmfarm reads every feature: a load note naming the file would be something dropped.
 for scene in showcase.gltf showcase.json; do
-  "$vcmfarm" render "$tmp/a/$scene" --direct -R 96x54 -n 2 -o "$tmp/$scene.exr" >"$tmp/render.out" 2>&1
+  "$vcmfarm" render "$tmp/a/$scene" -v -R 96x54 -n 2 -o "$tmp/$scene.exr" >"$tmp/render.out" 2>&1
   status=$?
   ! grep -q ": note:" "$tmp/render.out" && grep -q " 0 non-finite sample" "$tmp/render.out" &&
     grep -q "1 spot, 1 directional" "$tmp/render.out"

@@ -2,7 +2,6 @@
 
 #include "../common/error.h"
 #include "../common/farm_client.h"
-#include "../common/film_handoff.h"
 #include "../common/film_wire.h"
 #include "render/accel.h"
 #include "blob_cache.h"
@@ -33,9 +32,6 @@ typedef struct {
   volatile sig_atomic_t *terminating; /* the caller's stop flag */
   volatile sig_atomic_t render_stop;  /* stop rendering the lease after this iteration */
   int quiet;
-  FILE *describe;
-  atomic_ullong *rendered;
-  vf_worker_totals *totals;
   vf_farm_client *client;
   vf_heartbeat *heartbeat;
   uint64_t worker_id;
@@ -43,7 +39,6 @@ typedef struct {
   int threads;
   char name[128];
   const char *cache_dir; /* scene files by content hash (worker/blob_cache.h) */
-  vf_film_handoff *handoff; /* the in-process coordinator's, or NULL */
   uint64_t cache_max_bytes;
   int backoff_ms;
   /* the renderer of the last job, kept for its next lease */
@@ -181,7 +176,6 @@ static int prepare(worker *w, const Vcmfarm__Lease *l, const vf_settings *settin
     return vf_error_set(VF_EMISMATCH, "%s loads with hash %s, not the job's (different vcmfarm versions?)", label, hex);
   }
   if ((err = vf_renderer_create(w->scene, settings, w->threads, &w->renderer)) != VF_OK) return err;
-  if (w->describe) vf_vcm_describe(vf_renderer_vcm(w->renderer), w->describe);
   w->job_id = l->job_id;
   memcpy(w->job_hash, l->scene_hash.data, 32);
   snprintf(w->job_settings, sizeof w->job_settings, "%s", l->settings);
@@ -191,7 +185,6 @@ static int prepare(worker *w, const Vcmfarm__Lease *l, const vf_settings *settin
 static void on_progress(void *ctx, const vf_render_status *st) {
   worker *w = ctx;
   vf_heartbeat_progress(w->heartbeat, st->iterations_done, st->seconds);
-  if (w->rendered) atomic_fetch_add(w->rendered, 1);
   if (w->iteration_delay_ms > 0) {
     /* A real iteration runs to its end whatever signal arrives: so does the delay. */
     struct timespec ts = {w->iteration_delay_ms / 1000, (long)(w->iteration_delay_ms % 1000) * 1000000L};
@@ -253,36 +246,16 @@ static int send_tiles(worker *w, Vcmfarm__LeaseResult *m) {
 
 static int send_tiles_cb(void *ctx, Vcmfarm__LeaseResult *m) { return send_tiles(ctx, m); }
 
-/* The part to the coordinator of this process (common/film_handoff.h): film's pixels move
- * into a deposited film, film is left empty, and one message without tiles names the
- * deposit. Returns as vf_film_send_tiles does; the deposit is taken back and dropped when
- * the coordinator did not take it (the lease is dropped then, as after refused tiles). */
-static int hand_over(worker *w, vf_film *film, Vcmfarm__LeaseResult *m) {
-  vf_film *part = NULL;
-  int err = vf_film_move(film, &part);
-  if (err != VF_OK) return err;
-  vf_film_result_header(part, m);
-  if ((err = vf_film_handoff_put(w->handoff, part, &m->film_handoff)) != VF_OK) {
-    vf_film_destroy(part);
-    return err;
-  }
-  int rc = send_tiles(w, m);
-  vf_film_destroy(vf_film_handoff_take(w->handoff, m->film_handoff));
-  m->film_handoff = 0;
-  return rc;
-}
-
-/* Ships the film of [w->shipped, ...) as tiles (docs/PROTOCOL.md), or hands it over when
- * the coordinator is in this process. Returns 1 when the coordinator merged it; otherwise
- * the lease is dropped (w->dropped). */
-static int ship(worker *w, vf_film *film) {
+/* Ships the film of [w->shipped, ...) as tiles (docs/PROTOCOL.md). Returns 1 when the
+ * coordinator merged it; otherwise the lease is dropped (w->dropped). */
+static int ship(worker *w, const vf_film *film) {
   Vcmfarm__LeaseResult m = VCMFARM__LEASE_RESULT__INIT;
   m.worker_id = w->worker_id;
   m.lease_id = w->lease->lease_id;
   m.job_id = w->lease->job_id;
   m.begin = w->shipped;
   w->part_merged = 0;
-  int rc = w->handoff ? hand_over(w, film, &m) : vf_film_send_tiles(film, &m, VF_FILM_TILES_PER_MESSAGE, send_tiles_cb, w);
+  int rc = vf_film_send_tiles(film, &m, VF_FILM_TILES_PER_MESSAGE, send_tiles_cb, w);
   /* Every tile taken, yet not merged: the coordinator lost tiles of it (it dropped the
    * part, or restarted); the lease cannot go on from here. */
   if (rc == 1 && !w->part_merged) {
@@ -378,17 +351,6 @@ static void run_lease(worker *w, const Vcmfarm__Lease *l) {
   int revoked = vf_heartbeat_revoked(w->heartbeat);
   vf_heartbeat_clear_lease(w->heartbeat);
   uint64_t rendered = l->begin + st.iterations_done;
-  if (w->totals) {
-    vf_worker_totals *t = w->totals;
-    t->iterations += st.iterations_done;
-    t->seconds += st.seconds;
-    t->stats.rays += st.stats.rays;
-    t->stats.light_vertices += st.stats.light_vertices;
-    t->stats.nonfinite += st.stats.nonfinite;
-    t->stats.light_seconds += st.stats.light_seconds;
-    t->stats.grid_seconds += st.stats.grid_seconds;
-    t->stats.camera_seconds += st.stats.camera_seconds;
-  }
   if (err != VF_OK) {
     release_lease(w, l->lease_id, vf_error_detail(err));
   } else if (revoked) {
@@ -460,19 +422,15 @@ static int serve(worker *w) {
 }
 
 
-int vf_worker_run(const vf_worker_config *config, volatile sig_atomic_t *stop, vf_worker_totals *totals) {
+int vf_worker_run(const vf_worker_config *config, volatile sig_atomic_t *stop) {
   worker *w = calloc(1, sizeof *w);
   if (w == NULL) return vf_error_set(VF_ENOMEM, "out of memory");
   w->url = config->url;
   w->terminating = stop;
   w->quiet = config->quiet;
-  w->describe = config->describe;
-  w->rendered = config->rendered;
-  w->totals = totals;
   w->threads = config->threads;
   w->cache_dir = config->cache_dir;
   w->cache_max_bytes = config->cache_max_bytes;
-  w->handoff = config->handoff;
   w->ship_interval = config->ship_interval; /* 0: the coordinator's */
   w->iteration_delay_ms = config->iteration_delay_ms;
   w->stall_file = config->stall_file;

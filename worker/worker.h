@@ -2,22 +2,17 @@
  * lease, render it with the one render loop (vf_render_range, worker/render/render.h), ship its
  * film as tiles during and at the end of the lease, and ask again, until told to stop.
  *
- * `vcmfarm worker` runs it in its own process; `vcmfarm render` runs it on a thread beside
- * an in-process coordinator (cli/farm_render.c). Every exchange is a request from
- * here answered by the coordinator, so a coordinator that restarts or a network that drops
+ * `vcmfarm worker` runs it (cli/worker_cmd.c). Every exchange is a request from here
+ * answered by the coordinator, so a coordinator that restarts or a network that drops
  * only delays us: requests time out and are sent again with backoff, and an unknown-worker
  * answer makes us register again. */
 #ifndef VF_WORKER_H
 #define VF_WORKER_H
 
-#include "../common/film_handoff.h"
 #include "../common/wire.h"
-#include "render/vcm.h"
 
 #include <signal.h>
-#include <stdatomic.h>
 #include <stdint.h>
-#include <stdio.h>
 
 /* The interval while the coordinator has said none. */
 #define VF_WORKER_SHIP_SECONDS 5.0
@@ -34,11 +29,6 @@ typedef struct {
    * chooses from its load; > 0 overrides it. */
   double ship_interval;
   int quiet;                  /* log failures only, not the ordinary course of leases */
-  FILE *describe;             /* non-NULL: each new renderer prints what it enabled and skipped here */
-  atomic_ullong *rendered;    /* non-NULL: counts every iteration rendered, as it ends (any thread may read) */
-  /* Non-NULL: the coordinator runs in this process and takes parts from here, without
-   * tiles (common/film_handoff.h; `vcmfarm render`). */
-  vf_film_handoff *handoff;
   /* test hooks (vcmfarm worker --help) */
   int iteration_delay_ms;
   const char *stall_file;
@@ -46,18 +36,10 @@ typedef struct {
                                * this name or whose JSON scene text contains it */
 } vf_worker_config;
 
-/* What the worker rendered, over all its leases (merged or not). */
-typedef struct {
-  uint64_t iterations;
-  double seconds;             /* rendering */
-  vf_vcm_stats stats;
-} vf_worker_totals;
-
 /* Serves the coordinator until *stop becomes non-zero (a signal handler or another thread
  * may set it): then it finishes the iteration in progress, ships what the lease has
  * rendered, hands back the rest and returns VF_OK. Returns an error only when going on
- * cannot help (the key or the protocol version is refused). *totals, when not NULL, is
- * added to as leases are rendered; read it after the call returns. */
-int vf_worker_run(const vf_worker_config *config, volatile sig_atomic_t *stop, vf_worker_totals *totals);
+ * cannot help (the key or the protocol version is refused). */
+int vf_worker_run(const vf_worker_config *config, volatile sig_atomic_t *stop);
 
 #endif

@@ -148,7 +148,7 @@ static int handle_tiles(void *ctx, Vcmfarm__LeaseResult *m) {
 static void bench_merge(int width, int height, int runs, const char *dir) {
   char settings[512];
   settings_text(width, height, settings, sizeof settings);
-  vf_farm_config config = {dir, 1e9, 20.0, 0.0, NULL};
+  vf_farm_config config = {dir, 1e9, 20.0, 0.0};
   vf_farm farm;
   vf_farm_init(&farm, &config);
   vf_farm_reply r;

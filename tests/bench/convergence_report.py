@@ -107,8 +107,9 @@ def main():
             label = algo
             if algo == "auto":
                 with open(f"{directory}/{scene}-{algo}.log") as log:
-                    m = re.search(r"^auto: (\w+)", log.read(), re.M)
-                label = f"auto ({m.group(1) if m else '?'})"
+                    # The header's "ALGORITHM (auto)", or an older build's "auto: ALGORITHM" line.
+                    m = re.search(r"^vcmfarm render: .*?, (\w+) \(auto\), |^auto: (\w+)", log.read(), re.M)
+                label = f"auto ({(m.group(1) or m.group(2)) if m else '?'})"
             log = [e for e in f["convergence"] if e["rmse"] is not None]
             rel, fit_n, fit_e, est_n, est_e = [], [], [], [], []
             for e in log:

@@ -1,8 +1,9 @@
 #!/bin/bash
-# Peak memory (maximum resident set, /usr/bin/time -v) of the three ways to render, for
-# docs/BENCHMARKS.md ("Memory"): `render --direct`, `render` (the in-process farm) and a
-# worker process (with a coordinator process beside it, whose peak is printed too), vcm
-# with default settings on cornell, N iterations at each size.
+# Peak memory (maximum resident set, /usr/bin/time -v) of the ways to render, for
+# docs/BENCHMARKS.md ("Memory"): `render --direct`, `render` (the same render since render
+# lost its in-process farm; on older builds, the in-process farm) and a worker process
+# (with a coordinator process beside it, whose peak is printed too), vcm with default
+# settings on cornell, N iterations at each size.
 #
 #   bash tests/bench/memory.sh BUILD [N] [SIZES...]     # default 2 iterations, 1920x1080 3840x2160
 set -u

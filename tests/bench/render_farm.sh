@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # The cost of the farm's code path on one machine: the same job rendered by
-# `vcmfarm render --direct` (the render loop alone), by `vcmfarm render` (its in-process
-# coordinator and worker), and by a coordinator and one worker as processes over ipc://,
-# submit to "done", all with the same threads. Runs alternate, so the machine's drift hits
+# `vcmfarm render --direct` and `vcmfarm render` (since render lost its in-process farm,
+# both the render loop alone; on older builds `render` ran an in-process coordinator and
+# worker), and by a coordinator and one worker as processes over ipc://, submit to
+# "done", all with the same threads. Runs alternate, so the machine's drift hits
 # every column alike; every farm film is compared with the direct one (tests/farm/farm_compare.c:
 # iteration set and pixels). Prints a Markdown table and the medians.
 #

@@ -91,7 +91,7 @@ expect_refusal "preview in a missing directory" "--preview" "$vcmfarm" render fu
 expect_refusal "film named .png" "does not end in .exr" "$vcmfarm" render furnace -n 1 -o "$tmp/film.png"
 expect_refusal "preview named .exr" "does not end in .png" "$vcmfarm" render furnace -n 1 -o "$tmp/out.exr" -p "$tmp/p.exr"
 expect_refusal "plot named .svg" "does not end in .png" "$vcmfarm" plot "$tmp/any.exr" -o "$tmp/p.svg"
-# A misspelt built-in scene lists the built-in names, through the farm path and --direct.
+# A misspelt built-in scene lists the built-in names, with and without --direct.
 expect_refusal "misspelt built-in" "not a built-in scene either (built-in: cornell," "$vcmfarm" render cornel -n 1 -o "$tmp/out.exr"
 expect_refusal "misspelt built-in, --direct" "built-in: cornell," "$vcmfarm" render cornel --direct -n 1 -o "$tmp/out.exr"
 expect_refusal "unknown command" "unknown command" "$vcmfarm" frobnicate
@@ -196,7 +196,7 @@ expect_refusal "--camera with a built-in scene" "--camera chooses a camera of a 
 broken="$tmp/broken"
 fresh_copy() { rm -rf "$broken"; mkdir "$broken"; cp "$import"/* "$broken"/; }
 fresh_copy; rm "$broken/nrm.png"
-expect_refusal "glTF with a missing texture" "model.gltf: material 'Red': cannot open" \
+expect_refusal "glTF with a missing texture" "model.gltf: material 'Red': nrm.png: cannot open" \
   "$vcmfarm" render "$broken/model.gltf" -n 1 -R 8x8 -o "$tmp/out.exr"
 fresh_copy; printf '\x00\x00\xc0\x7f' | dd of="$broken/model.bin" bs=1 seek=48 conv=notrunc status=none
 expect_refusal "glTF with a NaN normal" "model.gltf: vertex 1 has a non-finite normal" \
@@ -222,11 +222,52 @@ expect_refusal "negative roughness" "negative.json: materials.m.roughness: must 
   "$vcmfarm" render "$tmp/negative.json" -n 1 -R 8x8 -o "$tmp/out.exr"
 
 # Settings lines give numbers in their shortest exact form, and messages count in words.
-"$vcmfarm" render furnace -n 1 -R 8x8 -j 1 -o "$tmp/words.exr" 2>"$tmp/words.err"
+"$vcmfarm" render furnace -n 1 -R 8x8 -j 1 -v -o "$tmp/words.exr" 2>"$tmp/words.err"
 grep -q 'radius_factor=0.003 alpha=0.75 ' "$tmp/words.err"
 check "settings line without 17-digit numbers" $?
 ! grep -qE ';  surfaces;| 1 threads|on 1 workers|JSON scene ,' "$tmp/words.err"
 check "no empty fields or wrong plurals in the render's lines" $?
+# The header says what a user needs (scene, size, algorithm, what ends the render, the
+# output) in one line; the settings text and the renderer's internals (techniques,
+# kernels, geometry, skipped work) only with -v.
+internals='^settings: |^scene: [0-9]|^geometry: |^rays: |^techniques |^merging tests |^skipped: |^auto: '
+"$vcmfarm" render cornell -R 16x16 -n 2 -j 1 -o "$tmp/header.exr" 2>"$tmp/header.err"
+head -n 1 "$tmp/header.err" | grep -qxF "vcmfarm render: builtin:cornell, 16x16, vcm, 2 iterations -> $tmp/header.exr" &&
+  sed -n 2p "$tmp/header.err" | grep -q '^  iteration 1/2 ' && ! grep -qE "$internals" "$tmp/header.err"
+check "render's header: one line, no internals" $?
+"$vcmfarm" render cornell-diffuse -R 16x16 -a auto -t 0.2 --target-error 0.5 -k 4 -j 1 -o "$tmp/header.exr" 2>"$tmp/header.err"
+head -n 1 "$tmp/header.err" | grep -qxF "vcmfarm render: builtin:cornell-diffuse, 16x16, pt (auto), the first of 0.2 s, estimated RMSE <= 0.5 -> $tmp/header.exr"
+check "render's header: what auto chose, the stop conditions" $?
+"$vcmfarm" render cornell -R 16x16 -n 2 -j 1 -v -o "$tmp/header.exr" 2>"$tmp/header.err"
+for line in '^settings: algorithm=vcm ' '^techniques \(vcm\): ' '^rays: Embree' '^skipped: ' '^geometry: '; do
+  grep -qE "$line" "$tmp/header.err" || { echo "  -v lacks $line"; false; }
+done
+check "render -v: the settings text and the internals" $?
+"$vcmfarm" continue "$tmp/header.exr" -n 1 -j 1 2>"$tmp/header.err"
+head -n 1 "$tmp/header.err" | grep -qxF "vcmfarm continue: $tmp/header.exr holds 2 iterations of builtin:cornell, 16x16, vcm; rendering 1 iteration -> $tmp/header.exr" &&
+  ! grep -qE "$internals" "$tmp/header.err"
+check "continue's header: one line, no internals" $?
+"$vcmfarm" continue "$tmp/header.exr" -n 1 -j 1 -v 2>"$tmp/header.err"
+grep -q '^techniques (vcm): ' "$tmp/header.err" && grep -q '^settings: ' "$tmp/header.err"
+check "continue -v: the internals" $?
+
+# Progress where stderr is not a terminal (a log file, Slurm's output): a plain line after
+# the first iteration, then one every 10 s, without carriage returns; on a terminal (a
+# pseudo-terminal from script(1)), the one line rewritten with carriage returns.
+"$vcmfarm" render cornell -R 32x32 -t 11 -j 1 -o "$tmp/progress.exr" 2>"$tmp/progress.err"
+grep '^  iteration [0-9]' "$tmp/progress.err" | sed -n 's/.* elapsed \([0-9.]*\) s.*/\1/p' >"$tmp/elapsed"
+[ "$(wc -l <"$tmp/elapsed")" -ge 2 ] && ! grep -q $'\r' "$tmp/progress.err" &&
+  awk 'NR > 1 && $1 - last < 9.8 {bad = 1} {last = $1} END {exit bad}' "$tmp/elapsed"
+check "progress in a log: a line after the first iteration, then every 10 s ($(tr '\n' ' ' <"$tmp/elapsed")s)" $?
+"$vcmfarm" continue "$tmp/progress.exr" -t 11 -j 1 -o "$tmp/continued-progress.exr" 2>"$tmp/progress.err"
+[ "$(grep -c '^  iteration [0-9]' "$tmp/progress.err")" -ge 2 ] && ! grep -q $'\r' "$tmp/progress.err"
+check "progress in a log: continue too" $?
+script -qec "'$vcmfarm' render cornell -R 16x16 -n 30 -j 1 -o '$tmp/tty.exr'" /dev/null >"$tmp/tty.out" 2>&1
+[ "$(grep -o $'\r  iteration [0-9]' "$tmp/tty.out" | wc -l)" -ge 2 ] && [ "$(grep -c '  iteration [0-9]' "$tmp/tty.out")" -eq 1 ]
+check "progress on a terminal: one line, rewritten" $?
+"$vcmfarm" render cornell -R 16x16 -n 3 -j 1 -q -o "$tmp/quiet.exr" 2>"$tmp/quiet.err"
+[ ! -s "$tmp/quiet.err" ]
+check "-q: nothing on stderr" $?
 "$vcmfarm" continue "$tmp/ok.exr" -n 1 -q -p "$tmp/continued.png"
 check "continue --preview writes the preview" $([ -s "$tmp/continued.png" ]; echo $?)
 expect_refusal "continue --preview named .exr" "does not end in .png" "$vcmfarm" continue "$tmp/ok.exr" -n 1 -p "$tmp/p.exr"
@@ -267,7 +308,7 @@ expect_quiet "diff -q" "$vcmfarm" diff -q "$tmp/one.exr" "$tmp/one-more.exr" -o 
 check "errors counts one pixel in words" "$(grep -q ': 1 pixel compared, 0 skipped' "$tmp/errors.txt"; echo $?)"
 cp "$tmp/one.exr" "$tmp/grown.exr"
 "$vcmfarm" continue "$tmp/grown.exr" -n 1 -j 1 2>"$tmp/continue.err"
-check "continue counts in words" "$(grep -q "grown.exr (1 iteration), scene" "$tmp/continue.err" &&
+check "continue counts in words" "$(grep -q "grown.exr holds 1 iteration of" "$tmp/continue.err" &&
   grep -q "^added 1 iteration in" "$tmp/continue.err"; echo $?)"
 expect_refusal "submit -o without --wait" "go with --wait" "$vcmfarm" submit furnace -o "$tmp/out.exr" --coordinator ipc://x --secret "$tmp/farm.key"
 expect_refusal "submit --wait without -o" "--wait needs -o" "$vcmfarm" submit furnace --wait --coordinator ipc://x --secret "$tmp/farm.key"

@@ -95,42 +95,6 @@ static void test_clear_pixels_empties_small_and_large_films(void) {
   }
 }
 
-/* A part moved out (what a worker hands over in memory): the new film holds every sum,
- * the iterations, times and texts; the old one is empty and takes the next iterations as a
- * new film would, small and large. */
-static void test_move_hands_everything_on_and_leaves_an_empty_film(void) {
-  const int sizes[2][2] = {{3, 2}, {512, 512}};
-  for (int s = 0; s < 2; s++) {
-    int w = sizes[s][0], h = sizes[s][1];
-    vf_film *f = film_with(w, h, 4, 7), *copy = NULL, *part = NULL, *fresh = NULL;
-    snprintf(f->scene_name, sizeof f->scene_name, "cornell");
-    f->cpu_seconds = 2.5;
-    f->nonfinite_samples = 3;
-    CHECK_INT_EQ(vf_film_clone(f, &copy), VF_OK);
-    CHECK_INT_EQ(vf_film_move(f, &part), VF_OK);
-    CHECK(films_equal(part, copy, 0.0));
-    CHECK(strcmp(part->scene_name, "cornell") == 0 && part->cpu_seconds == 2.5 && part->nonfinite_samples == 3);
-    CHECK_INT_EQ(vf_iterset_count(&f->iterations), 0);
-    CHECK(f->render_seconds == 0.0 && f->cpu_seconds == 0.0 && f->nonfinite_samples == 0);
-    CHECK(strcmp(f->settings_text, copy->settings_text) == 0 && memcmp(f->scene_hash, copy->scene_hash, 32) == 0);
-    size_t n = 3 * (size_t)w * (size_t)h, nonzero = 0;
-    for (size_t i = 0; i < n; i++) nonzero += f->sum[i] != 0.0 || f->square_sum[i] != 0.0;
-    CHECK_INT_EQ(nonzero, 0);
-    vf_film *next = film_with(w, h, 7, 9);
-    CHECK_INT_EQ(vf_film_create(w, h, &fresh), VF_OK);
-    memcpy(fresh->scene_hash, f->scene_hash, 32);
-    memcpy(fresh->settings_text, f->settings_text, sizeof fresh->settings_text);
-    CHECK_INT_EQ(vf_film_merge(f, next), VF_OK);
-    CHECK_INT_EQ(vf_film_merge(fresh, next), VF_OK);
-    CHECK(films_equal(f, fresh, 0.0));
-    vf_film_destroy(next);
-    vf_film_destroy(fresh);
-    vf_film_destroy(part);
-    vf_film_destroy(copy);
-    vf_film_destroy(f);
-  }
-}
-
 static void test_create_refuses_bad_sizes(void) {
   vf_film *f = (vf_film *)0x1;
   CHECK_INT_EQ(vf_film_create(0, 10, &f), VF_EINVAL);
@@ -798,7 +762,6 @@ int main(void) {
   if (fixture_scratch_open("test_film") != 0) return 1;
   RUN(test_add_iteration_and_mean_arithmetic);
   RUN(test_clear_pixels_empties_small_and_large_films);
-  RUN(test_move_hands_everything_on_and_leaves_an_empty_film);
   RUN(test_create_refuses_bad_sizes);
   RUN(test_nonfinite_samples_count_as_zero);
   RUN(test_repeated_iteration_is_refused_unchanged);

@@ -3,13 +3,9 @@
  * arrives one tile per message. Checks that nothing touches the job film before every
  * tile of a part is there, that a bad tile drops the part, that a part merged shrinks the
  * lease and is merged once even when sent twice, and that a part left incomplete is
- * dropped once its sender is silent for the worker timeout. Then parts handed over in
- * memory (common/film_handoff.h, `vcmfarm render`): merged exactly, and refused without a
- * pixel touched when the coordinator has no handoff, the token is unknown, tiles come
- * along, or the film does not match its header. */
+ * dropped once its sender is silent for the worker timeout. */
 #include "check.h"
 #include "common/error.h"
-#include "common/film_handoff.h"
 #include "common/film_wire.h"
 #include "common/settings.h"
 #include "coordinator/farm.h"
@@ -31,8 +27,8 @@ typedef struct {
 
 static void request(fixture *f, Vcmfarm__Envelope *q, vf_farm_reply *r) { vf_farm_handle(&f->farm, q, f->now, r); }
 
-static void setup_with(fixture *f, uint64_t iterations, vf_film_handoff *handoff) {
-  vf_farm_config config = {dir, TIMEOUT, 1000.0, 0.0, handoff};
+static void setup(fixture *f, uint64_t iterations) {
+  vf_farm_config config = {dir, TIMEOUT, 1000.0, 0.0};
   vf_farm_init(&f->farm, &config);
   f->now = 1000.0;
   vf_farm_reply r;
@@ -76,8 +72,6 @@ static void setup_with(fixture *f, uint64_t iterations, vf_film_handoff *handoff
   f->end = r.lease.end;
   vf_farm_reply_release(&r);
 }
-
-static void setup(fixture *f, uint64_t iterations) { setup_with(f, iterations, NULL); }
 
 /* The film of iterations [begin, end) with made-up but valid sums. */
 static vf_film *part_film(uint64_t begin, uint64_t end) {
@@ -220,117 +214,6 @@ static void test_an_incomplete_part_is_dropped_when_silent(void) {
   vf_farm_destroy(&f.farm);
 }
 
-/* Sends the header of `film` (its range from `begin`) naming the deposit `token`, with
- * `tiles` tiles of nothing besides; returns whether it was accepted, the answer in s. */
-static int hand_over(fixture *f, const vf_film *film, uint64_t begin, uint64_t token, size_t tiles, sender *s) {
-  Vcmfarm__LeaseResult m = VCMFARM__LEASE_RESULT__INIT;
-  m.worker_id = f->worker;
-  m.lease_id = f->lease;
-  m.job_id = f->job;
-  m.begin = begin;
-  vf_film_result_header(film, &m);
-  m.film_handoff = token;
-  Vcmfarm__Tile tile = VCMFARM__TILE__INIT, *ptrs[1] = {&tile};
-  m.n_tiles = tiles;
-  m.tiles = tiles ? ptrs : NULL;
-  s->f = f;
-  return send_one(s, &m);
-}
-
-static int same_sums(const vf_film *a, const vf_film *b) {
-  size_t bytes = 3 * (size_t)a->width * (size_t)a->height * sizeof(double);
-  return a->width == b->width && a->height == b->height && memcmp(a->sum, b->sum, bytes) == 0 &&
-         memcmp(a->square_sum, b->square_sum, bytes) == 0;
-}
-
-static void test_a_film_handed_over_merges_exactly_once(void) {
-  vf_film_handoff *h;
-  CHECK_INT_EQ(vf_film_handoff_create(&h), VF_OK);
-  fixture f;
-  setup_with(&f, 8, h);
-  vf_film *first = part_film(0, 3), *second = part_film(3, 8), *expected = part_film(0, 3);
-  CHECK_INT_EQ(vf_film_merge(expected, second), VF_OK);
-  uint64_t token;
-  CHECK_INT_EQ(vf_film_handoff_put(h, first, &token), VF_OK);
-  sender s = {0};
-  CHECK_INT_EQ(hand_over(&f, expected, 0, token, 0, &s), 0); /* its header claims [0,8): film holds [0,3) */
-  CHECK_STR_CONTAINS(s.message, "film holds iterations [0,3), the result claims [0,8)");
-  CHECK(vf_film_handoff_take(h, token) == NULL); /* taken, checked, refused, destroyed */
-  CHECK_INT_EQ(done(&f), 0);
-  first = part_film(0, 3);
-  CHECK_INT_EQ(vf_film_handoff_put(h, first, &token), VF_OK);
-  s = (sender){0};
-  CHECK_INT_EQ(hand_over(&f, first, 0, token, 0, &s), 1);
-  CHECK_STR_CONTAINS(s.message, "merged");
-  CHECK_INT_EQ(done(&f), 3);
-  CHECK(vf_film_handoff_take(h, token) == NULL);
-  vf_lease *l = vf_lease_find(&f.farm.leases, f.lease);
-  CHECK(l != NULL && l->begin == 3 && l->end == 8);
-  /* The same message again (its answer lost): acknowledged, not counted, nothing taken. */
-  vf_film *again = part_film(0, 3);
-  CHECK_INT_EQ(vf_film_handoff_put(h, again, &token), VF_OK);
-  s = (sender){0};
-  CHECK_INT_EQ(hand_over(&f, again, 0, token, 0, &s), 1);
-  CHECK_STR_CONTAINS(s.message, "already merged");
-  CHECK(vf_film_handoff_take(h, token) == again); /* still the worker's to take back */
-  vf_film_destroy(again);
-  CHECK_INT_EQ(vf_film_handoff_put(h, second, &token), VF_OK);
-  s = (sender){0};
-  CHECK_INT_EQ(hand_over(&f, second, 3, token, 0, &s), 1);
-  CHECK_INT_EQ(done(&f), 8);
-  /* Every bit of both parts, as vf_film_merge adds them: no encoding in between. */
-  CHECK(same_sums(vf_farm_job(&f.farm, f.job)->film, expected));
-  CHECK_INT_EQ(vf_farm_job(&f.farm, f.job)->results_refused, 1);
-  vf_film_destroy(expected);
-  vf_farm_destroy(&f.farm);
-  vf_film_handoff_destroy(h);
-}
-
-static void test_a_film_handed_over_is_refused_untouched(void) {
-  vf_film_handoff *h;
-  CHECK_INT_EQ(vf_film_handoff_create(&h), VF_OK);
-  fixture f;
-  setup(&f, 8); /* a coordinator without the handoff: a network peer's claim of one is refused */
-  vf_film *film = part_film(0, 2);
-  uint64_t token;
-  CHECK_INT_EQ(vf_film_handoff_put(h, film, &token), VF_OK);
-  sender s = {0};
-  CHECK_INT_EQ(hand_over(&f, film, 0, token, 0, &s), 0);
-  CHECK_STR_CONTAINS(s.message, "only a coordinator in the worker's own process");
-  CHECK(vf_film_handoff_take(h, token) == film);
-  vf_farm_destroy(&f.farm);
-  setup_with(&f, 8, h);
-  CHECK_INT_EQ(vf_film_handoff_put(h, film, &token), VF_OK);
-  s = (sender){0};
-  CHECK_INT_EQ(hand_over(&f, film, 0, token + 1, 0, &s), 0);
-  CHECK_STR_CONTAINS(s.message, "no film was handed over under token");
-  s = (sender){0};
-  CHECK_INT_EQ(hand_over(&f, film, 0, token, 1, &s), 0);
-  CHECK_STR_CONTAINS(s.message, "and 1 tile(s) besides");
-  CHECK(vf_film_handoff_take(h, token) == film); /* refused before it was taken */
-  /* Taken, then refused: a film of another size, or holding a value no film may hold. */
-  vf_film *small;
-  CHECK_INT_EQ(vf_film_create(64, 64, &small), VF_OK);
-  memcpy(small->scene_hash, scene_hash, 32);
-  snprintf(small->settings_text, sizeof small->settings_text, "%s", settings);
-  CHECK_INT_EQ(vf_iterset_add(&small->iterations, 0, 2), VF_OK);
-  CHECK_INT_EQ(vf_film_handoff_put(h, small, &token), VF_OK);
-  s = (sender){0};
-  CHECK_INT_EQ(hand_over(&f, film, 0, token, 0, &s), 0); /* the header of the right size */
-  CHECK_STR_CONTAINS(s.message, "a 64x64 film handed over");
-  film->sum[5] = NAN;
-  CHECK_INT_EQ(vf_film_handoff_put(h, film, &token), VF_OK);
-  s = (sender){0};
-  CHECK_INT_EQ(hand_over(&f, film, 0, token, 0, &s), 0);
-  CHECK_STR_CONTAINS(s.message, "pixel (1, 0): non-finite sum");
-  CHECK(vf_film_handoff_take(h, token) == NULL);
-  CHECK_INT_EQ(done(&f), 0);
-  vf_lease *l = vf_lease_find(&f.farm.leases, f.lease);
-  CHECK(l != NULL && l->begin == 0);
-  vf_farm_destroy(&f.farm);
-  vf_film_handoff_destroy(h);
-}
-
 int main(void) {
   snprintf(dir, sizeof dir, "/tmp/vf_test_farm_partial_XXXXXX");
   if (mkdtemp(dir) == NULL) return 1;
@@ -342,8 +225,6 @@ int main(void) {
   RUN(test_a_part_merges_only_complete_and_once);
   RUN(test_a_bad_tile_drops_the_part_and_spares_the_film);
   RUN(test_an_incomplete_part_is_dropped_when_silent);
-  RUN(test_a_film_handed_over_merges_exactly_once);
-  RUN(test_a_film_handed_over_is_refused_untouched);
   char cmd[128];
   snprintf(cmd, sizeof cmd, "rm -rf '%s'", dir);
   if (system(cmd) != 0) return 1;

@@ -75,7 +75,7 @@ static void submit(vf_farm *farm, const char *settings, const Vcmfarm__Scene *sc
 
 static void test_handlers_answer_through_the_table(void) {
   vf_farm farm;
-  vf_farm_config config = {dir, 1e9, 20.0, 0.0, NULL};
+  vf_farm_config config = {dir, 1e9, 20.0, 0.0};
   vf_farm_init(&farm, &config);
   vf_settings s;
   vf_settings_default(&s);

@@ -224,7 +224,7 @@ typedef struct {
 } farm_fixture;
 
 static void farm_setup(farm_fixture *f, uint64_t iterations, int workers) {
-  vf_farm_config config = {"/nonexistent/vf_test_lease", 15.0, 20.0, 60.0, NULL};
+  vf_farm_config config = {"/nonexistent/vf_test_lease", 15.0, 20.0, 60.0};
   vf_farm_init(&f->farm, &config);
   f->now = 100.0;
   vf_settings s;

@@ -27,7 +27,7 @@ typedef struct {
 static void request(fixture *f, Vcmfarm__Envelope *q, vf_farm_reply *r) { vf_farm_handle(&f->farm, q, f->now, r); }
 
 static void setup(fixture *f, int width, int height) {
-  vf_farm_config config = {dir, 1e9, 20.0, 0.0, NULL};
+  vf_farm_config config = {dir, 1e9, 20.0, 0.0};
   vf_farm_init(&f->farm, &config);
   f->now = 1000.0;
   vf_settings s;

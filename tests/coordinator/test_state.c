@@ -53,7 +53,7 @@ static const char *iterations_of(const vf_film *film) {
 
 /* A farm on the state directory dir, empty. */
 static void open_farm(vf_farm *farm, const char *dir) {
-  vf_farm_config config = {dir, 15.0, 20.0, 0.0, NULL};
+  vf_farm_config config = {dir, 15.0, 20.0, 0.0};
   vf_farm_init(farm, &config);
 }
 
@@ -249,7 +249,7 @@ static void test_failed_leases_and_blocks_outlive_a_restart(void) {
   char dir[4200];
   fresh_dir(dir, sizeof dir, "poison");
   vf_farm a, b;
-  vf_farm_config config = {dir, 15.0, 20.0, 600.0, NULL}; /* forgive after 600 s */
+  vf_farm_config config = {dir, 15.0, 20.0, 600.0}; /* forgive after 600 s */
   vf_farm_init(&a, &config);
   vf_job *j = add_job(&a, 1, "knot", 0, 4);
   if (j == NULL) return;

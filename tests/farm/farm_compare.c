@@ -1,12 +1,14 @@
 /* Helper of test_farm.sh (not a test by itself): compares a farm's film with a
  * single-process render of the same iterations.
  *
- *   farm_compare FARM.exr REFERENCE.exr EXPECTED_ITERATIONS
+ *   farm_compare [--exact] FARM.exr REFERENCE.exr EXPECTED_ITERATIONS
  *
  * Passes (exit 0) when both films hold exactly the expected iteration set (e.g.
  * "[0,24)": none missing, none counted twice) and the largest difference of their mean
- * radiance over all pixels and channels is at most 1e-5 times the reference's image mean.
- * Prints what it found either way. */
+ * radiance over all pixels and channels is at most 1e-5 times the reference's image mean;
+ * with --exact, only when they are moreover the same film bit for bit: the same scene
+ * hash and settings, and every sum and sum of squares the same double. Prints what it
+ * found either way. */
 #include "common/film.h"
 #include "common/error.h"
 
@@ -21,9 +23,21 @@ static int load(const char *path, vf_film **film) {
   return err;
 }
 
+/* How many of the films' sums and sums of squares differ in any bit (NaN included). */
+static size_t bits_differing(const vf_film *a, const vf_film *b) {
+  size_t n = (size_t)a->width * (size_t)a->height * 3, differing = 0;
+  for (size_t i = 0; i < n; i++)
+    differing += memcmp(&a->sum[i], &b->sum[i], sizeof(double)) != 0 ||
+                 memcmp(&a->square_sum[i], &b->square_sum[i], sizeof(double)) != 0;
+  return differing;
+}
+
 int main(int argc, char **argv) {
+  int exact = argc == 5 && strcmp(argv[1], "--exact") == 0;
+  argv += exact;
+  argc -= exact;
   if (argc != 4) {
-    fprintf(stderr, "usage: farm_compare FARM.exr REFERENCE.exr EXPECTED_ITERATIONS\n");
+    fprintf(stderr, "usage: farm_compare [--exact] FARM.exr REFERENCE.exr EXPECTED_ITERATIONS\n");
     return 2;
   }
   vf_film *farm = NULL, *ref = NULL;
@@ -53,6 +67,14 @@ int main(int argc, char **argv) {
   }
   mean /= (double)n;
   int close = max_diff <= 1e-5 * mean && mean > 0.0;
+  if (exact) {
+    size_t differing = bits_differing(farm, ref);
+    int same_texts = memcmp(farm->scene_hash, ref->scene_hash, sizeof farm->scene_hash) == 0 &&
+                     strcmp(farm->settings_text, ref->settings_text) == 0;
+    printf("exact: %zu of %zu sums differ in some bit; scene hash and settings %s\n", differing, n,
+           same_texts ? "equal" : "DIFFER");
+    close = close && differing == 0 && same_texts;
+  }
   printf("farm %s, reference %s: max |difference| %.3g, image mean %.6g, limit %.3g: %s\n", farm_set, ref_set,
          max_diff, mean, 1e-5 * mean, close && ok ? "equal" : "DIFFERENT");
   free(a);

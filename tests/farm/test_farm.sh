@@ -9,7 +9,7 @@
 #
 # CASE: long_scene_text, three_workers, worker_killed, worker_killed_after_parts, worker_terminated, coordinator_killed,
 # hostile_peers, unauthenticated_bound, tcp_gate, late_duplicate, priorities, stop_conditions; mesh_scene, big_file and bad_blobs (scenes
-# with files, FARM_BLOB_PEER); render_4k, fetch_4k and bad_fetches (films fetched in chunks, with
+# with files, FARM_BLOB_PEER); fetch_4k and bad_fetches (films fetched in chunks, with
 # FARM_FETCH_PEER in the place of FARM_BLOB_PEER).
 # No fixed sleeps synchronise anything: the script polls `vcmfarm status` (or a file) with
 # a deadline, and every process it starts is killed on exit. KEEP_TMP=1 keeps the logs.
@@ -401,17 +401,6 @@ worker_terminated)
   start_worker rescuer
   wait_until 60 "job $job done" job_done
   check_film
-  ;;
-render_4k)
-  # The in-process farm at 3840x2160: its worker's parts handed over in memory, its film
-  # (hundreds of MB) fetched in chunks of 1 MiB; the film equals that of --direct.
-  export TMPDIR="$tmp"
-  "$vcmfarm" render cornell "${big_film[@]}" -q -o "$tmp/farm.exr" || fail "render failed"
-  "$vcmfarm" render cornell "${big_film[@]}" --direct -q -o "$tmp/reference.exr" || fail "reference render failed"
-  "$compare" "$tmp/farm.exr" "$tmp/reference.exr" "[0,2)" || fail "the farm's 4K film differs from --direct's"
-  echo "film of $(stat -c %s "$tmp/farm.exr") bytes"
-  [ -z "$(ls "$tmp" | grep -v -E '^(farm|reference)\.exr$|\.log$|^farm\.key$')" ] ||
-    fail "render left files behind: $(ls "$tmp")"
   ;;
 fetch_4k)
   # A coordinator and a worker process at 3840x2160; two clients fetch the finished job's

@@ -1,8 +1,13 @@
 #!/usr/bin/env bash
-# `vcmfarm render` runs an in-process coordinator and worker (cli/farm_render.c).
-# Every case compares its film with `vcmfarm render --direct` of the same global
-# iterations, the render loop on one thread with no farm (tests/farm/farm_compare.c: iteration
-# set exactly as expected, max |difference| <= 1e-5 x image mean).
+# `vcmfarm render` and a farm give the same film, the product's promise: a coordinator and
+# one worker as processes over ipc://, each job submitted and fetched (`submit --wait`),
+# its film compared with `vcmfarm render` of the same global iterations (tests/farm/
+# farm_compare.c: the iteration set exactly, the pixels to 1e-5 of the image mean, as the
+# farm adds the sums of its parts in an order of its own). And what `render` promises on
+# its own, its films compared bit for bit with a render of the same iterations (farm_compare
+# --exact: scene hash, settings and every sum): --direct, a target tested after every
+# iteration, a time limit, SIGINT, a SIGKILL that leaves the last checkpoint, which
+# `continue` resumes, and no file beside its film.
 #
 #   test_render_farm.sh VCMFARM FARM_COMPARE SOURCE_DIR
 set -u
@@ -11,7 +16,11 @@ compare="$2"
 source_dir="$3"
 source "$(dirname "$0")/farm_test_lib.sh"
 farm_test_tmp render-farm
-export TMPDIR="$tmp" # the renders' private state directories land here
+farm_test_key
+mkdir "$tmp/films" "$tmp/tmpdir"
+# render and continue, with a TMPDIR of their own: they make no temporary directory or file
+# there (checked at the end).
+local_render() { TMPDIR="$tmp/tmpdir" "$vcmfarm" "$@"; }
 failures=0
 check() { # NAME STATUS
   if [ "$2" -eq 0 ]; then echo "ok   $1"; else echo "FAIL $1"; failures=$((failures + 1)); fi
@@ -21,102 +30,133 @@ check() { # NAME STATUS
 iterations_of() { "$vcmfarm" info "$1" | awk '$1 == "iterations" {print $2}'; }
 # Its end: the N of [K,N).
 end_of() { iterations_of "$1" | sed -n 's/^\[\([0-9]*\),\([0-9]*\))$/\2/p'; }
+estimate_of() { "$vcmfarm" info "$1" | awk '$1 == "estimated_rmse" {print $2}'; }
 
-# same NAME SET FARM_FILM DIRECT_ARGS...: renders DIRECT_ARGS with --direct and compares.
-same() {
+start_coordinator
+start_worker w1
+client=(--coordinator "$url" --secret "$key" --timeout 10)
+
+# farm NAME SET FILM SUBMIT_ARGS...: the job of SUBMIT_ARGS through the farm, its film
+# compared with FILM (a render's).
+farm() {
   local name="$1" set="$2" film="$3"
   shift 3
-  "$vcmfarm" render "$@" --direct -j 1 -q -o "$tmp/direct.exr" && "$compare" "$film" "$tmp/direct.exr" "$set"
+  timeout 240 "$vcmfarm" submit "$@" --wait -o "$tmp/films/farm.exr" "${client[@]}" >"$tmp/submit.log" 2>&1 &&
+    "$compare" "$tmp/films/farm.exr" "$film" "$set"
+  check "$name" $?
+}
+# same [--close] NAME SET FILM RENDER_ARGS...: FILM is, bit for bit, the render of
+# RENDER_ARGS; with --close, to 1e-5 of the image mean (a film read back from its file
+# holds its sums to 48 bits, docs/FILM.md, so what is added to it rounds otherwise).
+same() {
+  local exact=--exact
+  [ "$1" = --close ] && exact="" && shift
+  local name="$1" set="$2" film="$3"
+  shift 3
+  local_render render "$@" -q -o "$tmp/films/same.exr" && "$compare" $exact "$film" "$tmp/films/same.exr" "$set"
   check "$name" $?
 }
 
 common=(-R 64x48 --seed 3)
 
-# 1. Iterations [0, 6) with two render threads against one thread directly.
-"$vcmfarm" render cornell "${common[@]}" -n 6 -j 2 -q -o "$tmp/a.exr"
+# 1. Iterations [0, 6), rendered with two threads; the farm's worker has one.
+local_render render cornell "${common[@]}" -n 6 -j 2 -q -o "$tmp/films/a.exr"
 check "render exits 0" $?
-same "render equals render --direct" "[0,6)" "$tmp/a.exr" cornell "${common[@]}" -n 6
+farm "the farm's film is render's" "[0,6)" "$tmp/films/a.exr" cornell "${common[@]}" -n 6
+same "--direct is accepted and renders the same film" "[0,6)" "$tmp/films/a.exr" cornell "${common[@]}" -n 6 --direct
 
 # 2. Global iterations [5, 9): jobs starting at an iteration other than 0.
-"$vcmfarm" render cornell "${common[@]}" -a bpt -k 5 -n 4 -q -o "$tmp/b.exr"
-same "--start-iteration 5" "[5,9)" "$tmp/b.exr" cornell "${common[@]}" -a bpt -k 5 -n 4
+local_render render cornell "${common[@]}" -a bpt -k 5 -n 4 -q -o "$tmp/films/b.exr"
+farm "--start-iteration 5" "[5,9)" "$tmp/films/b.exr" cornell "${common[@]}" -a bpt --start-iteration 5 -n 4
 
-# 3. A JSON scene whose mesh files travel as blobs; the film names the scene file, so
-#    `continue` finds it.
+# 3. A JSON scene whose mesh files travel to the worker as blobs; render's film names the
+#    scene file, so `continue` finds it.
 scene="$source_dir/tests/scenes/good/gltf.json"
-"$vcmfarm" render "$scene" -n 3 -q -o "$tmp/c.exr"
-same "JSON scene with files" "[0,3)" "$tmp/c.exr" "$scene" -n 3
-"$vcmfarm" info "$tmp/c.exr" | grep -q "^scene  *$scene\$"
+local_render render "$scene" -n 3 -q -o "$tmp/films/c.exr"
+farm "JSON scene with files" "[0,3)" "$tmp/films/c.exr" "$scene" -n 3
+"$vcmfarm" info "$tmp/films/c.exr" | grep -q "^scene  *$scene\$"
 check "the film names the scene file" $?
-"$vcmfarm" continue "$tmp/c.exr" -n 2 -q -o "$tmp/c5.exr" && [ "$(iterations_of "$tmp/c5.exr")" = "[0,5)" ]
+local_render continue "$tmp/films/c.exr" -n 2 -q -o "$tmp/films/c5.exr" && [ "$(iterations_of "$tmp/films/c5.exr")" = "[0,5)" ]
 check "continue extends it" $?
 
 # 3b. A glTF file as the scene: the job carries the JSON that imports it, and its buffer
 #     and external textures travel as blobs (a file the load reads but the job lacks
 #     would fail the worker's load: "not among the job's files").
 scene="$source_dir/tests/scenes/import/model.gltf"
-"$vcmfarm" render "$scene" "${common[@]}" -n 2 -q -o "$tmp/gltf.exr" 2>/dev/null
-check "glTF scene with external textures renders through the farm" $?
-same "glTF scene through the farm equals --direct" "[0,2)" "$tmp/gltf.exr" "$scene" "${common[@]}" -n 2
+local_render render "$scene" "${common[@]}" -n 2 -q -o "$tmp/films/gltf.exr" 2>/dev/null
+check "glTF scene with external textures renders" $?
+farm "glTF scene: the farm's film is render's" "[0,2)" "$tmp/films/gltf.exr" "$scene" "${common[@]}" -n 2
 
-# 4. A target estimated error: the job stops at the first merged part meeting it, and the
-#    film holds exactly the contiguous iterations [0, m) of that part.
-"$vcmfarm" render cornell "${common[@]}" -a pt --target-error 0.08 -q -o "$tmp/d.exr"
-m=$(end_of "$tmp/d.exr")
-if [ -n "$m" ]; then
-  same "--target-error: film of [0,$m)" "[0,$m)" "$tmp/d.exr" cornell "${common[@]}" -a pt -n "$m"
-  est=$("$vcmfarm" info "$tmp/d.exr" | awk '$1 == "estimated_rmse" {print $2}')
+# 4. A target estimated error, tested after every iteration: the render stops right after
+#    the iteration meeting it, so its film of [0,m) meets it and that of [0,m-1) does not.
+local_render render cornell "${common[@]}" -a pt --target-error 0.08 -q -o "$tmp/films/d.exr"
+m=$(end_of "$tmp/films/d.exr")
+if [ -n "$m" ] && [ "$m" -ge 2 ]; then
+  est=$(estimate_of "$tmp/films/d.exr")
   awk -v e="$est" 'BEGIN {exit !(e <= 0.08)}'
   check "--target-error: estimate $est <= 0.08 at $m iterations" $?
+  local_render render cornell "${common[@]}" -a pt -n $((m - 1)) -q -o "$tmp/films/d-1.exr"
+  before=$(estimate_of "$tmp/films/d-1.exr")
+  awk -v e="$before" 'BEGIN {exit !(e > 0.08)}'
+  check "--target-error: stopped right after the iteration meeting it (estimate $before at $((m - 1)))" $?
+  same "--target-error: the film of [0,$m)" "[0,$m)" "$tmp/films/d.exr" cornell "${common[@]}" -a pt -n "$m"
+  farm "--target-error: the farm's film of [0,$m)" "[0,$m)" "$tmp/films/d.exr" cornell "${common[@]}" -a pt -n "$m"
 else
-  check "--target-error: film holds [0,m)" 1
+  check "--target-error: the film holds [0,m), m >= 2 (found '$m')" 1
 fi
 
-# 5. A time limit: no new iteration after 2 s; what was rendered is shipped, and counted.
-"$vcmfarm" render cornell "${common[@]}" -t 2 -q -o "$tmp/e.exr"
-m=$(end_of "$tmp/e.exr")
+# 5. A time limit: no iteration starts after 2 s; every iteration rendered is in the film.
+local_render render cornell "${common[@]}" -t 2 -q -o "$tmp/films/e.exr"
+m=$(end_of "$tmp/films/e.exr")
 [ -n "$m" ] && [ "$m" -gt 0 ]
 check "--time 2 rendered $m iterations" $?
-[ -n "$m" ] && same "--time: film of [0,$m)" "[0,$m)" "$tmp/e.exr" cornell "${common[@]}" -n "$m"
+[ -n "$m" ] && same "--time: the film of [0,$m)" "[0,$m)" "$tmp/films/e.exr" cornell "${common[@]}" -n "$m"
 
-# 6. SIGINT: the render ships what it has, writes the film and exits 0.
-"$vcmfarm" render cornell "${common[@]}" -n 100000 -q -o "$tmp/f.exr" &
+# 6. SIGINT: the render finishes its iteration, writes the film and exits 0.
+TMPDIR="$tmp/tmpdir" "$vcmfarm" render cornell "${common[@]}" -n 100000 --checkpoint-interval 0 -q -o "$tmp/films/f.exr" &
 pid=$!
 pids+=("$pid")
-for _ in $(seq 100); do [ -d "$tmp"/vcmfarm-render-* ] 2>/dev/null && break; sleep 0.05; done
 sleep 1.5
 kill -INT "$pid"
 wait "$pid"
 check "SIGINT: exit status 0" $?
-m=$(end_of "$tmp/f.exr")
-[ -n "$m" ] && same "SIGINT: film of [0,$m)" "[0,$m)" "$tmp/f.exr" cornell "${common[@]}" -n "$m"
-ls -d "$tmp"/vcmfarm-render-* >/dev/null 2>&1
-check "the private state directories are removed" $((!$?))
+m=$(end_of "$tmp/films/f.exr")
+[ -n "$m" ] && same "SIGINT: the film of [0,$m)" "[0,$m)" "$tmp/films/f.exr" cornell "${common[@]}" -n "$m"
 
-# 7. SIGKILL: the output holds the last checkpoint, a valid film of [0, m).
-rm -f "$tmp/g.exr" # step 3's film of another scene: the wait below must see this render's
-"$vcmfarm" render cornell "${common[@]}" -n 100000 --checkpoint-interval 0.5 -q -o "$tmp/g.exr" &
+# 7. SIGKILL: the output holds the last checkpoint, a valid film of [0,m), and `continue`
+#    resumes it into the film of [0,m+3) (to the precision of the checkpoint's file).
+TMPDIR="$tmp/tmpdir" "$vcmfarm" render cornell "${common[@]}" -n 100000 --checkpoint-interval 0.5 -q -o "$tmp/films/g.exr" &
 pid=$!
 pids+=("$pid")
-# A checkpoint holding a part (the first lease is bounded by time, its first part shipped
-# after the worker's ship interval of 1 s; checkpoints before it hold no iteration), then
-# one more interval.
-for _ in $(seq 200); do [ -s "$tmp/g.exr" ] && [ "$(end_of "$tmp/g.exr")" ] && break; sleep 0.05; done
+for _ in $(seq 200); do [ -s "$tmp/films/g.exr" ] && [ "$(end_of "$tmp/films/g.exr")" ] && break; sleep 0.05; done
 sleep 0.6
 kill -9 "$pid"
 wait "$pid" 2>/dev/null
-m=$(end_of "$tmp/g.exr")
+m=$(end_of "$tmp/films/g.exr")
 [ -n "$m" ] && [ "$m" -gt 0 ]
 check "SIGKILL: a checkpoint of $m iterations was written" $?
-[ -n "$m" ] && same "SIGKILL: the checkpoint is the film of [0,$m)" "[0,$m)" "$tmp/g.exr" cornell "${common[@]}" -n "$m"
+if [ -n "$m" ]; then
+  same "SIGKILL: the checkpoint is the film of [0,$m)" "[0,$m)" "$tmp/films/g.exr" cornell "${common[@]}" -n "$m"
+  local_render continue "$tmp/films/g.exr" -n 3 -q
+  check "SIGKILL: continue resumes the checkpoint" $?
+  same --close "SIGKILL: the resumed film is that of [0,$((m + 3)))" "[0,$((m + 3)))" "$tmp/films/g.exr" cornell \
+    "${common[@]}" -n $((m + 3))
+fi
 
-# 8. A reference above the old one-message limit (a film of 800x800, 59 MB) travels as a
-#    blob; the film's log holds the RMSE against it.
-"$vcmfarm" render cornell -R 800x800 -a pt -n 1 --direct -q -o "$tmp/ref.exr"
-"$vcmfarm" render cornell -R 800x800 -a pt -n 2 -s 9 --reference "$tmp/ref.exr" -q -o "$tmp/h.exr"
-check "a reference of $(($(stat -c %s "$tmp/ref.exr") >> 20)) MiB" $?
-"$vcmfarm" info "$tmp/h.exr" | awk 'f && NF == 7 {r = $5} /wall_s/ {f = 1} END {exit !(r != "" && r != "nan")}'
-check "the film's log holds the RMSE against it" $?
+# 8. A reference above the old one-message limit (a film of 800x800, 59 MB) travels to the
+#    farm as a blob; both films' logs hold the RMSE against it.
+local_render render cornell -R 800x800 -a pt -n 1 -q -o "$tmp/films/ref.exr"
+local_render render cornell -R 800x800 -a pt -n 2 -s 9 --reference "$tmp/films/ref.exr" -q -o "$tmp/films/h.exr"
+check "a render against a reference of $(($(stat -c %s "$tmp/films/ref.exr") >> 20)) MiB" $?
+farm "the farm's film against that reference is render's" "[0,2)" "$tmp/films/h.exr" cornell -R 800x800 -a pt -n 2 -s 9 \
+  --reference "$tmp/films/ref.exr"
+rmse_logged() { "$vcmfarm" info "$1" | awk 'f && NF == 7 {r = $5} /wall_s/ {f = 1} END {exit !(r != "" && r != "nan")}'; }
+rmse_logged "$tmp/films/h.exr" && rmse_logged "$tmp/films/farm.exr"
+check "both films' logs hold the RMSE against it" $?
+
+# Nothing but the films: no state directory, no temporary file left.
+[ -z "$(ls -A "$tmp/tmpdir")" ] && ! ls "$tmp/films" | grep -q '\.tmp\.'
+check "render leaves no file beside its film: $(ls -A "$tmp/tmpdir" "$tmp/films" | tr '\n' ' ')" $?
 
 echo "$failures failure(s)"
 [ "$failures" -eq 0 ]

@@ -96,7 +96,7 @@ int vf_scene_files_resolve(vf_scene_files *f, const char *name, char *out, size_
   /* Refused before anything parses it: it could not be sent. */
   if ((uint64_t)st.st_size > VF_BLOB_MAX_BYTES)
     return vf_error_set(VF_ESCENE, "'%s' is %.1f MiB; a file sent to a farm can be at most %llu MiB "
-                        "(`render --direct` renders without one)", name,
+                        "(`vcmfarm render` renders it on one machine)", name,
                         (double)st.st_size / 1048576.0, (unsigned long long)(VF_BLOB_MAX_BYTES >> 20));
   return record(f, name, out);
 }

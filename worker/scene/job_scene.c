@@ -45,7 +45,7 @@ static int stage_file(const char *stage_dir, const char *name, const char *path,
   if ((uint64_t)st.st_size > VF_BLOB_MAX_BYTES)
     return vf_error_set(VF_EINVAL,
                         "file '%s' is %.1f MiB; a file sent to a farm can be at most %llu MiB "
-                        "(`render --direct` renders without one)", name,
+                        "(`vcmfarm render` renders it on one machine)", name,
                         (double)st.st_size / 1048576.0, (unsigned long long)(VF_BLOB_MAX_BYTES >> 20));
   int err = vf_file_read_all(path, VF_BLOB_MAX_BYTES, &bytes, &len);
   if (err != VF_OK) return err;
