@@ -12,13 +12,15 @@
 # runs it; bench_convergence_quick, a benchmark's smoke test that renders for a fixed wall
 # time (the renderer's paths run sanitized in test_vcm, test_render, test_surface and
 # test_stress). test_vcm runs its agreement with the default sampler only here.
-# tests/lsan.supp names the one leak not ours (fontconfig's caches, through cairo).
+# tests/lsan.supp names the one leak not ours (fontconfig's caches, through cairo); the
+# summary of suppressions used stays off, so that commands whose stderr a test reads
+# line by line (test_cli) print only their own lines.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 flags="-fsanitize=address,undefined -fno-sanitize-recover=undefined -fno-omit-frame-pointer"
 cmake -S . -B build-sanitize -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_C_FLAGS="$flags" \
   -DCMAKE_EXE_LINKER_FLAGS="-fsanitize=address,undefined"
 cmake --build build-sanitize -j2
-LSAN_OPTIONS="suppressions=$PWD/tests/lsan.supp" ASAN_OPTIONS="detect_leaks=1" \
+LSAN_OPTIONS="suppressions=$PWD/tests/lsan.supp:print_suppressions=0" ASAN_OPTIONS="detect_leaks=1" \
   UBSAN_OPTIONS="print_stacktrace=1" \
   ctest --test-dir build-sanitize --output-on-failure -E '^(test_docker|test_fuzz|bench_convergence_quick)$'
