@@ -215,7 +215,7 @@ big_file)
   submit_scene 2 5
   wait_until 60 "job $job done" job_done
   check_scene_film
-  grep -q "removed 1 least recently used blob(s)" "$tmp/w1.log" || fail "the worker did not trim its cache"
+  grep -q "removed 1 least recently used blob from the cache" "$tmp/w1.log" || fail "the worker did not trim its cache"
   [ ! -e "$tmp/cache-w1/blobs/$big_hash" ] || fail "the big file stayed in a cache of at most 1 MiB"
   ;;
 bad_blobs)
