@@ -195,7 +195,7 @@ const char *vf_vcm_merge_simd(const vf_vcm *v) {
 #ifdef VF_MERGE_PIPELINE
   return v->vertex_merging_avx512 ? "AVX-512" : "SSE2";
 #else
-  return "scalar";
+  return "no SIMD (the reference query, vertex_merging.c)";
 #endif
 }
 
