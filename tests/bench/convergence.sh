@@ -29,6 +29,7 @@ build=${2:-build}
 here=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
 root=$(cd "$here/../.." && pwd)
 vcmfarm=$build/vcmfarm
+source "$here/reference_lib.sh"
 
 # SCENES="a b" limits a run to some of them (for example to redo one scene's figures).
 scenes=${SCENES:-"cornell cornell-point cornell-sun cornell-env knot cornell-bulb cornell-diffuse cornell-glossy"}
@@ -69,17 +70,8 @@ alpha_of() { [ "$1" = ppm ] && echo 0.6666666666666666 || echo 0.75; }
 
 echo "convergence.sh $size: ${res}x${res}, ${run_s} s per run, references ${ref_s} s, radius factor $radius"
 for scene in $scenes; do
-  # One iteration to learn the scene's content hash, so a changed scene never meets a
-  # stale reference.
-  "$vcmfarm" render "$scene" --direct -a pt -n 1 "${common[@]}" -q -o "$out/probe.exr"
-  hash=$("$vcmfarm" info --json "$out/probe.exr" | jq -r .scene_hash | cut -c1-16)
-  ralgo=$(reference_algorithm "$scene")
-  rsec=$(reference_seconds "$scene")
-  ref=$cache/ref-$scene-$hash-$ralgo-${res}-${rsec}s.exr
-  if [ ! -f "$ref" ]; then
-    echo "  $scene: reference, $ralgo for $rsec s"
-    "$vcmfarm" render "$scene" --direct -a "$ralgo" -s 1000 -t "$rsec" --checkpoint-interval 0 "${common[@]}" -q -o "$ref"
-  fi
+  ref=$(cached_reference "$vcmfarm" "$cache" "$scene" "$(reference_algorithm "$scene")" \
+    "$(reference_seconds "$scene")" "$res" "${common[@]}")
   ln -sf "$ref" "$out/$scene-reference.exr"
   for a in $algorithms; do
     echo "  $scene: $a for $run_s s"
@@ -91,7 +83,6 @@ for scene in $scenes; do
   for a in $algorithms; do files+=("$out/$scene-$a.exr"); done
   "$vcmfarm" plot "${files[@]}" -o "$plots/$scene.png" --x both
 done
-rm -f "$out/probe.exr"
 
 check=()
 [ "$size" = quick ] && check=(--check)

@@ -5,8 +5,8 @@
 #     bash tests/bench/mis_beta.sh [BUILD_DIR] [SECONDS]      defaults: build 30
 #
 # 1. Time to error: every scene of the list at 128x128 for SECONDS of wall time per run
-#    (`render --direct` with --reference and checkpoints), against the same long bpt
-#    references convergence.sh makes and caches (BUILD_DIR/bench/cache), reported by
+#    (`render` with --reference and checkpoints), against the same long bpt references
+#    convergence.sh makes and caches (reference_lib.sh, BUILD_DIR/bench/cache), reported by
 #    convergence_report.py (time to relative-RMSE targets, slopes), into
 #    BUILD_DIR/bench/mis_beta/report.md.
 # 2. Merging bias with a fixed radius: cornell-diffuse at 64x64, vcm with radius factor
@@ -18,6 +18,7 @@ seconds=${2:-30}
 build=$(cd "$build" && pwd)
 here=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
 vcmfarm=$build/vcmfarm
+source "$here/reference_lib.sh"
 out=$build/bench/mis_beta
 cache=$build/bench/cache
 mkdir -p "$out" "$cache"
@@ -29,13 +30,7 @@ common=(-R "${res}x${res}" -r "$radius")
 runs="vcm-b1 vcm-b2 bpt-b1 bpt-b2"
 
 for scene in $scenes; do
-  "$vcmfarm" render "$scene" -a pt -n 1 "${common[@]}" -q -o "$out/probe.exr"
-  hash=$("$vcmfarm" info --json "$out/probe.exr" | jq -r .scene_hash | cut -c1-16)
-  ref=$cache/ref-$scene-$hash-bpt-${res}-${ref_s}s.exr # convergence.sh's name: shared
-  if [ ! -f "$ref" ]; then
-    echo "  $scene: reference, bpt for $ref_s s"
-    "$vcmfarm" render "$scene" -a bpt -s 1000 -t "$ref_s" --checkpoint-interval 0 "${common[@]}" -q -o "$ref"
-  fi
+  ref=$(cached_reference "$vcmfarm" "$cache" "$scene" bpt "$ref_s" "$res" "${common[@]}") # convergence.sh's too
   ln -sf "$ref" "$out/$scene-reference.exr"
   for run in $runs; do
     echo "  $scene: $run for $seconds s"
@@ -43,7 +38,6 @@ for scene in $scenes; do
       --reference "$ref" "${common[@]}" -o "$out/$scene-$run.exr" 2>"$out/$scene-$run.log"
   done
 done
-rm -f "$out/probe.exr"
 python3 "$here/convergence_report.py" "$vcmfarm" "$out" full "$scenes" "$runs" | tee "$out/report.md"
 
 echo
