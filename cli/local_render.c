@@ -160,6 +160,12 @@ static void stats_add(vf_vcm_stats *sum, const vf_vcm_stats *s) {
   sum->rays += s->rays;
   sum->light_vertices += s->light_vertices;
   sum->nonfinite += s->nonfinite;
+  sum->upg_gatherings += s->upg_gatherings;
+  sum->upg_trials += s->upg_trials;
+  sum->upg_rays += s->upg_rays;
+  sum->upg_truncated += s->upg_truncated;
+  sum->upg_bound_exceeded += s->upg_bound_exceeded;
+  sum->upg_fallbacks += s->upg_fallbacks;
   sum->light_seconds += s->light_seconds;
   sum->grid_seconds += s->grid_seconds;
   sum->camera_seconds += s->camera_seconds;

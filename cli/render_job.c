@@ -41,6 +41,18 @@ void vf_render_job_print_summary(const vf_film *film, double seconds, const vf_v
           (unsigned long long)(rendered ? stats->light_vertices / rendered : 0), stats->light_seconds * per,
           stats->grid_seconds * per, stats->camera_seconds * per, (unsigned long long)stats->nonfinite,
           vf_cli_plural(stats->nonfinite, "sample", "samples"), interrupted ? " (interrupted)" : "");
+  if (stats->upg_gatherings + stats->upg_fallbacks > 0) {
+    double g = stats->upg_gatherings ? (double)stats->upg_gatherings : 1.0;
+    fprintf(stderr,
+            "gathering: %llu light vertices without bias, %.2f tentative directions and %.2f rays each; "
+            "%llu merged as vcm merges (biased)",
+            (unsigned long long)stats->upg_gatherings, (double)stats->upg_trials / g, (double)stats->upg_rays / g,
+            (unsigned long long)stats->upg_fallbacks);
+    if (stats->upg_truncated || stats->upg_bound_exceeded)
+      fprintf(stderr, "; %llu stopped at the trial cap, %llu directions above their bound",
+              (unsigned long long)stats->upg_truncated, (unsigned long long)stats->upg_bound_exceeded);
+    fprintf(stderr, "\n");
+  }
 }
 
 void vf_render_job_print_estimate(double estimated_rmse) {

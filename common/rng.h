@@ -14,7 +14,9 @@ typedef struct {
   uint64_t state, inc;
 } vf_rng;
 
-enum { VF_STREAM_LIGHT = 1, VF_STREAM_CAMERA = 2, VF_STREAM_TEST = 3 };
+/* Stream kinds. upg's gatherings take VF_STREAM_GATHER with the camera vertex's index in
+ * the bits above the eighth (worker/render/gathering_pass.c). */
+enum { VF_STREAM_LIGHT = 1, VF_STREAM_CAMERA = 2, VF_STREAM_TEST = 3, VF_STREAM_GATHER = 4 };
 
 static inline uint64_t vf_splitmix64(uint64_t x) {
   x += 0x9e3779b97f4a7c15ULL;

@@ -8,7 +8,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-static const char *const algorithm_names[VF_ALGO_COUNT_] = {"vcm", "bpt", "pt", "lt", "ppm", "bpm", "auto"};
+static const char *const algorithm_names[VF_ALGO_COUNT_] = {"vcm", "bpt", "pt", "lt", "ppm", "bpm", "auto", "upg"};
 static const char *const sampler_names[VF_SAMPLER_COUNT_] = {"independent", "sobol"};
 
 void vf_settings_default(vf_settings *s) {

@@ -22,6 +22,8 @@ typedef enum {
                  * by the renderer from the scene (worker/render/vcm.c, vf_vcm_algorithm). The
                  * settings text keeps "auto": the choice is a pure function of scene and
                  * settings, so every worker and every continue makes the same one. */
+  VF_ALGO_UPG,  /* vcm with unbiased photon gathering in place of vertex merging
+                 * (worker/render/photon_gathering.h) */
   VF_ALGO_COUNT_
 } vf_algorithm;
 

@@ -14,26 +14,6 @@
  * neighbouring grid cells at their first hit, so a tile reuses what its previous rows
  * brought into cache. */
 
-/* The BSDF a stored light vertex had. */
-static void bsdf_of_vertex(const vf_vcm *v, vf_bsdf *b, const light_vertex *lv) {
-  uint32_t shape = vertex_shape(lv);
-  if (__builtin_expect(v->interpolated[shape], 0)) {
-    const vf_shape *sh = &v->scene->shapes[shape];
-    vf_vec3 ng = vf_surface_triangle_normal(sh, lv->at.point.primitive);
-    vf_surface_bsdf(b, v->scene, v->lobes, shape, lv->at.point.primitive, lv->at.point.u, lv->at.point.v, ng, lv->fix);
-    return;
-  }
-  uint32_t m = (uint32_t)v->scene->shapes[shape].material;
-  vf_bsdf_setup(b, &v->scene->materials[m], &v->lobes[m], lv->at.normal, lv->fix);
-}
-
-/* The geometric normal of a stored light vertex whose BSDF is lb, for its shadow rays'
- * offsets (which orient it themselves): on an interpolated shape the one its BSDF was set
- * up with (vf_bsdf.geometric), not recomputed for every connection. */
-static vf_vec3 normal_of_vertex(const vf_vcm *v, const light_vertex *lv, const vf_bsdf *lb) {
-  return __builtin_expect(v->interpolated[vertex_shape(lv)], 0) ? lb->geometric : lv->at.normal;
-}
-
 /* s = 0: radiance of a light found by the camera sub-path, weighted. */
 static vf_vec3 emission_weighted(const vf_vcm *v, const vf_light *l, const path_state *s, vf_vec3 radiance,
                                  float direct_pdf, float emission_pdf) {
@@ -288,9 +268,9 @@ static int camera_bounce(vf_vcm *v, int thread, camera_lane *lane, const vf_hit 
     if (v->t.vertex_merging && v->num_vertices > 0) {
       vertex_merging_query *q = queue_vertex_merging(v, thread);
       if (q != NULL) {
-        *q = (vertex_merging_query){b, hit->position, s->throughput, s->mis, s->path_length, tile_pixel};
+        *q = (vertex_merging_query){b, hit->position, s->throughput, s->mis, s->path_length, tile_pixel, lane->pixel};
       } else {
-        vertex_merging_query now = {b, hit->position, s->throughput, s->mis, s->path_length, tile_pixel};
+        vertex_merging_query now = {b, hit->position, s->throughput, s->mis, s->path_length, tile_pixel, lane->pixel};
         defer_unshadowed(v, thread, vf_mul(s->throughput, vf_vertex_merging_estimate(v, &now)), tile_pixel);
       }
       if (v->t.ppm) return 0;

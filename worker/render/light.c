@@ -477,6 +477,29 @@ vf_vec3 vf_light_emission_factor(const vf_light *l, uint32_t t, float u, float v
   return vf_surface_emission_factor(l->scene, l->shape, t, u, v);
 }
 
+float vf_light_emission_toward(const vf_light *l, vf_vec3 n, vf_vec3 dir, float *dir_pdf_w, float *cos_light) {
+  *dir_pdf_w = 0.0f;
+  *cos_light = 1.0f;
+  switch (l->kind) {
+  case VF_LIGHT_AREA_MESH:
+  case VF_LIGHT_AREA_SPHERE: {
+    float c = vf_dot(n, dir);
+    if (!(c > 0.0f)) return 0.0f;
+    *dir_pdf_w = c * VF_INV_PI;
+    *cos_light = c;
+    return c;
+  }
+  case VF_LIGHT_POINT: *dir_pdf_w = VF_UNIFORM_SPHERE_PDF_W; return 1.0f;
+  case VF_LIGHT_SPOT: {
+    float c = vf_dot(l->direction, dir);
+    if (!(c > l->cos_outer)) return 0.0f;
+    *dir_pdf_w = l->cone_pdf_w;
+    return spot_falloff(l, c);
+  }
+  default: return 0.0f;
+  }
+}
+
 vf_vec3 vf_light_radiance_area(const vf_light *l, vf_vec3 ray_dir, vf_vec3 normal, float *direct_pdf_a,
                                float *emission_pdf_w) {
   float cos_out = -vf_dot(normal, ray_dir);

@@ -249,6 +249,14 @@ static inline vf_vec3 vf_light_emit(const vf_lights *ls, const vf_light *l, cons
   return energy;
 }
 
+/* What a light's own point emits towards unit direction dir, relative to what vf_light_emit
+ * returns there for its sampled direction: the factor (area lights: the cosine of dir
+ * against the unit normal n; point lights: 1; spot lights: the falloff), 0 where it emits
+ * nothing; *dir_pdf_w the emission's density of dir (vf_light_emit's emission_pdf_w over
+ * its direct_pdf_a) and *cos_light its cosine. Area, point and spot lights: the lights
+ * whose own point a connection can join (photon_gathering.h). */
+float vf_light_emission_toward(const vf_light *l, vf_vec3 n, vf_vec3 dir, float *dir_pdf_w, float *cos_light);
+
 /* Radiance of an area light hit at `point` with unit geometric normal `normal` by a ray of
  * direction ray_dir; zero from behind. A textured light's radiance is this times
  * vf_light_emission_factor at the hit's triangle and barycentrics. */

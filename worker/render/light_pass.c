@@ -261,6 +261,17 @@ static int light_start(vf_vcm *v, int thread, light_chunk *c, light_lane *lane, 
   vf_vec3 energy = vf_light_emit(v->lights, l, rnd, &s->origin, &s->direction, &normal, &emission_pdf, &direct_pdf,
                                  &cos_light);
   if (vf_is_zero(energy) || !(emission_pdf > 0.0f)) return 0;
+  if (v->upg) {
+    /* The point for joining the sub-path's first vertex to a camera vertex: with what it
+     * emits per unit of vf_light_emission_toward's factor (its radiance, texture
+     * included, for an area light; its intensity for a point or spot light). */
+    light_origin *o = &v->origins[path];
+    o->position = s->origin;
+    o->normal = normal;
+    o->light = l->is_finite ? (int32_t)(l - v->lights->lights) : -1;
+    int area = l->kind == VF_LIGHT_AREA_MESH || l->kind == VF_LIGHT_AREA_SPHERE;
+    o->radiance = area ? vf_scale(energy, 1.0f / cos_light) : l->radiance;
+  }
   if (v->t.lt && l->is_finite && !l->is_delta)
     connect_emitter_to_camera(v, thread, c, local, l->textured ? vf_scale(energy, 1.0f / cos_light) : l->radiance,
                               s->origin, normal, l->pick_probability * direct_pdf, sampler);

@@ -36,8 +36,9 @@ static void setup_iteration(vf_vcm *v, uint64_t iteration) {
   v->radius = (float)r;
   v->radius_sq = (float)(r * r);
   v->vm_normalization = (float)(1.0 / eta);
-  int vc_in_weights = v->settings.algorithm == VF_ALGO_VCM || v->settings.algorithm == VF_ALGO_BPT;
-  int vm_in_weights = v->settings.algorithm == VF_ALGO_VCM || v->settings.algorithm == VF_ALGO_BPM;
+  vf_algorithm a = v->settings.algorithm;
+  int vc_in_weights = a == VF_ALGO_VCM || a == VF_ALGO_UPG || a == VF_ALGO_BPT;
+  int vm_in_weights = a == VF_ALGO_VCM || a == VF_ALGO_UPG || a == VF_ALGO_BPM;
   v->mis.beta = (float)v->settings.mis_beta;
   v->mis.vm_weight = vm_in_weights ? vf_mis_h(&v->mis, (float)eta) : 0.0f;
   v->mis.vc_weight = vc_in_weights ? vf_mis_h(&v->mis, (float)(1.0 / eta)) : 0.0f;
@@ -49,6 +50,13 @@ static void add_counts(const vf_vcm *v, vf_vcm_stats *stats) {
   for (int t = 0; t < vf_pool_threads(v->pool); t++) {
     stats->rays += v->stats[t].rays;
     stats->nonfinite += v->stats[t].nonfinite;
+    const vf_upg_counts *u = &v->stats[t].upg;
+    stats->upg_gatherings += u->gatherings;
+    stats->upg_trials += u->trials;
+    stats->upg_rays += u->rays;
+    stats->upg_truncated += u->truncated;
+    stats->upg_bound_exceeded += u->bound_exceeded;
+    stats->upg_fallbacks += v->stats[t].upg_fallbacks;
   }
   stats->light_vertices += v->num_vertices;
 }
@@ -109,6 +117,7 @@ static void choose_techniques(vf_vcm *v) {
   memset(t, 0, sizeof *t);
   switch (v->settings.algorithm) {
   case VF_ALGO_VCM:
+  case VF_ALGO_UPG:
     t->light_paths = t->camera_paths = t->light_to_camera = t->emission = t->light_sample = 1;
     t->connection = t->vertex_merging = 1;
     break;
@@ -279,6 +288,8 @@ int vf_vcm_create(const vf_scene *scene, const vf_accel *accel, const vf_setting
   if ((err = vf_lights_create(scene, &v->lights)) != VF_OK) goto fail;
   err = VF_ENOMEM;
   v->fused = v->t.connection && !v->t.vertex_merging && v->t.light_paths && v->t.camera_paths;
+  v->upg = v->settings.algorithm == VF_ALGO_UPG;
+  if (v->upg && (v->origins = calloc(v->num_pixels, sizeof *v->origins)) == NULL) goto fail;
   v->num_chunks = v->fused ? vf_camera_pass_tiles(v) : (v->num_pixels + LIGHT_CHUNK - 1) / LIGHT_CHUNK;
   v->chunks = calloc(v->num_chunks, sizeof *v->chunks);
   v->band_pixels = SPLAT_BAND * (uint32_t)v->camera.width;
@@ -349,6 +360,8 @@ void vf_vcm_trim(vf_vcm *v) {
   v->num_vertices = 0;
   free(v->photons);
   v->photons = NULL;
+  free(v->photon_source);
+  v->photon_source = NULL;
   v->photon_capacity = 0;
   v->merge_points = NULL;
   vf_hashgrid_trim(v->grid);
@@ -371,6 +384,8 @@ void vf_vcm_destroy(vf_vcm *v) {
   free(v->band_start);
   free(v->segments);
   free(v->photons);
+  free(v->photon_source);
+  free(v->origins);
   free(v->path_begin);
   free(v->path_end);
   if (v->scratch)

@@ -38,6 +38,11 @@ typedef struct {
   uint64_t rays;            /* closest-hit and occlusion queries */
   uint64_t light_vertices;  /* stored for connection and merging */
   uint64_t nonfinite;       /* NaN or Inf samples refused (never accumulated) */
+  /* upg (photon_gathering.h): light vertices gathered without bias, their tentative
+   * directions and the rays traced for them, gatherings stopped at the trial cap,
+   * directions whose density exceeded its bound (both 0 in a correct render), and light
+   * vertices merged as vcm merges them (biased). */
+  uint64_t upg_gatherings, upg_trials, upg_rays, upg_truncated, upg_bound_exceeded, upg_fallbacks;
   double light_seconds;     /* wall time of the three phases: light sub-paths, */
   double grid_seconds;      /* range-search grid, */
   double camera_seconds;    /* camera sub-paths */

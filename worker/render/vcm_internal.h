@@ -23,6 +23,7 @@
 #include "hashgrid.h"
 #include "light.h"
 #include "mis.h"
+#include "photon_gathering.h"
 #include "../scene/scene.h"
 #include "vcm.h"
 
@@ -100,6 +101,15 @@ typedef struct {
   int out_of_memory;
 } light_chunk;
 
+/* upg: the first point of a light sub-path, on its light, for joining it to a camera
+ * vertex that gathers the sub-path's first stored vertex (gathering_pass.c). */
+typedef struct {
+  vf_vec3 position;
+  vf_vec3 normal;   /* area lights: the unit normal of the emitting side */
+  vf_vec3 radiance; /* area lights: Le there (texture included); point and spot: intensity */
+  int32_t light;    /* its index, or -1 for a light at infinity (or no sub-path) */
+} light_origin;
+
 /* A sub-path's state between vertices. */
 typedef struct {
   vf_vec3 origin, direction;
@@ -135,6 +145,7 @@ typedef struct {
   vf_mis mis;
   int path_length;
   uint32_t tile_pixel; /* index into the tile's color buffer */
+  uint32_t pixel;      /* the camera sub-path's (upg's gatherings draw from its stream) */
 } vertex_merging_query;
 
 /* Shadow rays are not traced one by one where they arise but gathered into packets of
@@ -166,6 +177,8 @@ typedef struct {
 typedef struct {
   _Alignas(64) uint64_t rays; /* closest-hit and occlusion queries */
   uint64_t nonfinite;         /* NaN or Inf estimates refused */
+  vf_upg_counts upg;          /* upg's gatherings (photon_gathering.h) */
+  uint64_t upg_fallbacks;     /* upg: light vertices merged as vcm merges them */
   double light_seconds;       /* bpt's fused pass: wall time in the tiles' light sub-paths */
 } thread_stats;
 
@@ -221,6 +234,11 @@ struct vf_vcm {
    * vertices' BSDFs, and connects to them while they are in cache; nothing is stored for
    * the whole iteration (fused_pass.h). The chunks are then the camera tiles. */
   int fused;
+  /* upg: vertex merging gathers without bias (gathering_pass.c): the light sub-paths' first
+   * points, per path, and each grid point's light vertex, as the grid names it. */
+  int upg;
+  light_origin *origins;
+  uint32_t *photon_source;
   int has_specular, has_glossy, has_diffuse;
   vf_algorithm requested;    /* settings.algorithm as given; settings.algorithm is what runs */
   const char *auto_reason;   /* why auto chose settings.algorithm, NULL unless requested auto */

@@ -10,6 +10,7 @@
  * path to. */
 #include "vertex_merging.h"
 #include "huge_pages.h"
+#include "gathering_pass.h"
 #include "merge_pipeline.h"
 
 #include "../../common/error.h"
@@ -45,6 +46,7 @@ static void gather_task(void *ctx, size_t task, int thread) {
     /* The vertices are read in grid order, that is at random: fetch ahead of use. */
     if (k + GATHER_AHEAD < end) __builtin_prefetch(grid_vertex(v, points[k + GATHER_AHEAD].path_length_shape));
     const light_vertex *lv = grid_vertex(v, points[k].path_length_shape); /* still the index */
+    if (v->photon_source) v->photon_source[k] = points[k].path_length_shape;
     points[k].path_length_shape = lv->path_length_shape;
     v->photons[k] = (photon){lv->throughput, lv->fix, lv->mis.d_vcm, lv->mis.d_vm};
   }
@@ -64,6 +66,11 @@ int vf_vertex_merging_build_grid(vf_vcm *v) {
     free(v->photons);
     v->photons = vf_huge_alloc(capacity * sizeof(photon));
     v->photon_capacity = v->photons ? (uint32_t)capacity : 0;
+    if (v->upg) {
+      free(v->photon_source);
+      v->photon_source = malloc(capacity * sizeof *v->photon_source);
+      if (v->photon_source == NULL) v->photon_capacity = 0;
+    }
     if (v->photon_capacity == 0) return VF_ENOMEM;
   }
   /* Borrowed from the grid until its next build; its pad past n reads as zeros, ignored. */
@@ -124,6 +131,10 @@ vf_vec3 vf_vertex_merging_estimate(const vf_vcm *v, const vertex_merging_query *
 }
 
 void vf_vertex_merging_run_tile(vf_vcm *v, int thread, float *tile_rgb) {
+  if (v->upg) {
+    vf_gathering_pass_run_tile(v, thread, tile_rgb);
+    return;
+  }
 #ifdef VF_MERGE_PIPELINE
   vf_merge_pipeline_run(v, thread, tile_rgb);
 #else

@@ -57,6 +57,26 @@ static inline int bsdf_at(const vf_vcm *v, vf_bsdf *b, const vf_hit *hit, vf_vec
   return vf_bsdf_setup(b, &v->scene->materials[m], &v->lobes[m], hit->normal, world_fix);
 }
 
+/* The BSDF a stored light vertex had. */
+static inline void bsdf_of_vertex(const vf_vcm *v, vf_bsdf *b, const light_vertex *lv) {
+  uint32_t shape = vertex_shape(lv);
+  if (__builtin_expect(v->interpolated[shape], 0)) {
+    const vf_shape *sh = &v->scene->shapes[shape];
+    vf_vec3 ng = vf_surface_triangle_normal(sh, lv->at.point.primitive);
+    vf_surface_bsdf(b, v->scene, v->lobes, shape, lv->at.point.primitive, lv->at.point.u, lv->at.point.v, ng, lv->fix);
+    return;
+  }
+  uint32_t m = (uint32_t)v->scene->shapes[shape].material;
+  vf_bsdf_setup(b, &v->scene->materials[m], &v->lobes[m], lv->at.normal, lv->fix);
+}
+
+/* The geometric normal of a stored light vertex whose BSDF is lb, for its shadow rays'
+ * offsets (which orient it themselves): on an interpolated shape the one its BSDF was set
+ * up with (vf_bsdf.geometric), not recomputed for every connection. */
+static inline vf_vec3 normal_of_vertex(const vf_vcm *v, const light_vertex *lv, const vf_bsdf *lb) {
+  return __builtin_expect(v->interpolated[vertex_shape(lv)], 0) ? lb->geometric : lv->at.normal;
+}
+
 /* Before the lanes continue from their hits (bit k of `found`: hits[k], of m): starts the
  * loads that setting up their BSDFs will make (worker/render/surface.h), so that the cache misses
  * of the packet's hits overlap. A lane shades its hit among thousands of instructions of

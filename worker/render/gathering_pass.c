@@ -1,0 +1,190 @@
+/* upg's vertex merging: each camera vertex gathers the light vertices within the radius,
+ * as vcm's merging finds them, and joins each one's predecessor to itself, with the
+ * unbiased estimate of the acceptance probability's reciprocal (photon_gathering.h has the
+ * estimator, gathering_pass.h the phase). */
+#include "gathering_pass.h"
+
+#include "photon_gathering.h"
+#include "vertex_merging.h"
+#include "wavefront.h"
+
+#include <math.h>
+
+/* The light sub-path (global index) whose chunk-list range holds vertex i of chunk c: the
+ * last path of the chunk that begins at or before i (path_begin is non-decreasing over a
+ * chunk's paths; empty paths begin where the next does). */
+static uint32_t path_of_vertex(const vf_vcm *v, uint32_t c, uint32_t i) {
+  uint32_t lo = c * LIGHT_CHUNK, hi = lo + LIGHT_CHUNK < v->num_pixels ? lo + LIGHT_CHUNK : v->num_pixels;
+  hi--; /* the answer lies in [lo, hi] */
+  while (lo < hi) {
+    uint32_t mid = lo + (hi - lo + 1) / 2;
+    if (v->path_begin[mid] <= i) lo = mid;
+    else hi = mid - 1;
+  }
+  return lo;
+}
+
+/* The ray origin of a tentative direction from point p with geometric normal n (zero
+ * vector: a punctual light) on the side of dir: where the light sub-path's own ray would
+ * start (vf_wavefront_scatter, light_pass.c's light_start). */
+static vf_vec3 tentative_origin(const vf_vcm *v, vf_vec3 p, vf_vec3 n, vf_vec3 dir) {
+  if (vf_is_zero(n)) return p;
+  return vf_offset_ray_origin(p, vf_dot(n, dir) > 0.0f ? n : vf_neg(n), v->offset_scale);
+}
+
+/* What a tentative ray must find (vf_upg_lands): from `origin`, its first hit within the
+ * radius of the camera vertex on a surface that stores light vertices. */
+typedef struct {
+  vf_vcm *v;
+  int thread;
+  vf_vec3 from, normal; /* L and its geometric normal (zero vector: a punctual light) */
+  vf_vec3 target;
+  float tfar;
+} landing;
+
+static int lands(void *ctx, vf_vec3 dir) {
+  landing *l = ctx;
+  vf_vcm *v = l->v;
+  vf_hit hit;
+  v->stats[l->thread].rays++;
+  if (!vf_accel_intersect(v->accel, tentative_origin(v, l->from, l->normal, dir), dir, l->tfar, &hit)) return 0;
+  /* The test of vertex merging, the same float operations (vertex_merging.c). */
+  float dx = hit.position.x - l->target.x, dy = hit.position.y - l->target.y, dz = hit.position.z - l->target.z;
+  if (!(dx * dx + dy * dy + dz * dz <= v->radius_sq)) return 0;
+  /* Stored there, as light_pass.c stores: a surface that scatters, not only specularly. */
+  vf_bsdf b;
+  return bsdf_at(v, &b, &hit, vf_neg(dir)) && !b.is_delta;
+}
+
+/* The light vertex k of the grid merged as vcm merges it: the fall-back. */
+static vf_vec3 merge_as_vcm(vf_vcm *v, int thread, const vertex_merging_query *q, uint32_t k) {
+  v->stats[thread].upg_fallbacks++;
+  return vf_scale(vf_vertex_merging_one(v, q, k), v->vm_normalization);
+}
+
+/* Gathers light vertex k of the grid (within the radius of q) at camera vertex q: its
+ * estimate, not yet scaled by q's throughput. */
+static vf_vec3 gather(vf_vcm *v, int thread, const vertex_merging_query *q, uint32_t k, vf_rng *rng) {
+  const vf_vec3 zero = vf_vec3_splat(0.0f);
+  uint32_t length_shape = v->merge_points[k].path_length_shape;
+  int length = (int)(length_shape & ((1u << VERTEX_LENGTH_BITS) - 1u));
+  if (length + q->path_length > v->settings.max_path_length) return zero;
+  /* A specular choice made the vertex (vf_mis_scatter zeroes d_vcm for it, and nothing
+   * else does): its predecessor cannot be joined to q. */
+  if (v->photons[k].d_vcm == 0.0f) return merge_as_vcm(v, thread, q, k);
+
+  uint32_t name = v->photon_source[k];
+  uint32_t c = name >> v->chunk_shift, i = name & ((1u << v->chunk_shift) - 1u);
+  uint32_t path = path_of_vertex(v, c, i);
+  const light_vertex *list = v->chunks[c].vertices;
+  const light_vertex *pred = NULL;
+  const light_origin *origin = NULL;
+  if (length == 1) {
+    origin = &v->origins[path];
+    if (origin->light < 0) return merge_as_vcm(v, thread, q, k);
+  } else if (i > v->path_begin[path] && vertex_path_length(&list[i - 1]) == length - 1) {
+    pred = &list[i - 1];
+  } else {
+    return merge_as_vcm(v, thread, q, k);
+  }
+
+  /* The connection of the predecessor L and q (camera_pass.c's connect_vertices). */
+  vf_vec3 lpos = pred ? pred->position : origin->position;
+  vf_vec3 d = vf_sub(lpos, q->position);
+  float dist2 = vf_length_sq(d);
+  if (!(dist2 > 0.0f)) return zero;
+  float dist = sqrtf(dist2);
+  d = vf_scale(d, 1.0f / dist); /* from q towards L */
+  float cos_camera, camera_pdf, camera_rev_pdf;
+  vf_vec3 fc = vf_bsdf_evaluate(&q->bsdf, d, &cos_camera, &camera_pdf, &camera_rev_pdf);
+  if (vf_is_zero(fc)) return zero;
+
+  vf_bsdf lb;
+  vf_upg_source src = {NULL, NULL, zero};
+  vf_vec3 light_value, lnormal;
+  vf_mis light_mis;
+  if (pred) {
+    bsdf_of_vertex(v, &lb, pred);
+    float cos_light, light_pdf, light_rev_pdf;
+    vf_vec3 fl = vf_bsdf_evaluate(&lb, vf_neg(d), &cos_light, &light_pdf, &light_rev_pdf);
+    if (vf_is_zero(fl)) return zero;
+    light_value = vf_scale(vf_mul(pred->throughput, fl), cos_light);
+    light_mis = pred->mis;
+    vf_mis_scatter(&light_mis, &v->mis, cos_light, light_pdf, light_rev_pdf, 0);
+    lnormal = normal_of_vertex(v, pred, &lb);
+    src.bsdf = &lb;
+  } else {
+    const vf_light *l = &v->lights->lights[origin->light];
+    float dir_pdf, cos_light;
+    float factor = vf_light_emission_toward(l, origin->normal, vf_neg(d), &dir_pdf, &cos_light);
+    if (!(factor > 0.0f)) return zero;
+    float pick = l->pick_probability;
+    float area_pdf = l->is_delta ? 1.0f : l->inv_area;
+    /* What the light sub-path's throughput would be after emitting towards q, times the
+     * emission density of that direction: the emitted value over the point's density. */
+    light_value = vf_scale(origin->radiance, factor / (pick * area_pdf));
+    vf_mis_light_start(&light_mis, &v->mis, area_pdf * pick, area_pdf * dir_pdf * pick, cos_light, l->is_delta, 1);
+    lnormal = l->is_delta ? zero : origin->normal;
+    src.light = l;
+    src.light_normal = origin->normal;
+  }
+  /* The light vertex as if it had landed at q: the weight of merging it there (eq. 38-39),
+   * whose approximate acceptance density every technique's weight shares (see the top of
+   * photon_gathering.h). */
+  vf_mis_hit(&light_mis, &v->mis, dist, cos_camera, 1);
+  float w = vf_mis_weight_merge(&light_mis, &q->mis, &v->mis, camera_pdf, camera_rev_pdf);
+  vf_vec3 value = vf_scale(vf_mul(light_value, fc), w * cos_camera / (dist2 * v->mis.light_paths));
+  if (vf_is_zero(value)) return zero;
+
+  /* The visibility of the connection, as a shadow ray of camera_pass.c would test it. */
+  {
+    /* The camera vertex's geometric normal: its BSDF's, on the side it was reached from. */
+    vf_vec3 n = q->bsdf.shading ? q->bsdf.geometric : q->bsdf.frame.n;
+    vf_vec3 o = vf_offset_ray_origin(q->position, vf_dot(n, d) > 0.0f ? n : vf_neg(n), v->offset_scale);
+    vf_vec3 e = vf_is_zero(lnormal) ? lpos
+                                    : vf_offset_ray_origin(lpos, vf_dot(lnormal, d) < 0.0f ? lnormal : vf_neg(lnormal),
+                                                           v->offset_scale);
+    v->stats[thread].rays++;
+    if (vf_accel_occluded(v->accel, o, vf_sub(e, o), 1.0f)) return zero;
+  }
+
+  /* 1 / p_acc, from L towards the ball of radius r around q. */
+  vf_vec3 axis;
+  float cos_half, omc;
+  vf_upg_cone(lpos, q->position, v->radius, &axis, &cos_half, &omc);
+  float bound = vf_upg_bound(&src, axis, cos_half, omc);
+  landing ctx = {v, thread, lpos, lnormal, q->position, dist + 2.0f * v->radius};
+  double inverse;
+  if (isfinite(bound)) {
+    if (!(bound > 0.0f)) return zero; /* nothing reaches the ball: no light vertex could have */
+    inverse = vf_upg_inverse_acceptance(&src, axis, cos_half, omc, bound, rng, lands, &ctx, &v->stats[thread].upg);
+  } else {
+    inverse = vf_upg_inverse_acceptance_draws(src.bsdf, axis, cos_half, rng, lands, &ctx, &v->stats[thread].upg);
+  }
+  return vf_scale(value, (float)inverse);
+}
+
+void vf_gathering_pass_run_tile(vf_vcm *v, int thread, float *tile_rgb) {
+  thread_scratch *ts = &v->scratch[thread];
+  for (uint32_t n = 0; n < ts->num_queries; n++) {
+    const vertex_merging_query *q = &ts->queries[n];
+    /* The gathering's own stream: (seed, iteration, camera sub-path, camera vertex). */
+    vf_rng rng = vf_rng_for_path(v->settings.seed, v->iteration, q->pixel,
+                                 VF_STREAM_GATHER | (uint32_t)q->path_length << 8);
+    vf_index_range ranges[VF_HASHGRID_MAX_RANGES];
+    int num_ranges = vf_hashgrid_candidates(v->grid, q->position, ranges);
+    vf_vec3 sum = vf_vec3_splat(0.0f);
+    for (int r = 0; r < num_ranges; r++)
+      for (uint32_t k = ranges[r].begin; k < ranges[r].end; k++) {
+        const merge_point *p = &v->merge_points[k];
+        float dx = p->x - q->position.x, dy = p->y - q->position.y, dz = p->z - q->position.z;
+        if (dx * dx + dy * dy + dz * dz <= v->radius_sq) sum = vf_add(sum, gather(v, thread, q, k, &rng));
+      }
+    vf_vec3 contrib = vf_mul(q->throughput, sum);
+    float *rgb = &tile_rgb[3 * (size_t)q->tile_pixel];
+    rgb[0] += contrib.x;
+    rgb[1] += contrib.y;
+    rgb[2] += contrib.z;
+  }
+  ts->num_queries = 0;
+}

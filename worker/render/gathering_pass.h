@@ -1,0 +1,22 @@
+/* upg's vertex merging (photon_gathering.h has the estimator and why it is unbiased).
+ *
+ * The grid, the queries and the candidate tests are vcm's (vertex_merging.h): a camera
+ * vertex finds the light vertices within the radius as vcm's merging finds them. Each one
+ * found is then gathered: its predecessor on its light sub-path (the previous vertex of its
+ * chunk's list when that is one segment shorter and of the same path, or the sub-path's
+ * first point on its light, vf_vcm.origins) is joined to the camera vertex as a
+ * connection, with a visibility ray, and weighted by vf_upg_inverse_acceptance's estimate
+ * of 1/p_acc. A light vertex made by a specular choice, or whose predecessor is a light at
+ * infinity, is merged as vcm merges it and counted (thread_stats.upg_fallbacks).
+ * Private to the renderer. */
+#ifndef VF_GATHERING_PASS_H
+#define VF_GATHERING_PASS_H
+
+#include "vcm_internal.h"
+
+/* Runs the thread's queued queries (vf_vcm.scratch[thread].queries) as gatherings and adds
+ * each one's estimate times its throughput to its pixel of tile_rgb, in queue order;
+ * empties the queue. The upg counterpart of vf_vertex_merging_run_tile. */
+void vf_gathering_pass_run_tile(vf_vcm *v, int thread, float *tile_rgb);
+
+#endif

@@ -1,0 +1,182 @@
+/* Unbiased photon gathering: the estimator of 1/p_acc and its bounds (photon_gathering.h);
+ * the renderer's use of it is gathering_pass.c. */
+#include "photon_gathering.h"
+
+#include "sampling.h"
+
+#include <math.h>
+
+float vf_upg_density(const vf_upg_source *src, vf_vec3 dir) {
+  if (src->bsdf == NULL) {
+    float pdf, cos_light;
+    return vf_light_emission_toward(src->light, src->light_normal, dir, &pdf, &cos_light) > 0.0f ? pdf : 0.0f;
+  }
+  float pdf = 0.0f;
+  vf_vec3 f = vf_bsdf_evaluate(src->bsdf, dir, NULL, &pdf, NULL);
+  return vf_is_zero(f) ? 0.0f : pdf;
+}
+
+/* ---- bounds over a cone ------------------------------------------------------------------ */
+
+/* The largest cosine between unit u and a direction of the cone (unit axis a, half-angle
+ * with cosine ch and sine sh): cos(max(0, angle(a, u) - theta)). */
+static float max_cos(vf_vec3 a, vf_vec3 u, float ch, float sh) {
+  float ca = vf_dot(a, u);
+  if (ca >= ch) return 1.0f;
+  float sa = sqrtf(vf_fmaxf_zero(1.0f - ca * ca));
+  return ca * ch + sa * sh;
+}
+
+/* The largest GGX D over the normals m = +-normalize(c + k w), w in the cone (unit axis a,
+ * chord rho = |w - a| at most 2 sin(theta / 2)), turned above the surface: c + k w lies in
+ * the ball of radius k rho around c + k a, so m lies within asin(k rho / |c + k a|) of
+ * that centre's line; D falls with m's angle to the normal (for alpha <= 1, it rises for
+ * alpha > 1). */
+static float max_d(vf_vec3 c, float k, vf_vec3 a, float rho, float alpha) {
+  if (alpha > 1.0f) return alpha * alpha * VF_INV_PI; /* D's largest value, at the horizon */
+  vf_vec3 centre = vf_add(c, vf_scale(a, k));
+  float len = vf_length(centre), spread = k * rho;
+  float peak = 1.0f / (VF_PI * alpha * alpha);
+  if (!(spread < len)) return peak;
+  float angle = acosf(fminf(1.0f, fabsf(centre.z) / len)) - asinf(spread / len);
+  if (!(angle > 0.0f)) return peak;
+  if (angle >= 0.5f * VF_PI) return 0.0f;
+  return vf_ggx_d(vf_vec3_make(sinf(angle), 0.0f, cosf(angle)), alpha, alpha);
+}
+
+/* The bound of a light vertex's BSDF: the sum of each non-delta lobe's bound, times the
+ * continuation probability, in the BSDF's frame (the shading one where it has one; the
+ * densities there are what vf_bsdf_evaluate returns, zero where the shading fold is). */
+static float bsdf_bound(const vf_bsdf *b, vf_vec3 world_axis, float ch, float one_minus_ch) {
+  const float *p = b->lobe_probability;
+  vf_vec3 a = vf_frame_to_local(&b->frame, world_axis);
+  float sh = sqrtf(vf_fmaxf_zero(one_minus_ch * (1.0f + ch)));
+  float rho = sqrtf(2.0f * one_minus_ch);
+  const vf_vec3 z = vf_vec3_make(0.0f, 0.0f, 1.0f), fix = b->local_fix;
+  float bound = 0.0f;
+  float cosine = p[VF_LOBE_DIFFUSE] + (b->rough ? p[VF_LOBE_BASE] : 0.0f);
+  if (cosine > 0.0f) bound += cosine * vf_fmaxf_zero(max_cos(a, z, ch, sh)) * VF_INV_PI;
+  if (p[VF_LOBE_GLOSSY] > 0.0f) {
+    float n = b->material->phong_exponent;
+    float c = max_cos(a, vf_bsdf_reflect_local(fix), ch, sh);
+    if (c > 0.0f) bound += p[VF_LOBE_GLOSSY] * (n + 1.0f) * (0.5f * VF_INV_PI) * vf_phong_power(fminf(c, 1.0f), n);
+  }
+  if (b->rough) {
+    float pc = p[VF_LOBE_ROUGH_CONDUCTOR], pd = p[VF_LOBE_ROUGH_DIELECTRIC];
+    float g1_fix = 1.0f / (1.0f + b->lambda_fix);
+    if (pc + pd > 0.0f) /* reflection: G1(fix) D / (4 fix.z), Fresnel <= 1 (bsdf.c, reflect_rough) */
+      bound += (pc + pd) * g1_fix * max_d(fix, 1.0f, a, rho, b->alpha) / (4.0f * fix.z);
+    if (pd > 0.0f) {
+      /* Refraction: G1(fix) D ci / fix.z (1 - F) eta^2 |co| / |fix + eta gen|^2 with ci,
+       * |co|, 1 - F <= 1 (bsdf.c, refract_rough); |fix + eta gen| >= |1 - eta| always,
+       * and >= |fix + eta a| - eta rho over the cone. */
+      float eta = b->eta;
+      float len = fmaxf(vf_length(vf_add(fix, vf_scale(a, eta))) - eta * rho, fabsf(1.0f - eta));
+      if (!(len > 0.0f)) return INFINITY;
+      bound += pd * g1_fix * max_d(fix, eta, a, rho, b->alpha) / fix.z * eta * eta / (len * len);
+    }
+  }
+  return bound * b->continuation;
+}
+
+/* Every bound is widened by this factor: a direction drawn in the cone lies outside it by
+ * a rounding error at times, and its density may then exceed the exact bound by a few
+ * units in the last place. A wider bound is as exact, and costs only pdf evaluations. */
+#define BOUND_SLACK 1.001f
+
+static float source_bound(const vf_upg_source *src, vf_vec3 axis, float cos_half, float one_minus_cos_half);
+
+float vf_upg_bound(const vf_upg_source *src, vf_vec3 axis, float cos_half, float one_minus_cos_half) {
+  return BOUND_SLACK * source_bound(src, axis, cos_half, one_minus_cos_half);
+}
+
+static float source_bound(const vf_upg_source *src, vf_vec3 axis, float cos_half, float one_minus_cos_half) {
+  if (src->bsdf != NULL) return bsdf_bound(src->bsdf, axis, cos_half, one_minus_cos_half);
+  const vf_light *l = src->light;
+  switch (l->kind) {
+  case VF_LIGHT_AREA_MESH:
+  case VF_LIGHT_AREA_SPHERE: {
+    float sh = sqrtf(vf_fmaxf_zero(one_minus_cos_half * (1.0f + cos_half)));
+    return vf_fmaxf_zero(max_cos(axis, src->light_normal, cos_half, sh)) * VF_INV_PI;
+  }
+  case VF_LIGHT_POINT: return VF_UNIFORM_SPHERE_PDF_W;
+  case VF_LIGHT_SPOT: return l->cone_pdf_w;
+  default: return INFINITY;
+  }
+}
+
+float vf_upg_cone(vf_vec3 from, vf_vec3 to, float r, vf_vec3 *axis, float *cos_half, float *one_minus_cos_half) {
+  vf_vec3 d = vf_sub(to, from);
+  float dist = vf_length(d);
+  *axis = dist > 0.0f ? vf_scale(d, 1.0f / dist) : vf_vec3_make(0.0f, 0.0f, 1.0f);
+  if (!(dist > r)) {
+    *cos_half = -1.0f;
+    *one_minus_cos_half = 2.0f;
+    return dist;
+  }
+  float s = r / dist, c = sqrtf(vf_fmaxf_zero(1.0f - s * s));
+  *cos_half = c;
+  *one_minus_cos_half = s * s / (1.0f + c); /* 1 - sqrt(1 - s^2), without cancellation */
+  return dist;
+}
+
+/* A direction uniform in the cone around unit axis (frame f) of 1 - cos(half-angle) omc. */
+static vf_vec3 cone_direction(const vf_frame *f, float omc, float u1, float u2) {
+  float one_minus_cos = u1 * omc, cos_t = 1.0f - one_minus_cos;
+  float sin_t = sqrtf(vf_fmaxf_zero(one_minus_cos * (2.0f - one_minus_cos))), phi = 2.0f * VF_PI * u2;
+  return vf_frame_to_world(f, vf_vec3_make(sin_t * cosf(phi), sin_t * sinf(phi), cos_t));
+}
+
+double vf_upg_inverse_acceptance(const vf_upg_source *src, vf_vec3 axis, float cos_half, float one_minus_cos_half,
+                                 float bound, vf_rng *rng, vf_upg_lands lands, void *ctx, vf_upg_counts *counts) {
+  (void)cos_half;
+  vf_frame f = vf_frame_from_normal(axis);
+  uint64_t n = 0, rays = 0;
+  for (;;) {
+    if (n == VF_UPG_MAX_TRIALS) {
+      counts->truncated++;
+      break;
+    }
+    n++;
+    float u1 = vf_rng_float(rng), u2 = vf_rng_float(rng), u3 = vf_rng_float(rng);
+    vf_vec3 dir = cone_direction(&f, one_minus_cos_half, u1, u2);
+    float pdf = vf_upg_density(src, dir);
+    if (pdf > bound) counts->bound_exceeded++;
+    if (!(u3 * bound < pdf)) continue;
+    rays++;
+    if (lands(ctx, dir)) break;
+  }
+  counts->gatherings++;
+  counts->trials += n;
+  counts->rays += rays;
+  double solid_angle = 2.0 * M_PI * (double)one_minus_cos_half;
+  return (double)n / (solid_angle * (double)bound);
+}
+
+double vf_upg_inverse_acceptance_draws(const vf_bsdf *b, vf_vec3 axis, float cos_half, vf_rng *rng,
+                                       vf_upg_lands lands, void *ctx, vf_upg_counts *counts) {
+  uint64_t n = 0, rays = 0;
+  for (;;) {
+    if (n == VF_UPG_MAX_TRIALS) {
+      counts->truncated++;
+      break;
+    }
+    n++;
+    /* The walk of vf_wavefront_scatter: roulette, then lobe and direction. */
+    float roulette = vf_rng_float(rng);
+    float rnd[3] = {vf_rng_float(rng), vf_rng_float(rng), vf_rng_float(rng)};
+    if (roulette >= b->continuation) continue;
+    vf_vec3 gen;
+    float pdf, rev_pdf, cos_gen;
+    unsigned event;
+    vf_vec3 f = vf_bsdf_sample(b, rnd, &gen, &pdf, &rev_pdf, &cos_gen, &event);
+    if (vf_is_zero(f) || !(pdf > 0.0f) || (event & VF_BSDF_SPECULAR)) continue;
+    if (vf_dot(gen, axis) < cos_half) continue;
+    rays++;
+    if (lands(ctx, gen)) break;
+  }
+  counts->gatherings++;
+  counts->trials += n;
+  counts->rays += rays;
+  return (double)n;
+}
