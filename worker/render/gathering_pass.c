@@ -103,19 +103,18 @@ static vf_vec3 gather(vf_vcm *v, int thread, const vertex_merging_query *q, uint
   vf_upg_source src = {NULL, NULL, zero};
   vf_vec3 light_value, lnormal;
   vf_mis light_mis;
+  float cos_light = 1.0f, light_pdf = 0.0f, light_rev_pdf = 0.0f;
   if (pred) {
     bsdf_of_vertex(v, &lb, pred);
-    float cos_light, light_pdf, light_rev_pdf;
     vf_vec3 fl = vf_bsdf_evaluate(&lb, vf_neg(d), &cos_light, &light_pdf, &light_rev_pdf);
     if (vf_is_zero(fl)) return zero;
     light_value = vf_scale(vf_mul(pred->throughput, fl), cos_light);
     light_mis = pred->mis;
-    vf_mis_scatter(&light_mis, &v->mis, cos_light, light_pdf, light_rev_pdf, 0);
     lnormal = normal_of_vertex(v, pred, &lb);
     src.bsdf = &lb;
   } else {
     const vf_light *l = &v->lights->lights[origin->light];
-    float dir_pdf, cos_light;
+    float dir_pdf;
     float factor = vf_light_emission_toward(l, origin->normal, vf_neg(d), &dir_pdf, &cos_light);
     if (!(factor > 0.0f)) return zero;
     float pick = l->pick_probability;
@@ -131,8 +130,8 @@ static vf_vec3 gather(vf_vcm *v, int thread, const vertex_merging_query *q, uint
   /* The light vertex as if it had landed at q: the weight of merging it there (eq. 38-39),
    * whose approximate acceptance density every technique's weight shares (see the top of
    * photon_gathering.h). */
-  vf_mis_hit(&light_mis, &v->mis, dist, cos_camera, 1);
-  float w = vf_mis_weight_merge(&light_mis, &q->mis, &v->mis, camera_pdf, camera_rev_pdf);
+  float w = vf_mis_weight_gather(light_mis, &q->mis, &v->mis, pred != NULL, cos_light, light_pdf, light_rev_pdf, dist,
+                                 cos_camera, camera_pdf, camera_rev_pdf);
   vf_vec3 value = vf_scale(vf_mul(light_value, fc), w * cos_camera / (dist2 * v->mis.light_paths));
   if (vf_is_zero(value)) return zero;
 

@@ -138,4 +138,19 @@ static inline float vf_mis_weight_merge(const vf_mis *light, const vf_mis *cam, 
   return 1.0f / (w_light + 1.0f + w_camera);
 }
 
+/* upg: light vertex y_{s-1}, found within the radius of camera vertex z_{t-1}, scored as
+ * the connection of its predecessor y_{s-2} and z_{t-1} (photon_gathering.h). The weight is
+ * merging's (eq. 38-39) for a light vertex that landed exactly at z_{t-1}: `light`, the
+ * predecessor's quantities after its hit, scattered towards z_{t-1} (cos_light,
+ * light_pdf_w and light_rev_pdf_w at the predecessor; `scatter` 0 for a light's own point,
+ * whose vf_mis_light_start for that direction is `light` already) and hit there at
+ * distance dist with |cos| cos_camera; then the camera side as vf_mis_weight_merge. */
+static inline float vf_mis_weight_gather(vf_mis light, const vf_mis *cam, const vf_mis_config *c, int scatter,
+                                         float cos_light, float light_pdf_w, float light_rev_pdf_w, float dist,
+                                         float cos_camera, float camera_dir_pdf_w, float camera_rev_pdf_w) {
+  if (scatter) vf_mis_scatter(&light, c, cos_light, light_pdf_w, light_rev_pdf_w, 0);
+  vf_mis_hit(&light, c, dist, cos_camera, 1);
+  return vf_mis_weight_merge(&light, cam, c, camera_dir_pdf_w, camera_rev_pdf_w);
+}
+
 #endif

@@ -259,7 +259,8 @@ typedef struct {
 static void implemented_techniques(const full_path *x, vf_algorithm a, int delta_light, technique_set *t) {
   const int k = x->k;
   memset(t, 0, sizeof *t);
-  int vc = a == VF_ALGO_VCM || a == VF_ALGO_BPT, vm = a == VF_ALGO_VCM || a == VF_ALGO_BPM;
+  int vc = a == VF_ALGO_VCM || a == VF_ALGO_UPG || a == VF_ALGO_BPT;
+  int vm = a == VF_ALGO_VCM || a == VF_ALGO_UPG || a == VF_ALGO_BPM;
   int all_specular = 1;
   for (int i = 1; i < k; i++) all_specular &= x->specular[i];
   if (k == 1) {
@@ -288,8 +289,8 @@ static double g_beta = 1.0;
 /* vf_mis_config as setup_iteration() builds it for eta = pi r^2 n_light. */
 static vf_mis_config config_for(vf_algorithm a, double eta, double n_light) {
   vf_mis_config c;
-  int vc_in_weights = a == VF_ALGO_VCM || a == VF_ALGO_BPT;
-  int vm_in_weights = a == VF_ALGO_VCM || a == VF_ALGO_BPM;
+  int vc_in_weights = a == VF_ALGO_VCM || a == VF_ALGO_UPG || a == VF_ALGO_BPT;
+  int vm_in_weights = a == VF_ALGO_VCM || a == VF_ALGO_UPG || a == VF_ALGO_BPM;
   c.beta = (float)g_beta;
   c.vm_weight = vm_in_weights ? vf_mis_h(&c, (float)eta) : 0.0f;
   c.vc_weight = vc_in_weights ? vf_mis_h(&c, (float)(1.0 / eta)) : 0.0f;
@@ -422,8 +423,13 @@ static void trace_quantities(const test_scene *ts, const full_path *x, const pat
   }
 }
 
+/* Whether the checks run upg: its VM techniques are then weighted as gathering_pass.c
+ * weighs a gathering (vf_mis_weight_gather: the predecessor's quantities scattered
+ * towards the camera vertex), where the predecessor is not specular. */
+static int g_upg = 0;
+
 /* Each used technique's weight as emission_weighted(), light_sample(), connect_vertices(),
- * connect_to_camera() and merge_vertices() compute it. */
+ * connect_to_camera() and merge_vertices() (or for upg the gathering) compute it. */
 static void recursive_weights(const test_scene *ts, const full_path *x, const path_data *pd, const vf_mis_config *c,
                               const technique_set *t, double w_vc[], double w_vm[]) {
   const int k = x->k;
@@ -472,6 +478,28 @@ static void recursive_weights(const test_scene *ts, const full_path *x, const pa
     vf_bsdf_evaluate(cb, light_dir, &cos_camera, &camera_pdf, &camera_rev_pdf);
     camera_rev_pdf *= lb->continuation / cb->continuation;
     w_vm[s] = vf_mis_weight_merge(&light[s - 1], &camera[k + 1 - s], c, camera_pdf, camera_rev_pdf);
+    if (g_upg && (s == 2 || !x->specular[s - 2])) {
+      /* The gathering at x_{s-1} of the light vertex there, joined from its predecessor
+       * x_{s-2}: the light's own point (its quantities as light_start() forms them for the
+       * direction towards x_1) or a light vertex (after its hit, then scattered). The
+       * camera vertex's own densities, without merging's continuation ratio: the vertex is
+       * x_{s-1} itself. */
+      float dist;
+      vf_vec3 to_camera_vertex = direction_between(x->position[s - 2], x->position[s - 1], &dist);
+      vf_bsdf_evaluate(cb, vf_neg(to_camera_vertex), &cos_camera, &camera_pdf, &camera_rev_pdf);
+      float cos_at_camera = fabsf(vf_dot(x->normal[s - 1], to_camera_vertex));
+      vf_mis before;
+      float cos_light = 1.0f, light_pdf = 0.0f, light_rev_pdf = 0.0f;
+      if (s == 2) {
+        vf_mis_light_start(&before, c, r.direct_pdf_a * pick, r.emission_pdf_w * pick, cos0, ts->light->is_delta,
+                           ts->light->is_finite);
+      } else {
+        before = light[s - 2];
+        vf_bsdf_evaluate(&pd->from_light[s - 2], to_camera_vertex, &cos_light, &light_pdf, &light_rev_pdf);
+      }
+      w_vm[s] = vf_mis_weight_gather(before, &camera[k + 1 - s], c, s > 2, cos_light, light_pdf, light_rev_pdf, dist,
+                                     cos_at_camera, camera_pdf, camera_rev_pdf);
+    }
   }
 }
 
@@ -759,6 +787,18 @@ static void test_path_sets_are_large_enough(void) {
   CHECK(at_light >= 50 && at_camera >= 50 && inside >= 50);
 }
 
+/* upg: the techniques of vcm, its merges weighted as gatherings (vf_mis_weight_gather). */
+static void check_upg(const path_set *set, const char *family, const double *e, int num_etas) {
+  g_upg = 1;
+  check_algorithm(set, family, VF_ALGO_UPG, e, num_etas, 0);
+  g_upg = 0;
+}
+
+static void test_upg_weights_match_eq12(void) {
+  check_upg(&g_diffuse, "diffuse", etas, NUM_ETAS);
+  check_upg(&g_specular, "specular", etas, NUM_ETAS);
+}
+
 static void test_vcm_weights_match_eq12_without_specular_vertices(void) {
   check_algorithm(&g_diffuse, "diffuse", VF_ALGO_VCM, etas, NUM_ETAS, 2);
 }
@@ -806,6 +846,7 @@ static void check_power_heuristic(const char *family, int with_specular) {
     if (with_specular) check_algorithm(&g_specular, "specular", VF_ALGO_VCM, etas, 1, 0);
     check_algorithm(&g_diffuse, family, VF_ALGO_BPT, etas, 1, 0);
     check_algorithm(&g_diffuse, family, VF_ALGO_BPM, etas, 1, 0);
+    check_upg(&g_diffuse, family, etas, 1);
     check_algorithm(&g_diffuse, family, VF_ALGO_PT, etas, 1, 0);
   }
   g_beta = 1.0;
@@ -844,6 +885,7 @@ static void test_weights_match_eq12_through_rough_lobes(void) {
   check_algorithm(&g_diffuse, "rough", VF_ALGO_BPT, etas, 1, 0);
   check_algorithm(&g_diffuse, "rough", VF_ALGO_BPM, etas, 1, 0);
   check_algorithm(&g_diffuse, "rough", VF_ALGO_PT, etas, 1, 0);
+  check_upg(&g_diffuse, "rough", etas, NUM_ETAS);
 }
 
 /* The feature family's vertices: on the smooth balls (shading normals), on the textured
@@ -880,6 +922,7 @@ static void test_weights_match_eq12_through_shaded_and_textured_vertices(void) {
   check_algorithm(&g_diffuse, "features", VF_ALGO_BPT, etas, 1, 0);
   check_algorithm(&g_diffuse, "features", VF_ALGO_BPM, etas, 1, 0);
   check_algorithm(&g_diffuse, "features", VF_ALGO_PT, etas, 1, 0);
+  check_upg(&g_diffuse, "features", etas, NUM_ETAS);
 }
 
 /* Loads scene `name` into g_scene and walks its path sets; 0 when it cannot be loaded. */
@@ -919,6 +962,7 @@ int main(void) {
       RUN(test_bpm_weights_match_eq12);
       RUN(test_pt_weights_match_eq12);
       RUN(test_vcm_weights_match_eq12_with_light_selection);
+      RUN(test_upg_weights_match_eq12);
       RUN(test_power_heuristic_weights_match_eq12);
       destroy_test_scene(&g_scene);
     }
