@@ -153,13 +153,17 @@ static vf_vec3 gather(vf_vcm *v, int thread, const vertex_merging_query *q, uint
   vf_upg_cone(lpos, q->position, v->radius, &axis, &cos_half, &omc);
   float bound = vf_upg_bound(&src, axis, cos_half, omc);
   landing ctx = {v, thread, lpos, lnormal, q->position, dist + 2.0f * v->radius};
+  /* Either estimator of 1/p_acc is exact; they differ in cost. The cone's trials number
+   * |C| M / p_acc on average, the sub-path's own draws 1 / p_acc, and a trial of either
+   * costs about a BSDF evaluation (rays are P(C) / p_acc with both): the draws where
+   * |C| M >= 1, which a wide cone (L close to the camera vertex, a corner) or a loose bound
+   * makes. A light's own point has no draws here; its bounds are tight (|C| M <= 4). */
+  if (!(bound > 0.0f)) return zero; /* nothing reaches the ball: no light vertex could have */
   double inverse;
-  if (isfinite(bound)) {
-    if (!(bound > 0.0f)) return zero; /* nothing reaches the ball: no light vertex could have */
-    inverse = vf_upg_inverse_acceptance(&src, axis, cos_half, omc, bound, rng, lands, &ctx, &v->stats[thread].upg);
-  } else {
+  if (src.bsdf != NULL && !(2.0 * M_PI * (double)omc * (double)bound < 1.0))
     inverse = vf_upg_inverse_acceptance_draws(src.bsdf, axis, cos_half, rng, lands, &ctx, &v->stats[thread].upg);
-  }
+  else
+    inverse = vf_upg_inverse_acceptance(&src, axis, cos_half, omc, bound, rng, lands, &ctx, &v->stats[thread].upg);
   return vf_scale(value, (float)inverse);
 }
 

@@ -27,21 +27,43 @@ static float max_cos(vf_vec3 a, vf_vec3 u, float ch, float sh) {
   return ca * ch + sa * sh;
 }
 
-/* The largest GGX D over the normals m = +-normalize(c + k w), w in the cone (unit axis a,
- * chord rho = |w - a| at most 2 sin(theta / 2)), turned above the surface: c + k w lies in
- * the ball of radius k rho around c + k a, so m lies within asin(k rho / |c + k a|) of
- * that centre's line; D falls with m's angle to the normal (for alpha <= 1, it rises for
- * alpha > 1). */
-static float max_d(vf_vec3 c, float k, vf_vec3 a, float rho, float alpha) {
-  if (alpha > 1.0f) return alpha * alpha * VF_INV_PI; /* D's largest value, at the horizon */
+/* The microfacet normals m = +-normalize(c + k w) of the directions w of the cone (unit
+ * axis a, chord rho = |w - a| at most 2 sin(theta / 2)), turned above the surface: c + k w
+ * lies in the ball of radius k rho around c + k a, so m lies within the angle `spread` of
+ * that centre's direction `centre` (turned above the surface); spread is pi where the ball
+ * holds the origin. */
+typedef struct {
+  vf_vec3 centre;
+  float spread;
+} normal_cone;
+
+static normal_cone normals_of(vf_vec3 c, float k, vf_vec3 a, float rho) {
   vf_vec3 centre = vf_add(c, vf_scale(a, k));
-  float len = vf_length(centre), spread = k * rho;
+  float len = vf_length(centre), r = k * rho;
+  normal_cone n = {vf_vec3_make(0.0f, 0.0f, 1.0f), VF_PI};
+  if (!(r < len)) return n;
+  n.centre = vf_scale(centre, (centre.z < 0.0f ? -1.0f : 1.0f) / len);
+  n.spread = asinf(r / len);
+  return n;
+}
+
+/* The largest GGX D over the cone of normals: D falls with m's angle to the surface normal
+ * (for alpha <= 1; it rises for alpha > 1). */
+static float max_d(normal_cone n, float alpha) {
+  if (alpha > 1.0f) return alpha * alpha * VF_INV_PI; /* D's largest value, at the horizon */
   float peak = 1.0f / (VF_PI * alpha * alpha);
-  if (!(spread < len)) return peak;
-  float angle = acosf(fminf(1.0f, fabsf(centre.z) / len)) - asinf(spread / len);
+  float angle = acosf(fminf(1.0f, n.centre.z)) - n.spread;
   if (!(angle > 0.0f)) return peak;
   if (angle >= 0.5f * VF_PI) return 0.0f;
   return vf_ggx_d(vf_vec3_make(sinf(angle), 0.0f, cosf(angle)), alpha, alpha);
+}
+
+/* The largest fix.m over the cone of normals, or 0 where none faces fix (refraction
+ * needs fix.m > 0). Where the cone crosses the surface's plane, the normals turned above
+ * it come from both sides: then only fix.m <= 1 is known. */
+static float max_cos_normal(normal_cone n, vf_vec3 fix) {
+  if (!(acosf(fminf(1.0f, n.centre.z)) + n.spread < 0.5f * VF_PI)) return 1.0f;
+  return vf_fmaxf_zero(max_cos(n.centre, fix, cosf(n.spread), sinf(n.spread)));
 }
 
 /* The bound of a light vertex's BSDF: the sum of each non-delta lobe's bound, times the
@@ -65,15 +87,17 @@ static float bsdf_bound(const vf_bsdf *b, vf_vec3 world_axis, float ch, float on
     float pc = p[VF_LOBE_ROUGH_CONDUCTOR], pd = p[VF_LOBE_ROUGH_DIELECTRIC];
     float g1_fix = 1.0f / (1.0f + b->lambda_fix);
     if (pc + pd > 0.0f) /* reflection: G1(fix) D / (4 fix.z), Fresnel <= 1 (bsdf.c, reflect_rough) */
-      bound += (pc + pd) * g1_fix * max_d(fix, 1.0f, a, rho, b->alpha) / (4.0f * fix.z);
+      bound += (pc + pd) * g1_fix * max_d(normals_of(fix, 1.0f, a, rho), b->alpha) / (4.0f * fix.z);
     if (pd > 0.0f) {
-      /* Refraction: G1(fix) D ci / fix.z (1 - F) eta^2 |co| / |fix + eta gen|^2 with ci,
-       * |co|, 1 - F <= 1 (bsdf.c, refract_rough); |fix + eta gen| >= |1 - eta| always,
-       * and >= |fix + eta a| - eta rho over the cone. */
+      /* Refraction: G1(fix) D ci / fix.z (1 - F) eta^2 |co| / |fix + eta gen|^2 with
+       * |co|, 1 - F <= 1 and ci = fix.m at most its largest over the normals (bsdf.c,
+       * refract_rough); |fix + eta gen| >= |1 - eta| always, and >= |fix + eta a| - eta rho
+       * over the cone. */
       float eta = b->eta;
       float len = fmaxf(vf_length(vf_add(fix, vf_scale(a, eta))) - eta * rho, fabsf(1.0f - eta));
       if (!(len > 0.0f)) return INFINITY;
-      bound += pd * g1_fix * max_d(fix, eta, a, rho, b->alpha) / fix.z * eta * eta / (len * len);
+      normal_cone n = normals_of(fix, eta, a, rho);
+      bound += pd * g1_fix * max_d(n, b->alpha) * max_cos_normal(n, fix) / fix.z * eta * eta / (len * len);
     }
   }
   return bound * b->continuation;
