@@ -52,11 +52,15 @@ int vf_cli_not_input(const char *output_option, const char *output, const char *
   {"algorithm", required_argument, 0, 'a'}, {"seed", required_argument, 0, 's'},                            \
       {"max-path-length", required_argument, 0, 'l'}, {"radius-factor", required_argument, 0, 'r'},         \
       {"alpha", required_argument, 0, 'A'}, {"resolution", required_argument, 0, 'R'},                      \
-      {"sampler", required_argument, 0, 'Q'}, {"mis-beta", required_argument, 0, 'B'}
+      {"sampler", required_argument, 0, 'Q'}, {"mis-beta", required_argument, 0, 'B'},                     \
+      {"gather-from", required_argument, 0, 'G'}
 #define VF_CLI_SETTINGS_SHORT "a:s:l:r:R:"
 #define VF_CLI_SETTINGS_HELP                                                                 \
-  "  -a, --algorithm A        vcm (default), bpt, pt, lt, ppm, bpm or auto (the cheapest\n"  \
-  "                           set of techniques for the scene's light transport)\n"         \
+  "  -a, --algorithm A        vcm (default), upg (vcm without merging's bias: unbiased\n"   \
+  "                           photon gathering), bpt, pt, lt, ppm, bpm or auto (the\n"      \
+  "                           cheapest set of techniques for the scene's light transport)\n" \
+  "      --gather-from SIDE   upg: light (default) or camera, the side it gathers from\n"  \
+  "                           where both can (films of the two never merge)\n"             \
   "  -s, --seed S             job seed (default: the scene's, else 1)\n"                     \
   "  -l, --max-path-length L  maximum path segments (default 10)\n"                          \
   "  -r, --radius-factor F    initial merge radius / scene radius (default 0.003)\n"         \
@@ -70,6 +74,7 @@ int vf_cli_not_input(const char *output_option, const char *output, const char *
 typedef struct {
   const char *algorithm; /* borrowed from argv, or NULL */
   const char *sampler;   /* borrowed from argv, or NULL */
+  const char *gather;    /* borrowed from argv, or NULL */
   uint64_t seed;
   int have_seed, have_resolution, width, height;
   long long max_path_length; /* <= 0: unset */

@@ -21,6 +21,7 @@ void vf_settings_default(vf_settings *s) {
   s->height = 512;
   s->sampler = VF_SAMPLER_SOBOL;
   s->mis_beta = 1.0;
+  s->gather = VF_GATHER_LIGHT;
 }
 
 const char *vf_sampler_name(vf_sampler_kind k) {
@@ -51,7 +52,20 @@ int vf_algorithm_parse(const char *name, vf_algorithm *out) {
     *out = (vf_algorithm)i;
     return VF_OK;
   }
-  return vf_error_set(VF_EUSAGE, "unknown algorithm '%s' (expected vcm, bpt, pt, lt, ppm, bpm or auto)", name);
+  return vf_error_set(VF_EUSAGE, "unknown algorithm '%s' (expected vcm, upg, bpt, pt, lt, ppm, bpm or auto)", name);
+}
+
+static const char *const gather_names[VF_GATHER_COUNT_] = {"light", "camera"};
+
+const char *vf_gather_name(vf_gather_side g) { return (unsigned)g < VF_GATHER_COUNT_ ? gather_names[g] : "unknown"; }
+
+int vf_gather_parse(const char *name, vf_gather_side *out) {
+  int i = name_index(gather_names, VF_GATHER_COUNT_, name);
+  if (i >= 0) {
+    *out = (vf_gather_side)i;
+    return VF_OK;
+  }
+  return vf_error_set(VF_EUSAGE, "unknown side '%s' to gather from (expected light or camera)", name);
 }
 
 int vf_settings_validate(const vf_settings *s) {
@@ -63,6 +77,10 @@ int vf_settings_validate(const vf_settings *s) {
     return vf_error_set(VF_EINVAL, "radius factor %g must be a positive number", s->radius_factor);
   if (!(s->alpha > 0.0 && s->alpha <= 1.0))
     return vf_error_set(VF_EINVAL, "alpha %g is outside (0, 1]", s->alpha);
+  if ((unsigned)s->gather >= VF_GATHER_COUNT_) return vf_error_set(VF_EINVAL, "unknown side to gather from");
+  if (s->gather != VF_GATHER_LIGHT && s->algorithm != VF_ALGO_UPG)
+    return vf_error_set(VF_EINVAL, "gathering from the %s's side is an option of upg, not of %s", vf_gather_name(s->gather),
+                        vf_algorithm_name(s->algorithm));
   if (!(s->mis_beta >= 1.0 && s->mis_beta <= VF_MAX_MIS_BETA))
     return vf_error_set(VF_EINVAL, "MIS beta %g is outside [1, %g]", s->mis_beta, VF_MAX_MIS_BETA);
   if (s->width < 1 || s->height < 1 || s->width > VF_MAX_IMAGE_SIDE || s->height > VF_MAX_IMAGE_SIDE ||
@@ -94,6 +112,8 @@ int vf_settings_format(const vf_settings *s, char *buf, size_t n) {
     vf_double_format(s->mis_beta, beta, sizeof beta);
     w += snprintf(buf + w, n - (size_t)w, " mis_beta=%s", beta);
   }
+  if (w >= 0 && (size_t)w < n && s->gather != VF_GATHER_LIGHT)
+    w += snprintf(buf + w, n - (size_t)w, " gather=%s", vf_gather_name(s->gather));
   if (w < 0 || (size_t)w >= n) return vf_error_set(VF_EINVAL, "settings text too long");
   return VF_OK;
 }
@@ -133,6 +153,9 @@ int vf_settings_parse(vf_settings *s, const char *text) {
       if (seen & 128) goto bad;
       out.mis_beta = strtod(value, &end);
       seen |= 128;
+    } else if (strcmp(key, "gather") == 0) {
+      if (seen & 256 || vf_gather_parse(value, &out.gather) != VF_OK) goto bad;
+      seen |= 256;
     } else {
       return vf_error_set(VF_EINVAL, "settings: unknown key '%s'", key);
     }

@@ -31,6 +31,12 @@ typedef enum {
 #define VF_MAX_PATH_LENGTH 1000
 #define VF_MAX_IMAGE_SIDE 65536 /* pixels, width or height */
 
+/* The side upg gathers from where both sides can (worker/render/gathering_pass.h): the
+ * light's (the thesis's UPG: a camera vertex joins the gathered light vertex's
+ * predecessor) or the camera's (UPG*: the gathered light vertex joins the camera vertex's
+ * predecessor). */
+typedef enum { VF_GATHER_LIGHT, VF_GATHER_CAMERA, VF_GATHER_COUNT_ } vf_gather_side;
+
 typedef struct {
   vf_algorithm algorithm;
   int max_path_length;  /* path segments (edges), >= 1 */
@@ -41,6 +47,7 @@ typedef struct {
   vf_sampler_kind sampler; /* where the paths' random numbers come from (common/sampler.h) */
   double mis_beta;      /* the MIS heuristic's exponent: 1 balance (the default), >= 1 power
                          * (paper eq. 10; worker/render/mis.h) */
+  vf_gather_side gather; /* upg only: the side it prefers to gather from (light by default) */
 } vf_settings;
 
 /* The power heuristic's largest exponent: weights are sums of products of density ratios
@@ -57,6 +64,10 @@ const char *vf_algorithm_name(vf_algorithm a);
 /* VF_EUSAGE with a detail listing the valid names when `name` is not one. */
 int vf_algorithm_parse(const char *name, vf_algorithm *out);
 
+const char *vf_gather_name(vf_gather_side g);
+/* VF_EUSAGE with a detail listing the valid names when `name` is not one. */
+int vf_gather_parse(const char *name, vf_gather_side *out);
+
 const char *vf_sampler_name(vf_sampler_kind k);
 /* VF_EUSAGE with a detail listing the valid names when `name` is not one. */
 int vf_sampler_parse(const char *name, vf_sampler_kind *out);
@@ -71,7 +82,8 @@ int vf_settings_validate(const vf_settings *s);
  * rendered with independent numbers, and its text, which has no sampler, reads (and
  * merges) as independent, while a sobol film never merges with one. The MIS exponent is
  * written (" mis_beta=2") only when it is not 1, for the same reason: every text before it
- * existed was rendered with the balance heuristic. Numbers in their shortest text that reads back exactly
+ * existed was rendered with the balance heuristic. upg's side (" gather=camera") likewise
+ * only when it is not the light's. Numbers in their shortest text that reads back exactly
  * (vf_double_format), so parse(format(s)) == s. VF_EINVAL if it does not fit in n bytes.
  * Before protocol version 6 the numbers had 17 digits ("0.0030000000000000001"): films and
  * state files of then are brought to this form when read (vf_settings_canonicalize). */

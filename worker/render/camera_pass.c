@@ -3,6 +3,7 @@
 
 #include "../../common/sampler.h"
 #include "vcm_internal.h"
+#include "gathering_pass.h"
 #include "vertex_merging.h"
 #include "wavefront.h"
 
@@ -157,6 +158,11 @@ static vertex_merging_query *queue_vertex_merging(vf_vcm *v, int thread) {
     vertex_merging_query *p = realloc(ts->queries, (size_t)cap * sizeof *p);
     if (p == NULL) return NULL;
     ts->queries = p;
+    if (v->upg) {
+      gathering_prev *q = realloc(ts->query_prev, (size_t)cap * sizeof *q);
+      if (q == NULL) return NULL;
+      ts->query_prev = q;
+    }
     ts->query_capacity = cap;
   }
   return &ts->queries[ts->num_queries++];
@@ -177,6 +183,7 @@ typedef struct {
   vf_sampler sampler;
   uint32_t pixel, tile_pixel;
   light_bsdf_cache cache; /* of the light sub-path this camera sub-path connects to */
+  gathering_prev prev;    /* upg: the vertex before the one being traced to */
 } camera_lane;
 
 /* Starts the camera sub-path of pixel (px, py), the tile's pixel tile_pixel. */
@@ -185,6 +192,7 @@ static void camera_start(vf_vcm *v, camera_lane *lane, uint32_t px, uint32_t py,
   lane->pixel = pixel;
   lane->tile_pixel = tile_pixel;
   lane->cache.ready = 0;
+  lane->prev.valid = 0;
   vf_sampler_start(&lane->sampler, v->settings.sampler, v->settings.seed, v->iteration, pixel, VF_STREAM_CAMERA);
   float jitter[2];
   vf_sampler_2d(&lane->sampler, VF_DIM_PIXEL, jitter);
@@ -269,13 +277,17 @@ static int camera_bounce(vf_vcm *v, int thread, camera_lane *lane, const vf_hit 
       vertex_merging_query *q = queue_vertex_merging(v, thread);
       if (q != NULL) {
         *q = (vertex_merging_query){b, hit->position, s->throughput, s->mis, s->path_length, tile_pixel, lane->pixel};
+        if (v->upg) v->scratch[thread].query_prev[q - v->scratch[thread].queries] = lane->prev;
       } else {
         vertex_merging_query now = {b, hit->position, s->throughput, s->mis, s->path_length, tile_pixel, lane->pixel};
-        defer_unshadowed(v, thread, vf_mul(s->throughput, vf_vertex_merging_estimate(v, &now)), tile_pixel);
+        vf_vec3 estimate = v->upg ? vf_gathering_estimate(v, thread, &now, &lane->prev)
+                                  : vf_mul(s->throughput, vf_vertex_merging_estimate(v, &now));
+        defer_unshadowed(v, thread, estimate, tile_pixel);
       }
       if (v->t.ppm) return 0;
     }
   }
+  if (v->upg) lane->prev = (gathering_prev){b, hit->position, s->throughput, s->mis, 1};
   if (!vf_wavefront_scatter(v, &b, hit, s, &lane->sampler, vertex_dims, 1)) return 0;
   s->path_length++;
   return 1;

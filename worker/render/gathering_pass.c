@@ -59,35 +59,39 @@ static int lands(void *ctx, vf_vec3 dir) {
 /* The light vertex k of the grid merged as vcm merges it: the fall-back. */
 static vf_vec3 merge_as_vcm(vf_vcm *v, int thread, const vertex_merging_query *q, uint32_t k) {
   v->stats[thread].upg_fallbacks++;
-  return vf_scale(vf_vertex_merging_one(v, q, k), v->vm_normalization);
+  return vf_mul(q->throughput, vf_scale(vf_vertex_merging_one(v, q, k), v->vm_normalization));
 }
 
-/* Gathers light vertex k of the grid (within the radius of q) at camera vertex q: its
- * estimate, not yet scaled by q's throughput. */
-static vf_vec3 gather(vf_vcm *v, int thread, const vertex_merging_query *q, uint32_t k, vf_rng *rng) {
+/* The estimate of 1/p_acc of a source at `from` (normal n: its offsets; zero vector for a
+ * punctual light) for the ball of the radius around `target`, with the trials of whichever
+ * estimator costs less. Either is exact; the cone's trials number |C| M / p_acc on
+ * average, the sub-path's own draws 1 / p_acc, and a trial of either costs about a BSDF
+ * evaluation (rays are P(C) / p_acc with both): the draws where |C| M >= 1, which a wide
+ * cone (the source close to the target, a corner) or a loose bound makes. A light's own
+ * point has no draws here; its bounds are tight (|C| M <= 4). 0 where nothing reaches the
+ * ball (then no light vertex, or camera vertex, could have landed there). */
+static double inverse_acceptance(vf_vcm *v, int thread, const vf_upg_source *src, vf_vec3 from, vf_vec3 n,
+                                 vf_vec3 target, float dist, vf_rng *rng) {
+  vf_vec3 axis;
+  float cos_half, omc;
+  vf_upg_cone(from, target, v->radius, &axis, &cos_half, &omc);
+  float bound = vf_upg_bound(src, axis, cos_half, omc);
+  if (!(bound > 0.0f)) return 0.0;
+  landing ctx = {v, thread, from, n, target, dist + 2.0f * v->radius};
+  if (src->bsdf != NULL && !(2.0 * M_PI * (double)omc * (double)bound < 1.0))
+    return vf_upg_inverse_acceptance_draws(src->bsdf, axis, cos_half, rng, lands, &ctx, &v->stats[thread].upg);
+  return vf_upg_inverse_acceptance(src, axis, cos_half, omc, bound, rng, lands, &ctx, &v->stats[thread].upg);
+}
+
+/* The geometric normal of a BSDF's vertex, on the side its path arrived from. */
+static vf_vec3 geometric_normal(const vf_bsdf *b) { return b->shading ? b->geometric : b->frame.n; }
+
+/* From the light's side: the light vertex's predecessor L (a light vertex, or its sub-path's
+ * point on its light) joined to camera vertex q, with 1/p_acc of L's continuation landing
+ * within the radius of q. */
+static vf_vec3 gather_from_light(vf_vcm *v, int thread, const vertex_merging_query *q, const light_vertex *pred,
+                                 const light_origin *origin, vf_rng *rng) {
   const vf_vec3 zero = vf_vec3_splat(0.0f);
-  uint32_t length_shape = v->merge_points[k].path_length_shape;
-  int length = (int)(length_shape & ((1u << VERTEX_LENGTH_BITS) - 1u));
-  if (length + q->path_length > v->settings.max_path_length) return zero;
-  /* A specular choice made the vertex (vf_mis_scatter zeroes d_vcm for it, and nothing
-   * else does): its predecessor cannot be joined to q. */
-  if (v->photons[k].d_vcm == 0.0f) return merge_as_vcm(v, thread, q, k);
-
-  uint32_t name = v->photon_source[k];
-  uint32_t c = name >> v->chunk_shift, i = name & ((1u << v->chunk_shift) - 1u);
-  uint32_t path = path_of_vertex(v, c, i);
-  const light_vertex *list = v->chunks[c].vertices;
-  const light_vertex *pred = NULL;
-  const light_origin *origin = NULL;
-  if (length == 1) {
-    origin = &v->origins[path];
-    if (origin->light < 0) return merge_as_vcm(v, thread, q, k);
-  } else if (i > v->path_begin[path] && vertex_path_length(&list[i - 1]) == length - 1) {
-    pred = &list[i - 1];
-  } else {
-    return merge_as_vcm(v, thread, q, k);
-  }
-
   /* The connection of the predecessor L and q (camera_pass.c's connect_vertices). */
   vf_vec3 lpos = pred ? pred->position : origin->position;
   vf_vec3 d = vf_sub(lpos, q->position);
@@ -132,13 +136,13 @@ static vf_vec3 gather(vf_vcm *v, int thread, const vertex_merging_query *q, uint
    * photon_gathering.h). */
   float w = vf_mis_weight_gather(light_mis, &q->mis, &v->mis, pred != NULL, cos_light, light_pdf, light_rev_pdf, dist,
                                  cos_camera, camera_pdf, camera_rev_pdf);
-  vf_vec3 value = vf_scale(vf_mul(light_value, fc), w * cos_camera / (dist2 * v->mis.light_paths));
+  vf_vec3 value = vf_mul(vf_mul(light_value, fc), q->throughput);
+  value = vf_scale(value, w * cos_camera / (dist2 * v->mis.light_paths));
   if (vf_is_zero(value)) return zero;
 
   /* The visibility of the connection, as a shadow ray of camera_pass.c would test it. */
   {
-    /* The camera vertex's geometric normal: its BSDF's, on the side it was reached from. */
-    vf_vec3 n = q->bsdf.shading ? q->bsdf.geometric : q->bsdf.frame.n;
+    vf_vec3 n = geometric_normal(&q->bsdf);
     vf_vec3 o = vf_offset_ray_origin(q->position, vf_dot(n, d) > 0.0f ? n : vf_neg(n), v->offset_scale);
     vf_vec3 e = vf_is_zero(lnormal) ? lpos
                                     : vf_offset_ray_origin(lpos, vf_dot(lnormal, d) < 0.0f ? lnormal : vf_neg(lnormal),
@@ -147,43 +151,110 @@ static vf_vec3 gather(vf_vcm *v, int thread, const vertex_merging_query *q, uint
     if (vf_accel_occluded(v->accel, o, vf_sub(e, o), 1.0f)) return zero;
   }
 
-  /* 1 / p_acc, from L towards the ball of radius r around q. */
-  vf_vec3 axis;
-  float cos_half, omc;
-  vf_upg_cone(lpos, q->position, v->radius, &axis, &cos_half, &omc);
-  float bound = vf_upg_bound(&src, axis, cos_half, omc);
-  landing ctx = {v, thread, lpos, lnormal, q->position, dist + 2.0f * v->radius};
-  /* Either estimator of 1/p_acc is exact; they differ in cost. The cone's trials number
-   * |C| M / p_acc on average, the sub-path's own draws 1 / p_acc, and a trial of either
-   * costs about a BSDF evaluation (rays are P(C) / p_acc with both): the draws where
-   * |C| M >= 1, which a wide cone (L close to the camera vertex, a corner) or a loose bound
-   * makes. A light's own point has no draws here; its bounds are tight (|C| M <= 4). */
-  if (!(bound > 0.0f)) return zero; /* nothing reaches the ball: no light vertex could have */
-  double inverse;
-  if (src.bsdf != NULL && !(2.0 * M_PI * (double)omc * (double)bound < 1.0))
-    inverse = vf_upg_inverse_acceptance_draws(src.bsdf, axis, cos_half, rng, lands, &ctx, &v->stats[thread].upg);
-  else
-    inverse = vf_upg_inverse_acceptance(&src, axis, cos_half, omc, bound, rng, lands, &ctx, &v->stats[thread].upg);
+  double inverse = inverse_acceptance(v, thread, &src, lpos, lnormal, q->position, dist, rng);
   return vf_scale(value, (float)inverse);
+}
+
+/* From the camera's side: light vertex y (grid index k, the chunk vertex lv) joined to the
+ * camera vertex before q, prev, with 1/p_acc of prev's continuation landing within the
+ * radius of y on a surface where a camera vertex gathers. */
+static vf_vec3 gather_from_camera(vf_vcm *v, int thread, const gathering_prev *prev, uint32_t k,
+                                  const light_vertex *lv, vf_rng *rng) {
+  const vf_vec3 zero = vf_vec3_splat(0.0f);
+  const merge_point *mp = &v->merge_points[k];
+  vf_vec3 y = vf_vec3_make(mp->x, mp->y, mp->z);
+  vf_vec3 d = vf_sub(y, prev->position);
+  float dist2 = vf_length_sq(d);
+  if (!(dist2 > 0.0f)) return zero;
+  float dist = sqrtf(dist2);
+  d = vf_scale(d, 1.0f / dist); /* from the camera vertex towards y */
+  float cos_camera, camera_pdf, camera_rev_pdf;
+  vf_vec3 fc = vf_bsdf_evaluate(&prev->bsdf, d, &cos_camera, &camera_pdf, &camera_rev_pdf);
+  if (vf_is_zero(fc)) return zero;
+  vf_bsdf lb;
+  bsdf_of_vertex(v, &lb, lv);
+  float cos_light, light_pdf, light_rev_pdf;
+  vf_vec3 fl = vf_bsdf_evaluate(&lb, vf_neg(d), &cos_light, &light_pdf, &light_rev_pdf);
+  if (vf_is_zero(fl)) return zero;
+  /* The camera vertex as if it had landed at y; y's densities seen from the camera's side
+   * are its light BSDF's the other way round. */
+  const photon *ph = &v->photons[k];
+  vf_mis light = {ph->d_vcm, 0.0f, ph->d_vm};
+  float w = vf_mis_weight_gather_camera(&light, prev->mis, &v->mis, cos_camera, camera_pdf, camera_rev_pdf, dist,
+                                        cos_light, light_rev_pdf, light_pdf);
+  vf_vec3 value = vf_mul(vf_mul(vf_mul(ph->throughput, fl), fc), prev->throughput);
+  value = vf_scale(value, w * cos_camera * cos_light / (dist2 * v->mis.light_paths));
+  if (vf_is_zero(value)) return zero;
+  vf_vec3 nc = geometric_normal(&prev->bsdf), nl = normal_of_vertex(v, lv, &lb);
+  {
+    vf_vec3 o = vf_offset_ray_origin(prev->position, vf_dot(nc, d) > 0.0f ? nc : vf_neg(nc), v->offset_scale);
+    vf_vec3 e = vf_offset_ray_origin(y, vf_dot(nl, d) < 0.0f ? nl : vf_neg(nl), v->offset_scale);
+    v->stats[thread].rays++;
+    if (vf_accel_occluded(v->accel, o, vf_sub(e, o), 1.0f)) return zero;
+  }
+  vf_upg_source src = {&prev->bsdf, NULL, zero};
+  double inverse = inverse_acceptance(v, thread, &src, prev->position, nc, y, dist, rng);
+  return vf_scale(value, (float)inverse);
+}
+
+/* Gathers light vertex k of the grid (within the radius of q) at camera vertex q, whose
+ * predecessor is prev: its estimate, the camera sub-path's throughput included (the
+ * camera's side joins at prev, whose throughput is not q's).
+ *
+ * Which side joins, decided by the path alone so that every path is estimated once: the
+ * light's side can where the light vertex was reached by a non-specular choice from a
+ * predecessor at a finite distance; the camera's side where q was reached by a
+ * non-specular choice from a surface vertex (not the lens). A path both can take goes to
+ * the side the settings prefer (vf_settings.gather), a path one can take to that one, and
+ * a path neither can take is merged as vcm merges it (counted: biased). Specular choices
+ * are told by d_vcm, which vf_mis_scatter zeroes for them and nothing else does. */
+static vf_vec3 gather(vf_vcm *v, int thread, const vertex_merging_query *q, const gathering_prev *prev, uint32_t k,
+                      vf_rng *rng) {
+  uint32_t length_shape = v->merge_points[k].path_length_shape;
+  int length = (int)(length_shape & ((1u << VERTEX_LENGTH_BITS) - 1u));
+  if (length + q->path_length > v->settings.max_path_length) return vf_vec3_splat(0.0f);
+
+  uint32_t name = v->photon_source[k];
+  uint32_t c = name >> v->chunk_shift, i = name & ((1u << v->chunk_shift) - 1u);
+  const light_vertex *list = v->chunks[c].vertices;
+  const light_vertex *pred = NULL;
+  const light_origin *origin = NULL;
+  if (v->photons[k].d_vcm != 0.0f) {
+    uint32_t path = path_of_vertex(v, c, i);
+    if (length == 1) {
+      if (v->origins[path].light >= 0) origin = &v->origins[path];
+    } else if (i > v->path_begin[path] && vertex_path_length(&list[i - 1]) == length - 1) {
+      pred = &list[i - 1];
+    }
+  }
+  int light_side = pred != NULL || origin != NULL;
+  int camera_side = prev->valid && q->mis.d_vcm != 0.0f;
+  if (camera_side && (!light_side || v->settings.gather == VF_GATHER_CAMERA))
+    return gather_from_camera(v, thread, prev, k, &list[i], rng);
+  if (light_side) return gather_from_light(v, thread, q, pred, origin, rng);
+  return merge_as_vcm(v, thread, q, k);
+}
+
+vf_vec3 vf_gathering_estimate(vf_vcm *v, int thread, const vertex_merging_query *q, const gathering_prev *prev) {
+  /* The gathering's own stream: (seed, iteration, camera sub-path, camera vertex). */
+  vf_rng rng = vf_rng_for_path(v->settings.seed, v->iteration, q->pixel, VF_STREAM_GATHER | (uint32_t)q->path_length << 8);
+  vf_index_range ranges[VF_HASHGRID_MAX_RANGES];
+  int num_ranges = vf_hashgrid_candidates(v->grid, q->position, ranges);
+  vf_vec3 sum = vf_vec3_splat(0.0f);
+  for (int r = 0; r < num_ranges; r++)
+    for (uint32_t k = ranges[r].begin; k < ranges[r].end; k++) {
+      const merge_point *p = &v->merge_points[k];
+      float dx = p->x - q->position.x, dy = p->y - q->position.y, dz = p->z - q->position.z;
+      if (dx * dx + dy * dy + dz * dz <= v->radius_sq) sum = vf_add(sum, gather(v, thread, q, prev, k, &rng));
+    }
+  return sum;
 }
 
 void vf_gathering_pass_run_tile(vf_vcm *v, int thread, float *tile_rgb) {
   thread_scratch *ts = &v->scratch[thread];
   for (uint32_t n = 0; n < ts->num_queries; n++) {
     const vertex_merging_query *q = &ts->queries[n];
-    /* The gathering's own stream: (seed, iteration, camera sub-path, camera vertex). */
-    vf_rng rng = vf_rng_for_path(v->settings.seed, v->iteration, q->pixel,
-                                 VF_STREAM_GATHER | (uint32_t)q->path_length << 8);
-    vf_index_range ranges[VF_HASHGRID_MAX_RANGES];
-    int num_ranges = vf_hashgrid_candidates(v->grid, q->position, ranges);
-    vf_vec3 sum = vf_vec3_splat(0.0f);
-    for (int r = 0; r < num_ranges; r++)
-      for (uint32_t k = ranges[r].begin; k < ranges[r].end; k++) {
-        const merge_point *p = &v->merge_points[k];
-        float dx = p->x - q->position.x, dy = p->y - q->position.y, dz = p->z - q->position.z;
-        if (dx * dx + dy * dy + dz * dz <= v->radius_sq) sum = vf_add(sum, gather(v, thread, q, k, &rng));
-      }
-    vf_vec3 contrib = vf_mul(q->throughput, sum);
+    vf_vec3 contrib = vf_gathering_estimate(v, thread, q, &ts->query_prev[n]);
     float *rgb = &tile_rgb[3 * (size_t)q->tile_pixel];
     rgb[0] += contrib.x;
     rgb[1] += contrib.y;

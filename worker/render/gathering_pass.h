@@ -15,8 +15,13 @@
 #include "vcm_internal.h"
 
 /* Runs the thread's queued queries (vf_vcm.scratch[thread].queries) as gatherings and adds
- * each one's estimate times its throughput to its pixel of tile_rgb, in queue order;
- * empties the queue. The upg counterpart of vf_vertex_merging_run_tile. */
+ * each one's estimate to its pixel of tile_rgb, in queue order; empties the queue. The upg
+ * counterpart of vf_vertex_merging_run_tile. */
 void vf_gathering_pass_run_tile(vf_vcm *v, int thread, float *tile_rgb);
+
+/* The gathering estimate of camera vertex q (its predecessor prev), its camera sub-path's
+ * throughput included: what vf_gathering_pass_run_tile adds for a queued query, for one
+ * that could not be queued. */
+vf_vec3 vf_gathering_estimate(vf_vcm *v, int thread, const vertex_merging_query *q, const gathering_prev *prev);
 
 #endif

@@ -153,4 +153,20 @@ static inline float vf_mis_weight_gather(vf_mis light, const vf_mis *cam, const 
   return vf_mis_weight_merge(&light, cam, c, camera_dir_pdf_w, camera_rev_pdf_w);
 }
 
+/* upg from the camera's side: camera vertex z_{t-1} found light vertex y_{s-1} within the
+ * radius, and the path is scored as the connection of y_{s-1} and z_{t-2}, z_{t-1}'s
+ * predecessor. The weight is merging's at y_{s-1} for a camera vertex that landed there:
+ * `cam`, z_{t-2}'s quantities after its hit, scattered towards y_{s-1} (cos_camera,
+ * camera_pdf_w, camera_rev_pdf_w at z_{t-2}) and hit there (dist, |cos| cos_light); then
+ * the light vertex's own quantities `light` with the densities of its BSDF seen from the
+ * camera's side: light_dir_pdf_w of the light vertex's incoming direction given the one
+ * towards z_{t-2}, light_rev_pdf_w the reverse. */
+static inline float vf_mis_weight_gather_camera(const vf_mis *light, vf_mis cam, const vf_mis_config *c,
+                                                float cos_camera, float camera_pdf_w, float camera_rev_pdf_w, float dist,
+                                                float cos_light, float light_dir_pdf_w, float light_rev_pdf_w) {
+  vf_mis_scatter(&cam, c, cos_camera, camera_pdf_w, camera_rev_pdf_w, 0);
+  vf_mis_hit(&cam, c, dist, cos_light, 1);
+  return vf_mis_weight_merge(light, &cam, c, light_dir_pdf_w, light_rev_pdf_w);
+}
+
 #endif

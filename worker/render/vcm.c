@@ -391,6 +391,7 @@ void vf_vcm_destroy(vf_vcm *v) {
   if (v->scratch)
     for (int t = 0; t < vf_pool_threads(v->pool); t++) {
       free(v->scratch[t].queries);
+      free(v->scratch[t].query_prev);
       free(v->scratch[t].ring_vertices);
       free(v->scratch[t].ring_bsdfs);
       free_tile_lists(&v->scratch[t]);

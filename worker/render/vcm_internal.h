@@ -148,6 +148,18 @@ typedef struct {
   uint32_t pixel;      /* the camera sub-path's (upg's gatherings draw from its stream) */
 } vertex_merging_query;
 
+/* upg: the camera vertex before a query's, where gathering from the camera's side joins
+ * the gathered light vertex (gathering_pass.c): its BSDF, position, the throughput and MIS
+ * quantities it was reached with (before it scattered). valid is 0 where there is none
+ * (the query's vertex is the first hit: its predecessor is the lens). */
+typedef struct {
+  vf_bsdf bsdf;
+  vf_vec3 position;
+  vf_vec3 throughput;
+  vf_mis mis;
+  int valid;
+} gathering_prev;
+
 /* Shadow rays are not traced one by one where they arise but gathered into packets of
  * VF_ACCEL_PACKET and traced together (vf_accel_occluded_packet): Embree traverses a
  * packet of 8 rays faster per ray than single rays, whether or not they share an origin
@@ -188,6 +200,7 @@ typedef struct {
  * two threads' fields. */
 typedef struct {
   _Alignas(64) vertex_merging_query *queries; /* this thread's pending vertex merging queries, owned */
+  gathering_prev *query_prev; /* upg: each query's camera predecessor, owned (query_capacity of them) */
   uint32_t num_queries, query_capacity;
   shadow_packet packet;
   deferred pending[DEFERRED_MAX];

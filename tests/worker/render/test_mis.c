@@ -423,9 +423,12 @@ static void trace_quantities(const test_scene *ts, const full_path *x, const pat
   }
 }
 
-/* Whether the checks run upg: its VM techniques are then weighted as gathering_pass.c
- * weighs a gathering (vf_mis_weight_gather: the predecessor's quantities scattered
- * towards the camera vertex), where the predecessor is not specular. */
+/* Whether the checks run upg (1: preferring the light's side, 2: the camera's): its VM
+ * techniques are then weighted as gathering_pass.c weighs a gathering, from the side its
+ * rule picks: the light's (vf_mis_weight_gather: the light vertex's predecessor's quantities
+ * scattered towards the camera vertex) where that predecessor's choice was not specular,
+ * the camera's (vf_mis_weight_gather_camera) where the camera vertex's predecessor is a
+ * surface vertex whose choice was not specular. */
 static int g_upg = 0;
 
 /* Each used technique's weight as emission_weighted(), light_sample(), connect_vertices(),
@@ -478,7 +481,17 @@ static void recursive_weights(const test_scene *ts, const full_path *x, const pa
     vf_bsdf_evaluate(cb, light_dir, &cos_camera, &camera_pdf, &camera_rev_pdf);
     camera_rev_pdf *= lb->continuation / cb->continuation;
     w_vm[s] = vf_mis_weight_merge(&light[s - 1], &camera[k + 1 - s], c, camera_pdf, camera_rev_pdf);
-    if (g_upg && (s == 2 || !x->specular[s - 2])) {
+    int light_side = s == 2 || !x->specular[s - 2], camera_side = k - s >= 1 && !x->specular[s];
+    if (g_upg && camera_side && (!light_side || g_upg == 2)) {
+      /* x_{s-1}'s light vertex joined to x_s, the camera vertex before x_{s-1}'s. */
+      float dist, cos_c, c_pdf, c_rev, cos_l, l_pdf, l_rev;
+      vf_vec3 to_light_vertex = direction_between(x->position[s], x->position[s - 1], &dist);
+      vf_bsdf_evaluate(&pd->from_camera[s], to_light_vertex, &cos_c, &c_pdf, &c_rev);
+      vf_bsdf_evaluate(lb, vf_neg(to_light_vertex), &cos_l, &l_pdf, &l_rev);
+      float cos_at_light = fabsf(vf_dot(x->normal[s - 1], to_light_vertex));
+      w_vm[s] = vf_mis_weight_gather_camera(&light[s - 1], camera[k - s], c, cos_c, c_pdf, c_rev, dist, cos_at_light,
+                                            l_rev, l_pdf);
+    } else if (g_upg && light_side) {
       /* The gathering at x_{s-1} of the light vertex there, joined from its predecessor
        * x_{s-2}: the light's own point (its quantities as light_start() forms them for the
        * direction towards x_1) or a light vertex (after its hit, then scattered). The
@@ -787,10 +800,12 @@ static void test_path_sets_are_large_enough(void) {
   CHECK(at_light >= 50 && at_camera >= 50 && inside >= 50);
 }
 
-/* upg: the techniques of vcm, its merges weighted as gatherings (vf_mis_weight_gather). */
+/* upg: the techniques of vcm, its merges weighted as gatherings, preferring either side. */
 static void check_upg(const path_set *set, const char *family, const double *e, int num_etas) {
-  g_upg = 1;
-  check_algorithm(set, family, VF_ALGO_UPG, e, num_etas, 0);
+  for (g_upg = 1; g_upg <= 2; g_upg++) {
+    printf("  upg gathering from the %s's side where both can\n", g_upg == 1 ? "light" : "camera");
+    check_algorithm(set, family, VF_ALGO_UPG, e, num_etas, 0);
+  }
   g_upg = 0;
 }
 
