@@ -58,6 +58,17 @@ static int summarise(const vf_film *film, summary *out) {
   return VF_OK;
 }
 
+/* What the estimated RMSE covers under the film's algorithm, in a sentence. */
+static const char *estimate_sentence(vf_algorithm a) {
+  switch (vf_algorithm_estimate_scope(a)) {
+  case VF_ESTIMATE_ERROR:
+    return a == VF_ALGO_UPG ? "the error: upg is unbiased (but on light vertices merged as vcm; render counts them)"
+                            : "the error: the algorithm is unbiased";
+  case VF_ESTIMATE_VARIANCE: return "variance only: merging's bias at the film's radii is not in it";
+  default: return "the error if auto chose pt, variance only if it chose vcm (render's first line says which)";
+  }
+}
+
 static cJSON *json_number(double v) { return isfinite(v) ? cJSON_CreateNumber(v) : cJSON_CreateNull(); }
 
 /* 64-bit counts go out as numbers (exact up to 2^53, beyond any real film). */
@@ -82,6 +93,9 @@ static int print_json(const char *path, const vf_film *film, const summary *s) {
   cJSON_AddNumberToObject(root, "nonfinite_samples", (double)film->nonfinite_samples);
   cJSON_AddItemToObject(root, "image_mean", json_number(s->image_mean));
   cJSON_AddItemToObject(root, "estimated_rmse", json_number(s->estimated_rmse));
+  if (s->have_settings)
+    cJSON_AddStringToObject(root, "estimate_covers",
+                            vf_estimate_scope_name(vf_algorithm_estimate_scope(s->settings.algorithm)));
   if ((log = cJSON_AddArrayToObject(root, "convergence")) != NULL)
     for (size_t i = 0; i < film->convergence.count; i++) {
       const vf_convergence_entry *e = &film->convergence.entries[i];
@@ -123,6 +137,7 @@ static void print_text(const char *path, const vf_film *film, const summary *s) 
   printf("nonfinite_samples  %" PRIu64 "\n", film->nonfinite_samples);
   printf("image_mean         %.6g\n", s->image_mean);
   printf("estimated_rmse     %.6g\n", s->estimated_rmse);
+  if (s->have_settings) printf("estimate_covers    %s\n", estimate_sentence(s->settings.algorithm));
   printf("convergence log    %zu entr%s\n", film->convergence.count, film->convergence.count == 1 ? "y" : "ies");
   if (film->convergence.count)
     printf("  %4s %12s %12s %12s %12s %12s %14s\n", "run", "wall_s", "cpu_s", "iterations", "rmse", "rel_mse",

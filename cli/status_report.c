@@ -1,6 +1,7 @@
 #include "status_report.h"
 
 #include "options.h"
+#include "../common/error.h"
 #include "../common/forecast.h"
 #include "../common/settings.h"
 #include "../coordinator/farm_core.h"
@@ -64,6 +65,10 @@ static void add_settings(cJSON *o, const Vcmfarm__JobStatus *j) {
   cJSON *r = cJSON_AddObjectToObject(o, "resolved");
   const char *requested = vf_algorithm_name(s.algorithm);
   add_string_or_null(r, "algorithm", s.algorithm == VF_ALGO_AUTO ? j->algorithm_resolved : requested);
+  vf_algorithm resolved = s.algorithm;
+  if (s.algorithm == VF_ALGO_AUTO && vf_algorithm_parse(j->algorithm_resolved, &resolved) != VF_OK) resolved = VF_ALGO_AUTO;
+  /* What estimated_rmse measures: the error, or the variance alone (settings.h). */
+  cJSON_AddStringToObject(r, "estimate_covers", vf_estimate_scope_name(vf_algorithm_estimate_scope(resolved)));
   cJSON_AddStringToObject(r, "requested_algorithm", requested);
   cJSON_AddNumberToObject(r, "max_path_length", s.max_path_length);
   cJSON_AddNumberToObject(r, "radius_factor", s.radius_factor);
@@ -235,7 +240,14 @@ void vf_status_job_line(const Vcmfarm__JobStatus *j, char *buf, size_t n) {
          vf_cli_plural(j->iterations_done, "iteration", "iterations"));
   if (j->progress_by[0] && (strcmp(j->state, "running") == 0 || strcmp(j->state, "queued") == 0))
     append(&p, &left, ", %.0f%% (%s), ETA %s", 100.0 * j->progress, j->progress_by, eta);
-  if (isfinite(j->estimated_rmse)) append(&p, &left, ", est. RMSE %.4g", j->estimated_rmse);
+  if (isfinite(j->estimated_rmse)) {
+    vf_settings s;
+    vf_algorithm a = VF_ALGO_AUTO;
+    if (vf_settings_parse(&s, j->settings) == VF_OK) a = s.algorithm;
+    if (a == VF_ALGO_AUTO && vf_algorithm_parse(j->algorithm_resolved, &a) != VF_OK) a = VF_ALGO_AUTO;
+    append(&p, &left, ", est. RMSE %.4g%s", j->estimated_rmse,
+           vf_algorithm_estimate_scope(a) == VF_ESTIMATE_VARIANCE ? " (variance only)" : "");
+  }
   if (j->has_reference && isfinite(j->rmse)) append(&p, &left, ", RMSE %.4g", j->rmse);
 }
 

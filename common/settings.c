@@ -55,6 +55,24 @@ int vf_algorithm_parse(const char *name, vf_algorithm *out) {
   return vf_error_set(VF_EUSAGE, "unknown algorithm '%s' (expected vcm, upg, bpt, pt, lt, ppm, bpm or auto)", name);
 }
 
+vf_estimate_scope vf_algorithm_estimate_scope(vf_algorithm a) {
+  switch (a) {
+  case VF_ALGO_VCM:
+  case VF_ALGO_PPM:
+  case VF_ALGO_BPM: return VF_ESTIMATE_VARIANCE;
+  case VF_ALGO_AUTO: return VF_ESTIMATE_DEPENDS;
+  default: return VF_ESTIMATE_ERROR;
+  }
+}
+
+const char *vf_estimate_scope_name(vf_estimate_scope scope) {
+  switch (scope) {
+  case VF_ESTIMATE_ERROR: return "error";
+  case VF_ESTIMATE_VARIANCE: return "variance";
+  default: return "error or variance";
+  }
+}
+
 static const char *const gather_names[VF_GATHER_COUNT_] = {"light", "camera"};
 
 const char *vf_gather_name(vf_gather_side g) { return (unsigned)g < VF_GATHER_COUNT_ ? gather_names[g] : "unknown"; }

@@ -64,6 +64,17 @@ const char *vf_algorithm_name(vf_algorithm a);
 /* VF_EUSAGE with a detail listing the valid names when `name` is not one. */
 int vf_algorithm_parse(const char *name, vf_algorithm *out);
 
+/* What a film's own error estimate (vf_film_estimate_rmse, from the spread of its
+ * iterations) measures under algorithm a: the estimate sees variance only, which is the
+ * whole error of an unbiased algorithm (pt, bpt, lt, and upg, except on the light vertices
+ * it merges as vcm, which the render counts) and not of a merely consistent one (vcm, ppm,
+ * bpm: their merging's bias at the film's radii is in no estimate). VF_ESTIMATE_DEPENDS for
+ * auto, which is either (the job's resolved algorithm says which). */
+typedef enum { VF_ESTIMATE_ERROR, VF_ESTIMATE_VARIANCE, VF_ESTIMATE_DEPENDS } vf_estimate_scope;
+vf_estimate_scope vf_algorithm_estimate_scope(vf_algorithm a);
+/* "error", "variance" or "error or variance": the word info and status print. */
+const char *vf_estimate_scope_name(vf_estimate_scope scope);
+
 const char *vf_gather_name(vf_gather_side g);
 /* VF_EUSAGE with a detail listing the valid names when `name` is not one. */
 int vf_gather_parse(const char *name, vf_gather_side *out);
