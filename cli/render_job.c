@@ -72,7 +72,8 @@ void vf_render_job_print_result(const vf_render_job *job, double estimated_rmse,
 void vf_render_job_format_what(const char *scene, const vf_settings *settings, vf_algorithm chosen, char *out,
                                size_t n) {
   snprintf(out, n, "%s, %dx%d, %s%s", scene, settings->width, settings->height, vf_algorithm_name(chosen),
-           settings->algorithm == VF_ALGO_AUTO ? " (auto)" : "");
+           vf_algorithm_is_auto(settings->algorithm) ? (settings->algorithm == VF_ALGO_AUTO ? " (auto)" : " (auto-unbiased)")
+                                                     : "");
 }
 
 /* Appends to out (of n bytes, holding a string) as snprintf would at its end. */

@@ -64,9 +64,10 @@ static void add_settings(cJSON *o, const Vcmfarm__JobStatus *j) {
   }
   cJSON *r = cJSON_AddObjectToObject(o, "resolved");
   const char *requested = vf_algorithm_name(s.algorithm);
-  add_string_or_null(r, "algorithm", s.algorithm == VF_ALGO_AUTO ? j->algorithm_resolved : requested);
+  add_string_or_null(r, "algorithm", vf_algorithm_is_auto(s.algorithm) ? j->algorithm_resolved : requested);
   vf_algorithm resolved = s.algorithm;
-  if (s.algorithm == VF_ALGO_AUTO && vf_algorithm_parse(j->algorithm_resolved, &resolved) != VF_OK) resolved = VF_ALGO_AUTO;
+  if (vf_algorithm_is_auto(s.algorithm) && vf_algorithm_parse(j->algorithm_resolved, &resolved) != VF_OK)
+    resolved = s.algorithm;
   /* What estimated_rmse measures: the error, or the variance alone (settings.h). */
   cJSON_AddStringToObject(r, "estimate_covers", vf_estimate_scope_name(vf_algorithm_estimate_scope(resolved)));
   cJSON_AddStringToObject(r, "requested_algorithm", requested);
@@ -244,7 +245,8 @@ void vf_status_job_line(const Vcmfarm__JobStatus *j, char *buf, size_t n) {
     vf_settings s;
     vf_algorithm a = VF_ALGO_AUTO;
     if (vf_settings_parse(&s, j->settings) == VF_OK) a = s.algorithm;
-    if (a == VF_ALGO_AUTO && vf_algorithm_parse(j->algorithm_resolved, &a) != VF_OK) a = VF_ALGO_AUTO;
+    vf_algorithm requested = a;
+    if (vf_algorithm_is_auto(a) && vf_algorithm_parse(j->algorithm_resolved, &a) != VF_OK) a = requested;
     append(&p, &left, ", est. RMSE %.4g%s", j->estimated_rmse,
            vf_algorithm_estimate_scope(a) == VF_ESTIMATE_VARIANCE ? " (variance only)" : "");
   }
@@ -313,7 +315,7 @@ void vf_status_print_text(const Vcmfarm__Status *st, FILE *out) {
     if (one_job) {
       fprintf(out, "  scene %s, hash ", j->scene_name[0] ? j->scene_name : "(unnamed)");
       for (size_t k = 0; k < j->scene_hash.len; k++) fprintf(out, "%02x", j->scene_hash.data[k]);
-      fprintf(out, "\n  %s%s%s\n", j->settings, j->algorithm_resolved[0] && strstr(j->settings, "=auto") ? "; auto: " : "",
+      fprintf(out, "\n  %s%s%s\n", j->settings, j->algorithm_resolved[0] && strstr(j->settings, "=auto") ? "; resolved to " : "",
               j->algorithm_resolved[0] && strstr(j->settings, "=auto") ? j->algorithm_resolved : "");
     }
     if (j->stop_code[0]) fprintf(out, "  stopped: %s%s%s%s\n", j->stop_code, j->stop_reason[0] ? " (" : "", j->stop_reason,

@@ -210,7 +210,8 @@ int vf_submit(vf_farm_client *client, int timeout_ms, const vf_submit_job *job, 
   m.target_error = job->target_error;
   if (reference_file.count > 0) m.reference = &reference_ref;
   /* The renderer's own rule, so that status shows what every worker will render. */
-  if (settings.algorithm == VF_ALGO_AUTO) m.algorithm_resolved = (char *)vf_algorithm_name(vf_vcm_auto_algorithm(scene, NULL));
+  if (vf_algorithm_is_auto(settings.algorithm))
+    m.algorithm_resolved = (char *)vf_algorithm_name(vf_vcm_auto_algorithm(scene, settings.algorithm, NULL));
   Vcmfarm__Envelope q = VCMFARM__ENVELOPE__INIT;
   q.body_case = VCMFARM__ENVELOPE__BODY_SUBMIT;
   q.submit = &m;

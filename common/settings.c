@@ -8,7 +8,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-static const char *const algorithm_names[VF_ALGO_COUNT_] = {"vcm", "bpt", "pt", "lt", "ppm", "bpm", "auto", "upg"};
+static const char *const algorithm_names[VF_ALGO_COUNT_] = {"vcm", "bpt", "pt", "lt", "ppm", "bpm", "auto", "upg", "auto-unbiased"};
 static const char *const sampler_names[VF_SAMPLER_COUNT_] = {"independent", "sobol"};
 
 void vf_settings_default(vf_settings *s) {
@@ -52,7 +52,7 @@ int vf_algorithm_parse(const char *name, vf_algorithm *out) {
     *out = (vf_algorithm)i;
     return VF_OK;
   }
-  return vf_error_set(VF_EUSAGE, "unknown algorithm '%s' (expected vcm, upg, bpt, pt, lt, ppm, bpm or auto)", name);
+  return vf_error_set(VF_EUSAGE, "unknown algorithm '%s' (expected vcm, upg, bpt, pt, lt, ppm, bpm, auto or auto-unbiased)", name);
 }
 
 vf_estimate_scope vf_algorithm_estimate_scope(vf_algorithm a) {
@@ -61,6 +61,7 @@ vf_estimate_scope vf_algorithm_estimate_scope(vf_algorithm a) {
   case VF_ALGO_PPM:
   case VF_ALGO_BPM: return VF_ESTIMATE_VARIANCE;
   case VF_ALGO_AUTO: return VF_ESTIMATE_DEPENDS;
+  case VF_ALGO_AUTO_UNBIASED: return VF_ESTIMATE_ERROR;
   default: return VF_ESTIMATE_ERROR;
   }
 }

@@ -24,6 +24,8 @@ typedef enum {
                  * settings, so every worker and every continue makes the same one. */
   VF_ALGO_UPG,  /* vcm with unbiased photon gathering in place of vertex merging
                  * (worker/render/photon_gathering.h) */
+  VF_ALGO_AUTO_UNBIASED, /* auto among the unbiased ones, pt, bpt and upg (vcm.c); kept as
+                          * "auto-unbiased" in the settings text as auto is */
   VF_ALGO_COUNT_
 } vf_algorithm;
 
@@ -61,6 +63,8 @@ typedef struct {
 void vf_settings_default(vf_settings *s);
 
 const char *vf_algorithm_name(vf_algorithm a);
+/* auto or auto-unbiased: the renderer resolves it from the scene. */
+static inline int vf_algorithm_is_auto(vf_algorithm a) { return a == VF_ALGO_AUTO || a == VF_ALGO_AUTO_UNBIASED; }
 /* VF_EUSAGE with a detail listing the valid names when `name` is not one. */
 int vf_algorithm_parse(const char *name, vf_algorithm *out);
 

@@ -48,14 +48,14 @@ void vf_jobs_submit(vf_farm *farm, const Vcmfarm__SubmitJob *m, vf_farm_reply *r
   }
   vf_algorithm resolved;
   if (m->algorithm_resolved[0] != '\0' &&
-      (vf_algorithm_parse(m->algorithm_resolved, &resolved) != VF_OK || resolved == VF_ALGO_AUTO)) {
+      (vf_algorithm_parse(m->algorithm_resolved, &resolved) != VF_OK || vf_algorithm_is_auto(resolved))) {
     vf_state_remove_job_files(farm->config.state_dir, job->id);
     vf_job_destroy(job);
     return vf_farm_reply_errorf(r, VCMFARM__ERROR_CODE__ERROR_BAD_REQUEST,
                                 "algorithm_resolved: '%.40s' is not an algorithm auto can resolve to", m->algorithm_resolved);
   }
   snprintf(job->algorithm_resolved, sizeof job->algorithm_resolved, "%s",
-           job->settings.algorithm != VF_ALGO_AUTO ? vf_algorithm_name(job->settings.algorithm) : m->algorithm_resolved);
+           !vf_algorithm_is_auto(job->settings.algorithm) ? vf_algorithm_name(job->settings.algorithm) : m->algorithm_resolved);
   job->submitted_at = vf_unix_now();
   if ((err = vf_job_set_stop(job, m->time_limit, m->target_rmse, m->target_error)) != VF_OK) {
     vf_state_remove_job_files(farm->config.state_dir, job->id);

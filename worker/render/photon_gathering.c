@@ -4,6 +4,7 @@
 
 #include "sampling.h"
 
+#include <float.h>
 #include <math.h>
 
 float vf_upg_density(const vf_upg_source *src, vf_vec3 dir) {
@@ -52,7 +53,9 @@ static normal_cone normals_of(vf_vec3 c, float k, vf_vec3 a, float rho) {
 static float max_d(normal_cone n, float alpha) {
   if (alpha > 1.0f) return alpha * alpha * VF_INV_PI; /* D's largest value, at the horizon */
   float peak = 1.0f / (VF_PI * alpha * alpha);
-  float angle = acosf(fminf(1.0f, n.centre.z)) - n.spread;
+  /* atan2 keeps the angle's precision near the normal, where acos of a cosine close to 1
+   * does not: at alpha 0.0025 acos's rounding made the bound a few percent short. */
+  float angle = atan2f(sqrtf(n.centre.x * n.centre.x + n.centre.y * n.centre.y), n.centre.z) - n.spread;
   if (!(angle > 0.0f)) return peak;
   if (angle >= 0.5f * VF_PI) return 0.0f;
   return vf_ggx_d(vf_vec3_make(sinf(angle), 0.0f, cosf(angle)), alpha, alpha);
@@ -76,19 +79,26 @@ static float bsdf_bound(const vf_bsdf *b, vf_vec3 world_axis, float ch, float on
   float rho = sqrtf(2.0f * one_minus_ch);
   const vf_vec3 z = vf_vec3_make(0.0f, 0.0f, 1.0f), fix = b->local_fix;
   float bound = 0.0f;
+  /* Every lobe but refraction reflects (gen.z > 0), refraction transmits (gen.z < 0): a
+   * cone on one side of the surface needs the other side's lobes not at all. */
+  /* (with a margin for max_cos's rounding: the GGX lobes do not vanish at the horizon) */
+  int above = max_cos(a, z, ch, sh) > -1e-4f, below = max_cos(a, vf_neg(z), ch, sh) > -1e-4f;
   float cosine = p[VF_LOBE_DIFFUSE] + (b->rough ? p[VF_LOBE_BASE] : 0.0f);
-  if (cosine > 0.0f) bound += cosine * vf_fmaxf_zero(max_cos(a, z, ch, sh)) * VF_INV_PI;
-  if (p[VF_LOBE_GLOSSY] > 0.0f) {
+  if (above && cosine > 0.0f) bound += cosine * vf_fmaxf_zero(max_cos(a, z, ch, sh)) * VF_INV_PI;
+  if (above && p[VF_LOBE_GLOSSY] > 0.0f) {
     float n = b->material->phong_exponent;
     float c = max_cos(a, vf_bsdf_reflect_local(fix), ch, sh);
-    if (c > 0.0f) bound += p[VF_LOBE_GLOSSY] * (n + 1.0f) * (0.5f * VF_INV_PI) * vf_phong_power(fminf(c, 1.0f), n);
+    /* cos^n magnifies the roundings of c and of the density's own cosine n times. */
+    if (c > 0.0f)
+      bound += p[VF_LOBE_GLOSSY] * (n + 1.0f) * (0.5f * VF_INV_PI) * vf_phong_power(fminf(c, 1.0f), n) *
+               (1.0f + 4.0f * n * FLT_EPSILON);
   }
   if (b->rough) {
     float pc = p[VF_LOBE_ROUGH_CONDUCTOR], pd = p[VF_LOBE_ROUGH_DIELECTRIC];
     float g1_fix = 1.0f / (1.0f + b->lambda_fix);
-    if (pc + pd > 0.0f) /* reflection: G1(fix) D / (4 fix.z), Fresnel <= 1 (bsdf.c, reflect_rough) */
+    if (above && pc + pd > 0.0f) /* reflection: G1(fix) D / (4 fix.z), Fresnel <= 1 (bsdf.c, reflect_rough) */
       bound += (pc + pd) * g1_fix * max_d(normals_of(fix, 1.0f, a, rho), b->alpha) / (4.0f * fix.z);
-    if (pd > 0.0f) {
+    if (below && pd > 0.0f) {
       /* Refraction: G1(fix) D ci / fix.z (1 - F) eta^2 |co| / |fix + eta gen|^2 with
        * |co|, 1 - F <= 1 and ci = fix.m at most its largest over the normals (bsdf.c,
        * refract_rough); |fix + eta gen| >= |1 - eta| always, and >= |fix + eta a| - eta rho

@@ -178,11 +178,49 @@ static void analyse_scene(vf_vcm *v) {
  * settings: every worker and every `continue` makes the same one, and films keep "auto"
  * in their settings text. It cannot tell how much light the SDS paths carry: with area
  * lights in view of the light sampler (`cornell`) pt would be faster than the vcm chosen. */
-vf_algorithm vf_vcm_auto_algorithm(const vf_scene *scene, const char **reason) {
+/* Whether the scene has a light at infinity: a directional light, a background or an
+ * environment map (upg cannot join a light vertex to their points). */
+static int has_infinite_light(const vf_scene *sc) {
+  return sc->num_directional_lights > 0 || !vf_is_zero(sc->background) || sc->envmap.width > 0;
+}
+
+/* --algorithm auto-unbiased: among the unbiased algorithms, the one for the scene
+ * (docs/BENCHMARKS.md, "Unbiased photon gathering", has the measurements behind it).
+ * - Delta lobes: upg would merge, as vcm does, the light vertices that neither side can
+ *   join (a caustic seen through glass), so it is not unbiased there: bpt, whose emission
+ *   hits and connections reach specular chains. Caustics from a point or directional light
+ *   seen through a delta lobe no unbiased technique samples at all.
+ * - A light at infinity: upg merges its first light vertices as vcm does: pt.
+ * - Glossy surfaces without delta lobes: upg, unbiased here, gathers glossy transport
+ *   sooner than pt.
+ * - Otherwise (diffuse only): pt, as auto. */
+static vf_algorithm auto_unbiased(const vf_scene *sc, material_kinds k, const char **why) {
+  if (k.has_specular) {
+    *why = sc->num_point_lights > 0 || sc->num_directional_lights > 0
+               ? "delta lobes: upg would merge caustics as vcm; caustics of point and directional lights seen through "
+                 "them no unbiased technique samples"
+               : "delta lobes: upg would merge caustics as vcm; bpt reaches specular chains by emission hits";
+    return VF_ALGO_BPT;
+  }
+  if (has_infinite_light(sc)) {
+    *why = "a light at infinity, whose first light vertices upg merges as vcm: pt";
+    return VF_ALGO_PT;
+  }
+  if (k.has_glossy) {
+    *why = "glossy surfaces, no delta lobes and finite lights: upg gathers without bias";
+    return VF_ALGO_UPG;
+  }
+  *why = "diffuse surfaces only: light sampling suffices";
+  return VF_ALGO_PT;
+}
+
+vf_algorithm vf_vcm_auto_algorithm(const vf_scene *scene, vf_algorithm requested, const char **reason) {
   material_kinds k = scene_kinds(scene);
   const char *why;
   vf_algorithm a;
-  if (k.has_specular && (k.has_diffuse || k.has_glossy)) {
+  if (requested == VF_ALGO_AUTO_UNBIASED) {
+    a = auto_unbiased(scene, k, &why);
+  } else if (k.has_specular && (k.has_diffuse || k.has_glossy)) {
     why = "specular next to non-specular surfaces: SDS paths possible";
     a = VF_ALGO_VCM;
   } else {
@@ -194,7 +232,7 @@ vf_algorithm vf_vcm_auto_algorithm(const vf_scene *scene, const char **reason) {
   return a;
 }
 
-static vf_algorithm resolve_auto(vf_vcm *v) { return vf_vcm_auto_algorithm(v->scene, &v->auto_reason); }
+static vf_algorithm resolve_auto(vf_vcm *v) { return vf_vcm_auto_algorithm(v->scene, v->requested, &v->auto_reason); }
 
 vf_algorithm vf_vcm_algorithm(const vf_vcm *v) { return v->settings.algorithm; }
 
@@ -248,14 +286,27 @@ void vf_vcm_describe(const vf_vcm *v, FILE *out) {
     fprintf(out, "camera: thin lens of radius %g, in focus at %g\n", v->camera.lens_radius, v->camera.focus_distance);
   describe_geometry(v->scene, out);
   fprintf(out, "rays: Embree's %s kernels\n", vf_accel_kernels());
-  if (v->requested == VF_ALGO_AUTO)
-    fprintf(out, "auto: %s (%s)\n", vf_algorithm_name(v->settings.algorithm), v->auto_reason);
+  if (vf_algorithm_is_auto(v->requested))
+    fprintf(out, "%s: %s (%s)\n", vf_algorithm_name(v->requested), vf_algorithm_name(v->settings.algorithm),
+            v->auto_reason);
   fprintf(out,
           "techniques (%s): emission hits %s, light sampling %s, light tracing %s, connections %s, merging %s\n",
           vf_algorithm_name(v->settings.algorithm), t->emission ? (t->emission_specular_only ? "specular paths" : "on") : "off",
           t->light_sample ? "on" : "off", t->light_to_camera ? "on" : "off", t->connection ? "on" : "off",
           t->vertex_merging ? (t->ppm ? "first diffuse vertex" : "on") : "off");
-  if (t->vertex_merging) fprintf(out, "merging tests its candidates with %s\n", vf_vcm_merge_simd(v));
+  if (v->upg) {
+    int infinite = has_infinite_light(v->scene);
+    fprintf(out, "gathering (upg): from the %s's side where both sides can; light vertices neither can join ",
+            vf_gather_name(v->settings.gather));
+    if (v->has_specular || infinite)
+      fprintf(out, "(%s%s%s) are merged as vcm merges them, biased, and counted\n",
+              v->has_specular ? "ideal specular choices on both sides" : "", v->has_specular && infinite ? "; " : "",
+              infinite ? "first vertices of lights at infinity seen from a lens-adjacent vertex" : "");
+    else
+      fprintf(out, "do not exist in this scene (no delta lobes, no lights at infinity): unbiased\n");
+  } else if (t->vertex_merging) {
+    fprintf(out, "merging tests its candidates with %s\n", vf_vcm_merge_simd(v));
+  }
   fprintf(out, "skipped: %s%s%s%s\n", t->store_vertices ? "" : "light-vertex storage, ",
           t->vertex_merging ? "" : "range-search grid, ", v->lights->environment >= 0 ? "" : "environment lookups, ",
           "connections at specular vertices, shadow rays for zero contributions");
@@ -283,7 +334,7 @@ int vf_vcm_create(const vf_scene *scene, const vf_accel *accel, const vf_setting
   }
   analyse_scene(v);
   v->requested = settings->algorithm;
-  if (v->requested == VF_ALGO_AUTO) v->settings.algorithm = resolve_auto(v);
+  if (vf_algorithm_is_auto(v->requested)) v->settings.algorithm = resolve_auto(v);
   choose_techniques(v);
   if ((err = vf_lights_create(scene, &v->lights)) != VF_OK) goto fail;
   err = VF_ENOMEM;

@@ -65,13 +65,14 @@ void vf_vcm_trim(vf_vcm *vcm);
  * first, overwritten). Adds to *stats. */
 int vf_vcm_iteration(vf_vcm *vcm, uint64_t iteration, float *camera_rgb, float *light_rgb, vf_vcm_stats *stats);
 
-/* The algorithm this renderer runs: the settings' one, or for VF_ALGO_AUTO the one chosen
- * from the scene at vf_vcm_create (never VF_ALGO_AUTO). */
+/* The algorithm this renderer runs: the settings' one, or for auto and auto-unbiased the
+ * one chosen from the scene at vf_vcm_create (never an auto). */
 vf_algorithm vf_vcm_algorithm(const vf_vcm *vcm);
-/* What `--algorithm auto` resolves to for a scene (vcm or pt), by the rule vf_vcm_create
- * applies: a pure function of the scene's materials, so a client that has loaded the
- * scene knows it without a renderer. *reason (if not NULL) receives a static sentence. */
-vf_algorithm vf_vcm_auto_algorithm(const vf_scene *scene, const char **reason);
+/* What `--algorithm auto` (vcm or pt) or `auto-unbiased` (pt, bpt or upg) resolves to for
+ * a scene, by the rule vf_vcm_create applies: a pure function of the scene's materials and
+ * lights, so a client that has loaded the scene knows it without a renderer. *reason (if
+ * not NULL) receives a static sentence. */
+vf_algorithm vf_vcm_auto_algorithm(const vf_scene *scene, vf_algorithm requested, const char **reason);
 
 double vf_vcm_merge_radius(const vf_vcm *vcm, uint64_t iteration);
 

@@ -493,7 +493,7 @@ static int parse_render(const parse_ctx *c, const cJSON *j) {
   if ((err = vf_scene_string_field(c, j, "render", "algorithm", OPTIONAL, &algorithm)) < 0) return err;
   if (err > 0) {
     if (vf_algorithm_parse(algorithm, &st->algorithm) < 0)
-      return vf_scene_fail(c, VF_ESCENE, "render.algorithm", "unknown algorithm '%s' (expected vcm, upg, bpt, pt, lt, ppm, bpm or auto)",
+      return vf_scene_fail(c, VF_ESCENE, "render.algorithm", "unknown algorithm '%s' (expected vcm, upg, bpt, pt, lt, ppm, bpm, auto or auto-unbiased)",
                   algorithm);
     s->settings_given |= VF_SET_ALGORITHM;
   }
