@@ -46,6 +46,18 @@ expect_refusal "MIS beta above 4" "--mis-beta" "$vcmfarm" render furnace --mis-b
   "$vcmfarm" render furnace -R 8x8 -n 1 -k 1 --mis-beta 2 -q -o "$tmp/beta2.exr"
 check "films of MIS beta 1 and 2 rendered" $?
 expect_refusal "films of MIS beta 1 and 2 do not merge" "mis_beta=2" "$vcmfarm" merge -o "$tmp/out.exr" "$tmp/beta1.exr" "$tmp/beta2.exr"
+# upg: its side is an option of upg alone, named when wrong; its render counts its
+# gatherings; a film says what its estimated RMSE covers.
+expect_refusal "unknown gathering side" "unknown side 'eye'" "$vcmfarm" render furnace -a upg --gather-from eye -o "$tmp/out.exr"
+expect_refusal "gathering side without upg" "option of upg, not of vcm" "$vcmfarm" render furnace --gather-from camera -o "$tmp/out.exr"
+"$vcmfarm" render cornell-diffuse -R 16x16 -n 2 -a upg --gather-from camera -o "$tmp/upg.exr" 2>"$tmp/stderr"
+check "upg renders" $?
+check "upg counts its gatherings" "$(grep -q "^gathering: [0-9]* light vertices without bias" "$tmp/stderr"; echo $?)"
+check "upg's film: settings" "$("$vcmfarm" info "$tmp/upg.exr" | grep -q "algorithm=upg .* gather=camera"; echo $?)"
+check "upg's estimate covers the error" "$("$vcmfarm" info --json "$tmp/upg.exr" | jq -e '.estimate_covers == "error"' >/dev/null; echo $?)"
+check "vcm's estimate covers the variance" "$("$vcmfarm" info --json "$tmp/beta1.exr" | jq -e '.estimate_covers == "variance"' >/dev/null; echo $?)"
+"$vcmfarm" render cornell-rough -R 16x16 -n 1 -a auto-unbiased -o "$tmp/au.exr" 2>"$tmp/stderr"
+check "auto-unbiased names its choice" "$(head -1 "$tmp/stderr" | grep -q "upg (auto-unbiased)"; echo $?)"
 # A bad option is refused on one line naming it, with a hint, not under the whole --help;
 # every subcommand alike.
 expect_one_line() { # name, expected substring, command...

@@ -51,8 +51,44 @@ static void test_beta_out_of_range_or_twice_is_refused(void) {
   CHECK_STR_CONTAINS(vf_error_detail(VF_EINVAL), "MIS beta");
 }
 
+/* upg's side: written only when it is the camera's (every text before it existed gathered
+ * from no side and reads as the light's), read back, refused twice or for another
+ * algorithm; auto-unbiased and upg read back as themselves. */
+static void test_gather_side_and_new_algorithms(void) {
+  vf_settings s, back;
+  vf_settings_default(&s);
+  s.algorithm = VF_ALGO_UPG;
+  char text[512];
+  CHECK_INT_EQ(vf_settings_format(&s, text, sizeof text), VF_OK);
+  CHECK_STR_CONTAINS(text, "algorithm=upg ");
+  CHECK(strstr(text, "gather") == NULL);
+  s.gather = VF_GATHER_CAMERA;
+  CHECK_INT_EQ(vf_settings_format(&s, text, sizeof text), VF_OK);
+  CHECK_STR_CONTAINS(text, " gather=camera");
+  CHECK_INT_EQ(vf_settings_parse(&back, text), VF_OK);
+  CHECK(back.gather == VF_GATHER_CAMERA && back.algorithm == VF_ALGO_UPG);
+  const char *base = "algorithm=upg max_path_length=10 radius_factor=0.003 alpha=0.75 seed=1 resolution=4x3";
+  const char *bad[] = {" gather=eye", " gather=camera gather=camera", " gather="};
+  for (size_t i = 0; i < sizeof bad / sizeof *bad; i++) {
+    snprintf(text, sizeof text, "%s%s", base, bad[i]);
+    int err = vf_settings_parse(&back, text);
+    if (err != VF_EINVAL) CHECK_FAIL_("'%s' parsed (%d)", bad[i], err);
+  }
+  s.algorithm = VF_ALGO_VCM;
+  CHECK_INT_EQ(vf_settings_validate(&s), VF_EINVAL);
+  CHECK_STR_CONTAINS(vf_error_detail(VF_EINVAL), "option of upg");
+  vf_algorithm a;
+  CHECK_INT_EQ(vf_algorithm_parse("auto-unbiased", &a), VF_OK);
+  CHECK(a == VF_ALGO_AUTO_UNBIASED && vf_algorithm_is_auto(a));
+  CHECK(vf_algorithm_estimate_scope(VF_ALGO_UPG) == VF_ESTIMATE_ERROR);
+  CHECK(vf_algorithm_estimate_scope(VF_ALGO_AUTO_UNBIASED) == VF_ESTIMATE_ERROR);
+  CHECK(vf_algorithm_estimate_scope(VF_ALGO_VCM) == VF_ESTIMATE_VARIANCE);
+  CHECK(vf_algorithm_estimate_scope(VF_ALGO_AUTO) == VF_ESTIMATE_DEPENDS);
+}
+
 int main(void) {
   RUN(test_text_round_trips);
+  RUN(test_gather_side_and_new_algorithms);
   RUN(test_balance_heuristic_is_the_text_without_beta);
   RUN(test_beta_out_of_range_or_twice_is_refused);
   return check_finish();

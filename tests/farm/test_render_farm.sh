@@ -69,6 +69,12 @@ same "--direct is accepted and renders the same film" "[0,6)" "$tmp/films/a.exr"
 local_render render cornell "${common[@]}" -a bpt -k 5 -n 4 -q -o "$tmp/films/b.exr"
 farm "--start-iteration 5" "[5,9)" "$tmp/films/b.exr" cornell "${common[@]}" -a bpt --start-iteration 5 -n 4
 
+# 2b. upg from both sides: a worker renders its gatherings as render does (their random
+#     streams are keyed by camera sub-path and vertex, not by thread).
+local_render render cornell "${common[@]}" -a upg --gather-from camera -k 2 -n 3 -q -o "$tmp/films/u.exr"
+farm "upg from the camera's side" "[2,5)" "$tmp/films/u.exr" cornell "${common[@]}" -a upg --gather-from camera \
+  --start-iteration 2 -n 3
+
 # 3. A JSON scene whose mesh files travel to the worker as blobs; render's film names the
 #    scene file, so `continue` finds it.
 scene="$source_dir/tests/scenes/good/gltf.json"

@@ -145,13 +145,16 @@ static void test_split_ranges_merge_into_the_whole(void) {
 static void test_auto_renders_exactly_its_choice(void) {
   static const struct {
     const char *scene;
-    vf_algorithm chosen;
-  } cases[] = {{"cornell", VF_ALGO_VCM}, {"cornell-diffuse", VF_ALGO_PT}};
+    vf_algorithm requested, chosen;
+    const char *text;
+  } cases[] = {{"cornell", VF_ALGO_AUTO, VF_ALGO_VCM, "algorithm=auto "},
+               {"cornell-diffuse", VF_ALGO_AUTO, VF_ALGO_PT, "algorithm=auto "},
+               {"cornell-rough", VF_ALGO_AUTO_UNBIASED, VF_ALGO_UPG, "algorithm=auto-unbiased "}};
   for (size_t c = 0; c < sizeof cases / sizeof *cases; c++) {
     vf_film *chosen = render(cases[c].scene, cases[c].chosen, 5, 2, 0, 2);
-    vf_film *automatic = render(cases[c].scene, VF_ALGO_AUTO, 5, 2, 0, 2);
+    vf_film *automatic = render(cases[c].scene, cases[c].requested, 5, 2, 0, 2);
     if (!chosen || !automatic) return;
-    CHECK_STR_CONTAINS(automatic->settings_text, "algorithm=auto ");
+    CHECK_STR_CONTAINS(automatic->settings_text, cases[c].text);
     size_t n = 3 * (size_t)chosen->width * chosen->height;
     CHECK(same_doubles(chosen->sum, automatic->sum, n));
     CHECK(same_doubles(chosen->square_sum, automatic->square_sum, n));

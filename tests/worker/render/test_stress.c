@@ -55,7 +55,8 @@ static void check_same_image(const char *what, const estimate *a, const estimate
   CHECK_INT_EQ(b->nonfinite, 0);
 }
 
-static const vf_algorithm algorithms[] = {VF_ALGO_VCM, VF_ALGO_BPT, VF_ALGO_PT, VF_ALGO_LT, VF_ALGO_PPM, VF_ALGO_BPM};
+static const vf_algorithm algorithms[] = {VF_ALGO_VCM, VF_ALGO_BPT, VF_ALGO_PT,  VF_ALGO_LT,
+                                          VF_ALGO_PPM, VF_ALGO_BPM, VF_ALGO_UPG};
 
 /* The whole scene scaled by S (point lights adjusted) is the same image. */
 static void test_scene_scale_leaves_the_image_unchanged(void) {

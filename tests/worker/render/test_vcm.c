@@ -386,11 +386,26 @@ static void test_spot_light_on_a_floor_has_the_analytic_radiance(void) {
 static void test_auto_chooses_by_the_scene(void) {
   static const struct {
     const char *scene;
-    vf_algorithm chosen;
-  } cases[] = {{"cornell", VF_ALGO_VCM},      {"cornell-point", VF_ALGO_VCM},  {"cornell-sun", VF_ALGO_VCM},
-               {"cornell-env", VF_ALGO_VCM},  {"cornell-bulb", VF_ALGO_VCM},   {"knot", VF_ALGO_PT},
-               {"cornell-diffuse", VF_ALGO_PT}, {"cornell-glossy", VF_ALGO_PT}, {"furnace", VF_ALGO_PT},
-               {"cornell-rough", VF_ALGO_PT}};
+    vf_algorithm requested, chosen;
+  } cases[] = {{"cornell", VF_ALGO_AUTO, VF_ALGO_VCM},
+               {"cornell-point", VF_ALGO_AUTO, VF_ALGO_VCM},
+               {"cornell-sun", VF_ALGO_AUTO, VF_ALGO_VCM},
+               {"cornell-env", VF_ALGO_AUTO, VF_ALGO_VCM},
+               {"cornell-bulb", VF_ALGO_AUTO, VF_ALGO_VCM},
+               {"knot", VF_ALGO_AUTO, VF_ALGO_PT},
+               {"cornell-diffuse", VF_ALGO_AUTO, VF_ALGO_PT},
+               {"cornell-glossy", VF_ALGO_AUTO, VF_ALGO_PT},
+               {"furnace", VF_ALGO_AUTO, VF_ALGO_PT},
+               {"cornell-rough", VF_ALGO_AUTO, VF_ALGO_PT},
+               /* auto-unbiased: bpt where delta lobes are, pt under a light at infinity or
+                * on diffuse surfaces alone, upg on glossy ones */
+               {"cornell", VF_ALGO_AUTO_UNBIASED, VF_ALGO_BPT},
+               {"cornell-sun", VF_ALGO_AUTO_UNBIASED, VF_ALGO_BPT},
+               {"cornell-bulb", VF_ALGO_AUTO_UNBIASED, VF_ALGO_BPT},
+               {"cornell-diffuse", VF_ALGO_AUTO_UNBIASED, VF_ALGO_PT},
+               {"furnace", VF_ALGO_AUTO_UNBIASED, VF_ALGO_PT},
+               {"cornell-glossy", VF_ALGO_AUTO_UNBIASED, VF_ALGO_UPG},
+               {"cornell-rough", VF_ALGO_AUTO_UNBIASED, VF_ALGO_UPG}};
   for (size_t c = 0; c < sizeof cases / sizeof *cases; c++) {
     vf_scene *scene = NULL;
     vf_accel *accel = NULL;
@@ -399,15 +414,15 @@ static void test_auto_chooses_by_the_scene(void) {
     CHECK_INT_EQ(vf_scene_load(cases[c].scene, &scene), VF_OK);
     if (scene == NULL) return;
     vf_settings s = scene->settings;
-    s.algorithm = VF_ALGO_AUTO;
+    s.algorithm = cases[c].requested;
     s.width = s.height = 8;
     CHECK_INT_EQ(vf_accel_create(scene, &accel), VF_OK);
     CHECK_INT_EQ(vf_pool_create(1, &pool), VF_OK);
     if (accel && pool) CHECK_INT_EQ(vf_vcm_create(scene, accel, &s, pool, &vcm), VF_OK);
     if (vcm) {
       if (vf_vcm_algorithm(vcm) != cases[c].chosen)
-        printf("  %s: auto chose %s, expected %s\n", cases[c].scene, vf_algorithm_name(vf_vcm_algorithm(vcm)),
-               vf_algorithm_name(cases[c].chosen));
+        printf("  %s: %s chose %s, expected %s\n", cases[c].scene, vf_algorithm_name(cases[c].requested),
+               vf_algorithm_name(vf_vcm_algorithm(vcm)), vf_algorithm_name(cases[c].chosen));
       CHECK_INT_EQ(vf_vcm_algorithm(vcm), cases[c].chosen);
     }
     vf_vcm_destroy(vcm);
