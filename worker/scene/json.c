@@ -482,7 +482,7 @@ static int has_light(const vf_scene *s) {
 
 static int parse_render(const parse_ctx *c, const cJSON *j) {
   static const char *const fields[] = {"algorithm", "max_path_length", "radius_factor", "alpha", "seed", "sampler",
-                                       "mis_beta",  NULL};
+                                       "mis_beta",  "gather",        NULL};
   vf_scene *s = c->scene;
   vf_settings *st = &s->settings;
   const cJSON *m;
@@ -503,6 +503,13 @@ static int parse_render(const parse_ctx *c, const cJSON *j) {
     if (vf_sampler_parse(sampler, &st->sampler) < 0)
       return vf_scene_fail(c, VF_ESCENE, "render.sampler", "unknown sampler '%s' (expected independent or sobol)", sampler);
     s->settings_given |= VF_SET_SAMPLER;
+  }
+  const char *gather;
+  if ((err = vf_scene_string_field(c, j, "render", "gather", OPTIONAL, &gather)) < 0) return err;
+  if (err > 0) {
+    if (vf_gather_parse(gather, &st->gather) < 0)
+      return vf_scene_fail(c, VF_ESCENE, "render.gather", "unknown side '%s' (expected light or camera)", gather);
+    s->settings_given |= VF_SET_GATHER;
   }
   if ((m = cJSON_GetObjectItemCaseSensitive(j, "max_path_length")) != NULL) {
     if ((err = vf_scene_to_integer(c, m, "render.max_path_length", 1, 1000, &d)) < 0) return err;

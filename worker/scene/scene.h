@@ -81,6 +81,7 @@ enum {
   VF_SET_RESOLUTION = 1u << 5,
   VF_SET_SAMPLER = 1u << 6,
   VF_SET_MIS_BETA = 1u << 7,
+  VF_SET_GATHER = 1u << 8,
 };
 
 typedef struct {
