@@ -57,6 +57,17 @@ function renderFarm(st) {
     `${st.jobs.length} jobs · coordinator ${st.coordinator.version || ''} (protocol ${st.coordinator.protocol})`;
 }
 
+/* What a job's estimated RMSE covers (status JSON: resolved.estimate_covers): the error for
+ * the unbiased algorithms, the variance alone for vcm, ppm and bpm, whose merging bias no
+ * estimate sees. */
+function estimateNote(j) {
+  return j.resolved && j.resolved.estimate_covers === 'variance' && j.estimated_rmse != null ? ' (variance only)' : '';
+}
+function estimateTitle(j) {
+  const covers = j.resolved && j.resolved.estimate_covers;
+  return covers ? { title: 'the estimate covers the ' + covers } : {};
+}
+
 function renderJobs(st) {
   const rows = st.jobs.map((j) => {
     const bar = el('div', { class: 'bar' }, el('div', { class: 'fill state-' + j.state }));
@@ -66,7 +77,7 @@ function renderJobs(st) {
       onclick: () => select(j.id) },
       el('td', {}, j.id), el('td', {}, j.name), el('td', { class: 'state-' + j.state }, j.state),
       el('td', {}, bar, el('span', { class: 'pct' }, (100 * (j.progress || 0)).toFixed(0) + '%')),
-      el('td', {}, num(j.iterations_per_second)), el('td', {}, num(j.rmse)), el('td', {}, num(j.estimated_rmse)),
+      el('td', {}, num(j.iterations_per_second)), el('td', {}, num(j.rmse)), el('td', estimateTitle(j), num(j.estimated_rmse) + estimateNote(j)),
       el('td', {}, j.state === 'running' || j.state === 'queued' ? duration(j.eta_seconds) : '–'),
       el('td', {}, stopText(j)), el('td', {}, j.priority));
     return tr;
