@@ -59,8 +59,9 @@ int vf_cli_not_input(const char *output_option, const char *output, const char *
   "  -a, --algorithm A        vcm (default), upg (vcm without merging's bias: unbiased\n"   \
   "                           photon gathering), bpt, pt, lt, ppm, bpm or auto (the\n"      \
   "                           cheapest set of techniques for the scene's light transport)\n" \
-  "      --gather-from SIDE   upg: light (default) or camera, the side it gathers from\n"  \
-  "                           where both can (films of the two never merge)\n"             \
+  "      --gather-from SIDE   upg: light (default), camera or auto (per path, the side\n"  \
+  "                           that scatters less sharply): the side it gathers from where\n" \
+  "                           both can (films of different sides never merge)\n"          \
   "  -s, --seed S             job seed (default: the scene's, else 1)\n"                     \
   "  -l, --max-path-length L  maximum path segments (default 10)\n"                          \
   "  -r, --radius-factor F    initial merge radius / scene radius (default 0.003)\n"         \

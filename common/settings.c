@@ -74,7 +74,7 @@ const char *vf_estimate_scope_name(vf_estimate_scope scope) {
   }
 }
 
-static const char *const gather_names[VF_GATHER_COUNT_] = {"light", "camera"};
+static const char *const gather_names[VF_GATHER_COUNT_] = {"light", "camera", "auto"};
 
 const char *vf_gather_name(vf_gather_side g) { return (unsigned)g < VF_GATHER_COUNT_ ? gather_names[g] : "unknown"; }
 
@@ -84,7 +84,7 @@ int vf_gather_parse(const char *name, vf_gather_side *out) {
     *out = (vf_gather_side)i;
     return VF_OK;
   }
-  return vf_error_set(VF_EUSAGE, "unknown side '%s' to gather from (expected light or camera)", name);
+  return vf_error_set(VF_EUSAGE, "unknown side '%s' to gather from (expected light, camera or auto)", name);
 }
 
 int vf_settings_validate(const vf_settings *s) {

@@ -36,8 +36,9 @@ typedef enum {
 /* The side upg gathers from where both sides can (worker/render/gathering_pass.h): the
  * light's (the thesis's UPG: a camera vertex joins the gathered light vertex's
  * predecessor) or the camera's (UPG*: the gathered light vertex joins the camera vertex's
- * predecessor). */
-typedef enum { VF_GATHER_LIGHT, VF_GATHER_CAMERA, VF_GATHER_COUNT_ } vf_gather_side;
+ * predecessor), or auto: path by path the side whose joining vertex scatters less sharply
+ * (in the manner of Qin et al.'s hybrid). */
+typedef enum { VF_GATHER_LIGHT, VF_GATHER_CAMERA, VF_GATHER_AUTO, VF_GATHER_COUNT_ } vf_gather_side;
 
 typedef struct {
   vf_algorithm algorithm;

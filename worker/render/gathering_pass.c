@@ -205,7 +205,8 @@ static vf_vec3 gather_from_camera(vf_vcm *v, int thread, const gathering_prev *p
  * light's side can where the light vertex was reached by a non-specular choice from a
  * predecessor at a finite distance; the camera's side where q was reached by a
  * non-specular choice from a surface vertex (not the lens). A path both can take goes to
- * the side the settings prefer (vf_settings.gather), a path one can take to that one, and
+ * the side the settings prefer (vf_settings.gather; under auto the side whose joining
+ * vertex scatters less sharply, vf_upg_sharpness), a path one can take to that one, and
  * a path neither can take is merged as vcm merges it (counted: biased). Specular choices
  * are told by d_vcm, which vf_mis_scatter zeroes for them and nothing else does. */
 static vf_vec3 gather(vf_vcm *v, int thread, const vertex_merging_query *q, const gathering_prev *prev, uint32_t k,
@@ -229,8 +230,21 @@ static vf_vec3 gather(vf_vcm *v, int thread, const vertex_merging_query *q, cons
   }
   int light_side = pred != NULL || origin != NULL;
   int camera_side = prev->valid && q->mis.d_vcm != 0.0f;
-  if (camera_side && (!light_side || v->settings.gather == VF_GATHER_CAMERA))
-    return gather_from_camera(v, thread, prev, k, &list[i], rng);
+  int prefer_camera = v->settings.gather == VF_GATHER_CAMERA;
+  if (light_side && camera_side && v->settings.gather == VF_GATHER_AUTO) {
+    /* The side whose joining vertex scatters less sharply: a function of the path's two
+     * vertices next to the gathering, as both sides see them. */
+    vf_bsdf lb;
+    vf_upg_source ls = {NULL, NULL, vf_vec3_splat(0.0f)}, cs = {&prev->bsdf, NULL, vf_vec3_splat(0.0f)};
+    if (pred) {
+      bsdf_of_vertex(v, &lb, pred);
+      ls.bsdf = &lb;
+    } else {
+      ls.light = &v->lights->lights[origin->light];
+    }
+    prefer_camera = vf_upg_sharpness(&cs) < vf_upg_sharpness(&ls);
+  }
+  if (camera_side && (!light_side || prefer_camera)) return gather_from_camera(v, thread, prev, k, &list[i], rng);
   if (light_side) return gather_from_light(v, thread, q, pred, origin, rng);
   return merge_as_vcm(v, thread, q, k);
 }

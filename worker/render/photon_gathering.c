@@ -17,6 +17,22 @@ float vf_upg_density(const vf_upg_source *src, vf_vec3 dir) {
   return vf_is_zero(f) ? 0.0f : pdf;
 }
 
+float vf_upg_sharpness(const vf_upg_source *src) {
+  if (src->bsdf == NULL) {
+    const vf_light *l = src->light;
+    return l->kind == VF_LIGHT_SPOT ? l->cone_pdf_w : l->kind == VF_LIGHT_POINT ? VF_UNIFORM_SPHERE_PDF_W : VF_INV_PI;
+  }
+  const vf_bsdf *b = src->bsdf;
+  const float *p = b->lobe_probability;
+  float s = (p[VF_LOBE_DIFFUSE] + (b->rough ? p[VF_LOBE_BASE] : 0.0f)) * VF_INV_PI;
+  if (p[VF_LOBE_GLOSSY] > 0.0f) s += p[VF_LOBE_GLOSSY] * (b->material->phong_exponent + 1.0f) * (0.5f * VF_INV_PI);
+  if (b->rough) {
+    float rough = p[VF_LOBE_ROUGH_CONDUCTOR] + p[VF_LOBE_ROUGH_DIELECTRIC];
+    if (rough > 0.0f) s += rough / (4.0f * VF_PI * b->alpha * b->alpha * b->local_fix.z);
+  }
+  return s;
+}
+
 /* ---- bounds over a cone ------------------------------------------------------------------ */
 
 /* The largest cosine between unit u and a direction of the cone (unit axis a, half-angle

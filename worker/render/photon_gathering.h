@@ -34,6 +34,13 @@
  *     pair (L, x) happen with probability p_acc: the expected work per pair is |C| M,
  *     bounded however small p_acc is.
  *
+ *   - When the cone's trials would number more than the sub-path's own draws (|C| M >= 1: a
+ *     wide cone, L close to x, or a loose bound), the trials are the draws instead: the
+ *     continuation sampled as the sub-path samples it (roulette, lobe, direction), failing
+ *     at once when it ends, is specular or leaves C; then E[N] = 1/p_acc with no bound at
+ *     all (vf_upg_inverse_acceptance_draws). Either estimator is exact; the choice depends
+ *     on L and x alone.
+ *
  * The estimate of a gathering is therefore
  *     w_VM f(L -> x) / (p_L p_x) * N / p_b / n_light
  * with p_L and p_x folded into the sub-paths' throughputs. The MIS weight w_VM is VCM's
@@ -45,14 +52,22 @@
  * The thesis clamps the approximate density to 1 in the weights (eq. 2.80-2.82); that
  * changes only how well the weights are chosen, not the sum, and is not done here.
  *
- * Where the light vertex's predecessor cannot be joined to x, UPG cannot gather it:
- *   - the light sub-path arrived at y* through an ideal specular choice at L (a mirror,
- *     smooth glass or a smooth conductor: a delta lobe is zero for any fixed direction,
- *     thesis sec. 2.4.4);
- *   - L is the light's own point of a directional or environment light (at infinity).
- * Such light vertices are merged as VCM merges them, and counted (vf_vcm_stats.upg_fallbacks):
- * the estimate is then biased on those paths, as VCM is. A scene without delta lobes and
- * infinite lights has none. vf_upg_policy says which a scene has.
+ * The same works from the camera's side (the thesis's UPG*): the camera vertex x found
+ * near light vertex y is dropped and x's predecessor C on the camera sub-path is joined to
+ * y, with 1/p_acc of C's continuation landing within r of y on a surface where a camera
+ * vertex gathers (thesis eq. 2.56). It samples the same paths with the same approximate
+ * density, so its weight is merging's at y (vf_mis_weight_gather_camera).
+ *
+ * Which side joins is decided by the path, so that each path is estimated once
+ * (gathering_pass.c): the light's side cannot join where y was reached by an ideal
+ * specular choice at L (a delta lobe is zero for any fixed direction, thesis sec. 2.4.4)
+ * or L is the point of a directional or environment light (at infinity); the camera's side
+ * cannot where x was reached by an ideal specular choice or C is the lens. A path either
+ * side can join goes to the side --gather-from prefers, a path one side can join to that
+ * side, and a path neither can join (a caustic seen directly, or through a mirror) is
+ * merged as VCM merges it and counted (vf_vcm_stats.upg_fallbacks): the estimate is then
+ * biased on those paths, as VCM is. A scene without delta lobes and lights at infinity has
+ * none; vf_vcm_describe says which a scene has.
  *
  * Random numbers: a gathering's trials draw from a stream of its own, a pure function of
  * (seed, iteration, camera sub-path, camera vertex), and the light vertices of a camera
@@ -95,6 +110,13 @@ typedef struct {
  * zero where f is (the walk ends there); for a light's point the emission's directional
  * density. */
 float vf_upg_density(const vf_upg_source *src, vf_vec3 dir);
+
+/* How sharply the source scatters: the peak density of its lobes, weighted by their
+ * selection probabilities (diffuse 1/pi, Phong (n + 1) / 2 pi, GGX 1 / (4 pi alpha^2 cos)
+ * with cos the incoming direction's; a light's point its emission's largest density).
+ * gathering_pass.c joins, where both sides can, at the vertex of the smaller one under
+ * --gather-from auto: the estimate's f / p_acc varies least over the cone there. */
+float vf_upg_sharpness(const vf_upg_source *src);
 
 /* An upper bound of vf_upg_density over the cone of unit axis `axis` and half-angle
  * theta, given as cos(theta) and 1 - cos(theta) (the latter without cancellation for narrow

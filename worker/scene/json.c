@@ -508,7 +508,7 @@ static int parse_render(const parse_ctx *c, const cJSON *j) {
   if ((err = vf_scene_string_field(c, j, "render", "gather", OPTIONAL, &gather)) < 0) return err;
   if (err > 0) {
     if (vf_gather_parse(gather, &st->gather) < 0)
-      return vf_scene_fail(c, VF_ESCENE, "render.gather", "unknown side '%s' (expected light or camera)", gather);
+      return vf_scene_fail(c, VF_ESCENE, "render.gather", "unknown side '%s' (expected light, camera or auto)", gather);
     s->settings_given |= VF_SET_GATHER;
   }
   if ((m = cJSON_GetObjectItemCaseSensitive(j, "max_path_length")) != NULL) {
