@@ -18,9 +18,9 @@ static const char usage[] =
     "usage: vcmfarm info FILM [--json]\n"
     "\n"
     "Prints every attribute of FILM (format version, scene hash and name, settings, seed,\n"
-    "iteration set and count, light frames, render and CPU time, non-finite samples), the\n"
-    "image mean, the estimated RMSE (no reference needed, docs/FILM.md) and the convergence\n"
-    "log.\n"
+    "iteration set and count, light frames, render and CPU time, non-finite samples, light\n"
+    "vertices merged with bias by upg), the image mean, the estimated RMSE (no reference\n"
+    "needed, docs/FILM.md), what it covers, and the convergence log.\n"
     "\n"
     "  --json      print one JSON object instead (unknown values are null)\n"
     "  -h, --help  this text\n"
@@ -58,14 +58,24 @@ static int summarise(const vf_film *film, summary *out) {
   return VF_OK;
 }
 
-/* What the estimated RMSE covers under the film's algorithm, in a sentence. */
-static const char *estimate_sentence(vf_algorithm a) {
+/* What the estimated RMSE covers under the film's algorithm, in a sentence, into out. An
+ * unbiased algorithm's film that counts biased merges (upg's fall-backs, which auto-unbiased
+ * may have chosen) says so with the count: those merges' bias is not in the estimate. */
+static void estimate_sentence(const vf_film *film, vf_algorithm a, char *out, size_t n) {
   switch (vf_algorithm_estimate_scope(a)) {
   case VF_ESTIMATE_ERROR:
-    return a == VF_ALGO_UPG ? "the error: upg is unbiased (but on light vertices merged as vcm; render counts them)"
-                            : "the error: the algorithm is unbiased";
-  case VF_ESTIMATE_VARIANCE: return "variance only: merging's bias at the film's radii is not in it";
-  default: return "the error if auto chose pt, variance only if it chose vcm (render's first line says which)";
+    if (film->biased_merges > 0)
+      snprintf(out, n,
+               "the error, except the bias of the %" PRIu64 " light %s merged as vcm merges (biased_merges)",
+               film->biased_merges, vf_cli_plural(film->biased_merges, "vertex", "vertices"));
+    else
+      snprintf(out, n, "%s",
+               a == VF_ALGO_UPG ? "the error: upg is unbiased (biased_merges 0: no light vertex merged as vcm merges)"
+                                : "the error: the algorithm is unbiased");
+    break;
+  case VF_ESTIMATE_VARIANCE: snprintf(out, n, "variance only: merging's bias at the film's radii is not in it"); break;
+  default:
+    snprintf(out, n, "the error if auto chose pt, variance only if it chose vcm (render's first line says which)");
   }
 }
 
@@ -91,6 +101,7 @@ static int print_json(const char *path, const vf_film *film, const summary *s) {
   cJSON_AddNumberToObject(root, "render_seconds", film->render_seconds);
   cJSON_AddNumberToObject(root, "cpu_seconds", film->cpu_seconds);
   cJSON_AddNumberToObject(root, "nonfinite_samples", (double)film->nonfinite_samples);
+  cJSON_AddNumberToObject(root, "biased_merges", (double)film->biased_merges);
   cJSON_AddItemToObject(root, "image_mean", json_number(s->image_mean));
   cJSON_AddItemToObject(root, "estimated_rmse", json_number(s->estimated_rmse));
   if (s->have_settings)
@@ -135,9 +146,14 @@ static void print_text(const char *path, const vf_film *film, const summary *s) 
   printf("render_seconds     %.3f\n", film->render_seconds);
   printf("cpu_seconds        %.3f\n", film->cpu_seconds);
   printf("nonfinite_samples  %" PRIu64 "\n", film->nonfinite_samples);
+  printf("biased_merges      %" PRIu64 "\n", film->biased_merges);
   printf("image_mean         %.6g\n", s->image_mean);
   printf("estimated_rmse     %.6g\n", s->estimated_rmse);
-  if (s->have_settings) printf("estimate_covers    %s\n", estimate_sentence(s->settings.algorithm));
+  if (s->have_settings) {
+    char covers[160];
+    estimate_sentence(film, s->settings.algorithm, covers, sizeof covers);
+    printf("estimate_covers    %s\n", covers);
+  }
   printf("convergence log    %zu entr%s\n", film->convergence.count, film->convergence.count == 1 ? "y" : "ies");
   if (film->convergence.count)
     printf("  %4s %12s %12s %12s %12s %12s %14s\n", "run", "wall_s", "cpu_s", "iterations", "rmse", "rel_mse",

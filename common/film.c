@@ -100,6 +100,7 @@ int vf_film_clone_metadata(const vf_film *film, vf_film **out) {
   copy->render_seconds = film->render_seconds;
   copy->cpu_seconds = film->cpu_seconds;
   copy->nonfinite_samples = film->nonfinite_samples;
+  copy->biased_merges = film->biased_merges;
   memcpy(copy->scene_name, film->scene_name, sizeof copy->scene_name);
   *out = copy;
   return VF_OK;
@@ -232,6 +233,12 @@ int vf_film_merge_metadata(vf_film *dst, const vf_film *src) {
                         dst->settings_text, src->settings_text);
   if (vf_iterset_intersects(&dst->iterations, &src->iterations))
     return vf_error_set(VF_EOVERLAP, "films share iterations: merging would count samples twice");
+  /* No render comes near 2^64 merges; a sum that wraps would make a biased film look
+   * unbiased, so it is refused rather than taken. (nonfinite_samples cannot overflow: the
+   * films' iterations bound it, vf_film_validate.) */
+  if (src->biased_merges > UINT64_MAX - dst->biased_merges)
+    return vf_error_set(VF_EFILM, "films' biased merges (%" PRIu64 " and %" PRIu64 ") overflow a 64-bit count",
+                        dst->biased_merges, src->biased_merges);
   /* Reserving room for the log and the union are the only steps that can fail, so they go
    * first; spare log capacity leaves dst unchanged in every way that matters. */
   int err = vf_convergence_reserve(&dst->convergence, src->convergence.count);
@@ -242,6 +249,7 @@ int vf_film_merge_metadata(vf_film *dst, const vf_film *src) {
   dst->render_seconds += src->render_seconds;
   dst->cpu_seconds += src->cpu_seconds;
   dst->nonfinite_samples += src->nonfinite_samples;
+  dst->biased_merges += src->biased_merges;
   return VF_OK;
 }
 

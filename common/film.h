@@ -49,6 +49,10 @@ typedef struct {
   double render_seconds;      /* wall-clock time spent rendering the iterations it holds */
   double cpu_seconds;         /* process CPU time (all threads) spent rendering them */
   uint64_t nonfinite_samples; /* samples refused because they were NaN or Inf */
+  uint64_t biased_merges;     /* light vertices merged with vertex merging's bias by an
+                               * algorithm that is otherwise unbiased (upg's fall-backs,
+                               * worker/render/photon_gathering.h): 0 when its estimated
+                               * RMSE covers the whole error */
   char scene_name[512];       /* what to load to continue: a built-in name or a scene file's
                                * absolute path; "" when unknown. Informative: the hash decides */
   vf_convergence_log convergence; /* owned */
@@ -74,7 +78,8 @@ void vf_film_pixel_mean(const vf_film *film, size_t p, float rgb[3]);
 /* dst += src. VF_EMISMATCH (size, scene hash, settings) or VF_EOVERLAP (iteration sets),
  * with dst unchanged, when they cannot be merged. Times add up; dst keeps its scene name
  * (src's if dst has none); src's convergence log is appended to dst's as further runs
- * (common/convergence.h). */
+ * (common/convergence.h); the counts add up (VF_EFILM, dst unchanged, should biased_merges
+ * overflow 64 bits: only a forged film can get there). */
 int vf_film_merge(vf_film *dst, const vf_film *src);
 
 /* vf_film_merge in two steps, for a caller that adds the pixels on another thread: the

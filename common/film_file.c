@@ -35,6 +35,10 @@
 #define ATTR_SCENE_NAME "vcmfarm:scene"
 #define ATTR_CONVERGENCE "vcmfarm:convergence"
 #define ATTR_SETTINGS_HASH "vcmfarm:settings_hash"
+/* Written always, 0 included, as nonfinite_samples is, so that the header states the
+ * count; a film without it (written before it existed, when upg counted its merges on
+ * stderr alone) reads as 0 and merges with films that have it. */
+#define ATTR_BIASED_MERGES "vcmfarm:biased_merges"
 
 /* ---- writing ---- */
 
@@ -79,6 +83,8 @@ static int set_attributes(exr_context_t ctx, const vf_film *film, int version, c
   if (rv == EXR_ERR_SUCCESS) rv = exr_attr_set_double(ctx, 0, ATTR_SECONDS, film->render_seconds);
   snprintf(number, sizeof number, "%" PRIu64, film->nonfinite_samples);
   if (rv == EXR_ERR_SUCCESS) rv = exr_attr_set_string(ctx, 0, ATTR_NONFINITE, number);
+  snprintf(number, sizeof number, "%" PRIu64, film->biased_merges);
+  if (rv == EXR_ERR_SUCCESS) rv = exr_attr_set_string(ctx, 0, ATTR_BIASED_MERGES, number);
   if (rv == EXR_ERR_SUCCESS) rv = exr_attr_set_double(ctx, 0, ATTR_CPU_SECONDS, film->cpu_seconds);
   if (rv == EXR_ERR_SUCCESS) rv = exr_attr_set_string(ctx, 0, ATTR_SCENE_NAME, film->scene_name);
   if (rv == EXR_ERR_SUCCESS) rv = exr_attr_set_string(ctx, 0, ATTR_CONVERGENCE, convergence);
@@ -244,6 +250,8 @@ static int read_optional_attributes(const vf_exr_in *in, vf_film *film) {
     free(text);
     if (err != VF_OK) return err;
   }
+  if (find_attr(in, ATTR_BIASED_MERGES) && (err = get_u64(in, ATTR_BIASED_MERGES, &film->biased_merges)) != VF_OK)
+    return err;
   if (find_attr(in, ATTR_CONVERGENCE)) {
     if ((err = get_string(in, ATTR_CONVERGENCE, &text)) != VF_OK) return err;
     err = vf_convergence_parse(&film->convergence, text, in->path);
@@ -366,6 +374,7 @@ int vf_film_read(const char *path, vf_film **out) {
   film->render_seconds = header.render_seconds;
   film->cpu_seconds = header.cpu_seconds;
   film->nonfinite_samples = header.nonfinite_samples;
+  film->biased_merges = header.biased_merges;
   memcpy(film->scene_name, header.scene_name, sizeof film->scene_name);
   film->convergence = header.convergence; /* moved, like the iterations */
   vf_convergence_init(&header.convergence);

@@ -232,6 +232,7 @@ static void result_header(const vf_film *film, Vcmfarm__LeaseResult *m) {
   m->render_seconds = film->render_seconds;
   m->cpu_seconds = film->cpu_seconds;
   m->nonfinite_samples = film->nonfinite_samples;
+  m->biased_merges = film->biased_merges;
 }
 
 int vf_film_send_tiles(const vf_film *film, Vcmfarm__LeaseResult *m, size_t tiles_per_message,

@@ -15,7 +15,7 @@ struct vf_partial {
   vf_film *film;   /* the staged part, owned until taken */
   /* the header every message of the part repeats */
   double render_seconds, cpu_seconds;
-  uint64_t nonfinite;
+  uint64_t nonfinite, biased_merges;
   double updated;  /* vf_seconds_now() of its last message */
   /* The loop's, never the merge thread's (coordinator/results.c): */
   unsigned refs;      /* the lease's and each message on the merge thread */
@@ -83,6 +83,7 @@ int vf_partial_create(const vf_job *job, const Vcmfarm__LeaseResult *m, vf_parti
   p->film->render_seconds = p->render_seconds = m->render_seconds;
   p->film->cpu_seconds = p->cpu_seconds = m->cpu_seconds;
   p->film->nonfinite_samples = p->nonfinite = m->nonfinite_samples;
+  p->film->biased_merges = p->biased_merges = m->biased_merges;
   p->begin = m->begin;
   p->end = m->end;
   p->refs = 1;
@@ -128,7 +129,8 @@ const char *vf_partial_failure(const vf_partial *p) { return p->failure[0] ? p->
 int vf_partial_same(const vf_partial *p, const Vcmfarm__LeaseResult *m) {
   return m->begin == p->begin && m->end == p->end && m->tiles_total == p->total &&
          m->render_seconds == p->render_seconds && m->cpu_seconds == p->cpu_seconds &&
-         m->nonfinite_samples == p->nonfinite && m->width == (uint32_t)p->width && m->height == (uint32_t)p->height &&
+         m->nonfinite_samples == p->nonfinite && m->biased_merges == p->biased_merges &&
+         m->width == (uint32_t)p->width && m->height == (uint32_t)p->height &&
          m->scene_hash.len == 32 && memcmp(m->scene_hash.data, p->scene_hash, 32) == 0 &&
          strcmp(m->settings, p->settings) == 0;
 }

@@ -281,7 +281,7 @@ static void film_reset(vf_film *film) {
   vf_iterset_destroy(&film->iterations);
   vf_iterset_init(&film->iterations);
   film->render_seconds = film->cpu_seconds = 0.0;
-  film->nonfinite_samples = 0;
+  film->nonfinite_samples = film->biased_merges = 0;
 }
 
 /* The interval between parts: --ship-interval when given, else the coordinator's latest

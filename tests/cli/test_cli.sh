@@ -56,6 +56,22 @@ check "upg counts its gatherings" "$(grep -q "^gathering: [0-9]* light vertices 
 check "upg's film: settings" "$("$vcmfarm" info "$tmp/upg.exr" | grep -q "algorithm=upg .* gather=camera"; echo $?)"
 check "upg's estimate covers the error" "$("$vcmfarm" info --json "$tmp/upg.exr" | jq -e '.estimate_covers == "error"' >/dev/null; echo $?)"
 check "vcm's estimate covers the variance" "$("$vcmfarm" info --json "$tmp/beta1.exr" | jq -e '.estimate_covers == "variance"' >/dev/null; echo $?)"
+# upg merges as vcm the light vertices it cannot gather (a mirror or glass ball's ideal
+# specular choices), and its film counts them: the cornell box's balls make some at a
+# radius of 0.1 (none at the default radius in 2 iterations of 16x16), the all-diffuse box
+# none. info's sentence on the estimate names the count.
+"$vcmfarm" render cornell -R 16x16 -n 2 -a upg -r 0.1 -q -o "$tmp/upg-balls.exr"
+check "upg renders the balls" $?
+check "upg's film counts its biased merges" "$("$vcmfarm" info --json "$tmp/upg-balls.exr" | jq -e '.biased_merges > 0' >/dev/null; echo $?)"
+check "upg's estimate covers the error but those merges" "$("$vcmfarm" info "$tmp/upg-balls.exr" | grep -q "^estimate_covers  *the error, except the bias of the [0-9]* light vertices merged as vcm"; echo $?)"
+biased_of() { "$vcmfarm" info --json "$1" | jq -r '.biased_merges'; }
+"$vcmfarm" render cornell -R 16x16 -n 2 -k 2 -a upg -r 0.1 -q -o "$tmp/upg-balls2.exr" &&
+  "$vcmfarm" merge -q -o "$tmp/upg-balls-merged.exr" "$tmp/upg-balls.exr" "$tmp/upg-balls2.exr"
+check "merged upg films add their biased merges" "$([ "$(biased_of "$tmp/upg-balls-merged.exr")" -eq $(($(biased_of "$tmp/upg-balls.exr") + $(biased_of "$tmp/upg-balls2.exr"))) ]; echo $?)"
+"$vcmfarm" render cornell-diffuse -R 16x16 -n 2 -a upg -r 0.1 -q -o "$tmp/upg-diffuse.exr"
+check "upg renders the diffuse box" $?
+check "upg merges nothing biased in a diffuse box" "$("$vcmfarm" info --json "$tmp/upg-diffuse.exr" | jq -e '.biased_merges == 0' >/dev/null; echo $?)"
+check "a vcm film counts no biased merges" "$("$vcmfarm" info "$tmp/beta1.exr" | grep -q "^biased_merges  *0$"; echo $?)"
 "$vcmfarm" render cornell-rough -R 16x16 -n 1 -a auto-unbiased -o "$tmp/au.exr" 2>"$tmp/stderr"
 check "auto-unbiased names its choice" "$(head -1 "$tmp/stderr" | grep -q "upg (auto-unbiased)"; echo $?)"
 # A bad option is refused on one line naming it, with a hint, not under the whole --help;

@@ -103,8 +103,8 @@ static void test_info_prints_everything(void) {
   CHECK_INT_EQ(status, 0);
   static const char *const keys[] = {"format_version", "scene_hash", "scene              cornell", "settings",
                                      "seed", "iterations         [0,12)", "iteration_count    12", "light_frames",
-                                     "render_seconds", "nonfinite_samples", "image_mean", "estimated_rmse",
-                                     "convergence log    12 entries"};
+                                     "render_seconds", "nonfinite_samples", "biased_merges      0", "image_mean",
+                                     "estimated_rmse", "convergence log    12 entries"};
   for (size_t i = 0; i < sizeof keys / sizeof *keys; i++) CHECK_STR_CONTAINS(text, keys[i]);
   free(text);
 

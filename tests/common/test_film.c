@@ -28,6 +28,7 @@ static double rel_diff(double a, double b) {
 /* Every field and every pixel value, sums within rel_tol, iterations exact. */
 static int films_equal(const vf_film *a, const vf_film *b, double rel_tol) {
   if (a->width != b->width || a->height != b->height || a->nonfinite_samples != b->nonfinite_samples ||
+      a->biased_merges != b->biased_merges ||
       memcmp(a->scene_hash, b->scene_hash, 32) != 0 || strcmp(a->settings_text, b->settings_text) != 0 ||
       !vf_iterset_equal(&a->iterations, &b->iterations) || rel_diff(a->render_seconds, b->render_seconds) > rel_tol)
     return 0;
@@ -140,12 +141,14 @@ static void test_write_read_round_trip(void) {
   f->sum[7] = 123456789.123456789; /* needs more than a float's precision */
   f->sum[8] = -1e-30;
   f->render_seconds = 12345.678;
+  f->biased_merges = 12345678901234567890ULL; /* beyond int64: all 64 bits in the text */
   const char *path = fixture_path("round.film.exr");
   CHECK_INT_EQ(vf_film_write(f, path), VF_OK);
   CHECK_INT_EQ(vf_film_read(path, &back), VF_OK);
   if (back) {
     CHECK(films_equal(f, back, 1e-14));
     CHECK_INT_EQ(back->nonfinite_samples, 1);
+    CHECK(back->biased_merges == 12345678901234567890ULL);
     CHECK_INT_EQ(vf_iterset_count(&back->iterations), 4);
     CHECK_NEAR(back->sum[7], 123456789.123456789, 1e-6);
     CHECK_NEAR(back->render_seconds, 12345.678, 0);
@@ -217,6 +220,9 @@ static void test_long_iteration_set_round_trips(void) {
 
 static void test_merge_equals_direct_render_and_commutes(void) {
   vf_film *a = film_with(13, 9, 0, 4), *b = film_with(13, 9, 4, 8), *all = film_with(13, 9, 0, 8), *b_first = NULL;
+  a->biased_merges = 7; /* upg's merges as vcm merges, counted per iteration: they add up */
+  b->biased_merges = 35;
+  all->biased_merges = 42;
   CHECK_INT_EQ(vf_film_clone(b, &b_first), VF_OK);
   CHECK_INT_EQ(vf_film_merge(b_first, a), VF_OK);
   CHECK_INT_EQ(vf_film_merge(a, b), VF_OK);
@@ -225,6 +231,8 @@ static void test_merge_equals_direct_render_and_commutes(void) {
   CHECK_INT_EQ(a->iterations.count, 1);
   CHECK_INT_EQ(vf_iterset_count(&a->iterations), 8);
   CHECK_NEAR(a->render_seconds, 10.0, 1e-12);
+  CHECK_INT_EQ(a->biased_merges, 42);
+  CHECK_INT_EQ(b_first->biased_merges, 42);
   vf_film_destroy(b_first);
   vf_film_destroy(all);
   vf_film_destroy(b);
@@ -233,6 +241,7 @@ static void test_merge_equals_direct_render_and_commutes(void) {
 
 static void test_merge_refusals_leave_dst_unchanged(void) {
   vf_film *dst = film_with(8, 8, 0, 4), *before = NULL;
+  dst->biased_merges = 2;
   CHECK_INT_EQ(vf_film_clone(dst, &before), VF_OK);
 
   vf_film *other_size = film_with(8, 9, 10, 12);
@@ -252,7 +261,17 @@ static void test_merge_refusals_leave_dst_unchanged(void) {
   vf_film *overlapping = film_with(8, 8, 3, 6);
   CHECK_INT_EQ(vf_film_merge(dst, overlapping), VF_EOVERLAP);
 
+  /* a count that would wrap (a forged film) would make a biased film look unbiased */
+  vf_film *wrapping = film_with(8, 8, 10, 12);
+  wrapping->biased_merges = UINT64_MAX - 1;
+  CHECK_INT_EQ(vf_film_merge(dst, wrapping), VF_EFILM);
+  CHECK_STR_CONTAINS(vf_error_detail(VF_EFILM), "biased merges");
+
   CHECK(films_equal(dst, before, 0));
+  wrapping->biased_merges = UINT64_MAX - 2; /* a sum of exactly UINT64_MAX is still a count */
+  CHECK_INT_EQ(vf_film_merge(dst, wrapping), VF_OK);
+  CHECK(dst->biased_merges == UINT64_MAX);
+  vf_film_destroy(wrapping);
   vf_film_destroy(overlapping);
   vf_film_destroy(other_settings);
   vf_film_destroy(other_scene);
@@ -369,6 +388,7 @@ static void test_read_refuses_inconsistent_films(void) {
       {2, "vcmfarm:iterations", "[0,3(", "vcmfarm:iterations"},
       {2, "vcmfarm:iterations", "[3,0)", "vcmfarm:iterations"},
       {2, "vcmfarm:nonfinite_samples", "-", "vcmfarm:nonfinite_samples"},
+      {2, "vcmfarm:biased_merges", "-", "vcmfarm:biased_merges"},
   };
   for (size_t i = 0; i < sizeof patches / sizeof patches[0]; i++) {
     int v1 = patches[i].version == 1;
@@ -488,6 +508,32 @@ static void test_attributes_must_be_utf8(void) {
     expect_read_refused(path, "attribute vcmfarm:scene is not valid UTF-8");
   }
   fake_scene_name = NULL;
+}
+
+/* A film written before vcmfarm:biased_merges existed (write_fake_film writes none) reads
+ * as 0 of them, merges with a film that counts some, and is written with the sum. */
+static void test_a_film_without_biased_merges_reads_zero_and_merges(void) {
+  const char *path = fixture_path("before_biased.film.exr");
+  CHECK_INT_EQ(write_fake_film(path, 2, vf_film_v2_channels, VF_FILM_V2_CHANNELS, "[0,1)", NULL), VF_OK);
+  vf_film *old = NULL, *counted = NULL, *back = NULL;
+  CHECK_INT_EQ(vf_film_read(path, &old), VF_OK);
+  CHECK_INT_EQ(vf_film_create(20, 10, &counted), VF_OK);
+  if (old && counted) {
+    CHECK_INT_EQ(old->biased_merges, 0);
+    memcpy(counted->scene_hash, old->scene_hash, sizeof counted->scene_hash);
+    memcpy(counted->settings_text, old->settings_text, sizeof counted->settings_text);
+    float zero[3 * 20 * 10] = {0};
+    CHECK_INT_EQ(vf_film_add_iteration(counted, 1, zero, zero, NULL), VF_OK);
+    counted->biased_merges = 9;
+    CHECK_INT_EQ(vf_film_merge(old, counted), VF_OK);
+    CHECK_INT_EQ(old->biased_merges, 9);
+    CHECK_INT_EQ(vf_film_write(old, path), VF_OK);
+    CHECK_INT_EQ(vf_film_read(path, &back), VF_OK);
+    if (back) CHECK_INT_EQ(back->biased_merges, 9);
+  }
+  vf_film_destroy(back);
+  vf_film_destroy(counted);
+  vf_film_destroy(old);
 }
 
 /* A version-1 film of one iteration as older builds wrote it: camera 2 + light 0.25 in
@@ -776,6 +822,7 @@ int main(void) {
   RUN(test_version_1_sums_camera_and_light_and_needs_every_count);
   RUN(test_version_1_and_2_films_read_merge_with_version_3);
   RUN(test_attributes_must_be_utf8);
+  RUN(test_a_film_without_biased_merges_reads_zero_and_merges);
   RUN(test_a_wire_tile_is_its_chunk_of_the_file);
   RUN(test_files_are_the_same_bytes_every_time);
   RUN(test_corrupted_copies_never_crash);

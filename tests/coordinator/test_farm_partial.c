@@ -73,7 +73,8 @@ static void setup(fixture *f, uint64_t iterations) {
   vf_farm_reply_release(&r);
 }
 
-/* The film of iterations [begin, end) with made-up but valid sums. */
+/* The film of iterations [begin, end) with made-up but valid sums, and 3 biased merges
+ * (upg's) per iteration. */
 static vf_film *part_film(uint64_t begin, uint64_t end) {
   vf_film *film;
   if (vf_film_create(128, 64, &film) != VF_OK) return NULL;
@@ -86,6 +87,7 @@ static vf_film *part_film(uint64_t begin, uint64_t end) {
   }
   free(rgb);
   film->render_seconds = 0.5;
+  film->biased_merges = 3 * (end - begin);
   return film;
 }
 
@@ -155,6 +157,7 @@ static void test_a_part_merges_only_complete_and_once(void) {
   CHECK_INT_EQ(send_part(&f, 0, 3, &s), 1); /* the whole part: tile 1 again, identical, and tile 2 */
   CHECK_STR_CONTAINS(s.message, "merged");
   CHECK_INT_EQ(done(&f), 3);
+  CHECK_INT_EQ(vf_farm_job(&f.farm, f.job)->film->biased_merges, 9); /* the header's count, carried */
   vf_lease *l = vf_lease_find(&f.farm.leases, f.lease);
   CHECK(l != NULL && l->begin == 3 && l->end == 8); /* the lease shrank */
   s = (sender){0};
@@ -164,6 +167,7 @@ static void test_a_part_merges_only_complete_and_once(void) {
   s = (sender){0};
   CHECK_INT_EQ(send_part(&f, 3, 8, &s), 1);
   CHECK_INT_EQ(done(&f), 8);
+  CHECK_INT_EQ(vf_farm_job(&f.farm, f.job)->film->biased_merges, 24); /* counted once, summed */
   CHECK(vf_lease_find(&f.farm.leases, f.lease) == NULL); /* nothing left of it */
   CHECK_INT_EQ(vf_farm_job(&f.farm, f.job)->results_refused, 0);
   vf_farm_destroy(&f.farm);

@@ -5,10 +5,11 @@
  *
  * Passes (exit 0) when both films hold exactly the expected iteration set (e.g.
  * "[0,24)": none missing, none counted twice) and the largest difference of their mean
- * radiance over all pixels and channels is at most 1e-5 times the reference's image mean;
- * with --exact, only when they are moreover the same film bit for bit: the same scene
- * hash and settings, and every sum and sum of squares the same double. Prints what it
- * found either way. */
+ * radiance over all pixels and channels is at most 1e-5 times the reference's image mean,
+ * and their counts (non-finite samples, biased merges), which every iteration adds to
+ * exactly, are equal; with --exact, only when they are moreover the same film bit for
+ * bit: the same scene hash and settings, and every sum and sum of squares the same
+ * double. Prints what it found either way. */
 #include "common/film.h"
 #include "common/error.h"
 
@@ -48,6 +49,12 @@ int main(int argc, char **argv) {
   vf_iterset_format(&ref->iterations, ref_set, sizeof ref_set);
   if (strcmp(farm_set, argv[3]) != 0 || strcmp(ref_set, argv[3]) != 0) {
     printf("iteration sets: farm %s, reference %s, expected %s\n", farm_set, ref_set, argv[3]);
+    ok = 0;
+  }
+  if (farm->nonfinite_samples != ref->nonfinite_samples || farm->biased_merges != ref->biased_merges) {
+    printf("counts: non-finite samples farm %llu, reference %llu; biased merges farm %llu, reference %llu\n",
+           (unsigned long long)farm->nonfinite_samples, (unsigned long long)ref->nonfinite_samples,
+           (unsigned long long)farm->biased_merges, (unsigned long long)ref->biased_merges);
     ok = 0;
   }
   if (farm->width != ref->width || farm->height != ref->height) {

@@ -70,8 +70,12 @@ local_render render cornell "${common[@]}" -a bpt -k 5 -n 4 -q -o "$tmp/films/b.
 farm "--start-iteration 5" "[5,9)" "$tmp/films/b.exr" cornell "${common[@]}" -a bpt --start-iteration 5 -n 4
 
 # 2b. upg from both sides: a worker renders its gatherings as render does (their random
-#     streams are keyed by camera sub-path and vertex, not by thread).
+#     streams are keyed by camera sub-path and vertex, not by thread), and the farm's film
+#     carries the count of light vertices merged as vcm merges (the balls' specular
+#     choices; farm_compare checks the counts are equal, this that there are some).
 local_render render cornell "${common[@]}" -a upg --gather-from camera -k 2 -n 3 -q -o "$tmp/films/u.exr"
+"$vcmfarm" info "$tmp/films/u.exr" | awk '$1 == "biased_merges" {n = $2} END {exit !(n > 0)}'
+check "upg's film counts biased merges" $?
 farm "upg from the camera's side" "[2,5)" "$tmp/films/u.exr" cornell "${common[@]}" -a upg --gather-from camera \
   --start-iteration 2 -n 3
 
