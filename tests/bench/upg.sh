@@ -4,13 +4,16 @@
 #
 #     bash tests/bench/upg.sh [BUILD_DIR] [SECONDS]      defaults: build 20
 #
-# Every scene of the list at 128x128 for SECONDS of wall time per run (`render` with
+# 1. Every scene of the list at 128x128 for SECONDS of wall time per run (`render` with
 # --reference and checkpoints): upg gathering from the light's side, from the camera's
-# (upg_camera), vcm, bpt and pt, against the long bpt references convergence.sh makes and
+# (upg_camera), vcm, bpt and pt (and with RUNS, upg_auto: --gather-from auto), against the long bpt references convergence.sh makes and
 # caches (reference_lib.sh, BUILD_DIR/bench/cache). Reported by convergence_report.py
 # (time to relative-RMSE targets, slopes) into BUILD_DIR/bench/upg/report.md, then per
 # scene and run what an iteration costs and where its time goes (the render's summary
 # lines), and upg's tentative directions and rays per gathering.
+# 2. Merging bias with a fixed radius: cornell-diffuse at 64x64, radius factor 0.05 and
+#    alpha 1, 1024 iterations of vcm and of upg from each side, against the bpt reference
+#    of 4096 iterations mis_beta.sh caches, in 8x8 blocks (build/tests/block_means).
 set -euo pipefail
 build=${1:-build}
 seconds=${2:-20}
@@ -34,6 +37,7 @@ for scene in $scenes; do
   for run in $runs; do
     case $run in
     upg_camera) args=(-a upg --gather-from camera) ;;
+    upg_auto) args=(-a upg --gather-from auto) ;;
     *) args=(-a "$run") ;;
     esac
     echo "  $scene: $run for $seconds s"
@@ -68,3 +72,15 @@ print("| " + " | ".join(cells) + " |")
 EOF
   done
 done | tee -a "$out/report.md"
+
+echo
+echo "Merging bias with a fixed radius (cornell-diffuse 64x64, radius factor 0.05, alpha 1, 1024 iterations):"
+fixed=(-R 64x64 -r 0.05 --alpha 1)
+bias_ref=$cache/bias-ref-cornell-diffuse-64-bpt-4096.exr # mis_beta.sh's too
+[ -f "$bias_ref" ] || "$vcmfarm" render cornell-diffuse -a bpt -s 2000 -n 4096 "${fixed[@]}" -q -o "$bias_ref"
+"$vcmfarm" render cornell-diffuse -a vcm -n 1024 "${fixed[@]}" -q -o "$out/bias-vcm.exr"
+for side in light camera; do
+  "$vcmfarm" render cornell-diffuse -a upg --gather-from $side -n 1024 "${fixed[@]}" -q -o "$out/bias-upg-$side.exr"
+done
+"$build/tests/block_means" "$bias_ref" "$out/bias-vcm.exr" "$out/bias-upg-light.exr" "$out/bias-upg-camera.exr" |
+  tee "$out/bias.txt"
