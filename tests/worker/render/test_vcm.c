@@ -611,7 +611,11 @@ static void test_upg_agrees_on_the_showcase(void) {
   vf_scene *scene = NULL;
   if (!check_failed_in_case) CHECK_INT_EQ(vf_scene_load(path, &scene), VF_OK);
   if (scene != NULL) {
+#ifdef __SANITIZE_ADDRESS__
+    scene->settings.width = 48, scene->settings.height = 27; /* as RES: memory errors, not statistics */
+#else
     scene->settings.width = 96, scene->settings.height = 54;
+#endif
     double mean[4][NB], se[4][NB];
     const vf_algorithm merging[] = {VF_ALGO_VCM, VF_ALGO_UPG};
     for (int a = 0; a < 2; a++) showcase_blocks(scene, merging[a], VF_GATHER_LIGHT, mean[a], se[a]);
@@ -639,7 +643,13 @@ static void test_upg_agrees_on_the_showcase(void) {
  * power to see a bias. On cornell-diffuse, and on the same box with a rough glass ball, a
  * textured glTF ball, a checker-textured floor and normal maps on the floor and the back
  * wall (tests/worker/render/feature_scene.h). */
-enum { BIAS_RES = 64, BIAS_ITERATIONS = 512 };
+#ifdef __SANITIZE_ADDRESS__
+/* Under the sanitizers (memory errors, not statistics) a short run, whose agreement still
+ * holds but which cannot show vcm's bias: that check is left out there. */
+enum { BIAS_RES = 64, BIAS_ITERATIONS = 32, BIAS_POWER = 0 };
+#else
+enum { BIAS_RES = 64, BIAS_ITERATIONS = 512, BIAS_POWER = 1 };
+#endif
 
 static void fixed_radius_blocks(const vf_scene *scene, vf_algorithm algorithm, vf_gather_side side, double mean[NB],
                                 double se[NB], vf_vcm_stats *stats) {
@@ -667,13 +677,13 @@ static void check_gathering_is_unbiased(const char *what, const vf_scene *scene)
            what, vf_gather_name((vf_gather_side)side), (unsigned long long)u->upg_gatherings,
            (double)u->upg_rays / (double)u->upg_gatherings, (unsigned long long)u->upg_fallbacks,
            (unsigned long long)u->upg_truncated, (unsigned long long)u->upg_bound_exceeded);
-    CHECK(u->upg_gatherings > 100000);
+    CHECK(u->upg_gatherings > 200u * BIAS_ITERATIONS);
     CHECK_INT_EQ(u->upg_fallbacks, 0); /* no delta lobe, no light at infinity */
     CHECK_INT_EQ(u->upg_truncated, 0);
     CHECK_INT_EQ(u->upg_bound_exceeded, 0);
     CHECK(blocks_agree(what, "bpt", side ? "upg*" : "upg", mean[0], se[0], mean[2 + side], se[2 + side], NB));
   }
-  CHECK(!blocks_agree(what, "bpt", "vcm", mean[0], se[0], mean[1], se[1], NB));
+  if (BIAS_POWER) CHECK(!blocks_agree(what, "bpt", "vcm", mean[0], se[0], mean[1], se[1], NB));
 }
 
 static void test_gathering_is_unbiased_where_merging_is_not(void) {
