@@ -33,7 +33,6 @@
  *   - The expected number of trials of a gathering is |C| M / p_acc, and gatherings of the
  *     pair (L, x) happen with probability p_acc: the expected work per pair is |C| M,
  *     bounded however small p_acc is.
- *
  *   - When the cone's trials would number more than the sub-path's own draws (|C| M >= 1: a
  *     wide cone, L close to x, or a loose bound), the trials are the draws instead: the
  *     continuation sampled as the sub-path samples it (roulette, lobe, direction), failing
@@ -65,8 +64,8 @@
  * cannot where x was reached by an ideal specular choice or C is the lens. A path either
  * side can join goes to the side --gather-from prefers, a path one side can join to that
  * side, and a path neither can join (a caustic seen directly, or through a mirror) is
- * merged as VCM merges it and counted (vf_vcm_stats.upg_fallbacks): the estimate is then
- * biased on those paths, as VCM is. A scene without delta lobes and lights at infinity has
+ * merged as VCM merges it and counted (vf_vcm_stats.upg_fallbacks, which the film keeps as
+ * biased_merges): the estimate is then biased on those paths, as VCM is. A scene without delta lobes and lights at infinity has
  * none; vf_vcm_describe says which a scene has.
  *
  * Random numbers: a gathering's trials draw from a stream of its own, a pure function of
