@@ -54,6 +54,14 @@ static void add_events(cJSON *parent, Vcmfarm__Event **events, size_t n, uint64_
   cJSON_AddNumberToObject(parent, "events_kept", kept);
 }
 
+/* What a job's estimated RMSE covers (common/settings.h): by the algorithm it runs, `auto`
+ * and `auto-unbiased` by what they resolved to. */
+static vf_estimate_scope estimate_scope(const Vcmfarm__JobStatus *j, const vf_settings *s) {
+  vf_algorithm a = s->algorithm;
+  if (vf_algorithm_is_auto(a) && vf_algorithm_parse(j->algorithm_resolved, &a) != VF_OK) a = s->algorithm;
+  return vf_algorithm_estimate_scope(a);
+}
+
 /* The settings text as fields, with what `auto` resolved to. */
 static void add_settings(cJSON *o, const Vcmfarm__JobStatus *j) {
   cJSON_AddStringToObject(o, "settings", j->settings);
@@ -65,11 +73,8 @@ static void add_settings(cJSON *o, const Vcmfarm__JobStatus *j) {
   cJSON *r = cJSON_AddObjectToObject(o, "resolved");
   const char *requested = vf_algorithm_name(s.algorithm);
   add_string_or_null(r, "algorithm", vf_algorithm_is_auto(s.algorithm) ? j->algorithm_resolved : requested);
-  vf_algorithm resolved = s.algorithm;
-  if (vf_algorithm_is_auto(s.algorithm) && vf_algorithm_parse(j->algorithm_resolved, &resolved) != VF_OK)
-    resolved = s.algorithm;
   /* What estimated_rmse measures: the error, or the variance alone (settings.h). */
-  cJSON_AddStringToObject(r, "estimate_covers", vf_estimate_scope_name(vf_algorithm_estimate_scope(resolved)));
+  cJSON_AddStringToObject(r, "estimate_covers", vf_estimate_scope_name(estimate_scope(j, &s)));
   cJSON_AddStringToObject(r, "requested_algorithm", requested);
   cJSON_AddNumberToObject(r, "max_path_length", s.max_path_length);
   cJSON_AddNumberToObject(r, "radius_factor", s.radius_factor);
@@ -243,12 +248,8 @@ void vf_status_job_line(const Vcmfarm__JobStatus *j, char *buf, size_t n) {
     append(&p, &left, ", %.0f%% (%s), ETA %s", 100.0 * j->progress, j->progress_by, eta);
   if (isfinite(j->estimated_rmse)) {
     vf_settings s;
-    vf_algorithm a = VF_ALGO_AUTO;
-    if (vf_settings_parse(&s, j->settings) == VF_OK) a = s.algorithm;
-    vf_algorithm requested = a;
-    if (vf_algorithm_is_auto(a) && vf_algorithm_parse(j->algorithm_resolved, &a) != VF_OK) a = requested;
-    append(&p, &left, ", est. RMSE %.4g%s", j->estimated_rmse,
-           vf_algorithm_estimate_scope(a) == VF_ESTIMATE_VARIANCE ? " (variance only)" : "");
+    int variance = vf_settings_parse(&s, j->settings) == VF_OK && estimate_scope(j, &s) == VF_ESTIMATE_VARIANCE;
+    append(&p, &left, ", est. RMSE %.4g%s", j->estimated_rmse, variance ? " (variance only)" : "");
   }
   if (j->has_reference && isfinite(j->rmse)) append(&p, &left, ", RMSE %.4g", j->rmse);
 }

@@ -48,12 +48,19 @@ static int lands(void *ctx, vf_vec3 dir) {
   vf_hit hit;
   v->stats[l->thread].rays++;
   if (!vf_accel_intersect(v->accel, tentative_origin(v, l->from, l->normal, dir), dir, l->tfar, &hit)) return 0;
-  /* The test of vertex merging, the same float operations (vertex_merging.c). */
-  float dx = hit.position.x - l->target.x, dy = hit.position.y - l->target.y, dz = hit.position.z - l->target.z;
-  if (!(dx * dx + dy * dy + dz * dz <= v->radius_sq)) return 0;
+  if (!vf_vertex_merging_within(v, hit.position.x, hit.position.y, hit.position.z, l->target)) return 0;
   /* Stored there, as light_pass.c stores: a surface that scatters, not only specularly. */
   vf_bsdf b;
   return bsdf_at(v, &b, &hit, vf_neg(dir)) && !b.is_delta;
+}
+
+/* Whether the segment from p (normal n) to q (normal nq; zero vector: a punctual light) is
+ * free, tested as a shadow ray of the passes is (segment_ends), at once. */
+static int visible(vf_vcm *v, int thread, vf_vec3 p, vf_vec3 n, vf_vec3 q, vf_vec3 nq) {
+  vf_vec3 o, e;
+  segment_ends(v, p, n, q, nq, &o, &e);
+  v->stats[thread].rays++;
+  return !vf_accel_occluded(v->accel, o, vf_sub(e, o), 1.0f);
 }
 
 /* The light vertex k of the grid merged as vcm merges it: the fall-back. */
@@ -86,11 +93,11 @@ static double inverse_acceptance(vf_vcm *v, int thread, const vf_upg_source *src
 /* The geometric normal of a BSDF's vertex, on the side its path arrived from. */
 static vf_vec3 geometric_normal(const vf_bsdf *b) { return b->shading ? b->geometric : b->frame.n; }
 
-/* From the light's side: the light vertex's predecessor L (a light vertex, or its sub-path's
- * point on its light) joined to camera vertex q, with 1/p_acc of L's continuation landing
- * within the radius of q. */
+/* From the light's side: the light vertex's predecessor L (a light vertex pred with its BSDF
+ * lb, or its sub-path's point on its light, origin) joined to camera vertex q, with 1/p_acc
+ * of L's continuation landing within the radius of q. */
 static vf_vec3 gather_from_light(vf_vcm *v, int thread, const vertex_merging_query *q, const light_vertex *pred,
-                                 const light_origin *origin, vf_rng *rng) {
+                                 const vf_bsdf *lb, const light_origin *origin, vf_rng *rng) {
   const vf_vec3 zero = vf_vec3_splat(0.0f);
   /* The connection of the predecessor L and q (camera_pass.c's connect_vertices). */
   vf_vec3 lpos = pred ? pred->position : origin->position;
@@ -103,19 +110,17 @@ static vf_vec3 gather_from_light(vf_vcm *v, int thread, const vertex_merging_que
   vf_vec3 fc = vf_bsdf_evaluate(&q->bsdf, d, &cos_camera, &camera_pdf, &camera_rev_pdf);
   if (vf_is_zero(fc)) return zero;
 
-  vf_bsdf lb;
   vf_upg_source src = {NULL, NULL, zero};
   vf_vec3 light_value, lnormal;
   vf_mis light_mis;
   float cos_light = 1.0f, light_pdf = 0.0f, light_rev_pdf = 0.0f;
   if (pred) {
-    bsdf_of_vertex(v, &lb, pred);
-    vf_vec3 fl = vf_bsdf_evaluate(&lb, vf_neg(d), &cos_light, &light_pdf, &light_rev_pdf);
+    vf_vec3 fl = vf_bsdf_evaluate(lb, vf_neg(d), &cos_light, &light_pdf, &light_rev_pdf);
     if (vf_is_zero(fl)) return zero;
     light_value = vf_scale(vf_mul(pred->throughput, fl), cos_light);
     light_mis = pred->mis;
-    lnormal = normal_of_vertex(v, pred, &lb);
-    src.bsdf = &lb;
+    lnormal = normal_of_vertex(v, pred, lb);
+    src.bsdf = lb;
   } else {
     const vf_light *l = &v->lights->lights[origin->light];
     float dir_pdf;
@@ -140,16 +145,7 @@ static vf_vec3 gather_from_light(vf_vcm *v, int thread, const vertex_merging_que
   value = vf_scale(value, w * cos_camera / (dist2 * v->mis.light_paths));
   if (vf_is_zero(value)) return zero;
 
-  /* The visibility of the connection, as a shadow ray of camera_pass.c would test it. */
-  {
-    vf_vec3 n = geometric_normal(&q->bsdf);
-    vf_vec3 o = vf_offset_ray_origin(q->position, vf_dot(n, d) > 0.0f ? n : vf_neg(n), v->offset_scale);
-    vf_vec3 e = vf_is_zero(lnormal) ? lpos
-                                    : vf_offset_ray_origin(lpos, vf_dot(lnormal, d) < 0.0f ? lnormal : vf_neg(lnormal),
-                                                           v->offset_scale);
-    v->stats[thread].rays++;
-    if (vf_accel_occluded(v->accel, o, vf_sub(e, o), 1.0f)) return zero;
-  }
+  if (!visible(v, thread, q->position, geometric_normal(&q->bsdf), lpos, lnormal)) return zero;
 
   double inverse = inverse_acceptance(v, thread, &src, lpos, lnormal, q->position, dist, rng);
   return vf_scale(value, (float)inverse);
@@ -185,13 +181,8 @@ static vf_vec3 gather_from_camera(vf_vcm *v, int thread, const gathering_prev *p
   vf_vec3 value = vf_mul(vf_mul(vf_mul(ph->throughput, fl), fc), prev->throughput);
   value = vf_scale(value, w * cos_camera * cos_light / (dist2 * v->mis.light_paths));
   if (vf_is_zero(value)) return zero;
-  vf_vec3 nc = geometric_normal(&prev->bsdf), nl = normal_of_vertex(v, lv, &lb);
-  {
-    vf_vec3 o = vf_offset_ray_origin(prev->position, vf_dot(nc, d) > 0.0f ? nc : vf_neg(nc), v->offset_scale);
-    vf_vec3 e = vf_offset_ray_origin(y, vf_dot(nl, d) < 0.0f ? nl : vf_neg(nl), v->offset_scale);
-    v->stats[thread].rays++;
-    if (vf_accel_occluded(v->accel, o, vf_sub(e, o), 1.0f)) return zero;
-  }
+  vf_vec3 nc = geometric_normal(&prev->bsdf);
+  if (!visible(v, thread, prev->position, nc, y, normal_of_vertex(v, lv, &lb))) return zero;
   vf_upg_source src = {&prev->bsdf, NULL, zero};
   double inverse = inverse_acceptance(v, thread, &src, prev->position, nc, y, dist, rng);
   return vf_scale(value, (float)inverse);
@@ -230,22 +221,18 @@ static vf_vec3 gather(vf_vcm *v, int thread, const vertex_merging_query *q, cons
   }
   int light_side = pred != NULL || origin != NULL;
   int camera_side = prev->valid && q->mis.d_vcm != 0.0f;
-  int prefer_camera = v->settings.gather == VF_GATHER_CAMERA;
-  if (light_side && camera_side && v->settings.gather == VF_GATHER_AUTO) {
+  int prefer_camera = v->settings.gather == VF_GATHER_CAMERA, automatic = v->settings.gather == VF_GATHER_AUTO;
+  vf_bsdf lb; /* the predecessor's, set up once for the choice and the light's side */
+  if (pred && (!camera_side || !prefer_camera)) bsdf_of_vertex(v, &lb, pred);
+  if (light_side && camera_side && automatic) {
     /* The side whose joining vertex scatters less sharply: a function of the path's two
      * vertices next to the gathering, as both sides see them. */
-    vf_bsdf lb;
-    vf_upg_source ls = {NULL, NULL, vf_vec3_splat(0.0f)}, cs = {&prev->bsdf, NULL, vf_vec3_splat(0.0f)};
-    if (pred) {
-      bsdf_of_vertex(v, &lb, pred);
-      ls.bsdf = &lb;
-    } else {
-      ls.light = &v->lights->lights[origin->light];
-    }
+    vf_upg_source ls = {pred ? &lb : NULL, pred ? NULL : &v->lights->lights[origin->light], vf_vec3_splat(0.0f)};
+    vf_upg_source cs = {&prev->bsdf, NULL, vf_vec3_splat(0.0f)};
     prefer_camera = vf_upg_sharpness(&cs) < vf_upg_sharpness(&ls);
   }
   if (camera_side && (!light_side || prefer_camera)) return gather_from_camera(v, thread, prev, k, &list[i], rng);
-  if (light_side) return gather_from_light(v, thread, q, pred, origin, rng);
+  if (light_side) return gather_from_light(v, thread, q, pred, &lb, origin, rng);
   return merge_as_vcm(v, thread, q, k);
 }
 
@@ -258,8 +245,7 @@ vf_vec3 vf_gathering_estimate(vf_vcm *v, int thread, const vertex_merging_query 
   for (int r = 0; r < num_ranges; r++)
     for (uint32_t k = ranges[r].begin; k < ranges[r].end; k++) {
       const merge_point *p = &v->merge_points[k];
-      float dx = p->x - q->position.x, dy = p->y - q->position.y, dz = p->z - q->position.z;
-      if (dx * dx + dy * dy + dz * dz <= v->radius_sq) sum = vf_add(sum, gather(v, thread, q, prev, k, &rng));
+      if (vf_vertex_merging_within(v, p->x, p->y, p->z, q->position)) sum = vf_add(sum, gather(v, thread, q, prev, k, &rng));
     }
   return sum;
 }

@@ -177,10 +177,14 @@ static vf_vec3 cone_direction(const vf_frame *f, float omc, float u1, float u2) 
   return vf_frame_to_world(f, vf_vec3_make(sin_t * cosf(phi), sin_t * sinf(phi), cos_t));
 }
 
-double vf_upg_inverse_acceptance(const vf_upg_source *src, vf_vec3 axis, float cos_half, float one_minus_cos_half,
-                                 float bound, vf_rng *rng, vf_upg_lands lands, void *ctx, vf_upg_counts *counts) {
-  (void)cos_half;
-  vf_frame f = vf_frame_from_normal(axis);
+/* One trial's direction: 1 when it is to be traced (into *dir), 0 when the trial failed
+ * without a ray. */
+typedef int (*trial_draw)(const void *ctx, vf_rng *rng, vf_vec3 *dir, vf_upg_counts *counts);
+
+/* Trials of `draw` until one lands, or VF_UPG_MAX_TRIALS of them (counted as truncated):
+ * their number N. Adds the gathering, its trials and its rays to *counts. */
+static uint64_t trials_until_landing(trial_draw draw, const void *draw_ctx, vf_rng *rng, vf_upg_lands lands,
+                                     void *ctx, vf_upg_counts *counts) {
   uint64_t n = 0, rays = 0;
   for (;;) {
     if (n == VF_UPG_MAX_TRIALS) {
@@ -188,45 +192,65 @@ double vf_upg_inverse_acceptance(const vf_upg_source *src, vf_vec3 axis, float c
       break;
     }
     n++;
-    float u1 = vf_rng_float(rng), u2 = vf_rng_float(rng), u3 = vf_rng_float(rng);
-    vf_vec3 dir = cone_direction(&f, one_minus_cos_half, u1, u2);
-    float pdf = vf_upg_density(src, dir);
-    if (pdf > bound) counts->bound_exceeded++;
-    if (!(u3 * bound < pdf)) continue;
+    vf_vec3 dir;
+    if (!draw(draw_ctx, rng, &dir, counts)) continue;
     rays++;
     if (lands(ctx, dir)) break;
   }
   counts->gatherings++;
   counts->trials += n;
   counts->rays += rays;
+  return n;
+}
+
+/* A trial of the cone: a direction uniform in it, accepted with probability density / bound. */
+typedef struct {
+  const vf_upg_source *src;
+  vf_frame frame; /* around the cone's axis */
+  float one_minus_cos_half, bound;
+} cone_trial;
+
+static int draw_in_cone(const void *ctx, vf_rng *rng, vf_vec3 *dir, vf_upg_counts *counts) {
+  const cone_trial *t = ctx;
+  float u1 = vf_rng_float(rng), u2 = vf_rng_float(rng), u3 = vf_rng_float(rng);
+  *dir = cone_direction(&t->frame, t->one_minus_cos_half, u1, u2);
+  float pdf = vf_upg_density(t->src, *dir);
+  if (pdf > t->bound) counts->bound_exceeded++;
+  return u3 * t->bound < pdf;
+}
+
+double vf_upg_inverse_acceptance(const vf_upg_source *src, vf_vec3 axis, float cos_half, float one_minus_cos_half,
+                                 float bound, vf_rng *rng, vf_upg_lands lands, void *ctx, vf_upg_counts *counts) {
+  (void)cos_half;
+  cone_trial t = {src, vf_frame_from_normal(axis), one_minus_cos_half, bound};
+  uint64_t n = trials_until_landing(draw_in_cone, &t, rng, lands, ctx, counts);
   double solid_angle = 2.0 * M_PI * (double)one_minus_cos_half;
   return (double)n / (solid_angle * (double)bound);
 }
 
+/* A trial of the sub-path's own continuation: vf_wavefront_scatter's walk (roulette, then
+ * lobe and direction), failing where it ends, is specular or leaves the cone. */
+typedef struct {
+  const vf_bsdf *bsdf;
+  vf_vec3 axis;
+  float cos_half;
+} own_trial;
+
+static int draw_own(const void *ctx, vf_rng *rng, vf_vec3 *dir, vf_upg_counts *counts) {
+  (void)counts;
+  const own_trial *t = ctx;
+  float roulette = vf_rng_float(rng);
+  float rnd[3] = {vf_rng_float(rng), vf_rng_float(rng), vf_rng_float(rng)};
+  if (roulette >= t->bsdf->continuation) return 0;
+  float pdf, rev_pdf, cos_gen;
+  unsigned event;
+  vf_vec3 f = vf_bsdf_sample(t->bsdf, rnd, dir, &pdf, &rev_pdf, &cos_gen, &event);
+  if (vf_is_zero(f) || !(pdf > 0.0f) || (event & VF_BSDF_SPECULAR)) return 0;
+  return vf_dot(*dir, t->axis) >= t->cos_half;
+}
+
 double vf_upg_inverse_acceptance_draws(const vf_bsdf *b, vf_vec3 axis, float cos_half, vf_rng *rng,
                                        vf_upg_lands lands, void *ctx, vf_upg_counts *counts) {
-  uint64_t n = 0, rays = 0;
-  for (;;) {
-    if (n == VF_UPG_MAX_TRIALS) {
-      counts->truncated++;
-      break;
-    }
-    n++;
-    /* The walk of vf_wavefront_scatter: roulette, then lobe and direction. */
-    float roulette = vf_rng_float(rng);
-    float rnd[3] = {vf_rng_float(rng), vf_rng_float(rng), vf_rng_float(rng)};
-    if (roulette >= b->continuation) continue;
-    vf_vec3 gen;
-    float pdf, rev_pdf, cos_gen;
-    unsigned event;
-    vf_vec3 f = vf_bsdf_sample(b, rnd, &gen, &pdf, &rev_pdf, &cos_gen, &event);
-    if (vf_is_zero(f) || !(pdf > 0.0f) || (event & VF_BSDF_SPECULAR)) continue;
-    if (vf_dot(gen, axis) < cos_half) continue;
-    rays++;
-    if (lands(ctx, gen)) break;
-  }
-  counts->gatherings++;
-  counts->trials += n;
-  counts->rays += rays;
-  return (double)n;
+  own_trial t = {b, axis, cos_half};
+  return (double)trials_until_landing(draw_own, &t, rng, lands, ctx, counts);
 }

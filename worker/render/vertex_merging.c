@@ -124,8 +124,7 @@ vf_vec3 vf_vertex_merging_estimate(const vf_vcm *v, const vertex_merging_query *
   for (int r = 0; r < num_ranges; r++)
     for (uint32_t k = ranges[r].begin; k < ranges[r].end; k++) {
       const merge_point *p = &v->merge_points[k];
-      float dx = p->x - q->position.x, dy = p->y - q->position.y, dz = p->z - q->position.z;
-      if (dx * dx + dy * dy + dz * dz <= v->radius_sq) sum = vf_add(sum, vf_vertex_merging_one(v, q, k));
+      if (vf_vertex_merging_within(v, p->x, p->y, p->z, q->position)) sum = vf_add(sum, vf_vertex_merging_one(v, q, k));
     }
   return vf_scale(sum, v->vm_normalization); /* 1 / (pi r^2 n_light), eq. (20) */
 }

@@ -26,15 +26,22 @@ static inline uint32_t trace_packet(vf_vcm *v, int thread, shadow_packet *pk) {
   return blocked;
 }
 
+/* The ends of the shadow ray of the segment from p (normal n) to q (normal nq; zero
+ * vector: a point in space): both moved off their surfaces towards each other. */
+static inline __attribute__((always_inline)) void segment_ends(const vf_vcm *v, vf_vec3 p, vf_vec3 n, vf_vec3 q,
+                                                               vf_vec3 nq, vf_vec3 *o, vf_vec3 *e) {
+  vf_vec3 d = vf_sub(q, p);
+  *o = vf_offset_ray_origin(p, vf_dot(n, d) > 0.0f ? n : vf_neg(n), v->offset_scale);
+  *e = vf_is_zero(nq) ? q : vf_offset_ray_origin(q, vf_dot(nq, d) < 0.0f ? nq : vf_neg(nq), v->offset_scale);
+}
+
 /* Adds the shadow ray of the segment from p (normal n) to q (normal nq; zero vector: a
- * point in space) to the packet, for `owner`. Both ends are moved off their surfaces
- * towards each other. Always inline: as a call, its four vectors were packed into
- * registers and spilled at every shadow ray. */
+ * point in space) to the packet, for `owner` (segment_ends). Always inline: as a call,
+ * its four vectors were packed into registers and spilled at every shadow ray. */
 static inline __attribute__((always_inline)) void queue_segment(vf_vcm *v, shadow_packet *pk, int owner, vf_vec3 p,
                                                                 vf_vec3 n, vf_vec3 q, vf_vec3 nq) {
-  vf_vec3 d = vf_sub(q, p);
-  vf_vec3 o = vf_offset_ray_origin(p, vf_dot(n, d) > 0.0f ? n : vf_neg(n), v->offset_scale);
-  vf_vec3 e = vf_is_zero(nq) ? q : vf_offset_ray_origin(q, vf_dot(nq, d) < 0.0f ? nq : vf_neg(nq), v->offset_scale);
+  vf_vec3 o, e;
+  segment_ends(v, p, n, q, nq, &o, &e);
   pk->org[pk->n] = o;
   pk->dir[pk->n] = vf_sub(e, o);
   pk->tfar[pk->n] = 1.0f;
