@@ -206,6 +206,9 @@ static void camera_start(vf_vcm *v, camera_lane *lane, uint32_t px, uint32_t py,
     vf_sampler_2d(&lane->sampler, VF_DIM_LENS, u);
     s->origin = vf_camera_lens_point(&v->camera, u[0], u[1]);
     s->direction = vf_camera_lens_direction(&v->camera, s->origin, (float)px + jx, (float)py + jy);
+  } else if (v->camera.pixel_size > 0.0f) {
+    s->origin = vf_camera_view_point(&v->camera, (float)px + jx, (float)py + jy);
+    s->direction = v->camera.forward;
   } else {
     s->origin = v->camera.position;
     s->direction = vf_camera_direction(&v->camera, (float)px + jx, (float)py + jy);
@@ -213,8 +216,9 @@ static void camera_start(vf_vcm *v, camera_lane *lane, uint32_t px, uint32_t py,
   s->throughput = vf_vec3_splat(1.0f); /* W_e cos / (p(z0) pdf_w) = 1: camera.h */
   s->path_length = 1;
   s->specular_path = 1;
-  /* z1's quantities, tech. rep. eq. (31)-(33): p_connect / p_trace of the lens point is 1. */
-  vf_mis_camera_start(&s->mis, &v->mis, vf_camera_pdf_w(&v->camera, s->direction));
+  /* z1's quantities, tech. rep. eq. (31)-(33): p_connect / p_trace of the lens point is 1;
+   * an orthographic start is an area density (sec. 5.1-5.2). */
+  vf_mis_camera_start(&s->mis, &v->mis, vf_camera_start_density(&v->camera, s->direction));
 }
 
 /* Continues the lane's camera sub-path where its last ray ended (hit NULL: it left the
@@ -235,7 +239,8 @@ static int camera_bounce(vf_vcm *v, int thread, camera_lane *lane, const vf_hit 
   }
   float cos_fix = fabsf(vf_dot(hit->normal, s->direction));
   if (!(cos_fix > 1e-7f)) return 0; /* grazing: no emission or scattering to speak of */
-  vf_mis_hit(&s->mis, &v->mis, hit->t, cos_fix, 1);
+  /* An orthographic camera's first segment has no distance factor (tech. rep. sec. 5.2). */
+  vf_mis_hit(&s->mis, &v->mis, hit->t, cos_fix, !(s->path_length == 1 && v->camera.pixel_size > 0.0f));
   int light_index = v->lights->shape_light[hit->shape];
   if (light_index >= 0 && v->t.emission) {
     const vf_light *l = &v->lights->lights[light_index];

@@ -100,7 +100,7 @@ static void splat_if_visible(vf_vcm *v, int thread, light_chunk *c, uint32_t pat
 
 /* The lens point a light vertex connects to (t = 1): the pinhole, or a point sampled
  * uniformly on the thin lens from the light sub-path's stream (drawn only for a lens, so
- * pinhole renders keep their streams). Its density 1 / (pi r^2) is the camera
+ * pinhole and orthographic renders keep their streams; the orthographic camera ignores it). Its density 1 / (pi r^2) is the camera
  * sub-paths' too (p_connect = p_trace, tech. rep. eq. 46), and it cancels against the
  * importance's (camera.h). */
 static vf_vec3 lens_sample(const vf_vcm *v, vf_sampler *sampler, uint32_t pair) {
@@ -110,44 +110,23 @@ static vf_vec3 lens_sample(const vf_vcm *v, vf_sampler *sampler, uint32_t pair) 
   return vf_camera_lens_point(&v->camera, u[0], u[1]);
 }
 
-/* Projects point p, seen from lens point `lens` along -dir_to_camera, onto the image: its
- * raster pixel and the camera's density of that direction per unit of image area (in
- * solid angle); 0 when p is behind the lens or outside the image. Checked before anything
- * is evaluated at p: a good part of the light vertices lie outside the view. */
-static int camera_project(const vf_vcm *v, vf_vec3 lens, vf_vec3 p, vf_vec3 dir_to_camera, uint32_t *pixel,
-                          uint32_t *band, float *image_to_solid_angle) {
-  float x, y;
-  if (!vf_camera_raster(&v->camera, lens, p, &x, &y)) return 0;
-  float cos_at_camera = -vf_dot(v->camera.forward, dir_to_camera);
-  if (!(cos_at_camera > 0.0f)) return 0;
-  *pixel = (uint32_t)y * (uint32_t)v->camera.width + (uint32_t)x;
-  *band = (uint32_t)y / SPLAT_BAND;
-  float image_to_camera = v->camera.image_plane_distance / cos_at_camera;
-  *image_to_solid_angle = image_to_camera * image_to_camera / cos_at_camera;
-  return 1;
+/* The raster pixel and splat band of a link's raster position. */
+static void link_pixel(const vf_vcm *v, const vf_camera_link *l, uint32_t *pixel, uint32_t *band) {
+  *pixel = (uint32_t)l->y * (uint32_t)v->camera.width + (uint32_t)l->x;
+  *band = (uint32_t)l->y / SPLAT_BAND;
 }
 
-/* The camera's area density of generating a point at distance dist with |cos| cos_at_p,
- * from camera_project's image_to_solid_angle. */
-static float camera_pdf_a(float image_to_solid_angle, float dist, float cos_at_p) {
-  return image_to_solid_angle * cos_at_p / (dist * dist);
-}
-
-/* t = 1: connects light vertex (hit, b) to a lens point and projects it onto the image. */
+/* t = 1: connects light vertex (hit, b) to the camera (a lens point, or its foot on an
+ * orthographic view plane) and projects it onto the image. */
 static void connect_to_camera(vf_vcm *v, int thread, light_chunk *c, uint32_t path, const vf_hit *hit,
                               const vf_bsdf *b, const path_state *s, vf_sampler *sampler, uint32_t vertex_dims) {
   vf_vec3 lens = lens_sample(v, sampler, vf_dim_at(vertex_dims, VF_DIM_CAMERA_LENS));
-  vf_vec3 to_camera = vf_sub(lens, hit->position);
-  float dist = vf_length(to_camera);
-  if (!(dist > 0.0f)) return;
-  to_camera = vf_scale(to_camera, 1.0f / dist);
-  uint32_t pixel, band;
-  float image_to_solid_angle;
-  if (!camera_project(v, lens, hit->position, to_camera, &pixel, &band, &image_to_solid_angle)) return;
+  vf_camera_link link;
+  if (!vf_camera_link_point(&v->camera, lens, hit->position, &link)) return;
   float cos_to_camera, dir_pdf, rev_pdf;
-  vf_vec3 f = vf_bsdf_evaluate(b, to_camera, &cos_to_camera, &dir_pdf, &rev_pdf);
+  vf_vec3 f = vf_bsdf_evaluate(b, link.to_camera, &cos_to_camera, &dir_pdf, &rev_pdf);
   if (vf_is_zero(f)) return;
-  float pdf_a = camera_pdf_a(image_to_solid_angle, dist, cos_to_camera);
+  float pdf_a = vf_camera_link_pdf_a(&link, cos_to_camera);
   if (!(pdf_a > 0.0f)) return;
   /* Eq. (46)-(47); pdf_a is the camera's area density of the vertex from the lens point. */
   float w = v->t.lt ? 1.0f : vf_mis_weight_camera_connection(&s->mis, &v->mis, pdf_a, rev_pdf);
@@ -155,7 +134,9 @@ static void connect_to_camera(vf_vcm *v, int thread, light_chunk *c, uint32_t pa
    * (camera.h), over the light sub-path density n_light. */
   vf_vec3 contrib = vf_scale(vf_mul(s->throughput, f), w * pdf_a / v->mis.light_paths);
   if (vf_is_zero(contrib)) return;
-  splat_if_visible(v, thread, c, path, pixel, band, contrib, hit->position, hit->normal, lens);
+  uint32_t pixel, band;
+  link_pixel(v, &link, &pixel, &band);
+  splat_if_visible(v, thread, c, path, pixel, band, contrib, hit->position, hit->normal, link.end);
 }
 
 /* Light tracing alone also projects the light's own point y0 (the s = 1, t = 1 technique,
@@ -163,19 +144,16 @@ static void connect_to_camera(vf_vcm *v, int thread, light_chunk *c, uint32_t pa
 static void connect_emitter_to_camera(vf_vcm *v, int thread, light_chunk *c, uint32_t path, vf_vec3 radiance,
                                       vf_vec3 p, vf_vec3 n, float pick_and_area_pdf, vf_sampler *sampler) {
   vf_vec3 lens = lens_sample(v, sampler, VF_DIM_EMITTER_LENS);
-  vf_vec3 to_camera = vf_sub(lens, p);
-  float dist = vf_length(to_camera);
-  if (!(dist > 0.0f)) return;
-  to_camera = vf_scale(to_camera, 1.0f / dist);
-  float cos_out = vf_dot(n, to_camera);
+  vf_camera_link link;
+  if (!vf_camera_link_point(&v->camera, lens, p, &link)) return;
+  float cos_out = vf_dot(n, link.to_camera);
   if (!(cos_out > 0.0f)) return;
-  uint32_t pixel, band;
-  float image_to_solid_angle;
-  if (!camera_project(v, lens, p, to_camera, &pixel, &band, &image_to_solid_angle)) return;
-  float pdf_a = camera_pdf_a(image_to_solid_angle, dist, cos_out);
+  float pdf_a = vf_camera_link_pdf_a(&link, cos_out);
   if (!(pdf_a > 0.0f)) return;
   vf_vec3 contrib = vf_scale(radiance, pdf_a / (v->mis.light_paths * pick_and_area_pdf));
-  splat_if_visible(v, thread, c, path, pixel, band, contrib, p, n, lens);
+  uint32_t pixel, band;
+  link_pixel(v, &link, &pixel, &band);
+  splat_if_visible(v, thread, c, path, pixel, band, contrib, p, n, link.end);
 }
 
 /* The four numbers of vf_light_emit. Area lights read rnd[1], rnd[2] as the point and

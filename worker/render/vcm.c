@@ -282,6 +282,8 @@ void vf_vcm_describe(const vf_vcm *v, FILE *out) {
   fprintf(out, "scene: %d area, %d point, %d spot, %d directional light(s)%s; %s surfaces; SDS paths %s\n", area,
           point, spot, directional, v->lights->environment >= 0 ? ", environment" : "",
           surfaces[0] ? surfaces : "no scattering", sds ? "possible" : "impossible");
+  if (v->camera.pixel_size > 0.0f)
+    fprintf(out, "camera: orthographic, %g wide\n", v->camera.pixel_size * (float)v->camera.width);
   if (v->camera.lens_radius > 0.0f)
     fprintf(out, "camera: thin lens of radius %g, in focus at %g\n", v->camera.lens_radius, v->camera.focus_distance);
   describe_geometry(v->scene, out);

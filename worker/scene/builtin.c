@@ -24,7 +24,7 @@
 static const char *const builtin_names[] = {"cornell", "cornell-point", "cornell-sun", "cornell-env",
                                             "furnace", "knot", "cornell-bulb", "cornell-diffuse",
                                             "cornell-glossy", "cornell-spot", "cornell-dof", "cornell-rough",
-                                            NULL};
+                                            "cornell-ortho", NULL};
 
 const char *const *vf_scene_builtin_names(void) { return builtin_names; }
 
@@ -192,6 +192,7 @@ enum {
   WITH_BULB = 1 << 5, /* a small spherical lamp inside a glass sphere: all light leaves through glass */
   WITH_SPOT = 1 << 6,
   WITH_LENS = 1 << 7, /* a thin-lens camera, nearer, focused on the glass ball */
+  WITH_ORTHO = 1 << 8, /* an orthographic camera whose view plane stands inside the box's opening */
 };
 
 /* A member of the Cornell family: the box with its floor and back wall, two balls on the
@@ -235,6 +236,7 @@ static const cornell_variant cornells[] = {
      "{'diffuse':[0.1,0.1,0.3],'glossy':[0.7,0.7,0.7],'exponent':200}"},
     {"cornell-spot", WITH_SPOT, FLOOR_GLOSSY, NULL, "mirror", MIRROR, "glass", GLASS},
     {"cornell-dof", WITH_LENS | WITH_AREA_LIGHT, FLOOR_GLOSSY, NULL, "mirror", MIRROR, "glass", GLASS},
+    {"cornell-ortho", WITH_ORTHO | WITH_AREA_LIGHT, FLOOR_GLOSSY, NULL, "mirror", MIRROR, "glass", GLASS},
 };
 
 /* The shared box: [-1,1]^3 open at z = +1, walls facing inwards. */
@@ -247,6 +249,12 @@ static void put_cornell(text_buf *t, const cornell_variant *c) {
   if (with & WITH_LENS)
     put(t, "{'camera':{'position':[0,-0.35,3],'target':[0,-0.35,0],'up':[0,1,0],'fov':38,'aperture':0.1,"
            "'focus_distance':2.75,'resolution':[512,512]},");
+  /* The orthographic view plane stands just inside the opening, tilted down and to the
+   * left so that the floor and the red wall show: parallel rays from outside the box would
+   * see its back faces. */
+  else if (with & WITH_ORTHO)
+    put(t, "{'camera':{'type':'orthographic','position':[0,0.05,0.95],'forward':[-0.3,-0.45,-1],'up':[0,1,0],"
+           "'width':1.8,'resolution':[512,512]},");
   else
     put(t, "{'camera':{'position':[0,0,3.6],'target':[0,0,0],'up':[0,1,0],'fov':38,'resolution':[512,512]},");
   put(t, "'materials':{'white':{'diffuse':[0.75,0.75,0.75]},'red':{'diffuse':[0.75,0.15,0.15]},"

@@ -146,8 +146,24 @@ static void world_of(const import_state *st, const struct aiString *name, vf_aff
 
 static vf_vec3 vec_of(const double d[3]) { return vf_vec3_make((float)d[0], (float)d[1], (float)d[2]); }
 
+/* Assimp marks an orthographic camera by a zero field of view and its half width in
+ * mOrthographicWidth (glTF's xmag; mAspect is xmag / ymag). */
+static int is_orthographic(const struct aiCamera *cam) { return cam->mOrthographicWidth > 0.0f; }
 static int is_perspective(const struct aiCamera *cam) {
   return cam->mHorizontalFOV > 0.0f && cam->mOrthographicWidth == 0.0f;
+}
+
+/* Sets the scene's camera, and the resolution its aspect ratio asks for unless the scene
+ * gives one. */
+static int take_resolution(vf_scene *s, double aspect, vf_camera_desc d) {
+  s->camera = d;
+  if (!(s->settings_given & VF_SET_RESOLUTION)) {
+    double h = aspect > 0.0 ? IMPORT_WIDTH / aspect : IMPORT_WIDTH * 9.0 / 16.0;
+    s->settings.width = IMPORT_WIDTH;
+    s->settings.height = (int)fmin(fmax(floor(h + 0.5), 1.0), 65536.0);
+    s->settings_given |= VF_SET_RESOLUTION;
+  }
+  return VF_OK;
 }
 
 /* The camera's view into the scene's camera, and the resolution its aspect ratio asks for. */
@@ -172,6 +188,17 @@ static int take_camera(const parse_ctx *c, const import_state *st, unsigned inde
   if (!(vf_length(up_orth) > 1e-4f * vf_length(up)) || !vf_scene_unit(up_orth, &d.up))
     return vf_scene_fail(c, VF_ESCENE, st->f.what, "camera %u: up is zero or parallel to the viewing direction", index);
   double aspect = cam->mAspect > 0.0f && isfinite(cam->mAspect) ? cam->mAspect : 0.0, fov;
+  if (is_orthographic(cam)) {
+    /* The half width is a length in the camera node's space: the node's scale applies. */
+    double half[3] = {cam->mOrthographicWidth, 0.0, 0.0}, world_half[3];
+    vf_affine_vector(&w, half, world_half);
+    d.view_width = (float)(2.0 * sqrt(world_half[0] * world_half[0] + world_half[1] * world_half[1] +
+                                      world_half[2] * world_half[2]));
+    if (!(d.view_width > 0.0f && isfinite(d.view_width)))
+      return vf_scene_fail(c, VF_ESCENE, st->f.what, "camera %u: orthographic width %g is not a positive length", index,
+                           d.view_width);
+    return take_resolution(s, aspect, d);
+  }
   /* Assimp 5.2.5's glTF reader stores yfov x aspect in mHorizontalFOV (not the half angle
    * other readers store, as aiCamera documents): each is undone as it was made. */
   if (st->f.gltf_file) fov = cam->mHorizontalFOV / (aspect > 0.0 ? aspect : 1.0);
@@ -180,14 +207,7 @@ static int take_camera(const parse_ctx *c, const import_state *st, unsigned inde
   if (!(d.vertical_fov_degrees > 0.0f && d.vertical_fov_degrees < 180.0f))
     return vf_scene_fail(c, VF_ESCENE, st->f.what, "camera %u: vertical field of view %g degrees is not in (0, 180)",
                          index, d.vertical_fov_degrees);
-  s->camera = d;
-  if (!(s->settings_given & VF_SET_RESOLUTION)) {
-    double h = aspect > 0.0 ? IMPORT_WIDTH / aspect : IMPORT_WIDTH * 9.0 / 16.0;
-    s->settings.width = IMPORT_WIDTH;
-    s->settings.height = (int)fmin(fmax(floor(h + 0.5), 1.0), 65536.0);
-    s->settings_given |= VF_SET_RESOLUTION;
-  }
-  return VF_OK;
+  return take_resolution(s, aspect, d);
 }
 
 /* The list of the file's cameras for an error: "0 'Main', 1 'Top'". */
@@ -227,19 +247,10 @@ static int select_camera(const parse_ctx *c, const import_state *st, const cJSON
     if (ai->mNumCameras == 0) return vf_scene_fail(c, VF_ESCENE, path, "no camera %s: %s has no camera", what, st->f.file);
     return vf_scene_fail(c, VF_ESCENE, path, "no camera %s in %s (its cameras: %s)", what, st->f.file, names);
   }
-  if (!is_perspective(ai->mCameras[index]))
-    return vf_scene_fail(c, VF_ESCENE, path, "camera %ld '%s' of %s is not a perspective camera", index,
+  if (!is_perspective(ai->mCameras[index]) && !is_orthographic(ai->mCameras[index]))
+    return vf_scene_fail(c, VF_ESCENE, path, "camera %ld '%s' of %s has neither a field of view nor a width", index,
                          ai->mCameras[index]->mName.data, st->f.file);
   return take_camera(c, st, (unsigned)index);
-}
-
-static int note_cameras(const parse_ctx *c, const import_state *st) {
-  for (unsigned i = 0; i < st->f.ai->mNumCameras; i++)
-    if (!is_perspective(st->f.ai->mCameras[i])) {
-      int err = vf_scene_note(c, "%s: orthographic cameras are not supported: ignored", st->f.file);
-      if (err < 0) return err;
-    }
-  return VF_OK;
 }
 
 /* ---- lights ------------------------------------------------------------------------------------ */
@@ -326,13 +337,12 @@ static int import_contents(const parse_ctx *c, import_state *st, const cJSON *ca
     return err;
   for (unsigned i = 0; i < ai->mNumLights; i++)
     if ((err = import_light(c, st, ai->mLights[i])) < 0) return err;
-  if ((err = note_cameras(c, st)) < 0) return err;
   if (camera_sel != NULL) {
     if ((err = select_camera(c, st, camera_sel, camera_path)) < 0) return err;
     st->took_camera = 1;
   }
   for (unsigned i = 0; take_first_camera && !st->took_camera && i < ai->mNumCameras; i++)
-    if (is_perspective(ai->mCameras[i])) {
+    if (is_perspective(ai->mCameras[i]) || is_orthographic(ai->mCameras[i])) {
       if ((err = take_camera(c, st, i)) < 0) return err;
       st->took_camera = 1;
     }

@@ -70,10 +70,39 @@ static int parse_lens(const parse_ctx *c, const cJSON *cam, const vf_vec3 *targe
   return VF_OK;
 }
 
+/* The projection: "perspective" (the default) with its field of view and optional thin
+ * lens, or "orthographic" with the view's width and neither. */
+static int parse_projection(const parse_ctx *c, const cJSON *cam, const vf_vec3 *target, vf_camera_desc *d) {
+  const char *type = "perspective";
+  int err = vf_scene_string_field(c, cam, "camera", "type", OPTIONAL, &type);
+  if (err < 0) return err;
+  int orthographic = strcmp(type, "orthographic") == 0;
+  if (!orthographic && strcmp(type, "perspective") != 0)
+    return vf_scene_fail(c, VF_ESCENE, "camera.type", "expected \"perspective\" or \"orthographic\", found \"%.40s\"", type);
+  if (orthographic) {
+    static const char *const perspective_only[] = {"fov", "aperture", "focus_distance", NULL};
+    for (int i = 0; perspective_only[i] != NULL; i++)
+      if (cJSON_GetObjectItemCaseSensitive(cam, perspective_only[i]) != NULL)
+        return vf_scene_fail(c, VF_ESCENE, "camera", "'%s' is for perspective cameras: an orthographic camera has none",
+                             perspective_only[i]);
+    if ((err = vf_scene_float_field(c, cam, "camera", "width", REQUIRED, &d->view_width)) < 0) return err;
+    if (!(d->view_width > 0.0f))
+      return vf_scene_fail(c, VF_ESCENE, "camera.width", "the view's width must be > 0, found %g", d->view_width);
+    return VF_OK;
+  }
+  if (cJSON_GetObjectItemCaseSensitive(cam, "width") != NULL)
+    return vf_scene_fail(c, VF_ESCENE, "camera.width", "is for orthographic cameras (\"type\": \"orthographic\")");
+  if ((err = vf_scene_float_field(c, cam, "camera", "fov", REQUIRED, &d->vertical_fov_degrees)) < 0) return err;
+  if (!(d->vertical_fov_degrees > 0.0f && d->vertical_fov_degrees < 180.0f))
+    return vf_scene_fail(c, VF_ESCENE, "camera.fov", "must be in (0, 180) degrees, found %g", d->vertical_fov_degrees);
+  return parse_lens(c, cam, target, d);
+}
+
 static int parse_camera(const parse_ctx *c, const cJSON *cam) {
-  static const char *const fields[] = {"position", "target", "forward", "up", "fov", "resolution", "aperture", "focus_distance", NULL};
+  static const char *const fields[] = {"type", "position", "target", "forward", "up", "fov", "width",
+                                       "resolution", "aperture", "focus_distance", NULL};
   vf_scene *s = c->scene;
-  vf_camera_desc d = {.aperture = 0.0f, .focus_distance = 0.0f};
+  vf_camera_desc d = {.aperture = 0.0f, .focus_distance = 0.0f, .view_width = 0.0f};
   vf_vec3 target, forward, up = vf_vec3_make(0.0f, 1.0f, 0.0f);
   int err = vf_scene_check_object(c, cam, "camera", fields);
   if (err < 0) return err;
@@ -96,10 +125,7 @@ static int parse_camera(const parse_ctx *c, const cJSON *cam) {
   vf_vec3 up_orth = vf_sub(up, vf_scale(d.forward, vf_dot(up, d.forward)));
   if (!(vf_length(up_orth) > 1e-4f * vf_length(up)) || !vf_scene_unit(up_orth, &d.up))
     return vf_scene_fail(c, VF_ESCENE, "camera.up", "zero or parallel to the viewing direction");
-  if ((err = vf_scene_float_field(c, cam, "camera", "fov", REQUIRED, &d.vertical_fov_degrees)) < 0) return err;
-  if (!(d.vertical_fov_degrees > 0.0f && d.vertical_fov_degrees < 180.0f))
-    return vf_scene_fail(c, VF_ESCENE, "camera.fov", "must be in (0, 180) degrees, found %g", d.vertical_fov_degrees);
-  if ((err = parse_lens(c, cam, has_target ? &target : NULL, &d)) < 0) return err;
+  if ((err = parse_projection(c, cam, has_target ? &target : NULL, &d)) < 0) return err;
   const cJSON *res;
   int has_resolution = vf_scene_member(c, cam, "camera", "resolution", OPTIONAL, &res);
   if (has_resolution) {

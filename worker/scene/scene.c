@@ -57,6 +57,7 @@ int vf_scene_check_extent(const vf_scene *s, const char *label) {
   }
   if (what == NULL && beyond3(s->camera.position)) what = "camera.position";
   if (what == NULL && (beyond(s->camera.aperture) || beyond(s->camera.focus_distance))) what = "camera (lens)";
+  if (what == NULL && beyond(s->camera.view_width)) what = "camera.width";
   for (int i = 0; i < s->num_point_lights && what == NULL; i++)
     if (beyond3(s->point_lights[i].position)) what = "lights", index = i;
   if (what == NULL) return VF_OK;
@@ -100,6 +101,7 @@ int vf_scene_scale(vf_scene *s, double factor) {
   s->camera.position = vf_scale(s->camera.position, f);
   s->camera.aperture *= f; /* a thin lens is a length, and so is its distance in focus */
   s->camera.focus_distance *= f;
+  s->camera.view_width *= f;
   /* Irradiance from a point light falls with the square of the distance: its intensity
    * grows with the square of the scale. Area lights keep their radiance, directional lights
    * their irradiance, the environment its radiance: none depends on distance. */
@@ -194,6 +196,10 @@ void vf_scene_hash(vf_scene *s) {
     h_tag(&h, "thin lens");
     h_f32(&h, s->camera.aperture);
     h_f32(&h, s->camera.focus_distance);
+  }
+  if (s->camera.view_width > 0.0f) { /* likewise: perspective scenes keep their hashes */
+    h_tag(&h, "orthographic");
+    h_f32(&h, s->camera.view_width);
   }
   h_tag(&h, "materials");
   h_u32(&h, (uint32_t)s->num_materials);

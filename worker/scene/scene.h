@@ -17,13 +17,18 @@
 #include <stddef.h>
 #include <stdint.h>
 
+/* A perspective camera (a pinhole or a thin lens) or an orthographic one. An orthographic
+ * camera's rays all travel along forward, from the points of a view plane through
+ * position, perpendicular to forward, view_width wide (scene units) and as high as the
+ * image's aspect ratio makes it; it has no field of view and no lens. */
 typedef struct {
   vf_vec3 position;
   vf_vec3 forward; /* unit */
   vf_vec3 up;      /* unit, orthogonal to forward */
-  float vertical_fov_degrees;
+  float vertical_fov_degrees; /* perspective: in (0, 180); orthographic: 0 */
   float aperture;       /* thin lens: radius of the lens, >= 0; 0 is a pinhole */
   float focus_distance; /* thin lens: distance along forward of the plane in focus, > 0 when aperture > 0 */
+  float view_width;     /* > 0: orthographic, the view's width in scene units; 0: perspective */
 } vf_camera_desc;
 
 typedef enum { VF_SHAPE_MESH, VF_SHAPE_SPHERE } vf_shape_kind;

@@ -1,8 +1,10 @@
-/* The camera, pinhole and thin lens (worker/render/camera.h): raster and direction invert each
- * other through any lens point, points in focus land where the pinhole sees them, the
- * direction density given a lens point is the inverse Jacobian of raster -> direction and
- * integrates to the image's pixel count, lens points are uniform on the disk, and the
- * lens fields of a scene are validated. */
+/* The camera, pinhole, thin lens and orthographic (worker/render/camera.h): raster and
+ * direction invert each other through any lens point, points in focus land where the
+ * pinhole sees them, the direction density given a lens point is the inverse Jacobian of
+ * raster -> direction and integrates to the image's pixel count, lens points are uniform
+ * on the disk; the orthographic camera's rays and links invert each other and its density
+ * integrates to the pixel count over any plane; and the camera fields of a scene are
+ * validated. */
 #include "check.h"
 #include "common/error.h"
 #include "common/rng.h"
@@ -20,7 +22,7 @@ enum { W = 160, H = 120 };
 /* A camera looking along (0.2, -0.3, -1) from (0.5, 1, 4): no axis is a coordinate axis. */
 static vf_camera camera_with_lens(float aperture, float focus_distance) {
   vf_camera_desc d = {vf_vec3_make(0.5f, 1.0f, 4.0f), vf_normalize(vf_vec3_make(0.2f, -0.3f, -1.0f)),
-                      vf_vec3_make(0, 1, 0), 50.0f, aperture, focus_distance};
+                      vf_vec3_make(0, 1, 0), 50.0f, aperture, focus_distance, 0.0f};
   vf_vec3 up = vf_sub(d.up, vf_scale(d.forward, vf_dot(d.up, d.forward)));
   d.up = vf_normalize(up);
   vf_camera cam;
@@ -198,6 +200,130 @@ static void test_lens_fields_are_validated(void) {
   vf_scene_destroy(s);
 }
 
+/* The same view as camera_with_lens, orthographic, VIEW_WIDTH wide. */
+static const float VIEW_WIDTH = 2.5f;
+static vf_camera orthographic_camera(void) {
+  vf_camera_desc d = {vf_vec3_make(0.5f, 1.0f, 4.0f), vf_normalize(vf_vec3_make(0.2f, -0.3f, -1.0f)),
+                      vf_vec3_make(0, 1, 0), 0.0f, 0.0f, 0.0f, VIEW_WIDTH};
+  d.up = vf_normalize(vf_sub(d.up, vf_scale(d.forward, vf_dot(d.up, d.forward))));
+  vf_camera cam;
+  vf_camera_init(&cam, &d, W, H);
+  return cam;
+}
+
+/* Every ray of the orthographic camera travels along forward from its point of the view
+ * plane; the plane is VIEW_WIDTH wide and W/H as high, centred on the position; any point
+ * of a ray, at any depth, links back to the ray's raster position and its origin, along
+ * -forward, at the depth's distance. Points behind the plane are not linked. */
+static void test_orthographic_rays_and_links_invert_each_other(void) {
+  vf_rng rng = vf_rng_for_path(5, 0, 0, VF_STREAM_TEST);
+  vf_camera cam = orthographic_camera();
+  double max_dev = 0.0, max_end = 0.0, max_dir = 0.0, max_dist = 0.0;
+  for (int i = 0; i < 2000; i++) {
+    float x = vf_rng_float(&rng) * W, y = vf_rng_float(&rng) * H, depth = 0.1f + 8.0f * vf_rng_float(&rng);
+    vf_vec3 o = vf_camera_view_point(&cam, x, y);
+    vf_camera_link link;
+    vf_vec3 p = vf_add(o, vf_scale(cam.forward, depth));
+    if (!vf_camera_link_point(&cam, cam.position, p, &link)) {
+      if (x > 0.01f && y > 0.01f && x < W - 0.01f && y < H - 0.01f) max_dev = INFINITY;
+      continue;
+    }
+    max_dev = fmax(max_dev, fmax(fabs(link.x - x), fabs(link.y - y)));
+    max_end = fmax(max_end, vf_length(vf_sub(link.end, o)));
+    max_dir = fmax(max_dir, vf_length(vf_add(link.to_camera, cam.forward)));
+    max_dist = fmax(max_dist, fabs(link.dist - depth));
+    CHECK(!vf_camera_link_point(&cam, cam.position, vf_sub(o, vf_scale(cam.forward, depth)), &link));
+  }
+  printf("  max raster round-trip error %.2e px, end %.2e, direction %.2e, distance %.2e\n", max_dev, max_end,
+         max_dir, max_dist);
+  CHECK(max_dev < 2e-3);
+  CHECK(max_end < 1e-5 && max_dir < 1e-6 && max_dist < 1e-5);
+  /* The corners of the image are the corners of the view's rectangle. */
+  vf_vec3 span = vf_sub(vf_camera_view_point(&cam, (float)W, 0.0f), vf_camera_view_point(&cam, 0.0f, (float)H));
+  CHECK_NEAR(vf_dot(span, cam.right), VIEW_WIDTH, 1e-5);
+  CHECK_NEAR(vf_dot(span, cam.up), VIEW_WIDTH * H / W, 1e-5);
+  CHECK_NEAR(vf_length(vf_sub(vf_camera_view_point(&cam, 0.5f * W, 0.5f * H), cam.position)), 0.0, 1e-6);
+}
+
+/* The camera's area density of a linked point, integrated over a plane at any depth and
+ * tilt, gives the number of pixels (one unit of density per pixel, as the perspective
+ * camera's): points uniform on a square of the plane larger than the view, weighted by
+ * the square's area times the density where they link to the image. */
+static void test_orthographic_density_integrates_to_the_pixel_count(void) {
+  vf_rng rng = vf_rng_for_path(6, 0, 0, VF_STREAM_TEST);
+  vf_camera cam = orthographic_camera();
+  const vf_vec3 normals[] = {cam.forward, vf_normalize(vf_add(cam.forward, vf_scale(cam.right, 0.8f))),
+                             vf_normalize(vf_sub(cam.forward, vf_scale(cam.up, 1.5f)))};
+  for (int k = 0; k < 3; k++) {
+    vf_frame f = vf_frame_from_normal(normals[k]);
+    vf_vec3 centre = vf_add(cam.position, vf_scale(cam.forward, 3.0f + (float)k));
+    const float half = 4.0f;
+    const int n = 200000;
+    double sum = 0.0, sum2 = 0.0;
+    for (int i = 0; i < n; i++) {
+      float a = (2.0f * vf_rng_float(&rng) - 1.0f) * half, b = (2.0f * vf_rng_float(&rng) - 1.0f) * half;
+      vf_vec3 p = vf_add(centre, vf_add(vf_scale(f.s, a), vf_scale(f.t, b)));
+      vf_camera_link link;
+      double v = 0.0;
+      if (vf_camera_link_point(&cam, cam.position, p, &link))
+        v = 4.0 * half * half * vf_camera_link_pdf_a(&link, fabsf(vf_dot(normals[k], link.to_camera)));
+      sum += v;
+      sum2 += v * v;
+    }
+    double mean = sum / n, se = sqrt((sum2 / n - mean * mean) / n);
+    printf("  plane %d: integral of the area density %.1f +- %.1f, pixels %d\n", k, mean, se, W * H);
+    CHECK_NEAR(mean, (double)W * H, 5.0 * se);
+  }
+}
+
+/* The orthographic camera in a scene: "type": "orthographic" with a positive width and no
+ * field of view or lens; a width only for it; scaling the scene scales the width. */
+static void test_orthographic_fields_are_validated(void) {
+  static const struct {
+    const char *camera, *message;
+  } cases[] = {
+      {"\"type\": \"orthographic\", \"position\": [0, 0, 4], \"target\": [0, 0, 0]",
+       "ortho.json: camera: missing field 'width'"},
+      {"\"type\": \"orthographic\", \"position\": [0, 0, 4], \"target\": [0, 0, 0], \"width\": 0",
+       "ortho.json: camera.width: the view's width must be > 0, found 0"},
+      {"\"type\": \"orthographic\", \"position\": [0, 0, 4], \"target\": [0, 0, 0], \"width\": 2, \"fov\": 40",
+       "ortho.json: camera: 'fov' is for perspective cameras: an orthographic camera has none"},
+      {"\"type\": \"orthographic\", \"position\": [0, 0, 4], \"target\": [0, 0, 0], \"width\": 2, \"aperture\": 0.1",
+       "ortho.json: camera: 'aperture' is for perspective cameras: an orthographic camera has none"},
+      {"\"position\": [0, 0, 4], \"target\": [0, 0, 0], \"fov\": 40, \"width\": 2",
+       "ortho.json: camera.width: is for orthographic cameras (\"type\": \"orthographic\")"},
+      {"\"type\": \"fisheye\", \"position\": [0, 0, 4], \"target\": [0, 0, 0], \"fov\": 40",
+       "ortho.json: camera.type: expected \"perspective\" or \"orthographic\", found \"fisheye\""},
+  };
+  for (size_t i = 0; i < sizeof cases / sizeof *cases; i++) {
+    char text[1024];
+    snprintf(text, sizeof text,
+             "{\"camera\": {%s}, \"materials\": {\"m\": {\"diffuse\": [0.5, 0.5, 0.5]}},"
+             " \"shapes\": [{\"type\": \"sphere\", \"material\": \"m\", \"center\": [0, 0, 0], \"radius\": 1}],"
+             " \"lights\": [{\"type\": \"point\", \"position\": [0, 3, 0], \"intensity\": [1, 1, 1]}]}",
+             cases[i].camera);
+    vf_scene *s = NULL;
+    int err = vf_scene_parse(text, strlen(text), "ortho.json", ".", NULL, 0, &s);
+    CHECK(s == NULL);
+    CHECK_INT_EQ(err, VF_ESCENE);
+    CHECK_STR_CONTAINS(vf_error_detail(err), cases[i].message);
+    vf_scene_destroy(s);
+  }
+  int err;
+  vf_scene *s = camera_scene("\"type\": \"orthographic\", \"position\": [0, 0, 4], \"target\": [0, 0, 1], \"width\": 3", &err);
+  CHECK_INT_EQ(err, VF_OK);
+  if (s != NULL) {
+    CHECK_NEAR(s->camera.view_width, 3.0, 0.0);
+    CHECK_NEAR(s->camera.vertical_fov_degrees, 0.0, 0.0);
+    uint8_t before[32];
+    memcpy(before, s->hash, sizeof before);
+    CHECK_INT_EQ(vf_scene_scale(s, 2.0), VF_OK);
+    CHECK_NEAR(s->camera.view_width, 6.0, 0.0);
+    CHECK(memcmp(before, s->hash, sizeof before) != 0);
+  }
+  vf_scene_destroy(s);
+}
+
 int main(void) {
   RUN(test_rays_and_raster_invert_each_other);
   RUN(test_points_behind_the_lens_are_off_the_image);
@@ -205,5 +331,8 @@ int main(void) {
   RUN(test_direction_density_integrates_to_the_pixel_count);
   RUN(test_lens_points_are_uniform_on_the_disk);
   RUN(test_lens_fields_are_validated);
+  RUN(test_orthographic_rays_and_links_invert_each_other);
+  RUN(test_orthographic_density_integrates_to_the_pixel_count);
+  RUN(test_orthographic_fields_are_validated);
   return check_finish();
 }

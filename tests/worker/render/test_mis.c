@@ -7,7 +7,9 @@
  *     and of the power heuristic with beta 2 and 3 (paper eq. 10).
  *
  * Paths come from random walks in the built-in "cornell" (an area light and a pinhole),
- * "cornell-dof" (a thin lens: x_k is a point sampled on the lens) and "cornell-spot" (a
+ * "cornell-dof" (a thin lens: x_k is a point sampled on the lens), "cornell-ortho" (an
+ * orthographic camera: x_k is x_{k-1}'s foot on the view plane, and the camera's density
+ * of x_{k-1} has no distance in it, tech. rep. sec. 5.2) and "cornell-spot" (a
  * spot light, a delta in position: eq. 48-50, no emission hits): from the light, closed by
  * a connection to the camera, and from the camera, closed by a light sample or by hitting
  * the light. The first family has no specular vertex; the second has exactly one (a
@@ -226,8 +228,15 @@ static int prepare_path(const test_scene *ts, const full_path *x, path_data *pd)
   float d;
   vf_vec3 view = direction_between(x->position[k], x->position[k - 1], &d);
   double cos_k1 = k > 1 ? abs_cos_d(x->position[k - 1], x->normal[k - 1], x->position[k]) : pd->cos_light;
-  pd->p_camera[k - 1] =
-      (double)vf_camera_pdf_w(&ts->camera, view) * cos_k1 / dist_sq_d(x->position[k], x->position[k - 1]);
+  if (ts->scene->camera.view_width > 0.0f) {
+    /* Orthographic: uniform on the pixel's square of the view plane, projected along the
+     * view: one over the pixel's area, times the cosine at x_{k-1}. */
+    double pixel = (double)ts->scene->camera.view_width / ts->scene->settings.width;
+    pd->p_camera[k - 1] = cos_k1 / (pixel * pixel);
+  } else {
+    pd->p_camera[k - 1] =
+        (double)vf_camera_pdf_w(&ts->camera, view) * cos_k1 / dist_sq_d(x->position[k], x->position[k - 1]);
+  }
   for (int i = k - 2; i >= 0; i--) {
     const vf_bsdf *b = &pd->from_camera[i + 1];
     float c, pdf_w, rev;
@@ -335,17 +344,13 @@ static void direct_weights(const full_path *x, const path_data *pd, const techni
 /* ---------------------------------------------------------------------------------------- */
 /* The recursive weights, with the call sequence of the renderer's passes                  */
 
-/* camera_pdf_a() of worker/render/light_pass.c: the camera's area density of generating p seen from
- * lens point `lens` along -dir_to_camera; 0 off the image. */
-static float camera_pdf_a(const vf_camera *cam, vf_vec3 lens, vf_vec3 p, vf_vec3 dir_to_camera, float dist,
-                          float cos_at_p) {
-  float rx, ry;
-  if (!vf_camera_raster(cam, lens, p, &rx, &ry)) return 0.0f;
-  float cos_at_camera = -vf_dot(cam->forward, dir_to_camera);
-  if (!(cos_at_camera > 0.0f)) return 0.0f;
-  float image_to_camera = cam->image_plane_distance / cos_at_camera;
-  float image_to_solid_angle = image_to_camera * image_to_camera / cos_at_camera;
-  return image_to_solid_angle * cos_at_p / (dist * dist);
+/* As connect_to_camera() of worker/render/light_pass.c: the camera's area density of generating p
+ * linked to lens point `lens` (worker/render/camera.h), whose |cos| towards it is cos_at_p; 0
+ * off the image. */
+static float camera_pdf_a(const vf_camera *cam, vf_vec3 lens, vf_vec3 p, float cos_at_p) {
+  vf_camera_link link;
+  if (!vf_camera_link_point(cam, lens, p, &link)) return 0.0f;
+  return vf_camera_link_pdf_a(&link, cos_at_p);
 }
 
 /* What vf_light_emit and vf_light_illuminate report for x_0 seen from x_1, before the
@@ -401,13 +406,15 @@ static void trace_quantities(const test_scene *ts, const full_path *x, const pat
     }
     vf_mis_scatter(&m, c, cos_gen, pdf, rev, x->specular[i]);
   }
-  /* camera_start(): the density of the first direction from the lens point (eq. 31-33), then the same. */
+  /* camera_start(): the density of the first direction from the lens point (eq. 31-33; an
+   * orthographic camera's of its point on the view plane, sec. 5.2), then the same. */
   float dist;
-  vf_mis_camera_start(&m, c, vf_camera_pdf_w(&ts->camera, direction_between(x->position[k], x->position[k - 1], &dist)));
+  vf_mis_camera_start(&m, c, vf_camera_start_density(&ts->camera, direction_between(x->position[k], x->position[k - 1], &dist)));
+  const int orthographic = ts->camera.pixel_size > 0.0f;
   for (int j = 1; j <= k; j++) {
     int i = k - j;
     vf_vec3 dir = direction_between(x->position[i + 1], x->position[i], &dist);
-    vf_mis_hit(&m, c, dist, fabsf(vf_dot(x->normal[i], dir)), 1);
+    vf_mis_hit(&m, c, dist, fabsf(vf_dot(x->normal[i], dir)), !(j == 1 && orthographic));
     camera[j] = m;
     if (j == k) break;
     const vf_bsdf *b = &pd->from_camera[i];
@@ -470,7 +477,7 @@ static void recursive_weights(const test_scene *ts, const full_path *x, const pa
     float dist, cos_to_camera, dir_pdf, rev_pdf;
     vf_vec3 to_camera = direction_between(x->position[k - 1], x->position[k], &dist);
     vf_bsdf_evaluate(&pd->from_light[k - 1], to_camera, &cos_to_camera, &dir_pdf, &rev_pdf);
-    float pdf_a = camera_pdf_a(&ts->camera, x->position[k], x->position[k - 1], to_camera, dist, cos_to_camera);
+    float pdf_a = camera_pdf_a(&ts->camera, x->position[k], x->position[k - 1], cos_to_camera);
     w_vc[k] = vf_mis_weight_camera_connection(&light[k - 1], c, pdf_a, rev_pdf);
   }
   for (int s = 2; s <= k; s++) { /* merging y_{s-1} into z_{k+1-s}, both at x_{s-1} */
@@ -560,9 +567,9 @@ static void add_path(const test_scene *ts, const full_path *x, path_set *diffuse
   for (int i = 1; i < x->k; i++) n += x->specular[i];
   path_set *set = n == 0 ? diffuse : n == 1 ? specular : NULL;
   path_data pd;
-  float rx, ry;
+  vf_camera_link link;
   if (set == NULL || set->count == MAX_PATHS) return;
-  if (!vf_camera_raster(&ts->camera, x->position[x->k], x->position[x->k - 1], &rx, &ry)) return;
+  if (!vf_camera_link_point(&ts->camera, x->position[x->k], x->position[x->k - 1], &link)) return;
   if (!prepare_path(ts, x, &pd)) return;
   set->paths[set->count++] = *x;
 }
@@ -585,6 +592,19 @@ static vf_vec3 lens_point(const test_scene *ts, walk_numbers *rng) {
   if (!(ts->camera.lens_radius > 0.0f)) return ts->camera.position;
   float u1 = walk_float(rng), u2 = walk_float(rng);
   return vf_camera_lens_point(&ts->camera, u1, u2);
+}
+
+/* The camera's end x_k of a path closed at p from the light: a lens point, or p's foot on
+ * an orthographic view plane (computed here from the plane, not by the renderer's link);
+ * 0 when p is behind that plane. */
+static int camera_end(const test_scene *ts, walk_numbers *rng, vf_vec3 p, vf_vec3 *end) {
+  if (!(ts->camera.pixel_size > 0.0f)) {
+    *end = lens_point(ts, rng);
+    return 1;
+  }
+  float depth = vf_dot(vf_sub(p, ts->camera.position), ts->camera.forward);
+  *end = vf_sub(p, vf_scale(ts->camera.forward, depth));
+  return depth > 0.0f;
 }
 
 /* From the light: every non-specular vertex that sees the camera closes a path. */
@@ -610,8 +630,9 @@ static void walk_from_light(const test_scene *ts, walk_numbers *rng, path_set *d
     x.primitive[m] = hit.primitive;
     x.bu[m] = hit.u;
     x.bv[m] = hit.v;
-    vf_vec3 lens = lens_point(ts, rng);
-    if (!b.is_delta && !occluded(ts, hit.position, hit.normal, lens, vf_vec3_splat(0.0f))) {
+    vf_vec3 lens;
+    if (camera_end(ts, rng, hit.position, &lens) && !b.is_delta &&
+        !occluded(ts, hit.position, hit.normal, lens, vf_vec3_splat(0.0f))) {
       x.k = m + 1;
       x.position[m + 1] = lens;
       add_path(ts, &x, diffuse, specular);
@@ -630,9 +651,10 @@ static void walk_from_camera(const test_scene *ts, walk_numbers *rng, path_set *
   full_path z = {0}; /* z.position[j] = z_j, z_0 on the lens */
   full_path x = {0};
   float rx = walk_float(rng) * (float)ts->camera.width, ry = walk_float(rng) * (float)ts->camera.height;
-  z.position[0] = lens_point(ts, rng);
-  vf_vec3 dir = ts->camera.lens_radius > 0.0f ? vf_camera_lens_direction(&ts->camera, z.position[0], rx, ry)
-                                              : vf_camera_direction(&ts->camera, rx, ry);
+  z.position[0] = ts->camera.pixel_size > 0.0f ? vf_camera_view_point(&ts->camera, rx, ry) : lens_point(ts, rng);
+  vf_vec3 dir = ts->camera.pixel_size > 0.0f ? ts->camera.forward
+                : ts->camera.lens_radius > 0.0f ? vf_camera_lens_direction(&ts->camera, z.position[0], rx, ry)
+                                                : vf_camera_direction(&ts->camera, rx, ry);
   vf_vec3 origin = z.position[0];
   for (int m = 1; m < MAX_SEGMENTS; m++) {
     vf_hit hit;
@@ -943,7 +965,8 @@ static void test_weights_match_eq12_through_shaded_and_textured_vertices(void) {
 /* Loads scene `name` into g_scene and walks its path sets; 0 when it cannot be loaded. */
 static int walk_scene(const char *name, vf_light_kind light) {
   if (load_test_scene(&g_scene, name, light) != VF_OK) return 0;
-  printf("%s (%s, %s)\n", name, g_scene.camera.lens_radius > 0.0f ? "thin lens" : "pinhole",
+  printf("%s (%s, %s)\n", name,
+         g_scene.camera.pixel_size > 0.0f ? "orthographic" : g_scene.camera.lens_radius > 0.0f ? "thin lens" : "pinhole",
          g_scene.spot ? "spot light" : "area light");
   g_diffuse.count = g_specular.count = 0;
   for (uint64_t w = 0; w < WALKS; w++) {
@@ -958,11 +981,15 @@ static int walk_scene(const char *name, vf_light_kind light) {
   return 1;
 }
 
-/* The pinhole with an area light, the thin lens with an area light, the pinhole with a spot. */
+/* The pinhole, the thin lens and the orthographic camera with an area light, the pinhole
+ * with a spot. */
 static const struct {
   const char *name;
   vf_light_kind light;
-} test_scenes[] = {{"cornell", VF_LIGHT_AREA_MESH}, {"cornell-dof", VF_LIGHT_AREA_MESH}, {"cornell-spot", VF_LIGHT_SPOT}};
+} test_scenes[] = {{"cornell", VF_LIGHT_AREA_MESH},
+                   {"cornell-dof", VF_LIGHT_AREA_MESH},
+                   {"cornell-ortho", VF_LIGHT_AREA_MESH},
+                   {"cornell-spot", VF_LIGHT_SPOT}};
 
 int main(void) {
   for (int k = 0; k < VF_SAMPLER_COUNT_; k++) {

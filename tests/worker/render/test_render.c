@@ -61,17 +61,25 @@ static double mean_of(const vf_film *f) {
   return s / (3.0 * n);
 }
 
+/* The scenes the range promises are checked on: the perspective camera's and the
+ * orthographic camera's (its rays start on the view plane, its light vertices link to their
+ * feet there). */
+static const char *const range_scenes[] = {"cornell", "cornell-ortho"};
+enum { NUM_RANGE_SCENES = sizeof range_scenes / sizeof *range_scenes };
+
 static void test_one_and_two_threads_give_bitwise_identical_films(void) {
-  for (int a = 0; a < VF_ALGO_COUNT_; a++) {
-    vf_film *one = render("cornell", (vf_algorithm)a, 7, 1, 0, 3);
-    vf_film *two = render("cornell", (vf_algorithm)a, 7, 2, 0, 3);
-    if (!one || !two) return;
-    if (!films_bitwise_equal(one, two))
-      printf("  %s (%s) differs between 1 and 2 threads\n", vf_algorithm_name(a), vf_sampler_name(sampler_under_test));
-    CHECK(films_bitwise_equal(one, two));
-    vf_film_destroy(one);
-    vf_film_destroy(two);
-  }
+  for (int k = 0; k < NUM_RANGE_SCENES; k++)
+    for (int a = 0; a < VF_ALGO_COUNT_; a++) {
+      vf_film *one = render(range_scenes[k], (vf_algorithm)a, 7, 1, 0, 3);
+      vf_film *two = render(range_scenes[k], (vf_algorithm)a, 7, 2, 0, 3);
+      if (!one || !two) return;
+      if (!films_bitwise_equal(one, two))
+        printf("  %s %s (%s) differs between 1 and 2 threads\n", range_scenes[k], vf_algorithm_name(a),
+               vf_sampler_name(sampler_under_test));
+      CHECK(films_bitwise_equal(one, two));
+      vf_film_destroy(one);
+      vf_film_destroy(two);
+    }
 }
 
 static long file_bytes(const char *path, char **out) {
@@ -117,10 +125,12 @@ static void test_same_seed_twice_gives_identical_files(void) {
 
 /* Iterations [0,2) and [2,5) rendered apart, in the opposite order, merge into [0,5). */
 static void test_split_ranges_merge_into_the_whole(void) {
-  for (int a = 0; a < VF_ALGO_COUNT_; a++) {
-    vf_film *whole = render("cornell", (vf_algorithm)a, 3, 2, 0, 5);
-    vf_film *late = render("cornell", (vf_algorithm)a, 3, 2, 2, 5);
-    vf_film *early = render("cornell", (vf_algorithm)a, 3, 2, 0, 2);
+  for (int k = 0; k < NUM_RANGE_SCENES * VF_ALGO_COUNT_; k++) {
+    const char *scene = range_scenes[k / VF_ALGO_COUNT_];
+    int a = k % VF_ALGO_COUNT_;
+    vf_film *whole = render(scene, (vf_algorithm)a, 3, 2, 0, 5);
+    vf_film *late = render(scene, (vf_algorithm)a, 3, 2, 2, 5);
+    vf_film *early = render(scene, (vf_algorithm)a, 3, 2, 0, 2);
     if (!whole || !late || !early) return;
     CHECK_INT_EQ(vf_film_merge(late, early), VF_OK);
     CHECK(vf_iterset_equal(&late->iterations, &whole->iterations));
@@ -129,8 +139,8 @@ static void test_split_ranges_merge_into_the_whole(void) {
     for (size_t i = 0; i < n; i++) {
       max_diff = fmax(max_diff, fabs(late->sum[i] - whole->sum[i]));
     }
-    printf("  %-3s %-11s split vs whole: max |difference| %.3g (image mean %.3g)\n", vf_algorithm_name(a),
-           vf_sampler_name(sampler_under_test), max_diff, scale);
+    printf("  %-13s %-3s %-11s split vs whole: max |difference| %.3g (image mean %.3g)\n", scene,
+           vf_algorithm_name(a), vf_sampler_name(sampler_under_test), max_diff, scale);
     for (size_t i = 0; i < n; i++) max_diff = fmax(max_diff, fabs(late->square_sum[i] - whole->square_sum[i]));
     CHECK(max_diff <= 1e-5 * scale);
     CHECK(max_diff <= 1e-5 * scale);

@@ -247,6 +247,19 @@ static void test_light_tracing_agrees_through_the_thin_lens(void) {
   vf_scene_destroy(scene);
 }
 
+/* The orthographic camera (tech. rep. sec. 5.2) in every technique that touches it: on
+ * cornell-ortho with the spheres made diffuse, so that light tracing (t = 1 to each light
+ * vertex's foot on the view plane) samples every path, pt, lt, bpt, vcm and upg agree. */
+static void test_orthographic_camera_agrees(void) {
+  vf_scene *scene;
+  CHECK_INT_EQ(vf_scene_load("cornell-ortho", &scene), VF_OK);
+  if (check_failed_in_case) return;
+  make_specular_diffuse(scene);
+  const vf_algorithm algorithms[] = {VF_ALGO_PT, VF_ALGO_LT, VF_ALGO_BPT, VF_ALGO_VCM, VF_ALGO_UPG};
+  check_agreement("cornell-ortho d", scene, algorithms, 5);
+  vf_scene_destroy(scene);
+}
+
 /* Per-block means and standard errors of `algorithm` on a scene given as JSON text. */
 static void text_block_estimates(const char *text, vf_algorithm algorithm, double mean[NB], double se[NB]) {
   vf_scene *scene = NULL;
@@ -336,6 +349,51 @@ static void test_emitter_through_the_thin_lens_has_its_radiance(void) {
       CHECK_NEAR(m[0][centre[i]], 1.0, 1e-5);
     }
   }
+}
+
+/* An orthographic camera sees radiance, whatever the distance and the tilt: a square
+ * emitter of radiance 1, 0.8 wide, 2 in front of a view 1 wide, turned 60 degrees about the
+ * vertical, projects to 0.4 x 0.8 of the view. Path tracing reads 1 exactly in the blocks
+ * it covers, 0 where it does not; light tracing (its points linked to their feet on the
+ * view plane, with the density cos / pixel^2) reads the same within its error, and both
+ * integrate to the projected area, 0.32 of the image. */
+static void test_emitter_seen_orthographically_has_its_radiance(void) {
+  static const char text[] =
+      "{\"camera\": {\"type\": \"orthographic\", \"position\": [0, 0, 0], \"forward\": [0, 0, -1], \"width\": 1,"
+      "  \"resolution\": [128, 128]}, \"materials\": {\"black\": {}},"
+      " \"shapes\": [{\"type\": \"mesh\", \"material\": \"black\", \"emission\": [1, 1, 1],"
+      "  \"positions\": [-0.2,-0.4,-2.34641016, 0.2,-0.4,-1.65358984, 0.2,0.4,-1.65358984, -0.2,0.4,-2.34641016],"
+      "  \"indices\": [0,1,2, 0,2,3]}]}";
+  vf_scene *scene = NULL;
+  CHECK_INT_EQ(vf_scene_parse(text, sizeof text - 1, "ortho emitter", ".", NULL, 0, &scene), VF_OK);
+  if (scene == NULL) return;
+  static double m[2][NB], se[2][NB];
+  block_estimates(scene, VF_ALGO_PT, m[0], se[0]);
+  block_estimates(scene, VF_ALGO_LT, m[1], se[1]);
+  vf_scene_destroy(scene);
+  if (check_failed_in_case) return;
+  check_blocks_agree("orthographic emitter: lt vs pt", m[1], se[1], m[0], se[0]);
+  /* x in [-0.2, 0.2] of the view's [-0.5, 0.5]: pixels 38.4 .. 89.6, blocks 3 and 4 whole;
+   * y in [-0.4, 0.4]: pixels 12.8 .. 115.2, block rows 1 .. 6 whole. */
+  double total[2] = {0}, total_se[2] = {0};
+  for (int b = 0; b < NB; b++) {
+    int bx = b % BLOCKS, by = b / BLOCKS;
+    int inside = (bx == 3 || bx == 4) && by >= 1 && by <= 6, outside = bx <= 1 || bx >= 6;
+    if (inside) {
+      CHECK_NEAR(m[0][b], 1.0, 1e-5);
+      CHECK_NEAR(m[1][b], 1.0, 5.0 * se[1][b]);
+    }
+    if (outside) {
+      CHECK_NEAR(m[0][b], 0.0, 0.0);
+      CHECK_NEAR(m[1][b], 0.0, 0.0);
+    }
+    for (int a = 0; a < 2; a++) total[a] += m[a][b] / NB, total_se[a] += se[a][b] * se[a][b] / (NB * NB);
+  }
+  for (int a = 0; a < 2; a++) total_se[a] = sqrt(total_se[a]);
+  printf("  image mean: pt %.5f +- %.5f, lt %.5f +- %.5f; exact 0.32000\n", total[0], total_se[0], total[1], total_se[1]);
+  CHECK_NEAR(total[0], 0.32, 5.0 * total_se[0] + 1e-5);
+  CHECK_NEAR(total[1], 0.32, 5.0 * total_se[1] + 1e-5);
+  CHECK(total_se[1] < 0.01); /* the check above must have teeth */
 }
 
 /* A spot light 1 above a diffuse floor (albedo 0.5), the camera at the light looking down
@@ -717,6 +775,7 @@ int main(void) {
     if (sampler_under_test != VF_SAMPLER_SOBOL) continue;
 #endif
     RUN(test_pt_bpt_vcm_agree_on_area_and_environment_variants);
+    RUN(test_orthographic_camera_agrees);
   }
   sampler_under_test = VF_SAMPLER_SOBOL;
   RUN(test_delta_light_variants_agree);
@@ -724,6 +783,7 @@ int main(void) {
   RUN(test_light_inside_glass_agrees);
   RUN(test_light_tracing_agrees_through_the_thin_lens);
   RUN(test_emitter_through_the_thin_lens_has_its_radiance);
+  RUN(test_emitter_seen_orthographically_has_its_radiance);
   RUN(test_spot_light_on_a_floor_has_the_analytic_radiance);
   RUN(test_pt_bpt_vcm_agree_on_rough_materials);
   RUN(test_power_heuristic_keeps_the_furnace_and_the_agreement);

@@ -255,6 +255,39 @@ static void test_gltf_camera_by_default_name_and_index(void) {
   }
 }
 
+/* An orthographic glTF camera: its view is 2 xmag wide in its node's space (glTF's
+ * projection maps [-xmag, xmag] to the image), so the node's scale scales it, and xmag /
+ * ymag is the image's aspect ratio. A file whose first camera is orthographic is seen
+ * through it. */
+static void test_gltf_orthographic_camera(void) {
+  static const char text[] =
+      "{\"asset\": {\"version\": \"2.0\"}, \"scene\": 0, \"scenes\": [{\"nodes\": [0, 1]}],\n"
+      " \"nodes\": [{\"mesh\": 0},\n"
+      "  {\"name\": \"Ortho\", \"camera\": 0, \"translation\": [0, 0, 5], \"scale\": [3, 3, 3],"
+      "   \"rotation\": [0, 0.38268343, 0, 0.92387953]}],\n"
+      " \"cameras\": [{\"type\": \"orthographic\", \"orthographic\": {\"xmag\": 2, \"ymag\": 1, \"znear\": 0.1,"
+      "   \"zfar\": 100}}],\n"
+      " \"meshes\": [{\"primitives\": [{\"attributes\": {\"POSITION\": 0}}]}],\n"
+      " \"accessors\": [{\"bufferView\": 0, \"componentType\": 5126, \"count\": 3, \"type\": \"VEC3\","
+      "   \"min\": [-1, -1, 0], \"max\": [1, 1, 0]}],\n"
+      " \"bufferViews\": [{\"buffer\": 0, \"byteLength\": 36}],\n"
+      " \"buffers\": [{\"byteLength\": 36, \"uri\": "
+      "\"data:application/octet-stream;base64,AACAvwAAgL8AAAAAAACAPwAAgL8AAAAAAAAAAAAAgD8AAAAA\"}]}\n";
+  write_file("ortho.gltf", text, strlen(text));
+  vf_scene *s = load("ortho.gltf", NULL);
+  if (s == NULL) return;
+  CHECK_NEAR(s->camera.view_width, 2.0 * 2.0 * 3.0, 1e-5);
+  CHECK_NEAR(s->camera.vertical_fov_degrees, 0.0, 0.0);
+  CHECK_VEC(s->camera.position, 0, 0, 5, 1e-6);
+  /* Turned 45 degrees about +y: glTF's -z view axis becomes (-1, 0, -1) / sqrt 2. */
+  CHECK_VEC(s->camera.forward, -0.70710678, 0, -0.70710678, 1e-6);
+  CHECK_VEC(s->camera.up, 0, 1, 0, 1e-6);
+  CHECK_INT_EQ(s->settings.width, 1280); /* xmag / ymag = 2 */
+  CHECK_INT_EQ(s->settings.height, 640);
+  CHECK(s->notes == NULL || strstr(s->notes, "orthographic") == NULL); /* nothing dropped */
+  vf_scene_destroy(s);
+}
+
 static void test_gltf_lights_point_spot_directional(void) {
   vf_scene *s = load("model.gltf", NULL);
   if (s == NULL) return;
@@ -560,6 +593,7 @@ int main(void) {
   fresh_dir();
   RUN(test_gltf_node_hierarchy_moves_positions_normals_and_tangents);
   RUN(test_gltf_camera_by_default_name_and_index);
+  RUN(test_gltf_orthographic_camera);
   RUN(test_gltf_lights_point_spot_directional);
   RUN(test_gltf_materials_every_parameter_and_texture_slot);
   RUN(test_gltf_notes_list_what_is_not_rendered);
