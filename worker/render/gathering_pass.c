@@ -174,11 +174,10 @@ static vf_vec3 gather_from_camera(vf_vcm *v, int thread, const gathering_prev *p
   if (vf_is_zero(fl)) return zero;
   /* The camera vertex as if it had landed at y; y's densities seen from the camera's side
    * are its light BSDF's the other way round. */
-  const photon *ph = &v->photons[k];
-  vf_mis light = {ph->d_vcm, 0.0f, ph->d_vm};
+  vf_mis light = vf_photon_mis(v, k);
   float w = vf_mis_weight_gather_camera(&light, prev->mis, &v->mis, cos_camera, camera_pdf, camera_rev_pdf, dist,
                                         cos_light, light_rev_pdf, light_pdf);
-  vf_vec3 value = vf_mul(vf_mul(vf_mul(ph->throughput, fl), fc), prev->throughput);
+  vf_vec3 value = vf_mul(vf_mul(vf_mul(v->photons[k].throughput, fl), fc), prev->throughput);
   value = vf_scale(value, w * cos_camera * cos_light / (dist2 * v->mis.light_paths));
   if (vf_is_zero(value)) return zero;
   vf_vec3 nc = geometric_normal(&prev->bsdf);

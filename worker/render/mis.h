@@ -17,6 +17,16 @@
  * merging factor eta_VCM to zero (sec. 5.5), BPM the connection factor 1 / eta_VCM (5.6),
  * and path tracing keeps only emission hits and next-event estimation.
  *
+ * The vertices store d_vcm and the radius-free c_vc and c_vm of the report's section 6.1
+ * (eq. 56-61) in place of d_vc and d_vm, which follow from them and eta_VCM when a weight
+ * is formed (eq. 62-63, vf_mis_d_vc and vf_mis_d_vm):
+ *   d_vc = c_vc + mis(eta_VCM) c_vm,   d_vm = mis(1 / eta_VCM) c_vc + c_vm,
+ * so that the merge radius, and with it eta_VCM = pi r^2 n_light, can be chosen per camera
+ * sub-path (--radius per-pixel): every technique that samples a full path then weighs it
+ * with the radius of the path's pixel, and the weights still sum to one (sec. 6.1). The
+ * recursion is the same linear map as eq. 35-36 split by its dependence on eta_VCM: with
+ * the factors of a missing technique zeroed, d_vc and d_vm are exactly the report's.
+ *
  * vf_mis_pow() is the heuristic's exponent applied to each density ratio (the report's
  * mis() of eq. 12 and 31-47): beta = 1 is the balance heuristic, as the report derives
  * the scheme; any beta >= 1 is the power heuristic (paper eq. 10), exact in the recursion
@@ -30,9 +40,11 @@
 #include <math.h>
 
 typedef struct {
-  float d_vcm, d_vc, d_vm;
+  float d_vcm, c_vc, c_vm; /* eq. 59-61 */
 } vf_mis;
 
+/* The weights' constants. vm_weight and vc_weight depend on the merge radius: with a radius
+ * per pixel, each camera sub-path and each projection onto the image has its own copy. */
 typedef struct {
   float vm_weight; /* mis(eta_VCM) when merging takes part in the weights, else 0 */
   float vc_weight; /* mis(1 / eta_VCM) when connections take part, else 0 */
@@ -50,20 +62,24 @@ static inline float vf_mis_pow(float x, float beta) {
 }
 static inline float vf_mis_h(const vf_mis_config *c, float x) { return vf_mis_pow(x, c->beta); }
 
+/* d_vc and d_vm of a vertex for the radius of c (tech. rep. eq. 62-63). */
+static inline float vf_mis_d_vc(const vf_mis *m, const vf_mis_config *c) { return m->c_vc + c->vm_weight * m->c_vm; }
+static inline float vf_mis_d_vm(const vf_mis *m, const vf_mis_config *c) { return c->vc_weight * m->c_vc + m->c_vm; }
+
 /* Light sub-path start, y0 (eq. 31-33; point and directional lights eq. 48-50; infinite
  * lights sec. 5.1). Densities include the light-selection probability. */
 static inline void vf_mis_light_start(vf_mis *m, const vf_mis_config *c, float direct_pdf_a, float emission_pdf_w,
                                       float cos_light, int is_delta, int is_finite) {
   m->d_vcm = vf_mis_h(c, direct_pdf_a / emission_pdf_w);
-  m->d_vc = is_delta ? 0.0f : vf_mis_h(c, (is_finite ? cos_light : 1.0f) / emission_pdf_w);
-  m->d_vm = m->d_vc * c->vc_weight;
+  m->c_vc = is_delta ? 0.0f : vf_mis_h(c, (is_finite ? cos_light : 1.0f) / emission_pdf_w); /* eq. 57 */
+  m->c_vm = 0.0f;                                                                            /* eq. 58 */
 }
 
 /* Camera sub-path start, z0 (eq. 31-33, eye side): d_vcm = n_light / p(z1) in solid angle. */
 static inline void vf_mis_camera_start(vf_mis *m, const vf_mis_config *c, float camera_pdf_w) {
   m->d_vcm = vf_mis_h(c, c->light_paths / camera_pdf_w);
-  m->d_vc = 0.0f;
-  m->d_vm = 0.0f;
+  m->c_vc = 0.0f;
+  m->c_vm = 0.0f;
 }
 
 /* A sub-path's ray of length dist found vertex i with |cos| cos_fix against its normal.
@@ -72,29 +88,30 @@ static inline void vf_mis_hit(vf_mis *m, const vf_mis_config *c, float dist, flo
   if (apply_distance) m->d_vcm *= vf_mis_h(c, dist * dist);
   float inv = 1.0f / vf_mis_h(c, cos_fix);
   m->d_vcm *= inv;
-  m->d_vc *= inv;
-  m->d_vm *= inv;
+  m->c_vc *= inv;
+  m->c_vm *= inv;
 }
 
-/* Direction sampled at vertex i (eq. 34-36, or 53-55 for a specular choice). */
+/* Direction sampled at vertex i (eq. 59-61, the radius-free form of eq. 34-36; or 53-55
+ * for a specular choice). Independent of the merge radius. */
 static inline void vf_mis_scatter(vf_mis *m, const vf_mis_config *c, float cos_gen, float pdf_w, float rev_pdf_w,
                                   int specular) {
   if (specular) {
     m->d_vcm = 0.0f;
-    m->d_vc *= vf_mis_h(c, cos_gen);
-    m->d_vm *= vf_mis_h(c, cos_gen);
+    m->c_vc *= vf_mis_h(c, cos_gen);
+    m->c_vm *= vf_mis_h(c, cos_gen);
     return;
   }
   float g = vf_mis_h(c, cos_gen / pdf_w);
-  m->d_vc = c->pt ? 0.0f : g * (m->d_vc * vf_mis_h(c, rev_pdf_w) + m->d_vcm + c->vm_weight);
-  m->d_vm = c->pt ? 0.0f : g * (m->d_vm * vf_mis_h(c, rev_pdf_w) + m->d_vcm * c->vc_weight + 1.0f);
+  m->c_vc = c->pt ? 0.0f : g * (m->c_vc * vf_mis_h(c, rev_pdf_w) + m->d_vcm); /* eq. 60 */
+  m->c_vm = c->pt ? 0.0f : g * (m->c_vm * vf_mis_h(c, rev_pdf_w) + 1.0f);     /* eq. 61 */
   m->d_vcm = vf_mis_h(c, 1.0f / pdf_w);
 }
 
 /* s = 0: the camera sub-path hit a light (eq. 42-43). Densities include light selection. */
 static inline float vf_mis_weight_emission(const vf_mis *cam, const vf_mis_config *c, float direct_pdf_a,
                                             float emission_pdf_w) {
-  float w_camera = vf_mis_h(c, direct_pdf_a) * cam->d_vcm + vf_mis_h(c, emission_pdf_w) * cam->d_vc;
+  float w_camera = vf_mis_h(c, direct_pdf_a) * cam->d_vcm + vf_mis_h(c, emission_pdf_w) * vf_mis_d_vc(cam, c);
   return 1.0f / (1.0f + w_camera);
 }
 
@@ -106,7 +123,7 @@ static inline float vf_mis_weight_light_sample(const vf_mis *cam, const vf_mis_c
   float w_light = vf_mis_h(c, bsdf_dir_pdf_w / direct_pdf_w);
   float w_camera = c->pt ? 0.0f
                          : vf_mis_h(c, emission_pdf_w * cos_to_light / (direct_pdf_w * cos_at_light)) *
-                               (c->vm_weight + cam->d_vcm + cam->d_vc * vf_mis_h(c, bsdf_rev_pdf_w));
+                               (c->vm_weight + cam->d_vcm + vf_mis_d_vc(cam, c) * vf_mis_h(c, bsdf_rev_pdf_w));
   return 1.0f / (w_light + 1.0f + w_camera);
 }
 
@@ -115,7 +132,7 @@ static inline float vf_mis_weight_light_sample(const vf_mis *cam, const vf_mis_c
 static inline float vf_mis_weight_camera_connection(const vf_mis *light, const vf_mis_config *c, float camera_pdf_a,
                                                     float bsdf_rev_pdf_w) {
   float w_light = vf_mis_h(c, camera_pdf_a / c->light_paths) *
-                  (c->vm_weight + light->d_vcm + light->d_vc * vf_mis_h(c, bsdf_rev_pdf_w));
+                  (c->vm_weight + light->d_vcm + vf_mis_d_vc(light, c) * vf_mis_h(c, bsdf_rev_pdf_w));
   return 1.0f / (w_light + 1.0f);
 }
 
@@ -124,8 +141,10 @@ static inline float vf_mis_weight_camera_connection(const vf_mis *light, const v
 static inline float vf_mis_weight_connection(const vf_mis *light, const vf_mis *cam, const vf_mis_config *c,
                                              float camera_dir_pdf_a, float light_dir_pdf_a, float light_rev_pdf_w,
                                              float camera_rev_pdf_w) {
-  float w_light = vf_mis_h(c, camera_dir_pdf_a) * (c->vm_weight + light->d_vcm + light->d_vc * vf_mis_h(c, light_rev_pdf_w));
-  float w_camera = vf_mis_h(c, light_dir_pdf_a) * (c->vm_weight + cam->d_vcm + cam->d_vc * vf_mis_h(c, camera_rev_pdf_w));
+  float w_light = vf_mis_h(c, camera_dir_pdf_a) *
+                  (c->vm_weight + light->d_vcm + vf_mis_d_vc(light, c) * vf_mis_h(c, light_rev_pdf_w));
+  float w_camera = vf_mis_h(c, light_dir_pdf_a) *
+                   (c->vm_weight + cam->d_vcm + vf_mis_d_vc(cam, c) * vf_mis_h(c, camera_rev_pdf_w));
   return 1.0f / (w_light + 1.0f + w_camera);
 }
 
@@ -133,8 +152,8 @@ static inline float vf_mis_weight_connection(const vf_mis *light, const vf_mis *
  * BSDF's density of the light vertex's incoming direction; camera_rev_pdf_w the reverse. */
 static inline float vf_mis_weight_merge(const vf_mis *light, const vf_mis *cam, const vf_mis_config *c,
                                         float camera_dir_pdf_w, float camera_rev_pdf_w) {
-  float w_light = light->d_vcm * c->vc_weight + light->d_vm * vf_mis_h(c, camera_dir_pdf_w);
-  float w_camera = cam->d_vcm * c->vc_weight + cam->d_vm * vf_mis_h(c, camera_rev_pdf_w);
+  float w_light = light->d_vcm * c->vc_weight + vf_mis_d_vm(light, c) * vf_mis_h(c, camera_dir_pdf_w);
+  float w_camera = cam->d_vcm * c->vc_weight + vf_mis_d_vm(cam, c) * vf_mis_h(c, camera_rev_pdf_w);
   return 1.0f / (w_light + 1.0f + w_camera);
 }
 

@@ -267,6 +267,7 @@ struct vf_vcm {
   unsigned chunk_shift;      /* the grid names vertex i of chunk c (c << chunk_shift) + i */
   merge_point *merge_points; /* the grid's sorted points as merge points (borrowed), or NULL */
   photon *photons;
+  float *photon_c_vc; /* a radius per pixel: each photon's c_vc, owned (photon_capacity); else NULL */
   uint32_t photon_capacity;
   uint32_t *path_begin, *path_end; /* per light sub-path, into its chunk's vertices */
   uint32_t num_bands, band_pixels; /* the light image's bands of SPLAT_BAND rows, band_pixels each */

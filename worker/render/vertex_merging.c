@@ -48,7 +48,12 @@ static void gather_task(void *ctx, size_t task, int thread) {
     const light_vertex *lv = grid_vertex(v, points[k].path_length_shape); /* still the index */
     if (v->photon_source) v->photon_source[k] = points[k].path_length_shape;
     points[k].path_length_shape = lv->path_length_shape;
-    v->photons[k] = (photon){lv->throughput, lv->fix, lv->mis.d_vcm, lv->mis.d_vm};
+    if (v->photon_c_vc) {
+      v->photons[k] = (photon){lv->throughput, lv->fix, lv->mis.d_vcm, lv->mis.c_vm};
+      v->photon_c_vc[k] = lv->mis.c_vc;
+    } else {
+      v->photons[k] = (photon){lv->throughput, lv->fix, lv->mis.d_vcm, vf_mis_d_vm(&lv->mis, &v->mis)};
+    }
   }
 }
 
@@ -108,7 +113,7 @@ vf_vec3 vf_vertex_merging_one(const vf_vcm *v, const vertex_merging_query *q, ui
   if (!v->t.ppm) {
     /* The reverse step is taken at the light vertex: its Russian roulette applies. */
     camera_rev_pdf *= v->shape_continuation[length_shape >> VERTEX_LENGTH_BITS] / q->bsdf.continuation;
-    vf_mis light = {ph->d_vcm, 0.0f, ph->d_vm};
+    vf_mis light = vf_photon_mis(v, k);
     w = vf_mis_weight_merge(&light, &q->mis, &v->mis, camera_pdf, camera_rev_pdf); /* eq. (38)-(39) */
   }
   return vf_scale(vf_mul(f, ph->throughput), w);

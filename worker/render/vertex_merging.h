@@ -58,9 +58,18 @@ _Static_assert(MERGE_POINT_PAD <= VF_HASHGRID_POINT_PAD, "the grid pads its poin
 struct photon {
   vf_vec3 throughput;
   vf_vec3 direction; /* world, towards the previous light vertex */
-  float d_vcm, d_vm;
+  float d_vcm;
+  float vm; /* a global radius: d_vm at it; a radius per pixel: c_vm, d_vm's share that does
+             * not depend on the radius (vf_vcm.photon_c_vc holds the rest: vf_photon_mis) */
 };
 _Static_assert(sizeof(photon) == 32, "two photons to a cache line");
+
+/* The MIS quantities of photon k, for weights formed with a query's vf_mis_config
+ * (vf_mis_d_vm; merging never reads d_vc). */
+static inline vf_mis vf_photon_mis(const vf_vcm *v, uint32_t k) {
+  const photon *ph = &v->photons[k];
+  return (vf_mis){ph->d_vcm, v->photon_c_vc ? v->photon_c_vc[k] : 0.0f, ph->vm};
+}
 
 /* Phase 2: the range-search grid over every chunk's light vertices where they are, and
  * what vertex merging reads of them copied into the grid's order (vf_vcm.merge_points,
