@@ -54,7 +54,7 @@ int vf_cli_resolution(const char *option, const char *text, int *width, int *hei
 }
 
 void vf_cli_settings_init(vf_cli_settings *o) {
-  *o = (vf_cli_settings){NULL, NULL, NULL, 0, 0, 0, 0, 0, -1, -1.0, -1.0, -1.0};
+  *o = (vf_cli_settings){NULL, NULL, NULL, NULL, 0, 0, 0, 0, 0, -1, -1.0, -1.0, -1.0};
 }
 
 int vf_cli_settings_option(vf_cli_settings *o, int c, const char *arg, int *err) {
@@ -62,6 +62,7 @@ int vf_cli_settings_option(vf_cli_settings *o, int c, const char *arg, int *err)
   case 'a': o->algorithm = arg; *err = VF_OK; return 1;
   case 'Q': o->sampler = arg; *err = VF_OK; return 1;
   case 'G': o->gather = arg; *err = VF_OK; return 1;
+  case VF_CLI_OPT_RADIUS: o->radius = arg; *err = VF_OK; return 1;
   case 's': o->have_seed = 1; *err = vf_cli_u64("--seed", arg, &o->seed); return 1;
   case 'l': *err = vf_cli_int("--max-path-length", arg, 1, VF_MAX_PATH_LENGTH, &o->max_path_length); return 1;
   case 'r': *err = vf_cli_double("--radius-factor", arg, 1e-12, 1.0, &o->radius_factor); return 1;
@@ -80,6 +81,7 @@ int vf_cli_settings_apply(const vf_cli_settings *o, vf_settings *settings) {
   if (o->algorithm && (err = vf_algorithm_parse(o->algorithm, &settings->algorithm)) != VF_OK) return err;
   if (o->sampler && (err = vf_sampler_parse(o->sampler, &settings->sampler)) != VF_OK) return err;
   if (o->gather && (err = vf_gather_parse(o->gather, &settings->gather)) != VF_OK) return err;
+  if (o->radius && (err = vf_radius_mode_parse(o->radius, &settings->radius)) != VF_OK) return err;
   if (o->have_seed) settings->seed = o->seed;
   if (o->max_path_length > 0) settings->max_path_length = (int)o->max_path_length;
   if (o->radius_factor > 0.0) settings->radius_factor = o->radius_factor;

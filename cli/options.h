@@ -48,12 +48,13 @@ int vf_cli_not_input(const char *output_option, const char *output, const char *
  * them through VF_CLI_SETTINGS_OPTIONS (getopt_long entries), VF_CLI_SETTINGS_SHORT (its
  * short letters) and VF_CLI_SETTINGS_HELP (their lines of --help), so the options and
  * their help exist once. */
+#define VF_CLI_OPT_RADIUS 0x100 /* --radius: no letter is left that every command leaves free */
 #define VF_CLI_SETTINGS_OPTIONS                                                                              \
   {"algorithm", required_argument, 0, 'a'}, {"seed", required_argument, 0, 's'},                            \
       {"max-path-length", required_argument, 0, 'l'}, {"radius-factor", required_argument, 0, 'r'},         \
       {"alpha", required_argument, 0, 'A'}, {"resolution", required_argument, 0, 'R'},                      \
       {"sampler", required_argument, 0, 'Q'}, {"mis-beta", required_argument, 0, 'B'},                     \
-      {"gather-from", required_argument, 0, 'G'}
+      {"gather-from", required_argument, 0, 'G'}, {"radius", required_argument, 0, VF_CLI_OPT_RADIUS}
 #define VF_CLI_SETTINGS_SHORT "a:s:l:r:R:"
 #define VF_CLI_SETTINGS_HELP                                                                 \
   "  -a, --algorithm A        vcm (default), upg (vcm without merging's bias: unbiased\n"   \
@@ -65,6 +66,8 @@ int vf_cli_not_input(const char *output_option, const char *output, const char *
   "  -s, --seed S             job seed (default: the scene's, else 1)\n"                     \
   "  -l, --max-path-length L  maximum path segments (default 10)\n"                          \
   "  -r, --radius-factor F    initial merge radius / scene radius (default 0.003)\n"         \
+  "      --radius global|per-pixel  one merge radius for the image (default), or one per\n" \
+  "                           pixel from its footprint (films of the two never merge)\n"  \
   "      --alpha A            radius reduction exponent in (0, 1] (default 0.75)\n"          \
   "  -R, --resolution WxH     image size (default: the scene camera's)\n"                   \
   "      --sampler S          sobol (default: Owen-scrambled Sobol' over the iterations)\n" \
@@ -76,6 +79,7 @@ typedef struct {
   const char *algorithm; /* borrowed from argv, or NULL */
   const char *sampler;   /* borrowed from argv, or NULL */
   const char *gather;    /* borrowed from argv, or NULL */
+  const char *radius;    /* borrowed from argv, or NULL */
   uint64_t seed;
   int have_seed, have_resolution, width, height;
   long long max_path_length; /* <= 0: unset */

@@ -22,6 +22,7 @@ void vf_settings_default(vf_settings *s) {
   s->sampler = VF_SAMPLER_SOBOL;
   s->mis_beta = 1.0;
   s->gather = VF_GATHER_LIGHT;
+  s->radius = VF_RADIUS_GLOBAL;
 }
 
 const char *vf_sampler_name(vf_sampler_kind k) {
@@ -87,6 +88,23 @@ int vf_gather_parse(const char *name, vf_gather_side *out) {
   return vf_error_set(VF_EUSAGE, "unknown side '%s' to gather from (expected light, camera or auto)", name);
 }
 
+static const char *const radius_names[VF_RADIUS_COUNT_] = {"global", "per-pixel"};
+
+const char *vf_radius_mode_name(vf_radius_mode m) { return (unsigned)m < VF_RADIUS_COUNT_ ? radius_names[m] : "unknown"; }
+
+int vf_radius_mode_parse(const char *name, vf_radius_mode *out) {
+  int i = name_index(radius_names, VF_RADIUS_COUNT_, name);
+  if (i >= 0) {
+    *out = (vf_radius_mode)i;
+    return VF_OK;
+  }
+  return vf_error_set(VF_EUSAGE, "unknown merge radius '%s' (expected global or per-pixel)", name);
+}
+
+int vf_algorithm_merges(vf_algorithm a) {
+  return a == VF_ALGO_VCM || a == VF_ALGO_UPG || a == VF_ALGO_PPM || a == VF_ALGO_BPM || vf_algorithm_is_auto(a);
+}
+
 int vf_settings_validate(const vf_settings *s) {
   if ((unsigned)s->algorithm >= VF_ALGO_COUNT_) return vf_error_set(VF_EINVAL, "unknown algorithm");
   if ((unsigned)s->sampler >= VF_SAMPLER_COUNT_) return vf_error_set(VF_EINVAL, "unknown sampler");
@@ -100,6 +118,10 @@ int vf_settings_validate(const vf_settings *s) {
   if (s->gather != VF_GATHER_LIGHT && s->algorithm != VF_ALGO_UPG)
     return vf_error_set(VF_EINVAL, "gathering from the %s's side is an option of upg, not of %s", vf_gather_name(s->gather),
                         vf_algorithm_name(s->algorithm));
+  if ((unsigned)s->radius >= VF_RADIUS_COUNT_) return vf_error_set(VF_EINVAL, "unknown merge radius");
+  if (s->radius != VF_RADIUS_GLOBAL && !vf_algorithm_merges(s->algorithm))
+    return vf_error_set(VF_EINVAL, "a merge radius per pixel is an option of the algorithms that merge (vcm, upg, ppm, "
+                        "bpm, auto), not of %s", vf_algorithm_name(s->algorithm));
   if (!(s->mis_beta >= 1.0 && s->mis_beta <= VF_MAX_MIS_BETA))
     return vf_error_set(VF_EINVAL, "MIS beta %g is outside [1, %g]", s->mis_beta, VF_MAX_MIS_BETA);
   if (s->width < 1 || s->height < 1 || s->width > VF_MAX_IMAGE_SIDE || s->height > VF_MAX_IMAGE_SIDE ||
@@ -133,6 +155,8 @@ int vf_settings_format(const vf_settings *s, char *buf, size_t n) {
   }
   if (w >= 0 && (size_t)w < n && s->gather != VF_GATHER_LIGHT)
     w += snprintf(buf + w, n - (size_t)w, " gather=%s", vf_gather_name(s->gather));
+  if (w >= 0 && (size_t)w < n && s->radius != VF_RADIUS_GLOBAL)
+    w += snprintf(buf + w, n - (size_t)w, " radius=%s", vf_radius_mode_name(s->radius));
   if (w < 0 || (size_t)w >= n) return vf_error_set(VF_EINVAL, "settings text too long");
   return VF_OK;
 }
@@ -175,6 +199,9 @@ int vf_settings_parse(vf_settings *s, const char *text) {
     } else if (strcmp(key, "gather") == 0) {
       if (seen & 256 || vf_gather_parse(value, &out.gather) != VF_OK) goto bad;
       seen |= 256;
+    } else if (strcmp(key, "radius") == 0) {
+      if (seen & 512 || vf_radius_mode_parse(value, &out.radius) != VF_OK) goto bad;
+      seen |= 512;
     } else {
       return vf_error_set(VF_EINVAL, "settings: unknown key '%s'", key);
     }

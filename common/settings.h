@@ -40,6 +40,12 @@ typedef enum {
  * (in the manner of Qin et al.'s hybrid). */
 typedef enum { VF_GATHER_LIGHT, VF_GATHER_CAMERA, VF_GATHER_AUTO, VF_GATHER_COUNT_ } vf_gather_side;
 
+/* The merge radius (worker/render/pixel_radius.h): one for the whole image, r_i = r_1
+ * sqrt(i^(alpha-1)) with r_1 = radius_factor times the scene's radius, or one per pixel,
+ * r_1 scaled by the pixel's footprint against the image's median footprint (tech. rep.
+ * sec. 6.1), with the same schedule. */
+typedef enum { VF_RADIUS_GLOBAL, VF_RADIUS_PER_PIXEL, VF_RADIUS_COUNT_ } vf_radius_mode;
+
 typedef struct {
   vf_algorithm algorithm;
   int max_path_length;  /* path segments (edges), >= 1 */
@@ -51,6 +57,7 @@ typedef struct {
   double mis_beta;      /* the MIS heuristic's exponent: 1 balance (the default), >= 1 power
                          * (paper eq. 10; worker/render/mis.h) */
   vf_gather_side gather; /* upg only: the side it prefers to gather from (light by default) */
+  vf_radius_mode radius; /* merging algorithms: one merge radius, or one per pixel */
 } vf_settings;
 
 /* The power heuristic's largest exponent: weights are sums of products of density ratios
@@ -84,6 +91,12 @@ const char *vf_gather_name(vf_gather_side g);
 /* VF_EUSAGE with a detail listing the valid names when `name` is not one. */
 int vf_gather_parse(const char *name, vf_gather_side *out);
 
+const char *vf_radius_mode_name(vf_radius_mode m);
+/* VF_EUSAGE with a detail listing the valid names when `name` is not one. */
+int vf_radius_mode_parse(const char *name, vf_radius_mode *out);
+/* Whether algorithm a merges light vertices, so that its merge radius matters (auto may). */
+int vf_algorithm_merges(vf_algorithm a);
+
 const char *vf_sampler_name(vf_sampler_kind k);
 /* VF_EUSAGE with a detail listing the valid names when `name` is not one. */
 int vf_sampler_parse(const char *name, vf_sampler_kind *out);
@@ -99,7 +112,7 @@ int vf_settings_validate(const vf_settings *s);
  * merges) as independent, while a sobol film never merges with one. The MIS exponent is
  * written (" mis_beta=2") only when it is not 1, for the same reason: every text before it
  * existed was rendered with the balance heuristic. upg's side (" gather=camera") likewise
- * only when it is not the light's. Numbers in their shortest text that reads back exactly
+ * only when it is not the light's, and the radius (" radius=per-pixel") only when not global. Numbers in their shortest text that reads back exactly
  * (vf_double_format), so parse(format(s)) == s. VF_EINVAL if it does not fit in n bytes.
  * Before protocol version 6 the numbers had 17 digits ("0.0030000000000000001"): films and
  * state files of then are brought to this form when read (vf_settings_canonicalize). */

@@ -508,7 +508,7 @@ static int has_light(const vf_scene *s) {
 
 static int parse_render(const parse_ctx *c, const cJSON *j) {
   static const char *const fields[] = {"algorithm", "max_path_length", "radius_factor", "alpha", "seed", "sampler",
-                                       "mis_beta",  "gather",        NULL};
+                                       "mis_beta",  "gather",        "radius",        NULL};
   vf_scene *s = c->scene;
   vf_settings *st = &s->settings;
   const cJSON *m;
@@ -536,6 +536,13 @@ static int parse_render(const parse_ctx *c, const cJSON *j) {
     if (vf_gather_parse(gather, &st->gather) < 0)
       return vf_scene_fail(c, VF_ESCENE, "render.gather", "unknown side '%s' (expected light, camera or auto)", gather);
     s->settings_given |= VF_SET_GATHER;
+  }
+  const char *radius;
+  if ((err = vf_scene_string_field(c, j, "render", "radius", OPTIONAL, &radius)) < 0) return err;
+  if (err > 0) {
+    if (vf_radius_mode_parse(radius, &st->radius) < 0)
+      return vf_scene_fail(c, VF_ESCENE, "render.radius", "unknown merge radius '%s' (expected global or per-pixel)", radius);
+    s->settings_given |= VF_SET_RADIUS;
   }
   if ((m = cJSON_GetObjectItemCaseSensitive(j, "max_path_length")) != NULL) {
     if ((err = vf_scene_to_integer(c, m, "render.max_path_length", 1, 1000, &d)) < 0) return err;

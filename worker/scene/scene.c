@@ -316,6 +316,7 @@ void vf_scene_hash(vf_scene *s) {
   if (s->settings_given & VF_SET_SEED) h_u64(&h, s->settings.seed);
   if (s->settings_given & VF_SET_MIS_BETA) h_f64(&h, s->settings.mis_beta);
   if (s->settings_given & VF_SET_GATHER) h_u32(&h, (uint32_t)s->settings.gather);
+  if (s->settings_given & VF_SET_RADIUS) h_u32(&h, (uint32_t)s->settings.radius);
   if (s->settings_given & VF_SET_RESOLUTION) {
     h_u32(&h, (uint32_t)s->settings.width);
     h_u32(&h, (uint32_t)s->settings.height);

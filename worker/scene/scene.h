@@ -87,6 +87,7 @@ enum {
   VF_SET_SAMPLER = 1u << 6,
   VF_SET_MIS_BETA = 1u << 7,
   VF_SET_GATHER = 1u << 8,
+  VF_SET_RADIUS = 1u << 9,
 };
 
 typedef struct {
