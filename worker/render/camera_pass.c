@@ -4,6 +4,7 @@
 #include "../../common/sampler.h"
 #include "vcm_internal.h"
 #include "gathering_pass.h"
+#include "pixel_radius.h"
 #include "vertex_merging.h"
 #include "wavefront.h"
 
@@ -21,7 +22,7 @@ static vf_vec3 emission_weighted(const vf_vcm *v, const vf_light *l, const path_
   if (vf_is_zero(radiance)) return radiance;
   if (s->path_length == 1) return radiance; /* seen directly: no other technique can */
   if (v->t.emission_specular_only) return s->specular_path ? radiance : vf_vec3_splat(0.0f);
-  float w = vf_mis_weight_emission(&s->mis, &v->mis, direct_pdf * l->pick_probability, emission_pdf * l->pick_probability);
+  float w = vf_mis_weight_emission(&s->mis, &s->merge->mis, direct_pdf * l->pick_probability, emission_pdf * l->pick_probability);
   return vf_scale(radiance, w);
 }
 
@@ -81,7 +82,7 @@ static void light_sample(vf_vcm *v, int thread, const vf_hit *hit, const vf_bsdf
   if (vf_is_zero(f)) return;
   if (l->is_delta) bsdf_pdf = 0.0f; /* a delta light cannot be hit by a sampled direction */
   float pick = l->pick_probability;
-  float w = vf_mis_weight_light_sample(&s->mis, &v->mis, bsdf_pdf, bsdf_rev_pdf, direct_pdf * pick,
+  float w = vf_mis_weight_light_sample(&s->mis, &s->merge->mis, bsdf_pdf, bsdf_rev_pdf, direct_pdf * pick,
                                        emission_pdf * pick, cos_to_light, cos_at_light);
   vf_vec3 contrib = vf_scale(vf_mul(radiance, f), w * cos_to_light / (pick * direct_pdf));
   if (vf_is_zero(contrib)) return;
@@ -139,7 +140,7 @@ static void connect_vertices(vf_vcm *v, int thread, const vf_hit *hit, const vf_
   /* Each side's density of sampling the other vertex, in area measure there. */
   float camera_pdf_a = camera_pdf * cos_light / dist2;
   float light_pdf_a = light_pdf * cos_camera / dist2;
-  float w = vf_mis_weight_connection(&lv->mis, &s->mis, &v->mis, camera_pdf_a, light_pdf_a, light_rev_pdf,
+  float w = vf_mis_weight_connection(&lv->mis, &s->mis, &s->merge->mis, camera_pdf_a, light_pdf_a, light_rev_pdf,
                                      camera_rev_pdf);
   vf_vec3 contrib = vf_scale(vf_mul(vf_mul(fc, fl), lv->throughput), w * cos_camera * cos_light / dist2);
   if (vf_is_zero(contrib)) return;
@@ -184,6 +185,7 @@ typedef struct {
   uint32_t pixel, tile_pixel;
   light_bsdf_cache cache; /* of the light sub-path this camera sub-path connects to */
   gathering_prev prev;    /* upg: the vertex before the one being traced to */
+  merge_params merge;     /* its pixel's merge radius (path_state.merge points here) */
 } camera_lane;
 
 /* Starts the camera sub-path of pixel (px, py), the tile's pixel tile_pixel. */
@@ -193,6 +195,8 @@ static void camera_start(vf_vcm *v, camera_lane *lane, uint32_t px, uint32_t py,
   lane->tile_pixel = tile_pixel;
   lane->cache.ready = 0;
   lane->prev.valid = 0;
+  vf_merge_params_at(v, pixel, &lane->merge);
+  lane->s.merge = &lane->merge;
   vf_sampler_start(&lane->sampler, v->settings.sampler, v->settings.seed, v->iteration, pixel, VF_STREAM_CAMERA);
   float jitter[2];
   vf_sampler_2d(&lane->sampler, VF_DIM_PIXEL, jitter);
@@ -218,7 +222,7 @@ static void camera_start(vf_vcm *v, camera_lane *lane, uint32_t px, uint32_t py,
   s->specular_path = 1;
   /* z1's quantities, tech. rep. eq. (31)-(33): p_connect / p_trace of the lens point is 1;
    * an orthographic start is an area density (sec. 5.1-5.2). */
-  vf_mis_camera_start(&s->mis, &v->mis, vf_camera_start_density(&v->camera, s->direction));
+  vf_mis_camera_start(&s->mis, &v->merge.mis, vf_camera_start_density(&v->camera, s->direction));
 }
 
 /* Continues the lane's camera sub-path where its last ray ended (hit NULL: it left the
@@ -240,7 +244,7 @@ static int camera_bounce(vf_vcm *v, int thread, camera_lane *lane, const vf_hit 
   float cos_fix = fabsf(vf_dot(hit->normal, s->direction));
   if (!(cos_fix > 1e-7f)) return 0; /* grazing: no emission or scattering to speak of */
   /* An orthographic camera's first segment has no distance factor (tech. rep. sec. 5.2). */
-  vf_mis_hit(&s->mis, &v->mis, hit->t, cos_fix, !(s->path_length == 1 && v->camera.pixel_size > 0.0f));
+  vf_mis_hit(&s->mis, &v->merge.mis, hit->t, cos_fix, !(s->path_length == 1 && v->camera.pixel_size > 0.0f));
   int light_index = v->lights->shape_light[hit->shape];
   if (light_index >= 0 && v->t.emission) {
     const vf_light *l = &v->lights->lights[light_index];
@@ -281,10 +285,12 @@ static int camera_bounce(vf_vcm *v, int thread, camera_lane *lane, const vf_hit 
     if (v->t.vertex_merging && v->num_vertices > 0) {
       vertex_merging_query *q = queue_vertex_merging(v, thread);
       if (q != NULL) {
-        *q = (vertex_merging_query){b, hit->position, s->throughput, s->mis, s->path_length, tile_pixel, lane->pixel};
+        *q = (vertex_merging_query){b, hit->position, s->throughput, s->mis, s->path_length, tile_pixel, lane->pixel,
+                                    lane->merge};
         if (v->upg) v->scratch[thread].query_prev[q - v->scratch[thread].queries] = lane->prev;
       } else {
-        vertex_merging_query now = {b, hit->position, s->throughput, s->mis, s->path_length, tile_pixel, lane->pixel};
+        vertex_merging_query now = {b,           hit->position, s->throughput, s->mis, s->path_length,
+                                    tile_pixel, lane->pixel,   lane->merge};
         vf_vec3 estimate = v->upg ? vf_gathering_estimate(v, thread, &now, &lane->prev)
                                   : vf_mul(s->throughput, vf_vertex_merging_estimate(v, &now));
         defer_unshadowed(v, thread, estimate, tile_pixel);

@@ -39,6 +39,7 @@ typedef struct {
   int thread;
   vf_vec3 from, normal; /* L and its geometric normal (zero vector: a punctual light) */
   vf_vec3 target;
+  float radius_sq; /* the camera vertex's merge radius, squared */
   float tfar;
 } landing;
 
@@ -48,7 +49,7 @@ static int lands(void *ctx, vf_vec3 dir) {
   vf_hit hit;
   v->stats[l->thread].rays++;
   if (!vf_accel_intersect(v->accel, tentative_origin(v, l->from, l->normal, dir), dir, l->tfar, &hit)) return 0;
-  if (!vf_vertex_merging_within(v, hit.position.x, hit.position.y, hit.position.z, l->target)) return 0;
+  if (!vf_vertex_merging_within(l->radius_sq, hit.position.x, hit.position.y, hit.position.z, l->target)) return 0;
   /* Stored there, as light_pass.c stores: a surface that scatters, not only specularly. */
   vf_bsdf b;
   return bsdf_at(v, &b, &hit, vf_neg(dir)) && !b.is_delta;
@@ -66,7 +67,7 @@ static int visible(vf_vcm *v, int thread, vf_vec3 p, vf_vec3 n, vf_vec3 q, vf_ve
 /* The light vertex k of the grid merged as vcm merges it: the fall-back. */
 static vf_vec3 merge_as_vcm(vf_vcm *v, int thread, const vertex_merging_query *q, uint32_t k) {
   v->stats[thread].upg_fallbacks++;
-  return vf_mul(q->throughput, vf_scale(vf_vertex_merging_one(v, q, k), v->vm_normalization));
+  return vf_mul(q->throughput, vf_scale(vf_vertex_merging_one(v, q, k), q->merge.vm_normalization));
 }
 
 /* The estimate of 1/p_acc of a source at `from` (normal n: its offsets; zero vector for a
@@ -77,14 +78,14 @@ static vf_vec3 merge_as_vcm(vf_vcm *v, int thread, const vertex_merging_query *q
  * cone (the source close to the target, a corner) or a loose bound makes. A light's own
  * point has no draws here; its bounds are tight (|C| M <= 4). 0 where nothing reaches the
  * ball (then no light vertex, or camera vertex, could have landed there). */
-static double inverse_acceptance(vf_vcm *v, int thread, const vf_upg_source *src, vf_vec3 from, vf_vec3 n,
-                                 vf_vec3 target, float dist, vf_rng *rng) {
+static double inverse_acceptance(vf_vcm *v, int thread, const merge_params *merge, const vf_upg_source *src,
+                                 vf_vec3 from, vf_vec3 n, vf_vec3 target, float dist, vf_rng *rng) {
   vf_vec3 axis;
   float cos_half, omc;
-  vf_upg_cone(from, target, v->radius, &axis, &cos_half, &omc);
+  vf_upg_cone(from, target, merge->radius, &axis, &cos_half, &omc);
   float bound = vf_upg_bound(src, axis, cos_half, omc);
   if (!(bound > 0.0f)) return 0.0;
-  landing ctx = {v, thread, from, n, target, dist + 2.0f * v->radius};
+  landing ctx = {v, thread, from, n, target, merge->radius_sq, dist + 2.0f * merge->radius};
   if (src->bsdf != NULL && !(2.0 * M_PI * (double)omc * (double)bound < 1.0))
     return vf_upg_inverse_acceptance_draws(src->bsdf, axis, cos_half, rng, lands, &ctx, &v->stats[thread].upg);
   return vf_upg_inverse_acceptance(src, axis, cos_half, omc, bound, rng, lands, &ctx, &v->stats[thread].upg);
@@ -131,7 +132,7 @@ static vf_vec3 gather_from_light(vf_vcm *v, int thread, const vertex_merging_que
     /* What the light sub-path's throughput would be after emitting towards q, times the
      * emission density of that direction: the emitted value over the point's density. */
     light_value = vf_scale(origin->radiance, factor / (pick * area_pdf));
-    vf_mis_light_start(&light_mis, &v->mis, area_pdf * pick, area_pdf * dir_pdf * pick, cos_light, l->is_delta, 1);
+    vf_mis_light_start(&light_mis, &v->merge.mis, area_pdf * pick, area_pdf * dir_pdf * pick, cos_light, l->is_delta, 1);
     lnormal = l->is_delta ? zero : origin->normal;
     src.light = l;
     src.light_normal = origin->normal;
@@ -139,23 +140,23 @@ static vf_vec3 gather_from_light(vf_vcm *v, int thread, const vertex_merging_que
   /* The light vertex as if it had landed at q: the weight of merging it there (eq. 38-39),
    * whose approximate acceptance density every technique's weight shares (see the top of
    * photon_gathering.h). */
-  float w = vf_mis_weight_gather(light_mis, &q->mis, &v->mis, pred != NULL, cos_light, light_pdf, light_rev_pdf, dist,
+  float w = vf_mis_weight_gather(light_mis, &q->mis, &q->merge.mis, pred != NULL, cos_light, light_pdf, light_rev_pdf, dist,
                                  cos_camera, camera_pdf, camera_rev_pdf);
   vf_vec3 value = vf_mul(vf_mul(light_value, fc), q->throughput);
-  value = vf_scale(value, w * cos_camera / (dist2 * v->mis.light_paths));
+  value = vf_scale(value, w * cos_camera / (dist2 * v->merge.mis.light_paths));
   if (vf_is_zero(value)) return zero;
 
   if (!visible(v, thread, q->position, geometric_normal(&q->bsdf), lpos, lnormal)) return zero;
 
-  double inverse = inverse_acceptance(v, thread, &src, lpos, lnormal, q->position, dist, rng);
+  double inverse = inverse_acceptance(v, thread, &q->merge, &src, lpos, lnormal, q->position, dist, rng);
   return vf_scale(value, (float)inverse);
 }
 
 /* From the camera's side: light vertex y (grid index k, the chunk vertex lv) joined to the
- * camera vertex before q, prev, with 1/p_acc of prev's continuation landing within the
+ * camera vertex before q, prev (with q's radius), with 1/p_acc of prev's continuation landing within the
  * radius of y on a surface where a camera vertex gathers. */
-static vf_vec3 gather_from_camera(vf_vcm *v, int thread, const gathering_prev *prev, uint32_t k,
-                                  const light_vertex *lv, vf_rng *rng) {
+static vf_vec3 gather_from_camera(vf_vcm *v, int thread, const vertex_merging_query *q, const gathering_prev *prev,
+                                  uint32_t k, const light_vertex *lv, vf_rng *rng) {
   const vf_vec3 zero = vf_vec3_splat(0.0f);
   const merge_point *mp = &v->merge_points[k];
   vf_vec3 y = vf_vec3_make(mp->x, mp->y, mp->z);
@@ -175,15 +176,15 @@ static vf_vec3 gather_from_camera(vf_vcm *v, int thread, const gathering_prev *p
   /* The camera vertex as if it had landed at y; y's densities seen from the camera's side
    * are its light BSDF's the other way round. */
   vf_mis light = vf_photon_mis(v, k);
-  float w = vf_mis_weight_gather_camera(&light, prev->mis, &v->mis, cos_camera, camera_pdf, camera_rev_pdf, dist,
+  float w = vf_mis_weight_gather_camera(&light, prev->mis, &q->merge.mis, cos_camera, camera_pdf, camera_rev_pdf, dist,
                                         cos_light, light_rev_pdf, light_pdf);
   vf_vec3 value = vf_mul(vf_mul(vf_mul(v->photons[k].throughput, fl), fc), prev->throughput);
-  value = vf_scale(value, w * cos_camera * cos_light / (dist2 * v->mis.light_paths));
+  value = vf_scale(value, w * cos_camera * cos_light / (dist2 * v->merge.mis.light_paths));
   if (vf_is_zero(value)) return zero;
   vf_vec3 nc = geometric_normal(&prev->bsdf);
   if (!visible(v, thread, prev->position, nc, y, normal_of_vertex(v, lv, &lb))) return zero;
   vf_upg_source src = {&prev->bsdf, NULL, zero};
-  double inverse = inverse_acceptance(v, thread, &src, prev->position, nc, y, dist, rng);
+  double inverse = inverse_acceptance(v, thread, &q->merge, &src, prev->position, nc, y, dist, rng);
   return vf_scale(value, (float)inverse);
 }
 
@@ -230,7 +231,7 @@ static vf_vec3 gather(vf_vcm *v, int thread, const vertex_merging_query *q, cons
     vf_upg_source cs = {&prev->bsdf, NULL, vf_vec3_splat(0.0f)};
     prefer_camera = vf_upg_sharpness(&cs) < vf_upg_sharpness(&ls);
   }
-  if (camera_side && (!light_side || prefer_camera)) return gather_from_camera(v, thread, prev, k, &list[i], rng);
+  if (camera_side && (!light_side || prefer_camera)) return gather_from_camera(v, thread, q, prev, k, &list[i], rng);
   if (light_side) return gather_from_light(v, thread, q, pred, &lb, origin, rng);
   return merge_as_vcm(v, thread, q, k);
 }
@@ -244,7 +245,8 @@ vf_vec3 vf_gathering_estimate(vf_vcm *v, int thread, const vertex_merging_query 
   for (int r = 0; r < num_ranges; r++)
     for (uint32_t k = ranges[r].begin; k < ranges[r].end; k++) {
       const merge_point *p = &v->merge_points[k];
-      if (vf_vertex_merging_within(v, p->x, p->y, p->z, q->position)) sum = vf_add(sum, gather(v, thread, q, prev, k, &rng));
+      if (vf_vertex_merging_within(q->merge.radius_sq, p->x, p->y, p->z, q->position))
+        sum = vf_add(sum, gather(v, thread, q, prev, k, &rng));
     }
   return sum;
 }

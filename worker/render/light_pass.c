@@ -3,6 +3,7 @@
 
 #include "../../common/error.h"
 #include "../../common/sampler.h"
+#include "pixel_radius.h"
 #include "vcm_internal.h"
 #include "wavefront.h"
 
@@ -129,13 +130,17 @@ static void connect_to_camera(vf_vcm *v, int thread, light_chunk *c, uint32_t pa
   float pdf_a = vf_camera_link_pdf_a(&link, cos_to_camera);
   if (!(pdf_a > 0.0f)) return;
   /* Eq. (46)-(47); pdf_a is the camera's area density of the vertex from the lens point. */
-  float w = v->t.lt ? 1.0f : vf_mis_weight_camera_connection(&s->mis, &v->mis, pdf_a, rev_pdf);
-  /* The importance times the geometry term over the lens density, W_e G / p(z0) = pdf_a
-   * (camera.h), over the light sub-path density n_light. */
-  vf_vec3 contrib = vf_scale(vf_mul(s->throughput, f), w * pdf_a / v->mis.light_paths);
-  if (vf_is_zero(contrib)) return;
   uint32_t pixel, band;
   link_pixel(v, &link, &pixel, &band);
+  /* The weights of the path that ends in `pixel` take that pixel's radius (tech. rep. sec.
+   * 6.1: every technique of one full path with the same radius). */
+  merge_params merge;
+  vf_merge_params_at(v, pixel, &merge);
+  float w = v->t.lt ? 1.0f : vf_mis_weight_camera_connection(&s->mis, &merge.mis, pdf_a, rev_pdf);
+  /* The importance times the geometry term over the lens density, W_e G / p(z0) = pdf_a
+   * (camera.h), over the light sub-path density n_light. */
+  vf_vec3 contrib = vf_scale(vf_mul(s->throughput, f), w * pdf_a / v->merge.mis.light_paths);
+  if (vf_is_zero(contrib)) return;
   splat_if_visible(v, thread, c, path, pixel, band, contrib, hit->position, hit->normal, link.end);
 }
 
@@ -150,7 +155,7 @@ static void connect_emitter_to_camera(vf_vcm *v, int thread, light_chunk *c, uin
   if (!(cos_out > 0.0f)) return;
   float pdf_a = vf_camera_link_pdf_a(&link, cos_out);
   if (!(pdf_a > 0.0f)) return;
-  vf_vec3 contrib = vf_scale(radiance, pdf_a / (v->mis.light_paths * pick_and_area_pdf));
+  vf_vec3 contrib = vf_scale(radiance, pdf_a / (v->merge.mis.light_paths * pick_and_area_pdf));
   uint32_t pixel, band;
   link_pixel(v, &link, &pixel, &band);
   splat_if_visible(v, thread, c, path, pixel, band, contrib, p, n, link.end);
@@ -259,7 +264,7 @@ static int light_start(vf_vcm *v, int thread, light_chunk *c, light_lane *lane, 
   s->path_length = 0;
   s->is_finite_light = l->is_finite;
   s->specular_path = 1;
-  vf_mis_light_start(&s->mis, &v->mis, direct_pdf, emission_pdf, cos_light, l->is_delta, l->is_finite);
+  vf_mis_light_start(&s->mis, &v->merge.mis, direct_pdf, emission_pdf, cos_light, l->is_delta, l->is_finite);
   if (l->kind == VF_LIGHT_AREA_MESH || l->kind == VF_LIGHT_AREA_SPHERE)
     s->origin = vf_offset_ray_origin(s->origin, normal, v->offset_scale);
   return 1;
@@ -274,7 +279,7 @@ static int light_bounce(vf_vcm *v, int thread, light_chunk *c, light_lane *lane,
   s->path_length++;
   /* The geometric cosine (the BSDF's local_fix.z is the shading one where they differ;
    * both are the same bits where they do not). */
-  vf_mis_hit(&s->mis, &v->mis, hit->t, fabsf(vf_dot(hit->normal, s->direction)),
+  vf_mis_hit(&s->mis, &v->merge.mis, hit->t, fabsf(vf_dot(hit->normal, s->direction)),
              s->path_length > 1 || s->is_finite_light);
   uint32_t vertex_dims = vf_dim_vertex(VF_DIM_LIGHT_VERTEX, s->path_length);
   if (!b.is_delta) {

@@ -83,7 +83,7 @@ static inline int find_hits_sse2(const vf_vcm *v, const vertex_merging_query *q,
                                  uint32_t *hits, int max) {
   const float *points = (const float *)v->merge_points;
   __m128 qx = _mm_set1_ps(q->position.x), qy = _mm_set1_ps(q->position.y), qz = _mm_set1_ps(q->position.z);
-  __m128 radius_sq = _mm_set1_ps(v->radius_sq);
+  __m128 radius_sq = _mm_set1_ps(q->merge.radius_sq);
   __m128i longest = _mm_set1_epi32(v->settings.max_path_length - q->path_length); /* >= 1 */
   int found = 0;
   for (int r = 0; r < n; r++) {
@@ -117,7 +117,7 @@ __attribute__((target("avx512f,avx512vl,popcnt"))) static inline int find_hits_a
     const vf_vcm *v, const vertex_merging_query *q, const vf_index_range *ranges, int n, uint32_t *hits, int max) {
   const float *points = (const float *)v->merge_points;
   __m256 qx = _mm256_set1_ps(q->position.x), qy = _mm256_set1_ps(q->position.y), qz = _mm256_set1_ps(q->position.z);
-  __m256 radius_sq = _mm256_set1_ps(v->radius_sq);
+  __m256 radius_sq = _mm256_set1_ps(q->merge.radius_sq);
   __m256i longest = _mm256_set1_epi32(v->settings.max_path_length - q->path_length); /* >= 1 */
   __m256i length_mask = _mm256_set1_epi32((1 << VERTEX_LENGTH_BITS) - 1);
   __m256i iota = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
@@ -198,7 +198,7 @@ static inline void merge_hits(const vf_vcm *v, const vertex_merging_query *q, co
   } else {
     sum = vf_vec3_splat(0.0f);
     for (int k = 0; k < s->num_hits; k++) sum = vf_add(sum, vf_vertex_merging_one(v, q, s->hits[k]));
-    sum = vf_scale(sum, v->vm_normalization);
+    sum = vf_scale(sum, q->merge.vm_normalization);
   }
   vf_vec3 contrib = vf_mul(q->throughput, sum);
   float *rgb = &tile_rgb[3 * (size_t)q->tile_pixel];

@@ -10,6 +10,7 @@
 #include "fused_pass.h"
 #include "light_pass.h"
 #include "merge_pipeline.h"
+#include "pixel_radius.h"
 #include "surface.h"
 #include "vcm_internal.h"
 #include "vertex_merging.h"
@@ -33,17 +34,20 @@ static void setup_iteration(vf_vcm *v, uint64_t iteration) {
   v->iteration = iteration;
   double r = vf_vcm_merge_radius(v, iteration);
   double eta = M_PI * r * r * (double)v->num_pixels; /* n_VM / n_VC * pi r^2 (eq. 20), n_VC = 1 */
-  v->radius = (float)r;
-  v->radius_sq = (float)(r * r);
-  v->vm_normalization = (float)(1.0 / eta);
+  v->radius_exact = r;
+  v->merge.radius = (float)r;
+  v->merge.radius_sq = (float)(r * r);
+  v->merge.vm_normalization = (float)(1.0 / eta);
   vf_algorithm a = v->settings.algorithm;
-  int vc_in_weights = a == VF_ALGO_VCM || a == VF_ALGO_UPG || a == VF_ALGO_BPT;
-  int vm_in_weights = a == VF_ALGO_VCM || a == VF_ALGO_UPG || a == VF_ALGO_BPM;
-  v->mis.beta = (float)v->settings.mis_beta;
-  v->mis.vm_weight = vm_in_weights ? vf_mis_h(&v->mis, (float)eta) : 0.0f;
-  v->mis.vc_weight = vc_in_weights ? vf_mis_h(&v->mis, (float)(1.0 / eta)) : 0.0f;
-  v->mis.light_paths = (float)v->num_pixels;
-  v->mis.pt = v->settings.algorithm == VF_ALGO_PT;
+  v->vc_in_weights = a == VF_ALGO_VCM || a == VF_ALGO_UPG || a == VF_ALGO_BPT;
+  v->vm_in_weights = a == VF_ALGO_VCM || a == VF_ALGO_UPG || a == VF_ALGO_BPM;
+  v->merge.mis.beta = (float)v->settings.mis_beta;
+  v->merge.mis.vm_weight = v->vm_in_weights ? vf_mis_h(&v->merge.mis, (float)eta) : 0.0f;
+  v->merge.mis.vc_weight = v->vc_in_weights ? vf_mis_h(&v->merge.mis, (float)(1.0 / eta)) : 0.0f;
+  /* With a radius per pixel the grid serves the largest (pixel_radius.h). */
+  v->grid_radius = v->pixel_scale ? (float)(r * (double)v->pixel_scale_max) : v->merge.radius;
+  v->merge.mis.light_paths = (float)v->num_pixels;
+  v->merge.mis.pt = v->settings.algorithm == VF_ALGO_PT;
 }
 
 static void add_counts(const vf_vcm *v, vf_vcm_stats *stats) {
@@ -264,6 +268,12 @@ static void describe_geometry(const vf_scene *sc, FILE *out) {
           (double)texels / (1024.0 * 1024.0));
 }
 
+static float pixel_scale_min(const vf_vcm *v) {
+  float m = v->pixel_scale_max;
+  for (uint32_t i = 0; i < v->num_pixels; i++) m = v->pixel_scale[i] < m ? v->pixel_scale[i] : m;
+  return m;
+}
+
 void vf_vcm_describe(const vf_vcm *v, FILE *out) {
   const techniques *t = &v->t;
   int area = 0, point = 0, spot = 0, directional = 0;
@@ -284,6 +294,9 @@ void vf_vcm_describe(const vf_vcm *v, FILE *out) {
           surfaces[0] ? surfaces : "no scattering", sds ? "possible" : "impossible");
   if (v->camera.pixel_size > 0.0f)
     fprintf(out, "camera: orthographic, %g wide\n", v->camera.pixel_size * (float)v->camera.width);
+  if (v->pixel_scale)
+    fprintf(out, "merge radius: per pixel, from %.3g to %.3g times the global one by the pixels' footprints\n",
+            pixel_scale_min(v), v->pixel_scale_max);
   if (v->camera.lens_radius > 0.0f)
     fprintf(out, "camera: thin lens of radius %g, in focus at %g\n", v->camera.lens_radius, v->camera.focus_distance);
   describe_geometry(v->scene, out);
@@ -379,6 +392,10 @@ int vf_vcm_create(const vf_scene *scene, const vf_accel *accel, const vf_setting
     for (uint32_t i = 0; i < RETIRE_RING; i++) v->scratch[t].ring_count[i] = RING_IN_FLIGHT;
   }
   if (v->t.vertex_merging && (err = vf_hashgrid_create(&v->grid)) != VF_OK) goto fail;
+  /* A radius per pixel matters only where something merges: otherwise the render is the
+   * global radius's, bit for bit (the film still records the setting). */
+  if (v->t.vertex_merging && v->settings.radius == VF_RADIUS_PER_PIXEL && (err = vf_pixel_radius_create(v)) != VF_OK)
+    goto fail;
   v->vertex_merging_avx512 = vf_merge_pipeline_detect_avx512();
   *out = v;
   return VF_OK;
@@ -413,6 +430,8 @@ void vf_vcm_trim(vf_vcm *v) {
   v->num_vertices = 0;
   free(v->photons);
   v->photons = NULL;
+  free(v->photon_c_vc);
+  v->photon_c_vc = NULL;
   free(v->photon_source);
   v->photon_source = NULL;
   v->photon_capacity = 0;
@@ -437,6 +456,8 @@ void vf_vcm_destroy(vf_vcm *v) {
   free(v->band_start);
   free(v->segments);
   free(v->photons);
+  free(v->photon_c_vc);
+  free(v->pixel_scale);
   free(v->photon_source);
   free(v->origins);
   free(v->path_begin);

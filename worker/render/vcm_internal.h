@@ -110,6 +110,15 @@ typedef struct {
   int32_t light;    /* its index, or -1 for a light at infinity (or no sub-path) */
 } light_origin;
 
+/* A merge radius and what follows from it: the MIS constants of every weight of a full
+ * path (eta_VCM, tech. rep. eq. 62-63) and vertex merging's normalisation 1 / (pi r^2
+ * n_light). One for the whole image (vf_vcm.merge), or each camera sub-path's own with a
+ * radius per pixel (pixel_radius.h). */
+typedef struct {
+  vf_mis_config mis;
+  float radius, radius_sq, vm_normalization;
+} merge_params;
+
 /* A sub-path's state between vertices. */
 typedef struct {
   vf_vec3 origin, direction;
@@ -118,6 +127,7 @@ typedef struct {
   int is_finite_light; /* light sub-paths: whether the first segment has a distance */
   int specular_path;   /* camera sub-paths: every scattering so far was specular */
   vf_mis mis;
+  const merge_params *merge; /* camera sub-paths: their pixel's radius (light sub-paths: unused) */
 } path_state;
 
 typedef struct {
@@ -146,6 +156,7 @@ typedef struct {
   int path_length;
   uint32_t tile_pixel; /* index into the tile's color buffer */
   uint32_t pixel;      /* the camera sub-path's (upg's gatherings draw from its stream) */
+  merge_params merge;  /* its pixel's radius */
 } vertex_merging_query;
 
 /* upg: the camera vertex before a query's, where gathering from the camera's side joins
@@ -256,10 +267,17 @@ struct vf_vcm {
   vf_algorithm requested;    /* settings.algorithm as given; settings.algorithm is what runs */
   const char *auto_reason;   /* why auto chose settings.algorithm, NULL unless requested auto */
 
+  /* --radius per-pixel: each pixel's merge radius over the global one's, owned
+   * (pixel_radius.h); NULL with a global radius. */
+  float *pixel_scale;
+  float pixel_scale_max;
+  int vc_in_weights, vm_in_weights; /* the algorithm combines connections, merges */
+
   /* Per iteration. */
   uint64_t iteration;
-  float radius, radius_sq, vm_normalization;
-  vf_mis_config mis;
+  double radius_exact;  /* the global merge radius r_i, of which merge.radius is the float */
+  merge_params merge;   /* the global radius and its MIS constants */
+  float grid_radius;    /* the largest merge radius of the iteration: the grid's */
   light_chunk *chunks;
   uint32_t num_chunks;
   uint32_t num_vertices;     /* in all chunks */

@@ -52,7 +52,7 @@ static void gather_task(void *ctx, size_t task, int thread) {
       v->photons[k] = (photon){lv->throughput, lv->fix, lv->mis.d_vcm, lv->mis.c_vm};
       v->photon_c_vc[k] = lv->mis.c_vc;
     } else {
-      v->photons[k] = (photon){lv->throughput, lv->fix, lv->mis.d_vcm, vf_mis_d_vm(&lv->mis, &v->mis)};
+      v->photons[k] = (photon){lv->throughput, lv->fix, lv->mis.d_vcm, vf_mis_d_vm(&lv->mis, &v->merge.mis)};
     }
   }
 }
@@ -60,7 +60,7 @@ static void gather_task(void *ctx, size_t task, int thread) {
 int vf_vertex_merging_build_grid(vf_vcm *v) {
   for (uint32_t c = 0; c < v->num_chunks; c++)
     v->segments[c] = (vf_grid_segment){v->chunks[c].vertices, v->chunks[c].num_vertices, c << v->chunk_shift};
-  int err = vf_hashgrid_build_segments(v->grid, v->segments, v->num_chunks, sizeof(light_vertex), v->radius,
+  int err = vf_hashgrid_build_segments(v->grid, v->segments, v->num_chunks, sizeof(light_vertex), v->grid_radius,
                                        v->pool);
   if (err != VF_OK) return err;
   uint32_t n = vf_hashgrid_count(v->grid);
@@ -75,6 +75,11 @@ int vf_vertex_merging_build_grid(vf_vcm *v) {
       free(v->photon_source);
       v->photon_source = malloc(capacity * sizeof *v->photon_source);
       if (v->photon_source == NULL) v->photon_capacity = 0;
+    }
+    if (v->pixel_scale) {
+      free(v->photon_c_vc);
+      v->photon_c_vc = malloc(capacity * sizeof *v->photon_c_vc);
+      if (v->photon_c_vc == NULL) v->photon_capacity = 0;
     }
     if (v->photon_capacity == 0) return VF_ENOMEM;
   }
@@ -114,7 +119,7 @@ vf_vec3 vf_vertex_merging_one(const vf_vcm *v, const vertex_merging_query *q, ui
     /* The reverse step is taken at the light vertex: its Russian roulette applies. */
     camera_rev_pdf *= v->shape_continuation[length_shape >> VERTEX_LENGTH_BITS] / q->bsdf.continuation;
     vf_mis light = vf_photon_mis(v, k);
-    w = vf_mis_weight_merge(&light, &q->mis, &v->mis, camera_pdf, camera_rev_pdf); /* eq. (38)-(39) */
+    w = vf_mis_weight_merge(&light, &q->mis, &q->merge.mis, camera_pdf, camera_rev_pdf); /* eq. (38)-(39) */
   }
   return vf_scale(vf_mul(f, ph->throughput), w);
 }
@@ -129,9 +134,10 @@ vf_vec3 vf_vertex_merging_estimate(const vf_vcm *v, const vertex_merging_query *
   for (int r = 0; r < num_ranges; r++)
     for (uint32_t k = ranges[r].begin; k < ranges[r].end; k++) {
       const merge_point *p = &v->merge_points[k];
-      if (vf_vertex_merging_within(v, p->x, p->y, p->z, q->position)) sum = vf_add(sum, vf_vertex_merging_one(v, q, k));
+      if (vf_vertex_merging_within(q->merge.radius_sq, p->x, p->y, p->z, q->position))
+        sum = vf_add(sum, vf_vertex_merging_one(v, q, k));
     }
-  return vf_scale(sum, v->vm_normalization); /* 1 / (pi r^2 n_light), eq. (20) */
+  return vf_scale(sum, q->merge.vm_normalization); /* 1 / (pi r^2 n_light), eq. (20) */
 }
 
 void vf_vertex_merging_run_tile(vf_vcm *v, int thread, float *tile_rgb) {

@@ -43,12 +43,13 @@ _Static_assert(sizeof(merge_point) == 16, "the SIMD candidate tests read a merge
 _Static_assert(sizeof(merge_point) == sizeof(vf_grid_point) && offsetof(merge_point, x) == offsetof(vf_grid_point, x) &&
                    offsetof(merge_point, path_length_shape) == offsetof(vf_grid_point, index),
                "a merge point is a grid point whose index became the path length");
-/* Whether point (x, y, z) lies within the merge radius of q: the test every query makes of
- * its candidates, and upg's tentative rays of their hits (gathering_pass.c), with the same
- * float operations (merge_pipeline.c's SIMD tests repeat them lane by lane). */
-static inline int vf_vertex_merging_within(const vf_vcm *v, float x, float y, float z, vf_vec3 q) {
+/* Whether point (x, y, z) lies within the merge radius of q (radius_sq, its square: the
+ * query's, merge_params): the test every query makes of its candidates, and upg's
+ * tentative rays of their hits (gathering_pass.c), with the same float operations
+ * (merge_pipeline.c's SIMD tests repeat them lane by lane). */
+static inline int vf_vertex_merging_within(float radius_sq, float x, float y, float z, vf_vec3 q) {
   float dx = x - q.x, dy = y - q.y, dz = z - q.z;
-  return dx * dx + dy * dy + dz * dz <= v->radius_sq;
+  return dx * dx + dy * dy + dz * dz <= radius_sq;
 }
 
 /* The fast path's candidate tests read up to this many points past the last. */

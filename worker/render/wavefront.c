@@ -51,7 +51,7 @@ int vf_wavefront_scatter(vf_vcm *v, const vf_bsdf *b, const vf_hit *hit, path_st
   vf_vec3 f = vf_bsdf_sample(b, rnd, &gen, &pdf, &rev_pdf, &cos_gen, &event);
   if (vf_is_zero(f) || !(pdf > 0.0f)) return 0;
   int specular = (event & VF_BSDF_SPECULAR) != 0;
-  vf_mis_scatter(&s->mis, &v->mis, cos_gen, pdf, rev_pdf, specular);
+  vf_mis_scatter(&s->mis, &v->merge.mis, cos_gen, pdf, rev_pdf, specular);
   float scale = cos_gen / pdf;
   if (radiance && (event & VF_BSDF_REFRACTION)) scale /= b->eta * b->eta;
   s->throughput = vf_mul(s->throughput, vf_scale(f, scale));

@@ -378,22 +378,22 @@ static light_report light_densities(const test_scene *ts, const full_path *x, fl
 
 /* The sub-path quantities at every vertex: light[i] at y_i = x_i after its hit (i >= 1),
  * camera[j] at z_j = x_{k-j} after its hit (j >= 1). */
-static void trace_quantities(const test_scene *ts, const full_path *x, const path_data *pd, const vf_mis_config *c,
-                             vf_mis light[], vf_mis camera[]) {
+static void trace_quantities(const test_scene *ts, const full_path *x, const path_data *pd, const vf_mis_config *c_light,
+                             const vf_mis_config *c, vf_mis light[], vf_mis camera[]) {
   const int k = x->k;
   const float pick = ts->light->pick_probability;
   float cos0 = (float)pd->cos_light;
   light_report r = light_densities(ts, x, cos0);
   vf_mis m;
   /* light_start(): densities times the pick probability (eq. 31-33, 48-50), then hit and scatter. */
-  vf_mis_light_start(&m, c, r.direct_pdf_a * pick, r.emission_pdf_w * pick, cos0, ts->light->is_delta,
+  vf_mis_light_start(&m, c_light, r.direct_pdf_a * pick, r.emission_pdf_w * pick, cos0, ts->light->is_delta,
                      ts->light->is_finite);
   for (int i = 1; i < k; i++) {
     const vf_bsdf *b = &pd->from_light[i];
     float dist;
     direction_between(x->position[i - 1], x->position[i], &dist);
     /* the geometric cosine, as light_bounce() (local_fix.z is the shading one) */
-    vf_mis_hit(&m, c, dist, fabsf(vf_dot(x->normal[i], direction_between(x->position[i], x->position[i - 1], &dist))), 1);
+    vf_mis_hit(&m, c_light, dist, fabsf(vf_dot(x->normal[i], direction_between(x->position[i], x->position[i - 1], &dist))), 1);
     light[i] = m;
     if (i == k - 1) break;
     vf_vec3 gen = direction_between(x->position[i], x->position[i + 1], &dist);
@@ -404,7 +404,7 @@ static void trace_quantities(const test_scene *ts, const full_path *x, const pat
     } else {
       vf_bsdf_evaluate(b, gen, &cos_gen, &pdf, &rev);
     }
-    vf_mis_scatter(&m, c, cos_gen, pdf, rev, x->specular[i]);
+    vf_mis_scatter(&m, c_light, cos_gen, pdf, rev, x->specular[i]);
   }
   /* camera_start(): the density of the first direction from the lens point (eq. 31-33; an
    * orthographic camera's of its point on the view plane, sec. 5.2), then the same. */
@@ -440,14 +440,14 @@ static int g_upg = 0;
 
 /* Each used technique's weight as emission_weighted(), light_sample(), connect_vertices(),
  * connect_to_camera() and merge_vertices() (or for upg the gathering) compute it. */
-static void recursive_weights(const test_scene *ts, const full_path *x, const path_data *pd, const vf_mis_config *c,
-                              const technique_set *t, double w_vc[], double w_vm[]) {
+static void recursive_weights(const test_scene *ts, const full_path *x, const path_data *pd, const vf_mis_config *c_light,
+                              const vf_mis_config *c, const technique_set *t, double w_vc[], double w_vm[]) {
   const int k = x->k;
   const float pick = ts->light->pick_probability, inv_area = ts->light->inv_area;
   const float cos0 = (float)pd->cos_light;
   const light_report r = light_densities(ts, x, cos0);
   vf_mis light[MAX_VERTICES], camera[MAX_VERTICES + 1];
-  trace_quantities(ts, x, pd, c, light, camera);
+  trace_quantities(ts, x, pd, c_light, c, light, camera);
   for (int s = 0; s <= k; s++) w_vc[s] = w_vm[s] = 0.0;
 
   if (t->vc[0]) /* s = 0 */
@@ -728,19 +728,29 @@ static void print_path(const full_path *x, const technique_set *t, const double 
   }
 }
 
+/* A merge radius per pixel (tech. rep. sec. 6.1, --radius per-pixel): when set, path p is
+ * weighed with eta times path_eta_scale(p), as the pixel it ends in would weigh it, from
+ * 1/16 to 16 times eta across paths, while its light sub-path's quantities are traced
+ * with a config of yet another radius, as the light pass traces them before any pixel is
+ * known: the stored quantities must not depend on the radius. */
+static int g_pixel_radii;
+static double path_eta_scale(int p) { return g_pixel_radii ? pow(4.0, (double)(p % 5) - 2.0) : 1.0; }
+
 /* Checks every path of a set under one algorithm and eta; prints `examples` paths. */
 static deviation check_set(const path_set *set, vf_algorithm a, double eta, int examples) {
   deviation dev = {0};
-  vf_mis_config c = config_for(a, eta, g_scene.n_light);
+  vf_mis_config c_light = config_for(a, g_pixel_radii ? eta * 37.0 : eta, g_scene.n_light);
   for (int p = 0; p < set->count; p++) {
     const full_path *x = &set->paths[p];
     path_data pd;
     technique_set t;
     double rec_vc[MAX_VERTICES + 1], rec_vm[MAX_VERTICES + 1], dir_vc[MAX_VERTICES + 1], dir_vm[MAX_VERTICES + 1];
+    double path_eta = eta * path_eta_scale(p);
+    vf_mis_config c = config_for(a, path_eta, g_scene.n_light);
     if (!prepare_path(&g_scene, x, &pd)) continue;
     implemented_techniques(x, a, g_scene.spot != NULL, &t);
-    recursive_weights(&g_scene, x, &pd, &c, &t, rec_vc, rec_vm);
-    direct_weights(x, &pd, &t, eta, g_scene.n_light, dir_vc, dir_vm);
+    recursive_weights(&g_scene, x, &pd, &c_light, &c, &t, rec_vc, rec_vm);
+    direct_weights(x, &pd, &t, path_eta, g_scene.n_light, dir_vc, dir_vm);
     double sum = 0.0, vm = 0.0;
     int used = 0;
     for (int s = 0; s <= x->k; s++)
@@ -785,11 +795,13 @@ static void check_algorithm(const path_set *set, const char *family, vf_algorith
       path_data pd;
       technique_set t;
       double rv[MAX_VERTICES + 1], rm[MAX_VERTICES + 1], dv[MAX_VERTICES + 1], dm[MAX_VERTICES + 1];
-      vf_mis_config c = config_for(a, etas[e], g_scene.n_light);
+      double path_eta = etas[e] * path_eta_scale(dev.worst_path);
+      vf_mis_config c_light = config_for(a, g_pixel_radii ? etas[e] * 37.0 : etas[e], g_scene.n_light);
+      vf_mis_config c = config_for(a, path_eta, g_scene.n_light);
       prepare_path(&g_scene, x, &pd);
       implemented_techniques(x, a, g_scene.spot != NULL, &t);
-      recursive_weights(&g_scene, x, &pd, &c, &t, rv, rm);
-      direct_weights(x, &pd, &t, etas[e], g_scene.n_light, dv, dm);
+      recursive_weights(&g_scene, x, &pd, &c_light, &c, &t, rv, rm);
+      direct_weights(x, &pd, &t, path_eta, g_scene.n_light, dv, dm);
       print_path(x, &t, rv, rm, dv, dm);
     }
     CHECK_NEAR(dev.max_rel_dev, 0.0, weight_tolerance);
@@ -890,6 +902,21 @@ static void check_power_heuristic(const char *family, int with_specular) {
 }
 
 static void test_power_heuristic_weights_match_eq12(void) { check_power_heuristic("diffuse", 1); }
+
+/* Radii differing between pixels: every algorithm's weights, with and without a specular
+ * vertex, and the power heuristic. */
+static void test_weights_match_eq12_with_a_radius_per_pixel(void) {
+  g_pixel_radii = 1;
+  check_algorithm(&g_diffuse, "diffuse", VF_ALGO_VCM, etas, NUM_ETAS, 0);
+  check_algorithm(&g_specular, "specular", VF_ALGO_VCM, etas, NUM_ETAS, 0);
+  check_algorithm(&g_diffuse, "diffuse", VF_ALGO_BPM, etas, 1, 0);
+  check_upg(&g_diffuse, "diffuse", etas, 1);
+  check_upg(&g_specular, "specular", etas, 1);
+  g_beta = 2.0;
+  check_algorithm(&g_diffuse, "diffuse", VF_ALGO_VCM, etas, 1, 0);
+  g_beta = 1.0;
+  g_pixel_radii = 0;
+}
 
 static void test_power_heuristic_weights_match_eq12_through_rough_lobes(void) { check_power_heuristic("rough", 0); }
 
@@ -1006,6 +1033,7 @@ int main(void) {
       RUN(test_vcm_weights_match_eq12_with_light_selection);
       RUN(test_upg_weights_match_eq12);
       RUN(test_power_heuristic_weights_match_eq12);
+      RUN(test_weights_match_eq12_with_a_radius_per_pixel);
       destroy_test_scene(&g_scene);
     }
     if (!walk_scene("cornell-rough", VF_LIGHT_AREA_MESH)) return 1;

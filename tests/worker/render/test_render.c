@@ -10,6 +10,10 @@
 #include <string.h>
 #include <unistd.h>
 
+/* The merge radius the renders take (render_with): the range promises are checked with a
+ * radius per pixel too. */
+static vf_radius_mode radius_under_test = VF_RADIUS_GLOBAL;
+
 static vf_film *render_with(const char *scene_name, vf_sampler_kind sampler, vf_algorithm algorithm, uint64_t seed,
                             int threads, uint64_t begin, uint64_t end) {
   vf_scene *scene = NULL;
@@ -20,6 +24,7 @@ static vf_film *render_with(const char *scene_name, vf_sampler_kind sampler, vf_
   vf_settings s = scene->settings;
   s.algorithm = algorithm;
   s.sampler = sampler;
+  s.radius = radius_under_test;
   s.seed = seed;
   s.width = 96;
   s.height = 64;
@@ -61,25 +66,36 @@ static double mean_of(const vf_film *f) {
   return s / (3.0 * n);
 }
 
-/* The scenes the range promises are checked on: the perspective camera's and the
+/* The cases the range promises are checked on: the perspective camera's and the
  * orthographic camera's (its rays start on the view plane, its light vertices link to their
- * feet there). */
-static const char *const range_scenes[] = {"cornell", "cornell-ortho"};
-enum { NUM_RANGE_SCENES = sizeof range_scenes / sizeof *range_scenes };
+ * feet there), and a radius per pixel (for the algorithms that merge). */
+static const struct {
+  const char *scene;
+  vf_radius_mode radius;
+} range_cases[] = {{"cornell", VF_RADIUS_GLOBAL}, {"cornell-ortho", VF_RADIUS_GLOBAL}, {"cornell", VF_RADIUS_PER_PIXEL}};
+enum { NUM_RANGE_CASES = sizeof range_cases / sizeof *range_cases };
+
+/* Selects range case k for algorithm a; 0 when the case does not apply to a. */
+static int range_case(int k, vf_algorithm a) {
+  radius_under_test = range_cases[k].radius;
+  return radius_under_test == VF_RADIUS_GLOBAL || vf_algorithm_merges(a);
+}
 
 static void test_one_and_two_threads_give_bitwise_identical_films(void) {
-  for (int k = 0; k < NUM_RANGE_SCENES; k++)
+  for (int k = 0; k < NUM_RANGE_CASES; k++)
     for (int a = 0; a < VF_ALGO_COUNT_; a++) {
-      vf_film *one = render(range_scenes[k], (vf_algorithm)a, 7, 1, 0, 3);
-      vf_film *two = render(range_scenes[k], (vf_algorithm)a, 7, 2, 0, 3);
+      if (!range_case(k, (vf_algorithm)a)) continue;
+      vf_film *one = render(range_cases[k].scene, (vf_algorithm)a, 7, 1, 0, 3);
+      vf_film *two = render(range_cases[k].scene, (vf_algorithm)a, 7, 2, 0, 3);
       if (!one || !two) return;
       if (!films_bitwise_equal(one, two))
-        printf("  %s %s (%s) differs between 1 and 2 threads\n", range_scenes[k], vf_algorithm_name(a),
-               vf_sampler_name(sampler_under_test));
+        printf("  %s radius %s %s (%s) differs between 1 and 2 threads\n", range_cases[k].scene,
+               vf_radius_mode_name(range_cases[k].radius), vf_algorithm_name(a), vf_sampler_name(sampler_under_test));
       CHECK(films_bitwise_equal(one, two));
       vf_film_destroy(one);
       vf_film_destroy(two);
     }
+  radius_under_test = VF_RADIUS_GLOBAL;
 }
 
 static long file_bytes(const char *path, char **out) {
@@ -125,9 +141,10 @@ static void test_same_seed_twice_gives_identical_files(void) {
 
 /* Iterations [0,2) and [2,5) rendered apart, in the opposite order, merge into [0,5). */
 static void test_split_ranges_merge_into_the_whole(void) {
-  for (int k = 0; k < NUM_RANGE_SCENES * VF_ALGO_COUNT_; k++) {
-    const char *scene = range_scenes[k / VF_ALGO_COUNT_];
+  for (int k = 0; k < NUM_RANGE_CASES * VF_ALGO_COUNT_; k++) {
+    const char *scene = range_cases[k / VF_ALGO_COUNT_].scene;
     int a = k % VF_ALGO_COUNT_;
+    if (!range_case(k / VF_ALGO_COUNT_, (vf_algorithm)a)) continue;
     vf_film *whole = render(scene, (vf_algorithm)a, 3, 2, 0, 5);
     vf_film *late = render(scene, (vf_algorithm)a, 3, 2, 2, 5);
     vf_film *early = render(scene, (vf_algorithm)a, 3, 2, 0, 2);
@@ -139,8 +156,9 @@ static void test_split_ranges_merge_into_the_whole(void) {
     for (size_t i = 0; i < n; i++) {
       max_diff = fmax(max_diff, fabs(late->sum[i] - whole->sum[i]));
     }
-    printf("  %-13s %-3s %-11s split vs whole: max |difference| %.3g (image mean %.3g)\n", scene,
-           vf_algorithm_name(a), vf_sampler_name(sampler_under_test), max_diff, scale);
+    printf("  %-13s %-9s %-3s %-11s split vs whole: max |difference| %.3g (image mean %.3g)\n", scene,
+           vf_radius_mode_name(radius_under_test), vf_algorithm_name(a), vf_sampler_name(sampler_under_test), max_diff,
+           scale);
     for (size_t i = 0; i < n; i++) max_diff = fmax(max_diff, fabs(late->square_sum[i] - whole->square_sum[i]));
     CHECK(max_diff <= 1e-5 * scale);
     CHECK(max_diff <= 1e-5 * scale);
@@ -148,6 +166,7 @@ static void test_split_ranges_merge_into_the_whole(void) {
     vf_film_destroy(late);
     vf_film_destroy(early);
   }
+  radius_under_test = VF_RADIUS_GLOBAL;
 }
 
 /* `auto` renders exactly what it chose (same random streams, same techniques), and its

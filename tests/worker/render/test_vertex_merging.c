@@ -144,13 +144,13 @@ static int install_light_vertices(vf_vcm *v, const merge_case *c, vf_rng *r) {
   while ((1u << v->chunk_shift) < largest) v->chunk_shift++;
   /* as setup_iteration (worker/render/vcm.c) sets them for a radius */
   double radius = c->radius, eta = M_PI * radius * radius * (double)v->num_pixels;
-  v->radius = c->radius;
-  v->radius_sq = (float)(radius * radius);
-  v->vm_normalization = (float)(1.0 / eta);
-  v->mis.vm_weight = c->ppm ? 0.0f : (float)eta;
-  v->mis.vc_weight = c->ppm ? 0.0f : (float)(1.0 / eta);
-  v->mis.light_paths = (float)v->num_pixels;
-  v->mis.pt = 0;
+  v->merge.radius = c->radius;
+  v->merge.radius_sq = (float)(radius * radius);
+  v->merge.vm_normalization = (float)(1.0 / eta);
+  v->merge.mis.vm_weight = c->ppm ? 0.0f : (float)eta;
+  v->merge.mis.vc_weight = c->ppm ? 0.0f : (float)(1.0 / eta);
+  v->merge.mis.light_paths = (float)v->num_pixels;
+  v->merge.mis.pt = 0;
   int err = vf_vertex_merging_build_grid(v);
   CHECK_INT_EQ(err, VF_OK);
   return err == VF_OK;
@@ -186,9 +186,9 @@ static int hits_one_by_one(const vf_vcm *v, const vertex_merging_query *q, uint3
     const merge_point *p = &v->merge_points[k];
     float dx = p->x - q->position.x, dy = p->y - q->position.y, dz = p->z - q->position.z;
     float d2 = dx * dx + dy * dy + dz * dz;
-    if (d2 <= v->radius_sq && (int)(p->path_length_shape & ((1u << VERTEX_LENGTH_BITS) - 1u)) <= longest) {
+    if (d2 <= v->merge.radius_sq && (int)(p->path_length_shape & ((1u << VERTEX_LENGTH_BITS) - 1u)) <= longest) {
       hits[found++] = k;
-      *on_radius += d2 == v->radius_sq;
+      *on_radius += d2 == v->merge.radius_sq;
     }
   }
   return found;

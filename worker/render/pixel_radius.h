@@ -1,0 +1,53 @@
+/* A merge radius per pixel (--radius per-pixel; tech. rep. sec. 6.1).
+ *
+ * One global radius suits a scene whose visible surfaces lie at about one distance: where
+ * the depth varies, near surfaces are blurred over many pixels and far ones get too few
+ * light vertices per query. With a radius per pixel, each camera sub-path merges with a
+ * radius in proportion to its pixel's footprint: the width a pixel covers at the first
+ * non-specular surface its centre ray reaches (through mirrors and glass, following the
+ * likelier branch), over the median footprint of the image, clamped to
+ * [VF_PIXEL_RADIUS_MIN_SCALE, VF_PIXEL_RADIUS_MAX_SCALE], times the global radius r_i of
+ * the iteration. The image's typical radius is thus the global one, the paper's schedule
+ * applies to every pixel alike (so the consistency argument holds pixel by pixel), and the
+ * scales are a pure function of scene, camera and resolution: every machine of a farm
+ * computes the same ones, and every iteration remains a pure function of (seed, global
+ * index, path index). An orthographic pixel covers the same width everywhere: its scale
+ * is 1. A pixel whose centre ray leaves the scene, or sees only specular surfaces, gets 1.
+ *
+ * The MIS weights stay exact because the vertices carry the radius-free c_vc and c_vm
+ * (mis.h) and every technique that samples a full path forms its weight with the radius
+ * of the path's pixel: its camera sub-path's, or for light tracing (t = 1) the pixel the
+ * light vertex projects to (vf_merge_params_at). The grid is built for the largest radius
+ * of the iteration; each query tests its candidates against its own. */
+#ifndef VF_PIXEL_RADIUS_H
+#define VF_PIXEL_RADIUS_H
+
+#include "vcm_internal.h"
+
+#include <math.h>
+
+/* The range of a pixel's radius over the global one. The grid's cells follow the largest
+ * radius, so a query with a smaller one reads more candidates than it needs: the range
+ * bounds that (docs/BENCHMARKS.md, "Per-pixel merge radius"). */
+#define VF_PIXEL_RADIUS_MIN_SCALE 0.5f
+#define VF_PIXEL_RADIUS_MAX_SCALE 2.0f
+
+/* Computes v->pixel_scale and v->pixel_scale_max (the camera, accel, lobes and pool set
+ * up). VF_OK, or VF_ENOMEM with nothing allocated. */
+int vf_pixel_radius_create(vf_vcm *v);
+
+/* The merge parameters of pixel `pixel` in the current iteration: the global ones, or with
+ * a radius per pixel that pixel's radius and its eta_VCM. */
+static inline void vf_merge_params_at(const vf_vcm *v, uint32_t pixel, merge_params *out) {
+  *out = v->merge;
+  if (v->pixel_scale == NULL) return;
+  double r = v->radius_exact * (double)v->pixel_scale[pixel];
+  double eta = M_PI * r * r * (double)v->num_pixels; /* eq. (20) with this pixel's radius */
+  out->radius = (float)r;
+  out->radius_sq = (float)(r * r);
+  out->vm_normalization = (float)(1.0 / eta);
+  out->mis.vm_weight = v->vm_in_weights ? vf_mis_h(&out->mis, (float)eta) : 0.0f;
+  out->mis.vc_weight = v->vc_in_weights ? vf_mis_h(&out->mis, (float)(1.0 / eta)) : 0.0f;
+}
+
+#endif
