@@ -46,6 +46,15 @@ expect_refusal "MIS beta above 4" "--mis-beta" "$vcmfarm" render furnace --mis-b
   "$vcmfarm" render furnace -R 8x8 -n 1 -k 1 --mis-beta 2 -q -o "$tmp/beta2.exr"
 check "films of MIS beta 1 and 2 rendered" $?
 expect_refusal "films of MIS beta 1 and 2 do not merge" "mis_beta=2" "$vcmfarm" merge -o "$tmp/out.exr" "$tmp/beta1.exr" "$tmp/beta2.exr"
+# A merge radius per pixel: an option of the algorithms that merge, recorded in the film
+# (so that it refuses to merge with a film of one radius), described by the render.
+expect_refusal "unknown merge radius" "unknown merge radius 'local'" "$vcmfarm" render furnace --radius local -o "$tmp/out.exr"
+expect_refusal "radius per pixel without merging" "option of the algorithms that merge" "$vcmfarm" render furnace -a bpt --radius per-pixel -o "$tmp/out.exr"
+"$vcmfarm" render furnace -R 8x8 -n 1 -k 1 --radius per-pixel -v -o "$tmp/pixel.exr" 2>"$tmp/stderr"
+check "radius per pixel renders" $?
+check "radius per pixel described" "$(grep -q "^merge radius: per pixel, from" "$tmp/stderr"; echo $?)"
+check "radius per pixel in the film's settings" "$("$vcmfarm" info "$tmp/pixel.exr" | grep -q "radius=per-pixel"; echo $?)"
+expect_refusal "films of one radius and of a radius per pixel do not merge" "radius=per-pixel" "$vcmfarm" merge -o "$tmp/out.exr" "$tmp/beta1.exr" "$tmp/pixel.exr"
 # upg: its side is an option of upg alone, named when wrong; its render counts its
 # gatherings; a film says what its estimated RMSE covers.
 expect_refusal "unknown gathering side" "unknown side 'eye'" "$vcmfarm" render furnace -a upg --gather-from eye -o "$tmp/out.exr"

@@ -86,8 +86,45 @@ static void test_gather_side_and_new_algorithms(void) {
   CHECK(vf_algorithm_estimate_scope(VF_ALGO_AUTO) == VF_ESTIMATE_DEPENDS);
 }
 
+/* The merge radius: written only when per pixel (every text before it existed had one
+ * radius), read back, refused twice, unknown, or for an algorithm that does not merge. */
+static void test_radius_per_pixel(void) {
+  vf_settings s, back;
+  vf_settings_default(&s);
+  char text[512];
+  CHECK_INT_EQ(vf_settings_format(&s, text, sizeof text), VF_OK);
+  CHECK(strstr(text, "radius=") == NULL);
+  s.radius = VF_RADIUS_PER_PIXEL;
+  CHECK_INT_EQ(vf_settings_format(&s, text, sizeof text), VF_OK);
+  CHECK_STR_CONTAINS(text, " radius=per-pixel");
+  CHECK_INT_EQ(vf_settings_parse(&back, text), VF_OK);
+  CHECK(back.radius == VF_RADIUS_PER_PIXEL);
+  const char *base = "algorithm=vcm max_path_length=10 radius_factor=0.003 alpha=0.75 seed=1 resolution=4x3";
+  const char *bad[] = {" radius=local", " radius=per-pixel radius=per-pixel", " radius="};
+  for (size_t i = 0; i < sizeof bad / sizeof *bad; i++) {
+    snprintf(text, sizeof text, "%s%s", base, bad[i]);
+    int err = vf_settings_parse(&back, text);
+    if (err != VF_EINVAL) CHECK_FAIL_("'%s' parsed (%d)", bad[i], err);
+  }
+  const vf_algorithm merging[] = {VF_ALGO_VCM, VF_ALGO_UPG, VF_ALGO_PPM, VF_ALGO_BPM, VF_ALGO_AUTO, VF_ALGO_AUTO_UNBIASED};
+  for (size_t i = 0; i < sizeof merging / sizeof *merging; i++) {
+    s.algorithm = merging[i];
+    CHECK_INT_EQ(vf_settings_validate(&s), VF_OK);
+  }
+  const vf_algorithm other[] = {VF_ALGO_BPT, VF_ALGO_PT, VF_ALGO_LT};
+  for (size_t i = 0; i < sizeof other / sizeof *other; i++) {
+    s.algorithm = other[i];
+    CHECK_INT_EQ(vf_settings_validate(&s), VF_EINVAL);
+    CHECK_STR_CONTAINS(vf_error_detail(VF_EINVAL), "per pixel is an option of the algorithms that merge");
+  }
+  vf_radius_mode m;
+  CHECK_INT_EQ(vf_radius_mode_parse("local", &m), VF_EUSAGE);
+  CHECK_STR_CONTAINS(vf_error_detail(VF_EUSAGE), "expected global or per-pixel");
+}
+
 int main(void) {
   RUN(test_text_round_trips);
+  RUN(test_radius_per_pixel);
   RUN(test_gather_side_and_new_algorithms);
   RUN(test_balance_heuristic_is_the_text_without_beta);
   RUN(test_beta_out_of_range_or_twice_is_refused);

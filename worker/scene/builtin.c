@@ -24,7 +24,7 @@
 static const char *const builtin_names[] = {"cornell", "cornell-point", "cornell-sun", "cornell-env",
                                             "furnace", "knot", "cornell-bulb", "cornell-diffuse",
                                             "cornell-glossy", "cornell-spot", "cornell-dof", "cornell-rough",
-                                            "cornell-ortho", NULL};
+                                            "cornell-ortho", "corridor", NULL};
 
 const char *const *vf_scene_builtin_names(void) { return builtin_names; }
 
@@ -320,6 +320,38 @@ static void put_furnace(text_buf *t) {
   put(t, "],'render':{'max_path_length':64}}");
 }
 
+/* A long corridor whose visible surfaces lie from 1 to 24 away: the depth a global merge
+ * radius cannot suit everywhere (--radius per-pixel, docs/BENCHMARKS.md). 2 wide, 2.5
+ * high, closed at both ends, a glossy floor, a red and a white wall, six ceiling lamps
+ * (0.5 x 0.5, radiance 15) spaced 4 apart, and a mirror and a glass ball near and far. The
+ * camera stands 1 inside the near end, looking down the length. */
+static void put_corridor(text_buf *t) {
+  const vf_vec3 zero = vf_vec3_splat(0.0f), ex = vf_vec3_make(1, 0, 0), ey = vf_vec3_make(0, 1, 0),
+                ez = vf_vec3_make(0, 0, 1);
+  const float half_length = 12.5f, mid = -11.5f; /* z from 1 to -24 */
+  put(t, "{'camera':{'position':[0.3,1.4,0],'target':[-0.1,0.9,-12],'up':[0,1,0],'fov':50,'resolution':[640,360]},"
+         "'materials':{'white':{'diffuse':[0.75,0.75,0.75]},'red':{'diffuse':[0.7,0.2,0.15]},"
+         "'floor':" FLOOR_GLOSSY ",'mirror':" MIRROR ",'glass':" GLASS ",'emitter':{}},'shapes':[");
+  put_wall(t, "floor", "floor", vf_vec3_make(0, 0, mid), ex, vf_scale(ez, half_length), ey, zero);
+  put_wall(t, "ceiling", "white", vf_vec3_make(0, 2.5f, mid), ex, vf_scale(ez, half_length), vf_neg(ey), zero);
+  put_wall(t, "left", "red", vf_vec3_make(-1, 1.25f, mid), vf_scale(ey, 1.25f), vf_scale(ez, half_length), ex, zero);
+  put_wall(t, "right", "white", vf_vec3_make(1, 1.25f, mid), vf_scale(ey, 1.25f), vf_scale(ez, half_length),
+           vf_neg(ex), zero);
+  put_wall(t, "far end", "white", vf_vec3_make(0, 1.25f, mid - half_length), ex, vf_scale(ey, 1.25f), ez, zero);
+  put_wall(t, "near end", "white", vf_vec3_make(0, 1.25f, mid + half_length), ex, vf_scale(ey, 1.25f), vf_neg(ez),
+           zero);
+  for (int i = 0; i < 6; i++) {
+    char name[16];
+    snprintf(name, sizeof name, "lamp %d", i + 1);
+    put_wall(t, name, "emitter", vf_vec3_make(0, 2.49f, -2.0f - 4.0f * (float)i), vf_scale(ex, 0.25f),
+             vf_scale(ez, 0.25f), vf_neg(ey), vf_vec3_splat(15.0f));
+  }
+  put(t, "{'type':'sphere','name':'near mirror ball','material':'mirror','center':[-0.45,0.35,-3],'radius':0.35},"
+         "{'type':'sphere','name':'near glass ball','material':'glass','center':[0.5,0.35,-5],'radius':0.35},"
+         "{'type':'sphere','name':'far mirror ball','material':'mirror','center':[0.4,0.35,-17],'radius':0.35},"
+         "{'type':'sphere','name':'far glass ball','material':'glass','center':[-0.4,0.35,-20],'radius':0.35}]}");
+}
+
 int vf_scene_builtin_load(const char *name, vf_scene **out) {
   text_buf t = {NULL, 0, 0, 0};
   unsigned char *ply = NULL;
@@ -327,6 +359,10 @@ int vf_scene_builtin_load(const char *name, vf_scene **out) {
   char label[64];
   int err, found = strcmp(name, "furnace") == 0;
   if (found) put_furnace(&t);
+  if (!found && strcmp(name, "corridor") == 0) {
+    found = 1;
+    put_corridor(&t);
+  }
   for (size_t i = 0; !found && i < sizeof cornells / sizeof cornells[0]; i++)
     if (strcmp(name, cornells[i].name) == 0) {
       found = 1;
