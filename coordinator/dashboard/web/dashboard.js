@@ -135,7 +135,7 @@ function renderJob(j) {
     ['size', j.resolved ? `${j.resolved.width}×${j.resolved.height}` : ''],
     ['iterations', `${j.iterations_done} done, ${j.iterations_leased} leased`], ['running', duration(j.seconds)],
     ['stops at', stopText(j)], ['stop reason', j.stop_message || j.stop_reason || '–'],
-    ['refused results', j.results_refused]];
+    ['refused results', j.results_refused], ['settings', j.settings || '']];
   $('job-facts').replaceChildren(...facts.flatMap(([k, v]) => [el('dt', {}, k), el('dd', {}, v)]));
   if (document.activeElement !== $('priority')) $('priority').value = j.priority;
   const workers = (state.status ? state.status.workers : []).filter((w) => w.lease && w.lease.job === j.id);

@@ -55,6 +55,8 @@ const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
   const d = await page.getAttribute('#plot-time path.line', 'd');
   check('the error-against-time plot is drawn', /^M[\d. ]+(L[\d. ]+)*$/.test(d) && d.length > 4, d.slice(0, 40));
   check('the error-against-iterations plot is drawn', (await page.locator('#plot-iterations path.line').count()) > 0);
+  const facts = await page.textContent('#job-facts');
+  check("the job's settings are shown", /settings\s*algorithm=\S+ max_path_length=\d+ radius_factor=/.test(facts), facts.trim());
   const ranges = await page.textContent('#job-ranges');
   check('the worker rendering the job is named with its range', /w1\s*\[\d+, \d+\)/.test(ranges), ranges.trim());
 
