@@ -289,8 +289,8 @@ static int camera_bounce(vf_vcm *v, int thread, camera_lane *lane, const vf_hit 
                                     lane->merge};
         if (v->upg) v->scratch[thread].query_prev[q - v->scratch[thread].queries] = lane->prev;
       } else {
-        vertex_merging_query now = {b,           hit->position, s->throughput, s->mis, s->path_length,
-                                    tile_pixel, lane->pixel,   lane->merge};
+        vertex_merging_query now = {b, hit->position, s->throughput, s->mis, s->path_length, tile_pixel, lane->pixel,
+                                    lane->merge};
         vf_vec3 estimate = v->upg ? vf_gathering_estimate(v, thread, &now, &lane->prev)
                                   : vf_mul(s->throughput, vf_vertex_merging_estimate(v, &now));
         defer_unshadowed(v, thread, estimate, tile_pixel);
