@@ -102,8 +102,8 @@ static void splat_if_visible(vf_vcm *v, int thread, light_chunk *c, uint32_t pat
 /* The lens point a light vertex connects to (t = 1): the pinhole, or a point sampled
  * uniformly on the thin lens from the light sub-path's stream (drawn only for a lens, so
  * pinhole and orthographic renders keep their streams; the orthographic camera ignores
- * it). Its density 1 / (pi r^2) is the camera sub-paths' too (p_connect = p_trace, tech. rep. eq. 46), and it cancels against the
- * importance's (camera.h). */
+ * it). Its density 1 / (pi r^2) is the camera sub-paths' too (p_connect = p_trace, tech.
+ * rep. eq. 46), and it cancels against the importance's (camera.h). */
 static vf_vec3 lens_sample(const vf_vcm *v, vf_sampler *sampler, uint32_t pair) {
   if (!(v->camera.lens_radius > 0.0f)) return v->camera.position;
   float u[2];
