@@ -152,7 +152,7 @@ static int texture_field(const parse_ctx *c, const cJSON *obj, const char *path,
   int err = vf_scene_member(c, obj, path, key, OPTIONAL, &item);
   if (err <= 0) return err;
   vf_scene_join(p, path, key);
-  vf_texture_slot sl = {0, VF_WRAP_REPEAT, VF_WRAP_REPEAT};
+  vf_texture_slot sl = {.wrap_s = VF_WRAP_REPEAT, .wrap_t = VF_WRAP_REPEAT};
   if (cJSON_IsString(item)) {
     file = item->valuestring;
     snprintf(fp, sizeof fp, "%s", p);

@@ -62,6 +62,9 @@ static int check_values(const parse_ctx *c, const char *what, const struct aiSce
       else if (mesh->mTextureCoords[0] && !(isfinite(mesh->mTextureCoords[0][v].x) &&
                                              isfinite(mesh->mTextureCoords[0][v].y)))
         bad = "a non-finite texture coordinate";
+      else if (mesh->mTextureCoords[1] && !(isfinite(mesh->mTextureCoords[1][v].x) &&
+                                             isfinite(mesh->mTextureCoords[1][v].y)))
+        bad = "a non-finite texture coordinate of set 1";
       else if (mesh->mTangents && !finite3(&mesh->mTangents[v])) bad = "a non-finite tangent";
       if (bad != NULL)
         return vf_scene_fail(c, VF_EMESH, what, "vertex %llu has %s (vertex %u of mesh %u%s%s%s)",
@@ -231,13 +234,16 @@ static int grow(void **p, uint64_t count, size_t size) {
  * of NULL); `keep` gets the VF_ATTR_* bits kept, the return value those dropped. */
 static unsigned settle_attributes(vf_shape *s, const struct aiMesh *mesh, unsigned *keep) {
   unsigned has = (mesh->mNormals ? VF_ATTR_NORMALS : 0) | (mesh->mTextureCoords[0] ? VF_ATTR_UVS : 0) |
-                 (mesh->mTangents && mesh->mBitangents && mesh->mNormals ? VF_ATTR_TANGENTS : 0);
+                 (mesh->mTangents && mesh->mBitangents && mesh->mNormals ? VF_ATTR_TANGENTS : 0) |
+                 (mesh->mTextureCoords[0] && mesh->mTextureCoords[1] ? VF_ATTR_UVS1 : 0);
   if (s->num_vertices == 0) {
     *keep = has;
     return 0;
   }
-  unsigned had = (s->normals ? VF_ATTR_NORMALS : 0) | (s->uvs ? VF_ATTR_UVS : 0) | (s->tangents ? VF_ATTR_TANGENTS : 0);
+  unsigned had = (s->normals ? VF_ATTR_NORMALS : 0) | (s->uvs ? VF_ATTR_UVS : 0) | (s->tangents ? VF_ATTR_TANGENTS : 0) |
+                 (s->uvs1 ? VF_ATTR_UVS1 : 0);
   *keep = had & has;
+  if (!(*keep & VF_ATTR_UVS1)) free(s->uvs1), s->uvs1 = NULL;
   if (!(*keep & VF_ATTR_NORMALS)) free(s->normals), s->normals = NULL;
   if (!(*keep & VF_ATTR_UVS)) free(s->uvs), s->uvs = NULL;
   if (!(*keep & VF_ATTR_TANGENTS)) free(s->tangents), s->tangents = NULL;
@@ -257,6 +263,10 @@ static void copy_vertices(const struct aiMesh *mesh, vf_shape *s, uint32_t v0) {
                    * flips glTF's): our t = 0 is the top row, so t = 1 - v */
       s->uvs[2 * (v0 + v)] = mesh->mTextureCoords[0][v].x;
       s->uvs[2 * (v0 + v) + 1] = 1.0f - mesh->mTextureCoords[0][v].y;
+    }
+    if (s->uvs1) {
+      s->uvs1[2 * (v0 + v)] = mesh->mTextureCoords[1][v].x;
+      s->uvs1[2 * (v0 + v) + 1] = 1.0f - mesh->mTextureCoords[1][v].y;
     }
     if (s->tangents) { /* Assimp keeps glTF's w as the bitangent B = w (N x T): recover it */
       const struct aiVector3D *n = &mesh->mNormals[v], *t = &mesh->mTangents[v], *b = &mesh->mBitangents[v];
@@ -282,6 +292,7 @@ int vf_scene_append_mesh(const parse_ctx *c, const char *what, const struct aiMe
       (err = grow((void **)&s->indices, 3 * nt_all, sizeof(uint32_t))) < 0 ||
       ((keep & VF_ATTR_NORMALS) && (err = grow((void **)&s->normals, 3 * nv, sizeof(float))) < 0) ||
       ((keep & VF_ATTR_UVS) && (err = grow((void **)&s->uvs, 2 * nv, sizeof(float))) < 0) ||
+      ((keep & VF_ATTR_UVS1) && (err = grow((void **)&s->uvs1, 2 * nv, sizeof(float))) < 0) ||
       ((keep & VF_ATTR_TANGENTS) && (err = grow((void **)&s->tangents, 4 * nv, sizeof(float))) < 0))
     return err;
   uint32_t v0 = s->num_vertices, t0 = s->num_triangles, t = t0;

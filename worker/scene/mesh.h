@@ -50,7 +50,7 @@ int vf_scene_transform_range(const parse_ctx *c, const char *path, const vf_affi
                              uint32_t t0);
 
 /* Vertex attributes, as bits: what vf_scene_append_mesh had to drop. */
-enum { VF_ATTR_NORMALS = 1u, VF_ATTR_UVS = 2u, VF_ATTR_TANGENTS = 4u };
+enum { VF_ATTR_NORMALS = 1u, VF_ATTR_UVS = 2u, VF_ATTR_TANGENTS = 4u, VF_ATTR_UVS1 = 8u };
 
 /* Appends Assimp mesh `mesh_index` of a file, through `a` (its node's world transform), to
  * shape s: positions, triangles (points and lines left out), and normals, texture

@@ -49,6 +49,7 @@ typedef struct {
    *   bitangent (glTF's TANGENT); absent with a normal map: derived from the uvs. */
   float *normals;
   float *uvs;
+  float *uvs1;       /* 2 per vertex: the second uv set (glTF's TEXCOORD_1), as uvs; NULL: absent */
   float *tangents;
   /* VF_SHAPE_SPHERE */
   vf_vec3 center;
