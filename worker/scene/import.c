@@ -43,7 +43,11 @@ typedef struct {
   unsigned dropped;
   int took_camera;        /* this file gave the scene its camera */
   float kd_ks_largest;    /* f.kd_ks_largest points here */
+  int photometric;        /* the entry's "light_units": "photometric" (import_light) */
 } import_state;
+
+/* Lumens per watt of 555 nm light: KHR_lights_punctual's candela over Blender's W/sr. */
+#define VF_LUMINOUS_EFFICACY 683.0
 
 /* ---- materials ------------------------------------------------------------------------------- */
 
@@ -268,13 +272,20 @@ static int spot_cone(const parse_ctx *c, const import_state *st, const struct ai
   return VF_OK;
 }
 
-/* KHR_lights_punctual's intensities are photometric (candela, lux): vcmfarm reads them as
- * radiometric, candela as W/sr and lux as W/m^2 (docs/SCENES.md). */
+/* KHR_lights_punctual's intensities are photometric (candela, lux), and
+ * KHR_materials_emissive_strength's emission is read as written. By default (Blender's
+ * reading: its glTF importer and exporter, and Cycles) a point or spot light of I candela
+ * has the radiant intensity I / 683 W/sr, the luminous efficacy of 555 nm light, and a
+ * directional light's lux are its irradiance in W/m^2 as written (Blender's sun strength).
+ * The "photometric" reading of an import entry reads candela as written too, both kinds
+ * of light then in photometric units (docs/SCENES.md, "Light units"). */
 static int import_light(const parse_ctx *c, const import_state *st, const struct aiLight *l) {
   vf_scene *s = c->scene;
   vf_affine w;
   world_of(st, &l->mName, &w);
   vf_vec3 color = vf_vec3_make(l->mColorDiffuse.r, l->mColorDiffuse.g, l->mColorDiffuse.b);
+  if (st->f.gltf_file && !st->photometric && (l->mType == aiLightSource_POINT || l->mType == aiLightSource_SPOT))
+    color = vf_scale(color, (float)(1.0 / VF_LUMINOUS_EFFICACY));
   if (!(vf_min_component(color) >= 0.0f && vf_max_component(color) <= FLT_MAX))
     return vf_scene_fail(c, VF_ESCENE, st->f.what, "light '%s' has a negative or non-finite intensity", l->mName.data);
   double p[3] = {l->mPosition.x, l->mPosition.y, l->mPosition.z}, dir[3] = {l->mDirection.x, l->mDirection.y, l->mDirection.z};
@@ -324,8 +335,17 @@ static int import_contents(const parse_ctx *c, import_state *st, const cJSON *ca
       (err = vf_scene_note(c, "%s: materials with Kd + Ks above 1 are scaled down to 1 (the largest sum: %g)",
                            st->f.file, (double)st->kd_ks_largest)) < 0)
     return err;
+  int punctual_before = c->scene->num_point_lights;
   for (unsigned i = 0; i < ai->mNumLights; i++)
     if ((err = import_light(c, st, ai->mLights[i])) < 0) return err;
+  int emits = 0;
+  for (unsigned k = 0; k < ai->mNumMaterials; k++) emits |= st->material_of[k] >= 0 && !vf_is_zero(st->emission_of[k]);
+  if (st->f.gltf_file && emits && c->scene->num_point_lights > punctual_before &&
+      (err = vf_scene_note(c, "%s: light units: %s", st->f.file,
+                           st->photometric ? "punctual lights in candela beside emission as written (photometric)"
+                                           : "punctual lights in W/sr = candela / 683 beside emission as written "
+                                             "(Blender's reading)")) < 0)
+    return err;
   if ((err = note_cameras(c, st)) < 0) return err;
   if (camera_sel != NULL) {
     if ((err = select_camera(c, st, camera_sel, camera_path)) < 0) return err;
@@ -344,7 +364,7 @@ static int import_contents(const parse_ctx *c, import_state *st, const cJSON *ca
 
 static int import_entry(const parse_ctx *c, const cJSON *j, int index, int json_materials, int *camera_wanted,
                         int selects_here) {
-  static const char *const fields[] = {"file", "transform", "camera", NULL};
+  static const char *const fields[] = {"file", "transform", "camera", "light_units", NULL};
   char path[PATH_LEN], fpath[PATH_LEN], cpath[PATH_LEN], what[PATH_LEN + 80], dir[PATH_LEN];
   const char *file;
   const cJSON *tj, *camera_sel = NULL;
@@ -357,6 +377,11 @@ static int import_entry(const parse_ctx *c, const cJSON *j, int index, int json_
   if (vf_scene_member(c, j, path, "transform", OPTIONAL, &tj) &&
       (err = vf_scene_parse_transform(c, tj, vf_scene_join(cpath, path, "transform"), &root)) < 0)
     return err;
+  const char *units = "blender";
+  if ((err = vf_scene_string_field(c, j, path, "light_units", OPTIONAL, &units)) < 0) return err;
+  if (strcmp(units, "blender") != 0 && strcmp(units, "photometric") != 0)
+    return vf_scene_fail(c, VF_ESCENE, vf_scene_join(cpath, path, "light_units"),
+                         "expected \"blender\" or \"photometric\", found '%s'", units);
   int model = is_model_scene(c, file);
   vf_scene_join(cpath, path, "camera");
   if (vf_scene_member(c, j, path, "camera", OPTIONAL, &camera_sel) && !*camera_wanted)
@@ -368,7 +393,7 @@ static int import_entry(const parse_ctx *c, const cJSON *j, int index, int json_
   snprintf(dir, sizeof dir, "%.*s", slash ? (int)(slash - file) : 0, file);
   import_state st = {.f = {.c = c, .file = file, .what = model ? NULL : what, .dir = dir,
                            .gltf_file = vf_gltf_is_gltf(file)},
-                     .root = &root, .json_materials = json_materials};
+                     .root = &root, .json_materials = json_materials, .photometric = units[0] == 'p'};
   st.f.kd_ks_largest = &st.kd_ks_largest;
   if ((err = vf_scene_import_file(c, file, model ? NULL : fpath, st.f.what, &st.f.ai)) < 0) return err;
   if (st.f.gltf_file) err = vf_gltf_read_info(c, file, st.f.what, &st.f.gltf);

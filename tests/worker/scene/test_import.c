@@ -264,17 +264,35 @@ static void test_gltf_lights_point_spot_directional(void) {
     const vf_point_light_desc *p = &s->point_lights[0], *spot = &s->point_lights[1];
     CHECK(!p->is_spot);
     CHECK_VEC(p->position, 1, 2, 3, 1e-6);
-    CHECK_VEC(p->intensity, 100, 50, 25, 1e-4); /* candela read as W/sr */
+    CHECK_VEC(p->intensity, 100 / 683.0, 50 / 683.0, 25 / 683.0, 1e-7); /* Blender's reading: W/sr = cd / 683 */
     CHECK(spot->is_spot);
     CHECK_VEC(spot->position, 0, 5, 0, 1e-6);
     CHECK_VEC(spot->direction, 0, -1, 0, 1e-6);
-    CHECK_VEC(spot->intensity, 50, 50, 50, 1e-4);
+    CHECK_VEC(spot->intensity, 50 / 683.0, 50 / 683.0, 50 / 683.0, 1e-7);
     CHECK_NEAR(spot->inner_cone_angle, 0.2, 1e-6); /* half-angles, as glTF */
     CHECK_NEAR(spot->outer_cone_angle, 0.5, 1e-6);
     CHECK_VEC(s->directional_lights[0].direction, 0, -1, 0, 1e-6);
-    CHECK_VEC(s->directional_lights[0].irradiance, 3, 3, 3, 1e-6); /* lux read as W/m^2 */
+    CHECK_VEC(s->directional_lights[0].irradiance, 3, 3, 3, 1e-6); /* lux read as W/m^2, as Blender's sun */
+  }
+  /* The file has an emitter beside its punctual lights: the reading is printed. */
+  CHECK_STR_CONTAINS(s ? s->notes : NULL, "model.gltf: light units: punctual lights in W/sr = candela / 683 beside "
+                                          "emission as written (Blender's reading)");
+  vf_scene_destroy(s);
+  /* "light_units": "photometric" reads candela as written, beside the same emission. */
+  const char json[] = "{\"import\": [{\"file\": \"model.gltf\", \"light_units\": \"photometric\"}]}";
+  write_file("photometric.json", json, sizeof json - 1);
+  s = load("photometric.json", NULL);
+  if (s != NULL && s->num_point_lights == 2) {
+    CHECK_VEC(s->point_lights[0].intensity, 100, 50, 25, 1e-4);
+    CHECK_VEC(s->directional_lights[0].irradiance, 3, 3, 3, 1e-6);
+    CHECK_STR_CONTAINS(s->notes, "punctual lights in candela beside emission as written (photometric)");
   }
   vf_scene_destroy(s);
+  const char bad[] = "{\"import\": [{\"file\": \"model.gltf\", \"light_units\": \"lumens\"}]}";
+  write_file("bad_units.json", bad, sizeof bad - 1);
+  char detail[512];
+  CHECK_INT_EQ(load_error("bad_units.json", NULL, detail, sizeof detail), VF_ESCENE);
+  CHECK_STR_CONTAINS(detail, "import[0].light_units: expected \"blender\" or \"photometric\", found 'lumens'");
 }
 
 static void test_gltf_materials_every_parameter_and_texture_slot(void) {
