@@ -173,6 +173,11 @@ const material_case ROUGH_MATERIALS[] = {
     {"gltf metal", {.gltf = 1, .base_color = RGB(0.95f, 0.65f, 0.3f), .metallic = 1.0f, .roughness = 0.3f}, 0},
     {"gltf half-metal", {.gltf = 1, .base_color = RGB(0.5f, 0.7f, 0.9f), .metallic = 0.5f, .roughness = 0.8f}, 0},
     {"gltf smooth", {.gltf = 1, .base_color = RGB(0.7f, 0.7f, 0.7f), .metallic = 0.2f, .roughness = 0.02f}, 0},
+    /* KHR_materials_specular: a coloured F0 (blue above 1, clamped), F90 0.6 */
+    {"gltf specular colour",
+     {.gltf = 1, .base_color = RGB(0.6f, 0.5f, 0.4f), .metallic = 0.3f, .roughness = 0.35f, .specular_set = 1,
+      .specular = 0.6f, .specular_f0 = RGB(0.2f, 0.06f, 1.5f)},
+     0},
     {"diffuse+conductor",
      {.diffuse = RGB(0.3f, 0.2f, 0.1f), .conductor = RGB(0.6f, 0.6f, 0.6f), .roughness = 0.4f},
      0},
