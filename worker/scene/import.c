@@ -44,18 +44,13 @@ typedef struct {
   int took_camera;        /* this file gave the scene its camera */
   float kd_ks_largest;    /* f.kd_ks_largest points here */
   int photometric;        /* the entry's "light_units": "photometric" (import_light) */
+  vf_name_index json_names; /* of materials [0, json_materials) */
 } import_state;
 
 /* Lumens per watt of 555 nm light: KHR_lights_punctual's candela over Blender's W/sr. */
 #define VF_LUMINOUS_EFFICACY 683.0
 
 /* ---- materials ------------------------------------------------------------------------------- */
-
-static int json_material(const vf_scene *s, int json_materials, const char *name) {
-  for (int i = 0; i < json_materials; i++)
-    if (strcmp(s->materials[i].name, name) == 0) return i;
-  return -1;
-}
 
 /* The scene material of aiMaterial k: made on first use, or the JSON's of the same name. */
 static int material_for(const parse_ctx *c, import_state *st, unsigned k, int *out) {
@@ -70,7 +65,7 @@ static int material_for(const parse_ctx *c, import_state *st, unsigned k, int *o
   struct aiString name;
   int j = -1;
   if (aiGetMaterialString(st->f.ai->mMaterials[k], AI_MATKEY_NAME, &name) == aiReturn_SUCCESS && name.length > 0)
-    j = json_material(s, st->json_materials, name.data);
+    j = vf_name_index_find(&st->json_names, name.data);
   if (j < 0) {
     vf_material m;
     int err = vf_scene_import_material(c, &st->f, k, &m, &st->emission_of[k]);
@@ -401,11 +396,13 @@ static int import_entry(const parse_ctx *c, const cJSON *j, int index, int json_
   st.material_of = malloc((nm ? nm : 1) * sizeof *st.material_of);
   st.emission_of = calloc(nm ? nm : 1, sizeof *st.emission_of);
   if (err == VF_OK && (st.material_of == NULL || st.emission_of == NULL)) err = vf_error_set(VF_ENOMEM, "out of memory");
+  if (err == VF_OK) err = vf_name_index_build(c->scene, json_materials, &st.json_names);
   for (unsigned k = 0; err == VF_OK && k < nm; k++) st.material_of[k] = -1;
   int take_first = *camera_wanted && selects_here < 0;
   if (err == VF_OK)
     err = import_contents(c, &st, selects_here == index ? camera_sel : NULL, cpath, take_first);
   if (err == VF_OK && st.took_camera) *camera_wanted = 0;
+  vf_name_index_release(&st.json_names);
   free(st.material_of);
   free(st.emission_of);
   vf_gltf_info_release(&st.f.gltf);
