@@ -97,9 +97,7 @@ static int import_instance(void *user, const struct aiNode *node, unsigned mesh_
   vf_affine a;
   vf_shape *s = NULL;
   int material = 0, err;
-  unsigned triangles = 0;
-  for (unsigned f = 0; f < mesh->mNumFaces; f++) triangles += mesh->mFaces[f].mNumIndices == 3;
-  if (triangles == 0) return VF_OK; /* points and lines only: not a surface */
+  if (vf_scene_mesh_triangles(mesh) == 0) return VF_OK; /* points and lines only: not a surface */
   if ((err = material_for(c, st, mesh->mMaterialIndex, &material)) < 0) return err;
   a = *world; /* the walk started from the entry's transform */
   if ((err = add_shape(c->scene, &s)) < 0) return err;

@@ -93,12 +93,89 @@ static int join_vertices(const char *name, const struct aiScene *ai) {
   return 0;
 }
 
+/* ---- polygons ------------------------------------------------------------------------------ */
+
+uint64_t vf_scene_mesh_triangles(const struct aiMesh *mesh) {
+  uint64_t n = 0;
+  for (unsigned f = 0; f < mesh->mNumFaces; f++)
+    if (mesh->mFaces[f].mNumIndices >= 3) n += mesh->mFaces[f].mNumIndices - 2;
+  return n;
+}
+
+/* Whether polygon `face` (indices checked in range) is planar and convex: every turn of its
+ * boundary on the same side about its Newell normal, the turns summing to one revolution
+ * (a star's sum to several), every vertex within 1e-4 of the polygon's size of its plane. */
+static int convex_planar(const struct aiMesh *mesh, const struct aiFace *face) {
+  const unsigned n = face->mNumIndices;
+  double nx = 0, ny = 0, nz = 0, size = 0;
+  const struct aiVector3D *v = mesh->mVertices, *p0 = &v[face->mIndices[0]];
+  for (unsigned k = 0; k < n; k++) {
+    const struct aiVector3D *a = &v[face->mIndices[k]], *b = &v[face->mIndices[(k + 1) % n]];
+    nx += ((double)a->y - b->y) * ((double)a->z + b->z);
+    ny += ((double)a->z - b->z) * ((double)a->x + b->x);
+    nz += ((double)a->x - b->x) * ((double)a->y + b->y);
+    size = fmax(size, fabs((double)a->x - p0->x) + fabs((double)a->y - p0->y) + fabs((double)a->z - p0->z));
+  }
+  double len = sqrt(nx * nx + ny * ny + nz * nz), turning = 0.0;
+  if (!(len > 0.0)) return 0;
+  nx /= len, ny /= len, nz /= len;
+  for (unsigned k = 0; k < n; k++) {
+    const struct aiVector3D *a = &v[face->mIndices[k]], *b = &v[face->mIndices[(k + 1) % n]],
+                            *d = &v[face->mIndices[(k + 2) % n]];
+    if (fabs(((double)a->x - p0->x) * nx + ((double)a->y - p0->y) * ny + ((double)a->z - p0->z) * nz) > 1e-4 * size)
+      return 0;
+    double e1[3] = {(double)b->x - a->x, (double)b->y - a->y, (double)b->z - a->z};
+    double e2[3] = {(double)d->x - b->x, (double)d->y - b->y, (double)d->z - b->z};
+    double cx = e1[1] * e2[2] - e1[2] * e2[1], cy = e1[2] * e2[0] - e1[0] * e2[2], cz = e1[0] * e2[1] - e1[1] * e2[0];
+    double sine = cx * nx + cy * ny + cz * nz, cosine = e1[0] * e2[0] + e1[1] * e2[1] + e1[2] * e2[2];
+    if (sine < -1e-9 * (fabs(cosine) + fabs(sine) + 1e-300)) return 0;
+    turning += atan2(sine, cosine);
+  }
+  return fabs(turning - 2.0 * M_PI) < 1e-3;
+}
+
+/* Faces of up to VF_MAX_POLYGON_VERTICES vertices go through Assimp's triangulation (ear
+ * clipping, quadratic in a face's size: 0.1 s at 4,000 vertices, 7 s at 32,000, and a
+ * 100,000-vertex face never ends). A file with a larger face is triangulated here as fans,
+ * in linear time, which needs every polygon of the file convex and planar: refused
+ * otherwise, naming the face. */
+static int triangulate(const parse_ctx *c, const char *what, const struct aiScene **ai) {
+  unsigned largest = 0;
+  for (unsigned m = 0; m < (*ai)->mNumMeshes; m++)
+    for (unsigned f = 0; f < (*ai)->mMeshes[m]->mNumFaces; f++)
+      if ((*ai)->mMeshes[m]->mFaces[f].mNumIndices > largest) largest = (*ai)->mMeshes[m]->mFaces[f].mNumIndices;
+  char why[256];
+  if (largest <= 3) return VF_OK;
+  if (largest <= VF_MAX_POLYGON_VERTICES) {
+    if ((*ai = aiApplyPostProcessing(*ai, aiProcess_Triangulate)) == NULL) /* released on failure */
+      return vf_scene_fail(c, VF_EMESH, what, "triangulation failed: %s", assimp_error(why, sizeof why));
+    return VF_OK;
+  }
+  for (unsigned m = 0; m < (*ai)->mNumMeshes; m++) {
+    const struct aiMesh *mesh = (*ai)->mMeshes[m];
+    for (unsigned f = 0; f < mesh->mNumFaces; f++) {
+      const struct aiFace *face = &mesh->mFaces[f];
+      if (face->mNumIndices <= 3) continue;
+      for (unsigned k = 0; k < face->mNumIndices; k++)
+        if (face->mIndices[k] >= mesh->mNumVertices)
+          return vf_scene_fail(c, VF_EMESH, what, "face %u of mesh %u has an out-of-range vertex index", f, m);
+      if (!convex_planar(mesh, face))
+        return vf_scene_fail(c, VF_EMESH, what,
+                             "face %u of mesh %u (%u vertices) is not a convex planar polygon, and the file has a face of "
+                             "%u vertices: faces of more than %d vertices are triangulated as fans, which needs every "
+                             "polygon of the file convex (triangulate the file before import)",
+                             f, m, face->mNumIndices, largest, VF_MAX_POLYGON_VERTICES);
+    }
+  }
+  return VF_OK;
+}
+
 int vf_scene_import_file(const parse_ctx *c, const char *file, const char *fpath, const char *what,
                          const struct aiScene **out) {
   char full[4096], why[256];
   const struct aiScene *ai = NULL;
   int err;
-  const unsigned flags = aiProcess_Triangulate;
+  const unsigned flags = 0; /* triangulate() below */
   const vf_scene_memfile *mf = find_memfile(c, file);
   if (mf != NULL) {
     const char *dot = strrchr(mf->name, '.');
@@ -118,8 +195,8 @@ int vf_scene_import_file(const parse_ctx *c, const char *file, const char *fpath
     aiReleaseImport(ai);
     return vf_scene_fail(c, VF_EMESH, what, "the file contains no mesh");
   }
-  if ((err = check_values(c, what, ai)) < 0) {
-    aiReleaseImport(ai);
+  if ((err = check_values(c, what, ai)) < 0 || (err = triangulate(c, what, &ai)) < 0) {
+    if (ai != NULL) aiReleaseImport(ai);
     return err;
   }
   /* On failure Assimp has released the scene. */
@@ -280,8 +357,7 @@ static void copy_vertices(const struct aiMesh *mesh, vf_shape *s, uint32_t v0) {
 
 int vf_scene_append_mesh(const parse_ctx *c, const char *what, const struct aiMesh *mesh, unsigned mesh_index,
                          const vf_affine *a, vf_shape *s, unsigned *dropped) {
-  uint64_t nt = 0;
-  for (unsigned f = 0; f < mesh->mNumFaces; f++) nt += mesh->mFaces[f].mNumIndices == 3;
+  uint64_t nt = vf_scene_mesh_triangles(mesh);
   uint64_t nv = (uint64_t)s->num_vertices + mesh->mNumVertices, nt_all = (uint64_t)s->num_triangles + nt;
   if (nv > UINT32_MAX / 4 || nt_all > UINT32_MAX / 3)
     return vf_scene_fail(c, VF_EMESH, what, "too many vertices or triangles");
@@ -297,16 +373,19 @@ int vf_scene_append_mesh(const parse_ctx *c, const char *what, const struct aiMe
     return err;
   uint32_t v0 = s->num_vertices, t0 = s->num_triangles, t = t0;
   copy_vertices(mesh, s, v0);
-  /* Points and lines (mNumIndices < 3) are not surfaces: left out. */
+  /* Points and lines (mNumIndices < 3) are not surfaces: left out. Polygons are left only
+   * in files with a face too large for Assimp's triangulation, all convex: fans. */
   for (unsigned f = 0; f < mesh->mNumFaces; f++) {
     const struct aiFace *face = &mesh->mFaces[f];
-    if (face->mNumIndices != 3) continue;
-    for (int k = 0; k < 3; k++) {
+    if (face->mNumIndices < 3) continue;
+    for (unsigned k = 0; k < face->mNumIndices; k++)
       if (face->mIndices[k] >= mesh->mNumVertices)
         return vf_scene_fail(c, VF_EMESH, what, "face %u of mesh %u has an out-of-range vertex index", f, mesh_index);
-      s->indices[3 * t + k] = v0 + face->mIndices[k];
+    for (unsigned k = 1; k + 1 < face->mNumIndices; k++, t++) {
+      s->indices[3 * t] = v0 + face->mIndices[0];
+      s->indices[3 * t + 1] = v0 + face->mIndices[k];
+      s->indices[3 * t + 2] = v0 + face->mIndices[k + 1];
     }
-    t++;
   }
   s->num_vertices = (uint32_t)nv;
   s->num_triangles = t;

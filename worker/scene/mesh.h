@@ -21,13 +21,19 @@ struct aiNode;
 struct aiMatrix4x4;
 
 /* Imports `file` (memfile, farm job file or relative to the scene's directory) through
- * Assimp, triangulated; every position, normal, tangent and channel-0 texture coordinate
+ * Assimp, triangulated (faces above VF_MAX_POLYGON_VERTICES: see there); every position, normal, tangent and channel-0 texture coordinate
  * checked finite and every normal non-zero before identical vertices are joined. Errors
  * name `fpath` (the field naming the file) for opening and reading, `what` (the file) for
  * its content; either may be NULL (then only the scene label). *out (aiReleaseImport) on
  * success only. */
 int vf_scene_import_file(const parse_ctx *c, const char *file, const char *fpath, const char *what,
                          const struct aiScene **out);
+
+/* Faces of more vertices than this are not given to Assimp's triangulation (quadratic):
+ * the file is triangulated as fans if all its polygons are convex, else refused. */
+#define VF_MAX_POLYGON_VERTICES 4096
+/* Triangles of an imported mesh: n - 2 per face of n >= 3 vertices. */
+uint64_t vf_scene_mesh_triangles(const struct aiMesh *mesh);
 
 /* An affine map in double: rows of p' = M p + t, the translation in column 3. */
 typedef struct {

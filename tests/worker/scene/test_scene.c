@@ -11,6 +11,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
+#include <time.h>
 #include <unistd.h>
 
 #define SCENES VF_SOURCE_DIR "/tests/scenes"
@@ -595,7 +596,57 @@ static void test_missing_scene_file_and_unknown_builtin(void) {
   vf_scene_destroy(NULL);
 }
 
+/* 200,000 materials and 20,000 shapes load in linear-logarithmic time (issue 41: the
+ * duplicate-key check and the name lookups were quadratic, over 60 s). The bound is the
+ * test's: 20 s on a loaded machine where the load takes about a second. */
+static void test_many_materials_load_in_n_log_n(void) {
+  enum { MATERIALS = 200000, SHAPES = 20000 };
+  char path[] = "/tmp/test_scene_many.XXXXXX";
+  int fd = mkstemp(path);
+  FILE *f = fd >= 0 ? fdopen(fd, "w") : NULL;
+  CHECK(f != NULL);
+  if (f == NULL) return;
+  fprintf(f, "{\"camera\": {\"position\": [0, 0, 5], \"target\": [0, 0, 0], \"fov\": 40},\n \"materials\": {");
+  for (int i = 0; i < MATERIALS; i++) fprintf(f, "%s\"m%d\": {\"diffuse\": [0.5, 0.5, 0.5]}", i ? ", " : "", i);
+  fprintf(f, "},\n \"shapes\": [");
+  for (int i = 0; i < SHAPES; i++)
+    fprintf(f, "%s{\"type\": \"mesh\", \"material\": \"m%d\", \"positions\": [%d, 0, 0, %d, 1, 0, %d, 0, 1], \"indices\": [0, 1, 2]}",
+            i ? ", " : "", (i * 7919) % MATERIALS, i, i, i);
+  fprintf(f, "],\n \"lights\": [{\"type\": \"background\", \"radiance\": [1, 1, 1]}]}\n");
+  fclose(f);
+  struct timespec t0, t1;
+  clock_gettime(CLOCK_MONOTONIC, &t0);
+  vf_scene *s = load_ok(path);
+  clock_gettime(CLOCK_MONOTONIC, &t1);
+  double seconds = (double)(t1.tv_sec - t0.tv_sec) + 1e-9 * (double)(t1.tv_nsec - t0.tv_nsec);
+  printf("  %d materials, %d shapes: loaded in %.2f s\n", MATERIALS, SHAPES, seconds);
+  CHECK(seconds < 20.0);
+  if (s != NULL) {
+    CHECK_INT_EQ(s->num_materials, MATERIALS);
+    CHECK_INT_EQ(s->num_shapes, SHAPES);
+    CHECK_INT_EQ(s->shapes[SHAPES - 1].material, ((SHAPES - 1) * 7919) % MATERIALS); /* by name, in file order */
+    CHECK_STR_CONTAINS(s->materials[s->shapes[123].material].name, "m");
+  }
+  vf_scene_destroy(s);
+  /* A repeated key among many is still found, and named. */
+  f = fopen(path, "w");
+  if (f != NULL) {
+    fprintf(f, "{\"camera\": {\"position\": [0, 0, 5], \"target\": [0, 0, 0], \"fov\": 40},\n \"materials\": {");
+    for (int i = 0; i < 1000; i++) fprintf(f, "%s\"m%d\": {}", i ? ", " : "", i == 900 ? 17 : i);
+    fprintf(f, "},\n \"shapes\": [{\"type\": \"sphere\", \"center\": [0, 0, 0], \"radius\": 1, \"material\": \"m1\", "
+               "\"emission\": [1, 1, 1]}]}\n");
+    fclose(f);
+    s = NULL;
+    int err = vf_scene_load(path, &s);
+    CHECK_INT_EQ(err, VF_ESCENE);
+    CHECK_STR_CONTAINS(vf_error_detail(err), "materials.m17: duplicate field");
+    vf_scene_destroy(s);
+  }
+  unlink(path);
+}
+
 int main(void) {
+  RUN(test_many_materials_load_in_n_log_n);
   RUN(test_every_builtin_loads_with_sane_bounds);
   RUN(test_cornell_walls_face_inwards_and_light_faces_down);
   RUN(test_cornell_variants_have_their_lights);
