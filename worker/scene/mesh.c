@@ -104,7 +104,10 @@ uint64_t vf_scene_mesh_triangles(const struct aiMesh *mesh) {
 
 /* Whether polygon `face` (indices checked in range) is planar and convex: every turn of its
  * boundary on the same side about its Newell normal, the turns summing to one revolution
- * (a star's sum to several), every vertex within 1e-4 of the polygon's size of its plane. */
+ * (a star's sum to several), every vertex within 1e-4 of the polygon's size of its plane.
+ * A turn the other way counts as straight when it lies within what rounding the vertices
+ * to floats can make of a straight one (a circle of 100,000 vertices has turns of 6e-5 rad
+ * and edges not much longer than the floats' spacing). */
 static int convex_planar(const struct aiMesh *mesh, const struct aiFace *face) {
   const unsigned n = face->mNumIndices;
   double nx = 0, ny = 0, nz = 0, size = 0;
@@ -128,7 +131,8 @@ static int convex_planar(const struct aiMesh *mesh, const struct aiFace *face) {
     double e2[3] = {(double)d->x - b->x, (double)d->y - b->y, (double)d->z - b->z};
     double cx = e1[1] * e2[2] - e1[2] * e2[1], cy = e1[2] * e2[0] - e1[0] * e2[2], cz = e1[0] * e2[1] - e1[1] * e2[0];
     double sine = cx * nx + cy * ny + cz * nz, cosine = e1[0] * e2[0] + e1[1] * e2[1] + e1[2] * e2[2];
-    if (sine < -1e-9 * (fabs(cosine) + fabs(sine) + 1e-300)) return 0;
+    double l1 = sqrt(e1[0] * e1[0] + e1[1] * e1[1] + e1[2] * e1[2]), l2 = sqrt(e2[0] * e2[0] + e2[1] * e2[1] + e2[2] * e2[2]);
+    if (sine < -8.0 * FLT_EPSILON * size * (l1 + l2)) return 0; /* sin(turn) l1 l2 >= -8 eps size (1/l1 + 1/l2) l1 l2 */
     turning += atan2(sine, cosine);
   }
   return fabs(turning - 2.0 * M_PI) < 1e-3;

@@ -15,6 +15,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 #include <unistd.h>
 
 /* ---- fixtures ---------------------------------------------------------------------------- */
@@ -565,6 +566,60 @@ static void test_gltf_texture_transform_read_per_slot(void) {
   vf_scene_destroy(s);
 }
 
+/* An OBJ face of n vertices on the unit circle (star: every other vertex at radius 0.4). */
+static void write_polygon_obj(const char *name, int n, int star) {
+  char p[256];
+  path_of(p, sizeof p, name);
+  FILE *f = fopen(p, "w");
+  CHECK(f != NULL);
+  if (f == NULL) return;
+  for (int i = 0; i < n; i++) {
+    double r = star && i % 2 ? 0.4 : 1.0, a = 2.0 * M_PI * i / n;
+    fprintf(f, "v %.9f %.9f 0\n", r * cos(a), r * sin(a));
+  }
+  fprintf(f, "f");
+  for (int i = 1; i <= n; i++) fprintf(f, " %d", i);
+  fprintf(f, "\n");
+  fclose(f);
+}
+
+/* A 100,000-vertex OBJ face (issue 41: Assimp's ear clipping never ended) loads in linear
+ * time as a fan: n - 2 triangles covering the polygon's area (n/2) sin(2 pi / n) exactly; a
+ * large face that is not convex is refused naming the file and the face; a non-convex
+ * face below the bound still goes through Assimp's triangulation. */
+static void test_obj_huge_face_is_a_fan_or_refused(void) {
+  enum { N = 100000 };
+  write_polygon_obj("disc.obj", N, 0);
+  struct timespec t0, t1;
+  clock_gettime(CLOCK_MONOTONIC, &t0);
+  vf_scene *s = load("disc.obj", NULL);
+  clock_gettime(CLOCK_MONOTONIC, &t1);
+  double seconds = (double)(t1.tv_sec - t0.tv_sec) + 1e-9 * (double)(t1.tv_nsec - t0.tv_nsec);
+  printf("  a face of %d vertices: loaded in %.2f s\n", N, seconds);
+  CHECK(seconds < 20.0);
+  if (s != NULL && s->num_shapes == 1) {
+    const vf_shape *sh = &s->shapes[0];
+    CHECK_INT_EQ(sh->num_triangles, N - 2);
+    double area = 0.0;
+    for (uint32_t t = 0; t < sh->num_triangles; t++) {
+      const float *a = &sh->positions[3 * sh->indices[3 * t]], *b = &sh->positions[3 * sh->indices[3 * t + 1]],
+                  *c = &sh->positions[3 * sh->indices[3 * t + 2]];
+      area += 0.5 * (((double)b[0] - a[0]) * ((double)c[1] - a[1]) - ((double)b[1] - a[1]) * ((double)c[0] - a[0]));
+    }
+    CHECK_NEAR(area, 0.5 * N * sin(2.0 * M_PI / N), 1e-6);
+  }
+  vf_scene_destroy(s);
+  char detail[1024];
+  write_polygon_obj("star.obj", 5000, 1);
+  CHECK_INT_EQ(load_error("star.obj", NULL, detail, sizeof detail), VF_EMESH);
+  CHECK_STR_CONTAINS(detail, "star.obj");
+  CHECK_STR_CONTAINS(detail, "face 0 of mesh 0 (5000 vertices) is not a convex planar polygon");
+  write_polygon_obj("small_star.obj", 100, 1);
+  s = load("small_star.obj", NULL);
+  if (s != NULL) CHECK_INT_EQ(s->shapes[0].num_triangles, 98);
+  vf_scene_destroy(s);
+}
+
 /* ---- the glTF sample models of Debian's assimp-testmodels --------------------------------------- */
 
 static void test_assimp_testmodels_glTF2_load_with_notes(void) {
@@ -610,6 +665,7 @@ int main(void) {
   RUN(test_bad_files_are_refused_naming_file_and_problem);
   RUN(test_obj_kd_ks_noted_once_with_the_largest_sum);
   RUN(test_gltf_texture_transform_read_per_slot);
+  RUN(test_obj_huge_face_is_a_fan_or_refused);
   RUN(test_assimp_testmodels_glTF2_load_with_notes);
   if (getenv("KEEP_TMP") == NULL) remove_dir();
   else printf("kept %s\n", dir);
