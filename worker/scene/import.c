@@ -40,7 +40,7 @@ typedef struct {
   int json_materials;     /* materials [0, json_materials) are the JSON's: they override by name */
   int *material_of;       /* aiMaterial index -> scene material, -1 not made yet */
   vf_vec3 *emission_of;   /* aiMaterial index -> its emission */
-  unsigned dropped;
+  vf_mesh_tally tally;
   int took_camera;        /* this file gave the scene its camera */
   float kd_ks_largest;    /* f.kd_ks_largest points here */
   int photometric;        /* the entry's "light_units": "photometric" (import_light) */
@@ -103,7 +103,7 @@ static int import_instance(void *user, const struct aiNode *node, unsigned mesh_
   if ((err = add_shape(c->scene, &s)) < 0) return err;
   s->kind = VF_SHAPE_MESH;
   s->material = material;
-  if ((err = vf_scene_append_mesh(c, st->f.what, mesh, mesh_index, &a, s, &st->dropped)) < 0) return err;
+  if ((err = vf_scene_append_mesh(c, st->f.what, mesh, mesh_index, &a, s, &st->tally)) < 0) return err;
   const char *name = mesh->mName.length ? mesh->mName.data : node->mName.data;
   snprintf(s->name, sizeof s->name, "%.63s", name[0] ? name : st->f.file); /* names only name: cut is fine */
   s->emission = st->emission_of[mesh->mMaterialIndex];
@@ -323,7 +323,7 @@ static int import_contents(const parse_ctx *c, import_state *st, const cJSON *ca
   const struct aiScene *ai = st->f.ai;
   int err;
   if ((err = vf_scene_walk_nodes(c, st->f.what, ai, st->root, import_instance, st)) < 0) return err;
-  if ((err = vf_scene_note_dropped(c, st->f.file, st->dropped)) < 0) return err;
+  if ((err = vf_scene_note_dropped(c, st->f.file, &st->tally)) < 0) return err;
   if (st->kd_ks_largest > 0.0f &&
       (err = vf_scene_note(c, "%s: materials with Kd + Ks above 1 are scaled down to 1 (the largest sum: %g)",
                            st->f.file, (double)st->kd_ks_largest)) < 0)

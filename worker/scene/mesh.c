@@ -45,10 +45,10 @@ static const vf_scene_memfile *find_memfile(const parse_ctx *c, const char *file
 
 static int finite3(const struct aiVector3D *v) { return isfinite(v->x) && isfinite(v->y) && isfinite(v->z); }
 
-/* Every position, normal and channel-0 texture coordinate finite, every normal non-zero.
- * Runs before identical vertices are joined: Assimp's spatial sort merges a NaN vertex
- * into a neighbour and the bad value would vanish unnoticed. Vertices are counted across
- * the file's meshes in order, as the messages name them. */
+/* Every position and texture coordinate finite. Runs before identical vertices are
+ * joined: Assimp's spatial sort merges a NaN vertex into a neighbour and the bad value
+ * would vanish unnoticed. Vertices are counted across the file's meshes in order, as the
+ * messages name them. Normals and tangents are repaired instead (repair_mesh). */
 static int check_values(const parse_ctx *c, const char *what, const struct aiScene *ai) {
   uint64_t vertex = 0;
   for (unsigned m = 0; m < ai->mNumMeshes; m++) {
@@ -56,22 +56,158 @@ static int check_values(const parse_ctx *c, const char *what, const struct aiSce
     for (unsigned v = 0; v < mesh->mNumVertices; v++, vertex++) {
       const char *bad = NULL;
       if (!finite3(&mesh->mVertices[v])) bad = "a non-finite coordinate";
-      else if (mesh->mNormals && !finite3(&mesh->mNormals[v])) bad = "a non-finite normal";
-      else if (mesh->mNormals && mesh->mNormals[v].x == 0 && mesh->mNormals[v].y == 0 && mesh->mNormals[v].z == 0)
-        bad = "a zero normal";
       else if (mesh->mTextureCoords[0] && !(isfinite(mesh->mTextureCoords[0][v].x) &&
                                              isfinite(mesh->mTextureCoords[0][v].y)))
         bad = "a non-finite texture coordinate";
       else if (mesh->mTextureCoords[1] && !(isfinite(mesh->mTextureCoords[1][v].x) &&
                                              isfinite(mesh->mTextureCoords[1][v].y)))
         bad = "a non-finite texture coordinate of set 1";
-      else if (mesh->mTangents && !finite3(&mesh->mTangents[v])) bad = "a non-finite tangent";
       if (bad != NULL)
         return vf_scene_fail(c, VF_EMESH, what, "vertex %llu has %s (vertex %u of mesh %u%s%s%s)",
                              (unsigned long long)vertex, bad, v, m, mesh->mName.length ? ", '" : "",
                              mesh->mName.data, mesh->mName.length ? "'" : "");
     }
   }
+  return VF_OK;
+}
+
+/* ---- repairing normals and tangents ------------------------------------------------------- */
+
+typedef struct {
+  uint64_t normals;    /* zero or not finite: from the faces */
+  uint64_t unit;       /* finite, non-zero, length off 1 by more than 1e-3: normalised */
+  uint64_t tangents;   /* zero, not finite or along the normal: from the faces */
+} repairs;
+
+static double length3(const struct aiVector3D *v) { return sqrt((double)v->x * v->x + (double)v->y * v->y + (double)v->z * v->z); }
+
+/* The area-weighted normal of the faces around each vertex (Newell's normal of each face,
+ * twice its area, added to its corners), into acc (3 per vertex). */
+static void face_normals(const struct aiMesh *mesh, double *acc) {
+  memset(acc, 0, 3 * sizeof(double) * mesh->mNumVertices);
+  for (unsigned f = 0; f < mesh->mNumFaces; f++) {
+    const struct aiFace *face = &mesh->mFaces[f];
+    const unsigned n = face->mNumIndices;
+    double nx = 0, ny = 0, nz = 0;
+    int ok = n >= 3;
+    for (unsigned k = 0; ok && k < n; k++) ok = face->mIndices[k] < mesh->mNumVertices;
+    if (!ok) continue; /* refused where faces are read */
+    for (unsigned k = 0; k < n; k++) {
+      const struct aiVector3D *a = &mesh->mVertices[face->mIndices[k]], *b = &mesh->mVertices[face->mIndices[(k + 1) % n]];
+      nx += ((double)a->y - b->y) * ((double)a->z + b->z);
+      ny += ((double)a->z - b->z) * ((double)a->x + b->x);
+      nz += ((double)a->x - b->x) * ((double)a->y + b->y);
+    }
+    for (unsigned k = 0; k < n; k++) {
+      double *o = &acc[3 * (size_t)face->mIndices[k]];
+      o[0] += nx, o[1] += ny, o[2] += nz;
+    }
+  }
+}
+
+/* A unit vector along (x, y, z), or any unit vector orthogonal to `normal` when it has none. */
+static struct aiVector3D unit_or_orthogonal(double x, double y, double z, const struct aiVector3D *normal) {
+  double len = sqrt(x * x + y * y + z * z);
+  struct aiVector3D out;
+  if (len > 0.0 && isfinite(len)) {
+    out.x = (ai_real)(x / len), out.y = (ai_real)(y / len), out.z = (ai_real)(z / len);
+    return out;
+  }
+  /* the axis least along the normal, made orthogonal to it */
+  double n[3] = {normal->x, normal->y, normal->z}, e[3] = {0, 0, 0};
+  int k = fabs(n[0]) <= fabs(n[1]) && fabs(n[0]) <= fabs(n[2]) ? 0 : fabs(n[1]) <= fabs(n[2]) ? 1 : 2;
+  e[k] = 1.0;
+  double d = e[0] * n[0] + e[1] * n[1] + e[2] * n[2];
+  x = e[0] - d * n[0], y = e[1] - d * n[1], z = e[2] - d * n[2];
+  len = sqrt(x * x + y * y + z * z);
+  out.x = (ai_real)(x / len), out.y = (ai_real)(y / len), out.z = (ai_real)(z / len);
+  return out;
+}
+
+/* The direction of increasing s on a face around vertex v (its first corner of v with
+ * usable uvs), orthogonal to normal; zero when no face has one. */
+static void face_tangent(const struct aiMesh *mesh, unsigned v, const struct aiVector3D *normal, double t[3]) {
+  t[0] = t[1] = t[2] = 0.0;
+  const struct aiVector3D *uv = mesh->mTextureCoords[0];
+  for (unsigned f = 0; uv && f < mesh->mNumFaces; f++) {
+    const struct aiFace *face = &mesh->mFaces[f];
+    const unsigned n = face->mNumIndices;
+    for (unsigned k = 0; n >= 3 && k < n; k++) {
+      if (face->mIndices[k] != v) continue;
+      unsigned i0 = v, i1 = face->mIndices[(k + 1) % n], i2 = face->mIndices[(k + n - 1) % n];
+      if (i1 >= mesh->mNumVertices || i2 >= mesh->mNumVertices) continue;
+      const struct aiVector3D *p = mesh->mVertices;
+      double ds1 = uv[i1].x - uv[i0].x, dt1 = uv[i1].y - uv[i0].y, ds2 = uv[i2].x - uv[i0].x, dt2 = uv[i2].y - uv[i0].y;
+      double det = ds1 * dt2 - ds2 * dt1;
+      if (!(fabs(det) > 0.0)) continue;
+      double e1[3] = {(double)p[i1].x - p[i0].x, (double)p[i1].y - p[i0].y, (double)p[i1].z - p[i0].z};
+      double e2[3] = {(double)p[i2].x - p[i0].x, (double)p[i2].y - p[i0].y, (double)p[i2].z - p[i0].z};
+      double nn[3] = {normal->x, normal->y, normal->z}, d = 0.0;
+      for (int j = 0; j < 3; j++) t[j] = (e1[j] * dt2 - e2[j] * dt1) / det;
+      for (int j = 0; j < 3; j++) d += t[j] * nn[j];
+      for (int j = 0; j < 3; j++) t[j] -= d * nn[j];
+      if (t[0] != 0.0 || t[1] != 0.0 || t[2] != 0.0) return;
+    }
+  }
+}
+
+/* Normals that are zero or not finite become their faces' (area-weighted, as Blender
+ * recomputes them); finite ones of a length off 1 are counted (the transform normalises
+ * every normal). Tangents that are zero, not finite or along the normal become the
+ * direction of increasing s on a face of the vertex (any direction orthogonal to the
+ * normal without uvs), with the bitangent N x T. Assimp's arrays are written in place. */
+static int repair_mesh(struct aiMesh *mesh, repairs *r) {
+  if (mesh->mNormals == NULL) return VF_OK;
+  double *acc = NULL;
+  for (unsigned v = 0; v < mesh->mNumVertices; v++) {
+    struct aiVector3D *n = &mesh->mNormals[v];
+    double len = length3(n);
+    if (len > 0.0 && isfinite(len)) {
+      r->unit += fabs(len - 1.0) > 1e-3;
+      continue;
+    }
+    if (acc == NULL) {
+      if ((acc = malloc(3 * sizeof(double) * ((size_t)mesh->mNumVertices + 1))) == NULL)
+        return vf_error_set(VF_ENOMEM, "out of memory");
+      face_normals(mesh, acc);
+    }
+    const double *a = &acc[3 * (size_t)v], alen = sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2]);
+    if (alen > 0.0 && isfinite(alen)) n->x = (ai_real)(a[0] / alen), n->y = (ai_real)(a[1] / alen), n->z = (ai_real)(a[2] / alen);
+    else n->x = 0, n->y = 0, n->z = 1; /* on no face of area: its triangles are skipped, any unit normal does */
+    r->normals++;
+  }
+  free(acc);
+  for (unsigned v = 0; mesh->mTangents && v < mesh->mNumVertices; v++) {
+    struct aiVector3D *t = &mesh->mTangents[v], *n = &mesh->mNormals[v];
+    double len = length3(t), along = len > 0.0 ? fabs((t->x * n->x + t->y * n->y + t->z * n->z) / len) : 1.0;
+    if (len > 0.0 && isfinite(len) && along < 1.0 - 1e-6) continue;
+    double d[3];
+    face_tangent(mesh, v, n, d);
+    *t = unit_or_orthogonal(d[0], d[1], d[2], n);
+    if (mesh->mBitangents) {
+      struct aiVector3D *b = &mesh->mBitangents[v];
+      b->x = n->y * t->z - n->z * t->y, b->y = n->z * t->x - n->x * t->z, b->z = n->x * t->y - n->y * t->x;
+    }
+    r->tangents++;
+  }
+  return VF_OK;
+}
+
+/* Repairs every mesh of the file and notes what was repaired, once per kind. */
+static int repair_normals(const parse_ctx *c, const char *file, const struct aiScene *ai) {
+  repairs r = {0, 0, 0};
+  int err;
+  for (unsigned m = 0; m < ai->mNumMeshes; m++)
+    if ((err = repair_mesh(ai->mMeshes[m], &r)) < 0) return err;
+  if (r.normals > 0 && (err = vf_scene_note(c, "%s: %llu vertex normals that were zero or not finite were repaired from "
+                                               "their faces", file, (unsigned long long)r.normals)) < 0)
+    return err;
+  if (r.unit > 0 && (err = vf_scene_note(c, "%s: %llu vertex normals not of unit length were normalised", file,
+                                         (unsigned long long)r.unit)) < 0)
+    return err;
+  if (r.tangents > 0 && (err = vf_scene_note(c, "%s: %llu tangents that were zero, not finite or along the normal "
+                                                "were repaired from their faces", file, (unsigned long long)r.tangents)) < 0)
+    return err;
   return VF_OK;
 }
 
@@ -199,7 +335,8 @@ int vf_scene_import_file(const parse_ctx *c, const char *file, const char *fpath
     aiReleaseImport(ai);
     return vf_scene_fail(c, VF_EMESH, what, "the file contains no mesh");
   }
-  if ((err = check_values(c, what, ai)) < 0 || (err = triangulate(c, what, &ai)) < 0) {
+  if ((err = check_values(c, what, ai)) < 0 || (err = repair_normals(c, file, ai)) < 0 ||
+      (err = triangulate(c, what, &ai)) < 0) {
     if (ai != NULL) aiReleaseImport(ai);
     return err;
   }
@@ -359,14 +496,23 @@ static void copy_vertices(const struct aiMesh *mesh, vf_shape *s, uint32_t v0) {
   }
 }
 
+/* Whether the triangle (a, b, c) has no area: its edges' cross product, in double from the
+ * floats, is exactly zero. */
+static int zero_area(const struct aiVector3D *a, const struct aiVector3D *b, const struct aiVector3D *c) {
+  double e1[3] = {(double)b->x - a->x, (double)b->y - a->y, (double)b->z - a->z};
+  double e2[3] = {(double)c->x - a->x, (double)c->y - a->y, (double)c->z - a->z};
+  return e1[1] * e2[2] - e1[2] * e2[1] == 0.0 && e1[2] * e2[0] - e1[0] * e2[2] == 0.0 &&
+         e1[0] * e2[1] - e1[1] * e2[0] == 0.0;
+}
+
 int vf_scene_append_mesh(const parse_ctx *c, const char *what, const struct aiMesh *mesh, unsigned mesh_index,
-                         const vf_affine *a, vf_shape *s, unsigned *dropped) {
+                         const vf_affine *a, vf_shape *s, vf_mesh_tally *tally) {
   uint64_t nt = vf_scene_mesh_triangles(mesh);
   uint64_t nv = (uint64_t)s->num_vertices + mesh->mNumVertices, nt_all = (uint64_t)s->num_triangles + nt;
   if (nv > UINT32_MAX / 4 || nt_all > UINT32_MAX / 3)
     return vf_scene_fail(c, VF_EMESH, what, "too many vertices or triangles");
   unsigned keep;
-  *dropped |= settle_attributes(s, mesh, &keep);
+  tally->dropped |= settle_attributes(s, mesh, &keep);
   int err;
   if ((err = grow((void **)&s->positions, 3 * nv, sizeof(float))) < 0 ||
       (err = grow((void **)&s->indices, 3 * nt_all, sizeof(uint32_t))) < 0 ||
@@ -385,10 +531,16 @@ int vf_scene_append_mesh(const parse_ctx *c, const char *what, const struct aiMe
     for (unsigned k = 0; k < face->mNumIndices; k++)
       if (face->mIndices[k] >= mesh->mNumVertices)
         return vf_scene_fail(c, VF_EMESH, what, "face %u of mesh %u has an out-of-range vertex index", f, mesh_index);
-    for (unsigned k = 1; k + 1 < face->mNumIndices; k++, t++) {
-      s->indices[3 * t] = v0 + face->mIndices[0];
-      s->indices[3 * t + 1] = v0 + face->mIndices[k];
-      s->indices[3 * t + 2] = v0 + face->mIndices[k + 1];
+    for (unsigned k = 1; k + 1 < face->mNumIndices; k++) {
+      unsigned i0 = face->mIndices[0], i1 = face->mIndices[k], i2 = face->mIndices[k + 1];
+      if (zero_area(&mesh->mVertices[i0], &mesh->mVertices[i1], &mesh->mVertices[i2])) {
+        tally->degenerate++;
+        continue;
+      }
+      s->indices[3 * t] = v0 + i0;
+      s->indices[3 * t + 1] = v0 + i1;
+      s->indices[3 * t + 2] = v0 + i2;
+      t++;
     }
   }
   s->num_vertices = (uint32_t)nv;
@@ -442,17 +594,23 @@ typedef struct {
   const char *what;
   const struct aiScene *ai;
   vf_shape *s;
-  unsigned dropped;
+  vf_mesh_tally tally;
 } merge_state;
 
 static int merge_instance(void *user, const struct aiNode *node, unsigned mesh, const vf_affine *world) {
   merge_state *m = user;
   (void)node;
-  return vf_scene_append_mesh(m->c, m->what, m->ai->mMeshes[mesh], mesh, world, m->s, &m->dropped);
+  return vf_scene_append_mesh(m->c, m->what, m->ai->mMeshes[mesh], mesh, world, m->s, &m->tally);
 }
 
-int vf_scene_note_dropped(const parse_ctx *c, const char *file, unsigned dropped) {
+int vf_scene_note_dropped(const parse_ctx *c, const char *file, const vf_mesh_tally *tally) {
   int err = VF_OK;
+  unsigned dropped = tally->dropped;
+  if (tally->degenerate > 0)
+    err = vf_scene_note(c, "%s: %llu degenerate triangles (zero area) were skipped", file,
+                        (unsigned long long)tally->degenerate);
+  if ((dropped & VF_ATTR_UVS1) && err == VF_OK)
+    err = vf_scene_note(c, "%s: a second uv set only on some meshes merged into one shape: dropped", file);
   if ((dropped & VF_ATTR_NORMALS) && err == VF_OK)
     err = vf_scene_note(c, "%s: vertex normals only on some meshes merged into one shape: rendered faceted", file);
   if ((dropped & VF_ATTR_UVS) && err == VF_OK)
@@ -473,10 +631,10 @@ int vf_scene_load_mesh_file(const parse_ctx *c, const char *file, const char *pa
   if (err < 0) return err;
   vf_affine identity;
   vf_affine_identity(&identity);
-  merge_state m = {c, what, ai, s, 0};
+  merge_state m = {c, what, ai, s, {0, 0}};
   err = vf_scene_walk_nodes(c, what, ai, &identity, merge_instance, &m);
   if (err == VF_OK && s->num_triangles == 0) err = vf_scene_fail(c, VF_EMESH, what, "the file contains no triangles");
-  if (err == VF_OK) err = vf_scene_note_dropped(c, file, m.dropped);
+  if (err == VF_OK) err = vf_scene_note_dropped(c, file, &m.tally);
   aiReleaseImport(ai);
   return err;
 }

@@ -454,6 +454,42 @@ static void test_obj_bump_map_that_is_a_height_map_is_noted(void) {
   vf_scene_destroy(s);
 }
 
+/* ---- repairs -------------------------------------------------------------------------------- */
+
+/* A NaN normal is repaired from its face (Blender recomputes such normals) and counted in a
+ * note; so is a zero one (Debian's spider.obj and BoxBadNormals.glb have them); a
+ * degenerate triangle is skipped and counted. */
+static void test_bad_normals_repaired_and_degenerate_faces_skipped_with_notes(void) {
+  write_buffer(1); /* vertex 1's normal x is NaN */
+  vf_scene *s = load("model.gltf", NULL);
+  if (s != NULL) {
+    const vf_shape *tri = shape_named(s, "Tri");
+    int v1 = vertex_at(tri, 10, 2, 0); /* (1, 0, 0) turned by 90 degrees about z, scaled 2, moved by 10 */
+    if (tri && tri->normals && v1 >= 0) { /* the triangle's own normal, +z, through the node's rotation */
+      CHECK_NEAR(tri->normals[3 * v1], 0.0, 1e-6);
+      CHECK_NEAR(tri->normals[3 * v1 + 1], 0.0, 1e-6);
+      CHECK_NEAR(tri->normals[3 * v1 + 2], 1.0, 1e-6);
+    }
+    /* counted per mesh: the accessor serves the file's two meshes */
+    CHECK_STR_CONTAINS(s->notes, "model.gltf: 2 vertex normals that were zero or not finite were repaired from their faces");
+  }
+  vf_scene_destroy(s);
+  write_buffer(0);
+  const char obj[] = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 2 0 0\nvn 0 0 0\nvn 0 0 2\n"
+                     "f 1//1 2//2 3//2\nf 1//1 2//2 4//2\n"; /* the second has its corners on a line */
+  write_file("bad.obj", obj, sizeof obj - 1);
+  s = load("bad.obj", NULL);
+  if (s != NULL && s->num_shapes == 1) {
+    CHECK_INT_EQ(s->shapes[0].num_triangles, 1);
+    CHECK_STR_CONTAINS(s->notes, "bad.obj: 1 degenerate triangles (zero area) were skipped");
+    CHECK_STR_CONTAINS(s->notes, "bad.obj: 2 vertex normals that were zero or not finite were repaired from their faces");
+    CHECK_STR_CONTAINS(s->notes, "bad.obj: 4 vertex normals not of unit length were normalised");
+    for (uint32_t v = 0; s->shapes[0].normals && v < s->shapes[0].num_vertices; v++)
+      CHECK_NEAR(s->shapes[0].normals[3 * v + 2], 1.0, 1e-6);
+  }
+  vf_scene_destroy(s);
+}
+
 /* ---- bad input ------------------------------------------------------------------------------ */
 
 static void test_bad_files_are_refused_naming_file_and_problem(void) {
@@ -463,9 +499,6 @@ static void test_bad_files_are_refused_naming_file_and_problem(void) {
   CHECK_INT_EQ(load_error("model.gltf", "7", detail, sizeof detail), VF_ESCENE);
   CHECK_STR_CONTAINS(detail, "no camera '7'");
 
-  write_buffer(1);
-  CHECK_INT_EQ(load_error("model.gltf", NULL, detail, sizeof detail), VF_EMESH);
-  CHECK_STR_CONTAINS(detail, "model.gltf: vertex 1 has a non-finite normal");
   write_buffer(2);
   CHECK_INT_EQ(load_error("model.gltf", NULL, detail, sizeof detail), VF_EMESH);
   CHECK_STR_CONTAINS(detail, "model.gltf: vertex 1 has a non-finite texture coordinate");
@@ -599,7 +632,11 @@ static void test_obj_huge_face_is_a_fan_or_refused(void) {
   CHECK(seconds < 20.0);
   if (s != NULL && s->num_shapes == 1) {
     const vf_shape *sh = &s->shapes[0];
-    CHECK_INT_EQ(sh->num_triangles, N - 2);
+    /* a few fan triangles near the axes have their corners on a line in floats: skipped */
+    char note[128];
+    snprintf(note, sizeof note, "disc.obj: %u degenerate triangles (zero area) were skipped", N - 2 - sh->num_triangles);
+    if (sh->num_triangles < N - 2) CHECK_STR_CONTAINS(s->notes, note);
+    CHECK(sh->num_triangles + 64 >= N - 2);
     double area = 0.0;
     for (uint32_t t = 0; t < sh->num_triangles; t++) {
       const float *a = &sh->positions[3 * sh->indices[3 * t]], *b = &sh->positions[3 * sh->indices[3 * t + 1]],
@@ -666,6 +703,7 @@ int main(void) {
   RUN(test_obj_kd_ks_noted_once_with_the_largest_sum);
   RUN(test_gltf_texture_transform_read_per_slot);
   RUN(test_obj_huge_face_is_a_fan_or_refused);
+  RUN(test_bad_normals_repaired_and_degenerate_faces_skipped_with_notes);
   RUN(test_assimp_testmodels_glTF2_load_with_notes);
   if (getenv("KEEP_TMP") == NULL) remove_dir();
   else printf("kept %s\n", dir);
