@@ -97,6 +97,10 @@ static int import_instance(void *user, const struct aiNode *node, unsigned mesh_
   vf_affine a;
   vf_shape *s = NULL;
   int material = 0, err;
+  if (mesh->mNumVertices == 0 && st->f.gltf.uses_draco &&
+      (err = vf_scene_note(c, "%s: a Draco-compressed mesh was not decoded (Assimp without Draco): not rendered",
+                           st->f.file)) < 0)
+    return err;
   if (vf_scene_mesh_triangles(mesh) == 0) return VF_OK; /* points and lines only: not a surface */
   if ((err = material_for(c, st, mesh->mMaterialIndex, &material)) < 0) return err;
   a = *world; /* the walk started from the entry's transform */
@@ -433,29 +437,80 @@ int vf_scene_parse_imports(const parse_ctx *c, const cJSON *j, int json_material
 
 /* ---- what a scene without a camera or a light gets ----------------------------------------------- */
 
+/* The side a default camera looks from: the axis (+z, glTF's front, then +x, then +y on a
+ * tie) along which the bounds' projection has the largest area, so that a model flat in
+ * some plane is seen face on (a polygon in a plane x = const rendered blank from +z). */
+static int default_view_side(vf_vec3 extent, vf_vec3 *from, vf_vec3 *up, const char **name) {
+  const double area[3] = {(double)extent.x * extent.y, (double)extent.z * extent.y, (double)extent.x * extent.z};
+  int side = 0; /* 0: +z, 1: +x, 2: +y */
+  for (int k = 1; k < 3; k++)
+    if (area[k] > area[side]) side = k;
+  *up = vf_vec3_make(0.0f, 1.0f, 0.0f);
+  if (side == 0) { /* from the front, a little above, as a person looks at a model */
+    vf_scene_unit(vf_vec3_make(0.0f, 0.3f, 1.0f), from);
+    *name = "+z";
+  } else if (side == 1) {
+    vf_scene_unit(vf_vec3_make(1.0f, 0.3f, 0.0f), from);
+    *name = "+x";
+  } else { /* from above, the image's up along -z (the model's back) */
+    *from = vf_vec3_make(0.0f, 1.0f, 0.0f);
+    *up = vf_vec3_make(0.0f, 0.0f, -1.0f);
+    *name = "+y";
+  }
+  return side;
+}
+
 int vf_scene_default_camera(const parse_ctx *c) {
   vf_scene *s = c->scene;
-  vf_vec3 center;
+  vf_vec3 center, from, up;
   float radius;
+  const char *side;
   vf_scene_compute_bounds(s);
   vf_scene_bounding_sphere(s, &center, &radius);
   if (!(radius > 0.0f)) radius = 1.0f;
-  /* From the front (+z, glTF's front), a little above, far enough that the bounding sphere
-   * fits the 40-degree vertical field of view. */
+  default_view_side(vf_sub(s->bounds_max, s->bounds_min), &from, &up, &side);
+  /* Far enough that the bounding sphere fits the 40-degree vertical field of view. */
   const float fov = 40.0f;
-  vf_vec3 from;
-  vf_scene_unit(vf_vec3_make(0.0f, 0.3f, 1.0f), &from);
   float distance = 1.1f * radius / sinf(0.5f * fov * (float)(M_PI / 180.0));
   s->camera = (vf_camera_desc){.position = vf_add(center, vf_scale(from, distance)), .vertical_fov_degrees = fov};
   vf_scene_unit(vf_scale(from, -1.0f), &s->camera.forward);
-  vf_vec3 up = vf_vec3_make(0.0f, 1.0f, 0.0f);
   vf_scene_unit(vf_sub(up, vf_scale(s->camera.forward, vf_dot(up, s->camera.forward))), &s->camera.up);
   if (!(s->settings_given & VF_SET_RESOLUTION)) {
     s->settings.width = IMPORT_WIDTH;
     s->settings.height = IMPORT_WIDTH * 9 / 16;
     s->settings_given |= VF_SET_RESOLUTION;
   }
-  return vf_scene_note(c, "no camera: a default camera looks at the scene's bounds from +z (fov 40 degrees)");
+  return vf_scene_note(c, "no camera: a default camera looks at the scene's bounds from %s, the side of their largest "
+                          "projected area (fov 40 degrees)", side);
+}
+
+/* The power a shape emits: pi x its mean emitted radiance x its area (one side, Lambertian);
+ * a sphere's outward 4 pi r^2. Textured emission counts at its factor (an upper bound). */
+static double shape_power(const vf_shape *sh) {
+  double l = (sh->emission.x + sh->emission.y + sh->emission.z) / 3.0;
+  if (l <= 0.0) return 0.0;
+  if (sh->kind == VF_SHAPE_SPHERE) return M_PI * l * 4.0 * M_PI * (double)sh->radius * sh->radius;
+  return M_PI * l * vf_scene_mesh_area(sh);
+}
+
+int vf_scene_note_dim_emitters(const parse_ctx *c) {
+  const vf_scene *s = c->scene;
+  if (s->num_point_lights > 0 || s->num_directional_lights > 0 || !vf_is_zero(s->background) || s->envmap.width > 0)
+    return VF_OK;
+  double power = 0.0;
+  for (int i = 0; i < s->num_shapes; i++) power += shape_power(&s->shapes[i]);
+  vf_vec3 center;
+  float radius;
+  vf_scene_bounding_sphere(s, &center, &radius);
+  if (!(power > 0.0) || !(radius > 0.0f)) return VF_OK;
+  /* A white Lambertian surface spread over the bounding sphere receives the power over its
+     area: its radiance, the level the image's lit surfaces reach, is that over pi. */
+  double level = power / (4.0 * M_PI * (double)radius * radius) / M_PI;
+  if (level >= VF_DIM_LIGHT_LEVEL) return VF_OK;
+  return vf_scene_note(c, "warning: the image will be dark: the only lights are emissive surfaces of %.3g W in all, "
+                          "which light the scene's bounds (radius %.3g) to a radiance of about %.2g on a white surface "
+                          "(below %g): the emitters show, little else does (add lights or a \"background\")",
+                       power, (double)radius, level, VF_DIM_LIGHT_LEVEL);
 }
 
 int vf_scene_default_light(const parse_ctx *c) {

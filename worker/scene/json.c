@@ -552,7 +552,7 @@ static int parse_import(const parse_ctx *c, const cJSON *root, int camera_wanted
   if (s->num_shapes == 0) return vf_scene_fail(c, VF_ESCENE, NULL, "the scene has no shape (its files have no triangles)");
   if (camera_wanted && (err = vf_scene_default_camera(c)) < 0) return err;
   if (!has_light(s) && !cJSON_HasObjectItem(root, "lights") && (err = vf_scene_default_light(c)) < 0) return err;
-  return VF_OK;
+  return vf_scene_note_dim_emitters(c);
 }
 
 static int parse_root(const parse_ctx *c, const cJSON *root) {

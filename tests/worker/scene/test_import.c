@@ -490,6 +490,55 @@ static void test_bad_normals_repaired_and_degenerate_faces_skipped_with_notes(vo
   vf_scene_destroy(s);
 }
 
+/* ---- what a model without camera or lights gets --------------------------------------------- */
+
+/* A model without a camera is seen from the side of its bounds' largest projected area: a
+ * polygon in a plane x = const from +x (from +z it rendered blank), a floor from above;
+ * the note names the side. */
+static void test_default_camera_faces_the_largest_projected_side(void) {
+  const char wall[] = "v 0 0 0\nv 0 0 2\nv 0 1 2\nv 0 1 0\nf 1 2 3 4\n";
+  write_file("wall_x.obj", wall, sizeof wall - 1);
+  vf_scene *s = load("wall_x.obj", NULL);
+  if (s != NULL) {
+    CHECK_STR_CONTAINS(s->notes, "no camera: a default camera looks at the scene's bounds from +x, the side of their "
+                                 "largest projected area");
+    CHECK(s->camera.forward.x < -0.9f && fabsf(s->camera.forward.z) < 1e-6f);
+    CHECK(s->camera.position.x > 1.0f);
+  }
+  vf_scene_destroy(s);
+  const char floor[] = "v -3 0 -3\nv -3 0 3\nv 3 0.5 3\nv 3 0.5 -3\nf 1 2 3 4\n";
+  write_file("floor.obj", floor, sizeof floor - 1);
+  s = load("floor.obj", NULL);
+  if (s != NULL) {
+    CHECK_STR_CONTAINS(s->notes, "from +y");
+    CHECK_VEC(s->camera.forward, 0, -1, 0, 1e-6);
+    CHECK_VEC(s->camera.up, 0, 0, -1, 1e-6);
+  }
+  vf_scene_destroy(s);
+}
+
+/* Emitters alone that give almost no light: warned of, with the figures; bright ones not.
+ * A 10 x 10 white floor and a 0.1 x 0.1 label of radiance 1: 0.0314 W over a bounding
+ * sphere of radius 7.07, a level of 1.6e-5. */
+static void test_dim_emitters_are_warned_of(void) {
+  const char obj[] = "mtllib dim.mtl\nv -5 0 -5\nv -5 0 5\nv 5 0 5\nv 5 0 -5\nv 0 1 0\nv 0.1 1 0\nv 0.1 1 -0.1\nv 0 1 -0.1\n"
+                     "usemtl white\nf 1 2 3 4\nusemtl label\nf 5 6 7 8\n";
+  const char dim[] = "newmtl white\nKd 0.8 0.8 0.8\nnewmtl label\nKd 0 0 0\nKe 1 1 1\n";
+  const char bright[] = "newmtl white\nKd 0.8 0.8 0.8\nnewmtl label\nKd 0 0 0\nKe 100000 100000 100000\n";
+  write_file("dim.obj", obj, sizeof obj - 1);
+  write_file("dim.mtl", dim, sizeof dim - 1);
+  vf_scene *s = load("dim.obj", NULL);
+  if (s != NULL) {
+    CHECK_STR_CONTAINS(s->notes, "warning: the image will be dark: the only lights are emissive surfaces of 0.0314 W");
+    CHECK(strstr(s->notes, "no light:") == NULL); /* it has a light: no default background */
+  }
+  vf_scene_destroy(s);
+  write_file("dim.mtl", bright, sizeof bright - 1);
+  s = load("dim.obj", NULL);
+  if (s != NULL) CHECK(s->notes == NULL || strstr(s->notes, "dark") == NULL);
+  vf_scene_destroy(s);
+}
+
 /* ---- bad input ------------------------------------------------------------------------------ */
 
 static void test_bad_files_are_refused_naming_file_and_problem(void) {
@@ -704,6 +753,8 @@ int main(void) {
   RUN(test_gltf_texture_transform_read_per_slot);
   RUN(test_obj_huge_face_is_a_fan_or_refused);
   RUN(test_bad_normals_repaired_and_degenerate_faces_skipped_with_notes);
+  RUN(test_default_camera_faces_the_largest_projected_side);
+  RUN(test_dim_emitters_are_warned_of);
   RUN(test_assimp_testmodels_glTF2_load_with_notes);
   if (getenv("KEEP_TMP") == NULL) remove_dir();
   else printf("kept %s\n", dir);
