@@ -153,8 +153,16 @@ int vf_surface_bsdf(vf_bsdf *b, const vf_scene *scene, const vf_bsdf_lobes *lobe
   vf_material textured;
   vf_bsdf_lobes here;
   const vf_material *values = m;
-  if (vf_material_textured(m)) {
+  if (vf_material_textured(m) || sh->colors != NULL) {
     vf_surface_material(scene, m, st, &textured);
+    if (sh->colors != NULL) { /* COLOR_0 multiplies the base colour (glTF 2.0, 3.7.2.1), or the diffuse albedo */
+      const uint32_t *tri = &sh->indices[3 * (size_t)prim];
+      float w = 1.0f - u - v;
+      vf_vec3 col = vf_add(vf_add(vf_scale(vertex3(sh->colors, tri[0]), w), vf_scale(vertex3(sh->colors, tri[1]), u)),
+                           vf_scale(vertex3(sh->colors, tri[2]), v));
+      if (m->gltf) textured.base_color = vf_mul(textured.base_color, col);
+      else textured.diffuse = vf_mul(textured.diffuse, col);
+    }
     vf_bsdf_lobes_of(&textured, &here);
     here.continuation = l->continuation; /* a function of the material alone: see surface.h */
     here.black = here.black || !(here.continuation > 0.0f);

@@ -16,10 +16,10 @@
 #include <stdint.h>
 
 /* Whether hits on shape `sh` are shaded from their barycentrics: a mesh with vertex normals
- * or a material with a texture. */
+ * or vertex colours, or a material with a texture. */
 static inline int vf_surface_interpolated(const vf_scene *scene, const vf_shape *sh) {
   return sh->kind == VF_SHAPE_MESH &&
-         (sh->normals != NULL || vf_material_textured(&scene->materials[sh->material]));
+         (sh->normals != NULL || sh->colors != NULL || vf_material_textured(&scene->materials[sh->material]));
 }
 
 /* The unit geometric normal of triangle `prim` of mesh sh, by its winding (counter-clockwise

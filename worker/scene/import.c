@@ -116,10 +116,8 @@ static int import_instance(void *user, const struct aiNode *node, unsigned mesh_
     s->emission = vf_vec3_splat(0.0f);
     if ((err = vf_scene_note(c, "%s: emissive meshes without area do not emit", st->f.file)) < 0) return err;
   }
-  if (mesh->mColors[0] != NULL && (err = vf_scene_note(c, "%s: vertex colours are ignored", st->f.file)) < 0)
-    return err;
-  if (mesh->mTextureCoords[1] != NULL &&
-      (err = vf_scene_note(c, "%s: meshes with several uv sets: only set 0 is read", st->f.file)) < 0)
+  if (mesh->mTextureCoords[2] != NULL &&
+      (err = vf_scene_note(c, "%s: meshes with more than two uv sets: sets 0 and 1 are read", st->f.file)) < 0)
     return err;
   return VF_OK;
 }

@@ -453,15 +453,17 @@ static int grow(void **p, uint64_t count, size_t size) {
 static unsigned settle_attributes(vf_shape *s, const struct aiMesh *mesh, unsigned *keep) {
   unsigned has = (mesh->mNormals ? VF_ATTR_NORMALS : 0) | (mesh->mTextureCoords[0] ? VF_ATTR_UVS : 0) |
                  (mesh->mTangents && mesh->mBitangents && mesh->mNormals ? VF_ATTR_TANGENTS : 0) |
-                 (mesh->mTextureCoords[0] && mesh->mTextureCoords[1] ? VF_ATTR_UVS1 : 0);
+                 (mesh->mTextureCoords[0] && mesh->mTextureCoords[1] ? VF_ATTR_UVS1 : 0) |
+                 (mesh->mColors[0] ? VF_ATTR_COLORS : 0);
   if (s->num_vertices == 0) {
     *keep = has;
     return 0;
   }
   unsigned had = (s->normals ? VF_ATTR_NORMALS : 0) | (s->uvs ? VF_ATTR_UVS : 0) | (s->tangents ? VF_ATTR_TANGENTS : 0) |
-                 (s->uvs1 ? VF_ATTR_UVS1 : 0);
+                 (s->uvs1 ? VF_ATTR_UVS1 : 0) | (s->colors ? VF_ATTR_COLORS : 0);
   *keep = had & has;
   if (!(*keep & VF_ATTR_UVS1)) free(s->uvs1), s->uvs1 = NULL;
+  if (!(*keep & VF_ATTR_COLORS)) free(s->colors), s->colors = NULL;
   if (!(*keep & VF_ATTR_NORMALS)) free(s->normals), s->normals = NULL;
   if (!(*keep & VF_ATTR_UVS)) free(s->uvs), s->uvs = NULL;
   if (!(*keep & VF_ATTR_TANGENTS)) free(s->tangents), s->tangents = NULL;
@@ -485,6 +487,11 @@ static void copy_vertices(const struct aiMesh *mesh, vf_shape *s, uint32_t v0) {
     if (s->uvs1) {
       s->uvs1[2 * (v0 + v)] = mesh->mTextureCoords[1][v].x;
       s->uvs1[2 * (v0 + v) + 1] = 1.0f - mesh->mTextureCoords[1][v].y;
+    }
+    if (s->colors) { /* glTF's COLOR_0 is linear; clamped so that albedos stay at most 1 (NaN: 1) */
+      const struct aiColor4D *col = &mesh->mColors[0][v];
+      const float rgb[3] = {col->r, col->g, col->b};
+      for (int k = 0; k < 3; k++) s->colors[3 * (v0 + v) + k] = rgb[k] >= 0.0f ? (rgb[k] <= 1.0f ? rgb[k] : 1.0f) : rgb[k] < 0.0f ? 0.0f : 1.0f;
     }
     if (s->tangents) { /* Assimp keeps glTF's w as the bitangent B = w (N x T): recover it */
       const struct aiVector3D *n = &mesh->mNormals[v], *t = &mesh->mTangents[v], *b = &mesh->mBitangents[v];
@@ -519,6 +526,7 @@ int vf_scene_append_mesh(const parse_ctx *c, const char *what, const struct aiMe
       ((keep & VF_ATTR_NORMALS) && (err = grow((void **)&s->normals, 3 * nv, sizeof(float))) < 0) ||
       ((keep & VF_ATTR_UVS) && (err = grow((void **)&s->uvs, 2 * nv, sizeof(float))) < 0) ||
       ((keep & VF_ATTR_UVS1) && (err = grow((void **)&s->uvs1, 2 * nv, sizeof(float))) < 0) ||
+      ((keep & VF_ATTR_COLORS) && (err = grow((void **)&s->colors, 3 * nv, sizeof(float))) < 0) ||
       ((keep & VF_ATTR_TANGENTS) && (err = grow((void **)&s->tangents, 4 * nv, sizeof(float))) < 0))
     return err;
   uint32_t v0 = s->num_vertices, t0 = s->num_triangles, t = t0;
@@ -609,6 +617,8 @@ int vf_scene_note_dropped(const parse_ctx *c, const char *file, const vf_mesh_ta
   if (tally->degenerate > 0)
     err = vf_scene_note(c, "%s: %llu degenerate triangles (zero area) were skipped", file,
                         (unsigned long long)tally->degenerate);
+  if ((dropped & VF_ATTR_COLORS) && err == VF_OK)
+    err = vf_scene_note(c, "%s: vertex colours only on some meshes merged into one shape: dropped", file);
   if ((dropped & VF_ATTR_UVS1) && err == VF_OK)
     err = vf_scene_note(c, "%s: a second uv set only on some meshes merged into one shape: dropped", file);
   if ((dropped & VF_ATTR_NORMALS) && err == VF_OK)
@@ -635,6 +645,11 @@ int vf_scene_load_mesh_file(const parse_ctx *c, const char *file, const char *pa
   err = vf_scene_walk_nodes(c, what, ai, &identity, merge_instance, &m);
   if (err == VF_OK && s->num_triangles == 0) err = vf_scene_fail(c, VF_EMESH, what, "the file contains no triangles");
   if (err == VF_OK) err = vf_scene_note_dropped(c, file, &m.tally);
+  if (err == VF_OK && s->colors != NULL) { /* a JSON shape's material is the JSON's: colours are an import's */
+    free(s->colors);
+    s->colors = NULL;
+    err = vf_scene_note(c, "%s: vertex colours of a shape's mesh file are ignored (an \"import\" applies them)", file);
+  }
   aiReleaseImport(ai);
   return err;
 }

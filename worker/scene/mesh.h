@@ -56,7 +56,7 @@ int vf_scene_transform_range(const parse_ctx *c, const char *path, const vf_affi
                              uint32_t t0);
 
 /* Vertex attributes, as bits: what vf_scene_append_mesh had to drop. */
-enum { VF_ATTR_NORMALS = 1u, VF_ATTR_UVS = 2u, VF_ATTR_TANGENTS = 4u, VF_ATTR_UVS1 = 8u };
+enum { VF_ATTR_NORMALS = 1u, VF_ATTR_UVS = 2u, VF_ATTR_TANGENTS = 4u, VF_ATTR_UVS1 = 8u, VF_ATTR_COLORS = 16u };
 
 /* What vf_scene_append_mesh left out of a file's meshes, for its notes. */
 typedef struct {

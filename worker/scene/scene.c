@@ -75,6 +75,7 @@ void vf_scene_destroy(vf_scene *scene) {
     free(scene->shapes[i].normals);
     free(scene->shapes[i].uvs);
     free(scene->shapes[i].uvs1);
+    free(scene->shapes[i].colors);
     free(scene->shapes[i].tangents);
   }
   free(scene->shapes);
@@ -290,6 +291,10 @@ void vf_scene_hash(vf_scene *s) {
     if (sh->uvs1 != NULL) {
       h_tag(&h, "uvs1");
       for (uint64_t k = 0; k < 2ull * sh->num_vertices; k++) h_f32(&h, sh->uvs1[k]);
+    }
+    if (sh->colors != NULL) {
+      h_tag(&h, "colors");
+      for (uint64_t k = 0; k < 3ull * sh->num_vertices; k++) h_f32(&h, sh->colors[k]);
     }
     if (sh->tangents != NULL) {
       h_tag(&h, "tangents");

@@ -50,6 +50,8 @@ typedef struct {
   float *normals;
   float *uvs;
   float *uvs1;       /* 2 per vertex: the second uv set (glTF's TEXCOORD_1), as uvs; NULL: absent */
+  float *colors;     /* 3 per vertex: linear RGB in [0, 1] multiplying the material's base colour
+                      * (or diffuse) at the point (glTF's COLOR_0, its alpha ignored); NULL: absent */
   float *tangents;
   /* VF_SHAPE_SPHERE */
   vf_vec3 center;

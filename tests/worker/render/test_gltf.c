@@ -11,7 +11,10 @@
 #include "worker/render/bsdf.h"
 #include "worker/render/camera.h"
 #include "worker/render/microfacet.h"
+#include "worker/render/surface.h"
 #include "worker/scene/load.h"
+
+#include <png.h>
 
 #include <dirent.h>
 #include <math.h>
@@ -310,6 +313,106 @@ static void test_debian_models_with_bad_normals_render(void) {
   }
 }
 
+/* ---- texture coordinates and vertex colours ------------------------------------------------ */
+
+/* One triangle (0,0,0) (1,0,0) (0,1,0) facing +z with uv set 0 at s = 0.75 and set 1 at
+ * s = 0.25 everywhere, and vertex colours; a 2 x 1 texture, red then green, clamped. Meshes
+ * A, B, C, D with materials reading set 1, set 1 shifted by KHR_texture_transform's offset
+ * 0.5, set 0, and no texture but COLOR_0. Every material Specular 0: f = base colour / pi. */
+static void write_uv_scene(void) {
+  float b[32] = {0, 0, 0, 1, 0, 0, 0, 1, 0,                       /* positions, offset 0 */
+                 0.75f, 0.5f, 0.75f, 0.5f, 0.75f, 0.5f,           /* TEXCOORD_0, 36 */
+                 0.25f, 0.5f, 0.25f, 0.5f, 0.25f, 0.5f,           /* TEXCOORD_1, 60 */
+                 1, 0.5f, 0.25f, 0.5f, 1, 0, 0.2f, 0.4f, 0.8f};   /* COLOR_0, 84 */
+  uint8_t bytes[128] = {0};
+  memcpy(bytes, b, 120);
+  const uint16_t idx[3] = {0, 1, 2};
+  memcpy(bytes + 120, idx, 6);
+  write_file("uv.bin", bytes, sizeof bytes);
+  const uint8_t texels[6] = {255, 0, 0, 0, 255, 0};
+  png_image img;
+  memset(&img, 0, sizeof img);
+  img.version = PNG_IMAGE_VERSION, img.width = 2, img.height = 1, img.format = PNG_FORMAT_RGB;
+  char p[256];
+  snprintf(p, sizeof p, "%s/rg.png", dir);
+  CHECK(png_image_write_to_file(&img, p, 0, texels, 0, NULL));
+  const char text[] =
+      "{\"asset\": {\"version\": \"2.0\"}, \"extensionsUsed\": [\"KHR_materials_specular\", \"KHR_texture_transform\"],\n"
+      " \"scene\": 0, \"scenes\": [{\"nodes\": [0, 1, 2, 3]}],\n"
+      " \"nodes\": [{\"mesh\": 0}, {\"mesh\": 1}, {\"mesh\": 2}, {\"mesh\": 3}],\n"
+      " \"meshes\": [\n"
+      "  {\"name\": \"A\", \"primitives\": [{\"attributes\": {\"POSITION\": 0, \"TEXCOORD_0\": 1, \"TEXCOORD_1\": 2}, \"indices\": 4, \"material\": 0}]},\n"
+      "  {\"name\": \"B\", \"primitives\": [{\"attributes\": {\"POSITION\": 0, \"TEXCOORD_0\": 1, \"TEXCOORD_1\": 2}, \"indices\": 4, \"material\": 1}]},\n"
+      "  {\"name\": \"C\", \"primitives\": [{\"attributes\": {\"POSITION\": 0, \"TEXCOORD_0\": 1, \"TEXCOORD_1\": 2}, \"indices\": 4, \"material\": 2}]},\n"
+      "  {\"name\": \"D\", \"primitives\": [{\"attributes\": {\"POSITION\": 0, \"COLOR_0\": 3}, \"indices\": 4, \"material\": 3}]}],\n"
+      " \"materials\": [\n"
+      "  {\"name\": \"Set1\", \"pbrMetallicRoughness\": {\"baseColorTexture\": {\"index\": 0, \"texCoord\": 1}, \"metallicFactor\": 0},\n"
+      "   \"extensions\": {\"KHR_materials_specular\": {\"specularFactor\": 0}}},\n"
+      "  {\"name\": \"Set1Shifted\", \"pbrMetallicRoughness\": {\"baseColorTexture\": {\"index\": 0, \"texCoord\": 1,\n"
+      "     \"extensions\": {\"KHR_texture_transform\": {\"offset\": [0.5, 0]}}}, \"metallicFactor\": 0},\n"
+      "   \"extensions\": {\"KHR_materials_specular\": {\"specularFactor\": 0}}},\n"
+      "  {\"name\": \"Set0\", \"pbrMetallicRoughness\": {\"baseColorTexture\": {\"index\": 0}, \"metallicFactor\": 0},\n"
+      "   \"extensions\": {\"KHR_materials_specular\": {\"specularFactor\": 0}}},\n"
+      "  {\"name\": \"Colored\", \"pbrMetallicRoughness\": {\"baseColorFactor\": [0.8, 0.6, 0.4, 1], \"metallicFactor\": 0},\n"
+      "   \"extensions\": {\"KHR_materials_specular\": {\"specularFactor\": 0}}}],\n"
+      " \"samplers\": [{\"wrapS\": 33071, \"wrapT\": 33071}],\n"
+      " \"images\": [{\"uri\": \"rg.png\"}], \"textures\": [{\"source\": 0, \"sampler\": 0}],\n"
+      " \"buffers\": [{\"uri\": \"uv.bin\", \"byteLength\": 128}],\n"
+      " \"bufferViews\": [{\"buffer\": 0, \"byteOffset\": 0, \"byteLength\": 120}, {\"buffer\": 0, \"byteOffset\": 120, \"byteLength\": 6}],\n"
+      " \"accessors\": [{\"bufferView\": 0, \"byteOffset\": 0, \"componentType\": 5126, \"count\": 3, \"type\": \"VEC3\", \"min\": [0, 0, 0], \"max\": [1, 1, 0]},\n"
+      "  {\"bufferView\": 0, \"byteOffset\": 36, \"componentType\": 5126, \"count\": 3, \"type\": \"VEC2\"},\n"
+      "  {\"bufferView\": 0, \"byteOffset\": 60, \"componentType\": 5126, \"count\": 3, \"type\": \"VEC2\"},\n"
+      "  {\"bufferView\": 0, \"byteOffset\": 84, \"componentType\": 5126, \"count\": 3, \"type\": \"VEC3\"},\n"
+      "  {\"bufferView\": 1, \"byteOffset\": 0, \"componentType\": 5123, \"count\": 3, \"type\": \"SCALAR\"}]}\n";
+  write_file("uv.gltf", text, sizeof text - 1);
+}
+
+/* f at barycentrics (0.2, 0.3) of shape `name`, seen and lit from fixed directions. */
+static vf_vec3 f_at(const vf_scene *s, const vf_bsdf_lobes *lobes, const char *name) {
+  for (int i = 0; i < s->num_shapes; i++) {
+    if (strcmp(s->shapes[i].name, name) != 0) continue;
+    vf_bsdf b;
+    float c;
+    CHECK(vf_surface_bsdf(&b, s, lobes, (uint32_t)i, 0, 0.2f, 0.3f, vf_vec3_make(0, 0, 1), unit(0.2, 0.1, 1)));
+    return vf_bsdf_evaluate(&b, unit(-0.3, 0.2, 1), &c, NULL, NULL);
+  }
+  CHECK_FAIL_("no shape '%s'", name);
+  return vf_vec3_splat(0.0f);
+}
+
+/* A texture asking for TEXCOORD_1 reads set 1 (red at s = 0.25), through its
+ * KHR_texture_transform (offset 0.5: green), and one of set 0 reads set 0 (green); COLOR_0
+ * multiplies the base colour by the colours interpolated at the point. */
+static void test_texcoord_1_transform_and_vertex_colours_at_a_point(void) {
+  write_uv_scene();
+  char p[256];
+  snprintf(p, sizeof p, "%s/uv.gltf", dir);
+  vf_scene *s = NULL;
+  int err = vf_scene_load(p, &s);
+  if (err != VF_OK) CHECK_FAIL_("%s: %s", p, vf_error_detail(err));
+  if (s == NULL) return;
+  vf_bsdf_lobes *lobes = calloc((size_t)s->num_materials, sizeof *lobes);
+  for (int i = 0; lobes && i < s->num_materials; i++) vf_bsdf_lobes_of(&s->materials[i], &lobes[i]);
+  if (lobes != NULL) {
+    const double k = 1.0 / M_PI;
+    vf_vec3 a = f_at(s, lobes, "A"), b = f_at(s, lobes, "B"), c = f_at(s, lobes, "C"), d = f_at(s, lobes, "D");
+    CHECK_NEAR(a.x, k, 1e-6);
+    CHECK_NEAR(a.y, 0.0, 1e-6);
+    CHECK_NEAR(b.x, 0.0, 1e-6);
+    CHECK_NEAR(b.y, k, 1e-6);
+    CHECK_NEAR(c.x, 0.0, 1e-6);
+    CHECK_NEAR(c.y, k, 1e-6);
+    const double w[3] = {0.5, 0.2, 0.3}, col[3][3] = {{1, 0.5, 0.25}, {0.5, 1, 0}, {0.2, 0.4, 0.8}}, base[3] = {0.8, 0.6, 0.4};
+    for (int ch = 0; ch < 3; ch++) {
+      double e = base[ch] * (w[0] * col[0][ch] + w[1] * col[1][ch] + w[2] * col[2][ch]) * k;
+      CHECK_NEAR(vf_vec3_get(d, ch), e, 1e-6);
+    }
+  }
+  CHECK(s->notes == NULL || strstr(s->notes, "colour") == NULL); /* applied, not noted */
+  free(lobes);
+  vf_scene_destroy(s);
+}
+
 static void remove_dir(void) {
   DIR *d = opendir(dir);
   struct dirent *e;
@@ -331,6 +434,7 @@ int main(void) {
   RUN(test_black_specular_zero_emitter_reads_exactly_its_emission);
   RUN(test_lamp_to_emitter_ratio_on_a_matte_wall);
   RUN(test_debian_models_with_bad_normals_render);
+  RUN(test_texcoord_1_transform_and_vertex_colours_at_a_point);
   if (getenv("KEEP_TMP") == NULL) remove_dir();
   else printf("kept %s\n", dir);
   return check_finish();
