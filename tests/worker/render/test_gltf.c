@@ -96,6 +96,44 @@ static void test_specular_fresnel_is_the_specifications(void) {
   CHECK_NEAR(a.x, b.x, 0.0);
 }
 
+/* The JSON scene's glTF model takes the same extension: "specular", "specular_color" and
+ * "ior" give specular_f0 = ((ior - 1) / (ior + 1))^2 specular_color; none of them, the core
+ * model (specular_set 0); a negative colour is refused naming the field. */
+static void test_json_gltf_material_specular_fields(void) {
+  const char json[] = "{\"camera\": {\"position\": [0, 0, 5], \"target\": [0, 0, 0], \"fov\": 40},\n"
+                      " \"materials\": {\"a\": {\"base_color\": [0.5, 0.5, 0.5], \"metallic\": 0, \"roughness\": 0.5,\n"
+                      "   \"specular\": 0.25, \"specular_color\": [1, 0.5, 2], \"ior\": 1.6},\n"
+                      "  \"b\": {\"base_color\": [0.5, 0.5, 0.5], \"metallic\": 0, \"roughness\": 0.5}},\n"
+                      " \"shapes\": [{\"type\": \"sphere\", \"center\": [0, 0, 0], \"radius\": 1, \"material\": \"a\"},\n"
+                      "  {\"type\": \"sphere\", \"center\": [3, 0, 0], \"radius\": 1, \"material\": \"b\", \"emission\": [1, 1, 1]}]}\n";
+  write_file("spec.json", json, sizeof json - 1);
+  char p[256];
+  snprintf(p, sizeof p, "%s/spec.json", dir);
+  vf_scene *s = NULL;
+  int err = vf_scene_load(p, &s);
+  if (err != VF_OK) CHECK_FAIL_("%s: %s", p, vf_error_detail(err));
+  if (s != NULL) {
+    double r = 0.6 / 2.6, f0 = r * r;
+    CHECK(s->materials[0].specular_set && !s->materials[1].specular_set);
+    CHECK_NEAR(s->materials[0].specular, 0.25, 0);
+    CHECK_NEAR(s->materials[0].specular_f0.x, f0, 1e-7);
+    CHECK_NEAR(s->materials[0].specular_f0.y, 0.5 * f0, 1e-7);
+    CHECK_NEAR(s->materials[0].specular_f0.z, 2.0 * f0, 1e-7);
+  }
+  vf_scene_destroy(s);
+  const char bad[] = "{\"camera\": {\"position\": [0, 0, 5], \"target\": [0, 0, 0], \"fov\": 40},\n"
+                     " \"materials\": {\"a\": {\"base_color\": [0.5, 0.5, 0.5], \"metallic\": 0, \"roughness\": 0.5,\n"
+                     "   \"specular_color\": [1, -0.5, 2]}},\n"
+                     " \"shapes\": [{\"type\": \"sphere\", \"center\": [0, 0, 0], \"radius\": 1, \"material\": \"a\", \"emission\": [1, 1, 1]}]}\n";
+  write_file("bad_spec.json", bad, sizeof bad - 1);
+  snprintf(p, sizeof p, "%s/bad_spec.json", dir);
+  s = NULL;
+  err = vf_scene_load(p, &s);
+  CHECK_INT_EQ(err, VF_ESCENE);
+  CHECK_STR_CONTAINS(vf_error_detail(err), "materials.a.specular_color: negative colour");
+  vf_scene_destroy(s);
+}
+
 /* ---- a file as Blender exports it ------------------------------------------------------------- */
 
 /* Wall: y = 0, [-4, 4]^2, facing +y, Specular 0 base 0.8. Glow: a square of half side 0.25 at
@@ -431,6 +469,7 @@ int main(void) {
   if (mkdtemp(dir) == NULL) return 1;
   write_scene();
   RUN(test_specular_fresnel_is_the_specifications);
+  RUN(test_json_gltf_material_specular_fields);
   RUN(test_black_specular_zero_emitter_reads_exactly_its_emission);
   RUN(test_lamp_to_emitter_ratio_on_a_matte_wall);
   RUN(test_debian_models_with_bad_normals_render);
