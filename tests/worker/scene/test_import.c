@@ -454,6 +454,93 @@ static void test_obj_bump_map_that_is_a_height_map_is_noted(void) {
   vf_scene_destroy(s);
 }
 
+/* ---- KHR_materials_specular's textures, which Assimp does not load ---------------------------- */
+
+static size_t png_bytes(uint8_t *out, size_t cap, const uint8_t *rgba, int w, int h) {
+  png_image img;
+  memset(&img, 0, sizeof img);
+  img.version = PNG_IMAGE_VERSION, img.width = (png_uint_32)w, img.height = (png_uint_32)h, img.format = PNG_FORMAT_RGBA;
+  png_alloc_size_t n = cap;
+  CHECK(png_image_write_to_memory(&img, out, &n, 0, rgba, 0, NULL));
+  return n;
+}
+
+static void base64(const uint8_t *in, size_t n, char *out) {
+  static const char a[] = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+  size_t o = 0;
+  for (size_t i = 0; i < n; i += 3) {
+    uint32_t v = (uint32_t)in[i] << 16 | (i + 1 < n ? (uint32_t)in[i + 1] << 8 : 0) | (i + 2 < n ? in[i + 2] : 0);
+    out[o++] = a[v >> 18 & 63], out[o++] = a[v >> 12 & 63];
+    out[o++] = i + 1 < n ? a[v >> 6 & 63] : '=';
+    out[o++] = i + 2 < n ? a[v & 63] : '=';
+  }
+  out[o] = '\0';
+}
+
+/* A .glb whose specularTexture is a PNG in its binary chunk and whose specularColorTexture is
+ * a data URI: both read from the file's JSON into the material's slots, with their samplers,
+ * as the images they are (texels compared). */
+static void test_glb_specular_textures_from_buffer_view_and_data_uri(void) {
+  const uint8_t spec_rgba[8] = {0, 0, 0, 64, 0, 0, 0, 255}, colour_rgba[8] = {255, 128, 0, 255, 0, 0, 255, 255};
+  uint8_t png1[512], png2[512];
+  size_t n1 = png_bytes(png1, sizeof png1, spec_rgba, 2, 1), n2 = png_bytes(png2, sizeof png2, colour_rgba, 2, 1);
+  char uri[1024];
+  base64(png2, n2, uri);
+  /* BIN: positions (36 bytes), indices (6, padded to 8), the PNG (padded to 4) */
+  const float pos[9] = {0, 0, 0, 1, 0, 0, 0, 1, 0};
+  const uint16_t idx[3] = {0, 1, 2};
+  uint8_t bin[1024] = {0};
+  memcpy(bin, pos, 36);
+  memcpy(bin + 36, idx, 6);
+  memcpy(bin + 44, png1, n1);
+  uint32_t bin_len = (uint32_t)((44 + n1 + 3) & ~(size_t)3);
+  char json[4096];
+  int jn = snprintf(json, sizeof json,
+      "{\"asset\": {\"version\": \"2.0\"}, \"extensionsUsed\": [\"KHR_materials_specular\"],"
+      " \"scene\": 0, \"scenes\": [{\"nodes\": [0]}], \"nodes\": [{\"mesh\": 0}],"
+      " \"meshes\": [{\"primitives\": [{\"attributes\": {\"POSITION\": 0}, \"indices\": 1, \"material\": 0}]}],"
+      " \"materials\": [{\"name\": \"Spec\", \"pbrMetallicRoughness\": {\"metallicFactor\": 0}, \"extensions\": {"
+      "\"KHR_materials_specular\": {\"specularFactor\": 0.5, \"specularTexture\": {\"index\": 0},"
+      " \"specularColorTexture\": {\"index\": 1}}}}],"
+      " \"samplers\": [{\"wrapS\": 33648, \"wrapT\": 33071}],"
+      " \"textures\": [{\"source\": 0, \"sampler\": 0}, {\"source\": 1}],"
+      " \"images\": [{\"bufferView\": 2, \"mimeType\": \"image/png\"}, {\"uri\": \"data:image/png;base64,%s\"}],"
+      " \"buffers\": [{\"byteLength\": %u}],"
+      " \"bufferViews\": [{\"buffer\": 0, \"byteOffset\": 0, \"byteLength\": 36}, {\"buffer\": 0, \"byteOffset\": 36, \"byteLength\": 6},"
+      " {\"buffer\": 0, \"byteOffset\": 44, \"byteLength\": %zu}],"
+      " \"accessors\": [{\"bufferView\": 0, \"componentType\": 5126, \"count\": 3, \"type\": \"VEC3\", \"min\": [0, 0, 0], \"max\": [1, 1, 0]},"
+      " {\"bufferView\": 1, \"componentType\": 5123, \"count\": 3, \"type\": \"SCALAR\"}]}",
+      uri, bin_len, n1);
+  while (jn % 4) json[jn++] = ' ';
+  uint8_t glb[8192];
+  uint32_t total = 12 + 8 + (uint32_t)jn + 8 + bin_len, h[5] = {0x46546C67u, 2, total, (uint32_t)jn, 0x4E4F534Au};
+  memcpy(glb, h, 20);
+  memcpy(glb + 20, json, (size_t)jn);
+  uint32_t bh[2] = {bin_len, 0x004E4942u};
+  memcpy(glb + 20 + jn, bh, 8);
+  memcpy(glb + 28 + jn, bin, bin_len);
+  write_file("spec.glb", glb, total);
+  vf_scene *s = load("spec.glb", NULL);
+  if (s == NULL) return;
+  const vf_material *m = &s->materials[material_named(s, "Spec")];
+  CHECK(m->gltf && m->specular_set);
+  CHECK_NEAR(m->specular, 0.5, 0);
+  CHECK_NEAR(m->specular_f0.x, 0.04, 1e-7);
+  const vf_texture_slot *ts = &m->textures[VF_TEXTURE_SPECULAR], *tc = &m->textures[VF_TEXTURE_SPECULAR_COLOR];
+  CHECK(ts->texture > 0 && tc->texture > 0 && ts->texture != tc->texture);
+  CHECK_INT_EQ(ts->wrap_s, VF_WRAP_MIRROR);
+  CHECK_INT_EQ(ts->wrap_t, VF_WRAP_CLAMP);
+  CHECK_INT_EQ(tc->wrap_s, VF_WRAP_REPEAT);
+  if (ts->texture > 0 && tc->texture > 0) {
+    const vf_texture *a = &s->textures[ts->texture - 1], *b = &s->textures[tc->texture - 1];
+    CHECK_STR_CONTAINS(a->name, "spec.glb#image0");
+    CHECK_STR_CONTAINS(b->name, "spec.glb#image1");
+    CHECK(a->width == 2 && a->channels == 4 && !a->is_float && ((const uint8_t *)a->texels)[3] == 64);
+    CHECK(b->width == 2 && b->channels == 4 && !b->is_float && ((const uint8_t *)b->texels)[1] == 128);
+  }
+  vf_scene_destroy(s);
+}
+
 /* ---- repairs -------------------------------------------------------------------------------- */
 
 /* A NaN normal is repaired from its face (Blender recomputes such normals) and counted in a
@@ -751,6 +838,7 @@ int main(void) {
   RUN(test_bad_files_are_refused_naming_file_and_problem);
   RUN(test_obj_kd_ks_noted_once_with_the_largest_sum);
   RUN(test_gltf_texture_transform_read_per_slot);
+  RUN(test_glb_specular_textures_from_buffer_view_and_data_uri);
   RUN(test_obj_huge_face_is_a_fan_or_refused);
   RUN(test_bad_normals_repaired_and_degenerate_faces_skipped_with_notes);
   RUN(test_default_camera_faces_the_largest_projected_side);
