@@ -48,6 +48,10 @@ int vf_cli_not_input(const char *output_option, const char *output, const char *
  * them through VF_CLI_SETTINGS_OPTIONS (getopt_long entries), VF_CLI_SETTINGS_SHORT (its
  * short letters) and VF_CLI_SETTINGS_HELP (their lines of --help), so the options and
  * their help exist once. */
+/* getopt_long values of long options without a short letter that several commands share,
+ * above every character so that they meet no letter. */
+enum { VF_CLI_OPT_BACKGROUND = 0x100 /* --background COLOR|FILE.exr: render, continue */ };
+
 #define VF_CLI_SETTINGS_OPTIONS                                                                              \
   {"algorithm", required_argument, 0, 'a'}, {"seed", required_argument, 0, 's'},                            \
       {"max-path-length", required_argument, 0, 'l'}, {"radius-factor", required_argument, 0, 'r'},         \

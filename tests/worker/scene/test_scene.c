@@ -2,6 +2,7 @@
 #include "common/error.h"
 #include "common/image.h"
 #include "worker/scene/scene.h"
+#include "worker/scene/background.h"
 #include "worker/scene/builtin.h"
 #include "worker/scene/load.h"
 
@@ -645,7 +646,43 @@ static void test_many_materials_load_in_n_log_n(void) {
   unlink(path);
 }
 
+/* --background on any scene: a grey or R,G,B radiance replaces the background or map, an
+ * EXR map replaces both with scale 1; the hash follows; bad specs change nothing. */
+static void test_background_replaced_after_load(void) {
+  vf_scene *s = load_ok("cornell-env");
+  if (s == NULL) return;
+  uint8_t before[32];
+  memcpy(before, s->hash, 32);
+  CHECK_INT_EQ(vf_scene_set_background(s, "0.5"), VF_OK);
+  CHECK(s->background.x == 0.5f && s->background.z == 0.5f && s->envmap.width == 0);
+  CHECK(memcmp(before, s->hash, 32) != 0);
+  CHECK_INT_EQ(vf_scene_set_background(s, "1,0.5,0.25"), VF_OK);
+  CHECK(s->background.x == 1.0f && s->background.y == 0.5f && s->background.z == 0.25f);
+  static const char *const bad[] = {"1,2", "-1", "1,2,3,4", "nan", "sky.png", "0.5x"};
+  for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
+    int err = vf_scene_set_background(s, bad[i]);
+    CHECK_INT_EQ(err, VF_EUSAGE);
+    CHECK_STR_CONTAINS(vf_error_detail(err), "--background");
+  }
+  CHECK(s->background.y == 0.5f); /* unchanged by the refusals */
+  char dir[64], exr[256];
+  make_temp_dir(dir);
+  vf_image img = {0, 0, NULL};
+  CHECK_INT_EQ(vf_image_alloc(&img, 4, 2), VF_OK);
+  for (int i = 0; i < 3 * 4 * 2; i++) img.rgb[i] = 0.125f * (float)i;
+  snprintf(exr, sizeof exr, "%s/bg.EXR", dir);
+  CHECK_INT_EQ(vf_image_write_exr(exr, &img), VF_OK);
+  CHECK_INT_EQ(vf_scene_set_background(s, exr), VF_OK);
+  CHECK(s->envmap.width == 4 && s->envmap.height == 2 && s->envmap_scale.x == 1.0f && vf_is_zero(s->background));
+  if (s->envmap.rgb) CHECK_NEAR(s->envmap.rgb[5], 0.625, 0);
+  unlink(exr);
+  rmdir(dir);
+  vf_image_destroy(&img);
+  vf_scene_destroy(s);
+}
+
 int main(void) {
+  RUN(test_background_replaced_after_load);
   RUN(test_many_materials_load_in_n_log_n);
   RUN(test_every_builtin_loads_with_sane_bounds);
   RUN(test_cornell_walls_face_inwards_and_light_faces_down);
