@@ -34,8 +34,8 @@ typedef struct {
   int material;     /* index into vf_scene.materials */
   vf_vec3 emission; /* emitted radiance, on the side a triangle faces (counter-clockwise
                      * winding, right-hand rule) and outward from a sphere; zero: not a light */
-  /* VF_SHAPE_MESH: world-space triangles, at least one; degenerate ones may occur (except in
-   * emitters, whose total area is > 0). A mirroring transform has already had its winding
+  /* VF_SHAPE_MESH: world-space triangles, at least one; degenerate ones may occur in inline
+   * meshes (not in emitters, whose total area is > 0; mesh files have theirs skipped). A mirroring transform has already had its winding
    * reversed, so fronts are the fronts of the file. Arrays owned by the scene. */
   uint32_t num_vertices, num_triangles;
   float *positions;  /* 3 per vertex */
