@@ -337,12 +337,13 @@ static int read_range(const parse_ctx *c, const char *full, uint64_t offset, uin
   FILE *f = fopen(full, "rb");
   if (f == NULL) return vf_scene_fail(c, VF_ENOENT, where, "cannot open '%s': %s", full, strerror(errno));
   uint8_t *out = length <= (1u << 30) ? malloc(length ? length : 1) : NULL;
+  int no_memory = out == NULL && length <= (1u << 30);
   int ok = out != NULL && fseek(f, (long)offset, SEEK_SET) == 0 && fread(out, 1, length, f) == length;
   fclose(f);
   if (!ok) {
     free(out);
-    return out == NULL && length <= (1u << 30) ? vf_error_set(VF_ENOMEM, "out of memory")
-                                               : vf_scene_fail(c, VF_EMESH, where, "an image's buffer view lies outside its buffer");
+    return no_memory ? vf_error_set(VF_ENOMEM, "out of memory")
+                     : vf_scene_fail(c, VF_EMESH, where, "an image's buffer view lies outside its buffer");
   }
   *bytes = out;
   return VF_OK;
