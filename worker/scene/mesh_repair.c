@@ -15,6 +15,7 @@ typedef struct {
   uint64_t normals;    /* zero or not finite: from the faces */
   uint64_t unit;       /* finite, non-zero, length off 1 by more than 1e-3: normalised */
   uint64_t tangents;   /* zero, not finite or along the normal: from the faces */
+  uint64_t tangent_unit; /* finite, length off 1 by more than 1e-3: normalised */
 } repairs;
 
 static double length3(const struct aiVector3D *v) { return sqrt((double)v->x * v->x + (double)v->y * v->y + (double)v->z * v->z); }
@@ -118,7 +119,10 @@ static int repair_mesh(struct aiMesh *mesh, repairs *r) {
   for (unsigned v = 0; mesh->mTangents && v < mesh->mNumVertices; v++) {
     struct aiVector3D *t = &mesh->mTangents[v], *n = &mesh->mNormals[v];
     double len = length3(t), along = len > 0.0 ? fabs((t->x * n->x + t->y * n->y + t->z * n->z) / len) : 1.0;
-    if (len > 0.0 && isfinite(len) && along < 1.0 - 1e-6) continue;
+    if (len > 0.0 && isfinite(len) && along < 1.0 - 1e-6) {
+      r->tangent_unit += fabs(len - 1.0) > 1e-3;
+      continue;
+    }
     double d[3];
     face_tangent(mesh, v, n, d);
     *t = unit_or_orthogonal(d[0], d[1], d[2], n);
@@ -132,7 +136,7 @@ static int repair_mesh(struct aiMesh *mesh, repairs *r) {
 }
 
 int vf_scene_mesh_repair(const parse_ctx *c, const char *file, const struct aiScene *ai) {
-  repairs r = {0, 0, 0};
+  repairs r = {0, 0, 0, 0};
   int err;
   for (unsigned m = 0; m < ai->mNumMeshes; m++)
     if ((err = repair_mesh(ai->mMeshes[m], &r)) < 0) return err;
@@ -141,6 +145,9 @@ int vf_scene_mesh_repair(const parse_ctx *c, const char *file, const struct aiSc
     return err;
   if (r.unit > 0 && (err = vf_scene_note(c, "%s: %llu vertex normals not of unit length were normalised", file,
                                          (unsigned long long)r.unit)) < 0)
+    return err;
+  if (r.tangent_unit > 0 && (err = vf_scene_note(c, "%s: %llu tangents not of unit length were normalised", file,
+                                                 (unsigned long long)r.tangent_unit)) < 0)
     return err;
   if (r.tangents > 0 && (err = vf_scene_note(c, "%s: %llu tangents that were zero, not finite or along the normal "
                                                 "were repaired from their faces", file, (unsigned long long)r.tangents)) < 0)

@@ -10,7 +10,7 @@ struct aiScene;
 /* Mends every mesh of the file in place (Assimp's arrays) and notes, once per kind and
  * starting with `file`, how many were mended: normals zero or not finite become the
  * area-weighted normal of the faces around the vertex; normals of a length off 1 by more
- * than 1e-3 are counted (the transform normalises every normal); tangents zero, not finite
+ * than 1e-3 are counted (the transform normalises every normal), tangents likewise; tangents zero, not finite
  * or along the normal become the direction of increasing s on a face of the vertex (any
  * direction orthogonal to the normal without uvs), with the bitangent N x T. VF_ENOMEM
  * only. */

@@ -44,7 +44,8 @@ static void write_png(const char *name, int channels, const uint8_t *texels, int
   CHECK(png_image_write_to_file(&img, p, 0, texels, 0, NULL));
 }
 
-/* One triangle with normals, uvs and tangents; `nan` spoils a normal (1) or a uv (2). */
+/* One triangle with normals, uvs and tangents; `nan` spoils a normal (1), a uv (2) or two
+ * tangents (3). */
 static void write_buffer(int nan) {
   float b[38] = {0, 0, 0, 1, 0, 0, 0, 1, 0,                      /* positions, offset 0 */
                  0.6f, 0, 0.8f, 0, 0, 1, 0, 0, 1,                /* normals, 36 */
@@ -52,6 +53,7 @@ static void write_buffer(int nan) {
                  1, 0, 0, 1, 1, 0, 0, 1, 1, 0, 0, -1};           /* tangents, 96 */
   if (nan == 1) b[12] = NAN; /* vertex 1's normal */
   if (nan == 2) b[20] = INFINITY; /* vertex 1's u */
+  if (nan == 3) b[24] = 2.0f, b[32] = 0.0f; /* vertex 0's tangent of length 2, vertex 2's zero */
   uint8_t bytes[152] = {0};
   memcpy(bytes, b, 144);
   const uint16_t idx[3] = {0, 1, 2};
@@ -559,6 +561,24 @@ static void test_bad_normals_repaired_and_degenerate_faces_skipped_with_notes(vo
     }
     /* counted per mesh: the accessor serves the file's two meshes */
     CHECK_STR_CONTAINS(s->notes, "model.gltf: 2 vertex normals that were zero or not finite were repaired from their faces");
+  }
+  vf_scene_destroy(s);
+  /* A zero tangent becomes its face's direction of increasing s, (1, 0, 0) in the file,
+   * (0, 1, 0) through the node's rotation, bitangent N x T (w = +1); a long one is
+   * normalised; each counted. */
+  write_buffer(3);
+  s = load("model.gltf", NULL);
+  if (s != NULL) {
+    const vf_shape *tri = shape_named(s, "Tri");
+    int v2 = vertex_at(tri, 8, 0, 0), v0 = vertex_at(tri, 10, 0, 0);
+    if (tri && tri->tangents && v2 >= 0 && v0 >= 0) {
+      CHECK_NEAR(tri->tangents[4 * v2], 0.0, 1e-6);
+      CHECK_NEAR(tri->tangents[4 * v2 + 1], 1.0, 1e-6);
+      CHECK_NEAR(tri->tangents[4 * v2 + 3], 1.0, 0);
+      CHECK_NEAR(tri->tangents[4 * v0 + 1], 1.0, 1e-6); /* unit after the transform */
+    }
+    CHECK_STR_CONTAINS(s->notes, "model.gltf: 1 tangents that were zero, not finite or along the normal were repaired");
+    CHECK_STR_CONTAINS(s->notes, "model.gltf: 1 tangents not of unit length were normalised");
   }
   vf_scene_destroy(s);
   write_buffer(0);
