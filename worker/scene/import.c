@@ -482,33 +482,112 @@ int vf_scene_default_camera(const parse_ctx *c) {
                           "projected area (fov 40 degrees)", side);
 }
 
-/* The power a shape emits: pi x its mean emitted radiance x its area (one side, Lambertian);
- * a sphere's outward 4 pi r^2. Textured emission counts at its factor (an upper bound). */
-static double shape_power(const vf_shape *sh) {
+/* The mean of a colour texture's RGB over its texels, 8-bit texels decoded from sRGB as the
+ * emission slot decodes them (a texture's mean over a surface whose uvs cover it once). */
+static double texture_mean(const vf_texture *t) {
+  const size_t n = (size_t)t->width * t->height, ch = (size_t)t->channels, colour = ch < 3 ? 1 : 3;
+  double sum = 0.0, lut[256];
+  for (int v = 0; v < 256; v++) {
+    double c = v / 255.0;
+    lut[v] = c <= 0.04045 ? c / 12.92 : pow((c + 0.055) / 1.055, 2.4);
+  }
+  for (size_t i = 0; i < n; i++)
+    for (size_t k = 0; k < colour; k++)
+      sum += t->is_float ? ((const float *)t->texels)[i * ch + k] : lut[((const uint8_t *)t->texels)[i * ch + k]];
+  return sum / ((double)n * (double)colour);
+}
+
+/* A shape's mean emitted radiance (RGB mean): its emission scaled by its emission
+ * texture's mean. */
+static double emitted_radiance(const vf_scene *s, const vf_shape *sh) {
   double l = (sh->emission.x + sh->emission.y + sh->emission.z) / 3.0;
-  if (l <= 0.0) return 0.0;
-  if (sh->kind == VF_SHAPE_SPHERE) return M_PI * l * 4.0 * M_PI * (double)sh->radius * sh->radius;
-  return M_PI * l * vf_scene_mesh_area(sh);
+  const vf_texture_slot *ts = &s->materials[sh->material].textures[VF_TEXTURE_EMISSION];
+  if (l > 0.0 && ts->texture > 0) l *= texture_mean(&s->textures[ts->texture - 1]);
+  return l;
+}
+
+static vf_vec3 corner(const vf_shape *sh, uint32_t t, int k) {
+  const float *p = &sh->positions[3 * (size_t)sh->indices[3 * (size_t)t + k]];
+  return vf_vec3_make(p[0], p[1], p[2]);
+}
+
+/* Up to this many triangles of the emitters and of the other surfaces, evenly strided, go
+ * into the estimate below: 4096 x 4096 distance computations, a few tens of milliseconds. */
+#define DIM_SAMPLES 4096
+
+/* The radiance a white Lambertian surface would reach, on average over the scene's
+ * non-emitting triangles (their centroids, weighted by area), from its emitting triangles
+ * seen as small one-sided Lambertian sources (L A cos_e cos_r / (pi d^2) each, occlusion
+ * ignored) and emitting spheres as points of their power. *power gets the emitters' total. */
+static double dim_level(const vf_scene *s, double *power) {
+  uint64_t emitting = 0, receiving = 0;
+  *power = 0.0;
+  for (int i = 0; i < s->num_shapes; i++) {
+    const vf_shape *sh = &s->shapes[i];
+    if (sh->kind != VF_SHAPE_MESH) continue;
+    if (emitted_radiance(s, sh) > 0.0) emitting += sh->num_triangles;
+    else receiving += sh->num_triangles;
+  }
+  uint64_t e_stride = emitting / DIM_SAMPLES + 1, r_stride = receiving / DIM_SAMPLES + 1, e_index = 0, r_index = 0;
+  double weighted = 0.0, area_sum = 0.0;
+  for (int i = 0; i < s->num_shapes; i++) { /* the emitters' power, exactly */
+    const vf_shape *sh = &s->shapes[i];
+    double l = emitted_radiance(s, sh);
+    if (l <= 0.0) continue;
+    *power += sh->kind == VF_SHAPE_SPHERE ? M_PI * l * 4.0 * M_PI * (double)sh->radius * sh->radius
+                                          : M_PI * l * vf_scene_mesh_area(sh);
+  }
+  for (int ri = 0; ri < s->num_shapes; ri++) {
+    const vf_shape *rs = &s->shapes[ri];
+    if (rs->kind != VF_SHAPE_MESH || emitted_radiance(s, rs) > 0.0) continue;
+    for (uint32_t rt = 0; rt < rs->num_triangles; rt++, r_index++) {
+      if (r_index % r_stride != 0) continue;
+      vf_vec3 a = corner(rs, rt, 0), b = corner(rs, rt, 1), c = corner(rs, rt, 2);
+      vf_vec3 n = vf_cross(vf_sub(b, a), vf_sub(c, a)), p = vf_scale(vf_add(vf_add(a, b), c), 1.0f / 3.0f);
+      double area = 0.5 * vf_length(n), irradiance = 0.0;
+      if (!(area > 0.0)) continue;
+      n = vf_scale(n, 0.5f / (float)area);
+      e_index = 0;
+      for (int ei = 0; ei < s->num_shapes; ei++) {
+        const vf_shape *es = &s->shapes[ei];
+        double l = emitted_radiance(s, es);
+        if (l <= 0.0) continue;
+        if (es->kind == VF_SHAPE_SPHERE) {
+          vf_vec3 d = vf_sub(es->center, p);
+          double d2 = vf_dot(d, d), power_e = M_PI * l * 4.0 * M_PI * (double)es->radius * es->radius;
+          if (d2 > 0.0) irradiance += power_e / (4.0 * M_PI * d2) * fabs(vf_dot(n, d)) / sqrt(d2);
+          continue;
+        }
+        for (uint32_t et = 0; et < es->num_triangles; et++, e_index++) {
+          if (e_index % e_stride != 0) continue;
+          vf_vec3 ea = corner(es, et, 0), eb = corner(es, et, 1), ec = corner(es, et, 2);
+          vf_vec3 en = vf_cross(vf_sub(eb, ea), vf_sub(ec, ea)); /* twice the area, along the emitting side */
+          vf_vec3 d = vf_sub(p, vf_scale(vf_add(vf_add(ea, eb), ec), 1.0f / 3.0f));
+          double d2 = vf_dot(d, d), cos_e_area = vf_dot(en, d) * 0.5; /* area x cos_e x |d| */
+          if (!(d2 > 0.0) || cos_e_area <= 0.0) continue;
+          double cos_r = fabs(vf_dot(n, d)) / sqrt(d2);
+          /* the strided triangles stand for e_stride each */
+          irradiance += (double)e_stride * l * cos_e_area / sqrt(d2) * cos_r / d2;
+        }
+      }
+      weighted += area * irradiance;
+      area_sum += area;
+    }
+  }
+  return area_sum > 0.0 ? weighted / area_sum / M_PI : INFINITY;
 }
 
 int vf_scene_note_dim_emitters(const parse_ctx *c) {
   const vf_scene *s = c->scene;
   if (s->num_point_lights > 0 || s->num_directional_lights > 0 || !vf_is_zero(s->background) || s->envmap.width > 0)
     return VF_OK;
-  double power = 0.0;
-  for (int i = 0; i < s->num_shapes; i++) power += shape_power(&s->shapes[i]);
-  vf_vec3 center;
-  float radius;
-  vf_scene_bounding_sphere(s, &center, &radius);
-  if (!(power > 0.0) || !(radius > 0.0f)) return VF_OK;
-  /* A white Lambertian surface spread over the bounding sphere receives the power over its
-     area: its radiance, the level the image's lit surfaces reach, is that over pi. */
-  double level = power / (4.0 * M_PI * (double)radius * radius) / M_PI;
-  if (level >= VF_DIM_LIGHT_LEVEL) return VF_OK;
+  double power, level = dim_level(s, &power);
+  if (!(power > 0.0) || level >= VF_DIM_LIGHT_LEVEL) return VF_OK;
   return vf_scene_note(c, "warning: the image will be dark: the only lights are emissive surfaces of %.3g W in all, "
-                          "which light the scene's bounds (radius %.3g) to a radiance of about %.2g on a white surface "
-                          "(below %g): the emitters show, little else does (add lights or a \"background\")",
-                       power, (double)radius, level, VF_DIM_LIGHT_LEVEL);
+                          "whose light reaches the other surfaces at a radiance of about %.2g on a white surface "
+                          "(below %g; most of it leaves the scene or meets nothing): the emitters show, little else "
+                          "does (add lights or a \"background\")",
+                       power, level, VF_DIM_LIGHT_LEVEL);
 }
 
 int vf_scene_default_light(const parse_ctx *c) {

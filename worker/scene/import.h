@@ -38,8 +38,9 @@ int vf_scene_parse_imports(const parse_ctx *c, const cJSON *j, int json_material
 /* For a scene with no camera after its imports: one looking at the bounds from the side of
  * their largest projected area, with a note naming the side. */
 int vf_scene_default_camera(const parse_ctx *c);
-/* The radiance a white surface spread over the scene's bounding sphere would reach from
- * the emitters alone, below which an imported scene lit by nothing else is warned of. */
+/* The radiance a white Lambertian surface reaches on average over the scene's
+ * non-emitting surfaces from its emitters (one-sided, occlusion ignored), below which an
+ * imported scene lit by nothing else is warned of. */
 #define VF_DIM_LIGHT_LEVEL 0.01
 /* For an imported scene lit by its emissive surfaces alone: a warning (a note) when they
  * give it almost no light (VF_DIM_LIGHT_LEVEL), saying why the image will be dark. */

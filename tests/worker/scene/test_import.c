@@ -625,24 +625,33 @@ static void test_default_camera_faces_the_largest_projected_side(void) {
 }
 
 /* Emitters alone that give almost no light: warned of, with the figures; bright ones not.
- * A 10 x 10 white floor and a 0.1 x 0.1 label of radiance 1: 0.0314 W over a bounding
- * sphere of radius 7.07, a level of 1.6e-5. */
+ * A 10 x 10 white floor and a 0.1 x 0.1 label of radiance 1 facing it from a height of 1:
+ * 0.0314 W, of which the floor gets about 0.0314 / 2 over 100 m^2, a radiance of about
+ * 5e-5 on white. Radiance 1e5 lights it; so does radiance 1 turned away from the floor
+ * not (its light meets nothing): the warning says so. */
 static void test_dim_emitters_are_warned_of(void) {
   const char obj[] = "mtllib dim.mtl\nv -5 0 -5\nv -5 0 5\nv 5 0 5\nv 5 0 -5\nv 0 1 0\nv 0.1 1 0\nv 0.1 1 -0.1\nv 0 1 -0.1\n"
-                     "usemtl white\nf 1 2 3 4\nusemtl label\nf 5 6 7 8\n";
+                     "usemtl white\nf 1 2 3 4\nusemtl label\nf 5 8 7 6\n"; /* the label faces down */
   const char dim[] = "newmtl white\nKd 0.8 0.8 0.8\nnewmtl label\nKd 0 0 0\nKe 1 1 1\n";
   const char bright[] = "newmtl white\nKd 0.8 0.8 0.8\nnewmtl label\nKd 0 0 0\nKe 100000 100000 100000\n";
   write_file("dim.obj", obj, sizeof obj - 1);
   write_file("dim.mtl", dim, sizeof dim - 1);
   vf_scene *s = load("dim.obj", NULL);
   if (s != NULL) {
-    CHECK_STR_CONTAINS(s->notes, "warning: the image will be dark: the only lights are emissive surfaces of 0.0314 W");
+    CHECK_STR_CONTAINS(s->notes, "warning: the image will be dark: the only lights are emissive surfaces of 0.0314 W "
+                                 "in all, whose light reaches the other surfaces at a radiance of about");
     CHECK(strstr(s->notes, "no light:") == NULL); /* it has a light: no default background */
   }
   vf_scene_destroy(s);
   write_file("dim.mtl", bright, sizeof bright - 1);
   s = load("dim.obj", NULL);
   if (s != NULL) CHECK(s->notes == NULL || strstr(s->notes, "dark") == NULL);
+  vf_scene_destroy(s);
+  const char away[] = "mtllib dim.mtl\nv -5 0 -5\nv -5 0 5\nv 5 0 5\nv 5 0 -5\nv 0 1 0\nv 0.1 1 0\nv 0.1 1 -0.1\nv 0 1 -0.1\n"
+                      "usemtl white\nf 1 2 3 4\nusemtl label\nf 5 6 7 8\n"; /* the bright label faces up */
+  write_file("away.obj", away, sizeof away - 1);
+  s = load("away.obj", NULL);
+  if (s != NULL) CHECK_STR_CONTAINS(s->notes, "warning: the image will be dark");
   vf_scene_destroy(s);
 }
 
