@@ -10,6 +10,7 @@
 #include "../common/film.h"
 #include "../common/image.h"
 #include "../worker/render/render.h"
+#include "../worker/scene/background.h"
 #include "../worker/scene/load.h"
 #include "local_render.h"
 #include "options.h"
@@ -35,6 +36,7 @@ static const char usage[] =
     "      --scene SCENE        the scene to load (default: the one the film names); its\n"
     "                           content hash must equal the film's\n"
     "      --camera NAME|INDEX  the glTF file's camera the film was rendered with (as render's)\n"
+    "      --background COLOR|FILE.exr  the background the film was rendered with (as render's)\n"
     "  -o, --output OUT         where to write (default: FILM)\n" VF_CLI_PREVIEW_HELP
     "  -j, --threads T          render threads (default: one per CPU)\n"
     "  -q, --quiet              no progress line or summary\n"
@@ -51,13 +53,17 @@ static void hex32(const uint8_t *hash, char out[65]) {
 
 /* Loads the scene the film names (or `scene_arg`) and checks it is the film's scene. */
 static int load_scene(const vf_film *film, const char *film_path, const char *scene_arg, const char *camera,
-                      vf_scene **out) {
+                      const char *background, vf_scene **out) {
   const char *name = scene_arg ? scene_arg : film->scene_name;
   if (name[0] == '\0')
     return vf_error_set(VF_EUSAGE, "%s does not name its scene (no attribute vcmfarm:scene): give --scene", film_path);
   vf_scene *scene = NULL;
   int err = vf_scene_load_camera(name, camera, &scene);
   if (err != VF_OK) return err;
+  if (background && (err = vf_scene_set_background(scene, background)) != VF_OK) {
+    vf_scene_destroy(scene);
+    return err;
+  }
   if (memcmp(scene->hash, film->scene_hash, sizeof scene->hash) != 0) {
     char have[65], want[65];
     hex32(scene->hash, have);
@@ -65,7 +71,8 @@ static int load_scene(const vf_film *film, const char *film_path, const char *sc
     vf_scene_destroy(scene);
     return vf_error_set(VF_EMISMATCH, "scene %s has content hash %s but %s was rendered from scene hash %s%s", name,
                         have, film_path, want,
-                        vf_scene_is_model_file(name) ? " (was it rendered with another --camera?)" : "");
+                        vf_scene_is_model_file(name) ? " (was it rendered with another --camera or --background?)"
+                                                      : " (was it rendered with another --background?)");
   }
   *out = scene;
   return VF_OK;
@@ -99,9 +106,10 @@ int vf_cmd_continue(int argc, char **argv) {
       {"output", required_argument, 0, 'o'},              {"threads", required_argument, 0, 'j'},
       {"quiet", no_argument, 0, 'q'},                     {"help", no_argument, 0, 'h'},
       {"camera", required_argument, 0, 'M'},              {"preview", required_argument, 0, 'p'},
+      {"background", required_argument, 0, VF_CLI_OPT_BACKGROUND},
       {"exposure", required_argument, 0, 'e'},            {"verbose", no_argument, 0, 'v'},
       {0, 0, 0, 0}};
-  const char *cmd = "continue", *output = NULL, *scene_arg = NULL, *camera = NULL, *preview = NULL;
+  const char *cmd = "continue", *output = NULL, *scene_arg = NULL, *camera = NULL, *preview = NULL, *background = NULL;
   double exposure = 0.0;
   vf_cli_stop stop = {0};
   long long threads = 0;
@@ -117,6 +125,7 @@ int vf_cmd_continue(int argc, char **argv) {
     case 'C': err = vf_cli_checkpoint_option(&checkpoint, optarg); break;
     case 'S': scene_arg = optarg; break;
     case 'M': camera = optarg; break;
+    case VF_CLI_OPT_BACKGROUND: background = optarg; break;
     case 'o': output = optarg; break;
     case 'j': err = vf_cli_int("--threads", optarg, 1, 1024, &threads); break;
     case 'q': quiet = 1; break;
@@ -149,7 +158,7 @@ int vf_cmd_continue(int argc, char **argv) {
   if ((err = vf_file_lock_acquire(output, "continue", &lock)) != VF_OK) goto done;
   if ((err = vf_film_read(film_path, &film)) != VF_OK) goto done;
   if ((err = film_settings(film, film_path, &settings)) != VF_OK) goto done;
-  if ((err = load_scene(film, film_path, scene_arg, camera, &scene)) != VF_OK) goto done;
+  if ((err = load_scene(film, film_path, scene_arg, camera, background, &scene)) != VF_OK) goto done;
   if (stop.reference && (err = vf_reference_load(stop.reference, film->width, film->height, &reference)) != VF_OK)
     goto done;
   if ((err = vf_renderer_create(scene, &settings, (int)threads, &renderer)) != VF_OK) goto done;

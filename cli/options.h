@@ -48,7 +48,13 @@ int vf_cli_not_input(const char *output_option, const char *output, const char *
  * them through VF_CLI_SETTINGS_OPTIONS (getopt_long entries), VF_CLI_SETTINGS_SHORT (its
  * short letters) and VF_CLI_SETTINGS_HELP (their lines of --help), so the options and
  * their help exist once. */
-#define VF_CLI_OPT_RADIUS 0x100 /* --radius: no letter is left that every command leaves free */
+/* getopt_long values of long options without a short letter that several commands share,
+ * above every character so that they meet no letter. */
+enum {
+  VF_CLI_OPT_BACKGROUND = 0x100, /* --background COLOR|FILE.exr: render, continue */
+  VF_CLI_OPT_RADIUS,             /* --radius global|per-pixel: the settings options */
+};
+
 #define VF_CLI_SETTINGS_OPTIONS                                                                              \
   {"algorithm", required_argument, 0, 'a'}, {"seed", required_argument, 0, 's'},                            \
       {"max-path-length", required_argument, 0, 'l'}, {"radius-factor", required_argument, 0, 'r'},         \

@@ -14,6 +14,7 @@
 #include "../common/film.h"
 #include "../common/image.h"
 #include "../worker/render/render.h"
+#include "../worker/scene/background.h"
 #include "../worker/scene/load.h"
 #include "local_render.h"
 #include "options.h"
@@ -35,6 +36,9 @@ static const char usage[] =
     "  -k, --start-iteration K  first global iteration index (default 0)\n"
     "  -j, --threads T          render threads (default: one per CPU)\n" VF_CLI_SETTINGS_HELP
     "      --camera NAME|INDEX  the glTF file's camera to render (default: its first)\n"
+    "      --background COLOR|FILE.exr  replaces the scene's background: a radiance R,G,B or\n"
+    "                           a grey V, or a latitude-longitude EXR map (docs/SCENES.md);\n"
+    "                           `continue` needs the same option\n"
     "  -o, --output FILM.exr    the film to write (required)\n"
     VF_CLI_PREVIEW_HELP
     "      --direct             accepted for compatibility: what render always does now\n"
@@ -63,6 +67,7 @@ static int render(const vf_render_job *o) {
   vf_image reference = {0};
   if ((err = vf_scene_load_camera(o->scene, o->camera, &scene)) != VF_OK) return vf_cli_fail("render", err);
   vf_cli_print_notes(scene->source, scene->notes);
+  if (o->background && (err = vf_scene_set_background(scene, o->background)) != VF_OK) goto done;
 
   /* Settings: defaults, then the scene's "render" object, then the command line. */
   vf_settings settings = scene->settings;
@@ -122,7 +127,7 @@ int vf_cmd_render(int argc, char **argv) {
       {"exposure", required_argument, 0, 'e'},        {"quiet", no_argument, 0, 'q'},
       {"help", no_argument, 0, 'h'},                  {"checkpoint-interval", required_argument, 0, 'C'},
       {"direct", no_argument, 0, 'D'},                {"camera", required_argument, 0, 'M'},
-      {"verbose", no_argument, 0, 'v'},
+      {"verbose", no_argument, 0, 'v'},               {"background", required_argument, 0, VF_CLI_OPT_BACKGROUND},
       {0, 0, 0, 0}};
   const char *cmd = "render";
   vf_render_job o = {.checkpoint = VF_CLI_CHECKPOINT_DEFAULT};
@@ -145,6 +150,7 @@ int vf_cmd_render(int argc, char **argv) {
     case 'v': o.verbose = 1; break;
     case 'D': break; /* --direct: the default, kept for the scripts that say it */
     case 'M': o.camera = optarg; break;
+    case VF_CLI_OPT_BACKGROUND: o.background = optarg; break;
     case 'C': err = vf_cli_checkpoint_option(&o.checkpoint, optarg); break;
     case 'h': fputs(usage, stdout); return VF_EXIT_OK;
     default:

@@ -15,6 +15,7 @@
 typedef struct {
   const char *scene, *output, *preview; /* borrowed from argv; preview may be NULL */
   const char *camera;                   /* --camera NAME|INDEX of a model file, or NULL */
+  const char *background;               /* --background COLOR|FILE.exr, or NULL */
   vf_cli_settings overrides;
   vf_cli_stop stop;
   vf_cli_checkpoint checkpoint;

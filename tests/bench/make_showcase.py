@@ -28,8 +28,9 @@ Most triangles are in the knot, the mound, the orb and the leaves; --triangles s
 of them together (about 1.2 million by default; 20000 is the size the tests use, with
 smaller textures).
 
-Light values are radiometric, as vcmfarm reads KHR_lights_punctual: the spot's intensity
-in W/sr, the sun's in W/m^2; emitters have radiance of order 1 to 20.
+Light values are written in KHR_lights_punctual's units as Blender writes them and vcmfarm
+reads them (docs/SCENES.md, "Light units"): the spot's 120 W/sr as 120 x 683 = 81960 cd,
+the sun's 3.2 W/m^2 as 3.2 lux; emitters have radiance of order 1 to 20.
 
 --check reads the files back from disk and verifies them as glTF 2.0 (gltf_check.py: buffer
 lengths, accessor bounds and alignment, POSITION min/max, index ranges, unit normals and
@@ -719,7 +720,7 @@ def add_lights_and_camera(b, m, root):
     housing = lathe_mesh([(0.0, 0.0), (0.09, 0.0), (0.11, 0.2), (0.11, 0.22), (0.11, 0.22), (0.0, 0.26)], 48)
     b.node({"name": "Spot housing", "mesh": b.mesh("spot housing", housing, m["wrought iron"]),
             "translation": [0.0, 0.0, 0.02], "rotation": quat_axis_angle((1, 0, 0), 90)}, rig)
-    spot = b.light({"name": "spot", "type": "spot", "color": [1.0, 0.93, 0.82], "intensity": 120.0,
+    spot = b.light({"name": "spot", "type": "spot", "color": [1.0, 0.93, 0.82], "intensity": 120.0 * 683.0,
                     "spot": {"innerConeAngle": math.radians(12), "outerConeAngle": math.radians(20)}})
     b.node({"name": "Spot", "extensions": {"KHR_lights_punctual": {"light": spot}}}, rig)
     sun = b.light({"name": "sun", "type": "directional", "color": [1.0, 0.86, 0.7], "intensity": 3.2})

@@ -29,11 +29,39 @@ float vf_fresnel_dielectric(float cos_i, float eta) {
 
 static int is_rough(float roughness) { return vf_ggx_alpha(roughness) >= VF_GGX_ALPHA_DELTA; }
 
-/* The conductor lobes' F0 in the glTF model, mix(0.04, base_color, metallic) [glTF, B.3.5:
- * the metal and dielectric BRDFs' specular layers, mixed by metallic, are one layer]. */
-static vf_vec3 gltf_f0(const vf_material *m) {
-  vf_vec3 f0 = vf_vec3_splat(VF_GLTF_DIELECTRIC_F0);
+/* The glTF model's dielectric layer: Schlick's Fresnel from F0_d at normal incidence to
+ * F90_d at grazing incidence, F0_d = 0.04 and F90_d = 1 by the core specification, or with
+ * KHR_materials_specular (and KHR_materials_ior) F0_d = min(((ior - 1) / (ior + 1))^2
+ * specularColor, 1) specular and F90_d = specular [KHR_materials_specular, "Implementation"]. */
+static void gltf_dielectric(const vf_material *m, vf_vec3 *f0, float *f90) {
+  if (!m->specular_set) {
+    *f0 = vf_vec3_splat(VF_GLTF_DIELECTRIC_F0);
+    *f90 = 1.0f;
+    return;
+  }
+  vf_vec3 c = m->specular_f0;
+  *f0 = vf_scale(vf_vec3_make(fminf(c.x, 1.0f), fminf(c.y, 1.0f), fminf(c.z, 1.0f)), m->specular);
+  *f90 = m->specular;
+}
+
+/* The specular layer's F0 and F90 in the glTF model: the metal's (base_color, 1) and the
+ * dielectric's mixed by metallic [glTF, B.3.5: the metal and dielectric BRDFs' specular
+ * layers, mixed by metallic, are one layer, Schlick's Fresnel being linear in F0 and F90]. */
+static vf_vec3 gltf_f0(const vf_material *m, float *f90) {
+  vf_vec3 f0;
+  float d90;
+  gltf_dielectric(m, &f0, &d90);
+  *f90 = d90 + (1.0f - d90) * m->metallic;
   return vf_add(f0, vf_scale(vf_sub(m->base_color, f0), m->metallic));
+}
+
+/* Schlick's F0 + (F90 - F0) (1 - c)^5 and its cosine-weighted hemispherical average
+ * F0 + (F90 - F0) / 21. */
+static vf_vec3 schlick_f90(vf_vec3 f0, float f90, float c) {
+  return vf_add(f0, vf_scale(vf_sub(vf_vec3_splat(f90), f0), vf_fresnel_schlick_weight(c)));
+}
+static vf_vec3 schlick_f90_average(vf_vec3 f0, float f90) {
+  return vf_add(f0, vf_scale(vf_sub(vf_vec3_splat(f90), f0), 1.0f / 21.0f));
 }
 
 static int fresnel_model_of(const vf_material *m) {
@@ -48,8 +76,13 @@ void vf_bsdf_lobes_of(const vf_material *m, vf_bsdf_lobes *lobes) {
   vf_vec3 conductor = vf_vec3_splat(0.0f), base = vf_vec3_splat(0.0f);
   lobes->fresnel_model = fresnel_model_of(m);
   if (m->gltf) {
-    conductor = vf_fresnel_schlick_average(gltf_f0(m));
-    float coat = 1.0f - vf_fresnel_schlick_average(vf_vec3_splat(VF_GLTF_DIELECTRIC_F0)).x;
+    float f90, d90;
+    vf_vec3 f0 = gltf_f0(m, &f90), d0;
+    conductor = schlick_f90_average(f0, f90);
+    /* The base under 1 - max_rgb(F_d); F_d's largest channel is d0's largest at every angle
+     * (F90_d >= F0_d). */
+    gltf_dielectric(m, &d0, &d90);
+    float coat = 1.0f - schlick_f90_average(vf_vec3_splat(vf_max_component(d0)), d90).x;
     base = vf_scale(m->base_color, (1.0f - m->metallic) * coat);
   } else if (lobes->fresnel_model == VF_FRESNEL_COMPLEX) {
     conductor = vf_mul(m->conductor, vf_fresnel_conductor_average(m->conductor_eta, m->conductor_k));
@@ -111,7 +144,7 @@ typedef struct {
 static vf_vec3 conductor_reflectance(const vf_bsdf *b, float c) {
   const vf_material *m = b->material;
   switch (b->fresnel_model) {
-  case VF_FRESNEL_SCHLICK: return vf_fresnel_schlick(b->f0, c);
+  case VF_FRESNEL_SCHLICK: return schlick_f90(b->f0, b->f90, c);
   case VF_FRESNEL_COMPLEX: return vf_mul(m->conductor, vf_fresnel_conductor(c, m->conductor_eta, m->conductor_k));
   default: return m->conductor;
   }
@@ -123,7 +156,8 @@ static vf_vec3 conductor_reflectance(const vf_bsdf *b, float c) {
  * Lambda(gen)) [Heitz14, sec. 6]; the density of reflecting into gen is
  * G1(fix) D / (4 cos_fix), the visible normals times the Jacobian 1 / (4 fix.m)
  * [Walter07 eq. 14], and the reverse one the same seen from gen. The glTF base is
- * (1 - F(0.04, fix.m)) (1 - metallic) base_color / pi, cosine-sampled [glTF, B.3.5]. */
+ * (1 - max_rgb F_d(fix.m)) (1 - metallic) base_color / pi, cosine-sampled [glTF, B.3.5;
+ * KHR_materials_specular: dielectric_brdf = F_d specular + (1 - max_rgb F_d) diffuse]. */
 static void reflect_rough(const vf_bsdf *b, vf_vec3 gen, lobe_value *v) {
   const vf_material *mat = b->material;
   const float *p = b->lobe_probability;
@@ -151,7 +185,7 @@ static void reflect_rough(const vf_bsdf *b, vf_vec3 gen, lobe_value *v) {
   }
   float pb = p[VF_LOBE_BASE];
   if (pb > 0.0f) {
-    float coat = 1.0f - VF_GLTF_DIELECTRIC_F0 - (1.0f - VF_GLTF_DIELECTRIC_F0) * vf_fresnel_schlick_weight(c);
+    float coat = 1.0f - b->dielectric_f0_max - (b->dielectric_f90 - b->dielectric_f0_max) * vf_fresnel_schlick_weight(c);
     v->f = vf_add(v->f, vf_scale(b->base, coat * VF_INV_PI));
     v->direct_pdf_w += pb * gen.z * VF_INV_PI;
     v->reverse_pdf_w += pb * fix.z * VF_INV_PI;
@@ -197,7 +231,10 @@ void vf_bsdf_setup_extended(vf_bsdf *b, const vf_bsdf_lobes *lobes, int entering
   b->alpha = lobes->alpha;
   b->lambda_fix = vf_ggx_lambda(b->local_fix, lobes->alpha, lobes->alpha);
   if (b->material->gltf) { /* from the material set up with, which may be a textured copy */
-    b->f0 = gltf_f0(b->material);
+    vf_vec3 d0;
+    b->f0 = gltf_f0(b->material, &b->f90);
+    gltf_dielectric(b->material, &d0, &b->dielectric_f90);
+    b->dielectric_f0_max = vf_max_component(d0);
     b->base = vf_scale(b->material->base_color, 1.0f - b->material->metallic);
   }
   if (lobes->lobe_probability[VF_LOBE_ROUGH_DIELECTRIC] > 0.0f)

@@ -74,6 +74,8 @@ typedef struct {
   float alpha, lambda_fix;     /* when rough: GGX alpha and Smith's Lambda(local_fix) */
   vf_vec3 diffuse;             /* the diffuse lobe's albedo here (a texture may vary it) */
   vf_vec3 f0, base;            /* glTF model, when extended: Schlick's F0 and the base's weight */
+  float f90;                   /* glTF model: Schlick's F90 of the specular layer */
+  float dielectric_f0_max, dielectric_f90; /* glTF model: the dielectric's, for the base's 1 - max_rgb F_d */
   /* Shading normals (vf_bsdf_setup_shading; extended is then set): the frame is the shading
    * normal's, `geometric` the unit geometric normal on the side of fix, fix_ratio
    * |fix.n_shading| / |fix.n_geometric|. */

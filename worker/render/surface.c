@@ -16,22 +16,42 @@ vf_vec3 vf_surface_triangle_normal(const vf_shape *sh, uint32_t prim) {
   return len > 0.0f ? vf_scale(n, 1.0f / len) : vf_vec3_splat(0.0f);
 }
 
-void vf_surface_uv(const vf_shape *sh, uint32_t prim, float u, float v, float st[2]) {
-  st[0] = st[1] = 0.0f;
-  if (sh->uvs == NULL) return;
-  const uint32_t *tri = &sh->indices[3 * (size_t)prim];
-  const float *a = &sh->uvs[2 * (size_t)tri[0]], *b = &sh->uvs[2 * (size_t)tri[1]], *c = &sh->uvs[2 * (size_t)tri[2]];
+static void interpolate_uv(const float *uvs, const uint32_t *tri, float u, float v, float st[2]) {
+  const float *a = &uvs[2 * (size_t)tri[0]], *b = &uvs[2 * (size_t)tri[1]], *c = &uvs[2 * (size_t)tri[2]];
   float w = 1.0f - u - v;
   st[0] = w * a[0] + u * b[0] + v * c[0];
   st[1] = w * a[1] + u * b[1] + v * c[1];
 }
 
+void vf_surface_uv(const vf_shape *sh, uint32_t prim, float u, float v, float st[4]) {
+  st[0] = st[1] = st[2] = st[3] = 0.0f;
+  if (sh->uvs == NULL) return;
+  const uint32_t *tri = &sh->indices[3 * (size_t)prim];
+  interpolate_uv(sh->uvs, tri, u, v, st);
+  if (sh->uvs1 != NULL) interpolate_uv(sh->uvs1, tri, u, v, st + 2);
+  else st[2] = st[0], st[3] = st[1];
+}
+
+/* Where slot ts reads: its uv set, through its KHR_texture_transform. */
+static void slot_st(const vf_texture_slot *ts, const float st[4], float out[2]) {
+  const float *in = ts->uv_set == 1 ? st + 2 : st;
+  if (!ts->has_transform) {
+    out[0] = in[0], out[1] = in[1];
+    return;
+  }
+  const float *m = ts->transform;
+  out[0] = m[0] * in[0] + m[1] * in[1] + m[2];
+  out[1] = m[3] * in[0] + m[4] * in[1] + m[5];
+}
+
 /* RGBA of a material's slot at st; NULL when the slot has no texture. */
-static const float *slot_lookup(const vf_scene *scene, const vf_material *m, int slot, int srgb, const float st[2],
+static const float *slot_lookup(const vf_scene *scene, const vf_material *m, int slot, int srgb, const float st[4],
                                 float out[4]) {
   const vf_texture_slot *ts = &m->textures[slot];
   if (ts->texture == 0) return NULL;
-  vf_texture_lookup(&scene->textures[ts->texture - 1], st[0], st[1], ts->wrap_s, ts->wrap_t, srgb, out);
+  float at[2];
+  slot_st(ts, st, at);
+  vf_texture_lookup(&scene->textures[ts->texture - 1], at[0], at[1], ts->wrap_s, ts->wrap_t, srgb, out);
   return out;
 }
 
@@ -41,7 +61,7 @@ static vf_vec3 scale_clamped(vf_vec3 c, const float t[4]) {
   return vf_vec3_make(unit_clamp(c.x * t[0]), unit_clamp(c.y * t[1]), unit_clamp(c.z * t[2]));
 }
 
-void vf_surface_material(const vf_scene *scene, const vf_material *base, const float st[2], vf_material *out) {
+void vf_surface_material(const vf_scene *scene, const vf_material *base, const float st[4], vf_material *out) {
   *out = *base;
   float t[4];
   if (slot_lookup(scene, base, VF_TEXTURE_COLOR, 1, st, t)) {
@@ -54,6 +74,12 @@ void vf_surface_material(const vf_scene *scene, const vf_material *base, const f
     out->roughness = unit_clamp(base->roughness * t[1]);
     out->metallic = unit_clamp(base->metallic * t[2]);
   }
+  /* KHR_materials_specular: specularTexture's alpha scales specular, specularColorTexture's
+   * RGB the F0 colour (min(F0 colour, 1) is taken in bsdf.c). */
+  if (slot_lookup(scene, base, VF_TEXTURE_SPECULAR, 0, st, t)) out->specular = unit_clamp(base->specular * t[3]);
+  if (slot_lookup(scene, base, VF_TEXTURE_SPECULAR_COLOR, 1, st, t))
+    out->specular_f0 = vf_vec3_make(fmaxf(base->specular_f0.x * t[0], 0.0f), fmaxf(base->specular_f0.y * t[1], 0.0f),
+                                    fmaxf(base->specular_f0.z * t[2], 0.0f));
 }
 
 /* The tangent of the normal map's frame at the point: the vertex tangents interpolated, or
@@ -91,7 +117,7 @@ static int tangent_at(const vf_shape *sh, uint32_t prim, float u, float v, vf_ve
 }
 
 vf_vec3 vf_surface_shading_normal(const vf_scene *scene, const vf_shape *sh, uint32_t prim, float u, float v,
-                                  const float st[2], vf_vec3 ng) {
+                                  const float st[4], vf_vec3 ng) {
   vf_vec3 n = ng;
   if (sh->normals != NULL) {
     const uint32_t *tri = &sh->indices[3 * (size_t)prim];
@@ -120,15 +146,23 @@ int vf_surface_bsdf(vf_bsdf *b, const vf_scene *scene, const vf_bsdf_lobes *lobe
                     float u, float v, vf_vec3 ng, vf_vec3 world_fix) {
   const vf_shape *sh = &scene->shapes[shape];
   const vf_material *m = &scene->materials[sh->material];
-  float st[2];
+  float st[4];
   vf_surface_uv(sh, prim, u, v, st);
   vf_vec3 ns = vf_surface_shading_normal(scene, sh, prim, u, v, st, ng);
   const vf_bsdf_lobes *l = &lobes[sh->material];
   vf_material textured;
   vf_bsdf_lobes here;
   const vf_material *values = m;
-  if (vf_material_textured(m)) {
+  if (vf_material_textured(m) || sh->colors != NULL) {
     vf_surface_material(scene, m, st, &textured);
+    if (sh->colors != NULL) { /* COLOR_0 multiplies the base colour (glTF 2.0, 3.7.2.1), or the diffuse albedo */
+      const uint32_t *tri = &sh->indices[3 * (size_t)prim];
+      float w = 1.0f - u - v;
+      vf_vec3 col = vf_add(vf_add(vf_scale(vertex3(sh->colors, tri[0]), w), vf_scale(vertex3(sh->colors, tri[1]), u)),
+                           vf_scale(vertex3(sh->colors, tri[2]), v));
+      if (m->gltf) textured.base_color = vf_mul(textured.base_color, col);
+      else textured.diffuse = vf_mul(textured.diffuse, col);
+    }
     vf_bsdf_lobes_of(&textured, &here);
     here.continuation = l->continuation; /* a function of the material alone: see surface.h */
     here.black = here.black || !(here.continuation > 0.0f);
@@ -153,7 +187,7 @@ void vf_surface_prefetch_vertices(const vf_shape *sh, uint32_t prim) {
 void vf_surface_prefetch_texels(const vf_scene *scene, const vf_shape *sh, uint32_t prim, float u, float v) {
   static const int slots[] = {VF_TEXTURE_COLOR, VF_TEXTURE_ROUGHNESS_METALLIC, VF_TEXTURE_NORMAL};
   const vf_material *m = &scene->materials[sh->material];
-  float st[2];
+  float st[4], at[2];
   int have_st = 0;
   for (size_t k = 0; k < sizeof slots / sizeof slots[0]; k++) {
     const vf_texture_slot *ts = &m->textures[slots[k]];
@@ -162,18 +196,20 @@ void vf_surface_prefetch_texels(const vf_scene *scene, const vf_shape *sh, uint3
       vf_surface_uv(sh, prim, u, v, st);
       have_st = 1;
     }
-    vf_texture_prefetch(&scene->textures[ts->texture - 1], st[0], st[1], ts->wrap_s, ts->wrap_t);
+    slot_st(ts, st, at);
+    vf_texture_prefetch(&scene->textures[ts->texture - 1], at[0], at[1], ts->wrap_s, ts->wrap_t);
   }
 }
 
 int vf_surface_covered(const vf_scene *scene, const vf_shape *sh, uint32_t prim, float u, float v) {
   const vf_material *m = &scene->materials[sh->material];
   if (!(m->alpha_cutoff > 0.0f)) return 1;
-  float coverage = m->alpha, st[2];
+  float coverage = m->alpha, st[4], at[2];
   const vf_texture_slot *ts = &m->textures[VF_TEXTURE_ALPHA];
   if (ts->texture != 0) {
     vf_surface_uv(sh, prim, u, v, st);
-    coverage *= vf_texture_lookup_channel(&scene->textures[ts->texture - 1], st[0], st[1], ts->wrap_s, ts->wrap_t,
+    slot_st(ts, st, at);
+    coverage *= vf_texture_lookup_channel(&scene->textures[ts->texture - 1], at[0], at[1], ts->wrap_s, ts->wrap_t,
                                           m->alpha_channel & 3);
   }
   return coverage >= m->alpha_cutoff;
@@ -183,7 +219,7 @@ vf_vec3 vf_surface_emission_factor(const vf_scene *scene, const vf_shape *sh, ui
   if (sh->kind != VF_SHAPE_MESH) return vf_vec3_splat(1.0f);
   const vf_material *m = &scene->materials[sh->material];
   if (!vf_surface_covered(scene, sh, prim, u, v)) return vf_vec3_splat(0.0f);
-  float st[2], t[4];
+  float st[4], t[4];
   vf_surface_uv(sh, prim, u, v, st);
   if (!slot_lookup(scene, m, VF_TEXTURE_EMISSION, 1, st, t)) return vf_vec3_splat(1.0f);
   return vf_vec3_make(t[0], t[1], t[2]);

@@ -16,10 +16,10 @@
 #include <stdint.h>
 
 /* Whether hits on shape `sh` are shaded from their barycentrics: a mesh with vertex normals
- * or a material with a texture. */
+ * or vertex colours, or a material with a texture. */
 static inline int vf_surface_interpolated(const vf_scene *scene, const vf_shape *sh) {
   return sh->kind == VF_SHAPE_MESH &&
-         (sh->normals != NULL || vf_material_textured(&scene->materials[sh->material]));
+         (sh->normals != NULL || sh->colors != NULL || vf_material_textured(&scene->materials[sh->material]));
 }
 
 /* The unit geometric normal of triangle `prim` of mesh sh, by its winding (counter-clockwise
@@ -29,19 +29,21 @@ static inline int vf_surface_interpolated(const vf_scene *scene, const vf_shape 
 vf_vec3 vf_surface_triangle_normal(const vf_shape *sh, uint32_t prim);
 
 /* The texture coordinates at barycentrics (u, v) of triangle prim (weights 1 - u - v, u, v
- * of its vertices 0, 1, 2, as Embree reports them); (0, 0) without coordinates. */
-void vf_surface_uv(const vf_shape *sh, uint32_t prim, float u, float v, float st[2]);
+ * of its vertices 0, 1, 2, as Embree reports them): uv set 0 in st[0..1], set 1 in
+ * st[2..3] (set 0's again when the shape has no second set); zeros without coordinates.
+ * Each texture slot reads its set through its transform (material.h). */
+void vf_surface_uv(const vf_shape *sh, uint32_t prim, float u, float v, float st[4]);
 
 /* The material at that point: `base` with its textures applied (COLOR multiplies diffuse,
  * or base_color in the glTF model; ROUGHNESS_METALLIC roughness and metallic), each
  * textured value clamped to [0, 1] so the material stays energy-conserving. */
-void vf_surface_material(const vf_scene *scene, const vf_material *base, const float st[2], vf_material *out);
+void vf_surface_material(const vf_scene *scene, const vf_material *base, const float st[4], vf_material *out);
 
 /* The shading normal at the point (unit): the interpolated vertex normal (the geometric
  * normal ng without vertex normals), turned by the material's normal map in the tangent
  * frame of the vertex tangents or, without them, of the texture coordinates. */
 vf_vec3 vf_surface_shading_normal(const vf_scene *scene, const vf_shape *sh, uint32_t prim, float u, float v,
-                                  const float st[2], vf_vec3 ng);
+                                  const float st[4], vf_vec3 ng);
 
 /* The BSDF at barycentrics (u, v) of triangle prim of shape `shape` with geometric normal
  * ng, for a path arriving from world_fix: textured material, shading normal, lobes. `lobes`

@@ -26,6 +26,55 @@ const char *vf_scene_kind(const cJSON *item) {
 
 /* Checks that obj is an object whose keys are all in `allowed` (NULL-terminated; NULL
  * allows any key) and that no key repeats: cJSON keeps duplicates, we would read the first. */
+/* Keys of a large object, sorted by name then position, so that a repeated key is found
+ * in O(n log n): a "materials" object of 200,000 names compared pairwise took minutes. */
+typedef struct {
+  const char *key;
+  long position;
+} key_at;
+
+static int compare_keys(const void *a, const void *b) {
+  const key_at *x = a, *y = b;
+  int c = strcmp(x->key, y->key);
+  return c != 0 ? c : (x->position > y->position) - (x->position < y->position);
+}
+
+/* Objects up to this many members are checked pairwise (no allocation). */
+#define SMALL_OBJECT 32
+
+/* The member of obj whose key repeats an earlier member's (the first such in the file's
+ * order), or NULL; *failed on allocation failure. */
+static const cJSON *repeated_key(const cJSON *obj, int *failed) {
+  long n = 0;
+  const cJSON *m;
+  *failed = 0;
+  for (m = obj->child; m != NULL; m = m->next) n++;
+  if (n <= SMALL_OBJECT) {
+    for (m = obj->child; m != NULL; m = m->next)
+      for (const cJSON *e = obj->child; e != m; e = e->next)
+        if (strcmp(e->string, m->string) == 0) return m;
+    return NULL;
+  }
+  key_at *keys = malloc((size_t)n * sizeof *keys);
+  const cJSON **members = malloc((size_t)n * sizeof *members);
+  if (keys == NULL || members == NULL) {
+    free(keys);
+    free(members);
+    *failed = 1;
+    return NULL;
+  }
+  long i = 0;
+  for (m = obj->child; m != NULL; m = m->next, i++) keys[i] = (key_at){m->string, i}, members[i] = m;
+  qsort(keys, (size_t)n, sizeof *keys, compare_keys);
+  long first = -1;
+  for (i = 1; i < n; i++)
+    if (strcmp(keys[i - 1].key, keys[i].key) == 0 && (first < 0 || keys[i].position < first)) first = keys[i].position;
+  const cJSON *found = first >= 0 ? members[first] : NULL;
+  free(keys);
+  free(members);
+  return found;
+}
+
 int vf_scene_check_object(const parse_ctx *c, const cJSON *obj, const char *path, const char *const *allowed) {
   char p[PATH_LEN];
   if (!cJSON_IsObject(obj))
@@ -40,11 +89,51 @@ int vf_scene_check_object(const parse_ctx *c, const cJSON *obj, const char *path
         snprintf(list + strlen(list), sizeof list - strlen(list), "%s%s", i ? ", " : "", allowed[i]);
       return vf_scene_fail(c, VF_ESCENE, vf_scene_join(p, path, m->string), "unknown field (expected one of: %s)", list);
     }
-    for (const cJSON *e = obj->child; e != m; e = e->next)
-      if (strcmp(e->string, m->string) == 0)
-        return vf_scene_fail(c, VF_ESCENE, vf_scene_join(p, path, m->string), "duplicate field");
   }
+  int failed;
+  const cJSON *dup = repeated_key(obj, &failed);
+  if (failed) return vf_error_set(VF_ENOMEM, "out of memory");
+  if (dup != NULL) return vf_scene_fail(c, VF_ESCENE, vf_scene_join(p, path, dup->string), "duplicate field");
   return VF_OK;
+}
+
+/* ---- material names ------------------------------------------------------------------- */
+
+/* qsort has no context argument: the scene being indexed, for the comparison (per thread:
+ * scenes may load on several threads at once). */
+static _Thread_local const vf_scene *sorting;
+
+static int compare_names(const void *a, const void *b) {
+  int x = *(const int *)a, y = *(const int *)b, c = strcmp(sorting->materials[x].name, sorting->materials[y].name);
+  return c != 0 ? c : (x > y) - (x < y);
+}
+
+int vf_name_index_build(const vf_scene *s, int count, vf_name_index *out) {
+  int *e = malloc(((size_t)count + 1) * sizeof *e);
+  if (e == NULL) return vf_error_set(VF_ENOMEM, "out of memory");
+  for (int i = 0; i < count; i++) e[i] = i;
+  sorting = s;
+  qsort(e, (size_t)count, sizeof *e, compare_names);
+  out->sorted = e;
+  out->count = count;
+  out->scene = s;
+  return VF_OK;
+}
+
+int vf_name_index_find(const vf_name_index *x, const char *name) {
+  int lo = 0, hi = x->count; /* the first entry not below name */
+  while (lo < hi) {
+    int mid = lo + (hi - lo) / 2;
+    if (strcmp(x->scene->materials[x->sorted[mid]].name, name) < 0) lo = mid + 1;
+    else hi = mid;
+  }
+  return lo < x->count && strcmp(x->scene->materials[x->sorted[lo]].name, name) == 0 ? x->sorted[lo] : -1;
+}
+
+void vf_name_index_release(vf_name_index *x) {
+  free(x->sorted);
+  x->sorted = NULL;
+  x->count = 0;
 }
 
 /* 1 and *out set when obj has `key`; 0 when it is absent and optional; < 0 on error. */

@@ -13,6 +13,19 @@ const char *vf_scene_kind(const cJSON *item);
 /* obj is an object whose keys are all in `allowed` (NULL-terminated; NULL allows any key)
  * and no key repeats (cJSON keeps duplicates; the first would be read). */
 int vf_scene_check_object(const parse_ctx *c, const cJSON *obj, const char *path, const char *const *allowed);
+
+/* Materials [0, count) of a scene sorted by name, for lookups by name in O(log n). It
+ * holds indices, so the scene's materials may grow (move) meanwhile; the scene is
+ * borrowed. */
+typedef struct {
+  int *sorted; /* owned */
+  int count;
+  const vf_scene *scene;
+} vf_name_index;
+int vf_name_index_build(const vf_scene *s, int count, vf_name_index *out);
+/* The lowest material index named `name`, or -1. */
+int vf_name_index_find(const vf_name_index *x, const char *name);
+void vf_name_index_release(vf_name_index *x);
 /* 1 and *out set when obj has `key`; 0 when it is absent and optional; < 0 on error. */
 int vf_scene_member(const parse_ctx *c, const cJSON *obj, const char *path, const char *key, int required,
                     const cJSON **out);

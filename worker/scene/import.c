@@ -40,18 +40,17 @@ typedef struct {
   int json_materials;     /* materials [0, json_materials) are the JSON's: they override by name */
   int *material_of;       /* aiMaterial index -> scene material, -1 not made yet */
   vf_vec3 *emission_of;   /* aiMaterial index -> its emission */
-  unsigned dropped;
+  vf_mesh_tally tally;
   int took_camera;        /* this file gave the scene its camera */
   float kd_ks_largest;    /* f.kd_ks_largest points here */
+  int photometric;        /* the entry's "light_units": "photometric" (import_light) */
+  vf_name_index json_names; /* of materials [0, json_materials) */
 } import_state;
 
-/* ---- materials ------------------------------------------------------------------------------- */
+/* Lumens per watt of 555 nm light: KHR_lights_punctual's candela over Blender's W/sr. */
+#define VF_LUMINOUS_EFFICACY 683.0
 
-static int json_material(const vf_scene *s, int json_materials, const char *name) {
-  for (int i = 0; i < json_materials; i++)
-    if (strcmp(s->materials[i].name, name) == 0) return i;
-  return -1;
-}
+/* ---- materials ------------------------------------------------------------------------------- */
 
 /* The scene material of aiMaterial k: made on first use, or the JSON's of the same name. */
 static int material_for(const parse_ctx *c, import_state *st, unsigned k, int *out) {
@@ -66,7 +65,7 @@ static int material_for(const parse_ctx *c, import_state *st, unsigned k, int *o
   struct aiString name;
   int j = -1;
   if (aiGetMaterialString(st->f.ai->mMaterials[k], AI_MATKEY_NAME, &name) == aiReturn_SUCCESS && name.length > 0)
-    j = json_material(s, st->json_materials, name.data);
+    j = vf_name_index_find(&st->json_names, name.data);
   if (j < 0) {
     vf_material m;
     int err = vf_scene_import_material(c, &st->f, k, &m, &st->emission_of[k]);
@@ -98,15 +97,17 @@ static int import_instance(void *user, const struct aiNode *node, unsigned mesh_
   vf_affine a;
   vf_shape *s = NULL;
   int material = 0, err;
-  unsigned triangles = 0;
-  for (unsigned f = 0; f < mesh->mNumFaces; f++) triangles += mesh->mFaces[f].mNumIndices == 3;
-  if (triangles == 0) return VF_OK; /* points and lines only: not a surface */
+  if (mesh->mNumVertices == 0 && st->f.gltf.uses_draco &&
+      (err = vf_scene_note(c, "%s: a Draco-compressed mesh was not decoded (Assimp without Draco): not rendered",
+                           st->f.file)) < 0)
+    return err;
+  if (vf_scene_mesh_triangles(mesh) == 0) return VF_OK; /* points and lines only: not a surface */
   if ((err = material_for(c, st, mesh->mMaterialIndex, &material)) < 0) return err;
   a = *world; /* the walk started from the entry's transform */
   if ((err = add_shape(c->scene, &s)) < 0) return err;
   s->kind = VF_SHAPE_MESH;
   s->material = material;
-  if ((err = vf_scene_append_mesh(c, st->f.what, mesh, mesh_index, &a, s, &st->dropped)) < 0) return err;
+  if ((err = vf_scene_append_mesh(c, st->f.what, mesh, mesh_index, &a, s, &st->tally)) < 0) return err;
   const char *name = mesh->mName.length ? mesh->mName.data : node->mName.data;
   snprintf(s->name, sizeof s->name, "%.63s", name[0] ? name : st->f.file); /* names only name: cut is fine */
   s->emission = st->emission_of[mesh->mMaterialIndex];
@@ -115,10 +116,8 @@ static int import_instance(void *user, const struct aiNode *node, unsigned mesh_
     s->emission = vf_vec3_splat(0.0f);
     if ((err = vf_scene_note(c, "%s: emissive meshes without area do not emit", st->f.file)) < 0) return err;
   }
-  if (mesh->mColors[0] != NULL && (err = vf_scene_note(c, "%s: vertex colours are ignored", st->f.file)) < 0)
-    return err;
-  if (mesh->mTextureCoords[1] != NULL &&
-      (err = vf_scene_note(c, "%s: meshes with several uv sets: only set 0 is read", st->f.file)) < 0)
+  if (mesh->mTextureCoords[2] != NULL &&
+      (err = vf_scene_note(c, "%s: meshes with more than two uv sets: sets 0 and 1 are read", st->f.file)) < 0)
     return err;
   return VF_OK;
 }
@@ -279,13 +278,20 @@ static int spot_cone(const parse_ctx *c, const import_state *st, const struct ai
   return VF_OK;
 }
 
-/* KHR_lights_punctual's intensities are photometric (candela, lux): vcmfarm reads them as
- * radiometric, candela as W/sr and lux as W/m^2 (docs/SCENES.md). */
+/* KHR_lights_punctual's intensities are photometric (candela, lux), and
+ * KHR_materials_emissive_strength's emission is read as written. By default (Blender's
+ * reading: its glTF importer and exporter, and Cycles) a point or spot light of I candela
+ * has the radiant intensity I / 683 W/sr, the luminous efficacy of 555 nm light, and a
+ * directional light's lux are its irradiance in W/m^2 as written (Blender's sun strength).
+ * The "photometric" reading of an import entry reads candela as written too, both kinds
+ * of light then in photometric units (docs/SCENES.md, "Light units"). */
 static int import_light(const parse_ctx *c, const import_state *st, const struct aiLight *l) {
   vf_scene *s = c->scene;
   vf_affine w;
   world_of(st, &l->mName, &w);
   vf_vec3 color = vf_vec3_make(l->mColorDiffuse.r, l->mColorDiffuse.g, l->mColorDiffuse.b);
+  if (st->f.gltf_file && !st->photometric && (l->mType == aiLightSource_POINT || l->mType == aiLightSource_SPOT))
+    color = vf_scale(color, (float)(1.0 / VF_LUMINOUS_EFFICACY));
   if (!(vf_min_component(color) >= 0.0f && vf_max_component(color) <= FLT_MAX))
     return vf_scene_fail(c, VF_ESCENE, st->f.what, "light '%s' has a negative or non-finite intensity", l->mName.data);
   double p[3] = {l->mPosition.x, l->mPosition.y, l->mPosition.z}, dir[3] = {l->mDirection.x, l->mDirection.y, l->mDirection.z};
@@ -330,13 +336,22 @@ static int import_contents(const parse_ctx *c, import_state *st, const cJSON *ca
   const struct aiScene *ai = st->f.ai;
   int err;
   if ((err = vf_scene_walk_nodes(c, st->f.what, ai, st->root, import_instance, st)) < 0) return err;
-  if ((err = vf_scene_note_dropped(c, st->f.file, st->dropped)) < 0) return err;
+  if ((err = vf_scene_note_dropped(c, st->f.file, &st->tally)) < 0) return err;
   if (st->kd_ks_largest > 0.0f &&
       (err = vf_scene_note(c, "%s: materials with Kd + Ks above 1 are scaled down to 1 (the largest sum: %g)",
                            st->f.file, (double)st->kd_ks_largest)) < 0)
     return err;
+  int punctual_before = c->scene->num_point_lights;
   for (unsigned i = 0; i < ai->mNumLights; i++)
     if ((err = import_light(c, st, ai->mLights[i])) < 0) return err;
+  int emits = 0;
+  for (unsigned k = 0; k < ai->mNumMaterials; k++) emits |= st->material_of[k] >= 0 && !vf_is_zero(st->emission_of[k]);
+  if (st->f.gltf_file && emits && c->scene->num_point_lights > punctual_before &&
+      (err = vf_scene_note(c, "%s: light units: %s", st->f.file,
+                           st->photometric ? "punctual lights in candela beside emission as written (photometric)"
+                                           : "punctual lights in W/sr = candela / 683 beside emission as written "
+                                             "(Blender's reading)")) < 0)
+    return err;
   if (camera_sel != NULL) {
     if ((err = select_camera(c, st, camera_sel, camera_path)) < 0) return err;
     st->took_camera = 1;
@@ -354,7 +369,7 @@ static int import_contents(const parse_ctx *c, import_state *st, const cJSON *ca
 
 static int import_entry(const parse_ctx *c, const cJSON *j, int index, int json_materials, int *camera_wanted,
                         int selects_here) {
-  static const char *const fields[] = {"file", "transform", "camera", NULL};
+  static const char *const fields[] = {"file", "transform", "camera", "light_units", NULL};
   char path[PATH_LEN], fpath[PATH_LEN], cpath[PATH_LEN], what[PATH_LEN + 80], dir[PATH_LEN];
   const char *file;
   const cJSON *tj, *camera_sel = NULL;
@@ -367,6 +382,11 @@ static int import_entry(const parse_ctx *c, const cJSON *j, int index, int json_
   if (vf_scene_member(c, j, path, "transform", OPTIONAL, &tj) &&
       (err = vf_scene_parse_transform(c, tj, vf_scene_join(cpath, path, "transform"), &root)) < 0)
     return err;
+  const char *units = "blender";
+  if ((err = vf_scene_string_field(c, j, path, "light_units", OPTIONAL, &units)) < 0) return err;
+  if (strcmp(units, "blender") != 0 && strcmp(units, "photometric") != 0)
+    return vf_scene_fail(c, VF_ESCENE, vf_scene_join(cpath, path, "light_units"),
+                         "expected \"blender\" or \"photometric\", found '%s'", units);
   int model = is_model_scene(c, file);
   vf_scene_join(cpath, path, "camera");
   if (vf_scene_member(c, j, path, "camera", OPTIONAL, &camera_sel) && !*camera_wanted)
@@ -378,7 +398,7 @@ static int import_entry(const parse_ctx *c, const cJSON *j, int index, int json_
   snprintf(dir, sizeof dir, "%.*s", slash ? (int)(slash - file) : 0, file);
   import_state st = {.f = {.c = c, .file = file, .what = model ? NULL : what, .dir = dir,
                            .gltf_file = vf_gltf_is_gltf(file)},
-                     .root = &root, .json_materials = json_materials};
+                     .root = &root, .json_materials = json_materials, .photometric = units[0] == 'p'};
   st.f.kd_ks_largest = &st.kd_ks_largest;
   if ((err = vf_scene_import_file(c, file, model ? NULL : fpath, st.f.what, &st.f.ai)) < 0) return err;
   if (st.f.gltf_file) err = vf_gltf_read_info(c, file, st.f.what, &st.f.gltf);
@@ -386,11 +406,13 @@ static int import_entry(const parse_ctx *c, const cJSON *j, int index, int json_
   st.material_of = malloc((nm ? nm : 1) * sizeof *st.material_of);
   st.emission_of = calloc(nm ? nm : 1, sizeof *st.emission_of);
   if (err == VF_OK && (st.material_of == NULL || st.emission_of == NULL)) err = vf_error_set(VF_ENOMEM, "out of memory");
+  if (err == VF_OK) err = vf_name_index_build(c->scene, json_materials, &st.json_names);
   for (unsigned k = 0; err == VF_OK && k < nm; k++) st.material_of[k] = -1;
   int take_first = *camera_wanted && selects_here < 0;
   if (err == VF_OK)
     err = import_contents(c, &st, selects_here == index ? camera_sel : NULL, cpath, take_first);
   if (err == VF_OK && st.took_camera) *camera_wanted = 0;
+  vf_name_index_release(&st.json_names);
   free(st.material_of);
   free(st.emission_of);
   vf_gltf_info_release(&st.f.gltf);
@@ -423,29 +445,159 @@ int vf_scene_parse_imports(const parse_ctx *c, const cJSON *j, int json_material
 
 /* ---- what a scene without a camera or a light gets ----------------------------------------------- */
 
+/* The side a default camera looks from: the axis (+z, glTF's front, then +x, then +y on a
+ * tie) along which the bounds' projection has the largest area, so that a model flat in
+ * some plane is seen face on (a polygon in a plane x = const rendered blank from +z). */
+static int default_view_side(vf_vec3 extent, vf_vec3 *from, vf_vec3 *up, const char **name) {
+  const double area[3] = {(double)extent.x * extent.y, (double)extent.z * extent.y, (double)extent.x * extent.z};
+  int side = 0; /* 0: +z, 1: +x, 2: +y */
+  for (int k = 1; k < 3; k++)
+    if (area[k] > area[side]) side = k;
+  *up = vf_vec3_make(0.0f, 1.0f, 0.0f);
+  if (side == 0) { /* from the front, a little above, as a person looks at a model */
+    vf_scene_unit(vf_vec3_make(0.0f, 0.3f, 1.0f), from);
+    *name = "+z";
+  } else if (side == 1) {
+    vf_scene_unit(vf_vec3_make(1.0f, 0.3f, 0.0f), from);
+    *name = "+x";
+  } else { /* from above, the image's up along -z (the model's back) */
+    *from = vf_vec3_make(0.0f, 1.0f, 0.0f);
+    *up = vf_vec3_make(0.0f, 0.0f, -1.0f);
+    *name = "+y";
+  }
+  return side;
+}
+
 int vf_scene_default_camera(const parse_ctx *c) {
   vf_scene *s = c->scene;
-  vf_vec3 center;
+  vf_vec3 center, from, up;
   float radius;
+  const char *side;
   vf_scene_compute_bounds(s);
   vf_scene_bounding_sphere(s, &center, &radius);
   if (!(radius > 0.0f)) radius = 1.0f;
-  /* From the front (+z, glTF's front), a little above, far enough that the bounding sphere
-   * fits the 40-degree vertical field of view. */
+  default_view_side(vf_sub(s->bounds_max, s->bounds_min), &from, &up, &side);
+  /* Far enough that the bounding sphere fits the 40-degree vertical field of view. */
   const float fov = 40.0f;
-  vf_vec3 from;
-  vf_scene_unit(vf_vec3_make(0.0f, 0.3f, 1.0f), &from);
   float distance = 1.1f * radius / sinf(0.5f * fov * (float)(M_PI / 180.0));
   s->camera = (vf_camera_desc){.position = vf_add(center, vf_scale(from, distance)), .vertical_fov_degrees = fov};
   vf_scene_unit(vf_scale(from, -1.0f), &s->camera.forward);
-  vf_vec3 up = vf_vec3_make(0.0f, 1.0f, 0.0f);
   vf_scene_unit(vf_sub(up, vf_scale(s->camera.forward, vf_dot(up, s->camera.forward))), &s->camera.up);
   if (!(s->settings_given & VF_SET_RESOLUTION)) {
     s->settings.width = IMPORT_WIDTH;
     s->settings.height = IMPORT_WIDTH * 9 / 16;
     s->settings_given |= VF_SET_RESOLUTION;
   }
-  return vf_scene_note(c, "no camera: a default camera looks at the scene's bounds from +z (fov 40 degrees)");
+  return vf_scene_note(c, "no camera: a default camera looks at the scene's bounds from %s, the side of their largest "
+                          "projected area (fov 40 degrees)", side);
+}
+
+/* The mean of a colour texture's RGB over its texels, 8-bit texels decoded from sRGB as the
+ * emission slot decodes them (a texture's mean over a surface whose uvs cover it once). */
+static double texture_mean(const vf_texture *t) {
+  const size_t n = (size_t)t->width * t->height, ch = (size_t)t->channels, colour = ch < 3 ? 1 : 3;
+  double sum = 0.0, lut[256];
+  for (int v = 0; v < 256; v++) {
+    double c = v / 255.0;
+    lut[v] = c <= 0.04045 ? c / 12.92 : pow((c + 0.055) / 1.055, 2.4);
+  }
+  for (size_t i = 0; i < n; i++)
+    for (size_t k = 0; k < colour; k++)
+      sum += t->is_float ? ((const float *)t->texels)[i * ch + k] : lut[((const uint8_t *)t->texels)[i * ch + k]];
+  return sum / ((double)n * (double)colour);
+}
+
+/* A shape's mean emitted radiance (RGB mean): its emission scaled by its emission
+ * texture's mean. */
+static double emitted_radiance(const vf_scene *s, const vf_shape *sh) {
+  double l = (sh->emission.x + sh->emission.y + sh->emission.z) / 3.0;
+  const vf_texture_slot *ts = &s->materials[sh->material].textures[VF_TEXTURE_EMISSION];
+  if (l > 0.0 && ts->texture > 0) l *= texture_mean(&s->textures[ts->texture - 1]);
+  return l;
+}
+
+static vf_vec3 corner(const vf_shape *sh, uint32_t t, int k) {
+  const float *p = &sh->positions[3 * (size_t)sh->indices[3 * (size_t)t + k]];
+  return vf_vec3_make(p[0], p[1], p[2]);
+}
+
+/* Up to this many triangles of the emitters and of the other surfaces, evenly strided, go
+ * into the estimate below: 4096 x 4096 distance computations, a few tens of milliseconds. */
+#define DIM_SAMPLES 4096
+
+/* The radiance a white Lambertian surface would reach, on average over the scene's
+ * non-emitting triangles (their centroids, weighted by area), from its emitting triangles
+ * seen as small one-sided Lambertian sources (L A cos_e cos_r / (pi d^2) each, occlusion
+ * ignored) and emitting spheres as points of their power. *power gets the emitters' total. */
+static double dim_level(const vf_scene *s, double *power) {
+  uint64_t emitting = 0, receiving = 0;
+  *power = 0.0;
+  for (int i = 0; i < s->num_shapes; i++) {
+    const vf_shape *sh = &s->shapes[i];
+    if (sh->kind != VF_SHAPE_MESH) continue;
+    if (emitted_radiance(s, sh) > 0.0) emitting += sh->num_triangles;
+    else receiving += sh->num_triangles;
+  }
+  uint64_t e_stride = emitting / DIM_SAMPLES + 1, r_stride = receiving / DIM_SAMPLES + 1, e_index = 0, r_index = 0;
+  double weighted = 0.0, area_sum = 0.0;
+  for (int i = 0; i < s->num_shapes; i++) { /* the emitters' power, exactly */
+    const vf_shape *sh = &s->shapes[i];
+    double l = emitted_radiance(s, sh);
+    if (l <= 0.0) continue;
+    *power += sh->kind == VF_SHAPE_SPHERE ? M_PI * l * 4.0 * M_PI * (double)sh->radius * sh->radius
+                                          : M_PI * l * vf_scene_mesh_area(sh);
+  }
+  for (int ri = 0; ri < s->num_shapes; ri++) {
+    const vf_shape *rs = &s->shapes[ri];
+    if (rs->kind != VF_SHAPE_MESH || emitted_radiance(s, rs) > 0.0) continue;
+    for (uint32_t rt = 0; rt < rs->num_triangles; rt++, r_index++) {
+      if (r_index % r_stride != 0) continue;
+      vf_vec3 a = corner(rs, rt, 0), b = corner(rs, rt, 1), c = corner(rs, rt, 2);
+      vf_vec3 n = vf_cross(vf_sub(b, a), vf_sub(c, a)), p = vf_scale(vf_add(vf_add(a, b), c), 1.0f / 3.0f);
+      double area = 0.5 * vf_length(n), irradiance = 0.0;
+      if (!(area > 0.0)) continue;
+      n = vf_scale(n, 0.5f / (float)area);
+      e_index = 0;
+      for (int ei = 0; ei < s->num_shapes; ei++) {
+        const vf_shape *es = &s->shapes[ei];
+        double l = emitted_radiance(s, es);
+        if (l <= 0.0) continue;
+        if (es->kind == VF_SHAPE_SPHERE) {
+          vf_vec3 d = vf_sub(es->center, p);
+          double d2 = vf_dot(d, d), power_e = M_PI * l * 4.0 * M_PI * (double)es->radius * es->radius;
+          if (d2 > 0.0) irradiance += power_e / (4.0 * M_PI * d2) * fabs(vf_dot(n, d)) / sqrt(d2);
+          continue;
+        }
+        for (uint32_t et = 0; et < es->num_triangles; et++, e_index++) {
+          if (e_index % e_stride != 0) continue;
+          vf_vec3 ea = corner(es, et, 0), eb = corner(es, et, 1), ec = corner(es, et, 2);
+          vf_vec3 en = vf_cross(vf_sub(eb, ea), vf_sub(ec, ea)); /* twice the area, along the emitting side */
+          vf_vec3 d = vf_sub(p, vf_scale(vf_add(vf_add(ea, eb), ec), 1.0f / 3.0f));
+          double d2 = vf_dot(d, d), cos_e_area = vf_dot(en, d) * 0.5; /* area x cos_e x |d| */
+          if (!(d2 > 0.0) || cos_e_area <= 0.0) continue;
+          double cos_r = fabs(vf_dot(n, d)) / sqrt(d2);
+          /* the strided triangles stand for e_stride each */
+          irradiance += (double)e_stride * l * cos_e_area / sqrt(d2) * cos_r / d2;
+        }
+      }
+      weighted += area * irradiance;
+      area_sum += area;
+    }
+  }
+  return area_sum > 0.0 ? weighted / area_sum / M_PI : INFINITY;
+}
+
+int vf_scene_note_dim_emitters(const parse_ctx *c) {
+  const vf_scene *s = c->scene;
+  if (s->num_point_lights > 0 || s->num_directional_lights > 0 || !vf_is_zero(s->background) || s->envmap.width > 0)
+    return VF_OK;
+  double power, level = dim_level(s, &power);
+  if (!(power > 0.0) || level >= VF_DIM_LIGHT_LEVEL) return VF_OK;
+  return vf_scene_note(c, "warning: the image will be dark: the only lights are emissive surfaces of %.3g W in all, "
+                          "whose light reaches the other surfaces at a radiance of about %.2g on a white surface "
+                          "(below %g; most of it leaves the scene or meets nothing): the emitters show, little else "
+                          "does (add lights or a \"background\")",
+                       power, level, VF_DIM_LIGHT_LEVEL);
 }
 
 int vf_scene_default_light(const parse_ctx *c) {

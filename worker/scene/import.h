@@ -35,8 +35,16 @@ int vf_scene_import_material(const parse_ctx *c, const vf_import_file *f, unsign
  * With *camera_wanted set (the JSON has no "camera"), the entry with a "camera" field, or
  * else the first file with a perspective camera, sets the scene's camera and clears it. */
 int vf_scene_parse_imports(const parse_ctx *c, const cJSON *j, int json_materials, int *camera_wanted);
-/* For a scene with no camera after its imports: one looking at the bounds, with a note. */
+/* For a scene with no camera after its imports: one looking at the bounds from the side of
+ * their largest projected area, with a note naming the side. */
 int vf_scene_default_camera(const parse_ctx *c);
+/* The radiance a white Lambertian surface reaches on average over the scene's
+ * non-emitting surfaces from its emitters (one-sided, occlusion ignored), below which an
+ * imported scene lit by nothing else is warned of. */
+#define VF_DIM_LIGHT_LEVEL 0.01
+/* For an imported scene lit by its emissive surfaces alone: a warning (a note) when they
+ * give it almost no light (VF_DIM_LIGHT_LEVEL), saying why the image will be dark. */
+int vf_scene_note_dim_emitters(const parse_ctx *c);
 /* For an imported scene with no light at all: a white background, with a note. */
 int vf_scene_default_light(const parse_ctx *c);
 

@@ -83,11 +83,12 @@ static int load_texture(const parse_ctx *c, const vf_import_file *f, const char 
       path.length == 0)
     return 0;
   int err, index = 0;
-  if (uv != 0 && (err = vf_scene_note(c, "%s: %s: textures read at uv set %u are read at set 0", f->file, where, uv)) < 0)
+  /* A glTF file's uv sets and transforms come from its JSON (gltf_texture_refs). */
+  if (!f->gltf_file && uv != 0 &&
+      (err = vf_scene_note(c, "%s: %s: textures read at uv set %u are read at set 0", f->file, where, uv)) < 0)
     return err;
   struct aiUVTransform tr;
   unsigned n = sizeof tr / sizeof(ai_real);
-  /* A glTF file's transforms are noted once from its extensionsUsed (gltf.c). */
   if (!f->gltf_file && aiGetMaterialFloatArray(am, _AI_MATKEY_UVTRANSFORM_BASE, type, 0, (ai_real *)&tr, &n) == aiReturn_SUCCESS &&
       (err = vf_scene_note(c, "%s: texture transforms are ignored: textures are read at the mesh's own coordinates",
                            f->file)) < 0)
@@ -152,6 +153,80 @@ static int gltf_alpha(const parse_ctx *c, const vf_import_file *f, const struct 
   return VF_OK;
 }
 
+/* A glTF sampler's wrap code (glTF 2.0, "samplers") as VF_WRAP_*. */
+static int gltf_wrap(int code) {
+  return code == 33071 ? VF_WRAP_CLAMP : code == 33648 ? VF_WRAP_MIRROR : VF_WRAP_REPEAT;
+}
+
+/* A texture Assimp 5.2.5 does not read (KHR_materials_specular's) from the file's JSON. */
+static int gltf_extra_texture(const parse_ctx *c, const vf_import_file *f, const char *where,
+                              const vf_gltf_texture_ref *ref, vf_texture_slot *slot) {
+  if (ref->image < 0) return 0;
+  const char *uri;
+  void *bytes;
+  size_t size;
+  int err = vf_gltf_image(c, &f->gltf, f->dir, ref->image, where, &uri, &bytes, &size), index = 0;
+  if (err < 0) return err;
+  if (uri != NULL) {
+    char decoded[PATH_LEN], file[2 * PATH_LEN + 8];
+    snprintf(decoded, sizeof decoded, "%s", uri);
+    if ((err = uri_decode(c, where, decoded)) < 0) return err;
+    if (decoded[0] == '/' || f->dir[0] == '\0') snprintf(file, sizeof file, "%s", decoded);
+    else snprintf(file, sizeof file, "%s/%s", f->dir, decoded);
+    if ((err = vf_scene_texture_file(c, file, where, &index)) < 0) return err;
+  } else {
+    char name[PATH_LEN + 24];
+    snprintf(name, sizeof name, "%s#image%d", f->file, ref->image);
+    err = vf_scene_texture_bytes(c, name, bytes, size, where, &index);
+    free(bytes);
+    if (err < 0) return err;
+  }
+  const cJSON *sampler = cJSON_GetArrayItem(cJSON_GetObjectItemCaseSensitive(f->gltf.root, "samplers"), ref->sampler);
+  const cJSON *ws = cJSON_GetObjectItemCaseSensitive(sampler, "wrapS"), *wt = cJSON_GetObjectItemCaseSensitive(sampler, "wrapT");
+  slot->texture = index;
+  slot->wrap_s = gltf_wrap(cJSON_IsNumber(ws) ? ws->valueint : 10497);
+  slot->wrap_t = gltf_wrap(cJSON_IsNumber(wt) ? wt->valueint : 10497);
+  return 1;
+}
+
+/* Each texture's uv set (TEXCOORD_n) and KHR_texture_transform, from the file's JSON. A
+ * set above 1 is read at set 0, noted. */
+static int gltf_texture_refs(const parse_ctx *c, const vf_import_file *f, const vf_gltf_material *g, vf_material *m) {
+  for (int k = 0; k < VF_TEXTURE_SLOTS; k++) {
+    vf_texture_slot *ts = &m->textures[k];
+    const vf_gltf_texture_ref *ref = &g->textures[k == VF_TEXTURE_ALPHA ? VF_TEXTURE_COLOR : k]; /* glTF: the alpha is the base colour's */
+    if (ts->texture == 0 || ref->image < 0) continue;
+    ts->uv_set = ref->uv_set == 1 ? 1 : 0;
+    if (ref->uv_set > 1) {
+      int err = vf_scene_note(c, "%s: textures of uv set %d are read at set 0 (sets 0 and 1 are read)", f->file,
+                              ref->uv_set);
+      if (err < 0) return err;
+    }
+    ts->has_transform = ref->has_transform;
+    memcpy(ts->transform, ref->transform, sizeof ts->transform);
+  }
+  return VF_OK;
+}
+
+/* KHR_materials_specular and KHR_materials_ior on the opaque model: the dielectric's F0
+ * colour ((ior - 1) / (ior + 1))^2 specularColorFactor and its specularFactor (material.h);
+ * left unset (F0 0.04, F90 1) when the file gives neither or only their defaults. */
+static int gltf_specular(const parse_ctx *c, const vf_import_file *f, const char *where, const vf_gltf_material *g,
+                         vf_material *m) {
+  double ior = g->ior >= 0.0f ? g->ior : 1.5, r = (ior - 1.0) / (ior + 1.0), f0 = r * r;
+  if (!g->has_specular && ior == 1.5) return VF_OK;
+  m->specular_set = 1;
+  m->specular = fminf(fmaxf(g->specular, 0.0f), 1.0f);
+  m->specular_f0 = vf_vec3_make((float)(f0 * fmax(g->specular_color[0], 0.0)), (float)(f0 * fmax(g->specular_color[1], 0.0)),
+                                (float)(f0 * fmax(g->specular_color[2], 0.0)));
+  int err;
+  if ((err = gltf_extra_texture(c, f, where, &g->textures[VF_TEXTURE_SPECULAR], &m->textures[VF_TEXTURE_SPECULAR])) < 0 ||
+      (err = gltf_extra_texture(c, f, where, &g->textures[VF_TEXTURE_SPECULAR_COLOR],
+                                &m->textures[VF_TEXTURE_SPECULAR_COLOR])) < 0)
+    return err;
+  return VF_OK;
+}
+
 static int gltf_material(const parse_ctx *c, const vf_import_file *f, unsigned index, const char *where,
                          const struct aiMaterial *am, vf_material *m, vf_vec3 *emission) {
   struct aiColor4D base = {1, 1, 1, 1}, emit = {0, 0, 0, 1};
@@ -189,8 +264,13 @@ static int gltf_material(const parse_ctx *c, const vf_import_file *f, unsigned i
   } else {
     m->gltf = 1;
   }
+  struct aiString name;
+  if (aiGetMaterialString(am, AI_MATKEY_NAME, &name) != aiReturn_SUCCESS) name.data[0] = '\0';
+  const vf_gltf_material *g = f->gltf.materials ? vf_gltf_material_of(&f->gltf, index, name.data) : NULL;
+  if (g != NULL && m->gltf && (err = gltf_specular(c, f, where, g, m)) < 0) return err;
+  if (g != NULL && (err = gltf_texture_refs(c, f, g, m)) < 0) return err;
   get_color(am, AI_MATKEY_COLOR_EMISSIVE, &emit);
-  float strength = index < (unsigned)f->gltf.num_materials ? f->gltf.emissive_strength[index] : 1.0f;
+  float strength = g != NULL ? g->emissive_strength : 1.0f;
   *emission = vf_scale(vf_vec3_make(fmaxf(emit.r, 0.0f), fmaxf(emit.g, 0.0f), fmaxf(emit.b, 0.0f)), fmaxf(strength, 0.0f));
   return VF_OK;
 }

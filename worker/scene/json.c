@@ -178,7 +178,7 @@ static int texture_field(const parse_ctx *c, const cJSON *obj, const char *path,
   int err = vf_scene_member(c, obj, path, key, OPTIONAL, &item);
   if (err <= 0) return err;
   vf_scene_join(p, path, key);
-  vf_texture_slot sl = {0, VF_WRAP_REPEAT, VF_WRAP_REPEAT};
+  vf_texture_slot sl = {.wrap_s = VF_WRAP_REPEAT, .wrap_t = VF_WRAP_REPEAT};
   if (cJSON_IsString(item)) {
     file = item->valuestring;
     snprintf(fp, sizeof fp, "%s", p);
@@ -205,13 +205,14 @@ static int texture_field(const parse_ctx *c, const cJSON *obj, const char *path,
 /* Float (EXR) texels a slot would read out of its range: colour and roughness-metallic
  * multiply albedos and parameters bounded by 1, so they must lie in [0, 1] (the albedo-sum
  * rule of worker/scene/material.h then still holds at every texel; 8-bit texels always do);
- * emission must not be negative; alpha and normal maps take any finite value. Refused at
+ * emission and the specular colour (its F0 is clamped to 1) must not be negative; alpha,
+ * specular (clamped to [0, 1]) and normal maps take any finite value. Refused at
  * load rather than clamped at lookup, which stays one code path for every slot. */
 static int check_texel_range(const parse_ctx *c, const char *path, int slot, const vf_texture *t) {
-  if (!t->is_float || slot == VF_TEXTURE_ALPHA || slot == VF_TEXTURE_NORMAL) return VF_OK;
+  if (!t->is_float || slot == VF_TEXTURE_ALPHA || slot == VF_TEXTURE_NORMAL || slot == VF_TEXTURE_SPECULAR) return VF_OK;
   const int n = t->channels, colour = n < 3 ? 1 : 3;
   const int first = slot == VF_TEXTURE_ROUGHNESS_METALLIC && n >= 3 ? 1 : 0; /* G and B */
-  const float hi = slot == VF_TEXTURE_EMISSION ? FLT_MAX : 1.0f;
+  const float hi = slot == VF_TEXTURE_EMISSION || slot == VF_TEXTURE_SPECULAR_COLOR ? FLT_MAX : 1.0f; /* F0 is min(.., 1) */
   const float *v = t->texels;
   for (size_t i = 0; i < (size_t)t->width * t->height; i++)
     for (int k = first; k < colour; k++)
@@ -276,6 +277,30 @@ static int parse_shared_textures(const parse_ctx *c, const cJSON *j, const char 
   return VF_OK;
 }
 
+/* KHR_materials_specular and KHR_materials_ior of the glTF model: "specular" (specularFactor,
+ * [0, 1], default 1), "specular_color" (specularColorFactor, >= 0, default 1), "ior"
+ * (>= 0, default 1.5) and their textures; any of them sets specular_set with
+ * specular_f0 = ((ior - 1) / (ior + 1))^2 specular_color (material.h). */
+static int parse_gltf_specular(const parse_ctx *c, const cJSON *j, const char *path, vf_material *m) {
+  char p[PATH_LEN];
+  float specular = 1.0f, ior = 1.5f;
+  vf_vec3 colour = vf_vec3_splat(1.0f);
+  int has[5];
+  if ((has[0] = unit_field(c, j, path, "specular", OPTIONAL, &specular)) < 0) return has[0];
+  if ((has[1] = vf_scene_rgb_field(c, j, path, "specular_color", OPTIONAL, "colour", &colour)) < 0) return has[1];
+  if ((has[2] = vf_scene_float_field(c, j, path, "ior", OPTIONAL, &ior)) < 0) return has[2];
+  if (has[2] && !(ior >= 0.0f))
+    return vf_scene_fail(c, VF_ESCENE, vf_scene_join(p, path, "ior"), "must be >= 0, found %g", ior);
+  if ((has[3] = slot_field(c, j, path, "specular_texture", VF_TEXTURE_SPECULAR, m)) < 0) return has[3];
+  if ((has[4] = slot_field(c, j, path, "specular_color_texture", VF_TEXTURE_SPECULAR_COLOR, m)) < 0) return has[4];
+  if (!(has[0] || has[1] || has[2] || has[3] || has[4])) return VF_OK;
+  double r = ((double)ior - 1.0) / ((double)ior + 1.0);
+  m->specular_set = 1;
+  m->specular = specular;
+  m->specular_f0 = vf_scale(colour, (float)(r * r));
+  return VF_OK;
+}
+
 /* The glTF 2.0 metallic-roughness model. A factor whose texture is given defaults to 1,
  * as glTF's baseColorFactor, metallicFactor and roughnessFactor do. */
 static int parse_gltf_material(const parse_ctx *c, const cJSON *j, const char *path, vf_material *m) {
@@ -291,6 +316,7 @@ static int parse_gltf_material(const parse_ctx *c, const cJSON *j, const char *p
     return err;
   if (vf_max_component(m->base_color) > 1.0f)
     return vf_scene_fail(c, VF_ESCENE, vf_scene_join(p, path, "base_color"), "exceeds 1 in a channel");
+  if ((err = parse_gltf_specular(c, j, path, m)) < 0) return err;
   return parse_shared_textures(c, j, path, m);
 }
 
@@ -343,7 +369,8 @@ static int parse_material(const parse_ctx *c, const cJSON *j, vf_material *m) {
                                        "conductor", "eta",  "k", "roughness", "diffuse_texture", TEXTURE_FIELDS, NULL};
   /* The glTF 2.0 metallic-roughness model has these fields and none of the lobes'. */
   static const char *const gltf_fields[] = {"base_color", "metallic", "roughness", "base_color_texture",
-                                            "roughness_metallic_texture", TEXTURE_FIELDS, NULL};
+                                            "roughness_metallic_texture", "specular", "specular_color", "ior",
+                                            "specular_texture", "specular_color_texture", TEXTURE_FIELDS, NULL};
 #undef TEXTURE_FIELDS
   char path[PATH_LEN];
   vf_scene_join(path, "materials", j->string);
@@ -585,7 +612,7 @@ static int parse_import(const parse_ctx *c, const cJSON *root, int camera_wanted
   if (s->num_shapes == 0) return vf_scene_fail(c, VF_ESCENE, NULL, "the scene has no shape (its files have no triangles)");
   if (camera_wanted && (err = vf_scene_default_camera(c)) < 0) return err;
   if (!has_light(s) && !cJSON_HasObjectItem(root, "lights") && (err = vf_scene_default_light(c)) < 0) return err;
-  return VF_OK;
+  return vf_scene_note_dim_emitters(c);
 }
 
 static int parse_root(const parse_ctx *c, const cJSON *root) {

@@ -15,8 +15,9 @@
  * With `gltf` set the material is instead the glTF 2.0 metallic-roughness BRDF (glTF 2.0
  * specification, appendix B) of base_color, metallic and roughness, and the lobes above are
  * unused (zero): a GGX specular layer with Schlick's Fresnel of
- * F0 = mix(0.04, base_color, metallic) over a Lambertian base of (1 - metallic) base_color
- * weighted by 1 - F(0.04).
+ * F0 = mix(F0_d, base_color, metallic), F90 = mix(F90_d, 1, metallic) over a Lambertian
+ * base of (1 - metallic) base_color weighted by 1 - max_rgb(F_d), F_d the dielectric's
+ * Fresnel from F0_d (0.04, or KHR_materials_specular's) to F90_d (1, or its specular).
  *
  * roughness is glTF's perceptual roughness in [0, 1] for every GGX lobe of the material:
  * alpha = roughness^2. A lobe with alpha < VF_GGX_ALPHA_DELTA (worker/render/microfacet.h: alpha
@@ -44,6 +45,8 @@ enum {
   VF_TEXTURE_EMISSION,           /* RGB multiplies the emission of the shapes of this material (sRGB) */
   VF_TEXTURE_ALPHA,              /* channel alpha_channel multiplies alpha (linear) */
   VF_TEXTURE_NORMAL,             /* tangent-space normal map: RGB [0, 1] -> [-1, 1] (linear) */
+  VF_TEXTURE_SPECULAR,           /* glTF model: A multiplies specular (KHR_materials_specular's specularTexture, linear) */
+  VF_TEXTURE_SPECULAR_COLOR,     /* glTF model: RGB multiplies specular_f0 (specularColorTexture, sRGB) */
   VF_TEXTURE_SLOTS
 };
 
@@ -51,6 +54,11 @@ enum {
 typedef struct {
   int texture;        /* 1 + index into vf_scene.textures; 0: none */
   int wrap_s, wrap_t; /* VF_WRAP_* of worker/scene/texture.h */
+  int uv_set;         /* 0 or 1: the shape's uvs or uvs1 (glTF's texCoord) */
+  /* KHR_texture_transform: the texture is read at (s', t') = M (s, t, 1), M's rows
+   * transform[0..2] and transform[3..5]; has_transform 0: the identity. */
+  int has_transform;
+  float transform[6];
 } vf_texture_slot;
 
 typedef struct {
@@ -67,6 +75,15 @@ typedef struct {
   int gltf;             /* the glTF model of base_color, metallic and roughness */
   vf_vec3 base_color;   /* [0, 1] per channel */
   float metallic;       /* [0, 1] */
+  /* glTF model, KHR_materials_specular and KHR_materials_ior: with specular_set, the
+   * dielectric layer's Schlick Fresnel goes from F0 = min(specular_f0, 1) x specular at
+   * normal incidence to F90 = specular at grazing incidence; specular_f0 is
+   * ((ior - 1) / (ior + 1))^2 x specularColorFactor (>= 0), specular in [0, 1]. Without
+   * specular_set (zero, as a memset material has it): F0 = 0.04 and F90 = 1, the core
+   * specification's dielectric. */
+  int specular_set;
+  float specular;
+  vf_vec3 specular_f0;
   /* Textures (memset to zero: none). Coverage = alpha x the ALPHA texture's channel; where
    * it is below alpha_cutoff the surface is a hole for every ray. alpha_cutoff 0: opaque
    * (alpha is then unused). normal_scale scales the normal map's x and y (glTF). */

@@ -13,6 +13,7 @@
 #include "../../common/error.h"
 #include "gltf.h"
 #include "files.h"
+#include "mesh_repair.h"
 
 #include <assimp/cimport.h>
 #include <assimp/postprocess.h>
@@ -45,10 +46,10 @@ static const vf_scene_memfile *find_memfile(const parse_ctx *c, const char *file
 
 static int finite3(const struct aiVector3D *v) { return isfinite(v->x) && isfinite(v->y) && isfinite(v->z); }
 
-/* Every position, normal and channel-0 texture coordinate finite, every normal non-zero.
- * Runs before identical vertices are joined: Assimp's spatial sort merges a NaN vertex
- * into a neighbour and the bad value would vanish unnoticed. Vertices are counted across
- * the file's meshes in order, as the messages name them. */
+/* Every position and texture coordinate finite. Runs before identical vertices are
+ * joined: Assimp's spatial sort merges a NaN vertex into a neighbour and the bad value
+ * would vanish unnoticed. Vertices are counted across the file's meshes in order, as the
+ * messages name them. Normals and tangents are repaired instead (repair_mesh). */
 static int check_values(const parse_ctx *c, const char *what, const struct aiScene *ai) {
   uint64_t vertex = 0;
   for (unsigned m = 0; m < ai->mNumMeshes; m++) {
@@ -56,13 +57,12 @@ static int check_values(const parse_ctx *c, const char *what, const struct aiSce
     for (unsigned v = 0; v < mesh->mNumVertices; v++, vertex++) {
       const char *bad = NULL;
       if (!finite3(&mesh->mVertices[v])) bad = "a non-finite coordinate";
-      else if (mesh->mNormals && !finite3(&mesh->mNormals[v])) bad = "a non-finite normal";
-      else if (mesh->mNormals && mesh->mNormals[v].x == 0 && mesh->mNormals[v].y == 0 && mesh->mNormals[v].z == 0)
-        bad = "a zero normal";
       else if (mesh->mTextureCoords[0] && !(isfinite(mesh->mTextureCoords[0][v].x) &&
                                              isfinite(mesh->mTextureCoords[0][v].y)))
         bad = "a non-finite texture coordinate";
-      else if (mesh->mTangents && !finite3(&mesh->mTangents[v])) bad = "a non-finite tangent";
+      else if (mesh->mTextureCoords[1] && !(isfinite(mesh->mTextureCoords[1][v].x) &&
+                                             isfinite(mesh->mTextureCoords[1][v].y)))
+        bad = "a non-finite texture coordinate of set 1";
       if (bad != NULL)
         return vf_scene_fail(c, VF_EMESH, what, "vertex %llu has %s (vertex %u of mesh %u%s%s%s)",
                              (unsigned long long)vertex, bad, v, m, mesh->mName.length ? ", '" : "",
@@ -90,12 +90,93 @@ static int join_vertices(const char *name, const struct aiScene *ai) {
   return 0;
 }
 
+/* ---- polygons ------------------------------------------------------------------------------ */
+
+uint64_t vf_scene_mesh_triangles(const struct aiMesh *mesh) {
+  uint64_t n = 0;
+  for (unsigned f = 0; f < mesh->mNumFaces; f++)
+    if (mesh->mFaces[f].mNumIndices >= 3) n += mesh->mFaces[f].mNumIndices - 2;
+  return n;
+}
+
+/* Whether polygon `face` (indices checked in range) is planar and convex: every turn of its
+ * boundary on the same side about its Newell normal, the turns summing to one revolution
+ * (a star's sum to several), every vertex within 1e-4 of the polygon's size of its plane.
+ * A turn the other way counts as straight when it lies within what rounding the vertices
+ * to floats can make of a straight one (a circle of 100,000 vertices has turns of 6e-5 rad
+ * and edges not much longer than the floats' spacing). */
+static int convex_planar(const struct aiMesh *mesh, const struct aiFace *face) {
+  const unsigned n = face->mNumIndices;
+  double nx = 0, ny = 0, nz = 0, size = 0;
+  const struct aiVector3D *v = mesh->mVertices, *p0 = &v[face->mIndices[0]];
+  for (unsigned k = 0; k < n; k++) {
+    const struct aiVector3D *a = &v[face->mIndices[k]], *b = &v[face->mIndices[(k + 1) % n]];
+    nx += ((double)a->y - b->y) * ((double)a->z + b->z);
+    ny += ((double)a->z - b->z) * ((double)a->x + b->x);
+    nz += ((double)a->x - b->x) * ((double)a->y + b->y);
+    size = fmax(size, fabs((double)a->x - p0->x) + fabs((double)a->y - p0->y) + fabs((double)a->z - p0->z));
+  }
+  double len = sqrt(nx * nx + ny * ny + nz * nz), turning = 0.0;
+  if (!(len > 0.0)) return 0;
+  nx /= len, ny /= len, nz /= len;
+  for (unsigned k = 0; k < n; k++) {
+    const struct aiVector3D *a = &v[face->mIndices[k]], *b = &v[face->mIndices[(k + 1) % n]],
+                            *d = &v[face->mIndices[(k + 2) % n]];
+    if (fabs(((double)a->x - p0->x) * nx + ((double)a->y - p0->y) * ny + ((double)a->z - p0->z) * nz) > 1e-4 * size)
+      return 0;
+    double e1[3] = {(double)b->x - a->x, (double)b->y - a->y, (double)b->z - a->z};
+    double e2[3] = {(double)d->x - b->x, (double)d->y - b->y, (double)d->z - b->z};
+    double cx = e1[1] * e2[2] - e1[2] * e2[1], cy = e1[2] * e2[0] - e1[0] * e2[2], cz = e1[0] * e2[1] - e1[1] * e2[0];
+    double sine = cx * nx + cy * ny + cz * nz, cosine = e1[0] * e2[0] + e1[1] * e2[1] + e1[2] * e2[2];
+    double l1 = sqrt(e1[0] * e1[0] + e1[1] * e1[1] + e1[2] * e1[2]), l2 = sqrt(e2[0] * e2[0] + e2[1] * e2[1] + e2[2] * e2[2]);
+    if (sine < -8.0 * FLT_EPSILON * size * (l1 + l2)) return 0; /* sin(turn) l1 l2 >= -8 eps size (1/l1 + 1/l2) l1 l2 */
+    turning += atan2(sine, cosine);
+  }
+  return fabs(turning - 2.0 * M_PI) < 1e-3;
+}
+
+/* Faces of up to VF_MAX_POLYGON_VERTICES vertices go through Assimp's triangulation (ear
+ * clipping, quadratic in a face's size: 0.1 s at 4,000 vertices, 7 s at 32,000, and a
+ * 100,000-vertex face never ends). A file with a larger face is triangulated here as fans,
+ * in linear time, which needs every polygon of the file convex and planar: refused
+ * otherwise, naming the face. */
+static int triangulate(const parse_ctx *c, const char *what, const struct aiScene **ai) {
+  unsigned largest = 0;
+  for (unsigned m = 0; m < (*ai)->mNumMeshes; m++)
+    for (unsigned f = 0; f < (*ai)->mMeshes[m]->mNumFaces; f++)
+      if ((*ai)->mMeshes[m]->mFaces[f].mNumIndices > largest) largest = (*ai)->mMeshes[m]->mFaces[f].mNumIndices;
+  char why[256];
+  if (largest <= 3) return VF_OK;
+  if (largest <= VF_MAX_POLYGON_VERTICES) {
+    if ((*ai = aiApplyPostProcessing(*ai, aiProcess_Triangulate)) == NULL) /* released on failure */
+      return vf_scene_fail(c, VF_EMESH, what, "triangulation failed: %s", assimp_error(why, sizeof why));
+    return VF_OK;
+  }
+  for (unsigned m = 0; m < (*ai)->mNumMeshes; m++) {
+    const struct aiMesh *mesh = (*ai)->mMeshes[m];
+    for (unsigned f = 0; f < mesh->mNumFaces; f++) {
+      const struct aiFace *face = &mesh->mFaces[f];
+      if (face->mNumIndices <= 3) continue;
+      for (unsigned k = 0; k < face->mNumIndices; k++)
+        if (face->mIndices[k] >= mesh->mNumVertices)
+          return vf_scene_fail(c, VF_EMESH, what, "face %u of mesh %u has an out-of-range vertex index", f, m);
+      if (!convex_planar(mesh, face))
+        return vf_scene_fail(c, VF_EMESH, what,
+                             "face %u of mesh %u (%u vertices) is not a convex planar polygon, and the file has a face of "
+                             "%u vertices: faces of more than %d vertices are triangulated as fans, which needs every "
+                             "polygon of the file convex (triangulate the file before import)",
+                             f, m, face->mNumIndices, largest, VF_MAX_POLYGON_VERTICES);
+    }
+  }
+  return VF_OK;
+}
+
 int vf_scene_import_file(const parse_ctx *c, const char *file, const char *fpath, const char *what,
                          const struct aiScene **out) {
   char full[4096], why[256];
   const struct aiScene *ai = NULL;
   int err;
-  const unsigned flags = aiProcess_Triangulate;
+  const unsigned flags = 0; /* triangulate() below */
   const vf_scene_memfile *mf = find_memfile(c, file);
   if (mf != NULL) {
     const char *dot = strrchr(mf->name, '.');
@@ -115,8 +196,9 @@ int vf_scene_import_file(const parse_ctx *c, const char *file, const char *fpath
     aiReleaseImport(ai);
     return vf_scene_fail(c, VF_EMESH, what, "the file contains no mesh");
   }
-  if ((err = check_values(c, what, ai)) < 0) {
-    aiReleaseImport(ai);
+  if ((err = check_values(c, what, ai)) < 0 || (err = vf_scene_mesh_repair(c, file, ai)) < 0 ||
+      (err = triangulate(c, what, &ai)) < 0) {
+    if (ai != NULL) aiReleaseImport(ai);
     return err;
   }
   /* On failure Assimp has released the scene. */
@@ -231,13 +313,18 @@ static int grow(void **p, uint64_t count, size_t size) {
  * of NULL); `keep` gets the VF_ATTR_* bits kept, the return value those dropped. */
 static unsigned settle_attributes(vf_shape *s, const struct aiMesh *mesh, unsigned *keep) {
   unsigned has = (mesh->mNormals ? VF_ATTR_NORMALS : 0) | (mesh->mTextureCoords[0] ? VF_ATTR_UVS : 0) |
-                 (mesh->mTangents && mesh->mBitangents && mesh->mNormals ? VF_ATTR_TANGENTS : 0);
+                 (mesh->mTangents && mesh->mBitangents && mesh->mNormals ? VF_ATTR_TANGENTS : 0) |
+                 (mesh->mTextureCoords[0] && mesh->mTextureCoords[1] ? VF_ATTR_UVS1 : 0) |
+                 (mesh->mColors[0] ? VF_ATTR_COLORS : 0);
   if (s->num_vertices == 0) {
     *keep = has;
     return 0;
   }
-  unsigned had = (s->normals ? VF_ATTR_NORMALS : 0) | (s->uvs ? VF_ATTR_UVS : 0) | (s->tangents ? VF_ATTR_TANGENTS : 0);
+  unsigned had = (s->normals ? VF_ATTR_NORMALS : 0) | (s->uvs ? VF_ATTR_UVS : 0) | (s->tangents ? VF_ATTR_TANGENTS : 0) |
+                 (s->uvs1 ? VF_ATTR_UVS1 : 0) | (s->colors ? VF_ATTR_COLORS : 0);
   *keep = had & has;
+  if (!(*keep & VF_ATTR_UVS1)) free(s->uvs1), s->uvs1 = NULL;
+  if (!(*keep & VF_ATTR_COLORS)) free(s->colors), s->colors = NULL;
   if (!(*keep & VF_ATTR_NORMALS)) free(s->normals), s->normals = NULL;
   if (!(*keep & VF_ATTR_UVS)) free(s->uvs), s->uvs = NULL;
   if (!(*keep & VF_ATTR_TANGENTS)) free(s->tangents), s->tangents = NULL;
@@ -258,6 +345,15 @@ static void copy_vertices(const struct aiMesh *mesh, vf_shape *s, uint32_t v0) {
       s->uvs[2 * (v0 + v)] = mesh->mTextureCoords[0][v].x;
       s->uvs[2 * (v0 + v) + 1] = 1.0f - mesh->mTextureCoords[0][v].y;
     }
+    if (s->uvs1) {
+      s->uvs1[2 * (v0 + v)] = mesh->mTextureCoords[1][v].x;
+      s->uvs1[2 * (v0 + v) + 1] = 1.0f - mesh->mTextureCoords[1][v].y;
+    }
+    if (s->colors) { /* glTF's COLOR_0 is linear; clamped so that albedos stay at most 1 (NaN: 1) */
+      const struct aiColor4D *col = &mesh->mColors[0][v];
+      const float rgb[3] = {col->r, col->g, col->b};
+      for (int k = 0; k < 3; k++) s->colors[3 * (v0 + v) + k] = rgb[k] >= 0.0f ? (rgb[k] <= 1.0f ? rgb[k] : 1.0f) : rgb[k] < 0.0f ? 0.0f : 1.0f;
+    }
     if (s->tangents) { /* Assimp keeps glTF's w as the bitangent B = w (N x T): recover it */
       const struct aiVector3D *n = &mesh->mNormals[v], *t = &mesh->mTangents[v], *b = &mesh->mBitangents[v];
       double cx = n->y * t->z - n->z * t->y, cy = n->z * t->x - n->x * t->z, cz = n->x * t->y - n->y * t->x;
@@ -268,34 +364,53 @@ static void copy_vertices(const struct aiMesh *mesh, vf_shape *s, uint32_t v0) {
   }
 }
 
+/* Whether the triangle (a, b, c) has no area: its edges' cross product, in double from the
+ * floats, is exactly zero. */
+static int zero_area(const struct aiVector3D *a, const struct aiVector3D *b, const struct aiVector3D *c) {
+  double e1[3] = {(double)b->x - a->x, (double)b->y - a->y, (double)b->z - a->z};
+  double e2[3] = {(double)c->x - a->x, (double)c->y - a->y, (double)c->z - a->z};
+  return e1[1] * e2[2] - e1[2] * e2[1] == 0.0 && e1[2] * e2[0] - e1[0] * e2[2] == 0.0 &&
+         e1[0] * e2[1] - e1[1] * e2[0] == 0.0;
+}
+
 int vf_scene_append_mesh(const parse_ctx *c, const char *what, const struct aiMesh *mesh, unsigned mesh_index,
-                         const vf_affine *a, vf_shape *s, unsigned *dropped) {
-  uint64_t nt = 0;
-  for (unsigned f = 0; f < mesh->mNumFaces; f++) nt += mesh->mFaces[f].mNumIndices == 3;
+                         const vf_affine *a, vf_shape *s, vf_mesh_tally *tally) {
+  uint64_t nt = vf_scene_mesh_triangles(mesh);
   uint64_t nv = (uint64_t)s->num_vertices + mesh->mNumVertices, nt_all = (uint64_t)s->num_triangles + nt;
   if (nv > UINT32_MAX / 4 || nt_all > UINT32_MAX / 3)
     return vf_scene_fail(c, VF_EMESH, what, "too many vertices or triangles");
   unsigned keep;
-  *dropped |= settle_attributes(s, mesh, &keep);
+  tally->dropped |= settle_attributes(s, mesh, &keep);
   int err;
   if ((err = grow((void **)&s->positions, 3 * nv, sizeof(float))) < 0 ||
       (err = grow((void **)&s->indices, 3 * nt_all, sizeof(uint32_t))) < 0 ||
       ((keep & VF_ATTR_NORMALS) && (err = grow((void **)&s->normals, 3 * nv, sizeof(float))) < 0) ||
       ((keep & VF_ATTR_UVS) && (err = grow((void **)&s->uvs, 2 * nv, sizeof(float))) < 0) ||
+      ((keep & VF_ATTR_UVS1) && (err = grow((void **)&s->uvs1, 2 * nv, sizeof(float))) < 0) ||
+      ((keep & VF_ATTR_COLORS) && (err = grow((void **)&s->colors, 3 * nv, sizeof(float))) < 0) ||
       ((keep & VF_ATTR_TANGENTS) && (err = grow((void **)&s->tangents, 4 * nv, sizeof(float))) < 0))
     return err;
   uint32_t v0 = s->num_vertices, t0 = s->num_triangles, t = t0;
   copy_vertices(mesh, s, v0);
-  /* Points and lines (mNumIndices < 3) are not surfaces: left out. */
+  /* Points and lines (mNumIndices < 3) are not surfaces: left out. Polygons are left only
+   * in files with a face too large for Assimp's triangulation, all convex: fans. */
   for (unsigned f = 0; f < mesh->mNumFaces; f++) {
     const struct aiFace *face = &mesh->mFaces[f];
-    if (face->mNumIndices != 3) continue;
-    for (int k = 0; k < 3; k++) {
+    if (face->mNumIndices < 3) continue;
+    for (unsigned k = 0; k < face->mNumIndices; k++)
       if (face->mIndices[k] >= mesh->mNumVertices)
         return vf_scene_fail(c, VF_EMESH, what, "face %u of mesh %u has an out-of-range vertex index", f, mesh_index);
-      s->indices[3 * t + k] = v0 + face->mIndices[k];
+    for (unsigned k = 1; k + 1 < face->mNumIndices; k++) {
+      unsigned i0 = face->mIndices[0], i1 = face->mIndices[k], i2 = face->mIndices[k + 1];
+      if (zero_area(&mesh->mVertices[i0], &mesh->mVertices[i1], &mesh->mVertices[i2])) {
+        tally->degenerate++;
+        continue;
+      }
+      s->indices[3 * t] = v0 + i0;
+      s->indices[3 * t + 1] = v0 + i1;
+      s->indices[3 * t + 2] = v0 + i2;
+      t++;
     }
-    t++;
   }
   s->num_vertices = (uint32_t)nv;
   s->num_triangles = t;
@@ -348,17 +463,25 @@ typedef struct {
   const char *what;
   const struct aiScene *ai;
   vf_shape *s;
-  unsigned dropped;
+  vf_mesh_tally tally;
 } merge_state;
 
 static int merge_instance(void *user, const struct aiNode *node, unsigned mesh, const vf_affine *world) {
   merge_state *m = user;
   (void)node;
-  return vf_scene_append_mesh(m->c, m->what, m->ai->mMeshes[mesh], mesh, world, m->s, &m->dropped);
+  return vf_scene_append_mesh(m->c, m->what, m->ai->mMeshes[mesh], mesh, world, m->s, &m->tally);
 }
 
-int vf_scene_note_dropped(const parse_ctx *c, const char *file, unsigned dropped) {
+int vf_scene_note_dropped(const parse_ctx *c, const char *file, const vf_mesh_tally *tally) {
   int err = VF_OK;
+  unsigned dropped = tally->dropped;
+  if (tally->degenerate > 0)
+    err = vf_scene_note(c, "%s: %llu degenerate triangles (zero area) were skipped", file,
+                        (unsigned long long)tally->degenerate);
+  if ((dropped & VF_ATTR_COLORS) && err == VF_OK)
+    err = vf_scene_note(c, "%s: vertex colours only on some meshes merged into one shape: dropped", file);
+  if ((dropped & VF_ATTR_UVS1) && err == VF_OK)
+    err = vf_scene_note(c, "%s: a second uv set only on some meshes merged into one shape: dropped", file);
   if ((dropped & VF_ATTR_NORMALS) && err == VF_OK)
     err = vf_scene_note(c, "%s: vertex normals only on some meshes merged into one shape: rendered faceted", file);
   if ((dropped & VF_ATTR_UVS) && err == VF_OK)
@@ -379,10 +502,15 @@ int vf_scene_load_mesh_file(const parse_ctx *c, const char *file, const char *pa
   if (err < 0) return err;
   vf_affine identity;
   vf_affine_identity(&identity);
-  merge_state m = {c, what, ai, s, 0};
+  merge_state m = {c, what, ai, s, {0, 0}};
   err = vf_scene_walk_nodes(c, what, ai, &identity, merge_instance, &m);
   if (err == VF_OK && s->num_triangles == 0) err = vf_scene_fail(c, VF_EMESH, what, "the file contains no triangles");
-  if (err == VF_OK) err = vf_scene_note_dropped(c, file, m.dropped);
+  if (err == VF_OK) err = vf_scene_note_dropped(c, file, &m.tally);
+  if (err == VF_OK && s->colors != NULL) { /* a JSON shape's material is the JSON's: colours are an import's */
+    free(s->colors);
+    s->colors = NULL;
+    err = vf_scene_note(c, "%s: vertex colours of a shape's mesh file are ignored (an \"import\" applies them)", file);
+  }
   aiReleaseImport(ai);
   return err;
 }

@@ -21,13 +21,19 @@ struct aiNode;
 struct aiMatrix4x4;
 
 /* Imports `file` (memfile, farm job file or relative to the scene's directory) through
- * Assimp, triangulated; every position, normal, tangent and channel-0 texture coordinate
+ * Assimp, triangulated (faces above VF_MAX_POLYGON_VERTICES: see there); every position, normal, tangent and channel-0 texture coordinate
  * checked finite and every normal non-zero before identical vertices are joined. Errors
  * name `fpath` (the field naming the file) for opening and reading, `what` (the file) for
  * its content; either may be NULL (then only the scene label). *out (aiReleaseImport) on
  * success only. */
 int vf_scene_import_file(const parse_ctx *c, const char *file, const char *fpath, const char *what,
                          const struct aiScene **out);
+
+/* Faces of more vertices than this are not given to Assimp's triangulation (quadratic):
+ * the file is triangulated as fans if all its polygons are convex, else refused. */
+#define VF_MAX_POLYGON_VERTICES 4096
+/* Triangles of an imported mesh: n - 2 per face of n >= 3 vertices. */
+uint64_t vf_scene_mesh_triangles(const struct aiMesh *mesh);
 
 /* An affine map in double: rows of p' = M p + t, the translation in column 3. */
 typedef struct {
@@ -50,17 +56,25 @@ int vf_scene_transform_range(const parse_ctx *c, const char *path, const vf_affi
                              uint32_t t0);
 
 /* Vertex attributes, as bits: what vf_scene_append_mesh had to drop. */
-enum { VF_ATTR_NORMALS = 1u, VF_ATTR_UVS = 2u, VF_ATTR_TANGENTS = 4u };
+enum { VF_ATTR_NORMALS = 1u, VF_ATTR_UVS = 2u, VF_ATTR_TANGENTS = 4u, VF_ATTR_UVS1 = 8u, VF_ATTR_COLORS = 16u };
+
+/* What vf_scene_append_mesh left out of a file's meshes, for its notes. */
+typedef struct {
+  unsigned dropped;    /* VF_ATTR_* bits lost in merging */
+  uint64_t degenerate; /* triangles of zero area (in the file's coordinates), skipped */
+} vf_mesh_tally;
 
 /* Appends Assimp mesh `mesh_index` of a file, through `a` (its node's world transform), to
  * shape s: positions, triangles (points and lines left out), and normals, texture
  * coordinates of channel 0 (t = 1 - Assimp's v, so t = 0 is an image's top row) and
  * tangents (w from Assimp's bitangent) while every mesh appended to s has them; the
- * VF_ATTR_* bits of those lost in merging go into *dropped. Errors name `what`. */
+ * VF_ATTR_* bits of those lost in merging go into tally->dropped. Triangles of zero area
+ * (a repeated corner, or three corners on a line, exactly, in the file's coordinates) are
+ * left out and counted in tally->degenerate. Errors name `what`. */
 int vf_scene_append_mesh(const parse_ctx *c, const char *what, const struct aiMesh *mesh, unsigned mesh_index,
-                         const vf_affine *a, vf_shape *s, unsigned *dropped);
-/* Notes once per file what merging dropped (the bits of vf_scene_append_mesh). */
-int vf_scene_note_dropped(const parse_ctx *c, const char *file, unsigned dropped);
+                         const vf_affine *a, vf_shape *s, vf_mesh_tally *tally);
+/* Notes once per file what merging dropped and how many degenerate triangles were skipped. */
+int vf_scene_note_dropped(const parse_ctx *c, const char *file, const vf_mesh_tally *tally);
 
 /* Calls fn for every (node, mesh) of the file's hierarchy, depth first, with the node's
  * world transform: root x the product of the node transforms from the file's root down.

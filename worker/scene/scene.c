@@ -75,6 +75,8 @@ void vf_scene_destroy(vf_scene *scene) {
     free(scene->shapes[i].indices);
     free(scene->shapes[i].normals);
     free(scene->shapes[i].uvs);
+    free(scene->shapes[i].uvs1);
+    free(scene->shapes[i].colors);
     free(scene->shapes[i].tangents);
   }
   free(scene->shapes);
@@ -228,6 +230,11 @@ void vf_scene_hash(vf_scene *s) {
     h_u32(&h, (uint32_t)m->gltf);
     h_vec3(&h, m->base_color);
     h_f32(&h, m->metallic);
+    if (m->specular_set) { /* KHR_materials_specular: only when given, as above */
+      h_tag(&h, "specular");
+      h_f32(&h, m->specular);
+      h_vec3(&h, m->specular_f0);
+    }
   }
   /* Textures and the materials' use of them, only when there are any: untextured scenes
    * keep the hashes they had before textures existed. A texture counts by the hash of its
@@ -242,10 +249,20 @@ void vf_scene_hash(vf_scene *s) {
     if (!vf_material_textured(m) && m->alpha_cutoff == 0.0f) continue;
     h_tag(&h, "textured material");
     h_u32(&h, (uint32_t)i);
+    /* The slots after the normal map only when used: earlier scenes keep their hashes. */
     for (int k = 0; k < VF_TEXTURE_SLOTS; k++) {
-      h_u32(&h, (uint32_t)m->textures[k].texture);
-      h_u32(&h, (uint32_t)m->textures[k].wrap_s);
-      h_u32(&h, (uint32_t)m->textures[k].wrap_t);
+      const vf_texture_slot *ts = &m->textures[k];
+      if (k > VF_TEXTURE_NORMAL && ts->texture == 0) continue;
+      if (k > VF_TEXTURE_NORMAL) h_u32(&h, (uint32_t)k);
+      h_u32(&h, (uint32_t)ts->texture);
+      h_u32(&h, (uint32_t)ts->wrap_s);
+      h_u32(&h, (uint32_t)ts->wrap_t);
+      if (ts->uv_set != 0 || ts->has_transform) { /* only then, as above */
+        h_tag(&h, "uv set and transform");
+        h_u32(&h, (uint32_t)ts->uv_set);
+        h_u32(&h, (uint32_t)ts->has_transform);
+        for (int e = 0; e < 6; e++) h_f32(&h, ts->transform[e]);
+      }
     }
     h_f32(&h, m->alpha);
     h_f32(&h, m->alpha_cutoff);
@@ -276,6 +293,14 @@ void vf_scene_hash(vf_scene *s) {
     if (sh->uvs != NULL) {
       h_tag(&h, "uvs");
       for (uint64_t k = 0; k < 2ull * sh->num_vertices; k++) h_f32(&h, sh->uvs[k]);
+    }
+    if (sh->uvs1 != NULL) {
+      h_tag(&h, "uvs1");
+      for (uint64_t k = 0; k < 2ull * sh->num_vertices; k++) h_f32(&h, sh->uvs1[k]);
+    }
+    if (sh->colors != NULL) {
+      h_tag(&h, "colors");
+      for (uint64_t k = 0; k < 3ull * sh->num_vertices; k++) h_f32(&h, sh->colors[k]);
     }
     if (sh->tangents != NULL) {
       h_tag(&h, "tangents");

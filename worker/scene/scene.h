@@ -39,8 +39,8 @@ typedef struct {
   int material;     /* index into vf_scene.materials */
   vf_vec3 emission; /* emitted radiance, on the side a triangle faces (counter-clockwise
                      * winding, right-hand rule) and outward from a sphere; zero: not a light */
-  /* VF_SHAPE_MESH: world-space triangles, at least one; degenerate ones may occur (except in
-   * emitters, whose total area is > 0). A mirroring transform has already had its winding
+  /* VF_SHAPE_MESH: world-space triangles, at least one; degenerate ones may occur in inline
+   * meshes (not in emitters, whose total area is > 0; mesh files have theirs skipped). A mirroring transform has already had its winding
    * reversed, so fronts are the fronts of the file. Arrays owned by the scene. */
   uint32_t num_vertices, num_triangles;
   float *positions;  /* 3 per vertex */
@@ -54,6 +54,9 @@ typedef struct {
    *   bitangent (glTF's TANGENT); absent with a normal map: derived from the uvs. */
   float *normals;
   float *uvs;
+  float *uvs1;       /* 2 per vertex: the second uv set (glTF's TEXCOORD_1), as uvs; NULL: absent */
+  float *colors;     /* 3 per vertex: linear RGB in [0, 1] multiplying the material's base colour
+                      * (or diffuse) at the point (glTF's COLOR_0, its alpha ignored); NULL: absent */
   float *tangents;
   /* VF_SHAPE_SPHERE */
   vf_vec3 center;

@@ -218,7 +218,7 @@ static int parse_sphere(const parse_ctx *c, const cJSON *j, const char *path, co
   return VF_OK;
 }
 
-static int parse_shape(const parse_ctx *c, const cJSON *j, int index, vf_shape *s) {
+static int parse_shape(const parse_ctx *c, const cJSON *j, int index, const vf_name_index *names, vf_shape *s) {
   static const char *const mesh_fields[] = {"type", "name", "material", "emission", "transform",
                                             "file", "positions", "indices", NULL};
   static const char *const sphere_fields[] = {"type", "name", "material", "emission", "transform",
@@ -240,9 +240,7 @@ static int parse_shape(const parse_ctx *c, const cJSON *j, int index, vf_shape *
   if (name != NULL && strlen(name) >= sizeof s->name)
     return vf_scene_fail(c, VF_ESCENE, vf_scene_join(p, path, "name"), "longer than %zu bytes", sizeof s->name - 1);
   if ((err = vf_scene_string_field(c, j, path, "material", REQUIRED, &material)) < 0) return err;
-  s->material = -1;
-  for (int m = 0; m < c->scene->num_materials; m++)
-    if (strcmp(c->scene->materials[m].name, material) == 0) s->material = m;
+  s->material = vf_name_index_find(names, material);
   if (s->material < 0)
     return vf_scene_fail(c, VF_ESCENE, vf_scene_join(p, path, "material"), "unknown material '%s'", material);
   if ((err = vf_scene_rgb_field(c, j, path, "emission", OPTIONAL, "radiance", &s->emission)) < 0) return err;
@@ -278,12 +276,14 @@ int vf_scene_parse_shapes(const parse_ctx *c, const cJSON *j) {
   if (n == 0) return vf_scene_fail(c, VF_ESCENE, "shapes", "a scene needs at least one shape");
   if ((s->shapes = calloc((size_t)n, sizeof *s->shapes)) == NULL) return vf_error_set(VF_ENOMEM, "out of memory");
   s->num_shapes = n; /* zero-filled entries are safe to destroy */
-  int i = 0;
+  int i = 0, err;
   const cJSON *e;
+  vf_name_index names;
+  if ((err = vf_name_index_build(s, s->num_materials, &names)) < 0) return err;
   cJSON_ArrayForEach(e, j) {
-    int err = parse_shape(c, e, i, &s->shapes[i]);
-    if (err < 0) return err;
+    if ((err = parse_shape(c, e, i, &names, &s->shapes[i])) < 0) break;
     i++;
   }
-  return VF_OK;
+  vf_name_index_release(&names);
+  return err < 0 ? err : VF_OK;
 }

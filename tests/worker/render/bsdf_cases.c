@@ -173,6 +173,11 @@ const material_case ROUGH_MATERIALS[] = {
     {"gltf metal", {.gltf = 1, .base_color = RGB(0.95f, 0.65f, 0.3f), .metallic = 1.0f, .roughness = 0.3f}, 0},
     {"gltf half-metal", {.gltf = 1, .base_color = RGB(0.5f, 0.7f, 0.9f), .metallic = 0.5f, .roughness = 0.8f}, 0},
     {"gltf smooth", {.gltf = 1, .base_color = RGB(0.7f, 0.7f, 0.7f), .metallic = 0.2f, .roughness = 0.02f}, 0},
+    /* KHR_materials_specular: a coloured F0 (blue above 1, clamped), F90 0.6 */
+    {"gltf specular colour",
+     {.gltf = 1, .base_color = RGB(0.6f, 0.5f, 0.4f), .metallic = 0.3f, .roughness = 0.35f, .specular_set = 1,
+      .specular = 0.6f, .specular_f0 = RGB(0.2f, 0.06f, 1.5f)},
+     0},
     {"diffuse+conductor",
      {.diffuse = RGB(0.3f, 0.2f, 0.1f), .conductor = RGB(0.6f, 0.6f, 0.6f), .roughness = 0.4f},
      0},
@@ -241,10 +246,22 @@ double ref_ggx_lambda(dvec w, double alpha) {
   return 0.5 * (sqrt(1.0 + alpha * alpha * tan2) - 1.0);
 }
 
+/* The glTF model's dielectric Fresnel F_d in channel ch at c (KHR_materials_specular,
+ * "Implementation": from min(F0 colour, 1) specular to specular; without the extension
+ * from 0.04 to 1). */
+static double ref_gltf_dielectric(const vf_material *m, double c, int ch) {
+  double f0 = 0.04, f90 = 1.0;
+  if (m->specular_set) {
+    f0 = fmin(vf_vec3_get(m->specular_f0, ch), 1.0) * m->specular;
+    f90 = m->specular;
+  }
+  return f0 + (f90 - f0) * pow(1.0 - c, 5.0);
+}
+
 double ref_conductor_reflectance(const vf_material *m, double c, int ch) {
-  if (m->gltf) {
-    double f0 = 0.04 + m->metallic * (vf_vec3_get(m->base_color, ch) - 0.04);
-    return f0 + (1.0 - f0) * pow(1.0 - c, 5.0);
+  if (m->gltf) { /* mix(F_d, the metal's Schlick of base_color, metallic) */
+    double base = vf_vec3_get(m->base_color, ch), metal = base + (1.0 - base) * pow(1.0 - c, 5.0);
+    return ref_gltf_dielectric(m, c, ch) + m->metallic * (metal - ref_gltf_dielectric(m, c, ch));
   }
   double tint = vf_vec3_get(m->conductor, ch);
   if (vf_is_zero(m->conductor_eta) && vf_is_zero(m->conductor_k)) return tint;
@@ -295,7 +312,7 @@ void ref_rough_albedo(const vf_material *m, double theta, double eta, int steps,
       double u1 = (a + 0.5) / steps, u2 = (b + 0.5) / steps, r = sqrt(u2);
       dvec o = dmake(r * cos(2.0 * PI_D * u1), r * sin(2.0 * PI_D * u1), sqrt(1.0 - u2));
       double c = ddot(i, dnormalize(dadd(i, o)));
-      double coat = 1.0 - (0.04 + 0.96 * pow(1.0 - c, 5.0));
+      double coat = 1.0 - fmax(ref_gltf_dielectric(m, c, 0), fmax(ref_gltf_dielectric(m, c, 1), ref_gltf_dielectric(m, c, 2)));
       for (int ch = 0; ch < 3; ch++)
         out->reflect[ch] += (1.0 - m->metallic) * vf_vec3_get(m->base_color, ch) * coat / ((double)steps * steps);
     }

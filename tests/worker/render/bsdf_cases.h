@@ -260,7 +260,7 @@ void make_config(config *c, int index);
 /* The rough lobes' materials (test_bsdf_rough.c), a table of their own so that the
  * configurations above keep their indices and random streams; configuration `index` in
  * [0, ROUGH_CONFIG_COUNT) as make_config's. */
-enum { ROUGH_MATERIAL_COUNT = 15 };
+enum { ROUGH_MATERIAL_COUNT = 16 };
 extern const material_case ROUGH_MATERIALS[ROUGH_MATERIAL_COUNT];
 #define ROUGH_CONFIG_COUNT (ROUGH_MATERIAL_COUNT * ANGLE_COUNT * 2)
 void make_rough_config(config *c, int index);

@@ -15,6 +15,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 #include <unistd.h>
 
 /* ---- fixtures ---------------------------------------------------------------------------- */
@@ -43,7 +44,8 @@ static void write_png(const char *name, int channels, const uint8_t *texels, int
   CHECK(png_image_write_to_file(&img, p, 0, texels, 0, NULL));
 }
 
-/* One triangle with normals, uvs and tangents; `nan` spoils a normal (1) or a uv (2). */
+/* One triangle with normals, uvs and tangents; `nan` spoils a normal (1), a uv (2) or two
+ * tangents (3). */
 static void write_buffer(int nan) {
   float b[38] = {0, 0, 0, 1, 0, 0, 0, 1, 0,                      /* positions, offset 0 */
                  0.6f, 0, 0.8f, 0, 0, 1, 0, 0, 1,                /* normals, 36 */
@@ -51,6 +53,7 @@ static void write_buffer(int nan) {
                  1, 0, 0, 1, 1, 0, 0, 1, 1, 0, 0, -1};           /* tangents, 96 */
   if (nan == 1) b[12] = NAN; /* vertex 1's normal */
   if (nan == 2) b[20] = INFINITY; /* vertex 1's u */
+  if (nan == 3) b[24] = 2.0f, b[32] = 0.0f; /* vertex 0's tangent of length 2, vertex 2's zero */
   uint8_t bytes[152] = {0};
   memcpy(bytes, b, 144);
   const uint16_t idx[3] = {0, 1, 2};
@@ -297,17 +300,35 @@ static void test_gltf_lights_point_spot_directional(void) {
     const vf_point_light_desc *p = &s->point_lights[0], *spot = &s->point_lights[1];
     CHECK(!p->is_spot);
     CHECK_VEC(p->position, 1, 2, 3, 1e-6);
-    CHECK_VEC(p->intensity, 100, 50, 25, 1e-4); /* candela read as W/sr */
+    CHECK_VEC(p->intensity, 100 / 683.0, 50 / 683.0, 25 / 683.0, 1e-7); /* Blender's reading: W/sr = cd / 683 */
     CHECK(spot->is_spot);
     CHECK_VEC(spot->position, 0, 5, 0, 1e-6);
     CHECK_VEC(spot->direction, 0, -1, 0, 1e-6);
-    CHECK_VEC(spot->intensity, 50, 50, 50, 1e-4);
+    CHECK_VEC(spot->intensity, 50 / 683.0, 50 / 683.0, 50 / 683.0, 1e-7);
     CHECK_NEAR(spot->inner_cone_angle, 0.2, 1e-6); /* half-angles, as glTF */
     CHECK_NEAR(spot->outer_cone_angle, 0.5, 1e-6);
     CHECK_VEC(s->directional_lights[0].direction, 0, -1, 0, 1e-6);
-    CHECK_VEC(s->directional_lights[0].irradiance, 3, 3, 3, 1e-6); /* lux read as W/m^2 */
+    CHECK_VEC(s->directional_lights[0].irradiance, 3, 3, 3, 1e-6); /* lux read as W/m^2, as Blender's sun */
+  }
+  /* The file has an emitter beside its punctual lights: the reading is printed. */
+  CHECK_STR_CONTAINS(s ? s->notes : NULL, "model.gltf: light units: punctual lights in W/sr = candela / 683 beside "
+                                          "emission as written (Blender's reading)");
+  vf_scene_destroy(s);
+  /* "light_units": "photometric" reads candela as written, beside the same emission. */
+  const char json[] = "{\"import\": [{\"file\": \"model.gltf\", \"light_units\": \"photometric\"}]}";
+  write_file("photometric.json", json, sizeof json - 1);
+  s = load("photometric.json", NULL);
+  if (s != NULL && s->num_point_lights == 2) {
+    CHECK_VEC(s->point_lights[0].intensity, 100, 50, 25, 1e-4);
+    CHECK_VEC(s->directional_lights[0].irradiance, 3, 3, 3, 1e-6);
+    CHECK_STR_CONTAINS(s->notes, "punctual lights in candela beside emission as written (photometric)");
   }
   vf_scene_destroy(s);
+  const char bad[] = "{\"import\": [{\"file\": \"model.gltf\", \"light_units\": \"lumens\"}]}";
+  write_file("bad_units.json", bad, sizeof bad - 1);
+  char detail[512];
+  CHECK_INT_EQ(load_error("bad_units.json", NULL, detail, sizeof detail), VF_ESCENE);
+  CHECK_STR_CONTAINS(detail, "import[0].light_units: expected \"blender\" or \"photometric\", found 'lumens'");
 }
 
 static void test_gltf_materials_every_parameter_and_texture_slot(void) {
@@ -356,7 +377,7 @@ static void test_gltf_notes_list_what_is_not_rendered(void) {
   vf_scene *s = load("model.gltf", NULL);
   if (s == NULL) return;
   CHECK_STR_CONTAINS(s->notes, "model.gltf: extension KHR_materials_sheen is not supported");
-  CHECK_STR_CONTAINS(s->notes, "KHR_texture_transform");
+  CHECK(s->notes && strstr(s->notes, "KHR_texture_transform") == NULL); /* supported: not noted */
   CHECK(s->notes && strstr(s->notes, "KHR_materials_ior") == NULL);
   CHECK(s->notes && strstr(s->notes, "KHR_lights_punctual") == NULL);
   vf_scene_destroy(s);
@@ -468,6 +489,205 @@ static void test_obj_bump_map_that_is_a_height_map_is_noted(void) {
   vf_scene_destroy(s);
 }
 
+/* ---- KHR_materials_specular's textures, which Assimp does not load ---------------------------- */
+
+static size_t png_bytes(uint8_t *out, size_t cap, const uint8_t *rgba, int w, int h) {
+  png_image img;
+  memset(&img, 0, sizeof img);
+  img.version = PNG_IMAGE_VERSION, img.width = (png_uint_32)w, img.height = (png_uint_32)h, img.format = PNG_FORMAT_RGBA;
+  png_alloc_size_t n = cap;
+  CHECK(png_image_write_to_memory(&img, out, &n, 0, rgba, 0, NULL));
+  return n;
+}
+
+static void base64(const uint8_t *in, size_t n, char *out) {
+  static const char a[] = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+  size_t o = 0;
+  for (size_t i = 0; i < n; i += 3) {
+    uint32_t v = (uint32_t)in[i] << 16 | (i + 1 < n ? (uint32_t)in[i + 1] << 8 : 0) | (i + 2 < n ? in[i + 2] : 0);
+    out[o++] = a[v >> 18 & 63], out[o++] = a[v >> 12 & 63];
+    out[o++] = i + 1 < n ? a[v >> 6 & 63] : '=';
+    out[o++] = i + 2 < n ? a[v & 63] : '=';
+  }
+  out[o] = '\0';
+}
+
+/* A .glb whose specularTexture is a PNG in its binary chunk and whose specularColorTexture is
+ * a data URI: both read from the file's JSON into the material's slots, with their samplers,
+ * as the images they are (texels compared). */
+static void test_glb_specular_textures_from_buffer_view_and_data_uri(void) {
+  const uint8_t spec_rgba[8] = {0, 0, 0, 64, 0, 0, 0, 255}, colour_rgba[8] = {255, 128, 0, 255, 0, 0, 255, 255};
+  uint8_t png1[512], png2[512];
+  size_t n1 = png_bytes(png1, sizeof png1, spec_rgba, 2, 1), n2 = png_bytes(png2, sizeof png2, colour_rgba, 2, 1);
+  char uri[1024];
+  base64(png2, n2, uri);
+  /* BIN: positions (36 bytes), indices (6, padded to 8), the PNG (padded to 4) */
+  const float pos[9] = {0, 0, 0, 1, 0, 0, 0, 1, 0};
+  const uint16_t idx[3] = {0, 1, 2};
+  uint8_t bin[1024] = {0};
+  memcpy(bin, pos, 36);
+  memcpy(bin + 36, idx, 6);
+  memcpy(bin + 44, png1, n1);
+  uint32_t bin_len = (uint32_t)((44 + n1 + 3) & ~(size_t)3);
+  char json[4096];
+  int jn = snprintf(json, sizeof json,
+      "{\"asset\": {\"version\": \"2.0\"}, \"extensionsUsed\": [\"KHR_materials_specular\"],"
+      " \"scene\": 0, \"scenes\": [{\"nodes\": [0]}], \"nodes\": [{\"mesh\": 0}],"
+      " \"meshes\": [{\"primitives\": [{\"attributes\": {\"POSITION\": 0}, \"indices\": 1, \"material\": 0}]}],"
+      " \"materials\": [{\"name\": \"Spec\", \"pbrMetallicRoughness\": {\"metallicFactor\": 0}, \"extensions\": {"
+      "\"KHR_materials_specular\": {\"specularFactor\": 0.5, \"specularTexture\": {\"index\": 0},"
+      " \"specularColorTexture\": {\"index\": 1}}}}],"
+      " \"samplers\": [{\"wrapS\": 33648, \"wrapT\": 33071}],"
+      " \"textures\": [{\"source\": 0, \"sampler\": 0}, {\"source\": 1}],"
+      " \"images\": [{\"bufferView\": 2, \"mimeType\": \"image/png\"}, {\"uri\": \"data:image/png;base64,%s\"}],"
+      " \"buffers\": [{\"byteLength\": %u}],"
+      " \"bufferViews\": [{\"buffer\": 0, \"byteOffset\": 0, \"byteLength\": 36}, {\"buffer\": 0, \"byteOffset\": 36, \"byteLength\": 6},"
+      " {\"buffer\": 0, \"byteOffset\": 44, \"byteLength\": %zu}],"
+      " \"accessors\": [{\"bufferView\": 0, \"componentType\": 5126, \"count\": 3, \"type\": \"VEC3\", \"min\": [0, 0, 0], \"max\": [1, 1, 0]},"
+      " {\"bufferView\": 1, \"componentType\": 5123, \"count\": 3, \"type\": \"SCALAR\"}]}",
+      uri, bin_len, n1);
+  while (jn % 4) json[jn++] = ' ';
+  uint8_t glb[8192];
+  uint32_t total = 12 + 8 + (uint32_t)jn + 8 + bin_len, h[5] = {0x46546C67u, 2, total, (uint32_t)jn, 0x4E4F534Au};
+  memcpy(glb, h, 20);
+  memcpy(glb + 20, json, (size_t)jn);
+  uint32_t bh[2] = {bin_len, 0x004E4942u};
+  memcpy(glb + 20 + jn, bh, 8);
+  memcpy(glb + 28 + jn, bin, bin_len);
+  write_file("spec.glb", glb, total);
+  vf_scene *s = load("spec.glb", NULL);
+  if (s == NULL) return;
+  const vf_material *m = &s->materials[material_named(s, "Spec")];
+  CHECK(m->gltf && m->specular_set);
+  CHECK_NEAR(m->specular, 0.5, 0);
+  CHECK_NEAR(m->specular_f0.x, 0.04, 1e-7);
+  const vf_texture_slot *ts = &m->textures[VF_TEXTURE_SPECULAR], *tc = &m->textures[VF_TEXTURE_SPECULAR_COLOR];
+  CHECK(ts->texture > 0 && tc->texture > 0 && ts->texture != tc->texture);
+  CHECK_INT_EQ(ts->wrap_s, VF_WRAP_MIRROR);
+  CHECK_INT_EQ(ts->wrap_t, VF_WRAP_CLAMP);
+  CHECK_INT_EQ(tc->wrap_s, VF_WRAP_REPEAT);
+  if (ts->texture > 0 && tc->texture > 0) {
+    const vf_texture *a = &s->textures[ts->texture - 1], *b = &s->textures[tc->texture - 1];
+    CHECK_STR_CONTAINS(a->name, "spec.glb#image0");
+    CHECK_STR_CONTAINS(b->name, "spec.glb#image1");
+    CHECK(a->width == 2 && a->channels == 4 && !a->is_float && ((const uint8_t *)a->texels)[3] == 64);
+    CHECK(b->width == 2 && b->channels == 4 && !b->is_float && ((const uint8_t *)b->texels)[1] == 128);
+  }
+  vf_scene_destroy(s);
+}
+
+/* ---- repairs -------------------------------------------------------------------------------- */
+
+/* A NaN normal is repaired from its face (Blender recomputes such normals) and counted in a
+ * note; so is a zero one (Debian's spider.obj and BoxBadNormals.glb have them); a
+ * degenerate triangle is skipped and counted. */
+static void test_bad_normals_repaired_and_degenerate_faces_skipped_with_notes(void) {
+  write_buffer(1); /* vertex 1's normal x is NaN */
+  vf_scene *s = load("model.gltf", NULL);
+  if (s != NULL) {
+    const vf_shape *tri = shape_named(s, "Tri");
+    int v1 = vertex_at(tri, 10, 2, 0); /* (1, 0, 0) turned by 90 degrees about z, scaled 2, moved by 10 */
+    if (tri && tri->normals && v1 >= 0) { /* the triangle's own normal, +z, through the node's rotation */
+      CHECK_NEAR(tri->normals[3 * v1], 0.0, 1e-6);
+      CHECK_NEAR(tri->normals[3 * v1 + 1], 0.0, 1e-6);
+      CHECK_NEAR(tri->normals[3 * v1 + 2], 1.0, 1e-6);
+    }
+    /* counted per mesh: the accessor serves the file's two meshes */
+    CHECK_STR_CONTAINS(s->notes, "model.gltf: 2 vertex normals that were zero or not finite were repaired from their faces");
+  }
+  vf_scene_destroy(s);
+  /* A zero tangent becomes its face's direction of increasing s, (1, 0, 0) in the file,
+   * (0, 1, 0) through the node's rotation, bitangent N x T (w = +1); a long one is
+   * normalised; each counted. */
+  write_buffer(3);
+  s = load("model.gltf", NULL);
+  if (s != NULL) {
+    const vf_shape *tri = shape_named(s, "Tri");
+    int v2 = vertex_at(tri, 8, 0, 0), v0 = vertex_at(tri, 10, 0, 0);
+    if (tri && tri->tangents && v2 >= 0 && v0 >= 0) {
+      CHECK_NEAR(tri->tangents[4 * v2], 0.0, 1e-6);
+      CHECK_NEAR(tri->tangents[4 * v2 + 1], 1.0, 1e-6);
+      CHECK_NEAR(tri->tangents[4 * v2 + 3], 1.0, 0);
+      CHECK_NEAR(tri->tangents[4 * v0 + 1], 1.0, 1e-6); /* unit after the transform */
+    }
+    CHECK_STR_CONTAINS(s->notes, "model.gltf: 1 tangents that were zero, not finite or along the normal were repaired");
+    CHECK_STR_CONTAINS(s->notes, "model.gltf: 1 tangents not of unit length were normalised");
+  }
+  vf_scene_destroy(s);
+  write_buffer(0);
+  const char obj[] = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 2 0 0\nvn 0 0 0\nvn 0 0 2\n"
+                     "f 1//1 2//2 3//2\nf 1//1 2//2 4//2\n"; /* the second has its corners on a line */
+  write_file("bad.obj", obj, sizeof obj - 1);
+  s = load("bad.obj", NULL);
+  if (s != NULL && s->num_shapes == 1) {
+    CHECK_INT_EQ(s->shapes[0].num_triangles, 1);
+    CHECK_STR_CONTAINS(s->notes, "bad.obj: 1 degenerate triangles (zero area) were skipped");
+    CHECK_STR_CONTAINS(s->notes, "bad.obj: 2 vertex normals that were zero or not finite were repaired from their faces");
+    CHECK_STR_CONTAINS(s->notes, "bad.obj: 4 vertex normals not of unit length were normalised");
+    for (uint32_t v = 0; s->shapes[0].normals && v < s->shapes[0].num_vertices; v++)
+      CHECK_NEAR(s->shapes[0].normals[3 * v + 2], 1.0, 1e-6);
+  }
+  vf_scene_destroy(s);
+}
+
+/* ---- what a model without camera or lights gets --------------------------------------------- */
+
+/* A model without a camera is seen from the side of its bounds' largest projected area: a
+ * polygon in a plane x = const from +x (from +z it rendered blank), a floor from above;
+ * the note names the side. */
+static void test_default_camera_faces_the_largest_projected_side(void) {
+  const char wall[] = "v 0 0 0\nv 0 0 2\nv 0 1 2\nv 0 1 0\nf 1 2 3 4\n";
+  write_file("wall_x.obj", wall, sizeof wall - 1);
+  vf_scene *s = load("wall_x.obj", NULL);
+  if (s != NULL) {
+    CHECK_STR_CONTAINS(s->notes, "no camera: a default camera looks at the scene's bounds from +x, the side of their "
+                                 "largest projected area");
+    CHECK(s->camera.forward.x < -0.9f && fabsf(s->camera.forward.z) < 1e-6f);
+    CHECK(s->camera.position.x > 1.0f);
+  }
+  vf_scene_destroy(s);
+  const char floor[] = "v -3 0 -3\nv -3 0 3\nv 3 0.5 3\nv 3 0.5 -3\nf 1 2 3 4\n";
+  write_file("floor.obj", floor, sizeof floor - 1);
+  s = load("floor.obj", NULL);
+  if (s != NULL) {
+    CHECK_STR_CONTAINS(s->notes, "from +y");
+    CHECK_VEC(s->camera.forward, 0, -1, 0, 1e-6);
+    CHECK_VEC(s->camera.up, 0, 0, -1, 1e-6);
+  }
+  vf_scene_destroy(s);
+}
+
+/* Emitters alone that give almost no light: warned of, with the figures; bright ones not.
+ * A 10 x 10 white floor and a 0.1 x 0.1 label of radiance 1 facing it from a height of 1:
+ * 0.0314 W, of which the floor gets about 0.0314 / 2 over 100 m^2, a radiance of about
+ * 5e-5 on white. Radiance 1e5 lights it; so does radiance 1 turned away from the floor
+ * not (its light meets nothing): the warning says so. */
+static void test_dim_emitters_are_warned_of(void) {
+  const char obj[] = "mtllib dim.mtl\nv -5 0 -5\nv -5 0 5\nv 5 0 5\nv 5 0 -5\nv 0 1 0\nv 0.1 1 0\nv 0.1 1 -0.1\nv 0 1 -0.1\n"
+                     "usemtl white\nf 1 2 3 4\nusemtl label\nf 5 8 7 6\n"; /* the label faces down */
+  const char dim[] = "newmtl white\nKd 0.8 0.8 0.8\nnewmtl label\nKd 0 0 0\nKe 1 1 1\n";
+  const char bright[] = "newmtl white\nKd 0.8 0.8 0.8\nnewmtl label\nKd 0 0 0\nKe 100000 100000 100000\n";
+  write_file("dim.obj", obj, sizeof obj - 1);
+  write_file("dim.mtl", dim, sizeof dim - 1);
+  vf_scene *s = load("dim.obj", NULL);
+  if (s != NULL) {
+    CHECK_STR_CONTAINS(s->notes, "warning: the image will be dark: the only lights are emissive surfaces of 0.0314 W "
+                                 "in all, whose light reaches the other surfaces at a radiance of about");
+    CHECK(strstr(s->notes, "no light:") == NULL); /* it has a light: no default background */
+  }
+  vf_scene_destroy(s);
+  write_file("dim.mtl", bright, sizeof bright - 1);
+  s = load("dim.obj", NULL);
+  if (s != NULL) CHECK(s->notes == NULL || strstr(s->notes, "dark") == NULL);
+  vf_scene_destroy(s);
+  const char away[] = "mtllib dim.mtl\nv -5 0 -5\nv -5 0 5\nv 5 0 5\nv 5 0 -5\nv 0 1 0\nv 0.1 1 0\nv 0.1 1 -0.1\nv 0 1 -0.1\n"
+                      "usemtl white\nf 1 2 3 4\nusemtl label\nf 5 6 7 8\n"; /* the bright label faces up */
+  write_file("away.obj", away, sizeof away - 1);
+  s = load("away.obj", NULL);
+  if (s != NULL) CHECK_STR_CONTAINS(s->notes, "warning: the image will be dark");
+  vf_scene_destroy(s);
+}
+
 /* ---- bad input ------------------------------------------------------------------------------ */
 
 static void test_bad_files_are_refused_naming_file_and_problem(void) {
@@ -477,9 +697,6 @@ static void test_bad_files_are_refused_naming_file_and_problem(void) {
   CHECK_INT_EQ(load_error("model.gltf", "7", detail, sizeof detail), VF_ESCENE);
   CHECK_STR_CONTAINS(detail, "no camera '7'");
 
-  write_buffer(1);
-  CHECK_INT_EQ(load_error("model.gltf", NULL, detail, sizeof detail), VF_EMESH);
-  CHECK_STR_CONTAINS(detail, "model.gltf: vertex 1 has a non-finite normal");
   write_buffer(2);
   CHECK_INT_EQ(load_error("model.gltf", NULL, detail, sizeof detail), VF_EMESH);
   CHECK_STR_CONTAINS(detail, "model.gltf: vertex 1 has a non-finite texture coordinate");
@@ -541,20 +758,100 @@ static void test_obj_kd_ks_noted_once_with_the_largest_sum(void) {
   vf_scene_destroy(s);
 }
 
-/* A glTF texture transform is noted once: from the file's extensionsUsed, not again from
- * each texture Assimp reads a transform for. */
-static void test_gltf_texture_transform_noted_once(void) {
+/* KHR_texture_transform on Khronos's TextureTransformTest: each material's base colour slot
+ * reads at T(offset) R(rotation) S(scale) (s, t), R = [cos sin; -sin cos], checked at three
+ * points against the specification's matrices; no note. */
+static void test_gltf_texture_transform_read_per_slot(void) {
   const char *p = "/usr/share/assimp/models/glTF2/textureTransform/TextureTransformTest.gltf";
   if (access(p, R_OK) != 0) {
-    printf("  skipped: %s not installed (apt-get install assimp-testmodels)\n", p);
+    printf("  SKIP: %s not installed (apt-get install assimp-testmodels)\n", p);
     return;
   }
   vf_scene *s = NULL;
   int err = vf_scene_load(p, &s);
   if (err != VF_OK) CHECK_FAIL_("%s: %s", p, vf_error_detail(err));
   if (s == NULL) return;
-  CHECK_INT_EQ(occurrences(s->notes, "texture transforms"), 1);
-  CHECK_STR_CONTAINS(s->notes, "KHR_texture_transform");
+  CHECK(s->notes == NULL || strstr(s->notes, "transform") == NULL);
+  static const struct {
+    const char *name;
+    double ox, oy, rotation, sx, sy;
+  } cases[] = {{"Offset U", 0.5, 0, 0, 1, 1},          {"Offset V", 0, 0.5, 0, 1, 1},
+               {"Offset UV", 0.5, 0.5, 0, 1, 1},       {"Rotation", 0, 0, 0.39269908169872414, 1, 1},
+               {"Scale", 0, 0, 0, 1.5, 1.5},           {"All", -0.2, -0.1, 0.3, 1.5, 1.5}};
+  static const double points[3][2] = {{0, 0}, {1, 0}, {0.25, 0.75}};
+  for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+    const vf_texture_slot *ts = &s->materials[material_named(s, cases[i].name)].textures[VF_TEXTURE_COLOR];
+    CHECK(ts->texture > 0 && ts->has_transform);
+    CHECK_INT_EQ(ts->uv_set, 0);
+    double c = cos(cases[i].rotation), sn = sin(cases[i].rotation);
+    for (int k = 0; k < 3; k++) {
+      double u = points[k][0] * cases[i].sx, v = points[k][1] * cases[i].sy;
+      double eu = c * u + sn * v + cases[i].ox, ev = -sn * u + c * v + cases[i].oy;
+      const float *m = ts->transform;
+      CHECK_NEAR(m[0] * points[k][0] + m[1] * points[k][1] + m[2], eu, 1e-6);
+      CHECK_NEAR(m[3] * points[k][0] + m[4] * points[k][1] + m[5], ev, 1e-6);
+    }
+  }
+  const vf_texture_slot *plain = &s->materials[material_named(s, "Correct")].textures[VF_TEXTURE_COLOR];
+  CHECK(plain->texture > 0 && !plain->has_transform);
+  vf_scene_destroy(s);
+}
+
+/* An OBJ face of n vertices on the unit circle (star: every other vertex at radius 0.4). */
+static void write_polygon_obj(const char *name, int n, int star) {
+  char p[256];
+  path_of(p, sizeof p, name);
+  FILE *f = fopen(p, "w");
+  CHECK(f != NULL);
+  if (f == NULL) return;
+  for (int i = 0; i < n; i++) {
+    double r = star && i % 2 ? 0.4 : 1.0, a = 2.0 * M_PI * i / n;
+    fprintf(f, "v %.9f %.9f 0\n", r * cos(a), r * sin(a));
+  }
+  fprintf(f, "f");
+  for (int i = 1; i <= n; i++) fprintf(f, " %d", i);
+  fprintf(f, "\n");
+  fclose(f);
+}
+
+/* A 100,000-vertex OBJ face (issue 41: Assimp's ear clipping never ended) loads in linear
+ * time as a fan: n - 2 triangles covering the polygon's area (n/2) sin(2 pi / n) exactly; a
+ * large face that is not convex is refused naming the file and the face; a non-convex
+ * face below the bound still goes through Assimp's triangulation. */
+static void test_obj_huge_face_is_a_fan_or_refused(void) {
+  enum { N = 100000 };
+  write_polygon_obj("disc.obj", N, 0);
+  struct timespec t0, t1;
+  clock_gettime(CLOCK_MONOTONIC, &t0);
+  vf_scene *s = load("disc.obj", NULL);
+  clock_gettime(CLOCK_MONOTONIC, &t1);
+  double seconds = (double)(t1.tv_sec - t0.tv_sec) + 1e-9 * (double)(t1.tv_nsec - t0.tv_nsec);
+  printf("  a face of %d vertices: loaded in %.2f s\n", N, seconds);
+  CHECK(seconds < 20.0);
+  if (s != NULL && s->num_shapes == 1) {
+    const vf_shape *sh = &s->shapes[0];
+    /* a few fan triangles near the axes have their corners on a line in floats: skipped */
+    char note[128];
+    snprintf(note, sizeof note, "disc.obj: %u degenerate triangles (zero area) were skipped", N - 2 - sh->num_triangles);
+    if (sh->num_triangles < N - 2) CHECK_STR_CONTAINS(s->notes, note);
+    CHECK(sh->num_triangles + 64 >= N - 2);
+    double area = 0.0;
+    for (uint32_t t = 0; t < sh->num_triangles; t++) {
+      const float *a = &sh->positions[3 * sh->indices[3 * t]], *b = &sh->positions[3 * sh->indices[3 * t + 1]],
+                  *c = &sh->positions[3 * sh->indices[3 * t + 2]];
+      area += 0.5 * (((double)b[0] - a[0]) * ((double)c[1] - a[1]) - ((double)b[1] - a[1]) * ((double)c[0] - a[0]));
+    }
+    CHECK_NEAR(area, 0.5 * N * sin(2.0 * M_PI / N), 1e-6);
+  }
+  vf_scene_destroy(s);
+  char detail[1024];
+  write_polygon_obj("star.obj", 5000, 1);
+  CHECK_INT_EQ(load_error("star.obj", NULL, detail, sizeof detail), VF_EMESH);
+  CHECK_STR_CONTAINS(detail, "star.obj");
+  CHECK_STR_CONTAINS(detail, "face 0 of mesh 0 (5000 vertices) is not a convex planar polygon");
+  write_polygon_obj("small_star.obj", 100, 1);
+  s = load("small_star.obj", NULL);
+  if (s != NULL) CHECK_INT_EQ(s->shapes[0].num_triangles, 98);
   vf_scene_destroy(s);
 }
 
@@ -603,7 +900,12 @@ int main(void) {
   RUN(test_obj_bump_map_that_is_a_height_map_is_noted);
   RUN(test_bad_files_are_refused_naming_file_and_problem);
   RUN(test_obj_kd_ks_noted_once_with_the_largest_sum);
-  RUN(test_gltf_texture_transform_noted_once);
+  RUN(test_gltf_texture_transform_read_per_slot);
+  RUN(test_glb_specular_textures_from_buffer_view_and_data_uri);
+  RUN(test_obj_huge_face_is_a_fan_or_refused);
+  RUN(test_bad_normals_repaired_and_degenerate_faces_skipped_with_notes);
+  RUN(test_default_camera_faces_the_largest_projected_side);
+  RUN(test_dim_emitters_are_warned_of);
   RUN(test_assimp_testmodels_glTF2_load_with_notes);
   if (getenv("KEEP_TMP") == NULL) remove_dir();
   else printf("kept %s\n", dir);

@@ -2,6 +2,7 @@
 #include "common/error.h"
 #include "common/image.h"
 #include "worker/scene/scene.h"
+#include "worker/scene/background.h"
 #include "worker/scene/builtin.h"
 #include "worker/scene/load.h"
 
@@ -11,6 +12,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
+#include <time.h>
 #include <unistd.h>
 
 #define SCENES VF_SOURCE_DIR "/tests/scenes"
@@ -595,7 +597,93 @@ static void test_missing_scene_file_and_unknown_builtin(void) {
   vf_scene_destroy(NULL);
 }
 
+/* 200,000 materials and 20,000 shapes load in linear-logarithmic time (issue 41: the
+ * duplicate-key check and the name lookups were quadratic, over 60 s). The bound is the
+ * test's: 20 s on a loaded machine where the load takes about a second. */
+static void test_many_materials_load_in_n_log_n(void) {
+  enum { MATERIALS = 200000, SHAPES = 20000 };
+  char path[] = "/tmp/test_scene_many.XXXXXX";
+  int fd = mkstemp(path);
+  FILE *f = fd >= 0 ? fdopen(fd, "w") : NULL;
+  CHECK(f != NULL);
+  if (f == NULL) return;
+  fprintf(f, "{\"camera\": {\"position\": [0, 0, 5], \"target\": [0, 0, 0], \"fov\": 40},\n \"materials\": {");
+  for (int i = 0; i < MATERIALS; i++) fprintf(f, "%s\"m%d\": {\"diffuse\": [0.5, 0.5, 0.5]}", i ? ", " : "", i);
+  fprintf(f, "},\n \"shapes\": [");
+  for (int i = 0; i < SHAPES; i++)
+    fprintf(f, "%s{\"type\": \"mesh\", \"material\": \"m%d\", \"positions\": [%d, 0, 0, %d, 1, 0, %d, 0, 1], \"indices\": [0, 1, 2]}",
+            i ? ", " : "", (i * 7919) % MATERIALS, i, i, i);
+  fprintf(f, "],\n \"lights\": [{\"type\": \"background\", \"radiance\": [1, 1, 1]}]}\n");
+  fclose(f);
+  struct timespec t0, t1;
+  clock_gettime(CLOCK_MONOTONIC, &t0);
+  vf_scene *s = load_ok(path);
+  clock_gettime(CLOCK_MONOTONIC, &t1);
+  double seconds = (double)(t1.tv_sec - t0.tv_sec) + 1e-9 * (double)(t1.tv_nsec - t0.tv_nsec);
+  printf("  %d materials, %d shapes: loaded in %.2f s\n", MATERIALS, SHAPES, seconds);
+  CHECK(seconds < 20.0);
+  if (s != NULL) {
+    CHECK_INT_EQ(s->num_materials, MATERIALS);
+    CHECK_INT_EQ(s->num_shapes, SHAPES);
+    CHECK_INT_EQ(s->shapes[SHAPES - 1].material, ((SHAPES - 1) * 7919) % MATERIALS); /* by name, in file order */
+    CHECK_STR_CONTAINS(s->materials[s->shapes[123].material].name, "m");
+  }
+  vf_scene_destroy(s);
+  /* A repeated key among many is still found, and named. */
+  f = fopen(path, "w");
+  if (f != NULL) {
+    fprintf(f, "{\"camera\": {\"position\": [0, 0, 5], \"target\": [0, 0, 0], \"fov\": 40},\n \"materials\": {");
+    for (int i = 0; i < 1000; i++) fprintf(f, "%s\"m%d\": {}", i ? ", " : "", i == 900 ? 17 : i);
+    fprintf(f, "},\n \"shapes\": [{\"type\": \"sphere\", \"center\": [0, 0, 0], \"radius\": 1, \"material\": \"m1\", "
+               "\"emission\": [1, 1, 1]}]}\n");
+    fclose(f);
+    s = NULL;
+    int err = vf_scene_load(path, &s);
+    CHECK_INT_EQ(err, VF_ESCENE);
+    CHECK_STR_CONTAINS(vf_error_detail(err), "materials.m17: duplicate field");
+    vf_scene_destroy(s);
+  }
+  unlink(path);
+}
+
+/* --background on any scene: a grey or R,G,B radiance replaces the background or map, an
+ * EXR map replaces both with scale 1; the hash follows; bad specs change nothing. */
+static void test_background_replaced_after_load(void) {
+  vf_scene *s = load_ok("cornell-env");
+  if (s == NULL) return;
+  uint8_t before[32];
+  memcpy(before, s->hash, 32);
+  CHECK_INT_EQ(vf_scene_set_background(s, "0.5"), VF_OK);
+  CHECK(s->background.x == 0.5f && s->background.z == 0.5f && s->envmap.width == 0);
+  CHECK(memcmp(before, s->hash, 32) != 0);
+  CHECK_INT_EQ(vf_scene_set_background(s, "1,0.5,0.25"), VF_OK);
+  CHECK(s->background.x == 1.0f && s->background.y == 0.5f && s->background.z == 0.25f);
+  static const char *const bad[] = {"1,2", "-1", "1,2,3,4", "nan", "sky.png", "0.5x"};
+  for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
+    int err = vf_scene_set_background(s, bad[i]);
+    CHECK_INT_EQ(err, VF_EUSAGE);
+    CHECK_STR_CONTAINS(vf_error_detail(err), "--background");
+  }
+  CHECK(s->background.y == 0.5f); /* unchanged by the refusals */
+  char dir[64], exr[256];
+  make_temp_dir(dir);
+  vf_image img = {0, 0, NULL};
+  CHECK_INT_EQ(vf_image_alloc(&img, 4, 2), VF_OK);
+  for (int i = 0; i < 3 * 4 * 2; i++) img.rgb[i] = 0.125f * (float)i;
+  snprintf(exr, sizeof exr, "%s/bg.EXR", dir);
+  CHECK_INT_EQ(vf_image_write_exr(exr, &img), VF_OK);
+  CHECK_INT_EQ(vf_scene_set_background(s, exr), VF_OK);
+  CHECK(s->envmap.width == 4 && s->envmap.height == 2 && s->envmap_scale.x == 1.0f && vf_is_zero(s->background));
+  if (s->envmap.rgb) CHECK_NEAR(s->envmap.rgb[5], 0.625, 0);
+  unlink(exr);
+  rmdir(dir);
+  vf_image_destroy(&img);
+  vf_scene_destroy(s);
+}
+
 int main(void) {
+  RUN(test_background_replaced_after_load);
+  RUN(test_many_materials_load_in_n_log_n);
   RUN(test_every_builtin_loads_with_sane_bounds);
   RUN(test_cornell_walls_face_inwards_and_light_faces_down);
   RUN(test_cornell_variants_have_their_lights);
