@@ -79,6 +79,18 @@ check "upg's film counts biased merges" $?
 farm "upg from the camera's side" "[2,5)" "$tmp/films/u.exr" cornell "${common[@]}" -a upg --gather-from camera \
   --start-iteration 2 -n 3
 
+# 2c. A merge radius per pixel and an orthographic camera: the worker computes the same
+#     radii (a pure function of scene, camera and resolution) and renders render's film;
+#     continue keeps the radius.
+local_render render cornell-ortho "${common[@]}" --radius per-pixel -n 3 -q -o "$tmp/films/p.exr"
+farm "a radius per pixel, orthographic" "[0,3)" "$tmp/films/p.exr" cornell-ortho "${common[@]}" --radius per-pixel -n 3
+local_render render corridor "${common[@]}" -a upg --radius per-pixel -n 3 -q -o "$tmp/films/q.exr"
+farm "a radius per pixel, upg in the corridor" "[0,3)" "$tmp/films/q.exr" corridor "${common[@]}" -a upg \
+  --radius per-pixel -n 3
+local_render continue "$tmp/films/q.exr" -n 1 -q -o "$tmp/films/q4.exr" &&
+  "$vcmfarm" info "$tmp/films/q4.exr" | grep -q "radius=per-pixel"
+check "continue keeps the radius per pixel" $?
+
 # 3. A JSON scene whose mesh files travel to the worker as blobs; render's film names the
 #    scene file, so `continue` finds it.
 scene="$source_dir/tests/scenes/good/gltf.json"
