@@ -124,20 +124,26 @@ static int import_instance(void *user, const struct aiNode *node, unsigned mesh_
 
 /* ---- cameras ----------------------------------------------------------------------------------- */
 
-static const struct aiNode *find_node(const struct aiNode *n, const struct aiString *name, int depth) {
+/* The first node named `name`, depth first; with `meshless`, the first that holds no mesh. */
+static const struct aiNode *find_node(const struct aiNode *n, const struct aiString *name, int meshless, int depth) {
   if (n == NULL || depth > 256) return NULL;
-  if (n->mName.length == name->length && memcmp(n->mName.data, name->data, name->length) == 0) return n;
+  if (n->mName.length == name->length && memcmp(n->mName.data, name->data, name->length) == 0 &&
+      (!meshless || n->mNumMeshes == 0))
+    return n;
   for (unsigned i = 0; i < n->mNumChildren; i++) {
-    const struct aiNode *found = find_node(n->mChildren[i], name, depth + 1);
+    const struct aiNode *found = find_node(n->mChildren[i], name, meshless, depth + 1);
     if (found) return found;
   }
   return NULL;
 }
 
-/* The world transform of the node named `name` (a camera's or light's), after the entry's. */
+/* The world transform of the node named `name` (a camera's or light's: Assimp names them
+ * by their node), after the entry's. A mesh's node may carry the same name: a node
+ * without a mesh of that name is the camera's or light's, else the first of that name. */
 static void world_of(const import_state *st, const struct aiString *name, vf_affine *out) {
   vf_affine node;
-  const struct aiNode *n = find_node(st->f.ai->mRootNode, name, 0);
+  const struct aiNode *n = find_node(st->f.ai->mRootNode, name, 1, 0);
+  if (n == NULL) n = find_node(st->f.ai->mRootNode, name, 0, 0);
   if (n != NULL) vf_scene_node_world(n, &node);
   else vf_affine_identity(&node);
   vf_affine_mul(st->root, &node, out);

@@ -261,11 +261,12 @@ static void test_gltf_camera_by_default_name_and_index(void) {
 /* An orthographic glTF camera: its view is 2 xmag wide in its node's space (glTF's
  * projection maps [-xmag, xmag] to the image), so the node's scale scales it, and xmag /
  * ymag is the image's aspect ratio. A file whose first camera is orthographic is seen
- * through it. */
+ * through it. The mesh's node has the camera node's name: the camera still takes its own
+ * node's transform. */
 static void test_gltf_orthographic_camera(void) {
   static const char text[] =
       "{\"asset\": {\"version\": \"2.0\"}, \"scene\": 0, \"scenes\": [{\"nodes\": [0, 1]}],\n"
-      " \"nodes\": [{\"mesh\": 0},\n"
+      " \"nodes\": [{\"name\": \"Ortho\", \"mesh\": 0},\n"
       "  {\"name\": \"Ortho\", \"camera\": 0, \"translation\": [0, 0, 5], \"scale\": [3, 3, 3],"
       "   \"rotation\": [0, 0.38268343, 0, 0.92387953]}],\n"
       " \"cameras\": [{\"type\": \"orthographic\", \"orthographic\": {\"xmag\": 2, \"ymag\": 1, \"znear\": 0.1,"
