@@ -65,9 +65,9 @@ static double max_sum_difference(const vf_film *a, const vf_film *b, double *sca
   size_t n = (size_t)a->width * (size_t)a->height;
   double worst = 0.0, total = 0.0;
   for (size_t i = 0; i < 3 * n; i++) {
-    worst = fmax(worst, fabs(a->sum[i] - b->sum[i]));
-    worst = fmax(worst, fabs(a->square_sum[i] - b->square_sum[i]));
-    total += a->sum[i];
+    worst = fmax(worst, fabs(vf_film_sum_at(a, i) - vf_film_sum_at(b, i)));
+    worst = fmax(worst, fabs(vf_film_square_at(a, i) - vf_film_square_at(b, i)));
+    total += vf_film_sum_at(a, i);
   }
   *scale = total / (double)(3 * n);
   return worst;

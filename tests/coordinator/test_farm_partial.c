@@ -105,14 +105,14 @@ static int send_one(void *ctx, Vcmfarm__LeaseResult *m) {
   s->sent++;
   Vcmfarm__Tile spoilt, *kept = m->n_tiles ? m->tiles[0] : NULL;
   uint8_t *block = NULL;
-  if (s->spoil_second && s->sent == 2 && (block = calloc(48 * 64 * 64, 1)) != NULL) {
-    /* the same tile, uncompressed (12 FLOAT channels of 64 x 64), with a NaN in its first */
+  if (s->spoil_second && s->sent == 2 && (block = calloc(72 * 64 * 64, 1)) != NULL) {
+    /* the same tile, uncompressed (18 channels of 64 x 64), with a NaN in its first (FLOAT) */
     float nan = NAN;
     memcpy(block + 4 * 5, &nan, sizeof nan);
     vcmfarm__tile__init(&spoilt);
     spoilt.x = kept->x;
     spoilt.y = kept->y;
-    spoilt.chunk = (ProtobufCBinaryData){48 * 64 * 64, block};
+    spoilt.chunk = (ProtobufCBinaryData){72 * 64 * 64, block};
     m->tiles[0] = &spoilt;
   }
   Vcmfarm__Envelope q = VCMFARM__ENVELOPE__INIT;
@@ -187,7 +187,7 @@ static void test_a_bad_tile_drops_the_part_and_spares_the_film(void) {
   s = (sender){.only_first = 1};
   CHECK_INT_EQ(send_part(&f, 0, 4, &s), 1);
   vf_film *other = part_film(0, 4);
-  other->sum[0] += 1.0;
+  other->sum[0] += 1;
   Vcmfarm__LeaseResult m = VCMFARM__LEASE_RESULT__INIT;
   m.worker_id = f.worker;
   m.lease_id = f.lease;
