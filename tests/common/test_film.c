@@ -546,6 +546,11 @@ static int write_fake_film(const char *path, int version, const char *const *nam
   return vf_exr_commit(&out);
 }
 
+static double one_everywhere(const char *channel, int x, int y) {
+  (void)channel, (void)x, (void)y;
+  return 1.0;
+}
+
 static void test_read_refuses_missing_channel_and_unknown_version(void) {
   const char *const *v1 = vf_film_v1_channels + 3; /* the 20 accumulation channels */
   const char *path = fixture_path("fake.film.exr");
@@ -567,6 +572,9 @@ static void test_read_refuses_missing_channel_and_unknown_version(void) {
   char unknown[64];
   snprintf(unknown, sizeof unknown, "unknown film format version %d", VF_FILM_FORMAT_VERSION + 1);
   expect_read_refused(path, unknown);
+  /* N = 0 implies zero sums: a film of no iteration holding sums is refused */
+  CHECK_INT_EQ(write_fake_film(path, 2, vf_film_v2_channels, VF_FILM_V2_CHANNELS, "", one_everywhere), VF_OK);
+  expect_read_refused(path, "holds sums but the film has no iterations");
   /* version 3 needs its checksum: a fake of version 3 without one is damaged */
   CHECK_INT_EQ(write_fake_film(path, 3, vf_film_v2_channels, VF_FILM_V2_CHANNELS, "", NULL), VF_OK);
   expect_read_refused(path, "damaged: no vcmfarm:checksum attribute");
