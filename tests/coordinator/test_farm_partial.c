@@ -201,6 +201,35 @@ static void test_a_bad_tile_drops_the_part_and_spares_the_film(void) {
   vf_farm_destroy(&f.farm);
 }
 
+/* Issue 41: a result is merged only from the worker that holds the lease: another
+ * registered worker's result for it is refused, nothing merged, and the holder's still
+ * merges. */
+static void test_a_result_from_another_worker_is_refused(void) {
+  fixture f;
+  setup(&f, 8);
+  vf_farm_reply r;
+  Vcmfarm__Register reg = VCMFARM__REGISTER__INIT;
+  reg.name = "intruder";
+  Vcmfarm__Envelope q = VCMFARM__ENVELOPE__INIT;
+  q.body_case = VCMFARM__ENVELOPE__BODY_REGISTER;
+  q.register_ = &reg;
+  request(&f, &q, &r);
+  uint64_t intruder = r.registered.worker_id, holder = f.worker;
+  vf_farm_reply_release(&r);
+  CHECK(intruder != holder);
+  sender s = {0};
+  f.worker = intruder;
+  CHECK_INT_EQ(send_part(&f, 0, 4, &s), 0);
+  CHECK_STR_CONTAINS(s.message, "not by the sender");
+  CHECK_INT_EQ(done(&f), 0);
+  f.worker = holder;
+  s = (sender){0};
+  CHECK_INT_EQ(send_part(&f, 0, 4, &s), 1);
+  CHECK_STR_CONTAINS(s.message, "merged");
+  CHECK_INT_EQ(done(&f), 4);
+  vf_farm_destroy(&f.farm);
+}
+
 static void test_an_incomplete_part_is_dropped_when_silent(void) {
   fixture f;
   setup(&f, 8);
@@ -229,6 +258,7 @@ int main(void) {
   RUN(test_a_part_merges_only_complete_and_once);
   RUN(test_a_bad_tile_drops_the_part_and_spares_the_film);
   RUN(test_an_incomplete_part_is_dropped_when_silent);
+  RUN(test_a_result_from_another_worker_is_refused);
   char cmd[128];
   snprintf(cmd, sizeof cmd, "rm -rf '%s'", dir);
   if (system(cmd) != 0) return 1;
