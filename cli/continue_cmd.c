@@ -145,7 +145,7 @@ int vf_cmd_continue(int argc, char **argv) {
   vf_image reference = {0};
   vf_settings settings;
   /* The film is read after the lock is taken: a writer that held it has finished. */
-  vf_file_lock lock = {-1, NULL};
+  vf_file_lock lock = {-1, NULL, -1};
   if ((err = vf_file_lock_acquire(output, "continue", &lock)) != VF_OK) goto done;
   if ((err = vf_film_read(film_path, &film)) != VF_OK) goto done;
   if ((err = film_settings(film, film_path, &settings)) != VF_OK) goto done;
