@@ -150,25 +150,6 @@ static const exr_attribute_t *find_attr(const vf_exr_in *in, const char *name) {
   return attr;
 }
 
-/* Whether s[0, n) is well-formed UTF-8 (RFC 3629: no overlong forms, no surrogates, at
- * most U+10FFFF): what `info --json` prints of a film's text must be valid JSON. */
-static int valid_utf8(const unsigned char *s, size_t n) {
-  for (size_t i = 0; i < n;) {
-    unsigned c = s[i];
-    size_t extra = c < 0x80 ? 0 : (c & 0xE0) == 0xC0 ? 1 : (c & 0xF0) == 0xE0 ? 2 : (c & 0xF8) == 0xF0 ? 3 : 4;
-    if (extra == 4 || extra > n - i - 1) return 0; /* a bad lead byte, or cut short */
-    unsigned cp = extra == 0 ? c : c & (0x3Fu >> extra);
-    for (size_t k = 1; k <= extra; k++) {
-      if ((s[i + k] & 0xC0) != 0x80) return 0;
-      cp = cp << 6 | (s[i + k] & 0x3Fu);
-    }
-    static const unsigned least[4] = {0, 0x80, 0x800, 0x10000};
-    if (cp < least[extra] || cp > 0x10FFFF || (cp >= 0xD800 && cp <= 0xDFFF)) return 0;
-    i += extra + 1;
-  }
-  return 1;
-}
-
 /* A string attribute copied into a new NUL-terminated buffer (*out, caller frees). */
 static int get_string(const vf_exr_in *in, const char *name, char **out) {
   const exr_attribute_t *attr = find_attr(in, name);
@@ -179,7 +160,7 @@ static int get_string(const vf_exr_in *in, const char *name, char **out) {
   size_t len = (size_t)attr->string->length;
   if (len > 0 && memchr(attr->string->str, '\0', len) != NULL)
     return vf_error_set(VF_EFILM, "%s: attribute %s contains a NUL byte", in->path, name);
-  if (!valid_utf8((const unsigned char *)attr->string->str, len))
+  if (!vf_utf8_valid(attr->string->str, len))
     return vf_error_set(VF_EFILM, "%s: attribute %s is not valid UTF-8", in->path, name);
   char *s = malloc(len + 1);
   if (s == NULL) return VF_ENOMEM;

@@ -8,7 +8,7 @@
 #   test_farm.sh CASE VCMFARM FARM_COMPARE FARM_PEER [FARM_BLOB_PEER]
 #
 # CASE: long_scene_text, three_workers, worker_killed, worker_killed_after_parts, worker_terminated, coordinator_killed,
-# hostile_peers, unauthenticated_bound, tcp_gate, late_duplicate, priorities, stop_conditions, exact_many_iterations; mesh_scene, big_file and bad_blobs (scenes
+# hostile_peers, unauthenticated_bound, tcp_gate, late_duplicate, priorities, stop_conditions, exact_many_iterations, names; mesh_scene, big_file and bad_blobs (scenes
 # with files, FARM_BLOB_PEER); fetch_4k and bad_fetches (films fetched in chunks, with
 # FARM_FETCH_PEER in the place of FARM_BLOB_PEER).
 # No fixed sleeps synchronise anything: the script polls `vcmfarm status` (or a file) with
@@ -616,6 +616,25 @@ exact_many_iterations)
   client fetch "$job" -o "$tmp/farm.exr" || fail "fetch failed"
   "$compare" --exact "$tmp/farm.exr" "$tmp/reference.exr" "[0,$iterations)" ||
     fail "the film resumed from a checkpoint is not --direct's"
+  ;;
+names)
+  # Issue 41: `status --json` stays valid JSON whatever a peer calls itself: a worker named
+  # in Latin-1 (not UTF-8) and one whose 200-byte name of two-byte characters is cut at the
+  # coordinator's 127 bytes show with '?' in their place; jobs of such names are refused
+  # (tests/coordinator/test_job.c, tests/cli/test_names.sh).
+  start_coordinator
+  start_worker "caf"$'\xe9'
+  start_worker "$(printf 'é%.0s' $(seq 100))"
+  two_registered() { [ "$(client status --json | grep -c '"threads":')" -eq 2 ]; }
+  wait_until 30 "two workers to register" two_registered
+  client status --json >"$tmp/status.json" || fail "status --json failed"
+  # JSON is UTF-8 (RFC 8259); jq alone would take other bytes as U+FFFD, iconv does not
+  iconv -f UTF-8 -t UTF-8 "$tmp/status.json" >/dev/null && jq -e '.workers | length == 2' "$tmp/status.json" >/dev/null ||
+    fail "status --json is not valid JSON: $(cat "$tmp/status.json")"
+  submit 4
+  wait_until 60 "job $job done" job_done
+  client status --json >"$tmp/status.json" && iconv -f UTF-8 -t UTF-8 "$tmp/status.json" >/dev/null &&
+    jq -e . "$tmp/status.json" >/dev/null || fail "status --json is not valid JSON after a job"
   ;;
 priorities)
   # Two jobs of the same cost, priorities 1 and 2, both queued when two workers start:
