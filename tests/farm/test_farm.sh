@@ -8,7 +8,7 @@
 #   test_farm.sh CASE VCMFARM FARM_COMPARE FARM_PEER [FARM_BLOB_PEER]
 #
 # CASE: long_scene_text, three_workers, worker_killed, worker_killed_after_parts, worker_terminated, coordinator_killed,
-# hostile_peers, unauthenticated_bound, tcp_gate, late_duplicate, priorities, stop_conditions, exact_many_iterations, names; mesh_scene, big_file and bad_blobs (scenes
+# hostile_peers, unauthenticated_bound, tcp_gate, late_duplicate, priorities, stop_conditions, exact_many_iterations, names, state_deleted; mesh_scene, big_file and bad_blobs (scenes
 # with files, FARM_BLOB_PEER); fetch_4k and bad_fetches (films fetched in chunks, with
 # FARM_FETCH_PEER in the place of FARM_BLOB_PEER).
 # No fixed sleeps synchronise anything: the script polls `vcmfarm status` (or a file) with
@@ -635,6 +635,34 @@ names)
   wait_until 60 "job $job done" job_done
   client status --json >"$tmp/status.json" && iconv -f UTF-8 -t UTF-8 "$tmp/status.json" >/dev/null &&
     jq -e . "$tmp/status.json" >/dev/null || fail "status --json is not valid JSON after a job"
+  ;;
+state_deleted)
+  # Issue 41: the state directory deleted under a running coordinator is made again with
+  # every job's scene, film and the job list: the job finishes (it used to wait forever for
+  # a final film that could not land), and a restart finds it done, its film --direct's.
+  start_coordinator
+  start_worker w1 --test-iteration-delay 40
+  iterations=40
+  job=$(client submit cornell -n "$iterations" -R 16x16 --seed 5 | tail -n 1)
+  [ -n "$job" ] || fail "submit printed no job id"
+  started() { [ "$(job_number iterations_done)" -ge 4 ] 2>/dev/null; }
+  wait_until 30 "4 iterations done" started
+  rm -rf "$state"
+  wait_until 60 "job $job done with its state directory deleted" job_done
+  recreated() { [ -s "$state/state.json" ] && [ -s "$state/job-$job.exr" ] && [ -s "$state/job-$job.scene" ]; }
+  wait_until 10 "the state directory made again" recreated
+  grep -q "state directory .* was deleted: made again" "$tmp/coordinator.log" || fail "the coordinator did not say so"
+  "$vcmfarm" render cornell --direct -n "$iterations" -R 16x16 --seed 5 -j 1 -q -o "$tmp/reference.exr" ||
+    fail "reference render failed"
+  client fetch "$job" -o "$tmp/farm.exr" || fail "fetch failed"
+  "$compare" --exact "$tmp/farm.exr" "$tmp/reference.exr" "[0,$iterations)" || fail "the film is not --direct's"
+  kill -TERM "$coordinator"
+  wait_until 20 "the coordinator to stop" exited "$coordinator"
+  start_coordinator
+  wait_until 30 "the restarted coordinator to report job $job done" job_done
+  client fetch "$job" -o "$tmp/farm2.exr" || fail "fetch after the restart failed"
+  "$compare" --exact "$tmp/farm2.exr" "$tmp/reference.exr" "[0,$iterations)" ||
+    fail "the film after the restart is not --direct's"
   ;;
 priorities)
   # Two jobs of the same cost, priorities 1 and 2, both queued when two workers start:
