@@ -125,14 +125,12 @@ int vf_film_clone(const vf_film *film, vf_film **out) {
 }
 
 vf_fixed vf_fixed_from_double(double x, int bits) {
-  double scaled = ldexp(x, bits); /* exact: a power of two */
+  double scaled = x / vf_fixed_unit(bits); /* exact: a power of two */
   /* Below 2^62 the rounding is llrint's (to nearest, ties to even); above, a double is an
    * integer already and converts exactly. */
   if (fabs(scaled) < 0x1p62) return (vf_fixed)llrint(scaled);
   return (vf_fixed)scaled;
 }
-
-double vf_fixed_to_double(vf_fixed v, int bits) { return ldexp((double)v, -bits); }
 
 int vf_film_square_bits_of(const char *settings_text) {
   vf_settings s;

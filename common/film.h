@@ -96,11 +96,20 @@ void vf_film_destroy(vf_film *film);
 int vf_film_add_iteration(vf_film *film, uint64_t iteration, const float *camera_rgb, const float *light_rgb,
                           vf_pool *pool);
 
-/* x rounded to the nearest multiple of 2^-bits (ties to even), in those units; x must be
- * finite and below 2^(126 - bits) in magnitude. */
+/* 2^-bits for the grids' bits (a power of two: scaling by it is exact). */
+static inline double vf_fixed_unit(int bits) { return bits == VF_FILM_SUM_BITS ? 0x1p-32 : 0x1p-16; }
+
+/* x rounded to the nearest multiple of 2^-bits (ties to even), in those units; bits is
+ * VF_FILM_SUM_BITS or VF_FILM_SQUARE_BITS, x finite and below 2^(126 - bits) in magnitude. */
 vf_fixed vf_fixed_from_double(double x, int bits);
-/* The value of v units of 2^-bits, rounded to the nearest double. */
-double vf_fixed_to_double(vf_fixed v, int bits);
+
+/* The value of v units of 2^-bits (bits as above), rounded to the nearest double. Inline
+ * and without a 128-bit conversion for the sums that fit 64 bits (all but huge ones): it
+ * runs once per value when a film is written or measured. */
+static inline double vf_fixed_to_double(vf_fixed v, int bits) {
+  long long small = (long long)v;
+  return (small == v ? (double)small : (double)v) * vf_fixed_unit(bits);
+}
 
 /* The units of square_sum: VF_FILM_SUM_BITS for a film of the sobol sampler (it holds sums
  * of estimates), VF_FILM_SQUARE_BITS for the others (sums of squares). */

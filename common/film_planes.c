@@ -169,7 +169,7 @@ static double join(float hi, float lo, double scale) { return scale * (double)hi
 /* A double read from an older film onto its grid; 0 when it is not finite or beyond the
  * range of a film. */
 static int to_fixed(double d, int bits, vf_fixed *out) {
-  if (!(fabs(ldexp(d, bits)) < 0x1p85)) return 0;
+  if (!(fabs(d / vf_fixed_unit(bits)) < 0x1p85)) return 0;
   *out = vf_fixed_from_double(d, bits);
   return 1;
 }
