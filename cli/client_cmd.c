@@ -238,10 +238,11 @@ int vf_cmd_submit(int argc, char **argv) {
     return vf_cli_fail(cmd, err);
   if (preview && (err = vf_cli_preview_check(preview)) != VF_OK) return vf_cli_fail(cmd, err);
   uint64_t iterations = vf_cli_stop_iterations(&stop);
-  vf_farm_client *client;
-  if ((err = connect_to(&conn, &client)) != VF_OK) return vf_cli_fail(cmd, err);
   vf_submit_job job = {argv[optind], camera, name, &overrides, first, iterations, (int)priority,
                        stop.time_limit, stop.target_rmse, stop.target_error, stop.reference, "vcmfarm submit"};
+  vf_farm_client *client;
+  if ((err = vf_submit_check_texts(&job)) != VF_OK) return vf_cli_fail(cmd, err);
+  if ((err = connect_to(&conn, &client)) != VF_OK) return vf_cli_fail(cmd, err);
   vf_submitted_job submitted;
   err = vf_submit(client, (int)(conn.timeout * 1000.0), &job, &submitted);
   if (err != VF_OK) {

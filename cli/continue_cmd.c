@@ -58,7 +58,8 @@ static int load_scene(const vf_film *film, const char *film_path, const char *sc
   if (name[0] == '\0')
     return vf_error_set(VF_EUSAGE, "%s does not name its scene (no attribute vcmfarm:scene): give --scene", film_path);
   vf_scene *scene = NULL;
-  int err = vf_scene_load_camera(name, camera, &scene);
+  int err = vf_cli_scene_path(name);
+  if (err == VF_OK) err = vf_scene_load_camera(name, camera, &scene);
   if (err != VF_OK) return err;
   if (background && (err = vf_scene_set_background(scene, background)) != VF_OK) {
     vf_scene_destroy(scene);
@@ -154,7 +155,7 @@ int vf_cmd_continue(int argc, char **argv) {
   vf_image reference = {0};
   vf_settings settings;
   /* The film is read after the lock is taken: a writer that held it has finished. */
-  vf_file_lock lock = {-1, NULL};
+  vf_file_lock lock = {-1, NULL, -1};
   if ((err = vf_file_lock_acquire(output, "continue", &lock)) != VF_OK) goto done;
   if ((err = vf_film_read(film_path, &film)) != VF_OK) goto done;
   if ((err = film_settings(film, film_path, &settings)) != VF_OK) goto done;
@@ -166,9 +167,10 @@ int vf_cmd_continue(int argc, char **argv) {
   if (film->scene_name[0] == '\0') {
     vf_film *stamped = NULL;
     if ((err = vf_film_create(film->width, film->height, &stamped)) != VF_OK) goto done;
-    vf_renderer_stamp(renderer, stamped);
-    memcpy(film->scene_name, stamped->scene_name, sizeof film->scene_name);
+    err = vf_renderer_stamp(renderer, stamped);
+    if (err == VF_OK) memcpy(film->scene_name, stamped->scene_name, sizeof film->scene_name);
     vf_film_destroy(stamped);
+    if (err != VF_OK) goto done;
   }
   if (!quiet) {
     char what[512], until[512];

@@ -187,7 +187,7 @@ int vf_cmd_merge(int argc, char **argv) {
   /* OUT may be one of the inputs (it then grows by the others), but no other vcmfarm
    * process may write it meanwhile. */
   vf_film *sum = NULL;
-  vf_file_lock lock = {-1, NULL};
+  vf_file_lock lock = {-1, NULL, -1};
   int err = vf_file_lock_acquire(output, "merge", &lock);
   if (err == VF_OK) err = merge_inputs(argv + optind, n, &sum);
   if (err == VF_OK) err = vf_film_write(sum, output);

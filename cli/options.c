@@ -1,9 +1,12 @@
 #include "options.h"
 
 #include "../common/error.h"
+#include "../common/film.h"
+#include "../common/parse.h"
 
 #include <errno.h>
 #include <getopt.h>
+#include <limits.h>
 #include <math.h>
 #include <stdarg.h>
 #include <stdio.h>
@@ -408,4 +411,17 @@ void vf_cli_print_notes(const char *source, const char *notes) {
     fprintf(stderr, "%s: note: %.*s\n", source, n, line);
     line = end ? end + 1 : NULL;
   }
+}
+
+int vf_cli_scene_path(const char *source) {
+  char path[PATH_MAX];
+  if (strncmp(source, "builtin:", 8) == 0 || realpath(source, path) == NULL) return VF_OK;
+  size_t n = strlen(path), cap = sizeof ((vf_film *)0)->scene_name;
+  if (n >= cap)
+    return vf_error_set(VF_EUSAGE, "scene path of %zu bytes: a film holds at most %zu (move the scene to a shorter "
+                        "path)", n, cap - 1);
+  if (!vf_utf8_valid(path, n))
+    return vf_error_set(VF_EUSAGE, "scene path '%s' is not valid UTF-8: a film's text must be (rename the file)",
+                        path);
+  return VF_OK;
 }

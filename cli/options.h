@@ -24,6 +24,10 @@ int vf_cli_bytes(const char *option, const char *text, uint64_t *out);
 /* Checks, before hours of work, that a file can be written at path: its directory exists
  * and is writable, and path is not a directory. VF_EUSAGE naming the option and the path. */
 int vf_cli_writable(const char *option, const char *path);
+/* Checks that a scene file's absolute path can be kept in a film (vcmfarm:scene): at most
+ * 511 bytes, UTF-8. VF_EUSAGE saying which and what to do; VF_OK for a built-in name or a
+ * path that does not resolve (loading it will say why). */
+int vf_cli_scene_path(const char *source);
 
 /* Checks a coordinator's address as an option (--coordinator, --connect, --listen) takes
  * it: tcp://HOST:PORT or ipc://PATH, which nanomsg alone would refuse with "Invalid

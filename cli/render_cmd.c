@@ -65,7 +65,8 @@ static int render(const vf_render_job *o) {
   vf_renderer *renderer = NULL;
   vf_film *film = NULL;
   vf_image reference = {0};
-  if ((err = vf_scene_load_camera(o->scene, o->camera, &scene)) != VF_OK) return vf_cli_fail("render", err);
+  if ((err = vf_cli_scene_path(o->scene)) != VF_OK || (err = vf_scene_load_camera(o->scene, o->camera, &scene)) != VF_OK)
+    return vf_cli_fail("render", err);
   vf_cli_print_notes(scene->source, scene->notes);
   if (o->background && (err = vf_scene_set_background(scene, o->background)) != VF_OK) goto done;
 

@@ -1,8 +1,11 @@
 #include "submit.h"
+#include "options.h"
 
 #include "../common/error.h"
 #include "../common/file.h"
 #include "../common/image.h"
+#include "../common/parse.h"
+#include "../coordinator/job.h" /* VF_JOB_MAX_NAME */
 #include "../common/wire.h"
 #include "../worker/scene/job_scene.h"
 #include "../worker/scene/load.h"
@@ -95,6 +98,20 @@ static int send_files(vf_farm_client *client, int timeout_ms, const char *log_pr
   return err;
 }
 
+/* The job's name and the scene's path as the coordinator will keep them: a name of at most
+ * VF_JOB_MAX_NAME bytes, a path that fits a film (511 bytes), both UTF-8 (`status --json`
+ * and the film's attributes carry them). Refused here, before anything is sent. */
+int vf_submit_check_texts(const vf_submit_job *job) {
+  int builtin = vf_job_scene_is_builtin(job->source) && !vf_scene_is_model_file(job->source);
+  const char *name = job->name ? job->name : job->source;
+  size_t n = strlen(name);
+  if (n > VF_JOB_MAX_NAME || !vf_utf8_valid(name, n))
+    return vf_error_set(VF_EUSAGE, "the job's name%s is %s: it must be UTF-8 of at most %d bytes (--name NAME)",
+                        job->name ? "" : " (the scene's path, by default)",
+                        n > VF_JOB_MAX_NAME ? "too long" : "not valid UTF-8", VF_JOB_MAX_NAME);
+  return builtin ? VF_OK : vf_cli_scene_path(job->source);
+}
+
 int vf_submit(vf_farm_client *client, int timeout_ms, const vf_submit_job *job, vf_submitted_job *out) {
   const char *source = job->source, *reference = job->reference;
   int err = VF_OK;
@@ -108,6 +125,7 @@ int vf_submit(vf_farm_client *client, int timeout_ms, const vf_submit_job *job, 
   vf_blob_table files = {0};
   Vcmfarm__BlobRef *file_refs = NULL, **file_ref_ptrs = NULL;
   char stage[4096] = "";
+  if ((err = vf_submit_check_texts(job)) != VF_OK) return err;
   if (job->camera != NULL && !vf_scene_is_model_file(source))
     return vf_error_set(VF_EUSAGE, "--camera chooses a camera of a glTF or OBJ file; a JSON scene chooses it in "
                         "import[i].camera (docs/SCENES.md)");

@@ -36,4 +36,11 @@ typedef struct {
  * (as vf_scene_load), or the coordinator's refusal (VF_EREFUSED), or the network's. */
 int vf_submit(vf_farm_client *client, int timeout_ms, const vf_submit_job *job, vf_submitted_job *out);
 
+/* The job's name (or the scene's path standing for it) and the scene file's absolute path
+ * as the coordinator and the film keep them: VF_EUSAGE naming the problem for a name that
+ * is not UTF-8 or above VF_JOB_MAX_NAME bytes, a path that is not UTF-8 or does not fit a
+ * film (511 bytes). vf_submit checks them first; the command checks them before it
+ * connects, so that nothing is sent or waited for. */
+int vf_submit_check_texts(const vf_submit_job *job);
+
 #endif

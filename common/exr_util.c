@@ -213,7 +213,8 @@ static int check_channels(const vf_exr_in *in, int n, const char *const *names) 
 
 /* Decodes one chunk into planar float scratch (n planes of w*h) and hands it to store. */
 static int decode_chunk(vf_exr_in *in, const exr_chunk_info_t *cinfo, int x0, int y0, int w, int h, int n,
-                        const char *const *names, float *scratch, vf_exr_store_fn store, void *user) {
+                        const char *const *names, uint64_t uint_mask, float *scratch, vf_exr_store_fn store,
+                        void *user) {
   char where[64];
   snprintf(where, sizeof where, "corrupt chunk at pixel (%d, %d)", x0, y0);
   if (cinfo->width != w || cinfo->height != h)
@@ -239,7 +240,13 @@ static int decode_chunk(vf_exr_in *in, const exr_chunk_info_t *cinfo, int x0, in
                           ch->channel_name ? ch->channel_name : "?", ch->width, ch->height);
     }
     ch->decode_to_ptr = (uint8_t *)(scratch + (size_t)k * plane);
-    ch->user_data_type = EXR_PIXEL_FLOAT;
+    /* A channel wanted as integers is decoded as such, never through a float */
+    int raw = k < n && (uint_mask >> k & 1);
+    if (raw && ch->data_type != EXR_PIXEL_UINT) {
+      exr_decoding_destroy(in->ctx, &dec);
+      return vf_error_set(VF_EEXR, "%s: channel %s is not of type UINT", in->path, names[k]);
+    }
+    ch->user_data_type = raw ? EXR_PIXEL_UINT : EXR_PIXEL_FLOAT;
     ch->user_bytes_per_element = 4;
     ch->user_pixel_stride = 4;
     ch->user_line_stride = 4 * w;
@@ -323,6 +330,7 @@ typedef struct {
   vf_exr_in *in;
   int n;
   const char *const *names;
+  uint64_t uint_mask;
   vf_exr_store_fn store;
   void *user;
   int cw, chh;      /* the largest chunk */
@@ -346,7 +354,7 @@ static int read_chunk(void *ctx, size_t index, int thread) {
       snprintf(what, sizeof what, "cannot locate tile (%d, %d)", tx, ty);
       return vf_exr_error(in->path, rv, what);
     }
-    return decode_chunk(in, &cinfo, x0, y0, w, h, j->n, j->names, j->scratch[thread], j->store, j->user);
+    return decode_chunk(in, &cinfo, x0, y0, w, h, j->n, j->names, j->uint_mask, j->scratch[thread], j->store, j->user);
   }
   int y0 = (int)index * j->chh, h = in->height - y0 < j->chh ? in->height - y0 : j->chh;
   if ((rv = exr_read_scanline_chunk_info(in->ctx, 0, in->min_y + y0, &cinfo)) != EXR_ERR_SUCCESS) {
@@ -355,7 +363,7 @@ static int read_chunk(void *ctx, size_t index, int thread) {
   }
   if (cinfo.start_y != in->min_y + y0)
     return vf_error_set(VF_EEXR, "%s: chunk for scanline %d starts at %d", in->path, in->min_y + y0, cinfo.start_y);
-  return decode_chunk(in, &cinfo, 0, y0, j->cw, h, j->n, j->names, j->scratch[thread], j->store, j->user);
+  return decode_chunk(in, &cinfo, 0, y0, j->cw, h, j->n, j->names, j->uint_mask, j->scratch[thread], j->store, j->user);
 }
 
 /* The chunk geometry: level-0 tiles of a tiled file, whole-width bands of a scanline file. */
@@ -395,10 +403,15 @@ static int chunk_geometry(read_job *j, size_t *chunks) {
 }
 
 int vf_exr_read_channels(vf_exr_in *in, int n, const char *const *names, vf_exr_store_fn store, void *user) {
+  return vf_exr_read_channels_typed(in, n, names, 0, store, user);
+}
+
+int vf_exr_read_channels_typed(vf_exr_in *in, int n, const char *const *names, uint64_t uint_mask,
+                               vf_exr_store_fn store, void *user) {
   if (n < 1 || n > VF_EXR_MAX_CHANNELS) return vf_error_set(VF_EINVAL, "%s: cannot read %d channels at once", in->path, n);
   int err = check_channels(in, n, names);
   if (err != VF_OK) return err;
-  read_job job = {.in = in, .n = n, .names = names, .store = store, .user = user};
+  read_job job = {.in = in, .n = n, .names = names, .uint_mask = uint_mask, .store = store, .user = user};
   size_t chunks = 0;
   if ((err = chunk_geometry(&job, &chunks)) != VF_OK) return err;
   int threads = vf_exr_chunk_threads(chunks);
@@ -442,6 +455,11 @@ static int64_t write_to_fd(exr_const_context_t ctxt, void *userdata, const void 
 
 int vf_exr_create(const char *path, int width, int height, int tile, vf_exr_compression compression, int n,
                   const char *const *names, vf_exr_out *out) {
+  return vf_exr_create_typed(path, width, height, tile, compression, n, names, 0, out);
+}
+
+int vf_exr_create_typed(const char *path, int width, int height, int tile, vf_exr_compression compression, int n,
+                        const char *const *names, uint64_t uint_mask, vf_exr_out *out) {
   memset(out, 0, sizeof *out);
   out->file.fd = -1;
   if (width < 1 || height < 1 || width > VF_EXR_MAX_SIDE || height > VF_EXR_MAX_SIDE || tile < 0 ||
@@ -469,7 +487,8 @@ int vf_exr_create(const char *path, int width, int height, int tile, vf_exr_comp
   if (rv == EXR_ERR_SUCCESS && tile)
     rv = exr_set_tile_descriptor(out->ctx, part, (uint32_t)tile, (uint32_t)tile, EXR_TILE_ONE_LEVEL, EXR_TILE_ROUND_DOWN);
   for (int k = 0; rv == EXR_ERR_SUCCESS && k < n; k++)
-    rv = exr_add_channel(out->ctx, part, names[k], EXR_PIXEL_FLOAT, EXR_PERCEPTUALLY_LOGARITHMIC, 1, 1);
+    rv = exr_add_channel(out->ctx, part, names[k], (uint_mask >> k & 1) ? EXR_PIXEL_UINT : EXR_PIXEL_FLOAT,
+                         (uint_mask >> k & 1) ? EXR_PERCEPTUALLY_LINEAR : EXR_PERCEPTUALLY_LOGARITHMIC, 1, 1);
   /* A chunk holds the channels in the order of the file's (sorted) channel list. */
   const exr_attr_chlist_t *list = NULL;
   if (rv == EXR_ERR_SUCCESS) rv = exr_get_channels(out->ctx, part, &list);

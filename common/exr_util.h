@@ -62,6 +62,11 @@ typedef int (*vf_exr_store_fn)(void *user, int x0, int y0, int w, int h, const f
  * once. VF_EEXR with a detail naming the chunk on corrupt data; store's error is passed
  * through (the first, when several chunks fail). */
 int vf_exr_read_channels(vf_exr_in *in, int n, const char *const *names, vf_exr_store_fn store, void *user);
+/* The same, channel k decoded as 32-bit unsigned integers (its plane holds uint32_t, not
+ * floats) when bit k of uint_mask is set: such a channel must be of type UINT in the file
+ * (VF_EEXR naming it otherwise), so that no conversion touches its bits. */
+int vf_exr_read_channels_typed(vf_exr_in *in, int n, const char *const *names, uint64_t uint_mask,
+                               vf_exr_store_fn store, void *user);
 
 /* ---- writing ---- */
 
@@ -81,6 +86,10 @@ typedef struct {
  * be added with the exr_attr_set_* functions on out->ctx until vf_exr_write_pixels. */
 int vf_exr_create(const char *path, int width, int height, int tile, vf_exr_compression compression, int n,
                   const char *const *names, vf_exr_out *out);
+/* The same with channel k of type UINT when bit k of uint_mask is set: its plane, filled
+ * as floats are, holds uint32_t values (the chunk's bytes are the same width). */
+int vf_exr_create_typed(const char *path, int width, int height, int tile, vf_exr_compression compression, int n,
+                        const char *const *names, uint64_t uint_mask, vf_exr_out *out);
 
 /* Fills one chunk: planes[i] receives w*h floats of channel names[i] at (x0, y0). Called
  * from several threads at once, for different chunks. */

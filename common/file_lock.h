@@ -7,13 +7,19 @@
  * path a new inode, and a lock on the old one would guard nothing. The lock file holds the
  * holder's pid and command, for the error the second writer gets. The kernel drops the
  * lock when its process dies, so a killed render never leaves a film locked; the file it
- * leaves is taken over by the next writer. Only vcmfarm processes take these locks. */
+ * leaves is taken over by the next writer. Only vcmfarm processes take these locks.
+ *
+ * Links must not let a second writer in: the lock file is beside the path with its
+ * symbolic links resolved (a symlink to a film takes the film's lock), and the film itself,
+ * when it exists, is flock'ed too, so that a hard link (another name of the same inode) is
+ * refused as well while the holder keeps that inode open. */
 #ifndef VF_FILE_LOCK_H
 #define VF_FILE_LOCK_H
 
 typedef struct {
-  int fd;     /* -1: not held */
-  char *path; /* owned: the lock file's path */
+  int fd;      /* -1: not held */
+  char *path;  /* owned: the lock file's path; NULL: not held (the other fields unused) */
+  int film_fd; /* the film as it was when locked, flock'ed; -1 when there was none */
 } vf_file_lock;
 
 /* Takes the lock for `path` without waiting; `holder` (e.g. "continue") is recorded.

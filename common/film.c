@@ -1,8 +1,10 @@
 /* The film's sums: accumulation, merging, the mean, the error estimate and the invariants
  * (docs/FILM.md). The file format lives in film_file.c.
  *
- * Accumulation is in double precision because a film may hold millions of iterations and
- * merging must be exact enough that merged films equal films rendered in one go. */
+ * Accumulation is in fixed point (film.h): each estimate is rounded to its grid once, when
+ * its iteration is added, and from there on everything is integer addition, exact and
+ * associative. Doubles were not: (a + b) + c and a + (b + c) differ in the last bit, so a
+ * farm's parts, a continued film and one render of the same iterations disagreed there. */
 #include "film.h"
 
 #include "settings.h"
@@ -22,7 +24,7 @@
  * read its file. Small ones come from malloc. Both start zeroed. */
 #define MAPPED_SUMS_BYTES ((size_t)4 << 20)
 
-static double *sums_alloc(size_t bytes) {
+static vf_fixed *sums_alloc(size_t bytes) {
   if (bytes < MAPPED_SUMS_BYTES) return calloc(1, bytes);
   void *p = mmap(NULL, bytes, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
   if (p == MAP_FAILED) return NULL;
@@ -30,17 +32,17 @@ static double *sums_alloc(size_t bytes) {
   return p;
 }
 
-static void sums_free(double *sums, size_t bytes) {
+static void sums_free(vf_fixed *sums, size_t bytes) {
   if (sums == NULL) return;
   if (bytes < MAPPED_SUMS_BYTES) free(sums);
   else munmap(sums, bytes);
 }
 
-static size_t sums_bytes(const vf_film *film) { return 3 * (size_t)film->width * (size_t)film->height * sizeof(double); }
+static size_t sums_bytes(const vf_film *film) { return 3 * (size_t)film->width * (size_t)film->height * sizeof(vf_fixed); }
 
 /* Zeroes sums: a mapped array's pages go back to the kernel, to be zero-filled when touched
  * again (a private anonymous mapping), so that an empty film costs no memory. */
-static void sums_clear(double *sums, size_t bytes) {
+static void sums_clear(vf_fixed *sums, size_t bytes) {
   if (bytes < MAPPED_SUMS_BYTES || madvise(sums, bytes, MADV_DONTNEED) != 0) memset(sums, 0, bytes);
 }
 
@@ -122,11 +124,39 @@ int vf_film_clone(const vf_film *film, vf_film **out) {
   return VF_OK;
 }
 
-static int finite3(const float *v) { return isfinite(v[0]) && isfinite(v[1]) && isfinite(v[2]); }
+vf_fixed vf_fixed_from_double(double x, int bits) {
+  double scaled = x / vf_fixed_unit(bits); /* exact: a power of two */
+  /* Below 2^62 the rounding is llrint's (to nearest, ties to even); above, a double is an
+   * integer already and converts exactly. */
+  if (fabs(scaled) < 0x1p62) return (vf_fixed)llrint(scaled);
+  return (vf_fixed)scaled;
+}
+
+int vf_film_square_bits_of(const char *settings_text) {
+  vf_settings s;
+  return vf_settings_parse(&s, settings_text) == VF_OK && s.sampler == VF_SAMPLER_SOBOL ? VF_FILM_SUM_BITS
+                                                                                         : VF_FILM_SQUARE_BITS;
+}
+
+int vf_film_square_bits(const vf_film *film) { return vf_film_square_bits_of(film->settings_text); }
+
+double vf_film_sum_at(const vf_film *film, size_t i) { return vf_fixed_to_double(film->sum[i], VF_FILM_SUM_BITS); }
+
+double vf_film_square_at(const vf_film *film, size_t i) {
+  return vf_fixed_to_double(film->square_sum[i], vf_film_square_bits(film));
+}
+
+/* A sample the film can take: finite, and below VF_FILM_SAMPLE_LIMIT in every channel. */
+static int storable3(const float *v) {
+  for (int k = 0; k < 3; k++)
+    if (!(fabsf(v[k]) < (float)VF_FILM_SAMPLE_LIMIT)) return 0; /* NaN fails the test too */
+  return 1;
+}
 
 /* A NaN or Inf sample would poison its pixel forever, so it is counted and replaced by zero
  * radiance; the sample itself still counts (the iteration is in the set), which biases that
- * pixel slightly dark instead of dropping a sample from one pixel and not the others. */
+ * pixel slightly dark instead of dropping a sample from one pixel and not the others. A
+ * sample beyond VF_FILM_SAMPLE_LIMIT is treated alike: no film file could hold it. */
 /* Pixels of one task of vf_film_add_iteration: a fixed block, so that the split does not
  * depend on the number of threads (it could not change the sums anyway: they are per pixel). */
 #define ADD_BLOCK 16384u
@@ -149,22 +179,22 @@ static void add_task(void *ctx, size_t task, int thread) {
   uint64_t nonfinite = 0;
   for (size_t p = begin; p < end; p++) {
     const float *cam = c->camera_rgb + 3 * p, *light = c->light_rgb + 3 * p;
-    if (!finite3(cam)) {
+    if (!storable3(cam)) {
       cam = zero;
       nonfinite++;
     }
-    if (!finite3(light)) {
+    if (!storable3(light)) {
       light = zero;
       nonfinite++;
     }
     for (int k = 0; k < 3; k++) {
+      /* Exact in double (two floats below 2^33 differ in exponent by less than the 29
+       * spare bits, or the smaller is lost to rounding: either way the same for everyone) */
       double estimate = (double)cam[k] + (double)light[k];
-      if (c->replicate_one) {
-        film->sum[3 * p + k] += estimate;
-        continue;
-      }
-      film->sum[3 * p + k] += estimate;
-      film->square_sum[3 * p + k] += c->second_moment ? estimate * estimate : estimate;
+      film->sum[3 * p + k] += vf_fixed_from_double(estimate, VF_FILM_SUM_BITS);
+      if (c->replicate_one) continue;
+      film->square_sum[3 * p + k] += c->second_moment ? vf_fixed_from_double(estimate * estimate, VF_FILM_SQUARE_BITS)
+                                                      : vf_fixed_from_double(estimate, VF_FILM_SUM_BITS);
     }
   }
   c->nonfinite[task] = nonfinite;
@@ -194,7 +224,7 @@ int vf_film_add_iteration(vf_film *film, uint64_t iteration, const float *camera
 }
 
 static void pixel_mean(const vf_film *film, double n, size_t p, float rgb[3]) {
-  for (int c = 0; c < 3; c++) rgb[c] = n > 0 ? (float)(film->sum[3 * p + c] / n) : 0.0f;
+  for (int c = 0; c < 3; c++) rgb[c] = n > 0 ? (float)(vf_film_sum_at(film, 3 * p + (size_t)c) / n) : 0.0f;
 }
 
 void vf_film_pixel_mean(const vf_film *film, size_t p, float rgb[3]) {
@@ -213,6 +243,8 @@ int vf_film_merge(vf_film *dst, const vf_film *src) {
   return err;
 }
 
+/* Cannot overflow: every film holds less than 2^85 units per value (a file's limit, the
+ * wire's, and each iteration's 2^84 at most), and 2^42 such films fit in 127 bits. */
 void vf_film_add_pixels(vf_film *dst, const vf_film *src) {
   size_t n = (size_t)dst->width * (size_t)dst->height;
   for (size_t i = 0; i < 3 * n; i++) {
@@ -291,14 +323,15 @@ double vf_film_estimate_rmse(const vf_film *film) {
     double n0 = (double)replicate_zero_count(&film->iterations), n1 = n - n0;
     if (!(n0 > 0) || !(n1 > 0)) return NAN;
     for (size_t i = 0; i < values; i++) {
-      double m = film->sum[i] / n, m0 = film->square_sum[i] / n0, m1 = (film->sum[i] - film->square_sum[i]) / n1;
+      double m = vf_film_sum_at(film, i) / n, m0 = vf_fixed_to_double(film->square_sum[i], VF_FILM_SUM_BITS) / n0;
+      double m1 = vf_fixed_to_double(film->sum[i] - film->square_sum[i], VF_FILM_SUM_BITS) / n1;
       total += (n0 * (m0 - m) * (m0 - m) + n1 * (m1 - m) * (m1 - m)) / n;
     }
     return sqrt(total / (double)values);
   }
   for (size_t i = 0; i < values; i++) {
-    double m = film->sum[i] / n;
-    double variance = (film->square_sum[i] - n * m * m) / (n - 1.0);
+    double m = vf_film_sum_at(film, i) / n;
+    double variance = (vf_fixed_to_double(film->square_sum[i], VF_FILM_SQUARE_BITS) - n * m * m) / (n - 1.0);
     if (variance > 0) total += variance / n; /* < 0 only through rounding */
   }
   return sqrt(total / (double)values);
@@ -330,11 +363,15 @@ int vf_film_validate(const vf_film *film, const char *name) {
   size_t pixels = (size_t)film->width * (size_t)film->height;
   for (size_t p = 0; p < pixels; p++) {
     for (int c = 0; c < 3; c++) {
-      double s = film->sum[3 * p + c], ss = film->square_sum[3 * p + c];
+      vf_fixed s = film->sum[3 * p + c], ss = film->square_sum[3 * p + c];
       int x = (int)(p % (size_t)film->width), y = (int)(p / (size_t)film->width);
-      if (!isfinite(s) || !isfinite(ss))
-        return vf_error_set(VF_EFILM, "%s: pixel (%d, %d): non-finite sum", name, x, y);
-      if (ss < 0) return vf_error_set(VF_EFILM, "%s: pixel (%d, %d): negative sum of squares %g", name, x, y, ss);
+      /* Every iteration adds to every pixel and nothing else does: a film of no iteration
+       * holding sums is a forgery or damage, and merged it would add samples from nowhere. */
+      if (iterations == 0 && (s != 0 || ss != 0))
+        return vf_error_set(VF_EFILM, "%s: pixel (%d, %d): holds sums but the film has no iterations", name, x, y);
+      if (ss < 0)
+        return vf_error_set(VF_EFILM, "%s: pixel (%d, %d): negative sum of squares %g", name, x, y,
+                            vf_film_square_at(film, 3 * p + (size_t)c));
     }
   }
   return VF_OK;

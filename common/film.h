@@ -17,9 +17,15 @@
  * convergence log (common/convergence.h); two films merge only when scene hash and settings
  * text agree and their iteration sets are disjoint.
  *
+ * The sums are exact fixed-point integers (vf_fixed): each iteration's estimate is rounded
+ * once to a multiple of 2^-VF_FILM_SUM_BITS (its square to 2^-VF_FILM_SQUARE_BITS) and
+ * added as an integer, so adding is associative: a film is the same bit for bit whatever
+ * the order and grouping of its iterations (one render, parts merged in any order,
+ * continued, read back from its file).
+ *
  * On disk (docs/FILM.md): a tiled OpenEXR (64x64 tiles, ZIP) whose R, G, B channels hold
  * the mean (any viewer shows the image) and, with the other channels and the "vcmfarm:"
- * attributes, the accumulation to 48 significant bits.
+ * attributes, the exact integer sums.
  *
  * One module in two files: film.c holds the sums (create, add, mean, merge, estimate,
  * validate), film_file.c the file format (vf_film_write, vf_film_read). */
@@ -36,13 +42,33 @@
 /* The version vf_film_write writes; vf_film_read reads it and versions 1 and 2. Version 3
  * is version 2 with a checksum of the whole file (common/exr_util.h), checked on every
  * read: a damaged film is refused, never merged or continued. */
-#define VF_FILM_FORMAT_VERSION 3
+#define VF_FILM_FORMAT_VERSION 4
 #define VF_FILM_TILE 64
+
+/* A sum in fixed point: a 128-bit integer counting units of 2^-bits (bits below). Adding
+ * them is exact and associative, which doubles are not. */
+__extension__ typedef __int128 vf_fixed;
+
+/* The grids: sums and a sobol film's replicate sums (square_sum) in units of 2^-32
+ * (2.3e-10), sums of squares in units of 2^-16 (1.5e-5): an estimate is rounded to the
+ * nearest unit once, when its iteration is added. */
+#define VF_FILM_SUM_BITS 32
+#define VF_FILM_SQUARE_BITS 16
+
+/* A sample (a camera or light value of one channel) of magnitude 2^33 (8.6e9) or more is
+ * refused like a non-finite one (counted in nonfinite_samples, added as zero): so every
+ * iteration adds less than 2^66 units to a sum and 2^84 to a sum of squares, the 128-bit
+ * sums cannot overflow below 2^43 iterations, and one iteration always fits the file. */
+#define VF_FILM_SAMPLE_LIMIT 8589934592.0
+
+/* The largest magnitude, in units, a sum may have in a file of version 4 (docs/FILM.md):
+ * vf_film_write refuses a film beyond it (VF_EFILM), vf_film_read a file beyond it. */
+#define VF_FILM_FILE_LIMIT ((vf_fixed)1 << 85)
 
 typedef struct {
   int width, height;
-  double *sum;        /* 3 per pixel, owned */
-  double *square_sum; /* 3 per pixel, owned */
+  vf_fixed *sum;        /* 3 per pixel, owned; units of 2^-VF_FILM_SUM_BITS */
+  vf_fixed *square_sum; /* 3 per pixel, owned; units of 2^-vf_film_square_bits(film) */
   vf_iterset iterations; /* which global iterations it holds; their number is every pixel's count */
   uint8_t scene_hash[32];
   char settings_text[512];
@@ -69,6 +95,29 @@ void vf_film_destroy(vf_film *film);
  * are per pixel, so the film is the same bit for bit either way). */
 int vf_film_add_iteration(vf_film *film, uint64_t iteration, const float *camera_rgb, const float *light_rgb,
                           vf_pool *pool);
+
+/* 2^-bits for the grids' bits (a power of two: scaling by it is exact). */
+static inline double vf_fixed_unit(int bits) { return bits == VF_FILM_SUM_BITS ? 0x1p-32 : 0x1p-16; }
+
+/* x rounded to the nearest multiple of 2^-bits (ties to even), in those units; bits is
+ * VF_FILM_SUM_BITS or VF_FILM_SQUARE_BITS, x finite and below 2^(126 - bits) in magnitude. */
+vf_fixed vf_fixed_from_double(double x, int bits);
+
+/* The value of v units of 2^-bits (bits as above), rounded to the nearest double. Inline
+ * and without a 128-bit conversion for the sums that fit 64 bits (all but huge ones): it
+ * runs once per value when a film is written or measured. */
+static inline double vf_fixed_to_double(vf_fixed v, int bits) {
+  long long small = (long long)v;
+  return (small == v ? (double)small : (double)v) * vf_fixed_unit(bits);
+}
+
+/* The units of square_sum: VF_FILM_SUM_BITS for a film of the sobol sampler (it holds sums
+ * of estimates), VF_FILM_SQUARE_BITS for the others (sums of squares). */
+int vf_film_square_bits(const vf_film *film);
+int vf_film_square_bits_of(const char *settings_text);
+/* Value i (3 per pixel) of sum and square_sum as doubles (rounded to nearest). */
+double vf_film_sum_at(const vf_film *film, size_t i);
+double vf_film_square_at(const vf_film *film, size_t i);
 
 /* Mean radiance (sum / N), 3 floats per pixel, into rgb; 0 when the film is empty. */
 void vf_film_mean(const vf_film *film, float *rgb);
@@ -115,8 +164,8 @@ double vf_film_estimate_rmse(const vf_film *film);
  * squares, adds up exactly under merging. */
 int vf_film_sobol(const vf_film *film);
 
-/* Checks the invariants every film built by this module keeps: sums finite, square sums
- * >= 0, times finite and >= 0, non-finite samples at most two per pixel and iteration,
+/* Checks the invariants every film built by this module keeps: no sums without
+ * iterations (a film of N = 0 holds zeros), square sums >= 0, times finite and >= 0, non-finite samples at most two per pixel and iteration,
  * texts terminated, the convergence log valid (vf_convergence_validate). VF_EFILM with a
  * detail "NAME: problem" (name is e.g. the file path) when one does not hold. */
 int vf_film_validate(const vf_film *film, const char *name);
@@ -133,7 +182,8 @@ int vf_film_write(const vf_film *film, const char *path);
  * every count N) for builds that read only version 1. VF_EINVAL for other versions. */
 int vf_film_write_version(const vf_film *film, const char *path, int version);
 
-/* Reads and validates a film of version 1 or 2. VF_ENOENT, or VF_EEXR / VF_EFILM with a
+/* Reads and validates a film of version 1 to 4 (versions 1 to 3 held doubles to 48 bits:
+ * their sums are rounded to the grids once, here). VF_ENOENT, or VF_EEXR / VF_EFILM with a
  * detail naming the file and the problem (not a film, missing channel, a version-1 pixel
  * whose camera count is not the film's number of iterations, bad attribute...). */
 int vf_film_read(const char *path, vf_film **out);

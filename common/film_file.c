@@ -2,11 +2,10 @@
  * with its other channels and "vcmfarm:" attributes, holds the accumulation; written
  * atomically, read as untrusted input.
  *
- * The file keeps each double as two floats (common/film_planes.h), because EXR has no
- * double channels: the pair carries about 48 significant bits, so a film read back differs
- * from the one written by a relative ~4e-15 at most. Version 2 is written (ZIP); versions 1
- * (uncompressed, with per-pixel counts that must all equal the number of iterations) and 2
- * are read. */
+ * Version 4 keeps each fixed-point sum exactly: a float high part and a 64-bit integer
+ * rest in two UINT channels (common/film_planes.h), so a film read back is the film
+ * written, bit for bit. Versions 1 to 3 (doubles as float pairs, about 48 significant
+ * bits) are read, their sums rounded to the grids once, and written on request. */
 #include "film.h"
 #include "settings.h"
 
@@ -48,6 +47,11 @@ typedef struct {
   vf_film_sums sums;
   atomic_int overflow;
 } fill_source;
+
+static void fill_v4(void *user, int x0, int y0, int w, int h, float *const *planes) {
+  fill_source *f = user;
+  if (!vf_film_planes_fill_v4(f->sums, x0, y0, w, h, planes)) atomic_store(&f->overflow, 1);
+}
 
 static void fill_v2(void *user, int x0, int y0, int w, int h, float *const *planes) {
   fill_source *f = user;
@@ -97,8 +101,8 @@ int vf_film_write(const vf_film *film, const char *path) {
 
 int vf_film_write_version(const vf_film *film, const char *path, int version) {
   if (film == NULL || path == NULL) return vf_error_set(VF_EINVAL, "vf_film_write: NULL argument");
-  if (version < 1 || version > 3)
-    return vf_error_set(VF_EINVAL, "%s: film format version %d cannot be written (1, 2 or 3)", path, version);
+  if (version < 1 || version > 4)
+    return vf_error_set(VF_EINVAL, "%s: film format version %d cannot be written (1 to 4)", path, version);
   int err = vf_film_validate(film, path);
   if (err != VF_OK) return err;
   /* "[b,e)" with two 20-digit numbers and a separator is at most 45 bytes per range. */
@@ -109,11 +113,12 @@ int vf_film_write_version(const vf_film *film, const char *path, int version) {
   if ((err = vf_convergence_format(&film->convergence, &convergence)) != VF_OK) goto free_text;
 
   /* Version 1 stays as it was written: uncompressed. */
-  int n = version == 1 ? VF_FILM_V1_CHANNELS : VF_FILM_V2_CHANNELS;
-  const char *const *names = version == 1 ? vf_film_v1_channels : vf_film_v2_channels;
+  int n = version == 1 ? VF_FILM_V1_CHANNELS : version < 4 ? VF_FILM_V2_CHANNELS : VF_FILM_V4_CHANNELS;
+  const char *const *names = version == 1 ? vf_film_v1_channels : version < 4 ? vf_film_v2_channels : vf_film_v4_channels;
+  vf_exr_fill_fn fill = version == 1 ? fill_v1 : version < 4 ? fill_v2 : fill_v4;
   vf_exr_out out;
-  if ((err = vf_exr_create(path, film->width, film->height, VF_FILM_TILE, version == 1 ? VF_EXR_NONE : VF_EXR_ZIP, n,
-                           names, &out)) != VF_OK)
+  if ((err = vf_exr_create_typed(path, film->width, film->height, VF_FILM_TILE, version == 1 ? VF_EXR_NONE : VF_EXR_ZIP,
+                                 n, names, version == 4 ? VF_FILM_V4_UINT_MASK : 0, &out)) != VF_OK)
     goto free_text;
   exr_result_t rv = set_attributes(out.ctx, film, version, iterations, convergence);
   if (rv != EXR_ERR_SUCCESS) {
@@ -122,7 +127,7 @@ int vf_film_write_version(const vf_film *film, const char *path, int version) {
   }
   if (version >= 3 && (err = vf_exr_add_checksum(&out)) != VF_OK) goto abort;
   fill_source source = {vf_film_sums_of(film), 0};
-  if ((err = vf_exr_write_pixels(&out, n, names, version == 1 ? fill_v1 : fill_v2, &source)) != VF_OK)
+  if ((err = vf_exr_write_pixels(&out, n, names, fill, &source)) != VF_OK)
     goto abort;
   if (atomic_load(&source.overflow) && (err = vf_film_planes_check_range(film, version, path)) != VF_OK) goto abort;
   err = vf_exr_commit(&out);
@@ -145,25 +150,6 @@ static const exr_attribute_t *find_attr(const vf_exr_in *in, const char *name) {
   return attr;
 }
 
-/* Whether s[0, n) is well-formed UTF-8 (RFC 3629: no overlong forms, no surrogates, at
- * most U+10FFFF): what `info --json` prints of a film's text must be valid JSON. */
-static int valid_utf8(const unsigned char *s, size_t n) {
-  for (size_t i = 0; i < n;) {
-    unsigned c = s[i];
-    size_t extra = c < 0x80 ? 0 : (c & 0xE0) == 0xC0 ? 1 : (c & 0xF0) == 0xE0 ? 2 : (c & 0xF8) == 0xF0 ? 3 : 4;
-    if (extra == 4 || extra > n - i - 1) return 0; /* a bad lead byte, or cut short */
-    unsigned cp = extra == 0 ? c : c & (0x3Fu >> extra);
-    for (size_t k = 1; k <= extra; k++) {
-      if ((s[i + k] & 0xC0) != 0x80) return 0;
-      cp = cp << 6 | (s[i + k] & 0x3Fu);
-    }
-    static const unsigned least[4] = {0, 0x80, 0x800, 0x10000};
-    if (cp < least[extra] || cp > 0x10FFFF || (cp >= 0xD800 && cp <= 0xDFFF)) return 0;
-    i += extra + 1;
-  }
-  return 1;
-}
-
 /* A string attribute copied into a new NUL-terminated buffer (*out, caller frees). */
 static int get_string(const vf_exr_in *in, const char *name, char **out) {
   const exr_attribute_t *attr = find_attr(in, name);
@@ -174,7 +160,7 @@ static int get_string(const vf_exr_in *in, const char *name, char **out) {
   size_t len = (size_t)attr->string->length;
   if (len > 0 && memchr(attr->string->str, '\0', len) != NULL)
     return vf_error_set(VF_EFILM, "%s: attribute %s contains a NUL byte", in->path, name);
-  if (!valid_utf8((const unsigned char *)attr->string->str, len))
+  if (!vf_utf8_valid(attr->string->str, len))
     return vf_error_set(VF_EFILM, "%s: attribute %s is not valid UTF-8", in->path, name);
   char *s = malloc(len + 1);
   if (s == NULL) return VF_ENOMEM;
@@ -265,8 +251,8 @@ static int get_version(const vf_exr_in *in, int *version) {
   if (attr == NULL)
     return vf_error_set(VF_EFILM, "%s: not a vcmfarm film: missing attribute " ATTR_VERSION, in->path);
   if (attr->type != EXR_ATTR_INT) return vf_error_set(VF_EFILM, "%s: attribute " ATTR_VERSION " is not an int", in->path);
-  if (attr->i < 1 || attr->i > 3)
-    return vf_error_set(VF_EFILM, "%s: unknown film format version %d (this build reads versions 1 to 3)", in->path,
+  if (attr->i < 1 || attr->i > 4)
+    return vf_error_set(VF_EFILM, "%s: unknown film format version %d (this build reads versions 1 to 4)", in->path,
                         (int)attr->i);
   *version = (int)attr->i;
   return VF_OK;
@@ -328,9 +314,14 @@ typedef struct {
   const char *path;
 } store_target;
 
+static int store_v4(void *user, int x0, int y0, int w, int h, const float *const *planes) {
+  store_target *t = user;
+  return vf_film_planes_store_v4(t->sums, t->path, x0, y0, w, h, planes);
+}
+
 static int store_v2(void *user, int x0, int y0, int w, int h, const float *const *planes) {
-  vf_film_planes_store(((store_target *)user)->sums, x0, y0, w, h, planes);
-  return VF_OK;
+  store_target *t = user;
+  return vf_film_planes_store(t->sums, t->path, x0, y0, w, h, planes);
 }
 
 static int store_v1(void *user, int x0, int y0, int w, int h, const float *const *planes) {
@@ -359,8 +350,9 @@ int vf_film_read(const char *path, vf_film **out) {
     goto fail;
   }
   /* Version 1's R, G, B are a view of the sums, never read back. */
-  int n = version == 1 ? VF_FILM_V1_ACCUM : VF_FILM_V2_CHANNELS;
-  const char *const *names = version == 1 ? vf_film_v1_channels + 3 : vf_film_v2_channels;
+  int n = version == 1 ? VF_FILM_V1_ACCUM : version < 4 ? VF_FILM_V2_CHANNELS : VF_FILM_V4_CHANNELS;
+  const char *const *names = version == 1 ? vf_film_v1_channels + 3 : version < 4 ? vf_film_v2_channels : vf_film_v4_channels;
+  vf_exr_store_fn store = version == 1 ? store_v1 : version < 4 ? store_v2 : store_v4;
   for (int k = 0; k < n; k++)
     if (!vf_exr_has_channel(&in, names[k])) {
       err = vf_error_set(VF_EFILM, "%s: not a vcmfarm film: missing channel %s", path, names[k]);
@@ -380,7 +372,9 @@ int vf_film_read(const char *path, vf_film **out) {
   vf_convergence_init(&header.convergence);
 
   store_target target = {vf_film_sums_of(film), path};
-  if ((err = vf_exr_read_channels(&in, n, names, version == 1 ? store_v1 : store_v2, &target)) != VF_OK) goto fail;
+  if ((err = vf_exr_read_channels_typed(&in, n, names, version == 4 ? VF_FILM_V4_UINT_MASK : 0, store, &target)) !=
+      VF_OK)
+    goto fail;
   if ((err = vf_film_validate(film, path)) != VF_OK) goto fail;
   vf_exr_close(&in);
   *out = film;

@@ -90,14 +90,14 @@ static int encode_tile(vf_exr_coder *c, const vf_film *film, uint32_t x, uint32_
   if (!tile_rect(film->width, film->height, x, y, &x0, &y0, &w, &h))
     return vf_error_set(VF_EINVAL, "tile (%u,%u) is outside a %dx%d film", x, y, film->width, film->height);
   size_t plane = (size_t)w * (size_t)h;
-  float *block = malloc(VF_FILM_V2_CHANNELS * plane * sizeof *block), *planes[VF_FILM_V2_CHANNELS];
+  float *block = malloc(VF_FILM_V4_CHANNELS * plane * sizeof *block), *planes[VF_FILM_V4_CHANNELS];
   if (block == NULL) return vf_error_set(VF_ENOMEM, "out of memory for a tile");
-  for (int k = 0; k < VF_FILM_V2_CHANNELS; k++) planes[k] = block + (size_t)k * plane;
+  for (int k = 0; k < VF_FILM_V4_CHANNELS; k++) planes[k] = block + (size_t)k * plane;
   const uint8_t *data;
   size_t len;
-  int err = vf_film_planes_fill(vf_film_sums_of(film), x0, y0, w, h, planes)
-                ? vf_exr_chunk_encode(c, VF_EXR_ZIP, VF_FILM_V2_CHANNELS, (const float *const *)planes, w, h, &data, &len)
-                : vf_error_set(VF_EFILM, "tile (%u,%u) holds a value beyond the film format's float range", x, y);
+  int err = vf_film_planes_fill_v4(vf_film_sums_of(film), x0, y0, w, h, planes)
+                ? vf_exr_chunk_encode(c, VF_EXR_ZIP, VF_FILM_V4_CHANNELS, (const float *const *)planes, w, h, &data, &len)
+                : vf_error_set(VF_EFILM, "tile (%u,%u) holds a value beyond the film format's range", x, y);
   free(block);
   if (err != VF_OK) return err;
   if ((*storage = malloc(len)) == NULL) return vf_error_set(VF_ENOMEM, "out of memory for a tile");
@@ -120,27 +120,35 @@ int vf_film_tile_encode(const vf_film *film, uint32_t x, uint32_t y, Vcmfarm__Ti
 
 /* Decodes one untrusted tile into t (its block allocated here). */
 static int decode_tile(vf_exr_coder *c, const Vcmfarm__Tile *m, int width, int height, uint64_t iterations,
-                       float *scratch, vf_film_tile *t) {
+                       int square_bits, float *scratch, vf_film_tile *t) {
   int x0, y0, w, h;
   if (!tile_rect(width, height, m->x, m->y, &x0, &y0, &w, &h))
     return vf_error_set(VF_EINVAL, "tile (%u,%u) is outside a %dx%d film (%ux%u tiles)", m->x, m->y, width, height,
                         vf_film_tiles_across(width), vf_film_tiles_across(height));
   size_t plane = (size_t)w * (size_t)h;
-  float *planes[VF_FILM_V2_CHANNELS];
-  for (int k = 0; k < VF_FILM_V2_CHANNELS; k++) planes[k] = scratch + (size_t)k * plane;
-  int err = vf_exr_chunk_decode(c, m->chunk.data, m->chunk.len, VF_FILM_V2_CHANNELS, w, h, planes);
+  float *planes[VF_FILM_V4_CHANNELS];
+  for (int k = 0; k < VF_FILM_V4_CHANNELS; k++) planes[k] = scratch + (size_t)k * plane;
+  int err = vf_exr_chunk_decode(c, m->chunk.data, m->chunk.len, VF_FILM_V4_CHANNELS, w, h, planes);
   if (err == VF_EINVAL) return vf_error_set(err, "tile (%u,%u): %s", m->x, m->y, vf_error_detail(err));
   if (err != VF_OK) return err;
-  *t = (vf_film_tile){m->x, m->y, x0, y0, w, h, malloc(6 * plane * sizeof(double)), NULL};
+  *t = (vf_film_tile){m->x, m->y, x0, y0, w, h, malloc(6 * plane * sizeof(vf_fixed)), NULL};
   if (t->sum == NULL) return vf_error_set(VF_ENOMEM, "out of memory for a tile");
   t->square_sum = t->sum + 3 * plane;
-  vf_film_planes_store((vf_film_sums){t->sum, t->square_sum, w, iterations}, 0, 0, w, h, (const float *const *)planes);
+  char name[64];
+  snprintf(name, sizeof name, "tile (%u,%u)", m->x, m->y);
+  err = vf_film_planes_store_v4((vf_film_sums){t->sum, t->square_sum, w, iterations, square_bits}, name, 0, 0, w, h,
+                                (const float *const *)planes);
+  if (err != VF_OK) {
+    free(t->sum);
+    return vf_error_set(VF_EINVAL, "%s", vf_error_detail(err));
+  }
   for (size_t i = 0; i < 3 * plane; i++) {
-    if (!isfinite(t->sum[i]) || !isfinite(t->square_sum[i]))
-      err = vf_error_set(VF_EINVAL, "tile (%u,%u): the sums of pixel %zu are not finite", m->x, m->y, i / 3);
-    else if (t->square_sum[i] < 0.0)
+    if (iterations == 0 && (t->sum[i] != 0 || t->square_sum[i] != 0))
+      err = vf_error_set(VF_EINVAL, "tile (%u,%u): pixel %zu holds sums but the part has no iterations", m->x, m->y,
+                         i / 3);
+    else if (t->square_sum[i] < 0)
       err = vf_error_set(VF_EINVAL, "tile (%u,%u): square sum %g at pixel %zu is negative", m->x, m->y,
-                         t->square_sum[i], i / 3);
+                         vf_fixed_to_double(t->square_sum[i], square_bits), i / 3);
     if (err != VF_OK) {
       free(t->sum);
       return err;
@@ -152,13 +160,14 @@ static int decode_tile(vf_exr_coder *c, const Vcmfarm__Tile *m, int width, int h
 int vf_film_tiles_decode(const Vcmfarm__LeaseResult *m, int width, int height, vf_film_tile **out) {
   size_t n = m->n_tiles;
   vf_film_tile *tiles = calloc(n ? n : 1, sizeof *tiles);
-  float *scratch = malloc(VF_FILM_V2_CHANNELS * VF_FILM_TILE * VF_FILM_TILE * sizeof *scratch);
+  float *scratch = malloc(VF_FILM_V4_CHANNELS * VF_FILM_TILE * VF_FILM_TILE * sizeof *scratch);
+  int square_bits = vf_film_square_bits_of(m->settings ? m->settings : "");
   vf_exr_coder c;
   vf_exr_coder_init(&c);
   int err = tiles && scratch ? VF_OK : vf_error_set(VF_ENOMEM, "out of memory for tiles");
   size_t done = 0;
   for (; err == VF_OK && done < n; done++)
-    if ((err = decode_tile(&c, m->tiles[done], width, height, m->end - m->begin, scratch, &tiles[done])) != VF_OK) break;
+    if ((err = decode_tile(&c, m->tiles[done], width, height, m->end - m->begin, square_bits, scratch, &tiles[done])) != VF_OK) break;
   vf_exr_coder_destroy(&c);
   free(scratch);
   if (err != VF_OK) {
@@ -176,10 +185,10 @@ void vf_film_tiles_free(vf_film_tile *tiles, size_t n) {
 }
 
 /* Copies 3 values per pixel between a film array and a tile array, either way. */
-static void copy_rows(double *film_values, int width, double *tile_values, const vf_film_tile *t, int to_film) {
+static void copy_rows(vf_fixed *film_values, int width, vf_fixed *tile_values, const vf_film_tile *t, int to_film) {
   for (int row = 0; row < t->h; row++) {
-    double *f = film_values + ((size_t)(t->y0 + row) * (size_t)width + (size_t)t->x0) * 3;
-    double *v = tile_values + (size_t)row * (size_t)t->w * 3;
+    vf_fixed *f = film_values + ((size_t)(t->y0 + row) * (size_t)width + (size_t)t->x0) * 3;
+    vf_fixed *v = tile_values + (size_t)row * (size_t)t->w * 3;
     if (to_film) memcpy(f, v, (size_t)t->w * 3 * sizeof *f);
     else memcpy(v, f, (size_t)t->w * 3 * sizeof *f);
   }
@@ -189,8 +198,8 @@ int vf_film_tile_matches(const vf_film *film, const vf_film_tile *t) {
   for (int row = 0; row < t->h; row++) {
     size_t at = ((size_t)(t->y0 + row) * (size_t)film->width + (size_t)t->x0) * 3, len = (size_t)t->w * 3;
     size_t in = (size_t)row * len;
-    if (memcmp(film->sum + at, t->sum + in, len * sizeof(double)) != 0 ||
-        memcmp(film->square_sum + at, t->square_sum + in, len * sizeof(double)) != 0)
+    if (memcmp(film->sum + at, t->sum + in, len * sizeof(vf_fixed)) != 0 ||
+        memcmp(film->square_sum + at, t->square_sum + in, len * sizeof(vf_fixed)) != 0)
       return 0;
   }
   return 1;

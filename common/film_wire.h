@@ -28,10 +28,10 @@ int vf_film_from_bytes(const uint8_t *data, size_t len, const char *name, vf_fil
  * chunk of the film file (proto/vcmfarm.proto, Tile; common/film_planes.h): what a file
  * holds, as compact, decoded in one pass. */
 uint32_t vf_film_tiles_across(int width);
-/* Tiles per LeaseResult message: a tile's chunk is at most 48 bytes per pixel (196,608
- * bytes for 64x64, stored when ZIP does not shrink it), so 20 stay under the
+/* Tiles per LeaseResult message: a tile's chunk is at most 72 bytes per pixel (294,912
+ * bytes for 64x64, stored when ZIP does not shrink it), so 13 stay under the
  * coordinator's VF_WIRE_MAX_RESULT of 4 MiB with their header. */
-#define VF_FILM_TILES_PER_MESSAGE 20
+#define VF_FILM_TILES_PER_MESSAGE 13
 uint32_t vf_film_tile_count(int width, int height);
 
 /* Fills *tile with tile (x, y) of film, its chunk in one malloc'ed block written to
@@ -43,12 +43,12 @@ int vf_film_tile_encode(const vf_film *film, uint32_t x, uint32_t y, Vcmfarm__Ti
 typedef struct {
   uint32_t x, y;
   int x0, y0, w, h;
-  double *sum, *square_sum; /* one block, owned */
+  vf_fixed *sum, *square_sum; /* one block, owned */
 } vf_film_tile;
 
 /* Decodes and checks the untrusted tiles of m for a film of width x height holding the
  * part's m->end - m->begin iterations: coordinates inside the film, each chunk exactly a
- * tile's, sums finite, squares >= 0. *out (n_tiles of them, free with vf_film_tiles_free)
+ * tile's, sums within the film's range, squares >= 0, none without iterations. *out (n_tiles of them, free with vf_film_tiles_free)
  * on success only; VF_EINVAL with a detail naming the tile and what is wrong, VF_ENOMEM. */
 int vf_film_tiles_decode(const Vcmfarm__LeaseResult *m, int width, int height, vf_film_tile **out);
 void vf_film_tiles_free(vf_film_tile *tiles, size_t n);

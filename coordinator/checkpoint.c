@@ -321,6 +321,7 @@ static int save_film(vf_farm *farm, vf_job *job, uint64_t snapshot_id) {
 
 void vf_checkpoint_final(vf_farm *farm, vf_job *job) {
   job->final_pending = 1;
+  vf_state_recreate(farm);
   int err = vf_job_log(job);
   if (err == VF_OK) err = save_film(farm, job, 0);
   if (err != VF_OK) return checkpoint_failed(job, err);
@@ -332,6 +333,7 @@ int vf_checkpoint_write(vf_farm *farm, int all) {
   int first = VF_OK;
   char first_detail[1024] = ""; /* later calls record details of their own */
   if (all) snapshots_free_if(farm, NULL, 0.0);
+  vf_state_recreate(farm);
   for (size_t i = 0; i < farm->num_jobs; i++) {
     vf_job *j = farm->jobs[i];
     int err = vf_job_log(j);

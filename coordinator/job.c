@@ -3,6 +3,7 @@
 #include "../common/clock.h"
 #include "../common/error.h"
 #include "../common/metrics.h"
+#include "../common/parse.h"
 #include "schedule.h"
 
 #include <math.h>
@@ -16,6 +17,9 @@ static int check_name(const char *name) {
   for (size_t i = 0; i < n; i++)
     if ((unsigned char)name[i] < 0x20 || name[i] == 0x7f)
       return vf_error_set(VF_EINVAL, "job name: control character at byte %zu", i);
+  /* status --json carries it: one name that is not UTF-8 would make the whole farm's JSON
+   * invalid */
+  if (!vf_utf8_valid(name, n)) return vf_error_set(VF_EINVAL, "job name: not valid UTF-8");
   return VF_OK;
 }
 
@@ -96,6 +100,8 @@ int vf_job_set_scene_path(vf_job *job, const char *path) {
   for (size_t i = 0; i < n; i++)
     if ((unsigned char)path[i] < 0x20 || path[i] == 0x7f)
       return vf_error_set(VF_EINVAL, "scene_path: control character at byte %zu", i);
+  if (!vf_utf8_valid(path, n))
+    return vf_error_set(VF_EINVAL, "scene_path: not valid UTF-8 (a film's attributes must be)");
   memcpy(job->film->scene_name, path, n + 1);
   return VF_OK;
 }

@@ -117,6 +117,13 @@ static vf_lease *admit(vf_farm *farm, const Vcmfarm__LeaseResult *m, vf_farm_rep
            jid);
     return NULL;
   }
+  /* A lease is one worker's: another's result for it would be merged in its holder's name
+   * while the holder renders the same iterations. */
+  if (l->worker_id != m->worker_id) {
+    refuse(w, job, r, "lease %016llx is held by worker %llu, not by the sender %llu: nothing merged", lid,
+           (unsigned long long)l->worker_id, (unsigned long long)m->worker_id);
+    return NULL;
+  }
   if (job == NULL) {
     refuse(w, NULL, r, "job %llu does not exist", jid);
     return NULL;

@@ -4,6 +4,7 @@
 #include "../common/clock.h"
 #include "../common/error.h"
 #include "../common/file.h"
+#include "../common/image.h"
 #include "log.h"
 #include "poison.h"
 
@@ -474,4 +475,49 @@ int vf_state_load(vf_farm *farm) {
 done:
   cJSON_Delete(root);
   return err;
+}
+
+/* mkdir -p: each missing component of dir, 0700. */
+static int make_dirs(const char *dir) {
+  char path[4096];
+  if (snprintf(path, sizeof path, "%s", dir) >= (int)sizeof path)
+    return vf_error_set(VF_EINVAL, "%s: state directory path too long", dir);
+  for (char *c = path + 1;; c++) {
+    if (*c != '/' && *c != '\0') continue;
+    char kept = *c;
+    *c = '\0';
+    if (mkdir(path, 0700) != 0 && errno != EEXIST) return vf_error_set(VF_EIO, "%s: %s", path, strerror(errno));
+    if ((*c = kept) == '\0') return VF_OK;
+  }
+}
+
+int vf_state_recreate(vf_farm *farm) {
+  const char *dir = farm->config.state_dir;
+  struct stat st;
+  if (stat(dir, &st) == 0 || errno != ENOENT) return 0;
+  int err = make_dirs(dir), lock_fd = -1;
+  if (err == VF_OK) err = vf_state_lock(dir, &lock_fd);
+  if (err != VF_OK) {
+    vf_log("the state directory %s is gone and cannot be made again: %s; the jobs' films stay in memory, retried at "
+           "the next checkpoint", dir, vf_error_detail(err));
+    return err;
+  }
+  /* lock_fd stays open until the coordinator exits: the lock of the new directory */
+  vf_log("the state directory %s was deleted: made again; every job's scene, reference, film and the job list are "
+         "written again", dir);
+  for (size_t i = 0; i < farm->num_jobs; i++) {
+    vf_job *job = farm->jobs[i];
+    char path[4096];
+    if ((err = vf_state_save_scene(dir, job)) != VF_OK)
+      vf_log("job %llu: its scene cannot be written again: %s", (unsigned long long)job->id, vf_error_detail(err));
+    if (job->reference.rgb != NULL && path_of(path, sizeof path, dir, "job-", job->id, ".reference.exr") == VF_OK &&
+        (err = vf_image_write_exr(path, &job->reference)) != VF_OK)
+      vf_log("job %llu: its reference cannot be written again: %s", (unsigned long long)job->id, vf_error_detail(err));
+    if (job->files.count > 0)
+      vf_log("job %llu: the blobs of its scene's %zu files went with the directory: workers render it from their "
+             "caches; submit the scene again if one cannot", (unsigned long long)job->id, job->files.count);
+    if (!job->film_unreadable) job->film_dirty = 1;
+  }
+  farm->state_dirty = 1;
+  return 1;
 }

@@ -38,6 +38,15 @@ int vf_state_lock(const char *dir, int *fd);
 int vf_state_load(vf_farm *farm);
 
 int vf_state_save_index(vf_farm *farm);          /* state.json; clears farm->state_dirty */
+
+/* A state directory deleted while the coordinator runs is made again (with its parents),
+ * locked again, and every job's scene text, file table and reference written again; every
+ * film and the job list are marked to be written by the checkpoint that follows, so that no
+ * finished job waits for a final film that cannot land and a restart finds its jobs. 0 when
+ * the directory is there, 1 when it was made again, a negative error (logged) when it
+ * cannot be: the films stay in memory and the next checkpoint tries again. The blobs of
+ * scenes' files are not in memory and are lost with the directory (logged per job). */
+int vf_state_recreate(vf_farm *farm);
 int vf_state_save_scene(const char *dir, const vf_job *job); /* job-ID.files, then job-ID.scene */
 /* Writes the job's film on the calling thread; clears job->film_dirty, final_pending and
  * checkpoint_error. Nothing for a film that could not be read back (job->film_unreadable). */

@@ -2,6 +2,7 @@
 
 #include "../common/clock.h"
 #include "../common/error.h"
+#include "../common/parse.h"
 #include "leases.h"
 #include "log.h"
 #include "poison.h"
@@ -12,10 +13,18 @@
 #include <string.h>
 
 /* Untrusted text from a worker, for status and logs: no control characters. */
+/* A peer's text as status and its JSON can show it: control characters and bytes that are
+ * not UTF-8 (a character cut at the end included) become '?'. */
 static void copy_text(char *dst, size_t n, const char *src) {
   snprintf(dst, n, "%s", src);
   for (char *c = dst; *c; c++)
     if ((unsigned char)*c < 0x20 || *c == 0x7f) *c = '?';
+  for (size_t i = 0; dst[i];) {
+    size_t k = 1;
+    while (k <= 4 && dst[i + k - 1] != '\0' && !vf_utf8_valid(dst + i, k)) k++;
+    if (k <= 4 && dst[i + k - 1] != '\0') i += k;
+    else dst[i++] = '?';
+  }
 }
 
 static void depart(vf_farm *farm, size_t i, vf_worker_state state);

@@ -2,6 +2,8 @@
 
 #include "common/error.h"
 #include "common/file.h"
+#include "common/exr_util.h"
+#include "common/film_planes.h"
 
 #include <dirent.h>
 #include <math.h>
@@ -152,4 +154,35 @@ vf_film *fixture_film(int w, int h, uint64_t begin, uint64_t end, int seed) {
            "algorithm=vcm max_path_length=10 radius_factor=0.003 alpha=0.75 seed=%d resolution=%dx%d", seed, w, h);
   film->render_seconds = 1.25 * (double)(end - begin);
   return film;
+}
+
+typedef struct {
+  vf_film_sums sums;
+} forge_source;
+
+static void forge_fill(void *user, int x0, int y0, int w, int h, float *const *planes) {
+  vf_film_planes_fill(((forge_source *)user)->sums, x0, y0, w, h, planes);
+}
+
+int fixture_forge_film(const char *path, const vf_film *film, const char *iterations) {
+  vf_exr_out out;
+  int err = vf_exr_create(path, film->width, film->height, VF_FILM_TILE, VF_EXR_ZIP, VF_FILM_V2_CHANNELS,
+                          vf_film_v2_channels, &out);
+  if (err != VF_OK) return err;
+  char hex[65];
+  for (int i = 0; i < 32; i++) snprintf(hex + 2 * i, 3, "%02x", film->scene_hash[i]);
+  exr_attr_set_int(out.ctx, 0, "vcmfarm:format_version", 2);
+  exr_attr_set_string(out.ctx, 0, "vcmfarm:scene_hash", hex);
+  exr_attr_set_string(out.ctx, 0, "vcmfarm:settings", film->settings_text);
+  exr_attr_set_string(out.ctx, 0, "vcmfarm:iterations", iterations);
+  exr_attr_set_double(out.ctx, 0, "vcmfarm:render_seconds", 0);
+  exr_attr_set_string(out.ctx, 0, "vcmfarm:nonfinite_samples", "0");
+  exr_attr_set_string(out.ctx, 0, "vcmfarm:scene", film->scene_name);
+  forge_source source = {vf_film_sums_of(film)};
+  source.sums.iterations = 1; /* the high parts: sum / 1 */
+  if ((err = vf_exr_write_pixels(&out, VF_FILM_V2_CHANNELS, vf_film_v2_channels, forge_fill, &source)) != VF_OK) {
+    vf_exr_abort(&out);
+    return err;
+  }
+  return vf_exr_commit(&out);
 }

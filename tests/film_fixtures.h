@@ -68,4 +68,10 @@ void fixture_iteration_inputs(int w, int h, uint64_t iteration, float *cam, floa
  * it cannot be created. */
 vf_film *fixture_film(int w, int h, uint64_t begin, uint64_t end, int seed);
 
+/* Writes to path a forged film of version 2 (no checksum) with film's size, scene hash,
+ * settings and scene name but the iteration set `iterations` (vf_iterset_format text) and
+ * film's sums as they are: a film vf_film_write would refuse (N = 0 with sums...). VF_OK or
+ * an error. */
+int fixture_forge_film(const char *path, const vf_film *film, const char *iterations);
+
 #endif

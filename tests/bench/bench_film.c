@@ -4,11 +4,13 @@
  *   bench_film [RUNS] [DIR] [FILM ...]      defaults: 5 /tmp
  *
  * With FILMs (e.g. rendered by tests/bench/film_size.sh): reads each once, then writes it
- * as format versions 1, 2 and 3 and reads it back, RUNS times each, and prints per
- * version the file's bytes per pixel and the median wall time (and process CPU time, all
- * threads) of a write (atomic: fsync and rename) and of a read (decode and validate).
- * Without: the same for a 1920x1080 film of 4 iterations of random data, and the merge of
- * two such films in memory. */
+ * as format versions 3 (48-bit hi/lo pairs, what builds before the exact sums wrote) and 4
+ * (exact fixed-point sums) and reads it back, RUNS times each, the versions alternating
+ * run by run so that both see the same machine, and prints per version the file's bytes
+ * per pixel and the median wall time (and process CPU time, all threads) of a write
+ * (atomic: fsync and rename) and of a read (decode and validate). VERSIONS="1 2 3 4" in
+ * the environment chooses others. Without FILMs: the same for a 1920x1080 film of 4
+ * iterations of random data, and the merge of two such films in memory. */
 #include "common/clock.h"
 #include "common/error.h"
 #include "common/film.h"
@@ -62,32 +64,39 @@ static int fail(const char *what, int err) {
   return 1;
 }
 
-/* Writes film in `version` and reads it back, runs times: one line of figures. */
+/* Writes film in each of `versions` and reads it back, runs times, the versions in turn
+ * within each run: one line of figures per version. */
 #define MAX_RUNS 64
+#define MAX_VERSIONS 4
 
-static int measure(const vf_film *film, const char *label, int version, int runs, const char *path) {
-  double write[MAX_RUNS], write_cpu[MAX_RUNS], read[MAX_RUNS], read_cpu[MAX_RUNS];
-  struct stat st = {0};
-  for (int r = 0; r < runs; r++) {
-    double w0 = vf_seconds_now(), c0 = cpu_now();
-    int err = vf_film_write_version(film, path, version);
-    double w1 = vf_seconds_now(), c1 = cpu_now();
-    if (err != VF_OK) return fail("write", err);
-    stat(path, &st);
-    vf_film *back = NULL;
-    if ((err = vf_film_read(path, &back)) != VF_OK) return fail("read", err);
-    double w2 = vf_seconds_now(), c2 = cpu_now();
-    vf_film_destroy(back);
-    write[r] = w1 - w0;
-    write_cpu[r] = c1 - c0;
-    read[r] = w2 - w1;
-    read_cpu[r] = c2 - c1;
-  }
+static int measure(const vf_film *film, const char *label, const int *versions, int nv, int runs, const char *path) {
+  double write[MAX_VERSIONS][MAX_RUNS], write_cpu[MAX_VERSIONS][MAX_RUNS], read[MAX_VERSIONS][MAX_RUNS],
+      read_cpu[MAX_VERSIONS][MAX_RUNS];
+  off_t size[MAX_VERSIONS] = {0};
+  for (int r = 0; r < runs; r++)
+    for (int v = 0; v < nv; v++) {
+      double w0 = vf_seconds_now(), c0 = cpu_now();
+      int err = vf_film_write_version(film, path, versions[v]);
+      double w1 = vf_seconds_now(), c1 = cpu_now();
+      if (err != VF_OK) return fail("write", err);
+      struct stat st = {0};
+      stat(path, &st);
+      size[v] = st.st_size;
+      vf_film *back = NULL;
+      if ((err = vf_film_read(path, &back)) != VF_OK) return fail("read", err);
+      double w2 = vf_seconds_now(), c2 = cpu_now();
+      vf_film_destroy(back);
+      write[v][r] = w1 - w0;
+      write_cpu[v][r] = c1 - c0;
+      read[v][r] = w2 - w1;
+      read_cpu[v][r] = c2 - c1;
+    }
   unlink(path);
   double pixels = (double)film->width * (double)film->height;
-  printf("| %s | %dx%d | %d | %.1f | %.2f | %.3f (%.2f) | %.3f (%.2f) |\n", label, film->width, film->height, version,
-         (double)st.st_size / 1e6, (double)st.st_size / pixels, median(write, runs), median(write_cpu, runs),
-         median(read, runs), median(read_cpu, runs));
+  for (int v = 0; v < nv; v++)
+    printf("| %s | %dx%d | %d | %.1f | %.2f | %.3f (%.2f) | %.3f (%.2f) |\n", label, film->width, film->height,
+           versions[v], (double)size[v] / 1e6, (double)size[v] / pixels, median(write[v], runs),
+           median(write_cpu[v], runs), median(read[v], runs), median(read_cpu[v], runs));
   fflush(stdout);
   return 0;
 }
@@ -99,6 +108,13 @@ int main(int argc, char **argv) {
   if (runs > MAX_RUNS) runs = MAX_RUNS;
   char path[4096];
   snprintf(path, sizeof path, "%s/vf_bench_film_%d.exr", dir, (int)getpid());
+  int versions[MAX_VERSIONS] = {3, 4}, nv = 2;
+  const char *chosen = getenv("VERSIONS");
+  if (chosen != NULL) {
+    nv = 0;
+    for (const char *c = chosen; *c && nv < MAX_VERSIONS; c++)
+      if (*c >= '1' && *c <= '4') versions[nv++] = *c - '0';
+  }
   printf("median of %d runs; seconds of wall time (process CPU time, all threads)\n\n", runs);
   printf("| film | size | version | MB | bytes/px | write s | read s |\n|---|---|---|---|---|---|---|\n");
   for (int i = 3; i < argc; i++) {
@@ -106,15 +122,13 @@ int main(int argc, char **argv) {
     int err = vf_film_read(argv[i], &film);
     if (err != VF_OK) return fail(argv[i], err);
     const char *name = strrchr(argv[i], '/') ? strrchr(argv[i], '/') + 1 : argv[i];
-    if (measure(film, name, 1, runs, path) || measure(film, name, 2, runs, path) || measure(film, name, 3, runs, path))
-      return 1;
+    if (measure(film, name, versions, nv, runs, path)) return 1;
     vf_film_destroy(film);
   }
   if (argc > 3) return 0;
   vf_film *a = random_film(0), *b = random_film(4);
   if (!a || !b) return 1;
-  if (measure(a, "random", 1, runs, path) || measure(a, "random", 2, runs, path) || measure(a, "random", 3, runs, path))
-    return 1;
+  if (measure(a, "random", versions, nv, runs, path)) return 1;
   double t_merge[MAX_RUNS];
   for (int r = 0; r < runs; r++) {
     vf_film *sum = NULL;

@@ -58,10 +58,22 @@ check "the reference is unchanged" $?
 # ---- one writer per film ----
 # A continue that runs for a while holds the film; a second continue and a merge into it
 # are refused while it runs, and its iterations all arrive.
+# Other names of the film (issue 41): a symbolic link and a hard link reach the same file
+# and its lock.
+ln -s "$tmp/film.exr" "$tmp/soft.exr"
+ln "$tmp/film.exr" "$tmp/hard.exr"
 "$vcmfarm" continue "$tmp/film.exr" -t 4 -j 1 -q &
 bg=$!
 await_lock "$tmp/film.exr"
 check "the first continue holds the film" $?
+refused "a continue of a symbolic link to the film" "is being written by another vcmfarm process (pid $bg: continue)" \
+  "$vcmfarm" continue "$tmp/soft.exr" -n 1 -q
+refused "a continue of a hard link to the film" "is being written by another vcmfarm process under another name" \
+  "$vcmfarm" continue "$tmp/hard.exr" -n 1 -q
+refused "merge -o a hard link to the film" "is being written by another vcmfarm process" \
+  "$vcmfarm" merge -q -o "$tmp/hard.exr" "$tmp/hard.exr" "$tmp/other.exr"
+[ -L "$tmp/soft.exr" ]
+check "the symbolic link is left as it was" $?
 refused "a second continue of the same film" "is being written by another vcmfarm process (pid $bg: continue)" \
   "$vcmfarm" continue "$tmp/film.exr" -n 1 -q
 refused "merge -o FILM FILM OTHER beside a continue of FILM" "is being written by another vcmfarm process" \

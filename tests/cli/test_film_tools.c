@@ -10,6 +10,9 @@
 #include "common/error.h"
 #include "common/film.h"
 #include "cli/film_cmd.h"
+#include "cli/continue_cmd.h"
+#include "cli/info_cmd.h"
+#include "cli/render_cmd.h"
 #include "common/image.h"
 
 #include <cjson/cJSON.h>
@@ -65,9 +68,9 @@ static double max_sum_difference(const vf_film *a, const vf_film *b, double *sca
   size_t n = (size_t)a->width * (size_t)a->height;
   double worst = 0.0, total = 0.0;
   for (size_t i = 0; i < 3 * n; i++) {
-    worst = fmax(worst, fabs(a->sum[i] - b->sum[i]));
-    worst = fmax(worst, fabs(a->square_sum[i] - b->square_sum[i]));
-    total += a->sum[i];
+    worst = fmax(worst, fabs(vf_film_sum_at(a, i) - vf_film_sum_at(b, i)));
+    worst = fmax(worst, fabs(vf_film_square_at(a, i) - vf_film_square_at(b, i)));
+    total += vf_film_sum_at(a, i);
   }
   *scale = total / (double)(3 * n);
   return worst;
@@ -100,6 +103,33 @@ static void make_abc(void) {
   write_film(fixture_film(W, H, 0, 3, 1), fixture_path("a.exr"));
   write_film(fixture_film(W, H, 3, 5, 1), fixture_path("b.exr"));
   write_film(fixture_film(W, H, 5, 9, 1), fixture_path("c.exr"));
+}
+
+/* Issue 41: a film of no iteration holding sums (N = 0 implies zero sums) is refused by
+ * info, merge and continue, with nothing written: merged, it would have added samples
+ * from nowhere to a film's iterations (a [0,1) film carrying two iterations' sums). */
+static void test_a_film_of_no_iterations_with_sums_is_refused(void) {
+  const char *real = fixture_path("one.exr"), *forged = fixture_path("forged.exr"), *out = fixture_path("never.exr");
+  CHECK_INT_EQ(fixture_run(vf_cmd_render, "render", "cornell", "-n", "1", "-R", "20x10", "-s", "3", "-q", "-o", real,
+                           NULL), 0);
+  vf_film *film = read_film(real);
+  if (film == NULL) return;
+  CHECK_INT_EQ(fixture_forge_film(forged, film, ""), VF_OK);
+  vf_film_destroy(film);
+  CHECK_INT_EQ(fixture_run(vf_cmd_info, "info", forged, NULL), 2);
+  CHECK_STR_CONTAINS(vf_error_detail(VF_EFILM), "holds sums but the film has no iterations");
+  CHECK_INT_EQ(fixture_run(vf_cmd_merge, "merge", "-q", "-o", out, real, forged, NULL), 2);
+  CHECK(!fixture_exists(out));
+  CHECK_INT_EQ(fixture_run(vf_cmd_continue, "continue", forged, "-n", "1", "-q", "-o", out, NULL), 2);
+  CHECK(!fixture_exists(out));
+  /* the same file without sums is a valid empty film */
+  vf_film *empty = NULL;
+  CHECK_INT_EQ(vf_film_create(20, 10, &empty), VF_OK);
+  if (empty) {
+    CHECK_INT_EQ(fixture_forge_film(forged, empty, ""), VF_OK);
+    CHECK_INT_EQ(fixture_run(vf_cmd_info, "info", forged, NULL), 0);
+  }
+  vf_film_destroy(empty);
 }
 
 static void test_merge_is_commutative(void) {
@@ -454,6 +484,7 @@ static void test_diff_png_size_and_colours(void) {
 
 int main(void) {
   if (fixture_scratch_open("test_film_tools") != 0) return 1;
+  RUN(test_a_film_of_no_iterations_with_sums_is_refused);
   RUN(test_merge_is_commutative);
   RUN(test_merge_is_associative);
   RUN(test_merge_of_split_ranges_equals_direct_film);

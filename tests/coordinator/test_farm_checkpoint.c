@@ -75,8 +75,8 @@ static int noisy_film(const char *settings, const uint8_t hash[32], vf_film **ou
     double c = (double)(x >> 11) * 0x1p-53;
     x ^= x << 13, x ^= x >> 7, x ^= x << 17;
     double l = (double)(x >> 11) * 0x1p-53;
-    film->sum[i] = c + l;
-    film->square_sum[i] = (c + l) * (c + l);
+    film->sum[i] = vf_fixed_from_double(c + l, VF_FILM_SUM_BITS);
+    film->square_sum[i] = vf_fixed_from_double((c + l) * (c + l), VF_FILM_SQUARE_BITS);
   }
   if ((err = vf_iterset_add(&film->iterations, 0, 1)) != VF_OK) {
     vf_film_destroy(film);

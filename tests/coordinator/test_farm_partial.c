@@ -105,14 +105,14 @@ static int send_one(void *ctx, Vcmfarm__LeaseResult *m) {
   s->sent++;
   Vcmfarm__Tile spoilt, *kept = m->n_tiles ? m->tiles[0] : NULL;
   uint8_t *block = NULL;
-  if (s->spoil_second && s->sent == 2 && (block = calloc(48 * 64 * 64, 1)) != NULL) {
-    /* the same tile, uncompressed (12 FLOAT channels of 64 x 64), with a NaN in its first */
+  if (s->spoil_second && s->sent == 2 && (block = calloc(72 * 64 * 64, 1)) != NULL) {
+    /* the same tile, uncompressed (18 channels of 64 x 64), with a NaN in its first (FLOAT) */
     float nan = NAN;
     memcpy(block + 4 * 5, &nan, sizeof nan);
     vcmfarm__tile__init(&spoilt);
     spoilt.x = kept->x;
     spoilt.y = kept->y;
-    spoilt.chunk = (ProtobufCBinaryData){48 * 64 * 64, block};
+    spoilt.chunk = (ProtobufCBinaryData){72 * 64 * 64, block};
     m->tiles[0] = &spoilt;
   }
   Vcmfarm__Envelope q = VCMFARM__ENVELOPE__INIT;
@@ -187,7 +187,7 @@ static void test_a_bad_tile_drops_the_part_and_spares_the_film(void) {
   s = (sender){.only_first = 1};
   CHECK_INT_EQ(send_part(&f, 0, 4, &s), 1);
   vf_film *other = part_film(0, 4);
-  other->sum[0] += 1.0;
+  other->sum[0] += 1;
   Vcmfarm__LeaseResult m = VCMFARM__LEASE_RESULT__INIT;
   m.worker_id = f.worker;
   m.lease_id = f.lease;
@@ -198,6 +198,35 @@ static void test_a_bad_tile_drops_the_part_and_spares_the_film(void) {
   CHECK_STR_CONTAINS(s.message, "other values");
   vf_film_destroy(other);
   CHECK_INT_EQ(done(&f), 0);
+  vf_farm_destroy(&f.farm);
+}
+
+/* Issue 41: a result is merged only from the worker that holds the lease: another
+ * registered worker's result for it is refused, nothing merged, and the holder's still
+ * merges. */
+static void test_a_result_from_another_worker_is_refused(void) {
+  fixture f;
+  setup(&f, 8);
+  vf_farm_reply r;
+  Vcmfarm__Register reg = VCMFARM__REGISTER__INIT;
+  reg.name = "intruder";
+  Vcmfarm__Envelope q = VCMFARM__ENVELOPE__INIT;
+  q.body_case = VCMFARM__ENVELOPE__BODY_REGISTER;
+  q.register_ = &reg;
+  request(&f, &q, &r);
+  uint64_t intruder = r.registered.worker_id, holder = f.worker;
+  vf_farm_reply_release(&r);
+  CHECK(intruder != holder);
+  sender s = {0};
+  f.worker = intruder;
+  CHECK_INT_EQ(send_part(&f, 0, 4, &s), 0);
+  CHECK_STR_CONTAINS(s.message, "not by the sender");
+  CHECK_INT_EQ(done(&f), 0);
+  f.worker = holder;
+  s = (sender){0};
+  CHECK_INT_EQ(send_part(&f, 0, 4, &s), 1);
+  CHECK_STR_CONTAINS(s.message, "merged");
+  CHECK_INT_EQ(done(&f), 4);
   vf_farm_destroy(&f.farm);
 }
 
@@ -229,6 +258,7 @@ int main(void) {
   RUN(test_a_part_merges_only_complete_and_once);
   RUN(test_a_bad_tile_drops_the_part_and_spares_the_film);
   RUN(test_an_incomplete_part_is_dropped_when_silent);
+  RUN(test_a_result_from_another_worker_is_refused);
   char cmd[128];
   snprintf(cmd, sizeof cmd, "rm -rf '%s'", dir);
   if (system(cmd) != 0) return 1;

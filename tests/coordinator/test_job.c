@@ -117,6 +117,8 @@ static void test_every_refused_field_is_named(void) {
   } cases[] = {
       {"job name", {long_name, 1, 1, "cornell", 7, 32, settings, 0, 100}},
       {"job name: control character", {"a\tb", 1, 1, "cornell", 7, 32, settings, 0, 100}},
+      {"job name: not valid UTF-8", {"caf\xe9", 1, 1, "cornell", 7, 32, settings, 0, 100}},
+      {"job name: not valid UTF-8", {"cut \xc3", 1, 1, "cornell", 7, 32, settings, 0, 100}},
       {"scene: built-in name of 0 bytes", {"n", 1, 1, "", 0, 32, settings, 0, 100}},
       {"scene: built-in name of 64 bytes",
        {"n", 1, 1, "aaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaa", 64, 32, settings, 0, 100}},
@@ -174,6 +176,9 @@ static void test_scene_path_is_checked(void) {
   err = vf_job_set_scene_path(job, "/scenes/a\nb.json");
   CHECK_INT_EQ(err, VF_EINVAL);
   CHECK_STR_CONTAINS(vf_error_detail(err), "scene_path: control character at byte 9");
+  err = vf_job_set_scene_path(job, "/scenes/caf\xe9.json"); /* Latin-1, not UTF-8 */
+  CHECK_INT_EQ(err, VF_EINVAL);
+  CHECK_STR_CONTAINS(vf_error_detail(err), "scene_path: not valid UTF-8");
   CHECK_INT_EQ(vf_job_set_scene_path(job, "/scenes/box.json"), VF_OK);
   CHECK_STR_CONTAINS(job->film->scene_name, "/scenes/box.json");
   vf_job_destroy(job);

@@ -9,7 +9,7 @@
  * and their counts (non-finite samples, biased merges), which every iteration adds to
  * exactly, are equal; with --exact, only when they are moreover the same film bit for
  * bit: the same scene hash and settings, and every sum and sum of squares the same
- * double. Prints what it found either way. */
+ * value in every bit. Prints what it found either way. */
 #include "common/film.h"
 #include "common/error.h"
 
@@ -28,8 +28,8 @@ static int load(const char *path, vf_film **film) {
 static size_t bits_differing(const vf_film *a, const vf_film *b) {
   size_t n = (size_t)a->width * (size_t)a->height * 3, differing = 0;
   for (size_t i = 0; i < n; i++)
-    differing += memcmp(&a->sum[i], &b->sum[i], sizeof(double)) != 0 ||
-                 memcmp(&a->square_sum[i], &b->square_sum[i], sizeof(double)) != 0;
+    differing += memcmp(&a->sum[i], &b->sum[i], sizeof a->sum[i]) != 0 ||
+                 memcmp(&a->square_sum[i], &b->square_sum[i], sizeof a->square_sum[i]) != 0;
   return differing;
 }
 

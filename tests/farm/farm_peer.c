@@ -385,8 +385,8 @@ static int send_spoiled(void *ctx, Vcmfarm__LeaseResult *m) {
   Vcmfarm__Tile *t = m->n_tiles ? m->tiles[0] : NULL;
   ProtobufCBinaryData saved = t ? t->chunk : (ProtobufCBinaryData){0};
   uint8_t *spoilt = NULL;
-  /* tile (0, 0) uncompressed: 12 FLOAT channels of w x h (docs/FILM.md, proto Tile) */
-  size_t w = m->width < 64 ? m->width : 64, h = m->height < 64 ? m->height : 64, raw = 48 * w * h;
+  /* tile (0, 0) uncompressed: 18 channels of w x h, the first FLOAT (docs/FILM.md, proto Tile) */
+  size_t w = m->width < 64 ? m->width : 64, h = m->height < 64 ? m->height : 64, raw = 72 * w * h;
   float nan = NAN;
   switch (s->how) {
   case SHORT_ARRAY: t->chunk.len -= 1; break;

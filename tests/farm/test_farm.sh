@@ -8,7 +8,7 @@
 #   test_farm.sh CASE VCMFARM FARM_COMPARE FARM_PEER [FARM_BLOB_PEER]
 #
 # CASE: long_scene_text, three_workers, worker_killed, worker_killed_after_parts, worker_terminated, coordinator_killed,
-# hostile_peers, unauthenticated_bound, tcp_gate, late_duplicate, priorities, stop_conditions; mesh_scene, big_file and bad_blobs (scenes
+# hostile_peers, unauthenticated_bound, tcp_gate, late_duplicate, priorities, stop_conditions, exact_many_iterations, names, state_deleted; mesh_scene, big_file and bad_blobs (scenes
 # with files, FARM_BLOB_PEER); fetch_4k and bad_fetches (films fetched in chunks, with
 # FARM_FETCH_PEER in the place of FARM_BLOB_PEER).
 # No fixed sleeps synchronise anything: the script polls `vcmfarm status` (or a file) with
@@ -50,7 +50,7 @@ check_film() {
   client fetch "$job" -o "$tmp/farm.exr" || fail "fetch failed"
   "$vcmfarm" render cornell --direct -n "$iterations" -R 64x64 --seed 7 -j 1 -q -o "$tmp/reference.exr" ||
     fail "reference render failed"
-  "$compare" "$tmp/farm.exr" "$tmp/reference.exr" "[0,$iterations)" || fail "farm film differs from the reference"
+  "$compare" --exact "$tmp/farm.exr" "$tmp/reference.exr" "[0,$iterations)" || fail "farm film differs from the reference"
 }
 
 # ---- scenes with mesh and map files (docs/PROTOCOL.md, "Files of scenes") ----
@@ -99,7 +99,7 @@ check_scene_film() {
   client fetch "$job" -o "$tmp/farm.exr" || fail "fetch failed"
   "$vcmfarm" render "$scene" --direct -n "$iterations" --seed "$seed" -j 1 -q -o "$tmp/reference.exr" ||
     fail "reference render failed"
-  "$compare" "$tmp/farm.exr" "$tmp/reference.exr" "[0,$iterations)" || fail "farm film differs from the reference"
+  "$compare" --exact "$tmp/farm.exr" "$tmp/reference.exr" "[0,$iterations)" || fail "farm film differs from the reference"
 }
 
 served() { grep -c "served blob" "$tmp/coordinator.log"; }
@@ -423,7 +423,7 @@ fetch_4k)
   grep "film of [0-9]* bytes fetched" "$tmp/coordinator.log" || fail "the coordinator logged no fetch"
   "$fetch_peer" --chunks "$url" "$key" "$job" || fail "chunks are not of the sizes asked for"
   "$vcmfarm" render cornell "${big_film[@]}" --direct -q -o "$tmp/reference.exr" || fail "reference render failed"
-  "$compare" "$tmp/a.exr" "$tmp/reference.exr" "[0,2)" || fail "the fetched 4K film differs from --direct's"
+  "$compare" --exact "$tmp/a.exr" "$tmp/reference.exr" "[0,2)" || fail "the fetched 4K film differs from --direct's"
   ;;
 bad_fetches)
   # The coordinator's side: requests out of place are refused, snapshots are shared, read
@@ -582,6 +582,88 @@ late_duplicate)
   done
   check_film
   ;;
+exact_many_iterations)
+  # Issue 41: parts of hundreds of iterations and a coordinator restarted from its
+  # checkpoint; the film is --direct's bit for bit (farm_compare --exact). With the 48-bit
+  # hi/lo storage both rounded: parts on the wire, the checkpoint when read back.
+  start_coordinator
+  for w in w1 w2 w3; do start_worker "$w"; done
+  three_registered() { [ "$(client status --json | grep -c '"threads":')" -eq 3 ]; }
+  wait_until 30 "three workers to register" three_registered
+  small=(-R 16x16 --seed 11)
+  iterations=1500
+  job=$(client submit cornell -n "$iterations" "${small[@]}" | tail -n 1)
+  [ -n "$job" ] || fail "submit printed no job id"
+  wait_until 90 "job $job done" job_done
+  "$vcmfarm" render cornell --direct -n "$iterations" "${small[@]}" -j 1 -q -o "$tmp/reference.exr" ||
+    fail "reference render failed"
+  client fetch "$job" -o "$tmp/farm.exr" || fail "fetch failed"
+  "$compare" --exact "$tmp/farm.exr" "$tmp/reference.exr" "[0,$iterations)" || fail "the 3-worker film is not --direct's"
+  echo "leases per worker: $(grep -o 'to worker w[0-9]' "$tmp/coordinator.log" | sort | uniq -c | tr '\n' ' ')"
+  # The same after the coordinator is killed with part of the job checkpointed.
+  iterations=3000
+  job=$(client submit cornell -n "$iterations" "${small[@]}" -a bpt | tail -n 1)
+  [ -n "$job" ] || fail "submit printed no job id"
+  has_progress() { [ "$(job_number iterations_done)" -ge 600 ] 2>/dev/null && [ -s "$tmp/state/job-$job.exr" ]; }
+  wait_until 60 "600 iterations done and checkpointed" has_progress
+  kill -9 "$coordinator"
+  wait_until 10 "the coordinator to die" exited "$coordinator"
+  start_coordinator
+  wait_until 120 "job $job done after the restart" job_done
+  grep -q "resumed job $job" "$tmp/coordinator.log" || fail "the restarted coordinator did not resume job $job"
+  "$vcmfarm" render cornell --direct -n "$iterations" "${small[@]}" -a bpt -j 1 -q -o "$tmp/reference.exr" ||
+    fail "reference render failed"
+  client fetch "$job" -o "$tmp/farm.exr" || fail "fetch failed"
+  "$compare" --exact "$tmp/farm.exr" "$tmp/reference.exr" "[0,$iterations)" ||
+    fail "the film resumed from a checkpoint is not --direct's"
+  ;;
+names)
+  # Issue 41: `status --json` stays valid JSON whatever a peer calls itself: a worker named
+  # in Latin-1 (not UTF-8) and one whose 200-byte name of two-byte characters is cut at the
+  # coordinator's 127 bytes show with '?' in their place; jobs of such names are refused
+  # (tests/coordinator/test_job.c, tests/cli/test_names.sh).
+  start_coordinator
+  start_worker "caf"$'\xe9'
+  start_worker "$(printf 'é%.0s' $(seq 100))"
+  two_registered() { [ "$(client status --json | grep -c '"threads":')" -eq 2 ]; }
+  wait_until 30 "two workers to register" two_registered
+  client status --json >"$tmp/status.json" || fail "status --json failed"
+  # JSON is UTF-8 (RFC 8259); jq alone would take other bytes as U+FFFD, iconv does not
+  iconv -f UTF-8 -t UTF-8 "$tmp/status.json" >/dev/null && jq -e '.workers | length == 2' "$tmp/status.json" >/dev/null ||
+    fail "status --json is not valid JSON: $(cat "$tmp/status.json")"
+  submit 4
+  wait_until 60 "job $job done" job_done
+  client status --json >"$tmp/status.json" && iconv -f UTF-8 -t UTF-8 "$tmp/status.json" >/dev/null &&
+    jq -e . "$tmp/status.json" >/dev/null || fail "status --json is not valid JSON after a job"
+  ;;
+state_deleted)
+  # Issue 41: the state directory deleted under a running coordinator is made again with
+  # every job's scene, film and the job list: the job finishes (it used to wait forever for
+  # a final film that could not land), and a restart finds it done, its film --direct's.
+  start_coordinator
+  start_worker w1 --test-iteration-delay 40
+  iterations=40
+  job=$(client submit cornell -n "$iterations" -R 16x16 --seed 5 | tail -n 1)
+  [ -n "$job" ] || fail "submit printed no job id"
+  started() { [ "$(job_number iterations_done)" -ge 4 ] 2>/dev/null; }
+  wait_until 30 "4 iterations done" started
+  rm -rf "$state"
+  wait_until 60 "job $job done with its state directory deleted" job_done
+  recreated() { [ -s "$state/state.json" ] && [ -s "$state/job-$job.exr" ] && [ -s "$state/job-$job.scene" ]; }
+  wait_until 10 "the state directory made again" recreated
+  grep -q "state directory .* was deleted: made again" "$tmp/coordinator.log" || fail "the coordinator did not say so"
+  "$vcmfarm" render cornell --direct -n "$iterations" -R 16x16 --seed 5 -j 1 -q -o "$tmp/reference.exr" ||
+    fail "reference render failed"
+  client fetch "$job" -o "$tmp/farm.exr" || fail "fetch failed"
+  "$compare" --exact "$tmp/farm.exr" "$tmp/reference.exr" "[0,$iterations)" || fail "the film is not --direct's"
+  kill -TERM "$coordinator"
+  wait_until 20 "the coordinator to stop" exited "$coordinator"
+  start_coordinator
+  wait_until 30 "the restarted coordinator to report job $job done" job_done
+  client fetch "$job" -o "$tmp/farm2.exr" || fail "fetch after the restart failed"
+  "$compare" --exact "$tmp/farm2.exr" "$tmp/reference.exr" "[0,$iterations)" ||
+    fail "the film after the restart is not --direct's"
+  ;;
 priorities)
   # Two jobs of the same cost, priorities 1 and 2, both queued when two workers start:
   # while both have work, the priority-2 job must get about twice the worker time, i.e.
@@ -611,7 +693,7 @@ priorities)
   check_film
   job=$high
   client fetch "$job" -o "$tmp/high.exr" || fail "fetch failed"
-  "$compare" "$tmp/high.exr" "$tmp/reference.exr" "[0,120)" || fail "the priority-2 job's film differs from the reference"
+  "$compare" --exact "$tmp/high.exr" "$tmp/reference.exr" "[0,120)" || fail "the priority-2 job's film differs from the reference"
   ;;
 stop_conditions)
   # One worker, so that a job stopped mid-lease still holds a contiguous [0,n): the

@@ -16,8 +16,8 @@
 #                 on a full disk the exit message names the film and the real cause.
 #                 Needs root to mount a tmpfs: exit 77 (skipped) with a message otherwise.
 #   soak          workers and the coordinator SIGKILLed and restarted at random while one
-#                 job renders; the film equals `render --direct`, every iteration exactly
-#                 once (tests/farm/farm_compare.c). SOAK_SECONDS (default 40) bounds the kills;
+#                 job renders; the film equals `render --direct` bit for bit, every
+#                 iteration exactly once (tests/farm/farm_compare.c --exact). SOAK_SECONDS (default 40) bounds the kills;
 #                 SOAK_SECONDS=600 is the benchmark run.
 #
 #   test_farm_faults.sh CASE VCMFARM FARM_COMPARE
@@ -93,7 +93,7 @@ check_film() { # job, scene, iterations[, resolution]
   client fetch "$1" -o "$tmp/farm-$1.exr" || fail "fetching job $1 failed"
   "$vcmfarm" render "$2" --direct -n "$3" -R "${4:-32x32}" --seed 7 -j 1 -q -o "$tmp/reference-$1.exr" ||
     fail "reference render failed"
-  "$compare" "$tmp/farm-$1.exr" "$tmp/reference-$1.exr" "[0,$3)" || fail "job $1's film differs from the reference"
+  "$compare" --exact "$tmp/farm-$1.exr" "$tmp/reference-$1.exr" "[0,$3)" || fail "job $1's film differs from the reference"
 }
 
 case "$case_name" in
@@ -268,7 +268,7 @@ soak)
   client fetch "$job" -o "$tmp/farm.exr" || fail "fetch failed"
   "$vcmfarm" render cornell --direct -n "$iterations" -R 32x32 --seed 7 -j 1 -q -o "$tmp/reference.exr" ||
     fail "reference render failed"
-  "$compare" "$tmp/farm.exr" "$tmp/reference.exr" "[0,$iterations)" || fail "the soaked film differs from the reference"
+  "$compare" --exact "$tmp/farm.exr" "$tmp/reference.exr" "[0,$iterations)" || fail "the soaked film differs from the reference"
   echo "ok   soak: $kills_w worker and $kills_c coordinator SIGKILLs; the film equals --direct, iterations exactly [0,$iterations)"
   ;;
 *)

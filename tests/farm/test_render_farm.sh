@@ -1,10 +1,10 @@
 #!/usr/bin/env bash
 # `vcmfarm render` and a farm give the same film, the product's promise: a coordinator and
 # one worker as processes over ipc://, each job submitted and fetched (`submit --wait`),
-# its film compared with `vcmfarm render` of the same global iterations (tests/farm/
-# farm_compare.c: the iteration set exactly, the pixels to 1e-5 of the image mean, as the
-# farm adds the sums of its parts in an order of its own). And what `render` promises on
-# its own, its films compared bit for bit with a render of the same iterations (farm_compare
+# its film compared bit for bit with `vcmfarm render` of the same global iterations
+# (tests/farm/farm_compare.c --exact: the film's sums are exact integers, so the order in
+# which the farm adds its parts changes nothing). And what `render` promises on its own,
+# its films compared bit for bit with a render of the same iterations (farm_compare
 # --exact: scene hash, settings and every sum): --direct, a target tested after every
 # iteration, a time limit, SIGINT, a SIGKILL that leaves the last checkpoint, which
 # `continue` resumes, and no file beside its film.
@@ -42,12 +42,11 @@ farm() {
   local name="$1" set="$2" film="$3"
   shift 3
   timeout 240 "$vcmfarm" submit "$@" --wait -o "$tmp/films/farm.exr" "${client[@]}" >"$tmp/submit.log" 2>&1 &&
-    "$compare" "$tmp/films/farm.exr" "$film" "$set"
+    "$compare" --exact "$tmp/films/farm.exr" "$film" "$set"
   check "$name" $?
 }
 # same [--close] NAME SET FILM RENDER_ARGS...: FILM is, bit for bit, the render of
-# RENDER_ARGS; with --close, to 1e-5 of the image mean (a film read back from its file
-# holds its sums to 48 bits, docs/FILM.md, so what is added to it rounds otherwise).
+# RENDER_ARGS; with --close, to 1e-5 of the image mean only.
 same() {
   local exact=--exact
   [ "$1" = --close ] && exact="" && shift
@@ -161,7 +160,7 @@ if [ -n "$m" ]; then
   same "SIGKILL: the checkpoint is the film of [0,$m)" "[0,$m)" "$tmp/films/g.exr" cornell "${common[@]}" -n "$m"
   local_render continue "$tmp/films/g.exr" -n 3 -q
   check "SIGKILL: continue resumes the checkpoint" $?
-  same --close "SIGKILL: the resumed film is that of [0,$((m + 3)))" "[0,$((m + 3)))" "$tmp/films/g.exr" cornell \
+  same "SIGKILL: the resumed film is that of [0,$((m + 3)))" "[0,$((m + 3)))" "$tmp/films/g.exr" cornell \
     "${common[@]}" -n $((m + 3))
 fi
 

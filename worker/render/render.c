@@ -2,6 +2,7 @@
 
 #include "../../common/clock.h"
 #include "../../common/error.h"
+#include "../../common/parse.h"
 #include "../../common/pool.h"
 #include "accel.h"
 
@@ -62,18 +63,32 @@ static double cpu_seconds_now(void) {
 }
 
 /* "builtin:cornell" is stored as "cornell", the name vf_scene_load takes; a file as its
- * absolute path, so that `continue` finds it from another working directory. */
-static void scene_name(const char *source, char *out, size_t n) {
+ * absolute path, so that `continue` finds it from another working directory. A path that
+ * does not fit (511 bytes) or is not UTF-8 is refused: cut, or with bytes that are no text,
+ * it would make a film no tool reads (film attributes must be UTF-8). */
+static int scene_name(const char *source, char *out, size_t n) {
   static const char prefix[] = "builtin:";
   char resolved[PATH_MAX];
-  if (strncmp(source, prefix, sizeof prefix - 1) == 0) snprintf(out, n, "%s", source + sizeof prefix - 1);
-  else if (realpath(source, resolved) != NULL && strlen(resolved) < n) snprintf(out, n, "%s", resolved);
-  else snprintf(out, n, "%s", source);
+  const char *name = source;
+  if (strncmp(source, prefix, sizeof prefix - 1) == 0) name = source + sizeof prefix - 1;
+  else if (realpath(source, resolved) != NULL) name = resolved;
+  size_t len = strlen(name);
+  if (len >= n)
+    return vf_error_set(VF_EINVAL, "scene path of %zu bytes: a film holds at most %zu (move the scene to a shorter "
+                        "path)", len, n - 1);
+  if (!vf_utf8_valid(name, len))
+    return vf_error_set(VF_EINVAL, "scene path '%s' is not valid UTF-8: a film's text must be (rename the file)",
+                        name);
+  memcpy(out, name, len + 1);
+  return VF_OK;
 }
 
 int vf_renderer_stamp(const vf_renderer *r, vf_film *film) {
+  char name[sizeof film->scene_name];
+  int err = scene_name(r->scene->source, name, sizeof name);
+  if (err != VF_OK) return err;
   memcpy(film->scene_hash, r->scene->hash, sizeof film->scene_hash);
-  scene_name(r->scene->source, film->scene_name, sizeof film->scene_name);
+  memcpy(film->scene_name, name, sizeof film->scene_name);
   return vf_settings_format(&r->settings, film->settings_text, sizeof film->settings_text);
 }
 

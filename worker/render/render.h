@@ -68,7 +68,8 @@ int vf_render_range(vf_renderer *r, vf_film *film, uint64_t begin, uint64_t end,
                     vf_render_status *status);
 
 /* Writes the renderer's scene hash, settings text and scene name (a built-in name, or the
- * scene file's absolute path) into an empty film. */
+ * scene file's absolute path) into an empty film. VF_EINVAL, film unchanged, when the path
+ * is longer than a film holds (511 bytes) or not UTF-8. */
 int vf_renderer_stamp(const vf_renderer *r, vf_film *film);
 
 #endif
