@@ -86,6 +86,11 @@ typedef struct {
   double rate;          /* iterations per second of one worker on this job, smoothed; 0 unknown */
   double last_merge_time;
   double seconds;       /* running so far: wall-clock seconds since its first lease */
+  /* Its time limit (coordinator/deadline.h): vf_seconds_now() when the job closed (its
+   * leases deliver their final parts), 0 before; time_up once they have, or the grace
+   * period is over: only then does the time limit stop it (vf_job_check_stop). */
+  double closed_at;
+  int time_up;
   double seconds_saved; /* `seconds` as last written to state.json */
   struct {
     double time;
