@@ -133,7 +133,17 @@ check_film_set() { # job, scene, resolution
   else
     "$vcmfarm" merge -o "$tmp/reference-$j.exr" "${pieces[@]}" >/dev/null || fail "merging the reference pieces failed"
   fi
-  "$compare" "$tmp/farm-$j.exr" "$tmp/reference-$j.exr" "$set" || fail "job $j's film differs from --direct of $set"
+  compare_films "$tmp/farm-$j.exr" "$tmp/reference-$j.exr" "$set" || fail "job $j's film differs from --direct of $set"
+}
+
+# Bit for bit when the film encoding allows (issue 41, 4: parts above ~100 iterations and
+# checkpoint read-backs round sums to 48 bits, ~1e-15 relative, being fixed apart); else
+# within farm_compare's tolerance (1e-5 of the image mean), and it says so.
+compare_films() { # farm, reference, iteration set
+  "$compare" --exact "$1" "$2" "$3" >"$tmp/exact.out" && { cat "$tmp/exact.out"; return 0; }
+  cat "$tmp/exact.out"
+  echo "not bit for bit (the film encoding's 48-bit sums, issue 41 item 4): within farm_compare's tolerance?"
+  "$compare" "$1" "$2" "$3"
 }
 
 # Iterations the workers say they rendered of `job` (their log lines "lease ...: rendered N
@@ -393,7 +403,7 @@ soak)
 soak_stalls)
   [ -x "$peer" ] || fail "soak_stalls needs FARM_PEER"
   soak_seconds="${SOAK_SECONDS:-40}"
-  iterations="${SOAK_ITERATIONS:-1200}"
+  iterations="${SOAK_ITERATIONS:-800}"
   time_limit="${SOAK_TIME_LIMIT:-30}"
   seed=${SOAK_SEED:-$$}
   RANDOM=$seed
@@ -410,8 +420,10 @@ soak_stalls)
   timed=$(client submit cornell -R 64x64 --seed 7 --time "$time_limit" | tail -n 1)
   [ -n "$timed" ] || fail "submit printed no job id"
   declare -A worker_pid
+  # Slowed down so that the faults fall while both jobs render, at little CPU.
+  delay=${SOAK_ITERATION_DELAY:-100}
   for w in s1 s2 s3; do
-    start_worker "$w" --test-iteration-delay 40
+    start_worker "$w" --test-iteration-delay "$delay"
     worker_pid[$w]=$last_worker
   done
   restart_coordinator() {
@@ -452,7 +464,7 @@ soak_stalls)
     3) w="s$((RANDOM % 3 + 1))"
        kill -9 "${worker_pid[$w]}" 2>/dev/null
        wait "${worker_pid[$w]}" 2>/dev/null
-       start_worker "$w" --test-iteration-delay 40
+       start_worker "$w" --test-iteration-delay "$delay"
        worker_pid[$w]=$last_worker
        what="worker $w SIGKILLed" ;;
     4) w="s$((RANDOM % 3 + 1))"; t="$((1 + RANDOM % 3)).$((RANDOM % 10))"
@@ -467,7 +479,7 @@ soak_stalls)
       eval 'progressed '"$counted"' '"${base_c:-0}"' && progressed '"$timed"' '"${base_t:-0}"
   done
   echo "soak_stalls: $faults faults${fault_log}"
-  wait_until 240 "job $counted to end" eval 'is_state '"$counted"' done || is_state '"$counted"' failed'
+  wait_until "${SOAK_END_WAIT:-240}" "job $counted to end" eval 'is_state '"$counted"' done || is_state '"$counted"' failed'
   wait_until 120 "job $timed to end" eval 'is_state '"$timed"' done || is_state '"$timed"' failed'
   for j in "$counted" "$timed"; do
     is_state "$j" done || fail "job $j is $(state_of "$j"): $(message_of "$j")"
@@ -476,7 +488,7 @@ soak_stalls)
   client fetch "$counted" -o "$tmp/farm.exr" || fail "fetch failed"
   "$vcmfarm" render cornell --direct -n "$iterations" -R 64x64 --seed 7 -j 1 -q -o "$tmp/reference.exr" ||
     fail "reference render failed"
-  "$compare" "$tmp/farm.exr" "$tmp/reference.exr" "[0,$iterations)" || fail "the soaked film differs from the reference"
+  compare_films "$tmp/farm.exr" "$tmp/reference.exr" "[0,$iterations)" || fail "the soaked film differs from the reference"
   check_film_set "$timed" cornell 64x64
   echo "ok   soak_stalls: $faults faults; no job failed; both films equal --direct of their iterations"
   ;;
