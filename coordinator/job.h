@@ -143,7 +143,8 @@ int vf_job_log(vf_job *job);
 /* Checks the stop conditions other than the iterations, measuring when a target error
  * needs it; when one holds the job is marked stopped (vf_job_finish) with the reason in
  * job->stop and, as a sentence, job->message, and 1 is returned, else 0 (or a negative
- * error of vf_job_measure). */
+ * error of vf_job_measure). The time limit holds only once job->time_up is set: reaching
+ * it closes the job first, for its workers' final parts (coordinator/deadline.h). */
 int vf_job_check_stop(vf_job *job);
 
 /* Marks the job ended at Unix time `at` for `why`: cancelled, failed (with the message),

@@ -37,7 +37,7 @@ except Exception:
 for n in "$@"; do
   tmp=$(mktemp -d /tmp/vf-deadline-loss-XXXXXX)
   key="$tmp/farm.key" url="ipc://$tmp/coordinator.sock"
-  "$vcmfarm" keygen "$key" >/dev/null
+  "$vcmfarm" keygen "$key" >/dev/null 2>&1
   "$vcmfarm" coordinator --listen "$url" --state "$tmp/state" --secret "$key" >"$tmp/coordinator.log" 2>&1 &
   pids=($!)
   for _ in $(seq 100); do [ -S "$tmp/coordinator.sock" ] && break; sleep 0.1; done
@@ -66,6 +66,6 @@ for n in "$@"; do
   wait 2>/dev/null
   awk -v m="$mode" -v n="$n" -v r="$rendered" -v f="${film:-0}" -v st="$state" -v s="${seconds:-?}" 'BEGIN {
     printf "%s %2d workers: %6d rendered, %6d in the film, %5d lost (%.2f%%); job %s after %s s\n",
-      m, n, r, f, r - f, r > 0 ? 100 * (r - f) / r : 0, st, s }'
+      m, n, r, f, r - f, (r > 0 ? 100 * (r - f) / r : 0), st, s }'
   [ -n "${KEEP_TMP:-}" ] || rm -rf "$tmp"
 done

@@ -4,7 +4,7 @@
  *
  * Run while the coordinator at URL has one queued job and no worker. Sends frames under
  * another key (answered with the fixed refusal within a budget of bytes a second), frames
- * of other protocol versions (9, and 7 in its own layout), garbage, a
+ * of other protocol versions (ours + 1, 8, and 7 in its own layout), garbage, a
  * frame whose header claims an oversized payload, raw bytes below the nanomsg protocol
  * (ipc:// only); captured Register, LeaseRequest and SubmitJob frames sent again, requests
  * sent too long ago or ahead, a ciphertext altered; and then, as
@@ -146,12 +146,25 @@ static void test_frames(const char *url, const vf_wire_key *key) {
   vf_message_free(answer);
   if (n >= 0) nn_freemsg(reply);
 
+  /* Version 8: a peer from before leases carried their job's deadline. */
+  f = hand_sealed(key->bytes, 8, now, payload, plen, plen, &len, &stamp);
+  n = raw_exchange(url, f, len, 5000, &reply);
+  free(f);
+  answer = NULL;
+  ok = n >= 0 && vf_message_unpack(key, &stamp, reply, (size_t)n, &answer, NULL) == VF_OK &&
+       answer->body_case == VCMFARM__ENVELOPE__BODY_ERROR && answer->error->code == VCMFARM__ERROR_CODE__ERROR_VERSION &&
+       strstr(answer->error->message, "peer speaks protocol version 8, this vcmfarm speaks version 9");
+  if (ok) printf("     coordinator says: %s\n", answer->error->message);
+  expect(ok, "a version-8 frame is refused, naming both versions");
+  vf_message_free(answer);
+  if (n >= 0) nn_freemsg(reply);
+
   f = legacy_frame(key->bytes, 7, payload, plen, &len);
   n = raw_exchange(url, f, len, 5000, &reply);
   free(f);
-  ok = n >= 44 && memcmp(reply, "VCMF", 4) == 0 && ((uint8_t *)reply)[7] == 8 &&
+  ok = n >= 44 && memcmp(reply, "VCMF", 4) == 0 && ((uint8_t *)reply)[7] == VF_PROTOCOL_VERSION &&
        crypto_auth_verify((uint8_t *)reply + n - 32, reply, (size_t)n - 32, key->bytes) == 0;
-  expect(ok, "a version-7 frame is answered in the version-7 layout, saying version 8 (so a version-7 peer reports it)");
+  expect(ok, "a version-7 frame is answered in the version-7 layout, saying our version (so a version-7 peer reports it)");
   if (n >= 0) nn_freemsg(reply);
 
   uint8_t garbage[200];
