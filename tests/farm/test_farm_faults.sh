@@ -23,7 +23,7 @@
 #                 (15 s) and lease duration while 3 workers hold leases of a job: nobody is
 #                 lost, no lease fails, the job ends done, equal to --direct (issue 41, 1).
 #   gate_congestion  over tcp://, a peer without the key holds the gate's large-message
-#                 budget full for 8 s while 3 workers ship their leases' parts (worker
+#                 budget full for 8 s while 3 workers ship their leases' parts of 192x192 (worker
 #                 timeout 3 s): they keep beating, nobody is lost, no lease fails, the job
 #                 ends done, equal to --direct (issue 41, 2).
 #   deadline      a job of --time 4 on one worker with the default lease duration and ship
@@ -192,8 +192,8 @@ gate_congestion)
   use_tcp
   start_coordinator --worker-timeout 3 --max-in-flight 16
   wait_until 10 "the coordinator to listen" grep -q "tcp: port [1-9]" "$tmp/coordinator.log"
-  # 256x256: a part is one message of about a megabyte, in the gate's large lane.
-  submit cornell 60 -R 256x256
+  # 192x192: a part is one message of about a megabyte, in the gate's large lane.
+  submit cornell 36 -R 192x192
   for w in g1 g2 g3; do start_worker "$w" --test-iteration-delay 100; done
   wait_until 60 "three workers to hold leases" eval '[ "$(busy_workers)" = 3 ]'
   # 5 requests of the cap (4.26 MB): 3 take the 16 MiB, the others wait, and so does
@@ -205,7 +205,7 @@ gate_congestion)
   is_state "$job" done || fail "job $job is $(state_of "$job"): $(message_of "$job")"
   no_lost_workers
   [ "$(event_count "$job" lease_failed)" = 0 ] || fail "leases failed on job $job"
-  check_film "$job" cornell 60 256x256
+  check_film "$job" cornell 36 192x192
   echo "ok   the gate held full for 8 s by a peer without the key: nobody lost, no lease failed; the film equals --direct"
   ;;
 deadline)
@@ -403,7 +403,7 @@ soak)
 soak_stalls)
   [ -x "$peer" ] || fail "soak_stalls needs FARM_PEER"
   soak_seconds="${SOAK_SECONDS:-40}"
-  iterations="${SOAK_ITERATIONS:-800}"
+  iterations="${SOAK_ITERATIONS:-600}"
   time_limit="${SOAK_TIME_LIMIT:-30}"
   seed=${SOAK_SEED:-$$}
   RANDOM=$seed
