@@ -75,6 +75,11 @@ void vf_farm_stalled(vf_farm *farm, double gap, double now) {
     double updated = vf_partial_updated(l->partial) + gap;
     vf_partial_touch(l->partial, updated < now ? updated : now);
   }
+  /* A closing job's grace period too: its final parts may be among what was queued. */
+  for (size_t i = 0; i < farm->num_jobs; i++) {
+    vf_job *j = farm->jobs[i];
+    if (j->closed_at > 0.0) j->closed_at = j->closed_at + gap < now ? j->closed_at + gap : now;
+  }
 }
 
 void vf_farm_tick(vf_farm *farm, double now) {

@@ -240,6 +240,31 @@ static void test_the_grace_period_bounds_the_wait(void) {
   vf_farm_destroy(&f.farm);
 }
 
+/* The coordinator paused through the whole grace period of a closing job: the final part
+ * that waited in its socket is read at the first tick, and must still be merged. */
+static void test_a_stall_extends_the_grace_period(void) {
+  fixture f;
+  setup(&f, 1000, 60.0, 1);
+  Vcmfarm__Lease l;
+  CHECK(lease_request(&f, 0, &l));
+  vf_job *job = job_of(&f);
+  job->seconds = 60.0;
+  tick(&f, 0.2);
+  CHECK(job->closed_at > 0.0);
+  f.now += 20.0; /* > the grace period of 15 s */
+  vf_farm_stalled(&f.farm, 19.8, f.now);
+  sender s;
+  CHECK(send_part(&f, 0, l.lease_id, l.begin, l.begin + 4, &s));
+  CHECK_STR_CONTAINS(s.message, "merged");
+  vf_farm_tick(&f.farm, f.now);
+  CHECK_INT_EQ(job->end, VF_JOB_ACTIVE);
+  release(&f, 0, l.lease_id);
+  tick(&f, 0.2);
+  CHECK_INT_EQ(job->end, VF_JOB_STOPPED);
+  CHECK_INT_EQ(vf_job_done(job), 4);
+  vf_farm_destroy(&f.farm);
+}
+
 static void test_a_job_at_its_limit_with_no_lease_stops_at_once(void) {
   fixture f;
   setup(&f, 1000, 60.0, 1);
@@ -313,6 +338,7 @@ int main(void) {
   RUN(test_a_lease_says_how_long_its_job_has_left);
   RUN(test_the_final_part_after_the_time_limit_is_merged);
   RUN(test_the_grace_period_bounds_the_wait);
+  RUN(test_a_stall_extends_the_grace_period);
   RUN(test_a_job_at_its_limit_with_no_lease_stops_at_once);
   RUN(test_a_stalled_coordinator_loses_nobody);
   RUN(test_a_silence_counts_against_a_worker_only_when_others_were_heard);
