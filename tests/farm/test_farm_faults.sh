@@ -409,8 +409,10 @@ soak_stalls)
   RANDOM=$seed
   echo "soak_stalls: $soak_seconds s of faults, a job of $iterations iterations and one of --time $time_limit, RANDOM seed $seed"
   use_tcp
-  # The default worker timeout (15 s), so that the 16 s pause outlasts it; leases of 5 s.
-  coordinator_options=(--lease-seconds 5 --forgive 2)
+  # The default worker timeout (15 s), so that the 16 s pause outlasts it; leases of 5 s;
+  # 16 MiB of large requests in flight, which 5 unfinished requests of the cap fill (the
+  # default 256 MiB takes 61 of them).
+  coordinator_options=(--lease-seconds 5 --forgive 2 --max-in-flight 16)
   start_coordinator "${coordinator_options[@]}"
   wait_until 10 "the coordinator to listen" grep -q "tcp: port [1-9]" "$tmp/coordinator.log"
   # 64x64: a part is a message of over 64 KiB, in the gate's large lane, which the
@@ -456,7 +458,8 @@ soak_stalls)
     0) pause "$coordinator" 16; what="coordinator paused 16 s" ;;
     1) "$peer" --congest "$url" 5 cap "$((4 + RANDOM % 5))" >>"$tmp/congest.out" 2>&1 || fail "the congesting peer failed"
        held=$(tail -n 1 "$tmp/congest.out")
-       what="gate congested for ${held##*holding }" ;;
+       unread=${held##*MB sent, }
+       what="gate congested for ${held##*holding } (${unread%% waiting*} of 5 requests waiting unread)" ;;
     2) kill -9 "$coordinator" 2>/dev/null
        wait "$coordinator" 2>/dev/null
        restart_coordinator
@@ -479,6 +482,7 @@ soak_stalls)
       eval 'progressed '"$counted"' '"${base_c:-0}"' && progressed '"$timed"' '"${base_t:-0}"
   done
   echo "soak_stalls: $faults faults${fault_log}"
+  grep -q "[1-9][0-9]* waiting unread" "$tmp/congest.out" || fail "the congestion never filled the gate's budget"
   wait_until "${SOAK_END_WAIT:-240}" "job $counted to end" eval 'is_state '"$counted"' done || is_state '"$counted"' failed'
   wait_until 120 "job $timed to end" eval 'is_state '"$timed"' done || is_state '"$timed"' failed'
   for j in "$counted" "$timed"; do
