@@ -483,6 +483,10 @@ soak_stalls)
   done
   echo "soak_stalls: $faults faults${fault_log}"
   grep -q "[1-9][0-9]* waiting unread" "$tmp/congest.out" || fail "the congestion never filled the gate's budget"
+  # Every silence of the soak is excused (the coordinator's pauses, a congested gate) or
+  # shorter than the worker timeout (a worker's pauses); killed workers come back under
+  # their names at once. So no worker may be lost to silence, whatever else happened.
+  ! grep "lost (silent for" "$tmp/coordinator.log" || fail "workers were lost to silence"
   wait_until "${SOAK_END_WAIT:-240}" "job $counted to end" eval 'is_state '"$counted"' done || is_state '"$counted"' failed'
   wait_until 120 "job $timed to end" eval 'is_state '"$timed"' done || is_state '"$timed"' failed'
   for j in "$counted" "$timed"; do
