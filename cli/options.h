@@ -121,7 +121,9 @@ typedef struct {
   "  -n, --iterations N       at most N iterations (default 16; none when a time or a\n"    \
   "                           target ends the render)\n"                                      \
   "  -t, --time S             stop after S seconds of wall-clock time: no iteration starts\n" \
-  "                           later (a farm job counts them from its first lease)\n"          \
+  "                           later (a farm job counts them from its first lease; its\n"      \
+  "                           workers then ship what they rendered, which is merged before\n" \
+  "                           the job stops: nothing rendered is lost)\n"                    \
   "      --reference REF      reference image (a film or an RGB EXR of the same size):\n"     \
   "                           the convergence log records the RMSE against it\n"              \
   "      --target-rmse X      stop once the RMSE against the reference is at most X\n"        \

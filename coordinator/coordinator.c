@@ -29,6 +29,12 @@
 #include <uv.h>
 
 #define TICK_MS 200
+/* A tick later than its period by more than this is a stall of the coordinator itself
+ * (SIGSTOP, a paused VM, swapping, a debugger, a long blocking call on the loop). */
+#define STALL_SECONDS 1.0
+/* At most this many requests read at a tick before anyone is expired (bounded: a tick
+ * must end); what a stall left queued is normally far less. */
+#define DRAIN_MAX 4096
 #define STOP_CHECK_MS 10
 #define COLLECT_SECONDS 3600.0
 #define MESSAGES_PER_WAKEUP 32
@@ -62,6 +68,7 @@ typedef struct {
   char gate_url[4200];
   double checkpoint_interval, last_checkpoint;
   double last_collect;  /* of blobs no job names (coordinator/blobs.h) */
+  double last_tick_at;  /* vf_seconds_now() of the last tick, 0 before the first */
   volatile sig_atomic_t *stop; /* the caller's stop flag, or NULL */
   /* Replies waiting for room to be sent, oldest first, owned (rarely more than one: a raw
    * REP socket drops a reply its peer's pipe cannot take rather than refuse it). */
@@ -270,9 +277,11 @@ static void serve(coordinator *c, const uint8_t *frame, size_t len, void *contro
   c->farm.loop_busy += vf_seconds_now() - t0;
 }
 
-static void on_readable(uv_poll_t *handle, int status, int events) {
-  coordinator *c = handle->data;
-  for (int i = 0; i < MESSAGES_PER_WAKEUP && c->pending == NULL; i++) {
+/* Serves up to `max` requests waiting on the socket (fewer when a reply must wait for
+ * room). Returns how many were read. */
+static int receive(coordinator *c, int max) {
+  int i = 0;
+  for (; i < max && c->pending == NULL; i++) {
     void *buf = NULL, *control = NULL;
     struct nn_iovec iov = {&buf, NN_MSG};
     struct nn_msghdr hdr = {&iov, 1, &control, NN_MSG};
@@ -280,7 +289,7 @@ static void on_readable(uv_poll_t *handle, int status, int events) {
     if (n < 0) {
       int e = nn_errno();
       if (e != EAGAIN && e != EINTR) vf_log("receive: %s", nn_strerror(e));
-      return;
+      return i;
     }
     if (control == NULL) { /* a raw REP socket always gives the backtrace; without it, no answer can go */
       nn_freemsg(buf);
@@ -289,7 +298,10 @@ static void on_readable(uv_poll_t *handle, int status, int events) {
     serve(c, buf, (size_t)n, control);
     nn_freemsg(buf);
   }
+  return i;
 }
+
+static void on_readable(uv_poll_t *handle, int status, int events) { receive(handle->data, MESSAGES_PER_WAKEUP); }
 
 static void on_stop_check(uv_timer_t *timer) {
   coordinator *c = timer->data;
@@ -301,6 +313,14 @@ static void on_stop_check(uv_timer_t *timer) {
 static void on_tick(uv_timer_t *timer) {
   coordinator *c = timer->data;
   double now = vf_seconds_now();
+  /* libuv runs due timers before it polls for I/O: after a stall this tick comes first,
+   * with the workers' heartbeats of meanwhile still unread. The silence was ours, not
+   * theirs: the gap is excused (vf_farm_stalled), and what is queued is read before
+   * anyone is expired. */
+  double gap = c->last_tick_at > 0.0 ? now - c->last_tick_at - TICK_MS / 1000.0 : 0.0;
+  c->last_tick_at = now;
+  if (gap > STALL_SECONDS) vf_farm_stalled(&c->farm, gap, now);
+  if (receive(c, DRAIN_MAX) > 0) now = vf_seconds_now();
   vf_farm_expire(&c->farm, now);
   vf_farm_tick(&c->farm, now);
   if (c->pending != NULL && now - c->pending_since > REPLY_GIVE_UP_SECONDS) {

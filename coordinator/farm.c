@@ -1,9 +1,13 @@
 #include "farm.h"
 
+#include "../common/clock.h"
 #include "blobs.h"
 #include "checkpoint.h"
+#include "deadline.h"
 #include "jobs.h"
 #include "leases.h"
+#include "log.h"
+#include "partial.h"
 #include "poison.h"
 #include "results.h"
 #include "ship.h"
@@ -59,6 +63,25 @@ int vf_farm_expire(vf_farm *farm, double now) {
   return vf_workers_expire(farm, now);
 }
 
+void vf_farm_stalled(vf_farm *farm, double gap, double now) {
+  vf_log("the coordinator was stalled for %.1f s (paused, swapped out or blocked): the workers' silence meanwhile "
+         "is excused, and their leases extended by it", gap);
+  vf_events_add(&farm->events, vf_unix_now(), "coordinator_stalled", 0, "",
+                "the coordinator was stalled for %.1f s; its workers' leases were extended by it", gap);
+  vf_workers_excuse(farm, gap, now);
+  for (size_t i = 0; i < farm->leases.count; i++) {
+    vf_lease *l = &farm->leases.leases[i];
+    if (l->partial == NULL) continue;
+    double updated = vf_partial_updated(l->partial) + gap;
+    vf_partial_touch(l->partial, updated < now ? updated : now);
+  }
+  /* A closing job's grace period too: its final parts may be among what was queued. */
+  for (size_t i = 0; i < farm->num_jobs; i++) {
+    vf_job *j = farm->jobs[i];
+    if (j->closed_at > 0.0) j->closed_at = j->closed_at + gap < now ? j->closed_at + gap : now;
+  }
+}
+
 void vf_farm_tick(vf_farm *farm, double now) {
   double dt = farm->last_tick > 0.0 ? now - farm->last_tick : 0.0;
   farm->last_tick = now;
@@ -69,7 +92,7 @@ void vf_farm_tick(vf_farm *farm, double now) {
     if (!vf_job_runnable(j)) continue;
     /* Running from its first lease: a queued job's clock has not started. */
     if (vf_job_done(j) > 0 || vf_lease_active_iterations(&farm->leases, j->id) > 0) j->seconds += dt;
-    if (j->time_limit > 0.0 && vf_job_check_stop(j) == 1) vf_jobs_finish(farm, j, now);
+    if (j->time_limit > 0.0) vf_deadline_tick(farm, j, now);
   }
 }
 

@@ -26,9 +26,18 @@ void vf_farm_handle(vf_farm *farm, const Vcmfarm__Envelope *request, double now,
  * leases to the pool (vf_workers_expire). Returns the number of workers lost. */
 int vf_farm_expire(vf_farm *farm, double now);
 
-/* Advances the running time of every running job to `now` and finishes those whose time
- * limit it reaches (revoking their leases, writing their film and the job list). Call it
- * often (the coordinator does every 200 ms): a time limit is honoured to one call. */
+/* The coordinator itself was stalled for `gap` seconds up to `now` (its loop's ticks
+ * stopped: SIGSTOP, a paused VM, swapping): nobody could be heard meanwhile, so the
+ * workers' silence is excused by it (their last sign of life, the parts being received
+ * and the grace period of a closing job, coordinator/deadline.h, move `gap` later, never
+ * past now) and nobody is lost for it. Logged, and an event of the farm. */
+void vf_farm_stalled(vf_farm *farm, double gap, double now);
+
+/* Advances the running time of every running job to `now`, closes those whose time limit
+ * it reaches and stops them once their leases' final parts are in or the grace period is
+ * over (coordinator/deadline.h: revoking what is left, writing their film and the job
+ * list). Call it often (the coordinator does every 200 ms): a time limit is honoured to
+ * one call. */
 void vf_farm_tick(vf_farm *farm, double now);
 
 /* The farm's checkpoint: vf_checkpoint_write (coordinator/checkpoint.h). */

@@ -290,7 +290,7 @@ void vf_job_restore_measure(vf_job *job) {
 int vf_job_check_stop(vf_job *job) {
   if (job->end != VF_JOB_ACTIVE || vf_job_complete(job)) return 0;
   char text[256];
-  if (job->time_limit > 0.0 && job->seconds >= job->time_limit) {
+  if (job->time_limit > 0.0 && job->seconds >= job->time_limit && job->time_up) {
     snprintf(text, sizeof text, "time limit of %g s reached", job->time_limit);
     vf_job_finish(job, VF_STOP_TIME, vf_unix_now(), text);
     return 1;

@@ -86,6 +86,11 @@ typedef struct {
   double rate;          /* iterations per second of one worker on this job, smoothed; 0 unknown */
   double last_merge_time;
   double seconds;       /* running so far: wall-clock seconds since its first lease */
+  /* Its time limit (coordinator/deadline.h): vf_seconds_now() when the job closed (its
+   * leases deliver their final parts), 0 before; time_up once they have, or the grace
+   * period is over: only then does the time limit stop it (vf_job_check_stop). */
+  double closed_at;
+  int time_up;
   double seconds_saved; /* `seconds` as last written to state.json */
   struct {
     double time;
@@ -138,7 +143,8 @@ int vf_job_log(vf_job *job);
 /* Checks the stop conditions other than the iterations, measuring when a target error
  * needs it; when one holds the job is marked stopped (vf_job_finish) with the reason in
  * job->stop and, as a sentence, job->message, and 1 is returned, else 0 (or a negative
- * error of vf_job_measure). */
+ * error of vf_job_measure). The time limit holds only once job->time_up is set: reaching
+ * it closes the job first, for its workers' final parts (coordinator/deadline.h). */
 int vf_job_check_stop(vf_job *job);
 
 /* Marks the job ended at Unix time `at` for `why`: cancelled, failed (with the message),

@@ -3,6 +3,7 @@
 #include "../common/clock.h"
 #include "../common/error.h"
 #include "blobs.h"
+#include "deadline.h"
 #include "log.h"
 #include "poison.h"
 #include "schedule.h"
@@ -70,7 +71,7 @@ static int has_free_range(void *ctx, const vf_job *j) {
   pick_ctx *p = ctx;
   vf_farm *farm = p->farm;
   uint64_t b, e, free_count;
-  if (!vf_job_runnable(j) ||
+  if (!vf_job_runnable(j) || vf_deadline_reached(j) ||
       vf_lease_free_range(&farm->leases, j->id, &j->film->iterations, j->first, j->iterations, 1, &b, &e,
                           &free_count) != 1)
     return 0;
@@ -99,6 +100,7 @@ static void fill_lease(const vf_farm *farm, vf_job *job, uint64_t lease_id, uint
   r->lease.begin = b;
   r->lease.end = e;
   r->lease.ship_interval_ms = vf_ship_interval_ms(farm);
+  r->lease.deadline_ms = vf_deadline_lease_ms(job);
   r->env.body_case = VCMFARM__ENVELOPE__BODY_LEASE;
   r->env.lease = &r->lease;
 }
@@ -169,6 +171,8 @@ void vf_leases_heartbeat(vf_farm *farm, vf_farm_worker *w, const Vcmfarm__Heartb
       if (job->rate <= 0.0) job->rate = rate;
     }
   }
+  /* The job's time limit is reached: its final part now (coordinator/deadline.h). */
+  r->heartbeat_ack.deliver_now = r->heartbeat_ack.lease_valid && vf_deadline_reached(job);
   r->heartbeat_ack.ship_interval_ms = vf_ship_interval_ms(farm);
   r->env.body_case = VCMFARM__ENVELOPE__BODY_HEARTBEAT_ACK;
   r->env.heartbeat_ack = &r->heartbeat_ack;

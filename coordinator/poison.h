@@ -1,7 +1,11 @@
-/* Poison jobs and the blocklist (docs/PROTOCOL.md, "Poison jobs"). A lease fails when the
- * worker holding it reports that it cannot render the job (LeaseRelease.failure), or when
- * the worker is lost (silent for the worker timeout) or comes back under the same name
- * (it crashed and was restarted) before any part of that lease was merged. A failed lease:
+/* Poison jobs and the blocklist (docs/PROTOCOL.md, "Poison jobs"). A lease fails only for
+ * what is the worker's doing: when the worker holding it reports that it cannot render
+ * the job (LeaseRelease.failure), or when, before any part of that lease was merged, the
+ * worker comes back under the same name (it crashed and was restarted) or is lost (silent
+ * for the worker timeout) while other workers were heard (coordinator/workers.h). A
+ * coordinator's own stall (vf_farm_stalled), a silence of every worker at once (the
+ * coordinator cut off), a result waiting at the gate or a time limit fail no lease. A
+ * failed lease:
  *
  *   - puts its worker on the job's blocklist for the forgive time (--forgive): that worker
  *     is not handed the job again until then (workers are known by name, so a restarted

@@ -30,12 +30,16 @@ static void copy_text(char *dst, size_t n, const char *src) {
 static void depart(vf_farm *farm, size_t i, vf_worker_state state);
 
 /* The worker's lease ends with the worker gone: a failure of the lease when no part of it
- * was merged (coordinator/poison.h), else it only returns to the pool. */
-static void lose_lease(vf_farm *farm, vf_farm_worker *w, vf_lease *l, const char *why, double now) {
+ * was merged and the loss is the worker's own (`blame`, coordinator/poison.h), else it
+ * only returns to the pool. */
+static void lose_lease(vf_farm *farm, vf_farm_worker *w, vf_lease *l, const char *why, int blame, double now) {
   uint64_t job_id = l->job_id;
   int progress = l->begin != l->first;
   vf_leases_end(farm, l, 1, now);
-  if (!progress) vf_poison_lease_failed(farm, job_id, w->name, why, now);
+  if (!progress && blame) vf_poison_lease_failed(farm, job_id, w->name, why, now);
+  else if (!progress)
+    vf_log("job %llu: the lease of worker %s is not counted as failed: no worker was heard in its silence, so it was "
+           "the coordinator's (its network, or a stall) rather than the worker's", (unsigned long long)job_id, w->name);
 }
 
 /* A worker registering under the name of one still registered is that worker restarted:
@@ -59,7 +63,7 @@ static void replace_restarted(vf_farm *farm, const char *name, double now) {
         vf_events_add(&job->events, at, "worker_lost", job->id, old->name,
                       "worker %s restarted while holding lease [%llu,%llu), which returns to the pool", old->name,
                       (unsigned long long)l->begin, (unsigned long long)l->end);
-      lose_lease(farm, old, l, "it restarted (crashed?) while holding the lease", now);
+      lose_lease(farm, old, l, "it restarted (crashed?) while holding the lease", 1, now);
     } else {
       vf_log("worker %s registered again: the earlier one is lost", old->name);
     }
@@ -129,8 +133,20 @@ const vf_farm_worker *vf_workers_departed(const vf_farm *farm, unsigned i) {
   return &farm->departed[(farm->departed_next + VF_FARM_DEPARTED - farm->num_departed + i) % VF_FARM_DEPARTED];
 }
 
+void vf_workers_excuse(vf_farm *farm, double gap, double now) {
+  for (size_t i = 0; i < farm->num_workers; i++) {
+    vf_farm_worker *w = &farm->workers[i];
+    w->last_seen = w->last_seen + gap < now ? w->last_seen + gap : now;
+  }
+}
+
 int vf_workers_expire(vf_farm *farm, double now) {
   int lost = 0;
+  /* The latest sign of life of any worker, before anyone is removed: a worker is to blame
+   * for its silence only when others were heard well into it. */
+  double latest = 0.0;
+  for (size_t i = 0; i < farm->num_workers; i++)
+    if (farm->workers[i].last_seen > latest) latest = farm->workers[i].last_seen;
   for (size_t i = 0; i < farm->num_workers;) {
     vf_farm_worker *w = &farm->workers[i];
     if (now - w->last_seen <= farm->config.worker_timeout) {
@@ -138,6 +154,7 @@ int vf_workers_expire(vf_farm *farm, double now) {
       continue;
     }
     double at = vf_unix_now(), silent = now - w->last_seen;
+    int blame = latest - w->last_seen >= VF_WORKERS_HEARD_FRACTION * farm->config.worker_timeout;
     vf_lease *l = vf_lease_find(&farm->leases, w->lease_id);
     if (l) {
       vf_log("worker %s lost (silent for %.1f s); lease %016llx of job %llu [%llu,%llu) returns to the pool", w->name,
@@ -150,7 +167,7 @@ int vf_workers_expire(vf_farm *farm, double now) {
                       w->name, silent, (unsigned long long)l->begin, (unsigned long long)l->end);
       char why[96];
       snprintf(why, sizeof why, "lost after %.1f s of silence while holding the lease", silent);
-      lose_lease(farm, w, l, why, now);
+      lose_lease(farm, w, l, why, blame, now);
     } else {
       vf_log("worker %s lost (silent for %.1f s)", w->name, silent);
     }

@@ -18,10 +18,21 @@
  * is lost at once, and its lease, if no part of it was merged, failed (coordinator/poison.h). */
 void vf_workers_register(vf_farm *farm, const Vcmfarm__Register *m, double now, vf_farm_reply *r);
 
+/* A worker's silence is its own (counts as a failed lease, coordinator/poison.h) only when
+ * another worker was heard at least this fraction of the worker timeout after it fell
+ * silent. When all fall silent together the coordinator is the one cut off (its network,
+ * a stall it could not see), and blaming every worker would fail a healthy job. */
+#define VF_WORKERS_HEARD_FRACTION 0.5
+
 /* Declares the workers silent for longer than the worker timeout lost and returns their
  * leases to the pool (kept as expired, for their late results); a lease of which no part
- * was merged failed (coordinator/poison.h). Returns how many. */
+ * was merged failed (coordinator/poison.h) when the silence is the worker's own (above).
+ * Returns how many. */
 int vf_workers_expire(vf_farm *farm, double now);
+
+/* The coordinator was stalled for `gap` seconds: every registered worker's last sign of
+ * life moves that much later (never past now), as if heard at the same pace meanwhile. */
+void vf_workers_excuse(vf_farm *farm, double gap, double now);
 
 /* Goodbye -> ResultAck: stopping (done false) or left (done true; the worker is departed
  * and its pointer invalid afterwards). */

@@ -27,6 +27,7 @@ struct vf_heartbeat {
   atomic_uint_fast64_t iterations_done;
   _Atomic double seconds;
   atomic_int revoked;
+  atomic_int deliver_now;
   atomic_uint ship_interval_ms;
 };
 
@@ -92,6 +93,9 @@ static void *beat(void *arg) {
                   (reply->body_case == VCMFARM__ENVELOPE__BODY_ERROR &&
                    reply->error->code == VCMFARM__ERROR_CODE__ERROR_UNKNOWN_WORKER);
     if (invalid && hb->generation == generation) atomic_store(&hb->revoked, 1);
+    if (reply->body_case == VCMFARM__ENVELOPE__BODY_HEARTBEAT_ACK && reply->heartbeat_ack->lease_valid &&
+        reply->heartbeat_ack->deliver_now && hb->generation == generation)
+      atomic_store(&hb->deliver_now, 1);
     if (reply->body_case == VCMFARM__ENVELOPE__BODY_HEARTBEAT_ACK && reply->heartbeat_ack->ship_interval_ms > 0)
       atomic_store(&hb->ship_interval_ms, reply->heartbeat_ack->ship_interval_ms);
     vf_message_free(reply);
@@ -146,6 +150,7 @@ void vf_heartbeat_set_lease(vf_heartbeat *hb, uint64_t worker_id, uint64_t lease
   atomic_store(&hb->iterations_done, 0);
   atomic_store(&hb->seconds, 0.0);
   atomic_store(&hb->revoked, 0);
+  atomic_store(&hb->deliver_now, 0);
   pthread_cond_signal(&hb->wake);
   pthread_mutex_unlock(&hb->lock);
 }
@@ -164,5 +169,7 @@ void vf_heartbeat_progress(vf_heartbeat *hb, uint64_t iterations_done, double se
 }
 
 int vf_heartbeat_revoked(vf_heartbeat *hb) { return atomic_load(&hb->revoked); }
+
+int vf_heartbeat_deliver_now(vf_heartbeat *hb) { return atomic_load(&hb->deliver_now); }
 
 uint32_t vf_heartbeat_ship_interval_ms(vf_heartbeat *hb) { return atomic_load(&hb->ship_interval_ms); }

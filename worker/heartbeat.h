@@ -24,13 +24,18 @@ int vf_heartbeat_start(const char *url, const vf_wire_key *key, volatile sig_ato
 /* Stops and joins the thread; NULL is a no-op. */
 void vf_heartbeat_stop(vf_heartbeat *hb);
 
-/* Beats every interval_ms for this lease until vf_heartbeat_clear_lease. */
+/* Beats every interval_ms for this lease until vf_heartbeat_clear_lease: the worker
+ * clears it only once the lease's last part is shipped and the rest handed back, so that
+ * a part waiting to be taken (a busy coordinator, a congested gate) never silences it. */
 void vf_heartbeat_set_lease(vf_heartbeat *hb, uint64_t worker_id, uint64_t lease_id, int interval_ms);
 void vf_heartbeat_clear_lease(vf_heartbeat *hb);
 /* Progress of the current lease, sent with the next beat. Any thread. */
 void vf_heartbeat_progress(vf_heartbeat *hb, uint64_t iterations_done, double seconds);
 /* 1 once the coordinator said the current lease is no longer valid. Any thread. */
 int vf_heartbeat_revoked(vf_heartbeat *hb);
+/* 1 once the coordinator said the lease's job reached its time limit (protocol 9): stop
+ * after this iteration, ship what is rendered, hand back the rest. Any thread. */
+int vf_heartbeat_deliver_now(vf_heartbeat *hb);
 
 /* The ship interval of the coordinator's latest HeartbeatAck, in milliseconds; 0 none yet
  * (protocol 7). */

@@ -54,6 +54,8 @@ typedef struct {
   double shipped_at;   /* vf_render_status.seconds of the last part's end, this lease */
   double ship_cost;    /* seconds the last part took to ship (kept across leases) */
   int part_merged;     /* the last acknowledgement said the part was merged */
+  double deadline;     /* vf_seconds_now() at which the lease's job reaches its time limit; 0 none */
+  int at_deadline;     /* rendering stopped for the job's time limit */
   int dropped;         /* a part was refused or could not be sent: stop, send nothing more */
   /* test hooks */
   int iteration_delay_ms;
@@ -192,6 +194,11 @@ static void on_progress(void *ctx, const vf_render_status *st) {
     }
   }
   if (vf_heartbeat_revoked(w->heartbeat) || *w->terminating) w->render_stop = 1;
+  /* The job's time limit (protocol 9): what is rendered goes out as the final part. */
+  if ((w->deadline > 0.0 && vf_seconds_now() >= w->deadline) || vf_heartbeat_deliver_now(w->heartbeat)) {
+    w->render_stop = 1;
+    w->at_deadline = 1;
+  }
   /* A lease bounded by time (its rate was unknown): ship what is rendered, hand back the rest. */
   if (w->lease && w->lease->seconds_ms > 0 && st->seconds >= w->lease->seconds_ms / 1000.0) w->render_stop = 1;
 }
@@ -312,6 +319,9 @@ static int ship_part(void *ctx, vf_film *film, const vf_render_status *st) {
 }
 
 static void run_lease(worker *w, const Vcmfarm__Lease *l) {
+  /* On our clock from now: the lease left the coordinator moments ago. */
+  w->deadline = l->deadline_ms > 0 ? vf_seconds_now() + l->deadline_ms / 1000.0 : 0.0;
+  w->at_deadline = 0;
   vf_settings settings;
   const char *bad = NULL;
   if (l->scene == NULL || l->scene->source_case == VCMFARM__SCENE__SOURCE__NOT_SET) bad = "no scene";
@@ -349,8 +359,12 @@ static void run_lease(worker *w, const Vcmfarm__Lease *l) {
   memset(&st, 0, sizeof st);
   err = vf_render_range(w->renderer, film, l->begin, l->end, &control, &st);
   int revoked = vf_heartbeat_revoked(w->heartbeat);
-  vf_heartbeat_clear_lease(w->heartbeat);
   uint64_t rendered = l->begin + st.iterations_done;
+  note(w, "lease %016llx: rendered %llu iteration%s of job %llu [%llu,%llu)%s", (unsigned long long)l->lease_id,
+       (unsigned long long)st.iterations_done, st.iterations_done == 1 ? "" : "s", (unsigned long long)l->job_id,
+       (unsigned long long)l->begin, (unsigned long long)rendered, w->at_deadline ? " (the job's time limit)" : "");
+  /* The heartbeat goes on until the last part is shipped and the rest handed back: a part
+   * waiting at a congested gate or a busy coordinator must not make us look lost. */
   if (err != VF_OK) {
     release_lease(w, l->lease_id, vf_error_detail(err));
   } else if (revoked) {
@@ -359,7 +373,10 @@ static void run_lease(worker *w, const Vcmfarm__Lease *l) {
     /* What is rendered is shipped, also when stopping early (SIGTERM): then the rest of
      * the lease is handed back. */
     if (vf_iterset_count(&film->iterations) > 0) {
-      if (w->stall_file && !w->stalled) stall(w);
+      if (w->stall_file && !w->stalled) { /* a hung worker (test): silent, heartbeat too */
+        vf_heartbeat_clear_lease(w->heartbeat);
+        stall(w);
+      }
       ship(w, film);
     }
     if (!w->dropped && rendered < l->end) release_lease(w, l->lease_id, "");
@@ -367,6 +384,7 @@ static void run_lease(worker *w, const Vcmfarm__Lease *l) {
       note(w, "job %llu [%llu,%llu): merged", (unsigned long long)l->job_id, (unsigned long long)l->begin,
                (unsigned long long)l->end);
   }
+  vf_heartbeat_clear_lease(w->heartbeat);
   w->lease = NULL;
   vf_film_destroy(film);
 }

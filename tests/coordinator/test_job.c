@@ -271,6 +271,10 @@ static void test_a_time_limit_stops_the_job(void) {
   CHECK_INT_EQ(job->stop, VF_STOP_NONE);
   CHECK_NEAR(job->ended_at, 0.0, 0.0);
   job->seconds = 5.0;
+  /* Reached, but the final parts of its leases are not in (coordinator/deadline.h). */
+  CHECK_INT_EQ(vf_job_check_stop(job), 0);
+  CHECK_INT_EQ(job->end, VF_JOB_ACTIVE);
+  job->time_up = 1;
   CHECK_INT_EQ(vf_job_check_stop(job), 1);
   CHECK_INT_EQ(job->end, VF_JOB_STOPPED);
   CHECK_INT_EQ(job->stop, VF_STOP_TIME);

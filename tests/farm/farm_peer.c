@@ -4,7 +4,7 @@
  *
  * Run while the coordinator at URL has one queued job and no worker. Sends frames under
  * another key (answered with the fixed refusal within a budget of bytes a second), frames
- * of other protocol versions (9, and 7 in its own layout), garbage, a
+ * of other protocol versions (ours + 1, 8, and 7 in its own layout), garbage, a
  * frame whose header claims an oversized payload, raw bytes below the nanomsg protocol
  * (ipc:// only); captured Register, LeaseRequest and SubmitJob frames sent again, requests
  * sent too long ago or ahead, a ciphertext altered; and then, as
@@ -15,6 +15,7 @@
  * Exit status 0 when every expectation held.
  *
  *   farm_peer --flood ...        what unfinished messages cost (flood, below)
+ *   farm_peer --congest ...      the gate's large-message budget held full for a while (congest)
  *   farm_peer --connections ...  how many connections the TCP gate serves (count_connections) */
 #include "common/clock.h"
 #include "common/error.h"
@@ -145,12 +146,25 @@ static void test_frames(const char *url, const vf_wire_key *key) {
   vf_message_free(answer);
   if (n >= 0) nn_freemsg(reply);
 
+  /* Version 8: a peer from before leases carried their job's deadline. */
+  f = hand_sealed(key->bytes, 8, now, payload, plen, plen, &len, &stamp);
+  n = raw_exchange(url, f, len, 5000, &reply);
+  free(f);
+  answer = NULL;
+  ok = n >= 0 && vf_message_unpack(key, &stamp, reply, (size_t)n, &answer, NULL) == VF_OK &&
+       answer->body_case == VCMFARM__ENVELOPE__BODY_ERROR && answer->error->code == VCMFARM__ERROR_CODE__ERROR_VERSION &&
+       strstr(answer->error->message, "peer speaks protocol version 8, this vcmfarm speaks version 9");
+  if (ok) printf("     coordinator says: %s\n", answer->error->message);
+  expect(ok, "a version-8 frame is refused, naming both versions");
+  vf_message_free(answer);
+  if (n >= 0) nn_freemsg(reply);
+
   f = legacy_frame(key->bytes, 7, payload, plen, &len);
   n = raw_exchange(url, f, len, 5000, &reply);
   free(f);
-  ok = n >= 44 && memcmp(reply, "VCMF", 4) == 0 && ((uint8_t *)reply)[7] == 8 &&
+  ok = n >= 44 && memcmp(reply, "VCMF", 4) == 0 && ((uint8_t *)reply)[7] == VF_PROTOCOL_VERSION &&
        crypto_auth_verify((uint8_t *)reply + n - 32, reply, (size_t)n - 32, key->bytes) == 0;
-  expect(ok, "a version-7 frame is answered in the version-7 layout, saying version 8 (so a version-7 peer reports it)");
+  expect(ok, "a version-7 frame is answered in the version-7 layout, saying our version (so a version-7 peer reports it)");
   if (n >= 0) nn_freemsg(reply);
 
   uint8_t garbage[200];
@@ -598,6 +612,50 @@ static int flood(const char *url, const vf_wire_key *key, int n, unsigned long l
   return alive && bounded ? 0 : 1;
 }
 
+/* Congestion by a peer without the key: `n` connections each announce a request of
+ * `claimed` bytes and send all of it but its last byte, so that the gate keeps its room
+ * reserved (coordinator/gate.h) and its large-message budget is full; held `seconds`,
+ * then closed. Workers' results wait at the gate meanwhile; their heartbeats must not.
+ * Prints what it sent; exit status 0 once the connections are closed.
+ *
+ *   farm_peer --congest URL CONNECTIONS CLAIMED_BYTES SECONDS */
+static int congest(const char *url, int n, unsigned long long claimed, double seconds) {
+  signal(SIGPIPE, SIG_IGN);
+  int tcp = strncmp(url, "tcp://", 6) == 0, unread = 0;
+  int *fds = calloc((size_t)n, sizeof *fds);
+  size_t block = 1 << 20;
+  uint8_t *junk = calloc(1, block);
+  if (fds == NULL || junk == NULL) return 2;
+  unsigned long long sent_total = 0;
+  double t0 = vf_seconds_now();
+  for (int i = 0; i < n; i++) {
+    if ((fds[i] = raw_connect(url)) < 0) return 2;
+    struct timeval tv = {1, 0};
+    setsockopt(fds[i], SOL_SOCKET, SO_SNDTIMEO, &tv, sizeof tv);
+    uint8_t hello[8] = {0, 'S', 'P', 0, 0, NN_REQ, 0, 0}, size[9] = {1};
+    for (int b = 0; b < 8; b++) size[1 + b] = (uint8_t)(claimed >> (56 - 8 * b));
+    size_t skip = tcp ? 1 : 0;
+    if (write(fds[i], hello, 8) != 8 || write(fds[i], size + skip, 9 - skip) != (ssize_t)(9 - skip)) return 2;
+    unsigned long long left = claimed - 1;
+    while (left > 0) {
+      ssize_t w = write(fds[i], junk, left < block ? left : block);
+      if (w <= 0) break; /* no room at the gate (it reads nothing of it), or closed */
+      left -= (unsigned long long)w;
+      sent_total += (unsigned long long)w;
+    }
+    unread += left > 0;
+  }
+  printf("congest: %d connections claiming %llu bytes each, %.1f MB sent, %d waiting unread; holding %.1f s\n", n,
+         claimed, (double)sent_total / 1e6, unread, seconds);
+  fflush(stdout);
+  double left_s = seconds - (vf_seconds_now() - t0);
+  if (left_s > 0) usleep((useconds_t)(left_s * 1e6));
+  for (int i = 0; i < n; i++) close(fds[i]);
+  free(fds);
+  free(junk);
+  return 0;
+}
+
 /* Opens `n` TCP connections to the gate at once and counts those it serves (its SP header
  * arrives) and those it refuses (reset or closed before a byte): prints
  * "served S refused R". The connections stay open until all are counted.
@@ -625,6 +683,10 @@ static int count_connections(const char *url, int n) {
 
 int main(int argc, char **argv) {
   if (argc == 4 && strcmp(argv[1], "--connections") == 0) return count_connections(argv[2], atoi(argv[3]));
+  if (argc == 6 && strcmp(argv[1], "--congest") == 0) {
+    unsigned long long claimed = strcmp(argv[4], "cap") == 0 ? VF_WIRE_MAX_REQUEST_FRAME : strtoull(argv[4], NULL, 10);
+    return congest(argv[2], atoi(argv[3]), claimed, atof(argv[5]));
+  }
   if (argc == 8 && strcmp(argv[1], "--flood") == 0) {
     vf_wire_key key;
     if (vf_wire_key_load(argv[3], &key) != VF_OK) return 2;
@@ -634,7 +696,8 @@ int main(int argc, char **argv) {
   }
   if (argc != 3) {
     fprintf(stderr, "usage: farm_peer URL KEYFILE\n       farm_peer --flood URL KEYFILE CONNECTIONS CLAIMED_BYTES PID "
-                    "MAX_GROWTH_MB\n       farm_peer --connections URL N\n");
+                    "MAX_GROWTH_MB\n       farm_peer --congest URL CONNECTIONS CLAIMED_BYTES SECONDS\n"
+                    "       farm_peer --connections URL N\n");
     return 2;
   }
   vf_wire_key key;
