@@ -156,8 +156,7 @@ static void test_split_ranges_merge_into_the_whole(void) {
     for (size_t i = 0; i < n; i++) {
       max_diff = fmax(max_diff, fabs(vf_film_sum_at(late, i) - vf_film_sum_at(whole, i)));
     }
-    printf("  %-13s %-9s %-3s %-11s split vs whole: max |difference| %.3g (image mean %.3g)
-", scene,
+    printf("  %-13s %-9s %-3s %-11s split vs whole: max |difference| %.3g (image mean %.3g)\n", scene,
            vf_radius_mode_name(radius_under_test), vf_algorithm_name(a), vf_sampler_name(sampler_under_test), max_diff,
            scale);
     for (size_t i = 0; i < n; i++)
