@@ -118,9 +118,17 @@ static void test_every_builtin_loads_with_sane_bounds(void) {
     vf_vec3 center;
     float radius;
     vf_scene_bounding_sphere(s, &center, &radius);
-    /* Every built-in lives in the box [-1,1]^3. */
-    CHECK_NEAR(vf_length(center), 0.0, 1e-5);
-    CHECK_NEAR(radius, sqrtf(3.0f), 1e-5);
+    if (strcmp(*name, "corridor") == 0) {
+      /* The corridor: [-1,1] x [0,2.5] x [-24,1]. */
+      CHECK_NEAR(center.x, 0.0, 1e-5);
+      CHECK_NEAR(center.y, 1.25, 1e-5);
+      CHECK_NEAR(center.z, -11.5, 1e-5);
+      CHECK_NEAR(radius, 0.5 * sqrt(4.0 + 2.5 * 2.5 + 25.0 * 25.0), 1e-4);
+    } else {
+      /* Every other built-in lives in the box [-1,1]^3. */
+      CHECK_NEAR(vf_length(center), 0.0, 1e-5);
+      CHECK_NEAR(radius, sqrtf(3.0f), 1e-5);
+    }
     CHECK(s->num_shapes >= 1 && s->num_materials >= 1);
     CHECK_NEAR(vf_length(s->camera.forward), 1.0, 1e-6);
     CHECK_NEAR(vf_dot(s->camera.forward, s->camera.up), 0.0, 1e-6);
