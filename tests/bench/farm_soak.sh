@@ -1,6 +1,6 @@
 #!/bin/bash
 # The long run of the fault soak (tests/farm/test_farm_faults.sh soak_stalls, whose CI run
-# is bounded to SOAK_SECONDS=40): random SIGKILLs and SIGSTOP/SIGCONTs of workers and the
+# is bounded to SOAK_SECONDS=35): random SIGKILLs and SIGSTOP/SIGCONTs of workers and the
 # coordinator, a 16 s coordinator pause, gate congestion by a peer without the key, while
 # a job of N iterations and a job of a time limit render over tcp://; it passes when no job
 # failed and both films equal --direct of their iterations.

@@ -33,7 +33,7 @@
 #                 SIGSTOP/SIGCONTs of workers and the coordinator, one 16 s coordinator
 #                 pause, gate congestion, while a job of N iterations and a job of a time
 #                 limit render; no job fails, both films equal --direct of their iterations.
-#                 SOAK_SECONDS (default 40) bounds the faults; tests/bench/farm_soak.sh is
+#                 SOAK_SECONDS (default 35) bounds the faults; tests/bench/farm_soak.sh is
 #                 the long run.
 #
 #   test_farm_faults.sh CASE VCMFARM FARM_COMPARE [FARM_PEER]
@@ -171,7 +171,7 @@ case "$case_name" in
 coordinator_paused)
   # Default settings but the checkpoints: worker timeout 15 s, leases of 20 s.
   start_coordinator --lease-seconds 20
-  submit cornell 1500
+  submit cornell 900
   for w in p1 p2 p3; do start_worker "$w" --test-iteration-delay 40; done
   wait_until 60 "three workers to hold leases" eval '[ "$(busy_workers)" = 3 ]'
   kill -STOP "$coordinator"
@@ -184,7 +184,7 @@ coordinator_paused)
   no_lost_workers
   [ "$(event_count "$job" lease_failed)" = 0 ] || fail "leases failed on job $job"
   grep -q "the coordinator was stalled for [1-9][0-9]\.[0-9] s" "$tmp/coordinator.log" || fail "the stall was not noticed"
-  check_film "$job" cornell 1500
+  check_film "$job" cornell 900
   echo "ok   a coordinator paused for 16 s lost no worker and failed no lease; the film equals --direct"
   ;;
 gate_congestion)
@@ -402,8 +402,8 @@ soak)
   ;;
 soak_stalls)
   [ -x "$peer" ] || fail "soak_stalls needs FARM_PEER"
-  soak_seconds="${SOAK_SECONDS:-40}"
-  iterations="${SOAK_ITERATIONS:-600}"
+  soak_seconds="${SOAK_SECONDS:-35}"
+  iterations="${SOAK_ITERATIONS:-450}"
   time_limit="${SOAK_TIME_LIMIT:-30}"
   seed=${SOAK_SEED:-$$}
   RANDOM=$seed
