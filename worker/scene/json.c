@@ -588,11 +588,29 @@ static int parse_import(const parse_ctx *c, const cJSON *root, int camera_wanted
   return VF_OK;
 }
 
+/* "notes": what the file a scene was converted from asks for that the conversion
+ * approximated (a Mitsuba scene's, mitsuba.h), kept with the scene's own notes. */
+static int parse_notes(const parse_ctx *c, const cJSON *root) {
+  const cJSON *notes = cJSON_GetObjectItemCaseSensitive(root, "notes"), *n;
+  char p[PATH_LEN];
+  long i = 0;
+  if (notes == NULL) return VF_OK;
+  if (!cJSON_IsArray(notes)) return vf_scene_fail(c, VF_ESCENE, "notes", "must be an array of strings");
+  cJSON_ArrayForEach(n, notes) {
+    if (!cJSON_IsString(n)) return vf_scene_fail(c, VF_ESCENE, vf_scene_join_index(p, "notes", i), "must be a string");
+    int err = vf_scene_note(c, "%s", n->valuestring);
+    if (err < 0) return err;
+    i++;
+  }
+  return VF_OK;
+}
+
 static int parse_root(const parse_ctx *c, const cJSON *root) {
-  static const char *const fields[] = {"camera", "materials", "shapes", "lights", "render", "import", NULL};
+  static const char *const fields[] = {"camera", "materials", "shapes", "lights", "render", "import", "notes", NULL};
   const cJSON *m;
   int err = vf_scene_check_object(c, root, "", fields);
   if (err < 0) return err;
+  if ((err = parse_notes(c, root)) < 0) return err;
   /* A scene that imports files may take all of camera, materials and shapes from them. */
   int imports = cJSON_HasObjectItem(root, "import"), need = imports ? OPTIONAL : REQUIRED;
   int has_camera = vf_scene_member(c, root, "", "camera", need, &m);

@@ -1,0 +1,524 @@
+/* Mitsuba 3 XML scenes as JSON scenes (mitsuba.h): sensors, shapes, emitters and the
+ * integrator here, BSDFs and textures in mitsuba_bsdf.c. */
+#include "mitsuba.h"
+
+#include "../../common/error.h"
+#include "mitsuba_bsdf.h"
+#include "mitsuba_props.h"
+
+#include <errno.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <strings.h>
+
+#define PI 3.14159265358979323846
+/* Mitsuba's max_depth -1 (no limit, paths ended by Russian roulette) as path segments:
+ * light that has bounced 64 times is below 1e-6 of the first bounce in any scene whose
+ * albedos stay below 0.8. docs/SCENES.md states it. */
+#define UNLIMITED_DEPTH 64
+/* Segments of the triangulated disk: its area is 0.9999 of the disk's. */
+#define DISK_SEGMENTS 256
+
+int vf_mitsuba_is_xml(const char *path) {
+  size_t n = strlen(path);
+  return n >= 4 && strcasecmp(path + n - 4, ".xml") == 0;
+}
+
+static int oom(void) { return vf_error_set(VF_ENOMEM, "out of memory"); }
+
+static int add(cJSON *o, const char *key, cJSON *v) {
+  if (v == NULL || !cJSON_AddItemToObject(o, key, v)) {
+    cJSON_Delete(v);
+    return oom();
+  }
+  return VF_OK;
+}
+
+static vf_vec3 point(const vf_affine *a, double x, double y, double z) {
+  double in[3] = {x, y, z}, out[3];
+  vf_affine_point(a, in, out);
+  return vf_vec3_make((float)out[0], (float)out[1], (float)out[2]);
+}
+
+static vf_vec3 vector(const vf_affine *a, double x, double y, double z) {
+  double in[3] = {x, y, z}, out[3];
+  vf_affine_vector(a, in, out);
+  return vf_vec3_make((float)out[0], (float)out[1], (float)out[2]);
+}
+
+static double column_length(const vf_affine *a, int j) {
+  return sqrt(a->m[0][j] * a->m[0][j] + a->m[1][j] * a->m[1][j] + a->m[2][j] * a->m[2][j]);
+}
+
+static int check_file(const vf_xml_node *e, const mts_ctx *c, const char *file) {
+  char path[8192];
+  snprintf(path, sizeof path, "%s%s%s", file[0] == '/' ? "" : c->dir, file[0] == '/' ? "" : "/", file);
+  FILE *f = fopen(path, "rb");
+  if (f != NULL) return fclose(f), VF_OK;
+  mts_fail(e, "cannot open '%s': %s", file, strerror(errno));
+  char detail[1024];
+  snprintf(detail, sizeof detail, "%s", vf_error_detail(VF_ESCENE));
+  return vf_error_set(VF_ENOENT, "%s", detail);
+}
+
+/* ---- sensors ---- */
+
+/* Mitsuba's parse_fov (src/render/sensor.cpp): the horizontal field of view in degrees. */
+static int horizontal_fov(mts_ctx *c, vf_xml_node *s, double aspect, double *out) {
+  double fov;
+  const char *axis, *focal;
+  int err, has_fov = mts_float(c, s, "fov", 0, &fov);
+  if (has_fov < 0) return has_fov;
+  if ((err = mts_string(c, s, "fov_axis", "x", &axis)) < 0 || (err = mts_string(c, s, "focal_length", NULL, &focal)) < 0)
+    return err;
+  if (has_fov && focal) return mts_fail(s, "give a fov or a focal_length, not both");
+  if (!has_fov) { /* 35 mm film equivalent: the diagonal of 36 x 24 mm */
+    double f = 50;
+    if (focal != NULL && (sscanf(focal, "%lf", &f) != 1 || !(f > 0)))
+      return mts_fail(s, "focal_length '%s' is not of the form <x>mm", focal);
+    fov = 2 * atan(sqrt(36.0 * 36.0 + 24.0 * 24.0) / (2 * f)) * 180 / PI;
+    axis = "diagonal";
+  }
+  if (strcasecmp(axis, "smaller") == 0) axis = aspect > 1 ? "y" : "x";
+  else if (strcasecmp(axis, "larger") == 0) axis = aspect > 1 ? "x" : "y";
+  double t = tan(0.5 * fov * PI / 180);
+  if (strcasecmp(axis, "x") == 0) *out = fov;
+  else if (strcasecmp(axis, "y") == 0) *out = 2 * atan(t * aspect) * 180 / PI;
+  else if (strcasecmp(axis, "diagonal") == 0) *out = 2 * atan(t / sqrt(1 + 1 / (aspect * aspect))) * 180 / PI;
+  else return mts_fail(s, "fov_axis '%s' is not x, y, diagonal, smaller or larger", axis);
+  if (!(fov > 0 && fov < 180 && *out > 0 && *out < 180)) return mts_fail(s, "the field of view must lie in (0, 180)");
+  return VF_OK;
+}
+
+static int film(mts_ctx *c, vf_xml_node *s, cJSON *cam, double *aspect) {
+  long width = 768, height = 576;
+  int err;
+  vf_xml_node *f = NULL;
+  for (int i = 0; i < s->num_children && f == NULL; i++)
+    if (strcmp(s->children[i]->name, "film") == 0) f = s->children[i];
+  if (f != NULL) {
+    f->used = 1;
+    if ((err = mts_int(c, f, "width", 768, &width)) < 0 || (err = mts_int(c, f, "height", 576, &height)) < 0) return err;
+    if (width < 1 || height < 1 || width > 65536 || height > 65536)
+      return mts_fail(f, "a film of %ldx%ld pixels", width, height);
+    for (int i = 0; i < f->num_children; i++)
+      if (strcmp(f->children[i]->name, "rfilter") == 0) {
+        f->children[i]->used = 1;
+        const char *type = vf_xml_attr(f->children[i], "type");
+        if ((err = mts_note(c, f->children[i], "reconstruction filter '%s': vcmfarm films are box-filtered", type ? type : "?")) < 0)
+          return err;
+      }
+    if ((err = mts_note_unused(c, f)) < 0) return err;
+  }
+  const double res[2] = {(double)width, (double)height};
+  *aspect = (double)width / (double)height;
+  return add(cam, "resolution", cJSON_CreateDoubleArray(res, 2));
+}
+
+static int sensor(mts_ctx *c, vf_xml_node *s) {
+  const char *type = vf_xml_attr(s, "type");
+  int err;
+  s->used = 1;
+  if (type == NULL || (strcmp(type, "perspective") != 0 && strcmp(type, "thinlens") != 0 && strcmp(type, "orthographic") != 0))
+    return mts_fail(s, "sensor type '%s' is not supported (perspective, thinlens, orthographic)", type ? type : "");
+  cJSON *cam = cJSON_CreateObject();
+  if (cam == NULL || !cJSON_AddItemToObject(c->root, "camera", cam)) return cJSON_Delete(cam), oom();
+  double aspect = 1;
+  vf_affine m;
+  if ((err = film(c, s, cam, &aspect)) < 0 || (err = mts_transform(c, s, "to_world", &m)) < 0) return err;
+  /* Camera space: +z looks forward, +y is up in the image. */
+  vf_vec3 forward = vector(&m, 0, 0, 1), up = vector(&m, 0, 1, 0);
+  if (vf_affine_det(&m) <= 0 &&
+      (err = mts_note(c, s, "to_world mirrors the image (negative determinant): vcmfarm renders it unmirrored")) < 0)
+    return err;
+  if ((err = add(cam, "position", mts_vec3_json(point(&m, 0, 0, 0)))) < 0 ||
+      (err = add(cam, "forward", mts_vec3_json(forward))) < 0 || (err = add(cam, "up", mts_vec3_json(up))) < 0)
+    return err;
+  double near_clip, far_clip;
+  if ((err = mts_float(c, s, "near_clip", 0.01, &near_clip)) < 0 || (err = mts_float(c, s, "far_clip", 1e4, &far_clip)) < 0)
+    return err;
+  if (near_clip != 0.01 || far_clip != 1e4)
+    if ((err = mts_note(c, s, "near_clip and far_clip are not supported: nothing is clipped")) < 0) return err;
+  if (strcmp(type, "orthographic") == 0) {
+    /* The view spans camera-space x in [-1, 1], y in [-1/aspect, 1/aspect]. */
+    double sx = column_length(&m, 0), sy = column_length(&m, 1);
+    if (fabs(sx - sy) > 1e-6 * sx &&
+        (err = mts_note(c, s, "to_world scales x by %g and y by %g: the view's height follows the image's aspect ratio", sx, sy)) < 0)
+      return err;
+    if (!cJSON_AddStringToObject(cam, "type", "orthographic") || !cJSON_AddNumberToObject(cam, "width", 2 * sx)) return oom();
+  } else {
+    double fx = 0;
+    if ((err = horizontal_fov(c, s, aspect, &fx)) < 0) return err;
+    double vertical = 2 * atan(tan(0.5 * fx * PI / 180) / aspect) * 180 / PI;
+    if (!cJSON_AddNumberToObject(cam, "fov", vertical)) return oom();
+    if (strcmp(type, "thinlens") == 0) {
+      double aperture, focus;
+      if ((err = mts_float(c, s, "aperture_radius", 0, &aperture)) < 0) return err;
+      if (err == 0) return mts_fail(s, "a thinlens needs an aperture_radius");
+      if ((err = mts_float(c, s, "focus_distance", far_clip, &focus)) < 0) return err;
+      if (!(aperture >= 0) || !(focus > 0)) return mts_fail(s, "aperture_radius must be >= 0 and focus_distance > 0");
+      if (!cJSON_AddNumberToObject(cam, "aperture", aperture) || !cJSON_AddNumberToObject(cam, "focus_distance", focus))
+        return oom();
+    }
+  }
+  for (int i = 0; i < s->num_children; i++)
+    if (strcmp(s->children[i]->name, "sampler") == 0) {
+      long spp;
+      s->children[i]->used = 1;
+      if ((err = mts_int(c, s->children[i], "sample_count", 4, &spp)) < 0) return err;
+      if ((err = mts_note(c, s->children[i], "sample_count %ld: the number of iterations is the job's (--iterations)", spp)) < 0)
+        return err;
+      for (int j = 0; j < s->children[i]->num_children; j++) s->children[i]->children[j]->used = 1;
+    }
+  return mts_note_unused(c, s);
+}
+
+/* ---- shapes ---- */
+
+static int emission(mts_ctx *c, vf_xml_node *shape, cJSON *js) {
+  for (int i = 0; i < shape->num_children; i++) {
+    vf_xml_node *e = shape->children[i];
+    if (strcmp(e->name, "emitter") != 0) continue;
+    e->used = 1;
+    const char *type = vf_xml_attr(e, "type");
+    if (type == NULL || strcmp(type, "area") != 0)
+      return mts_fail(e, "a shape's emitter must be 'area', not '%s'", type ? type : "");
+    vf_vec3 radiance;
+    vf_xml_node *t;
+    int err = mts_color(c, e, "radiance", vf_vec3_splat(1), &radiance, &t);
+    if (err < 0) return err;
+    if (err == 2) return mts_fail(t, "a textured radiance is not supported");
+    if (radiance.x < 0 || radiance.y < 0 || radiance.z < 0) return mts_fail(e, "radiance must not be negative");
+    if ((err = mts_note_unused(c, e)) < 0) return err;
+    return add(js, "emission", mts_vec3_json(radiance));
+  }
+  return VF_OK;
+}
+
+static int matrix_json(const vf_affine *m, cJSON *js) {
+  double v[16] = {0};
+  int identity = 1;
+  for (int i = 0; i < 3; i++)
+    for (int j = 0; j < 4; j++) {
+      v[4 * i + j] = m->m[i][j];
+      identity &= m->m[i][j] == (i == j ? 1.0 : 0.0);
+    }
+  v[15] = 1;
+  if (identity) return VF_OK;
+  cJSON *t = cJSON_CreateObject();
+  if (t == NULL || !cJSON_AddItemToObject(js, "transform", t)) return cJSON_Delete(t), oom();
+  return add(t, "matrix", cJSON_CreateDoubleArray(v, 16));
+}
+
+/* An inline mesh of nv positions and nt triangles, the winding reversed for flip_normals. */
+static int inline_mesh(cJSON *js, const double *pos, int nv, const int *idx, int nt, int flip) {
+  cJSON *p = cJSON_CreateDoubleArray(pos, 3 * nv), *ix = cJSON_CreateArray();
+  if (p == NULL || ix == NULL || !cJSON_AddItemToObject(js, "positions", p)) return cJSON_Delete(p), cJSON_Delete(ix), oom();
+  if (!cJSON_AddItemToObject(js, "indices", ix)) return cJSON_Delete(ix), oom();
+  for (int t = 0; t < nt; t++)
+    for (int k = 0; k < 3; k++) {
+      cJSON *n = cJSON_CreateNumber(idx[3 * t + (flip && k > 0 ? 3 - k : k)]);
+      if (n == NULL || !cJSON_AddItemToArray(ix, n)) return cJSON_Delete(n), oom();
+    }
+  return VF_OK;
+}
+
+/* Mitsuba's rectangle ([-1, 1]^2 at z = 0, facing +z), cube ([-1, 1]^3, facing out) and
+ * disk (radius 1 at z = 0, facing +z), counter-clockwise seen from their fronts. */
+static int primitive(cJSON *js, const char *type, int flip) {
+  if (strcmp(type, "rectangle") == 0) {
+    static const double pos[] = {-1, -1, 0, 1, -1, 0, 1, 1, 0, -1, 1, 0};
+    static const int idx[] = {0, 1, 2, 0, 2, 3};
+    return inline_mesh(js, pos, 4, idx, 2, flip);
+  }
+  if (strcmp(type, "cube") == 0) {
+    double pos[24];
+    for (int v = 0; v < 8; v++)
+      for (int k = 0; k < 3; k++) pos[3 * v + k] = (v >> k) & 1 ? 1 : -1;
+    /* vertex v has x = bit 0, y = bit 1, z = bit 2 */
+    static const int idx[] = {0, 2, 3, 0, 3, 1,  4, 5, 7, 4, 7, 6,  0, 1, 5, 0, 5, 4,
+                              2, 6, 7, 2, 7, 3,  0, 4, 6, 0, 6, 2,  1, 3, 7, 1, 7, 5};
+    return inline_mesh(js, pos, 8, idx, 12, flip);
+  }
+  double pos[3 * (DISK_SEGMENTS + 1)];
+  int idx[3 * DISK_SEGMENTS];
+  pos[0] = pos[1] = pos[2] = 0;
+  for (int i = 0; i < DISK_SEGMENTS; i++) {
+    double phi = 2 * PI * i / DISK_SEGMENTS;
+    pos[3 * (i + 1)] = cos(phi);
+    pos[3 * (i + 1) + 1] = sin(phi);
+    pos[3 * (i + 1) + 2] = 0;
+    idx[3 * i] = 0;
+    idx[3 * i + 1] = i + 1;
+    idx[3 * i + 2] = (i + 1) % DISK_SEGMENTS + 1;
+  }
+  return inline_mesh(js, pos, DISK_SEGMENTS + 1, idx, DISK_SEGMENTS, flip);
+}
+
+static int sphere(mts_ctx *c, vf_xml_node *s, cJSON *js, const vf_affine *m) {
+  vf_vec3 center;
+  double radius;
+  int err;
+  if ((err = mts_point(c, s, "center", vf_vec3_splat(0), &center)) < 0 || (err = mts_float(c, s, "radius", 1, &radius)) < 0)
+    return err;
+  if (!(radius > 0)) return mts_fail(s, "radius must be > 0, found %g", radius);
+  /* A sphere stays one under a similarity only: equal, orthogonal columns. */
+  double l0 = column_length(m, 0), l1 = column_length(m, 1), l2 = column_length(m, 2);
+  double d01 = 0, d02 = 0, d12 = 0;
+  for (int i = 0; i < 3; i++) {
+    d01 += m->m[i][0] * m->m[i][1];
+    d02 += m->m[i][0] * m->m[i][2];
+    d12 += m->m[i][1] * m->m[i][2];
+  }
+  if (fabs(l0 - l1) > 1e-5 * l0 || fabs(l0 - l2) > 1e-5 * l0 || fabs(d01) + fabs(d02) + fabs(d12) > 1e-5 * l0 * l0)
+    return mts_fail(s, "to_world scales the sphere unevenly: an ellipsoid is not supported");
+  vf_vec3 cw = point(m, center.x, center.y, center.z);
+  if ((err = add(js, "center", mts_vec3_json(cw))) < 0) return err;
+  return cJSON_AddNumberToObject(js, "radius", radius * l0) ? VF_OK : oom();
+}
+
+static int shape(mts_ctx *c, vf_xml_node *s) {
+  const char *type = vf_xml_attr(s, "type");
+  int err, flip;
+  s->used = 1;
+  if (type == NULL) return mts_fail(s, "has no type");
+  if (strcmp(type, "shapegroup") == 0 || strcmp(type, "instance") == 0 || strcmp(type, "serialized") == 0)
+    return mts_fail(s, "shape '%s' is not supported%s", type, strcmp(type, "serialized") == 0 ? " (convert it to PLY)" : "");
+  int mesh_file = strcmp(type, "obj") == 0 || strcmp(type, "ply") == 0;
+  if (!mesh_file && strcmp(type, "rectangle") != 0 && strcmp(type, "cube") != 0 && strcmp(type, "disk") != 0 &&
+      strcmp(type, "sphere") != 0) {
+    for (int i = 0; i < s->num_children; i++) s->children[i]->used = 1;
+    return mts_note(c, s, "shape '%s' is not supported: left out", type);
+  }
+  cJSON *js = cJSON_CreateObject();
+  if (js == NULL || !cJSON_AddItemToArray(c->shapes, js)) return cJSON_Delete(js), oom();
+  const char *id = vf_xml_attr(s, "id");
+  if (id != NULL && strlen(id) < 64 && !cJSON_AddStringToObject(js, "name", id)) return oom();
+  if (!cJSON_AddStringToObject(js, "type", strcmp(type, "sphere") == 0 ? "sphere" : "mesh")) return oom();
+  vf_affine m;
+  if ((err = mts_transform(c, s, "to_world", &m)) < 0 || (err = mts_bool(c, s, "flip_normals", 0, &flip)) < 0) return err;
+  /* The BSDF: a child <bsdf>, or a <ref> to one. */
+  vf_xml_node *bsdf = NULL;
+  for (int i = 0; i < s->num_children && bsdf == NULL; i++) {
+    vf_xml_node *ch = s->children[i];
+    if (strcmp(ch->name, "bsdf") == 0) bsdf = ch;
+    else if (strcmp(ch->name, "ref") == 0) {
+      vf_xml_node *d = mts_deref(c, ch, &err);
+      if (d == NULL) return err;
+      if (strcmp(d->name, "bsdf") == 0) bsdf = d;
+      else return mts_fail(ch, "a shape's <ref> must name a <bsdf>, not a <%s>", d->name);
+    }
+    if (bsdf != NULL) ch->used = 1;
+  }
+  const char *material;
+  if ((err = mts_material(c, bsdf, &material)) < 0 || !cJSON_AddStringToObject(js, "material", material) ||
+      (err = emission(c, s, js)) < 0)
+    return err < 0 ? err : oom();
+  if (mesh_file) {
+    const char *file;
+    int face_normals;
+    if ((err = mts_string(c, s, "filename", NULL, &file)) < 0) return err;
+    if (file == NULL) return mts_fail(s, "has no filename");
+    if ((err = check_file(s, c, file)) < 0) return err;
+    if (!cJSON_AddStringToObject(js, "file", file)) return oom();
+    if ((err = mts_bool(c, s, "face_normals", 0, &face_normals)) < 0) return err;
+    if (face_normals && (err = mts_note(c, s, "face_normals: the file's vertex normals are used where it has them")) < 0)
+      return err;
+    if (flip && (err = mts_note(c, s, "flip_normals on a mesh file is not supported: its fronts are the file's")) < 0)
+      return err;
+    if ((err = matrix_json(&m, js)) < 0) return err;
+  } else if (strcmp(type, "sphere") == 0) {
+    if ((err = sphere(c, s, js, &m)) < 0) return err;
+    if (flip && (err = mts_note(c, s, "flip_normals on a sphere is not supported: it emits outwards")) < 0) return err;
+  } else {
+    if ((err = primitive(js, type, flip)) < 0 || (err = matrix_json(&m, js)) < 0) return err;
+    if (strcmp(type, "disk") == 0 &&
+        (err = mts_note(c, s, "the disk is a polygon of %d triangles (area 0.9999 of the disk's)", DISK_SEGMENTS)) < 0)
+      return err;
+  }
+  return mts_note_unused(c, s);
+}
+
+/* ---- emitters and the integrator ---- */
+
+static int light(mts_ctx *c, const char *type, cJSON **out) {
+  cJSON *l = cJSON_CreateObject();
+  if (l == NULL || !cJSON_AddItemToArray(c->lights, l) || !cJSON_AddStringToObject(l, "type", type))
+    return oom();
+  *out = l;
+  return VF_OK;
+}
+
+static int emitter(mts_ctx *c, vf_xml_node *e) {
+  const char *type = vf_xml_attr(e, "type");
+  vf_affine m;
+  vf_vec3 v, pos;
+  vf_xml_node *t;
+  cJSON *l = NULL;
+  int err;
+  e->used = 1;
+  if (type == NULL) return mts_fail(e, "has no type");
+  if ((err = mts_transform(c, e, "to_world", &m)) < 0) return err;
+  if (strcmp(type, "point") == 0 || strcmp(type, "spot") == 0) {
+    if ((err = mts_color(c, e, "intensity", vf_vec3_splat(1), &v, &t)) < 0) return err;
+    if (err == 2) return mts_fail(t, "a textured intensity is not supported");
+    int has_pos = mts_point(c, e, "position", vf_vec3_splat(0), &pos);
+    if (has_pos < 0) return has_pos;
+    if ((err = light(c, type, &l)) < 0 || (err = add(l, "intensity", mts_vec3_json(v))) < 0 ||
+        (err = add(l, "position", mts_vec3_json(has_pos ? pos : point(&m, 0, 0, 0)))) < 0)
+      return err;
+    if (strcmp(type, "spot") == 0) {
+      double cutoff, beam;
+      if ((err = mts_float(c, e, "cutoff_angle", 20, &cutoff)) < 0 || (err = mts_float(c, e, "beam_width", cutoff * 0.75, &beam)) < 0)
+        return err;
+      if (!(cutoff > 0 && cutoff <= 90 && beam >= 0 && beam < cutoff))
+        return mts_fail(e, "needs 0 <= beam_width < cutoff_angle <= 90 (found %g and %g)", beam, cutoff);
+      if ((err = add(l, "direction", mts_vec3_json(vector(&m, 0, 0, 1)))) < 0 ||
+          !cJSON_AddNumberToObject(l, "inner_cone_angle", beam) || !cJSON_AddNumberToObject(l, "outer_cone_angle", cutoff))
+        return oom();
+      if ((err = mts_note(c, e, "spot falloff: Mitsuba's is linear in angle from beam_width to cutoff_angle, vcmfarm's "
+                          "KHR_lights_punctual's smooth ramp in cosine between the same angles")) < 0)
+        return err;
+    }
+  } else if (strcmp(type, "directional") == 0) {
+    vf_vec3 dir;
+    if ((err = mts_color(c, e, "irradiance", vf_vec3_splat(1), &v, &t)) < 0) return err;
+    if (err == 2) return mts_fail(t, "a textured irradiance is not supported");
+    int has_dir = mts_point(c, e, "direction", vf_vec3_splat(0), &dir);
+    if (has_dir < 0) return has_dir;
+    if ((err = light(c, "directional", &l)) < 0 || (err = add(l, "irradiance", mts_vec3_json(v))) < 0 ||
+        (err = add(l, "direction", mts_vec3_json(has_dir ? dir : vector(&m, 0, 0, 1)))) < 0)
+      return err;
+  } else if (strcmp(type, "constant") == 0) {
+    if ((err = mts_color(c, e, "radiance", vf_vec3_splat(1), &v, &t)) < 0) return err;
+    if (err == 2) return mts_fail(t, "a textured radiance is not supported");
+    if ((err = light(c, "background", &l)) < 0 || (err = add(l, "radiance", mts_vec3_json(v))) < 0) return err;
+  } else if (strcmp(type, "envmap") == 0) {
+    const char *file;
+    double scale;
+    if ((err = mts_string(c, e, "filename", NULL, &file)) < 0 || (err = mts_float(c, e, "scale", 1, &scale)) < 0) return err;
+    if (file == NULL) return mts_fail(e, "has no filename");
+    if ((err = check_file(e, c, file)) < 0) return err;
+    /* Mitsuba looks a world direction d up at u = atan2(d'.x, -d'.z) / 2pi, v = acos(d'.y)
+     * / pi with d' = to_world^-1 d; vcmfarm at u + 0.5 of d itself. They agree when
+     * to_world is the rotation by 180 degrees about +y. */
+    int half_turn = fabs(m.m[0][0] + 1) < 1e-6 && fabs(m.m[1][1] - 1) < 1e-6 && fabs(m.m[2][2] + 1) < 1e-6 &&
+                    fabs(m.m[0][2]) + fabs(m.m[2][0]) + fabs(m.m[0][1]) + fabs(m.m[1][0]) + fabs(m.m[1][2]) + fabs(m.m[2][1]) < 1e-6;
+    if (!half_turn)
+      return mts_fail(e, "vcmfarm's environment map is fixed: it is Mitsuba's with to_world a rotation by 180 degrees "
+                      "about +y (<rotate y=\"1\" angle=\"180\"/>); this to_world cannot be rendered");
+    if ((err = light(c, "environment", &l)) < 0 || !cJSON_AddStringToObject(l, "file", file) ||
+        (err = add(l, "scale", mts_vec3_json(vf_vec3_splat((float)scale)))) < 0)
+      return err < 0 ? err : oom();
+  } else {
+    return mts_fail(e, "emitter type '%s' is not supported (area, point, spot, directional, constant, envmap)", type);
+  }
+  return mts_note_unused(c, e);
+}
+
+static int integrator(mts_ctx *c, vf_xml_node *e) {
+  const char *type = vf_xml_attr(e, "type");
+  long depth;
+  int err;
+  e->used = 1;
+  if ((err = mts_int(c, e, "max_depth", -1, &depth)) < 0) return err;
+  if (depth == 0 || depth < -1) return mts_fail(e, "max_depth %ld: vcmfarm renders paths of 1 or more segments", depth);
+  /* Mitsuba's depth counts segments: 1 sees emitters, 2 adds direct light. */
+  long segments = depth == -1 ? UNLIMITED_DEPTH : depth > 1000 ? 1000 : depth;
+  cJSON *r = cJSON_CreateObject();
+  if (r == NULL || !cJSON_AddItemToObject(c->root, "render", r) || !cJSON_AddNumberToObject(r, "max_path_length", (double)segments))
+    return oom();
+  if (depth == -1 && (err = mts_note(c, e, "max_depth -1 (unlimited) is %d path segments", UNLIMITED_DEPTH)) < 0) return err;
+  if (depth > 1000 && (err = mts_note(c, e, "max_depth %ld is capped at 1000 path segments", depth)) < 0) return err;
+  if (type != NULL && strcmp(type, "path") != 0 && strcmp(type, "volpath") != 0 && strcmp(type, "ptracer") != 0 &&
+      strcmp(type, "volpathmis") != 0 &&
+      (err = mts_note(c, e, "integrator '%s': rendered with vcmfarm's algorithm (the full light transport)", type)) < 0)
+    return err;
+  long rr;
+  int hide;
+  if ((err = mts_int(c, e, "rr_depth", 5, &rr)) < 0 || (err = mts_bool(c, e, "hide_emitters", 0, &hide)) < 0) return err;
+  if (hide && (err = mts_note(c, e, "hide_emitters is not supported: emitters are seen")) < 0) return err;
+  return mts_note_unused(c, e);
+}
+
+static int convert(mts_ctx *c, const char *camera) {
+  vf_xml_node *s = c->scene, *chosen = NULL;
+  const char *version = vf_xml_attr(s, "version");
+  int err, sensors = 0;
+  if (version == NULL) return mts_fail(s, "has no version");
+  if (atoi(version) < 2 &&
+      (err = mts_note(c, s, "version %s: written for Mitsuba 0.x, read with Mitsuba 3's names and defaults", version)) < 0)
+    return err;
+  for (int i = 0; i < s->num_children; i++) {
+    vf_xml_node *e = s->children[i];
+    if (strcmp(e->name, "sensor") != 0) continue;
+    const char *id = vf_xml_attr(e, "id");
+    char index[16];
+    snprintf(index, sizeof index, "%d", sensors++);
+    if (chosen == NULL && (camera == NULL || strcmp(camera, index) == 0 || (id && strcmp(camera, id) == 0))) chosen = e;
+    else e->used = 1;
+  }
+  if (chosen == NULL)
+    return camera ? vf_error_set(VF_ESCENE, "%s: no sensor '%s' (it has %d)", s->file, camera, sensors)
+                  : mts_fail(s, "has no <sensor>");
+  if (sensors > 1 && camera == NULL && (err = mts_note(c, chosen, "the first of %d sensors is rendered (--camera chooses)", sensors)) < 0)
+    return err;
+  if ((err = sensor(c, chosen)) < 0) return err;
+  for (int i = 0; i < s->num_children; i++) {
+    vf_xml_node *e = s->children[i];
+    if (strcmp(e->name, "shape") == 0) err = shape(c, e);
+    else if (strcmp(e->name, "emitter") == 0) err = emitter(c, e);
+    else if (strcmp(e->name, "integrator") == 0) err = integrator(c, e);
+    else if (strcmp(e->name, "bsdf") == 0 || strcmp(e->name, "texture") == 0) err = VF_OK; /* used through <ref> */
+    else if (!e->used) {
+      e->used = 1;
+      const char *name = vf_xml_attr(e, "type");
+      err = mts_note(c, e, "<%s%s%s> is not supported: ignored", e->name, name ? " type " : "", name ? name : "");
+    }
+    if (err < 0) return err;
+  }
+  for (int i = 0; i < s->num_children; i++) {
+    vf_xml_node *e = s->children[i];
+    if ((strcmp(e->name, "bsdf") == 0 || strcmp(e->name, "texture") == 0) && !e->used &&
+        (err = mts_note(c, e, "defined but used by no shape")) < 0)
+      return err;
+  }
+  return VF_OK;
+}
+
+int vf_mitsuba_scene_text(const char *path, const char *camera, char **text, size_t *len) {
+  mts_ctx c = {0};
+  const char *slash = strrchr(path, '/');
+  if (slash == NULL) snprintf(c.dir, sizeof c.dir, ".");
+  else if (slash == path) snprintf(c.dir, sizeof c.dir, "/");
+  else snprintf(c.dir, sizeof c.dir, "%.*s", (int)(slash - path), path);
+  int err = vf_xml_read(path, &c.scene);
+  if (err != VF_OK) return err;
+  c.root = cJSON_CreateObject();
+  if (c.root == NULL || (c.materials = cJSON_AddObjectToObject(c.root, "materials")) == NULL ||
+      (c.shapes = cJSON_AddArrayToObject(c.root, "shapes")) == NULL ||
+      (c.lights = cJSON_AddArrayToObject(c.root, "lights")) == NULL ||
+      (c.notes = cJSON_AddArrayToObject(c.root, "notes")) == NULL) {
+    err = oom();
+    goto done;
+  }
+  if ((err = convert(&c, camera)) < 0) goto done;
+  if (cJSON_GetArraySize(c.shapes) == 0) {
+    err = mts_fail(c.scene, "has no shape vcmfarm can render");
+    goto done;
+  }
+  char *out = cJSON_Print(c.root);
+  if (out == NULL) {
+    err = oom();
+    goto done;
+  }
+  *text = out;
+  *len = strlen(out);
+  err = VF_OK;
+done:
+  cJSON_Delete(c.root);
+  vf_xml_free(c.scene);
+  return err;
+}
