@@ -67,7 +67,7 @@ static int ior_property(mts_ctx *c, vf_xml_node *e, const char *name, double def
   return VF_OK;
 }
 
-int mts_bitmap(mts_ctx *c, vf_xml_node *t, cJSON **out) {
+int mts_bitmap(mts_ctx *c, vf_xml_node *t, int color, cJSON **out) {
   *out = NULL;
   const char *type = vf_xml_attr(t, "type");
   if (type == NULL || strcmp(type, "bitmap") != 0) return 0;
@@ -94,7 +94,7 @@ int mts_bitmap(mts_ctx *c, vf_xml_node *t, cJSON **out) {
   if (strcmp(filter, "bilinear") != 0 && (err = mts_note(c, t, "filter_type '%s': filtered bilinearly", filter)) < 0)
     return err;
   /* vcmfarm decodes the colour slots' 8-bit texels from sRGB, as Mitsuba does unless raw. */
-  if (raw && (err = mts_note(c, t, "raw: an 8-bit image in a colour slot is still decoded from sRGB")) < 0) return err;
+  if (color && raw && (err = mts_note(c, t, "raw: an 8-bit image in a colour slot is still decoded from sRGB")) < 0) return err;
   cJSON *o = cJSON_CreateObject();
   if (o == NULL || !cJSON_AddStringToObject(o, "file", file) || !cJSON_AddStringToObject(o, "wrap", wrap)) {
     cJSON_Delete(o);
@@ -118,7 +118,7 @@ static int color_slot(mts_ctx *c, vf_xml_node *e, const char *name, vf_vec3 def,
   if (got < 0) return got;
   if (got != 2) return add_vec3(m, key, v);
   cJSON *tex;
-  if ((err = mts_bitmap(c, t, &tex)) < 0) return err;
+  if ((err = mts_bitmap(c, t, 1, &tex)) < 0) return err;
   if (err == 1) return cJSON_AddItemToObject(m, texture_key, tex) ? VF_OK : (cJSON_Delete(tex), vf_error_set(VF_ENOMEM, "out of memory"));
   const char *type = vf_xml_attr(t, "type");
   t->used = 1;
@@ -294,7 +294,7 @@ static int build(mts_ctx *c, vf_xml_node *b, cJSON *m, int depth, int *twosided)
       cJSON *tex;
       if (got < 0) return got;
       if (t == NULL) return mts_fail(b, "has no normalmap texture");
-      if ((err = mts_bitmap(c, t, &tex)) < 0) return err;
+      if ((err = mts_bitmap(c, t, 0, &tex)) < 0) return err;
       if (err == 0) return mts_fail(t, "a normal map must be a bitmap");
       if (!cJSON_AddItemToObject(m, "normal_texture", tex)) return cJSON_Delete(tex), vf_error_set(VF_ENOMEM, "out of memory");
       if ((err = mts_note(c, b, "the normal map is read in vcmfarm's tangent frame (bitangent towards decreasing t; "
@@ -307,7 +307,7 @@ static int build(mts_ctx *c, vf_xml_node *b, cJSON *m, int depth, int *twosided)
       if ((err = mts_color(c, b, "opacity", vf_vec3_splat(0.5f), &ov, &t)) < 0) return err;
       if (err == 2) {
         cJSON *tex;
-        if ((err = mts_bitmap(c, t, &tex)) < 0) return err;
+        if ((err = mts_bitmap(c, t, 0, &tex)) < 0) return err;
         if (err == 0) return mts_fail(t, "an opacity texture must be a bitmap");
         if (!cJSON_AddItemToObject(m, "alpha_texture", tex)) return cJSON_Delete(tex), vf_error_set(VF_ENOMEM, "out of memory");
         if ((err = add_number(m, "alpha_channel", 0)) < 0) return err;

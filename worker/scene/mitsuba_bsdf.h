@@ -13,7 +13,8 @@
 int mts_material(mts_ctx *c, vf_xml_node *bsdf, const char **name);
 
 /* The JSON texture object {"file", "wrap"} of a <texture type="bitmap">, into *out (owned
- * by the caller); checks the file opens. 0 when the texture is another type (out NULL). */
-int mts_bitmap(mts_ctx *c, vf_xml_node *texture, cJSON **out);
+ * by the caller); checks the file opens. `color`: for a colour slot (sRGB-decoded 8-bit
+ * texels, so `raw` is noted). 0 when the texture is another type (out NULL). */
+int mts_bitmap(mts_ctx *c, vf_xml_node *texture, int color, cJSON **out);
 
 #endif

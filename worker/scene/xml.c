@@ -67,7 +67,7 @@ static void stop(reader *r, int err) {
 }
 
 /* `value` with every $name replaced by its <default>: a new string, or NULL with r->err. */
-static char *substitute(reader *r, const char *value, int line, int *err) {
+static char *substitute(reader *r, const char *element, const char *attr, const char *value, int line, int *err) {
   size_t cap = strlen(value) + 1, n = 0;
   char *out = malloc(cap);
   *err = VF_ENOMEM;
@@ -83,8 +83,8 @@ static char *substitute(reader *r, const char *value, int line, int *err) {
         if (strlen(r->defs->names[i]) == (size_t)(q - p - 1) && strncmp(r->defs->names[i], p + 1, (size_t)(q - p - 1)) == 0)
           found = i;
       if (found < 0) {
-        *err = vf_error_set(VF_ESCENE, "%s:%d: '%.*s' names no <default> parameter declared before it", r->file, line,
-                     (int)(q - p), p);
+        *err = vf_error_set(VF_ESCENE, "%s:%d: <%s %s=\"%s\">: '%.*s' names no <default> parameter declared before it",
+                            r->file, line, element, attr, value, (int)(q - p), p);
         free(out);
         return NULL;
       }
@@ -153,13 +153,16 @@ static int include_file(reader *r, const vf_xml_node *e, vf_xml_node *parent) {
   int w = name[0] == '/' || slash == NULL ? snprintf(path, sizeof path, "%s", name)
                                           : snprintf(path, sizeof path, "%.*s/%s", (int)(slash - r->file), r->file, name);
   if (w < 0 || (size_t)w >= sizeof path) return vf_error_set(VF_ESCENE, "%s:%d: include path too long", e->file, e->line);
+  /* A file that cannot be opened is the include's fault; errors inside it name their own
+   * file and line. */
+  FILE *f = fopen(path, "rb");
+  if (f == NULL)
+    return vf_error_set(VF_ENOENT, "%s:%d: <include filename=\"%s\">: cannot open %s: %s", e->file, e->line, name, path,
+                        strerror(errno));
+  fclose(f);
   vf_xml_node *sub;
   int err = read_tree(path, r->defs, r->depth + 1, &sub);
-  if (err != VF_OK) {
-    char detail[900];
-    snprintf(detail, sizeof detail, "%s", vf_error_detail(err));
-    return vf_error_set(err, "%s:%d: <include filename=\"%s\">: %s", e->file, e->line, name, detail);
-  }
+  if (err != VF_OK) return err;
   for (int i = 0; i < sub->num_children && err == VF_OK; i++) {
     if ((err = add_child(parent, sub->children[i])) == VF_OK) sub->children[i] = NULL;
   }
@@ -194,7 +197,7 @@ static void XMLCALL on_start(void *user, const XML_Char *name, const XML_Char **
     }
     /* A <default>'s own value is taken as written. */
     int serr = VF_ENOMEM;
-    e->attrs[2 * i + 1] = strcmp(name, "default") == 0 ? strdup(attrs[2 * i + 1]) : substitute(r, attrs[2 * i + 1], line, &serr);
+    e->attrs[2 * i + 1] = strcmp(name, "default") == 0 ? strdup(attrs[2 * i + 1]) : substitute(r, name, attrs[2 * i], attrs[2 * i + 1], line, &serr);
     if (e->attrs[2 * i + 1] == NULL) {
       vf_xml_free(e);
       stop(r, serr == VF_ENOMEM ? vf_error_set(VF_ENOMEM, "out of memory") : serr);

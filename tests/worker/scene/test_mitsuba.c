@@ -1,0 +1,447 @@
+/* Mitsuba 3 XML scenes (worker/scene/mitsuba.c, xml.c, mitsuba_props.c, mitsuba_bsdf.c):
+ * every mapping of docs/SCENES.md "Mitsuba 3 scenes" field by field on the small files of
+ * tests/scenes/mitsuba/, bad files refused naming file, element and reason (exit status 2
+ * through the command line), and a Cornell box written as Mitsuba XML and as a JSON scene
+ * loading the same content and rendering the same image within statistical error. */
+#include "check.h"
+#include "../render/render_util.h"
+#include "common/error.h"
+#include "common/file.h"
+#include "worker/scene/job_scene.h"
+#include "worker/scene/load.h"
+#include "worker/scene/scene.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/wait.h>
+
+#define DIR VF_SOURCE_DIR "/tests/scenes/mitsuba/"
+#define PI 3.14159265358979323846
+
+static double deg(double r) { return r * 180.0 / PI; }
+static double rad(double d) { return d * PI / 180.0; }
+
+#define CHECK_VEC(v, X, Y, Z, tol)                                                                 \
+  do {                                                                                             \
+    CHECK_NEAR((v).x, (X), (tol));                                                                 \
+    CHECK_NEAR((v).y, (Y), (tol));                                                                 \
+    CHECK_NEAR((v).z, (Z), (tol));                                                                 \
+  } while (0)
+
+static vf_scene *load(const char *path, const char *camera) {
+  vf_scene *s = NULL;
+  int err = vf_scene_load_camera(path, camera, &s);
+  if (err != VF_OK) printf("  load %s: %s\n", path, vf_error_detail(err));
+  CHECK_INT_EQ(err, VF_OK);
+  return s;
+}
+
+static char temp_dir[512] = "";
+
+/* A scene text written to a temporary file; returns its path (static buffer). */
+static const char *write_temp(const char *name, const char *text) {
+  static char path[1024];
+  char *dir = temp_dir;
+  if (!dir[0]) CHECK_INT_EQ(vf_file_temp_dir("vcmfarm-test-mitsuba", dir, sizeof temp_dir), VF_OK);
+  snprintf(path, sizeof path, "%s/%s", dir, name);
+  FILE *f = fopen(path, "w");
+  CHECK(f != NULL);
+  if (f) {
+    fputs(text, f);
+    fclose(f);
+  }
+  return path;
+}
+
+static void test_perspective_from_lookat_fov_along_x_and_max_depth(void) {
+  vf_scene *s = load(DIR "camera.xml", NULL);
+  if (!s) return;
+  CHECK_VEC(s->camera.position, 1, 2, 3, 1e-6);
+  CHECK_VEC(s->camera.forward, 0, 0, -1, 1e-6);
+  CHECK_VEC(s->camera.up, 0, 1, 0, 1e-6);
+  /* fov 60 along x of an 80x40 film: tan(v/2) = tan(30 deg) / 2 */
+  CHECK_NEAR(s->camera.vertical_fov_degrees, deg(2 * atan(tan(rad(30)) / 2)), 1e-4);
+  CHECK_INT_EQ(s->settings.width, 80);
+  CHECK_INT_EQ(s->settings.height, 40);
+  CHECK(s->camera.aperture == 0 && s->camera.view_width == 0);
+  /* max_depth -1: the documented cap of 64 segments */
+  CHECK_INT_EQ(s->settings.max_path_length, 64);
+  CHECK(s->settings_given & VF_SET_MAX_PATH_LENGTH);
+  CHECK_STR_CONTAINS(s->notes, "max_depth -1 (unlimited) is 64 path segments");
+  CHECK_STR_CONTAINS(s->notes, "the first of 3 sensors is rendered");
+  /* the point light and the sphere */
+  CHECK_INT_EQ(s->num_point_lights, 1);
+  CHECK_VEC(s->point_lights[0].position, 0, 3, 0, 0);
+  CHECK_VEC(s->point_lights[0].intensity, 10, 20, 30, 0);
+  CHECK_INT_EQ(s->num_shapes, 1);
+  CHECK(s->shapes[0].kind == VF_SHAPE_SPHERE && s->shapes[0].radius == 0.5f);
+  /* Mitsuba's default BSDF: diffuse 0.5 */
+  CHECK_VEC(s->materials[s->shapes[0].material].diffuse, 0.5, 0.5, 0.5, 0);
+  vf_scene_destroy(s);
+}
+
+static void test_thinlens_and_orthographic_sensors_by_id_and_index(void) {
+  vf_scene *s = load(DIR "camera.xml", "lens");
+  if (s) {
+    CHECK_NEAR(s->camera.vertical_fov_degrees, 45, 1e-4); /* fov along y of a square film */
+    CHECK_NEAR(s->camera.aperture, 0.1, 1e-7);
+    CHECK_NEAR(s->camera.focus_distance, 4, 1e-7);
+    CHECK_VEC(s->camera.position, 0, 0, 5, 1e-6);
+    CHECK_INT_EQ(s->settings.width, 64);
+    vf_scene_destroy(s);
+  }
+  s = load(DIR "camera.xml", "2");
+  if (s) {
+    /* to_world = lookat x scale(3, 3): the view spans x in [-3, 3] */
+    CHECK_NEAR(s->camera.view_width, 6, 1e-5);
+    CHECK_VEC(s->camera.position, 0, 5, 0, 1e-6);
+    CHECK_VEC(s->camera.forward, 0, -1, 0, 1e-6);
+    CHECK_VEC(s->camera.up, 0, 0, -1, 1e-6);
+    CHECK_INT_EQ(s->settings.width, 32);
+    CHECK_INT_EQ(s->settings.height, 16);
+    vf_scene_destroy(s);
+  }
+  vf_scene *none = NULL;
+  CHECK_INT_EQ(vf_scene_load_camera(DIR "camera.xml", "7", &none), VF_ESCENE);
+  CHECK_STR_CONTAINS(vf_error_detail(VF_ESCENE), "no sensor '7' (it has 3)");
+}
+
+/* Mitsuba's parse_fov for each fov_axis on an 80x40 film (aspect 2), as vertical fov. */
+static void test_fov_axis_x_y_diagonal_smaller_larger_and_focal_length(void) {
+  const double t = tan(rad(30)), aspect = 2;
+  const struct {
+    const char *axis;
+    double vertical;
+  } cases[] = {
+      {"x", deg(2 * atan(t / aspect))},
+      {"y", 60},
+      {"diagonal", deg(2 * atan(t * 40 / sqrt(80.0 * 80 + 40 * 40)))},
+      {"smaller", 60},                        /* the film's smaller side is y */
+      {"larger", deg(2 * atan(t / aspect))},  /* its larger x */
+      {"focal", deg(2 * atan(sqrt(36.0 * 36 + 24 * 24) / 100 * 40 / sqrt(80.0 * 80 + 40 * 40)))}, /* 50 mm */
+  };
+  for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+    char text[1024];
+    int focal = strcmp(cases[i].axis, "focal") == 0;
+    snprintf(text, sizeof text,
+             "<scene version=\"3.0.0\"><sensor type=\"perspective\">%s%s%s"
+             "<film type=\"hdrfilm\"><integer name=\"width\" value=\"80\"/><integer name=\"height\" value=\"40\"/></film>"
+             "</sensor><shape type=\"sphere\"/><emitter type=\"constant\"/></scene>",
+             focal ? "" : "<float name=\"fov\" value=\"60\"/><string name=\"fov_axis\" value=\"", focal ? "" : cases[i].axis,
+             focal ? "" : "\"/>");
+    vf_scene *s = load(write_temp("fov.xml", text), NULL);
+    if (!s) continue;
+    printf("  fov_axis %-8s vertical %.5f (expected %.5f)\n", cases[i].axis, s->camera.vertical_fov_degrees,
+           cases[i].vertical);
+    CHECK_NEAR(s->camera.vertical_fov_degrees, cases[i].vertical, 1e-4);
+    vf_scene_destroy(s);
+  }
+}
+
+static double triangle_normal_dot(const vf_shape *m, uint32_t t, vf_vec3 toward) {
+  const float *p = m->positions;
+  const uint32_t *ix = m->indices + 3 * t;
+  vf_vec3 a = vf_vec3_make(p[3 * ix[0]], p[3 * ix[0] + 1], p[3 * ix[0] + 2]);
+  vf_vec3 b = vf_vec3_make(p[3 * ix[1]], p[3 * ix[1] + 1], p[3 * ix[1] + 2]);
+  vf_vec3 c = vf_vec3_make(p[3 * ix[2]], p[3 * ix[2] + 1], p[3 * ix[2] + 2]);
+  vf_vec3 n = vf_cross(vf_sub(b, a), vf_sub(c, a));
+  vf_vec3 centroid = vf_scale(vf_add(vf_add(a, b), c), 1.0f / 3);
+  return vf_dot(n, vf_sub(centroid, toward));
+}
+
+static double mesh_area(const vf_shape *m) {
+  double area = 0;
+  for (uint32_t t = 0; t < m->num_triangles; t++) {
+    const uint32_t *ix = m->indices + 3 * t;
+    const float *a = m->positions + 3 * ix[0], *b = m->positions + 3 * ix[1], *c = m->positions + 3 * ix[2];
+    vf_vec3 n = vf_cross(vf_vec3_make(b[0] - a[0], b[1] - a[1], b[2] - a[2]), vf_vec3_make(c[0] - a[0], c[1] - a[1], c[2] - a[2]));
+    area += 0.5 * vf_length(n);
+  }
+  return area;
+}
+
+static void test_shapes_and_transforms_composed_in_order(void) {
+  vf_scene *s = load(DIR "shapes.xml", NULL);
+  if (!s) return;
+  CHECK_INT_EQ(s->num_shapes, 6);
+  CHECK_INT_EQ(s->num_materials, 1);
+  /* cube: scale x 2, then rotate 90 about z, then translate x 1 */
+  const vf_shape *cube = &s->shapes[0];
+  CHECK_INT_EQ(cube->num_vertices, 8);
+  CHECK_INT_EQ(cube->num_triangles, 12);
+  const float *p = cube->positions;
+  CHECK_VEC(vf_vec3_make(p[21], p[22], p[23]), 0, 2, 1, 1e-5); /* (1, 1, 1) -> (2, 1, 1) -> (-1, 2, 1) -> (0, 2, 1) */
+  CHECK_VEC(vf_vec3_make(p[0], p[1], p[2]), 2, -2, -1, 1e-5); /* (-1, -1, -1) */
+  for (uint32_t t = 0; t < 12; t++) CHECK(triangle_normal_dot(cube, t, vf_vec3_make(1, 0, 0)) > 0); /* faces out */
+  /* rectangle moved by a matrix, its normal flipped to -z */
+  const vf_shape *rect = &s->shapes[1];
+  CHECK_INT_EQ(rect->num_triangles, 2);
+  CHECK_VEC(vf_vec3_make(rect->positions[0], rect->positions[1], rect->positions[2]), 4, -1, 0, 0);
+  for (uint32_t t = 0; t < 2; t++) CHECK(triangle_normal_dot(rect, t, vf_vec3_make(5, 0, 1)) > 0); /* faces -z */
+  /* disk of radius 2 facing +z, emitting */
+  const vf_shape *disk = &s->shapes[2];
+  CHECK_NEAR(mesh_area(disk), PI * 4, PI * 4 * 2e-4);
+  CHECK_VEC(disk->emission, 1, 2, 3, 0);
+  CHECK(triangle_normal_dot(disk, 0, vf_vec3_make(0, 0, -1)) > 0);
+  /* sphere: centre (1, 0, 0) scaled by 2 and moved up 1; radius 0.5 x 2 */
+  CHECK(s->shapes[3].kind == VF_SHAPE_SPHERE);
+  CHECK_VEC(s->shapes[3].center, 2, 1, 0, 1e-6);
+  CHECK_NEAR(s->shapes[3].radius, 1, 1e-6);
+  /* mesh files through Assimp, with to_world */
+  CHECK(s->shapes[4].kind == VF_SHAPE_MESH && s->shapes[4].num_triangles >= 1);
+  for (uint32_t v = 0; v < s->shapes[4].num_vertices; v++) CHECK_NEAR(s->shapes[4].positions[3 * v + 2], -3, 1e-6);
+  CHECK(s->shapes[5].num_triangles >= 1);
+  CHECK_STR_CONTAINS(s->notes, "the disk is a polygon of 256 triangles");
+  CHECK(strstr(s->shapes[0].name, "cube") != NULL);
+  vf_scene_destroy(s);
+}
+
+static const vf_material *material(const vf_scene *s, const char *name) {
+  for (int i = 0; i < s->num_materials; i++)
+    if (strcmp(s->materials[i].name, name) == 0) return &s->materials[i];
+  printf("  no material '%s'\n", name);
+  CHECK(0);
+  return NULL;
+}
+
+static void test_every_bsdf_parameter(void) {
+  vf_scene *s = load(DIR "bsdfs.xml", NULL);
+  if (!s) return;
+  const vf_material *m;
+  CHECK_INT_EQ(s->num_materials, 16);
+  if ((m = material(s, "diffuse"))) CHECK_VEC(m->diffuse, 0.2, 0.4, 0.6, 1e-7);
+  if ((m = material(s, "gold"))) {
+    CHECK_VEC(m->conductor, 1, 1, 1, 0);
+    CHECK_VEC(m->conductor_eta, 0.1431189557, 0.3749570432, 1.4424785571, 1e-7);
+    CHECK_VEC(m->conductor_k, 3.9831604247, 2.3857207478, 1.6032152899, 1e-6);
+    CHECK(m->roughness == 0);
+  }
+  if ((m = material(s, "rough-copper"))) {
+    CHECK_NEAR(m->roughness, 0.3, 1e-6); /* GGX alpha 0.09 = roughness^2 */
+    CHECK_VEC(m->conductor_eta, 0.2004376970, 0.9240334304, 1.1022119527, 1e-7);
+  }
+  if ((m = material(s, "given-eta-k"))) {
+    CHECK_VEC(m->conductor, 0.9, 0.9, 0.9, 1e-7);
+    CHECK_VEC(m->conductor_eta, 0.2, 0.3, 0.4, 1e-7);
+    CHECK_VEC(m->conductor_k, 3, 2.5, 2, 1e-7);
+    CHECK_NEAR(m->roughness, 0.5, 1e-6); /* Beckmann alpha 0.25, noted */
+  }
+  if ((m = material(s, "mirror"))) { /* material none: Fresnel 1 */
+    CHECK_VEC(m->conductor, 1, 1, 1, 0);
+    CHECK(vf_is_zero(m->conductor_eta) && vf_is_zero(m->conductor_k));
+  }
+  if ((m = material(s, "water"))) {
+    CHECK_VEC(m->dielectric, 1, 1, 1, 0);
+    CHECK_NEAR(m->ior, 1.333, 1e-6);
+    CHECK(m->roughness == 0);
+  }
+  if ((m = material(s, "frosted"))) {
+    CHECK_NEAR(m->ior, 1.5, 1e-6);
+    CHECK_NEAR(m->roughness, 0.2, 1e-6);
+  }
+  if ((m = material(s, "sheet"))) { /* 2R / (1 + R) of R = 0.04 */
+    CHECK_VEC(m->mirror, 0.08 / 1.04, 0.08 / 1.04, 0.08 / 1.04, 1e-6);
+    CHECK_VEC(m->dielectric, 0.96 / 1.04, 0.96 / 1.04, 0.96 / 1.04, 1e-6);
+    CHECK(m->ior == 1);
+  }
+  if ((m = material(s, "plastic"))) {
+    CHECK(m->gltf);
+    CHECK_VEC(m->base_color, 0.1, 0.2, 0.3, 1e-7);
+    CHECK(m->metallic == 0 && m->roughness == 0);
+  }
+  if ((m = material(s, "roughplastic"))) {
+    CHECK(m->gltf);
+    CHECK_VEC(m->base_color, 0.5, 0.5, 0.5, 0);
+    CHECK_NEAR(m->roughness, 0.4, 1e-6);
+  }
+  if ((m = material(s, "textured"))) {
+    CHECK(m->textures[VF_TEXTURE_COLOR].texture != 0);
+    CHECK_INT_EQ(m->textures[VF_TEXTURE_COLOR].wrap_s, VF_WRAP_CLAMP);
+    CHECK_VEC(m->diffuse, 1, 1, 1, 0);
+  }
+  if ((m = material(s, "checker"))) CHECK_VEC(m->diffuse, 0.4, 0.4, 0.4, 1e-7);
+  if ((m = material(s, "leaf"))) {
+    CHECK(m->textures[VF_TEXTURE_ALPHA].texture != 0);
+    CHECK_INT_EQ(m->alpha_channel, 0);
+    CHECK(m->alpha == 1 && m->alpha_cutoff == 0.5f);
+    CHECK_VEC(m->diffuse, 0.5, 0.5, 0.5, 0);
+  }
+  if ((m = material(s, "bumpy"))) {
+    CHECK(m->textures[VF_TEXTURE_NORMAL].texture != 0);
+    CHECK_VEC(m->diffuse, 0.5, 0.5, 0.5, 0);
+  }
+  if ((m = material(s, "hair"))) CHECK_VEC(m->diffuse, 0.5, 0.5, 0.5, 0);
+  CHECK_STR_CONTAINS(s->notes, "bsdf 'hair' is not supported: rendered as diffuse grey 0.5");
+  CHECK_STR_CONTAINS(s->notes, "the Beckmann distribution is rendered as GGX of the same alpha");
+  CHECK_STR_CONTAINS(s->notes, "thindielectric is approximated");
+  CHECK_STR_CONTAINS(s->notes, "plastic is approximated by glTF's dielectric base");
+  CHECK_STR_CONTAINS(s->notes, "checkerboard is rendered as the mean of its colours");
+  CHECK_STR_CONTAINS(s->notes, "<bsdf type=\"diffuse\" id=\"onesided\"> (bsdfs.xml:70): not wrapped in twosided");
+  CHECK(strstr(s->notes, "id=\"diffuse\"> (bsdfs.xml:8): not wrapped") == NULL); /* it is wrapped */
+  CHECK(strstr(s->notes, "raw") == NULL); /* raw is right for a normal map */
+  vf_scene_destroy(s);
+}
+
+static void test_point_spot_directional_and_constant_emitters(void) {
+  vf_scene *s = load(DIR "emitters.xml", NULL);
+  if (!s) return;
+  CHECK_INT_EQ(s->num_point_lights, 2);
+  const vf_point_light_desc *point = &s->point_lights[0], *spot = &s->point_lights[1];
+  CHECK(!point->is_spot);
+  CHECK_VEC(point->position, 1, 2, 3, 0);
+  CHECK_VEC(point->intensity, 5, 5, 5, 0);
+  CHECK(spot->is_spot);
+  CHECK_VEC(spot->position, 0, 4, 0, 1e-6);
+  CHECK_VEC(spot->direction, 0, -1, 0, 1e-6);
+  CHECK_VEC(spot->intensity, 7, 8, 9, 0);
+  CHECK_NEAR(spot->inner_cone_angle, rad(20), 1e-6); /* beam_width */
+  CHECK_NEAR(spot->outer_cone_angle, rad(30), 1e-6); /* cutoff_angle */
+  CHECK_INT_EQ(s->num_directional_lights, 1);
+  CHECK_VEC(s->directional_lights[0].direction, 0, -1, 0, 1e-6);
+  CHECK_VEC(s->directional_lights[0].irradiance, 3, 3, 3, 0);
+  CHECK_VEC(s->background, 0.1, 0.2, 0.3, 1e-7);
+  CHECK_STR_CONTAINS(s->notes, "spot falloff: Mitsuba's is linear in angle");
+  vf_scene_destroy(s);
+}
+
+/* Refused with the file, the element and the reason, by the loader and by the command line
+ * with exit status 2. */
+static void test_bad_files_refused_naming_file_element_and_reason(void) {
+  const struct {
+    const char *file, *detail;
+  } cases[] = {
+      {"malformed.xml", "malformed.xml:4: malformed XML: mismatched tag"},
+      {"unknown_plugin.xml", "unknown_plugin.xml:5: <emitter type=\"projector\">: emitter type 'projector' is not supported"},
+      {"missing_file.xml", "missing_file.xml:4: <shape type=\"obj\">: cannot open 'no_such_mesh.obj'"},
+      {"nan_value.xml", "nan_value.xml:3: <float name=\"fov\">: 'nan' is not"},
+      {"unknown_default.xml", "unknown_default.xml:6: <integer value=\"$resolution\">: '$resolution' names no <default>"},
+      {"envmap_orientation.xml", "envmap_orientation.xml:5: <emitter type=\"envmap\">: vcmfarm's environment map is fixed"},
+  };
+  for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+    char path[1024], cmd[2400];
+    snprintf(path, sizeof path, DIR "bad/%s", cases[i].file);
+    vf_scene *s = NULL;
+    int err = vf_scene_load(path, &s);
+    CHECK(err < 0 && s == NULL);
+    if (err < 0) CHECK_STR_CONTAINS(vf_error_detail(err), cases[i].detail);
+    snprintf(cmd, sizeof cmd, "%s/vcmfarm render %s -o /dev/null --iterations 1 2>/dev/null", VF_BINARY_DIR, path);
+    int status = system(cmd);
+    CHECK(WIFEXITED(status));
+    CHECK_INT_EQ(WEXITSTATUS(status), 2);
+  }
+  /* an include that is missing names the including element */
+  vf_scene *s = NULL;
+  const char *p = write_temp("include.xml", "<scene version=\"3.0.0\">\n<include filename=\"gone.xml\"/>\n</scene>\n");
+  CHECK_INT_EQ(vf_scene_load(p, &s), VF_ENOENT);
+  CHECK_STR_CONTAINS(vf_error_detail(VF_ENOENT), "include.xml:2: <include filename=\"gone.xml\">");
+  p = write_temp("loop.xml", "<scene version=\"3.0.0\">\n<include filename=\"loop.xml\"/>\n</scene>\n");
+  CHECK_INT_EQ(vf_scene_load(p, &s), VF_ESCENE);
+  CHECK_STR_CONTAINS(vf_error_detail(VF_ESCENE), "includes nest more than 16 deep");
+}
+
+/* The Cornell box in both formats: the same content field by field. */
+static void test_cornell_xml_and_json_load_the_same_content(void) {
+  vf_scene *x = load(DIR "cornell.xml", NULL), *j = load(DIR "cornell.json", NULL);
+  if (!x || !j) goto done;
+  CHECK_VEC(x->camera.position, j->camera.position.x, j->camera.position.y, j->camera.position.z, 1e-6);
+  CHECK_VEC(x->camera.forward, j->camera.forward.x, j->camera.forward.y, j->camera.forward.z, 1e-6);
+  CHECK_VEC(x->camera.up, j->camera.up.x, j->camera.up.y, j->camera.up.z, 1e-6);
+  CHECK_NEAR(x->camera.vertical_fov_degrees, j->camera.vertical_fov_degrees, 1e-5);
+  CHECK_INT_EQ(x->settings.width, j->settings.width);
+  CHECK_INT_EQ(x->settings.height, j->settings.height);
+  CHECK_INT_EQ(x->settings.max_path_length, j->settings.max_path_length);
+  CHECK_INT_EQ(x->settings_given, j->settings_given);
+  CHECK_INT_EQ(x->num_materials, j->num_materials);
+  for (int i = 0; i < x->num_materials && i < j->num_materials; i++) {
+    vf_material a = x->materials[i], b = j->materials[i];
+    CHECK(strcmp(a.name, b.name) == 0);
+    memset(a.name, 0, sizeof a.name);
+    memset(b.name, 0, sizeof b.name);
+    CHECK(memcmp(&a, &b, sizeof a) == 0);
+  }
+  CHECK_INT_EQ(x->num_shapes, j->num_shapes);
+  for (int i = 0; i < x->num_shapes && i < j->num_shapes; i++) {
+    const vf_shape *a = &x->shapes[i], *b = &j->shapes[i];
+    CHECK(a->kind == b->kind && a->material == b->material && strcmp(a->name, b->name) == 0);
+    CHECK_VEC(a->emission, b->emission.x, b->emission.y, b->emission.z, 0);
+    CHECK_INT_EQ(a->num_vertices, b->num_vertices);
+    CHECK_INT_EQ(a->num_triangles, b->num_triangles);
+    if (a->num_vertices == b->num_vertices)
+      for (uint32_t v = 0; v < 3 * a->num_vertices; v++) CHECK_NEAR(a->positions[v], b->positions[v], 1e-6);
+    if (a->num_triangles == b->num_triangles && a->num_triangles > 0)
+      CHECK(memcmp(a->indices, b->indices, 3 * sizeof(uint32_t) * a->num_triangles) == 0);
+    CHECK_VEC(a->center, b->center.x, b->center.y, b->center.z, 0);
+    CHECK(a->radius == b->radius);
+  }
+  CHECK_INT_EQ(x->num_point_lights + x->num_directional_lights, 0);
+  CHECK_INT_EQ(j->num_point_lights + j->num_directional_lights, 0);
+  CHECK(vf_is_zero(x->background) && x->envmap.width == 0);
+  /* What a Mitsuba scene says beyond the content: the sampler's count, noted. */
+  CHECK_STR_CONTAINS(x->notes, "sample_count 16: the number of iterations is the job's");
+done:
+  vf_scene_destroy(x);
+  vf_scene_destroy(j);
+}
+
+/* ... and the same image: independent path-traced estimates agree block by block. */
+static void test_cornell_xml_and_json_render_the_same_film(void) {
+  vf_scene *x = load(DIR "cornell.xml", NULL), *j = load(DIR "cornell.json", NULL);
+  enum { BLOCKS = 4, NB = BLOCKS * BLOCKS, ITERATIONS = 96 };
+  double mean[2][NB], se[2][NB];
+  if (!x || !j) goto done;
+  for (int k = 0; k < 2; k++) {
+    vf_settings s = (k ? j : x)->settings;
+    s.algorithm = VF_ALGO_PT;
+    s.sampler = VF_SAMPLER_INDEPENDENT;
+    s.width = s.height = 32;
+    s.seed = 77 + (uint64_t)k;
+    vf_vcm_stats stats = {0};
+    CHECK_INT_EQ(render_block_estimates(k ? j : x, &s, 2, ITERATIONS, BLOCKS, mean[k], se[k], &stats), VF_OK);
+    CHECK_INT_EQ(stats.nonfinite, 0);
+  }
+  double max_se = 0;
+  for (int b = 0; b < NB; b++) max_se = fmax(max_se, se[0][b]);
+  CHECK(max_se > 0 && max_se < 0.05); /* the comparison has teeth */
+  CHECK(blocks_agree("cornell", "xml", "json", mean[0], se[0], mean[1], se[1], NB));
+done:
+  vf_scene_destroy(x);
+  vf_scene_destroy(j);
+}
+
+/* A farm job carries the JSON text and ships the files it names: submit's collection
+ * loads from the stage what a local render loads. */
+static void test_farm_job_loads_what_a_local_render_loads(void) {
+  char *text = NULL, stage[512];
+  size_t len = 0;
+  vf_blob_table files = {0};
+  vf_scene *local = load(DIR "shapes.xml", NULL), *job = NULL;
+  CHECK_INT_EQ(vf_scene_model_text(DIR "shapes.xml", NULL, &text, &len), VF_OK);
+  CHECK_INT_EQ(vf_file_temp_dir("vcmfarm-test-mitsuba-stage", stage, sizeof stage), VF_OK);
+  int err = vf_job_scene_collect(DIR "shapes.xml", text, len, stage, &files, &job);
+  if (err != VF_OK) printf("  collect: %s\n", vf_error_detail(err));
+  CHECK_INT_EQ(err, VF_OK);
+  CHECK_INT_EQ(files.count, 2); /* the PLY and OBJ files, by content hash */
+  if (local && job) CHECK(memcmp(local->hash, job->hash, sizeof local->hash) == 0);
+  vf_scene_destroy(job);
+  vf_scene_destroy(local);
+  vf_blob_table_clear(&files);
+  vf_file_remove_tree(stage);
+  free(text);
+}
+
+int main(void) {
+  RUN(test_perspective_from_lookat_fov_along_x_and_max_depth);
+  RUN(test_thinlens_and_orthographic_sensors_by_id_and_index);
+  RUN(test_fov_axis_x_y_diagonal_smaller_larger_and_focal_length);
+  RUN(test_shapes_and_transforms_composed_in_order);
+  RUN(test_every_bsdf_parameter);
+  RUN(test_point_spot_directional_and_constant_emitters);
+  RUN(test_bad_files_refused_naming_file_element_and_reason);
+  RUN(test_cornell_xml_and_json_load_the_same_content);
+  RUN(test_cornell_xml_and_json_render_the_same_film);
+  RUN(test_farm_job_loads_what_a_local_render_loads);
+  if (temp_dir[0]) vf_file_remove_tree(temp_dir);
+  return check_finish();
+}
