@@ -212,10 +212,12 @@ static int matrix_json(const vf_affine *m, cJSON *js) {
   return add(t, "matrix", cJSON_CreateDoubleArray(v, 16));
 }
 
-/* An inline mesh of nv positions and nt triangles, the winding reversed for flip_normals. */
-static int inline_mesh(cJSON *js, const double *pos, int nv, const int *idx, int nt, int flip) {
+/* An inline mesh of nv positions (and texture coordinates uv, or NULL) and nt triangles,
+ * the winding reversed for flip_normals. */
+static int inline_mesh(cJSON *js, const double *pos, const double *uv, int nv, const int *idx, int nt, int flip) {
   cJSON *p = cJSON_CreateDoubleArray(pos, 3 * nv), *ix = cJSON_CreateArray();
   if (p == NULL || ix == NULL || !cJSON_AddItemToObject(js, "positions", p)) return cJSON_Delete(p), cJSON_Delete(ix), oom();
+  if (uv != NULL && add(js, "uvs", cJSON_CreateDoubleArray(uv, 2 * nv)) < 0) return cJSON_Delete(ix), oom();
   if (!cJSON_AddItemToObject(js, "indices", ix)) return cJSON_Delete(ix), oom();
   for (int t = 0; t < nt; t++)
     for (int k = 0; k < 3; k++) {
@@ -230,8 +232,10 @@ static int inline_mesh(cJSON *js, const double *pos, int nv, const int *idx, int
 static int primitive(cJSON *js, const char *type, int flip) {
   if (strcmp(type, "rectangle") == 0) {
     static const double pos[] = {-1, -1, 0, 1, -1, 0, 1, 1, 0, -1, 1, 0};
+    /* Mitsuba's: uv (0, 0) at (-1, -1); its v = 0 is an image's top row, as vcmfarm's t. */
+    static const double uv[] = {0, 0, 1, 0, 1, 1, 0, 1};
     static const int idx[] = {0, 1, 2, 0, 2, 3};
-    return inline_mesh(js, pos, 4, idx, 2, flip);
+    return inline_mesh(js, pos, uv, 4, idx, 2, flip);
   }
   if (strcmp(type, "cube") == 0) {
     double pos[24];
@@ -240,7 +244,7 @@ static int primitive(cJSON *js, const char *type, int flip) {
     /* vertex v has x = bit 0, y = bit 1, z = bit 2 */
     static const int idx[] = {0, 2, 3, 0, 3, 1,  4, 5, 7, 4, 7, 6,  0, 1, 5, 0, 5, 4,
                               2, 6, 7, 2, 7, 3,  0, 4, 6, 0, 6, 2,  1, 3, 7, 1, 7, 5};
-    return inline_mesh(js, pos, 8, idx, 12, flip);
+    return inline_mesh(js, pos, NULL, 8, idx, 12, flip);
   }
   double pos[3 * (DISK_SEGMENTS + 1)];
   int idx[3 * DISK_SEGMENTS];
@@ -254,7 +258,7 @@ static int primitive(cJSON *js, const char *type, int flip) {
     idx[3 * i + 1] = i + 1;
     idx[3 * i + 2] = (i + 1) % DISK_SEGMENTS + 1;
   }
-  return inline_mesh(js, pos, DISK_SEGMENTS + 1, idx, DISK_SEGMENTS, flip);
+  return inline_mesh(js, pos, NULL, DISK_SEGMENTS + 1, idx, DISK_SEGMENTS, flip);
 }
 
 static int sphere(mts_ctx *c, vf_xml_node *s, cJSON *js, const vf_affine *m) {

@@ -136,6 +136,7 @@ static int parse_inline_mesh(const parse_ctx *c, const cJSON *j, const char *pat
     return vf_scene_fail(c, VF_ESCENE, ip, "expected a non-empty flat array of vertex indices, 3 per triangle");
   float *positions = malloc((size_t)np * sizeof *positions);
   uint32_t *indices = malloc((size_t)ni * sizeof *indices);
+  float *uvs = NULL;
   if (positions == NULL || indices == NULL) {
     err = vf_error_set(VF_ENOMEM, "out of memory");
     goto fail;
@@ -164,12 +165,33 @@ static int parse_inline_mesh(const parse_ctx *c, const cJSON *j, const char *pat
     }
     indices[i++] = (uint32_t)d;
   }
+  /* Optional texture coordinates, 2 per vertex, t = 0 the top row of an image. */
+  const cJSON *uv = cJSON_GetObjectItemCaseSensitive(j, "uvs");
+  if (uv != NULL) {
+    char up[PATH_LEN];
+    vf_scene_join(up, path, "uvs");
+    if (!cJSON_IsArray(uv) || cJSON_GetArraySize(uv) != 2 * (int)num_vertices) {
+      err = vf_scene_fail(c, VF_ESCENE, up, "expected a flat array of numbers, 2 per vertex (%u)", 2 * num_vertices);
+      goto fail;
+    }
+    if ((uvs = malloc(2 * (size_t)num_vertices * sizeof *uvs)) == NULL) {
+      err = vf_error_set(VF_ENOMEM, "out of memory");
+      goto fail;
+    }
+    i = 0;
+    cJSON_ArrayForEach(e, uv) {
+      if ((err = vf_scene_to_float(c, e, vf_scene_join_index(ep, up, i), &uvs[i])) < 0) goto fail;
+      i++;
+    }
+  }
   s->positions = positions;
   s->indices = indices;
+  s->uvs = uvs;
   s->num_vertices = num_vertices;
   s->num_triangles = (uint32_t)(ni / 3);
   return VF_OK;
 fail:
+  free(uvs);
   free(indices);
   free(positions);
   return err;
@@ -220,7 +242,7 @@ static int parse_sphere(const parse_ctx *c, const cJSON *j, const char *path, co
 
 static int parse_shape(const parse_ctx *c, const cJSON *j, int index, vf_shape *s) {
   static const char *const mesh_fields[] = {"type", "name", "material", "emission", "transform",
-                                            "file", "positions", "indices", NULL};
+                                            "file", "positions", "indices", "uvs", NULL};
   static const char *const sphere_fields[] = {"type", "name", "material", "emission", "transform",
                                               "center", "radius", NULL};
   char path[PATH_LEN], p[PATH_LEN];
@@ -257,6 +279,8 @@ static int parse_shape(const parse_ctx *c, const cJSON *j, int index, vf_shape *
       return vf_scene_fail(c, VF_ESCENE, path, "give either 'file' or 'positions' and 'indices', not both");
     if (file == NULL && !inline_mesh)
       return vf_scene_fail(c, VF_ESCENE, path, "missing field 'file' (or 'positions' and 'indices')");
+    if (file != NULL && cJSON_HasObjectItem(j, "uvs"))
+      return vf_scene_fail(c, VF_ESCENE, vf_scene_join(p, path, "uvs"), "only for inline meshes (a file brings its own)");
     err = file ? vf_scene_load_mesh_file(c, file, path, s) : parse_inline_mesh(c, j, path, s);
     if (err < 0) return err;
     if (has_transform && (err = transform_mesh(c, &a, vf_scene_join(p, path, "transform"), s)) < 0) return err;

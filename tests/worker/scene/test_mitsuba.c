@@ -180,6 +180,13 @@ static void test_shapes_and_transforms_composed_in_order(void) {
   CHECK_INT_EQ(rect->num_triangles, 2);
   CHECK_VEC(vf_vec3_make(rect->positions[0], rect->positions[1], rect->positions[2]), 4, -1, 0, 0);
   for (uint32_t t = 0; t < 2; t++) CHECK(triangle_normal_dot(rect, t, vf_vec3_make(5, 0, 1)) > 0); /* faces -z */
+  /* Mitsuba's rectangle uvs: (0, 0) at (-1, -1), (1, 1) at (1, 1) */
+  CHECK(rect->uvs != NULL);
+  if (rect->uvs) {
+    CHECK(rect->uvs[0] == 0 && rect->uvs[1] == 0 && rect->uvs[4] == 1 && rect->uvs[5] == 1);
+    CHECK_VEC(vf_vec3_make(rect->positions[6], rect->positions[7], rect->positions[8]), 6, 1, 0, 0);
+  }
+  CHECK(cube->uvs == NULL);
   /* disk of radius 2 facing +z, emitting */
   const vf_shape *disk = &s->shapes[2];
   CHECK_NEAR(mesh_area(disk), PI * 4, PI * 4 * 2e-4);
@@ -370,6 +377,10 @@ static void test_cornell_xml_and_json_load_the_same_content(void) {
     CHECK_INT_EQ(a->num_triangles, b->num_triangles);
     if (a->num_vertices == b->num_vertices)
       for (uint32_t v = 0; v < 3 * a->num_vertices; v++) CHECK_NEAR(a->positions[v], b->positions[v], 1e-6);
+    CHECK((a->uvs == NULL) == (b->uvs == NULL));
+    if (a->uvs && b->uvs && a->num_vertices == b->num_vertices)
+      CHECK(memcmp(a->uvs, b->uvs, 2 * sizeof(float) * a->num_vertices) == 0);
+    CHECK(a->normals == NULL && b->normals == NULL && a->tangents == NULL && b->tangents == NULL);
     if (a->num_triangles == b->num_triangles && a->num_triangles > 0)
       CHECK(memcmp(a->indices, b->indices, 3 * sizeof(uint32_t) * a->num_triangles) == 0);
     CHECK_VEC(a->center, b->center.x, b->center.y, b->center.z, 0);
@@ -412,6 +423,27 @@ done:
 
 /* A farm job carries the JSON text and ships the files it names: submit's collection
  * loads from the stage what a local render loads. */
+/* The JSON inline mesh's "uvs" that rectangles convert to: 2 per vertex, checked. */
+static void test_json_inline_mesh_uvs(void) {
+  vf_scene *s = NULL;
+  const char *good = "{\"camera\": {\"position\": [0, 0, 3], \"target\": [0, 0, 0], \"fov\": 40},"
+                     " \"materials\": {\"m\": {}}, \"shapes\": [{\"type\": \"mesh\", \"material\": \"m\","
+                     " \"emission\": [1, 1, 1], \"positions\": [0, 0, 0, 1, 0, 0, 0, 1, 0], \"indices\": [0, 1, 2],"
+                     " \"uvs\": [0, 0, 1, 0, 0.25, 1]}]}";
+  CHECK_INT_EQ(vf_scene_load(write_temp("uvs.json", good), &s), VF_OK);
+  if (s) {
+    CHECK(s->shapes[0].uvs != NULL && s->shapes[0].uvs[4] == 0.25f && s->shapes[0].uvs[5] == 1);
+    vf_scene_destroy(s);
+  }
+  const char *bad = "{\"camera\": {\"position\": [0, 0, 3], \"target\": [0, 0, 0], \"fov\": 40},"
+                    " \"materials\": {\"m\": {}}, \"shapes\": [{\"type\": \"mesh\", \"material\": \"m\","
+                    " \"emission\": [1, 1, 1], \"positions\": [0, 0, 0, 1, 0, 0, 0, 1, 0], \"indices\": [0, 1, 2],"
+                    " \"uvs\": [0, 0, 1, 0]}]}";
+  s = NULL;
+  CHECK_INT_EQ(vf_scene_load(write_temp("uvs_bad.json", bad), &s), VF_ESCENE);
+  CHECK_STR_CONTAINS(vf_error_detail(VF_ESCENE), "shapes[0].uvs: expected a flat array of numbers, 2 per vertex (6)");
+}
+
 static void test_farm_job_loads_what_a_local_render_loads(void) {
   char *text = NULL, stage[512];
   size_t len = 0;
@@ -441,6 +473,7 @@ int main(void) {
   RUN(test_bad_files_refused_naming_file_element_and_reason);
   RUN(test_cornell_xml_and_json_load_the_same_content);
   RUN(test_cornell_xml_and_json_render_the_same_film);
+  RUN(test_json_inline_mesh_uvs);
   RUN(test_farm_job_loads_what_a_local_render_loads);
   if (temp_dir[0]) vf_file_remove_tree(temp_dir);
   return check_finish();
