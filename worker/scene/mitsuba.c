@@ -406,15 +406,20 @@ static int emitter(mts_ctx *c, vf_xml_node *e) {
     if (file == NULL) return mts_fail(e, "has no filename");
     if ((err = check_file(e, c, file)) < 0) return err;
     /* Mitsuba looks a world direction d up at u = atan2(d'.x, -d'.z) / 2pi, v = acos(d'.y)
-     * / pi with d' = to_world^-1 d; vcmfarm at u + 0.5 of d itself. They agree when
-     * to_world is the rotation by 180 degrees about +y. */
-    int half_turn = fabs(m.m[0][0] + 1) < 1e-6 && fabs(m.m[1][1] - 1) < 1e-6 && fabs(m.m[2][2] + 1) < 1e-6 &&
-                    fabs(m.m[0][2]) + fabs(m.m[2][0]) + fabs(m.m[0][1]) + fabs(m.m[1][0]) + fabs(m.m[1][2]) + fabs(m.m[2][1]) < 1e-6;
-    if (!half_turn)
-      return mts_fail(e, "vcmfarm's environment map is fixed: it is Mitsuba's with to_world a rotation by 180 degrees "
-                      "about +y (<rotate y=\"1\" angle=\"180\"/>); this to_world cannot be rendered");
+     * / pi with d' = to_world^-1 d; vcmfarm at u + 0.5 of R^T d (scene.h). u + 0.5 of x is
+     * u of H x, H the half turn about +y = diag(-1, 1, -1), so R = to_world H. */
+    double q[9];
+    for (int i = 0; i < 3; i++)
+      for (int k = 0; k < 3; k++) q[3 * i + k] = (k == 1 ? 1 : -1) * m.m[i][k];
+    for (int a = 0; a < 3; a++)
+      for (int b = 0; b < 3; b++) {
+        double dot = m.m[0][a] * m.m[0][b] + m.m[1][a] * m.m[1][b] + m.m[2][a] * m.m[2][b];
+        if (fabs(dot - (a == b)) > 1e-5 || vf_affine_det(&m) < 0)
+          return mts_fail(e, "to_world must be a rotation (an envmap cannot be scaled or mirrored)");
+      }
     if ((err = light(c, "environment", &l)) < 0 || !cJSON_AddStringToObject(l, "file", file) ||
-        (err = add(l, "scale", mts_vec3_json(vf_vec3_splat((float)scale)))) < 0)
+        (err = add(l, "scale", mts_vec3_json(vf_vec3_splat((float)scale)))) < 0 ||
+        (err = add(l, "rotation", cJSON_CreateDoubleArray(q, 9))) < 0)
       return err < 0 ? err : oom();
   } else {
     return mts_fail(e, "emitter type '%s' is not supported (area, point, spot, directional, constant, envmap)", type);

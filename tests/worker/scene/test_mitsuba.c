@@ -7,6 +7,7 @@
 #include "../render/render_util.h"
 #include "common/error.h"
 #include "common/file.h"
+#include "common/image.h"
 #include "worker/scene/job_scene.h"
 #include "worker/scene/load.h"
 #include "worker/scene/scene.h"
@@ -324,7 +325,7 @@ static void test_bad_files_refused_naming_file_element_and_reason(void) {
       {"missing_file.xml", "missing_file.xml:4: <shape type=\"obj\">: cannot open 'no_such_mesh.obj'"},
       {"nan_value.xml", "nan_value.xml:3: <float name=\"fov\">: 'nan' is not"},
       {"unknown_default.xml", "unknown_default.xml:6: <integer value=\"$resolution\">: '$resolution' names no <default>"},
-      {"envmap_orientation.xml", "envmap_orientation.xml:5: <emitter type=\"envmap\">: vcmfarm's environment map is fixed"},
+      {"envmap_scaled.xml", "envmap_scaled.xml:5: <emitter type=\"envmap\">: to_world must be a rotation"},
   };
   for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
     char path[1024], cmd[2400];
@@ -421,6 +422,89 @@ done:
   vf_scene_destroy(j);
 }
 
+/* An 8x4 map E and, for vcmfarm's unturned lookup, E rolled so that the pixel Mitsuba
+ * reads through to_world = rotate(y, theta) is the pixel vcmfarm reads: Mitsuba reads
+ * column floor(8 (f(d) + theta / 2pi)), f(d) = atan2(d.x, -d.z) / 2pi; vcmfarm column
+ * floor(8 (f(d) + 1/2)); so rolled[x] = E[x - 4 + 8 theta / 2pi]. */
+static void write_maps(int quarter_turns_rolled, const char *name_e, const char *name_rolled) {
+  vf_image e = {0}, r = {0};
+  CHECK_INT_EQ(vf_image_alloc(&e, 8, 4), VF_OK);
+  CHECK_INT_EQ(vf_image_alloc(&r, 8, 4), VF_OK);
+  for (int y = 0; y < 4; y++)
+    for (int x = 0; x < 8; x++)
+      for (int k = 0; k < 3; k++) e.rgb[3 * (y * 8 + x) + k] = 0.1f + 0.3f * (float)((x * 3 + y * 5 + k) % 7);
+  for (int y = 0; y < 4; y++)
+    for (int x = 0; x < 8; x++)
+      for (int k = 0; k < 3; k++) r.rgb[3 * (y * 8 + x) + k] = e.rgb[3 * (y * 8 + (x + 4 + 2 * quarter_turns_rolled) % 8) + k];
+  char path[1024];
+  snprintf(path, sizeof path, "%s", write_temp(name_e, ""));
+  CHECK_INT_EQ(vf_image_write_exr(path, &e), VF_OK);
+  snprintf(path, sizeof path, "%s", write_temp(name_rolled, ""));
+  CHECK_INT_EQ(vf_image_write_exr(path, &r), VF_OK);
+  vf_image_destroy(&e);
+  vf_image_destroy(&r);
+}
+
+/* Mitsuba's envmap orientation: its map under to_world renders as vcmfarm's map rolled
+ * to match, unturned (identity and a quarter turn about +y). */
+static void test_envmap_orientation_matches_a_rolled_map(void) {
+  write_maps(0, "env.exr", "env_roll0.exr");
+  write_maps(1, "env_b.exr", "env_roll90.exr");
+  const char *xml =
+      "<scene version=\"3.0.0\"><integrator type=\"path\"><integer name=\"max_depth\" value=\"3\"/></integrator>"
+      "<sensor type=\"perspective\"><float name=\"fov\" value=\"150\"/>"
+      "<film type=\"hdrfilm\"><integer name=\"width\" value=\"32\"/><integer name=\"height\" value=\"32\"/></film>"
+      "<transform name=\"to_world\"><lookat origin=\"0, 0, 0\" target=\"0.3, 0.2, -1\"/></transform></sensor>"
+      "<shape type=\"sphere\"><point name=\"center\" value=\"0.4, 0, -2\"/><float name=\"radius\" value=\"0.5\"/></shape>"
+      "<emitter type=\"envmap\"><string name=\"filename\" value=\"%s\"/><float name=\"scale\" value=\"2\"/>%s</emitter></scene>";
+  const char *json =
+      "{\"camera\": {\"position\": [0, 0, 0], \"target\": [0.3, 0.2, -1], \"fov\": 150, \"resolution\": [32, 32]},"
+      " \"materials\": {\"mitsuba-default-diffuse\": {\"diffuse\": [0.5, 0.5, 0.5]}},"
+      " \"shapes\": [{\"type\": \"sphere\", \"center\": [0.4, 0, -2], \"radius\": 0.5, \"material\": \"mitsuba-default-diffuse\"}],"
+      " \"lights\": [{\"type\": \"environment\", \"file\": \"%s\", \"scale\": [2, 2, 2]}], \"render\": {\"max_path_length\": 3}}";
+  const struct {
+    const char *map, *rolled, *transform;
+  } cases[] = {{"env.exr", "env_roll0.exr", ""},
+               {"env_b.exr", "env_roll90.exr", "<transform name=\"to_world\"><rotate y=\"1\" angle=\"90\"/></transform>"}};
+  for (int c = 0; c < 2; c++) {
+    char text[2048], xml_path[1024];
+    snprintf(text, sizeof text, xml, cases[c].map, cases[c].transform);
+    snprintf(xml_path, sizeof xml_path, "%s", write_temp("env.xml", text));
+    snprintf(text, sizeof text, json, cases[c].rolled);
+    vf_scene *x = load(xml_path, NULL), *j = load(write_temp("env.json", text), NULL);
+    if (x && j) {
+      CHECK(x->envmap_rotated);
+      if (c == 0) { /* identity to_world: the half turn about +y */
+        CHECK(x->envmap_rotation[0][0] == -1 && x->envmap_rotation[1][1] == 1 && x->envmap_rotation[2][2] == -1);
+      }
+      CHECK(!j->envmap_rotated);
+      enum { BLOCKS = 4, NB = BLOCKS * BLOCKS };
+      double mean[2][NB], se[2][NB];
+      for (int k = 0; k < 2; k++) {
+        vf_settings s = (k ? j : x)->settings;
+        s.algorithm = VF_ALGO_PT;
+        s.sampler = VF_SAMPLER_INDEPENDENT;
+        s.seed = 500 + (uint64_t)(2 * c + k);
+        vf_vcm_stats stats = {0};
+        CHECK_INT_EQ(render_block_estimates(k ? j : x, &s, 2, 64, BLOCKS, mean[k], se[k], &stats), VF_OK);
+      }
+      CHECK(blocks_agree(c ? "envmap 90" : "envmap", "xml", "json", mean[0], se[0], mean[1], se[1], NB));
+      /* and a map read unturned would not agree: the test can tell the orientations apart */
+      x->envmap_rotated = 0;
+      vf_settings s = x->settings;
+      s.algorithm = VF_ALGO_PT;
+      s.sampler = VF_SAMPLER_INDEPENDENT;
+      s.seed = 900 + (uint64_t)c;
+      vf_vcm_stats stats = {0};
+      CHECK_INT_EQ(render_block_estimates(x, &s, 2, 64, BLOCKS, mean[0], se[0], &stats), VF_OK);
+      int agree_unturned = blocks_agree("unturned", "xml", "json", mean[0], se[0], mean[1], se[1], NB);
+      CHECK(!agree_unturned);
+    }
+    vf_scene_destroy(x);
+    vf_scene_destroy(j);
+  }
+}
+
 /* A farm job carries the JSON text and ships the files it names: submit's collection
  * loads from the stage what a local render loads. */
 /* The JSON inline mesh's "uvs" that rectangles convert to: 2 per vertex, checked. */
@@ -474,6 +558,7 @@ int main(void) {
   RUN(test_cornell_xml_and_json_load_the_same_content);
   RUN(test_cornell_xml_and_json_render_the_same_film);
   RUN(test_json_inline_mesh_uvs);
+  RUN(test_envmap_orientation_matches_a_rolled_map);
   RUN(test_farm_job_loads_what_a_local_render_loads);
   if (temp_dir[0]) vf_file_remove_tree(temp_dir);
   return check_finish();
