@@ -107,8 +107,11 @@ static int film(mts_ctx *c, vf_xml_node *s, cJSON *cam, double *aspect) {
       if (strcmp(f->children[i]->name, "rfilter") == 0) {
         f->children[i]->used = 1;
         const char *type = vf_xml_attr(f->children[i], "type");
-        if ((err = mts_note(c, f->children[i], "reconstruction filter '%s': vcmfarm films are box-filtered", type ? type : "?")) < 0)
+        /* vcmfarm's films are box-filtered over the pixel: Mitsuba's box of radius 0.5. */
+        if ((type == NULL || strcmp(type, "box") != 0) &&
+            (err = mts_note(c, f->children[i], "reconstruction filter '%s': vcmfarm films are box-filtered", type ? type : "?")) < 0)
           return err;
+        for (int k = 0; k < f->children[i]->num_children; k++) f->children[i]->children[k]->used = 1;
       }
     if ((err = mts_note_unused(c, f)) < 0) return err;
   }
