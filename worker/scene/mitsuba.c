@@ -241,13 +241,22 @@ static int primitive(cJSON *js, const char *type, int flip) {
     return inline_mesh(js, pos, uv, 4, idx, 2, flip);
   }
   if (strcmp(type, "cube") == 0) {
-    double pos[24];
-    for (int v = 0; v < 8; v++)
-      for (int k = 0; k < 3; k++) pos[3 * v + k] = (v >> k) & 1 ? 1 : -1;
-    /* vertex v has x = bit 0, y = bit 1, z = bit 2 */
-    static const int idx[] = {0, 2, 3, 0, 3, 1,  4, 5, 7, 4, 7, 6,  0, 1, 5, 0, 5, 4,
-                              2, 6, 7, 2, 7, 3,  0, 4, 6, 0, 6, 2,  1, 3, 7, 1, 7, 5};
-    return inline_mesh(js, pos, NULL, 8, idx, 12, flip);
+    /* Mitsuba's cube: four vertices per face sharing its uv pattern, corner c at (+-1, +-1,
+     * +-1) with bit k the sign of axis k; triangles {4s, 4s+1, 4s+2} and {4s+3, 4s, 4s+2}. */
+    static const int corner[24] = {1, 5, 4, 0, 3, 2, 6, 7, 1, 3, 7, 5, 5, 7, 6, 4, 4, 6, 2, 0, 3, 1, 0, 2};
+    static const double side_uv[8] = {0, 1, 1, 1, 1, 0, 0, 0};
+    double pos[72], uv[48];
+    int idx[36];
+    for (int v = 0; v < 24; v++) {
+      for (int k = 0; k < 3; k++) pos[3 * v + k] = (corner[v] >> k) & 1 ? 1 : -1;
+      uv[2 * v] = side_uv[2 * (v % 4)];
+      uv[2 * v + 1] = side_uv[2 * (v % 4) + 1];
+    }
+    for (int f = 0; f < 6; f++) {
+      const int tri[6] = {4 * f, 4 * f + 1, 4 * f + 2, 4 * f + 3, 4 * f, 4 * f + 2};
+      memcpy(&idx[6 * f], tri, sizeof tri);
+    }
+    return inline_mesh(js, pos, uv, 24, idx, 12, flip);
   }
   double pos[3 * (DISK_SEGMENTS + 1)];
   int idx[3 * DISK_SEGMENTS];

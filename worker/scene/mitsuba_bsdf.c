@@ -274,7 +274,8 @@ static int build(mts_ctx *c, vf_xml_node *b, cJSON *m, int depth, int *twosided)
   if (depth > 8) return mts_fail(b, "BSDFs nest more than 8 deep");
   b->used = 1;
   if (type == NULL) return mts_fail(b, "has no type");
-  if (strcmp(type, "twosided") == 0 || strcmp(type, "normalmap") == 0 || strcmp(type, "mask") == 0) {
+  if (strcmp(type, "twosided") == 0 || strcmp(type, "normalmap") == 0 || strcmp(type, "mask") == 0 ||
+      strcmp(type, "bumpmap") == 0) {
     vf_xml_node *inner[2] = {NULL, NULL};
     int n = 0;
     for (int i = 0; i < b->num_children; i++) {
@@ -300,6 +301,10 @@ static int build(mts_ctx *c, vf_xml_node *b, cJSON *m, int depth, int *twosided)
       if ((err = mts_note(c, b, "the normal map is read in vcmfarm's tangent frame (bitangent towards decreasing t; "
                           "Mitsuba's is n x dp/du): see docs/SCENES.md")) < 0)
         return err;
+    } else if (strcmp(type, "bumpmap") == 0) {
+      for (int i = 0; i < b->num_children; i++)
+        if (strcmp(b->children[i]->name, "texture") == 0) b->children[i]->used = 1;
+      if ((err = mts_note(c, b, "bumpmap is not supported: the wrapped BSDF is rendered without it")) < 0) return err;
     } else { /* mask: opacity as a cut-out */
       double opacity;
       vf_vec3 ov;
@@ -332,7 +337,11 @@ static int build(mts_ctx *c, vf_xml_node *b, cJSON *m, int depth, int *twosided)
   else if (strcmp(type, "plastic") == 0) err = plastic(c, b, m, 0);
   else if (strcmp(type, "roughplastic") == 0) err = plastic(c, b, m, 1);
   else if (strcmp(type, "principled") == 0) err = principled(c, b, m);
-  else {
+  else if (strcmp(type, "null") == 0) {
+    /* Invisible: a dielectric of ior 1 passes every ray straight on. */
+    if ((err = add_vec3(m, "dielectric", vf_vec3_splat(1))) < 0 || (err = add_number(m, "ior", 1)) < 0) return err;
+    return mts_note(c, b, "null is a dielectric of ior 1 (rays pass straight on; each crossing is a path segment)");
+  } else {
     for (int i = 0; i < b->num_children; i++) b->children[i]->used = 1;
     if ((err = mts_note(c, b, "bsdf '%s' is not supported: rendered as diffuse grey 0.5", type)) < 0) return err;
     return add_vec3(m, "diffuse", vf_vec3_splat(0.5f));
@@ -344,6 +353,24 @@ static int build(mts_ctx *c, vf_xml_node *b, cJSON *m, int depth, int *twosided)
       (err = mts_note(c, b, "not wrapped in twosided: Mitsuba's back side is black, vcmfarm's scatters as the front")) < 0)
     return err;
   return mts_note_unused(c, b);
+}
+
+/* The albedo-sum rule of docs/SCENES.md (materials), checked here to name the element. */
+static int check_albedo(const vf_xml_node *b, const cJSON *m) {
+  static const char *const lobes[] = {"diffuse", "mirror", "dielectric", "conductor", "base_color"};
+  double sum[3] = {0, 0, 0};
+  for (size_t i = 0; i < sizeof lobes / sizeof lobes[0]; i++) {
+    const cJSON *v = cJSON_GetObjectItemCaseSensitive(m, lobes[i]);
+    for (int k = 0; v != NULL && k < 3; k++) {
+      double x = cJSON_GetArrayItem(v, k)->valuedouble;
+      if (x < 0) return mts_fail(b, "%s is negative (%g)", lobes[i], x);
+      sum[k] += x;
+    }
+  }
+  for (int k = 0; k < 3; k++)
+    if (sum[k] > 1 + 1e-5)
+      return mts_fail(b, "reflects more than it receives (channel %c: %g): vcmfarm refuses albedos above 1", "rgb"[k], sum[k]);
+  return VF_OK;
 }
 
 int mts_material(mts_ctx *c, vf_xml_node *bsdf, const char **name) {
@@ -361,6 +388,7 @@ int mts_material(mts_ctx *c, vf_xml_node *bsdf, const char **name) {
   if (m == NULL) return vf_error_set(VF_ENOMEM, "out of memory");
   int twosided = 0;
   int err = bsdf ? build(c, bsdf, m, 0, &twosided) : add_vec3(m, "diffuse", vf_vec3_splat(0.5f));
+  if (err == VF_OK && bsdf != NULL) err = check_albedo(bsdf, m);
   if (err < 0 || !cJSON_AddItemToObject(c->materials, key, m)) {
     cJSON_Delete(m);
     return err < 0 ? err : vf_error_set(VF_ENOMEM, "out of memory");

@@ -170,11 +170,12 @@ static void test_shapes_and_transforms_composed_in_order(void) {
   CHECK_INT_EQ(s->num_materials, 1);
   /* cube: scale x 2, then rotate 90 about z, then translate x 1 */
   const vf_shape *cube = &s->shapes[0];
-  CHECK_INT_EQ(cube->num_vertices, 8);
+  CHECK_INT_EQ(cube->num_vertices, 24); /* Mitsuba's: four per face, with uvs */
   CHECK_INT_EQ(cube->num_triangles, 12);
   const float *p = cube->positions;
   CHECK_VEC(vf_vec3_make(p[21], p[22], p[23]), 0, 2, 1, 1e-5); /* (1, 1, 1) -> (2, 1, 1) -> (-1, 2, 1) -> (0, 2, 1) */
-  CHECK_VEC(vf_vec3_make(p[0], p[1], p[2]), 2, -2, -1, 1e-5); /* (-1, -1, -1) */
+  CHECK_VEC(vf_vec3_make(p[9], p[10], p[11]), 2, -2, -1, 1e-5); /* (-1, -1, -1) */
+  CHECK(cube->uvs != NULL && cube->uvs[0] == 0 && cube->uvs[1] == 1 && cube->uvs[4] == 1 && cube->uvs[5] == 0);
   for (uint32_t t = 0; t < 12; t++) CHECK(triangle_normal_dot(cube, t, vf_vec3_make(1, 0, 0)) > 0); /* faces out */
   /* rectangle moved by a matrix, its normal flipped to -z */
   const vf_shape *rect = &s->shapes[1];
@@ -187,7 +188,7 @@ static void test_shapes_and_transforms_composed_in_order(void) {
     CHECK(rect->uvs[0] == 0 && rect->uvs[1] == 0 && rect->uvs[4] == 1 && rect->uvs[5] == 1);
     CHECK_VEC(vf_vec3_make(rect->positions[6], rect->positions[7], rect->positions[8]), 6, 1, 0, 0);
   }
-  CHECK(cube->uvs == NULL);
+  CHECK(s->shapes[2].uvs == NULL); /* the disk has none */
   /* disk of radius 2 facing +z, emitting */
   const vf_shape *disk = &s->shapes[2];
   CHECK_NEAR(mesh_area(disk), PI * 4, PI * 4 * 2e-4);
@@ -347,6 +348,32 @@ static void test_bad_files_refused_naming_file_element_and_reason(void) {
   p = write_temp("loop.xml", "<scene version=\"3.0.0\">\n<include filename=\"loop.xml\"/>\n</scene>\n");
   CHECK_INT_EQ(vf_scene_load(p, &s), VF_ESCENE);
   CHECK_STR_CONTAINS(vf_error_detail(VF_ESCENE), "includes nest more than 16 deep");
+}
+
+/* null, bumpmap and an albedo above 1 (refused naming the element). */
+static void test_null_bumpmap_and_albedo_above_one(void) {
+  const char *xml =
+      "<scene version=\"3.0.0\"><sensor type=\"perspective\"><float name=\"fov\" value=\"45\"/></sensor>"
+      "<emitter type=\"constant\"/>"
+      "<shape type=\"sphere\"><bsdf type=\"null\" id=\"nothing\"/></shape>"
+      "<shape type=\"rectangle\"><bsdf type=\"bumpmap\" id=\"bumped\"><texture type=\"checkerboard\"/>"
+      "<bsdf type=\"twosided\"><bsdf type=\"diffuse\"><rgb name=\"reflectance\" value=\"0.3\"/></bsdf></bsdf></bsdf></shape>"
+      "</scene>";
+  vf_scene *s = load(write_temp("null.xml", xml), NULL);
+  if (s) {
+    const vf_material *m = material(s, "nothing");
+    if (m) CHECK(m->ior == 1 && m->dielectric.x == 1 && vf_is_zero(m->diffuse));
+    if ((m = material(s, "bumped"))) CHECK_VEC(m->diffuse, 0.3, 0.3, 0.3, 1e-7);
+    CHECK_STR_CONTAINS(s->notes, "bumpmap is not supported: the wrapped BSDF is rendered without it");
+    CHECK_STR_CONTAINS(s->notes, "null is a dielectric of ior 1");
+    vf_scene_destroy(s);
+  }
+  const char *bright = "<scene version=\"3.0.0\"><sensor type=\"perspective\"><float name=\"fov\" value=\"45\"/></sensor>"
+                       "<emitter type=\"constant\"/>\n<shape type=\"sphere\">\n<bsdf type=\"diffuse\">"
+                       "<rgb name=\"reflectance\" value=\"0.5, 1.2, 0.5\"/></bsdf></shape></scene>";
+  s = NULL;
+  CHECK_INT_EQ(vf_scene_load(write_temp("bright.xml", bright), &s), VF_ESCENE);
+  CHECK_STR_CONTAINS(vf_error_detail(VF_ESCENE), "bright.xml:3: <bsdf type=\"diffuse\">: reflects more than it receives (channel g: 1.2");
 }
 
 /* The Cornell box in both formats: the same content field by field. */
@@ -555,6 +582,7 @@ int main(void) {
   RUN(test_every_bsdf_parameter);
   RUN(test_point_spot_directional_and_constant_emitters);
   RUN(test_bad_files_refused_naming_file_element_and_reason);
+  RUN(test_null_bumpmap_and_albedo_above_one);
   RUN(test_cornell_xml_and_json_load_the_same_content);
   RUN(test_cornell_xml_and_json_render_the_same_film);
   RUN(test_json_inline_mesh_uvs);
