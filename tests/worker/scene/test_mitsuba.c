@@ -358,12 +358,15 @@ static void test_null_bumpmap_and_albedo_above_one(void) {
       "<shape type=\"sphere\"><bsdf type=\"null\" id=\"nothing\"/></shape>"
       "<shape type=\"rectangle\"><bsdf type=\"bumpmap\" id=\"bumped\"><texture type=\"checkerboard\"/>"
       "<bsdf type=\"twosided\"><bsdf type=\"diffuse\"><rgb name=\"reflectance\" value=\"0.3\"/></bsdf></bsdf></bsdf></shape>"
+      "<texture type=\"bitmap\" id=\"wood\"><string name=\"filename\" value=\"" VF_SOURCE_DIR "/tests/scenes/import/base.png\"/></texture>"
+      "<shape type=\"cube\"><bsdf type=\"diffuse\" id=\"by-ref\"><ref name=\"reflectance\" id=\"wood\"/></bsdf></shape>"
       "</scene>";
   vf_scene *s = load(write_temp("null.xml", xml), NULL);
   if (s) {
     const vf_material *m = material(s, "nothing");
     if (m) CHECK(m->ior == 1 && m->dielectric.x == 1 && vf_is_zero(m->diffuse));
     if ((m = material(s, "bumped"))) CHECK_VEC(m->diffuse, 0.3, 0.3, 0.3, 1e-7);
+    if ((m = material(s, "by-ref"))) CHECK(m->textures[VF_TEXTURE_COLOR].texture != 0); /* a texture by <ref> */
     CHECK_STR_CONTAINS(s->notes, "bumpmap is not supported: the wrapped BSDF is rendered without it");
     CHECK_STR_CONTAINS(s->notes, "null is a dielectric of ior 1");
     vf_scene_destroy(s);
