@@ -6,6 +6,7 @@
 #include "mitsuba_bsdf.h"
 #include "mitsuba_props.h"
 
+#include <ctype.h>
 #include <errno.h>
 #include <math.h>
 #include <stdio.h>
@@ -464,14 +465,51 @@ static int integrator(mts_ctx *c, vf_xml_node *e) {
   return mts_note_unused(c, e);
 }
 
+/* Mitsuba 3's upgrade of a scene written for version 0.x or 1.x (src/core/parser.cpp,
+ * upgrade_from_v1): property names from camelCase to underscore_case ("toWorld" ->
+ * "to_world", "intIOR" -> "int_ior"), and a diffuse BSDF's "diffuse_reflectance" read as
+ * its "reflectance". */
+static int upgrade_v1(vf_xml_node *e, const char *plugin) {
+  for (int i = 0; i < e->num_attrs; i++) {
+    if (strcmp(e->attrs[2 * i], "name") != 0) continue;
+    const char *in = e->attrs[2 * i + 1];
+    size_t n = strlen(in), k = 0;
+    char *out = malloc(2 * n + 1);
+    if (out == NULL) return oom();
+    for (size_t j = 0; j < n; j++) {
+      if (j > 0 && islower((unsigned char)in[j - 1]) && isupper((unsigned char)in[j])) {
+        out[k++] = '_';
+        out[k++] = (char)tolower((unsigned char)in[j]);
+        while (j + 1 < n && isupper((unsigned char)in[j + 1])) out[k++] = (char)tolower((unsigned char)in[++j]);
+      } else {
+        out[k++] = in[j];
+      }
+    }
+    out[k] = '\0';
+    if (plugin != NULL && strcmp(plugin, "diffuse") == 0 && strcmp(out, "diffuse_reflectance") == 0)
+      snprintf(out, 2 * n + 1, "reflectance");
+    free(e->attrs[2 * i + 1]);
+    e->attrs[2 * i + 1] = out;
+  }
+  const char *type = strcmp(e->name, "bsdf") == 0 ? vf_xml_attr(e, "type") : NULL;
+  for (int i = 0; i < e->num_children; i++) {
+    int err = upgrade_v1(e->children[i], type);
+    if (err < 0) return err;
+  }
+  return VF_OK;
+}
+
 static int convert(mts_ctx *c, const char *camera) {
   vf_xml_node *s = c->scene, *chosen = NULL;
   const char *version = vf_xml_attr(s, "version");
   int err, sensors = 0;
   if (version == NULL) return mts_fail(s, "has no version");
-  if (atoi(version) < 2 &&
-      (err = mts_note(c, s, "version %s: written for Mitsuba 0.x, read with Mitsuba 3's names and defaults", version)) < 0)
-    return err;
+  if (atoi(version) < 2) {
+    if ((err = upgrade_v1(s, NULL)) < 0 ||
+        (err = mts_note(c, s, "version %s: upgraded as Mitsuba 3 does (camelCase names), read with Mitsuba 3's defaults",
+                        version)) < 0)
+      return err;
+  }
   for (int i = 0; i < s->num_children; i++) {
     vf_xml_node *e = s->children[i];
     if (strcmp(e->name, "sensor") != 0) continue;

@@ -326,7 +326,7 @@ static int operation(const vf_xml_node *op, vf_affine *a) {
     } else {
       return mts_fail(op, "has %d numbers, not 16 (or 9)", n);
     }
-  } else if (strcmp(op->name, "lookat") == 0) {
+  } else if (strcasecmp(op->name, "lookat") == 0) { /* Mitsuba 0.x wrote <lookAt> */
     return lookat(op, a);
   } else {
     return mts_fail(op, "is not a transform operation (translate, rotate, scale, matrix, lookat)");

@@ -379,6 +379,29 @@ static void test_null_bumpmap_and_albedo_above_one(void) {
   CHECK_STR_CONTAINS(vf_error_detail(VF_ESCENE), "bright.xml:3: <bsdf type=\"diffuse\">: reflects more than it receives (channel g: 1.2");
 }
 
+/* A scene of Mitsuba 0.x: camelCase names upgraded as Mitsuba 3 does. */
+static void test_version_1_names_upgraded(void) {
+  const char *xml =
+      "<scene version=\"0.5.0\"><integrator type=\"path\"><integer name=\"maxDepth\" value=\"7\"/></integrator>"
+      "<sensor type=\"perspective\"><float name=\"fov\" value=\"60\"/><string name=\"fovAxis\" value=\"y\"/>"
+      "<transform name=\"toWorld\"><lookAt origin=\"0, 0, 5\" target=\"0, 0, 0\" up=\"0, 1, 0\"/></transform></sensor>"
+      "<emitter type=\"constant\"/>"
+      "<shape type=\"sphere\"><bsdf type=\"dielectric\" id=\"glass\"><float name=\"intIOR\" value=\"1.6\"/>"
+      "<float name=\"extIOR\" value=\"1\"/></bsdf></shape>"
+      "<shape type=\"rectangle\"><bsdf type=\"diffuse\" id=\"old\"><rgb name=\"diffuseReflectance\" value=\"0.25\"/></bsdf>"
+      "</shape></scene>";
+  vf_scene *s = load(write_temp("v05.xml", xml), NULL);
+  if (!s) return;
+  CHECK_INT_EQ(s->settings.max_path_length, 7);
+  CHECK_NEAR(s->camera.vertical_fov_degrees, 60, 1e-4);
+  CHECK_VEC(s->camera.position, 0, 0, 5, 1e-6);
+  const vf_material *m;
+  if ((m = material(s, "glass"))) CHECK_NEAR(m->ior, 1.6, 1e-6);
+  if ((m = material(s, "old"))) CHECK_VEC(m->diffuse, 0.25, 0.25, 0.25, 0);
+  CHECK_STR_CONTAINS(s->notes, "version 0.5.0: upgraded as Mitsuba 3 does");
+  vf_scene_destroy(s);
+}
+
 /* The Cornell box in both formats: the same content field by field. */
 static void test_cornell_xml_and_json_load_the_same_content(void) {
   vf_scene *x = load(DIR "cornell.xml", NULL), *j = load(DIR "cornell.json", NULL);
@@ -586,6 +609,7 @@ int main(void) {
   RUN(test_point_spot_directional_and_constant_emitters);
   RUN(test_bad_files_refused_naming_file_element_and_reason);
   RUN(test_null_bumpmap_and_albedo_above_one);
+  RUN(test_version_1_names_upgraded);
   RUN(test_cornell_xml_and_json_load_the_same_content);
   RUN(test_cornell_xml_and_json_render_the_same_film);
   RUN(test_json_inline_mesh_uvs);
