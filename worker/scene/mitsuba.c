@@ -1,10 +1,11 @@
-/* Mitsuba 3 XML scenes as JSON scenes (mitsuba.h): sensors, shapes, emitters and the
- * integrator here, BSDFs and textures in mitsuba_bsdf.c. */
+/* Mitsuba 3 XML scenes as JSON scenes (mitsuba.h): shapes and emitters here, sensors and
+ * the integrator in mitsuba_sensor.c, BSDFs and textures in mitsuba_bsdf.c. */
 #include "mitsuba.h"
 
 #include "../../common/error.h"
 #include "mitsuba_bsdf.h"
 #include "mitsuba_props.h"
+#include "mitsuba_sensor.h"
 
 #include <ctype.h>
 #include <errno.h>
@@ -15,10 +16,6 @@
 #include <strings.h>
 
 #define PI 3.14159265358979323846
-/* Mitsuba's max_depth -1 (no limit, paths ended by Russian roulette) as path segments:
- * light that has bounced 64 times is below 1e-6 of the first bounce in any scene whose
- * albedos stay below 0.8. docs/SCENES.md states it. */
-#define UNLIMITED_DEPTH 64
 /* Segments of the triangulated disk: its area is 0.9999 of the disk's. */
 #define DISK_SEGMENTS 256
 
@@ -37,22 +34,6 @@ static int add(cJSON *o, const char *key, cJSON *v) {
   return VF_OK;
 }
 
-static vf_vec3 point(const vf_affine *a, double x, double y, double z) {
-  double in[3] = {x, y, z}, out[3];
-  vf_affine_point(a, in, out);
-  return vf_vec3_make((float)out[0], (float)out[1], (float)out[2]);
-}
-
-static vf_vec3 vector(const vf_affine *a, double x, double y, double z) {
-  double in[3] = {x, y, z}, out[3];
-  vf_affine_vector(a, in, out);
-  return vf_vec3_make((float)out[0], (float)out[1], (float)out[2]);
-}
-
-static double column_length(const vf_affine *a, int j) {
-  return sqrt(a->m[0][j] * a->m[0][j] + a->m[1][j] * a->m[1][j] + a->m[2][j] * a->m[2][j]);
-}
-
 static int check_file(const vf_xml_node *e, const mts_ctx *c, const char *file) {
   char path[8192];
   snprintf(path, sizeof path, "%s%s%s", file[0] == '/' ? "" : c->dir, file[0] == '/' ? "" : "/", file);
@@ -62,121 +43,6 @@ static int check_file(const vf_xml_node *e, const mts_ctx *c, const char *file) 
   char detail[1024];
   snprintf(detail, sizeof detail, "%s", vf_error_detail(VF_ESCENE));
   return vf_error_set(VF_ENOENT, "%s", detail);
-}
-
-/* ---- sensors ---- */
-
-/* Mitsuba's parse_fov (src/render/sensor.cpp): the horizontal field of view in degrees. */
-static int horizontal_fov(mts_ctx *c, vf_xml_node *s, double aspect, double *out) {
-  double fov;
-  const char *axis, *focal;
-  int err, has_fov = mts_float(c, s, "fov", 0, &fov);
-  if (has_fov < 0) return has_fov;
-  if ((err = mts_string(c, s, "fov_axis", "x", &axis)) < 0 || (err = mts_string(c, s, "focal_length", NULL, &focal)) < 0)
-    return err;
-  if (has_fov && focal) return mts_fail(s, "give a fov or a focal_length, not both");
-  if (!has_fov) { /* 35 mm film equivalent: the diagonal of 36 x 24 mm */
-    double f = 50;
-    if (focal != NULL && (sscanf(focal, "%lf", &f) != 1 || !(f > 0)))
-      return mts_fail(s, "focal_length '%s' is not of the form <x>mm", focal);
-    fov = 2 * atan(sqrt(36.0 * 36.0 + 24.0 * 24.0) / (2 * f)) * 180 / PI;
-    axis = "diagonal";
-  }
-  if (strcasecmp(axis, "smaller") == 0) axis = aspect > 1 ? "y" : "x";
-  else if (strcasecmp(axis, "larger") == 0) axis = aspect > 1 ? "x" : "y";
-  double t = tan(0.5 * fov * PI / 180);
-  if (strcasecmp(axis, "x") == 0) *out = fov;
-  else if (strcasecmp(axis, "y") == 0) *out = 2 * atan(t * aspect) * 180 / PI;
-  else if (strcasecmp(axis, "diagonal") == 0) *out = 2 * atan(t / sqrt(1 + 1 / (aspect * aspect))) * 180 / PI;
-  else return mts_fail(s, "fov_axis '%s' is not x, y, diagonal, smaller or larger", axis);
-  if (!(fov > 0 && fov < 180 && *out > 0 && *out < 180)) return mts_fail(s, "the field of view must lie in (0, 180)");
-  return VF_OK;
-}
-
-static int film(mts_ctx *c, vf_xml_node *s, cJSON *cam, double *aspect) {
-  long width = 768, height = 576;
-  int err;
-  vf_xml_node *f = NULL;
-  for (int i = 0; i < s->num_children && f == NULL; i++)
-    if (strcmp(s->children[i]->name, "film") == 0) f = s->children[i];
-  if (f != NULL) {
-    f->used = 1;
-    if ((err = mts_int(c, f, "width", 768, &width)) < 0 || (err = mts_int(c, f, "height", 576, &height)) < 0) return err;
-    if (width < 1 || height < 1 || width > 65536 || height > 65536)
-      return mts_fail(f, "a film of %ldx%ld pixels", width, height);
-    for (int i = 0; i < f->num_children; i++)
-      if (strcmp(f->children[i]->name, "rfilter") == 0) {
-        f->children[i]->used = 1;
-        const char *type = vf_xml_attr(f->children[i], "type");
-        /* vcmfarm's films are box-filtered over the pixel: Mitsuba's box of radius 0.5. */
-        if ((type == NULL || strcmp(type, "box") != 0) &&
-            (err = mts_note(c, f->children[i], "reconstruction filter '%s': vcmfarm films are box-filtered", type ? type : "?")) < 0)
-          return err;
-        for (int k = 0; k < f->children[i]->num_children; k++) f->children[i]->children[k]->used = 1;
-      }
-    if ((err = mts_note_unused(c, f)) < 0) return err;
-  }
-  const double res[2] = {(double)width, (double)height};
-  *aspect = (double)width / (double)height;
-  return add(cam, "resolution", cJSON_CreateDoubleArray(res, 2));
-}
-
-static int sensor(mts_ctx *c, vf_xml_node *s) {
-  const char *type = vf_xml_attr(s, "type");
-  int err;
-  s->used = 1;
-  if (type == NULL || (strcmp(type, "perspective") != 0 && strcmp(type, "thinlens") != 0 && strcmp(type, "orthographic") != 0))
-    return mts_fail(s, "sensor type '%s' is not supported (perspective, thinlens, orthographic)", type ? type : "");
-  cJSON *cam = cJSON_CreateObject();
-  if (cam == NULL || !cJSON_AddItemToObject(c->root, "camera", cam)) return cJSON_Delete(cam), oom();
-  double aspect = 1;
-  vf_affine m;
-  if ((err = film(c, s, cam, &aspect)) < 0 || (err = mts_transform(c, s, "to_world", &m)) < 0) return err;
-  /* Camera space: +z looks forward, +y is up in the image. */
-  vf_vec3 forward = vector(&m, 0, 0, 1), up = vector(&m, 0, 1, 0);
-  if (vf_affine_det(&m) <= 0 &&
-      (err = mts_note(c, s, "to_world mirrors the image (negative determinant): vcmfarm renders it unmirrored")) < 0)
-    return err;
-  if ((err = add(cam, "position", mts_vec3_json(point(&m, 0, 0, 0)))) < 0 ||
-      (err = add(cam, "forward", mts_vec3_json(forward))) < 0 || (err = add(cam, "up", mts_vec3_json(up))) < 0)
-    return err;
-  double near_clip, far_clip;
-  if ((err = mts_float(c, s, "near_clip", 0.01, &near_clip)) < 0 || (err = mts_float(c, s, "far_clip", 1e4, &far_clip)) < 0)
-    return err;
-  if (near_clip != 0.01 || far_clip != 1e4)
-    if ((err = mts_note(c, s, "near_clip and far_clip are not supported: nothing is clipped")) < 0) return err;
-  if (strcmp(type, "orthographic") == 0) {
-    /* The view spans camera-space x in [-1, 1], y in [-1/aspect, 1/aspect]. */
-    double sx = column_length(&m, 0), sy = column_length(&m, 1);
-    if (fabs(sx - sy) > 1e-6 * sx &&
-        (err = mts_note(c, s, "to_world scales x by %g and y by %g: the view's height follows the image's aspect ratio", sx, sy)) < 0)
-      return err;
-    if (!cJSON_AddStringToObject(cam, "type", "orthographic") || !cJSON_AddNumberToObject(cam, "width", 2 * sx)) return oom();
-  } else {
-    double fx = 0;
-    if ((err = horizontal_fov(c, s, aspect, &fx)) < 0) return err;
-    double vertical = 2 * atan(tan(0.5 * fx * PI / 180) / aspect) * 180 / PI;
-    if (!cJSON_AddNumberToObject(cam, "fov", vertical)) return oom();
-    if (strcmp(type, "thinlens") == 0) {
-      double aperture, focus;
-      if ((err = mts_float(c, s, "aperture_radius", 0, &aperture)) < 0) return err;
-      if (err == 0) return mts_fail(s, "a thinlens needs an aperture_radius");
-      if ((err = mts_float(c, s, "focus_distance", far_clip, &focus)) < 0) return err;
-      if (!(aperture >= 0) || !(focus > 0)) return mts_fail(s, "aperture_radius must be >= 0 and focus_distance > 0");
-      if (!cJSON_AddNumberToObject(cam, "aperture", aperture) || !cJSON_AddNumberToObject(cam, "focus_distance", focus))
-        return oom();
-    }
-  }
-  for (int i = 0; i < s->num_children; i++)
-    if (strcmp(s->children[i]->name, "sampler") == 0) {
-      long spp;
-      s->children[i]->used = 1;
-      if ((err = mts_int(c, s->children[i], "sample_count", 4, &spp)) < 0) return err;
-      if ((err = mts_note(c, s->children[i], "sample_count %ld: the number of iterations is the job's (--iterations)", spp)) < 0)
-        return err;
-      for (int j = 0; j < s->children[i]->num_children; j++) s->children[i]->children[j]->used = 1;
-    }
-  return mts_note_unused(c, s);
 }
 
 /* ---- shapes ---- */
@@ -282,7 +148,7 @@ static int sphere(mts_ctx *c, vf_xml_node *s, cJSON *js, const vf_affine *m) {
     return err;
   if (!(radius > 0)) return mts_fail(s, "radius must be > 0, found %g", radius);
   /* A sphere stays one under a similarity only: equal, orthogonal columns. */
-  double l0 = column_length(m, 0), l1 = column_length(m, 1), l2 = column_length(m, 2);
+  double l0 = mts_column_length(m, 0), l1 = mts_column_length(m, 1), l2 = mts_column_length(m, 2);
   double d01 = 0, d02 = 0, d12 = 0;
   for (int i = 0; i < 3; i++) {
     d01 += m->m[i][0] * m->m[i][1];
@@ -291,7 +157,7 @@ static int sphere(mts_ctx *c, vf_xml_node *s, cJSON *js, const vf_affine *m) {
   }
   if (fabs(l0 - l1) > 1e-5 * l0 || fabs(l0 - l2) > 1e-5 * l0 || fabs(d01) + fabs(d02) + fabs(d12) > 1e-5 * l0 * l0)
     return mts_fail(s, "to_world scales the sphere unevenly: an ellipsoid is not supported");
-  vf_vec3 cw = point(m, center.x, center.y, center.z);
+  vf_vec3 cw = mts_apply_point(m, center.x, center.y, center.z);
   if ((err = add(js, "center", mts_vec3_json(cw))) < 0) return err;
   return cJSON_AddNumberToObject(js, "radius", radius * l0) ? VF_OK : oom();
 }
@@ -384,7 +250,7 @@ static int emitter(mts_ctx *c, vf_xml_node *e) {
     int has_pos = mts_point(c, e, "position", vf_vec3_splat(0), &pos);
     if (has_pos < 0) return has_pos;
     if ((err = light(c, type, &l)) < 0 || (err = add(l, "intensity", mts_vec3_json(v))) < 0 ||
-        (err = add(l, "position", mts_vec3_json(has_pos ? pos : point(&m, 0, 0, 0)))) < 0)
+        (err = add(l, "position", mts_vec3_json(has_pos ? pos : mts_apply_point(&m, 0, 0, 0)))) < 0)
       return err;
     if (strcmp(type, "spot") == 0) {
       double cutoff, beam;
@@ -392,7 +258,7 @@ static int emitter(mts_ctx *c, vf_xml_node *e) {
         return err;
       if (!(cutoff > 0 && cutoff <= 90 && beam >= 0 && beam < cutoff))
         return mts_fail(e, "needs 0 <= beam_width < cutoff_angle <= 90 (found %g and %g)", beam, cutoff);
-      if ((err = add(l, "direction", mts_vec3_json(vector(&m, 0, 0, 1)))) < 0 ||
+      if ((err = add(l, "direction", mts_vec3_json(mts_apply_vector(&m, 0, 0, 1)))) < 0 ||
           !cJSON_AddNumberToObject(l, "inner_cone_angle", beam) || !cJSON_AddNumberToObject(l, "outer_cone_angle", cutoff))
         return oom();
       if ((err = mts_note(c, e, "spot falloff: Mitsuba's is linear in angle from beam_width to cutoff_angle, vcmfarm's "
@@ -406,7 +272,7 @@ static int emitter(mts_ctx *c, vf_xml_node *e) {
     int has_dir = mts_point(c, e, "direction", vf_vec3_splat(0), &dir);
     if (has_dir < 0) return has_dir;
     if ((err = light(c, "directional", &l)) < 0 || (err = add(l, "irradiance", mts_vec3_json(v))) < 0 ||
-        (err = add(l, "direction", mts_vec3_json(has_dir ? dir : vector(&m, 0, 0, 1)))) < 0)
+        (err = add(l, "direction", mts_vec3_json(has_dir ? dir : mts_apply_vector(&m, 0, 0, 1)))) < 0)
       return err;
   } else if (strcmp(type, "constant") == 0) {
     if ((err = mts_color(c, e, "radiance", vf_vec3_splat(1), &v, &t)) < 0) return err;
@@ -437,31 +303,6 @@ static int emitter(mts_ctx *c, vf_xml_node *e) {
   } else {
     return mts_fail(e, "emitter type '%s' is not supported (area, point, spot, directional, constant, envmap)", type);
   }
-  return mts_note_unused(c, e);
-}
-
-static int integrator(mts_ctx *c, vf_xml_node *e) {
-  const char *type = vf_xml_attr(e, "type");
-  long depth;
-  int err;
-  e->used = 1;
-  if ((err = mts_int(c, e, "max_depth", -1, &depth)) < 0) return err;
-  if (depth == 0 || depth < -1) return mts_fail(e, "max_depth %ld: vcmfarm renders paths of 1 or more segments", depth);
-  /* Mitsuba's depth counts segments: 1 sees emitters, 2 adds direct light. */
-  long segments = depth == -1 ? UNLIMITED_DEPTH : depth > 1000 ? 1000 : depth;
-  cJSON *r = cJSON_CreateObject();
-  if (r == NULL || !cJSON_AddItemToObject(c->root, "render", r) || !cJSON_AddNumberToObject(r, "max_path_length", (double)segments))
-    return oom();
-  if (depth == -1 && (err = mts_note(c, e, "max_depth -1 (unlimited) is %d path segments", UNLIMITED_DEPTH)) < 0) return err;
-  if (depth > 1000 && (err = mts_note(c, e, "max_depth %ld is capped at 1000 path segments", depth)) < 0) return err;
-  if (type != NULL && strcmp(type, "path") != 0 && strcmp(type, "volpath") != 0 && strcmp(type, "ptracer") != 0 &&
-      strcmp(type, "volpathmis") != 0 &&
-      (err = mts_note(c, e, "integrator '%s': rendered with vcmfarm's algorithm (the full light transport)", type)) < 0)
-    return err;
-  long rr;
-  int hide;
-  if ((err = mts_int(c, e, "rr_depth", 5, &rr)) < 0 || (err = mts_bool(c, e, "hide_emitters", 0, &hide)) < 0) return err;
-  if (hide && (err = mts_note(c, e, "hide_emitters is not supported: emitters are seen")) < 0) return err;
   return mts_note_unused(c, e);
 }
 
@@ -524,12 +365,12 @@ static int convert(mts_ctx *c, const char *camera) {
                   : mts_fail(s, "has no <sensor>");
   if (sensors > 1 && camera == NULL && (err = mts_note(c, chosen, "the first of %d sensors is rendered (--camera chooses)", sensors)) < 0)
     return err;
-  if ((err = sensor(c, chosen)) < 0) return err;
+  if ((err = mts_sensor(c, chosen)) < 0) return err;
   for (int i = 0; i < s->num_children; i++) {
     vf_xml_node *e = s->children[i];
     if (strcmp(e->name, "shape") == 0) err = shape(c, e);
     else if (strcmp(e->name, "emitter") == 0) err = emitter(c, e);
-    else if (strcmp(e->name, "integrator") == 0) err = integrator(c, e);
+    else if (strcmp(e->name, "integrator") == 0) err = mts_integrator(c, e);
     else if (strcmp(e->name, "bsdf") == 0 || strcmp(e->name, "texture") == 0) err = VF_OK; /* used through <ref> */
     else if (!e->used) {
       e->used = 1;

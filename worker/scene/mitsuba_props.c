@@ -357,3 +357,19 @@ cJSON *mts_vec3_json(vf_vec3 v) {
   const double d[3] = {v.x, v.y, v.z};
   return cJSON_CreateDoubleArray(d, 3);
 }
+
+vf_vec3 mts_apply_point(const vf_affine *a, double x, double y, double z) {
+  double in[3] = {x, y, z}, out[3];
+  vf_affine_point(a, in, out);
+  return vf_vec3_make((float)out[0], (float)out[1], (float)out[2]);
+}
+
+vf_vec3 mts_apply_vector(const vf_affine *a, double x, double y, double z) {
+  double in[3] = {x, y, z}, out[3];
+  vf_affine_vector(a, in, out);
+  return vf_vec3_make((float)out[0], (float)out[1], (float)out[2]);
+}
+
+double mts_column_length(const vf_affine *a, int j) {
+  return sqrt(a->m[0][j] * a->m[0][j] + a->m[1][j] * a->m[1][j] + a->m[2][j] * a->m[2][j]);
+}

@@ -57,4 +57,9 @@ int mts_numbers(const vf_xml_node *e, const char *text, double *out, int max);
 
 cJSON *mts_vec3_json(vf_vec3 v);
 
+/* a applied to the point or the vector (x, y, z); the length of a's column j. */
+vf_vec3 mts_apply_point(const vf_affine *a, double x, double y, double z);
+vf_vec3 mts_apply_vector(const vf_affine *a, double x, double y, double z);
+double mts_column_length(const vf_affine *a, int j);
+
 #endif
