@@ -209,8 +209,7 @@ static int shape(mts_ctx *c, vf_xml_node *s) {
     if ((err = mts_bool(c, s, "face_normals", 0, &face_normals)) < 0) return err;
     if (face_normals && (err = mts_note(c, s, "face_normals: the file's vertex normals are used where it has them")) < 0)
       return err;
-    if (flip && (err = mts_note(c, s, "flip_normals on a mesh file is not supported: its fronts are the file's")) < 0)
-      return err;
+    if (flip && !cJSON_AddTrueToObject(js, "flip")) return oom();
     if ((err = matrix_json(&m, js)) < 0) return err;
   } else if (strcmp(type, "sphere") == 0) {
     if ((err = sphere(c, s, js, &m)) < 0) return err;

@@ -242,7 +242,7 @@ static int parse_sphere(const parse_ctx *c, const cJSON *j, const char *path, co
 
 static int parse_shape(const parse_ctx *c, const cJSON *j, int index, vf_shape *s) {
   static const char *const mesh_fields[] = {"type", "name", "material", "emission", "transform",
-                                            "file", "positions", "indices", "uvs", NULL};
+                                            "file", "positions", "indices", "uvs", "flip", NULL};
   static const char *const sphere_fields[] = {"type", "name", "material", "emission", "transform",
                                               "center", "radius", NULL};
   char path[PATH_LEN], p[PATH_LEN];
@@ -284,6 +284,19 @@ static int parse_shape(const parse_ctx *c, const cJSON *j, int index, vf_shape *
     err = file ? vf_scene_load_mesh_file(c, file, path, s) : parse_inline_mesh(c, j, path, s);
     if (err < 0) return err;
     if (has_transform && (err = transform_mesh(c, &a, vf_scene_join(p, path, "transform"), s)) < 0) return err;
+    /* "flip": the other side is the front (Mitsuba's flip_normals): every triangle's
+     * winding reversed, and with it the tangent frames' handedness, as under a mirror. */
+    const cJSON *flip = cJSON_GetObjectItemCaseSensitive(j, "flip");
+    if (flip != NULL && !cJSON_IsBool(flip))
+      return vf_scene_fail(c, VF_ESCENE, vf_scene_join(p, path, "flip"), "expected true or false, found %s", vf_scene_kind(flip));
+    if (cJSON_IsTrue(flip)) {
+      for (uint32_t t = 0; t < s->num_triangles; t++) {
+        uint32_t k = s->indices[3 * t + 1];
+        s->indices[3 * t + 1] = s->indices[3 * t + 2];
+        s->indices[3 * t + 2] = k;
+      }
+      for (uint32_t v = 0; s->tangents != NULL && v < s->num_vertices; v++) s->tangents[4 * v + 3] = -s->tangents[4 * v + 3];
+    }
     /* Degenerate triangles are kept (real meshes have them and the renderer copes), but an
      * emitter with no area would have infinite radiance per unit power: refuse it. */
     if (!vf_is_zero(s->emission) && !(vf_scene_mesh_area(s) > 0.0))

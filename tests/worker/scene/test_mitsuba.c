@@ -201,6 +201,21 @@ static void test_shapes_and_transforms_composed_in_order(void) {
   /* mesh files through Assimp, with to_world */
   CHECK(s->shapes[4].kind == VF_SHAPE_MESH && s->shapes[4].num_triangles >= 1);
   for (uint32_t v = 0; v < s->shapes[4].num_vertices; v++) CHECK_NEAR(s->shapes[4].positions[3 * v + 2], -3, 1e-6);
+  /* flip_normals on the PLY: its triangles' winding reversed against the file's */
+  vf_scene *plain = NULL;
+  CHECK_INT_EQ(vf_scene_load(VF_SOURCE_DIR "/tests/scenes/good/meshes.json", &plain), VF_OK);
+  const vf_shape *tri = &s->shapes[4];
+  CHECK(tri->indices[1] != tri->indices[2]);
+  int compared = 0;
+  for (int i = 0; plain != NULL && i < plain->num_shapes; i++)
+    if (plain->shapes[i].kind == VF_SHAPE_MESH && plain->shapes[i].num_vertices == tri->num_vertices &&
+        plain->shapes[i].num_triangles == tri->num_triangles && strstr(plain->shapes[i].name, "tri") != NULL) {
+      CHECK_INT_EQ(plain->shapes[i].indices[1], tri->indices[2]);
+      CHECK_INT_EQ(plain->shapes[i].indices[2], tri->indices[1]);
+      compared++;
+    }
+  CHECK_INT_EQ(compared, 1);
+  vf_scene_destroy(plain);
   CHECK(s->shapes[5].num_triangles >= 1);
   CHECK_STR_CONTAINS(s->notes, "the disk is a polygon of 256 triangles");
   CHECK(strstr(s->shapes[0].name, "cube") != NULL);
