@@ -274,6 +274,9 @@ static int read_tree(const char *path, defaults *defs, int depth, vf_xml_node **
   if (r.err == VF_OK && r.root == NULL) r.err = vf_error_set(VF_ESCENE, "%s: no <scene> element", path);
   XML_ParserFree(r.parser);
   free(text);
+  /* A file that ends inside a <default> or <include> leaves it unowned on the stack. */
+  for (int i = 1; i < r.top; i++)
+    if (strcmp(r.stack[i]->name, "default") == 0 || strcmp(r.stack[i]->name, "include") == 0) vf_xml_free(r.stack[i]);
   if (r.err != VF_OK) {
     vf_xml_free(r.root);
     return r.err;

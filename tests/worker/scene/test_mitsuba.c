@@ -344,16 +344,31 @@ static void test_bad_files_refused_naming_file_element_and_reason(void) {
       {"envmap_scaled.xml", "envmap_scaled.xml:5: <emitter type=\"envmap\">: to_world must be a rotation"},
   };
   for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
-    char path[1024], cmd[2400];
+    char path[1024], cmd[4400];
     snprintf(path, sizeof path, DIR "bad/%s", cases[i].file);
     vf_scene *s = NULL;
     int err = vf_scene_load(path, &s);
     CHECK(err < 0 && s == NULL);
     if (err < 0) CHECK_STR_CONTAINS(vf_error_detail(err), cases[i].detail);
-    snprintf(cmd, sizeof cmd, "%s/vcmfarm render %s -o /dev/null --iterations 1 2>/dev/null", VF_BINARY_DIR, path);
+    /* The film path is valid: the exit status is the scene's. */
+    char out[1024], err_path[1024];
+    snprintf(out, sizeof out, "%s", write_temp("never.exr", ""));
+    remove(out);
+    snprintf(err_path, sizeof err_path, "%s", write_temp("stderr.txt", ""));
+    snprintf(cmd, sizeof cmd, "%s/vcmfarm render %s -o %s --iterations 1 2>%s", VF_BINARY_DIR, path, out, err_path);
     int status = system(cmd);
     CHECK(WIFEXITED(status));
     CHECK_INT_EQ(WEXITSTATUS(status), 2);
+    uint8_t *said = NULL;
+    size_t n = 0;
+    CHECK_INT_EQ(vf_file_read_all(err_path, 1 << 16, &said, &n), VF_OK);
+    char *text = said ? calloc(1, n + 1) : NULL;
+    if (text) {
+      memcpy(text, said, n);
+      CHECK_STR_CONTAINS(text, cases[i].detail);
+    }
+    free(text);
+    free(said);
   }
   /* an include that is missing names the including element */
   vf_scene *s = NULL;
