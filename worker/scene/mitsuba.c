@@ -210,6 +210,11 @@ static int shape(mts_ctx *c, vf_xml_node *s) {
     if (face_normals && (err = mts_note(c, s, "face_normals: the file's vertex normals are used where it has them")) < 0)
       return err;
     if (flip && !cJSON_AddTrueToObject(js, "flip")) return oom();
+    /* Mitsuba flips an OBJ's v by default and keeps a PLY's (flip_tex_coords); vcmfarm
+     * flips both (t = 1 - v): a file Mitsuba does not flip is flipped back. */
+    int flip_tex;
+    if ((err = mts_bool(c, s, "flip_tex_coords", strcmp(type, "obj") == 0, &flip_tex)) < 0) return err;
+    if (!flip_tex && !cJSON_AddTrueToObject(js, "flip_t")) return oom();
     if ((err = matrix_json(&m, js)) < 0) return err;
   } else if (strcmp(type, "sphere") == 0) {
     if ((err = sphere(c, s, js, &m)) < 0) return err;

@@ -242,7 +242,7 @@ static int parse_sphere(const parse_ctx *c, const cJSON *j, const char *path, co
 
 static int parse_shape(const parse_ctx *c, const cJSON *j, int index, vf_shape *s) {
   static const char *const mesh_fields[] = {"type", "name", "material", "emission", "transform",
-                                            "file", "positions", "indices", "uvs", "flip", NULL};
+                                            "file", "positions", "indices", "uvs", "flip", "flip_t", NULL};
   static const char *const sphere_fields[] = {"type", "name", "material", "emission", "transform",
                                               "center", "radius", NULL};
   char path[PATH_LEN], p[PATH_LEN];
@@ -295,6 +295,16 @@ static int parse_shape(const parse_ctx *c, const cJSON *j, int index, vf_shape *
         s->indices[3 * t + 1] = s->indices[3 * t + 2];
         s->indices[3 * t + 2] = k;
       }
+      for (uint32_t v = 0; s->tangents != NULL && v < s->num_vertices; v++) s->tangents[4 * v + 3] = -s->tangents[4 * v + 3];
+    }
+    /* "flip_t": a file whose texture v counts from the image's top row (Mitsuba reads PLY
+     * files so): t = 1 - t undoes the loader's flip. The uv frame is mirrored with it. */
+    const cJSON *flip_t = cJSON_GetObjectItemCaseSensitive(j, "flip_t");
+    if (flip_t != NULL && !cJSON_IsBool(flip_t))
+      return vf_scene_fail(c, VF_ESCENE, vf_scene_join(p, path, "flip_t"), "expected true or false, found %s",
+                           vf_scene_kind(flip_t));
+    if (cJSON_IsTrue(flip_t) && s->uvs != NULL) {
+      for (uint32_t v = 0; v < s->num_vertices; v++) s->uvs[2 * v + 1] = 1.0f - s->uvs[2 * v + 1];
       for (uint32_t v = 0; s->tangents != NULL && v < s->num_vertices; v++) s->tangents[4 * v + 3] = -s->tangents[4 * v + 3];
     }
     /* Degenerate triangles are kept (real meshes have them and the renderer copes), but an

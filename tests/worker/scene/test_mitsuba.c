@@ -409,6 +409,27 @@ static void test_null_bumpmap_and_albedo_above_one(void) {
   CHECK_STR_CONTAINS(vf_error_detail(VF_ESCENE), "bright.xml:3: <bsdf type=\"diffuse\">: reflects more than it receives (channel g: 1.2");
 }
 
+/* Texture coordinates of mesh files as Mitsuba reads them: a PLY's v as stored (t = v),
+ * an OBJ's flipped (t = 1 - v), and flip_tex_coords reversing either. */
+static void test_mesh_file_texture_coordinates_as_mitsuba_reads_them(void) {
+  const char *xml = "<scene version=\"3.0.0\"><sensor type=\"perspective\"><float name=\"fov\" value=\"45\"/></sensor>"
+                    "<emitter type=\"constant\"/>"
+                    "<shape type=\"ply\"><string name=\"filename\" value=\"" VF_SOURCE_DIR "/tests/scenes/mitsuba/uv.ply\"/></shape>"
+                    "<shape type=\"ply\"><string name=\"filename\" value=\"" VF_SOURCE_DIR "/tests/scenes/mitsuba/uv.ply\"/>"
+                    "<boolean name=\"flip_tex_coords\" value=\"true\"/></shape></scene>";
+  vf_scene *s = load(write_temp("uvply.xml", xml), NULL);
+  if (!s) return;
+  /* uv.ply: (0.1, 0.25), (0.2, 0.25), (0.3, 0.5) */
+  CHECK(s->shapes[0].uvs != NULL && s->shapes[1].uvs != NULL);
+  if (s->shapes[0].uvs && s->shapes[1].uvs) {
+    CHECK_NEAR(s->shapes[0].uvs[0], 0.1, 1e-6);
+    CHECK_NEAR(s->shapes[0].uvs[1], 0.25, 1e-6);
+    CHECK_NEAR(s->shapes[0].uvs[5], 0.5, 1e-6);
+    CHECK_NEAR(s->shapes[1].uvs[1], 0.75, 1e-6);
+  }
+  vf_scene_destroy(s);
+}
+
 /* A scene of Mitsuba 0.x: camelCase names upgraded as Mitsuba 3 does. */
 static void test_version_1_names_upgraded(void) {
   const char *xml =
@@ -640,6 +661,7 @@ int main(void) {
   RUN(test_bad_files_refused_naming_file_element_and_reason);
   RUN(test_null_bumpmap_and_albedo_above_one);
   RUN(test_version_1_names_upgraded);
+  RUN(test_mesh_file_texture_coordinates_as_mitsuba_reads_them);
   RUN(test_cornell_xml_and_json_load_the_same_content);
   RUN(test_cornell_xml_and_json_render_the_same_film);
   RUN(test_json_inline_mesh_uvs);
