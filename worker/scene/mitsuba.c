@@ -6,6 +6,7 @@
 #include "mitsuba_bsdf.h"
 #include "mitsuba_props.h"
 #include "mitsuba_sensor.h"
+#include "mitsuba_serialized.h"
 
 #include <ctype.h>
 #include <errno.h>
@@ -167,11 +168,11 @@ static int shape(mts_ctx *c, vf_xml_node *s) {
   int err, flip;
   s->used = 1;
   if (type == NULL) return mts_fail(s, "has no type");
-  if (strcmp(type, "shapegroup") == 0 || strcmp(type, "instance") == 0 || strcmp(type, "serialized") == 0)
-    return mts_fail(s, "shape '%s' is not supported%s", type, strcmp(type, "serialized") == 0 ? " (convert it to PLY)" : "");
-  int mesh_file = strcmp(type, "obj") == 0 || strcmp(type, "ply") == 0;
-  if (!mesh_file && strcmp(type, "rectangle") != 0 && strcmp(type, "cube") != 0 && strcmp(type, "disk") != 0 &&
-      strcmp(type, "sphere") != 0) {
+  if (strcmp(type, "shapegroup") == 0 || strcmp(type, "instance") == 0)
+    return mts_fail(s, "shape '%s' is not supported", type);
+  int mesh_file = strcmp(type, "obj") == 0 || strcmp(type, "ply") == 0, serialized = strcmp(type, "serialized") == 0;
+  if (!mesh_file && !serialized && strcmp(type, "rectangle") != 0 && strcmp(type, "cube") != 0 &&
+      strcmp(type, "disk") != 0 && strcmp(type, "sphere") != 0) {
     for (int i = 0; i < s->num_children; i++) s->children[i]->used = 1;
     return mts_note(c, s, "shape '%s' is not supported: left out", type);
   }
@@ -216,6 +217,21 @@ static int shape(mts_ctx *c, vf_xml_node *s) {
     if ((err = mts_bool(c, s, "flip_tex_coords", strcmp(type, "obj") == 0, &flip_tex)) < 0) return err;
     if (!flip_tex && !cJSON_AddTrueToObject(js, "flip_t")) return oom();
     if ((err = matrix_json(&m, js)) < 0) return err;
+  } else if (serialized) {
+    /* Read here and carried inline: the JSON scene (and a farm job) holds the mesh itself. */
+    const char *file;
+    long index;
+    int face_normals;
+    char path[8192];
+    if ((err = mts_string(c, s, "filename", NULL, &file)) < 0 || (err = mts_int(c, s, "shape_index", 0, &index)) < 0 ||
+        (err = mts_bool(c, s, "face_normals", 0, &face_normals)) < 0)
+      return err;
+    if (file == NULL) return mts_fail(s, "has no filename");
+    if ((err = check_file(s, c, file)) < 0) return err;
+    snprintf(path, sizeof path, "%s%s%s", file[0] == '/' ? "" : c->dir, file[0] == '/' ? "" : "/", file);
+    if ((err = mts_serialized(c, s, path, index, js)) < 0) return err;
+    if (face_normals) cJSON_DeleteItemFromObjectCaseSensitive(js, "normals");
+    if ((flip && !cJSON_AddTrueToObject(js, "flip")) || (err = matrix_json(&m, js)) < 0) return err < 0 ? err : oom();
   } else if (strcmp(type, "sphere") == 0) {
     if ((err = sphere(c, s, js, &m)) < 0) return err;
     if (flip && (err = mts_note(c, s, "flip_normals on a sphere is not supported: it emits outwards")) < 0) return err;

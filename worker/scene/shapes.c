@@ -136,7 +136,7 @@ static int parse_inline_mesh(const parse_ctx *c, const cJSON *j, const char *pat
     return vf_scene_fail(c, VF_ESCENE, ip, "expected a non-empty flat array of vertex indices, 3 per triangle");
   float *positions = malloc((size_t)np * sizeof *positions);
   uint32_t *indices = malloc((size_t)ni * sizeof *indices);
-  float *uvs = NULL;
+  float *uvs = NULL, *normals = NULL;
   if (positions == NULL || indices == NULL) {
     err = vf_error_set(VF_ENOMEM, "out of memory");
     goto fail;
@@ -184,13 +184,44 @@ static int parse_inline_mesh(const parse_ctx *c, const cJSON *j, const char *pat
       i++;
     }
   }
+  /* Optional shading normals, 3 per vertex, non-zero (normalised here). */
+  const cJSON *nj = cJSON_GetObjectItemCaseSensitive(j, "normals");
+  if (nj != NULL) {
+    char np_[PATH_LEN];
+    vf_scene_join(np_, path, "normals");
+    if (!cJSON_IsArray(nj) || cJSON_GetArraySize(nj) != 3 * (int)num_vertices) {
+      err = vf_scene_fail(c, VF_ESCENE, np_, "expected a flat array of numbers, 3 per vertex (%u)", 3 * num_vertices);
+      goto fail;
+    }
+    if ((normals = malloc(3 * (size_t)num_vertices * sizeof *normals)) == NULL) {
+      err = vf_error_set(VF_ENOMEM, "out of memory");
+      goto fail;
+    }
+    i = 0;
+    cJSON_ArrayForEach(e, nj) {
+      if ((err = vf_scene_to_float(c, e, vf_scene_join_index(ep, np_, i), &normals[i])) < 0) goto fail;
+      i++;
+    }
+    for (uint32_t v = 0; v < num_vertices; v++) {
+      vf_vec3 n = vf_vec3_make(normals[3 * v], normals[3 * v + 1], normals[3 * v + 2]), u;
+      if (!vf_scene_unit(n, &u)) {
+        err = vf_scene_fail(c, VF_ESCENE, vf_scene_join_index(ep, np_, 3 * (long)v), "normal of vertex %u is zero", v);
+        goto fail;
+      }
+      normals[3 * v] = u.x;
+      normals[3 * v + 1] = u.y;
+      normals[3 * v + 2] = u.z;
+    }
+  }
   s->positions = positions;
   s->indices = indices;
   s->uvs = uvs;
+  s->normals = normals;
   s->num_vertices = num_vertices;
   s->num_triangles = (uint32_t)(ni / 3);
   return VF_OK;
 fail:
+  free(normals);
   free(uvs);
   free(indices);
   free(positions);
@@ -242,7 +273,7 @@ static int parse_sphere(const parse_ctx *c, const cJSON *j, const char *path, co
 
 static int parse_shape(const parse_ctx *c, const cJSON *j, int index, vf_shape *s) {
   static const char *const mesh_fields[] = {"type", "name", "material", "emission", "transform",
-                                            "file", "positions", "indices", "uvs", "flip", "flip_t", NULL};
+                                            "file", "positions", "indices", "uvs", "normals", "flip", "flip_t", NULL};
   static const char *const sphere_fields[] = {"type", "name", "material", "emission", "transform",
                                               "center", "radius", NULL};
   char path[PATH_LEN], p[PATH_LEN];
@@ -279,8 +310,9 @@ static int parse_shape(const parse_ctx *c, const cJSON *j, int index, vf_shape *
       return vf_scene_fail(c, VF_ESCENE, path, "give either 'file' or 'positions' and 'indices', not both");
     if (file == NULL && !inline_mesh)
       return vf_scene_fail(c, VF_ESCENE, path, "missing field 'file' (or 'positions' and 'indices')");
-    if (file != NULL && cJSON_HasObjectItem(j, "uvs"))
-      return vf_scene_fail(c, VF_ESCENE, vf_scene_join(p, path, "uvs"), "only for inline meshes (a file brings its own)");
+    if (file != NULL && (cJSON_HasObjectItem(j, "uvs") || cJSON_HasObjectItem(j, "normals")))
+      return vf_scene_fail(c, VF_ESCENE, vf_scene_join(p, path, cJSON_HasObjectItem(j, "uvs") ? "uvs" : "normals"),
+                           "only for inline meshes (a file brings its own)");
     err = file ? vf_scene_load_mesh_file(c, file, path, s) : parse_inline_mesh(c, j, path, s);
     if (err < 0) return err;
     if (has_transform && (err = transform_mesh(c, &a, vf_scene_join(p, path, "transform"), s)) < 0) return err;

@@ -17,6 +17,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sys/wait.h>
+#include <zlib.h>
 
 #define DIR VF_SOURCE_DIR "/tests/scenes/mitsuba/"
 #define PI 3.14159265358979323846
@@ -430,6 +431,100 @@ static void test_mesh_file_texture_coordinates_as_mitsuba_reads_them(void) {
   vf_scene_destroy(s);
 }
 
+static size_t put(uint8_t *p, uint64_t v, int n) {
+  for (int i = 0; i < n; i++) p[i] = (uint8_t)(v >> (8 * i));
+  return (size_t)n;
+}
+
+static size_t put_f(uint8_t *p, float f) {
+  uint32_t bits;
+  memcpy(&bits, &f, 4);
+  return put(p, bits, 4);
+}
+
+/* A serialized file (version 4) of two meshes: a triangle, then a quad with normals and
+ * texture coordinates. */
+static const char *write_serialized(void) {
+  uint8_t raw[2][512], file[2048];
+  size_t n[2] = {0, 0}, at = 0;
+  n[0] += put(raw[0] + n[0], 0x1000, 4);
+  memcpy(raw[0] + n[0], "tri", 4), n[0] += 4;
+  n[0] += put(raw[0] + n[0], 3, 8), n[0] += put(raw[0] + n[0], 1, 8);
+  const float tri[9] = {0, 0, 0, 1, 0, 0, 0, 1, 0};
+  for (int i = 0; i < 9; i++) n[0] += put_f(raw[0] + n[0], tri[i]);
+  for (int i = 0; i < 3; i++) n[0] += put(raw[0] + n[0], (uint64_t)i, 4);
+  n[1] += put(raw[1] + n[1], 0x1000 | 1 | 2, 4);
+  memcpy(raw[1] + n[1], "quad", 5), n[1] += 5;
+  n[1] += put(raw[1] + n[1], 4, 8), n[1] += put(raw[1] + n[1], 2, 8);
+  const float quad[12] = {-1, -1, 0, 1, -1, 0, 1, 1, 0, -1, 1, 0}, uv[8] = {0, 0, 1, 0, 1, 1, 0, 1};
+  for (int i = 0; i < 12; i++) n[1] += put_f(raw[1] + n[1], quad[i]);
+  for (int i = 0; i < 12; i++) n[1] += put_f(raw[1] + n[1], i % 3 == 2 ? 2.0f : 0.0f); /* normals (0, 0, 2): normalised */
+  for (int i = 0; i < 8; i++) n[1] += put_f(raw[1] + n[1], uv[i]);
+  const uint32_t ix[6] = {0, 1, 2, 0, 2, 3};
+  for (int i = 0; i < 6; i++) n[1] += put(raw[1] + n[1], ix[i], 4);
+  uint64_t offsets[2];
+  for (int m = 0; m < 2; m++) {
+    offsets[m] = at;
+    at += put(file + at, 0x041C, 2);
+    at += put(file + at, 4, 2);
+    uLongf z = (uLongf)(sizeof file - at);
+    CHECK_INT_EQ(compress(file + at, &z, raw[m], (uLong)n[m]), Z_OK);
+    at += z;
+  }
+  at += put(file + at, offsets[0], 8);
+  at += put(file + at, offsets[1], 8);
+  at += put(file + at, 2, 4);
+  static char path[1024];
+  snprintf(path, sizeof path, "%s", write_temp("meshes.serialized", ""));
+  FILE *f = fopen(path, "wb");
+  CHECK(f != NULL);
+  if (f) {
+    fwrite(file, 1, at, f);
+    fclose(f);
+  }
+  return path;
+}
+
+static void test_serialized_meshes_by_index(void) {
+  const char *ser = write_serialized();
+  char xml[4096];
+  snprintf(xml, sizeof xml,
+           "<scene version=\"3.0.0\"><sensor type=\"perspective\"><float name=\"fov\" value=\"45\"/></sensor>"
+           "<emitter type=\"constant\"/>"
+           "<shape type=\"serialized\"><string name=\"filename\" value=\"%s\"/></shape>"
+           "<shape type=\"serialized\"><string name=\"filename\" value=\"%s\"/><integer name=\"shape_index\" value=\"1\"/>"
+           "<transform name=\"to_world\"><translate z=\"-2\"/></transform></shape></scene>",
+           ser, ser);
+  vf_scene *s = load(write_temp("ser.xml", xml), NULL);
+  if (s) {
+    CHECK_INT_EQ(s->num_shapes, 2);
+    CHECK_INT_EQ(s->shapes[0].num_vertices, 3);
+    CHECK_INT_EQ(s->shapes[0].num_triangles, 1);
+    CHECK(s->shapes[0].normals == NULL && s->shapes[0].uvs == NULL);
+    const vf_shape *q = &s->shapes[1];
+    CHECK_INT_EQ(q->num_vertices, 4);
+    CHECK_INT_EQ(q->num_triangles, 2);
+    CHECK_VEC(vf_vec3_make(q->positions[6], q->positions[7], q->positions[8]), 1, 1, -2, 0);
+    CHECK(q->normals != NULL && q->uvs != NULL);
+    if (q->normals) CHECK_VEC(vf_vec3_make(q->normals[0], q->normals[1], q->normals[2]), 0, 0, 1, 0);
+    if (q->uvs) CHECK(q->uvs[4] == 1 && q->uvs[5] == 1 && q->uvs[7] == 1);
+    CHECK_INT_EQ(q->indices[5], 3);
+    vf_scene_destroy(s);
+  }
+  snprintf(xml, sizeof xml,
+           "<scene version=\"3.0.0\"><sensor type=\"perspective\"><float name=\"fov\" value=\"45\"/></sensor>\n"
+           "<shape type=\"serialized\"><string name=\"filename\" value=\"%s\"/><integer name=\"shape_index\" value=\"2\"/></shape>"
+           "</scene>", ser);
+  s = NULL;
+  CHECK_INT_EQ(vf_scene_load(write_temp("ser_bad.xml", xml), &s), VF_ESCENE);
+  CHECK_STR_CONTAINS(vf_error_detail(VF_ESCENE), "ser_bad.xml:2: <shape type=\"serialized\">: shape_index 2: the file has 2 meshes");
+  snprintf(xml, sizeof xml,
+           "<scene version=\"3.0.0\"><sensor type=\"perspective\"><float name=\"fov\" value=\"45\"/></sensor>\n"
+           "<shape type=\"serialized\"><string name=\"filename\" value=\"%s\"/></shape></scene>", DIR "cornell.xml");
+  CHECK_INT_EQ(vf_scene_load(write_temp("ser_bad.xml", xml), &s), VF_ESCENE);
+  CHECK_STR_CONTAINS(vf_error_detail(VF_ESCENE), "is not a serialized mesh");
+}
+
 /* A scene of Mitsuba 0.x: camelCase names upgraded as Mitsuba 3 does. */
 static void test_version_1_names_upgraded(void) {
   const char *xml =
@@ -662,6 +757,7 @@ int main(void) {
   RUN(test_null_bumpmap_and_albedo_above_one);
   RUN(test_version_1_names_upgraded);
   RUN(test_mesh_file_texture_coordinates_as_mitsuba_reads_them);
+  RUN(test_serialized_meshes_by_index);
   RUN(test_cornell_xml_and_json_load_the_same_content);
   RUN(test_cornell_xml_and_json_render_the_same_film);
   RUN(test_json_inline_mesh_uvs);
