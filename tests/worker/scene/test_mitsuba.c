@@ -589,6 +589,13 @@ static void test_cornell_xml_and_json_load_the_same_content(void) {
   CHECK_INT_EQ(x->num_point_lights + x->num_directional_lights, 0);
   CHECK_INT_EQ(j->num_point_lights + j->num_directional_lights, 0);
   CHECK(vf_is_zero(x->background) && x->envmap.width == 0);
+  /* ... so the content hash (camera, materials, world-space geometry, lights, the settings
+   * the file set; scene.c) is the same: a farm merges films of the two. */
+  char hx[65], hj[65];
+  vf_scene_hash_hex(x, hx);
+  vf_scene_hash_hex(j, hj);
+  printf("  cornell.xml %s\n  cornell.json %s\n", hx, hj);
+  CHECK(memcmp(x->hash, j->hash, sizeof x->hash) == 0);
   /* What a Mitsuba scene says beyond the content: the sampler's count, noted. */
   CHECK_STR_CONTAINS(x->notes, "sample_count 16: the number of iterations is the job's");
 done:
