@@ -6,7 +6,6 @@
 #include "mitsuba_bsdf.h"
 #include "mitsuba_props.h"
 #include "mitsuba_sensor.h"
-#include "mitsuba_serialized.h"
 
 #include <ctype.h>
 #include <errno.h>
@@ -20,9 +19,11 @@
 /* Segments of the triangulated disk: its area is 0.9999 of the disk's. */
 #define DISK_SEGMENTS 256
 
-int vf_mitsuba_is_xml(const char *path) {
-  size_t n = strlen(path);
-  return n >= 4 && strcasecmp(path + n - 4, ".xml") == 0;
+int vf_mitsuba_is_xml(const char *path) { return vf_mitsuba_has_extension(path, ".xml"); }
+
+int vf_mitsuba_has_extension(const char *path, const char *ext) {
+  size_t n = strlen(path), e = strlen(ext);
+  return n >= e && strcasecmp(path + n - e, ext) == 0;
 }
 
 static int oom(void) { return vf_error_set(VF_ENOMEM, "out of memory"); }
@@ -218,20 +219,23 @@ static int shape(mts_ctx *c, vf_xml_node *s) {
     if (!flip_tex && !cJSON_AddTrueToObject(js, "flip_t")) return oom();
     if ((err = matrix_json(&m, js)) < 0) return err;
   } else if (serialized) {
-    /* Read here and carried inline: the JSON scene (and a farm job) holds the mesh itself. */
     const char *file;
     long index;
     int face_normals;
-    char path[8192];
     if ((err = mts_string(c, s, "filename", NULL, &file)) < 0 || (err = mts_int(c, s, "shape_index", 0, &index)) < 0 ||
         (err = mts_bool(c, s, "face_normals", 0, &face_normals)) < 0)
       return err;
     if (file == NULL) return mts_fail(s, "has no filename");
+    if (!vf_mitsuba_has_extension(file, ".serialized"))
+      return mts_fail(s, "filename '%s' does not end in .serialized", file);
     if ((err = check_file(s, c, file)) < 0) return err;
-    snprintf(path, sizeof path, "%s%s%s", file[0] == '/' ? "" : c->dir, file[0] == '/' ? "" : "/", file);
-    if ((err = mts_serialized(c, s, path, index, js)) < 0) return err;
-    if (face_normals) cJSON_DeleteItemFromObjectCaseSensitive(js, "normals");
-    if ((flip && !cJSON_AddTrueToObject(js, "flip")) || (err = matrix_json(&m, js)) < 0) return err < 0 ? err : oom();
+    if (index < 0) return mts_fail(s, "shape_index %ld is negative", index);
+    if (!cJSON_AddStringToObject(js, "file", file) || (index > 0 && !cJSON_AddNumberToObject(js, "shape_index", (double)index)) ||
+        (flip && !cJSON_AddTrueToObject(js, "flip")))
+      return oom();
+    if ((err = matrix_json(&m, js)) < 0) return err;
+    if (face_normals && (err = mts_note(c, s, "face_normals: the file's vertex normals are used where it has them")) < 0)
+      return err;
   } else if (strcmp(type, "sphere") == 0) {
     if ((err = sphere(c, s, js, &m)) < 0) return err;
     if (flip && (err = mts_note(c, s, "flip_normals on a sphere is not supported: it emits outwards")) < 0) return err;

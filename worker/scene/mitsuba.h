@@ -8,8 +8,9 @@
 
 #include <stddef.h>
 
-/* 1 if path ends in .xml (any case). */
+/* 1 if path ends in .xml (any case); in ext (".serialized"). */
 int vf_mitsuba_is_xml(const char *path);
+int vf_mitsuba_has_extension(const char *path, const char *ext);
 
 /* The JSON scene text (*text, free; *len) equivalent to Mitsuba scene `path`, its files
  * named relative to path's directory, with the sensor chosen by id or index `camera` (NULL:

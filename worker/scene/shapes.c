@@ -5,6 +5,8 @@
 #include "../../common/error.h"
 #include "fields.h"
 #include "mesh.h"
+#include "serialized.h"
+#include "../../common/file.h"
 
 #include <cjson/cJSON.h>
 
@@ -228,6 +230,32 @@ fail:
   return err;
 }
 
+/* A mesh of a Mitsuba serialized file: resolved as every file is (so a farm job ships it by
+ * content hash), the mesh of "shape_index" (default 0) decoded (serialized.h). */
+static int load_serialized(const parse_ctx *c, const cJSON *j, const char *file, const char *path, vf_shape *s) {
+  char fpath[PATH_LEN], ipath[PATH_LEN], resolved[4096], what[PATH_LEN + 600];
+  double index = 0;
+  int err;
+  const cJSON *ij = cJSON_GetObjectItemCaseSensitive(j, "shape_index");
+  if (ij != NULL && (err = vf_scene_to_integer(c, ij, vf_scene_join(ipath, path, "shape_index"), 0, 1e9, &index)) < 0)
+    return err;
+  vf_scene_join(fpath, path, "file");
+  if ((err = vf_scene_resolve(c, file, fpath, resolved, sizeof resolved)) < 0) return err;
+  uint8_t *data = NULL;
+  size_t n = 0;
+  if ((err = vf_file_read_all(resolved, (size_t)1 << 31, &data, &n)) != VF_OK) {
+    char detail[512];
+    snprintf(detail, sizeof detail, "%s", vf_error_detail(err));
+    return vf_scene_fail(c, err, fpath, "%s", detail);
+  }
+  snprintf(what, sizeof what, "%s: %s (%s)", c->label, path, file);
+  int colors = 0;
+  err = vf_serialized_decode(data, n, (long)index, what, s, &colors);
+  free(data);
+  if (err == VF_OK && colors) err = vf_scene_note(c, "%s: vertex colours are not supported: ignored", file);
+  return err;
+}
+
 /* ---- shapes ------------------------------------------------------------------------------ */
 
 double vf_scene_mesh_area(const vf_shape *s) {
@@ -273,7 +301,7 @@ static int parse_sphere(const parse_ctx *c, const cJSON *j, const char *path, co
 
 static int parse_shape(const parse_ctx *c, const cJSON *j, int index, vf_shape *s) {
   static const char *const mesh_fields[] = {"type", "name", "material", "emission", "transform",
-                                            "file", "positions", "indices", "uvs", "normals", "flip", "flip_t", NULL};
+                                            "file", "shape_index", "positions", "indices", "uvs", "normals", "flip", "flip_t", NULL};
   static const char *const sphere_fields[] = {"type", "name", "material", "emission", "transform",
                                               "center", "radius", NULL};
   char path[PATH_LEN], p[PATH_LEN];
@@ -313,7 +341,11 @@ static int parse_shape(const parse_ctx *c, const cJSON *j, int index, vf_shape *
     if (file != NULL && (cJSON_HasObjectItem(j, "uvs") || cJSON_HasObjectItem(j, "normals")))
       return vf_scene_fail(c, VF_ESCENE, vf_scene_join(p, path, cJSON_HasObjectItem(j, "uvs") ? "uvs" : "normals"),
                            "only for inline meshes (a file brings its own)");
-    err = file ? vf_scene_load_mesh_file(c, file, path, s) : parse_inline_mesh(c, j, path, s);
+    int serialized = file != NULL && vf_serialized_is_serialized(file);
+    if (!serialized && cJSON_HasObjectItem(j, "shape_index"))
+      return vf_scene_fail(c, VF_ESCENE, vf_scene_join(p, path, "shape_index"), "only for a .serialized file");
+    err = serialized ? load_serialized(c, j, file, path, s)
+                     : file ? vf_scene_load_mesh_file(c, file, path, s) : parse_inline_mesh(c, j, path, s);
     if (err < 0) return err;
     if (has_transform && (err = transform_mesh(c, &a, vf_scene_join(p, path, "transform"), s)) < 0) return err;
     /* "flip": the other side is the front (Mitsuba's flip_normals): every triangle's

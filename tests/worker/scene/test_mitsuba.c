@@ -495,7 +495,9 @@ static void test_serialized_meshes_by_index(void) {
            "<shape type=\"serialized\"><string name=\"filename\" value=\"%s\"/><integer name=\"shape_index\" value=\"1\"/>"
            "<transform name=\"to_world\"><translate z=\"-2\"/></transform></shape></scene>",
            ser, ser);
-  vf_scene *s = load(write_temp("ser.xml", xml), NULL);
+  char good_xml[1024];
+  snprintf(good_xml, sizeof good_xml, "%s", write_temp("ser.xml", xml));
+  vf_scene *s = load(good_xml, NULL);
   if (s) {
     CHECK_INT_EQ(s->num_shapes, 2);
     CHECK_INT_EQ(s->shapes[0].num_vertices, 3);
@@ -516,13 +518,31 @@ static void test_serialized_meshes_by_index(void) {
            "<shape type=\"serialized\"><string name=\"filename\" value=\"%s\"/><integer name=\"shape_index\" value=\"2\"/></shape>"
            "</scene>", ser);
   s = NULL;
-  CHECK_INT_EQ(vf_scene_load(write_temp("ser_bad.xml", xml), &s), VF_ESCENE);
-  CHECK_STR_CONTAINS(vf_error_detail(VF_ESCENE), "ser_bad.xml:2: <shape type=\"serialized\">: shape_index 2: the file has 2 meshes");
+  CHECK_INT_EQ(vf_scene_load(write_temp("ser_bad.xml", xml), &s), VF_EMESH);
+  CHECK_STR_CONTAINS(vf_error_detail(VF_EMESH), "ser_bad.xml: shapes[0] (");
+  CHECK_STR_CONTAINS(vf_error_detail(VF_EMESH), "meshes.serialized): shape_index 2: the file has 2 meshes");
+  char bogus[1024];
+  snprintf(bogus, sizeof bogus, "%s", write_temp("bogus.serialized", "not a mesh at all"));
   snprintf(xml, sizeof xml,
            "<scene version=\"3.0.0\"><sensor type=\"perspective\"><float name=\"fov\" value=\"45\"/></sensor>\n"
-           "<shape type=\"serialized\"><string name=\"filename\" value=\"%s\"/></shape></scene>", DIR "cornell.xml");
-  CHECK_INT_EQ(vf_scene_load(write_temp("ser_bad.xml", xml), &s), VF_ESCENE);
-  CHECK_STR_CONTAINS(vf_error_detail(VF_ESCENE), "is not a serialized mesh");
+           "<shape type=\"serialized\"><string name=\"filename\" value=\"%s\"/></shape></scene>", bogus);
+  CHECK_INT_EQ(vf_scene_load(write_temp("ser_bad.xml", xml), &s), VF_EMESH);
+  CHECK_STR_CONTAINS(vf_error_detail(VF_EMESH), "bogus.serialized): not a serialized mesh");
+  /* A farm job ships the file by content hash and decodes the same mesh. */
+  char *text = NULL, stage[512];
+  size_t len = 0;
+  vf_blob_table files = {0};
+  vf_scene *local = load(good_xml, NULL), *job = NULL;
+  CHECK_INT_EQ(vf_scene_model_text(good_xml, NULL, &text, &len), VF_OK);
+  CHECK_INT_EQ(vf_file_temp_dir("vcmfarm-test-mitsuba-stage", stage, sizeof stage), VF_OK);
+  CHECK_INT_EQ(vf_job_scene_collect(good_xml, text, len, stage, &files, &job), VF_OK);
+  CHECK_INT_EQ(files.count, 1);
+  if (local && job) CHECK(memcmp(local->hash, job->hash, sizeof local->hash) == 0);
+  vf_scene_destroy(job);
+  vf_scene_destroy(local);
+  vf_blob_table_clear(&files);
+  vf_file_remove_tree(stage);
+  free(text);
 }
 
 /* A scene of Mitsuba 0.x: camelCase names upgraded as Mitsuba 3 does. */
