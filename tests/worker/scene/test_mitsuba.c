@@ -715,6 +715,18 @@ static void test_envmap_orientation_matches_a_rolled_map(void) {
         CHECK_INT_EQ(render_block_estimates(k ? j : x, &s, 2, 64, BLOCKS, mean[k], se[k], &stats), VF_OK);
       }
       CHECK(blocks_agree(c ? "envmap 90" : "envmap", "xml", "json", mean[0], se[0], mean[1], se[1], NB));
+      /* light sub-paths leave the turned map as camera paths see it: bpt and vcm agree */
+      const vf_algorithm bidirectional[2] = {VF_ALGO_BPT, VF_ALGO_VCM};
+      for (int a = 0; a < 2; a++) {
+        double bm[NB], bse[NB];
+        vf_settings bs = x->settings;
+        bs.algorithm = bidirectional[a];
+        bs.sampler = VF_SAMPLER_INDEPENDENT;
+        bs.seed = 700 + (uint64_t)(2 * c + a);
+        vf_vcm_stats bstats = {0};
+        CHECK_INT_EQ(render_block_estimates(x, &bs, 2, 64, BLOCKS, bm, bse, &bstats), VF_OK);
+        CHECK(blocks_agree(c ? "envmap 90" : "envmap", a ? "vcm" : "bpt", "pt", bm, bse, mean[1], se[1], NB));
+      }
       /* and a map read unturned would not agree: the test can tell the orientations apart */
       x->envmap_rotated = 0;
       vf_settings s = x->settings;
