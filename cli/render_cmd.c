@@ -26,8 +26,8 @@
 static const char usage[] =
     "usage: vcmfarm render SCENE [options] -o FILM.exr\n"
     "\n"
-    "Renders global iterations [K, K+N) of SCENE (a built-in name, a JSON scene file or a\n"
-    "glTF 2.0 (.gltf, .glb) or OBJ file, see docs/SCENES.md) into FILM.exr, an OpenEXR film that any viewer opens and that\n"
+    "Renders global iterations [K, K+N) of SCENE (a built-in name, a JSON scene file, a\n"
+    "glTF 2.0 (.gltf, .glb) or OBJ file or a Mitsuba 3 scene (.xml), see docs/SCENES.md) into FILM.exr, an OpenEXR film that any viewer opens and that\n"
     "`vcmfarm merge` and `continue` extend exactly. It renders on this machine's threads;\n"
     "a farm (`vcmfarm submit`, docs/PROTOCOL.md) renders the same iterations into the same\n"
     "film.\n"
@@ -35,7 +35,8 @@ static const char usage[] =
     VF_CLI_CHECKPOINT_HELP
     "  -k, --start-iteration K  first global iteration index (default 0)\n"
     "  -j, --threads T          render threads (default: one per CPU)\n" VF_CLI_SETTINGS_HELP
-    "      --camera NAME|INDEX  the glTF file's camera to render (default: its first)\n"
+    "      --camera NAME|INDEX  the glTF file's camera or Mitsuba scene's sensor to render\n"
+    "                           (default: its first)\n"
     "      --background COLOR|FILE.exr  replaces the scene's background: a radiance R,G,B or\n"
     "                           a grey V, or a latitude-longitude EXR map (docs/SCENES.md);\n"
     "                           `continue` needs the same option\n"

@@ -127,11 +127,12 @@ int vf_submit(vf_farm_client *client, int timeout_ms, const vf_submit_job *job, 
   char stage[4096] = "";
   if ((err = vf_submit_check_texts(job)) != VF_OK) return err;
   if (job->camera != NULL && !vf_scene_is_model_file(source))
-    return vf_error_set(VF_EUSAGE, "--camera chooses a camera of a glTF or OBJ file; a JSON scene chooses it in "
+    return vf_error_set(VF_EUSAGE, "--camera chooses a camera of a glTF or OBJ file or a Mitsuba scene's sensor; a JSON scene chooses it in "
                         "import[i].camera (docs/SCENES.md)");
   if (vf_scene_is_model_file(source)) {
-    /* A model file travels as the JSON scene that imports it: its files (buffers, .mtl,
-     * textures) are then recorded and shipped like any JSON scene's. */
+    /* A model file travels as the JSON scene that imports it (a Mitsuba scene as the JSON
+     * scene it converts to): its files (buffers, .mtl, textures, meshes) are then recorded
+     * and shipped like any JSON scene's. */
     char *model_text;
     if ((err = vf_scene_model_text(source, job->camera, &model_text, &len)) != VF_OK) return err;
     text = (uint8_t *)model_text;

@@ -12,6 +12,7 @@ packages=(
   libnanomsg-dev       # coordinator <-> worker messaging
   libprotobuf-c-dev protobuf-c-compiler   # wire messages
   libcjson-dev         # scene files and --json output
+  libexpat1-dev        # Mitsuba 3 XML scenes (worker/scene/xml.c)
   libassimp-dev        # mesh files (OBJ, PLY, glTF)
   libpng-dev           # previews and plots, PNG textures
   libjpeg-dev          # JPEG textures (worker/scene/texture.c; Debian's libjpeg62-turbo)

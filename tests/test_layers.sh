@@ -7,8 +7,8 @@
 #   worker/             the daemon (vf_worker): worker/render/, worker/scene/, common/, proto/;
 #   coordinator/        (and coordinator/dashboard/) common/ and proto/, never worker/;
 #   cli/                the command-line layer: the only one that sees both roles.
-# System headers stay with their role: Embree in the renderer; cJSON, Assimp and the image
-# decoders in the scene library; libuv and libmicrohttpd in the coordinator; cairo in the
+# System headers stay with their role: Embree in the renderer; cJSON, Assimp, expat and the
+# image decoders in the scene library; libuv and libmicrohttpd in the coordinator; cairo in the
 # command line. The built libraries keep the same rule by their undefined symbols: the
 # renderer references no cJSON, Assimp, PNG, JPEG or nanomsg symbol, the scene library no
 # Embree symbol, the coordinator no worker code; and no two files of the scene library
@@ -50,12 +50,12 @@ allowed() {
 # system headers that belong to another layer
 forbidden_system() {
   case "$1" in
-  proto | common) echo "embree3/ assimp/ jpeglib.h uv.h cairo microhttpd.h" ;;
+  proto | common) echo "embree3/ assimp/ jpeglib.h expat.h uv.h cairo microhttpd.h" ;;
   worker/scene) echo "embree3/ nanomsg/ uv.h cairo microhttpd.h" ;;
-  worker/render) echo "assimp/ cjson/ png.h jpeglib.h nanomsg/ uv.h cairo microhttpd.h" ;;
-  worker) echo "embree3/ assimp/ png.h jpeglib.h uv.h cairo microhttpd.h" ;;
-  coordinator) echo "embree3/ assimp/ png.h jpeglib.h cairo" ;;
-  cli) echo "embree3/ assimp/ uv.h microhttpd.h" ;;
+  worker/render) echo "assimp/ cjson/ png.h jpeglib.h expat.h nanomsg/ uv.h cairo microhttpd.h" ;;
+  worker) echo "embree3/ assimp/ png.h jpeglib.h expat.h uv.h cairo microhttpd.h" ;;
+  coordinator) echo "embree3/ assimp/ png.h jpeglib.h expat.h cairo" ;;
+  cli) echo "embree3/ assimp/ expat.h uv.h microhttpd.h" ;;
   esac
 }
 
@@ -133,7 +133,7 @@ if [ -n "$build" ]; then
     bad=$(undefined "$lib" | grep -E "$3" | head -5 | tr '\n' ' ')
     [ -z "$bad" ] || fail "$1 references $2 symbols: $bad"
   }
-  check_symbols worker/render/libvf_render.a "cJSON, Assimp, PNG, JPEG or nanomsg" '^(cJSON_|ai[A-Z]|png_|jpeg_|nn_)'
+  check_symbols worker/render/libvf_render.a "cJSON, Assimp, PNG, JPEG, expat or nanomsg" '^(cJSON_|ai[A-Z]|png_|jpeg_|XML_|nn_)'
   check_symbols worker/scene/libvf_scene.a "Embree or nanomsg" '^(rtc[A-Z]|nn_)'
   check_symbols coordinator/libvf_coordinator.a "Embree, Assimp or worker" '^(rtc[A-Z]|ai[A-Z]|vf_(vcm|accel|bsdf|scene|worker|render)_)'
   check_symbols common/libvf_common.a "Embree, Assimp, libuv or worker" '^(rtc[A-Z]|ai[A-Z]|uv_|vf_(vcm|accel|bsdf|scene|worker|render)_)'

@@ -20,7 +20,25 @@ struct vf_envmap {
   uint32_t *column_guide; /* height rows of column_buckets */
   int column_buckets;  /* a quarter of the width: 1 byte a texel, a walk of 4 entries on average */
   float integral;      /* of the unnormalised density over [0,1]^2 */
+  int rotated;         /* the scene's envmap_rotation applies */
+  float rotation[3][3];
 };
+
+/* A world direction as the map's own (R^T d), and back (R d): a rotation keeps solid
+ * angles, so densities need no Jacobian. */
+static vf_vec3 map_of_world(const vf_envmap *e, vf_vec3 d) {
+  if (!e->rotated) return d;
+  const float(*r)[3] = e->rotation;
+  return vf_vec3_make(r[0][0] * d.x + r[1][0] * d.y + r[2][0] * d.z, r[0][1] * d.x + r[1][1] * d.y + r[2][1] * d.z,
+                      r[0][2] * d.x + r[1][2] * d.y + r[2][2] * d.z);
+}
+
+static vf_vec3 world_of_map(const vf_envmap *e, vf_vec3 d) {
+  if (!e->rotated) return d;
+  const float(*r)[3] = e->rotation;
+  return vf_vec3_make(r[0][0] * d.x + r[0][1] * d.y + r[0][2] * d.z, r[1][0] * d.x + r[1][1] * d.y + r[1][2] * d.z,
+                      r[2][0] * d.x + r[2][1] * d.y + r[2][2] * d.z);
+}
 
 static float triangle_area(const vf_shape *s, uint32_t t) {
   const uint32_t *i = &s->indices[3 * (size_t)t];
@@ -63,6 +81,8 @@ static int envmap_create(const vf_scene *scene, vf_envmap **out) {
   int w = img->width, h = img->height;
   e->width = w;
   e->height = h;
+  e->rotated = scene->envmap_rotated;
+  memcpy(e->rotation, scene->envmap_rotation, sizeof e->rotation);
   e->radiance = malloc((size_t)w * h * sizeof *e->radiance);
   e->row_cdf = malloc(((size_t)h + 1) * sizeof(float));
   e->column_cdf = malloc((size_t)h * ((size_t)w + 1) * sizeof(float));
@@ -130,7 +150,7 @@ static vf_vec3 environment_lookup(const vf_lights *ls, const vf_light *l, vf_vec
   }
   float u, v;
   int x, y;
-  uv_of_direction(d, &u, &v);
+  uv_of_direction(map_of_world(e, d), &u, &v);
   texel_of_uv(e, u, v, &x, &y);
   float sin_theta = sinf(v * VF_PI);
   *pdf_w = sin_theta > 0.0f ? envmap_pdf_uv(e, x, y) / (2.0f * VF_PI * VF_PI * sin_theta) : 0.0f;
@@ -157,7 +177,7 @@ static vf_vec3 environment_sample(const vf_lights *ls, const vf_light *l, float 
   float fx = (u1 - cdf[x]) / fmaxf(cdf[x + 1] - cdf[x], 1e-30f);
   float u = ((float)x + fminf(fx, 0.999f)) / (float)e->width;
   float v = ((float)y + fminf(fy, 0.999f)) / (float)e->height;
-  *d = direction_of_uv(u, v);
+  *d = world_of_map(e, direction_of_uv(u, v));
   return environment_lookup(ls, l, *d, pdf_w);
 }
 

@@ -430,6 +430,40 @@ static int load_envmap(const parse_ctx *c, const char *file, const char *path) {
 }
 
 /* A spot's axis and cone, given in degrees (the format's angles) and kept in radians. */
+/* "rotation": 9 numbers, the rows of the rotation that turns the map's directions into the
+ * world's; orthonormal with determinant +1 (within float rounding of written decimals). */
+static int parse_envmap_rotation(const parse_ctx *c, const cJSON *j, const char *path) {
+  const cJSON *r = cJSON_GetObjectItemCaseSensitive(j, "rotation"), *e;
+  char p[PATH_LEN], ep[PATH_LEN];
+  double m[3][3];
+  int i = 0, err;
+  if (r == NULL) return VF_OK;
+  vf_scene_join(p, path, "rotation");
+  if (!cJSON_IsArray(r) || cJSON_GetArraySize(r) != 9)
+    return vf_scene_fail(c, VF_ESCENE, p, "expected 9 numbers, the rows of a rotation matrix");
+  cJSON_ArrayForEach(e, r) {
+    if ((err = vf_scene_to_double(c, e, vf_scene_join_index(ep, p, i), &m[i / 3][i % 3])) < 0) return err;
+    i++;
+  }
+  for (int a = 0; a < 3; a++)
+    for (int b = 0; b < 3; b++) {
+      double dot = m[a][0] * m[b][0] + m[a][1] * m[b][1] + m[a][2] * m[b][2];
+      if (fabs(dot - (a == b)) > 1e-5) return vf_scene_fail(c, VF_ESCENE, p, "is not a rotation (rows not orthonormal)");
+    }
+  double det = m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0]) +
+               m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
+  if (det < 0) return vf_scene_fail(c, VF_ESCENE, p, "is a mirror (determinant -1), not a rotation");
+  int identity = 1;
+  for (int a = 0; a < 3; a++)
+    for (int b = 0; b < 3; b++) {
+      c->scene->envmap_rotation[a][b] = (float)m[a][b];
+      identity &= m[a][b] == (a == b);
+    }
+  c->scene->envmap_rotated = !identity;
+  if (identity) memset(c->scene->envmap_rotation, 0, sizeof c->scene->envmap_rotation);
+  return VF_OK;
+}
+
 static int parse_spot(const parse_ctx *c, const cJSON *j, const char *path, vf_point_light_desc *l) {
   char p[PATH_LEN];
   vf_vec3 d;
@@ -456,7 +490,7 @@ static int parse_light(const parse_ctx *c, const cJSON *j, int index, int *num_d
   static const char *const spot_fields[] = {"type", "position", "intensity", "direction", "inner_cone_angle", "outer_cone_angle", NULL};
   static const char *const directional_fields[] = {"type", "direction", "irradiance", NULL};
   static const char *const background_fields[] = {"type", "radiance", NULL};
-  static const char *const environment_fields[] = {"type", "file", "scale", NULL};
+  static const char *const environment_fields[] = {"type", "file", "scale", "rotation", NULL};
   vf_scene *s = c->scene;
   char path[PATH_LEN], p[PATH_LEN];
   const char *type, *file;
@@ -495,6 +529,7 @@ static int parse_light(const parse_ctx *c, const cJSON *j, int index, int *num_d
       if ((err = vf_scene_string_field(c, j, path, "file", REQUIRED, &file)) < 0) return err;
       if ((err = load_envmap(c, file, path)) < 0) return err;
       s->envmap_scale = scale;
+      if ((err = parse_envmap_rotation(c, j, path)) < 0) return err;
     }
   } else {
     return vf_scene_fail(c, VF_ESCENE, vf_scene_join(p, path, "type"),
@@ -615,11 +650,29 @@ static int parse_import(const parse_ctx *c, const cJSON *root, int camera_wanted
   return vf_scene_note_dim_emitters(c);
 }
 
+/* "notes": what the file a scene was converted from asks for that the conversion
+ * approximated (a Mitsuba scene's, mitsuba.h), kept with the scene's own notes. */
+static int parse_notes(const parse_ctx *c, const cJSON *root) {
+  const cJSON *notes = cJSON_GetObjectItemCaseSensitive(root, "notes"), *n;
+  char p[PATH_LEN];
+  long i = 0;
+  if (notes == NULL) return VF_OK;
+  if (!cJSON_IsArray(notes)) return vf_scene_fail(c, VF_ESCENE, "notes", "must be an array of strings");
+  cJSON_ArrayForEach(n, notes) {
+    if (!cJSON_IsString(n)) return vf_scene_fail(c, VF_ESCENE, vf_scene_join_index(p, "notes", i), "must be a string");
+    int err = vf_scene_note(c, "%s", n->valuestring);
+    if (err < 0) return err;
+    i++;
+  }
+  return VF_OK;
+}
+
 static int parse_root(const parse_ctx *c, const cJSON *root) {
-  static const char *const fields[] = {"camera", "materials", "shapes", "lights", "render", "import", NULL};
+  static const char *const fields[] = {"camera", "materials", "shapes", "lights", "render", "import", "notes", NULL};
   const cJSON *m;
   int err = vf_scene_check_object(c, root, "", fields);
   if (err < 0) return err;
+  if ((err = parse_notes(c, root)) < 0) return err;
   /* A scene that imports files may take all of camera, materials and shapes from them. */
   int imports = cJSON_HasObjectItem(root, "import"), need = imports ? OPTIONAL : REQUIRED;
   int has_camera = vf_scene_member(c, root, "", "camera", need, &m);

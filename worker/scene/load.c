@@ -1,11 +1,13 @@
 /* Loading a scene by name or path: a built-in name, a JSON scene file, or a model file
- * (glTF, OBJ) read as the JSON scene that imports it (load.h). */
+ * (glTF, OBJ) read as the JSON scene that imports it, or a Mitsuba 3 scene read as the
+ * JSON scene that says the same (load.h). */
 #include "load.h"
 
 #include "../../common/error.h"
 #include "builtin.h"
 #include "gltf.h"
 #include "json.h"
+#include "mitsuba.h"
 
 #include <cjson/cJSON.h>
 
@@ -98,10 +100,12 @@ int vf_scene_load(const char *name_or_path, vf_scene **out) { return vf_scene_lo
 
 int vf_scene_is_model_file(const char *path) {
   size_t n = strlen(path);
-  return vf_gltf_is_gltf(path) || (n >= 4 && strcasecmp(path + n - 4, ".obj") == 0);
+  return vf_gltf_is_gltf(path) || (n >= 4 && strcasecmp(path + n - 4, ".obj") == 0) || vf_mitsuba_is_xml(path);
 }
 
 int vf_scene_model_text(const char *path, const char *camera, char **text, size_t *len) {
+  /* A Mitsuba scene becomes the JSON scene that says the same (mitsuba.h). */
+  if (vf_mitsuba_is_xml(path)) return vf_mitsuba_scene_text(path, camera, text, len);
   const char *slash = strrchr(path, '/');
   cJSON *root = cJSON_CreateObject(), *list = root ? cJSON_AddArrayToObject(root, "import") : NULL;
   cJSON *entry = list ? cJSON_CreateObject() : NULL;

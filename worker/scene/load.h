@@ -19,13 +19,15 @@
 int vf_scene_load(const char *name_or_path, vf_scene **out);
 
 /* A model file (vf_scene_is_model_file: .gltf, .glb or .obj) loads as a whole scene: its
- * meshes, materials, lights and cameras (docs/SCENES.md, "import"). vf_scene_load_camera
+ * meshes, materials, lights and cameras (docs/SCENES.md, "import"); so does a Mitsuba 3
+ * scene (.xml, mitsuba.h), whose `camera` is a sensor's id or index. vf_scene_load_camera
  * is vf_scene_load choosing the file's camera by name or index (`camera`; NULL: its first
  * perspective camera, else a default one). A camera that is not there is VF_ESCENE listing
  * the file's cameras; a camera for a built-in or JSON scene is VF_EUSAGE. */
 int vf_scene_load_camera(const char *name_or_path, const char *camera, vf_scene **out);
 int vf_scene_is_model_file(const char *path);
-/* The JSON scene text that imports model file `path` (by its name alone, from its own
+/* The JSON scene text that imports model file `path` (of a Mitsuba scene: that says the
+ * same, vf_mitsuba_scene_text) (by its name alone, from its own
  * directory), choosing `camera` (may be NULL): what vf_scene_load parses for a model file
  * and what a farm job carries. *text (free) and *len on success only; VF_ENOMEM. */
 int vf_scene_model_text(const char *path, const char *camera, char **text, size_t *len);

@@ -331,6 +331,12 @@ void vf_scene_hash(vf_scene *s) {
   if (s->envmap.width > 0) {
     for (long k = 0; k < 3L * s->envmap.width * s->envmap.height; k++) h_f32(&h, s->envmap.rgb[k]);
     h_vec3(&h, s->envmap_scale);
+    /* Only a turned map adds to the hash, so the hashes of unturned ones stay as they were. */
+    if (s->envmap_rotated) {
+      h_tag(&h, "envmap_rotation");
+      for (int r = 0; r < 3; r++)
+        for (int k = 0; k < 3; k++) h_f32(&h, s->envmap_rotation[r][k]);
+    }
   }
   h_tag(&h, "settings");
   h_u32(&h, s->settings_given);

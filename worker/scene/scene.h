@@ -115,6 +115,11 @@ typedef struct {
                            * for direction d at u = 0.5 + atan2(d.x, -d.z) / 2pi,
                            * v = acos(d.y) / pi (docs/SCENES.md); width 0 = none */
   vf_vec3 envmap_scale;   /* multiplies the map; zero when there is no map */
+  /* With envmap_rotated, the map turned: a world direction d is looked up as the map's own
+   * direction R^T d, R = envmap_rotation (rows; a rotation, det +1). Without it R is the
+   * identity and the array unused (zero). */
+  int envmap_rotated;
+  float envmap_rotation[3][3];
   /* Render settings: defaults (vf_settings_default, resolution from the scene) overridden
    * by the scene's "render" object; settings_given says which the file set. */
   vf_settings settings;

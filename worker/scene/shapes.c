@@ -5,6 +5,8 @@
 #include "../../common/error.h"
 #include "fields.h"
 #include "mesh.h"
+#include "serialized.h"
+#include "../../common/file.h"
 
 #include <cjson/cJSON.h>
 
@@ -136,6 +138,7 @@ static int parse_inline_mesh(const parse_ctx *c, const cJSON *j, const char *pat
     return vf_scene_fail(c, VF_ESCENE, ip, "expected a non-empty flat array of vertex indices, 3 per triangle");
   float *positions = malloc((size_t)np * sizeof *positions);
   uint32_t *indices = malloc((size_t)ni * sizeof *indices);
+  float *uvs = NULL, *normals = NULL;
   if (positions == NULL || indices == NULL) {
     err = vf_error_set(VF_ENOMEM, "out of memory");
     goto fail;
@@ -164,14 +167,92 @@ static int parse_inline_mesh(const parse_ctx *c, const cJSON *j, const char *pat
     }
     indices[i++] = (uint32_t)d;
   }
+  /* Optional texture coordinates, 2 per vertex, t = 0 the top row of an image. */
+  const cJSON *uv = cJSON_GetObjectItemCaseSensitive(j, "uvs");
+  if (uv != NULL) {
+    char up[PATH_LEN];
+    vf_scene_join(up, path, "uvs");
+    if (!cJSON_IsArray(uv) || cJSON_GetArraySize(uv) != 2 * (int)num_vertices) {
+      err = vf_scene_fail(c, VF_ESCENE, up, "expected a flat array of numbers, 2 per vertex (%u)", 2 * num_vertices);
+      goto fail;
+    }
+    if ((uvs = malloc(2 * (size_t)num_vertices * sizeof *uvs)) == NULL) {
+      err = vf_error_set(VF_ENOMEM, "out of memory");
+      goto fail;
+    }
+    i = 0;
+    cJSON_ArrayForEach(e, uv) {
+      if ((err = vf_scene_to_float(c, e, vf_scene_join_index(ep, up, i), &uvs[i])) < 0) goto fail;
+      i++;
+    }
+  }
+  /* Optional shading normals, 3 per vertex, non-zero (normalised here). */
+  const cJSON *nj = cJSON_GetObjectItemCaseSensitive(j, "normals");
+  if (nj != NULL) {
+    char np_[PATH_LEN];
+    vf_scene_join(np_, path, "normals");
+    if (!cJSON_IsArray(nj) || cJSON_GetArraySize(nj) != 3 * (int)num_vertices) {
+      err = vf_scene_fail(c, VF_ESCENE, np_, "expected a flat array of numbers, 3 per vertex (%u)", 3 * num_vertices);
+      goto fail;
+    }
+    if ((normals = malloc(3 * (size_t)num_vertices * sizeof *normals)) == NULL) {
+      err = vf_error_set(VF_ENOMEM, "out of memory");
+      goto fail;
+    }
+    i = 0;
+    cJSON_ArrayForEach(e, nj) {
+      if ((err = vf_scene_to_float(c, e, vf_scene_join_index(ep, np_, i), &normals[i])) < 0) goto fail;
+      i++;
+    }
+    for (uint32_t v = 0; v < num_vertices; v++) {
+      vf_vec3 n = vf_vec3_make(normals[3 * v], normals[3 * v + 1], normals[3 * v + 2]), u;
+      if (!vf_scene_unit(n, &u)) {
+        err = vf_scene_fail(c, VF_ESCENE, vf_scene_join_index(ep, np_, 3 * (long)v), "normal of vertex %u is zero", v);
+        goto fail;
+      }
+      normals[3 * v] = u.x;
+      normals[3 * v + 1] = u.y;
+      normals[3 * v + 2] = u.z;
+    }
+  }
   s->positions = positions;
   s->indices = indices;
+  s->uvs = uvs;
+  s->normals = normals;
   s->num_vertices = num_vertices;
   s->num_triangles = (uint32_t)(ni / 3);
   return VF_OK;
 fail:
+  free(normals);
+  free(uvs);
   free(indices);
   free(positions);
+  return err;
+}
+
+/* A mesh of a Mitsuba serialized file: resolved as every file is (so a farm job ships it by
+ * content hash), the mesh of "shape_index" (default 0) decoded (serialized.h). */
+static int load_serialized(const parse_ctx *c, const cJSON *j, const char *file, const char *path, vf_shape *s) {
+  char fpath[PATH_LEN], ipath[PATH_LEN], resolved[4096], what[PATH_LEN + 600];
+  double index = 0;
+  int err;
+  const cJSON *ij = cJSON_GetObjectItemCaseSensitive(j, "shape_index");
+  if (ij != NULL && (err = vf_scene_to_integer(c, ij, vf_scene_join(ipath, path, "shape_index"), 0, 1e9, &index)) < 0)
+    return err;
+  vf_scene_join(fpath, path, "file");
+  if ((err = vf_scene_resolve(c, file, fpath, resolved, sizeof resolved)) < 0) return err;
+  uint8_t *data = NULL;
+  size_t n = 0;
+  if ((err = vf_file_read_all(resolved, (size_t)1 << 31, &data, &n)) != VF_OK) {
+    char detail[512];
+    snprintf(detail, sizeof detail, "%s", vf_error_detail(err));
+    return vf_scene_fail(c, err, fpath, "%s", detail);
+  }
+  snprintf(what, sizeof what, "%s: %s (%s)", c->label, path, file);
+  int colors = 0;
+  err = vf_serialized_decode(data, n, (long)index, what, s, &colors);
+  free(data);
+  if (err == VF_OK && colors) err = vf_scene_note(c, "%s: vertex colours are not supported: ignored", file);
   return err;
 }
 
@@ -220,7 +301,7 @@ static int parse_sphere(const parse_ctx *c, const cJSON *j, const char *path, co
 
 static int parse_shape(const parse_ctx *c, const cJSON *j, int index, const vf_name_index *names, vf_shape *s) {
   static const char *const mesh_fields[] = {"type", "name", "material", "emission", "transform",
-                                            "file", "positions", "indices", NULL};
+                                            "file", "shape_index", "positions", "indices", "uvs", "normals", "flip", "flip_t", NULL};
   static const char *const sphere_fields[] = {"type", "name", "material", "emission", "transform",
                                               "center", "radius", NULL};
   char path[PATH_LEN], p[PATH_LEN];
@@ -255,9 +336,39 @@ static int parse_shape(const parse_ctx *c, const cJSON *j, int index, const vf_n
       return vf_scene_fail(c, VF_ESCENE, path, "give either 'file' or 'positions' and 'indices', not both");
     if (file == NULL && !inline_mesh)
       return vf_scene_fail(c, VF_ESCENE, path, "missing field 'file' (or 'positions' and 'indices')");
-    err = file ? vf_scene_load_mesh_file(c, file, path, s) : parse_inline_mesh(c, j, path, s);
+    if (file != NULL && (cJSON_HasObjectItem(j, "uvs") || cJSON_HasObjectItem(j, "normals")))
+      return vf_scene_fail(c, VF_ESCENE, vf_scene_join(p, path, cJSON_HasObjectItem(j, "uvs") ? "uvs" : "normals"),
+                           "only for inline meshes (a file brings its own)");
+    int serialized = file != NULL && vf_serialized_is_serialized(file);
+    if (!serialized && cJSON_HasObjectItem(j, "shape_index"))
+      return vf_scene_fail(c, VF_ESCENE, vf_scene_join(p, path, "shape_index"), "only for a .serialized file");
+    err = serialized ? load_serialized(c, j, file, path, s)
+                     : file ? vf_scene_load_mesh_file(c, file, path, s) : parse_inline_mesh(c, j, path, s);
     if (err < 0) return err;
     if (has_transform && (err = transform_mesh(c, &a, vf_scene_join(p, path, "transform"), s)) < 0) return err;
+    /* "flip": the other side is the front (Mitsuba's flip_normals): every triangle's
+     * winding reversed, and with it the tangent frames' handedness, as under a mirror. */
+    const cJSON *flip = cJSON_GetObjectItemCaseSensitive(j, "flip");
+    if (flip != NULL && !cJSON_IsBool(flip))
+      return vf_scene_fail(c, VF_ESCENE, vf_scene_join(p, path, "flip"), "expected true or false, found %s", vf_scene_kind(flip));
+    if (cJSON_IsTrue(flip)) {
+      for (uint32_t t = 0; t < s->num_triangles; t++) {
+        uint32_t k = s->indices[3 * t + 1];
+        s->indices[3 * t + 1] = s->indices[3 * t + 2];
+        s->indices[3 * t + 2] = k;
+      }
+      for (uint32_t v = 0; s->tangents != NULL && v < s->num_vertices; v++) s->tangents[4 * v + 3] = -s->tangents[4 * v + 3];
+    }
+    /* "flip_t": a file whose texture v counts from the image's top row (Mitsuba reads PLY
+     * files so): t = 1 - t undoes the loader's flip. The uv frame is mirrored with it. */
+    const cJSON *flip_t = cJSON_GetObjectItemCaseSensitive(j, "flip_t");
+    if (flip_t != NULL && !cJSON_IsBool(flip_t))
+      return vf_scene_fail(c, VF_ESCENE, vf_scene_join(p, path, "flip_t"), "expected true or false, found %s",
+                           vf_scene_kind(flip_t));
+    if (cJSON_IsTrue(flip_t) && s->uvs != NULL) {
+      for (uint32_t v = 0; v < s->num_vertices; v++) s->uvs[2 * v + 1] = 1.0f - s->uvs[2 * v + 1];
+      for (uint32_t v = 0; s->tangents != NULL && v < s->num_vertices; v++) s->tangents[4 * v + 3] = -s->tangents[4 * v + 3];
+    }
     /* Degenerate triangles are kept (real meshes have them and the renderer copes), but an
      * emitter with no area would have infinite radiance per unit power: refuse it. */
     if (!vf_is_zero(s->emission) && !(vf_scene_mesh_area(s) > 0.0))
