@@ -151,6 +151,8 @@ static int install_light_vertices(vf_vcm *v, const merge_case *c, vf_rng *r) {
   v->merge.mis.vc_weight = c->ppm ? 0.0f : (float)(1.0 / eta);
   v->merge.mis.light_paths = (float)v->num_pixels;
   v->merge.mis.pt = 0;
+  v->radius_exact = radius;
+  v->grid_radius = v->merge.radius;
   int err = vf_vertex_merging_build_grid(v);
   CHECK_INT_EQ(err, VF_OK);
   return err == VF_OK;
@@ -172,6 +174,7 @@ static vertex_merging_query make_query(const vf_vcm *v, vf_rng *r, vf_vec3 p, ui
   q.mis = (vf_mis){log_uniform(r, 1e-3f, 1e3f), log_uniform(r, 1e-3f, 1e3f), log_uniform(r, 1e-3f, 1e3f)};
   q.path_length = 1 + (int)(vf_rng_next(r) % (uint32_t)(v->settings.max_path_length - 1));
   q.tile_pixel = tile_pixel;
+  q.merge = v->merge; /* the iteration's global radius */
   return q;
 }
 
