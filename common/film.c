@@ -188,8 +188,8 @@ static void add_task(void *ctx, size_t task, int thread) {
       nonfinite++;
     }
     for (int k = 0; k < 3; k++) {
-      /* Exact in double (two floats below 2^33 differ in exponent by less than the 29
-       * spare bits, or the smaller is lost to rounding: either way the same for everyone) */
+      /* in double: exact unless the floats' exponents differ by more than 29, and rounded
+       * alike on every machine otherwise; then rounded once to the grid */
       double estimate = (double)cam[k] + (double)light[k];
       film->sum[3 * p + k] += vf_fixed_from_double(estimate, VF_FILM_SUM_BITS);
       if (c->replicate_one) continue;

@@ -89,7 +89,9 @@ int vf_film_create(int width, int height, vf_film **out);
 void vf_film_destroy(vf_film *film);
 
 /* Adds one iteration: camera_rgb holds one camera-path estimate per pixel, light_rgb the
- * iteration's light-tracing frame (both 3 floats per pixel, top row first). Adds the
+ * iteration's light-tracing frame (both 3 floats per pixel, top row first). Each pixel's
+ * estimate (camera + light) is rounded to the sums' grid and its square to the squares'
+ * (above), once; a sample that is not finite or reaches VF_FILM_SAMPLE_LIMIT counts as zero. Adds the
  * iteration index to the set (VF_EOVERLAP, film unchanged, if it is already there).
  * Pixels are added in parallel over the pool's threads when pool is not NULL (the sums
  * are per pixel, so the film is the same bit for bit either way). */
@@ -165,8 +167,8 @@ double vf_film_estimate_rmse(const vf_film *film);
 int vf_film_sobol(const vf_film *film);
 
 /* Checks the invariants every film built by this module keeps: no sums without
- * iterations (a film of N = 0 holds zeros), square sums >= 0, times finite and >= 0, non-finite samples at most two per pixel and iteration,
- * texts terminated, the convergence log valid (vf_convergence_validate). VF_EFILM with a
+ * iterations (a film of N = 0 holds zeros), square sums >= 0, times finite and >= 0,
+ * non-finite samples at most two per pixel and iteration, texts terminated, the convergence log valid (vf_convergence_validate). VF_EFILM with a
  * detail "NAME: problem" (name is e.g. the file path) when one does not hold. */
 int vf_film_validate(const vf_film *film, const char *name);
 

@@ -32,3 +32,12 @@ int vf_utf8_valid(const char *text, size_t n) {
   }
   return 1;
 }
+
+void vf_utf8_sanitize(char *s) {
+  for (size_t i = 0; s[i];) {
+    size_t k = 1;
+    while (k <= 4 && s[i + k - 1] != '\0' && !vf_utf8_valid(s + i, k)) k++;
+    if (k <= 4 && s[i + k - 1] != '\0') i += k;
+    else s[i++] = '?';
+  }
+}

@@ -16,4 +16,9 @@ const char *vf_parse_u64(const char *s, uint64_t *out);
  * attributes are refused otherwise, and JSON cannot carry other bytes. */
 int vf_utf8_valid(const char *s, size_t n);
 
+/* Replaces, in the NUL-terminated s, every byte that does not begin a well-formed UTF-8
+ * character (a character cut at the end included) by '?': text from older files or from
+ * peers made fit for JSON. */
+void vf_utf8_sanitize(char *s);
+
 #endif

@@ -5,6 +5,7 @@
 #include "../common/error.h"
 #include "../common/file.h"
 #include "../common/image.h"
+#include "../common/parse.h"
 #include "log.h"
 #include "poison.h"
 
@@ -366,6 +367,12 @@ static int load_job(vf_farm *farm, const cJSON *o, const char *state_path, uint6
   }
   int priority = (int)pr->valuedouble;
   if (format == 1 && priority < 1) priority = 1; /* format 1: "higher first", any integer */
+  /* A name saved by a build that took any bytes: shown with '?' rather than refused, which
+   * would keep the coordinator from starting */
+  char fit_name[VF_JOB_MAX_NAME + 1];
+  snprintf(fit_name, sizeof fit_name, "%s", name);
+  vf_utf8_sanitize(fit_name);
+  name = fit_name;
   vf_job *job;
   err = vf_job_create(id, name, priority, cJSON_IsTrue(builtin), (const char *)scene, scene_len, hash, 32, settings,
                       first, iterations, &job);

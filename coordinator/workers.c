@@ -19,12 +19,7 @@ static void copy_text(char *dst, size_t n, const char *src) {
   snprintf(dst, n, "%s", src);
   for (char *c = dst; *c; c++)
     if ((unsigned char)*c < 0x20 || *c == 0x7f) *c = '?';
-  for (size_t i = 0; dst[i];) {
-    size_t k = 1;
-    while (k <= 4 && dst[i + k - 1] != '\0' && !vf_utf8_valid(dst + i, k)) k++;
-    if (k <= 4 && dst[i + k - 1] != '\0') i += k;
-    else dst[i++] = '?';
-  }
+  vf_utf8_sanitize(dst);
 }
 
 static void depart(vf_farm *farm, size_t i, vf_worker_state state);

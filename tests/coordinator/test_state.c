@@ -635,6 +635,24 @@ static void test_a_damaged_job_list_is_refused_naming_the_problem(void) {
   }
 }
 
+/* A job name that an older build saved with bytes that are not UTF-8 loads with '?' in
+ * their place: refused, it would keep the coordinator from starting; kept, it would make
+ * status --json invalid. */
+static void test_a_saved_name_that_is_not_utf8_loads_sanitized(void) {
+  char dir[4200], text[4096];
+  fresh_dir(dir, sizeof dir, "latin1_name");
+  job_list(text, sizeof text, 4, "name", "\"caf\xe9 \xc3\"");
+  write_file(dir, "state.json", text);
+  write_file(dir, "job-1.scene", "cornell");
+  vf_farm farm;
+  open_farm(&farm, dir);
+  CHECK_INT_EQ(vf_state_load(&farm), VF_OK);
+  vf_job *j = vf_farm_job(&farm, 1);
+  CHECK(j != NULL);
+  if (j) CHECK_STR_CONTAINS(j->name, "caf? ?");
+  vf_farm_destroy(&farm);
+}
+
 static void test_damaged_job_files_are_refused_naming_the_file(void) {
   char dir[4200], text[4096], detail[2048], path[8192];
   int err;
@@ -754,6 +772,7 @@ int main(void) {
   RUN(test_format_1_is_read);
   RUN(test_one_coordinator_per_directory);
   RUN(test_a_refused_jobs_files_are_removed);
+  RUN(test_a_saved_name_that_is_not_utf8_loads_sanitized);
   vf_file_remove_tree(root);
   return check_finish();
 }
