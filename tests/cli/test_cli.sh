@@ -204,7 +204,7 @@ check "render --help" $?
 # submit takes every kind of scene render takes, and its --help says so.
 "$vcmfarm" submit --help >"$tmp/submit-help.txt"
 check "submit --help names every kind of scene" "$([ $? -eq 0 ] && tr '\n' ' ' <"$tmp/submit-help.txt" |
-  grep -q 'SCENE is a built-in name .* a JSON scene file, a glTF 2.0 file (.gltf, .glb) or an OBJ file'; echo $?)"
+  grep -q 'SCENE is a built-in name .* a JSON scene file, a glTF 2.0 file (.gltf, .glb), an OBJ file .* or a Mitsuba 3 scene (.xml)'; echo $?)"
 
 "$vcmfarm" render furnace -n 2 -R 16x16 -q -o "$tmp/ok.exr" -p "$tmp/ok.png"
 check "good render writes film and preview" $([ -s "$tmp/ok.exr" ] && [ -s "$tmp/ok.png" ]; echo $?)
