@@ -29,6 +29,7 @@ packages=(
   curl                 # tests/coordinator/dashboard/test_dashboard_http.sh: the dashboard's endpoints
   chromium             # tests/coordinator/dashboard/test_dashboard.sh: the dashboard in a headless browser (playwright-core)
   assimp-testmodels    # tests/worker/scene/test_import.c: Khronos glTF 2.0 sample models as import smoke tests
+  iproute2             # tests/farm/test_farm_netns.sh: network namespaces, a bridge and veth pairs (ip, tc)
 )
 # tests/deploy/test_k8s.sh validates deploy/k8s, and tests/coordinator/dashboard/test_dashboard.sh drives chromium, with
 # packages from the npm registry (each test installs its own with npm ci). Debian's
