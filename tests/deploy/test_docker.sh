@@ -70,7 +70,7 @@ done
 echo "all $(ldd "$vcmfarm" | grep -c '=>') libraries that ldd loads come from the runtime stage's packages"
 
 # The build stage installs what deploy/install-deps.sh installs to build.
-test_only="slurm-wlm munge systemd python3 jq curl chromium assimp-testmodels clang libclang-rt-14-dev"  # used by tests and benchmarks only (nodejs and npm too: outside the list)
+test_only="slurm-wlm munge systemd python3 jq curl chromium assimp-testmodels clang libclang-rt-14-dev iproute2"  # used by tests and benchmarks only (nodejs and npm too: outside the list)
 deps=$(sed -n '/^packages=(/,/^)/p' "$src/deploy/install-deps.sh" | sed -e 's/#.*//' -e 's/packages=(//' -e 's/)//' | words)
 for p in $test_only; do deps=$(grep -v -x "$p" <<<"$deps"); done
 missing=$(comm -23 <(echo "$deps") <(echo "$build"))
