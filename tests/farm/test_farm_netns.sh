@@ -52,6 +52,7 @@ command -v ip >/dev/null || skip "no ip command (iproute2)"
 make_network() { # number of workers
   ip netns add "$coordinator_ns" 2>/dev/null || skip "the kernel cannot create a network namespace here"
   namespaces+=("$coordinator_ns")
+  ip netns exec "$coordinator_ns" true 2>/dev/null || skip "cannot run a process in a network namespace here (ip netns exec)"
   ip -n "$coordinator_ns" link set lo up
   ip -n "$coordinator_ns" link add br0 type bridge 2>/dev/null || skip "the kernel cannot create a bridge here"
   ip -n "$coordinator_ns" addr add 10.77.0.1/24 dev br0
