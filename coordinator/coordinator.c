@@ -68,7 +68,7 @@ typedef struct {
   char gate_url[4200];
   double checkpoint_interval, last_checkpoint;
   double last_collect;  /* of blobs no job names (coordinator/blobs.h) */
-  double last_tick_at;  /* vf_seconds_now() of the last tick, 0 before the first */
+  double last_tick_at;  /* vf_seconds_now() of the last tick, or of the tick timer's start */
   volatile sig_atomic_t *stop; /* the caller's stop flag, or NULL */
   /* Replies waiting for room to be sent, oldest first, owned (rarely more than one: a raw
    * REP socket drops a reply its peer's pipe cannot take rather than refuse it). */
@@ -317,10 +317,16 @@ static void on_tick(uv_timer_t *timer) {
    * with the workers' heartbeats of meanwhile still unread. The silence was ours, not
    * theirs: the gap is excused (vf_farm_stalled), and what is queued is read before
    * anyone is expired. */
-  double gap = c->last_tick_at > 0.0 ? now - c->last_tick_at - TICK_MS / 1000.0 : 0.0;
+  double gap = now - c->last_tick_at - TICK_MS / 1000.0;
   c->last_tick_at = now;
   if (gap > STALL_SECONDS) vf_farm_stalled(&c->farm, gap, now);
-  if (receive(c, DRAIN_MAX) > 0) now = vf_seconds_now();
+  if (receive(c, DRAIN_MAX) > 0) {
+    /* A stall inside the drain (the process stopped while it read) is the coordinator's
+     * too: without this, the expiry below would see the workers silent for all of it. */
+    double after = vf_seconds_now();
+    if (after - now > STALL_SECONDS) vf_farm_stalled(&c->farm, after - now, after);
+    now = after;
+  }
   vf_farm_expire(&c->farm, now);
   vf_farm_tick(&c->farm, now);
   if (c->pending != NULL && now - c->pending_since > REPLY_GIVE_UP_SECONDS) {
@@ -503,6 +509,9 @@ int vf_coordinator_run(const vf_coordinator_config *config) {
   uv_signal_init(&c->loop, &c->sigterm);
   c->recv_poll.data = c->send_poll.data = c->tick.data = c->stop_check.data = c->sigint.data = c->sigterm.data = c;
   uv_poll_start(&c->recv_poll, UV_READABLE, on_readable);
+  /* From the start: a stall before the first tick (a coordinator stopped right after it
+   * began to serve) is as much its own as any later one. */
+  c->last_tick_at = vf_seconds_now();
   uv_timer_start(&c->tick, on_tick, TICK_MS, TICK_MS);
   if (c->stop) uv_timer_start(&c->stop_check, on_stop_check, STOP_CHECK_MS, STOP_CHECK_MS);
   if (config->handle_signals) {
