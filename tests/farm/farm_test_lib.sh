@@ -18,6 +18,9 @@
 #   exited PID              whether that process has ended
 #   dashboard_address       waits for the coordinator's log to say where its dashboard
 #                           listens and sets $base to that http://127.0.0.1:PORT
+#   status_of JOB, job_field JOB FIELD, state_of JOB
+#                           the job's `status --json`, one of its fields, its state ("" when
+#                           no coordinator answers), through the script's own `client`
 
 # The children of a process (a supervisor's worker), from /proc: procps may be absent.
 children_of() { # pid
@@ -111,3 +114,16 @@ wait_until() { # seconds, what, command...
 }
 
 exited() { ! kill -0 "$1" 2>/dev/null; }
+
+status_of() { client status "$1" --json 2>/dev/null; } # through the calling script's `client`
+# A field of the job in `status JOB --json`; "" when the coordinator does not answer.
+job_field() { # job, field
+  status_of "$1" | python3 -c '
+import json, sys
+try:
+    jobs = json.load(sys.stdin)["jobs"]
+    print(next(j for j in jobs if j["id"] == int(sys.argv[1]))[sys.argv[2]])
+except Exception:
+    pass' "$1" "$2"
+}
+state_of() { job_field "$1" state; }

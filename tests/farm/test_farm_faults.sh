@@ -76,18 +76,6 @@ client() { # command, arguments...
   "$vcmfarm" "$@" --coordinator "$url" --secret "$key" --timeout 3
 }
 
-status_of() { client status "$1" --json 2>/dev/null; }
-# A field of the job in `status JOB --json`; "" when the coordinator does not answer.
-job_field() { # job, field
-  status_of "$1" | python3 -c '
-import json, sys
-try:
-    jobs = json.load(sys.stdin)["jobs"]
-    print(next(j for j in jobs if j["id"] == int(sys.argv[1]))[sys.argv[2]])
-except Exception:
-    pass' "$1" "$2"
-}
-state_of() { job_field "$1" state; }
 number_of() { job_field "$1" "$2"; }
 message_of() { job_field "$1" message; }
 event_count() { # job, kind

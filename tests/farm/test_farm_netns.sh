@@ -91,17 +91,6 @@ link() { # k up|down: worker k's end of its veth pair on the bridge
   ip -n "$coordinator_ns" link set "${ns}a$1" "$2"
 }
 
-status_of() { client status "$1" --json 2>/dev/null; }
-job_field() { # job, field
-  status_of "$1" | python3 -c '
-import json, sys
-try:
-    jobs = json.load(sys.stdin)["jobs"]
-    print(next(j for j in jobs if j["id"] == int(sys.argv[1]))[sys.argv[2]])
-except Exception:
-    pass' "$1" "$2"
-}
-state_of() { job_field "$1" state; }
 is_state() { [ "$(state_of "$1")" = "$2" ]; }
 done_count() { job_field "$1" iterations_done; }
 progressed() { local d; d=$(done_count "$job"); [ -n "$d" ] && [ "$d" -gt "$1" ]; }

@@ -241,27 +241,30 @@ static void test_pt_bpt_vcm_agree_on_rough_materials(void) {
 /* Light tracing through the thin lens (t = 1 to a sampled lens point, W_e over the lens
  * density) against path tracing, on cornell-dof with the spheres made diffuse so that light
  * tracing, which never connects at a specular vertex, samples every path. */
-static void test_light_tracing_agrees_through_the_thin_lens(void) {
+/* The built-in `name` with its mirror and glass made diffuse, so that light tracing samples
+ * every path: the n algorithms agree on it (check_agreement, labelled "NAME d"). */
+static void agrees_with_diffuse_balls(const char *name, const vf_algorithm *algorithms, int n) {
   vf_scene *scene;
-  CHECK_INT_EQ(vf_scene_load("cornell-dof", &scene), VF_OK);
+  CHECK_INT_EQ(vf_scene_load(name, &scene), VF_OK);
   if (check_failed_in_case) return;
   make_specular_diffuse(scene);
-  const vf_algorithm algorithms[] = {VF_ALGO_PT, VF_ALGO_LT};
-  check_agreement("cornell-dof d", scene, algorithms, 2);
+  char label[64];
+  snprintf(label, sizeof label, "%s d", name);
+  check_agreement(label, scene, algorithms, n);
   vf_scene_destroy(scene);
+}
+
+static void test_light_tracing_agrees_through_the_thin_lens(void) {
+  const vf_algorithm algorithms[] = {VF_ALGO_PT, VF_ALGO_LT};
+  agrees_with_diffuse_balls("cornell-dof", algorithms, 2);
 }
 
 /* The orthographic camera (tech. rep. sec. 5.2) in every technique that touches it: on
  * cornell-ortho with the spheres made diffuse, so that light tracing (t = 1 to each light
  * vertex's foot on the view plane) samples every path, pt, lt, bpt, vcm and upg agree. */
 static void test_orthographic_camera_agrees(void) {
-  vf_scene *scene;
-  CHECK_INT_EQ(vf_scene_load("cornell-ortho", &scene), VF_OK);
-  if (check_failed_in_case) return;
-  make_specular_diffuse(scene);
   const vf_algorithm algorithms[] = {VF_ALGO_PT, VF_ALGO_LT, VF_ALGO_BPT, VF_ALGO_VCM, VF_ALGO_UPG};
-  check_agreement("cornell-ortho d", scene, algorithms, 5);
-  vf_scene_destroy(scene);
+  agrees_with_diffuse_balls("cornell-ortho", algorithms, 5);
 }
 
 /* A merge radius per pixel (tech. rep. sec. 6.1): every merging algorithm still estimates
