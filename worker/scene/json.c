@@ -733,6 +733,7 @@ static int parse(const char *text, size_t length, const char *label, const char 
     err = vf_error_set(VF_ENOMEM, "out of memory");
     goto fail;
   }
+  scene->medium = -1; /* vacuum until the file says otherwise */
   snprintf(scene->source, sizeof scene->source, "%s", label);
   vf_settings_default(&scene->settings);
   parse_ctx c = {label, base_dir, memfiles, num_memfiles, scene, files};

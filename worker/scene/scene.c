@@ -87,7 +87,15 @@ void vf_scene_destroy(vf_scene *scene) {
   free(scene->textures);
   free(scene->notes);
   vf_image_destroy(&scene->envmap);
+  for (int i = 0; i < scene->num_media; i++) vf_medium_release(&scene->media[i]);
+  free(scene->media);
   free(scene);
+}
+
+void vf_medium_release(vf_medium *medium) {
+  if (medium->grid != NULL) free(medium->grid->density);
+  free(medium->grid);
+  medium->grid = NULL;
 }
 
 int vf_scene_scale(vf_scene *s, double factor) {

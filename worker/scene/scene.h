@@ -12,6 +12,7 @@
 #include "../../common/settings.h"
 #include "../../common/vec3.h"
 #include "material.h"
+#include "medium.h"
 #include "texture.h"
 
 #include <stddef.h>
@@ -36,7 +37,8 @@ typedef enum { VF_SHAPE_MESH, VF_SHAPE_SPHERE } vf_shape_kind;
 typedef struct {
   vf_shape_kind kind;
   char name[64];    /* from the file, else the mesh file name or "shapes[i]"; not hashed */
-  int material;     /* index into vf_scene.materials */
+  int material;     /* index into vf_scene.materials; < 0: none, an index-matched medium
+                     * boundary that every ray passes straight through (only with an interface) */
   vf_vec3 emission; /* emitted radiance, on the side a triangle faces (counter-clockwise
                      * winding, right-hand rule) and outward from a sphere; zero: not a light */
   /* VF_SHAPE_MESH: world-space triangles, at least one; degenerate ones may occur in inline
@@ -61,6 +63,13 @@ typedef struct {
   /* VF_SHAPE_SPHERE */
   vf_vec3 center;
   float radius;
+  /* Media (medium.h): whether the shape bounds a medium region, and the media inside and
+   * outside it (indices into vf_scene.media; -1: vacuum). Without an interface both are
+   * -1 and crossing the surface changes no medium. Set by the loader: interior from the
+   * file ("interior", or vacuum for a closed refracting shape in a scene with media),
+   * exterior from the shapes that contain this one. */
+  int interface;
+  int interior, exterior;
 } vf_shape;
 
 /* A point light, or a spot light (is_spot): a point light whose intensity is that of the
@@ -122,6 +131,10 @@ typedef struct {
   float envmap_rotation[3][3];
   /* Render settings: defaults (vf_settings_default, resolution from the scene) overridden
    * by the scene's "render" object; settings_given says which the file set. */
+  vf_medium *media;       /* owned; what vf_scene.medium and vf_shape.interior/exterior index */
+  int num_media;
+  int medium;             /* the medium around everything (the camera's, unless inside a
+                           * shape with an interface): an index into media, -1 vacuum */
   vf_settings settings;
   unsigned settings_given;
   uint8_t hash[32];       /* BLAKE2b-256 of the loaded content (see vf_scene_hash) */
