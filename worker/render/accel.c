@@ -58,7 +58,7 @@ static int add_mesh(vf_accel *a, const vf_shape *s, unsigned id) {
   }
   memcpy(v, s->positions, (size_t)s->num_vertices * 3 * sizeof(float));
   memcpy(idx, s->indices, (size_t)s->num_triangles * 3 * sizeof(uint32_t));
-  if (a->source->materials[s->material].alpha_cutoff > 0.0f) {
+  if (s->material >= 0 && a->source->materials[s->material].alpha_cutoff > 0.0f) {
     a->cutouts[id] = (struct cutout){a->source, s};
     rtcSetGeometryUserData(g, &a->cutouts[id]);
     rtcSetGeometryIntersectFilterFunction(g, cutout_filter);

@@ -1,4 +1,5 @@
 #include "bsdf.h"
+#include "medium.h"
 
 #include "microfacet.h"
 #include "sampling.h"
@@ -277,6 +278,7 @@ int vf_bsdf_setup_shading(vf_bsdf *b, const vf_material *m, const vf_bsdf_lobes 
   b->is_delta = lobes->is_delta;
   b->radiance = 0;
   b->rough = 0;
+  b->phase = 0;
   b->fresnel_model = lobes->fresnel_model;
   if (lobes->extended) vf_bsdf_setup_extended(b, lobes, entering);
   b->extended = 1; /* evaluate and sample go through bsdf.c, which applies the shading */
@@ -302,8 +304,33 @@ static lobe_value evaluate_local(const vf_bsdf *b, vf_vec3 gen, int radiance) {
   return v;
 }
 
+void vf_bsdf_setup_phase(vf_bsdf *b, vf_vec3 sigma_s, float g, float continuation, vf_vec3 world_fix) {
+  memset(b, 0, sizeof *b);
+  b->frame = vf_frame_from_normal(world_fix);
+  b->local_fix = vf_vec3_make(0.0f, 0.0f, 1.0f);
+  b->eta = 1.0f;
+  b->continuation = continuation;
+  b->extended = 1;
+  b->geometric = world_fix;
+  b->phase = 1;
+  b->phase_g = g;
+  b->sigma_s = sigma_s;
+}
+
+/* The phase function's evaluate (see vf_bsdf_setup_phase): symmetric, so both densities
+ * are one. */
+static vf_vec3 phase_evaluate(const vf_bsdf *b, vf_vec3 world_gen, float *cos_gen, float *direct_pdf_w,
+                              float *reverse_pdf_w) {
+  float p = vf_hg(-vf_dot(b->geometric, world_gen), b->phase_g);
+  if (cos_gen) *cos_gen = 1.0f;
+  if (direct_pdf_w) *direct_pdf_w = p * b->continuation;
+  if (reverse_pdf_w) *reverse_pdf_w = p * b->continuation;
+  return vf_scale(b->sigma_s, p);
+}
+
 vf_vec3 vf_bsdf_evaluate_extended(const vf_bsdf *b, vf_vec3 world_gen, float *cos_gen, float *direct_pdf_w,
                                   float *reverse_pdf_w, int radiance) {
+  if (b->phase) return phase_evaluate(b, world_gen, cos_gen, direct_pdf_w, reverse_pdf_w);
   vf_vec3 gen = vf_frame_to_local(&b->frame, world_gen);
   lobe_value v;
   float c = fabsf(gen.z);
@@ -393,6 +420,15 @@ static vf_vec3 sample_lobes(const vf_bsdf *b, const float rnd[3], vf_vec3 *world
 
 vf_vec3 vf_bsdf_sample_extended(const vf_bsdf *b, const float rnd[3], vf_vec3 *world_gen, float *pdf_w,
                                 float *reverse_pdf_w, float *cos_gen, unsigned *event) {
+  if (b->phase) {
+    float c;
+    *world_gen = vf_hg_sample(vf_neg(b->geometric), b->phase_g, rnd[0], rnd[1], &c);
+    *event = 0;
+    /* Evaluated for the direction returned, so that sample and evaluate agree. */
+    float d, r;
+    vf_vec3 f = phase_evaluate(b, *world_gen, cos_gen, &d, &r);
+    return vf_bsdf_sampled(f, d, r, 1.0f, pdf_w, reverse_pdf_w, cos_gen);
+  }
   vf_vec3 f = sample_lobes(b, rnd, world_gen, pdf_w, reverse_pdf_w, cos_gen, event);
   if (!b->shading || vf_is_zero(f)) return f;
   /* In the shading frame, cos_gen is |gen.ns|: fold it into f, and refuse a direction

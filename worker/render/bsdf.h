@@ -67,7 +67,8 @@ typedef struct {
   float fresnel;               /* smooth dielectric reflection probability for this fix direction */
   float eta;                   /* ior of the side being entered over the side of fix */
   int is_delta;                /* only specular lobes: no connection or merging here */
-  int extended;                /* a lobe after VF_LOBE_DIELECTRIC: bsdf.c evaluates and samples */
+  int extended;                /* a lobe after VF_LOBE_DIELECTRIC, or a phase function: bsdf.c
+                                * evaluates and samples */
   int radiance;                /* a camera sub-path's vertex: see the top (0 after set-up; read
                                 * only when extended) */
   int rough, fresnel_model;    /* when extended: a rough or base lobe; the conductors' VF_FRESNEL_* */
@@ -82,6 +83,11 @@ typedef struct {
   int shading;
   vf_vec3 geometric;
   float fix_ratio;
+  /* A point in a medium (vf_bsdf_setup_phase; extended is then set): f = sigma_s p_HG, the
+   * cosine 1, `geometric` the unit world fix. */
+  int phase;
+  float phase_g;
+  vf_vec3 sigma_s;
 } vf_bsdf;
 
 /* What of a BSDF depends on its material only: the lobe selection probabilities (in
@@ -143,6 +149,7 @@ static inline int vf_bsdf_setup(vf_bsdf *b, const vf_material *m, const vf_bsdf_
   b->fresnel = 0.0f;
   b->diffuse = m->diffuse;
   b->shading = 0;
+  b->phase = 0;
   if (lobes->lobe_probability[VF_LOBE_DIELECTRIC] > 0.0f) {
     /* Arriving on the front of the geometric normal means entering the medium. */
     b->eta = cos_fix > 0.0f ? m->ior : 1.0f / m->ior;
@@ -171,6 +178,12 @@ static inline int vf_bsdf_setup(vf_bsdf *b, const vf_material *m, const vf_bsdf_
  * hemisphere. Out of line: bsdf.c. */
 int vf_bsdf_setup_shading(vf_bsdf *b, const vf_material *m, const vf_bsdf_lobes *lobes, vf_vec3 geometric,
                           vf_vec3 shading, vf_vec3 world_fix);
+
+/* The "BSDF" of a point in a medium (worker/render/medium.h): scattering coefficient sigma_s
+ * there (per unit length, the medium's times its density at the point), Henyey-Greenstein
+ * asymmetry g, Russian-roulette survival `continuation`, for a path arriving from
+ * world_fix. Its evaluate and sample are the phase function's, with cosine 1. */
+void vf_bsdf_setup_phase(vf_bsdf *b, vf_vec3 sigma_s, float g, float continuation, vf_vec3 world_fix);
 
 /* The mirror direction of local v about the shading normal. */
 static inline vf_vec3 vf_bsdf_reflect_local(vf_vec3 v) { return vf_vec3_make(-v.x, -v.y, v.z); }

@@ -5,6 +5,7 @@
 #include "vcm_internal.h"
 #include "gathering_pass.h"
 #include "pixel_radius.h"
+#include "segment.h"
 #include "vertex_merging.h"
 #include "wavefront.h"
 
@@ -57,6 +58,11 @@ static int defer(vf_vcm *v, int thread, vf_vec3 value, uint32_t tile_pixel) {
   return ts->num_pending++;
 }
 
+/* A contribution without a shadow ray, in its turn. */
+static void defer_unshadowed(vf_vcm *v, int thread, vf_vec3 value, uint32_t tile_pixel) {
+  if (!vf_is_zero(value)) defer(v, thread, value, tile_pixel);
+}
+
 /* After queue_segment or queue_direction for an entry: traces the packet when full. */
 static void packet_queued(vf_vcm *v, int thread) {
   if (v->scratch[thread].packet.n == VF_ACCEL_PACKET) resolve_deferred(v, thread);
@@ -77,11 +83,27 @@ static void light_sample(vf_vcm *v, int thread, const vf_hit *hit, const vf_bsdf
   vf_vec3 radiance = vf_light_illuminate(v->lights, l, hit->position, rnd, &dir, &dist, &lp, &ln, &direct_pdf,
                                          &emission_pdf, &cos_at_light);
   if (vf_is_zero(radiance) || !(direct_pdf > 0.0f)) return;
+  if (__builtin_expect(v->infinite_dark, 0) && !l->is_finite) return; /* extinguished on its way */
   float cos_to_light, bsdf_pdf, bsdf_rev_pdf;
   vf_vec3 f = vf_bsdf_evaluate(b, dir, &cos_to_light, &bsdf_pdf, &bsdf_rev_pdf);
   if (vf_is_zero(f)) return;
   if (l->is_delta) bsdf_pdf = 0.0f; /* a delta light cannot be hit by a sampled direction */
   float pick = l->pick_probability;
+  if (__builtin_expect(v->has_media, 0)) {
+    /* Through media: the transmittance, evaluated now, and the segment's distance
+     * densities in the weight (segment.h). */
+    float fwd_light, rev_vertex;
+    vf_vec3 tr = vf_segment_transmittance(v, thread, vf_medium_leaving(v, hit, dir, s->medium), hit->position,
+                                          hit->normal, vf_segment_vertex_density(v, hit), isinf(dist) ? dir : lp,
+                                          l->is_delta ? zero : ln, 1.0f, isinf(dist), sampler, &fwd_light, &rev_vertex);
+    if (vf_is_zero(tr)) return;
+    float w = vf_mis_weight_light_sample_at(&s->mis, &s->merge->mis, bsdf_pdf * fwd_light, bsdf_rev_pdf,
+                                            direct_pdf * pick, emission_pdf * pick, cos_to_light * rev_vertex,
+                                            cos_at_light, vf_hit_in_medium(hit) ? 0.0f : s->merge->mis.vm_weight);
+    vf_vec3 contrib = vf_scale(vf_mul(vf_mul(radiance, f), tr), w * cos_to_light / (pick * direct_pdf));
+    defer_unshadowed(v, thread, vf_mul(s->throughput, contrib), tile_pixel);
+    return;
+  }
   float w = vf_mis_weight_light_sample(&s->mis, &s->merge->mis, bsdf_pdf, bsdf_rev_pdf, direct_pdf * pick,
                                        emission_pdf * pick, cos_to_light, cos_at_light);
   vf_vec3 contrib = vf_scale(vf_mul(radiance, f), w * cos_to_light / (pick * direct_pdf));
@@ -123,7 +145,7 @@ static const vf_bsdf *light_bsdf(const vf_vcm *v, light_bsdf_cache *cache, uint3
  * `kept` where the fused pass kept it, else set up through the cache. */
 static void connect_vertices(vf_vcm *v, int thread, const vf_hit *hit, const vf_bsdf *b, const path_state *s,
                              const light_vertex *lv, const vf_bsdf *kept, uint32_t i, light_bsdf_cache *cache,
-                             uint32_t tile_pixel) {
+                             uint32_t tile_pixel, vf_sampler *sampler) {
   vf_vec3 d = vf_sub(lv->position, hit->position);
   float dist2 = vf_length_sq(d);
   if (!(dist2 > 0.0f)) return;
@@ -140,6 +162,24 @@ static void connect_vertices(vf_vcm *v, int thread, const vf_hit *hit, const vf_
   /* Each side's density of sampling the other vertex, in area measure there. */
   float camera_pdf_a = camera_pdf * cos_light / dist2;
   float light_pdf_a = light_pdf * cos_camera / dist2;
+  if (__builtin_expect(v->has_media, 0)) {
+    /* Through media: the transmittance now, and the distance densities of both ends. */
+    int light_in_medium = vertex_in_medium(lv);
+    float fwd_light, rev_camera;
+    vf_vec3 tr = vf_segment_transmittance(
+        v, thread, vf_medium_leaving(v, hit, d, s->medium), hit->position, hit->normal,
+        vf_segment_vertex_density(v, hit), lv->position, normal_of_vertex(v, lv, lb),
+        light_in_medium ? vf_medium_density_at(&v->media[lv->at.point.primitive], lv->position) : 1.0f, 0, sampler,
+        &fwd_light, &rev_camera);
+    if (vf_is_zero(tr)) return;
+    float vm = s->merge->mis.vm_weight;
+    float w = vf_mis_weight_connection_at(&lv->mis, &s->mis, &s->merge->mis, camera_pdf_a * fwd_light,
+                                          light_pdf_a * rev_camera, light_rev_pdf, camera_rev_pdf,
+                                          light_in_medium ? 0.0f : vm, vf_hit_in_medium(hit) ? 0.0f : vm);
+    vf_vec3 contrib = vf_scale(vf_mul(vf_mul(vf_mul(fc, fl), lv->throughput), tr), w * cos_camera * cos_light / dist2);
+    defer_unshadowed(v, thread, vf_mul(s->throughput, contrib), tile_pixel);
+    return;
+  }
   float w = vf_mis_weight_connection(&lv->mis, &s->mis, &s->merge->mis, camera_pdf_a, light_pdf_a, light_rev_pdf,
                                      camera_rev_pdf);
   vf_vec3 contrib = vf_scale(vf_mul(vf_mul(fc, fl), lv->throughput), w * cos_camera * cos_light / dist2);
@@ -169,10 +209,6 @@ static vertex_merging_query *queue_vertex_merging(vf_vcm *v, int thread) {
   return &ts->queries[ts->num_queries++];
 }
 
-/* A contribution without a shadow ray, in its turn. */
-static void defer_unshadowed(vf_vcm *v, int thread, vf_vec3 value, uint32_t tile_pixel) {
-  if (!vf_is_zero(value)) defer(v, thread, value, tile_pixel);
-}
 
 /* A camera sub-path in flight. The camera pass, like the light pass, traces
  * VF_ACCEL_PACKET of them at once as a wavefront over the tile's pixels. Its contributions
@@ -218,11 +254,57 @@ static void camera_start(vf_vcm *v, camera_lane *lane, uint32_t px, uint32_t py,
     s->direction = vf_camera_direction(&v->camera, (float)px + jx, (float)py + jy);
   }
   s->throughput = vf_vec3_splat(1.0f); /* W_e cos / (p(z0) pdf_w) = 1: camera.h */
+  s->medium = v->camera_medium;
+  s->from_medium = 0;
   s->path_length = 1;
   s->specular_path = 1;
   /* z1's quantities, tech. rep. eq. (31)-(33): p_connect / p_trace of the lens point is 1;
    * an orthographic start is an area density (sec. 5.1-5.2). */
   vf_mis_camera_start(&s->mis, &v->merge.mis, vf_camera_start_density(&v->camera, s->direction));
+}
+
+/* s > 1, t > 1: every connection of camera vertex (hit, b) to its pixel's light sub-path. */
+static void connect_to_light_path(vf_vcm *v, int thread, camera_lane *lane, const vf_hit *hit, const vf_bsdf *b) {
+  const path_state *s = &lane->s;
+  const light_vertex *path;
+  const vf_bsdf *kept = NULL;
+  uint32_t first, end;
+  if (v->fused) {
+    const thread_scratch *ts = &v->scratch[thread];
+    path = ts->tile_vertices;
+    kept = ts->tile_bsdfs;
+    first = ts->tile_begin[lane->tile_pixel];
+    end = ts->tile_end[lane->tile_pixel];
+  } else {
+    path = v->chunks[lane->pixel / LIGHT_CHUNK].vertices;
+    first = v->path_begin[lane->pixel];
+    end = v->path_end[lane->pixel];
+  }
+  for (uint32_t i = first; i < end; i++) {
+    const light_vertex *lv = &path[i];
+    if (vertex_path_length(lv) + 1 + s->path_length > v->settings.max_path_length) break;
+    connect_vertices(v, thread, hit, b, s, lv, kept ? &kept[i] : NULL, i - first, &lane->cache, lane->tile_pixel,
+                     &lane->sampler);
+  }
+}
+
+/* A camera sub-path's vertex in a medium (segment.h), reached along seg: light sampling,
+ * connections and scattering by the phase function; nothing emits or merges there.
+ * Returns 0 when the path ends. */
+static int camera_medium_vertex(vf_vcm *v, int thread, camera_lane *lane, const vf_hit *hit, const vf_segment *seg) {
+  path_state *s = &lane->s;
+  vf_mis_hit_media(&s->mis, &v->merge.mis, hit->t, 1.0f, !(s->path_length == 1 && v->camera.pixel_size > 0.0f),
+                   seg->fwd, seg->rev);
+  if (s->path_length >= v->settings.max_path_length) return 0;
+  vf_bsdf b;
+  bsdf_in_medium(v, &b, hit->primitive, hit->position, vf_neg(s->direction));
+  b.radiance = 1;
+  uint32_t vertex_dims = vf_dim_vertex(VF_DIM_CAMERA_VERTEX, s->path_length);
+  if (v->t.light_sample) light_sample(v, thread, hit, &b, s, &lane->sampler, vertex_dims, lane->tile_pixel);
+  if (v->t.connection) connect_to_light_path(v, thread, lane, hit, &b);
+  if (!vf_wavefront_scatter(v, &b, hit, s, &lane->sampler, vertex_dims, 1)) return 0;
+  s->path_length++;
+  return 1;
 }
 
 /* Continues the lane's camera sub-path where its last ray ended (hit NULL: it left the
@@ -231,6 +313,26 @@ static void camera_start(vf_vcm *v, camera_lane *lane, uint32_t px, uint32_t py,
 static int camera_bounce(vf_vcm *v, int thread, camera_lane *lane, const vf_hit *hit) {
   path_state *s = &lane->s;
   uint32_t tile_pixel = lane->tile_pixel;
+  const int media = v->has_media;
+  vf_segment seg;
+  vf_hit through;
+  if (__builtin_expect(media, 0)) {
+    /* Through media and index-matched boundaries to the next vertex (segment.h). */
+    if (hit != NULL) through = *hit;
+    float u = vf_sampler_1d(&lane->sampler, vf_dim_medium(s->path_length));
+    int r = vf_segment_trace(v, thread, s->medium, s->from_medium, s->origin, s->direction, hit != NULL, &through, u,
+                             &lane->sampler, &seg);
+    if (r == VF_SEGMENT_ENDED) return 0;
+    s->throughput = vf_mul(s->throughput, seg.weight);
+    if (r == VF_SEGMENT_ESCAPED) {
+      if (!(seg.fwd > 0.0f) || v->infinite_dark) return 0;
+      vf_mis_escape(&s->mis, &v->merge.mis, seg.fwd, seg.rev);
+      hit = NULL;
+    } else {
+      hit = &through;
+      if (vf_hit_in_medium(hit)) return camera_medium_vertex(v, thread, lane, hit, &seg);
+    }
+  }
   if (hit == NULL) {
     if (v->lights->environment >= 0 && v->t.emission) {
       const vf_light *l = &v->lights->lights[v->lights->environment];
@@ -244,7 +346,11 @@ static int camera_bounce(vf_vcm *v, int thread, camera_lane *lane, const vf_hit 
   float cos_fix = fabsf(vf_dot(hit->normal, s->direction));
   if (!(cos_fix > 1e-7f)) return 0; /* grazing: no emission or scattering to speak of */
   /* An orthographic camera's first segment has no distance factor (tech. rep. sec. 5.2). */
-  vf_mis_hit(&s->mis, &v->merge.mis, hit->t, cos_fix, !(s->path_length == 1 && v->camera.pixel_size > 0.0f));
+  int distance_factor = !(s->path_length == 1 && v->camera.pixel_size > 0.0f);
+  if (__builtin_expect(media, 0))
+    vf_mis_hit_media(&s->mis, &v->merge.mis, hit->t, cos_fix, distance_factor, seg.fwd, seg.rev);
+  else
+    vf_mis_hit(&s->mis, &v->merge.mis, hit->t, cos_fix, distance_factor);
   int light_index = v->lights->shape_light[hit->shape];
   if (light_index >= 0 && v->t.emission) {
     const vf_light *l = &v->lights->lights[light_index];
@@ -261,27 +367,7 @@ static int camera_bounce(vf_vcm *v, int thread, camera_lane *lane, const vf_hit 
   uint32_t vertex_dims = vf_dim_vertex(VF_DIM_CAMERA_VERTEX, s->path_length);
   if (!b.is_delta) {
     if (v->t.light_sample) light_sample(v, thread, hit, &b, s, &lane->sampler, vertex_dims, tile_pixel);
-    if (v->t.connection) {
-      const light_vertex *path;
-      const vf_bsdf *kept = NULL;
-      uint32_t first, end;
-      if (v->fused) {
-        const thread_scratch *ts = &v->scratch[thread];
-        path = ts->tile_vertices;
-        kept = ts->tile_bsdfs;
-        first = ts->tile_begin[tile_pixel];
-        end = ts->tile_end[tile_pixel];
-      } else {
-        path = v->chunks[lane->pixel / LIGHT_CHUNK].vertices;
-        first = v->path_begin[lane->pixel];
-        end = v->path_end[lane->pixel];
-      }
-      for (uint32_t i = first; i < end; i++) {
-        const light_vertex *lv = &path[i];
-        if (vertex_path_length(lv) + 1 + s->path_length > v->settings.max_path_length) break;
-        connect_vertices(v, thread, hit, &b, s, lv, kept ? &kept[i] : NULL, i - first, &lane->cache, tile_pixel);
-      }
-    }
+    if (v->t.connection) connect_to_light_path(v, thread, lane, hit, &b);
     if (v->t.vertex_merging && v->num_vertices > 0) {
       vertex_merging_query *q = queue_vertex_merging(v, thread);
       if (q != NULL) {

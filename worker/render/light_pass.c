@@ -4,6 +4,7 @@
 #include "../../common/error.h"
 #include "../../common/sampler.h"
 #include "pixel_radius.h"
+#include "segment.h"
 #include "vcm_internal.h"
 #include "wavefront.h"
 
@@ -99,6 +100,11 @@ static void splat_if_visible(vf_vcm *v, int thread, light_chunk *c, uint32_t pat
   if (pk->n == VF_ACCEL_PACKET) resolve_splats(v, thread, c);
 }
 
+/* A splat whose visibility is already folded into rgb (through media: segment.h). */
+static void splat_unshadowed(light_chunk *c, uint32_t path, uint32_t pixel, uint32_t band, vf_vec3 rgb) {
+  if (!vf_is_zero(rgb)) push_splat(c, pixel, band, rgb, path);
+}
+
 /* The lens point a light vertex connects to (t = 1): the pinhole, or a point sampled
  * uniformly on the thin lens from the light sub-path's stream (drawn only for a lens, so
  * pinhole and orthographic renders keep their streams; the orthographic camera ignores
@@ -136,6 +142,21 @@ static void connect_to_camera(vf_vcm *v, int thread, light_chunk *c, uint32_t pa
    * 6.1: every technique of one full path with the same radius). */
   merge_params merge;
   vf_merge_params_at(v, pixel, &merge);
+  if (__builtin_expect(v->has_media, 0)) {
+    /* Through media: the transmittance now; the camera's density of the vertex takes the
+     * segment's distance density at the vertex (segment.h). */
+    float fwd_camera, rev_vertex;
+    vf_vec3 tr = vf_segment_transmittance(v, thread, vf_medium_leaving(v, hit, link.to_camera, s->medium),
+                                          hit->position, hit->normal, vf_segment_vertex_density(v, hit), link.end,
+                                          vf_vec3_splat(0.0f), 1.0f, 0, sampler, &fwd_camera, &rev_vertex);
+    if (vf_is_zero(tr)) return;
+    float w = v->t.lt ? 1.0f
+                      : vf_mis_weight_camera_connection_at(&s->mis, &merge.mis, pdf_a * rev_vertex, rev_pdf,
+                                                           vf_hit_in_medium(hit) ? 0.0f : merge.mis.vm_weight);
+    vf_vec3 contrib = vf_scale(vf_mul(vf_mul(s->throughput, f), tr), w * pdf_a / v->merge.mis.light_paths);
+    splat_unshadowed(c, path, pixel, band, contrib);
+    return;
+  }
   float w = v->t.lt ? 1.0f : vf_mis_weight_camera_connection(&s->mis, &merge.mis, pdf_a, rev_pdf);
   /* The importance times the geometry term over the lens density, W_e G / p(z0) = pdf_a
    * (camera.h), over the light sub-path density n_light. */
@@ -147,7 +168,7 @@ static void connect_to_camera(vf_vcm *v, int thread, light_chunk *c, uint32_t pa
 /* Light tracing alone also projects the light's own point y0 (the s = 1, t = 1 technique,
  * which the full estimator leaves to emission hits). */
 static void connect_emitter_to_camera(vf_vcm *v, int thread, light_chunk *c, uint32_t path, vf_vec3 radiance,
-                                      vf_vec3 p, vf_vec3 n, float pick_and_area_pdf, vf_sampler *sampler) {
+                                      vf_vec3 p, vf_vec3 n, float pick_and_area_pdf, vf_sampler *sampler, int medium) {
   vf_vec3 lens = lens_sample(v, sampler, VF_DIM_EMITTER_LENS);
   vf_camera_link link;
   if (!vf_camera_link_point(&v->camera, lens, p, &link)) return;
@@ -158,6 +179,13 @@ static void connect_emitter_to_camera(vf_vcm *v, int thread, light_chunk *c, uin
   vf_vec3 contrib = vf_scale(radiance, pdf_a / (v->merge.mis.light_paths * pick_and_area_pdf));
   uint32_t pixel, band;
   link_pixel(v, &link, &pixel, &band);
+  if (__builtin_expect(v->has_media, 0)) {
+    float fwd, rev; /* lt alone: unweighted */
+    vf_vec3 tr = vf_segment_transmittance(v, thread, medium, p, n, 1.0f, link.end, vf_vec3_splat(0.0f), 1.0f, 0, sampler,
+                                          &fwd, &rev);
+    splat_unshadowed(c, path, pixel, band, vf_mul(contrib, tr));
+    return;
+  }
   splat_if_visible(v, thread, c, path, pixel, band, contrib, p, n, link.end);
 }
 
@@ -241,6 +269,7 @@ static int light_start(vf_vcm *v, int thread, light_chunk *c, light_lane *lane, 
   emission_numbers(sampler, l, rnd);
   vf_vec3 normal;
   float emission_pdf, direct_pdf, cos_light;
+  if (__builtin_expect(v->infinite_dark, 0) && !l->is_finite) return 0; /* extinguished on its way */
   vf_vec3 energy = vf_light_emit(v->lights, l, rnd, &s->origin, &s->direction, &normal, &emission_pdf, &direct_pdf,
                                  &cos_light);
   if (vf_is_zero(energy) || !(emission_pdf > 0.0f)) return 0;
@@ -255,13 +284,16 @@ static int light_start(vf_vcm *v, int thread, light_chunk *c, light_lane *lane, 
     int area = l->kind == VF_LIGHT_AREA_MESH || l->kind == VF_LIGHT_AREA_SPHERE;
     o->radiance = area ? vf_scale(energy, 1.0f / cos_light) : l->radiance;
   }
+  int medium = v->has_media ? v->light_medium[l - v->lights->lights] : -1;
   if (v->t.lt && l->is_finite && !l->is_delta)
     connect_emitter_to_camera(v, thread, c, local, l->textured ? vf_scale(energy, 1.0f / cos_light) : l->radiance,
-                              s->origin, normal, l->pick_probability * direct_pdf, sampler);
+                              s->origin, normal, l->pick_probability * direct_pdf, sampler, medium);
   emission_pdf *= l->pick_probability;
   direct_pdf *= l->pick_probability;
   s->throughput = vf_scale(energy, 1.0f / emission_pdf);
   s->path_length = 0;
+  s->medium = medium;
+  s->from_medium = 0;
   s->is_finite_light = l->is_finite;
   s->specular_path = 1;
   vf_mis_light_start(&s->mis, &v->merge.mis, direct_pdf, emission_pdf, cos_light, l->is_delta, l->is_finite);
@@ -275,12 +307,35 @@ static int light_start(vf_vcm *v, int thread, light_chunk *c, light_lane *lane, 
 static int light_bounce(vf_vcm *v, int thread, light_chunk *c, light_lane *lane, const vf_hit *hit) {
   path_state *s = &lane->s;
   vf_bsdf b;
-  if (!bsdf_at(v, &b, hit, vf_neg(s->direction))) return 0;
-  s->path_length++;
-  /* The geometric cosine (the BSDF's local_fix.z is the shading one where they differ;
-   * both are the same bits where they do not). */
-  vf_mis_hit(&s->mis, &v->merge.mis, hit->t, fabsf(vf_dot(hit->normal, s->direction)),
-             s->path_length > 1 || s->is_finite_light);
+  vf_segment seg;
+  vf_hit through;
+  if (__builtin_expect(v->has_media, 0)) {
+    /* Through media and index-matched boundaries to the next vertex (segment.h). */
+    if (hit != NULL) through = *hit;
+    float u = vf_sampler_1d(&lane->sampler, vf_dim_medium(s->path_length + 1));
+    int r = vf_segment_trace(v, thread, s->medium, s->from_medium, s->origin, s->direction, hit != NULL, &through, u,
+                             &lane->sampler, &seg);
+    if (r != VF_SEGMENT_VERTEX) return 0;
+    s->throughput = vf_mul(s->throughput, seg.weight);
+    hit = &through;
+    if (vf_hit_in_medium(hit)) {
+      bsdf_in_medium(v, &b, hit->primitive, hit->position, vf_neg(s->direction));
+    } else if (!bsdf_at(v, &b, hit, vf_neg(s->direction))) {
+      return 0;
+    }
+    s->path_length++;
+    float cos_fix = vf_hit_in_medium(hit) ? 1.0f : fabsf(vf_dot(hit->normal, s->direction));
+    vf_mis_hit_media(&s->mis, &v->merge.mis, hit->t, cos_fix, s->path_length > 1 || s->is_finite_light, seg.fwd,
+                     seg.rev);
+  } else {
+    if (hit == NULL) return 0;
+    if (!bsdf_at(v, &b, hit, vf_neg(s->direction))) return 0;
+    s->path_length++;
+    /* The geometric cosine (the BSDF's local_fix.z is the shading one where they differ;
+     * both are the same bits where they do not). */
+    vf_mis_hit(&s->mis, &v->merge.mis, hit->t, fabsf(vf_dot(hit->normal, s->direction)),
+               s->path_length > 1 || s->is_finite_light);
+  }
   uint32_t vertex_dims = vf_dim_vertex(VF_DIM_LIGHT_VERTEX, s->path_length);
   if (!b.is_delta) {
     if (v->t.store_vertices) {
@@ -289,7 +344,12 @@ static int light_bounce(vf_vcm *v, int thread, light_chunk *c, light_lane *lane,
       lv->position = hit->position;
       lv->throughput = s->throughput;
       lv->fix = vf_neg(s->direction);
-      if (__builtin_expect(v->interpolated[hit->shape], 0)) {
+      uint32_t shape = hit->shape;
+      if (__builtin_expect(vf_hit_in_medium(hit), 0)) {
+        shape = VERTEX_IN_MEDIUM;
+        lv->at.point.primitive = hit->primitive; /* the medium */
+        lv->at.point.u = lv->at.point.v = 0.0f;
+      } else if (__builtin_expect(v->interpolated[hit->shape], 0)) {
         lv->at.point.primitive = hit->primitive;
         lv->at.point.u = hit->u;
         lv->at.point.v = hit->v;
@@ -297,7 +357,7 @@ static int light_bounce(vf_vcm *v, int thread, light_chunk *c, light_lane *lane,
         lv->at.normal = hit->normal;
       }
       lv->mis = s->mis;
-      lv->path_length_shape = (uint32_t)s->path_length | hit->shape << VERTEX_LENGTH_BITS;
+      lv->path_length_shape = (uint32_t)s->path_length | shape << VERTEX_LENGTH_BITS;
     }
     if (v->t.light_to_camera) connect_to_camera(v, thread, c, lane->local, hit, &b, s, &lane->sampler, vertex_dims);
   }
@@ -428,7 +488,9 @@ static void trace_chunk(vf_vcm *v, int thread, uint32_t chunk, light_chunk *c, c
     prefetch_shading(v, hits, found, m);
     for (int k = 0; k < m; k++) {
       light_lane *lane = &lanes[lane_of[k]];
-      if ((found >> k & 1u) && light_bounce(v, thread, c, lane, &hits[k])) continue;
+      /* Through media a ray that leaves the scene may still scatter on its way. */
+      int hit_k = (int)(found >> k & 1u);
+      if ((hit_k || v->has_media) && light_bounce(v, thread, c, lane, hit_k ? &hits[k] : NULL)) continue;
       light_retire(v, thread, c, cp, lane, &oldest, next);
       if (!light_refill(v, thread, c, cp, lane, &next, &oldest)) active &= ~(1u << lane_of[k]);
     }

@@ -92,10 +92,41 @@ static inline void vf_mis_hit(vf_mis *m, const vf_mis_config *c, float dist, flo
   m->c_vm *= inv;
 }
 
+/* vf_mis_hit through participating media (worker/render/segment.h): the segment's distance
+ * densities join the cosines of its ends. fwd is the density of sampling vertex i's
+ * distance from vertex i-1 (a medium vertex: scattering there; a surface: passing every
+ * medium in between), rev the same for vertex i-1 seen from vertex i, which belongs with
+ * the reverse cosine vf_mis_scatter gave c_vc and c_vm. A medium vertex's cos_fix is 1. */
+static inline void vf_mis_hit_media(vf_mis *m, const vf_mis_config *c, float dist, float cos_fix, int apply_distance,
+                                    float fwd, float rev) {
+  if (apply_distance) m->d_vcm *= vf_mis_h(c, dist * dist);
+  float inv = 1.0f / vf_mis_h(c, cos_fix * fwd);
+  float r = vf_mis_h(c, rev);
+  m->d_vcm *= inv;
+  m->c_vc *= inv * r;
+  m->c_vm *= inv * r;
+}
+
+/* A camera sub-path's ray left the scene through media, with probability fwd of passing
+ * them and rev the density of the previous vertex from the far side: what vf_mis_hit_media
+ * does without a vertex, before an environment light's weight. */
+static inline void vf_mis_escape(vf_mis *m, const vf_mis_config *c, float fwd, float rev) {
+  vf_mis_hit_media(m, c, 1.0f, 1.0f, 0, fwd, rev);
+}
+
 /* Direction sampled at vertex i (eq. 59-61, the radius-free form of eq. 34-36; or 53-55
  * for a specular choice). Independent of the merge radius. */
+static inline void vf_mis_scatter_at(vf_mis *m, const vf_mis_config *c, float cos_gen, float pdf_w,
+                                     float rev_pdf_w, int specular, float merge_here);
 static inline void vf_mis_scatter(vf_mis *m, const vf_mis_config *c, float cos_gen, float pdf_w, float rev_pdf_w,
                                   int specular) {
+  vf_mis_scatter_at(m, c, cos_gen, pdf_w, rev_pdf_w, specular, 1.0f);
+}
+
+/* vf_mis_scatter at a vertex where merging takes part with merge_here times a surface
+ * vertex's weight (1 on surfaces; 0 at a medium vertex, where nothing merges). */
+static inline void vf_mis_scatter_at(vf_mis *m, const vf_mis_config *c, float cos_gen, float pdf_w,
+                                     float rev_pdf_w, int specular, float merge_here) {
   if (specular) {
     m->d_vcm = 0.0f;
     m->c_vc *= vf_mis_h(c, cos_gen);
@@ -104,7 +135,7 @@ static inline void vf_mis_scatter(vf_mis *m, const vf_mis_config *c, float cos_g
   }
   float g = vf_mis_h(c, cos_gen / pdf_w);
   m->c_vc = c->pt ? 0.0f : g * (m->c_vc * vf_mis_h(c, rev_pdf_w) + m->d_vcm); /* eq. 60 */
-  m->c_vm = c->pt ? 0.0f : g * (m->c_vm * vf_mis_h(c, rev_pdf_w) + 1.0f);     /* eq. 61 */
+  m->c_vm = c->pt ? 0.0f : g * (m->c_vm * vf_mis_h(c, rev_pdf_w) + merge_here); /* eq. 61 */
   m->d_vcm = vf_mis_h(c, 1.0f / pdf_w);
 }
 
@@ -117,35 +148,51 @@ static inline float vf_mis_weight_emission(const vf_mis *cam, const vf_mis_confi
 
 /* s = 1: next-event estimation from camera vertex z_{t-1} (eq. 44-45). bsdf_dir_pdf_w must
  * be 0 for delta lights (they cannot be hit); light densities include light selection. */
-static inline float vf_mis_weight_light_sample(const vf_mis *cam, const vf_mis_config *c, float bsdf_dir_pdf_w,
-                                               float bsdf_rev_pdf_w, float direct_pdf_w, float emission_pdf_w,
-                                               float cos_to_light, float cos_at_light) {
+static inline float vf_mis_weight_light_sample_at(const vf_mis *cam, const vf_mis_config *c, float bsdf_dir_pdf_w,
+                                                  float bsdf_rev_pdf_w, float direct_pdf_w, float emission_pdf_w,
+                                                  float cos_to_light, float cos_at_light, float vm_camera) {
   float w_light = vf_mis_h(c, bsdf_dir_pdf_w / direct_pdf_w);
   float w_camera = c->pt ? 0.0f
                          : vf_mis_h(c, emission_pdf_w * cos_to_light / (direct_pdf_w * cos_at_light)) *
-                               (c->vm_weight + cam->d_vcm + vf_mis_d_vc(cam, c) * vf_mis_h(c, bsdf_rev_pdf_w));
+                               (vm_camera + cam->d_vcm + vf_mis_d_vc(cam, c) * vf_mis_h(c, bsdf_rev_pdf_w));
   return 1.0f / (w_light + 1.0f + w_camera);
+}
+static inline float vf_mis_weight_light_sample(const vf_mis *cam, const vf_mis_config *c, float bsdf_dir_pdf_w,
+                                               float bsdf_rev_pdf_w, float direct_pdf_w, float emission_pdf_w,
+                                               float cos_to_light, float cos_at_light) {
+  return vf_mis_weight_light_sample_at(cam, c, bsdf_dir_pdf_w, bsdf_rev_pdf_w, direct_pdf_w, emission_pdf_w,
+                                       cos_to_light, cos_at_light, c->vm_weight);
 }
 
 /* t = 1: light vertex y_{s-1} projected onto the camera (eq. 46-47). camera_pdf_a is the
  * camera's density of generating y_{s-1}, in area measure at y_{s-1}. */
+static inline float vf_mis_weight_camera_connection_at(const vf_mis *light, const vf_mis_config *c,
+                                                       float camera_pdf_a, float bsdf_rev_pdf_w, float vm_light) {
+  float w_light = vf_mis_h(c, camera_pdf_a / c->light_paths) *
+                  (vm_light + light->d_vcm + vf_mis_d_vc(light, c) * vf_mis_h(c, bsdf_rev_pdf_w));
+  return 1.0f / (w_light + 1.0f);
+}
 static inline float vf_mis_weight_camera_connection(const vf_mis *light, const vf_mis_config *c, float camera_pdf_a,
                                                     float bsdf_rev_pdf_w) {
-  float w_light = vf_mis_h(c, camera_pdf_a / c->light_paths) *
-                  (c->vm_weight + light->d_vcm + vf_mis_d_vc(light, c) * vf_mis_h(c, bsdf_rev_pdf_w));
-  return 1.0f / (w_light + 1.0f);
+  return vf_mis_weight_camera_connection_at(light, c, camera_pdf_a, bsdf_rev_pdf_w, c->vm_weight);
 }
 
 /* s > 1, t > 1: connection of y_{s-1} and z_{t-1} (eq. 40-41). *_dir_pdf_a are each side's
  * density of sampling the other vertex, converted to area measure there. */
+static inline float vf_mis_weight_connection_at(const vf_mis *light, const vf_mis *cam, const vf_mis_config *c,
+                                                float camera_dir_pdf_a, float light_dir_pdf_a, float light_rev_pdf_w,
+                                                float camera_rev_pdf_w, float vm_light, float vm_camera) {
+  float w_light = vf_mis_h(c, camera_dir_pdf_a) *
+                  (vm_light + light->d_vcm + vf_mis_d_vc(light, c) * vf_mis_h(c, light_rev_pdf_w));
+  float w_camera = vf_mis_h(c, light_dir_pdf_a) *
+                   (vm_camera + cam->d_vcm + vf_mis_d_vc(cam, c) * vf_mis_h(c, camera_rev_pdf_w));
+  return 1.0f / (w_light + 1.0f + w_camera);
+}
 static inline float vf_mis_weight_connection(const vf_mis *light, const vf_mis *cam, const vf_mis_config *c,
                                              float camera_dir_pdf_a, float light_dir_pdf_a, float light_rev_pdf_w,
                                              float camera_rev_pdf_w) {
-  float w_light = vf_mis_h(c, camera_dir_pdf_a) *
-                  (c->vm_weight + light->d_vcm + vf_mis_d_vc(light, c) * vf_mis_h(c, light_rev_pdf_w));
-  float w_camera = vf_mis_h(c, light_dir_pdf_a) *
-                   (c->vm_weight + cam->d_vcm + vf_mis_d_vc(cam, c) * vf_mis_h(c, camera_rev_pdf_w));
-  return 1.0f / (w_light + 1.0f + w_camera);
+  return vf_mis_weight_connection_at(light, cam, c, camera_dir_pdf_a, light_dir_pdf_a, light_rev_pdf_w,
+                                     camera_rev_pdf_w, c->vm_weight, c->vm_weight);
 }
 
 /* s > 1, t > 1: merging y_{s-1} into z_{t-1} (eq. 38-39). camera_dir_pdf_w: the camera

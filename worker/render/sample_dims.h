@@ -42,6 +42,18 @@ enum {
   VF_DIM_LIGHT_VERTEX = 4, /* first pair of light vertex 1 */
   VF_DIM_PER_VERTEX = 5,
 };
+/* Participating media (worker/render/segment.h): the number that samples the distance of
+ * the segment that leads to vertex i is the first coordinate of a pair of its own, pair
+ * VF_DIM_MEDIUM + i - 1 (a pair number is only a scrambling seed, so these pairs lie far
+ * past the others without any cost); past VF_SOBOL_BOUNCES, and for every further number a
+ * segment needs (more pieces, tracking), the fallback stream. Drawn only in scenes with
+ * media. */
+#define VF_DIM_MEDIUM 1000u
+static inline uint32_t vf_dim_medium(int vertex) {
+  if (vertex < 1 || vertex > VF_SOBOL_BOUNCES) return VF_SAMPLER_FALLBACK;
+  return VF_DIM_MEDIUM + (uint32_t)(vertex - 1);
+}
+
 /* Offsets within a vertex's pairs. */
 enum { VF_DIM_NEE_POINT = 0, VF_DIM_CAMERA_LENS = 0, VF_DIM_BSDF_DIRECTION = 1, VF_DIM_NEE_LIGHT = 2,
        VF_DIM_BSDF_LOBE = 3, VF_DIM_ROULETTE = 4 };

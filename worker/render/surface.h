@@ -18,7 +18,7 @@
 /* Whether hits on shape `sh` are shaded from their barycentrics: a mesh with vertex normals
  * or vertex colours, or a material with a texture. */
 static inline int vf_surface_interpolated(const vf_scene *scene, const vf_shape *sh) {
-  return sh->kind == VF_SHAPE_MESH &&
+  return sh->kind == VF_SHAPE_MESH && sh->material >= 0 &&
          (sh->normals != NULL || sh->colors != NULL || vf_material_textured(&scene->materials[sh->material]));
 }
 

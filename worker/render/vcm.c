@@ -11,6 +11,7 @@
 #include "light_pass.h"
 #include "merge_pipeline.h"
 #include "pixel_radius.h"
+#include "segment.h"
 #include "surface.h"
 #include "vcm_internal.h"
 #include "vertex_merging.h"
@@ -300,6 +301,12 @@ void vf_vcm_describe(const vf_vcm *v, FILE *out) {
   if (v->camera.lens_radius > 0.0f)
     fprintf(out, "camera: thin lens of radius %g, in focus at %g\n", v->camera.lens_radius, v->camera.focus_distance);
   describe_geometry(v->scene, out);
+  if (v->scene->num_media > 0) {
+    int gridded = 0;
+    for (int i = 0; i < v->scene->num_media; i++) gridded += v->scene->media[i].grid != NULL;
+    fprintf(out, "participating media: %d, %d heterogeneous%s\n", v->scene->num_media, gridded,
+            v->scene->medium >= 0 ? "; the scene is in one" : "");
+  }
   fprintf(out, "rays: Embree's %s kernels\n", vf_accel_kernels());
   if (vf_algorithm_is_auto(v->requested))
     fprintf(out, "%s: %s (%s)\n", vf_algorithm_name(v->requested), vf_algorithm_name(v->settings.algorithm),
@@ -329,6 +336,46 @@ void vf_vcm_describe(const vf_vcm *v, FILE *out) {
     fprintf(out, "note: no specular surfaces, so merging only adds to paths connections already cover\n");
 }
 
+/* The media of the scene, prepared, and the media the camera and the lights are in
+ * (segment.h). An area light is taken to be in the medium in front of its first triangle
+ * (of a sphere: outside it); lights at infinity shine from the scene's medium. */
+static int media_setup(vf_vcm *v) {
+  const vf_scene *sc = v->scene;
+  v->camera_medium = -1;
+  if (sc->num_media == 0) return VF_OK;
+  vf_algorithm a = v->settings.algorithm;
+  if (a != VF_ALGO_PT && a != VF_ALGO_LT && a != VF_ALGO_BPT && a != VF_ALGO_VCM)
+    return vf_error_set(VF_EINVAL,
+                        "the scene has participating media, which %s does not render; pt, lt, bpt and vcm do",
+                        vf_algorithm_name(a));
+  v->has_media = 1;
+  v->media = calloc((size_t)sc->num_media, sizeof *v->media);
+  v->light_medium = calloc(v->lights->count > 0 ? (size_t)v->lights->count : 1, sizeof *v->light_medium);
+  if (v->media == NULL || v->light_medium == NULL) return VF_ENOMEM;
+  for (int i = 0; i < sc->num_media; i++) vf_medium_prepare(&v->media[i], &sc->media[i]);
+  v->camera_medium = vf_medium_at_point(v, v->camera.position);
+  if (sc->medium >= 0 && sc->media[sc->medium].grid == NULL) {
+    vf_vec3 st = v->media[sc->medium].sigma_t;
+    v->infinite_dark = st.x > 0.0f || st.y > 0.0f || st.z > 0.0f;
+  }
+  for (int i = 0; i < v->lights->count; i++) {
+    const vf_light *l = &v->lights->lights[i];
+    int m = sc->medium;
+    if (l->kind == VF_LIGHT_POINT || l->kind == VF_LIGHT_SPOT) {
+      m = vf_medium_at_point(v, l->position);
+    } else if (l->kind == VF_LIGHT_AREA_MESH) {
+      const vf_light_triangle *t = &l->triangles[0];
+      vf_vec3 c = vf_scale(vf_add(t->a, vf_add(t->b, t->c)), 1.0f / 3.0f);
+      m = vf_medium_at_point(v, vf_offset_ray_origin(c, t->normal, v->offset_scale));
+    } else if (l->kind == VF_LIGHT_AREA_SPHERE) {
+      vf_vec3 top = vf_add(l->shape->center, vf_vec3_make(0.0f, l->shape->radius, 0.0f));
+      m = vf_medium_at_point(v, vf_offset_ray_origin(top, vf_vec3_make(0.0f, 1.0f, 0.0f), v->offset_scale));
+    }
+    v->light_medium[i] = m;
+  }
+  return VF_OK;
+}
+
 int vf_vcm_create(const vf_scene *scene, const vf_accel *accel, const vf_settings *settings, vf_pool *pool,
                   vf_vcm **out) {
   int err = VF_ENOMEM;
@@ -352,6 +399,7 @@ int vf_vcm_create(const vf_scene *scene, const vf_accel *accel, const vf_setting
   if (vf_algorithm_is_auto(v->requested)) v->settings.algorithm = resolve_auto(v);
   choose_techniques(v);
   if ((err = vf_lights_create(scene, &v->lights)) != VF_OK) goto fail;
+  if ((err = media_setup(v)) != VF_OK) goto fail;
   err = VF_ENOMEM;
   v->fused = v->t.connection && !v->t.vertex_merging && v->t.light_paths && v->t.camera_paths;
   v->upg = v->settings.algorithm == VF_ALGO_UPG;
@@ -381,7 +429,8 @@ int vf_vcm_create(const vf_scene *scene, const vf_accel *accel, const vf_setting
   for (int m = 0; m < scene->num_materials; m++) vf_bsdf_lobes_of(&scene->materials[m], &v->lobes[m]);
   for (int i = 0; i < scene->num_shapes; i++) {
     v->interpolated[i] = (unsigned char)vf_surface_interpolated(scene, &scene->shapes[i]);
-    v->shape_continuation[i] = v->lobes[scene->shapes[i].material].continuation;
+    int m = scene->shapes[i].material;
+    v->shape_continuation[i] = m >= 0 ? v->lobes[m].continuation : 1.0f; /* an index-matched boundary */
   }
   v->lane_capacity = settings->max_path_length > 1 ? (uint32_t)settings->max_path_length : 1u;
   for (int t = 0; t < vf_pool_threads(pool); t++) {
@@ -476,6 +525,8 @@ void vf_vcm_destroy(vf_vcm *v) {
   free(v->lobes);
   free(v->interpolated);
   free(v->shape_continuation);
+  free(v->media);
+  free(v->light_medium);
   vf_hashgrid_destroy(v->grid);
   vf_lights_destroy(v->lights);
   free(v);

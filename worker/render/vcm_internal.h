@@ -22,6 +22,7 @@
 #include "camera.h"
 #include "hashgrid.h"
 #include "light.h"
+#include "medium.h"
 #include "mis.h"
 #include "photon_gathering.h"
 #include "../scene/scene.h"
@@ -83,6 +84,9 @@ static inline int vertex_path_length(const light_vertex *lv) {
   return (int)(lv->path_length_shape & ((1u << VERTEX_LENGTH_BITS) - 1u));
 }
 static inline uint32_t vertex_shape(const light_vertex *lv) { return lv->path_length_shape >> VERTEX_LENGTH_BITS; }
+/* The shape index of a light vertex in a medium, whose at.point.primitive is the medium. */
+#define VERTEX_IN_MEDIUM (VERTEX_MAX_SHAPES - 1u)
+static inline int vertex_in_medium(const light_vertex *lv) { return vertex_shape(lv) == VERTEX_IN_MEDIUM; }
 
 /* What the light pass makes for the light image (light_pass.c). */
 typedef struct splat splat;
@@ -128,6 +132,8 @@ typedef struct {
   int specular_path;   /* camera sub-paths: every scattering so far was specular */
   vf_mis mis;
   const merge_params *merge; /* camera sub-paths: their pixel's radius (light sub-paths: unused) */
+  int medium;          /* the medium the next ray travels in (-1: vacuum; segment.h) */
+  int from_medium;     /* the next ray leaves a vertex in a medium */
 } path_state;
 
 typedef struct {
@@ -264,6 +270,16 @@ struct vf_vcm {
   light_origin *origins;
   uint32_t *photon_source;
   int has_specular, has_glossy, has_diffuse;
+  /* Participating media (medium.h, segment.h): the scene's, prepared, owned; the media the
+   * camera and each light (per vf_lights.lights) are in. has_media is 0 and the rest
+   * unused in a scene without media, whose renders do not change by their existence. */
+  int has_media;
+  vf_medium_rt *media;
+  int camera_medium;
+  int *light_medium;
+  /* The scene's medium is homogeneous and extinguishes: it fills all space, so nothing
+   * from a light at infinity arrives (enclose fog in a shape to light it by the sky). */
+  int infinite_dark;
   vf_algorithm requested;    /* settings.algorithm as given; settings.algorithm is what runs */
   const char *auto_reason;   /* why auto chose settings.algorithm, NULL unless requested auto */
 

@@ -48,7 +48,15 @@ static void gather_task(void *ctx, size_t task, int thread) {
     const light_vertex *lv = grid_vertex(v, points[k].path_length_shape); /* still the index */
     if (v->photon_source) v->photon_source[k] = points[k].path_length_shape;
     points[k].path_length_shape = lv->path_length_shape;
-    if (v->photon_c_vc) {
+    if (__builtin_expect(vertex_in_medium(lv), 0)) {
+      /* A light vertex in a medium does not merge with surface points: nothing merges
+       * in media (the MIS quantities count no merging there). Its merge point takes the
+       * longest path length, which every query refuses before reading further, and its
+       * photon carries nothing. */
+      points[k].path_length_shape = (1u << VERTEX_LENGTH_BITS) - 1u;
+      v->photons[k] = (photon){vf_vec3_splat(0.0f), lv->fix, 0.0f, 0.0f};
+      if (v->photon_c_vc) v->photon_c_vc[k] = 0.0f;
+    } else if (v->photon_c_vc) {
       v->photons[k] = (photon){lv->throughput, lv->fix, lv->mis.d_vcm, lv->mis.c_vm};
       v->photon_c_vc[k] = lv->mis.c_vc;
     } else {

@@ -1,6 +1,8 @@
 /* Tracing a wavefront of sub-paths and continuing them: wavefront.h. */
 #include "wavefront.h"
 
+#include "segment.h"
+
 static int intersect(vf_vcm *v, int thread, vf_vec3 org, vf_vec3 dir, vf_hit *hit) {
   v->stats[thread].rays++;
   return vf_accel_intersect(v->accel, org, dir, INFINITY, hit);
@@ -51,12 +53,17 @@ int vf_wavefront_scatter(vf_vcm *v, const vf_bsdf *b, const vf_hit *hit, path_st
   vf_vec3 f = vf_bsdf_sample(b, rnd, &gen, &pdf, &rev_pdf, &cos_gen, &event);
   if (vf_is_zero(f) || !(pdf > 0.0f)) return 0;
   int specular = (event & VF_BSDF_SPECULAR) != 0;
-  vf_mis_scatter(&s->mis, &v->merge.mis, cos_gen, pdf, rev_pdf, specular);
+  /* Nothing merges at a point in a medium (its "BSDF" is a phase function). */
+  vf_mis_scatter_at(&s->mis, &v->merge.mis, cos_gen, pdf, rev_pdf, specular, b->phase ? 0.0f : 1.0f);
   float scale = cos_gen / pdf;
   if (radiance && (event & VF_BSDF_REFRACTION)) scale /= b->eta * b->eta;
   s->throughput = vf_mul(s->throughput, vf_scale(f, scale));
   s->specular_path &= specular;
   s->origin = vf_offset_ray_origin(hit->position, vf_dot(hit->normal, gen) > 0.0f ? hit->normal : vf_neg(hit->normal), v->offset_scale);
   s->direction = gen;
+  if (__builtin_expect(v->has_media, 0)) {
+    s->medium = vf_medium_leaving(v, hit, gen, s->medium);
+    s->from_medium = vf_hit_in_medium(hit);
+  }
   return 1;
 }

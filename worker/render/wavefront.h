@@ -64,9 +64,20 @@ static inline int bsdf_at(const vf_vcm *v, vf_bsdf *b, const vf_hit *hit, vf_vec
   return vf_bsdf_setup(b, &v->scene->materials[m], &v->lobes[m], hit->normal, world_fix);
 }
 
+/* The "BSDF" of a point in medium m (worker/render/medium.h): sigma_s there and the phase
+ * function. */
+static inline void bsdf_in_medium(const vf_vcm *v, vf_bsdf *b, uint32_t m, vf_vec3 position, vf_vec3 world_fix) {
+  const vf_medium_rt *rt = &v->media[m];
+  vf_bsdf_setup_phase(b, vf_scale(rt->sigma_s, vf_medium_density_at(rt, position)), rt->g, rt->continuation, world_fix);
+}
+
 /* The BSDF a stored light vertex had. */
 static inline void bsdf_of_vertex(const vf_vcm *v, vf_bsdf *b, const light_vertex *lv) {
   uint32_t shape = vertex_shape(lv);
+  if (__builtin_expect(shape == VERTEX_IN_MEDIUM, 0)) {
+    bsdf_in_medium(v, b, lv->at.point.primitive, lv->position, lv->fix);
+    return;
+  }
   if (__builtin_expect(v->interpolated[shape], 0)) {
     const vf_shape *sh = &v->scene->shapes[shape];
     vf_vec3 ng = vf_surface_triangle_normal(sh, lv->at.point.primitive);
@@ -81,6 +92,7 @@ static inline void bsdf_of_vertex(const vf_vcm *v, vf_bsdf *b, const light_verte
  * offsets (which orient it themselves): on an interpolated shape the one its BSDF was set
  * up with (vf_bsdf.geometric), not recomputed for every connection. */
 static inline vf_vec3 normal_of_vertex(const vf_vcm *v, const light_vertex *lv, const vf_bsdf *lb) {
+  if (__builtin_expect(vertex_in_medium(lv), 0)) return vf_vec3_splat(0.0f); /* a point in space */
   return __builtin_expect(v->interpolated[vertex_shape(lv)], 0) ? lb->geometric : lv->at.normal;
 }
 
