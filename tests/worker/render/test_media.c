@@ -363,11 +363,53 @@ static void test_single_scattering_in_a_thin_slab(void) {
   vf_scene_destroy(scene);
 }
 
+/* A scene's shape by name, or -1. */
+static int shape_named(const vf_scene *scene, const char *name) {
+  for (int i = 0; i < scene->num_shapes; i++)
+    if (strcmp(scene->shapes[i].name, name) == 0) return i;
+  return -1;
+}
+
+/* Per-block agreement of pt, bpt and vcm (and lt, checked only where its variance is
+ * finite: not here, with a pinhole inside the fog) on the Cornell box filled with fog whose
+ * glass ball, clear inside, focuses the light into it: a volumetric caustic. */
+static void test_fog_agreement_of_the_techniques(void) {
+  vf_scene *scene = NULL;
+  CHECK_INT_EQ(vf_scene_load("cornell", &scene), VF_OK);
+  if (scene == NULL) return;
+  scene->medium = add_medium(scene, vf_vec3_splat(0.05f), vf_vec3_make(0.25f, 0.3f, 0.35f), 0.3f);
+  int ball = shape_named(scene, "glass ball");
+  CHECK(ball >= 0);
+  if (ball < 0) return;
+  scene->shapes[ball].interface = 1;
+  scene->shapes[ball].interior = -1;
+  scene->shapes[ball].exterior = scene->medium;
+  scene->settings.width = scene->settings.height = 64;
+  scene->settings.max_path_length = 8;
+  enum { BLOCKS = 8, NB = BLOCKS * BLOCKS, N = 256 };
+  const vf_algorithm algorithms[] = {VF_ALGO_PT, VF_ALGO_BPT, VF_ALGO_VCM};
+  double mean[3][NB], se[3][NB];
+  for (int a = 0; a < 3; a++) {
+    vf_settings s = scene->settings;
+    s.algorithm = algorithms[a];
+    s.sampler = VF_SAMPLER_INDEPENDENT;
+    s.seed = 77 + (uint64_t)a;
+    vf_vcm_stats stats = {0};
+    CHECK_INT_EQ(render_block_estimates(scene, &s, 2, N, BLOCKS, mean[a], se[a], &stats), VF_OK);
+    CHECK_INT_EQ(stats.nonfinite, 0);
+  }
+  CHECK(blocks_agree("fog", "pt", "bpt", mean[0], se[0], mean[1], se[1], NB));
+  CHECK(blocks_agree("fog", "pt", "vcm", mean[0], se[0], mean[2], se[2], NB));
+  CHECK(blocks_agree("fog", "bpt", "vcm", mean[1], se[1], mean[2], se[2], NB));
+  vf_scene_destroy(scene);
+}
+
 int main(void) {
   RUN(test_phase_function_sampling_matches_its_density);
   RUN(test_distance_sampling_estimates_transmittance_and_scattering);
   RUN(test_absorbing_ball_in_front_of_an_emitter);
   RUN(test_furnace_filled_with_a_medium_of_albedo_one);
   RUN(test_single_scattering_in_a_thin_slab);
+  RUN(test_fog_agreement_of_the_techniques);
   return check_finish();
 }
