@@ -7,6 +7,7 @@
 #include "pixel_radius.h"
 #include "segment.h"
 #include "vertex_merging.h"
+#include "volume_merging.h"
 #include "wavefront.h"
 
 #include <math.h>
@@ -99,7 +100,8 @@ static void light_sample(vf_vcm *v, int thread, const vf_hit *hit, const vf_bsdf
     if (vf_is_zero(tr)) return;
     float w = vf_mis_weight_light_sample_at(&s->mis, &s->merge->mis, bsdf_pdf * fwd_light, bsdf_rev_pdf,
                                             direct_pdf * pick, emission_pdf * pick, cos_to_light * rev_vertex,
-                                            cos_at_light, vf_hit_in_medium(hit) ? 0.0f : s->merge->mis.vm_weight);
+                                            cos_at_light,
+                                            s->merge->mis.vm_weight * (vf_hit_in_medium(hit) ? v->medium_merge : 1.0f));
     vf_vec3 contrib = vf_scale(vf_mul(vf_mul(radiance, f), tr), w * cos_to_light / (pick * direct_pdf));
     defer_unshadowed(v, thread, vf_mul(s->throughput, contrib), tile_pixel);
     return;
@@ -175,7 +177,8 @@ static void connect_vertices(vf_vcm *v, int thread, const vf_hit *hit, const vf_
     float vm = s->merge->mis.vm_weight;
     float w = vf_mis_weight_connection_at(&lv->mis, &s->mis, &s->merge->mis, camera_pdf_a * fwd_light,
                                           light_pdf_a * rev_camera, light_rev_pdf, camera_rev_pdf,
-                                          light_in_medium ? 0.0f : vm, vf_hit_in_medium(hit) ? 0.0f : vm);
+                                          light_in_medium ? vm * v->medium_merge : vm,
+                                          vf_hit_in_medium(hit) ? vm * v->medium_merge : vm);
     vf_vec3 contrib = vf_scale(vf_mul(vf_mul(vf_mul(fc, fl), lv->throughput), tr), w * cos_camera * cos_light / dist2);
     defer_unshadowed(v, thread, vf_mul(s->throughput, contrib), tile_pixel);
     return;
@@ -289,7 +292,8 @@ static void connect_to_light_path(vf_vcm *v, int thread, camera_lane *lane, cons
 }
 
 /* A camera sub-path's vertex in a medium (segment.h), reached along seg: light sampling,
- * connections and scattering by the phase function; nothing emits or merges there.
+ * connections, merging with the light vertices in media (volume_merging.h) and scattering
+ * by the phase function; nothing emits there.
  * Returns 0 when the path ends. */
 static int camera_medium_vertex(vf_vcm *v, int thread, camera_lane *lane, const vf_hit *hit, const vf_segment *seg) {
   path_state *s = &lane->s;
@@ -302,6 +306,10 @@ static int camera_medium_vertex(vf_vcm *v, int thread, camera_lane *lane, const 
   uint32_t vertex_dims = vf_dim_vertex(VF_DIM_CAMERA_VERTEX, s->path_length);
   if (v->t.light_sample) light_sample(v, thread, hit, &b, s, &lane->sampler, vertex_dims, lane->tile_pixel);
   if (v->t.connection) connect_to_light_path(v, thread, lane, hit, &b);
+  if (v->t.vertex_merging)
+    defer_unshadowed(v, thread, vf_mul(s->throughput, vf_volume_merging_estimate(v, &b, hit->position, &s->mis,
+                                                                                  s->path_length)),
+                     lane->tile_pixel);
   if (!vf_wavefront_scatter(v, &b, hit, s, &lane->sampler, vertex_dims, 1)) return 0;
   s->path_length++;
   return 1;

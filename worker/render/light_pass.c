@@ -152,7 +152,8 @@ static void connect_to_camera(vf_vcm *v, int thread, light_chunk *c, uint32_t pa
     if (vf_is_zero(tr)) return;
     float w = v->t.lt ? 1.0f
                       : vf_mis_weight_camera_connection_at(&s->mis, &merge.mis, pdf_a * rev_vertex, rev_pdf,
-                                                           vf_hit_in_medium(hit) ? 0.0f : merge.mis.vm_weight);
+                                                           merge.mis.vm_weight *
+                                                               (vf_hit_in_medium(hit) ? v->medium_merge : 1.0f));
     vf_vec3 contrib = vf_scale(vf_mul(vf_mul(s->throughput, f), tr), w * pdf_a / v->merge.mis.light_paths);
     splat_unshadowed(c, path, pixel, band, contrib);
     return;

@@ -204,6 +204,16 @@ static inline float vf_mis_weight_merge(const vf_mis *light, const vf_mis *cam, 
   return 1.0f / (w_light + 1.0f + w_camera);
 }
 
+/* Merging y_{s-1} into z_{t-1} at a point in a medium (volume_merging.h): eq. (38)-(39)
+ * relative to the merge's own eta_m = (4/3) pi r^3 n_light, the quantities counting every
+ * merge in the units of a surface one; ratio = mis(eta_m / eta_s) = mis(4 r / 3). */
+static inline float vf_mis_weight_merge_medium(const vf_mis *light, const vf_mis *cam, const vf_mis_config *c,
+                                               float ratio, float camera_dir_pdf_w, float camera_rev_pdf_w) {
+  float w_light = light->d_vcm * c->vc_weight + vf_mis_d_vm(light, c) * vf_mis_h(c, camera_dir_pdf_w);
+  float w_camera = cam->d_vcm * c->vc_weight + vf_mis_d_vm(cam, c) * vf_mis_h(c, camera_rev_pdf_w);
+  return 1.0f / ((w_light + w_camera) / ratio + 1.0f);
+}
+
 /* upg: light vertex y_{s-1}, found within the radius of camera vertex z_{t-1}, scored as
  * the connection of its predecessor y_{s-2} and z_{t-1} (photon_gathering.h). The weight is
  * merging's (eq. 38-39) for a light vertex that landed exactly at z_{t-1}: `light`, the

@@ -15,6 +15,7 @@
 #include "surface.h"
 #include "vcm_internal.h"
 #include "vertex_merging.h"
+#include "volume_merging.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -49,6 +50,8 @@ static void setup_iteration(vf_vcm *v, uint64_t iteration) {
   v->grid_radius = v->pixel_scale ? (float)(r * (double)v->pixel_scale_max) : v->merge.radius;
   v->merge.mis.light_paths = (float)v->num_pixels;
   v->merge.mis.pt = v->settings.algorithm == VF_ALGO_PT;
+  /* A merge in a medium over one on a surface: eta_m / eta_s = (4/3) pi r^3 / (pi r^2). */
+  v->medium_merge = v->has_media && v->t.vertex_merging ? vf_mis_h(&v->merge.mis, (float)(4.0 * r / 3.0)) : 0.0f;
 }
 
 static void add_counts(const vf_vcm *v, vf_vcm_stats *stats) {
@@ -101,6 +104,7 @@ int vf_vcm_iteration(vf_vcm *v, uint64_t iteration, float *camera_rgb, float *li
   double t1 = vf_seconds_now();
   /* 2. The range-search grid, only when vertex merging (vertex_merging.c, hashgrid.c). */
   if (v->t.vertex_merging && v->num_vertices > 0 && (err = vf_vertex_merging_build_grid(v)) != VF_OK) return err;
+  if (v->t.vertex_merging && v->has_media && (err = vf_volume_merging_build(v)) != VF_OK) return err;
 
   double t2 = vf_seconds_now();
   /* 3. Camera sub-paths, vertex merging included (camera_pass.c). */
@@ -348,6 +352,9 @@ static int media_setup(vf_vcm *v) {
     return vf_error_set(VF_EINVAL,
                         "the scene has participating media, which %s does not render; pt, lt, bpt and vcm do",
                         vf_algorithm_name(a));
+  if (v->settings.radius == VF_RADIUS_PER_PIXEL && v->t.vertex_merging)
+    return vf_error_set(VF_EINVAL, "the scene has participating media, which a merge radius per pixel does not "
+                                   "render (merging in media needs one radius); use the global radius");
   v->has_media = 1;
   v->media = calloc((size_t)sc->num_media, sizeof *v->media);
   v->light_medium = calloc(v->lights->count > 0 ? (size_t)v->lights->count : 1, sizeof *v->light_medium);
@@ -527,6 +534,7 @@ void vf_vcm_destroy(vf_vcm *v) {
   free(v->shape_continuation);
   free(v->media);
   free(v->light_medium);
+  vf_volume_merging_destroy(v);
   vf_hashgrid_destroy(v->grid);
   vf_lights_destroy(v->lights);
   free(v);

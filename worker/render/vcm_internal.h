@@ -243,6 +243,7 @@ typedef struct {
 /* What vertex merging reads of the light vertices, in the grid's order (vertex_merging.h). */
 typedef struct merge_point merge_point;
 typedef struct photon photon;
+typedef struct medium_photon medium_photon; /* volume_merging.c */
 
 struct vf_vcm {
   const vf_scene *scene;
@@ -280,6 +281,13 @@ struct vf_vcm {
   /* The scene's medium is homogeneous and extinguishes: it fills all space, so nothing
    * from a light at infinity arrives (enclose fog in a shape to light it by the sky). */
   int infinite_dark;
+  /* Merging in media (volume_merging.h): what a merge at a medium vertex adds to the MIS
+   * quantities in the units of a surface merge, mis(4 r / 3) (0 without merging); the
+   * iteration's light vertices in media and their grid. */
+  float medium_merge;
+  medium_photon *medium_photons;
+  uint32_t num_medium_photons, medium_photon_capacity;
+  vf_hashgrid *volume_grid;
   vf_algorithm requested;    /* settings.algorithm as given; settings.algorithm is what runs */
   const char *auto_reason;   /* why auto chose settings.algorithm, NULL unless requested auto */
 

@@ -53,8 +53,8 @@ int vf_wavefront_scatter(vf_vcm *v, const vf_bsdf *b, const vf_hit *hit, path_st
   vf_vec3 f = vf_bsdf_sample(b, rnd, &gen, &pdf, &rev_pdf, &cos_gen, &event);
   if (vf_is_zero(f) || !(pdf > 0.0f)) return 0;
   int specular = (event & VF_BSDF_SPECULAR) != 0;
-  /* Nothing merges at a point in a medium (its "BSDF" is a phase function). */
-  vf_mis_scatter_at(&s->mis, &v->merge.mis, cos_gen, pdf, rev_pdf, specular, b->phase ? 0.0f : 1.0f);
+  /* A merge at a point in a medium counts as v->medium_merge surface merges (volume_merging.h). */
+  vf_mis_scatter_at(&s->mis, &v->merge.mis, cos_gen, pdf, rev_pdf, specular, b->phase ? v->medium_merge : 1.0f);
   float scale = cos_gen / pdf;
   if (radiance && (event & VF_BSDF_REFRACTION)) scale /= b->eta * b->eta;
   s->throughput = vf_mul(s->throughput, vf_scale(f, scale));

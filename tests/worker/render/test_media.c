@@ -7,6 +7,7 @@
 #include "render_util.h"
 #include "worker/render/bsdf.h"
 #include "worker/render/medium.h"
+#include "worker/render/mis.h"
 #include "worker/scene/json.h"
 #include "worker/scene/load.h"
 
@@ -404,9 +405,129 @@ static void test_fog_agreement_of_the_techniques(void) {
   vf_scene_destroy(scene);
 }
 
+/* ---- the MIS identity with medium vertices ------------------------------------------------- */
+
+/* The distance densities of a piece of length d in m (medium.h): scattering at its end or
+ * passing it. */
+static float piece_scatter(const vf_medium_rt *m, float d) {
+  float pass, scatter;
+  vf_medium_piece_pdf(m, d, 1.0f, &pass, &scatter);
+  return scatter;
+}
+static float piece_pass(const vf_medium_rt *m, float d) {
+  float pass, scatter;
+  vf_medium_piece_pdf(m, d, 1.0f, &pass, &scatter);
+  return pass;
+}
+
+/* The phase "BSDF" at x for a path arriving from `from`: its density of going to `to`
+ * and the reverse. */
+static void phase_pdfs(const vf_medium_rt *m, vf_vec3 from, vf_vec3 x, vf_vec3 to, float *pdf, float *rev) {
+  vf_bsdf b;
+  vf_bsdf_setup_phase(&b, m->sigma_s, m->g, m->continuation, vf_normalize(vf_sub(from, x)));
+  float c;
+  vf_bsdf_evaluate(&b, vf_normalize(vf_sub(to, x)), &c, pdf, rev);
+}
+
+/* A path x0 (a point light) - x1 - x2 (both in a homogeneous medium that fills space) -
+ * x3 (a pinhole): its MIS quantities driven as the renderer's passes drive them (light
+ * start, hits through the medium with the segments' distance densities, scattering by
+ * the phase function, with merges in media counted by vf_vcm.medium_merge), and the weights
+ * of every technique that samples it: light sampling at x1, the connection of x1 and x2,
+ * x2 projected onto the camera, and (vcm) merging at x1 and at x2. They must sum to one. */
+static double media_path_weight_sum(vf_vec3 x[4], const vf_medium_rt *m, vf_algorithm a, float beta, float eta_s,
+                                    float radius, double *w_out) {
+  const float n_light = 1e5f, pick = 1.0f, camera_pdf_w = 3.7f;
+  vf_mis_config c = {0};
+  c.beta = beta;
+  c.light_paths = n_light;
+  int vm = a == VF_ALGO_VCM, vc = 1;
+  c.vm_weight = vm ? vf_mis_h(&c, eta_s) : 0.0f;
+  c.vc_weight = vc ? vf_mis_h(&c, 1.0f / eta_s) : 0.0f;
+  float ratio = vm ? vf_mis_h(&c, 4.0f * radius / 3.0f) : 0.0f;
+  float d01 = vf_length(vf_sub(x[1], x[0])), d12 = vf_length(vf_sub(x[2], x[1])), d23 = vf_length(vf_sub(x[3], x[2]));
+  /* The light sub-path: x0, x1, x2. */
+  vf_mis l1, l2;
+  vf_mis_light_start(&l1, &c, pick, pick / (4.0f * VF_PI), 1.0f, 1, 1);
+  vf_mis_hit_media(&l1, &c, d01, 1.0f, 1, piece_scatter(m, d01), piece_pass(m, d01));
+  l2 = l1;
+  float p, r;
+  phase_pdfs(m, x[0], x[1], x[2], &p, &r);
+  vf_mis_scatter_at(&l2, &c, 1.0f, p, r, 0, ratio);
+  vf_mis_hit_media(&l2, &c, d12, 1.0f, 1, piece_scatter(m, d12), piece_scatter(m, d12));
+  /* The camera sub-path: x3, x2, x1. */
+  vf_mis z1, z2;
+  vf_mis_camera_start(&z1, &c, camera_pdf_w);
+  vf_mis_hit_media(&z1, &c, d23, 1.0f, 1, piece_scatter(m, d23), piece_pass(m, d23));
+  z2 = z1;
+  phase_pdfs(m, x[3], x[2], x[1], &p, &r);
+  vf_mis_scatter_at(&z2, &c, 1.0f, p, r, 0, ratio);
+  vf_mis_hit_media(&z2, &c, d12, 1.0f, 1, piece_scatter(m, d12), piece_scatter(m, d12));
+  float vm_medium = c.vm_weight * ratio;
+  /* s = 1: light sampling at x1 (camera_pass.c, light_sample): a point light. */
+  float rev_pdf;
+  phase_pdfs(m, x[2], x[1], x[0], &p, &rev_pdf);
+  w_out[0] = vf_mis_weight_light_sample_at(&z2, &c, 0.0f, rev_pdf, d01 * d01 * pick, pick / (4.0f * VF_PI),
+                                           1.0f * piece_scatter(m, d01), 1.0f, vm_medium);
+  /* s = 2: the connection of x1 (light) and x2 (camera). */
+  float camera_pdf, camera_rev, light_pdf, light_rev;
+  phase_pdfs(m, x[3], x[2], x[1], &camera_pdf, &camera_rev);
+  phase_pdfs(m, x[0], x[1], x[2], &light_pdf, &light_rev);
+  w_out[1] = vf_mis_weight_connection_at(&l1, &z1, &c, camera_pdf / (d12 * d12) * piece_scatter(m, d12),
+                                         light_pdf / (d12 * d12) * piece_scatter(m, d12), light_rev, camera_rev,
+                                         vm_medium, vm_medium);
+  /* s = 3: x2 projected onto the camera (light_pass.c, connect_to_camera). */
+  phase_pdfs(m, x[1], x[2], x[3], &p, &rev_pdf);
+  w_out[2] = vf_mis_weight_camera_connection_at(&l2, &c, camera_pdf_w / (d23 * d23) * piece_scatter(m, d23), rev_pdf,
+                                                vm_medium);
+  w_out[3] = w_out[4] = 0.0;
+  if (vm) {
+    /* Merging at x1: the light vertex that arrived there, the camera vertex z2. */
+    phase_pdfs(m, x[2], x[1], x[0], &p, &r);
+    w_out[3] = vf_mis_weight_merge_medium(&l1, &z2, &c, ratio, p, r);
+    /* Merging at x2: the light vertex y2, the camera vertex z1. */
+    phase_pdfs(m, x[3], x[2], x[1], &p, &r);
+    w_out[4] = vf_mis_weight_merge_medium(&l2, &z1, &c, ratio, p, r);
+  }
+  return w_out[0] + w_out[1] + w_out[2] + w_out[3] + w_out[4];
+}
+
+static void test_mis_identity_on_paths_in_a_medium(void) {
+  vf_medium med = {.sigma_a = vf_vec3_make(0.1f, 0.3f, 0.2f), .sigma_s = vf_vec3_make(0.8f, 0.5f, 1.1f), .g = 0.4f};
+  vf_medium_rt m;
+  vf_medium_prepare(&m, &med);
+  vf_rng rng = vf_rng_for_path(3, 0, 0, 0);
+  double worst = 0.0, min_vm = 1.0, max_vm = 0.0;
+  const float betas[] = {1.0f, 2.0f, 3.0f};
+  for (int trial = 0; trial < 300; trial++) {
+    vf_vec3 x[4];
+    for (int i = 0; i < 4; i++)
+      x[i] = vf_vec3_make(4.0f * vf_rng_float(&rng) - 2.0f, 4.0f * vf_rng_float(&rng) - 2.0f,
+                          4.0f * vf_rng_float(&rng) - 2.0f);
+    float radius = 0.01f + 0.5f * vf_rng_float(&rng);
+    float eta_s = VF_PI * radius * radius * 1e5f;
+    for (size_t b = 0; b < 3; b++)
+      for (int vcm = 0; vcm <= 1; vcm++) {
+        double w[5];
+        double sum = media_path_weight_sum(x, &m, vcm ? VF_ALGO_VCM : VF_ALGO_BPT, betas[b], eta_s, radius, w);
+        worst = fmax(worst, fabs(sum - 1.0));
+        if (vcm) {
+          min_vm = fmin(min_vm, w[3] + w[4]);
+          max_vm = fmax(max_vm, w[3] + w[4]);
+        }
+        for (int k = 0; k < 5; k++) CHECK(w[k] >= 0.0 && w[k] <= 1.0);
+      }
+  }
+  printf("  paths with two medium vertices: worst |sum of weights - 1| %.2g; merges' share %.3g to %.3g\n", worst,
+         min_vm, max_vm);
+  CHECK(worst < 1e-4);
+  CHECK(max_vm > 0.5); /* merging takes part, heavily on some paths */
+}
+
 int main(void) {
   RUN(test_phase_function_sampling_matches_its_density);
   RUN(test_distance_sampling_estimates_transmittance_and_scattering);
+  RUN(test_mis_identity_on_paths_in_a_medium);
   RUN(test_absorbing_ball_in_front_of_an_emitter);
   RUN(test_furnace_filled_with_a_medium_of_albedo_one);
   RUN(test_single_scattering_in_a_thin_slab);
