@@ -223,12 +223,28 @@ static vf_algorithm auto_unbiased(const vf_scene *sc, material_kinds k, const ch
   return VF_ALGO_PT;
 }
 
+/* Whether some medium of the scene scatters (one that only absorbs adds no vertex). */
+static int scene_scatters_in_media(const vf_scene *sc) {
+  for (int i = 0; i < sc->num_media; i++) {
+    vf_vec3 s = sc->media[i].sigma_s;
+    if (s.x > 0.0f || s.y > 0.0f || s.z > 0.0f) return 1;
+  }
+  return 0;
+}
+
 vf_algorithm vf_vcm_auto_algorithm(const vf_scene *scene, vf_algorithm requested, const char **reason) {
   material_kinds k = scene_kinds(scene);
   const char *why;
   vf_algorithm a;
   if (requested == VF_ALGO_AUTO_UNBIASED) {
     a = auto_unbiased(scene, k, &why);
+    if (a == VF_ALGO_UPG && scene->num_media > 0) {
+      why = "glossy surfaces and participating media, which upg does not render: bpt";
+      a = VF_ALGO_BPT;
+    }
+  } else if (k.has_specular && scene_scatters_in_media(scene)) {
+    why = "a scattering medium and specular surfaces: volumetric caustics, which merging in media renders";
+    a = VF_ALGO_VCM;
   } else if (k.has_specular && (k.has_diffuse || k.has_glossy)) {
     why = "specular next to non-specular surfaces: SDS paths possible";
     a = VF_ALGO_VCM;

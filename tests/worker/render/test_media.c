@@ -524,6 +524,139 @@ static void test_mis_identity_on_paths_in_a_medium(void) {
   CHECK(max_vm > 0.5); /* merging takes part, heavily on some paths */
 }
 
+/* --algorithm auto with media: a scattering medium beside specular surfaces (volumetric
+ * caustics) is vcm's; the unbiased choice never falls on upg, which does not render media. */
+static void test_auto_chooses_for_media(void) {
+  vf_scene *fog = NULL, *rough = NULL;
+  CHECK_INT_EQ(vf_scene_load("cornell-diffuse", &fog), VF_OK);
+  CHECK_INT_EQ(vf_scene_load("cornell-rough", &rough), VF_OK);
+  if (fog == NULL || rough == NULL) return;
+  const char *why = NULL;
+  /* No specular surface: the materials decide, as without media. */
+  fog->medium = add_medium(fog, vf_vec3_splat(0.01f), vf_vec3_splat(0.2f), 0.0f);
+  CHECK_INT_EQ(vf_vcm_auto_algorithm(fog, VF_ALGO_AUTO, &why), VF_ALGO_PT);
+  vf_scene_destroy(fog);
+  CHECK_INT_EQ(vf_scene_load("cornell", &fog), VF_OK);
+  if (fog == NULL) return;
+  CHECK_INT_EQ(vf_vcm_auto_algorithm(fog, VF_ALGO_AUTO, &why), VF_ALGO_VCM);
+  fog->medium = add_medium(fog, vf_vec3_splat(0.01f), vf_vec3_splat(0.2f), 0.0f);
+  CHECK_INT_EQ(vf_vcm_auto_algorithm(fog, VF_ALGO_AUTO, &why), VF_ALGO_VCM);
+  printf("  cornell in fog: %s\n", why);
+  CHECK(strstr(why, "medium") != NULL);
+  CHECK_INT_EQ(vf_vcm_auto_algorithm(rough, VF_ALGO_AUTO_UNBIASED, &why), VF_ALGO_UPG);
+  rough->medium = add_medium(rough, vf_vec3_splat(0.01f), vf_vec3_splat(0.2f), 0.0f);
+  CHECK_INT_EQ(vf_vcm_auto_algorithm(rough, VF_ALGO_AUTO_UNBIASED, &why), VF_ALGO_BPT);
+  printf("  cornell-rough in fog, unbiased: %s\n", why);
+  vf_scene_destroy(fog);
+  vf_scene_destroy(rough);
+}
+
+/* The algorithms that do not render media refuse a scene with them, naming it. */
+static void test_other_algorithms_refuse_media(void) {
+  vf_scene *scene = NULL;
+  CHECK_INT_EQ(vf_scene_load("cornell", &scene), VF_OK);
+  if (scene == NULL) return;
+  scene->medium = add_medium(scene, vf_vec3_splat(0.01f), vf_vec3_splat(0.2f), 0.0f);
+  const vf_algorithm refused[] = {VF_ALGO_PPM, VF_ALGO_BPM, VF_ALGO_UPG};
+  vf_accel *accel = NULL;
+  vf_pool *pool = NULL;
+  CHECK_INT_EQ(vf_accel_create(scene, &accel), VF_OK);
+  CHECK_INT_EQ(vf_pool_create(1, &pool), VF_OK);
+  for (size_t a = 0; a < sizeof refused / sizeof *refused; a++) {
+    vf_settings s = scene->settings;
+    s.algorithm = refused[a];
+    vf_vcm *vcm = NULL;
+    int err = vf_vcm_create(scene, accel, &s, pool, &vcm);
+    CHECK(err != VF_OK && vcm == NULL);
+    if (err != VF_OK) {
+      printf("  %s: %s\n", vf_algorithm_name(refused[a]), vf_error_detail(err));
+      CHECK(strstr(vf_error_detail(err), vf_algorithm_name(refused[a])) != NULL);
+    }
+    vf_vcm_destroy(vcm);
+  }
+  /* A radius per pixel and merging in media need different radii: refused too. */
+  vf_settings s = scene->settings;
+  s.algorithm = VF_ALGO_VCM;
+  s.radius = VF_RADIUS_PER_PIXEL;
+  vf_vcm *vcm = NULL;
+  CHECK(vf_vcm_create(scene, accel, &s, pool, &vcm) != VF_OK);
+  vf_vcm_destroy(vcm);
+  vf_pool_destroy(pool);
+  vf_accel_destroy(accel);
+  vf_scene_destroy(scene);
+}
+
+/* One iteration's camera and light images with `threads` threads. */
+static float *render_once(const vf_scene *scene, const vf_settings *s, int threads, uint64_t iteration) {
+  size_t pixels = (size_t)s->width * s->height;
+  float *out = calloc(6 * pixels, sizeof(float));
+  vf_accel *accel = NULL;
+  vf_pool *pool = NULL;
+  vf_vcm *vcm = NULL;
+  vf_vcm_stats stats = {0};
+  int err = vf_accel_create(scene, &accel);
+  if (err == VF_OK) err = vf_pool_create(threads, &pool);
+  if (err == VF_OK) err = vf_vcm_create(scene, accel, s, pool, &vcm);
+  if (err == VF_OK) err = vf_vcm_iteration(vcm, iteration, out, out + 3 * pixels, &stats);
+  vf_vcm_destroy(vcm);
+  vf_pool_destroy(pool);
+  vf_accel_destroy(accel);
+  if (err != VF_OK) {
+    free(out);
+    return NULL;
+  }
+  return out;
+}
+
+/* An iteration is a pure function of (seed, iteration, path): the same bits on one thread
+ * and on two, for every technique, both samplers, in a scene with fog, a glass ball and a
+ * box of smoke (a grid, tracked with numbers from the paths' streams). */
+static void test_renders_in_media_are_reproducible(void) {
+  vf_scene *scene = NULL;
+  CHECK_INT_EQ(vf_scene_load("cornell", &scene), VF_OK);
+  if (scene == NULL) return;
+  scene->medium = add_medium(scene, vf_vec3_splat(0.05f), vf_vec3_splat(0.3f), 0.2f);
+  int ball = shape_named(scene, "glass ball");
+  CHECK(ball >= 0);
+  if (ball < 0) return;
+  scene->shapes[ball].interface = 1;
+  scene->shapes[ball].interior = -1;
+  scene->shapes[ball].exterior = scene->medium;
+  /* The mirror ball becomes the bounding sphere of a smoke grid. */
+  int mirror = shape_named(scene, "mirror ball");
+  CHECK(mirror >= 0);
+  if (mirror < 0) return;
+  int smoke = add_medium(scene, vf_vec3_splat(0.5f), vf_vec3_make(2.0f, 3.0f, 4.0f), -0.3f);
+  vf_density_grid *grid = make_blob_grid();
+  grid->box_min = vf_sub(scene->shapes[mirror].center, vf_vec3_splat(scene->shapes[mirror].radius));
+  grid->box_max = vf_add(scene->shapes[mirror].center, vf_vec3_splat(scene->shapes[mirror].radius));
+  scene->media[smoke].grid = grid;
+  make_boundary(scene, mirror, smoke);
+  scene->settings.width = scene->settings.height = 48;
+  const vf_algorithm algorithms[] = {VF_ALGO_PT, VF_ALGO_LT, VF_ALGO_BPT, VF_ALGO_VCM};
+  for (int k = 0; k < VF_SAMPLER_COUNT_; k++)
+    for (size_t a = 0; a < sizeof algorithms / sizeof *algorithms; a++) {
+      vf_settings s = scene->settings;
+      s.algorithm = algorithms[a];
+      s.sampler = (vf_sampler_kind)k;
+      float *one = render_once(scene, &s, 1, 5), *two = render_once(scene, &s, 2, 5);
+      CHECK(one != NULL && two != NULL);
+      size_t n = 6 * (size_t)s.width * s.height, differ = 0;
+      double sum = 0.0;
+      for (size_t i = 0; one && two && i < n; i++) {
+        differ += memcmp(&one[i], &two[i], sizeof(float)) != 0;
+        sum += one[i];
+      }
+      printf("  %-3s %-11s: 1 and 2 threads differ in %zu of %zu values (image sum %.3f)\n",
+             vf_algorithm_name(s.algorithm), vf_sampler_name(s.sampler), differ, n, sum);
+      CHECK_INT_EQ(differ, 0);
+      CHECK(sum > 0.0);
+      free(one);
+      free(two);
+    }
+  vf_scene_destroy(scene);
+}
+
 int main(void) {
   RUN(test_phase_function_sampling_matches_its_density);
   RUN(test_distance_sampling_estimates_transmittance_and_scattering);
@@ -532,5 +665,8 @@ int main(void) {
   RUN(test_furnace_filled_with_a_medium_of_albedo_one);
   RUN(test_single_scattering_in_a_thin_slab);
   RUN(test_fog_agreement_of_the_techniques);
+  RUN(test_auto_chooses_for_media);
+  RUN(test_renders_in_media_are_reproducible);
+  RUN(test_other_algorithms_refuse_media);
   return check_finish();
 }
