@@ -306,10 +306,12 @@ static int camera_medium_vertex(vf_vcm *v, int thread, camera_lane *lane, const 
   uint32_t vertex_dims = vf_dim_vertex(VF_DIM_CAMERA_VERTEX, s->path_length);
   if (v->t.light_sample) light_sample(v, thread, hit, &b, s, &lane->sampler, vertex_dims, lane->tile_pixel);
   if (v->t.connection) connect_to_light_path(v, thread, lane, hit, &b);
-  if (v->t.vertex_merging)
+  if (v->t.vertex_merging) {
     defer_unshadowed(v, thread, vf_mul(s->throughput, vf_volume_merging_estimate(v, &b, hit->position, &s->mis,
                                                                                   s->path_length)),
                      lane->tile_pixel);
+    if (v->t.ppm) return 0; /* ppm merges once, at the first vertex that is not specular */
+  }
   if (!vf_wavefront_scatter(v, &b, hit, s, &lane->sampler, vertex_dims, 1)) return 0;
   s->path_length++;
   return 1;

@@ -364,9 +364,10 @@ static int media_setup(vf_vcm *v) {
   v->camera_medium = -1;
   if (sc->num_media == 0) return VF_OK;
   vf_algorithm a = v->settings.algorithm;
-  if (a != VF_ALGO_PT && a != VF_ALGO_LT && a != VF_ALGO_BPT && a != VF_ALGO_VCM)
+  if (a == VF_ALGO_UPG)
     return vf_error_set(VF_EINVAL,
-                        "the scene has participating media, which %s does not render; pt, lt, bpt and vcm do",
+                        "the scene has participating media, which %s does not render (its gatherings would "
+                        "join light vertices across media); pt, lt, bpt, vcm, ppm and bpm do",
                         vf_algorithm_name(a));
   if (v->settings.radius == VF_RADIUS_PER_PIXEL && v->t.vertex_merging)
     return vf_error_set(VF_EINVAL, "the scene has participating media, which a merge radius per pixel does not "

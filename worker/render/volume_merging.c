@@ -63,9 +63,12 @@ vf_vec3 vf_volume_merging_estimate(const vf_vcm *v, const vf_bsdf *b, vf_vec3 po
       float cos_camera, camera_pdf, camera_rev_pdf;
       vf_vec3 f = vf_bsdf_evaluate(b, ph->fix, &cos_camera, &camera_pdf, &camera_rev_pdf);
       if (vf_is_zero(f)) continue;
-      /* The reverse step is taken at the light vertex: its medium's Russian roulette. */
-      camera_rev_pdf *= v->media[ph->medium].continuation / b->continuation;
-      float w = vf_mis_weight_merge_medium(&ph->mis, cam, c, v->medium_merge, camera_pdf, camera_rev_pdf);
+      float w = 1.0f; /* ppm merges unweighted */
+      if (!v->t.ppm) {
+        /* The reverse step is taken at the light vertex: its medium's Russian roulette. */
+        camera_rev_pdf *= v->media[ph->medium].continuation / b->continuation;
+        w = vf_mis_weight_merge_medium(&ph->mis, cam, c, v->medium_merge, camera_pdf, camera_rev_pdf);
+      }
       sum = vf_add(sum, vf_scale(vf_mul(f, ph->throughput), w));
     }
   /* 1 / ((4/3) pi r^3 n_light): the ball's volume, for the light sub-paths of one iteration. */
