@@ -33,7 +33,7 @@ source "$here/reference_lib.sh"
 
 # SCENES="a b" limits a run to some of them (for example to redo one scene's figures).
 scenes=${SCENES:-"cornell cornell-point cornell-sun cornell-env knot cornell-bulb cornell-diffuse cornell-glossy"}
-algorithms="vcm bpt pt ppm auto"
+algorithms=${ALGORITHMS:-"vcm bpt pt ppm auto"} # ALGORITHMS="a b" limits them
 case "$size" in
   # resolution, seconds per measured run, seconds per reference, checkpoint interval
   quick)  res=64;  run_s=1;  ref_s=4;   every=0.1 ;;

@@ -434,7 +434,8 @@ static void phase_pdfs(const vf_medium_rt *m, vf_vec3 from, vf_vec3 x, vf_vec3 t
  * start, hits through the medium with the segments' distance densities, scattering by
  * the phase function, with merges in media counted by vf_vcm.medium_merge), and the weights
  * of every technique that samples it: light sampling at x1, the connection of x1 and x2,
- * x2 projected onto the camera, and (vcm) merging at x1 and at x2. They must sum to one. */
+ * x2 projected onto the camera, and (vcm) merging at x1 and at x2. They must sum to one,
+ * and each equal its direct evaluation (media_path_weights_direct). */
 static double media_path_weight_sum(vf_vec3 x[4], const vf_medium_rt *m, vf_algorithm a, float beta, float eta_s,
                                     float radius, double *w_out) {
   const float n_light = 1e5f, pick = 1.0f, camera_pdf_w = 3.7f;
@@ -492,12 +493,38 @@ static double media_path_weight_sum(vf_vec3 x[4], const vf_medium_rt *m, vf_algo
   return w_out[0] + w_out[1] + w_out[2] + w_out[3] + w_out[4];
 }
 
+/* The same weights by direct evaluation (tech. rep. eq. 12, any beta), in double, from
+ * the path's vertex densities one by one: from the light pL(x0) = pick (a point), pL(x1) =
+ * emission pdf * scatter(d01) / d01^2, pL(x2) = phase pdf at x1 * scatter(d12) / d12^2;
+ * from the camera pE(x2) = camera pdf * scatter(d23) / d23^2, pE(x1) = phase pdf at x2 *
+ * scatter(d12) / d12^2. Techniques: light sampling at x1 pL0 pE1 pE2; the connection
+ * pL0 pL1 pE2; the projection onto the camera n_light pL0 pL1 pL2; merging at x1
+ * eta_m pL0 pL1 pE1 pE2 and at x2 eta_m pL0 pL1 pL2 pE2, eta_m = (4/3) pi r^3 n_light. */
+static void media_path_weights_direct(vf_vec3 x[4], const vf_medium_rt *m, vf_algorithm a, double beta, double radius,
+                                      double *w) {
+  const double n_light = 1e5, pick = 1.0, camera_pdf_w = 3.7;
+  double d01 = vf_length(vf_sub(x[1], x[0])), d12 = vf_length(vf_sub(x[2], x[1])), d23 = vf_length(vf_sub(x[3], x[2]));
+  float p, r;
+  double pL0 = pick, pL1 = pick / (4.0 * VF_PI) * piece_scatter(m, (float)d01) / (d01 * d01);
+  phase_pdfs(m, x[0], x[1], x[2], &p, &r);
+  double pL2 = p * piece_scatter(m, (float)d12) / (d12 * d12);
+  double pE2 = camera_pdf_w * piece_scatter(m, (float)d23) / (d23 * d23);
+  phase_pdfs(m, x[3], x[2], x[1], &p, &r);
+  double pE1 = p * piece_scatter(m, (float)d12) / (d12 * d12);
+  double eta = a == VF_ALGO_VCM ? 4.0 / 3.0 * M_PI * radius * radius * radius * n_light : 0.0;
+  double t[5] = {pL0 * pE1 * pE2, pL0 * pL1 * pE2, n_light * pL0 * pL1 * pL2, eta * pL0 * pL1 * pE1 * pE2,
+                 eta * pL0 * pL1 * pL2 * pE2};
+  double sum = 0.0;
+  for (int k = 0; k < 5; k++) sum += pow(t[k], beta);
+  for (int k = 0; k < 5; k++) w[k] = pow(t[k], beta) / sum;
+}
+
 static void test_mis_identity_on_paths_in_a_medium(void) {
   vf_medium med = {.sigma_a = vf_vec3_make(0.1f, 0.3f, 0.2f), .sigma_s = vf_vec3_make(0.8f, 0.5f, 1.1f), .g = 0.4f};
   vf_medium_rt m;
   vf_medium_prepare(&m, &med);
   vf_rng rng = vf_rng_for_path(3, 0, 0, 0);
-  double worst = 0.0, min_vm = 1.0, max_vm = 0.0;
+  double worst = 0.0, worst_direct = 0.0, min_vm = 1.0, max_vm = 0.0;
   const float betas[] = {1.0f, 2.0f, 3.0f};
   for (int trial = 0; trial < 300; trial++) {
     vf_vec3 x[4];
@@ -508,9 +535,13 @@ static void test_mis_identity_on_paths_in_a_medium(void) {
     float eta_s = VF_PI * radius * radius * 1e5f;
     for (size_t b = 0; b < 3; b++)
       for (int vcm = 0; vcm <= 1; vcm++) {
-        double w[5];
-        double sum = media_path_weight_sum(x, &m, vcm ? VF_ALGO_VCM : VF_ALGO_BPT, betas[b], eta_s, radius, w);
+        double w[5], direct[5];
+        vf_algorithm a = vcm ? VF_ALGO_VCM : VF_ALGO_BPT;
+        double sum = media_path_weight_sum(x, &m, a, betas[b], eta_s, radius, w);
+        media_path_weights_direct(x, &m, a, betas[b], radius, direct);
         worst = fmax(worst, fabs(sum - 1.0));
+        for (int k = 0; k < 5; k++)
+          if (direct[k] > 1e-6) worst_direct = fmax(worst_direct, fabs(w[k] - direct[k]) / direct[k]);
         if (vcm) {
           min_vm = fmin(min_vm, w[3] + w[4]);
           max_vm = fmax(max_vm, w[3] + w[4]);
@@ -518,9 +549,11 @@ static void test_mis_identity_on_paths_in_a_medium(void) {
         for (int k = 0; k < 5; k++) CHECK(w[k] >= 0.0 && w[k] <= 1.0);
       }
   }
-  printf("  paths with two medium vertices: worst |sum of weights - 1| %.2g; merges' share %.3g to %.3g\n", worst,
-         min_vm, max_vm);
+  printf("  paths with two medium vertices: worst |sum of weights - 1| %.2g, worst relative difference from the "
+         "direct evaluation %.2g; merges' share %.3g to %.3g\n",
+         worst, worst_direct, min_vm, max_vm);
   CHECK(worst < 1e-4);
+  CHECK(worst_direct < 1e-3); /* the float recursion against double, as tests/worker/render/test_mis.c */
   CHECK(max_vm > 0.5); /* merging takes part, heavily on some paths */
 }
 
