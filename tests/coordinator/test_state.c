@@ -593,7 +593,7 @@ static void test_a_damaged_job_list_is_refused_naming_the_problem(void) {
       {"", NULL, NULL, "state.json: not valid JSON"},
       {"{\"format\": 3, \"next_job_id\": 2, \"jobs\": [{\"id\": 1, \"na", NULL, NULL, "state.json: not valid JSON"},
       {"{\"format\": 9, \"next_job_id\": 1, \"jobs\": []}", NULL, NULL,
-       "state format 9, this coordinator reads 1 to 4"},
+       "state format 9, this coordinator reads 1 to 5"},
       {"{\"next_job_id\": 1, \"jobs\": []}", NULL, NULL,
        "\"format\" missing or not a whole number"},
       {"{\"format\": 3, \"next_job_id\": -1, \"jobs\": []}", NULL, NULL,
