@@ -284,6 +284,53 @@ static void test_failed_leases_and_blocks_outlive_a_restart(void) {
   vf_farm_destroy(&b);
 }
 
+/* A paused job and the tags it requires come back paused and requiring them (format 5),
+ * the other job neither; a bad requirement in the file is refused naming the job and the
+ * tag. */
+static void test_pause_and_requirements_outlive_a_restart(void) {
+  char dir[4200];
+  fresh_dir(dir, sizeof dir, "model");
+  vf_farm a, b;
+  open_farm(&a, dir);
+  vf_job *j = add_job(&a, 1, "knot", 0, 4), *k = add_job(&a, 1, "cornell", 0, 4);
+  if (j == NULL || k == NULL) return;
+  char *requires[] = {"night", "mem>=64G"};
+  CHECK_INT_EQ(vf_job_set_requires(j, requires, 2), VF_OK);
+  j->paused = 1;
+  CHECK_INT_EQ(vf_state_save_scene(dir, j), VF_OK);
+  CHECK_INT_EQ(vf_state_save_scene(dir, k), VF_OK);
+  CHECK_INT_EQ(vf_state_save_index(&a), VF_OK);
+  open_loaded(&b, dir);
+  CHECK_INT_EQ(b.num_jobs, 2);
+  if (b.num_jobs == 2) {
+    CHECK_INT_EQ(b.jobs[0]->paused, 1);
+    CHECK_STR_EQ(vf_job_state(b.jobs[0], 0), "paused");
+    CHECK_INT_EQ(b.jobs[0]->requires.count, 2);
+    CHECK_STR_EQ(b.jobs[0]->requires.tag[0], "night");
+    CHECK_STR_EQ(b.jobs[0]->requires.tag[1], "mem>=64G");
+    CHECK_INT_EQ(b.jobs[1]->paused, 0);
+    CHECK_INT_EQ(b.jobs[1]->requires.count, 0);
+  }
+  vf_farm_destroy(&b);
+  /* A bad requirement written into the file by hand. */
+  char path[4300];
+  snprintf(path, sizeof path, "%s/state.json", dir);
+  uint8_t *text;
+  size_t len;
+  CHECK_INT_EQ(vf_file_read_all(path, 1 << 20, &text, &len), VF_OK);
+  char *night = strstr((char *)text, "\"night\"");
+  CHECK(night != NULL);
+  if (night) memcpy(night + 1, "ni ht", 5);
+  CHECK_INT_EQ(vf_file_write_atomic(path, text, len, 0600), VF_OK);
+  free(text);
+  vf_farm c;
+  open_farm(&c, dir);
+  CHECK_INT_EQ(vf_state_load(&c), VF_EINVAL);
+  CHECK_STR_CONTAINS(vf_error_detail(VF_EINVAL), "job 1: requires: tag 'ni ht' holds a space");
+  vf_farm_destroy(&c);
+  vf_farm_destroy(&a);
+}
+
 /* A film checkpoint that fails is an event of its job (and is tried again later). */
 static void test_a_failed_checkpoint_is_an_event_of_its_job(void) {
   char dir[4200], blocked[4300];
@@ -763,6 +810,7 @@ int main(void) {
   RUN(test_format_3_is_read_with_old_settings_text);
   RUN(test_a_failed_checkpoint_is_an_event_of_its_job);
   RUN(test_failed_leases_and_blocks_outlive_a_restart);
+  RUN(test_pause_and_requirements_outlive_a_restart);
   RUN(test_stopping_writes_only_changed_films);
   RUN(test_an_empty_directory_is_an_empty_farm);
   RUN(test_a_stop_not_yet_durable_is_written_active);
