@@ -1,6 +1,7 @@
 #include "farm.h"
 
 #include "../common/clock.h"
+#include "../common/error.h"
 #include "blobs.h"
 #include "checkpoint.h"
 #include "deadline.h"
@@ -11,6 +12,7 @@
 #include "poison.h"
 #include "results.h"
 #include "ship.h"
+#include "state.h"
 #include "workers.h"
 
 #include <stdint.h>
@@ -87,6 +89,9 @@ void vf_farm_stalled(vf_farm *farm, double gap, double now) {
 void vf_farm_tick(vf_farm *farm, double now) {
   double dt = farm->last_tick > 0.0 ? now - farm->last_tick : 0.0;
   farm->last_tick = now;
+  /* A failed lease or a block written within a tick rather than a checkpoint interval, so
+   * that a crash right after cannot forget it; failing, the next tick tries again. */
+  if (farm->state_urgent && vf_state_save_index(farm) == VF_OK) farm->state_urgent = 0;
   vf_ship_tick(farm, now);
   vf_poison_tick(farm, now);
   for (size_t i = 0; i < farm->num_jobs; i++) {

@@ -72,6 +72,9 @@ typedef struct vf_farm {
   double started_at;       /* Unix seconds, vf_farm_init */
   vf_lease_table leases;   /* coordinator/leases.h */
   int state_dirty;         /* the job list changed since state.json was written */
+  /* A change that should not wait for the next checkpoint (a failed lease counted, a
+   * worker blocked: coordinator/poison.h): state.json is written at the next tick. */
+  int state_urgent;
   double last_tick;        /* of vf_farm_tick; 0 before the first */
   /* Checkpoints (coordinator/checkpoint.h): when set (borrowed), films are written by
    * this loop's thread pool; NULL, on the caller's thread (tests, benchmarks, the

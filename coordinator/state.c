@@ -195,7 +195,7 @@ int vf_state_save_index(vf_farm *farm) {
     err = vf_file_write_atomic(path, text, strlen(text), 0600);
   free(text);
   if (err == VF_OK) {
-    farm->state_dirty = 0;
+    farm->state_dirty = farm->state_urgent = 0;
     for (size_t i = 0; i < farm->num_jobs; i++) farm->jobs[i]->seconds_saved = farm->jobs[i]->seconds;
   }
 done:

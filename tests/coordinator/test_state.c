@@ -10,6 +10,7 @@
 #include "common/file.h"
 #include "common/settings.h"
 #include "coordinator/checkpoint.h"
+#include "coordinator/farm.h"
 #include "coordinator/log.h"
 #include "coordinator/poison.h"
 #include "coordinator/state.h"
@@ -279,6 +280,35 @@ static void test_failed_leases_and_blocks_outlive_a_restart(void) {
     vf_poison_lease_failed(&b, r->id, "w3", "it crashed", now);
     CHECK_INT_EQ(r->end, VF_JOB_FAILED);
     CHECK_STR_CONTAINS(r->message, "poison job: leases failed on 3 workers in a row");
+  }
+  vf_farm_destroy(&a);
+  vf_farm_destroy(&b);
+}
+
+/* A failed lease is written with the job list at the farm's next tick, without waiting
+ * for a checkpoint: a crash right after it (the farm dropped unsaved) still finds the
+ * failure counted and the worker blocked. */
+static void test_a_failed_lease_is_durable_within_a_tick(void) {
+  char dir[4200];
+  fresh_dir(dir, sizeof dir, "urgent");
+  vf_farm a, b;
+  vf_farm_config config = {dir, 15.0, 20.0, 600.0};
+  vf_farm_init(&a, &config);
+  vf_job *j = add_job(&a, 1, "knot", 0, 4);
+  if (j == NULL) return;
+  CHECK_INT_EQ(vf_state_save_scene(dir, j), VF_OK);
+  CHECK_INT_EQ(vf_state_save_index(&a), VF_OK);
+  double now = vf_seconds_now();
+  vf_poison_lease_failed(&a, j->id, "w1", "it crashed", now);
+  CHECK_INT_EQ(a.state_urgent, 1);
+  vf_farm_tick(&a, now);
+  CHECK_INT_EQ(a.state_urgent, 0);
+  vf_farm_init(&b, &config); /* a's memory is gone: what a crash leaves */
+  CHECK_INT_EQ(vf_state_load(&b), VF_OK);
+  CHECK_INT_EQ(b.num_jobs, 1);
+  if (b.num_jobs == 1) {
+    CHECK_INT_EQ(b.jobs[0]->lease_failures, 1);
+    CHECK(vf_poison_blocked(&b, "w1", b.jobs[0]->id, vf_seconds_now()));
   }
   vf_farm_destroy(&a);
   vf_farm_destroy(&b);
@@ -811,6 +841,7 @@ int main(void) {
   RUN(test_a_failed_checkpoint_is_an_event_of_its_job);
   RUN(test_failed_leases_and_blocks_outlive_a_restart);
   RUN(test_pause_and_requirements_outlive_a_restart);
+  RUN(test_a_failed_lease_is_durable_within_a_tick);
   RUN(test_stopping_writes_only_changed_films);
   RUN(test_an_empty_directory_is_an_empty_farm);
   RUN(test_a_stop_not_yet_durable_is_written_active);
