@@ -450,9 +450,12 @@ void vf_jobs_finish(vf_farm *farm, vf_job *job, double now) {
     vf_job_finish(job, VF_STOP_ITERATIONS, vf_unix_now(), NULL);
     farm->state_dirty = 1;
   }
-  vf_events_add(&job->events, job->ended_at > 0.0 ? job->ended_at : vf_unix_now(), "job_done", job->id, "",
-                "job done with %llu iteration%s: %s", (unsigned long long)vf_job_done(job),
-                vf_job_done(job) == 1 ? "" : "s", job->end == VF_JOB_STOPPED ? job->message : "all its iterations");
+  int told = 0; /* once per job, however it came to be finished again */
+  for (unsigned i = 0; i < job->events.count; i++) told |= strcmp(vf_events_at(&job->events, i)->kind, "job_done") == 0;
+  if (!told)
+    vf_events_add(&job->events, job->ended_at > 0.0 ? job->ended_at : vf_unix_now(), "job_done", job->id, "",
+                  "job done with %llu iteration%s: %s", (unsigned long long)vf_job_done(job),
+                  vf_job_done(job) == 1 ? "" : "s", job->end == VF_JOB_STOPPED ? job->message : "all its iterations");
   vf_leases_end_job(farm, job->id, now);
   vf_checkpoint_final(farm, job);
 }
