@@ -8,7 +8,8 @@
  * a row fail the job, a merge clears them, and a worker registering again under its name
  * or lost without progress failed its lease. Tags (common/tags.h): a job is leased only to
  * workers satisfying its requirements, bad tags are refused naming them; a paused job gets
- * no new leases while those out stay valid. */
+ * no new leases while those out stay valid. Fair share through the handlers: workers split
+ * between jobs in the ratio of their priorities, a job only some may render getting those. */
 #include "check.h"
 #include "common/error.h"
 #include "common/settings.h"
@@ -641,6 +642,78 @@ static void test_bad_requirements_of_a_job_are_refused_naming_them(void) {
   vf_farm_destroy(&f.farm);
 }
 
+/* Workers split between jobs by priority through the handlers themselves: 40 workers of one
+ * speed, each asking for work, rendering its lease for its duration, handing it back and
+ * asking again, for 400 simulated seconds; then the workers holding a lease of each job are
+ * counted. Priorities 1, 1 and 2: 10, 10 and 20 (within one worker). With the priority-2
+ * job requiring a tag only 8 workers carry, it gets those 8 (it cannot use more) and the
+ * others split the remaining 32 evenly. */
+static void split_by_priority(const char *night_requires, int night_workers, int want[3]) {
+  enum { WORKERS = 40 };
+  farm_fixture f;
+  farm_setup(&f, 1000000, 0);
+  add_job(&f, 2, 1000000, NULL);
+  vf_job *third = add_job(&f, 3, 1000000, night_requires);
+  if (third) third->priority = 2;
+  uint64_t ids[WORKERS], lease[WORKERS] = {0};
+  double free_at[WORKERS];
+  uint64_t held_job[WORKERS] = {0};
+  for (int i = 0; i < WORKERS; i++) {
+    char name[16], *night[] = {"night"};
+    snprintf(name, sizeof name, "s%d", i);
+    ids[i] = register_tagged(&f, name, night, i < night_workers ? 1 : 0, 0, NULL, 0);
+    vf_farm_find_worker(&f.farm, ids[i])->rate = 1.0;
+    free_at[i] = 0.01 * i;
+  }
+  for (int events = 0; events < 100000; events++) {
+    int k = 0;
+    for (int i = 1; i < WORKERS; i++)
+      if (free_at[i] < free_at[k]) k = i;
+    if (free_at[k] >= 400.0) break;
+    f.now = free_at[k];
+    vf_farm_worker *w = vf_farm_find_worker(&f.farm, ids[k]);
+    vf_farm_reply r;
+    if (lease[k]) {
+      Vcmfarm__LeaseRelease m = VCMFARM__LEASE_RELEASE__INIT;
+      m.worker_id = ids[k];
+      m.lease_id = lease[k];
+      m.failure = "";
+      vf_farm_reply_init(&r);
+      vf_leases_release(&f.farm, w, &m, f.now, &r);
+      vf_farm_reply_release(&r);
+      lease[k] = held_job[k] = 0;
+    }
+    vf_farm_reply_init(&r);
+    vf_leases_grant(&f.farm, w, f.now, &r);
+    if (r.env.body_case == VCMFARM__ENVELOPE__BODY_LEASE) {
+      lease[k] = r.lease.lease_id;
+      held_job[k] = r.lease.job_id;
+      free_at[k] = f.now + (double)(r.lease.end - r.lease.begin) / 1.0;
+    } else {
+      free_at[k] = f.now + 0.5;
+    }
+    vf_farm_reply_release(&r);
+  }
+  int held[3] = {0, 0, 0};
+  for (int i = 0; i < WORKERS; i++)
+    if (held_job[i] >= 1 && held_job[i] <= 3) held[held_job[i] - 1]++;
+  printf("     workers per job: %d, %d, %d (expected about %d, %d, %d)\n", held[0], held[1], held[2], want[0], want[1],
+         want[2]);
+  for (int j = 0; j < 3; j++) CHECK_NEAR(held[j], want[j], 1.0);
+  CHECK_INT_EQ(held[0] + held[1] + held[2], WORKERS);
+  vf_farm_destroy(&f.farm);
+}
+
+static void test_workers_are_split_by_priority(void) {
+  int want[3] = {10, 10, 20};
+  split_by_priority(NULL, 0, want);
+}
+
+static void test_a_job_only_some_workers_may_render_gets_those(void) {
+  int want[3] = {16, 16, 8};
+  split_by_priority("night", 8, want);
+}
+
 /* Pause or resume job 1 through the farm's handler: whether it was accepted. */
 static int pause_job(farm_fixture *f, int pause, char *message, size_t n) {
   vf_farm_reply r;
@@ -716,5 +789,7 @@ int main(void) {
   RUN(test_bad_tags_in_a_registration_are_refused_naming_them);
   RUN(test_bad_requirements_of_a_job_are_refused_naming_them);
   RUN(test_a_paused_job_gets_no_new_leases_and_keeps_those_out);
+  RUN(test_workers_are_split_by_priority);
+  RUN(test_a_job_only_some_workers_may_render_gets_those);
   return check_finish();
 }
