@@ -95,6 +95,9 @@ static int parse_job_id(const char *text, uint64_t *id) {
 
 /* ---- submit ---- */
 
+/* A long option's value that no short option and no shared option (cli/options.h) has. */
+#define OPT_REQUIRE 0x1001
+
 
 static const char submit_usage[] =
     "usage: vcmfarm submit SCENE --coordinator URL --secret FILE [options]\n"
@@ -113,6 +116,11 @@ static const char submit_usage[] =
     "                           (the reference is sent with the job)\n"
     "  -P, --priority P         weight 1 to 1000 (default 1): jobs share the workers' time in\n"
     "                           proportion to their priorities\n"
+    "      --require TAG[,TAG]  lease the job only to workers satisfying every TAG: one it\n"
+    "                           carries (worker --tags, or found: avx2, avx512), or mem>=N\n"
+    "                           with a unit K, M, G or T (its memory, e.g. mem>=64G); at\n"
+    "                           most 16 tags of 1 to 32 bytes, given once or in several\n"
+    "                           options\n"
     "  -N, --name NAME          a name for status (default: SCENE)\n"
     "      --camera NAME|INDEX  a glTF file's camera or Mitsuba scene's sensor to render\n"
     "                           (default: its first)\n"
@@ -144,7 +152,7 @@ static int wait_and_fetch(vf_farm_client *client, const connection *conn, uint64
       const Vcmfarm__JobStatus *j = reply->status->jobs[0];
       vf_status_job_line(j, line, sizeof line);
       snprintf(state, sizeof state, "%s", j->state);
-      ended = strcmp(j->state, "queued") != 0 && strcmp(j->state, "running") != 0;
+      ended = strcmp(j->state, "queued") != 0 && strcmp(j->state, "running") != 0 && strcmp(j->state, "paused") != 0;
     } else if (err == VF_OK) {
       err = vf_error_set(VF_EPROTO, "the status of job %llu lacks it", (unsigned long long)job_id);
     }
@@ -196,8 +204,10 @@ int vf_cmd_submit(int argc, char **argv) {
       {"camera", required_argument, 0, 'M'},          {"wait", no_argument, 0, 'w'},
       {"output", required_argument, 0, 'o'},          {"preview", required_argument, 0, 'p'},
       {"exposure", required_argument, 0, 'e'},        {"help", no_argument, 0, 'h'},
-      {0, 0, 0, 0}};
+      {"require", required_argument, 0, OPT_REQUIRE},         {0, 0, 0, 0}};
   uint64_t first = 0;
+  vf_tags requires;
+  vf_tags_init(&requires);
   const char *cmd = "submit", *name = NULL, *camera = NULL, *output = NULL, *preview = NULL;
   double exposure = 0.0;
   int wait = 0;
@@ -220,6 +230,7 @@ int vf_cmd_submit(int argc, char **argv) {
     case 'N': name = optarg; break;
     case 'M': camera = optarg; break;
     case 'K': err = vf_cli_u64("--start-iteration", optarg, &first); break;
+    case OPT_REQUIRE: err = vf_tags_parse("--require", optarg, &requires, 1); break;
     case 'w': wait = 1; break;
     case 'o': output = optarg; break;
     case 'p': preview = optarg; break;
@@ -241,7 +252,8 @@ int vf_cmd_submit(int argc, char **argv) {
   if (preview && (err = vf_cli_preview_check(preview)) != VF_OK) return vf_cli_fail(cmd, err);
   uint64_t iterations = vf_cli_stop_iterations(&stop);
   vf_submit_job job = {argv[optind], camera, name, &overrides, first, iterations, (int)priority,
-                       stop.time_limit, stop.target_rmse, stop.target_error, stop.reference, "vcmfarm submit"};
+                       stop.time_limit, stop.target_rmse, stop.target_error, stop.reference, "vcmfarm submit",
+                       &requires};
   vf_farm_client *client;
   if ((err = vf_submit_check_texts(&job)) != VF_OK) return vf_cli_fail(cmd, err);
   if ((err = connect_to(&conn, &client)) != VF_OK) return vf_cli_fail(cmd, err);
@@ -261,8 +273,10 @@ int vf_cmd_submit(int argc, char **argv) {
     snprintf(limits + strlen(limits), sizeof limits - strlen(limits), ", until RMSE %g", stop.target_rmse);
   if (stop.target_error > 0.0)
     snprintf(limits + strlen(limits), sizeof limits - strlen(limits), ", until est. RMSE %g", stop.target_error);
-  fprintf(stderr, "vcmfarm submit: %s, %s%s, from iteration %llu, priority %lld\n", argv[optind], submitted.settings_text,
-          limits, (unsigned long long)first, priority);
+  char required[VF_TAGS_MAX * (VF_TAG_MAX_BYTES + 1) + 1];
+  vf_tags_format(&requires, required, sizeof required);
+  fprintf(stderr, "vcmfarm submit: %s, %s%s, from iteration %llu, priority %lld%s%s\n", argv[optind],
+          submitted.settings_text, limits, (unsigned long long)first, priority, required[0] ? ", requires " : "", required);
   printf("%llu\n", (unsigned long long)submitted.job_id);
   fflush(stdout);
   int done = 1;
@@ -278,11 +292,12 @@ static const char status_usage[] =
     "usage: vcmfarm status [JOB] --coordinator URL --secret FILE [--json]\n"
     "\n"
     "Shows the farm's rate, every job (or JOB) and every worker. A job's state is one of\n"
-    "queued, running, done, cancelled, failed; with --json it is the field \"state\". A job\n"
-    "shows its rate, its progress and ETA towards the stop condition expected to end it,\n"
-    "its latest error and why it stopped; with JOB, its scene, settings, events and\n"
-    "convergence log too. Workers are idle, busy, stopping, left or lost (the latest that\n"
-    "left or were lost stay listed). The JSON is described in docs/PROTOCOL.md, \"Status\".\n"
+    "queued, running, paused, done, cancelled, failed; with --json it is the field\n"
+    "\"state\". A job shows its rate, its progress and ETA towards the stop condition\n"
+    "expected to end it, its latest error, why it stopped and the tags it requires; with\n"
+    "JOB, its scene, settings, events and convergence log too. Workers are idle, busy,\n"
+    "stopping, left or lost (the latest that left or were lost stay listed), with their\n"
+    "tags. The JSON is described in docs/PROTOCOL.md, \"Status\".\n"
     "\n"
     "  -J, --json             JSON on stdout instead of text\n" CONNECTION_HELP;
 
@@ -397,7 +412,21 @@ static const char remove_usage[] =
     "otherwise): the coordinator deletes its film and scene, and the scene files no other\n"
     "job names. Fetch the film first if you need it.\n\n" CONNECTION_HELP;
 
-/* `cancel JOB` and `remove JOB`: one request answered by a ResultAck. */
+static const char pause_usage[] =
+    "usage: vcmfarm pause JOB --coordinator URL --secret FILE\n"
+    "\n"
+    "Pauses JOB: it gets no new leases; the leases its workers hold when it is paused\n"
+    "are finished and their iterations merged, as always. Paused is saved with the job\n"
+    "list, so a restarted coordinator keeps it paused. `vcmfarm resume JOB` undoes it.\n\n" CONNECTION_HELP;
+
+static const char resume_usage[] =
+    "usage: vcmfarm resume JOB --coordinator URL --secret FILE\n"
+    "\n"
+    "Resumes a paused JOB: it is leased again, with its share of the workers by priority\n"
+    "from now on (no catching up for the time it was paused).\n\n" CONNECTION_HELP;
+
+/* `cancel JOB`, `remove JOB`, `pause JOB` and `resume JOB`: one request answered by a
+ * ResultAck. */
 static int job_request(int argc, char **argv, const char *cmd, const char *usage, Vcmfarm__Envelope__BodyCase body) {
   static const struct option options[] = {{"coordinator", required_argument, 0, 'c'},
                                           {"secret", required_argument, 0, 'k'},
@@ -420,11 +449,19 @@ static int job_request(int argc, char **argv, const char *cmd, const char *usage
   if ((err = parse_job_id(argv[optind], &job_id)) != VF_OK) return vf_cli_fail(cmd, err);
   Vcmfarm__CancelRequest cancel = VCMFARM__CANCEL_REQUEST__INIT;
   Vcmfarm__RemoveRequest remove = VCMFARM__REMOVE_REQUEST__INIT;
+  Vcmfarm__PauseRequest pause = VCMFARM__PAUSE_REQUEST__INIT;
+  Vcmfarm__ResumeRequest resume = VCMFARM__RESUME_REQUEST__INIT;
   Vcmfarm__Envelope q = VCMFARM__ENVELOPE__INIT, *reply;
   q.body_case = body;
   if (body == VCMFARM__ENVELOPE__BODY_CANCEL) {
     cancel.job_id = job_id;
     q.cancel = &cancel;
+  } else if (body == VCMFARM__ENVELOPE__BODY_PAUSE) {
+    pause.job_id = job_id;
+    q.pause = &pause;
+  } else if (body == VCMFARM__ENVELOPE__BODY_RESUME) {
+    resume.job_id = job_id;
+    q.resume = &resume;
   } else {
     remove.job_id = job_id;
     q.remove = &remove;
@@ -444,6 +481,14 @@ int vf_cmd_cancel(int argc, char **argv) {
 
 int vf_cmd_remove(int argc, char **argv) {
   return job_request(argc, argv, "remove", remove_usage, VCMFARM__ENVELOPE__BODY_REMOVE);
+}
+
+int vf_cmd_pause(int argc, char **argv) {
+  return job_request(argc, argv, "pause", pause_usage, VCMFARM__ENVELOPE__BODY_PAUSE);
+}
+
+int vf_cmd_resume(int argc, char **argv) {
+  return job_request(argc, argv, "resume", resume_usage, VCMFARM__ENVELOPE__BODY_RESUME);
 }
 
 /* ---- keygen ---- */

@@ -1,4 +1,5 @@
-/* The users' side of the farm: `vcmfarm submit`, `status`, `fetch`, `cancel`, `remove`, and
+/* The users' side of the farm: `vcmfarm submit`, `status`, `fetch`, `cancel`, `remove`,
+ * `pause`, `resume`, and
  * `keygen` for the shared key every peer needs. */
 #ifndef VF_CLIENT_CMD_H
 #define VF_CLIENT_CMD_H
@@ -8,6 +9,8 @@ int vf_cmd_status(int argc, char **argv);
 int vf_cmd_fetch(int argc, char **argv);
 int vf_cmd_cancel(int argc, char **argv);
 int vf_cmd_remove(int argc, char **argv);
+int vf_cmd_pause(int argc, char **argv);
+int vf_cmd_resume(int argc, char **argv);
 int vf_cmd_keygen(int argc, char **argv);
 
 #endif

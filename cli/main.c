@@ -45,6 +45,8 @@ static const command commands[] = {
     {"status", vf_cmd_status, "jobs and workers of a coordinator"},
     {"fetch", vf_cmd_fetch, "write a job's current film"},
     {"cancel", vf_cmd_cancel, "cancel a job"},
+    {"pause", vf_cmd_pause, "stop leasing a job (its leases out finish and ship)"},
+    {"resume", vf_cmd_resume, "lease a paused job again"},
     {"remove", vf_cmd_remove, "forget an ended job: its film, scene and unshared files"},
     {"keygen", vf_cmd_keygen, "write a new farm key file"},
 };

@@ -91,6 +91,9 @@ static void add_job(cJSON *jobs, const Vcmfarm__JobStatus *j) {
   cJSON_AddStringToObject(o, "name", j->name);
   cJSON_AddStringToObject(o, "state", j->state);
   cJSON_AddNumberToObject(o, "priority", j->priority);
+  cJSON_AddBoolToObject(o, "paused", j->paused);
+  cJSON *requires = cJSON_AddArrayToObject(o, "requires");
+  for (size_t i = 0; i < j->n_requires; i++) cJSON_AddItemToArray(requires, cJSON_CreateString(j->requires[i]));
   cJSON *scene = cJSON_AddObjectToObject(o, "scene");
   add_string_or_null(scene, "name", j->scene_name);
   char hex[65] = "";
@@ -162,6 +165,10 @@ static void add_worker(cJSON *workers, const Vcmfarm__WorkerStatus *w) {
   cJSON_AddStringToObject(o, "state", w->state);
   add_string_or_null(o, "host", w->host);
   cJSON_AddNumberToObject(o, "cores", w->cores);
+  cJSON *tags = cJSON_AddArrayToObject(o, "tags");
+  for (size_t i = 0; i < w->n_tags; i++) cJSON_AddItemToArray(tags, cJSON_CreateString(w->tags[i]));
+  if (w->memory_bytes > 0) cJSON_AddNumberToObject(o, "memory_bytes", (double)w->memory_bytes);
+  else cJSON_AddNullToObject(o, "memory_bytes");
   add_string_or_null(o, "version", w->software_version);
   cJSON_AddNumberToObject(o, "iterations_per_second", w->iterations_per_second);
   cJSON_AddNumberToObject(o, "last_seen_seconds", w->last_seen_seconds);
@@ -244,7 +251,8 @@ void vf_status_job_line(const Vcmfarm__JobStatus *j, char *buf, size_t n) {
   buf[0] = '\0';
   append(&p, &left, "%s, %llu %s done", j->state, (unsigned long long)j->iterations_done,
          vf_cli_plural(j->iterations_done, "iteration", "iterations"));
-  if (j->progress_by[0] && (strcmp(j->state, "running") == 0 || strcmp(j->state, "queued") == 0))
+  if (j->progress_by[0] &&
+      (strcmp(j->state, "running") == 0 || strcmp(j->state, "queued") == 0 || strcmp(j->state, "paused") == 0))
     append(&p, &left, ", %.0f%% (%s), ETA %s", 100.0 * j->progress, j->progress_by, eta);
   if (isfinite(j->estimated_rmse)) {
     vf_settings s;
@@ -303,6 +311,11 @@ void vf_status_print_text(const Vcmfarm__Status *st, FILE *out) {
     fprintf(out, "job %llu '%s': %s\n", (unsigned long long)j->job_id, j->name, line);
     fprintf(out, "  %llu leased (%llu of them rendered, not merged yet), priority %d; stops at the first of: %s\n",
             (unsigned long long)j->iterations_leased, (unsigned long long)j->iterations_rendering, j->priority, stop);
+    if (j->n_requires > 0) {
+      fprintf(out, "  requires");
+      for (size_t k = 0; k < j->n_requires; k++) fprintf(out, "%s%s", k ? "," : " ", j->requires[k]);
+      fprintf(out, " (leased only to workers satisfying all)\n");
+    }
     fprintf(out, "  ran %s, %.2f it/s on %u %s", ran, j->iterations_per_second, j->workers,
             vf_cli_plural(j->workers, "worker", "workers"));
     if (j->results_refused)
@@ -337,6 +350,7 @@ void vf_status_print_text(const Vcmfarm__Status *st, FILE *out) {
     const Vcmfarm__WorkerStatus *w = st->workers[i];
     fprintf(out, "worker %s (%s%s%u %s, %u %s): %s", w->name, w->host[0] ? w->host : "", w->host[0] ? ", " : "",
             w->threads, vf_cli_plural(w->threads, "thread", "threads"), w->cores, vf_cli_plural(w->cores, "core", "cores"), w->state);
+    for (size_t k = 0; k < w->n_tags; k++) fprintf(out, "%s%s", k ? "," : ", tags ", w->tags[k]);
     if (w->lease_job)
       fprintf(out, ", job %llu [%llu,%llu)", (unsigned long long)w->lease_job, (unsigned long long)w->lease_begin,
               (unsigned long long)w->lease_end);

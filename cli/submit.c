@@ -224,6 +224,10 @@ int vf_submit(vf_farm_client *client, int timeout_ms, const vf_submit_job *job, 
   m.scene_path = scene_path;
   m.iterations = job->iterations;
   m.priority = (int32_t)job->priority;
+  char *requires[VF_TAGS_MAX];
+  for (unsigned i = 0; job->requires != NULL && i < job->requires->count; i++)
+    requires[m.n_requires++] = (char *)job->requires->tag[i];
+  m.requires = requires;
   m.time_limit = job->time_limit;
   m.target_rmse = job->target_rmse;
   m.target_error = job->target_error;

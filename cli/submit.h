@@ -8,6 +8,7 @@
 #include "options.h"
 #include "../common/farm_client.h"
 #include "../common/settings.h"
+#include "../common/tags.h"
 
 #include <stdint.h>
 
@@ -21,6 +22,7 @@ typedef struct {
   double time_limit, target_rmse, target_error; /* 0: none */
   const char *reference;            /* a reference EXR, or NULL */
   const char *log_prefix;           /* "vcmfarm submit": the line saying what was sent; NULL: none */
+  const vf_tags *requires;          /* tags a worker must satisfy (--require), or NULL: none */
 } vf_submit_job;
 
 typedef struct {

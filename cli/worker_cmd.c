@@ -25,6 +25,13 @@ static const char usage[] =
     "  -k, --secret FILE     the farm's key file (vcmfarm keygen); required\n"
     "  -j, --threads T       render threads (default: one per CPU)\n"
     "  -n, --name NAME       name shown in status (default HOST/PID)\n"
+    "      --tags TAG[,TAG]  tags of this worker (a pool, a room, a licence: night,gpu-room);\n"
+    "                        jobs submitted with --require are leased only to workers\n"
+    "                        satisfying all they require. At most 16 tags of 1 to 32\n"
+    "                        bytes of UTF-8, no spaces or commas; given once or in several\n"
+    "                        options. Found ones are added: avx2, avx512 from the CPU,\n"
+    "                        and the machine's memory is told for mem>=N requirements\n"
+    "      --no-auto-tags    add no CPU tags (the memory is still told)\n"
     "      --ship-interval S  send the iterations rendered so far every S seconds during\n"
     "                        a lease (default: as often as the coordinator says, which\n"
     "                        it chooses from its load and the film's size; longer when\n"
@@ -51,12 +58,15 @@ int vf_cmd_worker(int argc, char **argv) {
       {"test-abort-scene", required_argument, 0, 'A'},
       {"ship-interval", required_argument, 0, 'I'},
       {"cache", required_argument, 0, 'C'},   {"cache-max", required_argument, 0, 'M'},
+      {"tags", required_argument, 0, 'G'},   {"no-auto-tags", no_argument, 0, 'g'},
       {"help", no_argument, 0, 'h'},          {0, 0, 0, 0}};
   const char *cmd = "worker", *secret = NULL, *cache = NULL;
   vf_worker_config config;
   memset(&config, 0, sizeof config);
   config.ship_interval = 0.0; /* the coordinator's */
   long long threads = 0, delay = 0;
+  vf_tags tags;
+  vf_tags_init(&tags);
   int err = VF_OK, c;
   optind = 0; /* 0: getopt starts again from scratch (glibc), forgetting the last argv */
   while ((c = vf_cli_getopt(argc, argv, "c:k:j:n:h", options)) != -1) {
@@ -74,6 +84,8 @@ int vf_cmd_worker(int argc, char **argv) {
     case 'I': err = vf_cli_double("--ship-interval", optarg, 0.01, 86400.0, &config.ship_interval); break;
     case 'C': cache = optarg; break;
     case 'M': err = vf_cli_bytes("--cache-max", optarg, &config.cache_max_bytes); break;
+    case 'G': err = vf_tags_parse("--tags", optarg, &tags, 0); break;
+    case 'g': config.no_auto_tags = 1; break;
     case 'h': fputs(usage, stdout); return VF_EXIT_OK;
     default:
       return vf_cli_bad_option("worker");
@@ -91,6 +103,7 @@ int vf_cmd_worker(int argc, char **argv) {
   if (err == VF_OK) err = vf_wire_key_load(secret, &config.key);
   if (err != VF_OK) return vf_cli_fail(cmd, err);
   config.cache_dir = cache_dir;
+  config.tags = &tags;
   config.threads = (int)threads;
   config.iteration_delay_ms = (int)delay;
   srand((unsigned)getpid());

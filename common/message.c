@@ -64,6 +64,8 @@ const char *vf_message_name(const Vcmfarm__Envelope *env) {
   case VCMFARM__ENVELOPE__BODY_FETCH: return "fetch";
   case VCMFARM__ENVELOPE__BODY_CANCEL: return "cancel";
   case VCMFARM__ENVELOPE__BODY_REMOVE: return "remove";
+  case VCMFARM__ENVELOPE__BODY_PAUSE: return "pause";
+  case VCMFARM__ENVELOPE__BODY_RESUME: return "resume";
   case VCMFARM__ENVELOPE__BODY_REGISTERED: return "registered";
   case VCMFARM__ENVELOPE__BODY_LEASE: return "lease";
   case VCMFARM__ENVELOPE__BODY_IDLE: return "idle";

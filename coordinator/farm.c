@@ -1,6 +1,7 @@
 #include "farm.h"
 
 #include "../common/clock.h"
+#include "../common/error.h"
 #include "blobs.h"
 #include "checkpoint.h"
 #include "deadline.h"
@@ -11,6 +12,7 @@
 #include "poison.h"
 #include "results.h"
 #include "ship.h"
+#include "state.h"
 #include "workers.h"
 
 #include <stdint.h>
@@ -34,6 +36,8 @@ void vf_farm_handle(vf_farm *farm, const Vcmfarm__Envelope *q, double now, vf_fa
   case VCMFARM__ENVELOPE__BODY_FETCH: return vf_jobs_fetch(farm, q->fetch, now, r);
   case VCMFARM__ENVELOPE__BODY_CANCEL: return vf_jobs_cancel(farm, q->cancel, now, r);
   case VCMFARM__ENVELOPE__BODY_REMOVE: return vf_jobs_remove(farm, q->remove, r);
+  case VCMFARM__ENVELOPE__BODY_PAUSE: return vf_jobs_pause(farm, q->pause->job_id, 1, r);
+  case VCMFARM__ENVELOPE__BODY_RESUME: return vf_jobs_pause(farm, q->resume->job_id, 0, r);
   case VCMFARM__ENVELOPE__BODY_BLOB_QUERY: return vf_blobs_query(farm, q->blob_query, r);
   case VCMFARM__ENVELOPE__BODY_BLOB_PUT: return vf_blobs_put(farm, q->blob_put, r);
   case VCMFARM__ENVELOPE__BODY_BLOB_REQUEST: worker_id = q->blob_request->worker_id; break;
@@ -85,13 +89,18 @@ void vf_farm_stalled(vf_farm *farm, double gap, double now) {
 void vf_farm_tick(vf_farm *farm, double now) {
   double dt = farm->last_tick > 0.0 ? now - farm->last_tick : 0.0;
   farm->last_tick = now;
+  /* A failed lease or a block written within a tick rather than a checkpoint interval, so
+   * that a crash right after cannot forget it; failing, the next tick tries again. */
+  if (farm->state_urgent && vf_state_save_index(farm) == VF_OK) farm->state_urgent = 0;
   vf_ship_tick(farm, now);
   vf_poison_tick(farm, now);
   for (size_t i = 0; i < farm->num_jobs; i++) {
     vf_job *j = farm->jobs[i];
     if (!vf_job_runnable(j)) continue;
-    /* Running from its first lease: a queued job's clock has not started. */
-    if (vf_job_done(j) > 0 || vf_lease_active_iterations(&farm->leases, j->id) > 0) j->seconds += dt;
+    /* Running from its first lease: a queued job's clock has not started, and a paused
+     * one's stops once the leases it had out have ended. */
+    uint64_t active = vf_lease_active_iterations(&farm->leases, j->id);
+    if ((vf_job_done(j) > 0 && !j->paused) || active > 0) j->seconds += dt;
     if (j->time_limit > 0.0) vf_deadline_tick(farm, j, now);
   }
 }

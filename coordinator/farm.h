@@ -36,8 +36,9 @@ void vf_farm_stalled(vf_farm *farm, double gap, double now);
 /* Advances the running time of every running job to `now`, closes those whose time limit
  * it reaches and stops them once their leases' final parts are in or the grace period is
  * over (coordinator/deadline.h: revoking what is left, writing their film and the job
- * list). Call it often (the coordinator does every 200 ms): a time limit is honoured to
- * one call. */
+ * list), and writes the job list when a change waits for it (farm->state_urgent: a failed
+ * lease, coordinator/poison.h). Call it often (the coordinator does every 200 ms): a time
+ * limit is honoured to one call. */
 void vf_farm_tick(vf_farm *farm, double now);
 
 /* The farm's checkpoint: vf_checkpoint_write (coordinator/checkpoint.h). */

@@ -12,6 +12,7 @@
 #define VF_FARM_CORE_H
 
 #include "../common/message.h"
+#include "../common/tags.h"
 #include "events.h"
 #include "job.h"
 #include "lease.h"
@@ -34,6 +35,8 @@ typedef struct {
   char host[64];      /* its host name, as it says (version 6) */
   char version[32];   /* its software version */
   unsigned cores, threads;
+  vf_tags tags;          /* what it carries (version 10): given and found (common/tags.h) */
+  uint64_t memory_bytes; /* its machine's memory, as it says; 0 unknown */
   vf_worker_state state;
   double last_seen;   /* vf_seconds_now() of its last message */
   double registered_at, departed_at; /* Unix seconds; departed_at 0 while registered */
@@ -69,6 +72,9 @@ typedef struct vf_farm {
   double started_at;       /* Unix seconds, vf_farm_init */
   vf_lease_table leases;   /* coordinator/leases.h */
   int state_dirty;         /* the job list changed since state.json was written */
+  /* A change that should not wait for the next checkpoint (a failed lease counted, a
+   * worker blocked: coordinator/poison.h): state.json is written at the next tick. */
+  int state_urgent;
   double last_tick;        /* of vf_farm_tick; 0 before the first */
   /* Checkpoints (coordinator/checkpoint.h): when set (borrowed), films are written by
    * this loop's thread pool; NULL, on the caller's thread (tests, benchmarks, the

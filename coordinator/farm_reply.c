@@ -60,6 +60,7 @@ void vf_farm_reply_release(vf_farm_reply *r) {
   free(r->log_ptrs);
   free(r->events);
   free(r->event_ptrs);
+  free(r->tag_ptrs);
   free(r->missing);
   free(r->blob_bytes);
   free(r->file_refs);

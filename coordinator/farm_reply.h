@@ -30,6 +30,7 @@ typedef struct vf_farm_reply {
   uint8_t *film_bytes;
   Vcmfarm__ConvergenceEntry *log, **log_ptrs;
   Vcmfarm__Event *events, **event_ptrs; /* every job's and the farm's; texts borrowed from the farm */
+  char **tag_ptrs; /* jobs' requirements and workers' tags (version 10); texts borrowed from the farm */
   /* ---- files of scenes by content hash (coordinator/blobs.h) ---- */
   Vcmfarm__BlobHave blob_have;
   Vcmfarm__Blob blob;

@@ -119,6 +119,25 @@ uint64_t vf_job_done(const vf_job *job) { return vf_iterset_count(&job->film->it
 
 int vf_job_complete(const vf_job *job) { return job->end == VF_JOB_STOPPED || vf_job_done(job) >= job->iterations; }
 
+int vf_job_set_requires(vf_job *job, char *const *tags, size_t count) {
+  vf_tags requires;
+  vf_tags_init(&requires);
+  if (count > VF_TAGS_MAX) {
+    vf_tags_init(&job->requires);
+    return vf_error_set(VF_EINVAL, "requires: %zu tags, at most %d", count, VF_TAGS_MAX);
+  }
+  for (size_t i = 0; i < count; i++) {
+    int err = tags[i] ? vf_tags_add("requires", &requires, tags[i], strlen(tags[i]), 1)
+                      : vf_error_set(VF_EINVAL, "requires: tag %zu missing", i);
+    if (err != VF_OK) {
+      vf_tags_init(&job->requires);
+      return err;
+    }
+  }
+  job->requires = requires;
+  return VF_OK;
+}
+
 int vf_job_runnable(const vf_job *job) { return job->end == VF_JOB_ACTIVE && !vf_job_complete(job); }
 
 const char *vf_job_state(const vf_job *job, uint64_t leased) {
@@ -127,6 +146,7 @@ const char *vf_job_state(const vf_job *job, uint64_t leased) {
   /* Done only once its final film is durable (coordinator/checkpoint.h): until then a
    * crash would bring it back short of what it merged. */
   if (vf_job_complete(job)) return job->final_pending ? "running" : "done";
+  if (job->paused) return "paused";
   return vf_job_done(job) > 0 || leased > 0 ? "running" : "queued";
 }
 

@@ -14,6 +14,7 @@
 #include "../common/forecast.h"
 #include "../common/image.h"
 #include "../common/settings.h"
+#include "../common/tags.h"
 #include "events.h"
 
 #include <stddef.h>
@@ -40,6 +41,8 @@ typedef struct {
   uint64_t id;
   char name[VF_JOB_MAX_NAME + 1];
   int priority; /* weight, VF_PRIORITY_MIN..VF_PRIORITY_MAX (coordinator/schedule.h) */
+  vf_tags requires; /* a worker is leased it only when it satisfies all (common/tags.h) */
+  int paused;   /* no new leases; those outstanding finish and ship (vf_job_state "paused") */
   int scene_builtin;    /* 1: scene_text is a built-in scene name; 0: JSON scene text */
   char *scene_text;     /* owned, NUL-terminated */
   vf_blob_table files;  /* owned: the files a JSON scene names, by content hash; their
@@ -120,6 +123,11 @@ void vf_job_destroy(vf_job *job);
  * with a detail for a path too long for the film or with control characters. */
 int vf_job_set_scene_path(vf_job *job, const char *path);
 
+/* Sets the tags a worker must satisfy to be leased the job (common/tags.h), `count` of
+ * them, checked as untrusted input: at most VF_TAGS_MAX, each a well-formed requirement.
+ * VF_EINVAL with a detail naming the tag ("requires: ..."); the job keeps none then. */
+int vf_job_set_requires(vf_job *job, char *const *tags, size_t count);
+
 /* Sets the stop conditions besides the iterations, checked as untrusted input: each is 0
  * (none) or finite and positive, time at most a year; target_rmse needs a reference.
  * VF_EINVAL with a detail naming the field. */
@@ -168,9 +176,10 @@ double vf_job_farm_rate(const vf_job *job, double now, double window);
  * another condition is set. An ended job: progress 1, ETA 0, `by` its stop reason. */
 void vf_job_forecast(const vf_job *job, double rate, vf_forecast *out);
 
-/* "queued", "running", "done", "cancelled" or "failed"; `leased` is the number of
- * iterations currently leased out. A complete job is "running" until its final film is
- * durable (final_pending clear). */
+/* "queued", "running", "paused", "done", "cancelled" or "failed"; `leased` is the number
+ * of iterations currently leased out. A complete job is "running" until its final film is
+ * durable (final_pending clear); a runnable job that is paused is "paused", whether or
+ * not leases granted before the pause are still out. */
 const char *vf_job_state(const vf_job *job, uint64_t leased);
 uint64_t vf_job_done(const vf_job *job);
 /* Its film holds [first, first + iterations), or it was stopped by another condition. */

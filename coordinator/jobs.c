@@ -36,6 +36,7 @@ void vf_jobs_submit(vf_farm *farm, const Vcmfarm__SubmitJob *m, vf_farm_reply *r
                       m->scene_hash.len, m->settings, m->first_iteration, m->iterations, &job);
   free(sent_text);
   if (err == VF_OK && ((err = vf_job_set_scene_path(job, m->scene_path)) != VF_OK ||
+                       (err = vf_job_set_requires(job, m->requires, m->n_requires)) != VF_OK ||
                        (err = vf_blobs_attach(farm, job, m->scene)) != VF_OK))
     vf_job_destroy(job);
   if (err != VF_OK) return vf_farm_reply_fail(r, err);
@@ -83,9 +84,15 @@ void vf_jobs_submit(vf_farm *farm, const Vcmfarm__SubmitJob *m, vf_farm_reply *r
     n += snprintf(limits + n, sizeof limits - (size_t)n, ", target RMSE %g", job->target_rmse);
   if (job->target_error > 0.0 && n > 0 && (size_t)n < sizeof limits)
     snprintf(limits + n, sizeof limits - (size_t)n, ", target error %g", job->target_error);
-  vf_log("job %llu '%s' submitted: %s %s, %s%s, priority %d", (unsigned long long)job->id, job->name,
+  char requires[VF_TAGS_MAX * (VF_TAG_MAX_BYTES + 1) + 1];
+  vf_tags_format(&job->requires, requires, sizeof requires);
+  vf_log("job %llu '%s' submitted: %s %s, %s%s, priority %d%s%s", (unsigned long long)job->id, job->name,
          builtin ? "built-in" : "JSON scene", builtin ? job->scene_text : job->film->scene_name[0] ? job->film->scene_name : "(no path)",
-         limits, job->reference.rgb ? " (with a reference)" : "", job->priority);
+         limits, job->reference.rgb ? " (with a reference)" : "", job->priority, requires[0] ? ", requires " : "",
+         requires);
+  vf_events_add(&job->events, job->submitted_at, "job_submitted", job->id, "", "job '%s' submitted: %s, priority %d%s%s",
+                job->name, limits, job->priority, requires[0] ? ", requires " : "", requires);
+  farm->state_dirty = 1; /* the event, with the next write of the job list */
   vcmfarm__submitted__init(&r->submitted);
   r->submitted.job_id = job->id;
   r->env.body_case = VCMFARM__ENVELOPE__BODY_SUBMITTED;
@@ -141,6 +148,13 @@ static size_t attach_events(vf_farm_reply *r, size_t *next, const vf_events *log
   return log->count;
 }
 
+/* Tags of a list into the reply's array from *next on; their count. */
+static size_t attach_tags(vf_farm_reply *r, size_t *next, const vf_tags *tags, char ***out) {
+  *out = &r->tag_ptrs[*next];
+  for (unsigned i = 0; i < tags->count; i++) r->tag_ptrs[(*next)++] = (char *)tags->tag[i];
+  return tags->count;
+}
+
 static void fill_worker(vf_farm *farm, const vf_farm_worker *w, double now, Vcmfarm__WorkerStatus *s) {
   vcmfarm__worker_status__init(s);
   s->worker_id = w->id;
@@ -164,6 +178,7 @@ static void fill_worker(vf_farm *farm, const vf_farm_worker *w, double now, Vcmf
   s->parts_merged = w->parts_merged;
   s->results_refused = w->results_refused;
   s->leases = w->leases;
+  s->memory_bytes = w->memory_bytes;
 }
 
 void vf_jobs_status(vf_farm *farm, const Vcmfarm__StatusRequest *m, double now, vf_farm_reply *r) {
@@ -175,7 +190,11 @@ void vf_jobs_status(vf_farm *farm, const Vcmfarm__StatusRequest *m, double now, 
     }
   if (m->job_id != 0 && nj == 0)
     return vf_farm_reply_errorf(r, VCMFARM__ERROR_CODE__ERROR_UNKNOWN_JOB, "no job %llu", (unsigned long long)m->job_id);
-  size_t nw = farm->num_workers + farm->num_departed;
+  size_t nw = farm->num_workers + farm->num_departed, nt = 0;
+  for (size_t i = 0; i < farm->num_jobs; i++) nt += farm->jobs[i]->requires.count;
+  for (size_t i = 0; i < farm->num_workers; i++) nt += farm->workers[i].tags.count;
+  for (unsigned i = 0; i < farm->num_departed; i++) nt += vf_workers_departed(farm, i)->tags.count;
+  r->tag_ptrs = calloc(nt ? nt : 1, sizeof *r->tag_ptrs);
   r->job_status = calloc(nj ? nj : 1, sizeof *r->job_status);
   r->job_status_ptrs = calloc(nj ? nj : 1, sizeof *r->job_status_ptrs);
   r->worker_status = calloc(nw ? nw : 1, sizeof *r->worker_status);
@@ -183,7 +202,7 @@ void vf_jobs_status(vf_farm *farm, const Vcmfarm__StatusRequest *m, double now, 
   r->events = calloc(ne ? ne : 1, sizeof *r->events);
   r->event_ptrs = calloc(ne ? ne : 1, sizeof *r->event_ptrs);
   if (!r->job_status || !r->job_status_ptrs || !r->worker_status || !r->worker_status_ptrs || !r->events ||
-      !r->event_ptrs)
+      !r->event_ptrs || !r->tag_ptrs)
     return vf_farm_reply_fail(r, vf_error_set(VF_ENOMEM, "out of memory"));
   vcmfarm__status__init(&r->status);
   r->status.time = vf_unix_now();
@@ -194,7 +213,7 @@ void vf_jobs_status(vf_farm *farm, const Vcmfarm__StatusRequest *m, double now, 
     r->status.iterations_per_second += vf_job_farm_rate(farm->jobs[i], now, rate_window(farm));
   for (size_t i = 0; i < farm->num_workers; i++)
     r->status.workers_busy += vf_lease_find(&farm->leases, farm->workers[i].lease_id) != NULL;
-  size_t k = 0, next_event = 0;
+  size_t k = 0, next_event = 0, next_tag = 0;
   for (size_t i = 0; i < farm->num_jobs; i++) {
     vf_job *j = farm->jobs[i];
     if (m->job_id != 0 && j->id != m->job_id) continue;
@@ -241,6 +260,8 @@ void vf_jobs_status(vf_farm *farm, const Vcmfarm__StatusRequest *m, double now, 
     s->scene_name = j->film->scene_name;
     s->scene_hash = (ProtobufCBinaryData){32, j->scene_hash};
     s->algorithm_resolved = j->algorithm_resolved;
+    s->n_requires = attach_tags(r, &next_tag, &j->requires, &s->requires);
+    s->paused = j->paused != 0;
     s->n_events = attach_events(r, &next_event, &j->events, &s->events);
     s->events_dropped = j->events.dropped;
     for (size_t w = 0; w < farm->num_workers; w++) {
@@ -255,10 +276,13 @@ void vf_jobs_status(vf_farm *farm, const Vcmfarm__StatusRequest *m, double now, 
   size_t kw = 0;
   for (size_t i = 0; i < farm->num_workers; i++, kw++) {
     fill_worker(farm, &farm->workers[i], now, &r->worker_status[kw]);
+    r->worker_status[kw].n_tags = attach_tags(r, &next_tag, &farm->workers[i].tags, &r->worker_status[kw].tags);
     r->worker_status_ptrs[kw] = &r->worker_status[kw];
   }
   for (unsigned i = 0; i < farm->num_departed; i++, kw++) {
     fill_worker(farm, vf_workers_departed(farm, i), now, &r->worker_status[kw]);
+    r->worker_status[kw].n_tags =
+        attach_tags(r, &next_tag, &vf_workers_departed(farm, i)->tags, &r->worker_status[kw].tags);
     r->worker_status_ptrs[kw] = &r->worker_status[kw];
   }
   r->status.n_jobs = k;
@@ -323,12 +347,53 @@ void vf_jobs_cancel(vf_farm *farm, const Vcmfarm__CancelRequest *m, double now, 
     return vf_farm_reply_ack(r, 0, r->text);
   }
   vf_job_finish(job, VF_STOP_CANCELLED, vf_unix_now(), NULL);
+  vf_events_add(&job->events, job->ended_at, "job_cancelled", job->id, "", "job cancelled with %llu iteration%s done",
+                (unsigned long long)vf_job_done(job), vf_job_done(job) == 1 ? "" : "s");
   vf_leases_end_job(farm, job->id, now);
   farm->state_dirty = 1;
   int err = vf_state_save_index(farm);
   vf_log("job %llu cancelled", (unsigned long long)job->id);
   if (err != VF_OK) return vf_farm_reply_fail(r, err);
   vf_farm_reply_ack(r, 1, "cancelled");
+}
+
+void vf_jobs_pause(vf_farm *farm, uint64_t job_id, int pause, vf_farm_reply *r) {
+  vf_job *job = vf_farm_job(farm, job_id);
+  if (job == NULL)
+    return vf_farm_reply_errorf(r, VCMFARM__ERROR_CODE__ERROR_UNKNOWN_JOB, "no job %llu", (unsigned long long)job_id);
+  uint64_t leased = vf_lease_active_iterations(&farm->leases, job->id);
+  if (!vf_job_runnable(job)) {
+    snprintf(r->text, sizeof r->text, "job %llu is %s already", (unsigned long long)job->id, vf_job_state(job, leased));
+    return vf_farm_reply_ack(r, 0, r->text);
+  }
+  if ((job->paused != 0) == (pause != 0)) {
+    snprintf(r->text, sizeof r->text, "job %llu is %s already", (unsigned long long)job->id,
+             pause ? "paused" : "not paused");
+    return vf_farm_reply_ack(r, 0, r->text);
+  }
+  job->paused = pause != 0;
+  farm->state_dirty = 1;
+  int err = vf_state_save_index(farm);
+  if (err != VF_OK) { /* not durable: as it was */
+    job->paused = !job->paused;
+    return vf_farm_reply_fail(r, err);
+  }
+  unsigned holders = 0;
+  for (size_t i = 0; i < farm->num_workers; i++) {
+    vf_lease *l = vf_lease_find(&farm->leases, farm->workers[i].lease_id);
+    holders += l != NULL && l->job_id == job->id;
+  }
+  if (pause) {
+    snprintf(r->text, sizeof r->text, "paused job %llu: no new leases; %u worker%s finish%s what %s leased (%llu iteration%s)",
+             (unsigned long long)job->id, holders, holders == 1 ? "" : "s", holders == 1 ? "es" : "",
+             holders == 1 ? "it" : "they", (unsigned long long)leased, leased == 1 ? "" : "s");
+  } else {
+    snprintf(r->text, sizeof r->text, "resumed job %llu", (unsigned long long)job->id);
+  }
+  vf_log("job %llu %s", (unsigned long long)job->id, pause ? "paused" : "resumed");
+  vf_events_add(&job->events, vf_unix_now(), pause ? "job_paused" : "job_resumed", job->id, "", "%s", r->text);
+  farm->state_dirty = 1; /* the event, with the next write of the job list */
+  vf_farm_reply_ack(r, 1, r->text);
 }
 
 void vf_jobs_remove(vf_farm *farm, const Vcmfarm__RemoveRequest *m, vf_farm_reply *r) {
@@ -385,6 +450,12 @@ void vf_jobs_finish(vf_farm *farm, vf_job *job, double now) {
     vf_job_finish(job, VF_STOP_ITERATIONS, vf_unix_now(), NULL);
     farm->state_dirty = 1;
   }
+  int told = 0; /* once per job, however it came to be finished again */
+  for (unsigned i = 0; i < job->events.count; i++) told |= strcmp(vf_events_at(&job->events, i)->kind, "job_done") == 0;
+  if (!told)
+    vf_events_add(&job->events, job->ended_at > 0.0 ? job->ended_at : vf_unix_now(), "job_done", job->id, "",
+                  "job done with %llu iteration%s: %s", (unsigned long long)vf_job_done(job),
+                  vf_job_done(job) == 1 ? "" : "s", job->end == VF_JOB_STOPPED ? job->message : "all its iterations");
   vf_leases_end_job(farm, job->id, now);
   vf_checkpoint_final(farm, job);
 }

@@ -17,6 +17,11 @@ void vf_jobs_status(vf_farm *farm, const Vcmfarm__StatusRequest *m, double now, 
 void vf_jobs_fetch(vf_farm *farm, const Vcmfarm__FetchRequest *m, double now, vf_farm_reply *r);
 /* CancelRequest: ends a runnable job and its leases. */
 void vf_jobs_cancel(vf_farm *farm, const Vcmfarm__CancelRequest *m, double now, vf_farm_reply *r);
+/* PauseRequest (pause set) or ResumeRequest: a paused job gets no new leases; the leases
+ * out when it was paused stay valid, finish and ship as usual, so nothing rendered is lost
+ * or counted twice. Saved in state.json before it is answered; an event of the job. A job
+ * that has ended, or is already as asked, is refused (accepted false) with the reason. */
+void vf_jobs_pause(vf_farm *farm, uint64_t job_id, int pause, vf_farm_reply *r);
 /* RemoveRequest: forgets a job that has ended (not while its film is being written): the
  * job list without it is written first, then its files and the blobs no other job names
  * are removed, so a crash leaves at worst files nobody names. */

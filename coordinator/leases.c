@@ -65,16 +65,19 @@ typedef struct {
   double now;
 } pick_ctx;
 
-/* A job the worker may be handed: runnable and with a free range (else 0), the worker not
- * blocked from it (else -1: vf_schedule_pick leaves its place to the others alone). */
+/* A job the worker may be handed: runnable, not paused and with a free range (else 0), the
+ * worker satisfying its requirements and not blocked from it (else -1: vf_schedule_pick
+ * leaves its place among the others alone, so a job only some workers may render keeps
+ * its share of those). */
 static int has_free_range(void *ctx, const vf_job *j) {
   pick_ctx *p = ctx;
   vf_farm *farm = p->farm;
   uint64_t b, e, free_count;
-  if (!vf_job_runnable(j) || vf_deadline_reached(j) ||
+  if (!vf_job_runnable(j) || j->paused || vf_deadline_reached(j) ||
       vf_lease_free_range(&farm->leases, j->id, &j->film->iterations, j->first, j->iterations, 1, &b, &e,
                           &free_count) != 1)
     return 0;
+  if (!vf_tags_satisfied(&j->requires, &p->worker->tags, p->worker->memory_bytes, NULL)) return -1;
   return vf_poison_blocked(farm, p->worker->name, j->id, p->now) ? -1 : 1;
 }
 

@@ -84,7 +84,7 @@ void vf_poison_lease_failed(vf_farm *farm, uint64_t job_id, const char *worker, 
   if (job == NULL || job->end != VF_JOB_ACTIVE) return;
   block(farm, worker, job_id, now + farm->config.forgive_seconds);
   job->lease_failures++;
-  farm->state_dirty = 1; /* the count and the block are in state.json */
+  farm->state_dirty = farm->state_urgent = 1; /* the count and the block are in state.json, within a tick */
   unsigned k = 0;
   while (k < job->failed_workers_count && strcmp(job->failed_workers[k], worker) != 0) k++;
   if (k == job->failed_workers_count && k < VF_POISON_WORKERS) {

@@ -19,7 +19,8 @@
  * try it; only after the coordinator has been up for a worker timeout, so that the
  * workers of a farm it restarted have registered again).
  * The failures in a row, their workers and the blocklist are saved with the job list
- * (coordinator/state.c), so a restarted coordinator goes on counting and keeps blocking
+ * (coordinator/state.c) at the farm's next tick (farm->state_urgent), not at the next
+ * checkpoint, so a restarted coordinator goes on counting and keeps blocking
  * until each forgive time that was set. Single-threaded, as the farm. */
 #ifndef VF_POISON_H
 #define VF_POISON_H

@@ -27,8 +27,10 @@
  * Format 4 (protocol 6) added per job the times it was submitted, started and ended, the
  * machine-readable stop reason, what `auto` resolved to and its latest events; absent in
  * older files: times 0 (unknown), the reason derived from the end and its message, no
- * events. Settings texts of any format are read in today's canonical form. */
-#define STATE_FORMAT 4
+ * events. Format 5 (protocol 10) added per job whether it is paused and the tags it
+ * requires; absent in older files: not paused, no requirement. Settings texts of any
+ * format are read in today's canonical form. */
+#define STATE_FORMAT 5
 #define MAX_STATE_BYTES ((size_t)64 << 20)
 
 static int path_of(char *buf, size_t n, const char *dir, const char *name, uint64_t id, const char *ext) {
@@ -178,7 +180,11 @@ int vf_state_save_index(vf_farm *farm) {
     cJSON_AddNumberToObject(o, "started_at", j->started_at);
     cJSON_AddNumberToObject(o, "ended_at", unsettled ? 0.0 : j->ended_at);
     cJSON_AddStringToObject(o, "algorithm_resolved", j->algorithm_resolved);
-    if (save_events(o, &j->events) != VF_OK || save_poison(o, farm, j) != VF_OK) goto done;
+    cJSON_AddBoolToObject(o, "paused", j->paused);
+    cJSON *requires = cJSON_AddArrayToObject(o, "requires");
+    for (unsigned k = 0; requires != NULL && k < j->requires.count; k++)
+      if (!cJSON_AddItemToArray(requires, cJSON_CreateString(j->requires.tag[k]))) requires = NULL;
+    if (requires == NULL || save_events(o, &j->events) != VF_OK || save_poison(o, farm, j) != VF_OK) goto done;
     if (cJSON_AddStringToObject(o, "message", unsettled ? "" : j->message) == NULL) goto done;
   }
   char *text = cJSON_Print(root);
@@ -189,7 +195,7 @@ int vf_state_save_index(vf_farm *farm) {
     err = vf_file_write_atomic(path, text, strlen(text), 0600);
   free(text);
   if (err == VF_OK) {
-    farm->state_dirty = 0;
+    farm->state_dirty = farm->state_urgent = 0;
     for (size_t i = 0; i < farm->num_jobs; i++) farm->jobs[i]->seconds_saved = farm->jobs[i]->seconds;
   }
 done:
@@ -276,6 +282,27 @@ static int load_poison(vf_job *job, const cJSON *o, const char *state_path) {
   job->failed_workers_count = 0;
   cJSON_ArrayForEach(e, names) snprintf(job->failed_workers[job->failed_workers_count++], sizeof job->failed_workers[0],
                                         "%s", e->valuestring);
+  return VF_OK;
+}
+
+/* Whether the job is paused and the tags it requires (format 5), each checked as a
+ * requirement from a peer is; absent: not paused, none. */
+static int load_job_model(vf_job *job, const cJSON *o, const char *state_path) {
+  const cJSON *paused = cJSON_GetObjectItemCaseSensitive(o, "paused");
+  const cJSON *requires = cJSON_GetObjectItemCaseSensitive(o, "requires"), *e;
+  if ((paused != NULL && !cJSON_IsBool(paused)) || (requires != NULL && !cJSON_IsArray(requires)))
+    return vf_error_set(VF_EINVAL, "%s: job %llu: \"paused\" is not a boolean or \"requires\" not an array", state_path,
+                        (unsigned long long)job->id);
+  vf_tags tags;
+  vf_tags_init(&tags);
+  cJSON_ArrayForEach(e, requires) {
+    int err = cJSON_IsString(e) ? vf_tags_add("requires", &tags, e->valuestring, strlen(e->valuestring), 1)
+                                : vf_error_set(VF_EINVAL, "requires: an item is not a string");
+    if (err != VF_OK)
+      return vf_error_set(VF_EINVAL, "%s: job %llu: %s", state_path, (unsigned long long)job->id, vf_error_detail(err));
+  }
+  job->requires = tags;
+  job->paused = cJSON_IsTrue(paused);
   return VF_OK;
 }
 
@@ -394,7 +421,8 @@ static int load_job(vf_farm *farm, const cJSON *o, const char *state_path, uint6
     err = vf_error_set(VF_EINVAL, "%s: job %llu: an event is malformed", state_path, (unsigned long long)id);
     goto destroy_job;
   }
-  if ((err = load_poison(job, o, state_path)) != VF_OK) goto destroy_job;
+  if ((err = load_poison(job, o, state_path)) != VF_OK || (err = load_job_model(job, o, state_path)) != VF_OK)
+    goto destroy_job;
   vf_film *film = NULL;
   int failed_now = 0;
   /* The files of a JSON scene (absent: it names none); their blobs stay in DIR/blobs. */

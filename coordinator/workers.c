@@ -68,6 +68,16 @@ static void replace_restarted(vf_farm *farm, const char *name, double now) {
 }
 
 void vf_workers_register(vf_farm *farm, const Vcmfarm__Register *m, double now, vf_farm_reply *r) {
+  /* Tags are checked before anything changes: a worker refused for them is not registered
+   * and does not replace one of its name. */
+  vf_tags tags;
+  vf_tags_init(&tags);
+  if (m->n_tags > VF_TAGS_MAX)
+    return vf_farm_reply_errorf(r, VCMFARM__ERROR_CODE__ERROR_BAD_REQUEST, "Register.tags: %zu tags, at most %d",
+                                m->n_tags, VF_TAGS_MAX);
+  for (size_t i = 0; i < m->n_tags; i++)
+    if (vf_tags_add("Register.tags", &tags, m->tags[i], strlen(m->tags[i]), 0) != VF_OK)
+      return vf_farm_reply_errorf(r, VCMFARM__ERROR_CODE__ERROR_BAD_REQUEST, "%s", vf_error_detail(VF_EINVAL));
   char name[128];
   copy_text(name, sizeof name, m->name);
   if (name[0] != '\0') replace_restarted(farm, name, now);
@@ -88,11 +98,16 @@ void vf_workers_register(vf_farm *farm, const Vcmfarm__Register *m, double now, 
   copy_text(w->version, sizeof w->version, m->software_version);
   w->cores = m->cores;
   w->threads = m->threads;
+  w->tags = tags;
+  w->memory_bytes = m->memory_bytes;
   w->last_seen = now;
   w->registered_at = vf_unix_now();
-  vf_log("worker %s registered (%u core%s, %u thread%s, vcmfarm %s, host %s) as %016llx", w->name, w->cores,
-         w->cores == 1 ? "" : "s", w->threads, w->threads == 1 ? "" : "s", w->version, w->host[0] ? w->host : "unnamed",
-         (unsigned long long)w->id);
+  char tag_list[VF_TAGS_MAX * (VF_TAG_MAX_BYTES + 1) + 1];
+  vf_tags_format(&w->tags, tag_list, sizeof tag_list);
+  vf_log("worker %s registered (%u core%s, %u thread%s, %.1f GiB, tags %s, vcmfarm %s, host %s) as %016llx", w->name,
+         w->cores, w->cores == 1 ? "" : "s", w->threads, w->threads == 1 ? "" : "s",
+         (double)w->memory_bytes / (double)(1u << 30), tag_list[0] ? tag_list : "none", w->version,
+         w->host[0] ? w->host : "unnamed", (unsigned long long)w->id);
   vf_events_add(&farm->events, w->registered_at, "worker_registered", 0, w->name, "worker %s registered: %u core%s, %u thread%s",
                 w->name, w->cores, w->cores == 1 ? "" : "s", w->threads, w->threads == 1 ? "" : "s");
   vcmfarm__registered__init(&r->registered);

@@ -6,6 +6,7 @@
 #include "render/accel.h"
 #include "blob_cache.h"
 #include "heartbeat.h"
+#include "machine.h"
 #include "scene/job_scene.h"
 #include "render/render.h"
 
@@ -62,6 +63,8 @@ typedef struct {
   const char *stall_file;
   int stalled;
   const char *abort_scene;
+  const vf_tags *tags; /* the operator's, borrowed from the config; NULL: none */
+  int no_auto_tags;
 } worker;
 
 static void log_v(const char *fmt, va_list ap) {
@@ -114,6 +117,18 @@ static int register_worker(worker *w) {
   m.cores = cores > 0 ? (uint32_t)cores : 1;
   m.threads = w->threads > 0 ? (uint32_t)w->threads : m.cores;
   m.software_version = VF_VERSION;
+  /* The operator's tags and the CPU's (checked by the command line; the coordinator
+   * checks them again), and the memory mem>= requirements are compared with. */
+  vf_tags tags;
+  vf_tags_init(&tags);
+  if (w->tags) tags = *w->tags;
+  if (!w->no_auto_tags && vf_machine_tags(&tags) != VF_OK)
+    log_line("not every automatic tag fits: %s", vf_error_detail(VF_EINVAL));
+  char *tag_ptrs[VF_TAGS_MAX];
+  for (unsigned i = 0; i < tags.count; i++) tag_ptrs[i] = tags.tag[i];
+  m.n_tags = tags.count;
+  m.tags = tag_ptrs;
+  m.memory_bytes = vf_machine_memory_bytes();
   char host[64] = "";
   if (gethostname(host, sizeof host - 1) != 0) host[0] = '\0';
   m.host = host;
@@ -453,6 +468,8 @@ int vf_worker_run(const vf_worker_config *config, volatile sig_atomic_t *stop) {
   w->iteration_delay_ms = config->iteration_delay_ms;
   w->stall_file = config->stall_file;
   w->abort_scene = config->abort_scene;
+  w->tags = config->tags;
+  w->no_auto_tags = config->no_auto_tags;
   if (config->name) {
     snprintf(w->name, sizeof w->name, "%s", config->name);
   } else {

@@ -9,6 +9,7 @@
 #ifndef VF_WORKER_H
 #define VF_WORKER_H
 
+#include "../common/tags.h"
 #include "../common/wire.h"
 
 #include <signal.h>
@@ -22,6 +23,8 @@ typedef struct {
   vf_wire_key key;
   int threads;                /* render threads; <= 0: one per CPU */
   const char *name;           /* shown in status; NULL: HOST/PID */
+  const vf_tags *tags;        /* given by the operator (--tags), borrowed; NULL: none */
+  int no_auto_tags;           /* do not add the CPU's tags (worker/machine.h) */
   const char *cache_dir;      /* scene files by content hash (worker/blob_cache.h), opened by the caller */
   uint64_t cache_max_bytes;   /* trim the cache to this after fetching a job's files; 0: no limit */
   /* Seconds between parts of a lease (at least 50 times a part's cost); 0: the interval

@@ -152,6 +152,8 @@ static int set_priority(vf_dashboard *d, uint64_t job_id, int priority, char *me
   double vtime = vf_schedule_vtime(job);
   job->priority = priority;
   job->service = vtime * (double)priority;
+  vf_events_add(&job->events, vf_unix_now(), "priority_changed", job->id, "", "priority %d -> %d (dashboard)", old,
+                priority);
   d->farm->state_dirty = 1;
   int err = vf_state_save_index(d->farm);
   vf_log("job %llu: priority %d -> %d (dashboard)", (unsigned long long)job_id, old, priority);
@@ -168,6 +170,8 @@ static int run_action(vf_dashboard *d, const vf_dashboard_action *a, char *messa
     Vcmfarm__CancelRequest q = VCMFARM__CANCEL_REQUEST__INIT;
     q.job_id = a->job_id;
     vf_jobs_cancel(d->farm, &q, vf_seconds_now(), &r);
+  } else if (a->verb == VF_DASHBOARD_PAUSE || a->verb == VF_DASHBOARD_RESUME) {
+    vf_jobs_pause(d->farm, a->job_id, a->verb == VF_DASHBOARD_PAUSE, &r);
   } else {
     Vcmfarm__RemoveRequest q = VCMFARM__REMOVE_REQUEST__INIT;
     q.job_id = a->job_id;
@@ -176,7 +180,10 @@ static int run_action(vf_dashboard *d, const vf_dashboard_action *a, char *messa
   int status = reply_status(&r, message, n);
   if (status == 200)
     vf_log("job %llu %s from the dashboard", (unsigned long long)a->job_id,
-           a->verb == VF_DASHBOARD_CANCEL ? "cancelled" : "removed");
+           a->verb == VF_DASHBOARD_CANCEL  ? "cancelled"
+           : a->verb == VF_DASHBOARD_PAUSE ? "paused"
+           : a->verb == VF_DASHBOARD_RESUME ? "resumed"
+                                            : "removed");
   vf_farm_reply_release(&r);
   return status;
 }

@@ -9,9 +9,9 @@
  *    reads it (nobody reading: nothing is built), and at once after an action or when a
  *    reader finds it stale; a reader copies the latest text and never waits more than
  *    VF_DASHBOARD_WAIT_SECONDS for the loop;
- *  - an action (cancel, remove, priority) is queued and the loop woken (uv_async); the
- *    loop runs it through the same handlers as the farm's messages (coordinator/jobs.h)
- *    and hands back an HTTP status and a sentence.
+ *  - an action (cancel, remove, priority, pause, resume) is queued and the loop woken
+ *    (uv_async); the loop runs it through the same handlers as the farm's messages
+ *    (coordinator/jobs.h) and hands back an HTTP status and a sentence.
  * Films, previews and sessions need no loop: coordinator/dashboard/preview.h reads the checkpoint
  * files, coordinator/dashboard/sessions.h keeps its own table. */
 #ifndef VF_DASHBOARD_H
@@ -59,7 +59,13 @@ void vf_dashboard_destroy(vf_dashboard *dashboard);
  * has not published within VF_DASHBOARD_WAIT_SECONDS). */
 int vf_dashboard_status(vf_dashboard *dashboard, uint64_t job_id, char **json, size_t *len);
 
-typedef enum { VF_DASHBOARD_CANCEL, VF_DASHBOARD_REMOVE, VF_DASHBOARD_PRIORITY } vf_dashboard_verb;
+typedef enum {
+  VF_DASHBOARD_CANCEL,
+  VF_DASHBOARD_REMOVE,
+  VF_DASHBOARD_PRIORITY,
+  VF_DASHBOARD_PAUSE, /* coordinator/jobs.h, vf_jobs_pause */
+  VF_DASHBOARD_RESUME
+} vf_dashboard_verb;
 
 typedef struct {
   vf_dashboard_verb verb;

@@ -287,6 +287,10 @@ static enum MHD_Result act(vf_http *h, struct MHD_Connection *c, const request *
     a.verb = VF_DASHBOARD_CANCEL;
   } else if (strcmp(verb, "remove") == 0) {
     a.verb = VF_DASHBOARD_REMOVE;
+  } else if (strcmp(verb, "pause") == 0) {
+    a.verb = VF_DASHBOARD_PAUSE;
+  } else if (strcmp(verb, "resume") == 0) {
+    a.verb = VF_DASHBOARD_RESUME;
   } else {
     cJSON *body = cJSON_ParseWithLength(q->body, q->body_len);
     cJSON *p = cJSON_GetObjectItem(body, "priority");
@@ -368,7 +372,7 @@ static enum MHD_Result route(vf_http *h, struct MHD_Connection *c, const char *u
   if (job_id == 0) return send_error(c, MHD_HTTP_NOT_FOUND, "no such page: %.200s", url);
   if (rest[0] == '\0') return get ? send_status(h, c, job_id) : not_allowed(c, "GET");
   if (strcmp(rest, "preview.png") == 0) return get ? send_picture(h, c, job_id, 0) : not_allowed(c, "GET");
-  static const char *const actions[] = {"cancel", "remove", "priority", "film", "image"};
+  static const char *const actions[] = {"cancel", "remove", "priority", "film", "image", "pause", "resume"};
   for (size_t i = 0; i < sizeof actions / sizeof *actions; i++) {
     if (strcmp(rest, actions[i]) != 0) continue;
     if (!post) return not_allowed(c, "POST");

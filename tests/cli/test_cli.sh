@@ -92,7 +92,7 @@ expect_one_line() { # name, expected substring, command...
 }
 expect_one_line "unknown option" "vcmfarm render: unknown option '--frobnicate'; try 'vcmfarm render --help'" \
   "$vcmfarm" render furnace --frobnicate -o "$tmp/out.exr"
-for c in render continue info plot merge bake errors diff coordinator worker submit status fetch cancel remove keygen; do
+for c in render continue info plot merge bake errors diff coordinator worker submit status fetch cancel pause resume remove keygen; do
   expect_one_line "$c: unknown option" "vcmfarm $c: unknown option '--frobnicate'; try 'vcmfarm $c --help'" \
     "$vcmfarm" "$c" --frobnicate
 done
@@ -369,6 +369,25 @@ check "continue counts in words" "$(grep -q "grown.exr holds 1 iteration of" "$t
   grep -q "^added 1 iteration in" "$tmp/continue.err"; echo $?)"
 expect_refusal "submit -o without --wait" "go with --wait" "$vcmfarm" submit furnace -o "$tmp/out.exr" --coordinator ipc://x --secret "$tmp/farm.key"
 expect_refusal "submit --wait without -o" "--wait needs -o" "$vcmfarm" submit furnace --wait --coordinator ipc://x --secret "$tmp/farm.key"
+# Tags and requirements are checked on the command line, before anything connects, each
+# refusal naming the tag and the rule (common/tags.h).
+expect_one_line "worker --tags with an empty tag" "vcmfarm worker: --tags: 'night,,gpu' has an empty tag" \
+  "$vcmfarm" worker --connect ipc://x --secret "$tmp/farm.key" --tags night,,gpu
+expect_one_line "worker --tags with a space" "vcmfarm worker: --tags: tag 'night shift' holds a space" \
+  "$vcmfarm" worker --connect ipc://x --secret "$tmp/farm.key" --tags 'night shift'
+expect_one_line "worker --tags giving its memory" "--tags: tag 'mem>=64G': mem>= is a requirement a job makes" \
+  "$vcmfarm" worker --connect ipc://x --secret "$tmp/farm.key" --tags 'mem>=64G'
+expect_one_line "worker --tags too long" "is 33 bytes long, at most 32" \
+  "$vcmfarm" worker --connect ipc://x --secret "$tmp/farm.key" --tags "$(printf 'x%.0s' $(seq 33))"
+expect_one_line "worker --tags not UTF-8" "vcmfarm worker: --tags: tag 'caf\\xe9' is not UTF-8" \
+  "$vcmfarm" worker --connect ipc://x --secret "$tmp/farm.key" --tags "$(printf 'caf\xe9')"
+expect_one_line "submit --require a memory without its unit" "--require: requirement 'mem>=64': memory is mem>=N" \
+  "$vcmfarm" submit furnace --require 'night,mem>=64' --coordinator ipc://x --secret "$tmp/farm.key"
+expect_one_line "submit --require seventeen tags" "--require: more than 16 tags (at 't17')" \
+  "$vcmfarm" submit furnace --require t1,t2,t3,t4,t5,t6,t7,t8 --require t9,t10,t11,t12,t13,t14,t15,t16,t17 \
+  --coordinator ipc://x --secret "$tmp/farm.key"
+expect_one_line "pause without a job" "vcmfarm pause: expected one JOB" "$vcmfarm" pause --coordinator ipc://x --secret "$tmp/farm.key"
+expect_one_line "resume of job 0" "vcmfarm resume: JOB: job ids start at 1" "$vcmfarm" resume 0 --coordinator ipc://x --secret "$tmp/farm.key"
 expect_refusal "fetch -o named .png" "does not end in .exr" "$vcmfarm" fetch 1 -o "$tmp/f.png" --coordinator ipc://x --secret "$tmp/farm.key"
 
 # submit --wait waits for the job and fetches its film (and a preview); fetch --preview
@@ -398,6 +417,9 @@ expect_refusal "status of an unknown job" "no job 999" "$vcmfarm" status 999 "${
 expect_refusal "cancel of an unknown job" "no job 999" "$vcmfarm" cancel 999 "${client[@]}"
 expect_refusal "remove of an unknown job" "no job 999" "$vcmfarm" remove 999 "${client[@]}"
 expect_refusal "cancel of a job that ended" "vcmfarm cancel: job $job is done already" "$vcmfarm" cancel "$job" "${client[@]}"
+expect_refusal "pause of an unknown job" "no job 999" "$vcmfarm" pause 999 "${client[@]}"
+expect_refusal "pause of a job that ended" "vcmfarm pause: job $job is done already" "$vcmfarm" pause "$job" "${client[@]}"
+expect_refusal "resume of a job that ended" "vcmfarm resume: job $job is done already" "$vcmfarm" resume "$job" "${client[@]}"
 expect_refusal "fetch into a missing directory" "-o $tmp/absent/out.exr: no directory $tmp/absent" \
   "$vcmfarm" fetch "$job" -o "$tmp/absent/out.exr" "${client[@]}"
 expect_refusal "keygen into a missing directory" "FILE $tmp/absent/k: no directory $tmp/absent" \

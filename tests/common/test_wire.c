@@ -202,26 +202,26 @@ static void test_refusal_of_a_wrong_key(void) {
   free(reply);
 }
 
-/* Frames of versions 8 and 10 (this layout) and of version 7 (HMAC in clear) under the
+/* Frames of versions 9 and 11 (this layout) and of version 7 (HMAC in clear) under the
  * farm key are authentic and refused as another version, and answered so that their
  * sender can tell. */
 static void test_other_versions_are_told_apart(void) {
   uint8_t payload[3] = {1, 2, 3}, *p = NULL;
   size_t plen, len;
   vf_wire_stamp stamp = {0};
-  uint8_t *f10 = hand_sealed(&key_a, 10, vf_wire_now_ms(), NULL, payload, sizeof payload, &len);
-  CHECK_INT_EQ(vf_wire_open(&key_a, NULL, f10, len, &p, &plen, &stamp), VF_EVERSION);
-  CHECK_STR_CONTAINS(vf_error_detail(VF_EVERSION), "version 10");
-  CHECK_INT_EQ(stamp.version, 10);
-  CHECK(memcmp(stamp.nonce, f10 + 20, 24) == 0);
-  CHECK_INT_EQ(vf_wire_open(&key_b, NULL, f10, len, &p, &plen, &stamp), VF_EAUTH);
-  free(f10);
-  /* Version 8, the layout of this one before leases carried the job's deadline: a peer of
-   * that build is told which versions differ. */
-  uint8_t *f8 = hand_sealed(&key_a, 8, vf_wire_now_ms(), NULL, payload, sizeof payload, &len);
-  CHECK_INT_EQ(vf_wire_open(&key_a, NULL, f8, len, &p, &plen, &stamp), VF_EVERSION);
-  CHECK_STR_CONTAINS(vf_error_detail(VF_EVERSION), "peer speaks protocol version 8, this vcmfarm speaks version 9");
-  free(f8);
+  uint8_t *f11 = hand_sealed(&key_a, 11, vf_wire_now_ms(), NULL, payload, sizeof payload, &len);
+  CHECK_INT_EQ(vf_wire_open(&key_a, NULL, f11, len, &p, &plen, &stamp), VF_EVERSION);
+  CHECK_STR_CONTAINS(vf_error_detail(VF_EVERSION), "version 11");
+  CHECK_INT_EQ(stamp.version, 11);
+  CHECK(memcmp(stamp.nonce, f11 + 20, 24) == 0);
+  CHECK_INT_EQ(vf_wire_open(&key_b, NULL, f11, len, &p, &plen, &stamp), VF_EAUTH);
+  free(f11);
+  /* Version 9, the layout of this one before workers carried tags: a peer of that build is
+   * told which versions differ. */
+  uint8_t *f9 = hand_sealed(&key_a, 9, vf_wire_now_ms(), NULL, payload, sizeof payload, &len);
+  CHECK_INT_EQ(vf_wire_open(&key_a, NULL, f9, len, &p, &plen, &stamp), VF_EVERSION);
+  CHECK_STR_CONTAINS(vf_error_detail(VF_EVERSION), "peer speaks protocol version 9, this vcmfarm speaks version 10");
+  free(f9);
 
   uint8_t f7[12 + 3 + 32];
   memcpy(f7, "VCMF", 4);

@@ -6,16 +6,22 @@
  * job is charged the time it really took. Failed leases (coordinator/poison.h): a worker
  * whose lease failed is blocked from the job until forgiven, failures on three workers in
  * a row fail the job, a merge clears them, and a worker registering again under its name
- * or lost without progress failed its lease. */
+ * or lost without progress failed its lease. Tags (common/tags.h): a job is leased only to
+ * workers satisfying its requirements, bad tags are refused naming them; a paused job gets
+ * no new leases while those out stay valid. Fair share through the handlers: workers split
+ * between jobs in the ratio of their priorities, a job only some may render getting those. */
 #include "check.h"
 #include "common/error.h"
 #include "common/settings.h"
+#include "coordinator/jobs.h"
 #include "coordinator/leases.h"
+#include "coordinator/state.h"
 #include "coordinator/log.h"
 #include "coordinator/poison.h"
 #include "coordinator/workers.h"
 
 #include <stdlib.h>
+#include <unistd.h>
 
 /* The free range of job 1 in [first, first + total) as "[b,e)", or "none". */
 static const char *free_range(const vf_lease_table *t, const vf_iterset *done, uint64_t first, uint64_t total,
@@ -523,6 +529,242 @@ static void test_a_worker_lost_without_progress_failed_its_lease(void) {
   vf_farm_destroy(&f.farm);
 }
 
+/* ---- tags and requirements (common/tags.h), pause and resume ---- */
+
+/* Registers a worker named `name` with these tags and memory: its id, or 0 when refused
+ * (the error's message then in *why, when given). */
+static uint64_t register_tagged(farm_fixture *f, const char *name, char **tags, size_t n, uint64_t memory,
+                                char *why, size_t why_size) {
+  Vcmfarm__Register m = VCMFARM__REGISTER__INIT;
+  m.name = (char *)name;
+  m.tags = tags;
+  m.n_tags = n;
+  m.memory_bytes = memory;
+  vf_farm_reply r;
+  vf_farm_reply_init(&r);
+  vf_workers_register(&f->farm, &m, f->now, &r);
+  uint64_t id = r.env.body_case == VCMFARM__ENVELOPE__BODY_REGISTERED ? r.registered.worker_id : 0;
+  if (why && r.env.body_case == VCMFARM__ENVELOPE__BODY_ERROR) {
+    CHECK_INT_EQ(r.error.code, VCMFARM__ERROR_CODE__ERROR_BAD_REQUEST);
+    snprintf(why, why_size, "%s", r.error.message);
+  }
+  vf_farm_reply_release(&r);
+  return id;
+}
+
+/* A second job of `iterations` in the fixture's farm, requiring `requires` (a list). */
+static vf_job *add_job(farm_fixture *f, uint64_t id, uint64_t iterations, const char *requires) {
+  vf_job *j = NULL;
+  CHECK_INT_EQ(vf_job_create(id, "k", 1, 1, "cornell", 7, f->job->scene_hash, 32, f->job->settings_text, 0, iterations,
+                             &j),
+               VF_OK);
+  if (j == NULL) return NULL;
+  vf_tags t;
+  vf_tags_init(&t);
+  if (requires) CHECK_INT_EQ(vf_tags_parse("requires", requires, &t, 1), VF_OK);
+  char *ptrs[VF_TAGS_MAX];
+  for (unsigned i = 0; i < t.count; i++) ptrs[i] = t.tag[i];
+  CHECK_INT_EQ(vf_job_set_requires(j, ptrs, t.count), VF_OK);
+  CHECK_INT_EQ(vf_farm_add_job(&f->farm, j), VF_OK);
+  return j;
+}
+
+static void test_a_job_is_leased_only_to_workers_satisfying_its_requirements(void) {
+  farm_fixture f;
+  farm_setup(&f, 1000, 0);
+  /* Job 1 needs the night pool with 64 GiB; job 2 anything. */
+  char *night[] = {"night", "avx512"}, *day[] = {"avx512"};
+  CHECK_INT_EQ(vf_tags_parse("requires", "night,mem>=64G", &f.job->requires, 1), VF_OK);
+  vf_job *other = add_job(&f, 2, 1000, NULL);
+  f.worker[0] = register_tagged(&f, "big-night", night, 2, UINT64_C(64) << 30, NULL, 0);
+  f.worker[1] = register_tagged(&f, "small-night", night, 2, UINT64_C(32) << 30, NULL, 0);
+  f.worker[2] = register_tagged(&f, "big-day", day, 1, UINT64_C(128) << 30, NULL, 0);
+  CHECK(f.worker[0] && f.worker[1] && f.worker[2]);
+  for (int round = 0; round < 3; round++) { /* the same answer however often they ask */
+    vf_lease *l1 = grant(&f, 1), *l2 = grant(&f, 2), *l0 = grant(&f, 0);
+    CHECK(l0 != NULL && l1 != NULL && l2 != NULL);
+    if (l0) CHECK_INT_EQ(l0->job_id, f.job->id);
+    if (l1) CHECK_INT_EQ(l1->job_id, other->id); /* lacks the memory */
+    if (l2) CHECK_INT_EQ(l2->job_id, other->id); /* lacks the tag */
+  }
+  /* Job 2 gone: the workers that cannot render job 1 are told to wait. */
+  other->end = VF_JOB_CANCELLED;
+  vf_leases_end_job(&f.farm, other->id, f.now);
+  CHECK(grant(&f, 1) == NULL);
+  CHECK(grant(&f, 2) == NULL);
+  CHECK(grant(&f, 0) != NULL);
+  vf_farm_destroy(&f.farm);
+}
+
+static void test_bad_tags_in_a_registration_are_refused_naming_them(void) {
+  farm_fixture f;
+  farm_setup(&f, 100, 0);
+  char why[256] = "";
+  char *spaced[] = {"ok", "has space"};
+  CHECK(register_tagged(&f, "a", spaced, 2, 0, why, sizeof why) == 0);
+  CHECK_STR_CONTAINS(why, "Register.tags: tag 'has space' holds a space");
+  char *not_utf8[] = {"caf\xe9"};
+  CHECK(register_tagged(&f, "a", not_utf8, 1, 0, why, sizeof why) == 0);
+  CHECK_STR_CONTAINS(why, "Register.tags: tag 'caf\\xe9' is not UTF-8");
+  char *memory[] = {"mem>=1T"};
+  CHECK(register_tagged(&f, "a", memory, 1, 0, why, sizeof why) == 0);
+  CHECK_STR_CONTAINS(why, "measured, not given");
+  char long_tag[40];
+  memset(long_tag, 'x', sizeof long_tag - 1);
+  long_tag[sizeof long_tag - 1] = '\0';
+  char *too_long[] = {long_tag};
+  CHECK(register_tagged(&f, "a", too_long, 1, 0, why, sizeof why) == 0);
+  CHECK_STR_CONTAINS(why, "39 bytes long, at most 32");
+  char *many[VF_TAGS_MAX + 1];
+  for (int i = 0; i <= VF_TAGS_MAX; i++) many[i] = "t";
+  CHECK(register_tagged(&f, "a", many, VF_TAGS_MAX + 1, 0, why, sizeof why) == 0);
+  CHECK_STR_CONTAINS(why, "Register.tags: 17 tags, at most 16");
+  CHECK_INT_EQ(f.farm.num_workers, 0); /* none of them registered */
+  /* A worker refused for its tags does not replace the one of its name. */
+  char *fine[] = {"night"};
+  f.worker[0] = register_tagged(&f, "a", fine, 1, 0, NULL, 0);
+  CHECK(register_tagged(&f, "a", spaced, 2, 0, why, sizeof why) == 0);
+  CHECK(vf_farm_find_worker(&f.farm, f.worker[0]) != NULL);
+  vf_farm_destroy(&f.farm);
+}
+
+static void test_bad_requirements_of_a_job_are_refused_naming_them(void) {
+  farm_fixture f;
+  farm_setup(&f, 100, 0);
+  char *bad[] = {"night", "mem>=64"};
+  CHECK_INT_EQ(vf_job_set_requires(f.job, bad, 2), VF_EINVAL);
+  CHECK_STR_CONTAINS(vf_error_detail(VF_EINVAL), "requires: requirement 'mem>=64': memory is mem>=N");
+  CHECK_INT_EQ(f.job->requires.count, 0);
+  char *many[VF_TAGS_MAX + 1];
+  for (int i = 0; i <= VF_TAGS_MAX; i++) many[i] = "t";
+  CHECK_INT_EQ(vf_job_set_requires(f.job, many, VF_TAGS_MAX + 1), VF_EINVAL);
+  CHECK_STR_CONTAINS(vf_error_detail(VF_EINVAL), "requires: 17 tags, at most 16");
+  vf_farm_destroy(&f.farm);
+}
+
+/* Workers split between jobs by priority through the handlers themselves: 40 workers of one
+ * speed, each asking for work, rendering its lease for its duration, handing it back and
+ * asking again, for 400 simulated seconds; then the workers holding a lease of each job are
+ * counted. Priorities 1, 1 and 2: 10, 10 and 20 (within one worker). With the priority-2
+ * job requiring a tag only 8 workers carry, it gets those 8 (it cannot use more) and the
+ * others split the remaining 32 evenly. */
+static void split_by_priority(const char *night_requires, int night_workers, int want[3]) {
+  enum { WORKERS = 40 };
+  farm_fixture f;
+  farm_setup(&f, 1000000, 0);
+  add_job(&f, 2, 1000000, NULL);
+  vf_job *third = add_job(&f, 3, 1000000, night_requires);
+  if (third) third->priority = 2;
+  uint64_t ids[WORKERS], lease[WORKERS] = {0};
+  double free_at[WORKERS];
+  uint64_t held_job[WORKERS] = {0};
+  for (int i = 0; i < WORKERS; i++) {
+    char name[16], *night[] = {"night"};
+    snprintf(name, sizeof name, "s%d", i);
+    ids[i] = register_tagged(&f, name, night, i < night_workers ? 1 : 0, 0, NULL, 0);
+    vf_farm_find_worker(&f.farm, ids[i])->rate = 1.0;
+    free_at[i] = 0.01 * i;
+  }
+  for (int events = 0; events < 100000; events++) {
+    int k = 0;
+    for (int i = 1; i < WORKERS; i++)
+      if (free_at[i] < free_at[k]) k = i;
+    if (free_at[k] >= 400.0) break;
+    f.now = free_at[k];
+    vf_farm_worker *w = vf_farm_find_worker(&f.farm, ids[k]);
+    vf_farm_reply r;
+    if (lease[k]) {
+      Vcmfarm__LeaseRelease m = VCMFARM__LEASE_RELEASE__INIT;
+      m.worker_id = ids[k];
+      m.lease_id = lease[k];
+      m.failure = "";
+      vf_farm_reply_init(&r);
+      vf_leases_release(&f.farm, w, &m, f.now, &r);
+      vf_farm_reply_release(&r);
+      lease[k] = held_job[k] = 0;
+    }
+    vf_farm_reply_init(&r);
+    vf_leases_grant(&f.farm, w, f.now, &r);
+    if (r.env.body_case == VCMFARM__ENVELOPE__BODY_LEASE) {
+      lease[k] = r.lease.lease_id;
+      held_job[k] = r.lease.job_id;
+      free_at[k] = f.now + (double)(r.lease.end - r.lease.begin) / 1.0;
+    } else {
+      free_at[k] = f.now + 0.5;
+    }
+    vf_farm_reply_release(&r);
+  }
+  int held[3] = {0, 0, 0};
+  for (int i = 0; i < WORKERS; i++)
+    if (held_job[i] >= 1 && held_job[i] <= 3) held[held_job[i] - 1]++;
+  printf("     workers per job: %d, %d, %d (expected about %d, %d, %d)\n", held[0], held[1], held[2], want[0], want[1],
+         want[2]);
+  for (int j = 0; j < 3; j++) CHECK_NEAR(held[j], want[j], 1.0);
+  CHECK_INT_EQ(held[0] + held[1] + held[2], WORKERS);
+  vf_farm_destroy(&f.farm);
+}
+
+static void test_workers_are_split_by_priority(void) {
+  int want[3] = {10, 10, 20};
+  split_by_priority(NULL, 0, want);
+}
+
+static void test_a_job_only_some_workers_may_render_gets_those(void) {
+  int want[3] = {16, 16, 8};
+  split_by_priority("night", 8, want);
+}
+
+/* Pause or resume job 1 through the farm's handler: whether it was accepted. */
+static int pause_job(farm_fixture *f, int pause, char *message, size_t n) {
+  vf_farm_reply r;
+  vf_farm_reply_init(&r);
+  vf_jobs_pause(&f->farm, f->job->id, pause, &r);
+  int accepted = r.env.body_case == VCMFARM__ENVELOPE__BODY_RESULT_ACK && r.result_ack.accepted;
+  if (message) snprintf(message, n, "%s", r.env.body_case == VCMFARM__ENVELOPE__BODY_RESULT_ACK ? r.result_ack.message : "");
+  vf_farm_reply_release(&r);
+  return accepted;
+}
+
+static void test_a_paused_job_gets_no_new_leases_and_keeps_those_out(void) {
+  char dir[] = "/tmp/vf_test_lease_pause-XXXXXX";
+  CHECK(mkdtemp(dir) != NULL);
+  farm_fixture f;
+  farm_setup(&f, 100, 3);
+  f.farm.config.state_dir = dir; /* pausing is saved before it is answered */
+  for (int i = 0; i < 3; i++) vf_farm_find_worker(&f.farm, f.worker[i])->rate = 1.0;
+  vf_lease *held = grant(&f, 0);
+  CHECK(held != NULL);
+  uint64_t held_id = held ? held->id : 0;
+  char message[256];
+  CHECK(pause_job(&f, 1, message, sizeof message));
+  CHECK_STR_CONTAINS(message, "paused job 1: no new leases; 1 worker finishes what it leased (20 iterations)");
+  CHECK_STR_CONTAINS(vf_job_state(f.job, 20), "paused");
+  CHECK(!pause_job(&f, 1, message, sizeof message));
+  CHECK_STR_CONTAINS(message, "job 1 is paused already");
+  CHECK(grant(&f, 1) == NULL);                 /* no new lease */
+  CHECK(heartbeat_valid(&f, 0, held_id));      /* the one out stays valid: it finishes and ships */
+  CHECK_INT_EQ(vf_lease_active_iterations(&f.farm.leases, f.job->id), 20);
+  const vf_event *last = vf_events_at(&f.job->events, f.job->events.count - 1);
+  CHECK(last != NULL);
+  if (last) CHECK_STR_EQ(last->kind, "job_paused");
+  CHECK(pause_job(&f, 0, message, sizeof message));
+  CHECK_STR_CONTAINS(message, "resumed job 1");
+  vf_lease *after = grant(&f, 1);
+  CHECK(after != NULL);
+  if (after) CHECK_INT_EQ(after->begin, 20); /* beside the lease that was out, not over it */
+  CHECK(!pause_job(&f, 0, message, sizeof message));
+  CHECK_STR_CONTAINS(message, "not paused already");
+  f.job->end = VF_JOB_CANCELLED;
+  CHECK(!pause_job(&f, 1, message, sizeof message));
+  CHECK_STR_CONTAINS(message, "job 1 is cancelled already");
+  vf_farm_destroy(&f.farm);
+  vf_state_remove_job_files(dir, 1);
+  char path[256];
+  snprintf(path, sizeof path, "%s/state.json", dir);
+  unlink(path);
+  rmdir(dir);
+}
+
 int main(void) {
   vf_log_set_quiet(1);
   RUN(test_free_range_is_the_first_free_one);
@@ -543,5 +785,11 @@ int main(void) {
   RUN(test_a_job_every_worker_is_blocked_from_fails);
   RUN(test_a_worker_registering_again_crashed_on_its_lease);
   RUN(test_a_worker_lost_without_progress_failed_its_lease);
+  RUN(test_a_job_is_leased_only_to_workers_satisfying_its_requirements);
+  RUN(test_bad_tags_in_a_registration_are_refused_naming_them);
+  RUN(test_bad_requirements_of_a_job_are_refused_naming_them);
+  RUN(test_a_paused_job_gets_no_new_leases_and_keeps_those_out);
+  RUN(test_workers_are_split_by_priority);
+  RUN(test_a_job_only_some_workers_may_render_gets_those);
   return check_finish();
 }

@@ -10,6 +10,7 @@
 #include "common/file.h"
 #include "common/settings.h"
 #include "coordinator/checkpoint.h"
+#include "coordinator/farm.h"
 #include "coordinator/log.h"
 #include "coordinator/poison.h"
 #include "coordinator/state.h"
@@ -282,6 +283,82 @@ static void test_failed_leases_and_blocks_outlive_a_restart(void) {
   }
   vf_farm_destroy(&a);
   vf_farm_destroy(&b);
+}
+
+/* A failed lease is written with the job list at the farm's next tick, without waiting
+ * for a checkpoint: a crash right after it (the farm dropped unsaved) still finds the
+ * failure counted and the worker blocked. */
+static void test_a_failed_lease_is_durable_within_a_tick(void) {
+  char dir[4200];
+  fresh_dir(dir, sizeof dir, "urgent");
+  vf_farm a, b;
+  vf_farm_config config = {dir, 15.0, 20.0, 600.0};
+  vf_farm_init(&a, &config);
+  vf_job *j = add_job(&a, 1, "knot", 0, 4);
+  if (j == NULL) return;
+  CHECK_INT_EQ(vf_state_save_scene(dir, j), VF_OK);
+  CHECK_INT_EQ(vf_state_save_index(&a), VF_OK);
+  double now = vf_seconds_now();
+  vf_poison_lease_failed(&a, j->id, "w1", "it crashed", now);
+  CHECK_INT_EQ(a.state_urgent, 1);
+  vf_farm_tick(&a, now);
+  CHECK_INT_EQ(a.state_urgent, 0);
+  vf_farm_init(&b, &config); /* a's memory is gone: what a crash leaves */
+  CHECK_INT_EQ(vf_state_load(&b), VF_OK);
+  CHECK_INT_EQ(b.num_jobs, 1);
+  if (b.num_jobs == 1) {
+    CHECK_INT_EQ(b.jobs[0]->lease_failures, 1);
+    CHECK(vf_poison_blocked(&b, "w1", b.jobs[0]->id, vf_seconds_now()));
+  }
+  vf_farm_destroy(&a);
+  vf_farm_destroy(&b);
+}
+
+/* A paused job and the tags it requires come back paused and requiring them (format 5),
+ * the other job neither; a bad requirement in the file is refused naming the job and the
+ * tag. */
+static void test_pause_and_requirements_outlive_a_restart(void) {
+  char dir[4200];
+  fresh_dir(dir, sizeof dir, "model");
+  vf_farm a, b;
+  open_farm(&a, dir);
+  vf_job *j = add_job(&a, 1, "knot", 0, 4), *k = add_job(&a, 1, "cornell", 0, 4);
+  if (j == NULL || k == NULL) return;
+  char *requires[] = {"night", "mem>=64G"};
+  CHECK_INT_EQ(vf_job_set_requires(j, requires, 2), VF_OK);
+  j->paused = 1;
+  CHECK_INT_EQ(vf_state_save_scene(dir, j), VF_OK);
+  CHECK_INT_EQ(vf_state_save_scene(dir, k), VF_OK);
+  CHECK_INT_EQ(vf_state_save_index(&a), VF_OK);
+  open_loaded(&b, dir);
+  CHECK_INT_EQ(b.num_jobs, 2);
+  if (b.num_jobs == 2) {
+    CHECK_INT_EQ(b.jobs[0]->paused, 1);
+    CHECK_STR_EQ(vf_job_state(b.jobs[0], 0), "paused");
+    CHECK_INT_EQ(b.jobs[0]->requires.count, 2);
+    CHECK_STR_EQ(b.jobs[0]->requires.tag[0], "night");
+    CHECK_STR_EQ(b.jobs[0]->requires.tag[1], "mem>=64G");
+    CHECK_INT_EQ(b.jobs[1]->paused, 0);
+    CHECK_INT_EQ(b.jobs[1]->requires.count, 0);
+  }
+  vf_farm_destroy(&b);
+  /* A bad requirement written into the file by hand. */
+  char path[4300];
+  snprintf(path, sizeof path, "%s/state.json", dir);
+  uint8_t *text;
+  size_t len;
+  CHECK_INT_EQ(vf_file_read_all(path, 1 << 20, &text, &len), VF_OK);
+  char *night = strstr((char *)text, "\"night\"");
+  CHECK(night != NULL);
+  if (night) memcpy(night + 1, "ni ht", 5);
+  CHECK_INT_EQ(vf_file_write_atomic(path, text, len, 0600), VF_OK);
+  free(text);
+  vf_farm c;
+  open_farm(&c, dir);
+  CHECK_INT_EQ(vf_state_load(&c), VF_EINVAL);
+  CHECK_STR_CONTAINS(vf_error_detail(VF_EINVAL), "job 1: requires: tag 'ni ht' holds a space");
+  vf_farm_destroy(&c);
+  vf_farm_destroy(&a);
 }
 
 /* A film checkpoint that fails is an event of its job (and is tried again later). */
@@ -593,7 +670,7 @@ static void test_a_damaged_job_list_is_refused_naming_the_problem(void) {
       {"", NULL, NULL, "state.json: not valid JSON"},
       {"{\"format\": 3, \"next_job_id\": 2, \"jobs\": [{\"id\": 1, \"na", NULL, NULL, "state.json: not valid JSON"},
       {"{\"format\": 9, \"next_job_id\": 1, \"jobs\": []}", NULL, NULL,
-       "state format 9, this coordinator reads 1 to 4"},
+       "state format 9, this coordinator reads 1 to 5"},
       {"{\"next_job_id\": 1, \"jobs\": []}", NULL, NULL,
        "\"format\" missing or not a whole number"},
       {"{\"format\": 3, \"next_job_id\": -1, \"jobs\": []}", NULL, NULL,
@@ -763,6 +840,8 @@ int main(void) {
   RUN(test_format_3_is_read_with_old_settings_text);
   RUN(test_a_failed_checkpoint_is_an_event_of_its_job);
   RUN(test_failed_leases_and_blocks_outlive_a_restart);
+  RUN(test_pause_and_requirements_outlive_a_restart);
+  RUN(test_a_failed_lease_is_durable_within_a_tick);
   RUN(test_stopping_writes_only_changed_films);
   RUN(test_an_empty_directory_is_an_empty_farm);
   RUN(test_a_stop_not_yet_durable_is_written_active);

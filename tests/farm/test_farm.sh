@@ -8,7 +8,8 @@
 #   test_farm.sh CASE VCMFARM FARM_COMPARE FARM_PEER [FARM_BLOB_PEER]
 #
 # CASE: long_scene_text, three_workers, worker_killed, worker_killed_after_parts, worker_terminated, coordinator_killed,
-# hostile_peers, unauthenticated_bound, tcp_gate, late_duplicate, priorities, stop_conditions, exact_many_iterations, names, state_deleted; mesh_scene, big_file and bad_blobs (scenes
+# hostile_peers, unauthenticated_bound, tcp_gate, late_duplicate, priorities, tags, pause_resume, stop_conditions,
+# exact_many_iterations, names, state_deleted; mesh_scene, big_file and bad_blobs (scenes
 # with files, FARM_BLOB_PEER); fetch_4k and bad_fetches (films fetched in chunks, with
 # FARM_FETCH_PEER in the place of FARM_BLOB_PEER).
 # No fixed sleeps synchronise anything: the script polls `vcmfarm status` (or a file) with
@@ -694,6 +695,84 @@ priorities)
   job=$high
   client fetch "$job" -o "$tmp/high.exr" || fail "fetch failed"
   "$compare" --exact "$tmp/high.exr" "$tmp/reference.exr" "[0,120)" || fail "the priority-2 job's film differs from the reference"
+  ;;
+tags)
+  # Worker tags and job requirements (docs/PROTOCOL.md, "Tags and requirements"): a job
+  # requiring `night` is leased only to the worker carrying it, the other job to both; a
+  # job requiring more memory than any machine has is never leased, while one requiring
+  # 1 MiB (the memory workers report) is. Films exact against --direct.
+  start_coordinator
+  start_worker night --tags night,room-2 --no-auto-tags --test-iteration-delay 10
+  start_worker day --no-auto-tags --test-iteration-delay 10
+  submit 60 --require night
+  night_job=$job
+  submit 60
+  any_job=$job
+  for job in "$night_job" "$any_job"; do wait_until 90 "job $job done" job_done; done
+  job=$night_job
+  status_json | grep -q '"requires":\["night"\]' || fail "job $job's status lacks its requirement: $(status_json)"
+  client status --json | tr -d ' \t\n' | grep -q '"name":"night","[^}]*"tags":\["night","room-2"\]' ||
+    fail "the night worker's tags are not in status: $(client status --json)"
+  leases_to() { grep -c "job $1 iterations \[[0-9]*,[0-9]*) to worker $2\$" "$tmp/coordinator.log"; }
+  echo "job $night_job (requires night): $(leases_to "$night_job" night) leases to night, $(leases_to "$night_job" day) to day;" \
+    "job $any_job: $(leases_to "$any_job" night) to night, $(leases_to "$any_job" day) to day"
+  [ "$(leases_to "$night_job" day)" -eq 0 ] || fail "a worker without the tag was leased job $night_job"
+  [ "$(leases_to "$night_job" night)" -ge 1 ] || fail "the night worker was never leased job $night_job"
+  [ "$(leases_to "$any_job" day)" -ge 1 ] || fail "the day worker was never leased job $any_job"
+  job=$night_job iterations=60 check_film
+  job=$any_job iterations=60 check_film
+  submit 20 --require 'mem>=1T'
+  huge_job=$job
+  submit 20 --require 'mem>=1M'
+  wait_until 60 "job $job (mem>=1M) done" job_done
+  job=$huge_job
+  [ "$(job_number iterations_done)" = 0 ] && [ "$(leases_to "$huge_job" night)$(leases_to "$huge_job" day)" = 00 ] ||
+    fail "job $huge_job, which no worker's memory satisfies, was leased"
+  status_json | grep -q '"state":"queued"' || fail "job $huge_job is not queued: $(status_json)"
+  out=$(client submit cornell --require 'night,,day' 2>&1) && fail "an empty tag was accepted"
+  echo "$out" | grep -q "empty tag" || fail "the refusal of an empty tag does not say so: $out"
+  ;;
+pause_resume)
+  # `pause JOB` stops new leases while the lease out finishes and ships; the job stays
+  # paused across a coordinator restart; `resume JOB` leases it again and the film is
+  # exact against --direct (nothing lost or counted twice).
+  start_coordinator
+  start_worker w1 --test-iteration-delay 30
+  submit 200
+  started() { [ "$(job_number iterations_done)" -gt 0 ] 2>/dev/null; }
+  wait_until 60 "job $job to have merged iterations" started
+  client pause "$job" 2>"$tmp/pause.out" || fail "pause failed: $(cat "$tmp/pause.out")"
+  grep -q "paused job $job: no new leases" "$tmp/pause.out" || fail "pause said: $(cat "$tmp/pause.out")"
+  status_json | grep -q '"state":"paused"' || fail "job $job is not paused: $(status_json)"
+  out=$(client pause "$job" 2>&1)
+  [ $? -eq 2 ] && echo "$out" | grep -q "is paused already" || fail "pausing twice: $out"
+  drained() { status_json | grep -q '"iterations_leased":0,'; }
+  wait_until 30 "job $job's lease out to finish" drained
+  paused_at=$(job_number iterations_done)
+  # The worker asks for work at least every half second: two seconds of asking must give
+  # it nothing of the paused job.
+  for _ in $(seq 20); do
+    sleep 0.1
+    [ "$(job_number iterations_done)" = "$paused_at" ] && drained || fail "job $job progressed while paused"
+  done
+  leases_before=$(grep -c "job $job iterations \[" "$tmp/coordinator.log")
+  echo "paused at $paused_at of 200 iterations, $leases_before leases granted before the pause"
+  kill -TERM "$coordinator"
+  wait_until 30 "the coordinator to stop" exited "$coordinator"
+  start_coordinator
+  wait_until 30 "the restarted coordinator to answer" status_json
+  status_json | grep -q '"state":"paused"' || fail "job $job is not paused after the restart: $(status_json)"
+  [ "$(job_number iterations_done)" = "$paused_at" ] || fail "job $job has $(job_number iterations_done) iterations after the restart, had $paused_at"
+  [ "$(grep -c "job $job iterations \[" "$tmp/coordinator.log")" = "$leases_before" ] ||
+    fail "job $job was leased while paused"
+  client resume "$job" 2>"$tmp/resume.out" || fail "resume failed: $(cat "$tmp/resume.out")"
+  wait_until 90 "job $job done after resuming" job_done
+  for kind in job_submitted job_paused job_resumed job_done; do
+    status_json | grep -q "\"kind\":\"$kind\"" || fail "job $job has no $kind event: $(status_json)"
+  done
+  out=$(client resume "$job" 2>&1)
+  [ $? -eq 2 ] && echo "$out" | grep -q "is done already" || fail "resuming a done job: $out"
+  check_film
   ;;
 stop_conditions)
   # One worker, so that a job stopped mid-lease still holds a contiguous [0,n): the

@@ -79,30 +79,40 @@ function renderJobs(st) {
       el('td', {}, bar, el('span', { class: 'pct' }, (100 * (j.progress || 0)).toFixed(0) + '%')),
       el('td', {}, num(j.iterations_per_second)), el('td', {}, num(j.rmse)), el('td', estimateTitle(j), num(j.estimated_rmse) + estimateNote(j)),
       el('td', {}, j.state === 'running' || j.state === 'queued' ? duration(j.eta_seconds) : '–'),
-      el('td', {}, stopText(j)), el('td', {}, j.priority));
+      el('td', {}, stopText(j)), el('td', {}, j.priority), el('td', { class: 'requires' }, (j.requires || []).join(', ') || '–'));
     return tr;
   });
   $('job-rows').replaceChildren(...rows);
-  if (rows.length === 0) $('job-rows').append(el('tr', {}, el('td', { colspan: 10, class: 'dim' }, 'no jobs: vcmfarm submit …')));
+  if (rows.length === 0) $('job-rows').append(el('tr', {}, el('td', { colspan: 11, class: 'dim' }, 'no jobs: vcmfarm submit …')));
 }
 
 function renderWorkers(st) {
   const rows = st.workers.map((w) => el('tr', { class: 'worker' },
     el('td', {}, w.name), el('td', {}, (w.host || '') + (w.cores ? ` (${w.cores} cores)` : '')),
-    el('td', { class: 'state-' + w.state }, w.state),
+    el('td', { class: 'state-' + w.state }, w.state), el('td', { class: 'tags' }, (w.tags || []).join(', ') || '–'),
     el('td', {}, w.lease ? `job ${w.lease.job} [${w.lease.begin}, ${w.lease.end})` : '–'),
     el('td', {}, num(w.iterations_per_second)), el('td', {}, duration(w.last_seen_seconds) + ' ago'),
     el('td', {}, w.totals.iterations_merged), el('td', {}, w.totals.results_refused)));
   $('worker-rows').replaceChildren(...rows);
-  if (rows.length === 0) $('worker-rows').append(el('tr', {}, el('td', { colspan: 8, class: 'dim' }, 'no workers: vcmfarm worker …')));
+  if (rows.length === 0) $('worker-rows').append(el('tr', {}, el('td', { colspan: 9, class: 'dim' }, 'no workers: vcmfarm worker …')));
 }
 
-function renderEvents(ev) {
-  const items = ev.events.slice(0, 30).map((e) => el('li', {},
+// What happened to jobs (submitted, done, failed, cancelled, paused, resumed, priority
+// changed) apart from what happened to workers and leases; the latest first in each.
+const JOB_EVENTS = new Set(['job_submitted', 'job_done', 'job_failed', 'job_cancelled', 'job_paused', 'job_resumed',
+  'priority_changed']);
+function eventItem(e) {
+  return el('li', { class: 'event', 'data-kind': e.kind },
     el('time', {}, new Date(e.time * 1000).toLocaleTimeString()), ' ', el('b', {}, e.kind), ' ',
-    e.job ? `job ${e.job} ` : '', e.worker ? `(${e.worker}) ` : '', e.message));
-  $('event-list').replaceChildren(...items);
-  if (items.length === 0) $('event-list').append(el('li', { class: 'dim' }, 'nothing has happened yet'));
+    e.job ? `job ${e.job} ` : '', e.worker ? `(${e.worker}) ` : '', e.message);
+}
+function renderEvents(ev) {
+  const jobs = ev.events.filter((e) => JOB_EVENTS.has(e.kind)).slice(0, 30).map(eventItem);
+  const others = ev.events.filter((e) => !JOB_EVENTS.has(e.kind)).slice(0, 30).map(eventItem);
+  $('job-event-list').replaceChildren(...jobs);
+  if (jobs.length === 0) $('job-event-list').append(el('li', { class: 'dim' }, 'no job has been submitted yet'));
+  $('event-list').replaceChildren(...others);
+  if (others.length === 0) $('event-list').append(el('li', { class: 'dim' }, 'nothing has happened yet'));
 }
 
 async function poll() {
@@ -135,9 +145,12 @@ function renderJob(j) {
     ['size', j.resolved ? `${j.resolved.width}×${j.resolved.height}` : ''],
     ['iterations', `${j.iterations_done} done, ${j.iterations_leased} leased`], ['running', duration(j.seconds)],
     ['stops at', stopText(j)], ['stop reason', j.stop_message || j.stop_reason || '–'],
-    ['refused results', j.results_refused], ['settings', j.settings || '']];
+    ['refused results', j.results_refused], ['requires', (j.requires || []).join(', ') || 'any worker'],
+    ['settings', j.settings || '']];
   $('job-facts').replaceChildren(...facts.flatMap(([k, v]) => [el('dt', {}, k), el('dd', {}, v)]));
   if (document.activeElement !== $('priority')) $('priority').value = j.priority;
+  $('pause').disabled = j.paused || !(j.state === 'running' || j.state === 'queued');
+  $('resume').disabled = !j.paused || j.state !== 'paused';
   const workers = (state.status ? state.status.workers : []).filter((w) => w.lease && w.lease.job === j.id);
   const rows = workers.map((w) => el('tr', {}, el('td', {}, w.name), el('td', {}, `[${w.lease.begin}, ${w.lease.end})`),
     el('td', {}, w.state), el('td', {}, num(w.iterations_per_second))));
@@ -170,7 +183,27 @@ function svg(tag, attrs, text) {
   return e;
 }
 
-// Log-log axes over every series' points; one path per series, decades as ticks.
+// A tick's label: plain digits where they are short (0.05, 20, 1500), else 2e-4, 3e+5.
+function tickLabel(v) {
+  return v >= 1e-3 && v < 1e5 ? String(Number(v.toPrecision(2))) : v.toExponential(0);
+}
+// Ticks of a log axis over [10^lo, 10^hi]: 1, 2 and 5 times the decades inside, thinned to
+// the decades when there are more than `most`; never fewer than two (the axis's ends, when
+// it spans less than a step), so that every axis has numbers to read it by.
+function logTicks(lo, hi, most) {
+  const all = [];
+  for (let d = Math.floor(lo); d <= Math.ceil(hi); d++)
+    for (const m of [1, 2, 5]) {
+      const v = m * 10 ** d, l = Math.log10(v);
+      if (l >= lo - 1e-9 && l <= hi + 1e-9) all.push({ v, m });
+    }
+  let ticks = all.length > most ? all.filter((t) => t.m === 1) : all;
+  if (ticks.length > most) ticks = ticks.filter((_, i) => i % Math.ceil(ticks.length / most) === 0);
+  if (ticks.length < 2) ticks = [{ v: 10 ** lo }, { v: 10 ** hi }];
+  return ticks.map((t) => t.v);
+}
+
+// Log-log axes over every series' points; one path per series; numbered ticks on both axes.
 function plot(target, lines, xlabel) {
   const W = 420, H = 220, L = 56, R = 10, T = 12, B = 38;
   const all = lines.flatMap((l) => l.points).filter(([x, y]) => x > 0 && y > 0);
@@ -187,15 +220,17 @@ function plot(target, lines, xlabel) {
   const px = (x) => L + (Math.log10(x) - x0) / (x1 - x0) * (W - L - R);
   const py = (y) => T + (y1 - Math.log10(y)) / (y1 - y0) * (H - T - B);
   nodes.push(svg('rect', { x: L, y: T, width: W - L - R, height: H - T - B, class: 'frame' }));
-  for (let d = Math.ceil(x0); d <= Math.floor(x1); d++) {
-    const x = px(10 ** d);
+  for (const v of logTicks(x0, x1, 7)) {
+    const x = px(v);
     nodes.push(svg('line', { x1: x, x2: x, y1: T, y2: H - B, class: 'grid' }));
-    nodes.push(svg('text', { x, y: H - B + 14, 'text-anchor': 'middle' }, '1e' + d));
+    nodes.push(svg('line', { x1: x, x2: x, y1: H - B, y2: H - B + 4, class: 'tick' }));
+    nodes.push(svg('text', { x, y: H - B + 14, 'text-anchor': 'middle', class: 'tick-x' }, tickLabel(v)));
   }
-  for (let d = Math.ceil(y0); d <= Math.floor(y1); d++) {
-    const y = py(10 ** d);
+  for (const v of logTicks(y0, y1, 6)) {
+    const y = py(v);
     nodes.push(svg('line', { x1: L, x2: W - R, y1: y, y2: y, class: 'grid' }));
-    nodes.push(svg('text', { x: L - 4, y: y + 4, 'text-anchor': 'end' }, '1e' + d));
+    nodes.push(svg('line', { x1: L - 4, x2: L, y1: y, y2: y, class: 'tick' }));
+    nodes.push(svg('text', { x: L - 6, y: y + 4, 'text-anchor': 'end', class: 'tick-y' }, tickLabel(v)));
   }
   nodes.push(svg('text', { x: L + (W - L - R) / 2, y: H - 6, 'text-anchor': 'middle' }, xlabel));
   nodes.push(svg('text', { x: 12, y: T + (H - T - B) / 2, 'text-anchor': 'middle', transform: `rotate(-90 12 ${T + (H - T - B) / 2})` }, 'error'));
@@ -306,8 +341,21 @@ async function download(verb, name) {
 document.addEventListener('DOMContentLoaded', () => {
   $('sign-in').addEventListener('submit', signIn);
   $('sign-out').addEventListener('click', signOut);
+  $('pause').addEventListener('click', () => simple('pause'));
+  $('resume').addEventListener('click', () => simple('resume'));
   $('cancel').addEventListener('click', () => simple('cancel'));
-  $('remove').addEventListener('click', () => simple('remove'));
+  $('remove').addEventListener('click', () => {
+    // Removing deletes the job's film and files on the coordinator: asked first, every time.
+    const j = state.job, id = state.selected;
+    if (id == null) return;
+    const what = j ? `job ${id} (${j.name}, ${j.state}, ${j.iterations_done} iterations)` : `job ${id}`;
+    if (!window.confirm(`Remove ${what}? The coordinator deletes its film, scene and the files no other job ` +
+      'uses; this cannot be undone. Fetch the film first if you need it.')) {
+      $('action-result').textContent = `remove: job ${id} kept`;
+      return;
+    }
+    simple('remove');
+  });
   $('set-priority').addEventListener('click', () => simple('priority', { priority: Number($('priority').value) }));
   $('download-film').addEventListener('click', () => download('film', `job-${state.selected}.exr`));
   $('download-image').addEventListener('click', () =>

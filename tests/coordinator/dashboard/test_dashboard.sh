@@ -4,8 +4,10 @@
 # Debian's chromium, headless, driven by playwright-core (tests/coordinator/dashboard/browser/drive.js, from
 # the npm registry at the version in tests/coordinator/dashboard/browser/package-lock.json), opens the page and
 # checks that the job's progress rises, its preview changes between two screenshots, the
-# plots are drawn, the worker is listed, an action without a session is refused, and the
-# job is cancelled with the farm key through the page.
+# plots are drawn with numbered axes, the worker is listed with its tags, an action without
+# a session is refused, and with the farm key the job is paused, resumed, given priority 3
+# and cancelled through the page (each in the Events panel), then removed once Remove's
+# question is accepted (declined first: it stays).
 #
 #   test_dashboard.sh VCMFARM SOURCE_DIR WORK_DIR
 #
@@ -37,7 +39,7 @@ farm_test_key
   --http 127.0.0.1:0 >"$tmp/coordinator.log" 2>&1 &
 pids+=($!)
 dashboard_address
-"$vcmfarm" worker --connect "$url" --secret "$key" --threads 1 --name w1 --test-iteration-delay 150 \
+"$vcmfarm" worker --connect "$url" --secret "$key" --threads 1 --name w1 --tags night --test-iteration-delay 150 \
   --ship-interval 0.5 >"$tmp/worker.log" 2>&1 &
 pids+=($!)
 "$vcmfarm" submit cornell -R 96x96 --iterations 3000 --coordinator "$url" --secret "$key" >"$tmp/submit.log" 2>&1 ||
@@ -47,5 +49,9 @@ out=$(cd "$work" && node drive.js "$base" "$key" "$chromium" ${SCREENSHOTS:+"$SC
 status=$?
 echo "$out"
 [ $status -eq 0 ] || fail "the page did not pass (above)"
-grep -q "job 1 cancelled from the dashboard" "$tmp/coordinator.log" || fail "the coordinator did not log the cancel"
+for action in paused resumed cancelled removed; do
+  grep -q "job 1 $action from the dashboard" "$tmp/coordinator.log" || fail "the coordinator did not log job 1 $action"
+done
+grep -q "job 1: priority 1 -> 3 (dashboard)" "$tmp/coordinator.log" || fail "the coordinator did not log the priority"
+[ "$(grep -c "job 1 removed from the dashboard" "$tmp/coordinator.log")" = 1 ] || fail "job 1 was removed more than once"
 echo "ok   test_dashboard"

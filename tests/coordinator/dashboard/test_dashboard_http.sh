@@ -5,8 +5,8 @@
 # events; a preview PNG; every action refused through GET (405), without a token (401),
 # with a bad one (403); a sign-in with a wrong proof and a replayed nonce refused, with
 # the right proof (HMAC-SHA-256 under the key, computed here by python3) a token that
-# changes the priority, fetches the film and the baked PNG and cancels the job; a foreign
-# Host refused (421). curl and python3 are dependencies (deploy/install-deps.sh): missing,
+# changes the priority, pauses and resumes the job, fetches the film and the baked PNG and
+# cancels the job; a foreign Host refused (421). curl and python3 are dependencies (deploy/install-deps.sh): missing,
 # the test fails.
 #
 #   test_dashboard_http.sh VCMFARM
@@ -64,7 +64,7 @@ head -c 8 "$tmp/body" | od -An -tx1 | grep -q '89 50 4e 47 0d 0a 1a 0a' || fail 
 expect "preview with a bad exposure" 400 "$base/api/jobs/1/preview.png?exposure=abc"
 expect "a foreign Host" 421 -H "Host: attacker.example" "$base/api/status"
 
-for action in cancel remove priority film image; do
+for action in cancel remove priority film image pause resume; do
   expect "GET $action" 405 "$base/api/jobs/1/$action"
   expect "$action without a token" 401 -X POST "$base/api/jobs/1/$action"
   expect "$action with a bad token" 403 -X POST -H "X-Vcmfarm-Session: $(printf '%064d' 7)" "$base/api/jobs/1/$action"
@@ -96,6 +96,17 @@ curl -s "${auth[@]}" -o "$tmp/film.exr" "$base/api/jobs/1/film"
 "$vcmfarm" info "$tmp/film.exr" >"$tmp/info.log" 2>&1 || fail "the fetched film does not read: $(cat "$tmp/info.log")"
 expect "the baked image" 200 "${auth[@]}" "$base/api/jobs/1/image?exposure=0.5"
 head -c 8 "$tmp/body" | od -An -tx1 | grep -q '89 50 4e 47' || fail "the baked image is not a PNG"
+expect "resume while not paused" 409 "${auth[@]}" "$base/api/jobs/1/resume"
+expect "pause" 200 "${auth[@]}" "$base/api/jobs/1/pause"
+json 'assert "paused job 1: no new leases" in d["message"], d' || fail "pause said: $(cat "$tmp/body")"
+expect "the job is paused" 200 "$base/api/jobs/1"
+json 'j=d["jobs"][0]; assert j["state"]=="paused" and j["paused"] is True, j["state"]' || fail "not paused"
+expect "pause again" 409 "${auth[@]}" "$base/api/jobs/1/pause"
+expect "pause of no job" 404 "${auth[@]}" "$base/api/jobs/99/pause"
+expect "resume" 200 "${auth[@]}" "$base/api/jobs/1/resume"
+expect "the job's events" 200 "$base/api/events"
+json 'k=[e["kind"] for e in d["events"]]; assert "job_paused" in k and "job_resumed" in k and "priority_changed" in k, k' ||
+  fail "the events lack the pause, the resume or the priority: $(cat "$tmp/body")"
 expect "remove while running" 409 "${auth[@]}" "$base/api/jobs/1/remove"
 expect "cancel" 200 "${auth[@]}" "$base/api/jobs/1/cancel"
 expect "the job is cancelled" 200 "$base/api/jobs/1"

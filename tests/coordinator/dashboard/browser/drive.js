@@ -4,9 +4,11 @@
 //
 // Opens the dashboard of a coordinator that runs one job on one worker and checks what a
 // person would: the job listed, its progress rising, its preview changing between two
-// screenshots, the plot drawn, the worker listed; an action without a session refused; a
-// wrong key refused, the refusal still shown after the page's next poll; the job cancelled
-// with the right key through the page. With SCREENSHOT_DIR, writes dashboard.png (the page)
+// screenshots, the plots drawn with numbers on both axes, the worker listed with its tags;
+// an action without a session refused; a wrong key refused, the refusal still shown after
+// the page's next poll; with the right key, the job paused, resumed, given another
+// priority and cancelled through the page, each shown in the Events panel's job list;
+// Remove asking first: declined, the job stays; accepted, it goes. With SCREENSHOT_DIR, writes dashboard.png (the page)
 // and dashboard-job.png (the job).
 'use strict';
 const fs = require('fs');
@@ -55,6 +57,15 @@ const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
   const d = await page.getAttribute('#plot-time path.line', 'd');
   check('the error-against-time plot is drawn', /^M[\d. ]+(L[\d. ]+)*$/.test(d) && d.length > 4, d.slice(0, 40));
   check('the error-against-iterations plot is drawn', (await page.locator('#plot-iterations path.line').count()) > 0);
+  for (const id of ['plot-time', 'plot-iterations'])
+    for (const axis of ['x', 'y']) {
+      const labels = await page.locator(`#${id} text.tick-${axis}`).allTextContents();
+      const numbers = labels.map(Number);
+      check(`the ${id} plot's ${axis} axis is numbered`, labels.length >= 2 && numbers.every(Number.isFinite) &&
+        numbers.every((v, i) => i === 0 || (axis === 'x' ? v > numbers[i - 1] : v !== numbers[i - 1])), labels.join(' '));
+    }
+  const workerTags = await page.textContent('#worker-rows td.tags');
+  check("the worker's tags are listed", workerTags.includes('night'), workerTags);
   const facts = await page.textContent('#job-facts');
   check("the job's settings are shown", /settings\s*algorithm=\S+ max_path_length=\d+ radius_factor=/.test(facts), facts.trim());
   const ranges = await page.textContent('#job-ranges');
@@ -87,12 +98,47 @@ const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
   check('the farm key signs in', true);
   const stored = await page.evaluate(() => JSON.stringify(localStorage) + JSON.stringify(sessionStorage) + document.cookie);
   check('the key is stored nowhere', !stored.includes(key));
-  await page.click('#cancel');
-  await page.waitForFunction(() => {
+  const rowSays = (text) => page.waitForFunction((t) => {
     const row = document.querySelector('tr.job[data-job="1"]');
-    return row && row.textContent.includes('cancelled');
-  }, null, { timeout: 15000 });
+    return row && row.querySelector('td:nth-child(3)').textContent === t;
+  }, text, { timeout: 15000 });
+  const eventShown = async (kind) => {
+    await page.waitForSelector(`#job-event-list li[data-kind="${kind}"]`, { timeout: 15000 });
+    return page.textContent(`#job-event-list li[data-kind="${kind}"]`);
+  };
+  check('the Events panel shows the job submitted', (await eventShown('job_submitted')).includes('job 1'));
+  await page.click('#pause');
+  await rowSays('paused');
+  check('the job is paused through the page', true, await page.textContent('#action-result'));
+  check('the Events panel shows the pause', (await eventShown('job_paused')).includes('no new leases'));
+  const frozen = await page.textContent('tr.job[data-job="1"]');
+  await page.click('#resume');
+  await rowSays('running');
+  check('the job is resumed through the page', true, await page.textContent('#action-result'));
+  check('the Events panel shows the resume', (await eventShown('job_resumed')).includes('resumed job 1'), frozen.trim());
+  await page.fill('#priority', '3');
+  await page.click('#set-priority');
+  check('the Events panel shows the priority changed', (await eventShown('priority_changed')).includes('priority 1 -> 3'));
+  await page.click('#cancel');
+  await rowSays('cancelled');
   check('the job is cancelled through the page', true, await page.textContent('#action-result'));
+  check('the Events panel shows the cancel', (await eventShown('job_cancelled')).includes('cancelled'));
+  check('worker events stay in their own list',
+    (await page.locator('#job-event-list li[data-kind="worker_registered"]').count()) === 0 &&
+    (await page.locator('#event-list li[data-kind="worker_registered"]').count()) > 0);
+
+  // Remove asks first: declined, nothing is sent and the job stays.
+  let asked = '';
+  page.once('dialog', (d) => { asked = d.message(); d.dismiss(); });
+  await page.click('#remove');
+  check('Remove asks before it deletes', asked.includes('Remove job 1') && asked.includes('cannot be undone'), asked);
+  await sleep(2500); // past the page's next poll
+  check('declining keeps the job', (await page.locator('tr.job[data-job="1"]').count()) === 1,
+    await page.textContent('#action-result'));
+  page.once('dialog', (d) => d.accept());
+  await page.click('#remove');
+  await page.waitForFunction(() => !document.querySelector('tr.job[data-job="1"]'), null, { timeout: 15000 });
+  check('accepting removes the job', true, await page.textContent('#action-result'));
   await browser.close();
   process.exit(failed ? 1 : 0);
 })().catch((e) => {
