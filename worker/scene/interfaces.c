@@ -170,18 +170,10 @@ static void surface_point(const vf_shape *s, double p[3]) {
             s->positions[3 * (size_t)s->indices[3 * (size_t)best + 2] + k]) / 3.0;
 }
 
-/* Whether p is inside closed shape s (bounding box r): for a mesh, an odd number of
- * crossings of a ray from p in a direction no axis-aligned mesh lines up with. */
-static int contains(const vf_shape *s, const region *r, const double p[3]) {
-  for (int k = 0; k < 3; k++)
-    if (!(p[k] > r->lo[k] && p[k] < r->hi[k])) return 0;
-  if (s->kind == VF_SHAPE_SPHERE) {
-    double d[3] = {p[0] - s->center.x, p[1] - s->center.y, p[2] - s->center.z};
-    return d[0] * d[0] + d[1] * d[1] + d[2] * d[2] < (double)s->radius * s->radius;
-  }
-  const double dir[3] = {0.2672612419124244, 0.5345224838248488, 0.8017837257372732}; /* (1, 2, 3) / sqrt(14) */
-  unsigned crossings = 0;
-  for (uint32_t t = 0; t < s->num_triangles; t++) { /* Moller-Trumbore, in double */
+/* The number of times the ray from p along dir crosses mesh s (Moller-Trumbore, in double). */
+static unsigned crossings(const vf_shape *s, const double p[3], const double dir[3]) {
+  unsigned n = 0;
+  for (uint32_t t = 0; t < s->num_triangles; t++) {
     const float *a = &s->positions[3 * (size_t)s->indices[3 * (size_t)t]];
     const float *b = &s->positions[3 * (size_t)s->indices[3 * (size_t)t + 1]];
     const float *d = &s->positions[3 * (size_t)s->indices[3 * (size_t)t + 2]];
@@ -195,10 +187,27 @@ static int contains(const vf_shape *s, const region *r, const double p[3]) {
     double w[3] = {o[1] * e1[2] - o[2] * e1[1], o[2] * e1[0] - o[0] * e1[2], o[0] * e1[1] - o[1] * e1[0]};
     double v = (dir[0] * w[0] + dir[1] * w[1] + dir[2] * w[2]) / det;
     if (v < 0.0 || u + v > 1.0) continue;
-    double dist = (e2[0] * w[0] + e2[1] * w[1] + e2[2] * w[2]) / det;
-    crossings += dist > 0.0;
+    n += (e2[0] * w[0] + e2[1] * w[1] + e2[2] * w[2]) / det > 0.0;
   }
-  return crossings & 1u;
+  return n;
+}
+
+/* Whether p is inside closed shape s (bounding box r): for a mesh, the parity of the
+ * crossings of rays from p, by a majority of three directions of no simple ratio (a ray
+ * through an edge or a vertex may count a crossing twice or not at all; three such
+ * accidents at once do not happen by chance). */
+static int contains(const vf_shape *s, const region *r, const double p[3]) {
+  for (int k = 0; k < 3; k++)
+    if (!(p[k] > r->lo[k] && p[k] < r->hi[k])) return 0;
+  if (s->kind == VF_SHAPE_SPHERE) {
+    double d[3] = {p[0] - s->center.x, p[1] - s->center.y, p[2] - s->center.z};
+    return d[0] * d[0] + d[1] * d[1] + d[2] * d[2] < (double)s->radius * s->radius;
+  }
+  static const double dirs[3][3] = {{0.37193, 0.56021, 0.74007}, {-0.62471, 0.31393, 0.71512},
+                                    {0.20173, -0.88931, 0.41069}}; /* unit within 1e-4: the length does not matter */
+  int inside = 0;
+  for (int i = 0; i < 3; i++) inside += crossings(s, p, dirs[i]) & 1u;
+  return inside >= 2;
 }
 
 /* ---- the scene's interfaces ------------------------------------------------------------------ */
