@@ -346,6 +346,35 @@ void vf_scene_hash(vf_scene *s) {
         for (int k = 0; k < 3; k++) h_f32(&h, s->envmap_rotation[r][k]);
     }
   }
+  /* Media, only in scenes that have them or an interface: scenes without keep their
+   * hashes. A grid counts by its samples and box (not its file's name or bytes). */
+  int interfaces = 0;
+  for (int i = 0; i < s->num_shapes; i++) interfaces |= s->shapes[i].interface;
+  if (s->num_media > 0 || interfaces || s->medium >= 0) {
+    h_tag(&h, "media");
+    h_u32(&h, (uint32_t)s->num_media);
+    for (int i = 0; i < s->num_media; i++) {
+      const vf_medium *m = &s->media[i];
+      h_vec3(&h, m->sigma_a);
+      h_vec3(&h, m->sigma_s);
+      h_f32(&h, m->g);
+      h_u32(&h, m->grid != NULL);
+      if (m->grid == NULL) continue;
+      const vf_density_grid *g = m->grid;
+      h_u32(&h, g->nx);
+      h_u32(&h, g->ny);
+      h_u32(&h, g->nz);
+      h_vec3(&h, g->box_min);
+      h_vec3(&h, g->box_max);
+      for (uint64_t k = 0; k < (uint64_t)g->nx * g->ny * g->nz; k++) h_f32(&h, g->density[k]);
+    }
+    h_u32(&h, (uint32_t)s->medium);
+    for (int i = 0; i < s->num_shapes; i++) {
+      h_u32(&h, (uint32_t)s->shapes[i].interface);
+      h_u32(&h, (uint32_t)s->shapes[i].interior);
+      h_u32(&h, (uint32_t)s->shapes[i].exterior);
+    }
+  }
   h_tag(&h, "settings");
   h_u32(&h, s->settings_given);
   if (s->settings_given & VF_SET_ALGORITHM) h_u32(&h, (uint32_t)s->settings.algorithm);

@@ -153,7 +153,7 @@ int vf_scene_scale(vf_scene *scene, double factor);
 void vf_scene_bounding_sphere(const vf_scene *scene, vf_vec3 *center, float *radius);
 
 /* Recomputes scene->hash from the content (camera, materials, shapes, lights, environment,
- * settings the file set), in a canonical order: equal content gives equal hashes. Names,
+ * media with their grids' samples, interiors and the scene's medium, settings the file set), in a canonical order: equal content gives equal hashes. Names,
  * the source path and the JSON layout are not part of it; material order is. Call it after
  * changing a loaded scene. */
 void vf_scene_hash(vf_scene *scene);
