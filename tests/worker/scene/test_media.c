@@ -723,6 +723,18 @@ static void test_hash_sees_media_and_only_them(void) {
   hash_of("\"ink\": {\"sigma_a\": 1, \"density\": {\"file\": \"hash.vdb\", \"scale\": 1.5}}", NULL, other);
   CHECK(memcmp(base, same, 32) == 0);
   CHECK(memcmp(base, other, 32) != 0);
+
+  /* Scaling a scene keeps its optical depths: coefficients by 1/f, grid boxes by f. */
+  hash_of("\"ink\": {\"sigma_a\": 1, \"density\": {\"file\": \"hash.vdb\"}}", NULL, base);
+  s = load_ok("hash.json");
+  if (s == NULL) return;
+  vf_vec3 box_lo = s->media[0].grid->box_min, box_hi = s->media[0].grid->box_max;
+  CHECK_INT_EQ(vf_scene_scale(s, 4.0), VF_OK);
+  CHECK_NEAR(s->media[0].sigma_a.x, 0.25, 0);
+  CHECK_NEAR(s->media[0].grid->box_min.y, 4 * box_lo.y, 1e-6);
+  CHECK_NEAR(s->media[0].grid->box_max.z, 4 * box_hi.z, 1e-6);
+  CHECK(memcmp(base, s->hash, 32) != 0);
+  vf_scene_destroy(s);
 }
 
 /* A process that links OpenVDB (through the scene library) can fork children that exit:
