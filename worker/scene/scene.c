@@ -60,6 +60,9 @@ int vf_scene_check_extent(const vf_scene *s, const char *label) {
   if (what == NULL && beyond(s->camera.view_width)) what = "camera.width";
   for (int i = 0; i < s->num_point_lights && what == NULL; i++)
     if (beyond3(s->point_lights[i].position)) what = "lights", index = i;
+  for (int i = 0; i < s->num_media && what == NULL; i++) /* a grid's box, named by the medium's index */
+    if (s->media[i].grid != NULL && (beyond3(s->media[i].grid->box_min) || beyond3(s->media[i].grid->box_max)))
+      what = "media (a density grid's box)", index = i;
   if (what == NULL) return VF_OK;
   if (index >= 0)
     return vf_error_set(VF_ESCENE, "%s: %s[%d]: a coordinate beyond %g in world space: the renderer cannot trace it "
@@ -115,6 +118,17 @@ int vf_scene_scale(vf_scene *s, double factor) {
   /* Irradiance from a point light falls with the square of the distance: its intensity
    * grows with the square of the scale. Area lights keep their radiance, directional lights
    * their irradiance, the environment its radiance: none depends on distance. */
+  /* Media keep their optical depths: coefficients per unit length shrink as lengths grow,
+   * and a grid's box moves with the geometry. */
+  for (int i = 0; i < s->num_media; i++) {
+    vf_medium *m = &s->media[i];
+    m->sigma_a = vf_scale(m->sigma_a, (float)(1.0 / factor));
+    m->sigma_s = vf_scale(m->sigma_s, (float)(1.0 / factor));
+    if (m->grid != NULL) {
+      m->grid->box_min = vf_scale(m->grid->box_min, f);
+      m->grid->box_max = vf_scale(m->grid->box_max, f);
+    }
+  }
   for (int i = 0; i < s->num_point_lights; i++) {
     s->point_lights[i].position = vf_scale(s->point_lights[i].position, f);
     s->point_lights[i].intensity = vf_scale(s->point_lights[i].intensity, (float)(factor * factor));

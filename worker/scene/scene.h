@@ -146,7 +146,7 @@ void vf_scene_destroy(vf_scene *scene);
 
 /* Scales the whole scene, camera and lights by factor about the origin so that the exact
  * image is unchanged: point-light intensities grow with factor^2, radiances and directional
- * irradiances stay. Recomputes bounds and hash. For numerical stress tests (issue 5). */
+ * irradiances stay, media coefficients shrink by 1/factor and grid boxes move with the shapes. Recomputes bounds and hash. For numerical stress tests (issue 5). */
 int vf_scene_scale(vf_scene *scene, double factor);
 
 /* Bounding sphere of all shapes: center of the bounding box and half its diagonal. */

@@ -10,6 +10,8 @@ extern "C" {
 #include <openvdb/io/Stream.h>
 #include <openvdb/openvdb.h>
 
+#include <dlfcn.h>
+
 #include <cerrno>
 #include <cmath>
 #include <cstdint>
@@ -22,6 +24,18 @@ extern "C" {
 #include <string>
 
 namespace {
+
+// Debian's OpenVDB links log4cplus 2.0, whose library starts a pool of four logging
+// threads as it loads: in every process that links the scene library, whether it reads a
+// grid or not. A process with those threads that forks has children that cannot exit()
+// (log4cplus's finalizer waits for pool threads a child does not have: the tests' forked
+// decoders hung). Nothing here logs through log4cplus, so the pool is stopped before main;
+// looked up by name, so that a log4cplus without it (or none) is no error.
+__attribute__((constructor)) void stop_log4cplus_thread_pool() {
+  using shutdown_fn = void (*)();
+  void *symbol = dlsym(RTLD_DEFAULT, "_ZN9log4cplus18shutdownThreadPoolEv");  // log4cplus::shutdownThreadPool()
+  if (symbol != nullptr) reinterpret_cast<shutdown_fn>(symbol)();
+}
 
 // A scale along each axis and a translation, the only maps a dense axis-aligned grid
 // can follow; the others are refused by name.

@@ -16,6 +16,9 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <time.h>
 #include <unistd.h>
 
 static char dir[64];
@@ -556,6 +559,59 @@ static void test_gltf_volume_becomes_an_absorbing_interior(void) {
   vf_scene_destroy(s);
 }
 
+/* ---- Mitsuba 3 -------------------------------------------------------------------------------- */
+
+/* A homogeneous medium in Mitsuba's parameters, an hg phase function, shape interiors (a
+ * glass ball; a null-BSDF cube: index-matched), the sensor's medium as the scene's, and
+ * what does not fit noted. */
+static void test_mitsuba_homogeneous_media(void) {
+  write_text("media.xml",
+             "<scene version=\"3.0.0\">\n"
+             "<medium type=\"homogeneous\" id=\"haze\"><rgb name=\"albedo\" value=\"0.5, 0.8, 1\"/>"
+             "<float name=\"sigma_t\" value=\"2\"/><float name=\"scale\" value=\"0.5\"/>"
+             "<phase type=\"hg\"><float name=\"g\" value=\"0.3\"/></phase></medium>\n"
+             "<medium type=\"homogeneous\" id=\"ink\"><float name=\"albedo\" value=\"0\"/>"
+             "<rgb name=\"sigma_t\" value=\"1, 2, 3\"/></medium>\n"
+             "<medium type=\"heterogeneous\" id=\"cloud\"/>\n"
+             "<sensor type=\"perspective\"><float name=\"fov\" value=\"45\"/><ref name=\"medium\" id=\"haze\"/></sensor>\n"
+             "<emitter type=\"constant\"/>\n"
+             "<shape type=\"sphere\" id=\"inkball\"><bsdf type=\"dielectric\"/><ref name=\"interior\" id=\"ink\"/>"
+             "<ref name=\"exterior\" id=\"haze\"/></shape>\n"
+             "<shape type=\"cube\" id=\"fogbox\"><transform name=\"to_world\"><translate x=\"5\"/></transform>"
+             "<bsdf type=\"null\"/><medium type=\"homogeneous\" name=\"interior\"><float name=\"sigma_t\" value=\"4\"/>"
+             "</medium></shape>\n"
+             "<shape type=\"sphere\" id=\"cloudball\"><transform name=\"to_world\"><translate x=\"-5\"/></transform>"
+             "<bsdf type=\"diffuse\"/><ref name=\"interior\" id=\"cloud\"/></shape>\n"
+             "</scene>\n");
+  vf_scene *s = load_ok("media.xml");
+  if (s == NULL) return;
+  int haze = medium_named(s, "haze"), ink = medium_named(s, "ink");
+  CHECK_INT_EQ(s->num_media, 3); /* haze, ink and the cube's inline medium; not the heterogeneous cloud */
+  CHECK_INT_EQ(s->medium, haze);
+  if (haze >= 0 && ink >= 0) {
+    const vf_medium *m = &s->media[haze];
+    /* sigma_t' = 0.5 x 2 = 1: sigma_s = albedo, sigma_a = 1 - albedo */
+    CHECK_NEAR(m->sigma_s.x, 0.5, 1e-6); CHECK_NEAR(m->sigma_s.y, 0.8, 1e-6); CHECK_NEAR(m->sigma_s.z, 1, 1e-6);
+    CHECK_NEAR(m->sigma_a.x, 0.5, 1e-6); CHECK_NEAR(m->sigma_a.y, 0.2, 1e-6); CHECK_NEAR(m->sigma_a.z, 0, 1e-6);
+    CHECK_NEAR(m->g, 0.3, 1e-6);
+    m = &s->media[ink];
+    CHECK(vf_is_zero(m->sigma_s));
+    CHECK_NEAR(m->sigma_a.x, 1, 1e-6); CHECK_NEAR(m->sigma_a.z, 3, 1e-6);
+    CHECK_NEAR(m->g, 0, 0); /* no phase: isotropic */
+  }
+  const vf_shape *ball = shape_named(s, "inkball"), *box = shape_named(s, "fogbox"), *cloud = shape_named(s, "cloudball");
+  if (ball && box && cloud) {
+    CHECK_INT_EQ(ball->interior, ink); CHECK_INT_EQ(ball->exterior, haze); CHECK(ball->material >= 0);
+    CHECK_INT_EQ(box->material, -1); CHECK_INT_EQ(box->interface, 1); CHECK(box->interior >= 0);
+    if (box->interior >= 0) CHECK_NEAR(s->media[box->interior].sigma_s.x, 0.75 * 4, 1e-5); /* albedo 0.75 by default */
+    CHECK_INT_EQ(cloud->interior, -1); CHECK_INT_EQ(cloud->interface, 0);
+  }
+  CHECK_STR_CONTAINS(s->notes, "medium 'heterogeneous' is not supported (homogeneous only)");
+  CHECK_STR_CONTAINS(s->notes, "the exterior medium is not read");
+  CHECK_STR_CONTAINS(s->notes, "the sensor's medium 'haze' is the scene's medium");
+  vf_scene_destroy(s);
+}
+
 /* ---- built-ins and the hash ------------------------------------------------------------------------ */
 
 static void test_media_builtins_have_their_media(void) {
@@ -667,6 +723,48 @@ static void test_hash_sees_media_and_only_them(void) {
   hash_of("\"ink\": {\"sigma_a\": 1, \"density\": {\"file\": \"hash.vdb\", \"scale\": 1.5}}", NULL, other);
   CHECK(memcmp(base, same, 32) == 0);
   CHECK(memcmp(base, other, 32) != 0);
+
+  /* Scaling a scene keeps its optical depths: coefficients by 1/f, grid boxes by f. */
+  hash_of("\"ink\": {\"sigma_a\": 1, \"density\": {\"file\": \"hash.vdb\"}}", NULL, base);
+  s = load_ok("hash.json");
+  if (s == NULL) return;
+  vf_vec3 box_lo = s->media[0].grid->box_min, box_hi = s->media[0].grid->box_max;
+  CHECK_INT_EQ(vf_scene_scale(s, 4.0), VF_OK);
+  CHECK_NEAR(s->media[0].sigma_a.x, 0.25, 0);
+  CHECK_NEAR(s->media[0].grid->box_min.y, 4 * box_lo.y, 1e-6);
+  CHECK_NEAR(s->media[0].grid->box_max.z, 4 * box_hi.z, 1e-6);
+  CHECK(memcmp(base, s->hash, 32) != 0);
+  vf_scene_destroy(s);
+}
+
+/* A process that links OpenVDB (through the scene library) can fork children that exit:
+ * Debian's OpenVDB loads log4cplus, whose logging threads made every forked child hang in
+ * exit() until the scene library stopped them (worker/scene/vdb.cpp). The child here reads
+ * a grid first, as a forked decoder or worker would. */
+static void test_forked_child_exits_after_reading_a_grid(void) {
+  pid_t pid = fork();
+  if (pid == 0) {
+    vf_scene *s = NULL;
+    int err = vf_scene_load("cornell-smoke", &s);
+    vf_scene_destroy(s);
+    exit(err == VF_OK ? 0 : 3);
+  }
+  CHECK(pid > 0);
+  if (pid <= 0) return;
+  int status = 0;
+  pid_t done = 0;
+  for (int waited_ms = 0; waited_ms < 20000 && done == 0; waited_ms += 10) {
+    done = waitpid(pid, &status, WNOHANG);
+    if (done == 0) nanosleep(&(struct timespec){0, 10000000}, NULL);
+  }
+  if (done == 0) {
+    kill(pid, SIGKILL);
+    waitpid(pid, &status, 0);
+    CHECK_FAIL_("%s", "the forked child did not exit within 20 s");
+    return;
+  }
+  CHECK(WIFEXITED(status));
+  CHECK_INT_EQ(WEXITSTATUS(status), 0);
 }
 
 int main(void) {
@@ -682,8 +780,10 @@ int main(void) {
   RUN(test_vdb_grid_round_trip_and_placement);
   RUN(test_job_scene_ships_the_grid_file);
   RUN(test_gltf_volume_becomes_an_absorbing_interior);
+  RUN(test_mitsuba_homogeneous_media);
   RUN(test_media_builtins_have_their_media);
   RUN(test_hash_sees_media_and_only_them);
+  RUN(test_forked_child_exits_after_reading_a_grid);
   char cmd[128];
   snprintf(cmd, sizeof cmd, "rm -rf '%s'", dir);
   if (system(cmd) != 0) fprintf(stderr, "could not remove %s\n", dir);
