@@ -334,6 +334,7 @@ static int camera_bounce(vf_vcm *v, int thread, camera_lane *lane, const vf_hit 
                              &lane->sampler, &seg);
     if (r == VF_SEGMENT_ENDED) return 0;
     s->throughput = vf_mul(s->throughput, seg.weight);
+    s->medium = seg.medium; /* index-matched boundaries on the way may have changed it */
     if (r == VF_SEGMENT_ESCAPED) {
       if (!(seg.fwd > 0.0f) || v->infinite_dark) return 0;
       vf_mis_escape(&s->mis, &v->merge.mis, seg.fwd, seg.rev);

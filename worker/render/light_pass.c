@@ -318,6 +318,7 @@ static int light_bounce(vf_vcm *v, int thread, light_chunk *c, light_lane *lane,
                              &lane->sampler, &seg);
     if (r != VF_SEGMENT_VERTEX) return 0;
     s->throughput = vf_mul(s->throughput, seg.weight);
+    s->medium = seg.medium; /* index-matched boundaries on the way may have changed it */
     hit = &through;
     if (vf_hit_in_medium(hit)) {
       bsdf_in_medium(v, &b, hit->primitive, hit->position, vf_neg(s->direction));

@@ -154,22 +154,26 @@ vf_vec3 vf_segment_transmittance(vf_vcm *v, int thread, int medium, vf_vec3 p, v
   }
   for (;;) {
     if (ps.n == SEGMENT_PIECES_MAX) return zero;
-    float tfar = q_at_infinity ? INFINITY : vf_length(vf_sub(end, o));
+    /* Each piece aims at the far end itself, as a shadow ray does (wavefront.h): a ray
+     * along the first piece's direction from a point moved off a boundary would pass the
+     * far end by a hair and could meet its surface. */
+    vf_vec3 ray = q_at_infinity ? dir : vf_sub(end, o);
+    float scale = q_at_infinity ? 1.0f : vf_length(ray);
     vf_hit h;
     v->stats[thread].rays++;
-    int found = vf_accel_intersect(v->accel, o, dir, tfar, &h);
+    int found = vf_accel_intersect(v->accel, o, ray, q_at_infinity ? INFINITY : 1.0f, &h);
     if (found && !is_boundary(v, &h)) return zero;
-    float length = found ? h.t : (q_at_infinity ? INFINITY : remaining);
+    float length = found ? h.t * scale : scale;
+    vf_vec3 unit = q_at_infinity ? dir : vf_scale(ray, 1.0f / scale);
     if (medium >= 0) {
-      tr = vf_mul(tr, vf_medium_transmittance_piece(&v->media[medium], o, dir, length, vf_sampler_rng(sampler)));
+      tr = vf_mul(tr, vf_medium_transmittance_piece(&v->media[medium], o, unit, length, vf_sampler_rng(sampler)));
       if (vf_is_zero(tr)) return zero;
     }
     ps.medium[ps.n] = medium;
     ps.length[ps.n++] = length;
     if (!found) break;
-    remaining -= h.t;
-    medium = crossed(v, &h, dir);
-    o = vf_offset_ray_origin(h.position, vf_dot(h.normal, dir) > 0.0f ? h.normal : vf_neg(h.normal), v->offset_scale);
+    medium = crossed(v, &h, unit);
+    o = vf_offset_ray_origin(h.position, vf_dot(h.normal, unit) > 0.0f ? h.normal : vf_neg(h.normal), v->offset_scale);
   }
   end_densities(v, &ps, p_in_medium, p_density, q_in_medium, q_density, fwd_q, rev_p);
   return tr;
