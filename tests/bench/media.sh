@@ -23,12 +23,14 @@ SCENES="cornell-fog cornell-smoke cornell-tinted" ALGORITHMS="pt bpt vcm" bash "
 
 echo
 echo "## 2. Rays per second (256 x 256, 16 iterations, median of 3)"
+films=$(mktemp -d)
+trap 'rm -rf "$films"' EXIT
 printf "| scene | algorithm | Mrays/s | iterations/s |\n|---|---|---|---|\n"
 for scene in cornell cornell-fog cornell-smoke; do
   for a in pt vcm; do
     rates=() its=()
     for k in 1 2 3; do
-      line=$("$vcmfarm" render "$scene" --direct -a "$a" -n 16 -R 256x256 -o /dev/null 2>&1 | grep '^rendered')
+      line=$("$vcmfarm" render "$scene" --direct -a "$a" -n 16 -R 256x256 -o "$films/f.exr" 2>&1 | grep '^rendered')
       rates+=("$(sed -E 's/.* ([0-9.]+) Mrays\/s.*/\1/' <<<"$line")")
       its+=("$(sed -E 's/.*: ([0-9.]+) it\/s.*/\1/' <<<"$line")")
     done

@@ -90,24 +90,34 @@ static void light_sample(vf_vcm *v, int thread, const vf_hit *hit, const vf_bsdf
   if (vf_is_zero(f)) return;
   if (l->is_delta) bsdf_pdf = 0.0f; /* a delta light cannot be hit by a sampled direction */
   float pick = l->pick_probability;
+  float w;
   if (__builtin_expect(v->has_media, 0)) {
-    /* Through media: the transmittance, evaluated now, and the segment's distance
-     * densities in the weight (segment.h). */
+    /* Through media: the transmittance, and the segment's distance densities in the
+     * weight (segment.h). Through index-matched boundaries the walk traces the segment
+     * itself; else only the occlusion remains, queued as any shadow ray's. */
     float fwd_light, rev_vertex;
-    vf_vec3 tr = vf_segment_transmittance(v, thread, vf_medium_leaving(v, hit, dir, s->medium), hit->position,
-                                          hit->normal, vf_segment_vertex_density(v, hit), isinf(dist) ? dir : lp,
-                                          l->is_delta ? zero : ln, 1.0f, isinf(dist), sampler, &fwd_light, &rev_vertex);
+    int medium = vf_medium_leaving(v, hit, dir, s->medium);
+    vf_vec3 q = isinf(dist) ? dir : lp, nq = l->is_delta ? zero : ln;
+    float density = vf_segment_vertex_density(v, hit);
+    vf_vec3 tr = v->has_boundaries ? vf_segment_transmittance(v, thread, medium, hit->position, hit->normal, density, q,
+                                                              nq, 1.0f, isinf(dist), sampler, &fwd_light, &rev_vertex)
+                                   : vf_segment_transmittance_unblocked(v, medium, hit->position, hit->normal, density,
+                                                                        q, nq, 1.0f, isinf(dist), sampler, &fwd_light,
+                                                                        &rev_vertex);
     if (vf_is_zero(tr)) return;
-    float w = vf_mis_weight_light_sample_at(&s->mis, &s->merge->mis, bsdf_pdf * fwd_light, bsdf_rev_pdf,
-                                            direct_pdf * pick, emission_pdf * pick, cos_to_light * rev_vertex,
-                                            cos_at_light,
-                                            s->merge->mis.vm_weight * (vf_hit_in_medium(hit) ? v->medium_merge : 1.0f));
-    vf_vec3 contrib = vf_scale(vf_mul(vf_mul(radiance, f), tr), w * cos_to_light / (pick * direct_pdf));
-    defer_unshadowed(v, thread, vf_mul(s->throughput, contrib), tile_pixel);
-    return;
+    w = vf_mis_weight_light_sample_at(&s->mis, &s->merge->mis, bsdf_pdf * fwd_light, bsdf_rev_pdf, direct_pdf * pick,
+                                      emission_pdf * pick, cos_to_light * rev_vertex, cos_at_light,
+                                      s->merge->mis.vm_weight * (vf_hit_in_medium(hit) ? v->medium_merge : 1.0f));
+    f = vf_mul(f, tr);
+    if (v->has_boundaries) {
+      defer_unshadowed(v, thread, vf_mul(s->throughput, vf_scale(vf_mul(radiance, f), w * cos_to_light / (pick * direct_pdf))),
+                       tile_pixel);
+      return;
+    }
+  } else {
+    w = vf_mis_weight_light_sample(&s->mis, &s->merge->mis, bsdf_pdf, bsdf_rev_pdf, direct_pdf * pick,
+                                   emission_pdf * pick, cos_to_light, cos_at_light);
   }
-  float w = vf_mis_weight_light_sample(&s->mis, &s->merge->mis, bsdf_pdf, bsdf_rev_pdf, direct_pdf * pick,
-                                       emission_pdf * pick, cos_to_light, cos_at_light);
   vf_vec3 contrib = vf_scale(vf_mul(radiance, f), w * cos_to_light / (pick * direct_pdf));
   if (vf_is_zero(contrib)) return;
   int entry = defer(v, thread, vf_mul(s->throughput, contrib), tile_pixel);
@@ -164,27 +174,39 @@ static void connect_vertices(vf_vcm *v, int thread, const vf_hit *hit, const vf_
   /* Each side's density of sampling the other vertex, in area measure there. */
   float camera_pdf_a = camera_pdf * cos_light / dist2;
   float light_pdf_a = light_pdf * cos_camera / dist2;
+  float w;
   if (__builtin_expect(v->has_media, 0)) {
-    /* Through media: the transmittance now, and the distance densities of both ends. */
+    /* Through media: the transmittance, and the distance densities of both ends; the
+     * walk through index-matched boundaries traces the segment itself, else only its
+     * occlusion remains, queued as any shadow ray's (light_sample). */
     int light_in_medium = vertex_in_medium(lv);
     float fwd_light, rev_camera;
-    vf_vec3 tr = vf_segment_transmittance(
-        v, thread, vf_medium_leaving(v, hit, d, s->medium), hit->position, hit->normal,
-        vf_segment_vertex_density(v, hit), lv->position, normal_of_vertex(v, lv, lb),
-        light_in_medium ? vf_medium_density_at(&v->media[lv->at.point.primitive], lv->position) : 1.0f, 0, sampler,
-        &fwd_light, &rev_camera);
+    int medium = vf_medium_leaving(v, hit, d, s->medium);
+    float camera_density = vf_segment_vertex_density(v, hit);
+    float light_density = light_in_medium ? vf_medium_density_at(&v->media[lv->at.point.primitive], lv->position) : 1.0f;
+    vf_vec3 nl = normal_of_vertex(v, lv, lb);
+    vf_vec3 tr = v->has_boundaries
+                     ? vf_segment_transmittance(v, thread, medium, hit->position, hit->normal, camera_density,
+                                                lv->position, nl, light_density, 0, sampler, &fwd_light, &rev_camera)
+                     : vf_segment_transmittance_unblocked(v, medium, hit->position, hit->normal, camera_density,
+                                                          lv->position, nl, light_density, 0, sampler, &fwd_light,
+                                                          &rev_camera);
     if (vf_is_zero(tr)) return;
     float vm = s->merge->mis.vm_weight;
-    float w = vf_mis_weight_connection_at(&lv->mis, &s->mis, &s->merge->mis, camera_pdf_a * fwd_light,
-                                          light_pdf_a * rev_camera, light_rev_pdf, camera_rev_pdf,
-                                          light_in_medium ? vm * v->medium_merge : vm,
-                                          vf_hit_in_medium(hit) ? vm * v->medium_merge : vm);
-    vf_vec3 contrib = vf_scale(vf_mul(vf_mul(vf_mul(fc, fl), lv->throughput), tr), w * cos_camera * cos_light / dist2);
-    defer_unshadowed(v, thread, vf_mul(s->throughput, contrib), tile_pixel);
-    return;
+    w = vf_mis_weight_connection_at(&lv->mis, &s->mis, &s->merge->mis, camera_pdf_a * fwd_light,
+                                    light_pdf_a * rev_camera, light_rev_pdf, camera_rev_pdf,
+                                    light_in_medium ? vm * v->medium_merge : vm,
+                                    vf_hit_in_medium(hit) ? vm * v->medium_merge : vm);
+    fc = vf_mul(fc, tr);
+    if (v->has_boundaries) {
+      vf_vec3 contrib = vf_scale(vf_mul(vf_mul(fc, fl), lv->throughput), w * cos_camera * cos_light / dist2);
+      defer_unshadowed(v, thread, vf_mul(s->throughput, contrib), tile_pixel);
+      return;
+    }
+  } else {
+    w = vf_mis_weight_connection(&lv->mis, &s->mis, &s->merge->mis, camera_pdf_a, light_pdf_a, light_rev_pdf,
+                                 camera_rev_pdf);
   }
-  float w = vf_mis_weight_connection(&lv->mis, &s->mis, &s->merge->mis, camera_pdf_a, light_pdf_a, light_rev_pdf,
-                                     camera_rev_pdf);
   vf_vec3 contrib = vf_scale(vf_mul(vf_mul(fc, fl), lv->throughput), w * cos_camera * cos_light / dist2);
   if (vf_is_zero(contrib)) return;
   int entry = defer(v, thread, vf_mul(s->throughput, contrib), tile_pixel);

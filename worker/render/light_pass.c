@@ -142,23 +142,32 @@ static void connect_to_camera(vf_vcm *v, int thread, light_chunk *c, uint32_t pa
    * 6.1: every technique of one full path with the same radius). */
   merge_params merge;
   vf_merge_params_at(v, pixel, &merge);
+  float w;
   if (__builtin_expect(v->has_media, 0)) {
-    /* Through media: the transmittance now; the camera's density of the vertex takes the
-     * segment's distance density at the vertex (segment.h). */
+    /* Through media: the transmittance; the camera's density of the vertex takes the
+     * segment's distance density at the vertex (segment.h). Through index-matched
+     * boundaries the walk traces the segment itself, else only its occlusion remains. */
     float fwd_camera, rev_vertex;
-    vf_vec3 tr = vf_segment_transmittance(v, thread, vf_medium_leaving(v, hit, link.to_camera, s->medium),
-                                          hit->position, hit->normal, vf_segment_vertex_density(v, hit), link.end,
-                                          vf_vec3_splat(0.0f), 1.0f, 0, sampler, &fwd_camera, &rev_vertex);
+    int medium = vf_medium_leaving(v, hit, link.to_camera, s->medium);
+    float density = vf_segment_vertex_density(v, hit);
+    vf_vec3 zero = vf_vec3_splat(0.0f);
+    vf_vec3 tr = v->has_boundaries ? vf_segment_transmittance(v, thread, medium, hit->position, hit->normal, density,
+                                                              link.end, zero, 1.0f, 0, sampler, &fwd_camera, &rev_vertex)
+                                   : vf_segment_transmittance_unblocked(v, medium, hit->position, hit->normal, density,
+                                                                        link.end, zero, 1.0f, 0, sampler, &fwd_camera,
+                                                                        &rev_vertex);
     if (vf_is_zero(tr)) return;
-    float w = v->t.lt ? 1.0f
-                      : vf_mis_weight_camera_connection_at(&s->mis, &merge.mis, pdf_a * rev_vertex, rev_pdf,
-                                                           merge.mis.vm_weight *
-                                                               (vf_hit_in_medium(hit) ? v->medium_merge : 1.0f));
-    vf_vec3 contrib = vf_scale(vf_mul(vf_mul(s->throughput, f), tr), w * pdf_a / v->merge.mis.light_paths);
-    splat_unshadowed(c, path, pixel, band, contrib);
-    return;
+    w = v->t.lt ? 1.0f
+                : vf_mis_weight_camera_connection_at(&s->mis, &merge.mis, pdf_a * rev_vertex, rev_pdf,
+                                                     merge.mis.vm_weight * (vf_hit_in_medium(hit) ? v->medium_merge : 1.0f));
+    f = vf_mul(f, tr);
+    if (v->has_boundaries) {
+      splat_unshadowed(c, path, pixel, band, vf_scale(vf_mul(s->throughput, f), w * pdf_a / v->merge.mis.light_paths));
+      return;
+    }
+  } else {
+    w = v->t.lt ? 1.0f : vf_mis_weight_camera_connection(&s->mis, &merge.mis, pdf_a, rev_pdf);
   }
-  float w = v->t.lt ? 1.0f : vf_mis_weight_camera_connection(&s->mis, &merge.mis, pdf_a, rev_pdf);
   /* The importance times the geometry term over the lens density, W_e G / p(z0) = pdf_a
    * (camera.h), over the light sub-path density n_light. */
   vf_vec3 contrib = vf_scale(vf_mul(s->throughput, f), w * pdf_a / v->merge.mis.light_paths);
@@ -182,10 +191,15 @@ static void connect_emitter_to_camera(vf_vcm *v, int thread, light_chunk *c, uin
   link_pixel(v, &link, &pixel, &band);
   if (__builtin_expect(v->has_media, 0)) {
     float fwd, rev; /* lt alone: unweighted */
-    vf_vec3 tr = vf_segment_transmittance(v, thread, medium, p, n, 1.0f, link.end, vf_vec3_splat(0.0f), 1.0f, 0, sampler,
-                                          &fwd, &rev);
-    splat_unshadowed(c, path, pixel, band, vf_mul(contrib, tr));
-    return;
+    vf_vec3 zero = vf_vec3_splat(0.0f);
+    if (v->has_boundaries) {
+      vf_vec3 tr = vf_segment_transmittance(v, thread, medium, p, n, 1.0f, link.end, zero, 1.0f, 0, sampler, &fwd, &rev);
+      splat_unshadowed(c, path, pixel, band, vf_mul(contrib, tr));
+      return;
+    }
+    contrib = vf_mul(contrib, vf_segment_transmittance_unblocked(v, medium, p, n, 1.0f, link.end, zero, 1.0f, 0, sampler,
+                                                                  &fwd, &rev));
+    if (vf_is_zero(contrib)) return;
   }
   splat_if_visible(v, thread, c, path, pixel, band, contrib, p, n, link.end);
 }

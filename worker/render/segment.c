@@ -21,23 +21,22 @@ float vf_segment_vertex_density(const vf_vcm *v, const vf_hit *hit) {
   return vf_medium_density_at(&v->media[hit->primitive], hit->position);
 }
 
-/* Piece k's distance density for an end that is a vertex in its medium (rho: the density
- * scale there) or not (a surface, or a piece merely crossed). */
-static float piece_factor(const vf_vcm *v, const pieces *ps, int k, int vertex_end, float rho) {
-  int m = ps->medium[k];
-  if (m < 0) return 1.0f;
-  float pass, scatter;
-  vf_medium_piece_pdf(&v->media[m], ps->length[k], rho, &pass, &scatter);
-  return vertex_end ? scatter : pass;
-}
-
-/* The densities of both ends of the segment made of ps (segment.h). */
+/* The densities of both ends of the segment made of ps (segment.h): each piece's pass and
+ * scatter densities once (vf_medium_piece_pdf, at unit density: a grid's scales by the
+ * vertex's), the pieces before the far end passed, its own by the far end's kind; the
+ * same from the near end. */
 static void end_densities(const vf_vcm *v, const pieces *ps, int near_in_medium, float near_rho, int far_in_medium,
                           float far_rho, float *fwd, float *rev) {
   float f = 1.0f, r = 1.0f;
   for (int k = 0; k < ps->n; k++) {
-    f *= k == ps->n - 1 ? piece_factor(v, ps, k, far_in_medium, far_rho) : piece_factor(v, ps, k, 0, 1.0f);
-    r *= k == 0 ? piece_factor(v, ps, k, near_in_medium, near_rho) : piece_factor(v, ps, k, 0, 1.0f);
+    int m = ps->medium[k];
+    if (m < 0) continue;
+    float pass, scatter;
+    vf_medium_piece_pdf(&v->media[m], ps->length[k], 1.0f, &pass, &scatter);
+    float far = far_in_medium ? scatter * (v->media[m].grid ? far_rho : 1.0f) : pass;
+    float near = near_in_medium ? scatter * (v->media[m].grid ? near_rho : 1.0f) : pass;
+    f *= k == ps->n - 1 ? far : pass;
+    r *= k == 0 ? near : pass;
   }
   *fwd = f;
   *rev = r;
@@ -113,6 +112,30 @@ int vf_segment_trace(vf_vcm *v, int thread, int medium, int near_in_medium, vf_v
   }
 }
 
+vf_vec3 vf_segment_transmittance_unblocked(const vf_vcm *v, int medium, vf_vec3 p, vf_vec3 n_p, float p_density,
+                                           vf_vec3 q, vf_vec3 n_q, float q_density, int q_at_infinity,
+                                           vf_sampler *sampler, float *fwd_q, float *rev_p) {
+  pieces ps;
+  vf_vec3 tr = vf_vec3_splat(1.0f);
+  *fwd_q = *rev_p = 0.0f;
+  int p_in_medium = vf_is_zero(n_p), q_in_medium = !q_at_infinity && vf_is_zero(n_q);
+  vf_vec3 dir = q;
+  float length = INFINITY;
+  if (!q_at_infinity) {
+    vf_vec3 d = vf_sub(q, p);
+    length = vf_length(d);
+    if (!(length > 0.0f)) return vf_vec3_splat(0.0f);
+    dir = vf_scale(d, 1.0f / length);
+  }
+  if (medium >= 0) tr = vf_medium_transmittance_piece(&v->media[medium], p, dir, length, vf_sampler_rng(sampler));
+  if (vf_is_zero(tr)) return tr;
+  ps.medium[0] = medium;
+  ps.length[0] = length;
+  ps.n = 1;
+  end_densities(v, &ps, p_in_medium, p_density, q_in_medium, q_density, fwd_q, rev_p);
+  return tr;
+}
+
 vf_vec3 vf_segment_transmittance(vf_vcm *v, int thread, int medium, vf_vec3 p, vf_vec3 n_p, float p_density, vf_vec3 q,
                                  vf_vec3 n_q, float q_density, int q_at_infinity, vf_sampler *sampler, float *fwd_q,
                                  float *rev_p) {
@@ -142,15 +165,8 @@ vf_vec3 vf_segment_transmittance(vf_vcm *v, int thread, int medium, vf_vec3 p, v
     v->stats[thread].rays++;
     if (q_at_infinity ? vf_accel_occluded(v->accel, o, dir, INFINITY) : vf_accel_occluded(v->accel, o, vf_sub(end, o), 1.0f))
       return zero;
-    if (medium >= 0) {
-      tr = vf_medium_transmittance_piece(&v->media[medium], o, dir, remaining, vf_sampler_rng(sampler));
-      if (vf_is_zero(tr)) return zero;
-    }
-    ps.medium[0] = medium;
-    ps.length[0] = remaining;
-    ps.n = 1;
-    end_densities(v, &ps, p_in_medium, p_density, q_in_medium, q_density, fwd_q, rev_p);
-    return tr;
+    return vf_segment_transmittance_unblocked(v, medium, p, n_p, p_density, q, n_q, q_density, q_at_infinity, sampler,
+                                              fwd_q, rev_p);
   }
   for (;;) {
     if (ps.n == SEGMENT_PIECES_MAX) return zero;

@@ -71,6 +71,14 @@ vf_vec3 vf_segment_transmittance(vf_vcm *v, int thread, int medium, vf_vec3 p, v
                                  vf_vec3 n_q, float q_density, int q_at_infinity, vf_sampler *sampler, float *fwd_q,
                                  float *rev_p);
 
+/* In a scene without index-matched boundaries (vf_vcm.has_boundaries 0) a connection is
+ * one piece in one medium: what vf_segment_transmittance gives when nothing blocks it,
+ * without tracing, so that the caller traces its occlusion in a packet of shadow rays
+ * (wavefront.h) as a scene without media does. */
+vf_vec3 vf_segment_transmittance_unblocked(const vf_vcm *v, int medium, vf_vec3 p, vf_vec3 n_p, float p_density,
+                                           vf_vec3 q, vf_vec3 n_q, float q_density, int q_at_infinity,
+                                           vf_sampler *sampler, float *fwd_q, float *rev_p);
+
 /* The medium at point p: the interior or exterior of the first shape with an interface
  * that a ray from p meets, or the scene's medium. The camera's and the lights' media. */
 int vf_medium_at_point(const vf_vcm *v, vf_vec3 p);
