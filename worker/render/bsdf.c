@@ -271,7 +271,8 @@ static void layers_setup(vf_bsdf *b) {
   b->sheen_roughness = m->sheen_roughness;
   b->sheen_alpha = vf_sheen_alpha(m->sheen_roughness);
   b->sheen_max = p[VF_LOBE_SHEEN] > 0.0f ? vf_max_component(m->sheen_color) : 0.0f;
-  b->sheen_fix_scale = 1.0f - b->sheen_max * vf_sheen_albedo(b->local_fix.z, b->sheen_roughness);
+  b->sheen_fix_albedo = b->sheen_max > 0.0f ? vf_sheen_albedo(b->local_fix.z, b->sheen_roughness) : 0.0f;
+  b->sheen_fix_scale = 1.0f - b->sheen_max * fminf(b->sheen_fix_albedo, 1.0f);
 }
 
 void vf_bsdf_set_coat_normal(vf_bsdf *b, vf_vec3 coat_normal, vf_vec3 world_fix) {
@@ -370,10 +371,12 @@ static lobe_value evaluate_local(const vf_bsdf *b, vf_vec3 gen, int radiance) {
 
 static vf_vec3 sample_rough(const vf_bsdf *b, float u, float u1, float u2, unsigned *event);
 
-/* S of the sheen for the base's cos of gen (1 without a sheen). */
-static float sheen_scaling(const vf_bsdf *b, float cos_gen) {
-  if (!(b->sheen_max > 0.0f)) return 1.0f;
-  return fminf(b->sheen_fix_scale, 1.0f - b->sheen_max * vf_sheen_albedo(fabsf(cos_gen), b->sheen_roughness));
+/* The sheen's albedo E for the base's cos of gen (0 without a sheen), and S for it. */
+static float sheen_albedo_gen(const vf_bsdf *b, float cos_gen) {
+  return b->sheen_max > 0.0f ? vf_sheen_albedo(fabsf(cos_gen), b->sheen_roughness) : 0.0f;
+}
+static float sheen_scaling(const vf_bsdf *b, float albedo_gen) {
+  return fminf(b->sheen_fix_scale, 1.0f - b->sheen_max * fminf(albedo_gen, 1.0f));
 }
 
 /* T of the coat for the coat's cos of gen (1 without a coat). */
@@ -400,11 +403,13 @@ static lobe_value layered_evaluate(const vf_bsdf *b, vf_vec3 world_gen, int radi
   *cos_gen = fabsf(cos_geometric);
   /* the glTF model scaled by S, and the sheen, in the base's frame */
   lobe_value v = evaluate_local(b, gen, radiance);
-  vf_vec3 f = vf_scale(v.f, sheen_scaling(b, gen.z));
+  float albedo_gen = sheen_albedo_gen(b, gen.z);
+  vf_vec3 f = vf_scale(v.f, sheen_scaling(b, albedo_gen));
   const vf_vec3 fix = b->local_fix;
   if (p[VF_LOBE_SHEEN] > 0.0f && gen.z > 0.0f) {
     vf_vec3 h = vf_normalize(vf_add(fix, gen));
-    f = vf_add(f, vf_scale(b->sheen_color, vf_sheen_brdf(fix.z, gen.z, h.z, b->sheen_alpha)));
+    float sheen = vf_sheen_brdf(fix.z, gen.z, h.z, b->sheen_alpha) / fmaxf(1.0f, fmaxf(b->sheen_fix_albedo, albedo_gen));
+    f = vf_add(f, vf_scale(b->sheen_color, sheen));
     v.direct_pdf_w += p[VF_LOBE_SHEEN] * gen.z * VF_INV_PI;
     v.reverse_pdf_w += p[VF_LOBE_SHEEN] * fix.z * VF_INV_PI;
   }
@@ -484,7 +489,7 @@ static vf_vec3 layered_sample(const vf_bsdf *b, const float rnd[3], vf_vec3 *wor
     cos_geometric = b->shading ? vf_dot(b->geometric, gen_world) : c;
     fold = b->shading ? shading_fold(b, gen, cos_geometric) : 1.0f;
     vf_vec3 gen_c = b->coat_weight > 0.0f ? vf_frame_to_local(&b->coat_frame, gen_world) : gen;
-    float layers = sheen_scaling(b, c) * coat_transmit(b, gen_c.z);
+    float layers = sheen_scaling(b, sheen_albedo_gen(b, c)) * coat_transmit(b, gen_c.z);
     f = vf_scale(conductor_reflectance(b, c), layers / c);
     choice = p[VF_LOBE_CONDUCTOR];
   }

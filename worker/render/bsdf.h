@@ -48,12 +48,17 @@
  *
  * The glTF model's layers (vf_bsdf.layered; bsdf.c, "the layers"), with the coat's own
  * normal n_c (its frame coat_frame) and the base's n (the shading frame):
- *   f = T(fix, gen) [S(fix, gen) f_gltf + sheen_color f_sheen] + clearcoat F_c(fix.h_c) f_ggx(alpha_c; n_c)
+ *   f = T(fix, gen) [S(fix, gen) f_gltf + sheen_color f_sheen / max(1, E(fix.n), E(gen.n))]
+ *       + clearcoat F_c(fix.h_c) f_ggx(alpha_c; n_c)
  *   T = (1 - clearcoat F_c(|fix.n_c|)) (1 - clearcoat F_c(|gen.n_c|)),  F_c Schlick's of F0 0.04, F90 1
- *   S = min(1 - max_rgb(sheen_color) E(fix.n), 1 - max_rgb(sheen_color) E(gen.n))
+ *   S = min(1 - max_rgb(sheen_color) min(1, E(fix.n)), 1 - max_rgb(sheen_color) min(1, E(gen.n)))
  * f_sheen the Charlie sheen and E its albedo (worker/render/sheen.h), f_ggx D G2 / (4 |cos| |cos|)
- * with the height-correlated G2 (reflect_rough). KHR_materials_sheen's S as it writes it;
- * KHR_materials_clearcoat weighs its layer by F_c(V.n_c) and the rest by 1 - clearcoat
+ * with the height-correlated G2 (reflect_rough). KHR_materials_sheen's S and f_sheen as it
+ * writes them wherever E <= 1; but the Charlie sheen with its fitted masking reflects more
+ * than it receives towards grazing incidence at low roughness (E = 1.63 at 88.9 degrees for
+ * sheen roughness 0.1, where S would turn negative): dividing by the larger albedo of the
+ * two directions keeps f reciprocal and the sheen's albedo at most one, and the layered
+ * albedo at most one where the base's is. KHR_materials_clearcoat weighs its layer by F_c(V.n_c) and the rest by 1 - clearcoat
  * F_c(V.n_c), of the view direction alone, which is not reciprocal: here the coat's Fresnel
  * is the microfacet's, F_c(fix.h_c) = F_c(gen.h_c) (the spec's own F_c(V.n_c) for a smooth
  * coat, and nearly so for the smooth coats its note has in mind), and what passes the coat
@@ -110,7 +115,7 @@ typedef struct {
   vf_frame coat_frame;
   vf_vec3 coat_fix;
   vf_vec3 sheen_color;
-  float sheen_roughness, sheen_alpha, sheen_max, sheen_fix_scale;
+  float sheen_roughness, sheen_alpha, sheen_max, sheen_fix_albedo, sheen_fix_scale;
   /* A point in a medium (vf_bsdf_setup_phase; extended is then set): f = sigma_s p_HG, the
    * cosine 1, `geometric` the unit world fix. */
   int phase;
