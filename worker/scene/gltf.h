@@ -25,8 +25,12 @@ typedef struct {
   float specular;           /* specularFactor (default 1) */
   float specular_color[3];  /* specularColorFactor (default 1) */
   float ior;                /* KHR_materials_ior (default 1.5) */
-  /* Indexed by VF_TEXTURE_* (material.h): the core slots (ALPHA unused: the base colour's)
-   * and KHR_materials_specular's two. */
+  /* KHR_materials_clearcoat and KHR_materials_sheen, as given (their defaults otherwise: 0,
+   * the normal texture's scale 1) */
+  float clearcoat, clearcoat_roughness, clearcoat_normal_scale;
+  float sheen_color[3], sheen_roughness;
+  /* Indexed by VF_TEXTURE_* (material.h): the core slots (ALPHA unused: the base colour's),
+   * KHR_materials_specular's two, KHR_materials_clearcoat's three and KHR_materials_sheen's two. */
   vf_gltf_texture_ref textures[VF_TEXTURE_SLOTS];
 } vf_gltf_material;
 
