@@ -17,7 +17,8 @@
  * unused (zero): a GGX specular layer with Schlick's Fresnel of
  * F0 = mix(F0_d, base_color, metallic), F90 = mix(F90_d, 1, metallic) over a Lambertian
  * base of (1 - metallic) base_color weighted by 1 - max_rgb(F_d), F_d the dielectric's
- * Fresnel from F0_d (0.04, or KHR_materials_specular's) to F90_d (1, or its specular).
+ * Fresnel from F0_d (0.04, or KHR_materials_specular's) to F90_d (1, or its specular);
+ * optionally under a sheen and a clear coat (KHR_materials_sheen, KHR_materials_clearcoat).
  *
  * roughness is glTF's perceptual roughness in [0, 1] for every GGX lobe of the material:
  * alpha = roughness^2. A lobe with alpha < VF_GGX_ALPHA_DELTA (worker/render/microfacet.h: alpha
