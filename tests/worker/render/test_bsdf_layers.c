@@ -11,8 +11,9 @@
  * 4. albedo: the sampled albedo equals the numerical integral of f cos, and is at most one;
  *    the sheen's albedo table equals its integral;
  * 5. upg's bound (worker/render/photon_gathering.h) holds over cones of every size;
- * 6. path tracing, BPT and VCM agree per image block on a Cornell box with a coated ball
- *    (a coat normal map), a sheen ball and a smooth-coated floor. */
+ * 6. path tracing, light tracing, BPT and VCM agree per image block on a Cornell box with a
+ *    coated ball (a coat normal map), a sheen ball and a coated floor; without light tracing
+ *    when the floor's coat is smooth. */
 #include "check.h"
 #include "bsdf_cases.h" /* after check.h: its checks are defined only then */
 #include "feature_scene.h"
@@ -483,8 +484,8 @@ enum { RES = 64, BLOCKS = 8, NB = BLOCKS * BLOCKS, ITERATIONS = 128 };
 
 /* cornell-diffuse with smooth-normal balls: the left one coated (roughness 0.25) over a red
  * plastic with a coat normal map of its own, the right one blue under a sheen, the floor a
- * glTF plastic under a smooth coat. */
-static vf_scene *layered_scene(void) {
+ * glTF plastic under a coat, smooth (a delta) or of roughness 0.3. */
+static vf_scene *layered_scene(int smooth_floor) {
   vf_scene *s = feature_scene(FEATURE_SMOOTH);
   if (s == NULL || check_failed_in_case) return s;
   int left = find_shape(s, "white ball ball"), right = find_shape(s, "blue ball ball"), floor = find_shape(s, "floor");
@@ -493,7 +494,7 @@ static vf_scene *layered_scene(void) {
   CHECK(left >= 0 && right >= 0 && floor >= 0);
   if (check_failed_in_case) return s;
   s->materials = realloc(s->materials, (size_t)(s->num_materials + 3) * sizeof *s->materials);
-  vf_material *coat = &s->materials[s->num_materials], *sheen = coat + 1, *smooth = coat + 2;
+  vf_material *coat = &s->materials[s->num_materials], *sheen = coat + 1, *lacquer = coat + 2;
   *coat = gltf(vf_vec3_make(0.7f, 0.2f, 0.15f), 0.0f, 0.6f);
   snprintf(coat->name, sizeof coat->name, "coated");
   coat->clearcoat = 1.0f;
@@ -504,9 +505,10 @@ static vf_scene *layered_scene(void) {
   snprintf(sheen->name, sizeof sheen->name, "velvet");
   sheen->sheen_color = vf_vec3_make(0.9f, 0.8f, 0.6f);
   sheen->sheen_roughness = 0.4f;
-  *smooth = gltf(vf_vec3_splat(0.6f), 0.0f, 0.7f);
-  snprintf(smooth->name, sizeof smooth->name, "lacquered floor");
-  smooth->clearcoat = 0.8f;
+  *lacquer = gltf(vf_vec3_splat(0.6f), 0.0f, 0.7f);
+  snprintf(lacquer->name, sizeof lacquer->name, "lacquered floor");
+  lacquer->clearcoat = 0.8f;
+  lacquer->clearcoat_roughness = smooth_floor ? 0.0f : 0.3f;
   s->shapes[left].material = s->num_materials;
   s->shapes[right].material = s->num_materials + 1;
   s->shapes[floor].material = s->num_materials + 2;
@@ -514,26 +516,36 @@ static vf_scene *layered_scene(void) {
   return s;
 }
 
-static void test_algorithms_agree_on_coat_and_sheen(void) {
-  const vf_algorithm algorithms[] = {VF_ALGO_PT, VF_ALGO_BPT, VF_ALGO_VCM};
-  vf_scene *scene = layered_scene();
+static void check_agreement(const char *what, int smooth_floor, const vf_algorithm *algorithms, int n) {
+  vf_scene *scene = layered_scene(smooth_floor);
   if (scene == NULL || check_failed_in_case) return;
-  static double mean[3][NB], se[3][NB];
-  for (int a = 0; a < 3; a++) {
+  static double mean[4][NB], se[4][NB];
+  for (int a = 0; a < n; a++) {
     vf_settings st = scene->settings;
     st.algorithm = algorithms[a];
     st.width = st.height = RES;
     st.max_path_length = 6;
-    st.seed = 4000 + (uint64_t)a;
+    st.seed = 4000 + (uint64_t)algorithms[a];
     vf_vcm_stats stats = {0};
     CHECK_INT_EQ(render_block_estimates(scene, &st, 2, ITERATIONS, BLOCKS, mean[a], se[a], &stats), VF_OK);
     CHECK_INT_EQ(stats.nonfinite, 0);
   }
-  for (int i = 0; i < 3; i++)
-    for (int j = i + 1; j < 3; j++)
-      CHECK(blocks_agree("coat and sheen", vf_algorithm_name(algorithms[i]), vf_algorithm_name(algorithms[j]), mean[i],
-                         se[i], mean[j], se[j], NB));
+  for (int i = 0; i < n; i++)
+    for (int j = i + 1; j < n; j++)
+      CHECK(blocks_agree(what, vf_algorithm_name(algorithms[i]), vf_algorithm_name(algorithms[j]), mean[i], se[i],
+                         mean[j], se[j], NB));
   vf_scene_destroy(scene);
+}
+
+/* Light tracing cannot see the smooth coat's mirror image (a delta vertex next to the
+ * camera): it joins on the rough floor only. */
+static void test_algorithms_agree_on_coat_and_sheen(void) {
+  const vf_algorithm all[] = {VF_ALGO_PT, VF_ALGO_LT, VF_ALGO_BPT, VF_ALGO_VCM};
+  check_agreement("rough floor coat", 0, all, 4);
+}
+static void test_algorithms_agree_on_a_smooth_coat(void) {
+  const vf_algorithm some[] = {VF_ALGO_PT, VF_ALGO_BPT, VF_ALGO_VCM};
+  check_agreement("smooth floor coat", 1, some, 3);
 }
 
 int main(void) {
@@ -545,5 +557,6 @@ int main(void) {
   RUN(test_sheen_albedo_table);
   RUN(test_upg_bound_holds_over_cones);
   RUN(test_algorithms_agree_on_coat_and_sheen);
+  RUN(test_algorithms_agree_on_a_smooth_coat);
   return check_finish();
 }
