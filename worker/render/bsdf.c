@@ -408,7 +408,8 @@ static lobe_value layered_evaluate(const vf_bsdf *b, vf_vec3 world_gen, int radi
   const vf_vec3 fix = b->local_fix;
   if (p[VF_LOBE_SHEEN] > 0.0f && gen.z > 0.0f) {
     vf_vec3 h = vf_normalize(vf_add(fix, gen));
-    float sheen = vf_sheen_brdf(fix.z, gen.z, h.z, b->sheen_alpha) / fmaxf(1.0f, fmaxf(b->sheen_fix_albedo, albedo_gen));
+    float sheen = vf_sheen_brdf(fix.z, gen.z, h.z, b->sheen_alpha) /
+                  fmaxf(1.0f, fmaxf(b->sheen_fix_albedo, albedo_gen));
     f = vf_add(f, vf_scale(b->sheen_color, sheen));
     v.direct_pdf_w += p[VF_LOBE_SHEEN] * gen.z * VF_INV_PI;
     v.reverse_pdf_w += p[VF_LOBE_SHEEN] * fix.z * VF_INV_PI;

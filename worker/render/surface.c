@@ -85,7 +85,8 @@ void vf_surface_material(const vf_scene *scene, const vf_material *base, const f
   if (slot_lookup(scene, base, VF_TEXTURE_CLEARCOAT, 0, st, t)) out->clearcoat = unit_clamp(base->clearcoat * t[0]);
   if (slot_lookup(scene, base, VF_TEXTURE_CLEARCOAT_ROUGHNESS, 0, st, t))
     out->clearcoat_roughness = unit_clamp(base->clearcoat_roughness * t[1]);
-  if (slot_lookup(scene, base, VF_TEXTURE_SHEEN_COLOR, 1, st, t)) out->sheen_color = scale_clamped(base->sheen_color, t);
+  if (slot_lookup(scene, base, VF_TEXTURE_SHEEN_COLOR, 1, st, t))
+    out->sheen_color = scale_clamped(base->sheen_color, t);
   if (slot_lookup(scene, base, VF_TEXTURE_SHEEN_ROUGHNESS, 0, st, t))
     out->sheen_roughness = unit_clamp(base->sheen_roughness * t[3]);
 }
@@ -188,8 +189,9 @@ int vf_surface_bsdf(vf_bsdf *b, const vf_scene *scene, const vf_bsdf_lobes *lobe
    * the base's normal map. */
   if (ok && b->layered && b->coat_weight > 0.0f &&
       (m->textures[VF_TEXTURE_NORMAL].texture != 0 || m->textures[VF_TEXTURE_CLEARCOAT_NORMAL].texture != 0))
-    vf_bsdf_set_coat_normal(
-        b, mapped_normal(scene, sh, prim, u, v, st, ng, VF_TEXTURE_CLEARCOAT_NORMAL, m->clearcoat_normal_scale), world_fix);
+    vf_bsdf_set_coat_normal(b, mapped_normal(scene, sh, prim, u, v, st, ng, VF_TEXTURE_CLEARCOAT_NORMAL,
+                                             m->clearcoat_normal_scale),
+                            world_fix);
   b->material = m; /* the untextured fields are the same; the textured ones were copied */
   return ok;
 }

@@ -148,7 +148,8 @@ static void read_layers(const cJSON *root, const cJSON *ext, vf_gltf_material *g
   g->clearcoat = number_or(coat, "clearcoatFactor", 0.0f);
   g->clearcoat_roughness = number_or(coat, "clearcoatRoughnessFactor", 0.0f);
   g->clearcoat_normal_scale = number_or(normal, "scale", 1.0f);
-  read_texture_ref(root, cJSON_GetObjectItemCaseSensitive(coat, "clearcoatTexture"), &g->textures[VF_TEXTURE_CLEARCOAT]);
+  read_texture_ref(root, cJSON_GetObjectItemCaseSensitive(coat, "clearcoatTexture"),
+                   &g->textures[VF_TEXTURE_CLEARCOAT]);
   read_texture_ref(root, cJSON_GetObjectItemCaseSensitive(coat, "clearcoatRoughnessTexture"),
                    &g->textures[VF_TEXTURE_CLEARCOAT_ROUGHNESS]);
   read_texture_ref(root, normal, &g->textures[VF_TEXTURE_CLEARCOAT_NORMAL]);
@@ -158,7 +159,8 @@ static void read_layers(const cJSON *root, const cJSON *ext, vf_gltf_material *g
     g->sheen_color[k] = cJSON_IsNumber(v) && isfinite(v->valuedouble) ? (float)v->valuedouble : 0.0f;
   }
   g->sheen_roughness = number_or(sheen, "sheenRoughnessFactor", 0.0f);
-  read_texture_ref(root, cJSON_GetObjectItemCaseSensitive(sheen, "sheenColorTexture"), &g->textures[VF_TEXTURE_SHEEN_COLOR]);
+  read_texture_ref(root, cJSON_GetObjectItemCaseSensitive(sheen, "sheenColorTexture"),
+                   &g->textures[VF_TEXTURE_SHEEN_COLOR]);
   read_texture_ref(root, cJSON_GetObjectItemCaseSensitive(sheen, "sheenRoughnessTexture"),
                    &g->textures[VF_TEXTURE_SHEEN_ROUGHNESS]);
 }

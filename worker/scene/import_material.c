@@ -291,7 +291,8 @@ static int gltf_material(const parse_ctx *c, const vf_import_file *f, unsigned i
   if (g != NULL && m->gltf && (err = gltf_layers(c, f, where, g, m)) < 0) return err;
   if (g != NULL && !m->gltf && (g->clearcoat > 0.0f || g->sheen_color[0] > 0.0f || g->sheen_color[1] > 0.0f ||
                                 g->sheen_color[2] > 0.0f) &&
-      (err = vf_scene_note(c, "%s: clearcoat and sheen on a transmitting material are not supported: ignored", f->file)) < 0)
+      (err = vf_scene_note(c, "%s: clearcoat and sheen on a transmitting material are not supported: ignored",
+                           f->file)) < 0)
     return err;
   if (g != NULL && (err = gltf_texture_refs(c, f, g, m)) < 0) return err;
   get_color(am, AI_MATKEY_COLOR_EMISSIVE, &emit);
