@@ -14,6 +14,8 @@ packages=(
   libcjson-dev         # scene files and --json output
   libexpat1-dev        # Mitsuba 3 XML scenes (worker/scene/xml.c)
   libassimp-dev        # mesh files (OBJ, PLY, glTF)
+  libopenvdb-dev       # density grids of participating media (worker/scene/vdb.cpp)
+  libboost-dev         #   whose headers include Boost's (libopenvdb-dev does not depend on it)
   libpng-dev           # previews and plots, PNG textures
   libjpeg-dev          # JPEG textures (worker/scene/texture.c; Debian's libjpeg62-turbo)
   libsodium-dev        # content hashes, message encryption and authentication

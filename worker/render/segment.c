@@ -137,6 +137,21 @@ vf_vec3 vf_segment_transmittance(vf_vcm *v, int thread, int medium, vf_vec3 p, v
   vf_vec3 end = q;
   if (!q_at_infinity && !q_in_medium)
     end = vf_offset_ray_origin(q, vf_dot(n_q, dir) < 0.0f ? n_q : vf_neg(n_q), v->offset_scale);
+  if (!v->has_boundaries) {
+    /* No index-matched boundary anywhere: one piece, in `medium`, blocked by anything. */
+    v->stats[thread].rays++;
+    if (q_at_infinity ? vf_accel_occluded(v->accel, o, dir, INFINITY) : vf_accel_occluded(v->accel, o, vf_sub(end, o), 1.0f))
+      return zero;
+    if (medium >= 0) {
+      tr = vf_medium_transmittance_piece(&v->media[medium], o, dir, remaining, vf_sampler_rng(sampler));
+      if (vf_is_zero(tr)) return zero;
+    }
+    ps.medium[0] = medium;
+    ps.length[0] = remaining;
+    ps.n = 1;
+    end_densities(v, &ps, p_in_medium, p_density, q_in_medium, q_density, fwd_q, rev_p);
+    return tr;
+  }
   for (;;) {
     if (ps.n == SEGMENT_PIECES_MAX) return zero;
     float tfar = q_at_infinity ? INFINITY : vf_length(vf_sub(end, o));

@@ -373,6 +373,7 @@ static int media_setup(vf_vcm *v) {
     return vf_error_set(VF_EINVAL, "the scene has participating media, which a merge radius per pixel does not "
                                    "render (merging in media needs one radius); use the global radius");
   v->has_media = 1;
+  for (int i = 0; i < sc->num_shapes; i++) v->has_boundaries |= sc->shapes[i].material < 0;
   v->media = calloc((size_t)sc->num_media, sizeof *v->media);
   v->light_medium = calloc(v->lights->count > 0 ? (size_t)v->lights->count : 1, sizeof *v->light_medium);
   if (v->media == NULL || v->light_medium == NULL) return VF_ENOMEM;

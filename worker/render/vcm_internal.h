@@ -275,6 +275,7 @@ struct vf_vcm {
    * camera and each light (per vf_lights.lights) are in. has_media is 0 and the rest
    * unused in a scene without media, whose renders do not change by their existence. */
   int has_media;
+  int has_boundaries; /* some shape has no material: an index-matched boundary (segment.h) */
   vf_medium_rt *media;
   int camera_medium;
   int *light_medium;

@@ -1,5 +1,6 @@
 /* Built-in scenes: the Cornell box family (with the benchmark suite's SDS, diffuse-only and
- * glossy members, a spot light, a thin lens and microfacet materials), the white furnace and
+ * glossy members, a spot light, a thin lens, microfacet materials and three with
+ * participating media: fog, smoke and tinted glass), the white furnace and
  * the 100k-triangle knot.
  *
  * Each one is written out as JSON in the documented format (docs/SCENES.md) and parsed by
@@ -8,11 +9,13 @@
  * (readable in C) that become double quotes before parsing.
  *
  * The knot is generated here, serialised as a binary little-endian PLY in memory and handed
- * to the parser as an in-memory file, so the Assimp mesh path is exercised by every run. */
+ * to the parser as an in-memory file, so the Assimp mesh path is exercised by every run;
+ * cornell-smoke's density grid likewise, as a VDB file through OpenVDB (vdb.h). */
 #include "builtin.h"
 
 #include "../../common/error.h"
 #include "json.h"
+#include "vdb.h"
 
 #include <math.h>
 #include <stdarg.h>
@@ -24,7 +27,8 @@
 static const char *const builtin_names[] = {"cornell", "cornell-point", "cornell-sun", "cornell-env",
                                             "furnace", "knot", "cornell-bulb", "cornell-diffuse",
                                             "cornell-glossy", "cornell-spot", "cornell-dof", "cornell-rough",
-                                            "cornell-ortho", "corridor", NULL};
+                                            "cornell-ortho", "corridor", "cornell-fog", "cornell-smoke",
+                                            "cornell-tinted", NULL};
 
 const char *const *vf_scene_builtin_names(void) { return builtin_names; }
 
@@ -181,6 +185,73 @@ static int knot_ply(unsigned char **out, size_t *size) {
   return VF_OK;
 }
 
+/* ---- the smoke grid ---------------------------------------------------------------------- */
+
+/* cornell-smoke's box, resting just above the floor, and its grid's resolution. */
+static const float smoke_min[3] = {-0.55f, -0.99f, -0.55f}, smoke_max[3] = {0.55f, 0.35f, 0.55f};
+enum { SMOKE_N = 64 };
+
+static void set_axis(vf_vec3 *v, int axis, float value) {
+  if (axis == 0) v->x = value;
+  else if (axis == 1) v->y = value;
+  else v->z = value;
+}
+
+/* A value in [0, 1) for each integer lattice point: an integer hash, so every machine
+ * makes the same grid (and the scene the same hash). */
+static float lattice(int x, int y, int z) {
+  uint32_t h = (uint32_t)x * 73856093u ^ (uint32_t)y * 19349663u ^ (uint32_t)z * 83492791u;
+  h ^= h >> 13;
+  h *= 0x5bd1e995u;
+  h ^= h >> 15;
+  return (float)(h & 0xffffffu) / 16777216.0f;
+}
+
+static float smoothstep01(float t) { return t * t * (3.0f - 2.0f * t); }
+
+/* Value noise in [0, 1): the lattice values blended by smoothstep weights. Arithmetic
+ * only (no libm), for the same reason. */
+static float value_noise(float x, float y, float z) {
+  const float fx = floorf(x), fy = floorf(y), fz = floorf(z);
+  const int ix = (int)fx, iy = (int)fy, iz = (int)fz;
+  const float wx = smoothstep01(x - fx), wy = smoothstep01(y - fy), wz = smoothstep01(z - fz);
+  float sum = 0.0f;
+  for (int c = 0; c < 8; c++) {
+    const int dx = c & 1, dy = (c >> 1) & 1, dz = c >> 2;
+    sum += (dx ? wx : 1.0f - wx) * (dy ? wy : 1.0f - wy) * (dz ? wz : 1.0f - wz) * lattice(ix + dx, iy + dy, iz + dz);
+  }
+  return sum;
+}
+
+/* cornell-smoke's density, SMOKE_N^3 samples over the smoke box: a blob, (1 - r^2)^2 from
+ * its centre to the box's faces, broken up by three octaves of value noise; serialised as
+ * a VDB file in memory (vdb.h) for the parser, which reads it as it reads any grid file. */
+static int smoke_vdb(void **data, size_t *size) {
+  const size_t n = (size_t)SMOKE_N * SMOKE_N * SMOKE_N;
+  float *density = malloc(n * sizeof *density), max_density = 0.0f;
+  if (density == NULL) return vf_error_set(VF_ENOMEM, "out of memory");
+  size_t i = 0;
+  for (int z = 0; z < SMOKE_N; z++)
+    for (int y = 0; y < SMOKE_N; y++)
+      for (int x = 0; x < SMOKE_N; x++, i++) {
+        const float p[3] = {(2.0f * (float)x + 1.0f) / SMOKE_N - 1.0f, (2.0f * (float)y + 1.0f) / SMOKE_N - 1.0f,
+                            (2.0f * (float)z + 1.0f) / SMOKE_N - 1.0f};
+        const float r2 = p[0] * p[0] + p[1] * p[1] + p[2] * p[2], falloff = r2 < 1.0f ? (1.0f - r2) * (1.0f - r2) : 0.0f;
+        float noise = 0.0f, amplitude = 0.5f, frequency = 3.0f;
+        for (int octave = 0; octave < 3; octave++, amplitude *= 0.5f, frequency *= 2.0f)
+          noise += amplitude * value_noise(frequency * p[0] + 11.0f, frequency * p[1] + 23.0f, frequency * p[2] + 37.0f);
+        const float d = falloff * (0.2f + 1.6f * noise);
+        density[i] = d;
+        max_density = d > max_density ? d : max_density;
+      }
+  vf_density_grid g = {.nx = SMOKE_N, .ny = SMOKE_N, .nz = SMOKE_N, .density = density, .max_density = max_density,
+                       .box_min = vf_vec3_make(smoke_min[0], smoke_min[1], smoke_min[2]),
+                       .box_max = vf_vec3_make(smoke_max[0], smoke_max[1], smoke_max[2])};
+  int err = vf_vdb_write_grid_memory(&g, "density", data, size);
+  free(density);
+  return err;
+}
+
 /* ---- scenes ------------------------------------------------------------------------------ */
 
 enum {
@@ -193,6 +264,9 @@ enum {
   WITH_SPOT = 1 << 6,
   WITH_LENS = 1 << 7, /* a thin-lens camera, nearer, focused on the glass ball */
   WITH_ORTHO = 1 << 8, /* an orthographic camera whose view plane stands inside the box's opening */
+  WITH_FOG = 1 << 9,   /* the scene's medium a scattering fog; the glass ball raised off the floor */
+  WITH_SMOKE = 1 << 10, /* a smoke grid (generated here) in a material-less box on the floor */
+  WITH_TINT = 1 << 11, /* the glass ball's interior an absorbing medium */
 };
 
 /* A member of the Cornell family: the box with its floor and back wall, two balls on the
@@ -237,7 +311,18 @@ static const cornell_variant cornells[] = {
     {"cornell-spot", WITH_SPOT, FLOOR_GLOSSY, NULL, "mirror", MIRROR, "glass", GLASS},
     {"cornell-dof", WITH_LENS | WITH_AREA_LIGHT, FLOOR_GLOSSY, NULL, "mirror", MIRROR, "glass", GLASS},
     {"cornell-ortho", WITH_ORTHO | WITH_AREA_LIGHT, FLOOR_GLOSSY, NULL, "mirror", MIRROR, "glass", GLASS},
+    /* Participating media (docs/SCENES.md, "Media"). A volumetric caustic: the glass ball,
+     * raised, focuses the ceiling light into a cone of light in the fog below it. */
+    {"cornell-fog", WITH_FOG | WITH_AREA_LIGHT, FLOOR_GLOSSY, NULL, "mirror", MIRROR, "glass", GLASS},
+    {"cornell-smoke", WITH_SMOKE | WITH_AREA_LIGHT, FLOOR_GLOSSY, NULL, NULL, NULL, NULL, NULL},
+    {"cornell-tinted", WITH_TINT | WITH_AREA_LIGHT, FLOOR_GLOSSY, NULL, "mirror", MIRROR, "glass", GLASS},
 };
+
+/* The media of the media members. Coefficients are per unit length; the box is 2 wide. */
+#define FOG_MEDIUM "'fog':{'sigma_a':0.01,'sigma_s':0.15,'g':0.3}"
+#define SMOKE_MEDIUM "'smoke':{'sigma_a':0.5,'sigma_s':6,'g':0.2,'density':{'file':'smoke.vdb','box':{'min':[%.9g,%.9g,%.9g],'max':[%.9g,%.9g,%.9g]}}}"
+#define TINT_MEDIUM "'amber':{'sigma_a':[0.3,1.5,3]}"
+
 
 /* The shared box: [-1,1]^3 open at z = +1, walls facing inwards. */
 static void put_cornell(text_buf *t, const cornell_variant *c) {
@@ -265,16 +350,45 @@ static void put_cornell(text_buf *t, const cornell_variant *c) {
   if (with & WITH_KNOT) put(t, ",'knot':{'diffuse':[0.3,0.3,0.3],'glossy':[0.4,0.4,0.4],'exponent':80}");
   if (with & WITH_BULB) put(t, ",'bulb glass':{'dielectric':[1,1,1],'ior':1.5}");
   if (with & (WITH_AREA_LIGHT | WITH_BULB)) put(t, ",'emitter':{}"); /* black: the light only emits */
-  put(t, "},'shapes':[");
+  put(t, "},");
+  if (with & WITH_FOG) put(t, "'media':{" FOG_MEDIUM "},'medium':'fog',");
+  if (with & WITH_SMOKE)
+    put(t, "'media':{" SMOKE_MEDIUM "},", smoke_min[0], smoke_min[1], smoke_min[2], smoke_max[0], smoke_max[1],
+        smoke_max[2]);
+  if (with & WITH_TINT) put(t, "'media':{" TINT_MEDIUM "},");
+  put(t, "'shapes':[");
   put_wall(t, "floor", "floor", vf_neg(ey), ex, ez, ey, zero);
   put_wall(t, "ceiling", "white", ey, ex, ez, vf_neg(ey), zero);
   put_wall(t, "back", c->back_material ? "back" : "white", vf_neg(ez), ex, ey, ez, zero);
   put_wall(t, "left", "red", vf_neg(ex), ey, ez, ex, zero);
   put_wall(t, "right", "green", ex, ey, ez, vf_neg(ex), zero);
+  /* In the fog the glass ball hangs above the floor, so that the cone of light it focuses
+   * (its focus lies about 0.47 below its centre) shows in the fog between it and the floor. */
   if (c->left_ball)
     put(t, "{'type':'sphere','name':'%s ball','material':'%s','center':[-0.45,-0.65,-0.35],'radius':0.35},"
-           "{'type':'sphere','name':'%s ball','material':'%s','center':[0.45,-0.65,0.25],'radius':0.35},",
-        c->left_ball, c->left_ball, c->right_ball, c->right_ball);
+           "{'type':'sphere','name':'%s ball','material':'%s',%s'center':%s,'radius':0.35},",
+        c->left_ball, c->left_ball, c->right_ball, c->right_ball, with & WITH_TINT ? "'interior':'amber'," : "",
+        with & WITH_FOG ? "[0.35,-0.05,0.15]" : "[0.45,-0.65,0.25]");
+  if (with & WITH_SMOKE) { /* the smoke's index-matched boundary: a closed box facing outwards */
+    quad_mesh q = {.num_quads = 0};
+    vf_vec3 lo = vf_vec3_make(smoke_min[0], smoke_min[1], smoke_min[2]);
+    vf_vec3 hi = vf_vec3_make(smoke_max[0], smoke_max[1], smoke_max[2]);
+    vf_vec3 mid = vf_scale(vf_add(lo, hi), 0.5f), half = vf_scale(vf_sub(hi, lo), 0.5f);
+    for (int axis = 0; axis < 3; axis++)
+      for (int side = -1; side <= 1; side += 2) {
+        vf_vec3 n = vf_vec3_splat(0.0f), u = vf_vec3_splat(0.0f), v = vf_vec3_splat(0.0f);
+        set_axis(&n, axis, (float)side);
+        set_axis(&u, (axis + 1) % 3, vf_vec3_get(half, (axis + 1) % 3));
+        set_axis(&v, (axis + 2) % 3, vf_vec3_get(half, (axis + 2) % 3));
+        add_quad(&q, vf_add(mid, vf_scale(n, vf_vec3_get(half, axis))), u, v, n);
+      }
+    put(t, "{'type':'mesh','name':'smoke box','interior':'smoke','positions':[");
+    for (int i = 0; i < 4 * q.num_quads; i++) put(t, "%s%.9g,%.9g,%.9g", i ? "," : "", q.v[i].x, q.v[i].y, q.v[i].z);
+    put(t, "],'indices':[");
+    for (int i = 0; i < q.num_quads; i++)
+      put(t, "%s%d,%d,%d,%d,%d,%d", i ? "," : "", 4 * i, 4 * i + 1, 4 * i + 2, 4 * i, 4 * i + 2, 4 * i + 3);
+    put(t, "]},");
+  }
   if (with & WITH_KNOT) put(t, "{'type':'mesh','name':'knot','material':'knot','file':'knot.ply'},");
   if (with & WITH_AREA_LIGHT)
     put_wall(t, "light", "emitter", vf_vec3_make(0, 0.98f, 0), vf_scale(ex, 0.3f), vf_scale(ez, 0.3f), vf_neg(ey),
@@ -355,7 +469,9 @@ static void put_corridor(text_buf *t) {
 int vf_scene_builtin_load(const char *name, vf_scene **out) {
   text_buf t = {NULL, 0, 0, 0};
   unsigned char *ply = NULL;
-  vf_scene_memfile knot = {"knot.ply", NULL, 0};
+  void *smoke = NULL;
+  vf_scene_memfile files[2];
+  int num_files = 0;
   char label[64];
   int err, found = strcmp(name, "furnace") == 0;
   if (found) put_furnace(&t);
@@ -367,8 +483,16 @@ int vf_scene_builtin_load(const char *name, vf_scene **out) {
     if (strcmp(name, cornells[i].name) == 0) {
       found = 1;
       put_cornell(&t, &cornells[i]);
-      if ((cornells[i].with & WITH_KNOT) && (err = knot_ply(&ply, &knot.size)) < 0) goto done;
-      knot.data = ply;
+      if (cornells[i].with & WITH_KNOT) {
+        files[num_files] = (vf_scene_memfile){"knot.ply", NULL, 0};
+        if ((err = knot_ply(&ply, &files[num_files].size)) < 0) goto done;
+        files[num_files++].data = ply;
+      }
+      if (cornells[i].with & WITH_SMOKE) {
+        files[num_files] = (vf_scene_memfile){"smoke.vdb", NULL, 0};
+        if ((err = smoke_vdb(&smoke, &files[num_files].size)) < 0) goto done;
+        files[num_files++].data = smoke;
+      }
     }
   if (!found) {
     err = vf_error_set(VF_ENOENT, "no built-in scene named '%s'", name);
@@ -381,8 +505,9 @@ int vf_scene_builtin_load(const char *name, vf_scene **out) {
   for (size_t i = 0; i < t.len; i++)
     if (t.data[i] == '\'') t.data[i] = '"';
   snprintf(label, sizeof label, "builtin:%s", name);
-  err = vf_scene_parse(t.data, t.len, label, ".", &knot, ply ? 1 : 0, out);
+  err = vf_scene_parse(t.data, t.len, label, ".", num_files ? files : NULL, num_files, out);
 done:
+  free(smoke);
   free(ply);
   free(t.data);
   return err;

@@ -25,8 +25,8 @@
  * where it is met (import.c), the extension itself is not. */
 static const char *const supported[] = {"KHR_lights_punctual", "KHR_materials_emissive_strength",
                                         "KHR_materials_transmission", "KHR_materials_ior", "KHR_materials_specular",
-                                        "KHR_materials_clearcoat", "KHR_materials_sheen", "KHR_texture_transform",
-                                        "KHR_draco_mesh_compression", NULL};
+                                        "KHR_materials_volume", "KHR_materials_clearcoat", "KHR_materials_sheen",
+                                        "KHR_texture_transform", "KHR_draco_mesh_compression", NULL};
 
 int vf_gltf_is_gltf(const char *file) {
   size_t n = strlen(file);
@@ -184,6 +184,16 @@ static int read_materials(const cJSON *root, vf_gltf_info *info) {
     g->emissive_strength = number_or(cJSON_GetObjectItemCaseSensitive(ext, "KHR_materials_emissive_strength"),
                                      "emissiveStrength", 1.0f);
     g->ior = number_or(cJSON_GetObjectItemCaseSensitive(ext, "KHR_materials_ior"), "ior", 1.5f);
+    const cJSON *volume = cJSON_GetObjectItemCaseSensitive(ext, "KHR_materials_volume");
+    g->has_volume = cJSON_IsObject(volume);
+    g->thickness = number_or(volume, "thicknessFactor", 0.0f);
+    g->attenuation_distance = number_or(volume, "attenuationDistance", INFINITY);
+    const cJSON *attenuation = cJSON_GetObjectItemCaseSensitive(volume, "attenuationColor");
+    for (int k = 0; k < 3; k++) {
+      const cJSON *v = cJSON_IsArray(attenuation) && cJSON_GetArraySize(attenuation) == 3 ? cJSON_GetArrayItem(attenuation, k) : NULL;
+      g->attenuation_color[k] = cJSON_IsNumber(v) && isfinite(v->valuedouble) ? (float)v->valuedouble : 1.0f;
+    }
+    g->has_thickness_texture = cJSON_GetObjectItemCaseSensitive(volume, "thicknessTexture") != NULL;
     g->has_specular = cJSON_IsObject(spec);
     g->specular = number_or(spec, "specularFactor", 1.0f);
     const cJSON *color = cJSON_GetObjectItemCaseSensitive(spec, "specularColorFactor");

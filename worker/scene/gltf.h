@@ -25,6 +25,12 @@ typedef struct {
   float specular;           /* specularFactor (default 1) */
   float specular_color[3];  /* specularColorFactor (default 1) */
   float ior;                /* KHR_materials_ior (default 1.5) */
+  /* KHR_materials_volume: the medium inside a transmissive material's meshes. */
+  int has_volume;           /* the extension given */
+  float thickness;          /* thicknessFactor (default 0: thin-walled, no interior) */
+  float attenuation_distance; /* attenuationDistance (default +inf: no absorption) */
+  float attenuation_color[3]; /* attenuationColor (default 1) */
+  int has_thickness_texture; /* thicknessTexture given (not supported) */
   /* KHR_materials_clearcoat and KHR_materials_sheen, as given (their defaults otherwise: 0,
    * the normal texture's scale 1) */
   float clearcoat, clearcoat_roughness, clearcoat_normal_scale;

@@ -40,6 +40,7 @@ typedef struct {
   int json_materials;     /* materials [0, json_materials) are the JSON's: they override by name */
   int *material_of;       /* aiMaterial index -> scene material, -1 not made yet */
   vf_vec3 *emission_of;   /* aiMaterial index -> its emission */
+  int *interior_of;       /* aiMaterial index -> the medium inside its meshes (glTF's KHR_materials_volume), -1 none */
   vf_mesh_tally tally;
   int took_camera;        /* this file gave the scene its camera */
   float kd_ks_largest;    /* f.kd_ks_largest points here */
@@ -68,7 +69,7 @@ static int material_for(const parse_ctx *c, import_state *st, unsigned k, int *o
     j = vf_name_index_find(&st->json_names, name.data);
   if (j < 0) {
     vf_material m;
-    int err = vf_scene_import_material(c, &st->f, k, &m, &st->emission_of[k]);
+    int err = vf_scene_import_material(c, &st->f, k, &m, &st->emission_of[k], &st->interior_of[k]);
     if (err < 0) return err;
     vf_material *grown = realloc(s->materials, (size_t)(s->num_materials + 1) * sizeof *grown);
     if (grown == NULL) return vf_error_set(VF_ENOMEM, "out of memory");
@@ -111,6 +112,8 @@ static int import_instance(void *user, const struct aiNode *node, unsigned mesh_
   const char *name = mesh->mName.length ? mesh->mName.data : node->mName.data;
   snprintf(s->name, sizeof s->name, "%.63s", name[0] ? name : st->f.file); /* names only name: cut is fine */
   s->emission = st->emission_of[mesh->mMaterialIndex];
+  s->interior = st->interior_of[mesh->mMaterialIndex]; /* kept only if the mesh is closed (interfaces.c) */
+  s->exterior = -1;
   /* An emitter without area would have infinite radiance per unit power. */
   if (!vf_is_zero(s->emission) && !(vf_scene_mesh_area(s) > 0.0)) {
     s->emission = vf_vec3_splat(0.0f);
@@ -411,9 +414,11 @@ static int import_entry(const parse_ctx *c, const cJSON *j, int index, int json_
   unsigned nm = st.f.ai->mNumMaterials;
   st.material_of = malloc((nm ? nm : 1) * sizeof *st.material_of);
   st.emission_of = calloc(nm ? nm : 1, sizeof *st.emission_of);
-  if (err == VF_OK && (st.material_of == NULL || st.emission_of == NULL)) err = vf_error_set(VF_ENOMEM, "out of memory");
+  st.interior_of = malloc((nm ? nm : 1) * sizeof *st.interior_of);
+  if (err == VF_OK && (st.material_of == NULL || st.emission_of == NULL || st.interior_of == NULL))
+    err = vf_error_set(VF_ENOMEM, "out of memory");
   if (err == VF_OK) err = vf_name_index_build(c->scene, json_materials, &st.json_names);
-  for (unsigned k = 0; err == VF_OK && k < nm; k++) st.material_of[k] = -1;
+  for (unsigned k = 0; err == VF_OK && k < nm; k++) st.material_of[k] = st.interior_of[k] = -1;
   int take_first = *camera_wanted && selects_here < 0;
   if (err == VF_OK)
     err = import_contents(c, &st, selects_here == index ? camera_sel : NULL, cpath, take_first);
@@ -421,6 +426,7 @@ static int import_entry(const parse_ctx *c, const cJSON *j, int index, int json_
   vf_name_index_release(&st.json_names);
   free(st.material_of);
   free(st.emission_of);
+  free(st.interior_of);
   vf_gltf_info_release(&st.f.gltf);
   aiReleaseImport(st.f.ai);
   return err;
@@ -517,6 +523,7 @@ static double texture_mean(const vf_texture *t) {
  * texture's mean. */
 static double emitted_radiance(const vf_scene *s, const vf_shape *sh) {
   double l = (sh->emission.x + sh->emission.y + sh->emission.z) / 3.0;
+  if (sh->material < 0) return l; /* an index-matched boundary: it never emits */
   const vf_texture_slot *ts = &s->materials[sh->material].textures[VF_TEXTURE_EMISSION];
   if (l > 0.0 && ts->texture > 0) l *= texture_mean(&s->textures[ts->texture - 1]);
   return l;

@@ -25,10 +25,12 @@ typedef struct {
 } vf_import_file;
 
 /* Material `index` of the file as a vf_material (docs/SCENES.md, "import"), with its
- * textures loaded (vf_scene_texture_file / _bytes) and the radiance its shapes emit in
- * *emission. Notes what it cannot render. Errors name the file and the material. */
+ * textures loaded (vf_scene_texture_file / _bytes), the radiance its shapes emit in
+ * *emission, and in *interior the medium it makes for its meshes' inside (glTF's
+ * KHR_materials_volume: an absorbing medium named after the material, appended to the
+ * scene's media) or -1. Notes what it cannot render. Errors name the file and the material. */
 int vf_scene_import_material(const parse_ctx *c, const vf_import_file *f, unsigned index, vf_material *m,
-                             vf_vec3 *emission);
+                             vf_vec3 *emission, int *interior);
 
 /* The JSON's "import" array: every file's meshes, materials and lights added to the scene.
  * Materials [0, json_materials) are the JSON's and replace the file's of the same name.

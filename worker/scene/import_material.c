@@ -247,8 +247,44 @@ static int gltf_layers(const parse_ctx *c, const vf_import_file *f, const char *
   return VF_OK;
 }
 
+/* KHR_materials_volume: the attenuation of a transmissive, not thin-walled material as an
+ * absorbing interior of its meshes, sigma_a = -ln(attenuationColor) / attenuationDistance
+ * per channel (Beer-Lambert: light that travels attenuationDistance keeps
+ * attenuationColor of itself); none for a colour of 1 or an infinite distance. */
+static int gltf_volume(const parse_ctx *c, const vf_import_file *f, const vf_gltf_material *g, vf_material *m,
+                       int *interior) {
+  int err;
+  if (!g->has_volume) return VF_OK;
+  if (m->gltf)
+    return vf_scene_note(c, "%s: material '%s': KHR_materials_volume without transmission: ignored", f->file, m->name);
+  if (g->has_thickness_texture &&
+      (err = vf_scene_note(c, "%s: thickness textures (KHR_materials_volume) are not supported: ignored", f->file)) < 0)
+    return err;
+  if (!(g->thickness > 0.0f) || !(g->attenuation_distance > 0.0f) || isinf(g->attenuation_distance)) return VF_OK;
+  /* A colour of 0 would absorb everything at once: its channel keeps 1e-6 of the light
+   * over the distance instead. */
+  const float floor_colour = 1e-6f;
+  float sigma[3];
+  int clamped = 0;
+  for (int k = 0; k < 3; k++) {
+    float colour = g->attenuation_color[k];
+    clamped |= colour < floor_colour;
+    colour = fminf(fmaxf(colour, floor_colour), 1.0f);
+    sigma[k] = (float)(-log((double)colour) / g->attenuation_distance);
+  }
+  if (clamped && (err = vf_scene_note(c, "%s: material '%s': attenuationColor below %g read as %g", f->file, m->name,
+                                      (double)floor_colour, (double)floor_colour)) < 0)
+    return err;
+  if (sigma[0] == 0.0f && sigma[1] == 0.0f && sigma[2] == 0.0f) return VF_OK;
+  vf_medium medium;
+  memset(&medium, 0, sizeof medium);
+  snprintf(medium.name, sizeof medium.name, "%s", m->name);
+  medium.sigma_a = vf_vec3_make(sigma[0], sigma[1], sigma[2]);
+  return vf_scene_add_medium(c, &medium, interior);
+}
+
 static int gltf_material(const parse_ctx *c, const vf_import_file *f, unsigned index, const char *where,
-                         const struct aiMaterial *am, vf_material *m, vf_vec3 *emission) {
+                         const struct aiMaterial *am, vf_material *m, vf_vec3 *emission, int *interior) {
   struct aiColor4D base = {1, 1, 1, 1}, emit = {0, 0, 0, 1};
   get_color(am, AI_MATKEY_BASE_COLOR, &base);
   m->base_color = clamp01(rgb_of(&base));
@@ -295,6 +331,7 @@ static int gltf_material(const parse_ctx *c, const vf_import_file *f, unsigned i
                            f->file)) < 0)
     return err;
   if (g != NULL && (err = gltf_texture_refs(c, f, g, m)) < 0) return err;
+  if (g != NULL && (err = gltf_volume(c, f, g, m, interior)) < 0) return err;
   get_color(am, AI_MATKEY_COLOR_EMISSIVE, &emit);
   float strength = g != NULL ? g->emissive_strength : 1.0f;
   *emission = vf_scale(vf_vec3_make(fmaxf(emit.r, 0.0f), fmaxf(emit.g, 0.0f), fmaxf(emit.b, 0.0f)), fmaxf(strength, 0.0f));
@@ -389,7 +426,7 @@ static int classic_material(const parse_ctx *c, const vf_import_file *f, const c
 }
 
 int vf_scene_import_material(const parse_ctx *c, const vf_import_file *f, unsigned index, vf_material *m,
-                             vf_vec3 *emission) {
+                             vf_vec3 *emission, int *interior) {
   const struct aiMaterial *am = f->ai->mMaterials[index];
   struct aiString name;
   char where[PATH_LEN];
@@ -401,6 +438,7 @@ int vf_scene_import_material(const parse_ctx *c, const vf_import_file *f, unsign
   else snprintf(where, sizeof where, "material '%.63s'", name.data);
   m->phong_exponent = m->ior = 1.0f; /* harmless values for unused parameters, as JSON materials */
   m->normal_scale = 1.0f;
-  return f->gltf_file ? gltf_material(c, f, index, where, am, m, emission)
+  *interior = -1;
+  return f->gltf_file ? gltf_material(c, f, index, where, am, m, emission, interior)
                       : classic_material(c, f, where, am, m, emission);
 }

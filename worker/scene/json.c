@@ -14,6 +14,8 @@
 #include "../../common/error.h"
 #include "fields.h"
 #include "import.h"
+#include "interfaces.h"
+#include "media.h"
 #include "parse.h"
 #include "shapes.h"
 #include "textures.h"
@@ -668,7 +670,8 @@ static int parse_notes(const parse_ctx *c, const cJSON *root) {
 }
 
 static int parse_root(const parse_ctx *c, const cJSON *root) {
-  static const char *const fields[] = {"camera", "materials", "shapes", "lights", "render", "import", "notes", NULL};
+  static const char *const fields[] = {"camera", "materials", "media", "medium", "shapes", "lights", "render",
+                                       "import", "notes", NULL};
   const cJSON *m;
   int err = vf_scene_check_object(c, root, "", fields);
   if (err < 0) return err;
@@ -679,11 +682,21 @@ static int parse_root(const parse_ctx *c, const cJSON *root) {
   if (has_camera < 0 || (has_camera && (err = parse_camera(c, m)) < 0)) return has_camera < 0 ? has_camera : err;
   if ((err = vf_scene_member(c, root, "", "materials", need, &m)) < 0 || (err > 0 && (err = parse_materials(c, m)) < 0))
     return err;
+  /* Media before shapes, which name them as their interiors. */
+  if ((err = vf_scene_member(c, root, "", "media", OPTIONAL, &m)) < 0 || (err > 0 && (err = vf_scene_parse_media(c, m)) < 0))
+    return err;
+  if ((err = vf_scene_member(c, root, "", "medium", OPTIONAL, &m)) < 0 ||
+      (err > 0 && (err = vf_scene_parse_scene_medium(c, m)) < 0))
+    return err;
   if ((err = vf_scene_member(c, root, "", "shapes", need, &m)) < 0 || (err > 0 && (err = vf_scene_parse_shapes(c, m)) < 0))
     return err;
+  const int file_shapes = c->scene->num_shapes; /* the imports' follow */
   if ((err = vf_scene_member(c, root, "", "lights", OPTIONAL, &m)) < 0 || (err > 0 && (err = parse_lights(c, m)) < 0))
     return err;
   if (imports && (err = parse_import(c, root, !has_camera)) < 0) return err;
+  /* Which shapes bound media and what lies outside each: the file's own shapes must be
+   * closed where they have an interior; an imported one that is not loses it, with a note. */
+  if ((err = vf_scene_resolve_interfaces(c, file_shapes)) < 0) return err;
   if ((err = vf_scene_member(c, root, "", "render", OPTIONAL, &m)) < 0 || (err > 0 && (err = parse_render(c, m)) < 0))
     return err;
   if (!has_light(c->scene))

@@ -4,6 +4,7 @@
 
 #include "../../common/error.h"
 #include "mitsuba_bsdf.h"
+#include "mitsuba_medium.h"
 #include "mitsuba_props.h"
 #include "mitsuba_sensor.h"
 
@@ -188,6 +189,8 @@ static int shape(mts_ctx *c, vf_xml_node *s) {
   vf_xml_node *bsdf = NULL;
   for (int i = 0; i < s->num_children && bsdf == NULL; i++) {
     vf_xml_node *ch = s->children[i];
+    const char *role = vf_xml_attr(ch, "name");
+    if (role != NULL && (strcmp(role, "interior") == 0 || strcmp(role, "exterior") == 0)) continue; /* media: below */
     if (strcmp(ch->name, "bsdf") == 0) bsdf = ch;
     else if (strcmp(ch->name, "ref") == 0) {
       vf_xml_node *d = mts_deref(c, ch, &err);
@@ -197,10 +200,28 @@ static int shape(mts_ctx *c, vf_xml_node *s) {
     }
     if (bsdf != NULL) ch->used = 1;
   }
-  const char *material;
-  if ((err = mts_material(c, bsdf, &material)) < 0 || !cJSON_AddStringToObject(js, "material", material) ||
-      (err = emission(c, s, js)) < 0)
-    return err < 0 ? err : oom();
+  /* Media: the interior by name; a null BSDF around one is an index-matched boundary (no
+   * material). Exteriors follow from how the shapes nest (docs/SCENES.md, "Media"). */
+  const char *interior = NULL, *exterior = NULL;
+  vf_xml_node *inner = mts_child(c, s, "interior", &err), *outer;
+  if (err < 0 || (inner != NULL && (err = mts_medium(c, inner, &interior)) < 0)) return err;
+  if ((outer = mts_child(c, s, "exterior", &err)) == NULL && err < 0) return err;
+  if (outer != NULL && ((err = mts_medium(c, outer, &exterior)) < 0 ||
+                        (err = mts_note(c, s, "the exterior medium is not read: a shape's outside is the medium of the "
+                                        "shape that contains it, else the scene's")) < 0))
+    return err;
+  if (interior != NULL && !cJSON_AddStringToObject(js, "interior", interior)) return oom();
+  const char *bsdf_type = bsdf != NULL ? vf_xml_attr(bsdf, "type") : NULL;
+  if (interior != NULL && bsdf_type != NULL && strcmp(bsdf_type, "null") == 0) {
+    bsdf->used = 1;
+    for (int i = 0; i < bsdf->num_children; i++) bsdf->children[i]->used = 1;
+    if ((err = emission(c, s, js)) < 0) return err;
+  } else {
+    const char *material;
+    if ((err = mts_material(c, bsdf, &material)) < 0 || !cJSON_AddStringToObject(js, "material", material) ||
+        (err = emission(c, s, js)) < 0)
+      return err < 0 ? err : oom();
+  }
   if (mesh_file) {
     const char *file;
     int face_normals;
@@ -395,7 +416,8 @@ static int convert(mts_ctx *c, const char *camera) {
     if (strcmp(e->name, "shape") == 0) err = shape(c, e);
     else if (strcmp(e->name, "emitter") == 0) err = emitter(c, e);
     else if (strcmp(e->name, "integrator") == 0) err = mts_integrator(c, e);
-    else if (strcmp(e->name, "bsdf") == 0 || strcmp(e->name, "texture") == 0) err = VF_OK; /* used through <ref> */
+    else if (strcmp(e->name, "bsdf") == 0 || strcmp(e->name, "texture") == 0 || strcmp(e->name, "medium") == 0)
+      err = VF_OK; /* used through <ref> */
     else if (!e->used) {
       e->used = 1;
       const char *name = vf_xml_attr(e, "type");
@@ -405,7 +427,7 @@ static int convert(mts_ctx *c, const char *camera) {
   }
   for (int i = 0; i < s->num_children; i++) {
     vf_xml_node *e = s->children[i];
-    if ((strcmp(e->name, "bsdf") == 0 || strcmp(e->name, "texture") == 0) && !e->used &&
+    if ((strcmp(e->name, "bsdf") == 0 || strcmp(e->name, "texture") == 0 || strcmp(e->name, "medium") == 0) && !e->used &&
         (err = mts_note(c, e, "defined but used by no shape")) < 0)
       return err;
   }

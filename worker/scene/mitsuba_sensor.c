@@ -3,6 +3,7 @@
 #include "mitsuba_sensor.h"
 
 #include "../../common/error.h"
+#include "mitsuba_medium.h"
 
 #include <math.h>
 #include <stdio.h>
@@ -125,6 +126,16 @@ int mts_sensor(mts_ctx *c, vf_xml_node *s) {
       if (!cJSON_AddNumberToObject(cam, "aperture", aperture) || !cJSON_AddNumberToObject(cam, "focus_distance", focus))
         return oom();
     }
+  }
+  /* The sensor's medium is the one around it: the scene's medium, around every shape. */
+  vf_xml_node *medium = mts_child(c, s, "medium", &err);
+  if (err < 0) return err;
+  if (medium != NULL) {
+    const char *name;
+    if ((err = mts_medium(c, medium, &name)) < 0) return err;
+    if (name != NULL && (!cJSON_AddStringToObject(c->root, "medium", name) ||
+                         (err = mts_note(c, s, "the sensor's medium '%s' is the scene's medium, around every shape", name)) < 0))
+      return err < 0 ? err : oom();
   }
   for (int i = 0; i < s->num_children; i++)
     if (strcmp(s->children[i]->name, "sampler") == 0) {

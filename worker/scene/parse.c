@@ -1,5 +1,5 @@
 /* The parse context's helpers: errors naming the field path, field paths, notes, and the
- * files a scene names resolved (parse.h). */
+ * files a scene names resolved, media by name (parse.h). */
 #include "parse.h"
 
 #include "../../common/error.h"
@@ -49,6 +49,23 @@ int vf_scene_note(const parse_ctx *c, const char *fmt, ...) {
   if (grown == NULL) return vf_error_set(VF_ENOMEM, "out of memory");
   memcpy(grown + have, line, len + 1);
   s->notes = grown;
+  return VF_OK;
+}
+
+int vf_scene_medium_index(const parse_ctx *c, const char *name) {
+  for (int i = 0; i < c->scene->num_media; i++)
+    if (strcmp(c->scene->media[i].name, name) == 0) return i;
+  return -1;
+}
+
+int vf_scene_add_medium(const parse_ctx *c, vf_medium *m, int *index) {
+  vf_scene *s = c->scene;
+  vf_medium *grown = realloc(s->media, (size_t)(s->num_media + 1) * sizeof *grown);
+  if (grown == NULL) return vf_error_set(VF_ENOMEM, "out of memory");
+  s->media = grown;
+  s->media[s->num_media] = *m;
+  m->grid = NULL; /* the scene's now */
+  *index = s->num_media++;
   return VF_OK;
 }
 

@@ -39,6 +39,12 @@ const char *vf_scene_join_index(char *dst, const char *path, long index);
  * VF_ENOMEM only. */
 int vf_scene_note(const parse_ctx *c, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
 
+/* The medium of the scene named `name` (an index into scene->media), or -1. */
+int vf_scene_medium_index(const parse_ctx *c, const char *name);
+/* Appends *m to scene->media (taking its grid) and sets *index; VF_ENOMEM (then the grid
+ * is still the caller's). */
+int vf_scene_add_medium(const parse_ctx *c, vf_medium *m, int *index);
+
 /* The path of `file` as the scene names it: absolute, or relative to the scene's directory;
  * for a farm job's scene, the file its table maps the name to. Errors name `path`. */
 int vf_scene_resolve(const parse_ctx *c, const char *file, const char *path, char *out, size_t n);

@@ -60,6 +60,9 @@ int vf_scene_check_extent(const vf_scene *s, const char *label) {
   if (what == NULL && beyond(s->camera.view_width)) what = "camera.width";
   for (int i = 0; i < s->num_point_lights && what == NULL; i++)
     if (beyond3(s->point_lights[i].position)) what = "lights", index = i;
+  for (int i = 0; i < s->num_media && what == NULL; i++) /* a grid's box, named by the medium's index */
+    if (s->media[i].grid != NULL && (beyond3(s->media[i].grid->box_min) || beyond3(s->media[i].grid->box_max)))
+      what = "media (a density grid's box)", index = i;
   if (what == NULL) return VF_OK;
   if (index >= 0)
     return vf_error_set(VF_ESCENE, "%s: %s[%d]: a coordinate beyond %g in world space: the renderer cannot trace it "
@@ -115,6 +118,17 @@ int vf_scene_scale(vf_scene *s, double factor) {
   /* Irradiance from a point light falls with the square of the distance: its intensity
    * grows with the square of the scale. Area lights keep their radiance, directional lights
    * their irradiance, the environment its radiance: none depends on distance. */
+  /* Media keep their optical depths: coefficients per unit length shrink as lengths grow,
+   * and a grid's box moves with the geometry. */
+  for (int i = 0; i < s->num_media; i++) {
+    vf_medium *m = &s->media[i];
+    m->sigma_a = vf_scale(m->sigma_a, (float)(1.0 / factor));
+    m->sigma_s = vf_scale(m->sigma_s, (float)(1.0 / factor));
+    if (m->grid != NULL) {
+      m->grid->box_min = vf_scale(m->grid->box_min, f);
+      m->grid->box_max = vf_scale(m->grid->box_max, f);
+    }
+  }
   for (int i = 0; i < s->num_point_lights; i++) {
     s->point_lights[i].position = vf_scale(s->point_lights[i].position, f);
     s->point_lights[i].intensity = vf_scale(s->point_lights[i].intensity, (float)(factor * factor));
@@ -352,6 +366,35 @@ void vf_scene_hash(vf_scene *s) {
       h_tag(&h, "envmap_rotation");
       for (int r = 0; r < 3; r++)
         for (int k = 0; k < 3; k++) h_f32(&h, s->envmap_rotation[r][k]);
+    }
+  }
+  /* Media, only in scenes that have them or an interface: scenes without keep their
+   * hashes. A grid counts by its samples and box (not its file's name or bytes). */
+  int interfaces = 0;
+  for (int i = 0; i < s->num_shapes; i++) interfaces |= s->shapes[i].interface;
+  if (s->num_media > 0 || interfaces || s->medium >= 0) {
+    h_tag(&h, "media");
+    h_u32(&h, (uint32_t)s->num_media);
+    for (int i = 0; i < s->num_media; i++) {
+      const vf_medium *m = &s->media[i];
+      h_vec3(&h, m->sigma_a);
+      h_vec3(&h, m->sigma_s);
+      h_f32(&h, m->g);
+      h_u32(&h, m->grid != NULL);
+      if (m->grid == NULL) continue;
+      const vf_density_grid *g = m->grid;
+      h_u32(&h, g->nx);
+      h_u32(&h, g->ny);
+      h_u32(&h, g->nz);
+      h_vec3(&h, g->box_min);
+      h_vec3(&h, g->box_max);
+      for (uint64_t k = 0; k < (uint64_t)g->nx * g->ny * g->nz; k++) h_f32(&h, g->density[k]);
+    }
+    h_u32(&h, (uint32_t)s->medium);
+    for (int i = 0; i < s->num_shapes; i++) {
+      h_u32(&h, (uint32_t)s->shapes[i].interface);
+      h_u32(&h, (uint32_t)s->shapes[i].interior);
+      h_u32(&h, (uint32_t)s->shapes[i].exterior);
     }
   }
   h_tag(&h, "settings");

@@ -146,14 +146,14 @@ void vf_scene_destroy(vf_scene *scene);
 
 /* Scales the whole scene, camera and lights by factor about the origin so that the exact
  * image is unchanged: point-light intensities grow with factor^2, radiances and directional
- * irradiances stay. Recomputes bounds and hash. For numerical stress tests (issue 5). */
+ * irradiances stay, media coefficients shrink by 1/factor and grid boxes move with the shapes. Recomputes bounds and hash. For numerical stress tests (issue 5). */
 int vf_scene_scale(vf_scene *scene, double factor);
 
 /* Bounding sphere of all shapes: center of the bounding box and half its diagonal. */
 void vf_scene_bounding_sphere(const vf_scene *scene, vf_vec3 *center, float *radius);
 
 /* Recomputes scene->hash from the content (camera, materials, shapes, lights, environment,
- * settings the file set), in a canonical order: equal content gives equal hashes. Names,
+ * media with their grids' samples, interiors and the scene's medium, settings the file set), in a canonical order: equal content gives equal hashes. Names,
  * the source path and the JSON layout are not part of it; material order is. Call it after
  * changing a loaded scene. */
 void vf_scene_hash(vf_scene *scene);

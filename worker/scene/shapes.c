@@ -300,9 +300,9 @@ static int parse_sphere(const parse_ctx *c, const cJSON *j, const char *path, co
 }
 
 static int parse_shape(const parse_ctx *c, const cJSON *j, int index, const vf_name_index *names, vf_shape *s) {
-  static const char *const mesh_fields[] = {"type", "name", "material", "emission", "transform",
+  static const char *const mesh_fields[] = {"type", "name", "material", "interior", "emission", "transform",
                                             "file", "shape_index", "positions", "indices", "uvs", "normals", "flip", "flip_t", NULL};
-  static const char *const sphere_fields[] = {"type", "name", "material", "emission", "transform",
+  static const char *const sphere_fields[] = {"type", "name", "material", "interior", "emission", "transform",
                                               "center", "radius", NULL};
   char path[PATH_LEN], p[PATH_LEN];
   const char *type, *name = NULL, *material, *file = NULL;
@@ -320,11 +320,26 @@ static int parse_shape(const parse_ctx *c, const cJSON *j, int index, const vf_n
   if ((err = vf_scene_string_field(c, j, path, "name", OPTIONAL, &name)) < 0) return err;
   if (name != NULL && strlen(name) >= sizeof s->name)
     return vf_scene_fail(c, VF_ESCENE, vf_scene_join(p, path, "name"), "longer than %zu bytes", sizeof s->name - 1);
-  if ((err = vf_scene_string_field(c, j, path, "material", REQUIRED, &material)) < 0) return err;
-  s->material = vf_name_index_find(names, material);
-  if (s->material < 0)
+  /* "interior": the medium inside the closed shape (worker/scene/interfaces.c checks that
+   * it is closed). With one, "material" may be left out: an index-matched boundary. */
+  const char *interior = NULL;
+  if ((err = vf_scene_string_field(c, j, path, "interior", OPTIONAL, &interior)) < 0) return err;
+  s->interior = s->exterior = -1;
+  if (interior != NULL && (s->interior = vf_scene_medium_index(c, interior)) < 0)
+    return vf_scene_fail(c, VF_ESCENE, vf_scene_join(p, path, "interior"), "unknown medium '%s'%s", interior,
+                         c->scene->num_media == 0 ? " (the scene has no \"media\")" : "");
+  if (interior == NULL && !cJSON_HasObjectItem(j, "material"))
+    return vf_scene_fail(c, VF_ESCENE, path, "missing field 'material' (only a shape with an 'interior' may have none: "
+                         "an index-matched medium boundary)");
+  int has_material = vf_scene_string_field(c, j, path, "material", interior ? OPTIONAL : REQUIRED, &material);
+  if (has_material < 0) return has_material;
+  s->material = has_material ? vf_name_index_find(names, material) : -1;
+  if (has_material && s->material < 0)
     return vf_scene_fail(c, VF_ESCENE, vf_scene_join(p, path, "material"), "unknown material '%s'", material);
   if ((err = vf_scene_rgb_field(c, j, path, "emission", OPTIONAL, "radiance", &s->emission)) < 0) return err;
+  if (!has_material && !vf_is_zero(s->emission))
+    return vf_scene_fail(c, VF_ESCENE, vf_scene_join(p, path, "emission"),
+                         "an index-matched boundary (a shape without 'material') cannot emit");
   int has_transform = vf_scene_member(c, j, path, "transform", OPTIONAL, &tj);
   if (has_transform && (err = parse_transform(c, tj, vf_scene_join(p, path, "transform"), &a)) < 0) return err;
   if (s->kind == VF_SHAPE_SPHERE) {
