@@ -11,9 +11,10 @@
  * 4. albedo: the sampled albedo equals the numerical integral of f cos, and is at most one;
  *    the sheen's albedo table equals its integral;
  * 5. upg's bound (worker/render/photon_gathering.h) holds over cones of every size;
- * 6. path tracing, light tracing, BPT and VCM agree per image block on a Cornell box with a
- *    coated ball (a coat normal map), a sheen ball and a coated floor; without light tracing
- *    when the floor's coat is smooth. */
+ * 6. path tracing, light tracing, BPT, VCM and upg agree per image block on a Cornell box
+ *    with a coated ball (a coat normal map), a sheen ball and a rough-coated floor; pt, BPT
+ *    and VCM when the floor's coat is smooth (light tracing cannot see its mirror image, upg
+ *    would merge caustics through it with merging's bias). */
 #include "check.h"
 #include "bsdf_cases.h" /* after check.h: its checks are defined only then */
 #include "feature_scene.h"
@@ -519,7 +520,7 @@ static vf_scene *layered_scene(int smooth_floor) {
 static void check_agreement(const char *what, int smooth_floor, const vf_algorithm *algorithms, int n) {
   vf_scene *scene = layered_scene(smooth_floor);
   if (scene == NULL || check_failed_in_case) return;
-  static double mean[4][NB], se[4][NB];
+  static double mean[5][NB], se[5][NB];
   for (int a = 0; a < n; a++) {
     vf_settings st = scene->settings;
     st.algorithm = algorithms[a];
@@ -529,6 +530,11 @@ static void check_agreement(const char *what, int smooth_floor, const vf_algorit
     vf_vcm_stats stats = {0};
     CHECK_INT_EQ(render_block_estimates(scene, &st, 2, ITERATIONS, BLOCKS, mean[a], se[a], &stats), VF_OK);
     CHECK_INT_EQ(stats.nonfinite, 0);
+    if (algorithms[a] == VF_ALGO_UPG) { /* the layers' bound held, and no path needed merging's bias */
+      CHECK_INT_EQ((int)stats.upg_bound_exceeded, 0);
+      CHECK_INT_EQ((int)stats.upg_fallbacks, 0);
+      CHECK(stats.upg_gatherings > 0);
+    }
   }
   for (int i = 0; i < n; i++)
     for (int j = i + 1; j < n; j++)
@@ -538,10 +544,10 @@ static void check_agreement(const char *what, int smooth_floor, const vf_algorit
 }
 
 /* Light tracing cannot see the smooth coat's mirror image (a delta vertex next to the
- * camera): it joins on the rough floor only. */
+ * camera), and upg falls back to merging there: both join on the rough floor only. */
 static void test_algorithms_agree_on_coat_and_sheen(void) {
-  const vf_algorithm all[] = {VF_ALGO_PT, VF_ALGO_LT, VF_ALGO_BPT, VF_ALGO_VCM};
-  check_agreement("rough floor coat", 0, all, 4);
+  const vf_algorithm all[] = {VF_ALGO_PT, VF_ALGO_LT, VF_ALGO_BPT, VF_ALGO_VCM, VF_ALGO_UPG};
+  check_agreement("rough floor coat", 0, all, 5);
 }
 static void test_algorithms_agree_on_a_smooth_coat(void) {
   const vf_algorithm some[] = {VF_ALGO_PT, VF_ALGO_BPT, VF_ALGO_VCM};
