@@ -223,8 +223,8 @@ expect_refusal "continue refuses a film with a flipped bit" "flipped.exr: damage
 import="$scenes/import"
 "$vcmfarm" render "$import/model.gltf" --direct -n 1 -R 16x12 -q -o "$tmp/gltf.exr" 2>"$tmp/stderr"
 check "glTF scene renders" $([ -s "$tmp/gltf.exr" ]; echo $?)
-grep -qF "model.gltf: note: extension KHR_materials_sheen is not supported" "$tmp/stderr"
-check "glTF notes are printed once at load" $([ "$(grep -c KHR_materials_sheen "$tmp/stderr")" -eq 1 ]; echo $?)
+grep -qF "model.gltf: note: extension KHR_materials_iridescence is not supported" "$tmp/stderr"
+check "glTF notes are printed once at load" $([ "$(grep -c KHR_materials_iridescence "$tmp/stderr")" -eq 1 ]; echo $?)
 "$vcmfarm" render "$import/model.gltf" --camera TopCam -n 1 -R 16x12 -q -o "$tmp/top.exr"
 check "--camera by name" $([ -s "$tmp/top.exr" ]; echo $?)
 expect_refusal "unknown --camera" "--camera: no camera 'Nope' in model.gltf (its cameras: 0 'CamNode', 1 'TopCam')" \

@@ -3,6 +3,7 @@
 
 #include "microfacet.h"
 #include "sampling.h"
+#include "sheen.h"
 
 #include <math.h>
 #include <stddef.h>
@@ -90,6 +91,15 @@ void vf_bsdf_lobes_of(const vf_material *m, vf_bsdf_lobes *lobes) {
   } else {
     conductor = m->conductor;
   }
+  /* The layers: the sheen's albedo averaged over cosine-distributed directions, the coat's
+   * weight times its Fresnel's average (bsdf.h). */
+  vf_vec3 sheen = vf_vec3_splat(0.0f), coat = vf_vec3_splat(0.0f);
+  lobes->layered = m->gltf && (m->clearcoat > 0.0f || !vf_is_zero(m->sheen_color));
+  if (lobes->layered) {
+    if (!vf_is_zero(m->sheen_color)) sheen = vf_scale(m->sheen_color, vf_sheen_albedo_average(m->sheen_roughness));
+    if (m->clearcoat > 0.0f)
+      coat = vf_vec3_splat(m->clearcoat * schlick_f90_average(vf_vec3_splat(VF_GLTF_DIELECTRIC_F0), 1.0f).x);
+  }
   int rough = is_rough(m->roughness);
   /* An index-matched dielectric only transmits straight on, whatever its roughness. */
   int rough_dielectric = rough && m->ior != 1.0f;
@@ -97,6 +107,8 @@ void vf_bsdf_lobes_of(const vf_material *m, vf_bsdf_lobes *lobes) {
                                  mean3(base)};
   albedo[rough_dielectric ? VF_LOBE_ROUGH_DIELECTRIC : VF_LOBE_DIELECTRIC] = mean3(m->dielectric);
   albedo[rough ? VF_LOBE_ROUGH_CONDUCTOR : VF_LOBE_CONDUCTOR] = mean3(conductor);
+  albedo[VF_LOBE_SHEEN] = mean3(sheen);
+  albedo[is_rough(m->clearcoat_roughness) ? VF_LOBE_ROUGH_COAT : VF_LOBE_COAT] = mean3(coat);
   /* Summed in the order of the original four lobes first: with the others zero, a material
    * of those four gets its probabilities and continuation bit for bit as before. */
   float total = albedo[0] + albedo[1] + albedo[2] + albedo[3];
@@ -105,11 +117,14 @@ void vf_bsdf_lobes_of(const vf_material *m, vf_bsdf_lobes *lobes) {
   for (int i = 0; i < VF_LOBE_COUNT; i++) lobes->lobe_probability[i] = lobes->black ? 0.0f : albedo[i] / total;
   vf_vec3 sum = vf_add(vf_add(m->diffuse, m->glossy), vf_add(m->mirror, m->dielectric));
   sum = vf_add(sum, vf_add(conductor, base));
+  if (lobes->layered) sum = vf_add(sum, vf_add(sheen, coat));
   lobes->continuation = fminf(1.0f, vf_max_component(sum));
   const float *p = lobes->lobe_probability;
   lobes->rough = p[VF_LOBE_ROUGH_CONDUCTOR] > 0.0f || p[VF_LOBE_ROUGH_DIELECTRIC] > 0.0f || p[VF_LOBE_BASE] > 0.0f;
-  lobes->extended = lobes->rough || p[VF_LOBE_CONDUCTOR] > 0.0f;
-  lobes->is_delta = p[VF_LOBE_DIFFUSE] == 0.0f && p[VF_LOBE_GLOSSY] == 0.0f && !lobes->rough;
+  lobes->layered = lobes->layered && !lobes->black;
+  lobes->extended = lobes->rough || p[VF_LOBE_CONDUCTOR] > 0.0f || lobes->layered;
+  lobes->is_delta = p[VF_LOBE_DIFFUSE] == 0.0f && p[VF_LOBE_GLOSSY] == 0.0f && !lobes->rough &&
+                    p[VF_LOBE_SHEEN] == 0.0f && p[VF_LOBE_ROUGH_COAT] == 0.0f;
   lobes->alpha = vf_ggx_alpha(m->roughness);
 }
 
@@ -118,8 +133,11 @@ unsigned vf_material_kinds(const vf_material *m) {
   vf_bsdf_lobes_of(m, &l);
   const float *p = l.lobe_probability;
   unsigned kinds = 0;
-  if (p[VF_LOBE_MIRROR] > 0.0f || p[VF_LOBE_DIELECTRIC] > 0.0f || p[VF_LOBE_CONDUCTOR] > 0.0f) kinds |= VF_KIND_SPECULAR;
-  if (p[VF_LOBE_GLOSSY] > 0.0f || p[VF_LOBE_ROUGH_CONDUCTOR] > 0.0f || p[VF_LOBE_ROUGH_DIELECTRIC] > 0.0f)
+  if (p[VF_LOBE_MIRROR] > 0.0f || p[VF_LOBE_DIELECTRIC] > 0.0f || p[VF_LOBE_CONDUCTOR] > 0.0f ||
+      p[VF_LOBE_COAT] > 0.0f)
+    kinds |= VF_KIND_SPECULAR;
+  if (p[VF_LOBE_GLOSSY] > 0.0f || p[VF_LOBE_ROUGH_CONDUCTOR] > 0.0f || p[VF_LOBE_ROUGH_DIELECTRIC] > 0.0f ||
+      p[VF_LOBE_SHEEN] > 0.0f || p[VF_LOBE_ROUGH_COAT] > 0.0f)
     kinds |= VF_KIND_GLOSSY;
   if (p[VF_LOBE_DIFFUSE] > 0.0f || p[VF_LOBE_BASE] > 0.0f) kinds |= VF_KIND_DIFFUSE;
   return kinds;
@@ -225,6 +243,47 @@ static void refract_rough(const vf_bsdf *b, vf_vec3 gen, int radiance, lobe_valu
   v->reverse_pdf_w += pd * g1_gen * d * -co / -gen.z * transmitted * ci / denom2;
 }
 
+/* ---- the layers (bsdf.h, the top): set-up ------------------------------------------------ */
+
+/* Schlick's Fresnel of the coat, F0 0.04 (ior 1.5) to F90 1 [KHR_materials_clearcoat, "Layering"]. */
+static float coat_fresnel(float c) {
+  return VF_GLTF_DIELECTRIC_F0 + (1.0f - VF_GLTF_DIELECTRIC_F0) * vf_fresnel_schlick_weight(c);
+}
+
+/* What of the coat depends on fix in its frame. */
+static void coat_fix_terms(vf_bsdf *b) {
+  b->coat_lambda_fix = vf_ggx_lambda(b->coat_fix, b->coat_alpha, b->coat_alpha);
+  b->coat_fix_transmit = 1.0f - b->coat_weight * coat_fresnel(fabsf(b->coat_fix.z));
+}
+
+/* From the material set up with (a textured copy, perhaps), as vf_bsdf_setup_extended reads
+ * the glTF model's values: the coat in the shading frame until vf_bsdf_set_coat_normal. */
+static void layers_setup(vf_bsdf *b) {
+  const vf_material *m = b->material;
+  const float *p = b->lobe_probability;
+  b->coat_weight = p[VF_LOBE_ROUGH_COAT] > 0.0f || p[VF_LOBE_COAT] > 0.0f ? m->clearcoat : 0.0f;
+  b->coat_alpha = vf_ggx_alpha(m->clearcoat_roughness);
+  b->coat_frame = b->frame;
+  b->coat_fix = b->local_fix;
+  b->coat_fix_ratio = 1.0f; /* vf_bsdf_setup_shading sets its own */
+  coat_fix_terms(b);
+  b->sheen_color = m->sheen_color;
+  b->sheen_roughness = m->sheen_roughness;
+  b->sheen_alpha = vf_sheen_alpha(m->sheen_roughness);
+  b->sheen_max = p[VF_LOBE_SHEEN] > 0.0f ? vf_max_component(m->sheen_color) : 0.0f;
+  b->sheen_fix_albedo = b->sheen_max > 0.0f ? vf_sheen_albedo(b->local_fix.z, b->sheen_roughness) : 0.0f;
+  b->sheen_fix_scale = 1.0f - b->sheen_max * fminf(b->sheen_fix_albedo, 1.0f);
+}
+
+void vf_bsdf_set_coat_normal(vf_bsdf *b, vf_vec3 coat_normal, vf_vec3 world_fix) {
+  if (!b->layered || !b->shading || b->phase) return;
+  vf_vec3 n = vf_dot(coat_normal, b->geometric) < 0.0f ? vf_neg(coat_normal) : coat_normal;
+  b->coat_frame = vf_frame_from_normal(n);
+  b->coat_fix = vf_frame_to_local(&b->coat_frame, world_fix);
+  b->coat_fix_ratio = fabsf(b->coat_fix.z) / fabsf(vf_dot(b->geometric, world_fix));
+  coat_fix_terms(b);
+}
+
 void vf_bsdf_setup_extended(vf_bsdf *b, const vf_bsdf_lobes *lobes, int entering) {
   b->radiance = 0;
   b->rough = lobes->rough;
@@ -240,6 +299,8 @@ void vf_bsdf_setup_extended(vf_bsdf *b, const vf_bsdf_lobes *lobes, int entering
   }
   if (lobes->lobe_probability[VF_LOBE_ROUGH_DIELECTRIC] > 0.0f)
     b->eta = entering ? b->material->ior : 1.0f / b->material->ior;
+  b->layered = lobes->layered;
+  if (b->layered) layers_setup(b);
 }
 
 /* f and densities of the rough lobes for local gen (without the continuation probability). */
@@ -279,12 +340,14 @@ int vf_bsdf_setup_shading(vf_bsdf *b, const vf_material *m, const vf_bsdf_lobes 
   b->radiance = 0;
   b->rough = 0;
   b->phase = 0;
+  b->layered = 0;
   b->fresnel_model = lobes->fresnel_model;
   if (lobes->extended) vf_bsdf_setup_extended(b, lobes, entering);
   b->extended = 1; /* evaluate and sample go through bsdf.c, which applies the shading */
   b->shading = 1;
   b->geometric = ng;
   b->fix_ratio = b->local_fix.z / fabsf(cos_fix);
+  b->coat_fix_ratio = b->fix_ratio;
   return 1;
 }
 
@@ -302,6 +365,140 @@ static lobe_value evaluate_local(const vf_bsdf *b, vf_vec3 gen, int radiance) {
   vf_bsdf_smooth_lobes(b, gen, &v.f, &v.direct_pdf_w, &v.reverse_pdf_w);
   if (b->rough) rough_lobes(b, gen, radiance, &v);
   return v;
+}
+
+/* ---- the layers (bsdf.h, the top): evaluation and sampling --------------------------------- */
+
+static vf_vec3 sample_rough(const vf_bsdf *b, float u, float u1, float u2, unsigned *event);
+
+/* The sheen's albedo E for the base's cos of gen (0 without a sheen), and S for it. */
+static float sheen_albedo_gen(const vf_bsdf *b, float cos_gen) {
+  return b->sheen_max > 0.0f ? vf_sheen_albedo(fabsf(cos_gen), b->sheen_roughness) : 0.0f;
+}
+static float sheen_scaling(const vf_bsdf *b, float albedo_gen) {
+  return fminf(b->sheen_fix_scale, 1.0f - b->sheen_max * fminf(albedo_gen, 1.0f));
+}
+
+/* T of the coat for the coat's cos of gen (1 without a coat). */
+static float coat_transmit(const vf_bsdf *b, float cos_gen) {
+  if (!(b->coat_weight > 0.0f)) return 1.0f;
+  return b->coat_fix_transmit * (1.0f - b->coat_weight * coat_fresnel(fabsf(cos_gen)));
+}
+
+/* The coat's fold, as shading_fold for its frame (a reflection only): local gen in the coat's
+ * frame, gen's cos with the geometric normal. */
+static float coat_fold(const vf_bsdf *b, vf_vec3 gen, float cos_geometric) {
+  if (!b->shading) return 1.0f;
+  if (!(gen.z > 0.0f && cos_geometric > 0.0f)) return 0.0f;
+  return b->radiance ? gen.z / cos_geometric : b->coat_fix_ratio;
+}
+
+/* f (folded) and the densities (without the continuation probability) of a layered BSDF for
+ * world gen; *cos_gen its |cos| with the geometric normal. The densities are the sum of every
+ * non-delta lobe's, or zero where f is: sampling fails there, whichever lobe drew gen. */
+static lobe_value layered_evaluate(const vf_bsdf *b, vf_vec3 world_gen, int radiance, float *cos_gen) {
+  const float *p = b->lobe_probability;
+  vf_vec3 gen = vf_frame_to_local(&b->frame, world_gen);
+  float cos_geometric = b->shading ? vf_dot(b->geometric, world_gen) : gen.z;
+  *cos_gen = fabsf(cos_geometric);
+  /* the glTF model scaled by S, and the sheen, in the base's frame */
+  lobe_value v = evaluate_local(b, gen, radiance);
+  float albedo_gen = sheen_albedo_gen(b, gen.z);
+  vf_vec3 f = vf_scale(v.f, sheen_scaling(b, albedo_gen));
+  const vf_vec3 fix = b->local_fix;
+  if (p[VF_LOBE_SHEEN] > 0.0f && gen.z > 0.0f) {
+    vf_vec3 h = vf_normalize(vf_add(fix, gen));
+    float sheen = vf_sheen_brdf(fix.z, gen.z, h.z, b->sheen_alpha) /
+                  fmaxf(1.0f, fmaxf(b->sheen_fix_albedo, albedo_gen));
+    f = vf_add(f, vf_scale(b->sheen_color, sheen));
+    v.direct_pdf_w += p[VF_LOBE_SHEEN] * gen.z * VF_INV_PI;
+    v.reverse_pdf_w += p[VF_LOBE_SHEEN] * fix.z * VF_INV_PI;
+  }
+  float fold = b->shading ? shading_fold(b, gen, cos_geometric) : 1.0f;
+  vf_vec3 gen_c = b->coat_weight > 0.0f ? vf_frame_to_local(&b->coat_frame, world_gen) : gen;
+  f = vf_scale(f, coat_transmit(b, gen_c.z) * fold);
+  /* the rough coat in its frame: f_ggx as reflect_rough's, Fresnel at the microfacet */
+  const vf_vec3 fix_c = b->coat_fix;
+  if (p[VF_LOBE_ROUGH_COAT] > 0.0f && fix_c.z > 0.0f && gen_c.z > 0.0f) {
+    float a = b->coat_alpha;
+    vf_vec3 m = vf_normalize(vf_add(fix_c, gen_c));
+    float d = vf_ggx_d(m, a, a), lambda_gen = vf_ggx_lambda(gen_c, a, a);
+    float brdf = d / (4.0f * fix_c.z * gen_c.z * (1.0f + b->coat_lambda_fix + lambda_gen));
+    float weight = b->coat_weight * coat_fresnel(vf_dot(fix_c, m));
+    f = vf_add(f, vf_vec3_splat(weight * brdf * coat_fold(b, gen_c, cos_geometric)));
+    v.direct_pdf_w += p[VF_LOBE_ROUGH_COAT] * d / (4.0f * fix_c.z * (1.0f + b->coat_lambda_fix));
+    v.reverse_pdf_w += p[VF_LOBE_ROUGH_COAT] * d / (4.0f * gen_c.z * (1.0f + lambda_gen));
+  }
+  v.f = f;
+  if (vf_is_zero(f)) v.direct_pdf_w = v.reverse_pdf_w = 0.0f;
+  return v;
+}
+
+/* vf_bsdf_sample of a layered BSDF: the lobes in the order of bsdf.h (a glTF model has no
+ * mirror or smooth dielectric: its delta lobes are the smooth specular layer and the smooth
+ * coat). A non-delta draw is evaluated whole where it landed; a delta one is that lobe's
+ * reflection with its weight: the specular layer's F S T, the coat's clearcoat F_c(fix.n_c). */
+static vf_vec3 layered_sample(const vf_bsdf *b, const float rnd[3], vf_vec3 *world_gen, float *pdf_w,
+                              float *reverse_pdf_w, float *cos_gen, unsigned *event) {
+  const float *p = b->lobe_probability;
+  const vf_vec3 none = vf_vec3_splat(0.0f);
+  float u = rnd[2];
+  *event = 0;
+  float p_smooth = p[VF_LOBE_DIFFUSE] + p[VF_LOBE_GLOSSY];
+  float p_base = p_smooth + p[VF_LOBE_ROUGH_CONDUCTOR] + p[VF_LOBE_ROUGH_DIELECTRIC] + p[VF_LOBE_BASE];
+  float p_nondelta = p_base + p[VF_LOBE_SHEEN] + p[VF_LOBE_ROUGH_COAT];
+  if (u < p_nondelta) {
+    if (u < p_smooth) {
+      *world_gen = vf_frame_to_world(&b->frame, vf_bsdf_sample_smooth(b, u, rnd));
+    } else if (u < p_base) {
+      vf_vec3 gen = sample_rough(b, u - p_smooth, rnd[0], rnd[1], event);
+      if (vf_is_zero(gen)) return none;
+      *world_gen = vf_frame_to_world(&b->frame, gen);
+    } else if (p[VF_LOBE_ROUGH_COAT] == 0.0f || u < p_base + p[VF_LOBE_SHEEN]) {
+      *world_gen = vf_frame_to_world(&b->frame, vf_sample_cosine_hemisphere(rnd[0], rnd[1], NULL));
+    } else {
+      const vf_vec3 fix_c = b->coat_fix;
+      if (!(fix_c.z > 0.0f)) return none;
+      vf_vec3 m = vf_ggx_sample_visible(fix_c, b->coat_alpha, b->coat_alpha, rnd[0], rnd[1]);
+      vf_vec3 gen = vf_sub(vf_scale(m, 2.0f * vf_dot(fix_c, m)), fix_c);
+      if (!(gen.z > 0.0f)) return none;
+      *world_gen = vf_frame_to_world(&b->coat_frame, gen);
+    }
+    float c;
+    lobe_value v = layered_evaluate(b, *world_gen, 0, &c);
+    return vf_bsdf_sampled(v.f, v.direct_pdf_w * b->continuation, v.reverse_pdf_w * b->continuation, c, pdf_w,
+                           reverse_pdf_w, cos_gen);
+  }
+  u -= p_nondelta;
+  *event = VF_BSDF_SPECULAR;
+  vf_vec3 f, gen_world;
+  float choice, cos_geometric, fold, c;
+  if (p[VF_LOBE_COAT] > 0.0f && (u >= p[VF_LOBE_CONDUCTOR] || p[VF_LOBE_CONDUCTOR] == 0.0f)) {
+    const vf_vec3 fix_c = b->coat_fix;
+    if (!(fix_c.z > 0.0f)) return none;
+    vf_vec3 gen = vf_bsdf_reflect_local(fix_c);
+    gen_world = vf_frame_to_world(&b->coat_frame, gen);
+    c = gen.z;
+    cos_geometric = b->shading ? vf_dot(b->geometric, gen_world) : c;
+    fold = coat_fold(b, gen, cos_geometric);
+    f = vf_vec3_splat(b->coat_weight * coat_fresnel(fix_c.z) / c);
+    choice = p[VF_LOBE_COAT];
+  } else {
+    vf_vec3 gen = vf_bsdf_reflect_local(b->local_fix);
+    gen_world = vf_frame_to_world(&b->frame, gen);
+    c = gen.z;
+    cos_geometric = b->shading ? vf_dot(b->geometric, gen_world) : c;
+    fold = b->shading ? shading_fold(b, gen, cos_geometric) : 1.0f;
+    vf_vec3 gen_c = b->coat_weight > 0.0f ? vf_frame_to_local(&b->coat_frame, gen_world) : gen;
+    float layers = sheen_scaling(b, sheen_albedo_gen(b, c)) * coat_transmit(b, gen_c.z);
+    f = vf_scale(conductor_reflectance(b, c), layers / c);
+    choice = p[VF_LOBE_CONDUCTOR];
+  }
+  if (!(choice > 0.0f) || !(fold > 0.0f) || vf_is_zero(f)) return none;
+  *world_gen = gen_world;
+  *pdf_w = *reverse_pdf_w = choice * b->continuation;
+  *cos_gen = fabsf(cos_geometric);
+  return vf_scale(f, fold);
 }
 
 void vf_bsdf_setup_phase(vf_bsdf *b, vf_vec3 sigma_s, float g, float continuation, vf_vec3 world_fix) {
@@ -331,6 +528,14 @@ static vf_vec3 phase_evaluate(const vf_bsdf *b, vf_vec3 world_gen, float *cos_ge
 vf_vec3 vf_bsdf_evaluate_extended(const vf_bsdf *b, vf_vec3 world_gen, float *cos_gen, float *direct_pdf_w,
                                   float *reverse_pdf_w, int radiance) {
   if (b->phase) return phase_evaluate(b, world_gen, cos_gen, direct_pdf_w, reverse_pdf_w);
+  if (b->layered) {
+    float c;
+    lobe_value v = layered_evaluate(b, world_gen, radiance, &c);
+    if (cos_gen) *cos_gen = c;
+    if (direct_pdf_w) *direct_pdf_w = v.direct_pdf_w * b->continuation;
+    if (reverse_pdf_w) *reverse_pdf_w = v.reverse_pdf_w * b->continuation;
+    return v.f;
+  }
   vf_vec3 gen = vf_frame_to_local(&b->frame, world_gen);
   lobe_value v;
   float c = fabsf(gen.z);
@@ -429,6 +634,7 @@ vf_vec3 vf_bsdf_sample_extended(const vf_bsdf *b, const float rnd[3], vf_vec3 *w
     vf_vec3 f = phase_evaluate(b, *world_gen, cos_gen, &d, &r);
     return vf_bsdf_sampled(f, d, r, 1.0f, pdf_w, reverse_pdf_w, cos_gen);
   }
+  if (b->layered) return layered_sample(b, rnd, world_gen, pdf_w, reverse_pdf_w, cos_gen, event);
   vf_vec3 f = sample_lobes(b, rnd, world_gen, pdf_w, reverse_pdf_w, cos_gen, event);
   if (!b->shading || vf_is_zero(f)) return f;
   /* In the shading frame, cos_gen is |gen.ns|: fold it into f, and refuse a direction

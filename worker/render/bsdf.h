@@ -42,9 +42,29 @@
 
 /* The lobes a material's BSDF is a sum of (worker/scene/material.h). A vertex samples them in this
  * order, the non-delta ones first: DIFFUSE, GLOSSY, ROUGH_CONDUCTOR, ROUGH_DIELECTRIC, BASE,
- * then MIRROR, DIELECTRIC, CONDUCTOR. The conductor and the dielectric of a material are
- * each either smooth (a delta) or rough, by its roughness; ROUGH_CONDUCTOR is also the glTF
- * model's specular layer, BASE its Lambertian base. */
+ * SHEEN, ROUGH_COAT, then MIRROR, DIELECTRIC, CONDUCTOR, COAT. The conductor and the
+ * dielectric of a material are each either smooth (a delta) or rough, by its roughness;
+ * ROUGH_CONDUCTOR is also the glTF model's specular layer, BASE its Lambertian base.
+ *
+ * The glTF model's layers (vf_bsdf.layered; bsdf.c, "the layers"), with the coat's own
+ * normal n_c (its frame coat_frame) and the base's n (the shading frame):
+ *   f = T(fix, gen) [S(fix, gen) f_gltf + sheen_color f_sheen / max(1, E(fix.n), E(gen.n))]
+ *       + clearcoat F_c(fix.h_c) f_ggx(alpha_c; n_c)
+ *   T = (1 - clearcoat F_c(|fix.n_c|)) (1 - clearcoat F_c(|gen.n_c|)),  F_c Schlick's of F0 0.04, F90 1
+ *   S = min(1 - max_rgb(sheen_color) min(1, E(fix.n)), 1 - max_rgb(sheen_color) min(1, E(gen.n)))
+ * f_sheen the Charlie sheen and E its albedo (worker/render/sheen.h), f_ggx D G2 / (4 |cos| |cos|)
+ * with the height-correlated G2 (reflect_rough). KHR_materials_sheen's S and f_sheen as it
+ * writes them wherever E <= 1; but the Charlie sheen with its fitted masking reflects more
+ * than it receives towards grazing incidence at low roughness (E = 1.63 at 88.9 degrees for
+ * sheen roughness 0.1, where S would turn negative): dividing by the larger albedo of the
+ * two directions keeps f reciprocal and the sheen's albedo at most one, and the layered
+ * albedo at most one where the base's is. KHR_materials_clearcoat weighs its layer by F_c(V.n_c) and the rest by 1 - clearcoat
+ * F_c(V.n_c), of the view direction alone, which is not reciprocal: here the coat's Fresnel
+ * is the microfacet's, F_c(fix.h_c) = F_c(gen.h_c) (the spec's own F_c(V.n_c) for a smooth
+ * coat, and nearly so for the smooth coats its note has in mind), and what passes the coat
+ * is attenuated on the way in and on the way out, which keeps the albedo at most one where
+ * the layers below reflect at most one. The sheen is sampled by the cosine, the rough coat by
+ * its visible normals in its frame. */
 enum {
   VF_LOBE_DIFFUSE,
   VF_LOBE_GLOSSY,
@@ -54,6 +74,9 @@ enum {
   VF_LOBE_ROUGH_CONDUCTOR,
   VF_LOBE_ROUGH_DIELECTRIC,
   VF_LOBE_BASE,
+  VF_LOBE_SHEEN,      /* glTF model, KHR_materials_sheen: the Charlie sheen over the base */
+  VF_LOBE_ROUGH_COAT, /* glTF model, KHR_materials_clearcoat: the coat, rough ... */
+  VF_LOBE_COAT,       /* ... or smooth (a delta) */
   VF_LOBE_COUNT
 };
 enum { VF_BSDF_SPECULAR = 1u, VF_BSDF_REFRACTION = 2u /* a dielectric transmitted */ };
@@ -83,6 +106,16 @@ typedef struct {
   int shading;
   vf_vec3 geometric;
   float fix_ratio;
+  /* The glTF model's layers (see the top; extended is then set): the coat's weight (0: none),
+   * alpha, frame (the shading frame unless vf_bsdf_set_coat_normal), fix in it and Smith's
+   * Lambda there, its fold |fix.n_c| / |fix.n_g|, 1 - clearcoat F_c(|fix.n_c|); the sheen's
+   * colour, roughness, alpha, max_rgb colour (0: none) and 1 - max_rgb E(fix.n). */
+  int layered;
+  float coat_weight, coat_alpha, coat_lambda_fix, coat_fix_ratio, coat_fix_transmit;
+  vf_frame coat_frame;
+  vf_vec3 coat_fix;
+  vf_vec3 sheen_color;
+  float sheen_roughness, sheen_alpha, sheen_max, sheen_fix_albedo, sheen_fix_scale;
   /* A point in a medium (vf_bsdf_setup_phase; extended is then set): f = sigma_s p_HG, the
    * cosine 1, `geometric` the unit world fix. */
   int phase;
@@ -100,6 +133,7 @@ typedef struct {
   int black; /* no lobe reflects anything: nothing scatters */
   int extended, rough, fresnel_model; /* as in vf_bsdf */
   float alpha;
+  int layered; /* a glTF model with a sheen or a coat */
 } vf_bsdf_lobes;
 
 /* Fresnel reflectance of a smooth dielectric for cos_i (of the incident side, may be
@@ -178,6 +212,13 @@ static inline int vf_bsdf_setup(vf_bsdf *b, const vf_material *m, const vf_bsdf_
  * hemisphere. Out of line: bsdf.c. */
 int vf_bsdf_setup_shading(vf_bsdf *b, const vf_material *m, const vf_bsdf_lobes *lobes, vf_vec3 geometric,
                           vf_vec3 shading, vf_vec3 world_fix);
+
+/* The coat's own normal (unit, world) at a vertex set up by vf_bsdf_setup_shading whose
+ * material has a clear coat: KHR_materials_clearcoat's coat is not turned by the base's
+ * normal map, and has a normal map of its own. The coat's lobe lives in its frame and folds
+ * its cosines as the base's do (|gen.n_c| / |gen.n_g| for radiance, |fix.n_c| / |fix.n_g|
+ * for importance). world_fix as given to the set-up. Nothing for other BSDFs. */
+void vf_bsdf_set_coat_normal(vf_bsdf *b, vf_vec3 coat_normal, vf_vec3 world_fix);
 
 /* The "BSDF" of a point in a medium (worker/render/medium.h): scattering coefficient sigma_s
  * there (per unit length, the medium's times its density at the point), Henyey-Greenstein

@@ -30,6 +30,11 @@ float vf_upg_sharpness(const vf_upg_source *src) {
     float rough = p[VF_LOBE_ROUGH_CONDUCTOR] + p[VF_LOBE_ROUGH_DIELECTRIC];
     if (rough > 0.0f) s += rough / (4.0f * VF_PI * b->alpha * b->alpha * b->local_fix.z);
   }
+  if (b->extended && b->layered) { /* the sheen, cosine-sampled; the rough coat as the GGX lobes, in its frame */
+    s += p[VF_LOBE_SHEEN] * VF_INV_PI;
+    if (p[VF_LOBE_ROUGH_COAT] > 0.0f && b->coat_fix.z > 0.0f)
+      s += p[VF_LOBE_ROUGH_COAT] / (4.0f * VF_PI * b->coat_alpha * b->coat_alpha * b->coat_fix.z);
+  }
   return s;
 }
 
@@ -99,7 +104,8 @@ static float bsdf_bound(const vf_bsdf *b, vf_vec3 world_axis, float ch, float on
    * cone on one side of the surface needs the other side's lobes not at all. */
   /* (with a margin for max_cos's rounding: the GGX lobes do not vanish at the horizon) */
   int above = max_cos(a, z, ch, sh) > -1e-4f, below = max_cos(a, vf_neg(z), ch, sh) > -1e-4f;
-  float cosine = p[VF_LOBE_DIFFUSE] + (b->rough ? p[VF_LOBE_BASE] : 0.0f);
+  float cosine = p[VF_LOBE_DIFFUSE] + (b->rough ? p[VF_LOBE_BASE] : 0.0f) +
+                 (b->extended && b->layered ? p[VF_LOBE_SHEEN] : 0.0f);
   if (above && cosine > 0.0f) bound += cosine * vf_fmaxf_zero(max_cos(a, z, ch, sh)) * VF_INV_PI;
   if (above && p[VF_LOBE_GLOSSY] > 0.0f) {
     float n = b->material->phong_exponent;
@@ -125,6 +131,14 @@ static float bsdf_bound(const vf_bsdf *b, vf_vec3 world_axis, float ch, float on
       normal_cone n = normals_of(fix, eta, a, rho);
       bound += pd * g1_fix * max_d(n, b->alpha) * max_cos_normal(n, fix) / fix.z * eta * eta / (len * len);
     }
+  }
+  if (b->extended && b->layered && p[VF_LOBE_ROUGH_COAT] > 0.0f && b->coat_fix.z > 0.0f) {
+    /* The rough coat in its own frame: G1(fix) D / (4 fix.z) there, for the directions above
+     * its surface (bsdf.c, layered_evaluate). */
+    vf_vec3 ac = vf_frame_to_local(&b->coat_frame, world_axis), fix_c = b->coat_fix;
+    if (max_cos(ac, z, ch, sh) > -1e-4f)
+      bound += p[VF_LOBE_ROUGH_COAT] / (1.0f + b->coat_lambda_fix) *
+               max_d(normals_of(fix_c, 1.0f, ac, rho), b->coat_alpha) / (4.0f * fix_c.z);
   }
   return bound * b->continuation;
 }

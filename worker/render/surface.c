@@ -80,6 +80,15 @@ void vf_surface_material(const vf_scene *scene, const vf_material *base, const f
   if (slot_lookup(scene, base, VF_TEXTURE_SPECULAR_COLOR, 1, st, t))
     out->specular_f0 = vf_vec3_make(fmaxf(base->specular_f0.x * t[0], 0.0f), fmaxf(base->specular_f0.y * t[1], 0.0f),
                                     fmaxf(base->specular_f0.z * t[2], 0.0f));
+  /* KHR_materials_clearcoat: R of clearcoatTexture, G of clearcoatRoughnessTexture;
+   * KHR_materials_sheen: RGB of sheenColorTexture (sRGB), A of sheenRoughnessTexture. */
+  if (slot_lookup(scene, base, VF_TEXTURE_CLEARCOAT, 0, st, t)) out->clearcoat = unit_clamp(base->clearcoat * t[0]);
+  if (slot_lookup(scene, base, VF_TEXTURE_CLEARCOAT_ROUGHNESS, 0, st, t))
+    out->clearcoat_roughness = unit_clamp(base->clearcoat_roughness * t[1]);
+  if (slot_lookup(scene, base, VF_TEXTURE_SHEEN_COLOR, 1, st, t))
+    out->sheen_color = scale_clamped(base->sheen_color, t);
+  if (slot_lookup(scene, base, VF_TEXTURE_SHEEN_ROUGHNESS, 0, st, t))
+    out->sheen_roughness = unit_clamp(base->sheen_roughness * t[3]);
 }
 
 /* The tangent of the normal map's frame at the point: the vertex tangents interpolated, or
@@ -116,8 +125,9 @@ static int tangent_at(const vf_shape *sh, uint32_t prim, float u, float v, vf_ve
   return 1;
 }
 
-vf_vec3 vf_surface_shading_normal(const vf_scene *scene, const vf_shape *sh, uint32_t prim, float u, float v,
-                                  const float st[4], vf_vec3 ng) {
+/* The interpolated normal turned by the normal map of slot `slot`, scaled by `scale`. */
+static vf_vec3 mapped_normal(const vf_scene *scene, const vf_shape *sh, uint32_t prim, float u, float v,
+                             const float st[4], vf_vec3 ng, int slot, float scale) {
   vf_vec3 n = ng;
   if (sh->normals != NULL) {
     const uint32_t *tri = &sh->indices[3 * (size_t)prim];
@@ -131,15 +141,20 @@ vf_vec3 vf_surface_shading_normal(const vf_scene *scene, const vf_shape *sh, uin
   float texel[4];
   vf_vec3 tangent;
   float sign;
-  if (slot_lookup(scene, m, VF_TEXTURE_NORMAL, 0, st, texel) && tangent_at(sh, prim, u, v, n, &tangent, &sign)) {
+  if (slot_lookup(scene, m, slot, 0, st, texel) && tangent_at(sh, prim, u, v, n, &tangent, &sign)) {
     vf_vec3 bitangent = vf_scale(vf_cross(n, tangent), sign);
-    float x = (2.0f * texel[0] - 1.0f) * m->normal_scale, y = (2.0f * texel[1] - 1.0f) * m->normal_scale;
+    float x = (2.0f * texel[0] - 1.0f) * scale, y = (2.0f * texel[1] - 1.0f) * scale;
     float z = 2.0f * texel[2] - 1.0f;
     vf_vec3 mapped = vf_add(vf_add(vf_scale(tangent, x), vf_scale(bitangent, y)), vf_scale(n, z));
     float len = vf_length(mapped);
     if (len > 0.0f && isfinite(len) && z > 0.0f) n = vf_scale(mapped, 1.0f / len);
   }
   return n;
+}
+
+vf_vec3 vf_surface_shading_normal(const vf_scene *scene, const vf_shape *sh, uint32_t prim, float u, float v,
+                                  const float st[4], vf_vec3 ng) {
+  return mapped_normal(scene, sh, prim, u, v, st, ng, VF_TEXTURE_NORMAL, scene->materials[sh->material].normal_scale);
 }
 
 int vf_surface_bsdf(vf_bsdf *b, const vf_scene *scene, const vf_bsdf_lobes *lobes, uint32_t shape, uint32_t prim,
@@ -170,6 +185,13 @@ int vf_surface_bsdf(vf_bsdf *b, const vf_scene *scene, const vf_bsdf_lobes *lobe
     l = &here;
   }
   int ok = vf_bsdf_setup_shading(b, values, l, ng, ns, world_fix);
+  /* KHR_materials_clearcoat: the coat's normal is the mesh's, or its own normal map's, never
+   * the base's normal map. */
+  if (ok && b->layered && b->coat_weight > 0.0f &&
+      (m->textures[VF_TEXTURE_NORMAL].texture != 0 || m->textures[VF_TEXTURE_CLEARCOAT_NORMAL].texture != 0))
+    vf_bsdf_set_coat_normal(b, mapped_normal(scene, sh, prim, u, v, st, ng, VF_TEXTURE_CLEARCOAT_NORMAL,
+                                             m->clearcoat_normal_scale),
+                            world_fix);
   b->material = m; /* the untextured fields are the same; the textured ones were copied */
   return ok;
 }

@@ -25,7 +25,7 @@
  * where it is met (import.c), the extension itself is not. */
 static const char *const supported[] = {"KHR_lights_punctual", "KHR_materials_emissive_strength",
                                         "KHR_materials_transmission", "KHR_materials_ior", "KHR_materials_specular",
-                                        "KHR_materials_volume",
+                                        "KHR_materials_volume", "KHR_materials_clearcoat", "KHR_materials_sheen",
                                         "KHR_texture_transform", "KHR_draco_mesh_compression", NULL};
 
 int vf_gltf_is_gltf(const char *file) {
@@ -138,6 +138,33 @@ static void read_texture_ref(const cJSON *root, const cJSON *info, vf_gltf_textu
     if (!isfinite(ref->transform[k])) ref->has_transform = 0, ref->image = -1; /* refused in import_material.c */
 }
 
+/* KHR_materials_clearcoat and KHR_materials_sheen of a material's `extensions` (read here
+ * rather than from Assimp, as KHR_materials_specular is, with their textures' uv sets and
+ * transforms). */
+static void read_layers(const cJSON *root, const cJSON *ext, vf_gltf_material *g) {
+  const cJSON *coat = cJSON_GetObjectItemCaseSensitive(ext, "KHR_materials_clearcoat");
+  const cJSON *sheen = cJSON_GetObjectItemCaseSensitive(ext, "KHR_materials_sheen");
+  const cJSON *normal = cJSON_GetObjectItemCaseSensitive(coat, "clearcoatNormalTexture");
+  g->clearcoat = number_or(coat, "clearcoatFactor", 0.0f);
+  g->clearcoat_roughness = number_or(coat, "clearcoatRoughnessFactor", 0.0f);
+  g->clearcoat_normal_scale = number_or(normal, "scale", 1.0f);
+  read_texture_ref(root, cJSON_GetObjectItemCaseSensitive(coat, "clearcoatTexture"),
+                   &g->textures[VF_TEXTURE_CLEARCOAT]);
+  read_texture_ref(root, cJSON_GetObjectItemCaseSensitive(coat, "clearcoatRoughnessTexture"),
+                   &g->textures[VF_TEXTURE_CLEARCOAT_ROUGHNESS]);
+  read_texture_ref(root, normal, &g->textures[VF_TEXTURE_CLEARCOAT_NORMAL]);
+  const cJSON *color = cJSON_GetObjectItemCaseSensitive(sheen, "sheenColorFactor");
+  for (int k = 0; k < 3; k++) {
+    const cJSON *v = cJSON_IsArray(color) && cJSON_GetArraySize(color) == 3 ? cJSON_GetArrayItem(color, k) : NULL;
+    g->sheen_color[k] = cJSON_IsNumber(v) && isfinite(v->valuedouble) ? (float)v->valuedouble : 0.0f;
+  }
+  g->sheen_roughness = number_or(sheen, "sheenRoughnessFactor", 0.0f);
+  read_texture_ref(root, cJSON_GetObjectItemCaseSensitive(sheen, "sheenColorTexture"),
+                   &g->textures[VF_TEXTURE_SHEEN_COLOR]);
+  read_texture_ref(root, cJSON_GetObjectItemCaseSensitive(sheen, "sheenRoughnessTexture"),
+                   &g->textures[VF_TEXTURE_SHEEN_ROUGHNESS]);
+}
+
 /* What Assimp does not read of each material, in the file's order (Assimp's material
  * order too). */
 static int read_materials(const cJSON *root, vf_gltf_info *info) {
@@ -183,6 +210,7 @@ static int read_materials(const cJSON *root, vf_gltf_info *info) {
     read_texture_ref(root, cJSON_GetObjectItemCaseSensitive(spec, "specularTexture"), &g->textures[VF_TEXTURE_SPECULAR]);
     read_texture_ref(root, cJSON_GetObjectItemCaseSensitive(spec, "specularColorTexture"),
                      &g->textures[VF_TEXTURE_SPECULAR_COLOR]);
+    read_layers(root, ext, g);
     if (cJSON_GetObjectItemCaseSensitive(m, "occlusionTexture") != NULL) info->has_occlusion = 1;
   }
   const cJSON *mesh, *prim;

@@ -31,8 +31,12 @@ typedef struct {
   float attenuation_distance; /* attenuationDistance (default +inf: no absorption) */
   float attenuation_color[3]; /* attenuationColor (default 1) */
   int has_thickness_texture; /* thicknessTexture given (not supported) */
-  /* Indexed by VF_TEXTURE_* (material.h): the core slots (ALPHA unused: the base colour's)
-   * and KHR_materials_specular's two. */
+  /* KHR_materials_clearcoat and KHR_materials_sheen, as given (their defaults otherwise: 0,
+   * the normal texture's scale 1) */
+  float clearcoat, clearcoat_roughness, clearcoat_normal_scale;
+  float sheen_color[3], sheen_roughness;
+  /* Indexed by VF_TEXTURE_* (material.h): the core slots (ALPHA unused: the base colour's),
+   * KHR_materials_specular's two, KHR_materials_clearcoat's three and KHR_materials_sheen's two. */
   vf_gltf_texture_ref textures[VF_TEXTURE_SLOTS];
 } vf_gltf_material;
 

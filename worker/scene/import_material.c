@@ -227,6 +227,26 @@ static int gltf_specular(const parse_ctx *c, const vf_import_file *f, const char
   return VF_OK;
 }
 
+/* KHR_materials_clearcoat and KHR_materials_sheen on the opaque model (material.h): the
+ * factors clamped to [0, 1] and their textures, from the file's JSON. */
+static int gltf_layers(const parse_ctx *c, const vf_import_file *f, const char *where, const vf_gltf_material *g,
+                       vf_material *m) {
+  static const int slots[] = {VF_TEXTURE_CLEARCOAT, VF_TEXTURE_CLEARCOAT_ROUGHNESS, VF_TEXTURE_CLEARCOAT_NORMAL,
+                              VF_TEXTURE_SHEEN_COLOR, VF_TEXTURE_SHEEN_ROUGHNESS};
+  m->clearcoat = fminf(fmaxf(g->clearcoat, 0.0f), 1.0f);
+  m->clearcoat_roughness = fminf(fmaxf(g->clearcoat_roughness, 0.0f), 1.0f);
+  m->clearcoat_normal_scale = g->clearcoat_normal_scale;
+  m->sheen_color = clamp01(vf_vec3_make(g->sheen_color[0], g->sheen_color[1], g->sheen_color[2]));
+  m->sheen_roughness = fminf(fmaxf(g->sheen_roughness, 0.0f), 1.0f);
+  for (size_t k = 0; k < sizeof slots / sizeof slots[0]; k++) {
+    int coat_slot = slots[k] <= VF_TEXTURE_CLEARCOAT_NORMAL;
+    if (coat_slot ? m->clearcoat == 0.0f : vf_is_zero(m->sheen_color)) continue; /* the layer is disabled */
+    int err = gltf_extra_texture(c, f, where, &g->textures[slots[k]], &m->textures[slots[k]]);
+    if (err < 0) return err;
+  }
+  return VF_OK;
+}
+
 /* KHR_materials_volume: the attenuation of a transmissive, not thin-walled material as an
  * absorbing interior of its meshes, sigma_a = -ln(attenuationColor) / attenuationDistance
  * per channel (Beer-Lambert: light that travels attenuationDistance keeps
@@ -304,6 +324,12 @@ static int gltf_material(const parse_ctx *c, const vf_import_file *f, unsigned i
   if (aiGetMaterialString(am, AI_MATKEY_NAME, &name) != aiReturn_SUCCESS) name.data[0] = '\0';
   const vf_gltf_material *g = f->gltf.materials ? vf_gltf_material_of(&f->gltf, index, name.data) : NULL;
   if (g != NULL && m->gltf && (err = gltf_specular(c, f, where, g, m)) < 0) return err;
+  if (g != NULL && m->gltf && (err = gltf_layers(c, f, where, g, m)) < 0) return err;
+  if (g != NULL && !m->gltf && (g->clearcoat > 0.0f || g->sheen_color[0] > 0.0f || g->sheen_color[1] > 0.0f ||
+                                g->sheen_color[2] > 0.0f) &&
+      (err = vf_scene_note(c, "%s: clearcoat and sheen on a transmitting material are not supported: ignored",
+                           f->file)) < 0)
+    return err;
   if (g != NULL && (err = gltf_texture_refs(c, f, g, m)) < 0) return err;
   if (g != NULL && (err = gltf_volume(c, f, g, m, interior)) < 0) return err;
   get_color(am, AI_MATKEY_COLOR_EMISSIVE, &emit);

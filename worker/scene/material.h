@@ -17,7 +17,8 @@
  * unused (zero): a GGX specular layer with Schlick's Fresnel of
  * F0 = mix(F0_d, base_color, metallic), F90 = mix(F90_d, 1, metallic) over a Lambertian
  * base of (1 - metallic) base_color weighted by 1 - max_rgb(F_d), F_d the dielectric's
- * Fresnel from F0_d (0.04, or KHR_materials_specular's) to F90_d (1, or its specular).
+ * Fresnel from F0_d (0.04, or KHR_materials_specular's) to F90_d (1, or its specular);
+ * optionally under a sheen and a clear coat (KHR_materials_sheen, KHR_materials_clearcoat).
  *
  * roughness is glTF's perceptual roughness in [0, 1] for every GGX lobe of the material:
  * alpha = roughness^2. A lobe with alpha < VF_GGX_ALPHA_DELTA (worker/render/microfacet.h: alpha
@@ -47,6 +48,11 @@ enum {
   VF_TEXTURE_NORMAL,             /* tangent-space normal map: RGB [0, 1] -> [-1, 1] (linear) */
   VF_TEXTURE_SPECULAR,           /* glTF model: A multiplies specular (KHR_materials_specular's specularTexture, linear) */
   VF_TEXTURE_SPECULAR_COLOR,     /* glTF model: RGB multiplies specular_f0 (specularColorTexture, sRGB) */
+  VF_TEXTURE_CLEARCOAT,          /* glTF model: R multiplies clearcoat (clearcoatTexture, linear) */
+  VF_TEXTURE_CLEARCOAT_ROUGHNESS, /* glTF model: G multiplies clearcoat_roughness (linear) */
+  VF_TEXTURE_CLEARCOAT_NORMAL,   /* glTF model: the coat's tangent-space normal map (linear) */
+  VF_TEXTURE_SHEEN_COLOR,        /* glTF model: RGB multiplies sheen_color (sheenColorTexture, sRGB) */
+  VF_TEXTURE_SHEEN_ROUGHNESS,    /* glTF model: A multiplies sheen_roughness (sheenRoughnessTexture, linear) */
   VF_TEXTURE_SLOTS
 };
 
@@ -84,6 +90,15 @@ typedef struct {
   int specular_set;
   float specular;
   vf_vec3 specular_f0;
+  /* glTF model, KHR_materials_clearcoat: a GGX coat of F0 0.04 (ior 1.5), weight clearcoat in
+   * [0, 1] (0: none), roughness clearcoat_roughness in [0, 1] (perceptual, alpha its square),
+   * over the rest; its normal the mesh's (not the base's normal map), or its own normal map
+   * scaled by clearcoat_normal_scale. KHR_materials_sheen: a Charlie sheen of sheen_color in
+   * [0, 1] (zero: none) and sheen_roughness in [0, 1], between the coat and the base.
+   * worker/render/bsdf.h has the formulas. */
+  float clearcoat, clearcoat_roughness, clearcoat_normal_scale;
+  vf_vec3 sheen_color;
+  float sheen_roughness;
   /* Textures (memset to zero: none). Coverage = alpha x the ALPHA texture's channel; where
    * it is below alpha_cutoff the surface is a hole for every ray. alpha_cutoff 0: opaque
    * (alpha is then unused). normal_scale scales the normal map's x and y (glTF). */

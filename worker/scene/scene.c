@@ -257,6 +257,14 @@ void vf_scene_hash(vf_scene *s) {
       h_f32(&h, m->specular);
       h_vec3(&h, m->specular_f0);
     }
+    if (m->clearcoat != 0.0f || !vf_is_zero(m->sheen_color)) { /* the layers: likewise */
+      h_tag(&h, "clearcoat and sheen");
+      h_f32(&h, m->clearcoat);
+      h_f32(&h, m->clearcoat_roughness);
+      h_f32(&h, m->clearcoat_normal_scale);
+      h_vec3(&h, m->sheen_color);
+      h_f32(&h, m->sheen_roughness);
+    }
   }
   /* Textures and the materials' use of them, only when there are any: untextured scenes
    * keep the hashes they had before textures existed. A texture counts by the hash of its

@@ -77,7 +77,7 @@ static void write_textures(void) {
 static const char gltf_head[] =
     "{\"asset\": {\"version\": \"2.0\"},\n"
     " \"extensionsUsed\": [\"KHR_lights_punctual\", \"KHR_materials_emissive_strength\",\n"
-    "   \"KHR_materials_transmission\", \"KHR_materials_ior\", \"KHR_materials_sheen\", \"KHR_texture_transform\"],\n"
+    "   \"KHR_materials_transmission\", \"KHR_materials_ior\", \"KHR_materials_iridescence\", \"KHR_texture_transform\"],\n"
     " \"scene\": 0, \"scenes\": [{\"nodes\": [0, 2, 3, 4, 5, 6, 7]}],\n"
     " \"nodes\": [\n"
     "  {\"name\": \"Parent\", \"translation\": [10, 0, 0], \"scale\": [2, 2, 2], \"children\": [1]},\n"
@@ -377,7 +377,7 @@ static void test_gltf_materials_every_parameter_and_texture_slot(void) {
 static void test_gltf_notes_list_what_is_not_rendered(void) {
   vf_scene *s = load("model.gltf", NULL);
   if (s == NULL) return;
-  CHECK_STR_CONTAINS(s->notes, "model.gltf: extension KHR_materials_sheen is not supported");
+  CHECK_STR_CONTAINS(s->notes, "model.gltf: extension KHR_materials_iridescence is not supported");
   CHECK(s->notes && strstr(s->notes, "KHR_texture_transform") == NULL); /* supported: not noted */
   CHECK(s->notes && strstr(s->notes, "KHR_materials_ior") == NULL);
   CHECK(s->notes && strstr(s->notes, "KHR_lights_punctual") == NULL);
@@ -798,6 +798,91 @@ static void test_gltf_texture_transform_read_per_slot(void) {
   vf_scene_destroy(s);
 }
 
+/* KHR_materials_clearcoat and KHR_materials_sheen: factors clamped to [0, 1], every texture
+ * in its slot with its uv set and KHR_texture_transform, the coat normal's scale; a layer
+ * whose factor is zero loads no texture; no note for either extension. */
+static void test_gltf_clearcoat_and_sheen_fields_and_textures(void) {
+  static const char *const text =
+      "{\"asset\": {\"version\": \"2.0\"}, \"extensionsUsed\": [\"KHR_materials_clearcoat\", \"KHR_materials_sheen\","
+      " \"KHR_texture_transform\"],"
+      " \"scene\": 0, \"scenes\": [{\"nodes\": [0, 1]}], \"nodes\": [{\"mesh\": 0}, {\"mesh\": 1}],"
+      " \"meshes\": [{\"primitives\": [{\"attributes\": {\"POSITION\": 0, \"TEXCOORD_0\": 2}, \"indices\": 1, \"material\": 0}]},"
+      " {\"primitives\": [{\"attributes\": {\"POSITION\": 0, \"TEXCOORD_0\": 2}, \"indices\": 1, \"material\": 1}]}],"
+      " \"materials\": [{\"name\": \"Layers\", \"extensions\": {"
+      "  \"KHR_materials_clearcoat\": {\"clearcoatFactor\": 0.8, \"clearcoatRoughnessFactor\": 1.7,"
+      "   \"clearcoatTexture\": {\"index\": 0}, \"clearcoatRoughnessTexture\": {\"index\": 1, \"texCoord\": 1},"
+      "   \"clearcoatNormalTexture\": {\"index\": 2, \"scale\": 0.5}},"
+      "  \"KHR_materials_sheen\": {\"sheenColorFactor\": [0.9, 1.5, -1], \"sheenRoughnessFactor\": 0.3,"
+      "   \"sheenColorTexture\": {\"index\": 0, \"extensions\": {\"KHR_texture_transform\": {\"scale\": [2, 3]}}},"
+      "   \"sheenRoughnessTexture\": {\"index\": 0}}}},"
+      "  {\"name\": \"Off\", \"extensions\": {\"KHR_materials_clearcoat\": {\"clearcoatTexture\": {\"index\": 0}},"
+      "   \"KHR_materials_sheen\": {\"sheenRoughnessFactor\": 0.5, \"sheenColorTexture\": {\"index\": 0}}}}],"
+      " \"textures\": [{\"source\": 0}, {\"source\": 1}, {\"source\": 2}],"
+      " \"images\": [{\"uri\": \"base.png\"}, {\"uri\": \"mr.png\"}, {\"uri\": \"nrm.png\"}],"
+      " \"buffers\": [{\"uri\": \"model.bin\", \"byteLength\": 150}],"
+      " \"bufferViews\": [{\"buffer\": 0, \"byteOffset\": 0, \"byteLength\": 36},"
+      " {\"buffer\": 0, \"byteOffset\": 144, \"byteLength\": 6}, {\"buffer\": 0, \"byteOffset\": 72, \"byteLength\": 24}],"
+      " \"accessors\": [{\"bufferView\": 0, \"componentType\": 5126, \"count\": 3, \"type\": \"VEC3\","
+      " \"min\": [0, 0, 0], \"max\": [1, 1, 0]}, {\"bufferView\": 1, \"componentType\": 5123, \"count\": 3, \"type\": \"SCALAR\"},"
+      " {\"bufferView\": 2, \"componentType\": 5126, \"count\": 3, \"type\": \"VEC2\"}]}";
+  write_file("layers.gltf", text, strlen(text));
+  vf_scene *s = load("layers.gltf", NULL);
+  if (s == NULL) return;
+  CHECK(s->notes == NULL || (strstr(s->notes, "clearcoat") == NULL && strstr(s->notes, "sheen") == NULL));
+  const vf_material *m = &s->materials[material_named(s, "Layers")];
+  CHECK(m->gltf);
+  CHECK_NEAR(m->clearcoat, 0.8, 1e-7);
+  CHECK_NEAR(m->clearcoat_roughness, 1.0, 0); /* clamped */
+  CHECK_NEAR(m->clearcoat_normal_scale, 0.5, 0);
+  CHECK_NEAR(m->sheen_color.x, 0.9, 1e-7);
+  CHECK_NEAR(m->sheen_color.y, 1.0, 0);
+  CHECK_NEAR(m->sheen_color.z, 0.0, 0);
+  CHECK_NEAR(m->sheen_roughness, 0.3, 1e-7);
+  const vf_texture_slot *t = m->textures;
+  CHECK(t[VF_TEXTURE_CLEARCOAT].texture > 0 && t[VF_TEXTURE_CLEARCOAT_ROUGHNESS].texture > 0 &&
+        t[VF_TEXTURE_CLEARCOAT_NORMAL].texture > 0 && t[VF_TEXTURE_SHEEN_COLOR].texture > 0 &&
+        t[VF_TEXTURE_SHEEN_ROUGHNESS].texture > 0);
+  CHECK(t[VF_TEXTURE_CLEARCOAT].texture == t[VF_TEXTURE_SHEEN_COLOR].texture); /* the same image, once */
+  CHECK(t[VF_TEXTURE_CLEARCOAT_NORMAL].texture != t[VF_TEXTURE_CLEARCOAT].texture);
+  CHECK_INT_EQ(t[VF_TEXTURE_CLEARCOAT_ROUGHNESS].uv_set, 1);
+  CHECK_INT_EQ(t[VF_TEXTURE_CLEARCOAT].uv_set, 0);
+  CHECK(t[VF_TEXTURE_SHEEN_COLOR].has_transform && !t[VF_TEXTURE_CLEARCOAT].has_transform);
+  CHECK_NEAR(t[VF_TEXTURE_SHEEN_COLOR].transform[0], 2.0, 1e-6);
+  CHECK_NEAR(t[VF_TEXTURE_SHEEN_COLOR].transform[4], 3.0, 1e-6);
+  /* the defaults (factors 0) disable both layers: their textures are not loaded */
+  const vf_material *off = &s->materials[material_named(s, "Off")];
+  CHECK(off->clearcoat == 0.0f && vf_is_zero(off->sheen_color));
+  CHECK(off->textures[VF_TEXTURE_CLEARCOAT].texture == 0 && off->textures[VF_TEXTURE_SHEEN_COLOR].texture == 0);
+  vf_scene_destroy(s);
+}
+
+/* Khronos's ClearCoatTest (Debian's assimp-testmodels): each row's coated material as its
+ * JSON says, the coat's textures in their slots. */
+static void test_clearcoat_test_model_loads_its_coats(void) {
+  const char *p = "/usr/share/assimp/models/glTF2/ClearCoat-glTF/ClearCoatTest.gltf";
+  if (access(p, R_OK) != 0) {
+    printf("  SKIP: %s not installed (apt-get install assimp-testmodels)\n", p);
+    return;
+  }
+  vf_scene *s = NULL;
+  int err = vf_scene_load(p, &s);
+  if (err != VF_OK) CHECK_FAIL_("%s: %s", p, vf_error_detail(err));
+  if (s == NULL) return;
+  CHECK(s->notes == NULL || strstr(s->notes, "KHR_materials_clearcoat") == NULL);
+  const vf_material *simple = &s->materials[material_named(s, "Simple_Coated")];
+  CHECK_NEAR(simple->clearcoat, 1.0, 0);
+  CHECK_NEAR(simple->clearcoat_roughness, 0.03, 1e-7);
+  CHECK(s->materials[material_named(s, "Partial_Coated")].textures[VF_TEXTURE_CLEARCOAT].texture > 0);
+  const vf_material *rough = &s->materials[material_named(s, "RoughVariations_Coated")];
+  CHECK(rough->clearcoat_roughness == 1.0f && rough->textures[VF_TEXTURE_CLEARCOAT_ROUGHNESS].texture > 0);
+  const vf_material *coat_normal = &s->materials[material_named(s, "CoatNorm_Coated")];
+  CHECK(coat_normal->textures[VF_TEXTURE_CLEARCOAT_NORMAL].texture > 0 && coat_normal->textures[VF_TEXTURE_NORMAL].texture == 0);
+  const vf_material *base_normal = &s->materials[material_named(s, "BaseNorm_Coated")];
+  CHECK(base_normal->textures[VF_TEXTURE_NORMAL].texture > 0 && base_normal->textures[VF_TEXTURE_CLEARCOAT_NORMAL].texture == 0);
+  CHECK(s->materials[material_named(s, "Simple_Base")].clearcoat == 0.0f);
+  vf_scene_destroy(s);
+}
+
 /* An OBJ face of n vertices on the unit circle (star: every other vertex at radius 0.4). */
 static void write_polygon_obj(const char *name, int n, int star) {
   char p[256];
@@ -902,6 +987,8 @@ int main(void) {
   RUN(test_bad_files_are_refused_naming_file_and_problem);
   RUN(test_obj_kd_ks_noted_once_with_the_largest_sum);
   RUN(test_gltf_texture_transform_read_per_slot);
+  RUN(test_gltf_clearcoat_and_sheen_fields_and_textures);
+  RUN(test_clearcoat_test_model_loads_its_coats);
   RUN(test_glb_specular_textures_from_buffer_view_and_data_uri);
   RUN(test_obj_huge_face_is_a_fan_or_refused);
   RUN(test_bad_normals_repaired_and_degenerate_faces_skipped_with_notes);
