@@ -451,7 +451,8 @@ static void phase_pdfs(const vf_medium_rt *m, vf_vec3 from, vf_vec3 x, vf_vec3 t
  * start, hits through the medium with the segments' distance densities, scattering by
  * the phase function, with merges in media counted by vf_vcm.medium_merge), and the weights
  * of every technique that samples it: light sampling at x1, the connection of x1 and x2,
- * x2 projected onto the camera, and (vcm) merging at x1 and at x2. They must sum to one,
+ * x2 projected onto the camera, and (vcm) merging at x1 and at x2; bpm has the merges
+ * alone. They must sum to one,
  * and each equal its direct evaluation (media_path_weights_direct). */
 static double media_path_weight_sum(vf_vec3 x[4], const vf_medium_rt *m, vf_algorithm a, float beta, float eta_s,
                                     float radius, double *w_out) {
@@ -459,7 +460,7 @@ static double media_path_weight_sum(vf_vec3 x[4], const vf_medium_rt *m, vf_algo
   vf_mis_config c = {0};
   c.beta = beta;
   c.light_paths = n_light;
-  int vm = a == VF_ALGO_VCM, vc = 1;
+  int vm = a == VF_ALGO_VCM || a == VF_ALGO_BPM, vc = a != VF_ALGO_BPM;
   c.vm_weight = vm ? vf_mis_h(&c, eta_s) : 0.0f;
   c.vc_weight = vc ? vf_mis_h(&c, 1.0f / eta_s) : 0.0f;
   float ratio = vm ? vf_mis_h(&c, 4.0f * radius / 3.0f) : 0.0f;
@@ -499,6 +500,7 @@ static double media_path_weight_sum(vf_vec3 x[4], const vf_medium_rt *m, vf_algo
   w_out[2] = vf_mis_weight_camera_connection_at(&l2, &c, camera_pdf_w / (d23 * d23) * piece_scatter(m, d23), rev_pdf,
                                                 vm_medium);
   w_out[3] = w_out[4] = 0.0;
+  if (!vc) w_out[0] = w_out[1] = w_out[2] = 0.0; /* bpm: merging alone */
   if (vm) {
     /* Merging at x1: the light vertex that arrived there, the camera vertex z2. */
     phase_pdfs(m, x[2], x[1], x[0], &p, &r);
@@ -528,8 +530,9 @@ static void media_path_weights_direct(vf_vec3 x[4], const vf_medium_rt *m, vf_al
   double pE2 = camera_pdf_w * piece_scatter(m, (float)d23) / (d23 * d23);
   phase_pdfs(m, x[3], x[2], x[1], &p, &r);
   double pE1 = p * piece_scatter(m, (float)d12) / (d12 * d12);
-  double eta = a == VF_ALGO_VCM ? 4.0 / 3.0 * M_PI * radius * radius * radius * n_light : 0.0;
-  double t[5] = {pL0 * pE1 * pE2, pL0 * pL1 * pE2, n_light * pL0 * pL1 * pL2, eta * pL0 * pL1 * pE1 * pE2,
+  int vc = a != VF_ALGO_BPM;
+  double eta = a == VF_ALGO_VCM || a == VF_ALGO_BPM ? 4.0 / 3.0 * M_PI * radius * radius * radius * n_light : 0.0;
+  double t[5] = {vc * pL0 * pE1 * pE2, vc * pL0 * pL1 * pE2, vc * n_light * pL0 * pL1 * pL2, eta * pL0 * pL1 * pE1 * pE2,
                  eta * pL0 * pL1 * pL2 * pE2};
   double sum = 0.0;
   for (int k = 0; k < 5; k++) sum += pow(t[k], beta);
@@ -551,9 +554,11 @@ static void test_mis_identity_on_paths_in_a_medium(void) {
     float radius = 0.01f + 0.5f * vf_rng_float(&rng);
     float eta_s = VF_PI * radius * radius * 1e5f;
     for (size_t b = 0; b < 3; b++)
-      for (int vcm = 0; vcm <= 1; vcm++) {
+      for (int kind = 0; kind < 3; kind++) {
         double w[5], direct[5];
-        vf_algorithm a = vcm ? VF_ALGO_VCM : VF_ALGO_BPT;
+        const vf_algorithm algorithms[] = {VF_ALGO_BPT, VF_ALGO_VCM, VF_ALGO_BPM};
+        vf_algorithm a = algorithms[kind];
+        int vcm = a == VF_ALGO_VCM;
         double sum = media_path_weight_sum(x, &m, a, betas[b], eta_s, radius, w);
         media_path_weights_direct(x, &m, a, betas[b], radius, direct);
         worst = fmax(worst, fabs(sum - 1.0));
