@@ -14,7 +14,7 @@ fail() { echo "FAIL test_fuzz: $*"; exit 1; }
 command -v clang >/dev/null || fail "clang is not installed (bash deploy/install-deps.sh)"
 targets="fuzz_message fuzz_film fuzz_texture fuzz_scene fuzz_blob"
 if [ ! -f "$build/CMakeCache.txt" ]; then
-  cmake -S "$src" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_C_COMPILER=clang -DVF_FUZZ=ON \
+  cmake -S "$src" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ -DVF_FUZZ=ON \
     >"$build.configure.log" 2>&1 || { cat "$build.configure.log"; fail "cannot configure the fuzz build"; }
 fi
 cmake --build "$build" --target $targets -j2 >"$build.build.log" 2>&1 ||
