@@ -15,11 +15,12 @@
 #include <stdio.h>
 #include <stdlib.h>
 
-/* Per-iteration estimates of the mean radiance over each of blocks x blocks image blocks
- * (RGB averaged to one number), for iterations [first, first + n). out has n * blocks^2
- * entries, iteration-major. Returns 0 on success. */
-static int render_block_means(const vf_scene *scene, const vf_settings *settings, int threads, uint64_t first, int n,
-                              int blocks, double *out, vf_vcm_stats *stats) {
+/* Renders iterations [first, first + n) of scene with settings on `threads` threads and
+ * calls each(ctx, i, cam, light) with iteration first + i's camera and light images (RGB
+ * floats, width x height). Returns 0 on success. */
+typedef void (*render_iteration_fn)(void *ctx, int i, const float *cam, const float *light);
+static int render_iterations(const vf_scene *scene, const vf_settings *settings, int threads, uint64_t first, int n,
+                             render_iteration_fn each, void *ctx, vf_vcm_stats *stats) {
   vf_accel *accel = NULL;
   vf_pool *pool = NULL;
   vf_vcm *vcm = NULL;
@@ -32,15 +33,7 @@ static int render_block_means(const vf_scene *scene, const vf_settings *settings
   if ((err = vf_vcm_create(scene, accel, settings, pool, &vcm)) != VF_OK) goto done;
   for (int i = 0; i < n; i++) {
     if ((err = vf_vcm_iteration(vcm, first + (uint64_t)i, cam, light, stats)) != VF_OK) goto done;
-    double *m = &out[(size_t)i * blocks * blocks];
-    for (int b = 0; b < blocks * blocks; b++) m[b] = 0.0;
-    for (int y = 0; y < settings->height; y++)
-      for (int x = 0; x < settings->width; x++) {
-        size_t p = (size_t)y * settings->width + x;
-        int b = (y * blocks / settings->height) * blocks + x * blocks / settings->width;
-        m[b] += (cam[3 * p] + cam[3 * p + 1] + cam[3 * p + 2] + light[3 * p] + light[3 * p + 1] + light[3 * p + 2]) / 3.0;
-      }
-    for (int b = 0; b < blocks * blocks; b++) m[b] /= (double)pixels / (blocks * blocks);
+    each(ctx, i, cam, light);
   }
 done:
   if (err != VF_OK) fprintf(stderr, "render failed: %s\n", vf_error_detail(err));
@@ -50,6 +43,37 @@ done:
   free(cam);
   free(light);
   return err;
+}
+
+typedef struct {
+  const vf_settings *settings;
+  int blocks;
+  double *out;
+} block_means_ctx;
+
+static void add_block_means(void *ctx, int i, const float *cam, const float *light) {
+  const block_means_ctx *b = ctx;
+  const vf_settings *settings = b->settings;
+  int blocks = b->blocks;
+  size_t pixels = (size_t)settings->width * settings->height;
+  double *m = &b->out[(size_t)i * blocks * blocks];
+  for (int k = 0; k < blocks * blocks; k++) m[k] = 0.0;
+  for (int y = 0; y < settings->height; y++)
+    for (int x = 0; x < settings->width; x++) {
+      size_t p = (size_t)y * settings->width + x;
+      int k = (y * blocks / settings->height) * blocks + x * blocks / settings->width;
+      m[k] += (cam[3 * p] + cam[3 * p + 1] + cam[3 * p + 2] + light[3 * p] + light[3 * p + 1] + light[3 * p + 2]) / 3.0;
+    }
+  for (int k = 0; k < blocks * blocks; k++) m[k] /= (double)pixels / (blocks * blocks);
+}
+
+/* Per-iteration estimates of the mean radiance over each of blocks x blocks image blocks
+ * (RGB averaged to one number), for iterations [first, first + n). out has n * blocks^2
+ * entries, iteration-major. Returns 0 on success. */
+static int render_block_means(const vf_scene *scene, const vf_settings *settings, int threads, uint64_t first, int n,
+                              int blocks, double *out, vf_vcm_stats *stats) {
+  block_means_ctx ctx = {settings, blocks, out};
+  return render_iterations(scene, settings, threads, first, n, add_block_means, &ctx, stats);
 }
 
 /* Mean and standard error of the mean of column `col` of an n x stride table. */
