@@ -12,9 +12,9 @@
 # runs it; bench_convergence_quick, a benchmark's smoke test that renders for a fixed wall
 # time (the renderer's paths run sanitized in test_vcm, test_render, test_surface and
 # test_stress). test_vcm runs its agreement with the default sampler only here.
-# tests/lsan.supp names the one leak not ours (fontconfig's caches, through cairo); the
-# summary of suppressions used stays off, so that commands whose stderr a test reads
-# line by line (test_cli) print only their own lines.
+# tests/lsan.supp names the leaks not ours (fontconfig's caches, through cairo; OpenVDB on a
+# damaged file); the summary of suppressions used stays off, so that commands whose stderr
+# a test reads line by line (test_cli) print only their own lines.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 flags="-fsanitize=address,undefined -fno-sanitize-recover=undefined -fno-omit-frame-pointer"
