@@ -76,8 +76,14 @@ void vf_jobs_submit(vf_farm *farm, const Vcmfarm__SubmitJob *m, vf_farm_reply *r
   }
   farm->next_job_id++;
   char limits[256];
-  int n = snprintf(limits, sizeof limits, "at most %llu iteration%s from %llu", (unsigned long long)job->iterations,
-                   job->iterations == 1 ? "" : "s", (unsigned long long)job->first);
+  /* An open-ended job (no iteration count given, another condition set) is not described
+   * by its cap of VF_JOB_MAX_ITERATIONS (as vf_job_forecast does not count against it). */
+  int open_ended = job->iterations >= VF_JOB_MAX_ITERATIONS &&
+                   (job->time_limit > 0.0 || job->target_rmse > 0.0 || job->target_error > 0.0);
+  int n = open_ended ? snprintf(limits, sizeof limits, "from iteration %llu", (unsigned long long)job->first)
+                     : snprintf(limits, sizeof limits, "at most %llu iteration%s from %llu",
+                                (unsigned long long)job->iterations, job->iterations == 1 ? "" : "s",
+                                (unsigned long long)job->first);
   if (job->time_limit > 0.0 && n > 0 && (size_t)n < sizeof limits)
     n += snprintf(limits + n, sizeof limits - (size_t)n, ", time limit %g s", job->time_limit);
   if (job->target_rmse > 0.0 && n > 0 && (size_t)n < sizeof limits)

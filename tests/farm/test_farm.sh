@@ -380,8 +380,12 @@ worker_terminated)
   wait_until 20 "the status to show iterations rendered, not merged" rendering
   echo "status: $(job_number iterations_rendering) iteration(s) rendered, not merged; $(job_number iterations_done) done"
   worker_json() { client status --json | tr -d ' \t\n' | grep -o '{"id":"[0-9a-f]*","name":"quitter"[^}]*}[^}]*}[^}]*}'; }
-  worker_json | grep -q '"state":"busy","host":"[^"]*","cores":[1-9][0-9]*,"version":"[0-9.]*"' ||
-    fail "the quitter is not busy with host, cores and version: $(worker_json)"
+  busy_with_facts() {
+    local w
+    w=$(worker_json)
+    grep -q '"state":"busy","host":"[^"]*","cores":[1-9][0-9]*,' <<<"$w" && grep -q '"version":"[0-9.]*"' <<<"$w"
+  }
+  busy_with_facts || fail "the quitter is not busy with host, cores and version: $(worker_json)"
   kill -TERM "$quitter"
   stopping() { worker_json | grep -q '"state":"stopping"'; }
   wait_until 5 "the quitter to be listed as stopping" stopping
