@@ -157,20 +157,14 @@ int check_writable(const vf_density_grid *g) {
   return VF_OK;
 }
 
-}  // namespace
 
-extern "C" int vf_vdb_read_grid(const char *path, const char *label, const char *grid_name, vf_density_grid *out) {
-  FILE *f = std::fopen(path, "rb");
-  if (f == nullptr) return vf_error_set(VF_ENOENT, "%s: cannot open: %s", label, std::strerror(errno));
-  std::fclose(f);
+// Runs body, OpenVDB's exceptions becoming errors that name the file: out of memory, or
+// a file OpenVDB cannot read.
+template <class Body>
+int guarded(const char *label, Body body) {
   try {
     openvdb::initialize();
-    openvdb::io::File file(path);
-    file.open(false);  // read everything now: the file is closed before this returns
-    openvdb::GridBase::Ptr base;
-    int err = pick(file.getGrids(), label, grid_name, &base);
-    file.close();
-    return err < 0 ? err : to_dense(base, label, grid_name, out);
+    return body();
   } catch (const std::bad_alloc &) {
     return vf_error_set(VF_ENOMEM, "out of memory");
   } catch (const std::exception &e) {
@@ -180,22 +174,31 @@ extern "C" int vf_vdb_read_grid(const char *path, const char *label, const char 
   }
 }
 
+}  // namespace
+
+extern "C" int vf_vdb_read_grid(const char *path, const char *label, const char *grid_name, vf_density_grid *out) {
+  FILE *f = std::fopen(path, "rb");
+  if (f == nullptr) return vf_error_set(VF_ENOENT, "%s: cannot open: %s", label, std::strerror(errno));
+  std::fclose(f);
+  return guarded(label, [&] {
+    openvdb::io::File file(path);
+    file.open(false);  // read everything now: the file is closed before this returns
+    openvdb::GridBase::Ptr base;
+    int err = pick(file.getGrids(), label, grid_name, &base);
+    file.close();
+    return err < 0 ? err : to_dense(base, label, grid_name, out);
+  });
+}
+
 extern "C" int vf_vdb_read_grid_memory(const void *data, size_t size, const char *label, const char *grid_name,
                                        vf_density_grid *out) {
-  try {
-    openvdb::initialize();
+  return guarded(label, [&] {
     std::istringstream in(std::string(static_cast<const char *>(data), size), std::ios_base::binary);
     openvdb::io::Stream stream(in, false);
     openvdb::GridBase::Ptr base;
     int err = pick(stream.getGrids(), label, grid_name, &base);
     return err < 0 ? err : to_dense(base, label, grid_name, out);
-  } catch (const std::bad_alloc &) {
-    return vf_error_set(VF_ENOMEM, "out of memory");
-  } catch (const std::exception &e) {
-    return damaged(label, e.what());
-  } catch (...) {
-    return damaged(label, "unknown error");
-  }
+  });
 }
 
 extern "C" int vf_vdb_write_grid_memory(const vf_density_grid *grid, const char *grid_name, void **data, size_t *size) {
