@@ -99,17 +99,15 @@ static void light_sample(vf_vcm *v, int thread, const vf_hit *hit, const vf_bsdf
     int medium = vf_medium_leaving(v, hit, dir, s->medium);
     vf_vec3 q = isinf(dist) ? dir : lp, nq = l->is_delta ? zero : ln;
     float density = vf_segment_vertex_density(v, hit);
-    vf_vec3 tr = v->has_boundaries ? vf_segment_transmittance(v, thread, medium, hit->position, hit->normal, density, q,
-                                                              nq, 1.0f, isinf(dist), sampler, &fwd_light, &rev_vertex)
-                                   : vf_segment_transmittance_unblocked(v, medium, hit->position, hit->normal, density,
-                                                                        q, nq, 1.0f, isinf(dist), sampler, &fwd_light,
-                                                                        &rev_vertex);
+    int traced;
+    vf_vec3 tr = vf_segment_connection(v, thread, medium, hit->position, hit->normal, density, q, nq, 1.0f, isinf(dist),
+                                       sampler, &fwd_light, &rev_vertex, &traced);
     if (vf_is_zero(tr)) return;
     w = vf_mis_weight_light_sample_at(&s->mis, &s->merge->mis, bsdf_pdf * fwd_light, bsdf_rev_pdf, direct_pdf * pick,
                                       emission_pdf * pick, cos_to_light * rev_vertex, cos_at_light,
                                       s->merge->mis.vm_weight * (vf_hit_in_medium(hit) ? v->medium_merge : 1.0f));
     f = vf_mul(f, tr);
-    if (v->has_boundaries) {
+    if (traced) {
       defer_unshadowed(v, thread, vf_mul(s->throughput, vf_scale(vf_mul(radiance, f), w * cos_to_light / (pick * direct_pdf))),
                        tile_pixel);
       return;
@@ -185,12 +183,9 @@ static void connect_vertices(vf_vcm *v, int thread, const vf_hit *hit, const vf_
     float camera_density = vf_segment_vertex_density(v, hit);
     float light_density = light_in_medium ? vf_medium_density_at(&v->media[lv->at.point.primitive], lv->position) : 1.0f;
     vf_vec3 nl = normal_of_vertex(v, lv, lb);
-    vf_vec3 tr = v->has_boundaries
-                     ? vf_segment_transmittance(v, thread, medium, hit->position, hit->normal, camera_density,
-                                                lv->position, nl, light_density, 0, sampler, &fwd_light, &rev_camera)
-                     : vf_segment_transmittance_unblocked(v, medium, hit->position, hit->normal, camera_density,
-                                                          lv->position, nl, light_density, 0, sampler, &fwd_light,
-                                                          &rev_camera);
+    int traced;
+    vf_vec3 tr = vf_segment_connection(v, thread, medium, hit->position, hit->normal, camera_density, lv->position, nl,
+                                       light_density, 0, sampler, &fwd_light, &rev_camera, &traced);
     if (vf_is_zero(tr)) return;
     float vm = s->merge->mis.vm_weight;
     w = vf_mis_weight_connection_at(&lv->mis, &s->mis, &s->merge->mis, camera_pdf_a * fwd_light,
@@ -198,7 +193,7 @@ static void connect_vertices(vf_vcm *v, int thread, const vf_hit *hit, const vf_
                                     light_in_medium ? vm * v->medium_merge : vm,
                                     vf_hit_in_medium(hit) ? vm * v->medium_merge : vm);
     fc = vf_mul(fc, tr);
-    if (v->has_boundaries) {
+    if (traced) {
       vf_vec3 contrib = vf_scale(vf_mul(vf_mul(fc, fl), lv->throughput), w * cos_camera * cos_light / dist2);
       defer_unshadowed(v, thread, vf_mul(s->throughput, contrib), tile_pixel);
       return;

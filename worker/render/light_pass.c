@@ -151,17 +151,15 @@ static void connect_to_camera(vf_vcm *v, int thread, light_chunk *c, uint32_t pa
     int medium = vf_medium_leaving(v, hit, link.to_camera, s->medium);
     float density = vf_segment_vertex_density(v, hit);
     vf_vec3 zero = vf_vec3_splat(0.0f);
-    vf_vec3 tr = v->has_boundaries ? vf_segment_transmittance(v, thread, medium, hit->position, hit->normal, density,
-                                                              link.end, zero, 1.0f, 0, sampler, &fwd_camera, &rev_vertex)
-                                   : vf_segment_transmittance_unblocked(v, medium, hit->position, hit->normal, density,
-                                                                        link.end, zero, 1.0f, 0, sampler, &fwd_camera,
-                                                                        &rev_vertex);
+    int traced;
+    vf_vec3 tr = vf_segment_connection(v, thread, medium, hit->position, hit->normal, density, link.end, zero, 1.0f, 0,
+                                       sampler, &fwd_camera, &rev_vertex, &traced);
     if (vf_is_zero(tr)) return;
     w = v->t.lt ? 1.0f
                 : vf_mis_weight_camera_connection_at(&s->mis, &merge.mis, pdf_a * rev_vertex, rev_pdf,
                                                      merge.mis.vm_weight * (vf_hit_in_medium(hit) ? v->medium_merge : 1.0f));
     f = vf_mul(f, tr);
-    if (v->has_boundaries) {
+    if (traced) {
       splat_unshadowed(c, path, pixel, band, vf_scale(vf_mul(s->throughput, f), w * pdf_a / v->merge.mis.light_paths));
       return;
     }
@@ -192,13 +190,13 @@ static void connect_emitter_to_camera(vf_vcm *v, int thread, light_chunk *c, uin
   if (__builtin_expect(v->has_media, 0)) {
     float fwd, rev; /* lt alone: unweighted */
     vf_vec3 zero = vf_vec3_splat(0.0f);
-    if (v->has_boundaries) {
-      vf_vec3 tr = vf_segment_transmittance(v, thread, medium, p, n, 1.0f, link.end, zero, 1.0f, 0, sampler, &fwd, &rev);
-      splat_unshadowed(c, path, pixel, band, vf_mul(contrib, tr));
+    int traced;
+    contrib = vf_mul(contrib, vf_segment_connection(v, thread, medium, p, n, 1.0f, link.end, zero, 1.0f, 0, sampler, &fwd,
+                                                    &rev, &traced));
+    if (traced) {
+      splat_unshadowed(c, path, pixel, band, contrib);
       return;
     }
-    contrib = vf_mul(contrib, vf_segment_transmittance_unblocked(v, medium, p, n, 1.0f, link.end, zero, 1.0f, 0, sampler,
-                                                                  &fwd, &rev));
     if (vf_is_zero(contrib)) return;
   }
   splat_if_visible(v, thread, c, path, pixel, band, contrib, p, n, link.end);

@@ -79,6 +79,21 @@ vf_vec3 vf_segment_transmittance_unblocked(const vf_vcm *v, int medium, vf_vec3 
                                            vf_vec3 q, vf_vec3 n_q, float q_density, int q_at_infinity,
                                            vf_sampler *sampler, float *fwd_q, float *rev_p);
 
+/* A connection's transmittance, whichever way the scene needs: through index-matched
+ * boundaries vf_segment_transmittance, which traces the segment (*traced 1: nothing is left
+ * to test); else vf_segment_transmittance_unblocked (*traced 0: the caller queues the
+ * segment's occlusion as a shadow ray). */
+static inline vf_vec3 vf_segment_connection(vf_vcm *v, int thread, int medium, vf_vec3 p, vf_vec3 n_p, float p_density,
+                                            vf_vec3 q, vf_vec3 n_q, float q_density, int q_at_infinity,
+                                            vf_sampler *sampler, float *fwd_q, float *rev_p, int *traced) {
+  *traced = v->has_boundaries;
+  if (v->has_boundaries)
+    return vf_segment_transmittance(v, thread, medium, p, n_p, p_density, q, n_q, q_density, q_at_infinity, sampler,
+                                    fwd_q, rev_p);
+  return vf_segment_transmittance_unblocked(v, medium, p, n_p, p_density, q, n_q, q_density, q_at_infinity, sampler,
+                                            fwd_q, rev_p);
+}
+
 /* The medium at point p: the interior or exterior of the first shape with an interface
  * that a ray from p meets, or the scene's medium. The camera's and the lights' media. */
 int vf_medium_at_point(const vf_vcm *v, vf_vec3 p);

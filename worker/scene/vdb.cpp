@@ -149,6 +149,14 @@ openvdb::FloatGrid::Ptr to_vdb(const vf_density_grid *g, const char *grid_name) 
   return grid;
 }
 
+// The file's content when it holds grid g alone, named grid_name.
+openvdb::GridPtrVec one_grid(const vf_density_grid *g, const char *grid_name) {
+  openvdb::initialize();
+  openvdb::GridPtrVec grids;
+  grids.push_back(to_vdb(g, grid_name));
+  return grids;
+}
+
 int check_writable(const vf_density_grid *g) {
   if (g->nx == 0 || g->ny == 0 || g->nz == 0 || g->density == nullptr ||
       (uint64_t)g->nx * g->ny * g->nz > VF_GRID_MAX_SAMPLES || !(g->box_min.x < g->box_max.x) ||
@@ -205,9 +213,7 @@ extern "C" int vf_vdb_write_grid_memory(const vf_density_grid *grid, const char 
   int err = check_writable(grid);
   if (err < 0) return err;
   try {
-    openvdb::initialize();
-    openvdb::GridPtrVec grids;
-    grids.push_back(to_vdb(grid, grid_name));
+    const openvdb::GridPtrVec grids = one_grid(grid, grid_name);
     std::ostringstream os(std::ios_base::binary);
     openvdb::io::Stream(os).write(grids);
     const std::string bytes = os.str();
@@ -228,9 +234,7 @@ extern "C" int vf_vdb_write_grid(const vf_density_grid *grid, const char *grid_n
   int err = check_writable(grid);
   if (err < 0) return err;
   try {
-    openvdb::initialize();
-    openvdb::GridPtrVec grids;
-    grids.push_back(to_vdb(grid, grid_name));
+    const openvdb::GridPtrVec grids = one_grid(grid, grid_name);
     openvdb::io::File file(path);
     file.write(grids);
     file.close();
