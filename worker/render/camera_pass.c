@@ -384,7 +384,8 @@ static int camera_bounce(vf_vcm *v, int thread, camera_lane *lane, const vf_hit 
     const vf_light *l = &v->lights->lights[light_index];
     float direct_pdf, emission_pdf;
     vf_vec3 le = vf_light_radiance_area(l, s->direction, hit->normal, &direct_pdf, &emission_pdf);
-    if (__builtin_expect(l->textured, 0)) le = vf_mul(le, vf_light_emission_factor(l, hit->primitive, hit->u, hit->v));
+    if (__builtin_expect(l->textured | l->coated, 0))
+      le = vf_mul(le, vf_light_emission_factor_toward(l, hit->primitive, hit->u, hit->v, hit->normal, vf_neg(s->direction)));
     defer_unshadowed(v, thread, vf_mul(s->throughput, emission_weighted(v, l, s, le, direct_pdf, emission_pdf)),
                      tile_pixel);
   }

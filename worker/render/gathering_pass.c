@@ -127,6 +127,7 @@ static vf_vec3 gather_from_light(vf_vcm *v, int thread, const vertex_merging_que
     float dir_pdf;
     float factor = vf_light_emission_toward(l, origin->normal, vf_neg(d), &dir_pdf, &cos_light);
     if (!(factor > 0.0f)) return zero;
+    if (origin->coat.weight > 0.0f) factor *= vf_light_coat_transmit(&origin->coat, vf_neg(d));
     float pick = l->pick_probability;
     float area_pdf = l->is_delta ? 1.0f : l->inv_area;
     /* What the light sub-path's throughput would be after emitting towards q, times the

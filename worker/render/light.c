@@ -228,6 +228,10 @@ static int add_area_light(vf_lights *ls, const vf_scene *scene, const vf_shape *
   if (s->kind == VF_SHAPE_MESH) {
     const vf_material *m = &scene->materials[s->material];
     l->textured = m->textures[VF_TEXTURE_EMISSION].texture != 0 || m->alpha_cutoff > 0.0f;
+  }
+  if (s->material >= 0) {
+    const vf_material *m = &scene->materials[s->material];
+    l->coated = m->gltf && m->clearcoat > 0.0f;
     l->scene = scene;
   }
   l->radiance = s->emission;
@@ -371,7 +375,7 @@ static inline void sample_area(const vf_light *l, uint32_t t, float u1, float u2
 
 vf_vec3 vf_light_emit_any(const vf_lights *ls, const vf_light *l, const float rnd[4], vf_vec3 *position,
                           vf_vec3 *direction, vf_vec3 *normal, float *emission_pdf_w, float *direct_pdf_a,
-                          float *cos_light) {
+                          float *cos_light, vf_light_coat *coat) {
   switch (l->kind) {
   case VF_LIGHT_AREA_MESH:
   case VF_LIGHT_AREA_SPHERE: {
@@ -379,7 +383,13 @@ vf_vec3 vf_light_emit_any(const vf_lights *ls, const vf_light *l, const float rn
     float u = rnd[0];
     uint32_t t = pick_triangle(l, &u);
     sample_area(l, t, rnd[1], rnd[2], position, &n);
-    return vf_light_emit_area_point(l, n, rnd[3], u, direction, normal, emission_pdf_w, direct_pdf_a, cos_light);
+    vf_vec3 energy = vf_light_emit_area_point(l, n, rnd[3], u, direction, normal, emission_pdf_w, direct_pdf_a,
+                                              cos_light);
+    if (l->coated) { /* a sphere: the coat's normal is its own */
+      *coat = vf_light_coat_at(l, t, 0.0f, 0.0f, n);
+      energy = vf_scale(energy, vf_light_coat_transmit(coat, *direction));
+    }
+    return energy;
   }
   case VF_LIGHT_POINT:
     *position = l->position;
@@ -446,8 +456,13 @@ vf_vec3 vf_light_illuminate_any(const vf_lights *ls, const vf_light *l, vf_vec3 
     float u = rnd[0];
     uint32_t t = pick_triangle(l, &u);
     sample_area(l, t, u, rnd[1], &p, &n);
-    return vf_light_illuminate_area_point(l, receiver, p, n, dir_to_light, distance, light_point, light_normal,
-                                          direct_pdf_w, emission_pdf_w, cos_at_light);
+    vf_vec3 le = vf_light_illuminate_area_point(l, receiver, p, n, dir_to_light, distance, light_point, light_normal,
+                                                direct_pdf_w, emission_pdf_w, cos_at_light);
+    if (l->coated && !vf_is_zero(le)) { /* a sphere: the coat's normal is its own */
+      vf_light_coat coat = vf_light_coat_at(l, t, 0.0f, 0.0f, n);
+      le = vf_scale(le, vf_light_coat_transmit(&coat, vf_neg(*dir_to_light)));
+    }
+    return le;
   }
   case VF_LIGHT_POINT:
   case VF_LIGHT_SPOT: {
@@ -495,6 +510,21 @@ vf_vec3 vf_light_illuminate_any(const vf_lights *ls, const vf_light *l, vf_vec3 
 
 vf_vec3 vf_light_emission_factor(const vf_light *l, uint32_t t, float u, float v) {
   return vf_surface_emission_factor(l->scene, l->shape, t, u, v);
+}
+
+vf_light_coat vf_light_coat_at(const vf_light *l, uint32_t t, float u, float v, vf_vec3 n) {
+  vf_light_coat c = {l->scene->materials[l->shape->material].clearcoat, n};
+  if (l->kind == VF_LIGHT_AREA_MESH) vf_surface_coat(l->scene, l->shape, t, u, v, n, &c.weight, &c.normal);
+  return c;
+}
+
+vf_vec3 vf_light_emission_factor_toward(const vf_light *l, uint32_t t, float u, float v, vf_vec3 n, vf_vec3 dir) {
+  vf_vec3 f = l->textured ? vf_light_emission_factor(l, t, u, v) : vf_vec3_splat(1.0f);
+  if (l->coated) {
+    vf_light_coat c = vf_light_coat_at(l, t, u, v, n);
+    f = vf_scale(f, vf_light_coat_transmit(&c, dir));
+  }
+  return f;
 }
 
 float vf_light_emission_toward(const vf_light *l, vf_vec3 n, vf_vec3 dir, float *dir_pdf_w, float *cos_light) {

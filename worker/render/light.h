@@ -17,11 +17,20 @@
  * directional lights (delta direction, infinite), and one
  * environment light (infinite) that unites the constant background and the
  * latitude-longitude map: radiance(d) = background + scale * map(d), importance sampled by
- * the map's luminance when there is a map. */
+ * the map's luminance when there is a map.
+ *
+ * An area light whose material has a clear coat (KHR_materials_clearcoat, "Emission": the
+ * coat darkens what the surface beneath it emits) emits its radiance times
+ * 1 - clearcoat F_c(|n_c . w|) towards w, F_c Schlick's of F0 0.04 (worker/render/bsdf.h's
+ * T, the coat's one passage), clearcoat and the coat's normal n_c those of its BSDF at the
+ * point (vf_light_coat). Every value these functions report includes the factor; no
+ * density changes (emission still samples the cosine, so a light sub-path's first weight
+ * carries the factor of its direction). Light selection by power ignores the coat. */
 #ifndef VF_LIGHT_H
 #define VF_LIGHT_H
 
 #include "../../common/vec3.h"
+#include "microfacet.h"
 #include "sampling.h"
 #include "../scene/scene.h"
 
@@ -66,8 +75,27 @@ typedef struct {
   /* Area meshes whose material has an emission texture or a cut-out: radiance is then
    * `radiance` times vf_light_emission_factor at the point (worker/render/surface.h). */
   int textured;
-  const vf_scene *scene;     /* textured lights: borrowed */
+  int coated;                /* area lights whose material has a clear coat (see the top) */
+  const vf_scene *scene;     /* textured and coated lights: borrowed */
 } vf_light;
+
+/* A clear coat at a point of an area light: its weight (clearcoat, its texture applied;
+ * 0: no coat) and its unit normal n_c (the sign does not matter). */
+typedef struct {
+  float weight;
+  vf_vec3 normal;
+} vf_light_coat;
+
+/* The coat's transmittance towards unit direction dir: 1 - weight F_c(|n_c . dir|). */
+static inline float vf_light_coat_transmit(const vf_light_coat *c, vf_vec3 dir) {
+  float cos_c = fabsf(vf_dot(c->normal, dir));
+  cos_c = cos_c < 1.0f ? cos_c : 1.0f;
+  return 1.0f - c->weight * (VF_GLTF_DIELECTRIC_F0 + (1.0f - VF_GLTF_DIELECTRIC_F0) * vf_fresnel_schlick_weight(cos_c));
+}
+
+/* The coat of coated area light l at barycentrics (u, v) of triangle t (a sphere: at the
+ * point of unit normal n, t, u and v unused); n is the point's unit geometric normal. */
+vf_light_coat vf_light_coat_at(const vf_light *l, uint32_t t, float u, float v, vf_vec3 n);
 
 typedef struct {
   vf_light *lights;
@@ -162,6 +190,11 @@ static inline vf_vec3 vf_light_triangle_point(const vf_light_triangle *tri, floa
  * (u, v) of triangle t (weights of its vertices b and c). */
 vf_vec3 vf_light_emission_factor(const vf_light *l, uint32_t t, float u, float v);
 
+/* What a textured or coated area light's texture, cut-out and coat make of its radiance
+ * towards unit direction dir (away from the light) at barycentrics (u, v) of triangle t
+ * (a sphere: at its point of unit normal n), n the point's unit geometric normal. */
+vf_vec3 vf_light_emission_factor_toward(const vf_light *l, uint32_t t, float u, float v, vf_vec3 n, vf_vec3 dir);
+
 /* What vf_light_illuminate reports for point p, with unit normal n, picked on area light l. */
 static inline vf_vec3 vf_light_illuminate_area_point(const vf_light *l, vf_vec3 receiver, vf_vec3 p, vf_vec3 n,
                                                      vf_vec3 *dir_to_light, float *distance, vf_vec3 *light_point,
@@ -208,6 +241,10 @@ static inline vf_vec3 vf_light_illuminate(const vf_lights *ls, const vf_light *l
                                               tri->normal, dir_to_light, distance, light_point, light_normal,
                                               direct_pdf_w, emission_pdf_w, cos_at_light);
   if (__builtin_expect(l->textured, 0) && !vf_is_zero(le)) le = vf_mul(le, vf_light_emission_factor(l, t, bu, bv));
+  if (__builtin_expect(l->coated, 0) && !vf_is_zero(le)) {
+    vf_light_coat coat = vf_light_coat_at(l, t, bu, bv, tri->normal);
+    le = vf_scale(le, vf_light_coat_transmit(&coat, vf_neg(*dir_to_light)));
+  }
   return le;
 }
 
@@ -230,15 +267,18 @@ static inline vf_vec3 vf_light_emit_area_point(const vf_light *l, vf_vec3 n, flo
 /* vf_light_emit for any kind of light; vf_light_emit calls it for all but area meshes. */
 vf_vec3 vf_light_emit_any(const vf_lights *ls, const vf_light *l, const float rnd[4], vf_vec3 *position,
                           vf_vec3 *direction, vf_vec3 *normal, float *emission_pdf_w, float *direct_pdf_a,
-                          float *cos_light);
+                          float *cos_light, vf_light_coat *coat);
 
-/* Emits the first vertex of a light sub-path with four uniform numbers. Area meshes are
- * handled inline, as in vf_light_illuminate. */
-static inline vf_vec3 vf_light_emit(const vf_lights *ls, const vf_light *l, const float rnd[4], vf_vec3 *position,
-                                    vf_vec3 *direction, vf_vec3 *normal, float *emission_pdf_w,
-                                    float *direct_pdf_a, float *cos_light) {
+/* vf_light_emit, and the coat at the emitted point in *coat (weight 0 for a light without
+ * one): the value returned includes the coat's factor towards the sampled direction, which
+ * a connection from the same point in another direction replaces by its own. */
+static inline vf_vec3 vf_light_emit_coated(const vf_lights *ls, const vf_light *l, const float rnd[4],
+                                           vf_vec3 *position, vf_vec3 *direction, vf_vec3 *normal,
+                                           float *emission_pdf_w, float *direct_pdf_a, float *cos_light,
+                                           vf_light_coat *coat) {
+  coat->weight = 0.0f;
   if (l->kind != VF_LIGHT_AREA_MESH)
-    return vf_light_emit_any(ls, l, rnd, position, direction, normal, emission_pdf_w, direct_pdf_a, cos_light);
+    return vf_light_emit_any(ls, l, rnd, position, direction, normal, emission_pdf_w, direct_pdf_a, cos_light, coat);
   float u = rnd[0], bu, bv;
   uint32_t t = vf_light_pick_triangle(l, &u);
   const vf_light_triangle *tri = &l->triangles[t];
@@ -246,7 +286,21 @@ static inline vf_vec3 vf_light_emit(const vf_lights *ls, const vf_light *l, cons
   vf_vec3 energy = vf_light_emit_area_point(l, tri->normal, rnd[3], u, direction, normal, emission_pdf_w,
                                             direct_pdf_a, cos_light);
   if (__builtin_expect(l->textured, 0)) energy = vf_mul(energy, vf_light_emission_factor(l, t, bu, bv));
+  if (__builtin_expect(l->coated, 0)) {
+    *coat = vf_light_coat_at(l, t, bu, bv, tri->normal);
+    energy = vf_scale(energy, vf_light_coat_transmit(coat, *direction));
+  }
   return energy;
+}
+
+/* Emits the first vertex of a light sub-path with four uniform numbers. Area meshes are
+ * handled inline, as in vf_light_illuminate. */
+static inline vf_vec3 vf_light_emit(const vf_lights *ls, const vf_light *l, const float rnd[4], vf_vec3 *position,
+                                    vf_vec3 *direction, vf_vec3 *normal, float *emission_pdf_w,
+                                    float *direct_pdf_a, float *cos_light) {
+  vf_light_coat coat;
+  return vf_light_emit_coated(ls, l, rnd, position, direction, normal, emission_pdf_w, direct_pdf_a, cos_light,
+                              &coat);
 }
 
 /* What a light's own point emits towards unit direction dir, relative to what vf_light_emit
@@ -258,8 +312,8 @@ static inline vf_vec3 vf_light_emit(const vf_lights *ls, const vf_light *l, cons
 float vf_light_emission_toward(const vf_light *l, vf_vec3 n, vf_vec3 dir, float *dir_pdf_w, float *cos_light);
 
 /* Radiance of an area light hit at `point` with unit geometric normal `normal` by a ray of
- * direction ray_dir; zero from behind. A textured light's radiance is this times
- * vf_light_emission_factor at the hit's triangle and barycentrics. */
+ * direction ray_dir; zero from behind. A textured or coated light's radiance is this times
+ * vf_light_emission_factor_toward at the hit's triangle and barycentrics. */
 vf_vec3 vf_light_radiance_area(const vf_light *l, vf_vec3 ray_dir, vf_vec3 normal, float *direct_pdf_a,
                                float *emission_pdf_w);
 

@@ -176,12 +176,14 @@ static void connect_to_camera(vf_vcm *v, int thread, light_chunk *c, uint32_t pa
 /* Light tracing alone also projects the light's own point y0 (the s = 1, t = 1 technique,
  * which the full estimator leaves to emission hits). */
 static void connect_emitter_to_camera(vf_vcm *v, int thread, light_chunk *c, uint32_t path, vf_vec3 radiance,
-                                      vf_vec3 p, vf_vec3 n, float pick_and_area_pdf, vf_sampler *sampler, int medium) {
+                                      const vf_light_coat *coat, vf_vec3 p, vf_vec3 n, float pick_and_area_pdf,
+                                      vf_sampler *sampler, int medium) {
   vf_vec3 lens = lens_sample(v, sampler, VF_DIM_EMITTER_LENS);
   vf_camera_link link;
   if (!vf_camera_link_point(&v->camera, lens, p, &link)) return;
   float cos_out = vf_dot(n, link.to_camera);
   if (!(cos_out > 0.0f)) return;
+  if (coat->weight > 0.0f) radiance = vf_scale(radiance, vf_light_coat_transmit(coat, link.to_camera));
   float pdf_a = vf_camera_link_pdf_a(&link, cos_out);
   if (!(pdf_a > 0.0f)) return;
   vf_vec3 contrib = vf_scale(radiance, pdf_a / (v->merge.mis.light_paths * pick_and_area_pdf));
@@ -283,9 +285,15 @@ static int light_start(vf_vcm *v, int thread, light_chunk *c, light_lane *lane, 
   vf_vec3 normal;
   float emission_pdf, direct_pdf, cos_light;
   if (__builtin_expect(v->infinite_dark, 0) && !l->is_finite) return 0; /* extinguished on its way */
-  vf_vec3 energy = vf_light_emit(v->lights, l, rnd, &s->origin, &s->direction, &normal, &emission_pdf, &direct_pdf,
-                                 &cos_light);
+  vf_light_coat coat;
+  vf_vec3 energy = vf_light_emit_coated(v->lights, l, rnd, &s->origin, &s->direction, &normal, &emission_pdf,
+                                        &direct_pdf, &cos_light, &coat);
   if (vf_is_zero(energy) || !(emission_pdf > 0.0f)) return 0;
+  /* What the point emits before its coat (light.h): energy carries the coat's factor
+   * towards the sampled direction, the camera and a gathering join see their own. */
+  vf_vec3 emitted = l->textured ? vf_scale(energy, 1.0f / cos_light) : l->radiance;
+  if (__builtin_expect(coat.weight > 0.0f && l->textured, 0)) /* products only: no cancellation */
+    emitted = vf_scale(energy, 1.0f / (cos_light * vf_light_coat_transmit(&coat, s->direction)));
   if (v->upg) {
     /* The point for joining the sub-path's first vertex to a camera vertex: with what it
      * emits per unit of vf_light_emission_toward's factor (its radiance, texture
@@ -295,12 +303,13 @@ static int light_start(vf_vcm *v, int thread, light_chunk *c, light_lane *lane, 
     o->normal = normal;
     o->light = l->is_finite ? (int32_t)(l - v->lights->lights) : -1;
     int area = l->kind == VF_LIGHT_AREA_MESH || l->kind == VF_LIGHT_AREA_SPHERE;
-    o->radiance = area ? vf_scale(energy, 1.0f / cos_light) : l->radiance;
+    o->radiance = area ? emitted : l->radiance;
+    o->coat = coat;
   }
   int medium = v->has_media ? v->light_medium[l - v->lights->lights] : -1;
   if (v->t.lt && l->is_finite && !l->is_delta)
-    connect_emitter_to_camera(v, thread, c, local, l->textured ? vf_scale(energy, 1.0f / cos_light) : l->radiance,
-                              s->origin, normal, l->pick_probability * direct_pdf, sampler, medium);
+    connect_emitter_to_camera(v, thread, c, local, emitted, &coat, s->origin, normal, l->pick_probability * direct_pdf,
+                              sampler, medium);
   emission_pdf *= l->pick_probability;
   direct_pdf *= l->pick_probability;
   s->throughput = vf_scale(energy, 1.0f / emission_pdf);

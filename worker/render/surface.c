@@ -196,6 +196,16 @@ int vf_surface_bsdf(vf_bsdf *b, const vf_scene *scene, const vf_bsdf_lobes *lobe
   return ok;
 }
 
+void vf_surface_coat(const vf_scene *scene, const vf_shape *sh, uint32_t prim, float u, float v, vf_vec3 ng,
+                     float *weight, vf_vec3 *normal) {
+  const vf_material *m = &scene->materials[sh->material];
+  float st[4], t[4];
+  vf_surface_uv(sh, prim, u, v, st);
+  *weight = m->clearcoat;
+  if (slot_lookup(scene, m, VF_TEXTURE_CLEARCOAT, 0, st, t)) *weight = unit_clamp(m->clearcoat * t[0]);
+  *normal = mapped_normal(scene, sh, prim, u, v, st, ng, VF_TEXTURE_CLEARCOAT_NORMAL, m->clearcoat_normal_scale);
+}
+
 void vf_surface_prefetch_vertices(const vf_shape *sh, uint32_t prim) {
   const uint32_t *tri = &sh->indices[3 * (size_t)prim];
   for (int k = 0; k < 3; k++) {

@@ -64,6 +64,13 @@ int vf_surface_bsdf(vf_bsdf *b, const vf_scene *scene, const vf_bsdf_lobes *lobe
 void vf_surface_prefetch_vertices(const vf_shape *sh, uint32_t prim);
 void vf_surface_prefetch_texels(const vf_scene *scene, const vf_shape *sh, uint32_t prim, float u, float v);
 
+/* KHR_materials_clearcoat at barycentrics (u, v) of triangle prim of mesh sh, geometric normal
+ * ng: *weight the material's clearcoat times its texture's R, *normal the coat's unit normal
+ * (the interpolated vertex normal turned by the coat's own normal map), as vf_surface_bsdf
+ * sets the coat up. For the coat over an emitter (worker/render/light.h). */
+void vf_surface_coat(const vf_scene *scene, const vf_shape *sh, uint32_t prim, float u, float v, vf_vec3 ng,
+                     float *weight, vf_vec3 *normal);
+
 /* Coverage of the material of sh at barycentrics (u, v) of triangle prim: 1 where it is
  * opaque, 0 in a hole (coverage below alpha_cutoff), for alpha cut-outs. */
 int vf_surface_covered(const vf_scene *scene, const vf_shape *sh, uint32_t prim, float u, float v);

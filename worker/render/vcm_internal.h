@@ -110,7 +110,8 @@ typedef struct {
 typedef struct {
   vf_vec3 position;
   vf_vec3 normal;   /* area lights: the unit normal of the emitting side */
-  vf_vec3 radiance; /* area lights: Le there (texture included); point and spot: intensity */
+  vf_vec3 radiance; /* area lights: Le there (texture included, before its coat); point and spot: intensity */
+  vf_light_coat coat; /* area lights: the clear coat there (light.h; weight 0: none) */
   int32_t light;    /* its index, or -1 for a light at infinity (or no sub-path) */
 } light_origin;
 

@@ -211,7 +211,9 @@ static int texture_field(const parse_ctx *c, const cJSON *obj, const char *path,
  * specular (clamped to [0, 1]) and normal maps take any finite value. Refused at
  * load rather than clamped at lookup, which stays one code path for every slot. */
 static int check_texel_range(const parse_ctx *c, const char *path, int slot, const vf_texture *t) {
-  if (!t->is_float || slot == VF_TEXTURE_ALPHA || slot == VF_TEXTURE_NORMAL || slot == VF_TEXTURE_SPECULAR) return VF_OK;
+  if (!t->is_float || slot == VF_TEXTURE_ALPHA || slot == VF_TEXTURE_NORMAL || slot == VF_TEXTURE_SPECULAR ||
+      slot == VF_TEXTURE_CLEARCOAT_NORMAL)
+    return VF_OK;
   const int n = t->channels, colour = n < 3 ? 1 : 3;
   const int first = slot == VF_TEXTURE_ROUGHNESS_METALLIC && n >= 3 ? 1 : 0; /* G and B */
   const float hi = slot == VF_TEXTURE_EMISSION || slot == VF_TEXTURE_SPECULAR_COLOR ? FLT_MAX : 1.0f; /* F0 is min(.., 1) */
@@ -303,6 +305,48 @@ static int parse_gltf_specular(const parse_ctx *c, const cJSON *j, const char *p
   return VF_OK;
 }
 
+/* KHR_materials_clearcoat and KHR_materials_sheen of the glTF model (material.h):
+ * "clearcoat" and "clearcoat_roughness" in [0, 1] (default 0), "clearcoat_texture" (R
+ * multiplies clearcoat), "clearcoat_roughness_texture" (G), "clearcoat_normal_texture" with
+ * "clearcoat_normal_scale" (default 1); "sheen_color" [r, g, b] in [0, 1] (default 0),
+ * "sheen_roughness" in [0, 1] (default 0), "sheen_color_texture" (RGB, sRGB),
+ * "sheen_roughness_texture" (A). A coat's or sheen's other fields need its non-zero weight:
+ * glTF's factor 0 disables its layer, and a field that changes nothing is a typo here. */
+static int parse_gltf_layers(const parse_ctx *c, const cJSON *j, const char *path, vf_material *m) {
+  char p[PATH_LEN];
+  int err, has_coat, has_sheen;
+  if ((has_coat = unit_field(c, j, path, "clearcoat", OPTIONAL, &m->clearcoat)) < 0) return has_coat;
+  m->clearcoat_normal_scale = 1.0f;
+  static const char *const coat_fields[] = {"clearcoat_roughness", "clearcoat_texture", "clearcoat_roughness_texture",
+                                            "clearcoat_normal_texture", "clearcoat_normal_scale"};
+  static const char *const sheen_fields[] = {"sheen_roughness", "sheen_color_texture", "sheen_roughness_texture"};
+  for (size_t i = 0; i < sizeof coat_fields / sizeof coat_fields[0]; i++)
+    if (cJSON_GetObjectItemCaseSensitive(j, coat_fields[i]) != NULL && !(m->clearcoat > 0.0f))
+      return vf_scene_fail(c, VF_ESCENE, vf_scene_join(p, path, coat_fields[i]), "needs a non-zero 'clearcoat'%s",
+                           has_coat ? " (0 is no coat)" : "");
+  if ((err = unit_field(c, j, path, "clearcoat_roughness", OPTIONAL, &m->clearcoat_roughness)) < 0) return err;
+  if ((err = slot_field(c, j, path, "clearcoat_texture", VF_TEXTURE_CLEARCOAT, m)) < 0) return err;
+  if ((err = slot_field(c, j, path, "clearcoat_roughness_texture", VF_TEXTURE_CLEARCOAT_ROUGHNESS, m)) < 0) return err;
+  int has_normal = slot_field(c, j, path, "clearcoat_normal_texture", VF_TEXTURE_CLEARCOAT_NORMAL, m);
+  if (has_normal < 0) return has_normal;
+  if ((err = vf_scene_float_field(c, j, path, "clearcoat_normal_scale", OPTIONAL, &m->clearcoat_normal_scale)) < 0)
+    return err;
+  if (err > 0 && !has_normal)
+    return vf_scene_fail(c, VF_ESCENE, vf_scene_join(p, path, "clearcoat_normal_scale"), "needs 'clearcoat_normal_texture'");
+  if ((has_sheen = vf_scene_rgb_field(c, j, path, "sheen_color", OPTIONAL, "colour", &m->sheen_color)) < 0)
+    return has_sheen;
+  if (vf_max_component(m->sheen_color) > 1.0f)
+    return vf_scene_fail(c, VF_ESCENE, vf_scene_join(p, path, "sheen_color"), "exceeds 1 in a channel");
+  for (size_t i = 0; i < sizeof sheen_fields / sizeof sheen_fields[0]; i++)
+    if (cJSON_GetObjectItemCaseSensitive(j, sheen_fields[i]) != NULL && vf_is_zero(m->sheen_color))
+      return vf_scene_fail(c, VF_ESCENE, vf_scene_join(p, path, sheen_fields[i]), "needs a non-zero 'sheen_color'%s",
+                           has_sheen ? " (black is no sheen)" : "");
+  if ((err = unit_field(c, j, path, "sheen_roughness", OPTIONAL, &m->sheen_roughness)) < 0) return err;
+  if ((err = slot_field(c, j, path, "sheen_color_texture", VF_TEXTURE_SHEEN_COLOR, m)) < 0) return err;
+  if ((err = slot_field(c, j, path, "sheen_roughness_texture", VF_TEXTURE_SHEEN_ROUGHNESS, m)) < 0) return err;
+  return VF_OK;
+}
+
 /* The glTF 2.0 metallic-roughness model. A factor whose texture is given defaults to 1,
  * as glTF's baseColorFactor, metallicFactor and roughnessFactor do. */
 static int parse_gltf_material(const parse_ctx *c, const cJSON *j, const char *path, vf_material *m) {
@@ -319,6 +363,7 @@ static int parse_gltf_material(const parse_ctx *c, const cJSON *j, const char *p
   if (vf_max_component(m->base_color) > 1.0f)
     return vf_scene_fail(c, VF_ESCENE, vf_scene_join(p, path, "base_color"), "exceeds 1 in a channel");
   if ((err = parse_gltf_specular(c, j, path, m)) < 0) return err;
+  if ((err = parse_gltf_layers(c, j, path, m)) < 0) return err;
   return parse_shared_textures(c, j, path, m);
 }
 
@@ -372,7 +417,11 @@ static int parse_material(const parse_ctx *c, const cJSON *j, vf_material *m) {
   /* The glTF 2.0 metallic-roughness model has these fields and none of the lobes'. */
   static const char *const gltf_fields[] = {"base_color", "metallic", "roughness", "base_color_texture",
                                             "roughness_metallic_texture", "specular", "specular_color", "ior",
-                                            "specular_texture", "specular_color_texture", TEXTURE_FIELDS, NULL};
+                                            "specular_texture", "specular_color_texture", "clearcoat",
+                                            "clearcoat_roughness", "clearcoat_texture", "clearcoat_roughness_texture",
+                                            "clearcoat_normal_texture", "clearcoat_normal_scale", "sheen_color",
+                                            "sheen_roughness", "sheen_color_texture", "sheen_roughness_texture",
+                                            TEXTURE_FIELDS, NULL};
 #undef TEXTURE_FIELDS
   char path[PATH_LEN];
   vf_scene_join(path, "materials", j->string);
