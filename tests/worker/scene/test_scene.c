@@ -690,7 +690,130 @@ static void test_background_replaced_after_load(void) {
   vf_scene_destroy(s);
 }
 
+/* ---- the glTF model's clear coat and sheen in JSON (docs/SCENES.md, "Rough materials") ---- */
+
+/* The scene of one glTF material `m` (the text of its object's members) on a sphere, loaded
+ * from dir; the error's detail in *detail (or "") when it is refused. */
+static vf_scene *load_material(const char *dir, const char *m, char *detail, size_t n, int *code) {
+  char path[256], json[2048];
+  snprintf(json, sizeof json,
+           "{\"camera\": {\"position\": [0, 0, 5], \"target\": [0, 0, 0], \"fov\": 40},\n"
+           " \"materials\": {\"m\": {\"base_color\": [0.5, 0.4, 0.3], \"metallic\": 0, \"roughness\": 0.5%s%s}},\n"
+           " \"shapes\": [{\"type\": \"sphere\", \"center\": [0, 0, 0], \"radius\": 1, \"material\": \"m\","
+           " \"emission\": [1, 1, 1]}]}\n",
+           m[0] ? ", " : "", m);
+  snprintf(path, sizeof path, "%s/m.json", dir);
+  write_all(path, json);
+  vf_scene *s = NULL;
+  int err = vf_scene_load(path, &s);
+  snprintf(detail, n, "%s", err == VF_OK ? "" : vf_error_detail(err));
+  *code = err;
+  return s;
+}
+
+static void test_json_clearcoat_and_sheen_fields(void) {
+  char dir[64], path[256], detail[512];
+  int code;
+  make_temp_dir(dir);
+  /* Two small linear EXR textures: one in [0, 1], one with a texel of 2. */
+  vf_image img = {0, 0, NULL};
+  CHECK_INT_EQ(vf_image_alloc(&img, 2, 2), VF_OK);
+  for (int i = 0; i < 12; i++) img.rgb[i] = 0.25f + 0.05f * (float)i;
+  snprintf(path, sizeof path, "%s/layer.exr", dir);
+  CHECK_INT_EQ(vf_image_write_exr(path, &img), VF_OK);
+  img.rgb[4] = 2.0f;
+  snprintf(path, sizeof path, "%s/over.exr", dir);
+  CHECK_INT_EQ(vf_image_write_exr(path, &img), VF_OK);
+  vf_image_destroy(&img);
+
+  /* None of the fields: no layers, as before they existed. */
+  vf_scene *plain = load_material(dir, "", detail, sizeof detail, &code);
+  vf_scene *s = load_material(dir,
+                              "\"clearcoat\": 0.75, \"clearcoat_roughness\": 0.2, \"clearcoat_texture\": \"layer.exr\","
+                              " \"clearcoat_roughness_texture\": {\"file\": \"layer.exr\", \"wrap\": \"clamp\"},"
+                              " \"clearcoat_normal_texture\": \"layer.exr\", \"clearcoat_normal_scale\": -0.5,"
+                              " \"sheen_color\": [0.9, 0.5, 0], \"sheen_roughness\": 0.3,"
+                              " \"sheen_color_texture\": \"layer.exr\", \"sheen_roughness_texture\": \"layer.exr\"",
+                              detail, sizeof detail, &code);
+  if (*detail) CHECK_FAIL_("%s", detail);
+  if (plain != NULL && s != NULL) {
+    const vf_material *p = &plain->materials[0], *m = &s->materials[0];
+    CHECK(p->gltf && p->clearcoat == 0.0f && vf_is_zero(p->sheen_color) && p->textures[VF_TEXTURE_CLEARCOAT].texture == 0);
+    CHECK(m->gltf);
+    CHECK_NEAR(m->clearcoat, 0.75, 0);
+    CHECK_NEAR(m->clearcoat_roughness, 0.2, 1e-7);
+    CHECK_NEAR(m->clearcoat_normal_scale, -0.5, 0);
+    CHECK_NEAR(m->sheen_color.x, 0.9, 1e-7);
+    CHECK_NEAR(m->sheen_color.z, 0.0, 0);
+    CHECK_NEAR(m->sheen_roughness, 0.3, 1e-7);
+    static const int slots[] = {VF_TEXTURE_CLEARCOAT, VF_TEXTURE_CLEARCOAT_ROUGHNESS, VF_TEXTURE_CLEARCOAT_NORMAL,
+                                VF_TEXTURE_SHEEN_COLOR, VF_TEXTURE_SHEEN_ROUGHNESS};
+    for (size_t k = 0; k < sizeof slots / sizeof slots[0]; k++) CHECK(m->textures[slots[k]].texture == 1);
+    CHECK_INT_EQ(m->textures[VF_TEXTURE_CLEARCOAT_ROUGHNESS].wrap_s, VF_WRAP_CLAMP);
+    CHECK_INT_EQ(s->num_textures, 1); /* one file, decoded once */
+    CHECK(memcmp(plain->hash, s->hash, 32) != 0);
+  }
+  vf_scene_destroy(s);
+  /* A coat alone, then the same with a different weight: the hash sees the value; the
+   * clear-coat normal scale defaults to 1. */
+  s = load_material(dir, "\"clearcoat\": 0.5", detail, sizeof detail, &code);
+  vf_scene *t = load_material(dir, "\"clearcoat\": 0.5000001", detail, sizeof detail, &code);
+  if (s != NULL && t != NULL) {
+    CHECK_NEAR(s->materials[0].clearcoat_normal_scale, 1.0, 0);
+    CHECK(memcmp(s->hash, t->hash, 32) != 0);
+  }
+  vf_scene_destroy(s);
+  vf_scene_destroy(t);
+  vf_scene_destroy(plain);
+
+  /* Refused, naming the field. */
+  static const struct {
+    const char *members, *message;
+  } bad[] = {
+      {"\"clearcoat\": 1.5", "materials.m.clearcoat: must be in [0, 1], found 1.5"},
+      {"\"clearcoat\": -0.1", "materials.m.clearcoat: must be in [0, 1]"},
+      {"\"clearcoat\": 1, \"clearcoat_roughness\": 2", "materials.m.clearcoat_roughness: must be in [0, 1], found 2"},
+      {"\"clearcoat_roughness\": 0.3", "materials.m.clearcoat_roughness: needs a non-zero 'clearcoat'"},
+      {"\"clearcoat\": 0, \"clearcoat_texture\": \"layer.exr\"",
+       "materials.m.clearcoat_texture: needs a non-zero 'clearcoat' (0 is no coat)"},
+      {"\"clearcoat\": 1, \"clearcoat_normal_scale\": 2",
+       "materials.m.clearcoat_normal_scale: needs 'clearcoat_normal_texture'"},
+      {"\"clearcoat\": 1, \"clearcoat_texture\": \"over.exr\"",
+       "materials.m.clearcoat_texture: texel (1, 0) of 'over.exr' is 2 in channel 1, outside [0, 1]"},
+      {"\"clearcoat\": 1, \"clearcoat_texture\": \"missing.png\"", "materials.m.clearcoat_texture"},
+      {"\"clearcoat\": \"high\"", "materials.m.clearcoat: expected a number"},
+      {"\"sheen_color\": [1.2, 0, 0]", "materials.m.sheen_color: exceeds 1 in a channel"},
+      {"\"sheen_color\": [0.5, -1, 0]", "materials.m.sheen_color: negative colour"},
+      {"\"sheen_color\": [0.5, 0.5]", "materials.m.sheen_color"},
+      {"\"sheen_roughness\": 0.5", "materials.m.sheen_roughness: needs a non-zero 'sheen_color'"},
+      {"\"sheen_color\": [0, 0, 0], \"sheen_color_texture\": \"layer.exr\"",
+       "materials.m.sheen_color_texture: needs a non-zero 'sheen_color' (black is no sheen)"},
+      {"\"sheen_color\": [1, 1, 1], \"sheen_roughness\": 1.01", "materials.m.sheen_roughness: must be in [0, 1]"},
+      {"\"clearcoat_weight\": 1", "materials.m.clearcoat_weight: unknown field"},
+  };
+  for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
+    vf_scene *b = load_material(dir, bad[i].members, detail, sizeof detail, &code);
+    CHECK(b == NULL);
+    CHECK_INT_EQ(code, strstr(bad[i].members, "missing") ? VF_ENOENT : VF_ESCENE);
+    vf_scene_destroy(b);
+    if (strstr(detail, bad[i].message) == NULL) CHECK_FAIL_("{%s}: '%s' lacks '%s'", bad[i].members, detail, bad[i].message);
+  }
+  /* The lobe materials have no layers: a coat there is an unknown field. */
+  snprintf(path, sizeof path, "%s/lobes.json", dir);
+  write_all(path, "{\"camera\": {\"position\": [0, 0, 5], \"target\": [0, 0, 0], \"fov\": 40},\n"
+                  " \"materials\": {\"m\": {\"diffuse\": [0.5, 0.5, 0.5], \"clearcoat\": 1}},\n"
+                  " \"shapes\": [{\"type\": \"sphere\", \"center\": [0, 0, 0], \"radius\": 1, \"material\": \"m\","
+                  " \"emission\": [1, 1, 1]}]}\n");
+  vf_scene *b = NULL;
+  int err = vf_scene_load(path, &b);
+  CHECK_INT_EQ(err, VF_ESCENE);
+  CHECK_STR_CONTAINS(vf_error_detail(err), "materials.m.clearcoat: unknown field");
+  vf_scene_destroy(b);
+  remove_tree(dir);
+}
+
 int main(void) {
+  RUN(test_json_clearcoat_and_sheen_fields);
   RUN(test_background_replaced_after_load);
   RUN(test_many_materials_load_in_n_log_n);
   RUN(test_every_builtin_loads_with_sane_bounds);
