@@ -7,6 +7,9 @@ void vf_camera_init(vf_camera *cam, const vf_camera_desc *desc, int width, int h
   cam->forward = vf_normalize(desc->forward);
   cam->right = vf_normalize(vf_cross(cam->forward, desc->up));
   cam->up = vf_cross(cam->right, cam->forward);
+  /* A mirrored image: the same rays, the raster's x reversed (ray generation and the
+   * projection onto the raster both read right). */
+  if (desc->mirror) cam->right = vf_neg(cam->right);
   cam->width = width;
   cam->height = height;
   if (desc->view_width > 0.0f) {

@@ -102,7 +102,7 @@ static int parse_projection(const parse_ctx *c, const cJSON *cam, const vf_vec3 
 
 static int parse_camera(const parse_ctx *c, const cJSON *cam) {
   static const char *const fields[] = {"type", "position", "target", "forward", "up", "fov", "width",
-                                       "resolution", "aperture", "focus_distance", NULL};
+                                       "resolution", "aperture", "focus_distance", "mirror", NULL};
   vf_scene *s = c->scene;
   vf_camera_desc d = {.aperture = 0.0f, .focus_distance = 0.0f, .view_width = 0.0f};
   vf_vec3 target, forward, up = vf_vec3_make(0.0f, 1.0f, 0.0f);
@@ -128,6 +128,10 @@ static int parse_camera(const parse_ctx *c, const cJSON *cam) {
   if (!(vf_length(up_orth) > 1e-4f * vf_length(up)) || !vf_scene_unit(up_orth, &d.up))
     return vf_scene_fail(c, VF_ESCENE, "camera.up", "zero or parallel to the viewing direction");
   if ((err = parse_projection(c, cam, has_target ? &target : NULL, &d)) < 0) return err;
+  const cJSON *mirror = cJSON_GetObjectItemCaseSensitive(cam, "mirror");
+  if (mirror != NULL && !cJSON_IsBool(mirror))
+    return vf_scene_fail(c, VF_ESCENE, "camera.mirror", "expected true or false, found %s", vf_scene_kind(mirror));
+  d.mirror = cJSON_IsTrue(mirror);
   const cJSON *res;
   int has_resolution = vf_scene_member(c, cam, "camera", "resolution", OPTIONAL, &res);
   if (has_resolution) {

@@ -94,9 +94,10 @@ int mts_sensor(mts_ctx *c, vf_xml_node *s) {
   if ((err = film(c, s, cam, &aspect)) < 0 || (err = mts_transform(c, s, "to_world", &m)) < 0) return err;
   /* Camera space: +z looks forward, +y is up in the image. */
   vf_vec3 forward = mts_apply_vector(&m, 0, 0, 1), up = mts_apply_vector(&m, 0, 1, 0);
-  if (vf_affine_det(&m) <= 0 &&
-      (err = mts_note(c, s, "to_world mirrors the image (negative determinant): vcmfarm renders it unmirrored")) < 0)
-    return err;
+  /* A mirroring to_world (negative determinant) keeps Mitsuba's mapping of camera space
+   * (+x to the image's left) and so mirrors the image: the image's right is -to_world (1, 0, 0),
+   * which is up x forward where forward x up would be. */
+  if (vf_affine_det(&m) < 0 && !cJSON_AddBoolToObject(cam, "mirror", 1)) return oom();
   if ((err = add(cam, "position", mts_vec3_json(mts_apply_point(&m, 0, 0, 0)))) < 0 ||
       (err = add(cam, "forward", mts_vec3_json(forward))) < 0 || (err = add(cam, "up", mts_vec3_json(up))) < 0)
     return err;

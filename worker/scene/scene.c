@@ -225,6 +225,7 @@ void vf_scene_hash(vf_scene *s) {
     h_tag(&h, "orthographic");
     h_f32(&h, s->camera.view_width);
   }
+  if (s->camera.mirror) h_tag(&h, "mirrored image"); /* likewise */
   h_tag(&h, "materials");
   h_u32(&h, (uint32_t)s->num_materials);
   for (int i = 0; i < s->num_materials; i++) {

@@ -30,6 +30,7 @@ typedef struct {
   float aperture;       /* thin lens: radius of the lens, >= 0; 0 is a pinhole */
   float focus_distance; /* thin lens: distance along forward of the plane in focus, > 0 when aperture > 0 */
   float view_width;     /* > 0: orthographic, the view's width in scene units; 0: perspective */
+  int mirror;           /* 1: the image mirrored left to right, its right along up x forward (else forward x up) */
 } vf_camera_desc;
 
 typedef enum { VF_SHAPE_MESH, VF_SHAPE_SPHERE } vf_shape_kind;

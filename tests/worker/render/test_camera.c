@@ -22,7 +22,7 @@ enum { W = 160, H = 120 };
 /* A camera looking along (0.2, -0.3, -1) from (0.5, 1, 4): no axis is a coordinate axis. */
 static vf_camera camera_with_lens(float aperture, float focus_distance) {
   vf_camera_desc d = {vf_vec3_make(0.5f, 1.0f, 4.0f), vf_normalize(vf_vec3_make(0.2f, -0.3f, -1.0f)),
-                      vf_vec3_make(0, 1, 0), 50.0f, aperture, focus_distance, 0.0f};
+                      vf_vec3_make(0, 1, 0), 50.0f, aperture, focus_distance, 0.0f, 0};
   vf_vec3 up = vf_sub(d.up, vf_scale(d.forward, vf_dot(d.up, d.forward)));
   d.up = vf_normalize(up);
   vf_camera cam;
@@ -204,7 +204,7 @@ static void test_lens_fields_are_validated(void) {
 static const float VIEW_WIDTH = 2.5f;
 static vf_camera orthographic_camera(void) {
   vf_camera_desc d = {vf_vec3_make(0.5f, 1.0f, 4.0f), vf_normalize(vf_vec3_make(0.2f, -0.3f, -1.0f)),
-                      vf_vec3_make(0, 1, 0), 0.0f, 0.0f, 0.0f, VIEW_WIDTH};
+                      vf_vec3_make(0, 1, 0), 0.0f, 0.0f, 0.0f, VIEW_WIDTH, 0};
   d.up = vf_normalize(vf_sub(d.up, vf_scale(d.forward, vf_dot(d.up, d.forward))));
   vf_camera cam;
   vf_camera_init(&cam, &d, W, H);
@@ -324,6 +324,48 @@ static void test_orthographic_fields_are_validated(void) {
   vf_scene_destroy(s);
 }
 
+/* A mirrored camera (vf_camera_desc.mirror) sees through raster (x, y) what the plain one
+ * sees through (W - x, y), for a pinhole, a lens and an orthographic view alike, and its
+ * rays and raster still invert each other (light tracing projects where the camera looks). */
+static void test_mirrored_camera_reverses_the_raster_x(void) {
+  vf_rng rng = vf_rng_for_path(9, 0, 0, VF_STREAM_TEST);
+  vf_camera_desc d = {vf_vec3_make(0.5f, 1.0f, 4.0f), vf_normalize(vf_vec3_make(0.2f, -0.3f, -1.0f)),
+                      vf_vec3_make(0, 1, 0), 50.0f, 0.2f, 3.0f, 0.0f, 0};
+  d.up = vf_normalize(vf_sub(d.up, vf_scale(d.forward, vf_dot(d.up, d.forward))));
+  for (int kind = 0; kind < 2; kind++) {
+    if (kind == 1) d.vertical_fov_degrees = 0.0f, d.aperture = 0.0f, d.focus_distance = 0.0f, d.view_width = VIEW_WIDTH;
+    vf_camera plain, mirrored;
+    d.mirror = 0;
+    vf_camera_init(&plain, &d, W, H);
+    d.mirror = 1;
+    vf_camera_init(&mirrored, &d, W, H);
+    CHECK_NEAR(vf_dot(mirrored.up, plain.up), 1.0, 1e-6);
+    CHECK_NEAR(vf_dot(mirrored.right, plain.right), -1.0, 1e-6);
+    double max_dir = 0.0, max_dev = 0.0;
+    for (int i = 0; i < 500; i++) {
+      float x = vf_rng_float(&rng) * W, y = vf_rng_float(&rng) * H, depth = 0.5f + 6.0f * vf_rng_float(&rng);
+      vf_vec3 o = mirrored.position, dir = mirrored.forward;
+      if (kind == 0) {
+        dir = vf_camera_direction(&mirrored, x, y);
+        max_dir = fmax(max_dir, vf_length(vf_sub(dir, vf_camera_direction(&plain, (float)W - x, y))));
+      } else {
+        o = vf_camera_view_point(&mirrored, x, y);
+        max_dir = fmax(max_dir, vf_length(vf_sub(o, vf_camera_view_point(&plain, (float)W - x, y))));
+      }
+      vf_vec3 p = vf_add(o, vf_scale(dir, depth / vf_dot(dir, mirrored.forward)));
+      vf_camera_link link;
+      if (vf_camera_link_point(&mirrored, mirrored.position, p, &link))
+        max_dev = fmax(max_dev, fmax(fabs(link.x - x), fabs(link.y - y)));
+      else if (x > 0.01f && y > 0.01f && x < W - 0.01f && y < H - 0.01f)
+        max_dev = INFINITY;
+    }
+    printf("  %s: max difference from the plain camera at W - x %.2e, raster round trip %.2e px\n",
+           kind ? "orthographic" : "pinhole", max_dir, max_dev);
+    CHECK(max_dir < 1e-5);
+    CHECK(max_dev < 2e-3);
+  }
+}
+
 int main(void) {
   RUN(test_rays_and_raster_invert_each_other);
   RUN(test_points_behind_the_lens_are_off_the_image);
@@ -334,5 +376,6 @@ int main(void) {
   RUN(test_orthographic_rays_and_links_invert_each_other);
   RUN(test_orthographic_density_integrates_to_the_pixel_count);
   RUN(test_orthographic_fields_are_validated);
+  RUN(test_mirrored_camera_reverses_the_raster_x);
   return check_finish();
 }

@@ -84,6 +84,64 @@ static void test_perspective_from_lookat_fov_along_x_and_max_depth(void) {
   vf_scene_destroy(s);
 }
 
+/* Mean images of render_iterations (camera + light image, RGB averaged). */
+typedef struct {
+  int width, height, n;
+  double *sum;
+} image_sum;
+static void add_image(void *ctx, int i, const float *cam, const float *light) {
+  image_sum *a = ctx;
+  (void)i;
+  for (int p = 0; p < a->width * a->height; p++)
+    a->sum[p] += (cam[3 * p] + cam[3 * p + 1] + cam[3 * p + 2] + light[3 * p] + light[3 * p + 1] + light[3 * p + 2]) / 3.0;
+  a->n++;
+}
+
+/* The sensor whose to_world mirrors (mirrored.xml, <scale x="-1"/> before the lookat):
+ * the same position, view and up as the plain one, the image reversed left to right as
+ * Mitsuba's mapping of camera space makes it (+x to the image's left, so the lamp at world
+ * -x lands on the right), by camera rays (pt) and by light tracing's projection (lt) alike. */
+static void test_mirroring_sensor_mirrors_the_image(void) {
+  vf_scene *plain = load(DIR "mirrored.xml", "plain"), *mirrored = load(DIR "mirrored.xml", "mirrored");
+  if (plain == NULL || mirrored == NULL) goto done;
+  CHECK_INT_EQ(plain->camera.mirror, 0);
+  CHECK_INT_EQ(mirrored->camera.mirror, 1);
+  CHECK_VEC(mirrored->camera.position, 0, 0, 5, 1e-6);
+  CHECK_VEC(mirrored->camera.forward, 0, 0, -1, 1e-6);
+  CHECK_VEC(mirrored->camera.up, 0, 1, 0, 1e-6);
+  CHECK(mirrored->notes == NULL || strstr(mirrored->notes, "mirror") == NULL); /* rendered as it is: no note */
+  CHECK(memcmp(plain->hash, mirrored->hash, 32) != 0);
+  enum { W = 32, H = 16 };
+  double left[3], right[3];
+  const vf_algorithm algorithms[3] = {VF_ALGO_PT, VF_ALGO_PT, VF_ALGO_LT};
+  for (int k = 0; k < 3; k++) {
+    vf_scene *s = k == 0 ? plain : mirrored;
+    vf_settings st = s->settings;
+    st.algorithm = algorithms[k];
+    st.sampler = VF_SAMPLER_INDEPENDENT;
+    st.seed = 5 + (uint64_t)k;
+    static double sum[W * H];
+    memset(sum, 0, sizeof sum);
+    image_sum a = {W, H, 0, sum};
+    CHECK_INT_EQ(st.width, W);
+    vf_vcm_stats stats = {0};
+    CHECK_INT_EQ(render_iterations(s, &st, 2, 0, 16, add_image, &a, &stats), VF_OK);
+    left[k] = right[k] = 0;
+    for (int y = 0; y < H; y++)
+      for (int x = 0; x < W; x++) *(x < W / 2 ? &left[k] : &right[k]) += sum[y * W + x] / a.n;
+  }
+  /* The lamp, 1 x 1 at distance 5 under a 60-degree fov across 32 pixels, covers about
+   * (32 / (2 tan 30 deg 5))^2 = 30 pixels of radiance 1. */
+  CHECK(left[0] > 20 && left[0] < 40 && right[0] == 0);
+  for (int k = 1; k < 3; k++) {
+    CHECK(right[k] > 20 && right[k] < 40 && left[k] == 0);
+    CHECK_NEAR(right[k], left[0], 0.05 * left[0]);
+  }
+done:
+  vf_scene_destroy(plain);
+  vf_scene_destroy(mirrored);
+}
+
 static void test_thinlens_and_orthographic_sensors_by_id_and_index(void) {
   vf_scene *s = load(DIR "camera.xml", "lens");
   if (s) {
@@ -788,6 +846,7 @@ static void test_farm_job_loads_what_a_local_render_loads(void) {
 int main(void) {
   RUN(test_perspective_from_lookat_fov_along_x_and_max_depth);
   RUN(test_thinlens_and_orthographic_sensors_by_id_and_index);
+  RUN(test_mirroring_sensor_mirrors_the_image);
   RUN(test_fov_axis_x_y_diagonal_smaller_larger_and_focal_length);
   RUN(test_shapes_and_transforms_composed_in_order);
   RUN(test_every_bsdf_parameter);
