@@ -3,6 +3,7 @@
 #include "mitsuba_bsdf.h"
 
 #include "../../common/error.h"
+#include "texture.h"
 
 #include <errno.h>
 #include <math.h>
@@ -169,6 +170,46 @@ static int roughness(mts_ctx *c, vf_xml_node *b, cJSON *m) {
   return add_number(m, "roughness", sqrt(alpha));
 }
 
+/* A conductor's textured eta or k: vcmfarm's conductors take one eta and one k per
+ * material, so a bitmap is rendered as the mean of its texels (as Mitsuba reads them: 8-bit
+ * texels decoded from sRGB unless raw, EXR as stored), noted; another texture is refused. */
+static int ior_bitmap(mts_ctx *c, vf_xml_node *t, const char *name, vf_vec3 *value) {
+  cJSON *o;
+  int err = mts_bitmap(c, t, 0, &o);
+  if (err < 0) return err;
+  if (err == 0) {
+    const char *type = vf_xml_attr(t, "type");
+    return mts_fail(t, "a textured %s must be a bitmap, not '%s'", name, type ? type : "?");
+  }
+  const char *file = cJSON_GetObjectItemCaseSensitive(o, "file")->valuestring;
+  char path[8192];
+  snprintf(path, sizeof path, "%s%s%s", file[0] == '/' ? "" : c->dir, file[0] == '/' ? "" : "/", file);
+  int raw;
+  vf_texture tex;
+  memset(&tex, 0, sizeof tex);
+  if ((err = mts_bool(c, t, "raw", 0, &raw)) < 0 || (err = vf_texture_read(path, file, &tex)) < 0) {
+    cJSON_Delete(o);
+    return err == VF_ENOMEM ? err : mts_fail(t, "cannot read '%s' as an image", file);
+  }
+  double sum[3] = {0, 0, 0};
+  size_t n = (size_t)tex.width * tex.height;
+  int colour = tex.channels >= 3 ? 3 : 1;
+  for (size_t i = 0; i < n; i++)
+    for (int k = 0; k < 3; k++) {
+      size_t at = i * (size_t)tex.channels + (size_t)(colour == 3 ? k : 0);
+      double v = tex.is_float ? ((const float *)tex.texels)[at] : ((const uint8_t *)tex.texels)[at] / 255.0;
+      if (!tex.is_float && !raw) v = v <= 0.04045 ? v / 12.92 : pow((v + 0.055) / 1.055, 2.4);
+      sum[k] += v;
+    }
+  vf_texture_release(&tex);
+  cJSON_Delete(o);
+  *value = vf_vec3_make((float)(sum[0] / n), (float)(sum[1] / n), (float)(sum[2] / n));
+  if (!(value->x >= 0 && value->y >= 0 && value->z >= 0 && isfinite(value->x + value->y + value->z)))
+    return mts_fail(t, "the mean of '%s' is not a finite non-negative %s", file, name);
+  return mts_note(c, t, "a textured %s is rendered as the mean of its texels (%g, %g, %g): vcmfarm's conductors take "
+                        "one eta and one k per material", name, value->x, value->y, value->z);
+}
+
 static int conductor(mts_ctx *c, vf_xml_node *b, cJSON *m, int rough) {
   const char *material;
   vf_vec3 eta, k, tint;
@@ -176,9 +217,9 @@ static int conductor(mts_ctx *c, vf_xml_node *b, cJSON *m, int rough) {
   int err, has_eta, has_k;
   if ((err = mts_string(c, b, "material", "none", &material)) < 0) return err;
   if ((has_eta = mts_color(c, b, "eta", vf_vec3_splat(0), &eta, &t)) < 0) return has_eta;
-  if (has_eta == 2) return mts_fail(t, "a textured eta is not supported");
+  if (has_eta == 2 && (err = ior_bitmap(c, t, "eta", &eta)) < 0) return err;
   if ((has_k = mts_color(c, b, "k", vf_vec3_splat(1), &k, &t)) < 0) return has_k;
-  if (has_k == 2) return mts_fail(t, "a textured k is not supported");
+  if (has_k == 2 && (err = ior_bitmap(c, t, "k", &k)) < 0) return err;
   if ((err = mts_color(c, b, "specular_reflectance", vf_vec3_splat(1), &tint, &t)) < 0) return err;
   if (err == 2) return mts_fail(t, "a textured specular_reflectance is not supported");
   if ((err = add_vec3(m, "conductor", tint)) < 0) return err;

@@ -142,6 +142,89 @@ done:
   vf_scene_destroy(mirrored);
 }
 
+/* A conductor's bitmap eta and k (Mitsuba's textured conductor): eta_texture and k_texture
+ * of a unit eta and k, the texels being the values; rendered on a cube (a mesh with texture
+ * coordinates), a uniform gold map gives the
+ * image of gold's constants (and not of Fresnel 1), within statistical error; a texture
+ * that is not a bitmap is refused naming the element. */
+static void test_textured_conductor_eta_and_k(void) {
+  static const float gold_eta[3] = {0.1431189557f, 0.3749570432f, 1.4424785571f},
+                     gold_k[3] = {3.9831604247f, 2.3857207478f, 1.6032152899f};
+  vf_image eta = {0}, k = {0};
+  CHECK_INT_EQ(vf_image_alloc(&eta, 2, 2), VF_OK);
+  CHECK_INT_EQ(vf_image_alloc(&k, 2, 2), VF_OK);
+  for (int p = 0; p < 4; p++)
+    for (int ch = 0; ch < 3; ch++) eta.rgb[3 * p + ch] = gold_eta[ch], k.rgb[3 * p + ch] = gold_k[ch];
+  char path[1024];
+  snprintf(path, sizeof path, "%s", write_temp("gold_eta.exr", ""));
+  CHECK_INT_EQ(vf_image_write_exr(path, &eta), VF_OK);
+  snprintf(path, sizeof path, "%s", write_temp("gold_k.exr", ""));
+  CHECK_INT_EQ(vf_image_write_exr(path, &k), VF_OK);
+  vf_image_destroy(&eta);
+  vf_image_destroy(&k);
+  static const char head[] =
+      "<scene version=\"3.0.0\"><integrator type=\"path\"><integer name=\"max_depth\" value=\"3\"/></integrator>"
+      "<sensor type=\"perspective\"><float name=\"fov\" value=\"40\"/><transform name=\"to_world\">"
+      "<lookat origin=\"0, 0, 4\" target=\"0, 0, 0\" up=\"0, 1, 0\"/></transform>"
+      "<film type=\"hdrfilm\"><integer name=\"width\" value=\"24\"/><integer name=\"height\" value=\"24\"/></film></sensor>"
+      "<emitter type=\"constant\"><rgb name=\"radiance\" value=\"1\"/></emitter>"
+      "<shape type=\"cube\"><transform name=\"to_world\"><rotate x=\"1\" y=\"1\" angle=\"35\"/></transform>"
+      "<bsdf type=\"roughconductor\"><float name=\"alpha\" value=\"0.2\"/>"
+      "<string name=\"distribution\" value=\"ggx\"/>";
+  char xml[2][2048];
+  snprintf(xml[0], sizeof xml[0], "%s<texture type=\"bitmap\" name=\"eta\"><string name=\"filename\" value=\"gold_eta.exr\"/>"
+           "</texture><texture type=\"bitmap\" name=\"k\"><string name=\"filename\" value=\"gold_k.exr\"/></texture>"
+           "</bsdf></shape></scene>", head);
+  snprintf(xml[1], sizeof xml[1], "%s<string name=\"material\" value=\"Au\"/></bsdf></shape></scene>", head);
+  vf_scene *textured = load(write_temp("textured_gold.xml", xml[0]), NULL);
+  vf_scene *constant = load(write_temp("constant_gold.xml", xml[1]), NULL);
+  enum { BLOCKS = 4, NB = BLOCKS * BLOCKS, ITERATIONS = 64 };
+  double mean[3][NB], se[3][NB];
+  if (textured == NULL || constant == NULL) goto done;
+  {
+    const vf_material *m = &textured->materials[textured->shapes[0].material];
+    CHECK_VEC(m->conductor_eta, gold_eta[0], gold_eta[1], gold_eta[2], 1e-6);
+    CHECK_VEC(m->conductor_k, gold_k[0], gold_k[1], gold_k[2], 1e-6);
+    CHECK_STR_CONTAINS(textured->notes, "<texture type=\"bitmap\" name=\"eta\">");
+    CHECK_STR_CONTAINS(textured->notes, "a textured eta is rendered as the mean of its texels (0.143119, 0.374957, 1.44248)");
+    CHECK_STR_CONTAINS(textured->notes, "a textured k is rendered as the mean of its texels");
+    vf_scene *fresnel_one = NULL;
+    for (int v = 0; v < 3; v++) {
+      vf_scene *s = v == 0 ? textured : constant;
+      if (v == 2) { /* the same cube without the Fresnel factor: the comparison can tell */
+        fresnel_one = load(write_temp("fresnel_one.xml", xml[1]), NULL);
+        if (fresnel_one == NULL) break;
+        vf_material *f = &fresnel_one->materials[fresnel_one->shapes[0].material];
+        f->conductor_eta = f->conductor_k = vf_vec3_splat(0.0f);
+        s = fresnel_one;
+      }
+      vf_settings st = s->settings;
+      st.algorithm = VF_ALGO_PT;
+      st.sampler = VF_SAMPLER_INDEPENDENT;
+      st.seed = 31 + (uint64_t)v;
+      vf_vcm_stats stats = {0};
+      CHECK_INT_EQ(render_block_estimates(s, &st, 2, ITERATIONS, BLOCKS, mean[v], se[v], &stats), VF_OK);
+    }
+    CHECK(blocks_agree("gold", "textured", "constant", mean[0], se[0], mean[1], se[1], NB));
+    if (fresnel_one != NULL)
+      CHECK(!blocks_agree("gold", "textured", "Fresnel 1", mean[0], se[0], mean[2], se[2], NB));
+    vf_scene_destroy(fresnel_one);
+  }
+  /* Not a bitmap: refused naming the element. */
+  {
+    char bad[2048];
+    snprintf(bad, sizeof bad, "%s<texture type=\"checkerboard\" name=\"k\"/><rgb name=\"eta\" value=\"0.2\"/>"
+             "</bsdf></shape></scene>", head);
+    vf_scene *b = NULL;
+    int err = vf_scene_load(write_temp("bad_k.xml", bad), &b);
+    CHECK(err < 0 && b == NULL);
+    CHECK_STR_CONTAINS(vf_error_detail(err), "<texture type=\"checkerboard\" name=\"k\">: a textured k must be a bitmap");
+  }
+done:
+  vf_scene_destroy(textured);
+  vf_scene_destroy(constant);
+}
+
 static void test_thinlens_and_orthographic_sensors_by_id_and_index(void) {
   vf_scene *s = load(DIR "camera.xml", "lens");
   if (s) {
@@ -847,6 +930,7 @@ int main(void) {
   RUN(test_perspective_from_lookat_fov_along_x_and_max_depth);
   RUN(test_thinlens_and_orthographic_sensors_by_id_and_index);
   RUN(test_mirroring_sensor_mirrors_the_image);
+  RUN(test_textured_conductor_eta_and_k);
   RUN(test_fov_axis_x_y_diagonal_smaller_larger_and_focal_length);
   RUN(test_shapes_and_transforms_composed_in_order);
   RUN(test_every_bsdf_parameter);
