@@ -600,12 +600,20 @@ static double dim_level(const vf_scene *s, double *power) {
   return area_sum > 0.0 ? weighted / area_sum / M_PI : INFINITY;
 }
 
-int vf_scene_note_dim_emitters(const parse_ctx *c) {
-  const vf_scene *s = c->scene;
+int vf_scene_dim_emitters(const parse_ctx *c, int may_light) {
+  vf_scene *s = c->scene;
   if (s->num_point_lights > 0 || s->num_directional_lights > 0 || !vf_is_zero(s->background) || s->envmap.width > 0)
     return VF_OK;
   double power, level = dim_level(s, &power);
   if (!(power > 0.0) || level >= VF_DIM_LIGHT_LEVEL) return VF_OK;
+  if (may_light) { /* as glTF viewers show such files: under a sky, the emitters showing too */
+    s->background = vf_vec3_splat(1.0f);
+    return vf_scene_note(c, "dim emitters: the only lights are emissive surfaces of %.3g W in all, whose light reaches "
+                            "the other surfaces at a radiance of about %.2g on a white surface (below %g): the scene "
+                            "is also lit by a white background of radiance 1 (a \"lights\" field, or --background 0, "
+                            "keeps the emitters alone)",
+                         power, level, VF_DIM_LIGHT_LEVEL);
+  }
   return vf_scene_note(c, "warning: the image will be dark: the only lights are emissive surfaces of %.3g W in all, "
                           "whose light reaches the other surfaces at a radiance of about %.2g on a white surface "
                           "(below %g; most of it leaves the scene or meets nothing): the emitters show, little else "

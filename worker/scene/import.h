@@ -44,9 +44,11 @@ int vf_scene_default_camera(const parse_ctx *c);
  * non-emitting surfaces from its emitters (one-sided, occlusion ignored), below which an
  * imported scene lit by nothing else is warned of. */
 #define VF_DIM_LIGHT_LEVEL 0.01
-/* For an imported scene lit by its emissive surfaces alone: a warning (a note) when they
- * give it almost no light (VF_DIM_LIGHT_LEVEL), saying why the image will be dark. */
-int vf_scene_note_dim_emitters(const parse_ctx *c);
+/* For an imported scene lit by its emissive surfaces alone that give it almost no light
+ * (VF_DIM_LIGHT_LEVEL): with may_light (the JSON scene has no "lights" field) a white
+ * background of radiance 1 besides them, else a warning saying why the image will be dark;
+ * a note either way. */
+int vf_scene_dim_emitters(const parse_ctx *c, int may_light);
 /* For an imported scene with no light at all: a white background, with a note. */
 int vf_scene_default_light(const parse_ctx *c);
 

@@ -701,8 +701,9 @@ static int parse_import(const parse_ctx *c, const cJSON *root, int camera_wanted
   if (err < 0) return err;
   if (s->num_shapes == 0) return vf_scene_fail(c, VF_ESCENE, NULL, "the scene has no shape (its files have no triangles)");
   if (camera_wanted && (err = vf_scene_default_camera(c)) < 0) return err;
-  if (!has_light(s) && !cJSON_HasObjectItem(root, "lights") && (err = vf_scene_default_light(c)) < 0) return err;
-  return vf_scene_note_dim_emitters(c);
+  int lights_given = cJSON_HasObjectItem(root, "lights");
+  if (!has_light(s) && !lights_given && (err = vf_scene_default_light(c)) < 0) return err;
+  return vf_scene_dim_emitters(c, !lights_given);
 }
 
 /* "notes": what the file a scene was converted from asks for that the conversion

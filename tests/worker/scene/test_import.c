@@ -658,12 +658,14 @@ static void test_default_camera_faces_the_largest_projected_side(void) {
   vf_scene_destroy(s);
 }
 
-/* Emitters alone that give almost no light: warned of, with the figures; bright ones not.
- * A 10 x 10 white floor and a 0.1 x 0.1 label of radiance 1 facing it from a height of 1:
- * 0.0314 W, of which the floor gets about 0.0314 / 2 over 100 m^2, a radiance of about
- * 5e-5 on white. Radiance 1e5 lights it; so does radiance 1 turned away from the floor
- * not (its light meets nothing): the warning says so. */
-static void test_dim_emitters_are_warned_of(void) {
+/* Emitters alone that give almost no light: the scene is also lit by the default white
+ * background, with the figures in a note; bright ones not. A 10 x 10 white floor and a
+ * 0.1 x 0.1 label of radiance 1 facing it from a height of 1: 0.0314 W, of which the floor
+ * gets about 0.0314 / 2 over 100 m^2, a radiance of about 5e-5 on white. Radiance 1e5
+ * lights it; so does radiance 1 turned away from the floor not (its light meets nothing).
+ * A JSON scene importing the file with a "lights" field (even empty) keeps its lights
+ * alone and is warned that the image will be dark. */
+static void test_dim_emitters_get_the_default_background(void) {
   const char obj[] = "mtllib dim.mtl\nv -5 0 -5\nv -5 0 5\nv 5 0 5\nv 5 0 -5\nv 0 1 0\nv 0.1 1 0\nv 0.1 1 -0.1\nv 0 1 -0.1\n"
                      "usemtl white\nf 1 2 3 4\nusemtl label\nf 5 8 7 6\n"; /* the label faces down */
   const char dim[] = "newmtl white\nKd 0.8 0.8 0.8\nnewmtl label\nKd 0 0 0\nKe 1 1 1\n";
@@ -672,20 +674,31 @@ static void test_dim_emitters_are_warned_of(void) {
   write_file("dim.mtl", dim, sizeof dim - 1);
   vf_scene *s = load("dim.obj", NULL);
   if (s != NULL) {
+    CHECK_STR_CONTAINS(s->notes, "dim emitters: the only lights are emissive surfaces of 0.0314 W in all, whose light "
+                                 "reaches the other surfaces at a radiance of about");
+    CHECK_STR_CONTAINS(s->notes, "the scene is also lit by a white background of radiance 1");
+    CHECK(strstr(s->notes, "no light:") == NULL && strstr(s->notes, "will be dark") == NULL);
+    CHECK_VEC(s->background, 1, 1, 1, 0);
+  }
+  vf_scene_destroy(s);
+  const char keep[] = "{\"import\": [{\"file\": \"dim.obj\"}], \"lights\": []}";
+  write_file("dim_keep.json", keep, sizeof keep - 1);
+  s = load("dim_keep.json", NULL);
+  if (s != NULL) {
     CHECK_STR_CONTAINS(s->notes, "warning: the image will be dark: the only lights are emissive surfaces of 0.0314 W "
                                  "in all, whose light reaches the other surfaces at a radiance of about");
-    CHECK(strstr(s->notes, "no light:") == NULL); /* it has a light: no default background */
+    CHECK(vf_is_zero(s->background));
   }
   vf_scene_destroy(s);
   write_file("dim.mtl", bright, sizeof bright - 1);
   s = load("dim.obj", NULL);
-  if (s != NULL) CHECK(s->notes == NULL || strstr(s->notes, "dark") == NULL);
+  if (s != NULL) CHECK((s->notes == NULL || strstr(s->notes, "dim emitters") == NULL) && vf_is_zero(s->background));
   vf_scene_destroy(s);
   const char away[] = "mtllib dim.mtl\nv -5 0 -5\nv -5 0 5\nv 5 0 5\nv 5 0 -5\nv 0 1 0\nv 0.1 1 0\nv 0.1 1 -0.1\nv 0 1 -0.1\n"
                       "usemtl white\nf 1 2 3 4\nusemtl label\nf 5 6 7 8\n"; /* the bright label faces up */
   write_file("away.obj", away, sizeof away - 1);
   s = load("away.obj", NULL);
-  if (s != NULL) CHECK_STR_CONTAINS(s->notes, "warning: the image will be dark");
+  if (s != NULL) CHECK_STR_CONTAINS(s->notes, "dim emitters");
   vf_scene_destroy(s);
 }
 
@@ -993,7 +1006,7 @@ int main(void) {
   RUN(test_obj_huge_face_is_a_fan_or_refused);
   RUN(test_bad_normals_repaired_and_degenerate_faces_skipped_with_notes);
   RUN(test_default_camera_faces_the_largest_projected_side);
-  RUN(test_dim_emitters_are_warned_of);
+  RUN(test_dim_emitters_get_the_default_background);
   RUN(test_assimp_testmodels_glTF2_load_with_notes);
   if (getenv("KEEP_TMP") == NULL) remove_dir();
   else printf("kept %s\n", dir);
