@@ -303,7 +303,7 @@ static int light_start(vf_vcm *v, int thread, light_chunk *c, light_lane *lane, 
     o->normal = normal;
     o->light = l->is_finite ? (int32_t)(l - v->lights->lights) : -1;
     int area = l->kind == VF_LIGHT_AREA_MESH || l->kind == VF_LIGHT_AREA_SPHERE;
-    o->radiance = area ? emitted : l->radiance;
+    o->radiance = area ? (coat.weight > 0.0f ? emitted : vf_scale(energy, 1.0f / cos_light)) : l->radiance;
     o->coat = coat;
   }
   int medium = v->has_media ? v->light_medium[l - v->lights->lights] : -1;
