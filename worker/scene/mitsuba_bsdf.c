@@ -304,8 +304,27 @@ static int principled(mts_ctx *c, vf_xml_node *b, cJSON *m) {
   if (!(metallic >= 0 && metallic <= 1 && rough >= 0 && rough <= 1))
     return mts_fail(b, "metallic and roughness must lie in [0, 1]");
   if ((err = add_number(m, "metallic", metallic)) < 0 || (err = add_number(m, "roughness", rough)) < 0) return err;
-  return mts_note(c, b, "principled is approximated by glTF's metallic-roughness model of its base_color, metallic "
-                  "and roughness");
+  if ((err = mts_note(c, b, "principled is approximated by glTF's metallic-roughness model of its base_color, metallic "
+                      "and roughness")) < 0)
+    return err;
+  /* Its clear coat: Disney's secondary lobe, 0.25 clearcoat F_c D G of a GTR1 distribution
+   * of alpha lerp(0.1, 0.001, clearcoat_gloss), added over the rest; KHR_materials_clearcoat's
+   * coat (the JSON's clearcoat fields) of that weight and a GGX of that alpha is the nearest
+   * vcmfarm has, a layer that also dims what lies beneath by its Fresnel. */
+  double coat, gloss;
+  vf_xml_node *t;
+  vf_vec3 coat_rgb;
+  if ((err = mts_color(c, b, "clearcoat", vf_vec3_splat(0), &coat_rgb, &t)) < 0) return err;
+  if (err == 2) return mts_fail(t, "a textured clearcoat is not supported");
+  coat = coat_rgb.x;
+  if ((err = mts_float(c, b, "clearcoat_gloss", 0, &gloss)) < 0) return err;
+  if (!(coat >= 0 && coat <= 1 && gloss >= 0 && gloss <= 1)) return mts_fail(b, "clearcoat and clearcoat_gloss must lie in [0, 1]");
+  if (!(coat > 0)) return VF_OK;
+  double alpha = 0.1 + (0.001 - 0.1) * gloss;
+  if ((err = add_number(m, "clearcoat", 0.25 * coat)) < 0 || (err = add_number(m, "clearcoat_roughness", sqrt(alpha))) < 0)
+    return err;
+  return mts_note(c, b, "principled's clear coat (GTR1, weight 0.25 clearcoat, added over the rest) is approximated by "
+                  "KHR_materials_clearcoat's GGX coat of weight %g and alpha %g, layered over the rest", 0.25 * coat, alpha);
 }
 
 /* The lobes of b (and of the BSDF it wraps) into m. */
