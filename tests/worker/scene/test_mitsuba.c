@@ -962,6 +962,21 @@ static void test_farm_job_loads_what_a_local_render_loads(void) {
   vf_scene_destroy(job);
   vf_scene_destroy(local);
   vf_blob_table_clear(&files);
+  free(text);
+  /* The mirrored sensor travels as the camera's "mirror" of the JSON a job carries. */
+  text = NULL;
+  job = NULL;
+  local = load(DIR "mirrored.xml", "mirrored");
+  CHECK_INT_EQ(vf_scene_model_text(DIR "mirrored.xml", "mirrored", &text, &len), VF_OK);
+  err = text ? vf_job_scene_collect(DIR "mirrored.xml", text, len, stage, &files, &job) : VF_ESCENE;
+  CHECK_INT_EQ(err, VF_OK);
+  if (local && job) {
+    CHECK(memcmp(local->hash, job->hash, sizeof local->hash) == 0);
+    CHECK_INT_EQ(job->camera.mirror, 1);
+  }
+  vf_scene_destroy(job);
+  vf_scene_destroy(local);
+  vf_blob_table_clear(&files);
   vf_file_remove_tree(stage);
   free(text);
 }
