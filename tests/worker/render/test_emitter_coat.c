@@ -6,15 +6,22 @@
  *    camera's rays hit them; the emitters' own points are projected onto the camera by
  *    light tracing alone) exactly, light tracing within its statistical error;
  * 2. path tracing, light tracing, BPT, VCM and upg agree per image block on a room lit by
- *    a coated quad of bent vertex normals (the coat's normal is the shading normal) and a
- *    coated sphere, both seen directly at grazing angles, so every way an emitter's value
+ *    a coated quad of bent vertex normals (the coat's normal is the shading normal) whose
+ *    coat's weight and normal vary by textures, and a coated sphere, both seen directly at grazing angles, so every way an emitter's value
  *    enters a path (emission hits, light samples, emitted light sub-paths, their projection
  *    onto the camera, upg's joins to the light) carries the coat the same way.
+ * 3. a coated quad whose vertex normals all lean 70 degrees from its facet (the coat's
+ *    normal n_s): every way the light reports its radiance (a camera ray's hit, a light
+ *    sample from a receiver, an emitted direction) carries 1 - c F_c(|n_s . w|) exactly,
+ *    and pt and light tracing read it through the camera.
  * The scenes are JSON written here, with the JSON material fields of the coat. */
 #include "check.h"
 #include "render_util.h"
 
+#include "common/image.h"
+#include "common/rng.h"
 #include "common/settings.h"
+#include "worker/render/light.h"
 #include "worker/scene/load.h"
 
 #include <math.h>
@@ -169,7 +176,8 @@ enum { RES = 64 };
 enum { BLOCKS = 8, NB = BLOCKS * BLOCKS, ITERATIONS = 128 };
 
 /* A floor and a back wall, lit only by a coated quad whose vertex normals lean away from
- * its facet by up to 40 degrees (rough coat 0.3 over a dark plastic) and a coated sphere
+ * its facet by up to 40 degrees (rough coat 0.3 over a dark plastic, its weight from 0.1
+ * to 1 and its normal tilted by up to 35 degrees by 4 x 4 textures) and a coated sphere
  * (smooth coat 0.7), both seen from the camera at angles from straight on to grazing. */
 static const char ROOM[] =
     "{\"camera\": {\"position\": [0, 1.2, 4], \"target\": [0, 0.35, 0], \"fov\": 50},\n"
@@ -177,7 +185,8 @@ static const char ROOM[] =
     "  \"floor\": {\"diffuse\": [0.6, 0.6, 0.6]},\n"
     "  \"wall\": {\"base_color\": [0.5, 0.6, 0.4], \"metallic\": 0, \"roughness\": 0.6},\n"
     "  \"lamp\": {\"base_color\": [0.2, 0.15, 0.1], \"metallic\": 0, \"roughness\": 0.5, \"clearcoat\": 1,"
-    " \"clearcoat_roughness\": 0.3},\n"
+    " \"clearcoat_roughness\": 0.3, \"clearcoat_texture\": {\"file\": \"coat.exr\", \"wrap\": \"clamp\"},"
+    " \"clearcoat_normal_texture\": {\"file\": \"coat_normal.exr\", \"wrap\": \"clamp\"}},\n"
     "  \"globe\": {\"base_color\": [0.1, 0.1, 0.2], \"metallic\": 0, \"roughness\": 0.6, \"clearcoat\": 0.7}},\n"
     " \"shapes\": [\n"
     "  {\"type\": \"mesh\", \"material\": \"floor\", \"positions\": [-3, 0, -3,  -3, 0, 2,  3, 0, 2,  3, 0, -3],"
@@ -187,12 +196,36 @@ static const char ROOM[] =
     "  {\"type\": \"mesh\", \"material\": \"lamp\", \"emission\": [4, 3, 2],"
     " \"positions\": [-1.6, 0.05, -1.2,  -0.4, 0.05, -0.6,  -0.4, 1.0, -0.6,  -1.6, 1.0, -1.2],"
     " \"normals\": [-0.7, 0.3, 1,  0.3, -0.1, 1,  0.2, 0.4, 0.8,  -0.9, 0.2, 0.7],"
+    " \"uvs\": [0, 1,  1, 1,  1, 0,  0, 0],"
     " \"indices\": [0, 1, 2, 0, 2, 3]},\n"
     "  {\"type\": \"sphere\", \"material\": \"globe\", \"center\": [0.9, 0.45, -0.5], \"radius\": 0.4,"
     " \"emission\": [2, 2.5, 4]}\n"
     " ]}\n";
 
+/* The lamp's coat textures: R of coat.exr the weight, 0.1 to 1 over its 4 x 4 texels; the
+ * texels of coat_normal.exr tangent-space normals tilted by up to 35 degrees. */
+static void write_coat_textures(void) {
+  vf_image w = {0}, n = {0};
+  CHECK_INT_EQ(vf_image_alloc(&w, 4, 4), VF_OK);
+  CHECK_INT_EQ(vf_image_alloc(&n, 4, 4), VF_OK);
+  for (int i = 0; i < 16; i++) {
+    w.rgb[3 * i] = w.rgb[3 * i + 1] = w.rgb[3 * i + 2] = 0.1f + 0.06f * (float)((i * 7) % 16);
+    double tilt = 35.0 * M_PI / 180.0 * ((i * 5) % 16) / 15.0, phi = 2.0 * M_PI * i / 16.0;
+    n.rgb[3 * i] = (float)(0.5 + 0.5 * sin(tilt) * cos(phi));
+    n.rgb[3 * i + 1] = (float)(0.5 + 0.5 * sin(tilt) * sin(phi));
+    n.rgb[3 * i + 2] = (float)(0.5 + 0.5 * cos(tilt));
+  }
+  char p[256];
+  snprintf(p, sizeof p, "%s/coat.exr", dir);
+  CHECK_INT_EQ(vf_image_write_exr(p, &w), VF_OK);
+  snprintf(p, sizeof p, "%s/coat_normal.exr", dir);
+  CHECK_INT_EQ(vf_image_write_exr(p, &n), VF_OK);
+  vf_image_destroy(&w);
+  vf_image_destroy(&n);
+}
+
 static void test_algorithms_agree_on_coated_emitters(void) {
+  write_coat_textures();
   vf_scene *scene = load_json("room.json", ROOM);
   if (scene == NULL) return;
   const vf_algorithm all[] = {VF_ALGO_PT, VF_ALGO_LT, VF_ALGO_BPT, VF_ALGO_VCM, VF_ALGO_UPG};
@@ -215,8 +248,98 @@ static void test_algorithms_agree_on_coated_emitters(void) {
   vf_scene_destroy(scene);
 }
 
+/* ---- 3. the coat's normal is the shading normal ---- */
+
+static const double BENT_DEGREES = 70.0;
+
+/* The quad [-1, 1]^2 at z = 0 facing +z, its vertex normals (sin 70, 0, cos 70), coat 1
+ * over a black base, emitting (3, 2, 1); seen by an orthographic camera along -z. */
+static vf_scene *bent_scene(void) {
+  static char json[2048];
+  double a = BENT_DEGREES * M_PI / 180.0;
+  snprintf(json, sizeof json,
+           "{\"camera\": {\"type\": \"orthographic\", \"position\": [0, 0, 5], \"forward\": [0, 0, -1], \"width\": 4,"
+           " \"resolution\": [64, 64]},\n"
+           " \"materials\": {\"coat\": {\"base_color\": [0, 0, 0], \"metallic\": 0, \"roughness\": 1, \"specular\": 0,"
+           " \"clearcoat\": 1}},\n"
+           " \"shapes\": [{\"type\": \"mesh\", \"material\": \"coat\", \"emission\": [3, 2, 1],"
+           " \"positions\": [-1, -1, 0,  1, -1, 0,  1, 1, 0,  -1, 1, 0], \"indices\": [0, 1, 2, 0, 2, 3],"
+           " \"normals\": [%.9g, 0, %.9g,  %.9g, 0, %.9g,  %.9g, 0, %.9g,  %.9g, 0, %.9g]}]}\n",
+           sin(a), cos(a), sin(a), cos(a), sin(a), cos(a), sin(a), cos(a));
+  return load_json("bent.json", json);
+}
+
+static double bent_transmit(vf_vec3 w) {
+  double a = BENT_DEGREES * M_PI / 180.0, c = fabs(sin(a) * w.x + cos(a) * w.z) / vf_length(w);
+  return 1.0 - coat_fresnel(fmin(c, 1.0));
+}
+
+static void test_light_samples_and_emission_see_the_shading_normals_coat(void) {
+  vf_scene *scene = bent_scene();
+  if (scene == NULL) return;
+  vf_lights *ls = NULL;
+  CHECK_INT_EQ(vf_lights_create(scene, &ls), VF_OK);
+  if (ls == NULL) goto done;
+  const vf_light *l = &ls->lights[0];
+  CHECK(l->coated && l->kind == VF_LIGHT_AREA_MESH);
+  vf_rng rng = vf_rng_for_path(3, 0, 0, VF_STREAM_TEST);
+  double worst_illuminate = 0.0, worst_emit = 0.0, lowest = 1.0;
+  for (int i = 0; i < 2000; i++) {
+    /* receivers all over the half-space in front, down to grazing */
+    vf_vec3 receiver = vf_vec3_make(6.0f * vf_rng_float(&rng) - 3.0f, 6.0f * vf_rng_float(&rng) - 3.0f,
+                                    0.05f + 3.0f * vf_rng_float(&rng));
+    float rnd[4] = {vf_rng_float(&rng), vf_rng_float(&rng), vf_rng_float(&rng), vf_rng_float(&rng)};
+    vf_vec3 d, lp, ln, p, emitted_dir, n;
+    float dist, pdf_w, emission_pdf, cos_light, direct_pdf;
+    vf_vec3 le = vf_light_illuminate(ls, l, receiver, rnd, &d, &dist, &lp, &ln, &pdf_w, &emission_pdf, &cos_light);
+    if (!vf_is_zero(le)) {
+      double t = bent_transmit(vf_neg(d));
+      lowest = fmin(lowest, t);
+      worst_illuminate = fmax(worst_illuminate, fabs(le.x / 3.0 - t));
+      worst_illuminate = fmax(worst_illuminate, fabs(le.z / 1.0 - t));
+    }
+    vf_vec3 e = vf_light_emit(ls, l, rnd, &p, &emitted_dir, &n, &emission_pdf, &direct_pdf, &cos_light);
+    worst_emit = fmax(worst_emit, fabs(e.y / 2.0 - cos_light * bent_transmit(emitted_dir)));
+  }
+  /* Errors relative to the emission: single precision's rounding of the direction and of
+   * 1 - F_c, not relative to the transmittance, which falls to ~0 at grazing. */
+  printf("  largest error per unit emission: light samples %.2e, emission %.2e (transmittance down to %.3f)\n",
+         worst_illuminate, worst_emit, lowest);
+  CHECK(worst_illuminate < 2e-6 && worst_emit < 2e-6);
+  CHECK(lowest < 0.5); /* the directions reached the coat's grazing angles */
+done:
+  vf_lights_destroy(ls);
+  vf_scene_destroy(scene);
+}
+
+/* Seen along -z through the shading normal 70 degrees off: 1 - F_c(cos 70) = 0.8415 of the
+ * emission (the facet's normal would give 0.96), by pt exactly and by light tracing. */
+static void test_camera_sees_the_shading_normals_coat(void) {
+  vf_scene *scene = bent_scene();
+  if (scene == NULL) return;
+  double expected = 1.0 - coat_fresnel(cos(BENT_DEGREES * M_PI / 180.0));
+  for (int a = 0; a < 2; a++) {
+    vf_settings st = scene->settings;
+    st.algorithm = a ? VF_ALGO_LT : VF_ALGO_PT;
+    st.max_path_length = 1;
+    st.sampler = VF_SAMPLER_INDEPENDENT;
+    st.seed = 500 + (uint64_t)a;
+    double mean[4], se[4];
+    vf_vcm_stats stats = {0};
+    /* 2 x 2 blocks of the 64 x 64 image: the quad fills the middle 32 x 32, a quarter of each */
+    CHECK_INT_EQ(render_block_estimates(scene, &st, 2, a ? 32 : 4, 2, mean, se, &stats), VF_OK);
+    for (int b = 0; b < 4; b++) { /* the blocks' RGB mean: a quarter covered by (3 + 2 + 1) / 3 */
+      double want = 0.25 * 2.0 * expected;
+      if (a == 0) CHECK_NEAR(mean[b], want, 1e-5 * want);
+      else CHECK_NEAR(mean[b], want, 5.0 * se[b] + 1e-6);
+    }
+    printf("  %s: block mean %.6f +- %.6f, expected %.6f\n", a ? "lt" : "pt", mean[0], se[0], 0.25 * 2.0 * expected);
+  }
+  vf_scene_destroy(scene);
+}
+
 static void remove_dir(void) {
-  static const char *const files[] = {"angles.json", "room.json"};
+  static const char *const files[] = {"angles.json", "room.json", "coat.exr", "coat_normal.exr", "bent.json"};
   char p[256];
   for (size_t i = 0; i < sizeof files / sizeof files[0]; i++) {
     snprintf(p, sizeof p, "%s/%s", dir, files[i]);
@@ -232,6 +355,8 @@ int main(void) {
   RUN(test_light_tracing_projects_the_coated_emission);
   RUN(test_bpt_and_vcm_read_the_same_value);
   RUN(test_algorithms_agree_on_coated_emitters);
+  RUN(test_light_samples_and_emission_see_the_shading_normals_coat);
+  RUN(test_camera_sees_the_shading_normals_coat);
   remove_dir();
   return check_finish();
 }
