@@ -66,4 +66,6 @@ step 09-render-farm bash tests/bench/render_farm.sh "$build" 40 5 2
 step 10-farm-simulated "$build/tests/bench_farm" simulate "$build/vcmfarm" 64 0 512
 step 11-farm-simulated-paced "$build/tests/bench_farm" simulate "$build/vcmfarm" 64 1000 512
 step 12-scene-files bash tests/bench/scene_files.sh "$build"
+# Loading large scenes (issue 40): the showcase and a generated Mitsuba scene.
+step 13-scene-load bash tests/bench/scene_load.sh "$build" 3
 echo "figures.sh: every figure is in $out/; plots in $([ "$size" = quick ] && echo "$build/bench/quick/plots" || echo docs/plots)"
