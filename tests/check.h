@@ -11,6 +11,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 
 static int check_failed_in_case;
 static int check_cases_passed, check_cases_failed;
@@ -54,14 +55,22 @@ static inline int check_selected(const char *name) {
   return only == NULL || only[0] == '\0' || strstr(name, only) != NULL;
 }
 
+/* Wall-clock seconds, for the time each case prints (what a slow test spends, by case). */
+static inline double check_seconds(void) {
+  struct timespec t;
+  clock_gettime(CLOCK_MONOTONIC, &t);
+  return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
+}
+
 #define RUN(fn)                                                                                    \
   if (check_selected(#fn)) do {                                                                    \
     check_case_name = #fn;                                                                         \
     check_failed_in_case = 0;                                                                      \
+    double check_start_ = check_seconds();                                                         \
     fn();                                                                                          \
     if (check_failed_in_case) check_cases_failed++;                                                \
     else check_cases_passed++;                                                                     \
-    printf("%s %s\n", check_failed_in_case ? "FAIL" : "ok  ", #fn);                                \
+    printf("%s %s (%.1f s)\n", check_failed_in_case ? "FAIL" : "ok  ", #fn, check_seconds() - check_start_); \
     fflush(stdout);                                                                                \
   } while (0)
 

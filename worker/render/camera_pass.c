@@ -18,6 +18,21 @@
  * neighbouring grid cells at their first hit, so a tile reuses what its previous rows
  * brought into cache. */
 
+/* pt's camera sub-paths play no Russian roulette before vertex PT_ROULETTE_VERTEX. The
+ * roulette of every other sub-path (continuation = the BSDF's largest albedo, SmallVCM's
+ * rule) is part of the densities both directions of the MIS recursion use, so it must be
+ * a property of the vertex alone. pt weighs a path by forward densities only (its light
+ * sample against its BSDF sample, each taken where the vertex is), so there the
+ * continuation may depend on the depth: the first bounces, whose future carries most of
+ * the indirect light, always go on, and the variance that a roulette there adds to all of
+ * it is saved for the cost of longer paths (docs/BENCHMARKS.md, "Error slopes"). The
+ * density of the BSDF sample, which the weights read, carries the continuation it was
+ * drawn with. */
+#define PT_ROULETTE_VERTEX 3
+static inline void pt_roulette(const vf_vcm *v, vf_bsdf *b, const path_state *s) {
+  if (v->merge.mis.pt && s->path_length < PT_ROULETTE_VERTEX) b->continuation = 1.0f;
+}
+
 /* s = 0: radiance of a light found by the camera sub-path, weighted. */
 static vf_vec3 emission_weighted(const vf_vcm *v, const vf_light *l, const path_state *s, vf_vec3 radiance,
                                  float direct_pdf, float emission_pdf) {
@@ -320,6 +335,7 @@ static int camera_medium_vertex(vf_vcm *v, int thread, camera_lane *lane, const 
   vf_bsdf b;
   bsdf_in_medium(v, &b, hit->primitive, hit->position, vf_neg(s->direction));
   b.radiance = 1;
+  pt_roulette(v, &b, s);
   uint32_t vertex_dims = vf_dim_vertex(VF_DIM_CAMERA_VERTEX, s->path_length);
   if (v->t.light_sample) light_sample(v, thread, hit, &b, s, &lane->sampler, vertex_dims, lane->tile_pixel);
   if (v->t.connection) connect_to_light_path(v, thread, lane, hit, &b);
@@ -393,6 +409,7 @@ static int camera_bounce(vf_vcm *v, int thread, camera_lane *lane, const vf_hit 
   vf_bsdf b;
   if (!bsdf_at(v, &b, hit, vf_neg(s->direction))) return 0;
   b.radiance = 1; /* its connections and merges evaluate radiance's BTDF (worker/render/bsdf.h) */
+  pt_roulette(v, &b, s);
   uint32_t vertex_dims = vf_dim_vertex(VF_DIM_CAMERA_VERTEX, s->path_length);
   if (!b.is_delta) {
     if (v->t.light_sample) light_sample(v, thread, hit, &b, s, &lane->sampler, vertex_dims, tile_pixel);

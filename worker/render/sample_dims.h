@@ -11,7 +11,8 @@
  *     +1  BSDF sampling: the direction (2D)
  *     +2  next-event estimation: which light (1D)
  *     +3  BSDF sampling: which lobe (1D)
- *     +4  Russian roulette (1D)
+ *     +4  Russian roulette (1D), where the sampler does not serve +1; where it does, the
+ *         roulette is folded into +1's first coordinate (worker/render/wavefront.c)
  * Light sub-path:
  *   pair 0            which light (1D)
  *   pair 1            emission: the point on the light (area lights; 2D)

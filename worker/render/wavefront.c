@@ -3,6 +3,8 @@
 
 #include "segment.h"
 
+#include <math.h>
+
 static int intersect(vf_vcm *v, int thread, vf_vec3 org, vf_vec3 dir, vf_hit *hit) {
   v->stats[thread].rays++;
   return vf_accel_intersect(v->accel, org, dir, INFINITY, hit);
@@ -37,15 +39,33 @@ uint32_t vf_wavefront_trace(vf_vcm *v, int thread, path_state *const *states, ui
 
 int vf_wavefront_scatter(vf_vcm *v, const vf_bsdf *b, const vf_hit *hit, path_state *s, vf_sampler *sampler,
                          uint32_t vertex_dims, int radiance) {
-  /* Russian roulette. Every number is below 1, so a continuation of 1 (most materials of
-   * bright albedo) always survives, and its number is drawn only where drawing moves the
-   * later ones (vf_sampler_in_order). */
-  uint32_t roulette = vf_dim_at(vertex_dims, VF_DIM_ROULETTE);
-  if ((b->continuation < 1.0f || vf_sampler_in_order(sampler, roulette)) &&
-      vf_sampler_1d(sampler, roulette) >= b->continuation)
-    return 0;
+  /* Russian roulette, then the direction. Where the sampler serves the direction's pair
+   * (sobol, vertices up to VF_SOBOL_BOUNCES) the roulette is folded into it: the pair's
+   * first coordinate u decides (the path goes on if u < continuation) and, rescaled to
+   * u / continuation, is the direction's first number. The decision and the direction
+   * are then one 2D point of a well-stratified sequence: a number of its own would be
+   * stratified alone, and its interaction with the direction (the path's whole future
+   * hangs on both) would converge at Monte Carlo's rate (docs/BENCHMARKS.md, "Error
+   * slopes"). The rescaled u is uniform on [0, 1) given survival, so the densities are
+   * those of the unfolded order. Every number is below 1, so a continuation of 1 always
+   * survives. Elsewhere (the independent sampler, deeper vertices) the roulette takes a
+   * number of its own first, drawn only where drawing moves the later ones
+   * (vf_sampler_in_order). */
   float rnd[3];
-  vf_sampler_2d(sampler, vf_dim_at(vertex_dims, VF_DIM_BSDF_DIRECTION), rnd);
+  uint32_t direction_pair = vf_dim_at(vertex_dims, VF_DIM_BSDF_DIRECTION);
+  if (!vf_sampler_in_order(sampler, direction_pair)) {
+    vf_sampler_2d(sampler, direction_pair, rnd);
+    if (b->continuation < 1.0f) {
+      if (!(rnd[0] < b->continuation)) return 0;
+      rnd[0] = fminf(rnd[0] / b->continuation, 0x1.fffffep-1f);
+    }
+  } else {
+    uint32_t roulette = vf_dim_at(vertex_dims, VF_DIM_ROULETTE);
+    if ((b->continuation < 1.0f || vf_sampler_in_order(sampler, roulette)) &&
+        vf_sampler_1d(sampler, roulette) >= b->continuation)
+      return 0;
+    vf_sampler_2d(sampler, direction_pair, rnd);
+  }
   rnd[2] = vf_sampler_1d(sampler, vf_dim_at(vertex_dims, VF_DIM_BSDF_LOBE));
   vf_vec3 gen;
   float pdf, rev_pdf, cos_gen;
