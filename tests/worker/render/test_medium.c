@@ -363,9 +363,19 @@ static void agree_on_builtin(const char *name, vf_sampler_kind sampler, int with
   CHECK_INT_EQ(vf_scene_load(name, &scene), VF_OK);
   if (scene == NULL) return;
   CHECK(scene->num_media > 0);
-  scene->settings.width = scene->settings.height = 64;
   scene->settings.max_path_length = 8;
+#ifdef __SANITIZE_ADDRESS__
+  /* tests/sanitize.sh looks for memory errors and non-finite samples: a sixteenth of the
+   * work, whose agreement is printed, not checked (its few batches estimate heavy-tailed
+   * blocks' spread too unsteadily for a 5-sigma rule). The release run checks it. */
+  scene->settings.width = scene->settings.height = 32;
+  enum { BLOCKS = 8, NB = BLOCKS * BLOCKS, N = 64 };
+#define MEDIA_AGREE(x) ((void)(x))
+#else
+  scene->settings.width = scene->settings.height = 64;
   enum { BLOCKS = 8, NB = BLOCKS * BLOCKS, N = 256 };
+#define MEDIA_AGREE(x) CHECK(x)
+#endif
   const vf_algorithm algorithms[] = {VF_ALGO_PT, VF_ALGO_BPT, VF_ALGO_VCM, VF_ALGO_LT};
   int count = with_lt ? 4 : 3;
   double mean[4][NB], se[4][NB];
@@ -384,8 +394,9 @@ static void agree_on_builtin(const char *name, vf_sampler_kind sampler, int with
   snprintf(what, sizeof what, "%s %s", name, vf_sampler_name(sampler));
   for (int a = 0; a < count; a++)
     for (int b = a + 1; b < count; b++)
-      CHECK(blocks_agree(what, vf_algorithm_name(algorithms[a]), vf_algorithm_name(algorithms[b]), mean[a], se[a],
-                         mean[b], se[b], NB));
+      MEDIA_AGREE(blocks_agree(what, vf_algorithm_name(algorithms[a]), vf_algorithm_name(algorithms[b]), mean[a],
+                               se[a], mean[b], se[b], NB));
+#undef MEDIA_AGREE
   vf_scene_destroy(scene);
 }
 
