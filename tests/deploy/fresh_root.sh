@@ -50,9 +50,14 @@ main() {
     sleep 0.5
     umount -R "$root/sys" 2>/dev/null || umount -R -l "$root/sys" 2>/dev/null || true
     umount "$root/proc" 2>/dev/null || umount -l "$root/proc" 2>/dev/null || true
+    # And whatever a test mounted inside (`ip netns add` bind-mounts /run/netns), deepest
+    # first: a mount left there would stop the next run's removal of the copy.
+    findmnt -rn -o TARGET | grep "^$root/" | sort -r | while read -r m; do
+      umount "$m" 2>/dev/null || umount -l "$m" 2>/dev/null || true
+    done
   }
   if [ -d "$root" ]; then
-    mountpoint -q "$root/proc" || mountpoint -q "$root/sys" && unmount
+    unmount
     rm -rf --one-file-system "$root"
   fi
   cp -a "$work/pristine" "$root"
