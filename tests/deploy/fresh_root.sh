@@ -52,7 +52,8 @@ main() {
     umount "$root/proc" 2>/dev/null || umount -l "$root/proc" 2>/dev/null || true
     # And whatever a test mounted inside (`ip netns add` bind-mounts /run/netns), deepest
     # first: a mount left there would stop the next run's removal of the copy.
-    findmnt -rn -o TARGET | grep "^$root/" | sort -r | while read -r m; do
+    local m
+    for m in $(findmnt -rn -o TARGET | grep "^$root/" | sort -r || true); do
       umount "$m" 2>/dev/null || umount -l "$m" 2>/dev/null || true
     done
   }
