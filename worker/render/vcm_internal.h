@@ -308,6 +308,18 @@ struct vf_vcm {
   uint32_t num_vertices;     /* in all chunks */
   vf_grid_segment *segments; /* the chunks' vertex lists, for the grid: num_chunks of them */
   unsigned chunk_shift;      /* the grid names vertex i of chunk c (c << chunk_shift) + i */
+  /* The lists the grid is built over and names its vertices in, by the same rule: the
+   * chunks (and chunk_shift) of this iteration, or in the single-stage iteration the lists
+   * the iteration before kept (single_stage.h). */
+  light_chunk *grid_chunks;
+  unsigned grid_shift;
+  /* --vcm-stages 1 (single_stage.h): the fused pass with merging; per camera tile, the
+   * light vertices of iteration kept_iteration for the next iteration's grid, owned
+   * (num_chunks of them), valid when kept_valid. */
+  int single_stage;
+  light_chunk *kept;
+  int kept_valid;
+  uint64_t kept_iteration;
   merge_point *merge_points; /* the grid's sorted points as merge points (borrowed), or NULL */
   photon *photons;
   float *photon_c_vc; /* a radius per pixel: each photon's c_vc, owned (photon_capacity); else NULL */

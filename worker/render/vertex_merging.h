@@ -72,7 +72,8 @@ static inline vf_mis vf_photon_mis(const vf_vcm *v, uint32_t k) {
   return (vf_mis){ph->d_vcm, v->photon_c_vc ? v->photon_c_vc[k] : 0.0f, ph->vm};
 }
 
-/* Phase 2: the range-search grid over every chunk's light vertices where they are, and
+/* Phase 2: the range-search grid over the light vertices of vf_vcm.grid_chunks (the
+ * iteration's chunks; single_stage.h: the lists of the iteration before) where they are, and
  * what vertex merging reads of them copied into the grid's order (vf_vcm.merge_points,
  * vf_vcm.photons). Only when vertex merging is on and there are light vertices. Returns
  * VF_OK, VF_ENOMEM, or the grid's error. */
