@@ -76,11 +76,9 @@ static int build_grid(vf_vcm *v) {
   if (shift >= 32 || ((uint64_t)v->num_chunks << shift) > (uint64_t)UINT32_MAX + 1)
     return vf_error_set(VF_ENOMEM, "%llu light vertices in one iteration: more than the grid can index",
                         (unsigned long long)total);
-  v->grid_chunks = v->kept;
-  v->grid_shift = shift;
   v->num_vertices = (uint32_t)total;
   int err = VF_OK;
-  if (total > 0) err = vf_vertex_merging_build_grid(v);
+  if (total > 0) err = vf_vertex_merging_build_grid(v, v->kept, shift);
   for (uint32_t c = 0; c < v->num_chunks; c++) {
     free(v->kept[c].vertices);
     v->kept[c] = (light_chunk){0};

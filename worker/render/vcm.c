@@ -113,9 +113,9 @@ int vf_vcm_iteration(vf_vcm *v, uint64_t iteration, float *camera_rgb, float *li
 
   double t1 = vf_seconds_now();
   /* 2. The range-search grid, only when vertex merging (vertex_merging.c, hashgrid.c). */
-  v->grid_chunks = v->chunks;
-  v->grid_shift = v->chunk_shift;
-  if (v->t.vertex_merging && v->num_vertices > 0 && (err = vf_vertex_merging_build_grid(v)) != VF_OK) return err;
+  if (v->t.vertex_merging && v->num_vertices > 0 &&
+      (err = vf_vertex_merging_build_grid(v, v->chunks, v->chunk_shift)) != VF_OK)
+    return err;
   if (v->t.vertex_merging && v->has_media && (err = vf_volume_merging_build(v)) != VF_OK) return err;
 
   double t2 = vf_seconds_now();

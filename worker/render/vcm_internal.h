@@ -308,10 +308,9 @@ struct vf_vcm {
   uint32_t num_vertices;     /* in all chunks */
   vf_grid_segment *segments; /* the chunks' vertex lists, for the grid: num_chunks of them */
   unsigned chunk_shift;      /* the grid names vertex i of chunk c (c << chunk_shift) + i */
-  /* The lists the grid is built over and names its vertices in, by the same rule: the
-   * chunks (and chunk_shift) of this iteration, or in the single-stage iteration the lists
-   * the iteration before kept (single_stage.h). */
-  light_chunk *grid_chunks;
+  /* The lists the grid was built over (vf_vertex_merging_build_grid), borrowed, and the
+   * shift of its names for them, as chunks and chunk_shift name this iteration's. */
+  const light_chunk *grid_chunks;
   unsigned grid_shift;
   /* --vcm-stages 1 (single_stage.h): the fused pass with merging; per camera tile, the
    * light vertices of iteration kept_iteration for the next iteration's grid, owned

@@ -65,7 +65,9 @@ static void gather_task(void *ctx, size_t task, int thread) {
   }
 }
 
-int vf_vertex_merging_build_grid(vf_vcm *v) {
+int vf_vertex_merging_build_grid(vf_vcm *v, const light_chunk *chunks, unsigned shift) {
+  v->grid_chunks = chunks;
+  v->grid_shift = shift;
   for (uint32_t c = 0; c < v->num_chunks; c++)
     v->segments[c] = (vf_grid_segment){v->grid_chunks[c].vertices, v->grid_chunks[c].num_vertices, c << v->grid_shift};
   int err = vf_hashgrid_build_segments(v->grid, v->segments, v->num_chunks, sizeof(light_vertex), v->grid_radius,
