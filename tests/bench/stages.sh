@@ -4,7 +4,9 @@
 # -n N` (2 threads), the two alternated run by run, ROUNDS rounds; medians. Time per
 # iteration: the render's own "after the first iteration" rate (steady: without the first,
 # whose single-stage run also traces the light sub-paths of the iteration before) and the
-# first iteration's seconds (all iterations' time less the steady ones'); and the render's
+# first iteration's seconds (all iterations' time less the steady ones'); the process's CPU
+# time (user + system, all threads) over N, which a shared host's load moves far less than
+# wall time (a single-stage run's includes its second light pass); and the render's
 # split of an iteration's time between light sub-paths, grid and camera sub-paths (ms, mean
 # over the run's iterations; single-stage: the light share of its fused pass, and the
 # first iteration's second light pass).
@@ -29,12 +31,14 @@ for r in $(seq "$rounds"); do
     first=$(awk -v t="$total" -v s="${steady:-0}" -v n="$n" 'BEGIN {print (s > 0 ? t - (n - 1) / s : t)}')
     phases=$(sed -n 's/^per iteration: light sub-paths \([0-9.]*\) ms, grid \([0-9.]*\) ms, camera sub-paths \([0-9.]*\) ms.*/\1 \2 \3/p' \
       "$tmp/err" "$tmp/out" | head -1)
-    echo "$s $rss ${steady:-nan} $first ${phases:-nan nan nan}" >>"$tmp/runs"
-    echo "  round $r, stages $s: $rss MiB, steady ${steady:-?} it/s, first iteration $first s, ms $phases" >&2
+    cpu=$(awk -F': ' -v n="$n" '/User time|System time/ {t += $2} END {print t / n}' "$tmp/err")
+    echo "$s $rss ${steady:-nan} $first ${phases:-nan nan nan} $cpu" >>"$tmp/runs"
+    echo "  round $r, stages $s: $rss MiB, steady ${steady:-?} it/s, first iteration $first s, ms $phases," \
+      "CPU $cpu s/it" >&2
   done
 done
-echo "| scene | size | stages | peak MiB | steady s/it | first iteration s | light / grid / camera ms | runs |"
-echo "|---|---|---|---|---|---|---|---|"
+echo "| scene | size | stages | peak MiB | steady s/it | first iteration s | CPU s/it | light / grid / camera ms | runs |"
+echo "|---|---|---|---|---|---|---|---|---|"
 for s in 2 1; do
   rss=$(awk -v s=$s '$1 == s {print $2}' "$tmp/runs" | median)
   spi=$(awk -v s=$s '$1 == s && $3 > 0 {print 1 / $3}' "$tmp/runs" | median)
@@ -42,6 +46,7 @@ for s in 2 1; do
   light=$(awk -v s=$s '$1 == s {print $5}' "$tmp/runs" | median)
   grid=$(awk -v s=$s '$1 == s {print $6}' "$tmp/runs" | median)
   camera=$(awk -v s=$s '$1 == s {print $7}' "$tmp/runs" | median)
-  printf "| %s | %s | %s | %s | %.2f | %.2f | %.0f / %.0f / %.0f | %s |\n" "$scene" "$size" "$s" "$rss" "${spi:-0}" \
-    "$first" "$light" "$grid" "$camera" "$rounds"
+  cpu=$(awk -v s=$s '$1 == s {print $8}' "$tmp/runs" | median)
+  printf "| %s | %s | %s | %s | %.2f | %.2f | %.2f | %.0f / %.0f / %.0f | %s |\n" "$scene" "$size" "$s" "$rss" \
+    "${spi:-0}" "$first" "$cpu" "$light" "$grid" "$camera" "$rounds"
 done

@@ -8,7 +8,8 @@
  *                        merging queries vertex_merging.c runs at the end of each tile
  *                        (through the fast path of merge_pipeline.c).
  * bpt runs 1 and 3 as one pass instead, fused_pass.c: each camera tile traces its own
- * pixels' light sub-paths, then its camera sub-paths.
+ * pixels' light sub-paths, then its camera sub-paths; single-stage vcm (single_stage.c)
+ * builds 2 over the light vertices the iteration before kept, then runs that pass.
  * Both passes trace with wavefront.h. Everything here is read and written by those files
  * only; nothing outside worker/ sees it. */
 #ifndef VF_VCM_INTERNAL_H
