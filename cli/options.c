@@ -66,6 +66,7 @@ int vf_cli_settings_option(vf_cli_settings *o, int c, const char *arg, int *err)
   case 'Q': o->sampler = arg; *err = VF_OK; return 1;
   case 'G': o->gather = arg; *err = VF_OK; return 1;
   case VF_CLI_OPT_RADIUS: o->radius = arg; *err = VF_OK; return 1;
+  case VF_CLI_OPT_VCM_STAGES: *err = vf_cli_int("--vcm-stages", arg, 1, 2, &o->vcm_stages); return 1;
   case 's': o->have_seed = 1; *err = vf_cli_u64("--seed", arg, &o->seed); return 1;
   case 'l': *err = vf_cli_int("--max-path-length", arg, 1, VF_MAX_PATH_LENGTH, &o->max_path_length); return 1;
   case 'r': *err = vf_cli_double("--radius-factor", arg, 1e-12, 1.0, &o->radius_factor); return 1;
@@ -90,6 +91,7 @@ int vf_cli_settings_apply(const vf_cli_settings *o, vf_settings *settings) {
   if (o->radius_factor > 0.0) settings->radius_factor = o->radius_factor;
   if (o->alpha > 0.0) settings->alpha = o->alpha;
   if (o->mis_beta > 0.0) settings->mis_beta = o->mis_beta;
+  if (o->vcm_stages > 0) settings->vcm_stages = (int)o->vcm_stages;
   if (o->have_resolution) {
     settings->width = o->width;
     settings->height = o->height;

@@ -57,6 +57,7 @@ int vf_cli_not_input(const char *output_option, const char *output, const char *
 enum {
   VF_CLI_OPT_BACKGROUND = 0x100, /* --background COLOR|FILE.exr: render, continue */
   VF_CLI_OPT_RADIUS,             /* --radius global|per-pixel: the settings options */
+  VF_CLI_OPT_VCM_STAGES,         /* --vcm-stages 1|2: the settings options */
 };
 
 #define VF_CLI_SETTINGS_OPTIONS                                                                              \
@@ -64,7 +65,8 @@ enum {
       {"max-path-length", required_argument, 0, 'l'}, {"radius-factor", required_argument, 0, 'r'},         \
       {"alpha", required_argument, 0, 'A'}, {"resolution", required_argument, 0, 'R'},                      \
       {"sampler", required_argument, 0, 'Q'}, {"mis-beta", required_argument, 0, 'B'},                     \
-      {"gather-from", required_argument, 0, 'G'}, {"radius", required_argument, 0, VF_CLI_OPT_RADIUS}
+      {"gather-from", required_argument, 0, 'G'}, {"radius", required_argument, 0, VF_CLI_OPT_RADIUS},                                                \
+      {"vcm-stages", required_argument, 0, VF_CLI_OPT_VCM_STAGES}
 #define VF_CLI_SETTINGS_SHORT "a:s:l:r:R:"
 #define VF_CLI_SETTINGS_HELP                                                                 \
   "  -a, --algorithm A        vcm (default), upg (vcm without merging's bias: unbiased\n"   \
@@ -83,7 +85,11 @@ enum {
   "      --sampler S          sobol (default: Owen-scrambled Sobol' over the iterations)\n" \
   "                           or independent (films of the two never merge)\n"            \
   "      --mis-beta B         the MIS heuristic's exponent in [1, 4]: 1 balance (default),\n" \
-  "                           2 and more power (films of different ones never merge)\n"
+  "                           2 and more power (films of different ones never merge)\n"   \
+  "      --vcm-stages 1|2     vcm: 2, trace and store all light sub-paths before the\n"    \
+  "                           camera sub-paths (default), or 1, one pass whose camera\n"  \
+  "                           sub-paths merge with the iteration before's light vertices\n" \
+  "                           (films of the two never merge)\n"
 
 typedef struct {
   const char *algorithm; /* borrowed from argv, or NULL */
@@ -94,6 +100,7 @@ typedef struct {
   int have_seed, have_resolution, width, height;
   long long max_path_length; /* <= 0: unset */
   double radius_factor, alpha, mis_beta; /* <= 0: unset */
+  long long vcm_stages; /* 0: unset */
 } vf_cli_settings;
 
 void vf_cli_settings_init(vf_cli_settings *o);

@@ -23,6 +23,7 @@ void vf_settings_default(vf_settings *s) {
   s->mis_beta = 1.0;
   s->gather = VF_GATHER_LIGHT;
   s->radius = VF_RADIUS_GLOBAL;
+  s->vcm_stages = 2;
 }
 
 const char *vf_sampler_name(vf_sampler_kind k) {
@@ -124,6 +125,11 @@ int vf_settings_validate(const vf_settings *s) {
                         "bpm, auto), not of %s", vf_algorithm_name(s->algorithm));
   if (!(s->mis_beta >= 1.0 && s->mis_beta <= VF_MAX_MIS_BETA))
     return vf_error_set(VF_EINVAL, "MIS beta %g is outside [1, %g]", s->mis_beta, VF_MAX_MIS_BETA);
+  if (s->vcm_stages != 1 && s->vcm_stages != 2)
+    return vf_error_set(VF_EINVAL, "vcm stages %d: 1 (single-stage) or 2 (two-stage)", s->vcm_stages);
+  if (s->vcm_stages == 1 && s->algorithm != VF_ALGO_VCM && s->algorithm != VF_ALGO_AUTO)
+    return vf_error_set(VF_EINVAL, "the single-stage iteration (vcm stages 1) is an option of vcm (and of auto when it "
+                        "chooses vcm), not of %s", vf_algorithm_name(s->algorithm));
   if (s->width < 1 || s->height < 1 || s->width > VF_MAX_IMAGE_SIDE || s->height > VF_MAX_IMAGE_SIDE ||
       (int64_t)s->width * s->height > (int64_t)1 << 28)
     return vf_error_set(VF_EINVAL, "resolution %dx%d is outside 1x1 .. 65536x65536 (at most 2^28 pixels)",
@@ -157,6 +163,7 @@ int vf_settings_format(const vf_settings *s, char *buf, size_t n) {
     w += snprintf(buf + w, n - (size_t)w, " gather=%s", vf_gather_name(s->gather));
   if (w >= 0 && (size_t)w < n && s->radius != VF_RADIUS_GLOBAL)
     w += snprintf(buf + w, n - (size_t)w, " radius=%s", vf_radius_mode_name(s->radius));
+  if (w >= 0 && (size_t)w < n && s->vcm_stages != 2) w += snprintf(buf + w, n - (size_t)w, " vcm_stages=%d", s->vcm_stages);
   if (w < 0 || (size_t)w >= n) return vf_error_set(VF_EINVAL, "settings text too long");
   return VF_OK;
 }
@@ -202,6 +209,10 @@ int vf_settings_parse(vf_settings *s, const char *text) {
     } else if (strcmp(key, "radius") == 0) {
       if (seen & 512 || vf_radius_mode_parse(value, &out.radius) != VF_OK) goto bad;
       seen |= 512;
+    } else if (strcmp(key, "vcm_stages") == 0) {
+      if (seen & 1024) goto bad;
+      out.vcm_stages = (int)strtol(value, &end, 10);
+      seen |= 1024;
     } else {
       return vf_error_set(VF_EINVAL, "settings: unknown key '%s'", key);
     }

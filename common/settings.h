@@ -58,6 +58,12 @@ typedef struct {
                          * (paper eq. 10; worker/render/mis.h) */
   vf_gather_side gather; /* upg only: the side it prefers to gather from (light by default) */
   vf_radius_mode radius; /* merging algorithms: one merge radius, or one per pixel */
+  int vcm_stages;        /* vcm: 2, the two-stage iteration (every light sub-path traced and
+                          * stored before any camera sub-path; the default), or 1, the
+                          * single-stage one of the tech. rep.'s sec. 6.2 (camera sub-paths
+                          * merge with the light vertices of the iteration before:
+                          * worker/render/single_stage.h). They are different estimators:
+                          * films of the two never merge. */
 } vf_settings;
 
 /* The power heuristic's largest exponent: weights are sums of products of density ratios
@@ -102,7 +108,7 @@ const char *vf_sampler_name(vf_sampler_kind k);
 int vf_sampler_parse(const char *name, vf_sampler_kind *out);
 
 /* Checks ranges (path length, radius factor > 0, 0 < alpha <= 1, resolution, 1 <= mis_beta
- * <= VF_MAX_MIS_BETA). */
+ * <= VF_MAX_MIS_BETA, vcm_stages 1 or 2 and 1 only for vcm or auto). */
 int vf_settings_validate(const vf_settings *s);
 
 /* Canonical text, e.g. "algorithm=vcm max_path_length=10 radius_factor=0.003 alpha=0.75
@@ -112,7 +118,8 @@ int vf_settings_validate(const vf_settings *s);
  * merges) as independent, while a sobol film never merges with one. The MIS exponent is
  * written (" mis_beta=2") only when it is not 1, for the same reason: every text before it
  * existed was rendered with the balance heuristic. upg's side (" gather=camera") likewise
- * only when it is not the light's, and the radius (" radius=per-pixel") only when not global. Numbers in their shortest text that reads back exactly
+ * only when it is not the light's, the radius (" radius=per-pixel") only when not global,
+ * and the stages (" vcm_stages=1") only when not 2. Numbers in their shortest text that reads back exactly
  * (vf_double_format), so parse(format(s)) == s. VF_EINVAL if it does not fit in n bytes.
  * Before protocol version 6 the numbers had 17 digits ("0.0030000000000000001"): films and
  * state files of then are brought to this form when read (vf_settings_canonicalize). */

@@ -55,6 +55,14 @@ check "radius per pixel renders" $?
 check "radius per pixel described" "$(grep -q "^merge radius: per pixel, from" "$tmp/stderr"; echo $?)"
 check "radius per pixel in the film's settings" "$("$vcmfarm" info "$tmp/pixel.exr" | grep -q "radius=per-pixel"; echo $?)"
 expect_refusal "films of one radius and of a radius per pixel do not merge" "radius=per-pixel" "$vcmfarm" merge -o "$tmp/out.exr" "$tmp/beta1.exr" "$tmp/pixel.exr"
+# Single-stage vcm: 1 or 2, an option of vcm (and auto), recorded in the film, described.
+expect_refusal "vcm stages out of range" "--vcm-stages" "$vcmfarm" render furnace --vcm-stages 3 -o "$tmp/out.exr"
+expect_refusal "single-stage without vcm" "option of vcm" "$vcmfarm" render furnace -a bpt --vcm-stages 1 -o "$tmp/out.exr"
+"$vcmfarm" render furnace -R 8x8 -n 1 -k 1 --vcm-stages 1 -v -o "$tmp/stage1.exr" 2>"$tmp/stderr"
+check "single-stage renders" $?
+check "single-stage described" "$(grep -q "^single-stage (--vcm-stages 1)" "$tmp/stderr"; echo $?)"
+check "single-stage in the film's settings" "$("$vcmfarm" info "$tmp/stage1.exr" | grep -q "vcm_stages=1"; echo $?)"
+expect_refusal "films of one and two stages do not merge" "vcm_stages=1" "$vcmfarm" merge -o "$tmp/out.exr" "$tmp/beta1.exr" "$tmp/stage1.exr"
 # upg: its side is an option of upg alone, named when wrong; its render counts its
 # gatherings; a film says what its estimated RMSE covers.
 expect_refusal "unknown gathering side" "unknown side 'eye'" "$vcmfarm" render furnace -a upg --gather-from eye -o "$tmp/out.exr"

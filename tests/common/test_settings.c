@@ -86,6 +86,39 @@ static void test_gather_side_and_new_algorithms(void) {
   CHECK(vf_algorithm_estimate_scope(VF_ALGO_AUTO) == VF_ESTIMATE_DEPENDS);
 }
 
+/* The stages of vcm: written only when single-stage (every text before it existed was
+ * two-stage), read back, refused twice, out of range, or for an algorithm other than vcm
+ * and auto. */
+static void test_vcm_stages(void) {
+  vf_settings s, back;
+  vf_settings_default(&s);
+  CHECK_INT_EQ(s.vcm_stages, 2);
+  char text[512];
+  CHECK_INT_EQ(vf_settings_format(&s, text, sizeof text), VF_OK);
+  CHECK(strstr(text, "vcm_stages") == NULL);
+  s.vcm_stages = 1;
+  CHECK_INT_EQ(vf_settings_format(&s, text, sizeof text), VF_OK);
+  CHECK_STR_CONTAINS(text, " vcm_stages=1");
+  CHECK_INT_EQ(vf_settings_parse(&back, text), VF_OK);
+  CHECK_INT_EQ(back.vcm_stages, 1);
+  const char *base = "algorithm=vcm max_path_length=10 radius_factor=0.003 alpha=0.75 seed=1 resolution=4x3";
+  const char *bad[] = {" vcm_stages=3", " vcm_stages=0", " vcm_stages=1 vcm_stages=1", " vcm_stages=", " vcm_stages=1x"};
+  for (size_t i = 0; i < sizeof bad / sizeof *bad; i++) {
+    snprintf(text, sizeof text, "%s%s", base, bad[i]);
+    int err = vf_settings_parse(&back, text);
+    if (err != VF_EINVAL) CHECK_FAIL_("'%s' parsed (%d)", bad[i], err);
+  }
+  s.algorithm = VF_ALGO_AUTO;
+  CHECK_INT_EQ(vf_settings_validate(&s), VF_OK);
+  const vf_algorithm other[] = {VF_ALGO_BPT, VF_ALGO_PT, VF_ALGO_LT, VF_ALGO_UPG, VF_ALGO_PPM, VF_ALGO_BPM,
+                                VF_ALGO_AUTO_UNBIASED};
+  for (size_t i = 0; i < sizeof other / sizeof *other; i++) {
+    s.algorithm = other[i];
+    CHECK_INT_EQ(vf_settings_validate(&s), VF_EINVAL);
+    CHECK_STR_CONTAINS(vf_error_detail(VF_EINVAL), "single-stage");
+  }
+}
+
 /* The merge radius: written only when per pixel (every text before it existed had one
  * radius), read back, refused twice, unknown, or for an algorithm that does not merge. */
 static void test_radius_per_pixel(void) {
@@ -125,6 +158,7 @@ static void test_radius_per_pixel(void) {
 int main(void) {
   RUN(test_text_round_trips);
   RUN(test_radius_per_pixel);
+  RUN(test_vcm_stages);
   RUN(test_gather_side_and_new_algorithms);
   RUN(test_balance_heuristic_is_the_text_without_beta);
   RUN(test_beta_out_of_range_or_twice_is_refused);

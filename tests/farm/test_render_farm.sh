@@ -90,6 +90,20 @@ local_render continue "$tmp/films/q.exr" -n 1 -q -o "$tmp/films/q4.exr" &&
   "$vcmfarm" info "$tmp/films/q4.exr" | grep -q "radius=per-pixel"
 check "continue keeps the radius per pixel" $?
 
+# 2d. Single-stage vcm: the worker's first iteration of each lease traces the light
+#     sub-paths of the iteration before again, so the farm's film of [2,6) is render's;
+#     continue keeps the setting and its film is that of one render of [0,7).
+local_render render cornell "${common[@]}" --vcm-stages 1 -k 2 -n 4 -q -o "$tmp/films/s.exr"
+farm "single-stage vcm" "[2,6)" "$tmp/films/s.exr" cornell "${common[@]}" --vcm-stages 1 --start-iteration 2 -n 4
+local_render render cornell "${common[@]}" --vcm-stages 1 -n 5 -q -o "$tmp/films/s5.exr" &&
+  local_render continue "$tmp/films/s5.exr" -n 2 -q -o "$tmp/films/s7.exr" &&
+  "$vcmfarm" info "$tmp/films/s7.exr" | grep -q "vcm_stages=1"
+check "continue keeps single-stage" $?
+same "single-stage continued is one render" "[0,7)" "$tmp/films/s7.exr" cornell "${common[@]}" --vcm-stages 1 -n 7
+local_render render cornell-fog "${common[@]}" --vcm-stages 1 -n 1 -q -o "$tmp/films/fog.exr" 2>"$tmp/fog.err"
+[ $? -eq 2 ] && grep -q "single-stage" "$tmp/fog.err" && [ ! -e "$tmp/films/fog.exr" ]
+check "single-stage refuses participating media, exit 2, no film" $?
+
 # 3. A JSON scene whose mesh files travel to the worker as blobs; render's film names the
 #    scene file, so `continue` finds it.
 scene="$source_dir/tests/scenes/good/gltf.json"

@@ -1,6 +1,8 @@
 /* bpt's fused pass: phases 1 and 3 of an iteration (vcm.h) in one pass over the camera
  * tiles, each tile tracing its own pixels' light sub-paths just before its camera
- * sub-paths.
+ * sub-paths. The single-stage vcm iteration (single_stage.h) runs it too, its camera
+ * sub-paths merging with the grid of the iteration before, each tile's light vertices
+ * copied for the next one's.
  *
  * It runs in place of the light pass and the camera pass when the algorithm connects
  * sub-paths but does not merge them (bpt: vf_vcm.fused). A camera sub-path connects only

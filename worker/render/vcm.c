@@ -12,6 +12,7 @@
 #include "merge_pipeline.h"
 #include "pixel_radius.h"
 #include "segment.h"
+#include "single_stage.h"
 #include "surface.h"
 #include "vcm_internal.h"
 #include "vertex_merging.h"
@@ -76,6 +77,15 @@ int vf_vcm_iteration(vf_vcm *v, uint64_t iteration, float *camera_rgb, float *li
   int threads = vf_pool_threads(v->pool);
   for (int t = 0; t < threads; t++) v->stats[t] = (thread_stats){0};
 
+  if (v->single_stage) {
+    /* vcm in one pass, merging with the light vertices of the iteration before
+     * (single_stage.c). */
+    int err = vf_single_stage_iteration(v, stats);
+    if (err != VF_OK) return err;
+    add_counts(v, stats);
+    return VF_OK;
+  }
+
   if (v->fused) {
     /* bpt, which connects but never merges: phases 1 and 3 as one pass over the camera
      * tiles, each tracing its pixels' light sub-paths just before their camera sub-paths,
@@ -103,7 +113,9 @@ int vf_vcm_iteration(vf_vcm *v, uint64_t iteration, float *camera_rgb, float *li
 
   double t1 = vf_seconds_now();
   /* 2. The range-search grid, only when vertex merging (vertex_merging.c, hashgrid.c). */
-  if (v->t.vertex_merging && v->num_vertices > 0 && (err = vf_vertex_merging_build_grid(v)) != VF_OK) return err;
+  if (v->t.vertex_merging && v->num_vertices > 0 &&
+      (err = vf_vertex_merging_build_grid(v, v->chunks, v->chunk_shift)) != VF_OK)
+    return err;
   if (v->t.vertex_merging && v->has_media && (err = vf_volume_merging_build(v)) != VF_OK) return err;
 
   double t2 = vf_seconds_now();
@@ -349,6 +361,9 @@ void vf_vcm_describe(const vf_vcm *v, FILE *out) {
   } else if (t->vertex_merging) {
     fprintf(out, "merging tests its candidates with %s\n", vf_vcm_merge_simd(v));
   }
+  if (v->single_stage)
+    fprintf(out, "single-stage (--vcm-stages 1): one pass over the camera tiles; camera sub-paths merge with the "
+                 "light vertices of the iteration before, the first of a range traces them again\n");
   fprintf(out, "skipped: %s%s%s%s\n", t->store_vertices ? "" : "light-vertex storage, ",
           t->vertex_merging ? "" : "range-search grid, ", v->lights->environment >= 0 ? "" : "environment lookups, ",
           "connections at specular vertices, shadow rays for zero contributions");
@@ -372,6 +387,10 @@ static int media_setup(vf_vcm *v) {
   if (v->settings.radius == VF_RADIUS_PER_PIXEL && v->t.vertex_merging)
     return vf_error_set(VF_EINVAL, "the scene has participating media, which a merge radius per pixel does not "
                                    "render (merging in media needs one radius); use the global radius");
+  if (v->single_stage)
+    return vf_error_set(VF_EINVAL, "the scene has participating media, which single-stage vcm does not render (a "
+                                   "light vertex after a medium vertex carries its iteration's merge radius, and "
+                                   "single-stage merges it in the next); use --vcm-stages 2");
   v->has_media = 1;
   for (int i = 0; i < sc->num_shapes; i++) v->has_boundaries |= sc->shapes[i].material < 0;
   v->media = calloc((size_t)sc->num_media, sizeof *v->media);
@@ -423,10 +442,12 @@ int vf_vcm_create(const vf_scene *scene, const vf_accel *accel, const vf_setting
   v->requested = settings->algorithm;
   if (vf_algorithm_is_auto(v->requested)) v->settings.algorithm = resolve_auto(v);
   choose_techniques(v);
+  /* Single-stage only where vcm runs: auto that chose pt renders as pt. */
+  v->single_stage = v->settings.vcm_stages == 1 && v->settings.algorithm == VF_ALGO_VCM;
   if ((err = vf_lights_create(scene, &v->lights)) != VF_OK) goto fail;
   if ((err = media_setup(v)) != VF_OK) goto fail;
   err = VF_ENOMEM;
-  v->fused = v->t.connection && !v->t.vertex_merging && v->t.light_paths && v->t.camera_paths;
+  v->fused = (v->t.connection && !v->t.vertex_merging && v->t.light_paths && v->t.camera_paths) || v->single_stage;
   v->upg = v->settings.algorithm == VF_ALGO_UPG;
   if (v->upg && (v->origins = calloc(v->num_pixels, sizeof *v->origins)) == NULL) goto fail;
   v->num_chunks = v->fused ? vf_camera_pass_tiles(v) : (v->num_pixels + LIGHT_CHUNK - 1) / LIGHT_CHUNK;
@@ -439,6 +460,7 @@ int vf_vcm_create(const vf_scene *scene, const vf_accel *accel, const vf_setting
     v->path_end = calloc(v->num_pixels, sizeof(uint32_t));
   }
   v->segments = calloc(v->num_chunks, sizeof *v->segments);
+  if (v->single_stage && (v->kept = calloc(v->num_chunks, sizeof *v->kept)) == NULL) goto fail;
   size_t threads = (size_t)vf_pool_threads(pool);
   v->stats = aligned_alloc(64, threads * sizeof *v->stats);
   if (v->stats != NULL) memset(v->stats, 0, threads * sizeof *v->stats);
@@ -511,6 +533,7 @@ void vf_vcm_trim(vf_vcm *v) {
   v->photon_capacity = 0;
   v->merge_points = NULL;
   vf_hashgrid_trim(v->grid);
+  vf_single_stage_trim(v);
 #ifdef __GLIBC__
   /* The chunks' lists are small allocations from malloc's heap, whose free pages glibc
    * keeps: handed back, or the trim would free nothing the kernel sees. */
@@ -527,6 +550,8 @@ void vf_vcm_destroy(vf_vcm *v) {
       free(v->chunks[c].splats);
     }
   free(v->chunks);
+  vf_single_stage_trim(v);
+  free(v->kept);
   free(v->band_start);
   free(v->segments);
   free(v->photons);

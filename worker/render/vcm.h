@@ -11,7 +11,9 @@
  * bpt, pt, lt, ppm and bpm are this same iteration with techniques switched off. bpt,
  * which needs no grid, runs 1 and 3 tile by tile: each camera tile first traces its own
  * pixels' light sub-paths and keeps their BSDFs for its connections (its fused pass,
- * worker/render/fused_pass.c).
+ * worker/render/fused_pass.c). vcm with --vcm-stages 1 runs the same fused pass, merging
+ * with a grid of the light vertices of iteration k - 1 built first
+ * (worker/render/single_stage.h, tech. rep. sec. 6.2).
  * The phases are files of their own: 1. worker/render/light_pass.c, 2. worker/render/vertex_merging.c
  * (over worker/render/hashgrid.c), 3. worker/render/camera_pass.c, whose vertex merging queries
  * vertex_merging.c runs; both passes trace with worker/render/wavefront.c and share the state of

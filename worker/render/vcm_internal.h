@@ -8,7 +8,8 @@
  *                        merging queries vertex_merging.c runs at the end of each tile
  *                        (through the fast path of merge_pipeline.c).
  * bpt runs 1 and 3 as one pass instead, fused_pass.c: each camera tile traces its own
- * pixels' light sub-paths, then its camera sub-paths.
+ * pixels' light sub-paths, then its camera sub-paths; single-stage vcm (single_stage.c)
+ * builds 2 over the light vertices the iteration before kept, then runs that pass.
  * Both passes trace with wavefront.h. Everything here is read and written by those files
  * only; nothing outside worker/ sees it. */
 #ifndef VF_VCM_INTERNAL_H
@@ -309,6 +310,17 @@ struct vf_vcm {
   uint32_t num_vertices;     /* in all chunks */
   vf_grid_segment *segments; /* the chunks' vertex lists, for the grid: num_chunks of them */
   unsigned chunk_shift;      /* the grid names vertex i of chunk c (c << chunk_shift) + i */
+  /* The lists the grid was built over (vf_vertex_merging_build_grid), borrowed, and the
+   * shift of its names for them, as chunks and chunk_shift name this iteration's. */
+  const light_chunk *grid_chunks;
+  unsigned grid_shift;
+  /* --vcm-stages 1 (single_stage.h): the fused pass with merging; per camera tile, the
+   * light vertices of iteration kept_iteration for the next iteration's grid, owned
+   * (num_chunks of them), valid when kept_valid. */
+  int single_stage;
+  light_chunk *kept;
+  int kept_valid;
+  uint64_t kept_iteration;
   merge_point *merge_points; /* the grid's sorted points as merge points (borrowed), or NULL */
   photon *photons;
   float *photon_c_vc; /* a radius per pixel: each photon's c_vc, owned (photon_capacity); else NULL */

@@ -28,9 +28,9 @@
  * cache. The grid's other arrays gained nothing from them, nor did the chunks' vertex
  * lists once aligned to the cache line (docs/BENCHMARKS.md, "Renderer throughput"). */
 
-/* The light vertex the grid names `index` (vf_vcm.chunk_shift). */
+/* The light vertex the grid names `index` (vf_vcm.grid_shift). */
 static const light_vertex *grid_vertex(const vf_vcm *v, uint32_t index) {
-  return &v->chunks[index >> v->chunk_shift].vertices[index & ((1u << v->chunk_shift) - 1u)];
+  return &v->grid_chunks[index >> v->grid_shift].vertices[index & ((1u << v->grid_shift) - 1u)];
 }
 
 /* Copies what vertex merging needs of the light vertices into the grid's order, so that the
@@ -65,9 +65,11 @@ static void gather_task(void *ctx, size_t task, int thread) {
   }
 }
 
-int vf_vertex_merging_build_grid(vf_vcm *v) {
+int vf_vertex_merging_build_grid(vf_vcm *v, const light_chunk *chunks, unsigned shift) {
+  v->grid_chunks = chunks;
+  v->grid_shift = shift;
   for (uint32_t c = 0; c < v->num_chunks; c++)
-    v->segments[c] = (vf_grid_segment){v->chunks[c].vertices, v->chunks[c].num_vertices, c << v->chunk_shift};
+    v->segments[c] = (vf_grid_segment){v->grid_chunks[c].vertices, v->grid_chunks[c].num_vertices, c << v->grid_shift};
   int err = vf_hashgrid_build_segments(v->grid, v->segments, v->num_chunks, sizeof(light_vertex), v->grid_radius,
                                        v->pool);
   if (err != VF_OK) return err;

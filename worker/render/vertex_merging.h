@@ -72,11 +72,13 @@ static inline vf_mis vf_photon_mis(const vf_vcm *v, uint32_t k) {
   return (vf_mis){ph->d_vcm, v->photon_c_vc ? v->photon_c_vc[k] : 0.0f, ph->vm};
 }
 
-/* Phase 2: the range-search grid over every chunk's light vertices where they are, and
- * what vertex merging reads of them copied into the grid's order (vf_vcm.merge_points,
- * vf_vcm.photons). Only when vertex merging is on and there are light vertices. Returns
- * VF_OK, VF_ENOMEM, or the grid's error. */
-int vf_vertex_merging_build_grid(vf_vcm *v);
+/* Phase 2: the range-search grid over the light vertices of `chunks` (num_chunks of them,
+ * vertex i of chunk c named (c << shift) + i: the iteration's chunks and chunk_shift, or
+ * in the single-stage iteration the lists of the iteration before, single_stage.h) where
+ * they are, and what vertex merging reads of them copied into the grid's order
+ * (vf_vcm.merge_points, vf_vcm.photons). Only when vertex merging is on and there are
+ * light vertices. Returns VF_OK, VF_ENOMEM, or the grid's error. */
+int vf_vertex_merging_build_grid(vf_vcm *v, const light_chunk *chunks, unsigned shift);
 
 /* After the camera pass: gives the pages of the copies made for it back to the kernel
  * when they are large, so that the next iteration's light pass and grid build do not hold

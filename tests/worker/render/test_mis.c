@@ -735,11 +735,18 @@ static void print_path(const full_path *x, const technique_set *t, const double 
  * known: the stored quantities must not depend on the radius. */
 static int g_pixel_radii;
 static double path_eta_scale(int p) { return g_pixel_radii ? pow(4.0, (double)(p % 5) - 2.0) : 1.0; }
+/* Single-stage vcm (worker/render/single_stage.h): the light sub-paths were traced in the
+ * iteration before the weights', under its radius, eta_{k-1} / eta_k = (k / (k + 1))^(alpha
+ * - 1), 2^0.25 for k = 1 at alpha 0.75. */
+static int g_single_stage;
+static double light_eta(double eta) {
+  return eta * (g_pixel_radii ? 37.0 : 1.0) * (g_single_stage ? pow(2.0, 0.25) : 1.0);
+}
 
 /* Checks every path of a set under one algorithm and eta; prints `examples` paths. */
 static deviation check_set(const path_set *set, vf_algorithm a, double eta, int examples) {
   deviation dev = {0};
-  vf_mis_config c_light = config_for(a, g_pixel_radii ? eta * 37.0 : eta, g_scene.n_light);
+  vf_mis_config c_light = config_for(a, light_eta(eta), g_scene.n_light);
   for (int p = 0; p < set->count; p++) {
     const full_path *x = &set->paths[p];
     path_data pd;
@@ -796,7 +803,7 @@ static void check_algorithm(const path_set *set, const char *family, vf_algorith
       technique_set t;
       double rv[MAX_VERTICES + 1], rm[MAX_VERTICES + 1], dv[MAX_VERTICES + 1], dm[MAX_VERTICES + 1];
       double path_eta = etas[e] * path_eta_scale(dev.worst_path);
-      vf_mis_config c_light = config_for(a, g_pixel_radii ? etas[e] * 37.0 : etas[e], g_scene.n_light);
+      vf_mis_config c_light = config_for(a, light_eta(etas[e]), g_scene.n_light);
       vf_mis_config c = config_for(a, path_eta, g_scene.n_light);
       prepare_path(&g_scene, x, &pd);
       implemented_techniques(x, a, g_scene.spot != NULL, &t);
@@ -918,6 +925,24 @@ static void test_weights_match_eq12_with_a_radius_per_pixel(void) {
   g_pixel_radii = 0;
 }
 
+/* Single-stage vcm: each camera sub-path merges with the light vertices of the iteration
+ * before, whose quantities were formed under that iteration's radius; its weights, formed
+ * with this iteration's radius (the stored c_vc and c_vm are radius-free, tech. rep. sec.
+ * 6.1), still match eq. 12 and sum to 1: with the global radius and radii per pixel, with
+ * and without a specular vertex, under the power heuristic. */
+static void test_weights_match_eq12_single_stage(void) {
+  g_single_stage = 1;
+  for (g_pixel_radii = 0; g_pixel_radii <= 1; g_pixel_radii++) {
+    check_algorithm(&g_diffuse, "diffuse", VF_ALGO_VCM, etas, NUM_ETAS, 0);
+    check_algorithm(&g_specular, "specular", VF_ALGO_VCM, etas, NUM_ETAS, 0);
+  }
+  g_pixel_radii = 0;
+  g_beta = 2.0;
+  check_algorithm(&g_diffuse, "diffuse", VF_ALGO_VCM, etas, 1, 0);
+  g_beta = 1.0;
+  g_single_stage = 0;
+}
+
 static void test_power_heuristic_weights_match_eq12_through_rough_lobes(void) { check_power_heuristic("rough", 0); }
 
 /* The rough family's vertices by lobe: on the gold ball, reflecting off and refracting
@@ -1034,6 +1059,7 @@ int main(void) {
       RUN(test_upg_weights_match_eq12);
       RUN(test_power_heuristic_weights_match_eq12);
       RUN(test_weights_match_eq12_with_a_radius_per_pixel);
+      RUN(test_weights_match_eq12_single_stage);
       destroy_test_scene(&g_scene);
     }
     if (!walk_scene("cornell-rough", VF_LIGHT_AREA_MESH)) return 1;

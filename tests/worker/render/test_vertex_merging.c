@@ -153,7 +153,7 @@ static int install_light_vertices(vf_vcm *v, const merge_case *c, vf_rng *r) {
   v->merge.mis.pt = 0;
   v->radius_exact = radius;
   v->grid_radius = v->merge.radius;
-  int err = vf_vertex_merging_build_grid(v);
+  int err = vf_vertex_merging_build_grid(v, v->chunks, v->chunk_shift);
   CHECK_INT_EQ(err, VF_OK);
   return err == VF_OK;
 }
