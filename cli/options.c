@@ -57,7 +57,7 @@ int vf_cli_resolution(const char *option, const char *text, int *width, int *hei
 }
 
 void vf_cli_settings_init(vf_cli_settings *o) {
-  *o = (vf_cli_settings){NULL, NULL, NULL, NULL, 0, 0, 0, 0, 0, -1, -1.0, -1.0, -1.0};
+  *o = (vf_cli_settings){NULL, NULL, NULL, NULL, 0, 0, 0, 0, 0, -1, -1.0, -1.0, -1.0, 0};
 }
 
 int vf_cli_settings_option(vf_cli_settings *o, int c, const char *arg, int *err) {
