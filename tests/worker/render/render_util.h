@@ -7,13 +7,16 @@
 #include "common/error.h"
 #include "common/pool.h"
 #include "common/rng.h"
+#include "common/film.h"
 #include "worker/render/accel.h"
+#include "worker/render/render.h"
 #include "worker/scene/scene.h"
 #include "worker/render/vcm.h"
 
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
+#include <string.h>
 
 /* Renders iterations [first, first + n) of scene with settings on `threads` threads and
  * calls each(ctx, i, cam, light) with iteration first + i's camera and light images (RGB
@@ -150,6 +153,33 @@ static inline int blocks_agree(const char *what, const char *a, const char *b, c
   }
   printf("  %-13s %-3s vs %-3s: max |z| %.2f, mean z^2 %.2f\n", what, a, b, max_z, sum_z2 / nb);
   return max_z < 5.0 && sum_z2 / nb < 2.0;
+}
+
+
+/* Iterations [begin, end) of `settings` on `scene` into a new film through the render loop
+ * (worker/render/render.h), on `threads` threads; NULL (a CHECK failed) on error. */
+static inline vf_film *render_film(const vf_scene *scene, const vf_settings *settings, int threads, uint64_t begin,
+                                   uint64_t end) {
+  vf_renderer *r = NULL;
+  vf_film *film = NULL;
+  CHECK_INT_EQ(vf_renderer_create(scene, settings, threads, &r), VF_OK);
+  CHECK_INT_EQ(vf_film_create(settings->width, settings->height, &film), VF_OK);
+  if (r && film) {
+    CHECK_INT_EQ(vf_renderer_stamp(r, film), VF_OK);
+    CHECK_INT_EQ(vf_render_range(r, film, begin, end, NULL, NULL), VF_OK);
+  }
+  vf_renderer_destroy(r);
+  return film;
+}
+
+/* Whether two films are the same bit for bit: size, exact sums, iterations, settings,
+ * scene and refused samples. */
+static inline int films_bitwise_equal(const vf_film *a, const vf_film *b) {
+  size_t n = 3 * (size_t)a->width * a->height;
+  return a->width == b->width && a->height == b->height && memcmp(a->sum, b->sum, n * sizeof *a->sum) == 0 &&
+         memcmp(a->square_sum, b->square_sum, n * sizeof *a->square_sum) == 0 &&
+         vf_iterset_equal(&a->iterations, &b->iterations) && strcmp(a->settings_text, b->settings_text) == 0 &&
+         memcmp(a->scene_hash, b->scene_hash, sizeof a->scene_hash) == 0 && a->nonfinite_samples == b->nonfinite_samples;
 }
 
 #endif

@@ -1,6 +1,7 @@
 /* The render loop's promises: an iteration's result depends only on (seed, global index),
  * not on thread count or on how iterations are split between runs. */
 #include "check.h"
+#include "render_util.h"
 #include "common/error.h"
 #include "common/film.h"
 #include "worker/render/render.h"
@@ -17,8 +18,6 @@ static vf_radius_mode radius_under_test = VF_RADIUS_GLOBAL;
 static vf_film *render_with(const char *scene_name, vf_sampler_kind sampler, vf_algorithm algorithm, uint64_t seed,
                             int threads, uint64_t begin, uint64_t end) {
   vf_scene *scene = NULL;
-  vf_renderer *r = NULL;
-  vf_film *film = NULL;
   CHECK_INT_EQ(vf_scene_load(scene_name, &scene), VF_OK);
   if (scene == NULL) return NULL;
   vf_settings s = scene->settings;
@@ -28,13 +27,7 @@ static vf_film *render_with(const char *scene_name, vf_sampler_kind sampler, vf_
   s.seed = seed;
   s.width = 96;
   s.height = 64;
-  CHECK_INT_EQ(vf_renderer_create(scene, &s, threads, &r), VF_OK);
-  CHECK_INT_EQ(vf_film_create(s.width, s.height, &film), VF_OK);
-  if (r && film) {
-    CHECK_INT_EQ(vf_renderer_stamp(r, film), VF_OK);
-    CHECK_INT_EQ(vf_render_range(r, film, begin, end, NULL, NULL), VF_OK);
-  }
-  vf_renderer_destroy(r);
+  vf_film *film = render_film(scene, &s, threads, begin, end);
   vf_scene_destroy(scene);
   return film;
 }
@@ -47,14 +40,7 @@ static vf_film *render(const char *scene_name, vf_algorithm algorithm, uint64_t 
   return render_with(scene_name, sampler_under_test, algorithm, seed, threads, begin, end);
 }
 
-static int same_doubles(const vf_fixed *a, const vf_fixed *b, size_t n) { return memcmp(a, b, n * sizeof *a) == 0; }
-
-static int films_bitwise_equal(const vf_film *a, const vf_film *b) {
-  size_t n = (size_t)a->width * a->height;
-  return a->width == b->width && a->height == b->height && same_doubles(a->sum, b->sum, 3 * n) &&
-         same_doubles(a->square_sum, b->square_sum, 3 * n) && vf_iterset_equal(&a->iterations, &b->iterations) && strcmp(a->settings_text, b->settings_text) == 0 &&
-         memcmp(a->scene_hash, b->scene_hash, sizeof a->scene_hash) == 0;
-}
+static int same_sums(const vf_fixed *a, const vf_fixed *b, size_t n) { return memcmp(a, b, n * sizeof *a) == 0; }
 
 static double mean_of(const vf_film *f) {
   size_t n = (size_t)f->width * f->height;
@@ -187,8 +173,8 @@ static void test_auto_renders_exactly_its_choice(void) {
     if (!chosen || !automatic) return;
     CHECK_STR_CONTAINS(automatic->settings_text, cases[c].text);
     size_t n = 3 * (size_t)chosen->width * chosen->height;
-    CHECK(same_doubles(chosen->sum, automatic->sum, n));
-    CHECK(same_doubles(chosen->square_sum, automatic->square_sum, n));
+    CHECK(same_sums(chosen->sum, automatic->sum, n));
+    CHECK(same_sums(chosen->square_sum, automatic->square_sum, n));
     vf_film_destroy(chosen);
     vf_film_destroy(automatic);
   }

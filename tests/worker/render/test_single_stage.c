@@ -94,8 +94,6 @@ static void test_single_stage_agrees_with_bpt_and_pt(void) {
 /* Iterations [begin, end) single-stage into a film, on `threads` threads. */
 static vf_film *render(const char *scene_name, uint64_t seed, int threads, uint64_t begin, uint64_t end) {
   vf_scene *scene = NULL;
-  vf_renderer *r = NULL;
-  vf_film *film = NULL;
   CHECK_INT_EQ(vf_scene_load(scene_name, &scene), VF_OK);
   if (scene == NULL) return NULL;
   vf_settings s = scene->settings;
@@ -105,23 +103,9 @@ static vf_film *render(const char *scene_name, uint64_t seed, int threads, uint6
   s.seed = seed;
   s.width = 96;
   s.height = 72; /* tiles of 32: the last row of tiles is cut */
-  CHECK_INT_EQ(vf_renderer_create(scene, &s, threads, &r), VF_OK);
-  CHECK_INT_EQ(vf_film_create(s.width, s.height, &film), VF_OK);
-  if (r && film) {
-    CHECK_INT_EQ(vf_renderer_stamp(r, film), VF_OK);
-    CHECK_INT_EQ(vf_render_range(r, film, begin, end, NULL, NULL), VF_OK);
-  }
-  vf_renderer_destroy(r);
+  vf_film *film = render_film(scene, &s, threads, begin, end);
   vf_scene_destroy(scene);
   return film;
-}
-
-static int films_bitwise_equal(const vf_film *a, const vf_film *b) {
-  size_t n = 3 * (size_t)a->width * a->height;
-  return a->width == b->width && a->height == b->height && memcmp(a->sum, b->sum, n * sizeof *a->sum) == 0 &&
-         memcmp(a->square_sum, b->square_sum, n * sizeof *a->square_sum) == 0 &&
-         vf_iterset_equal(&a->iterations, &b->iterations) && strcmp(a->settings_text, b->settings_text) == 0 &&
-         a->nonfinite_samples == b->nonfinite_samples;
 }
 
 /* Every iteration is a pure function of (seed, global index): the thread count changes
