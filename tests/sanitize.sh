@@ -23,4 +23,4 @@ cmake -S . -B build-sanitize -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_C_FLAGS="
 cmake --build build-sanitize -j2
 LSAN_OPTIONS="suppressions=$PWD/tests/lsan.supp:print_suppressions=0" ASAN_OPTIONS="detect_leaks=1" \
   UBSAN_OPTIONS="print_stacktrace=1" \
-  ctest --test-dir build-sanitize --output-on-failure -E '^(test_docker|test_fuzz|bench_convergence_quick)$'
+  ctest --test-dir build-sanitize -j2 --output-on-failure -E '^(test_docker|test_fuzz|bench_convergence_quick)$'

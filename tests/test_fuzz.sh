@@ -24,12 +24,26 @@ export TMPDIR=/dev/shm
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 mkdir -p "$build/artifacts"
-status=0
-for t in $targets; do
+# Two targets at a time (each fuzzer is one process on one core; ctest gives this test the
+# machine's two): each target's exit status is kept beside its log and read once both are done.
+run_target() { # target
+  local t="$1"
   mkdir "$work/$t"
   cp "$src/tests/fuzz/corpus/$t"/* "$work/$t"/
-  if "$build/tests/fuzz/$t" -max_total_time="$seconds" -timeout=10 -rss_limit_mb=2048 -print_final_stats=1 \
-      -artifact_prefix="$build/artifacts/$t-" "$work/$t" >"$work/$t.log" 2>&1; then
+  "$build/tests/fuzz/$t" -max_total_time="$seconds" -timeout=10 -rss_limit_mb=2048 -print_final_stats=1 \
+    -artifact_prefix="$build/artifacts/$t-" "$work/$t" >"$work/$t.log" 2>&1
+  echo $? >"$work/$t.status"
+}
+set -- $targets
+while [ $# -gt 0 ]; do
+  run_target "$1" &
+  [ $# -gt 1 ] && run_target "$2" &
+  wait
+  shift $(($# > 1 ? 2 : 1))
+done
+status=0
+for t in $targets; do
+  if [ "$(cat "$work/$t.status" 2>/dev/null)" = 0 ]; then
     runs=$(sed -n 's/^stat::number_of_executed_units: *//p' "$work/$t.log")
     echo "ok   $t: $runs executions in $seconds s, no finding"
   else

@@ -202,11 +202,20 @@ expect_refusal "coordinator state in a worker's cache" "is a worker's scene-file
 
 "$vcmfarm" --version | grep -q '^vcmfarm [0-9]'
 check "--version" $?
-# The install rule (README, "Set-up"): cmake --install puts the executable in PREFIX/bin.
+# The install rule (README, "Set-up"): cmake --install puts the executable in PREFIX/bin ...
 cmake --install "$(dirname "$vcmfarm")" --prefix "$tmp/prefix" >"$tmp/install.log" 2>&1
 installed=$?
 check "cmake --install puts vcmfarm in PREFIX/bin" "$([ "$installed" -eq 0 ] && cmp -s "$vcmfarm" "$tmp/prefix/bin/vcmfarm" &&
   "$tmp/prefix/bin/vcmfarm" --version | grep -q '^vcmfarm [0-9]'; echo $?)"
+# ... and the OpenVDB module in PREFIX/lib/vcmfarm, where the installed vcmfarm loads it from
+# (worker/scene/vdb.c; LD_DEBUG=files names every object the loader maps), only when a
+# scene has a density grid: a command that reads none does not load OpenVDB at all.
+check "cmake --install puts the OpenVDB module where the installed vcmfarm loads it" "$(cmp -s \
+  "$(dirname "$vcmfarm")/libvf_vdb.so" "$tmp/prefix/lib/vcmfarm/libvf_vdb.so" &&
+  LD_DEBUG=files "$tmp/prefix/bin/vcmfarm" render cornell-smoke -R 8x8 -n 1 -q -o "$tmp/smoke.exr" 2>&1 |
+  grep -q "file=$tmp/prefix/bin/../lib/vcmfarm/libvf_vdb.so "; echo $?)"
+check "a command that reads no grid does not load OpenVDB" "$(LD_DEBUG=files "$vcmfarm" render cornell -R 8x8 -n 1 -q \
+  -o "$tmp/plain.exr" 2>&1 | grep -q "libopenvdb"; [ $? -eq 1 ]; echo $?)"
 "$vcmfarm" render --help | grep -q 'usage: vcmfarm render'
 check "render --help" $?
 # submit takes every kind of scene render takes, and its --help says so.

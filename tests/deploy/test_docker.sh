@@ -1,10 +1,12 @@
 #!/usr/bin/env bash
 # deploy/docker/Dockerfile cannot be built here (no container engine), so its package
 # lists are checked against this machine, which builds from the same Debian 12 packages:
-#  - runtime stage: the packages that own the libraries the built vcmfarm needs directly
-#    (its NEEDED entries, through ldd and dpkg -S), exactly, with libc6 implied; and every
-#    library of ldd's full closure belongs to a package those pull in through their
-#    Depends (apt-cache depends --recurse), so the image has all it loads and nothing more;
+#  - runtime stage: the packages that own the libraries the built vcmfarm and its OpenVDB
+#    module (libvf_vdb.so, beside it in the build tree) need directly (their NEEDED
+#    entries, through ldd and dpkg -S), exactly, with libc6 implied; and every library of
+#    ldd's full closures belongs to a package those pull in through their Depends
+#    (apt-cache depends --recurse), so the image has all it loads and nothing more; and the
+#    module is built and copied where vcmfarm looks for it (../lib/vcmfarm/);
 #  - build stage: every package of deploy/install-deps.sh that a build needs (the ones
 #    only tests need are named below), and a COPY of every source directory the build adds.
 #
@@ -42,32 +44,43 @@ build=$(stage_packages build)
 [ -n "$runtime" ] && [ -n "$build" ] || fail "no package lists found in $dockerfile"
 echo "runtime stage: $(echo $runtime)"
 
-# Direct needs: NEEDED sonames, resolved by ldd.
-declare -A path
-while read -r name _ file _; do [ -n "$file" ] && path[$name]=$file; done < <(ldd "$vcmfarm" | grep '=>')
+# Direct needs: NEEDED sonames of the program and the module, resolved by ldd.
+module="$(dirname "$vcmfarm")/libvf_vdb.so"
+[ -f "$module" ] || fail "no OpenVDB module beside $vcmfarm"
+objects=("$vcmfarm" "$module")
 direct=""
-for soname in $(objdump -p "$vcmfarm" | awk '/NEEDED/ {print $2}'); do
-  [ -n "${path[$soname]:-}" ] || fail "ldd does not resolve $soname"
-  pkg=$(owner "${path[$soname]}") || fail "no package owns ${path[$soname]}"
-  direct="$direct $pkg"
+for object in "${objects[@]}"; do
+  declare -A path=()
+  while read -r name _ file _; do [ -n "$file" ] && path[$name]=$file; done < <(ldd "$object" | grep '=>')
+  for soname in $(objdump -p "$object" | awk '/NEEDED/ {print $2}'); do
+    case "$soname" in ld-linux*) continue ;; esac # the dynamic loader: libc6's
+    [ -n "${path[$soname]:-}" ] || fail "ldd does not resolve $soname of $object"
+    pkg=$(owner "${path[$soname]}") || fail "no package owns ${path[$soname]}"
+    direct="$direct $pkg"
+  done
+  unset path
 done
 direct=$(echo "$direct" | words | grep -v -x libc6) # libc6 is in every Debian image
 echo "needed:        $(echo $direct)"
 missing=$(comm -23 <(echo "$direct") <(echo "$runtime"))
 extra=$(comm -13 <(echo "$direct") <(echo "$runtime"))
-[ -z "$missing" ] || fail "the runtime stage lacks $(echo $missing) (ldd $vcmfarm)"
-[ -z "$extra" ] || fail "the runtime stage installs $(echo $extra), which vcmfarm does not link"
+[ -z "$missing" ] || fail "the runtime stage lacks $(echo $missing) (ldd ${objects[*]})"
+[ -z "$extra" ] || fail "the runtime stage installs $(echo $extra), which neither vcmfarm nor its module links"
 
 # Transitive needs: every library ldd loads comes with the runtime packages' dependencies.
 closure=$(apt-cache depends --recurse --no-recommends --no-suggests --no-conflicts --no-breaks \
   --no-replaces --no-enhances $runtime 2>/dev/null | grep -v '^ ' | sed 's/:any$//' | words)
 [ -n "$closure" ] || fail "apt-cache depends found nothing (run apt-get update)"
-for lib in $(ldd "$vcmfarm" | awk '/=>/ {print $3}'); do
+loaded=$(for object in "${objects[@]}"; do ldd "$object" | awk '/=>/ {print $3}'; done | sort -u)
+for lib in $loaded; do
   pkg=$(owner "$lib") || fail "no package owns $lib"
   sed 's/:.*//' <<<"$pkg" | grep -q -x -F -f - <(echo "$closure") ||
     fail "$lib ($pkg) is loaded but not pulled in by the runtime stage's packages"
 done
-echo "all $(ldd "$vcmfarm" | grep -c '=>') libraries that ldd loads come from the runtime stage's packages"
+echo "all $(echo "$loaded" | wc -l) libraries that ldd loads come from the runtime stage's packages"
+grep -q -- '--target vcmfarm vf_vdb' "$dockerfile" &&
+  grep -q -x 'COPY --from=build /src/build/libvf_vdb.so /usr/local/lib/vcmfarm/libvf_vdb.so' "$dockerfile" ||
+  fail "the image does not build the OpenVDB module and copy it to /usr/local/lib/vcmfarm/"
 
 # The build stage installs what deploy/install-deps.sh installs to build.
 test_only="slurm-wlm munge systemd python3 jq curl chromium assimp-testmodels clang libclang-rt-14-dev iproute2"  # used by tests and benchmarks only (nodejs and npm too: outside the list)

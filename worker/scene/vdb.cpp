@@ -1,8 +1,11 @@
-// OpenVDB float grids <-> the scene model's dense density grids (vdb.h). The only C++ of
-// the scene library: exceptions are caught here and become VF_* codes with a detail.
+// OpenVDB float grids <-> the scene model's dense density grids (vdb.h): the scene
+// library's OpenVDB module, libvf_vdb.so, loaded by vdb.c on the first use of a grid
+// (vdb_module.h says why and how). The only C++ of the scene library: exceptions are caught
+// here and become VF_* codes with a detail, recorded through the program's vf_error_set,
+// which the module is handed when it is opened. It exports one symbol, its entry point.
 // The project's headers are C: their declarations keep C linkage.
 extern "C" {
-#include "vdb.h"
+#include "vdb_module.h"
 
 #include "../../common/error.h"
 }
@@ -24,6 +27,9 @@ extern "C" {
 #include <string>
 
 namespace {
+
+// The program's vf_error_set (vf_vdb_module_open sets it before handing out the table).
+vf_vdb_error_fn report_error = nullptr;
 
 // Debian's OpenVDB links log4cplus 2.0, whose library starts a pool of four logging
 // threads as it loads: in every process that links the scene library, whether it reads a
@@ -55,34 +61,34 @@ bool axis_aligned(const openvdb::math::Transform &t, openvdb::Vec3d *scale) {
 
 int to_dense(const openvdb::GridBase::Ptr &base, const char *label, const char *grid_name, vf_density_grid *out) {
   if (!base->isType<openvdb::FloatGrid>())
-    return vf_error_set(VF_ESCENE, "%s: grid '%s' holds %s values: a density grid must hold floats", label, grid_name,
+    return report_error(VF_ESCENE, "%s: grid '%s' holds %s values: a density grid must hold floats", label, grid_name,
                         base->valueType().c_str());
   openvdb::FloatGrid::Ptr grid = openvdb::gridPtrCast<openvdb::FloatGrid>(base);
   const openvdb::math::Transform &t = grid->transform();
   openvdb::Vec3d scale;
   if (!t.isLinear() || !axis_aligned(t, &scale))
-    return vf_error_set(VF_ESCENE, "%s: grid '%s' has a %s transform that is not a positive scale per axis and a "
+    return report_error(VF_ESCENE, "%s: grid '%s' has a %s transform that is not a positive scale per axis and a "
                         "translation (rotated, sheared, mirrored or frustum grids are not supported)", label,
                         grid_name, t.mapType().c_str());
   const float background = grid->background();
   if (background != 0.0f)
-    return vf_error_set(VF_ESCENE, "%s: grid '%s' has background %g: a density grid must be 0 outside its voxels",
+    return report_error(VF_ESCENE, "%s: grid '%s' has background %g: a density grid must be 0 outside its voxels",
                         label, grid_name, (double)background);
   const openvdb::CoordBBox bbox = grid->evalActiveVoxelBoundingBox();
-  if (bbox.empty()) return vf_error_set(VF_ESCENE, "%s: grid '%s' has no active voxels", label, grid_name);
+  if (bbox.empty()) return report_error(VF_ESCENE, "%s: grid '%s' has no active voxels", label, grid_name);
   const openvdb::Coord dim = bbox.dim();
   const uint64_t count = (uint64_t)dim.x() * (uint64_t)dim.y() * (uint64_t)dim.z();
   if (count > VF_GRID_MAX_SAMPLES)
-    return vf_error_set(VF_ESCENE, "%s: grid '%s' spans %d x %d x %d voxels, more than the %u samples a scene "
+    return report_error(VF_ESCENE, "%s: grid '%s' spans %d x %d x %d voxels, more than the %u samples a scene "
                         "may load (docs/SCENES.md, \"Media\")", label, grid_name, dim.x(), dim.y(), dim.z(),
                         (unsigned)VF_GRID_MAX_SAMPLES);
   const openvdb::Vec3d lo = t.indexToWorld(bbox.min().asVec3d() - openvdb::Vec3d(0.5));
   const openvdb::Vec3d hi = t.indexToWorld(bbox.max().asVec3d() + openvdb::Vec3d(0.5));
   for (int a = 0; a < 3; a++)
     if (!(std::fabs(lo[a]) <= 1e30 && std::fabs(hi[a]) <= 1e30 && (float)lo[a] < (float)hi[a]))
-      return vf_error_set(VF_ESCENE, "%s: grid '%s' has a world box out of range", label, grid_name);
+      return report_error(VF_ESCENE, "%s: grid '%s' has a world box out of range", label, grid_name);
   float *density = static_cast<float *>(std::malloc(count * sizeof(float)));
-  if (density == nullptr) return vf_error_set(VF_ENOMEM, "out of memory");
+  if (density == nullptr) return report_error(VF_ENOMEM, "out of memory");
   float max_density = 0.0f;
   openvdb::FloatGrid::ConstAccessor acc = grid->getConstAccessor();
   size_t i = 0;
@@ -92,7 +98,7 @@ int to_dense(const openvdb::GridBase::Ptr &base, const char *label, const char *
         const float v = acc.getValue(openvdb::Coord(x, y, z));
         if (!(v >= 0.0f && v <= 3.0e38f)) {
           std::free(density);
-          return vf_error_set(VF_ESCENE, "%s: grid '%s' has density %g at voxel (%d, %d, %d): densities must be "
+          return report_error(VF_ESCENE, "%s: grid '%s' has density %g at voxel (%d, %d, %d): densities must be "
                               "finite and >= 0", label, grid_name, (double)v, x, y, z);
         }
         max_density = v > max_density ? v : max_density;
@@ -124,12 +130,12 @@ int pick(const openvdb::GridPtrVecPtr &grids, const char *label, const char *gri
     }
     names += (names.empty() ? "" : ", ") + ("'" + g->getName() + "'");
   }
-  return vf_error_set(VF_ESCENE, "%s: no grid named '%s' (the file has %s)", label, grid_name,
+  return report_error(VF_ESCENE, "%s: no grid named '%s' (the file has %s)", label, grid_name,
                       names.empty() ? "no grids" : names.c_str());
 }
 
 int damaged(const char *label, const char *what) {
-  return vf_error_set(VF_ESCENE, "%s: not a readable VDB file (%s)", label, what);
+  return report_error(VF_ESCENE, "%s: not a readable VDB file (%s)", label, what);
 }
 
 openvdb::FloatGrid::Ptr to_vdb(const vf_density_grid *g, const char *grid_name) {
@@ -161,7 +167,7 @@ int check_writable(const vf_density_grid *g) {
   if (g->nx == 0 || g->ny == 0 || g->nz == 0 || g->density == nullptr ||
       (uint64_t)g->nx * g->ny * g->nz > VF_GRID_MAX_SAMPLES || !(g->box_min.x < g->box_max.x) ||
       !(g->box_min.y < g->box_max.y) || !(g->box_min.z < g->box_max.z))
-    return vf_error_set(VF_EINVAL, "a density grid to write must have samples and a box of positive size");
+    return report_error(VF_EINVAL, "a density grid to write must have samples and a box of positive size");
   return VF_OK;
 }
 
@@ -174,7 +180,7 @@ int guarded(const char *label, Body body) {
     openvdb::initialize();
     return body();
   } catch (const std::bad_alloc &) {
-    return vf_error_set(VF_ENOMEM, "out of memory");
+    return report_error(VF_ENOMEM, "out of memory");
   } catch (const std::exception &e) {
     return damaged(label, e.what());
   } catch (...) {
@@ -182,11 +188,9 @@ int guarded(const char *label, Body body) {
   }
 }
 
-}  // namespace
-
-extern "C" int vf_vdb_read_grid(const char *path, const char *label, const char *grid_name, vf_density_grid *out) {
+int read_grid(const char *path, const char *label, const char *grid_name, vf_density_grid *out) {
   FILE *f = std::fopen(path, "rb");
-  if (f == nullptr) return vf_error_set(VF_ENOENT, "%s: cannot open: %s", label, std::strerror(errno));
+  if (f == nullptr) return report_error(VF_ENOENT, "%s: cannot open: %s", label, std::strerror(errno));
   std::fclose(f);
   return guarded(label, [&] {
     openvdb::io::File file(path);
@@ -198,7 +202,7 @@ extern "C" int vf_vdb_read_grid(const char *path, const char *label, const char 
   });
 }
 
-extern "C" int vf_vdb_read_grid_memory(const void *data, size_t size, const char *label, const char *grid_name,
+int read_grid_memory(const void *data, size_t size, const char *label, const char *grid_name,
                                        vf_density_grid *out) {
   return guarded(label, [&] {
     std::istringstream in(std::string(static_cast<const char *>(data), size), std::ios_base::binary);
@@ -209,7 +213,7 @@ extern "C" int vf_vdb_read_grid_memory(const void *data, size_t size, const char
   });
 }
 
-extern "C" int vf_vdb_write_grid_memory(const vf_density_grid *grid, const char *grid_name, void **data, size_t *size) {
+int write_grid_memory(const vf_density_grid *grid, const char *grid_name, void **data, size_t *size) {
   int err = check_writable(grid);
   if (err < 0) return err;
   try {
@@ -218,19 +222,19 @@ extern "C" int vf_vdb_write_grid_memory(const vf_density_grid *grid, const char 
     openvdb::io::Stream(os).write(grids);
     const std::string bytes = os.str();
     void *copy = std::malloc(bytes.size());
-    if (copy == nullptr) return vf_error_set(VF_ENOMEM, "out of memory");
+    if (copy == nullptr) return report_error(VF_ENOMEM, "out of memory");
     std::memcpy(copy, bytes.data(), bytes.size());
     *data = copy;
     *size = bytes.size();
     return VF_OK;
   } catch (const std::bad_alloc &) {
-    return vf_error_set(VF_ENOMEM, "out of memory");
+    return report_error(VF_ENOMEM, "out of memory");
   } catch (const std::exception &e) {
-    return vf_error_set(VF_EIO, "writing a VDB grid: %s", e.what());
+    return report_error(VF_EIO, "writing a VDB grid: %s", e.what());
   }
 }
 
-extern "C" int vf_vdb_write_grid(const vf_density_grid *grid, const char *grid_name, const char *path) {
+int write_grid(const vf_density_grid *grid, const char *grid_name, const char *path) {
   int err = check_writable(grid);
   if (err < 0) return err;
   try {
@@ -240,8 +244,19 @@ extern "C" int vf_vdb_write_grid(const vf_density_grid *grid, const char *grid_n
     file.close();
     return VF_OK;
   } catch (const std::bad_alloc &) {
-    return vf_error_set(VF_ENOMEM, "out of memory");
+    return report_error(VF_ENOMEM, "out of memory");
   } catch (const std::exception &e) {
-    return vf_error_set(VF_EIO, "%s: cannot write: %s", path, e.what());
+    return report_error(VF_EIO, "%s: cannot write: %s", path, e.what());
   }
+}
+
+const vf_vdb_module module = {VF_VDB_MODULE_VERSION, read_grid, read_grid_memory, write_grid_memory, write_grid};
+
+}  // namespace
+
+extern "C" __attribute__((visibility("default"))) const vf_vdb_module *vf_vdb_module_open(int version,
+                                                                                         vf_vdb_error_fn error_set) {
+  if (version != VF_VDB_MODULE_VERSION || error_set == nullptr) return nullptr;
+  report_error = error_set;
+  return &module;
 }
