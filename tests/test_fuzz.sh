@@ -13,6 +13,10 @@ seconds="${3:-20}"
 fail() { echo "FAIL test_fuzz: $*"; exit 1; }
 command -v clang >/dev/null || fail "clang is not installed (bash deploy/install-deps.sh)"
 targets="fuzz_message fuzz_film fuzz_texture fuzz_scene fuzz_blob"
+# A build directory left by an older configuration (g++ for the C++ file) is made anew.
+if [ -f "$build/CMakeCache.txt" ] && ! grep -q '^CMAKE_CXX_COMPILER:.*clang++$' "$build/CMakeCache.txt"; then
+  rm -rf "$build"
+fi
 if [ ! -f "$build/CMakeCache.txt" ]; then
   cmake -S "$src" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ -DVF_FUZZ=ON \
     >"$build.configure.log" 2>&1 || { cat "$build.configure.log"; fail "cannot configure the fuzz build"; }
