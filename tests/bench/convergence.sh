@@ -36,7 +36,7 @@ scenes=${SCENES:-"cornell cornell-point cornell-sun cornell-env knot cornell-bul
 algorithms=${ALGORITHMS:-"vcm bpt pt ppm auto"} # ALGORITHMS="a b" limits them
 case "$size" in
   # resolution, seconds per measured run, seconds per reference, checkpoint interval
-  quick)  res=64;  run_s=1;  ref_s=4;   every=0.1 ;;
+  quick)  res=64;  run_s=0.5; ref_s=2;  every=0.1 ;;
   medium) res=128; run_s=8;  ref_s=32;  every=0.25 ;;
   full)   res=128; run_s=30; ref_s=150; every=0.5 ;;
   *) echo "usage: bash tests/bench/convergence.sh quick|medium|full [BUILD_DIR]" >&2; exit 2 ;;
