@@ -117,6 +117,11 @@ static void add_job(cJSON *jobs, const Vcmfarm__JobStatus *j) {
   add_number_or_null(o, "rmse", j->rmse);
   add_number_or_null(o, "estimated_rmse", j->estimated_rmse);
   add_number_or_null(o, "error_slope", j->error_slope > 0.0 ? j->error_slope : NAN);
+  /* What the film counts beside its sums (common/film.h): samples refused as non-finite,
+   * and light vertices upg merged with vertex merging's bias (its estimate then covers the
+   * error but theirs). */
+  cJSON_AddNumberToObject(o, "nonfinite_samples", (double)j->nonfinite_samples);
+  cJSON_AddNumberToObject(o, "biased_merges", (double)j->biased_merges);
   cJSON *stop = cJSON_AddObjectToObject(o, "stop");
   add_number_or_null(stop, "iterations", iterations_is_condition(j) ? (double)j->iterations_total : NAN);
   add_number_or_null(stop, "time", j->time_limit > 0.0 ? j->time_limit : NAN);
@@ -259,6 +264,12 @@ void vf_status_job_line(const Vcmfarm__JobStatus *j, char *buf, size_t n) {
     int variance = vf_settings_parse(&s, j->settings) == VF_OK && estimate_scope(j, &s) == VF_ESTIMATE_VARIANCE;
     append(&p, &left, ", est. RMSE %.4g%s", j->estimated_rmse, variance ? " (variance only)" : "");
   }
+  if (j->biased_merges > 0)
+    append(&p, &left, ", %llu light %s merged with bias", (unsigned long long)j->biased_merges,
+           vf_cli_plural(j->biased_merges, "vertex", "vertices"));
+  if (j->nonfinite_samples > 0)
+    append(&p, &left, ", %llu non-finite %s", (unsigned long long)j->nonfinite_samples,
+           vf_cli_plural(j->nonfinite_samples, "sample", "samples"));
   if (j->has_reference && isfinite(j->rmse)) append(&p, &left, ", RMSE %.4g", j->rmse);
 }
 

@@ -268,6 +268,8 @@ void vf_jobs_status(vf_farm *farm, const Vcmfarm__StatusRequest *m, double now, 
     s->algorithm_resolved = j->algorithm_resolved;
     s->n_requires = attach_tags(r, &next_tag, &j->requires, &s->requires);
     s->paused = j->paused != 0;
+    s->nonfinite_samples = j->film->nonfinite_samples;
+    s->biased_merges = j->film->biased_merges;
     s->n_events = attach_events(r, &next_event, &j->events, &s->events);
     s->events_dropped = j->events.dropped;
     for (size_t w = 0; w < farm->num_workers; w++) {

@@ -77,6 +77,11 @@ local_render render cornell "${common[@]}" -a upg --gather-from camera -k 2 -n 3
 check "upg's film counts biased merges" $?
 farm "upg from the camera's side" "[2,5)" "$tmp/films/u.exr" cornell "${common[@]}" -a upg --gather-from camera \
   --start-iteration 2 -n 3
+# ... and the job's status says how many, as the film does.
+biased=$("$vcmfarm" info --json "$tmp/films/u.exr" | jq '.biased_merges')
+"$vcmfarm" status --json "${client[@]}" | jq -e --argjson n "$biased" \
+  '[.jobs[] | select(.settings | test("algorithm=upg"))] | last | .biased_merges == $n and .nonfinite_samples == 0' >/dev/null
+check "the job's status counts its film's biased merges" $?
 
 # 2c. A merge radius per pixel and an orthographic camera: the worker computes the same
 #     radii (a pure function of scene, camera and resolution) and renders render's film;

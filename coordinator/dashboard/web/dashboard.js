@@ -145,7 +145,9 @@ function renderJob(j) {
     ['size', j.resolved ? `${j.resolved.width}×${j.resolved.height}` : ''],
     ['iterations', `${j.iterations_done} done, ${j.iterations_leased} leased`], ['running', duration(j.seconds)],
     ['stops at', stopText(j)], ['stop reason', j.stop_message || j.stop_reason || '–'],
-    ['refused results', j.results_refused], ['requires', (j.requires || []).join(', ') || 'any worker'],
+    ['refused results', j.results_refused], ['non-finite samples', j.nonfinite_samples ?? '–'],
+    ['merged with bias', j.biased_merges ? `${j.biased_merges} light vertices (upg's policy: the estimate omits their bias)` : '0'],
+    ['requires', (j.requires || []).join(', ') || 'any worker'],
     ['settings', j.settings || '']];
   $('job-facts').replaceChildren(...facts.flatMap(([k, v]) => [el('dt', {}, k), el('dd', {}, v)]));
   if (document.activeElement !== $('priority')) $('priority').value = j.priority;
