@@ -3,7 +3,7 @@
 # showcase scene") at a small size: its output is valid glTF 2.0 by the script's own check,
 # the same budget gives the same bytes, the check refuses damaged files, and vcmfarm loads
 # the glTF file and its JSON wrapper without a note (nothing in the file is dropped) and
-# renders them finitely.
+# renders them finitely; the same of the benchmark room's generator (make_room.py).
 #
 #   test_showcase.sh VCMFARM SOURCE_DIR
 set -u
@@ -69,6 +69,27 @@ for scene in showcase.gltf showcase.json; do
   ok=$?
   [ "$ok" -eq 0 ] || sed 's/^/    /' "$tmp/render.out"
   check "renders_$scene" "$ok"
+done
+
+# The benchmark room (tests/bench/make_room.py): valid, deterministic, and read whole (its
+# point and spot lights, the transmission, ior and metallic lobes) and rendered finitely by
+# the unbiased and the merging algorithms.
+python3 "$bench/make_room.py" "$tmp/room" --check >"$tmp/out" 2>&1
+status=$?
+[ "$status" -eq 0 ] || cat "$tmp/out"
+check "room_generates_and_checks" "$status"
+python3 "$bench/make_room.py" "$tmp/room2" >/dev/null 2>&1 && diff -r "$tmp/room" "$tmp/room2" >/dev/null
+check "room_deterministic" $?
+for algorithm in pt vcm; do
+  "$vcmfarm" render "$tmp/room/room.gltf" -v -a "$algorithm" -R 64x36 -n 2 -o "$tmp/room-$algorithm.exr" >"$tmp/render.out" 2>&1
+  status=$?
+  ! grep ": note:" "$tmp/render.out" | grep -vq ": note: \(room.gltf: \)\?light units: punctual lights in W/sr = candela / 683" &&
+    grep -q " 0 non-finite sample" "$tmp/render.out" && grep -q "1 point, 1 spot" "$tmp/render.out"
+  ok=$?
+  [ "$status" -eq 0 ] && [ "$ok" -eq 0 ]
+  ok=$?
+  [ "$ok" -eq 0 ] || sed 's/^/    /' "$tmp/render.out"
+  check "room_renders_with_$algorithm" "$ok"
 done
 
 echo "$passed passed, $failed failed"
