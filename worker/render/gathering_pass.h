@@ -24,4 +24,10 @@ void vf_gathering_pass_run_tile(vf_vcm *v, int thread, float *tile_rgb);
  * that could not be queued. */
 vf_vec3 vf_gathering_estimate(vf_vcm *v, int thread, const vertex_merging_query *q, const gathering_prev *prev);
 
+/* The gatherings at camera vertex q in a medium (its phase "BSDF" q->bsdf; prev with
+ * prev->here its place): the light vertices in media within the radius
+ * (vf_vcm.volume_grid), each joined from the side gathering_pass.c's rule picks, with the
+ * camera sub-path's throughput. Run at once, where vcm merges in media. */
+vf_vec3 vf_gathering_estimate_medium(vf_vcm *v, int thread, const vertex_merging_query *q, const gathering_prev *prev);
+
 #endif

@@ -250,10 +250,6 @@ vf_algorithm vf_vcm_auto_algorithm(const vf_scene *scene, vf_algorithm requested
   vf_algorithm a;
   if (requested == VF_ALGO_AUTO_UNBIASED) {
     a = auto_unbiased(scene, k, &why);
-    if (a == VF_ALGO_UPG && scene->num_media > 0) {
-      why = "glossy surfaces and participating media, which upg does not render: bpt";
-      a = VF_ALGO_BPT;
-    }
   } else if (k.has_specular && scene_scatters_in_media(scene)) {
     why = "a scattering medium and specular surfaces: volumetric caustics, which merging in media renders";
     a = VF_ALGO_VCM;
@@ -378,12 +374,6 @@ static int media_setup(vf_vcm *v) {
   const vf_scene *sc = v->scene;
   v->camera_medium = -1;
   if (sc->num_media == 0) return VF_OK;
-  vf_algorithm a = v->settings.algorithm;
-  if (a == VF_ALGO_UPG)
-    return vf_error_set(VF_EINVAL,
-                        "the scene has participating media, which %s does not render (its gatherings would "
-                        "join light vertices across media); pt, lt, bpt, vcm, ppm and bpm do",
-                        vf_algorithm_name(a));
   if (v->settings.radius == VF_RADIUS_PER_PIXEL && v->t.vertex_merging)
     return vf_error_set(VF_EINVAL, "the scene has participating media, which a merge radius per pixel does not "
                                    "render (merging in media needs one radius); use the global radius");

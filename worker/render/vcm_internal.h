@@ -167,6 +167,13 @@ typedef struct {
   merge_params merge;  /* its pixel's radius */
 } vertex_merging_query;
 
+/* upg in media: where a camera vertex is (gathering_prev.place and .here). */
+typedef struct {
+  vf_vec3 normal; /* a surface's outward geometric normal, as the hit reported it */
+  uint32_t shape; /* the hit's shape, or VF_HIT_MEDIUM (segment.h) for a point in medium `medium` */
+  int medium;     /* the medium the sub-path arrived in (-1: vacuum) */
+} gathering_place;
+
 /* upg: the camera vertex before a query's, where gathering from the camera's side joins
  * the gathered light vertex (gathering_pass.c): its BSDF, position, the throughput and MIS
  * quantities it was reached with (before it scattered). valid is 0 where there is none
@@ -177,6 +184,9 @@ typedef struct {
   vf_vec3 throughput;
   vf_mis mis;
   int valid;
+  /* In a scene with media (vf_vcm.has_media): where the predecessor is, and where the
+   * query's own vertex is, for the media their joins and tentative draws leave in. */
+  gathering_place place, here;
 } gathering_prev;
 
 /* Shadow rays are not traced one by one where they arise but gathered into packets of
