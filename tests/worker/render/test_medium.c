@@ -454,7 +454,7 @@ static double media_path_weight_sum(vf_vec3 x[4], const vf_medium_rt *m, vf_algo
   vf_mis_config c = {0};
   c.beta = beta;
   c.light_paths = n_light;
-  int vm = a == VF_ALGO_VCM || a == VF_ALGO_BPM, vc = a != VF_ALGO_BPM;
+  int vm = a == VF_ALGO_VCM || a == VF_ALGO_BPM || a == VF_ALGO_UPG, vc = a != VF_ALGO_BPM;
   c.vm_weight = vm ? vf_mis_h(&c, eta_s) : 0.0f;
   c.vc_weight = vc ? vf_mis_h(&c, 1.0f / eta_s) : 0.0f;
   float ratio = vm ? vf_mis_h(&c, 4.0f * radius / 3.0f) : 0.0f;
@@ -493,9 +493,30 @@ static double media_path_weight_sum(vf_vec3 x[4], const vf_medium_rt *m, vf_algo
   phase_pdfs(m, x[1], x[2], x[3], &p, &rev_pdf);
   w_out[2] = vf_mis_weight_camera_connection_at(&l2, &c, camera_pdf_w / (d23 * d23) * piece_scatter(m, d23), rev_pdf,
                                                 vm_medium);
-  w_out[3] = w_out[4] = 0.0;
+  w_out[3] = w_out[4] = w_out[5] = 0.0;
   if (!vc) w_out[0] = w_out[1] = w_out[2] = 0.0; /* bpm: merging alone */
-  if (vm) {
+  if (a == VF_ALGO_UPG) {
+    /* upg's gatherings in place of the merges (gathering_pass.c), each weighted as the
+     * renderer weighs it: at x1 from the light's side (x0, the point light's own point,
+     * joined to the camera vertex x1) and from the camera's (x2, the camera vertex before,
+     * joined to the light vertex x1: w_out[5], the same path again); at x2 from the light's
+     * side only (the camera vertex before x2 is the lens). */
+    vf_mis start;
+    vf_mis_light_start(&start, &c, pick, pick / (4.0f * VF_PI), 1.0f, 1, 1);
+    phase_pdfs(m, x[2], x[1], x[0], &p, &r);
+    w_out[3] = vf_mis_weight_gather_media(start, &z2, &c, 0, 1.0f, 1.0f, 0.0f, 0.0f, d01, 1.0f, piece_scatter(m, d01),
+                                          piece_pass(m, d01), ratio, p, r);
+    float cp, cr, lp, lr;
+    phase_pdfs(m, x[3], x[2], x[1], &cp, &cr);
+    phase_pdfs(m, x[0], x[1], x[2], &lp, &lr);
+    w_out[5] = vf_mis_weight_gather_camera_media(&l1, z1, &c, ratio, 1.0f, cp, cr, d12, 1.0f, piece_scatter(m, d12),
+                                                 piece_scatter(m, d12), ratio, lp, lr);
+    float light_pdf1, light_rev1;
+    phase_pdfs(m, x[0], x[1], x[2], &light_pdf1, &light_rev1);
+    phase_pdfs(m, x[3], x[2], x[1], &p, &r);
+    w_out[4] = vf_mis_weight_gather_media(l1, &z1, &c, 1, ratio, 1.0f, light_pdf1, light_rev1, d12, 1.0f,
+                                          piece_scatter(m, d12), piece_scatter(m, d12), ratio, p, r);
+  } else if (vm) {
     /* Merging at x1: the light vertex that arrived there, the camera vertex z2. */
     phase_pdfs(m, x[2], x[1], x[0], &p, &r);
     w_out[3] = vf_mis_weight_merge_medium(&l1, &z2, &c, ratio, p, r);
@@ -525,7 +546,7 @@ static void media_path_weights_direct(vf_vec3 x[4], const vf_medium_rt *m, vf_al
   phase_pdfs(m, x[3], x[2], x[1], &p, &r);
   double pE1 = p * piece_scatter(m, (float)d12) / (d12 * d12);
   int vc = a != VF_ALGO_BPM;
-  double eta = a == VF_ALGO_VCM || a == VF_ALGO_BPM ? 4.0 / 3.0 * M_PI * radius * radius * radius * n_light : 0.0;
+  double eta = a == VF_ALGO_VCM || a == VF_ALGO_BPM || a == VF_ALGO_UPG ? 4.0 / 3.0 * M_PI * radius * radius * radius * n_light : 0.0;
   double t[5] = {vc * pL0 * pE1 * pE2, vc * pL0 * pL1 * pE2, vc * n_light * pL0 * pL1 * pL2, eta * pL0 * pL1 * pE1 * pE2,
                  eta * pL0 * pL1 * pL2 * pE2};
   double sum = 0.0;
@@ -538,7 +559,7 @@ static void test_mis_identity_on_paths_in_a_medium(void) {
   vf_medium_rt m;
   vf_medium_prepare(&m, &med);
   vf_rng rng = vf_rng_for_path(3, 0, 0, 0);
-  double worst = 0.0, worst_direct = 0.0, min_vm = 1.0, max_vm = 0.0;
+  double worst = 0.0, worst_direct = 0.0, min_vm = 1.0, max_vm = 0.0, upg_share = 0.0;
   const float betas[] = {1.0f, 2.0f, 3.0f};
   for (int trial = 0; trial < 300; trial++) {
     vf_vec3 x[4];
@@ -548,14 +569,19 @@ static void test_mis_identity_on_paths_in_a_medium(void) {
     float radius = 0.01f + 0.5f * vf_rng_float(&rng);
     float eta_s = VF_PI * radius * radius * 1e5f;
     for (size_t b = 0; b < 3; b++)
-      for (int kind = 0; kind < 3; kind++) {
-        double w[5], direct[5];
-        const vf_algorithm algorithms[] = {VF_ALGO_BPT, VF_ALGO_VCM, VF_ALGO_BPM};
+      for (int kind = 0; kind < 4; kind++) {
+        double w[6], direct[5];
+        const vf_algorithm algorithms[] = {VF_ALGO_BPT, VF_ALGO_VCM, VF_ALGO_BPM, VF_ALGO_UPG};
         vf_algorithm a = algorithms[kind];
         int vcm = a == VF_ALGO_VCM;
         double sum = media_path_weight_sum(x, &m, a, betas[b], eta_s, radius, w);
         media_path_weights_direct(x, &m, a, betas[b], radius, direct);
         worst = fmax(worst, fabs(sum - 1.0));
+        if (a == VF_ALGO_UPG) { /* either side's gathering at x1 has the one weight of that path */
+          worst = fmax(worst, fabs(sum - w[3] + w[5] - 1.0));
+          if (direct[3] > 1e-6) worst_direct = fmax(worst_direct, fabs(w[5] - direct[3]) / direct[3]);
+          upg_share = fmax(upg_share, w[3] + w[4]);
+        }
         for (int k = 0; k < 5; k++)
           if (direct[k] > 1e-6) worst_direct = fmax(worst_direct, fabs(w[k] - direct[k]) / direct[k]);
         if (vcm) {
@@ -565,9 +591,11 @@ static void test_mis_identity_on_paths_in_a_medium(void) {
         for (int k = 0; k < 5; k++) CHECK(w[k] >= 0.0 && w[k] <= 1.0);
       }
   }
-  printf("  paths with two medium vertices: worst |sum of weights - 1| %.2g, worst relative difference from the "
-         "direct evaluation %.2g; merges' share %.3g to %.3g\n",
-         worst, worst_direct, min_vm, max_vm);
+  printf("  paths with two medium vertices (bpt, vcm, bpm, upg from both sides): worst |sum of weights - 1| %.2g, "
+         "worst relative difference from the direct evaluation %.2g; merges' share %.3g to %.3g, upg's gatherings' up "
+         "to %.3g\n",
+         worst, worst_direct, min_vm, max_vm, upg_share);
+  CHECK(upg_share > 0.5);
   CHECK(worst < 1e-4);
   CHECK(worst_direct < 1e-3); /* the float recursion against double, as tests/worker/render/test_mis.c */
   CHECK(max_vm > 0.5); /* merging takes part, heavily on some paths */
