@@ -1,7 +1,8 @@
 /* upg's vertex merging: each camera vertex gathers the light vertices within the radius,
- * as vcm's merging finds them, and joins each one's predecessor to itself, with the
- * unbiased estimate of the acceptance probability's reciprocal (photon_gathering.h has the
- * estimator, gathering_pass.h the phase). */
+ * as vcm's merging finds them (on surfaces, and in media at medium vertices), and joins
+ * each one's predecessor to itself, with the unbiased estimate of the acceptance
+ * probability's reciprocal (photon_gathering.h has the estimator and its medium case,
+ * gathering_pass.h the phase). */
 #include "gathering_pass.h"
 
 #include "photon_gathering.h"

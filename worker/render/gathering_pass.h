@@ -8,6 +8,11 @@
  * connection, with a visibility ray, and weighted by vf_upg_inverse_acceptance's estimate
  * of 1/p_acc. A light vertex made by a specular choice, or whose predecessor is a light at
  * infinity, is merged as vcm merges it and counted (thread_stats.upg_fallbacks).
+ * In a scene with media, a camera vertex in a medium gathers the light vertices in media
+ * within the radius the same way (vf_gathering_estimate_medium), at once, and every join
+ * and tentative direction goes through media (photon_gathering.h, "In media"): the join's
+ * transmittance and the flights' free-flight sampling (segment.h), from where each camera
+ * vertex is (gathering_prev.here, .place).
  * Private to the renderer. */
 #ifndef VF_GATHERING_PASS_H
 #define VF_GATHERING_PASS_H

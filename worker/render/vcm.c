@@ -354,6 +354,10 @@ void vf_vcm_describe(const vf_vcm *v, FILE *out) {
               infinite ? "first vertices of lights at infinity seen from a lens-adjacent vertex" : "");
     else
       fprintf(out, "do not exist in this scene (no delta lobes, no lights at infinity): unbiased\n");
+    if (v->has_media)
+      fprintf(out, "gathering in media: at medium vertices too, every join with its transmittance and every "
+                   "tentative direction a free flight sampled as the sub-paths sample it%s\n",
+              v->has_specular ? "; volumetric caustics seen directly from the lens are merged as vcm merges them" : "");
   } else if (t->vertex_merging) {
     fprintf(out, "merging tests its candidates with %s\n", vf_vcm_merge_simd(v));
   }

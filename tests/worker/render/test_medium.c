@@ -602,7 +602,7 @@ static void test_mis_identity_on_paths_in_a_medium(void) {
 }
 
 /* --algorithm auto with media: a scattering medium beside specular surfaces (volumetric
- * caustics) is vcm's; the unbiased choice never falls on upg, which does not render media. */
+ * caustics) is vcm's; the unbiased choice is made from the surfaces alone, as without media. */
 static void test_auto_chooses_for_media(void) {
   vf_scene *fog = NULL, *rough = NULL;
   CHECK_INT_EQ(vf_scene_load("cornell-diffuse", &fog), VF_OK);
@@ -621,36 +621,26 @@ static void test_auto_chooses_for_media(void) {
   printf("  cornell in fog: %s\n", why);
   CHECK(strstr(why, "medium") != NULL);
   CHECK_INT_EQ(vf_vcm_auto_algorithm(rough, VF_ALGO_AUTO_UNBIASED, &why), VF_ALGO_UPG);
+  /* upg gathers in media without bias too (tests/worker/render/test_upg_medium.c): the
+   * medium changes nothing of the unbiased choice. */
   rough->medium = add_medium(rough, vf_vec3_splat(0.01f), vf_vec3_splat(0.2f), 0.0f);
-  CHECK_INT_EQ(vf_vcm_auto_algorithm(rough, VF_ALGO_AUTO_UNBIASED, &why), VF_ALGO_BPT);
+  CHECK_INT_EQ(vf_vcm_auto_algorithm(rough, VF_ALGO_AUTO_UNBIASED, &why), VF_ALGO_UPG);
   printf("  cornell-rough in fog, unbiased: %s\n", why);
   vf_scene_destroy(fog);
   vf_scene_destroy(rough);
 }
 
-/* The algorithm that does not render media, upg, refuses a scene with them, naming itself. */
-static void test_other_algorithms_refuse_media(void) {
+/* Every algorithm renders media (upg since it gathers in them: test_upg_medium.c), but a
+ * radius per pixel and merging in media need different radii: refused. */
+static void test_a_radius_per_pixel_refuses_media(void) {
   vf_scene *scene = NULL;
   CHECK_INT_EQ(vf_scene_load("cornell", &scene), VF_OK);
   if (scene == NULL) return;
   scene->medium = add_medium(scene, vf_vec3_splat(0.01f), vf_vec3_splat(0.2f), 0.0f);
-  const vf_algorithm refused[] = {VF_ALGO_UPG};
   vf_accel *accel = NULL;
   vf_pool *pool = NULL;
   CHECK_INT_EQ(vf_accel_create(scene, &accel), VF_OK);
   CHECK_INT_EQ(vf_pool_create(1, &pool), VF_OK);
-  for (size_t a = 0; a < sizeof refused / sizeof *refused; a++) {
-    vf_settings s = scene->settings;
-    s.algorithm = refused[a];
-    vf_vcm *vcm = NULL;
-    int err = vf_vcm_create(scene, accel, &s, pool, &vcm);
-    CHECK(err != VF_OK && vcm == NULL);
-    if (err != VF_OK) {
-      printf("  %s: %s\n", vf_algorithm_name(refused[a]), vf_error_detail(err));
-      CHECK(strstr(vf_error_detail(err), vf_algorithm_name(refused[a])) != NULL);
-    }
-    vf_vcm_destroy(vcm);
-  }
   /* A radius per pixel and merging in media need different radii: refused too. */
   vf_settings s = scene->settings;
   s.algorithm = VF_ALGO_VCM;
@@ -710,7 +700,7 @@ static void test_renders_in_media_are_reproducible(void) {
   scene->media[smoke].grid = grid;
   make_boundary(scene, mirror, smoke);
   scene->settings.width = scene->settings.height = 48;
-  const vf_algorithm algorithms[] = {VF_ALGO_PT, VF_ALGO_LT, VF_ALGO_BPT, VF_ALGO_VCM};
+  const vf_algorithm algorithms[] = {VF_ALGO_PT, VF_ALGO_LT, VF_ALGO_BPT, VF_ALGO_VCM, VF_ALGO_UPG};
   for (int k = 0; k < VF_SAMPLER_COUNT_; k++)
     for (size_t a = 0; a < sizeof algorithms / sizeof *algorithms; a++) {
       vf_settings s = scene->settings;
@@ -899,6 +889,6 @@ int main(void) {
   RUN(test_connections_through_boundaries_have_the_exact_transmittance);
   RUN(test_auto_chooses_for_media);
   RUN(test_renders_in_media_are_reproducible);
-  RUN(test_other_algorithms_refuse_media);
+  RUN(test_a_radius_per_pixel_refuses_media);
   return check_finish();
 }
