@@ -364,7 +364,8 @@ static void test_cornell_tinted_agreement(void) { agree_on_builtin("cornell-tint
 /* A point light in fog that fills space, seen from inside it (test_medium.c's scene), with a
  * large fixed merge radius, 0.3 of the scene's radius: vcm's 3D kernel blurs the light's
  * glow by it and must disagree with bpt (so that the comparison has power), while upg, which
- * gathers with the same radius without bias, must agree. */
+ * gathers with the same radius without bias, must agree, gathering from the light's side
+ * where both sides can and (upg*) from the camera's. */
 static void test_large_radius_in_fog_around_a_point_light(void) {
   vf_scene *scene = scene_from_text(
       "{'camera':{'position':[0,0,2],'forward':[0,0,-1],'up':[0,1,0],'fov':60,'resolution':[32,32]},"
@@ -375,12 +376,13 @@ static void test_large_radius_in_fog_around_a_point_light(void) {
   CHECK(scene != NULL);
   if (scene == NULL) return;
   scene->medium = add_medium(scene, vf_vec3_splat(0.1f), vf_vec3_make(0.4f, 0.5f, 0.6f), 0.3f);
-  enum { BLOCKS = 4, NB = BLOCKS * BLOCKS, ALGORITHMS = 3 };
-  const vf_algorithm algorithms[ALGORITHMS] = {VF_ALGO_BPT, VF_ALGO_UPG, VF_ALGO_VCM};
+  enum { BLOCKS = 4, NB = BLOCKS * BLOCKS, ALGORITHMS = 4 };
+  /* upg twice: gathering from the light's side where both sides can, and from the camera's. */
+  const vf_algorithm algorithms[ALGORITHMS] = {VF_ALGO_BPT, VF_ALGO_UPG, VF_ALGO_VCM, VF_ALGO_UPG};
 #ifdef __SANITIZE_ADDRESS__
-  const int iterations[ALGORITHMS] = {16, 16, 16};
+  const int iterations[ALGORITHMS] = {16, 16, 16, 16};
 #else
-  const int iterations[ALGORITHMS] = {128, 128, 128};
+  const int iterations[ALGORITHMS] = {128, 128, 128, 128};
 #endif
   double mean[ALGORITHMS][NB], se[ALGORITHMS][NB];
   for (int a = 0; a < ALGORITHMS; a++) {
@@ -390,18 +392,22 @@ static void test_large_radius_in_fog_around_a_point_light(void) {
     s.seed = 600 + (uint64_t)a;
     s.radius_factor = 0.3;
     s.alpha = 1.0;
+    s.gather = a == 3 ? VF_GATHER_CAMERA : VF_GATHER_LIGHT;
     vf_vcm_stats stats = {0};
     CHECK_INT_EQ(render_block_estimates(scene, &s, 2, iterations[a], BLOCKS, mean[a], se[a], &stats), VF_OK);
     CHECK_INT_EQ(stats.nonfinite, 0);
   }
   int upg_agrees = blocks_agree("large radius", "bpt", "upg", mean[0], se[0], mean[1], se[1], NB);
   int vcm_agrees = blocks_agree("large radius", "bpt", "vcm", mean[0], se[0], mean[2], se[2], NB);
+  int camera_agrees = blocks_agree("large radius", "bpt", "upg*", mean[0], se[0], mean[3], se[3], NB);
 #ifndef __SANITIZE_ADDRESS__
+  CHECK(camera_agrees);
   CHECK(upg_agrees);
   CHECK(!vcm_agrees);
 #else
   (void)upg_agrees;
   (void)vcm_agrees;
+  (void)camera_agrees;
 #endif
   vf_scene_destroy(scene);
 }
