@@ -141,10 +141,11 @@ static vf_vec3 join_through_media(vf_vcm *v, int thread, const gathering_place *
   return vf_segment_transmittance_rng(v, thread, medium, p, np, rho_p, q, nq, rho_q, 0, rng, fwd_q, rev_p);
 }
 
-/* The place of a stored light vertex (lb its BSDF) for its tentative draws: a medium
- * vertex's medium, or a surface with the outward normal its hit had and, where the shape
- * is no interface, the medium around it (found by vf_medium_at_point from the side of the
- * camera vertex, `towards`; both sides have the same medium there). */
+/* The place of a stored light vertex for its tentative draws: a medium vertex's medium,
+ * or a surface with the outward normal its hit had and, where the shape is no interface,
+ * the medium around it (vf_vcm.shape_medium, or where that cannot tell found by
+ * vf_medium_at_point from the side of the camera vertex, `towards`; both sides have the
+ * same medium there). */
 static gathering_place place_of_vertex(const vf_vcm *v, const light_vertex *lv, vf_vec3 towards) {
   gathering_place pl = {vf_vec3_splat(0.0f), VF_HIT_MEDIUM, -1};
   if (vertex_in_medium(lv)) {
@@ -154,7 +155,7 @@ static gathering_place place_of_vertex(const vf_vcm *v, const light_vertex *lv, 
   pl.shape = vertex_shape(lv);
   const vf_shape *sh = &v->scene->shapes[pl.shape];
   pl.normal = v->interpolated[pl.shape] ? vf_surface_triangle_normal(sh, lv->at.point.primitive) : lv->at.normal;
-  if (!sh->interface) {
+  if (!sh->interface && (pl.medium = v->shape_medium[pl.shape]) == VF_SHAPE_MEDIUM_UNKNOWN) {
     vf_vec3 n = pl.normal;
     pl.medium = vf_medium_at_point(v, vf_offset_ray_origin(lv->position, vf_dot(n, towards) > 0.0f ? n : vf_neg(n),
                                                            v->offset_scale));

@@ -31,6 +31,9 @@
 
 #include <stdint.h>
 
+/* vf_vcm.shape_medium of a shape whose surroundings its box does not tell. */
+#define VF_SHAPE_MEDIUM_UNKNOWN (-2)
+
 /* Light sub-paths are traced in fixed chunks, each writing its own vertex and splat lists,
  * which are then read in chunk order. Results therefore do not depend on which thread
  * traced which chunk. */
@@ -291,6 +294,9 @@ struct vf_vcm {
   vf_medium_rt *media;
   int camera_medium;
   int *light_medium;
+  /* Per shape, owned: the medium around a shape without an interface where its box shows
+   * it (the scene's), else VF_SHAPE_MEDIUM_UNKNOWN (found by vf_medium_at_point). */
+  int *shape_medium;
   /* The scene's medium is homogeneous and extinguishes: it fills all space, so nothing
    * from a light at infinity arrives (enclose fog in a shape to light it by the sky). */
   int infinite_dark;
