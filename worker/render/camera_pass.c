@@ -339,9 +339,9 @@ static int camera_medium_vertex(vf_vcm *v, int thread, camera_lane *lane, const 
   uint32_t vertex_dims = vf_dim_vertex(VF_DIM_CAMERA_VERTEX, s->path_length);
   if (v->t.light_sample) light_sample(v, thread, hit, &b, s, &lane->sampler, vertex_dims, lane->tile_pixel);
   if (v->t.connection) connect_to_light_path(v, thread, lane, hit, &b);
-  const gathering_place here = {vf_vec3_splat(0.0f), VF_HIT_MEDIUM, (int)hit->primitive};
   if (v->upg) {
     /* upg gathers the light vertices in media without bias, at once (gathering_pass.h). */
+    const gathering_place here = {vf_vec3_splat(0.0f), VF_HIT_MEDIUM, (int)hit->primitive};
     vertex_merging_query q = {b, hit->position, s->throughput, s->mis, s->path_length, lane->tile_pixel, lane->pixel,
                               lane->merge};
     lane->prev.here = here;

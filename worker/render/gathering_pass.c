@@ -113,7 +113,9 @@ static int visible(vf_vcm *v, int thread, vf_vec3 p, vf_vec3 n, vf_vec3 q, vf_ve
  * evaluation (rays are P(C) / p_acc with both): the draws where |C| M >= 1, which a wide
  * cone (the source close to the target, a corner) or a loose bound makes. A light's own
  * point has no draws here; its bounds are tight (|C| M <= 4). 0 where nothing reaches the
- * ball (then no light vertex, or camera vertex, could have landed there). */
+ * ball (then no light vertex, or camera vertex, could have landed there). In a scene with
+ * media, the trials' flights start at `place` (near_in_medium: a medium vertex's) and land
+ * by scattering in the ball where target_in_medium (lands_through_media); else NULL, 0, 0. */
 static double inverse_acceptance(vf_vcm *v, int thread, const merge_params *merge, const vf_upg_source *src,
                                  vf_vec3 from, vf_vec3 n, vf_vec3 target, float dist, const gathering_place *place,
                                  int near_in_medium, int target_in_medium, vf_rng *rng) {
@@ -122,7 +124,7 @@ static double inverse_acceptance(vf_vcm *v, int thread, const merge_params *merg
   vf_upg_cone(from, target, merge->radius, &axis, &cos_half, &omc);
   float bound = vf_upg_bound(src, axis, cos_half, omc);
   if (!(bound > 0.0f)) return 0.0;
-  landing ctx = {v,     thread, from,           n,   target, merge->radius_sq, dist + 2.0f * merge->radius,
+  landing ctx = {v, thread, from, n, target, merge->radius_sq, dist + 2.0f * merge->radius,
                  place, near_in_medium, target_in_medium, rng};
   if (src->bsdf != NULL && !(2.0 * M_PI * (double)omc * (double)bound < 1.0))
     return vf_upg_inverse_acceptance_draws(src->bsdf, axis, cos_half, rng, lands, &ctx, &v->stats[thread].upg);
