@@ -9,7 +9,9 @@
  *    [t0, t1] the ball's chord along w, which quadrature in the cone's angles computes
  *    apart from any sampler. The mean of the estimates, from the cone with the HG bound
  *    and from the phase function's own draws, is 1/p_acc within K_Z standard errors, and
- *    the bound is never exceeded;
+ *    the bound is never exceeded; and the same in a density grid, whose flights delta
+ *    tracking samples (the light sub-paths' own sampler again), against quadrature of its
+ *    scattering density along each direction;
  * 2. the same for a Lambertian surface vertex L below a ceiling at height h, through a
  *    medium between: a direction lands when its flight passes the whole way to the ceiling
  *    (a flight that scatters first is a failure) and meets it within r of x. Then
@@ -188,6 +190,75 @@ static void test_inverse_acceptance_of_a_medium_vertex(void) {
     double p = p_acc_medium(&b, &m, from, target, cases[i].r);
     check_inverse_acceptance(cases[i].name, &b, &m, from, target, cases[i].r, 0, 0.0f, p, 100 + i);
   }
+}
+
+/* A density grid made in code: a smooth blob in [-1, 1]^3 (test_medium.c's), to be tracked. */
+static vf_density_grid *make_blob_grid(void) {
+  vf_density_grid *g = calloc(1, sizeof *g);
+  g->nx = g->ny = g->nz = 16;
+  g->density = malloc(16 * 16 * 16 * sizeof(float));
+  g->box_min = vf_vec3_make(-1.0f, -1.0f, -1.0f);
+  g->box_max = vf_vec3_make(1.0f, 1.0f, 1.0f);
+  g->max_density = 0.0f;
+  for (uint32_t z = 0; z < 16; z++)
+    for (uint32_t y = 0; y < 16; y++)
+      for (uint32_t x = 0; x < 16; x++) {
+        float px = (x + 0.5f) / 8.0f - 1.0f, py = (y + 0.5f) / 8.0f - 1.0f, pz = (z + 0.5f) / 8.0f - 1.0f;
+        float d = 2.0f * expf(-2.0f * (px * px + py * py + pz * pz)) * (1.0f + 0.5f * sinf(5.0f * px));
+        g->density[(z * 16 + y) * 16 + x] = d;
+        if (d > g->max_density) g->max_density = d;
+      }
+  return g;
+}
+
+/* Case 1 in a grid by quadrature: delta tracking against the majorant with spectral weights
+ * (medium.h) scatters at distance t with density rho(t) mean_c sigma_s,c exp(-mean_c
+ * sigma_t,c int_0^t rho), its real collisions being those of the mean extinction; that
+ * density integrated over the chord, midpoints along the ray, for each direction of the cone. */
+static double p_acc_grid(const vf_bsdf *b, const vf_medium_rt *m, vf_vec3 from, vf_vec3 target, double r) {
+  enum { NT = 300, NP = 96, NS = 800 };
+  vf_vec3 a = vf_sub(target, from);
+  double dist = vf_length(a);
+  vf_frame f = vf_frame_from_normal(vf_scale(a, (float)(1.0 / dist)));
+  double theta_max = asin(r / dist), ms = vf_mean3(m->sigma_s), mt = vf_mean3(m->sigma_t);
+  double sum = 0.0;
+  for (int i = 0; i < NT; i++) {
+    double theta = (i + 0.5) * theta_max / NT, st = sin(theta), ct = cos(theta);
+    double h2 = r * r - dist * dist * st * st;
+    if (!(h2 > 0.0)) continue;
+    double t0 = dist * ct - sqrt(h2), t1 = dist * ct + sqrt(h2), ring = 0.0;
+    for (int j = 0; j < NP; j++) {
+      double phi = (j + 0.5) * 2.0 * M_PI / NP;
+      vf_vec3 w = vf_normalize(vf_frame_to_world(&f, vf_vec3_make((float)(st * cos(phi)), (float)(st * sin(phi)), (float)ct)));
+      float pdf;
+      vf_bsdf_evaluate(b, w, NULL, &pdf, NULL);
+      double tau = 0.0, chord = 0.0, h = t1 / NS;
+      for (int k = 0; k < NS; k++) {
+        double t = (k + 0.5) * h;
+        double rho = vf_medium_density_at(m, vf_add(from, vf_scale(w, (float)t)));
+        if (t > t0) chord += rho * ms * exp(-mt * (tau + 0.5 * rho * h)) * h;
+        tau += rho * h;
+      }
+      ring += pdf * chord;
+    }
+    sum += ring * (2.0 * M_PI / NP) * st * (theta_max / NT);
+  }
+  return sum;
+}
+
+static void test_inverse_acceptance_of_a_medium_vertex_in_a_grid(void) {
+  vf_medium med = {.sigma_a = vf_vec3_make(0.2f, 0.3f, 0.1f), .sigma_s = vf_vec3_make(0.5f, 0.7f, 0.9f), .g = 0.5f};
+  med.grid = make_blob_grid();
+  vf_medium_rt m;
+  vf_medium_prepare(&m, &med);
+  vf_vec3 from = vf_vec3_make(-0.6f, -0.3f, 0.1f), target = vf_vec3_make(0.3f, 0.2f, 0.0f);
+  vf_bsdf b;
+  vf_vec3 fix = vf_normalize(vf_vec3_make(-0.8f, 0.1f, 0.5f));
+  vf_bsdf_setup_phase(&b, vf_scale(m.sigma_s, vf_medium_density_at(&m, from)), m.g, m.continuation, fix);
+  double p = p_acc_grid(&b, &m, from, target, 0.3);
+  check_inverse_acceptance("hg 0.5 in a grid, delta tracking", &b, &m, from, target, 0.3f, 0, 0.0f, p, 300);
+  free(med.grid->density);
+  free(med.grid);
 }
 
 static void test_inverse_acceptance_of_a_surface_vertex_through_a_medium(void) {
@@ -452,6 +523,7 @@ static void test_renders_in_media_are_reproducible(void) {
 int main(void) {
   setvbuf(stdout, NULL, _IOLBF, 0);
   RUN(test_inverse_acceptance_of_a_medium_vertex);
+  RUN(test_inverse_acceptance_of_a_medium_vertex_in_a_grid);
   RUN(test_inverse_acceptance_of_a_surface_vertex_through_a_medium);
   RUN(test_furnace_filled_with_a_medium_of_albedo_one);
   RUN(test_renders_in_media_are_reproducible);
