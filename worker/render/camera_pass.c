@@ -339,7 +339,15 @@ static int camera_medium_vertex(vf_vcm *v, int thread, camera_lane *lane, const 
   uint32_t vertex_dims = vf_dim_vertex(VF_DIM_CAMERA_VERTEX, s->path_length);
   if (v->t.light_sample) light_sample(v, thread, hit, &b, s, &lane->sampler, vertex_dims, lane->tile_pixel);
   if (v->t.connection) connect_to_light_path(v, thread, lane, hit, &b);
-  if (v->t.vertex_merging) {
+  if (v->upg) {
+    /* upg gathers the light vertices in media without bias, at once (gathering_pass.h). */
+    const gathering_place here = {vf_vec3_splat(0.0f), VF_HIT_MEDIUM, (int)hit->primitive};
+    vertex_merging_query q = {b, hit->position, s->throughput, s->mis, s->path_length, lane->tile_pixel, lane->pixel,
+                              lane->merge};
+    lane->prev.here = here;
+    defer_unshadowed(v, thread, vf_gathering_estimate_medium(v, thread, &q, &lane->prev), lane->tile_pixel);
+    lane->prev = (gathering_prev){b, hit->position, s->throughput, s->mis, 1, here, here};
+  } else if (v->t.vertex_merging) {
     defer_unshadowed(v, thread, vf_mul(s->throughput, vf_volume_merging_estimate(v, &b, hit->position, &s->mis,
                                                                                   s->path_length)),
                      lane->tile_pixel);
@@ -419,10 +427,15 @@ static int camera_bounce(vf_vcm *v, int thread, camera_lane *lane, const vf_hit 
       if (q != NULL) {
         *q = (vertex_merging_query){b, hit->position, s->throughput, s->mis, s->path_length, tile_pixel, lane->pixel,
                                     lane->merge};
-        if (v->upg) v->scratch[thread].query_prev[q - v->scratch[thread].queries] = lane->prev;
+        if (v->upg) {
+          gathering_prev *p = &v->scratch[thread].query_prev[q - v->scratch[thread].queries];
+          *p = lane->prev;
+          p->here = (gathering_place){hit->normal, hit->shape, s->medium};
+        }
       } else {
         vertex_merging_query now = {b, hit->position, s->throughput, s->mis, s->path_length, tile_pixel, lane->pixel,
                                     lane->merge};
+        lane->prev.here = (gathering_place){hit->normal, hit->shape, s->medium};
         vf_vec3 estimate = v->upg ? vf_gathering_estimate(v, thread, &now, &lane->prev)
                                   : vf_mul(s->throughput, vf_vertex_merging_estimate(v, &now));
         defer_unshadowed(v, thread, estimate, tile_pixel);
@@ -430,7 +443,10 @@ static int camera_bounce(vf_vcm *v, int thread, camera_lane *lane, const vf_hit 
       if (v->t.ppm) return 0;
     }
   }
-  if (v->upg) lane->prev = (gathering_prev){b, hit->position, s->throughput, s->mis, 1};
+  if (v->upg) {
+    const gathering_place place = {hit->normal, hit->shape, s->medium};
+    lane->prev = (gathering_prev){b, hit->position, s->throughput, s->mis, 1, place, place};
+  }
   if (!vf_wavefront_scatter(v, &b, hit, s, &lane->sampler, vertex_dims, 1)) return 0;
   s->path_length++;
   return 1;

@@ -245,4 +245,37 @@ static inline float vf_mis_weight_gather_camera(const vf_mis *light, vf_mis cam,
   return vf_mis_weight_merge(light, &cam, c, light_dir_pdf_w, light_rev_pdf_w);
 }
 
+/* vf_mis_weight_gather through participating media (photon_gathering.h, "In media"): the
+ * predecessor's scattering counts merge_here surface merges (vf_mis_scatter_at: 1 on a
+ * surface, vf_vcm.medium_merge at a medium vertex), the hit at z_{t-1} takes the joined
+ * segment's distance densities (vf_mis_hit_media: fwd of z_{t-1} from the predecessor, rev
+ * of the predecessor from z_{t-1}), and a gathering at a point in a medium has merging's
+ * weight there (vf_mis_weight_merge_medium with ratio = mis(4 r / 3); ratio 0: a surface).
+ * Without media (fwd = rev = 1, merge_here 1, ratio 0) it is vf_mis_weight_gather. */
+static inline float vf_mis_weight_gather_media(vf_mis light, const vf_mis *cam, const vf_mis_config *c, int scatter,
+                                               float merge_here, float cos_light, float light_pdf_w,
+                                               float light_rev_pdf_w, float dist, float cos_camera, float fwd,
+                                               float rev, float ratio, float camera_dir_pdf_w,
+                                               float camera_rev_pdf_w) {
+  if (scatter) vf_mis_scatter_at(&light, c, cos_light, light_pdf_w, light_rev_pdf_w, 0, merge_here);
+  vf_mis_hit_media(&light, c, dist, cos_camera, 1, fwd, rev);
+  if (ratio > 0.0f) return vf_mis_weight_merge_medium(&light, cam, c, ratio, camera_dir_pdf_w, camera_rev_pdf_w);
+  return vf_mis_weight_merge(&light, cam, c, camera_dir_pdf_w, camera_rev_pdf_w);
+}
+
+/* vf_mis_weight_gather_camera through participating media, as vf_mis_weight_gather_media:
+ * z_{t-2}'s scattering counts merge_here surface merges, the hit at y_{s-1} takes fwd (of
+ * y_{s-1} from z_{t-2}) and rev (of z_{t-2} from y_{s-1}), and ratio > 0 makes it merging's
+ * weight at a point in a medium. */
+static inline float vf_mis_weight_gather_camera_media(const vf_mis *light, vf_mis cam, const vf_mis_config *c,
+                                                      float merge_here, float cos_camera, float camera_pdf_w,
+                                                      float camera_rev_pdf_w, float dist, float cos_light, float fwd,
+                                                      float rev, float ratio, float light_dir_pdf_w,
+                                                      float light_rev_pdf_w) {
+  vf_mis_scatter_at(&cam, c, cos_camera, camera_pdf_w, camera_rev_pdf_w, 0, merge_here);
+  vf_mis_hit_media(&cam, c, dist, cos_light, 1, fwd, rev);
+  if (ratio > 0.0f) return vf_mis_weight_merge_medium(light, &cam, c, ratio, light_dir_pdf_w, light_rev_pdf_w);
+  return vf_mis_weight_merge(light, &cam, c, light_dir_pdf_w, light_rev_pdf_w);
+}
+
 #endif

@@ -2,6 +2,7 @@
  * the renderer's use of it is gathering_pass.c. */
 #include "photon_gathering.h"
 
+#include "medium.h"
 #include "sampling.h"
 
 #include <float.h>
@@ -23,6 +24,10 @@ float vf_upg_sharpness(const vf_upg_source *src) {
     return l->kind == VF_LIGHT_SPOT ? l->cone_pdf_w : l->kind == VF_LIGHT_POINT ? VF_UNIFORM_SPHERE_PDF_W : VF_INV_PI;
   }
   const vf_bsdf *b = src->bsdf;
+  if (b->phase) { /* HG's peak, forwards for g >= 0, backwards for g < 0 */
+    float g = fabsf(b->phase_g);
+    return (1.0f + g) / (4.0f * VF_PI * (1.0f - g) * (1.0f - g));
+  }
   const float *p = b->lobe_probability;
   float s = (p[VF_LOBE_DIFFUSE] + (b->rough ? p[VF_LOBE_BASE] : 0.0f)) * VF_INV_PI;
   if (p[VF_LOBE_GLOSSY] > 0.0f) s += p[VF_LOBE_GLOSSY] * (b->material->phong_exponent + 1.0f) * (0.5f * VF_INV_PI);
@@ -90,10 +95,22 @@ static float max_cos_normal(normal_cone n, vf_vec3 fix) {
   return vf_fmaxf_zero(max_cos(n.centre, fix, cosf(n.spread), sinf(n.spread)));
 }
 
+/* The bound of a medium vertex's phase function times its continuation: HG of the cosine
+ * between the direction of travel (-fix) and a direction of the cone, a monotonic function
+ * of that cosine (rising for g >= 0, falling for g < 0), at its largest or its smallest
+ * over the cone (the smallest being minus the largest cosine with fix). */
+static float phase_bound(const vf_bsdf *b, vf_vec3 axis, float ch, float one_minus_ch) {
+  float sh = sqrtf(vf_fmaxf_zero(one_minus_ch * (1.0f + ch)));
+  vf_vec3 fix = b->geometric;
+  float c = b->phase_g >= 0.0f ? max_cos(axis, vf_neg(fix), ch, sh) : -max_cos(axis, fix, ch, sh);
+  return vf_hg(fminf(1.0f, fmaxf(-1.0f, c)), b->phase_g) * b->continuation;
+}
+
 /* The bound of a light vertex's BSDF: the sum of each non-delta lobe's bound, times the
  * continuation probability, in the BSDF's frame (the shading one where it has one; the
  * densities there are what vf_bsdf_evaluate returns, zero where the shading fold is). */
 static float bsdf_bound(const vf_bsdf *b, vf_vec3 world_axis, float ch, float one_minus_ch) {
+  if (b->phase) return phase_bound(b, world_axis, ch, one_minus_ch);
   const float *p = b->lobe_probability;
   vf_vec3 a = vf_frame_to_local(&b->frame, world_axis);
   float sh = sqrtf(vf_fmaxf_zero(one_minus_ch * (1.0f + ch)));

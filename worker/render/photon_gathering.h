@@ -68,6 +68,57 @@
  * biased_merges): the estimate is then biased on those paths, as VCM is. A scene without delta lobes and lights at infinity has
  * none; vf_vcm_describe says which a scene has.
  *
+ * In media (a scene with participating media: medium.h, segment.h; vcm merges at medium
+ * vertices with UPBP's point-point estimator, volume_merging.h). A camera vertex x in a
+ * medium gathers the light vertices in media within r of it (volume_merging.c's grid):
+ * the neighbourhood of eq. 2.55 becomes the ball of radius r around x. Both kinds of
+ * gathering then join through media, and the argument above holds with the sub-path's
+ * continuation taken whole, direction and free flight:
+ *   - p_acc (eq. 2.56-2.57) is the probability that L's continuation lands: a direction w
+ *     with density pdf_L (a medium vertex's: HG times its continuation), then the
+ *     segment along w walked as the sub-path walks it (vf_segment_trace: distances sampled
+ *     in every medium it crosses, through index-matched boundaries, the path ending where
+ *     tracking absorbs it), ending for a target in a medium by scattering within the ball,
+ *     for a target on a surface by passing every medium to its first surface, which lies
+ *     within r of x and stores vertices:
+ *       p_acc = integral over w of pdf_L(w) P_flight(w).
+ *     A flight that scatters before the surface, or passes the ball, is a failed trial.
+ *   - The Bernoulli process (eq. 2.61-2.62) needs only independent draws of that event:
+ *     each trial draws its direction (in the cone with the bound, or the sub-path's own
+ *     draw) and then its flight with the sub-path's own free-flight sampler, numbers from
+ *     the gathering's stream. So it is exact for density grids as well: delta tracking is
+ *     an unbiased sampler of the flight's event, and the flight's density, which has no
+ *     closed form, is never evaluated. A medium that only absorbs samples no distance
+ *     (its flights always pass) and is all in the transmittance below.
+ *   - The cone holds the ball as it held the disc (vf_upg_cone); a medium vertex's bound M
+ *     is HG at the cone's direction closest to the forward direction (g >= 0) or to the
+ *     backward one (g < 0), times the continuation (vf_upg_bound). A rejected direction
+ *     costs no ray, an accepted one its first ray (to at most |x - L| + 2 r, beyond which
+ *     nothing lands) and its flight.
+ *   - The contribution (eq. 2.67) is the connection's through media: the throughput at L
+ *     times f_L, the transmittance T of the join L -> x, f_x and G = cos_L cos_x / |x - L|^2
+ *     (a medium vertex's f is sigma_s HG and its cosine 1). T is exact in homogeneous
+ *     media and ratio tracking's unbiased estimate in grids, from numbers independent of
+ *     the trials', so that E[T N / p_b] = T / p_acc. The light sub-path itself carried
+ *     T / P(flight) to the light vertex; the join needs neither, p_acc holds the flight.
+ *   - The weight is merging's for the light vertex landed at x from L, its hit taking the
+ *     join's distance densities (vf_mis_hit_media) and a scattering at a medium L counting
+ *     vf_vcm.medium_merge surface merges; at a medium x it is merging's in media
+ *     (vf_mis_weight_merge_medium, ratio mis(4 r / 3)): vf_mis_weight_gather_media and
+ *     vf_mis_weight_gather_camera_media. Every technique of a path again shares one
+ *     approximate acceptance density, so the weights sum to one (sec. 2.4.6;
+ *     tests/worker/render/test_medium.c checks it from both sides on paths in a medium).
+ *   - Sides follow the rule below (a medium vertex is never a specular choice). A light
+ *     vertex in a medium reached through a delta lobe (a volumetric caustic: light focused
+ *     by glass into fog) cannot be joined from the light's side; from the camera's side it
+ *     can, unless the camera vertex is the first of its sub-path (the lens before it): the
+ *     caustic seen directly in the fog is merged as vcm merges in media and counted, as a
+ *     caustic seen directly on a surface is (on cornell-fog about 5% of gatherings).
+ *   - The medium a tentative flight starts in follows from L's place: a medium vertex's
+ *     own, a light's (vf_vcm.light_medium), through a surface that bounds media the side
+ *     of the direction, else the medium around a surface that bounds none (stored light
+ *     vertices do not keep it: vf_medium_at_point finds it, once per gathering).
+ *
  * Random numbers: a gathering's trials draw from a stream of its own, a pure function of
  * (seed, iteration, camera sub-path, camera vertex), and the light vertices of a camera
  * vertex are gathered in the grid's order: renders are reproducible whatever the thread
@@ -112,7 +163,8 @@ float vf_upg_density(const vf_upg_source *src, vf_vec3 dir);
 
 /* How sharply the source scatters: the peak density of its lobes, weighted by their
  * selection probabilities (diffuse 1/pi, Phong (n + 1) / 2 pi, GGX 1 / (4 pi alpha^2 cos)
- * with cos the incoming direction's; a light's point its emission's largest density).
+ * with cos the incoming direction's; a medium vertex HG's peak (1 + |g|) / (4 pi
+ * (1 - |g|)^2); a light's point its emission's largest density).
  * gathering_pass.c joins, where both sides can, at the vertex of the smaller one under
  * --gather-from auto: the estimate's f / p_acc varies least over the cone there. */
 float vf_upg_sharpness(const vf_upg_source *src);
@@ -128,7 +180,8 @@ float vf_upg_bound(const vf_upg_source *src, vf_vec3 axis, float cos_half, float
 float vf_upg_cone(vf_vec3 from, vf_vec3 to, float r, vf_vec3 *axis, float *cos_half, float *one_minus_cos_half);
 
 /* Whether a tentative direction lands: its ray's first hit lies within the radius of the
- * gathering point on a surface that stores light vertices. */
+ * gathering point on a surface that stores light vertices (in media, its flight ends
+ * there, or scatters within the radius of a gathering point in a medium: "In media"). */
 typedef int (*vf_upg_lands)(void *ctx, vf_vec3 dir);
 
 /* The unbiased estimate N / p_b of 1 / p_acc for the source and the cone (vf_upg_cone),

@@ -50,8 +50,17 @@ static int crossed(const vf_vcm *v, const vf_hit *hit, vf_vec3 dir) {
 
 static int is_boundary(const vf_vcm *v, const vf_hit *hit) { return v->scene->shapes[hit->shape].material < 0; }
 
+static vf_vec3 unblocked(const vf_vcm *v, int medium, vf_vec3 p, vf_vec3 n_p, float p_density, vf_vec3 q, vf_vec3 n_q,
+                         float q_density, int q_at_infinity, vf_rng *rng, float *fwd_q, float *rev_p);
+
 int vf_segment_trace(vf_vcm *v, int thread, int medium, int near_in_medium, vf_vec3 origin, vf_vec3 dir, int found,
                      vf_hit *hit, float u, vf_sampler *sampler, vf_segment *seg) {
+  return vf_segment_trace_rng(v, thread, medium, near_in_medium, origin, dir, found, hit, u, vf_sampler_rng(sampler),
+                              seg);
+}
+
+int vf_segment_trace_rng(vf_vcm *v, int thread, int medium, int near_in_medium, vf_vec3 origin, vf_vec3 dir, int found,
+                         vf_hit *hit, float u, vf_rng *rng, vf_segment *seg) {
   pieces ps;
   ps.n = 0;
   float near_rho = near_in_medium ? vf_medium_density_at(&v->media[medium], origin) : 1.0f;
@@ -65,8 +74,8 @@ int vf_segment_trace(vf_vcm *v, int thread, int medium, int near_in_medium, vf_v
     if (medium >= 0) {
       float t;
       vf_vec3 w;
-      float number = ps.n == 0 ? u : vf_rng_float(vf_sampler_rng(sampler));
-      int event = vf_medium_sample_piece(&v->media[medium], o, dir, length, number, vf_sampler_rng(sampler), &t, &w);
+      float number = ps.n == 0 ? u : vf_rng_float(rng);
+      int event = vf_medium_sample_piece(&v->media[medium], o, dir, length, number, rng, &t, &w);
       if (event == VF_PIECE_ABSORBED) return VF_SEGMENT_ENDED;
       weight = vf_mul(weight, w);
       if (event == VF_PIECE_SCATTERED) {
@@ -115,6 +124,12 @@ int vf_segment_trace(vf_vcm *v, int thread, int medium, int near_in_medium, vf_v
 vf_vec3 vf_segment_transmittance_unblocked(const vf_vcm *v, int medium, vf_vec3 p, vf_vec3 n_p, float p_density,
                                            vf_vec3 q, vf_vec3 n_q, float q_density, int q_at_infinity,
                                            vf_sampler *sampler, float *fwd_q, float *rev_p) {
+  return unblocked(v, medium, p, n_p, p_density, q, n_q, q_density, q_at_infinity, vf_sampler_rng(sampler), fwd_q,
+                   rev_p);
+}
+
+static vf_vec3 unblocked(const vf_vcm *v, int medium, vf_vec3 p, vf_vec3 n_p, float p_density, vf_vec3 q, vf_vec3 n_q,
+                         float q_density, int q_at_infinity, vf_rng *rng, float *fwd_q, float *rev_p) {
   pieces ps;
   vf_vec3 tr = vf_vec3_splat(1.0f);
   *fwd_q = *rev_p = 0.0f;
@@ -127,7 +142,7 @@ vf_vec3 vf_segment_transmittance_unblocked(const vf_vcm *v, int medium, vf_vec3 
     if (!(length > 0.0f)) return vf_vec3_splat(0.0f);
     dir = vf_scale(d, 1.0f / length);
   }
-  if (medium >= 0) tr = vf_medium_transmittance_piece(&v->media[medium], p, dir, length, vf_sampler_rng(sampler));
+  if (medium >= 0) tr = vf_medium_transmittance_piece(&v->media[medium], p, dir, length, rng);
   if (vf_is_zero(tr)) return tr;
   ps.medium[0] = medium;
   ps.length[0] = length;
@@ -139,6 +154,13 @@ vf_vec3 vf_segment_transmittance_unblocked(const vf_vcm *v, int medium, vf_vec3 
 vf_vec3 vf_segment_transmittance(vf_vcm *v, int thread, int medium, vf_vec3 p, vf_vec3 n_p, float p_density, vf_vec3 q,
                                  vf_vec3 n_q, float q_density, int q_at_infinity, vf_sampler *sampler, float *fwd_q,
                                  float *rev_p) {
+  return vf_segment_transmittance_rng(v, thread, medium, p, n_p, p_density, q, n_q, q_density, q_at_infinity,
+                                      vf_sampler_rng(sampler), fwd_q, rev_p);
+}
+
+vf_vec3 vf_segment_transmittance_rng(vf_vcm *v, int thread, int medium, vf_vec3 p, vf_vec3 n_p, float p_density,
+                                     vf_vec3 q, vf_vec3 n_q, float q_density, int q_at_infinity, vf_rng *rng,
+                                     float *fwd_q, float *rev_p) {
   pieces ps;
   ps.n = 0;
   vf_vec3 zero = vf_vec3_splat(0.0f), tr = vf_vec3_splat(1.0f);
@@ -165,8 +187,7 @@ vf_vec3 vf_segment_transmittance(vf_vcm *v, int thread, int medium, vf_vec3 p, v
     v->stats[thread].rays++;
     if (q_at_infinity ? vf_accel_occluded(v->accel, o, dir, INFINITY) : vf_accel_occluded(v->accel, o, vf_sub(end, o), 1.0f))
       return zero;
-    return vf_segment_transmittance_unblocked(v, medium, p, n_p, p_density, q, n_q, q_density, q_at_infinity, sampler,
-                                              fwd_q, rev_p);
+    return unblocked(v, medium, p, n_p, p_density, q, n_q, q_density, q_at_infinity, rng, fwd_q, rev_p);
   }
   for (;;) {
     if (ps.n == SEGMENT_PIECES_MAX) return zero;
@@ -182,7 +203,7 @@ vf_vec3 vf_segment_transmittance(vf_vcm *v, int thread, int medium, vf_vec3 p, v
     float length = found ? h.t * scale : scale;
     vf_vec3 unit = q_at_infinity ? dir : vf_scale(ray, 1.0f / scale);
     if (medium >= 0) {
-      tr = vf_mul(tr, vf_medium_transmittance_piece(&v->media[medium], o, unit, length, vf_sampler_rng(sampler)));
+      tr = vf_mul(tr, vf_medium_transmittance_piece(&v->media[medium], o, unit, length, rng));
       if (vf_is_zero(tr)) return zero;
     }
     ps.medium[ps.n] = medium;

@@ -60,6 +60,11 @@ typedef struct {
 int vf_segment_trace(vf_vcm *v, int thread, int medium, int near_in_medium, vf_vec3 origin, vf_vec3 dir, int found,
                      vf_hit *hit, float u, vf_sampler *sampler, vf_segment *seg);
 
+/* vf_segment_trace with the numbers after the first from rng (upg's tentative draws,
+ * photon_gathering.h, which have a stream of their own): the same walk. */
+int vf_segment_trace_rng(vf_vcm *v, int thread, int medium, int near_in_medium, vf_vec3 origin, vf_vec3 dir, int found,
+                         vf_hit *hit, float u, vf_rng *rng, vf_segment *seg);
+
 /* The transmittance of the connection from vertex p to q, leaving p in `medium`: zero
  * when a surface with a material lies between. p and q are each a surface point (unit
  * normal n_p, n_q: the connection's ends are moved off them) or a point in a medium
@@ -70,6 +75,11 @@ int vf_segment_trace(vf_vcm *v, int thread, int medium, int near_in_medium, vf_v
 vf_vec3 vf_segment_transmittance(vf_vcm *v, int thread, int medium, vf_vec3 p, vf_vec3 n_p, float p_density, vf_vec3 q,
                                  vf_vec3 n_q, float q_density, int q_at_infinity, vf_sampler *sampler, float *fwd_q,
                                  float *rev_p);
+
+/* vf_segment_transmittance with its numbers from rng (upg's joins, gathering_pass.c). */
+vf_vec3 vf_segment_transmittance_rng(vf_vcm *v, int thread, int medium, vf_vec3 p, vf_vec3 n_p, float p_density,
+                                     vf_vec3 q, vf_vec3 n_q, float q_density, int q_at_infinity, vf_rng *rng,
+                                     float *fwd_q, float *rev_p);
 
 /* In a scene without index-matched boundaries (vf_vcm.has_boundaries 0) a connection is
  * one piece in one medium: what vf_segment_transmittance gives when nothing blocks it,

@@ -250,10 +250,6 @@ vf_algorithm vf_vcm_auto_algorithm(const vf_scene *scene, vf_algorithm requested
   vf_algorithm a;
   if (requested == VF_ALGO_AUTO_UNBIASED) {
     a = auto_unbiased(scene, k, &why);
-    if (a == VF_ALGO_UPG && scene->num_media > 0) {
-      why = "glossy surfaces and participating media, which upg does not render: bpt";
-      a = VF_ALGO_BPT;
-    }
   } else if (k.has_specular && scene_scatters_in_media(scene)) {
     why = "a scattering medium and specular surfaces: volumetric caustics, which merging in media renders";
     a = VF_ALGO_VCM;
@@ -358,6 +354,10 @@ void vf_vcm_describe(const vf_vcm *v, FILE *out) {
               infinite ? "first vertices of lights at infinity seen from a lens-adjacent vertex" : "");
     else
       fprintf(out, "do not exist in this scene (no delta lobes, no lights at infinity): unbiased\n");
+    if (v->has_media)
+      fprintf(out, "gathering in media: at medium vertices too, every join with its transmittance and every "
+                   "tentative direction a free flight sampled as the sub-paths sample it%s\n",
+              v->has_specular ? "; volumetric caustics seen directly from the lens are merged as vcm merges them" : "");
   } else if (t->vertex_merging) {
     fprintf(out, "merging tests its candidates with %s\n", vf_vcm_merge_simd(v));
   }
@@ -371,6 +371,51 @@ void vf_vcm_describe(const vf_vcm *v, FILE *out) {
     fprintf(out, "note: no specular surfaces, so merging only adds to paths connections already cover\n");
 }
 
+/* The axis-aligned box of shape sh. */
+static void shape_box(const vf_shape *sh, vf_vec3 *lo, vf_vec3 *hi) {
+  if (sh->kind == VF_SHAPE_SPHERE) {
+    *lo = vf_sub(sh->center, vf_vec3_splat(sh->radius));
+    *hi = vf_add(sh->center, vf_vec3_splat(sh->radius));
+    return;
+  }
+  *lo = vf_vec3_splat(INFINITY);
+  *hi = vf_vec3_splat(-INFINITY);
+  for (uint32_t k = 0; k < sh->num_vertices; k++) {
+    vf_vec3 p = vf_vec3_make(sh->positions[3 * k], sh->positions[3 * k + 1], sh->positions[3 * k + 2]);
+    *lo = vf_vec3_make(fminf(lo->x, p.x), fminf(lo->y, p.y), fminf(lo->z, p.z));
+    *hi = vf_vec3_make(fmaxf(hi->x, p.x), fmaxf(hi->y, p.y), fmaxf(hi->z, p.z));
+  }
+}
+
+/* vf_vcm.shape_medium: the medium around each shape without an interface whose box meets
+ * the box of no shape with one (no point of it lies inside a region, so the scene's medium
+ * is around it), else VF_SHAPE_MEDIUM_UNKNOWN. upg's gatherings read it instead of finding
+ * the medium by rays (gathering_pass.c). */
+static int shape_media_setup(vf_vcm *v) {
+  const vf_scene *sc = v->scene;
+  int n = sc->num_shapes;
+  v->shape_medium = malloc((n > 0 ? (size_t)n : 1) * sizeof *v->shape_medium);
+  vf_vec3 *lo = malloc((n > 0 ? (size_t)n : 1) * sizeof *lo), *hi = malloc((n > 0 ? (size_t)n : 1) * sizeof *hi);
+  int err = v->shape_medium && lo && hi ? VF_OK : VF_ENOMEM;
+  for (int i = 0; i < n && err == VF_OK; i++) shape_box(&sc->shapes[i], &lo[i], &hi[i]);
+  for (int i = 0; i < n && err == VF_OK; i++) {
+    v->shape_medium[i] = sc->medium;
+    if (sc->shapes[i].interface) continue;
+    for (int j = 0; j < n; j++) {
+      if (!sc->shapes[j].interface) continue;
+      int apart = hi[i].x < lo[j].x || lo[i].x > hi[j].x || hi[i].y < lo[j].y || lo[i].y > hi[j].y ||
+                  hi[i].z < lo[j].z || lo[i].z > hi[j].z;
+      if (!apart) {
+        v->shape_medium[i] = VF_SHAPE_MEDIUM_UNKNOWN;
+        break;
+      }
+    }
+  }
+  free(lo);
+  free(hi);
+  return err;
+}
+
 /* The media of the scene, prepared, and the media the camera and the lights are in
  * (segment.h). An area light is taken to be in the medium in front of its first triangle
  * (of a sphere: outside it); lights at infinity shine from the scene's medium. */
@@ -378,12 +423,6 @@ static int media_setup(vf_vcm *v) {
   const vf_scene *sc = v->scene;
   v->camera_medium = -1;
   if (sc->num_media == 0) return VF_OK;
-  vf_algorithm a = v->settings.algorithm;
-  if (a == VF_ALGO_UPG)
-    return vf_error_set(VF_EINVAL,
-                        "the scene has participating media, which %s does not render (its gatherings would "
-                        "join light vertices across media); pt, lt, bpt, vcm, ppm and bpm do",
-                        vf_algorithm_name(a));
   if (v->settings.radius == VF_RADIUS_PER_PIXEL && v->t.vertex_merging)
     return vf_error_set(VF_EINVAL, "the scene has participating media, which a merge radius per pixel does not "
                                    "render (merging in media needs one radius); use the global radius");
@@ -417,7 +456,7 @@ static int media_setup(vf_vcm *v) {
     }
     v->light_medium[i] = m;
   }
-  return VF_OK;
+  return shape_media_setup(v);
 }
 
 int vf_vcm_create(const vf_scene *scene, const vf_accel *accel, const vf_settings *settings, vf_pool *pool,
@@ -577,6 +616,7 @@ void vf_vcm_destroy(vf_vcm *v) {
   free(v->shape_continuation);
   free(v->media);
   free(v->light_medium);
+  free(v->shape_medium);
   vf_volume_merging_destroy(v);
   vf_hashgrid_destroy(v->grid);
   vf_lights_destroy(v->lights);

@@ -31,6 +31,9 @@
 
 #include <stdint.h>
 
+/* vf_vcm.shape_medium of a shape whose surroundings its box does not tell. */
+#define VF_SHAPE_MEDIUM_UNKNOWN (-2)
+
 /* Light sub-paths are traced in fixed chunks, each writing its own vertex and splat lists,
  * which are then read in chunk order. Results therefore do not depend on which thread
  * traced which chunk. */
@@ -167,6 +170,13 @@ typedef struct {
   merge_params merge;  /* its pixel's radius */
 } vertex_merging_query;
 
+/* upg in media: where a camera vertex is (gathering_prev.place and .here). */
+typedef struct {
+  vf_vec3 normal; /* a surface's outward geometric normal, as the hit reported it */
+  uint32_t shape; /* the hit's shape, or VF_HIT_MEDIUM (segment.h) for a point in medium `medium` */
+  int medium;     /* the medium the sub-path arrived in (-1: vacuum) */
+} gathering_place;
+
 /* upg: the camera vertex before a query's, where gathering from the camera's side joins
  * the gathered light vertex (gathering_pass.c): its BSDF, position, the throughput and MIS
  * quantities it was reached with (before it scattered). valid is 0 where there is none
@@ -177,6 +187,9 @@ typedef struct {
   vf_vec3 throughput;
   vf_mis mis;
   int valid;
+  /* In a scene with media (vf_vcm.has_media): where the predecessor is, and where the
+   * query's own vertex is, for the media their joins and tentative draws leave in. */
+  gathering_place place, here;
 } gathering_prev;
 
 /* Shadow rays are not traced one by one where they arise but gathered into packets of
@@ -281,6 +294,9 @@ struct vf_vcm {
   vf_medium_rt *media;
   int camera_medium;
   int *light_medium;
+  /* Per shape, owned: the medium around a shape without an interface where its box shows
+   * it (the scene's), else VF_SHAPE_MEDIUM_UNKNOWN (found by vf_medium_at_point). */
+  int *shape_medium;
   /* The scene's medium is homogeneous and extinguishes: it fills all space, so nothing
    * from a light at infinity arrives (enclose fog in a shape to light it by the sky). */
   int infinite_dark;

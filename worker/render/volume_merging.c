@@ -9,16 +9,6 @@
 
 #include <stdlib.h>
 
-/* A light vertex in a medium as merging reads it. */
-struct medium_photon {
-  vf_vec3 position; /* first: the grid reads it at offset 0 */
-  vf_vec3 throughput;
-  vf_vec3 fix;
-  vf_mis mis;
-  uint32_t medium;
-  int path_length;
-};
-
 int vf_volume_merging_build(vf_vcm *v) {
   uint32_t n = 0;
   for (uint32_t c = 0; c < v->num_chunks; c++)
@@ -35,7 +25,7 @@ int vf_volume_merging_build(vf_vcm *v) {
       const light_vertex *lv = &v->chunks[c].vertices[i];
       if (!vertex_in_medium(lv)) continue;
       v->medium_photons[k++] = (medium_photon){lv->position, lv->throughput, lv->fix, lv->mis, lv->at.point.primitive,
-                                               vertex_path_length(lv)};
+                                               vertex_path_length(lv), c << v->chunk_shift | i};
     }
   v->num_medium_photons = n;
   if (v->volume_grid == NULL) {
@@ -46,6 +36,27 @@ int vf_volume_merging_build(vf_vcm *v) {
   return vf_hashgrid_build(v->volume_grid, v->medium_photons, sizeof(medium_photon), n, v->merge.radius, v->pool);
 }
 
+/* 1 / ((4/3) pi r^3 n_light): the ball's volume, for the light sub-paths of one iteration. */
+static float normalization(const vf_vcm *v) {
+  double r = v->radius_exact;
+  return (float)(3.0 / (4.0 * M_PI * r * r * r * (double)v->merge.mis.light_paths));
+}
+
+/* Light vertex ph merged at the camera vertex of BSDF b and quantities cam, weighted, before
+ * the normalisation. */
+static vf_vec3 merge_one(const vf_vcm *v, const vf_bsdf *b, const vf_mis *cam, const medium_photon *ph) {
+  float cos_camera, camera_pdf, camera_rev_pdf;
+  vf_vec3 f = vf_bsdf_evaluate(b, ph->fix, &cos_camera, &camera_pdf, &camera_rev_pdf);
+  if (vf_is_zero(f)) return f;
+  float w = 1.0f; /* ppm merges unweighted */
+  if (!v->t.ppm) {
+    /* The reverse step is taken at the light vertex: its medium's Russian roulette. */
+    camera_rev_pdf *= v->media[ph->medium].continuation / b->continuation;
+    w = vf_mis_weight_merge_medium(&ph->mis, cam, &v->merge.mis, v->medium_merge, camera_pdf, camera_rev_pdf);
+  }
+  return vf_scale(vf_mul(f, ph->throughput), w);
+}
+
 vf_vec3 vf_volume_merging_estimate(const vf_vcm *v, const vf_bsdf *b, vf_vec3 position, const vf_mis *cam,
                                    int path_length) {
   vf_vec3 sum = vf_vec3_splat(0.0f);
@@ -53,27 +64,19 @@ vf_vec3 vf_volume_merging_estimate(const vf_vcm *v, const vf_bsdf *b, vf_vec3 po
   vf_index_range ranges[VF_HASHGRID_MAX_RANGES];
   int num_ranges = vf_hashgrid_candidates(v->volume_grid, position, ranges);
   const vf_grid_point *points = vf_hashgrid_points(v->volume_grid);
-  const vf_mis_config *c = &v->merge.mis;
   for (int r = 0; r < num_ranges; r++)
     for (uint32_t j = ranges[r].begin; j < ranges[r].end; j++) {
       const vf_grid_point *p = &points[j];
       if (!vf_vertex_merging_within(v->merge.radius_sq, p->x, p->y, p->z, position)) continue;
       const medium_photon *ph = &v->medium_photons[p->index];
       if (ph->path_length + path_length > v->settings.max_path_length) continue;
-      float cos_camera, camera_pdf, camera_rev_pdf;
-      vf_vec3 f = vf_bsdf_evaluate(b, ph->fix, &cos_camera, &camera_pdf, &camera_rev_pdf);
-      if (vf_is_zero(f)) continue;
-      float w = 1.0f; /* ppm merges unweighted */
-      if (!v->t.ppm) {
-        /* The reverse step is taken at the light vertex: its medium's Russian roulette. */
-        camera_rev_pdf *= v->media[ph->medium].continuation / b->continuation;
-        w = vf_mis_weight_merge_medium(&ph->mis, cam, c, v->medium_merge, camera_pdf, camera_rev_pdf);
-      }
-      sum = vf_add(sum, vf_scale(vf_mul(f, ph->throughput), w));
+      sum = vf_add(sum, merge_one(v, b, cam, ph));
     }
-  /* 1 / ((4/3) pi r^3 n_light): the ball's volume, for the light sub-paths of one iteration. */
-  double r = v->radius_exact;
-  return vf_scale(sum, (float)(3.0 / (4.0 * M_PI * r * r * r * (double)v->merge.mis.light_paths)));
+  return vf_scale(sum, normalization(v));
+}
+
+vf_vec3 vf_volume_merging_one(const vf_vcm *v, const vf_bsdf *b, const vf_mis *cam, uint32_t k) {
+  return vf_scale(merge_one(v, b, cam, &v->medium_photons[k]), normalization(v));
 }
 
 void vf_volume_merging_destroy(vf_vcm *v) {

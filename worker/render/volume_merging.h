@@ -20,6 +20,17 @@
 
 #include "vcm_internal.h"
 
+/* A light vertex in a medium as merging reads it. */
+struct medium_photon {
+  vf_vec3 position; /* first: the grid reads it at offset 0 */
+  vf_vec3 throughput;
+  vf_vec3 fix;
+  vf_mis mis;
+  uint32_t medium;
+  int path_length;
+  uint32_t source; /* its chunk c and index i there, (c << vf_vcm.chunk_shift) | i: upg's gatherings */
+};
+
 /* The iteration's light vertices in media, gathered from the chunks in chunk order, and
  * their grid. After the light pass. */
 int vf_volume_merging_build(vf_vcm *v);
@@ -30,6 +41,11 @@ int vf_volume_merging_build(vf_vcm *v);
  * multiplied by the camera sub-path's throughput. */
 vf_vec3 vf_volume_merging_estimate(const vf_vcm *v, const vf_bsdf *b, vf_vec3 position, const vf_mis *cam,
                                    int path_length);
+
+/* Light vertex k (of vf_vcm.medium_photons) merged at the camera vertex of phase "BSDF" b
+ * and quantities cam, as vf_volume_merging_estimate merges each: upg's fall-back for the
+ * light vertices in media that no gathering can join (gathering_pass.c). */
+vf_vec3 vf_volume_merging_one(const vf_vcm *v, const vf_bsdf *b, const vf_mis *cam, uint32_t k);
 
 void vf_volume_merging_destroy(vf_vcm *v);
 

@@ -454,7 +454,7 @@ static double media_path_weight_sum(vf_vec3 x[4], const vf_medium_rt *m, vf_algo
   vf_mis_config c = {0};
   c.beta = beta;
   c.light_paths = n_light;
-  int vm = a == VF_ALGO_VCM || a == VF_ALGO_BPM, vc = a != VF_ALGO_BPM;
+  int vm = a == VF_ALGO_VCM || a == VF_ALGO_BPM || a == VF_ALGO_UPG, vc = a != VF_ALGO_BPM;
   c.vm_weight = vm ? vf_mis_h(&c, eta_s) : 0.0f;
   c.vc_weight = vc ? vf_mis_h(&c, 1.0f / eta_s) : 0.0f;
   float ratio = vm ? vf_mis_h(&c, 4.0f * radius / 3.0f) : 0.0f;
@@ -493,9 +493,30 @@ static double media_path_weight_sum(vf_vec3 x[4], const vf_medium_rt *m, vf_algo
   phase_pdfs(m, x[1], x[2], x[3], &p, &rev_pdf);
   w_out[2] = vf_mis_weight_camera_connection_at(&l2, &c, camera_pdf_w / (d23 * d23) * piece_scatter(m, d23), rev_pdf,
                                                 vm_medium);
-  w_out[3] = w_out[4] = 0.0;
+  w_out[3] = w_out[4] = w_out[5] = 0.0;
   if (!vc) w_out[0] = w_out[1] = w_out[2] = 0.0; /* bpm: merging alone */
-  if (vm) {
+  if (a == VF_ALGO_UPG) {
+    /* upg's gatherings in place of the merges (gathering_pass.c), each weighted as the
+     * renderer weighs it: at x1 from the light's side (x0, the point light's own point,
+     * joined to the camera vertex x1) and from the camera's (x2, the camera vertex before,
+     * joined to the light vertex x1: w_out[5], the same path again); at x2 from the light's
+     * side only (the camera vertex before x2 is the lens). */
+    vf_mis start;
+    vf_mis_light_start(&start, &c, pick, pick / (4.0f * VF_PI), 1.0f, 1, 1);
+    phase_pdfs(m, x[2], x[1], x[0], &p, &r);
+    w_out[3] = vf_mis_weight_gather_media(start, &z2, &c, 0, 1.0f, 1.0f, 0.0f, 0.0f, d01, 1.0f, piece_scatter(m, d01),
+                                          piece_pass(m, d01), ratio, p, r);
+    float cp, cr, lp, lr;
+    phase_pdfs(m, x[3], x[2], x[1], &cp, &cr);
+    phase_pdfs(m, x[0], x[1], x[2], &lp, &lr);
+    w_out[5] = vf_mis_weight_gather_camera_media(&l1, z1, &c, ratio, 1.0f, cp, cr, d12, 1.0f, piece_scatter(m, d12),
+                                                 piece_scatter(m, d12), ratio, lp, lr);
+    float light_pdf1, light_rev1;
+    phase_pdfs(m, x[0], x[1], x[2], &light_pdf1, &light_rev1);
+    phase_pdfs(m, x[3], x[2], x[1], &p, &r);
+    w_out[4] = vf_mis_weight_gather_media(l1, &z1, &c, 1, ratio, 1.0f, light_pdf1, light_rev1, d12, 1.0f,
+                                          piece_scatter(m, d12), piece_scatter(m, d12), ratio, p, r);
+  } else if (vm) {
     /* Merging at x1: the light vertex that arrived there, the camera vertex z2. */
     phase_pdfs(m, x[2], x[1], x[0], &p, &r);
     w_out[3] = vf_mis_weight_merge_medium(&l1, &z2, &c, ratio, p, r);
@@ -525,7 +546,7 @@ static void media_path_weights_direct(vf_vec3 x[4], const vf_medium_rt *m, vf_al
   phase_pdfs(m, x[3], x[2], x[1], &p, &r);
   double pE1 = p * piece_scatter(m, (float)d12) / (d12 * d12);
   int vc = a != VF_ALGO_BPM;
-  double eta = a == VF_ALGO_VCM || a == VF_ALGO_BPM ? 4.0 / 3.0 * M_PI * radius * radius * radius * n_light : 0.0;
+  double eta = a == VF_ALGO_VCM || a == VF_ALGO_BPM || a == VF_ALGO_UPG ? 4.0 / 3.0 * M_PI * radius * radius * radius * n_light : 0.0;
   double t[5] = {vc * pL0 * pE1 * pE2, vc * pL0 * pL1 * pE2, vc * n_light * pL0 * pL1 * pL2, eta * pL0 * pL1 * pE1 * pE2,
                  eta * pL0 * pL1 * pL2 * pE2};
   double sum = 0.0;
@@ -538,7 +559,7 @@ static void test_mis_identity_on_paths_in_a_medium(void) {
   vf_medium_rt m;
   vf_medium_prepare(&m, &med);
   vf_rng rng = vf_rng_for_path(3, 0, 0, 0);
-  double worst = 0.0, worst_direct = 0.0, min_vm = 1.0, max_vm = 0.0;
+  double worst = 0.0, worst_direct = 0.0, min_vm = 1.0, max_vm = 0.0, upg_share = 0.0;
   const float betas[] = {1.0f, 2.0f, 3.0f};
   for (int trial = 0; trial < 300; trial++) {
     vf_vec3 x[4];
@@ -548,14 +569,19 @@ static void test_mis_identity_on_paths_in_a_medium(void) {
     float radius = 0.01f + 0.5f * vf_rng_float(&rng);
     float eta_s = VF_PI * radius * radius * 1e5f;
     for (size_t b = 0; b < 3; b++)
-      for (int kind = 0; kind < 3; kind++) {
-        double w[5], direct[5];
-        const vf_algorithm algorithms[] = {VF_ALGO_BPT, VF_ALGO_VCM, VF_ALGO_BPM};
+      for (int kind = 0; kind < 4; kind++) {
+        double w[6], direct[5];
+        const vf_algorithm algorithms[] = {VF_ALGO_BPT, VF_ALGO_VCM, VF_ALGO_BPM, VF_ALGO_UPG};
         vf_algorithm a = algorithms[kind];
         int vcm = a == VF_ALGO_VCM;
         double sum = media_path_weight_sum(x, &m, a, betas[b], eta_s, radius, w);
         media_path_weights_direct(x, &m, a, betas[b], radius, direct);
         worst = fmax(worst, fabs(sum - 1.0));
+        if (a == VF_ALGO_UPG) { /* either side's gathering at x1 has the one weight of that path */
+          worst = fmax(worst, fabs(sum - w[3] + w[5] - 1.0));
+          if (direct[3] > 1e-6) worst_direct = fmax(worst_direct, fabs(w[5] - direct[3]) / direct[3]);
+          upg_share = fmax(upg_share, w[3] + w[4]);
+        }
         for (int k = 0; k < 5; k++)
           if (direct[k] > 1e-6) worst_direct = fmax(worst_direct, fabs(w[k] - direct[k]) / direct[k]);
         if (vcm) {
@@ -565,16 +591,133 @@ static void test_mis_identity_on_paths_in_a_medium(void) {
         for (int k = 0; k < 5; k++) CHECK(w[k] >= 0.0 && w[k] <= 1.0);
       }
   }
-  printf("  paths with two medium vertices: worst |sum of weights - 1| %.2g, worst relative difference from the "
-         "direct evaluation %.2g; merges' share %.3g to %.3g\n",
-         worst, worst_direct, min_vm, max_vm);
+  printf("  paths with two medium vertices (bpt, vcm, bpm, upg from both sides): worst |sum of weights - 1| %.2g, "
+         "worst relative difference from the direct evaluation %.2g; merges' share %.3g to %.3g, upg's gatherings' up "
+         "to %.3g\n",
+         worst, worst_direct, min_vm, max_vm, upg_share);
+  CHECK(upg_share > 0.5);
   CHECK(worst < 1e-4);
   CHECK(worst_direct < 1e-3); /* the float recursion against double, as tests/worker/render/test_mis.c */
   CHECK(max_vm > 0.5); /* merging takes part, heavily on some paths */
 }
 
+/* The diffuse "BSDF" at surface point x (unit normal n) for a path arriving from `from`:
+ * its density of going to `to`, the reverse, and |cos| at x towards `to`. */
+static void surface_pdfs(vf_vec3 n, vf_vec3 from, vf_vec3 x, vf_vec3 to, float *pdf, float *rev, float *cos_to) {
+  vf_material mat;
+  memset(&mat, 0, sizeof mat);
+  mat.diffuse = vf_vec3_make(0.7f, 0.5f, 0.3f);
+  vf_bsdf_lobes lobes;
+  vf_bsdf_lobes_of(&mat, &lobes);
+  vf_bsdf b;
+  vf_bsdf_setup(&b, &mat, &lobes, n, vf_normalize(vf_sub(from, x)));
+  vf_bsdf_evaluate(&b, vf_normalize(vf_sub(to, x)), cos_to, pdf, rev);
+}
+
+/* A path x0 (a point light) - x1 (a diffuse surface, normal n1) - x2 (in a homogeneous
+ * medium that fills space) - x3 (a pinhole), its quantities driven as the passes drive
+ * them: vcm's weights (light sampling at x1, the connection of x1 and x2, x2 projected
+ * onto the camera, merging at x1 on the surface and at x2 in the medium) sum to one, and
+ * upg's gatherings, each as gathering_pass.c weighs it, have merging's weights: at x1 from
+ * the light's side (x0 joined to x1) and from the camera's (the medium vertex x2 joined to
+ * the light vertex x1), at x2 from the light's side (the surface vertex x1 joined to x2).
+ * *worst_sum and *worst_gather: the largest |sum - 1| and relative |gather - merge|. */
+static void surface_and_medium_path(vf_vec3 x[4], vf_vec3 n1, const vf_medium_rt *m, float beta, float radius,
+                                    double *worst_sum, double *worst_gather, double *gather_share) {
+  const float n_light = 1e5f, pick = 1.0f, camera_pdf_w = 3.7f;
+  vf_mis_config c = {0};
+  c.beta = beta;
+  c.light_paths = n_light;
+  float eta_s = VF_PI * radius * radius * n_light;
+  c.vm_weight = vf_mis_h(&c, eta_s);
+  c.vc_weight = vf_mis_h(&c, 1.0f / eta_s);
+  float ratio = vf_mis_h(&c, 4.0f * radius / 3.0f), vm = c.vm_weight;
+  float d01 = vf_length(vf_sub(x[1], x[0])), d12 = vf_length(vf_sub(x[2], x[1])), d23 = vf_length(vf_sub(x[3], x[2]));
+  float cos10 = fabsf(vf_dot(n1, vf_normalize(vf_sub(x[0], x[1])))), cos12 = fabsf(vf_dot(n1, vf_normalize(vf_sub(x[2], x[1]))));
+  float p, r, cosv;
+  /* The light sub-path x0, x1, x2. */
+  vf_mis start, l1, l2;
+  vf_mis_light_start(&start, &c, pick, pick / (4.0f * VF_PI), 1.0f, 1, 1);
+  l1 = start;
+  vf_mis_hit_media(&l1, &c, d01, cos10, 1, piece_pass(m, d01), piece_pass(m, d01));
+  l2 = l1;
+  float lp1, lr1; /* x1's light BSDF towards x2 */
+  surface_pdfs(n1, x[0], x[1], x[2], &lp1, &lr1, &cosv);
+  vf_mis_scatter_at(&l2, &c, cos12, lp1, lr1, 0, 1.0f);
+  vf_mis_hit_media(&l2, &c, d12, 1.0f, 1, piece_scatter(m, d12), piece_pass(m, d12));
+  /* The camera sub-path x3, x2, x1. */
+  vf_mis z1, z2;
+  vf_mis_camera_start(&z1, &c, camera_pdf_w);
+  vf_mis_hit_media(&z1, &c, d23, 1.0f, 1, piece_scatter(m, d23), piece_pass(m, d23));
+  z2 = z1;
+  float cp2, cr2; /* x2's camera phase function towards x1 */
+  phase_pdfs(m, x[3], x[2], x[1], &cp2, &cr2);
+  vf_mis_scatter_at(&z2, &c, 1.0f, cp2, cr2, 0, ratio);
+  vf_mis_hit_media(&z2, &c, d12, cos12, 1, piece_pass(m, d12), piece_scatter(m, d12));
+  double w[5];
+  /* s = 1: light sampling at x1 (a point light: no BSDF sample reaches it). */
+  float bp, brev;
+  surface_pdfs(n1, x[2], x[1], x[0], &bp, &brev, &cosv);
+  w[0] = vf_mis_weight_light_sample_at(&z2, &c, 0.0f, brev, d01 * d01 * pick, pick / (4.0f * VF_PI),
+                                       cos10 * piece_pass(m, d01), 1.0f, vm);
+  /* s = 2: the connection of x1 (light) and x2 (camera). */
+  w[1] = vf_mis_weight_connection_at(&l1, &z1, &c, cp2 * cos12 / (d12 * d12) * piece_pass(m, d12),
+                                     lp1 / (d12 * d12) * piece_scatter(m, d12), lr1, cr2, vm, vm * ratio);
+  /* s = 3: x2 projected onto the camera. */
+  phase_pdfs(m, x[1], x[2], x[3], &p, &r);
+  w[2] = vf_mis_weight_camera_connection_at(&l2, &c, camera_pdf_w / (d23 * d23) * piece_scatter(m, d23), r, vm * ratio);
+  /* Merging at x1 (the surface) and at x2 (the medium). */
+  float mp1, mr1; /* x1's camera BSDF (from x2) towards x0 */
+  surface_pdfs(n1, x[2], x[1], x[0], &mp1, &mr1, &cosv);
+  w[3] = vf_mis_weight_merge(&l1, &z2, &c, mp1, mr1);
+  w[4] = vf_mis_weight_merge_medium(&l2, &z1, &c, ratio, cp2, cr2);
+  double sum = w[0] + w[1] + w[2] + w[3] + w[4];
+  *worst_sum = fmax(*worst_sum, fabs(sum - 1.0));
+  /* upg's gatherings. */
+  double g[3];
+  g[0] = vf_mis_weight_gather_media(start, &z2, &c, 0, 1.0f, 1.0f, 0.0f, 0.0f, d01, cos10, piece_pass(m, d01),
+                                    piece_pass(m, d01), 0.0f, mp1, mr1);
+  g[1] = vf_mis_weight_gather_camera_media(&l1, z1, &c, ratio, 1.0f, cp2, cr2, d12, cos12, piece_pass(m, d12),
+                                           piece_scatter(m, d12), 0.0f, lr1, lp1);
+  g[2] = vf_mis_weight_gather_media(l1, &z1, &c, 1, 1.0f, cos12, lp1, lr1, d12, 1.0f, piece_scatter(m, d12),
+                                    piece_pass(m, d12), ratio, cp2, cr2);
+  const double merge[3] = {w[3], w[3], w[4]};
+  for (int k = 0; k < 3; k++)
+    if (merge[k] > 1e-6) *worst_gather = fmax(*worst_gather, fabs(g[k] - merge[k]) / merge[k]);
+  *gather_share = fmax(*gather_share, g[0] + g[2]);
+}
+
+static void test_mis_identity_on_paths_with_a_surface_in_a_medium(void) {
+  vf_medium med = {.sigma_a = vf_vec3_make(0.1f, 0.3f, 0.2f), .sigma_s = vf_vec3_make(0.8f, 0.5f, 1.1f), .g = -0.3f};
+  vf_medium_rt m;
+  vf_medium_prepare(&m, &med);
+  vf_rng rng = vf_rng_for_path(4, 0, 0, 0);
+  double worst_sum = 0.0, worst_gather = 0.0, share = 0.0;
+  const float betas[] = {1.0f, 2.0f};
+  for (int trial = 0; trial < 300; trial++) {
+    vf_vec3 x[4];
+    for (int i = 0; i < 4; i++)
+      x[i] = vf_vec3_make(4.0f * vf_rng_float(&rng) - 2.0f, 4.0f * vf_rng_float(&rng) - 2.0f,
+                          4.0f * vf_rng_float(&rng) - 2.0f);
+    /* A normal at x1 that sees both x0 and x2, tilted at random within that. */
+    vf_vec3 a = vf_normalize(vf_sub(x[0], x[1])), b = vf_normalize(vf_sub(x[2], x[1]));
+    float t = 0.2f + 0.6f * vf_rng_float(&rng);
+    vf_vec3 n1 = vf_normalize(vf_add(vf_scale(a, t), vf_scale(b, 1.0f - t)));
+    if (!(vf_dot(n1, a) > 0.05f && vf_dot(n1, b) > 0.05f)) continue;
+    float radius = 0.01f + 0.5f * vf_rng_float(&rng);
+    for (size_t k = 0; k < sizeof betas / sizeof *betas; k++)
+      surface_and_medium_path(x, n1, &m, betas[k], radius, &worst_sum, &worst_gather, &share);
+  }
+  printf("  paths light - surface - medium - camera (vcm, upg from both sides): worst |sum of weights - 1| %.2g, "
+         "worst relative difference of a gathering's weight from merging's %.2g; gatherings' share up to %.3g\n",
+         worst_sum, worst_gather, share);
+  CHECK(worst_sum < 1e-4);
+  CHECK(worst_gather < 1e-4);
+  CHECK(share > 0.5);
+}
+
 /* --algorithm auto with media: a scattering medium beside specular surfaces (volumetric
- * caustics) is vcm's; the unbiased choice never falls on upg, which does not render media. */
+ * caustics) is vcm's; the unbiased choice is made from the surfaces alone, as without media. */
 static void test_auto_chooses_for_media(void) {
   vf_scene *fog = NULL, *rough = NULL;
   CHECK_INT_EQ(vf_scene_load("cornell-diffuse", &fog), VF_OK);
@@ -593,36 +736,26 @@ static void test_auto_chooses_for_media(void) {
   printf("  cornell in fog: %s\n", why);
   CHECK(strstr(why, "medium") != NULL);
   CHECK_INT_EQ(vf_vcm_auto_algorithm(rough, VF_ALGO_AUTO_UNBIASED, &why), VF_ALGO_UPG);
+  /* upg gathers in media without bias too (tests/worker/render/test_upg_medium.c): the
+   * medium changes nothing of the unbiased choice. */
   rough->medium = add_medium(rough, vf_vec3_splat(0.01f), vf_vec3_splat(0.2f), 0.0f);
-  CHECK_INT_EQ(vf_vcm_auto_algorithm(rough, VF_ALGO_AUTO_UNBIASED, &why), VF_ALGO_BPT);
+  CHECK_INT_EQ(vf_vcm_auto_algorithm(rough, VF_ALGO_AUTO_UNBIASED, &why), VF_ALGO_UPG);
   printf("  cornell-rough in fog, unbiased: %s\n", why);
   vf_scene_destroy(fog);
   vf_scene_destroy(rough);
 }
 
-/* The algorithm that does not render media, upg, refuses a scene with them, naming itself. */
-static void test_other_algorithms_refuse_media(void) {
+/* Every algorithm renders media (upg since it gathers in them: test_upg_medium.c), but a
+ * radius per pixel and merging in media need different radii: refused. */
+static void test_a_radius_per_pixel_refuses_media(void) {
   vf_scene *scene = NULL;
   CHECK_INT_EQ(vf_scene_load("cornell", &scene), VF_OK);
   if (scene == NULL) return;
   scene->medium = add_medium(scene, vf_vec3_splat(0.01f), vf_vec3_splat(0.2f), 0.0f);
-  const vf_algorithm refused[] = {VF_ALGO_UPG};
   vf_accel *accel = NULL;
   vf_pool *pool = NULL;
   CHECK_INT_EQ(vf_accel_create(scene, &accel), VF_OK);
   CHECK_INT_EQ(vf_pool_create(1, &pool), VF_OK);
-  for (size_t a = 0; a < sizeof refused / sizeof *refused; a++) {
-    vf_settings s = scene->settings;
-    s.algorithm = refused[a];
-    vf_vcm *vcm = NULL;
-    int err = vf_vcm_create(scene, accel, &s, pool, &vcm);
-    CHECK(err != VF_OK && vcm == NULL);
-    if (err != VF_OK) {
-      printf("  %s: %s\n", vf_algorithm_name(refused[a]), vf_error_detail(err));
-      CHECK(strstr(vf_error_detail(err), vf_algorithm_name(refused[a])) != NULL);
-    }
-    vf_vcm_destroy(vcm);
-  }
   /* A radius per pixel and merging in media need different radii: refused too. */
   vf_settings s = scene->settings;
   s.algorithm = VF_ALGO_VCM;
@@ -682,7 +815,7 @@ static void test_renders_in_media_are_reproducible(void) {
   scene->media[smoke].grid = grid;
   make_boundary(scene, mirror, smoke);
   scene->settings.width = scene->settings.height = 48;
-  const vf_algorithm algorithms[] = {VF_ALGO_PT, VF_ALGO_LT, VF_ALGO_BPT, VF_ALGO_VCM};
+  const vf_algorithm algorithms[] = {VF_ALGO_PT, VF_ALGO_LT, VF_ALGO_BPT, VF_ALGO_VCM, VF_ALGO_UPG};
   for (int k = 0; k < VF_SAMPLER_COUNT_; k++)
     for (size_t a = 0; a < sizeof algorithms / sizeof *algorithms; a++) {
       vf_settings s = scene->settings;
@@ -863,6 +996,7 @@ int main(void) {
   RUN(test_phase_function_sampling_matches_its_density);
   RUN(test_distance_sampling_estimates_transmittance_and_scattering);
   RUN(test_mis_identity_on_paths_in_a_medium);
+  RUN(test_mis_identity_on_paths_with_a_surface_in_a_medium);
   RUN(test_absorbing_ball_in_front_of_an_emitter);
   RUN(test_furnace_filled_with_a_medium_of_albedo_one);
   RUN(test_single_scattering_in_a_thin_slab);
@@ -871,6 +1005,6 @@ int main(void) {
   RUN(test_connections_through_boundaries_have_the_exact_transmittance);
   RUN(test_auto_chooses_for_media);
   RUN(test_renders_in_media_are_reproducible);
-  RUN(test_other_algorithms_refuse_media);
+  RUN(test_a_radius_per_pixel_refuses_media);
   return check_finish();
 }
