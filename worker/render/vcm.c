@@ -366,6 +366,9 @@ void vf_vcm_describe(const vf_vcm *v, FILE *out) {
   if (v->single_stage)
     fprintf(out, "single-stage (--vcm-stages 1): one pass over the camera tiles; camera sub-paths merge with the "
                  "light vertices of the iteration before, the first of a range traces them again\n");
+  if (v->settings.light_path_pixels > 1 && t->light_paths)
+    fprintf(out, "light sub-paths (--light-path-pixels %d): one per block of %ux%u pixels, %u an iteration\n",
+            v->settings.light_path_pixels, 1u << v->light_block_w, 1u << v->light_block_h, v->num_light_paths);
   fprintf(out, "skipped: %s%s%s%s\n", t->store_vertices ? "" : "light-vertex storage, ",
           t->vertex_merging ? "" : "range-search grid, ", v->lights->environment >= 0 ? "" : "environment lookups, ",
           "connections at specular vertices, shadow rays for zero contributions");
