@@ -5,8 +5,8 @@
 # submitted and waited for. Prints the worker's and the coordinator's peak resident set
 # (MiB), the worker's time per iteration (the job film's render time over N: the render
 # loop's own time, without the scene's loading or the shipping) and its CPU time (user +
-# system, all threads, over N: the whole process). The client fetches the film at the end,
-# a process of its own.
+# system, all threads, over N: the whole process). The job's film is read from the
+# coordinator's state directory, written when the job completes (no client holds a copy).
 #
 #   bash tests/bench/worker_memory.sh BUILD SCENE SIZE N STAGES PIXELS
 set -u
@@ -31,12 +31,19 @@ sleep 0.5
 wpid=$!
 pids+=($wpid)
 CLIENT_TIMEOUT=60 client submit "$scene" -R "$size" -n "$n" --vcm-stages "$stages" --light-path-pixels "$pixels" \
-  --wait -o "$tmp/film.exr" >"$tmp/submit.out" 2>&1 || { cat "$tmp/submit.out" "$tmp/worker.log" >&2; exit 1; }
+  >"$tmp/submit.out" 2>&1 || { cat "$tmp/submit.out" "$tmp/worker.log" >&2; exit 1; }
+# Until the job has ended (a busy coordinator may not answer at once: asked again).
+while :; do
+  sleep 5
+  state=$(CLIENT_TIMEOUT=30 client status 1 --json 2>/dev/null | python3 -c 'import json, sys; print(json.load(sys.stdin)["jobs"][0]["state"])' 2>/dev/null)
+  case "$state" in done) break ;; failed | cancelled) cat "$tmp/coord.log" "$tmp/worker.log" >&2; exit 1 ;; esac
+done
 # /usr/bin/time passes no signal on: its child (by parent id) is told to stop, then time
 # writes its figures and ends.
 pkill -TERM -P "$wpid"; wait "$wpid" 2>/dev/null
 pkill -TERM -P "$cpid"; wait "$cpid" 2>/dev/null
-seconds=$("$vcmfarm" info "$tmp/film.exr" | awk '$1 == "render_seconds" {print $2}')
+film=$(find "$tmp/state" -name '*.exr' | head -1)
+seconds=$("$vcmfarm" info "$film" | awk '$1 == "render_seconds" {print $2}')
 cpu=$(awk -F': ' -v n="$n" '/User time|System time/ {t += $2} END {printf "%.1f", t / n}' "$tmp/worker.time")
 spi=$(awk -v s="$seconds" -v n="$n" 'BEGIN {printf "%.1f", s / n}')
 echo "| $(basename "$scene") | $size | $stages | $pixels | $n | $(peak "$tmp/worker.time") | $(peak "$tmp/coord.time") | $spi | $cpu |"
