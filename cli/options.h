@@ -58,6 +58,7 @@ enum {
   VF_CLI_OPT_BACKGROUND = 0x100, /* --background COLOR|FILE.exr: render, continue */
   VF_CLI_OPT_RADIUS,             /* --radius global|per-pixel: the settings options */
   VF_CLI_OPT_VCM_STAGES,         /* --vcm-stages 1|2: the settings options */
+  VF_CLI_OPT_LIGHT_PATH_PIXELS,  /* --light-path-pixels N: the settings options */
 };
 
 #define VF_CLI_SETTINGS_OPTIONS                                                                              \
@@ -66,7 +67,8 @@ enum {
       {"alpha", required_argument, 0, 'A'}, {"resolution", required_argument, 0, 'R'},                      \
       {"sampler", required_argument, 0, 'Q'}, {"mis-beta", required_argument, 0, 'B'},                     \
       {"gather-from", required_argument, 0, 'G'}, {"radius", required_argument, 0, VF_CLI_OPT_RADIUS},                                                \
-      {"vcm-stages", required_argument, 0, VF_CLI_OPT_VCM_STAGES}
+      {"vcm-stages", required_argument, 0, VF_CLI_OPT_VCM_STAGES},                                         \
+      {"light-path-pixels", required_argument, 0, VF_CLI_OPT_LIGHT_PATH_PIXELS}
 #define VF_CLI_SETTINGS_SHORT "a:s:l:r:R:"
 #define VF_CLI_SETTINGS_HELP                                                                 \
   "  -a, --algorithm A        vcm (default), upg (vcm without merging's bias: unbiased\n"   \
@@ -89,7 +91,11 @@ enum {
   "      --vcm-stages 1|2     vcm: 2, trace and store all light sub-paths before the\n"    \
   "                           camera sub-paths (default), or 1, one pass whose camera\n"  \
   "                           sub-paths merge with the iteration before's light vertices\n" \
-  "                           (films of the two never merge)\n"
+  "                           (films of the two never merge)\n"                          \
+  "      --light-path-pixels N  pixels that share one light sub-path an iteration: 1\n"   \
+  "                           (default) or a power of two up to 1024, the image in\n"    \
+  "                           blocks of N (8: 4x2) each tracing one; less memory for\n"  \
+  "                           large images (films of different N never merge)\n"
 
 typedef struct {
   const char *algorithm; /* borrowed from argv, or NULL */
@@ -101,6 +107,7 @@ typedef struct {
   long long max_path_length; /* <= 0: unset */
   double radius_factor, alpha, mis_beta; /* <= 0: unset */
   long long vcm_stages; /* 0: unset */
+  long long light_path_pixels; /* 0: unset */
 } vf_cli_settings;
 
 void vf_cli_settings_init(vf_cli_settings *o);

@@ -169,32 +169,42 @@ typedef struct {
   int replicate_one;   /* a sobol film's iteration of replicate 1: square_sum takes nothing */
 } add_ctx;
 
+int vf_film_pixel_terms(const float *camera, const float *light, int second_moment, vf_fixed sum[3],
+                        vf_fixed square[3]) {
+  static const float zero[3] = {0, 0, 0};
+  int nonfinite = 0;
+  if (!storable3(camera)) {
+    camera = zero;
+    nonfinite++;
+  }
+  if (!storable3(light)) {
+    light = zero;
+    nonfinite++;
+  }
+  for (int k = 0; k < 3; k++) {
+    /* in double: exact unless the floats' exponents differ by more than 29, and rounded
+     * alike on every machine otherwise; then rounded once to the grid */
+    double estimate = (double)camera[k] + (double)light[k];
+    sum[k] = vf_fixed_from_double(estimate, VF_FILM_SUM_BITS);
+    square[k] = second_moment ? vf_fixed_from_double(estimate * estimate, VF_FILM_SQUARE_BITS) : sum[k];
+  }
+  return nonfinite;
+}
+
 static void add_task(void *ctx, size_t task, int thread) {
   (void)thread;
   add_ctx *c = ctx;
   vf_film *film = c->film;
-  static const float zero[3] = {0, 0, 0};
   size_t n = (size_t)film->width * (size_t)film->height;
   size_t begin = task * ADD_BLOCK, end = begin + ADD_BLOCK < n ? begin + ADD_BLOCK : n;
   uint64_t nonfinite = 0;
   for (size_t p = begin; p < end; p++) {
-    const float *cam = c->camera_rgb + 3 * p, *light = c->light_rgb + 3 * p;
-    if (!storable3(cam)) {
-      cam = zero;
-      nonfinite++;
-    }
-    if (!storable3(light)) {
-      light = zero;
-      nonfinite++;
-    }
+    vf_fixed sum[3], square[3];
+    nonfinite += (uint64_t)vf_film_pixel_terms(c->camera_rgb + 3 * p, c->light_rgb + 3 * p, c->second_moment, sum,
+                                               square);
     for (int k = 0; k < 3; k++) {
-      /* in double: exact unless the floats' exponents differ by more than 29, and rounded
-       * alike on every machine otherwise; then rounded once to the grid */
-      double estimate = (double)cam[k] + (double)light[k];
-      film->sum[3 * p + k] += vf_fixed_from_double(estimate, VF_FILM_SUM_BITS);
-      if (c->replicate_one) continue;
-      film->square_sum[3 * p + k] += c->second_moment ? vf_fixed_from_double(estimate * estimate, VF_FILM_SQUARE_BITS)
-                                                      : vf_fixed_from_double(estimate, VF_FILM_SUM_BITS);
+      film->sum[3 * p + k] += sum[k];
+      if (!c->replicate_one) film->square_sum[3 * p + k] += square[k];
     }
   }
   c->nonfinite[task] = nonfinite;

@@ -98,6 +98,15 @@ void vf_film_destroy(vf_film *film);
 int vf_film_add_iteration(vf_film *film, uint64_t iteration, const float *camera_rgb, const float *light_rgb,
                           vf_pool *pool);
 
+/* One pixel's terms of an iteration, as vf_film_add_iteration adds them (and
+ * vf_film_accum_add_iteration, film_accum.h): its estimate camera + light (3 floats each)
+ * rounded once to the sums' grid into sum, and into square its square rounded to the
+ * squares' grid (second_moment) or the same as sum (a sobol film's replicate sums); a
+ * sample that is not finite or reaches VF_FILM_SAMPLE_LIMIT counts as zero. Returns the
+ * number of samples so refused (0 to 2). */
+int vf_film_pixel_terms(const float *camera, const float *light, int second_moment, vf_fixed sum[3],
+                        vf_fixed square[3]);
+
 /* 2^-bits for the grids' bits (a power of two: scaling by it is exact). */
 static inline double vf_fixed_unit(int bits) { return bits == VF_FILM_SUM_BITS ? 0x1p-32 : 0x1p-16; }
 

@@ -84,20 +84,36 @@ static int tile_rect(int width, int height, uint32_t x, uint32_t y, int *x0, int
 
 /* Encodes tile (x, y) of film with coder c into a new block (*storage) that tile->chunk
  * points to. */
-static int encode_tile(vf_exr_coder *c, const vf_film *film, uint32_t x, uint32_t y, Vcmfarm__Tile *tile,
-                       uint8_t **storage) {
+static int encode_tile(vf_exr_coder *c, const vf_film *film, const vf_film_accum *pending, uint32_t x, uint32_t y,
+                       Vcmfarm__Tile *tile, uint8_t **storage) {
   int x0, y0, w, h;
   if (!tile_rect(film->width, film->height, x, y, &x0, &y0, &w, &h))
     return vf_error_set(VF_EINVAL, "tile (%u,%u) is outside a %dx%d film", x, y, film->width, film->height);
   size_t plane = (size_t)w * (size_t)h;
   float *block = malloc(VF_FILM_V4_CHANNELS * plane * sizeof *block), *planes[VF_FILM_V4_CHANNELS];
-  if (block == NULL) return vf_error_set(VF_ENOMEM, "out of memory for a tile");
+  /* With pending sums, the tile's exact sums from them first, in a block of its own. */
+  vf_fixed *sums = pending ? malloc(6 * plane * sizeof *sums) : NULL;
+  if (block == NULL || (pending && sums == NULL)) {
+    free(block);
+    free(sums);
+    return vf_error_set(VF_ENOMEM, "out of memory for a tile");
+  }
   for (int k = 0; k < VF_FILM_V4_CHANNELS; k++) planes[k] = block + (size_t)k * plane;
+  vf_film_sums from = vf_film_sums_of(film);
+  int fx = x0, fy = y0;
+  if (pending) {
+    vf_film_accum_rect(pending, NULL, x0, y0, w, h, sums, sums + 3 * plane);
+    from.sum = sums;
+    from.square_sum = sums + 3 * plane;
+    from.width = w;
+    fx = fy = 0;
+  }
   const uint8_t *data;
   size_t len;
-  int err = vf_film_planes_fill_v4(vf_film_sums_of(film), x0, y0, w, h, planes)
+  int err = vf_film_planes_fill_v4(from, fx, fy, w, h, planes)
                 ? vf_exr_chunk_encode(c, VF_EXR_ZIP, VF_FILM_V4_CHANNELS, (const float *const *)planes, w, h, &data, &len)
                 : vf_error_set(VF_EFILM, "tile (%u,%u) holds a value beyond the film format's range", x, y);
+  free(sums);
   free(block);
   if (err != VF_OK) return err;
   if ((*storage = malloc(len)) == NULL) return vf_error_set(VF_ENOMEM, "out of memory for a tile");
@@ -113,7 +129,7 @@ static int encode_tile(vf_exr_coder *c, const vf_film *film, uint32_t x, uint32_
 int vf_film_tile_encode(const vf_film *film, uint32_t x, uint32_t y, Vcmfarm__Tile *tile, uint8_t **storage) {
   vf_exr_coder c;
   vf_exr_coder_init(&c);
-  int err = encode_tile(&c, film, x, y, tile, storage);
+  int err = encode_tile(&c, film, NULL, x, y, tile, storage);
   vf_exr_coder_destroy(&c);
   return err;
 }
@@ -213,6 +229,7 @@ void vf_film_tile_store(vf_film *film, const vf_film_tile *t) {
 /* One message's tiles, encoded in parallel: task i encodes tile first + i. */
 typedef struct {
   const vf_film *film;
+  const vf_film_accum *pending;
   uint32_t first, across;
   Vcmfarm__Tile *tiles;
   uint8_t **blocks;
@@ -224,7 +241,7 @@ typedef struct {
 static void encode_task(void *ctx, size_t i, int thread) {
   encode_job *j = ctx;
   uint32_t index = j->first + (uint32_t)i;
-  j->errors[i] = encode_tile(&j->coders[thread], j->film, index % j->across, index / j->across, &j->tiles[i], &j->blocks[i]);
+  j->errors[i] = encode_tile(&j->coders[thread], j->film, j->pending, index % j->across, index / j->across, &j->tiles[i], &j->blocks[i]);
   if (j->errors[i] != VF_OK) snprintf(j->details[i], sizeof j->details[i], "%s", vf_error_detail(j->errors[i]));
 }
 
@@ -246,10 +263,15 @@ static void result_header(const vf_film *film, Vcmfarm__LeaseResult *m) {
 
 int vf_film_send_tiles(const vf_film *film, Vcmfarm__LeaseResult *m, size_t tiles_per_message,
                        int (*send)(void *ctx, Vcmfarm__LeaseResult *m), void *ctx) {
+  return vf_film_send_tiles_pending(film, NULL, m, tiles_per_message, send, ctx);
+}
+
+int vf_film_send_tiles_pending(const vf_film *film, const vf_film_accum *pending, Vcmfarm__LeaseResult *m,
+                               size_t tiles_per_message, int (*send)(void *ctx, Vcmfarm__LeaseResult *m), void *ctx) {
   if (tiles_per_message == 0) return vf_error_set(VF_EINVAL, "vf_film_send_tiles: no tile per message");
   result_header(film, m);
   int threads = vf_exr_chunk_threads(tiles_per_message);
-  encode_job job = {film, 0, vf_film_tiles_across(film->width), calloc(tiles_per_message, sizeof(Vcmfarm__Tile)),
+  encode_job job = {film, pending, 0, vf_film_tiles_across(film->width), calloc(tiles_per_message, sizeof(Vcmfarm__Tile)),
                     calloc(tiles_per_message, sizeof(uint8_t *)), calloc((size_t)threads, sizeof(vf_exr_coder)),
                     calloc(tiles_per_message, sizeof(int)), calloc(tiles_per_message, 256)};
   Vcmfarm__Tile **ptrs = calloc(tiles_per_message, sizeof *ptrs);

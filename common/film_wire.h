@@ -9,6 +9,7 @@
 #define VF_FILM_WIRE_H
 
 #include "film.h"
+#include "film_accum.h"
 #include "message.h"
 
 #include <stddef.h>
@@ -67,5 +68,12 @@ void vf_film_tile_store(vf_film *film, const vf_film_tile *t);
  * encoding error. */
 int vf_film_send_tiles(const vf_film *film, Vcmfarm__LeaseResult *m, size_t tiles_per_message,
                        int (*send)(void *ctx, Vcmfarm__LeaseResult *m), void *ctx);
+
+/* The same with the pixels' sums taken from pending instead of film, whose sums are not
+ * read (film_accum.h: a worker's part, its pixels in pending and the rest in film), each
+ * tile's exact sums made as it is encoded: no whole film of 128-bit sums is made, nor are
+ * film's pages touched. pending NULL: vf_film_send_tiles. */
+int vf_film_send_tiles_pending(const vf_film *film, const vf_film_accum *pending, Vcmfarm__LeaseResult *m,
+                               size_t tiles_per_message, int (*send)(void *ctx, Vcmfarm__LeaseResult *m), void *ctx);
 
 #endif

@@ -24,6 +24,7 @@ void vf_settings_default(vf_settings *s) {
   s->gather = VF_GATHER_LIGHT;
   s->radius = VF_RADIUS_GLOBAL;
   s->vcm_stages = 2;
+  s->light_path_pixels = 1;
 }
 
 const char *vf_sampler_name(vf_sampler_kind k) {
@@ -130,6 +131,14 @@ int vf_settings_validate(const vf_settings *s) {
   if (s->vcm_stages == 1 && s->algorithm != VF_ALGO_VCM && s->algorithm != VF_ALGO_AUTO)
     return vf_error_set(VF_EINVAL, "the single-stage iteration (vcm stages 1) is an option of vcm (and of auto when it "
                         "chooses vcm), not of %s", vf_algorithm_name(s->algorithm));
+  if (s->light_path_pixels < 1 || s->light_path_pixels > VF_MAX_LIGHT_PATH_PIXELS ||
+      (s->light_path_pixels & (s->light_path_pixels - 1)) != 0)
+    return vf_error_set(VF_EINVAL, "light path pixels %d: a power of two from 1 to %d", s->light_path_pixels,
+                        VF_MAX_LIGHT_PATH_PIXELS);
+  if (s->light_path_pixels != 1 && (s->algorithm == VF_ALGO_PT || s->algorithm == VF_ALGO_UPG))
+    return vf_error_set(VF_EINVAL, "pixels sharing a light sub-path (light path pixels %d) is an option of the "
+                        "algorithms with light sub-paths but upg (vcm, bpt, lt, ppm, bpm, auto), not of %s",
+                        s->light_path_pixels, vf_algorithm_name(s->algorithm));
   if (s->width < 1 || s->height < 1 || s->width > VF_MAX_IMAGE_SIDE || s->height > VF_MAX_IMAGE_SIDE ||
       (int64_t)s->width * s->height > (int64_t)1 << 28)
     return vf_error_set(VF_EINVAL, "resolution %dx%d is outside 1x1 .. 65536x65536 (at most 2^28 pixels)",
@@ -164,6 +173,8 @@ int vf_settings_format(const vf_settings *s, char *buf, size_t n) {
   if (w >= 0 && (size_t)w < n && s->radius != VF_RADIUS_GLOBAL)
     w += snprintf(buf + w, n - (size_t)w, " radius=%s", vf_radius_mode_name(s->radius));
   if (w >= 0 && (size_t)w < n && s->vcm_stages != 2) w += snprintf(buf + w, n - (size_t)w, " vcm_stages=%d", s->vcm_stages);
+  if (w >= 0 && (size_t)w < n && s->light_path_pixels != 1)
+    w += snprintf(buf + w, n - (size_t)w, " light_path_pixels=%d", s->light_path_pixels);
   if (w < 0 || (size_t)w >= n) return vf_error_set(VF_EINVAL, "settings text too long");
   return VF_OK;
 }
@@ -213,6 +224,11 @@ int vf_settings_parse(vf_settings *s, const char *text) {
       if (seen & 1024) goto bad;
       out.vcm_stages = (int)strtol(value, &end, 10);
       seen |= 1024;
+    } else if (strcmp(key, "light_path_pixels") == 0) {
+      if (seen & 2048) goto bad;
+      long pixels = strtol(value, &end, 10);
+      out.light_path_pixels = pixels >= 1 && pixels <= VF_MAX_LIGHT_PATH_PIXELS ? (int)pixels : 0;
+      seen |= 2048;
     } else {
       return vf_error_set(VF_EINVAL, "settings: unknown key '%s'", key);
     }

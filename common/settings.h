@@ -64,7 +64,30 @@ typedef struct {
                           * merge with the light vertices of the iteration before:
                           * worker/render/single_stage.h). They are different estimators:
                           * films of the two never merge. */
+  int light_path_pixels; /* pixels that share one light sub-path per iteration: 1 (the
+                          * default, one light sub-path a pixel) or a power of two up to
+                          * VF_MAX_LIGHT_PATH_PIXELS. The image falls into blocks of that
+                          * many pixels (vf_light_path_block); each block's top-left pixel
+                          * traces the light sub-path (with its path index, so its stream is
+                          * the default's) that every camera sub-path of the block connects
+                          * to, and n_light (light tracing's 1 / n_light, vertex merging's
+                          * eta = pi r^2 n_light) counts the blocks. Fewer stored light
+                          * vertices per iteration: the memory of large images. Algorithms
+                          * with light sub-paths but upg; films of different values never
+                          * merge. */
 } vf_settings;
+
+/* The most pixels one light sub-path may serve: a block of 32x32, one camera tile. */
+#define VF_MAX_LIGHT_PATH_PIXELS 1024
+
+/* The block of pixels sharing a light sub-path (light_path_pixels = 2^k): 2^ceil(k/2)
+ * columns by 2^floor(k/2) rows, as log2 of each (2 -> 2x1, 4 -> 2x2, 8 -> 4x2, 64 -> 8x8). */
+static inline void vf_light_path_block(int light_path_pixels, unsigned *log2_width, unsigned *log2_height) {
+  unsigned k = 0;
+  while (k < 31 && (1 << k) < light_path_pixels) k++;
+  *log2_width = (k + 1) / 2;
+  *log2_height = k / 2;
+}
 
 /* The power heuristic's largest exponent: weights are sums of products of density ratios
  * raised to beta, in float, and ratios of 1e9 (a light seen at a grazing angle through a
@@ -108,7 +131,8 @@ const char *vf_sampler_name(vf_sampler_kind k);
 int vf_sampler_parse(const char *name, vf_sampler_kind *out);
 
 /* Checks ranges (path length, radius factor > 0, 0 < alpha <= 1, resolution, 1 <= mis_beta
- * <= VF_MAX_MIS_BETA, vcm_stages 1 or 2 and 1 only for vcm or auto). */
+ * <= VF_MAX_MIS_BETA, vcm_stages 1 or 2 and 1 only for vcm or auto, light_path_pixels a
+ * power of two up to VF_MAX_LIGHT_PATH_PIXELS and above 1 only with light sub-paths and not upg). */
 int vf_settings_validate(const vf_settings *s);
 
 /* Canonical text, e.g. "algorithm=vcm max_path_length=10 radius_factor=0.003 alpha=0.75
@@ -119,7 +143,7 @@ int vf_settings_validate(const vf_settings *s);
  * written (" mis_beta=2") only when it is not 1, for the same reason: every text before it
  * existed was rendered with the balance heuristic. upg's side (" gather=camera") likewise
  * only when it is not the light's, the radius (" radius=per-pixel") only when not global,
- * and the stages (" vcm_stages=1") only when not 2. Numbers in their shortest text that reads back exactly
+ * the stages (" vcm_stages=1") only when not 2, and " light_path_pixels=N" only when N is not 1. Numbers in their shortest text that reads back exactly
  * (vf_double_format), so parse(format(s)) == s. VF_EINVAL if it does not fit in n bytes.
  * Before protocol version 6 the numbers had 17 digits ("0.0030000000000000001"): films and
  * state files of then are brought to this form when read (vf_settings_canonicalize). */

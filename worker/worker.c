@@ -54,6 +54,8 @@ typedef struct {
   uint64_t shipped;    /* iterations [lease begin, shipped) are merged */
   double shipped_at;   /* vf_render_status.seconds of the last part's end, this lease */
   double ship_cost;    /* seconds the last part took to ship (kept across leases) */
+  vf_film_accum *accum; /* the lease's pixels (common/film_accum.h): its film's sums stay
+                         * zero and untouched, half the memory; owned, per lease */
   int part_merged;     /* the last acknowledgement said the part was merged */
   double deadline;     /* vf_seconds_now() at which the lease's job reaches its time limit; 0 none */
   int at_deadline;     /* rendering stopped for the job's time limit */
@@ -277,7 +279,7 @@ static int ship(worker *w, const vf_film *film) {
   m.job_id = w->lease->job_id;
   m.begin = w->shipped;
   w->part_merged = 0;
-  int rc = vf_film_send_tiles(film, &m, VF_FILM_TILES_PER_MESSAGE, send_tiles_cb, w);
+  int rc = vf_film_send_tiles_pending(film, w->accum, &m, VF_FILM_TILES_PER_MESSAGE, send_tiles_cb, w);
   /* Every tile taken, yet not merged: the coordinator lost tiles of it (it dropped the
    * part, or restarted); the lease cannot go on from here. */
   if (rc == 1 && !w->part_merged) {
@@ -296,10 +298,11 @@ static int ship(worker *w, const vf_film *film) {
 }
 
 /* The film after its iterations were shipped: empty again, ready for the next part. */
-static void film_reset(vf_film *film) {
-  /* Its pages are given back: when parts are one iteration long (large images), the film
-   * is not resident while the next iteration renders, the peak of a worker's memory. */
-  vf_film_clear_pixels(film);
+static void film_reset(worker *w, vf_film *film) {
+  /* The accumulator's pages are given back: when parts are one iteration long (large
+   * images), the pixels are not resident while the next iteration renders, the peak of a
+   * worker's memory. The film's own sums were never written. */
+  vf_film_accum_clear(w->accum);
   vf_iterset_destroy(&film->iterations);
   vf_iterset_init(&film->iterations);
   film->render_seconds = film->cpu_seconds = 0.0;
@@ -327,7 +330,7 @@ static int ship_part(void *ctx, vf_film *film, const vf_render_status *st) {
   if (st->seconds - w->shipped_at < interval) return VF_OK;
   if (w->shipped + vf_iterset_count(&film->iterations) >= w->lease->end) return VF_OK; /* the last: after the loop */
   double t0 = vf_seconds_now();
-  if (ship(w, film)) film_reset(film);
+  if (ship(w, film)) film_reset(w, film);
   w->ship_cost = vf_seconds_now() - t0;
   w->shipped_at = st->seconds + w->ship_cost;
   return VF_OK;
@@ -358,7 +361,8 @@ static void run_lease(worker *w, const Vcmfarm__Lease *l) {
   if (err != VF_OK) return release_lease(w, l->lease_id, vf_error_detail(err));
   vf_film *film = NULL;
   if ((err = vf_film_create(settings.width, settings.height, &film)) != VF_OK ||
-      (err = vf_renderer_stamp(w->renderer, film)) != VF_OK) {
+      (err = vf_renderer_stamp(w->renderer, film)) != VF_OK ||
+      (err = vf_film_accum_create(settings.width, settings.height, &w->accum)) != VF_OK) {
     vf_film_destroy(film);
     return release_lease(w, l->lease_id, vf_error_detail(err));
   }
@@ -369,7 +373,7 @@ static void run_lease(worker *w, const Vcmfarm__Lease *l) {
   vf_heartbeat_set_lease(w->heartbeat, w->worker_id, l->lease_id, w->heartbeat_ms);
   w->render_stop = *w->terminating;
   vf_render_control control = {.progress = on_progress, .ctx = w, .interrupt = &w->render_stop,
-                               .deliver = ship_part};
+                               .deliver = ship_part, .accum = w->accum};
   vf_render_status st;
   memset(&st, 0, sizeof st);
   err = vf_render_range(w->renderer, film, l->begin, l->end, &control, &st);
@@ -402,6 +406,8 @@ static void run_lease(worker *w, const Vcmfarm__Lease *l) {
   vf_heartbeat_clear_lease(w->heartbeat);
   w->lease = NULL;
   vf_film_destroy(film);
+  vf_film_accum_destroy(w->accum);
+  w->accum = NULL;
 }
 
 /* Told to stop, with its lease shipped and handed back: the coordinator may forget us

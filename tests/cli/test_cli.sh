@@ -63,6 +63,17 @@ check "single-stage renders" $?
 check "single-stage described" "$(grep -q "^single-stage (--vcm-stages 1)" "$tmp/stderr"; echo $?)"
 check "single-stage in the film's settings" "$("$vcmfarm" info "$tmp/stage1.exr" | grep -q "vcm_stages=1"; echo $?)"
 expect_refusal "films of one and two stages do not merge" "vcm_stages=1" "$vcmfarm" merge -o "$tmp/out.exr" "$tmp/beta1.exr" "$tmp/stage1.exr"
+# Pixels sharing a light sub-path: a power of two up to 1024, named when wrong (exit 2), not
+# for pt or upg, recorded in the film, described; films of different values do not merge.
+expect_refusal "light path pixels not a power of two" "--light-path-pixels: '6' is not a power of two" "$vcmfarm" render furnace --light-path-pixels 6 -o "$tmp/out.exr"
+expect_refusal "light path pixels out of range" "--light-path-pixels" "$vcmfarm" render furnace --light-path-pixels 2048 -o "$tmp/out.exr"
+expect_refusal "light path pixels not a number" "--light-path-pixels" "$vcmfarm" render furnace --light-path-pixels eight -o "$tmp/out.exr"
+expect_refusal "light path pixels with upg" "not of upg" "$vcmfarm" render furnace -a upg --light-path-pixels 8 -o "$tmp/out.exr"
+"$vcmfarm" render furnace -R 8x8 -n 1 -k 1 --light-path-pixels 8 -v -o "$tmp/lpp.exr" 2>"$tmp/stderr"
+check "light path pixels renders" $?
+check "light path pixels described" "$(grep -q "^light sub-paths (--light-path-pixels 8): one per block of 4x2 pixels, 8 an iteration" "$tmp/stderr"; echo $?)"
+check "light path pixels in the film's settings" "$("$vcmfarm" info "$tmp/lpp.exr" | grep -q "light_path_pixels=8"; echo $?)"
+expect_refusal "films of different light path pixels do not merge" "light_path_pixels=8" "$vcmfarm" merge -o "$tmp/out.exr" "$tmp/beta1.exr" "$tmp/lpp.exr"
 # upg: its side is an option of upg alone, named when wrong; its render counts its
 # gatherings; a film says what its estimated RMSE covers.
 expect_refusal "unknown gathering side" "unknown side 'eye'" "$vcmfarm" render furnace -a upg --gather-from eye -o "$tmp/out.exr"

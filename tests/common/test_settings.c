@@ -89,6 +89,44 @@ static void test_gather_side_and_new_algorithms(void) {
 /* The stages of vcm: written only when single-stage (every text before it existed was
  * two-stage), read back, refused twice, out of range, or for an algorithm other than vcm
  * and auto. */
+/* Pixels sharing a light sub-path: written only when not 1 (every text before it existed
+ * had one light sub-path a pixel), read back, refused twice, when not a power of two up to
+ * the largest, and for pt and upg. */
+static void test_light_path_pixels(void) {
+  vf_settings s, back;
+  vf_settings_default(&s);
+  CHECK_INT_EQ(s.light_path_pixels, 1);
+  char text[512];
+  CHECK_INT_EQ(vf_settings_format(&s, text, sizeof text), VF_OK);
+  CHECK(strstr(text, "light_path_pixels") == NULL);
+  s.light_path_pixels = 8;
+  CHECK_INT_EQ(vf_settings_format(&s, text, sizeof text), VF_OK);
+  CHECK_STR_CONTAINS(text, " light_path_pixels=8");
+  CHECK_INT_EQ(vf_settings_parse(&back, text), VF_OK);
+  CHECK_INT_EQ(back.light_path_pixels, 8);
+  const char *base = "algorithm=vcm max_path_length=10 radius_factor=0.003 alpha=0.75 seed=1 resolution=4x3";
+  const char *bad[] = {" light_path_pixels=3", " light_path_pixels=0", " light_path_pixels=2048",
+                       " light_path_pixels=-4", " light_path_pixels=4 light_path_pixels=4", " light_path_pixels=",
+                       " light_path_pixels=8x", " light_path_pixels=4294967304"};
+  for (size_t i = 0; i < sizeof bad / sizeof *bad; i++) {
+    snprintf(text, sizeof text, "%s%s", base, bad[i]);
+    int err = vf_settings_parse(&back, text);
+    if (err != VF_EINVAL) CHECK_FAIL_("'%s' parsed (%d)", bad[i], err);
+  }
+  s.light_path_pixels = 1024;
+  CHECK_INT_EQ(vf_settings_validate(&s), VF_OK);
+  const vf_algorithm fine[] = {VF_ALGO_BPT, VF_ALGO_LT, VF_ALGO_PPM, VF_ALGO_BPM, VF_ALGO_AUTO};
+  for (size_t i = 0; i < sizeof fine / sizeof *fine; i++) {
+    s.algorithm = fine[i];
+    CHECK_INT_EQ(vf_settings_validate(&s), VF_OK);
+  }
+  s.algorithm = VF_ALGO_PT;
+  CHECK_INT_EQ(vf_settings_validate(&s), VF_EINVAL);
+  s.algorithm = VF_ALGO_UPG;
+  CHECK_INT_EQ(vf_settings_validate(&s), VF_EINVAL);
+  CHECK_STR_CONTAINS(vf_error_detail(VF_EINVAL), "not of upg");
+}
+
 static void test_vcm_stages(void) {
   vf_settings s, back;
   vf_settings_default(&s);
@@ -159,6 +197,7 @@ int main(void) {
   RUN(test_text_round_trips);
   RUN(test_radius_per_pixel);
   RUN(test_vcm_stages);
+  RUN(test_light_path_pixels);
   RUN(test_gather_side_and_new_algorithms);
   RUN(test_balance_heuristic_is_the_text_without_beta);
   RUN(test_beta_out_of_range_or_twice_is_refused);

@@ -109,6 +109,21 @@ local_render render cornell-fog "${common[@]}" --vcm-stages 1 -n 1 -q -o "$tmp/f
 [ $? -eq 2 ] && grep -q "single-stage" "$tmp/fog.err" && [ ! -e "$tmp/films/fog.exr" ]
 check "single-stage refuses participating media, exit 2, no film" $?
 
+# 2e. Pixels sharing a light sub-path, both stages: the farm's film (the worker's pixels in
+#     its 64-bit accumulator, shipped from there) is render's bit for bit; continue keeps
+#     the setting and its film is that of one render.
+local_render render cornell "${common[@]}" --light-path-pixels 8 -k 1 -n 3 -q -o "$tmp/films/l.exr"
+farm "8 pixels a light sub-path" "[1,4)" "$tmp/films/l.exr" cornell "${common[@]}" --light-path-pixels 8 \
+  --start-iteration 1 -n 3
+local_render render cornell "${common[@]}" --light-path-pixels 64 --vcm-stages 1 -k 2 -n 3 -q -o "$tmp/films/l1.exr"
+farm "64 pixels a light sub-path, single-stage" "[2,5)" "$tmp/films/l1.exr" cornell "${common[@]}" \
+  --light-path-pixels 64 --vcm-stages 1 --start-iteration 2 -n 3
+local_render render cornell "${common[@]}" --light-path-pixels 8 -n 2 -q -o "$tmp/films/l2.exr" &&
+  local_render continue "$tmp/films/l2.exr" -n 2 -q -o "$tmp/films/l4.exr" &&
+  "$vcmfarm" info "$tmp/films/l4.exr" | grep -q "light_path_pixels=8"
+check "continue keeps the light path pixels" $?
+same "light path pixels continued is one render" "[0,4)" "$tmp/films/l4.exr" cornell "${common[@]}" --light-path-pixels 8 -n 4
+
 # 3. A JSON scene whose mesh files travel to the worker as blobs; render's film names the
 #    scene file, so `continue` finds it.
 scene="$source_dir/tests/scenes/good/gltf.json"

@@ -254,16 +254,21 @@ typedef struct {
   path_state s;
   vf_sampler sampler;
   uint32_t pixel, tile_pixel;
+  uint32_t light_tile_pixel; /* the fused pass: the tile's pixel whose light sub-path it connects to */
   light_bsdf_cache cache; /* of the light sub-path this camera sub-path connects to */
   gathering_prev prev;    /* upg: the vertex before the one being traced to */
   merge_params merge;     /* its pixel's merge radius (path_state.merge points here) */
 } camera_lane;
 
-/* Starts the camera sub-path of pixel (px, py), the tile's pixel tile_pixel. */
-static void camera_start(vf_vcm *v, camera_lane *lane, uint32_t px, uint32_t py, uint32_t tile_pixel) {
+/* Starts the camera sub-path of pixel (px, py), the tile's pixel tile_pixel (tile width tw). */
+static void camera_start(vf_vcm *v, camera_lane *lane, uint32_t px, uint32_t py, uint32_t tile_pixel, uint32_t tw) {
   uint32_t pixel = py * (uint32_t)v->camera.width + px;
   lane->pixel = pixel;
   lane->tile_pixel = tile_pixel;
+  /* Its block's top-left pixel (--light-path-pixels; itself by default): tiles start at
+   * multiples of CAMERA_TILE, which a block's sides divide, so it is in the tile. */
+  lane->light_tile_pixel = tile_pixel - (py & ((1u << v->light_block_h) - 1u)) * tw -
+                           (px & ((1u << v->light_block_w) - 1u));
   lane->cache.ready = 0;
   lane->prev.valid = 0;
   vf_merge_params_at(v, pixel, &lane->merge);
@@ -308,12 +313,13 @@ static void connect_to_light_path(vf_vcm *v, int thread, camera_lane *lane, cons
     const thread_scratch *ts = &v->scratch[thread];
     path = ts->tile_vertices;
     kept = ts->tile_bsdfs;
-    first = ts->tile_begin[lane->tile_pixel];
-    end = ts->tile_end[lane->tile_pixel];
+    first = ts->tile_begin[lane->light_tile_pixel];
+    end = ts->tile_end[lane->light_tile_pixel];
   } else {
-    path = v->chunks[lane->pixel / LIGHT_CHUNK].vertices;
-    first = v->path_begin[lane->pixel];
-    end = v->path_end[lane->pixel];
+    uint32_t light = vf_light_path_pixel(v, lane->pixel);
+    path = v->chunks[light / LIGHT_CHUNK].vertices;
+    first = v->path_begin[light];
+    end = v->path_end[light];
   }
   for (uint32_t i = first; i < end; i++) {
     const light_vertex *lv = &path[i];
@@ -461,7 +467,7 @@ static void trace_camera_sub_paths(vf_vcm *v, int thread, uint32_t x0, uint32_t 
   uint32_t next = 0, tx = 0, ty = 0, active = 0;
 #define START_NEXT_PIXEL(lane)                                \
   do {                                                        \
-    camera_start(v, (lane), x0 + tx, y0 + ty, next++);        \
+    camera_start(v, (lane), x0 + tx, y0 + ty, next++, tw);    \
     if (++tx == tw) tx = 0, ty++;                             \
   } while (0)
   for (int i = 0; i < VF_ACCEL_PACKET; i++) {

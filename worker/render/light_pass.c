@@ -423,8 +423,12 @@ static int light_refill(vf_vcm *v, int thread, light_chunk *c, const chunk_paths
     size_t slot = ring_slot(v, local);
     lane->vertices = ts->ring_vertices + slot;
     lane->bsdfs = v->fused ? ts->ring_bsdfs + slot : NULL;
-    if (v->t.light_paths && light_start(v, thread, c, lane, path_of(v, cp, local), local)) return 1;
-    lane->local = local; /* ended at its light, or no light paths at all: no vertices */
+    uint32_t path = path_of(v, cp, local);
+    if (v->t.light_paths && vf_pixel_traces_light_path(v, path) && light_start(v, thread, c, lane, path, local))
+      return 1;
+    /* ended at its light, no light paths at all, or a pixel whose block's light sub-path
+     * another pixel traces (--light-path-pixels): no vertices */
+    lane->local = local;
     lane->num_vertices = 0;
     light_retire(v, thread, c, cp, lane, oldest, *next);
   }

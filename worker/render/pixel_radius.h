@@ -42,7 +42,7 @@ static inline void vf_merge_params_at(const vf_vcm *v, uint32_t pixel, merge_par
   *out = v->merge;
   if (v->pixel_scale == NULL) return;
   double r = v->radius_exact * (double)v->pixel_scale[pixel];
-  double eta = M_PI * r * r * (double)v->num_pixels; /* eq. (20) with this pixel's radius */
+  double eta = M_PI * r * r * (double)v->num_light_paths; /* eq. (20) with this pixel's radius */
   out->radius = (float)r;
   out->radius_sq = (float)(r * r);
   out->vm_normalization = (float)(1.0 / eta);

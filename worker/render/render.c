@@ -112,7 +112,10 @@ int vf_render_range(vf_renderer *r, vf_film *film, uint64_t begin, uint64_t end,
     double t0 = vf_seconds_now(), cpu0 = cpu_seconds_now();
     uint64_t nonfinite0 = st.stats.nonfinite, biased0 = st.stats.upg_fallbacks;
     if ((err = vf_vcm_iteration(r->vcm, k, r->camera_rgb, r->light_rgb, &st.stats)) != VF_OK) break;
-    if ((err = vf_film_add_iteration(film, k, r->camera_rgb, r->light_rgb, r->pool)) != VF_OK) break;
+    err = control && control->accum
+              ? vf_film_accum_add_iteration(control->accum, film, k, r->camera_rgb, r->light_rgb, r->pool)
+              : vf_film_add_iteration(film, k, r->camera_rgb, r->light_rgb, r->pool);
+    if (err != VF_OK) break;
     /* Counted per iteration so that a delivery sees a consistent film. */
     film->nonfinite_samples += st.stats.nonfinite - nonfinite0;
     film->biased_merges += st.stats.upg_fallbacks - biased0;

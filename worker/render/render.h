@@ -9,6 +9,7 @@
 
 #include "../../common/clock.h"
 #include "../../common/film.h"
+#include "../../common/film_accum.h"
 #include "../../common/settings.h"
 #include "../scene/scene.h"
 #include "vcm.h"
@@ -53,6 +54,11 @@ typedef struct {
    * spaces its checkpoints by their cost). */
   double delivery_interval;
   int (*deliver)(void *ctx, vf_film *film, const vf_render_status *status);
+  /* When not NULL (borrowed, the film's size): the iterations' pixels go to this compact
+   * accumulator instead of the film's sums, and everything else of them (indices, counts,
+   * times) to the film; the film's pixels are then the accumulator's (common/film_accum.h).
+   * A worker's choice: half the memory of a film's sums, shipped from there. */
+  vf_film_accum *accum;
 } vf_render_control;
 
 /* The scene is borrowed and must outlive the renderer. threads <= 0: one per CPU. */

@@ -36,7 +36,9 @@ double vf_vcm_merge_radius(const vf_vcm *v, uint64_t iteration) {
 static void setup_iteration(vf_vcm *v, uint64_t iteration) {
   v->iteration = iteration;
   double r = vf_vcm_merge_radius(v, iteration);
-  double eta = M_PI * r * r * (double)v->num_pixels; /* n_VM / n_VC * pi r^2 (eq. 20), n_VC = 1 */
+  /* n_VM / n_VC * pi r^2 (eq. 20), n_VC = 1: n_VM is n_light, one per pixel by default, one
+   * per block of pixels sharing a light sub-path (--light-path-pixels) */
+  double eta = M_PI * r * r * (double)v->num_light_paths;
   v->radius_exact = r;
   v->merge.radius = (float)r;
   v->merge.radius_sq = (float)(r * r);
@@ -49,7 +51,7 @@ static void setup_iteration(vf_vcm *v, uint64_t iteration) {
   v->merge.mis.vc_weight = v->vc_in_weights ? vf_mis_h(&v->merge.mis, (float)(1.0 / eta)) : 0.0f;
   /* With a radius per pixel the grid serves the largest (pixel_radius.h). */
   v->grid_radius = v->pixel_scale ? (float)(r * (double)v->pixel_scale_max) : v->merge.radius;
-  v->merge.mis.light_paths = (float)v->num_pixels;
+  v->merge.mis.light_paths = (float)v->num_light_paths;
   v->merge.mis.pt = v->settings.algorithm == VF_ALGO_PT;
   /* A merge in a medium over one on a surface: eta_m / eta_s = (4/3) pi r^3 / (pi r^2). */
   v->medium_merge = v->has_media && v->t.vertex_merging ? vf_mis_h(&v->merge.mis, (float)(4.0 * r / 3.0)) : 0.0f;
@@ -364,6 +366,9 @@ void vf_vcm_describe(const vf_vcm *v, FILE *out) {
   if (v->single_stage)
     fprintf(out, "single-stage (--vcm-stages 1): one pass over the camera tiles; camera sub-paths merge with the "
                  "light vertices of the iteration before, the first of a range traces them again\n");
+  if (v->settings.light_path_pixels > 1 && t->light_paths)
+    fprintf(out, "light sub-paths (--light-path-pixels %d): one per block of %ux%u pixels, %u an iteration\n",
+            v->settings.light_path_pixels, 1u << v->light_block_w, 1u << v->light_block_h, v->num_light_paths);
   fprintf(out, "skipped: %s%s%s%s\n", t->store_vertices ? "" : "light-vertex storage, ",
           t->vertex_merging ? "" : "range-search grid, ", v->lights->environment >= 0 ? "" : "environment lookups, ",
           "connections at specular vertices, shadow rays for zero contributions");
@@ -472,6 +477,9 @@ int vf_vcm_create(const vf_scene *scene, const vf_accel *accel, const vf_setting
   vf_scene_bounding_sphere(scene, &v->scene_center, &v->scene_radius);
   v->offset_scale = vf_accel_scale(accel);
   v->num_pixels = (uint32_t)settings->width * (uint32_t)settings->height;
+  vf_light_path_block(settings->light_path_pixels, &v->light_block_w, &v->light_block_h);
+  v->num_light_paths = (((uint32_t)settings->width + (1u << v->light_block_w) - 1u) >> v->light_block_w) *
+                       (((uint32_t)settings->height + (1u << v->light_block_h) - 1u) >> v->light_block_h);
   if ((uint32_t)scene->num_shapes > VERTEX_MAX_SHAPES) {
     free(v);
     return vf_error_set(VF_ESCENE, "the scene has %d shapes; the renderer handles at most %u", scene->num_shapes,

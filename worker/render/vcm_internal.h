@@ -275,6 +275,12 @@ struct vf_vcm {
   float scene_radius;
   float offset_scale; /* for vf_offset_ray_origin */
   uint32_t num_pixels;
+  /* --light-path-pixels (settings.h): the pixels sharing a light sub-path form blocks of
+   * 2^light_block_w columns by 2^light_block_h rows, whose top-left pixels trace light
+   * sub-paths, num_light_paths of them (n_light); both shifts 0 by default, every pixel
+   * tracing its own. */
+  unsigned light_block_w, light_block_h;
+  uint32_t num_light_paths;
   uint32_t lane_capacity; /* most vertices a light sub-path stores */
   /* bpt: each camera tile traces its own pixels' light sub-paths first, keeping their
    * vertices' BSDFs, and connects to them while they are in cache; nothing is stored for
@@ -350,5 +356,23 @@ struct vf_vcm {
   thread_stats *stats;     /* one per pool thread, owned */
   thread_scratch *scratch; /* one per pool thread, owned */
 };
+
+/* Whether pixel `pixel` (row * width + column) traces a light sub-path (--light-path-pixels:
+ * the top-left pixel of its block; by default every pixel). */
+static inline int vf_pixel_traces_light_path(const vf_vcm *v, uint32_t pixel) {
+  if ((v->light_block_w | v->light_block_h) == 0) return 1;
+  uint32_t width = (uint32_t)v->settings.width, x = pixel % width, y = pixel / width;
+  return (x & ((1u << v->light_block_w) - 1u)) == 0 && (y & ((1u << v->light_block_h) - 1u)) == 0;
+}
+
+/* The pixel whose light sub-path the camera sub-path of `pixel` connects to: its block's
+ * top-left pixel (by default itself). */
+static inline uint32_t vf_light_path_pixel(const vf_vcm *v, uint32_t pixel) {
+  if ((v->light_block_w | v->light_block_h) == 0) return pixel;
+  uint32_t width = (uint32_t)v->settings.width, x = pixel % width, y = pixel / width;
+  return (y >> v->light_block_h << v->light_block_h) * width + (x >> v->light_block_w << v->light_block_w);
+}
+
+_Static_assert(VF_MAX_LIGHT_PATH_PIXELS <= CAMERA_TILE * CAMERA_TILE, "a block of pixels sharing a light sub-path fits a tile");
 
 #endif

@@ -77,7 +77,7 @@ typedef struct {
   const vf_light *light; /* the scene's one light: an area mesh or a spot */
   const vf_point_light_desc *spot; /* its description when a spot, else NULL */
   vf_camera camera;
-  double n_light;        /* light sub-paths per iteration: one per pixel */
+  double n_light;        /* light sub-paths per iteration: one per pixel (or per block of pixels) */
   vf_bsdf_lobes *lobes;  /* per material, as the renderer's */
 } test_scene;
 
@@ -943,6 +943,27 @@ static void test_weights_match_eq12_single_stage(void) {
   g_single_stage = 0;
 }
 
+/* --light-path-pixels N: n_light is the number of blocks of N pixels, not of pixels (the
+ * renderer's vf_vcm.num_light_paths), in light tracing's weight, the camera's d_vcm and
+ * eta = pi r^2 n_light alike: the weights still match eq. 12 and sum to 1, two-stage and
+ * single-stage, for vcm and bpt, at 8 and 1024 pixels a light sub-path. */
+static void test_weights_match_eq12_with_fewer_light_paths_than_pixels(void) {
+  double pixels = g_scene.n_light;
+  const double shares[] = {8.0, 1024.0};
+  for (int i = 0; i < 2; i++) {
+    g_scene.n_light = ceil(pixels / shares[i]);
+    printf("  n_light = pixels / %g\n", shares[i]);
+    check_algorithm(&g_diffuse, "diffuse", VF_ALGO_VCM, etas, NUM_ETAS, 0);
+    check_algorithm(&g_specular, "specular", VF_ALGO_VCM, etas, NUM_ETAS, 0);
+    check_algorithm(&g_diffuse, "diffuse", VF_ALGO_BPT, etas, 1, 0);
+    g_single_stage = 1;
+    check_algorithm(&g_diffuse, "diffuse", VF_ALGO_VCM, etas, NUM_ETAS, 0);
+    check_algorithm(&g_specular, "specular", VF_ALGO_VCM, etas, NUM_ETAS, 0);
+    g_single_stage = 0;
+  }
+  g_scene.n_light = pixels;
+}
+
 static void test_power_heuristic_weights_match_eq12_through_rough_lobes(void) { check_power_heuristic("rough", 0); }
 
 /* The rough family's vertices by lobe: on the gold ball, reflecting off and refracting
@@ -1060,6 +1081,7 @@ int main(void) {
       RUN(test_power_heuristic_weights_match_eq12);
       RUN(test_weights_match_eq12_with_a_radius_per_pixel);
       RUN(test_weights_match_eq12_single_stage);
+      RUN(test_weights_match_eq12_with_fewer_light_paths_than_pixels);
       destroy_test_scene(&g_scene);
     }
     if (!walk_scene("cornell-rough", VF_LIGHT_AREA_MESH)) return 1;

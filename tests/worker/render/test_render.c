@@ -4,6 +4,7 @@
 #include "render_util.h"
 #include "common/error.h"
 #include "common/film.h"
+#include "common/film_accum.h"
 #include "worker/render/render.h"
 #include "worker/scene/load.h"
 
@@ -157,6 +158,60 @@ static void test_split_ranges_merge_into_the_whole(void) {
   radius_under_test = VF_RADIUS_GLOBAL;
 }
 
+/* A worker's way (render.h, vf_render_control.accum): the pixels go to a compact
+ * accumulator and the rest of each iteration to the film, whose own sums stay zero; the
+ * accumulator carried into it gives the film of the plain loop bit for bit, also with the
+ * accumulator's slots held to a small limit so that values leave them for its side table
+ * (common/film_accum.h), and with the film delivered in between. */
+static int count_deliveries(void *ctx, vf_film *film, const vf_render_status *st) {
+  (void)film;
+  (void)st;
+  ++*(int *)ctx;
+  return VF_OK;
+}
+
+static void test_the_accumulator_gives_the_film_bit_for_bit(void) {
+  vf_scene *scene = NULL;
+  CHECK_INT_EQ(vf_scene_load("cornell", &scene), VF_OK);
+  if (scene == NULL) return;
+  vf_settings s = scene->settings;
+  s.sampler = sampler_under_test;
+  s.width = 96;
+  s.height = 64;
+  const int64_t limits[] = {0, (int64_t)1 << 34};
+  for (int l = 0; l < 2; l++) {
+    vf_film *plain = render_film(scene, &s, 2, 3, 8);
+    vf_renderer *r = NULL;
+    vf_film *film = NULL;
+    vf_film_accum *a = NULL;
+    CHECK_INT_EQ(vf_renderer_create(scene, &s, 2, &r), VF_OK);
+    CHECK_INT_EQ(vf_film_create(s.width, s.height, &film), VF_OK);
+    CHECK_INT_EQ(vf_film_accum_create(s.width, s.height, &a), VF_OK);
+    if (!plain || !r || !film || !a) return;
+    if (limits[l] > 0) vf_film_accum_set_limit(a, limits[l]);
+    CHECK_INT_EQ(vf_renderer_stamp(r, film), VF_OK);
+    int deliveries = 0;
+    vf_render_control control = {.ctx = &deliveries, .deliver = count_deliveries, .accum = a};
+    CHECK_INT_EQ(vf_render_range(r, film, 3, 8, &control, NULL), VF_OK);
+    CHECK_INT_EQ(deliveries, 6);
+    size_t n = 3 * (size_t)s.width * s.height, nonzero = 0;
+    for (size_t i = 0; i < n; i++) nonzero += film->sum[i] != 0 || film->square_sum[i] != 0;
+    CHECK_INT_EQ(nonzero, 0);
+    size_t spilled = vf_film_accum_spilled(a);
+    if (limits[l] > 0) CHECK(spilled > 0);
+    vf_film_accum_carry(a, film);
+    int equal = films_bitwise_equal(film, plain);
+    printf("  %-11s limit %s: %zu values in the side table; carried film vs the loop's own: %s\n",
+           vf_sampler_name(sampler_under_test), limits[l] ? "2^34" : "int64", spilled, equal ? "equal" : "DIFFER");
+    CHECK(equal);
+    vf_film_accum_destroy(a);
+    vf_film_destroy(film);
+    vf_film_destroy(plain);
+    vf_renderer_destroy(r);
+  }
+  vf_scene_destroy(scene);
+}
+
 /* `auto` renders exactly what it chose (same random streams, same techniques), and its
  * films say "auto": the choice is made again from the scene wherever the film goes. */
 static void test_auto_renders_exactly_its_choice(void) {
@@ -261,6 +316,7 @@ int main(void) {
     RUN(test_one_and_two_threads_give_bitwise_identical_films);
     RUN(test_same_seed_twice_gives_identical_files);
     RUN(test_split_ranges_merge_into_the_whole);
+    RUN(test_the_accumulator_gives_the_film_bit_for_bit);
   }
   return check_finish();
 }
