@@ -3,6 +3,7 @@
  * integrals, and whole renders of analytic scenes with every technique that renders media:
  * an absorbing ball in front of an emitter, a furnace filled with a medium of albedo one,
  * single scattering in a thin slab. */
+#include "blob_grid.h"
 #include "check.h"
 #include "render_util.h"
 #include "worker/render/bsdf.h"
@@ -72,25 +73,6 @@ static void test_phase_function_sampling_matches_its_density(void) {
 }
 
 /* ---- distance sampling and tracking -------------------------------------------------------- */
-
-/* A density grid made in code: a smooth blob, to be tracked. */
-static vf_density_grid *make_blob_grid(void) {
-  vf_density_grid *g = calloc(1, sizeof *g);
-  g->nx = g->ny = g->nz = 16;
-  g->density = malloc(16 * 16 * 16 * sizeof(float));
-  g->box_min = vf_vec3_make(-1.0f, -1.0f, -1.0f);
-  g->box_max = vf_vec3_make(1.0f, 1.0f, 1.0f);
-  g->max_density = 0.0f;
-  for (uint32_t z = 0; z < 16; z++)
-    for (uint32_t y = 0; y < 16; y++)
-      for (uint32_t x = 0; x < 16; x++) {
-        float px = (x + 0.5f) / 8.0f - 1.0f, py = (y + 0.5f) / 8.0f - 1.0f, pz = (z + 0.5f) / 8.0f - 1.0f;
-        float d = 2.0f * expf(-2.0f * (px * px + py * py + pz * pz)) * (1.0f + 0.5f * sinf(5.0f * px));
-        g->density[(z * 16 + y) * 16 + x] = d;
-        if (d > g->max_density) g->max_density = d;
-      }
-  return g;
-}
 
 /* Transmittance by quadrature along o + t dir, t in [0, d), for channel sigma_t. */
 static double optical_depth(const vf_medium_rt *m, vf_vec3 o, vf_vec3 dir, float d, float sigma_t) {

@@ -25,6 +25,7 @@
  * 4. reproducibility: an iteration of upg in media is a pure function of (seed, iteration,
  *    path): one thread and two give the same film bit for bit, and so do [0, k) + [k, N)
  *    merged against [0, N), with both samplers. */
+#include "blob_grid.h"
 #include "check.h"
 #include "render_util.h"
 #include "common/film.h"
@@ -190,25 +191,6 @@ static void test_inverse_acceptance_of_a_medium_vertex(void) {
     double p = p_acc_medium(&b, &m, from, target, cases[i].r);
     check_inverse_acceptance(cases[i].name, &b, &m, from, target, cases[i].r, 0, 0.0f, p, 100 + i);
   }
-}
-
-/* A density grid made in code: a smooth blob in [-1, 1]^3 (test_medium.c's), to be tracked. */
-static vf_density_grid *make_blob_grid(void) {
-  vf_density_grid *g = calloc(1, sizeof *g);
-  g->nx = g->ny = g->nz = 16;
-  g->density = malloc(16 * 16 * 16 * sizeof(float));
-  g->box_min = vf_vec3_make(-1.0f, -1.0f, -1.0f);
-  g->box_max = vf_vec3_make(1.0f, 1.0f, 1.0f);
-  g->max_density = 0.0f;
-  for (uint32_t z = 0; z < 16; z++)
-    for (uint32_t y = 0; y < 16; y++)
-      for (uint32_t x = 0; x < 16; x++) {
-        float px = (x + 0.5f) / 8.0f - 1.0f, py = (y + 0.5f) / 8.0f - 1.0f, pz = (z + 0.5f) / 8.0f - 1.0f;
-        float d = 2.0f * expf(-2.0f * (px * px + py * py + pz * pz)) * (1.0f + 0.5f * sinf(5.0f * px));
-        g->density[(z * 16 + y) * 16 + x] = d;
-        if (d > g->max_density) g->max_density = d;
-      }
-  return g;
 }
 
 /* Case 1 in a grid by quadrature: delta tracking against the majorant with spectral weights
