@@ -212,17 +212,17 @@ done:
   return err;
 }
 
-void vf_film_accum_rect(const vf_film_accum *a, const vf_film *film, int x0, int y0, int w, int h, vf_fixed *sum,
-                        vf_fixed *square_sum) {
+void vf_film_accum_rect(const vf_film_accum *a, int x0, int y0, int w, int h, vf_fixed *sum, vf_fixed *square_sum) {
   for (int y = 0; y < h; y++) {
     size_t row = (size_t)(y0 + y), at = 3 * (row * (size_t)a->width + (size_t)x0), out = 3 * (size_t)y * (size_t)w;
     for (size_t i = 0; i < 3 * (size_t)w; i++) {
-      sum[out + i] = (vf_fixed)a->sum[at + i] + (film ? film->sum[at + i] : 0);
-      square_sum[out + i] = (vf_fixed)a->square_sum[at + i] + (film ? film->square_sum[at + i] : 0);
-      if (a->row_side[row]) {
-        sum[out + i] += side_get(&a->side, 2 * (uint64_t)(at + i) + 1);
-        square_sum[out + i] += side_get(&a->side, 2 * (uint64_t)(at + i) + 2);
-      }
+      sum[out + i] = a->sum[at + i];
+      square_sum[out + i] = a->square_sum[at + i];
+    }
+    if (!a->row_side[row]) continue;
+    for (size_t i = 0; i < 3 * (size_t)w; i++) {
+      sum[out + i] += side_get(&a->side, 2 * (uint64_t)(at + i) + 1);
+      square_sum[out + i] += side_get(&a->side, 2 * (uint64_t)(at + i) + 2);
     }
   }
 }

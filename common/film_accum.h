@@ -12,8 +12,8 @@
  * grouping of iterations that led there.
  *
  * A film and an accumulator together stand for one film whose sums are film + accumulator
- * (vf_film_accum_rect): the render loop adds a worker's iterations here and the rest of
- * each iteration (its index, counts, times) to the film, whose own sums stay zero and so
+ * (vf_film_accum_rect reads the accumulator's): the render loop adds a worker's iterations
+ * here and the rest of each iteration (its index, counts, times) to the film, whose own sums stay zero and so
  * are never touched; the worker ships the part's tiles from both (film_wire.h,
  * vf_film_send_tiles_pending), and empties both. */
 #ifndef VF_FILM_ACCUM_H
@@ -41,10 +41,9 @@ void vf_film_accum_destroy(vf_film_accum *a);
 int vf_film_accum_add_iteration(vf_film_accum *a, vf_film *film, uint64_t iteration, const float *camera_rgb,
                                 const float *light_rgb, vf_pool *pool);
 
-/* The sums of the rectangle (x0, y0, w, h) of film + a, exactly (film NULL: a alone), into
- * sum and square_sum (3 values a pixel, rows of w pixels, top first). */
-void vf_film_accum_rect(const vf_film_accum *a, const vf_film *film, int x0, int y0, int w, int h, vf_fixed *sum,
-                        vf_fixed *square_sum);
+/* The exact sums of the rectangle (x0, y0, w, h), into sum and square_sum (3 values a
+ * pixel, rows of w pixels, top first). */
+void vf_film_accum_rect(const vf_film_accum *a, int x0, int y0, int w, int h, vf_fixed *sum, vf_fixed *square_sum);
 
 /* Adds a into film's sums (same size) and empties a. */
 void vf_film_accum_carry(vf_film_accum *a, vf_film *film);

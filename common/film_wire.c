@@ -102,7 +102,7 @@ static int encode_tile(vf_exr_coder *c, const vf_film *film, const vf_film_accum
   vf_film_sums from = vf_film_sums_of(film);
   int fx = x0, fy = y0;
   if (pending) {
-    vf_film_accum_rect(pending, NULL, x0, y0, w, h, sums, sums + 3 * plane);
+    vf_film_accum_rect(pending, x0, y0, w, h, sums, sums + 3 * plane);
     from.sum = sums;
     from.square_sum = sums + 3 * plane;
     from.width = w;

@@ -70,12 +70,12 @@ static void check_matches(const char *settings, int64_t limit, uint64_t n, vf_po
   for (size_t i = 0; i < 3 * (size_t)W * H; i++) beyond |= film->square_sum[i] != (vf_fixed)(int64_t)film->square_sum[i];
   if (expect_spill && limit <= 0) CHECK(beyond);
   vf_fixed *sum = malloc(3 * sizeof(vf_fixed) * W * H), *square = malloc(3 * sizeof(vf_fixed) * W * H);
-  vf_film_accum_rect(a, NULL, 0, 0, W, H, sum, square);
+  vf_film_accum_rect(a, 0, 0, W, H, sum, square);
   size_t differ = 0;
   for (size_t i = 0; i < 3 * (size_t)W * H; i++) differ += sum[i] != film->sum[i] || square[i] != film->square_sum[i];
   CHECK_INT_EQ(differ, 0);
   /* A rectangle inside, as a tile is read. */
-  vf_film_accum_rect(a, NULL, 64, 32, 6, 1, sum, square);
+  vf_film_accum_rect(a, 64, 32, 6, 1, sum, square);
   differ = 0;
   for (size_t i = 0; i < 18; i++)
     differ += sum[i] != film->sum[3 * (32 * W + 64) + i] || square[i] != film->square_sum[3 * (32 * W + 64) + i];
@@ -87,7 +87,7 @@ static void check_matches(const char *settings, int64_t limit, uint64_t n, vf_po
   for (size_t i = 0; i < 3 * (size_t)W * H; i++)
     differ += meta->sum[i] != film->sum[i] || meta->square_sum[i] != film->square_sum[i];
   CHECK_INT_EQ(differ, 0);
-  vf_film_accum_rect(a, NULL, 0, 0, W, H, sum, square);
+  vf_film_accum_rect(a, 0, 0, W, H, sum, square);
   differ = 0;
   for (size_t i = 0; i < 3 * (size_t)W * H; i++) differ += sum[i] != 0 || square[i] != 0;
   CHECK_INT_EQ(differ, 0);
