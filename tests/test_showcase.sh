@@ -58,17 +58,24 @@ damage extensions_used "extensionsUsed" 'g["extensionsUsed"].remove("KHR_materia
 
 # vcmfarm reads every feature: a load note naming the file would be something dropped (the
 # light units the file is read in, printed because it has lamps and emitters, drop nothing).
-for scene in showcase.gltf showcase.json; do
-  "$vcmfarm" render "$tmp/a/$scene" -v -R 96x54 -n 2 -o "$tmp/$scene.exr" >"$tmp/render.out" 2>&1
-  status=$?
-  ! grep ": note:" "$tmp/render.out" | grep -vq ": note: \(showcase.gltf: \)\?light units: punctual lights in W/sr = candela / 683" &&
-    grep -q " 0 non-finite sample" "$tmp/render.out" &&
-    grep -q "1 spot, 1 directional" "$tmp/render.out"
-  ok=$?
+# renders NAME FILE GLTF LIGHTS RENDER_ARGS...: FILE renders with RENDER_ARGS, exit 0,
+# without a note but GLTF's light units, with no non-finite sample, and its description
+# lists LIGHTS.
+renders() {
+  local name="$1" file="$2" stem="$3" lights="$4"
+  shift 4
+  "$vcmfarm" render "$file" -v "$@" >"$tmp/render.out" 2>&1
+  local status=$?
+  ! grep ": note:" "$tmp/render.out" | grep -vq ": note: \($stem: \)\?light units: punctual lights in W/sr = candela / 683" &&
+    grep -q " 0 non-finite sample" "$tmp/render.out" && grep -q "$lights" "$tmp/render.out"
+  local ok=$?
   [ "$status" -eq 0 ] && [ "$ok" -eq 0 ]
   ok=$?
   [ "$ok" -eq 0 ] || sed 's/^/    /' "$tmp/render.out"
-  check "renders_$scene" "$ok"
+  check "$name" "$ok"
+}
+for scene in showcase.gltf showcase.json; do
+  renders "renders_$scene" "$tmp/a/$scene" showcase.gltf "1 spot, 1 directional" -R 96x54 -n 2 -o "$tmp/$scene.exr"
 done
 
 # The benchmark room (tests/bench/make_room.py): valid, deterministic, and read whole (its
@@ -81,15 +88,8 @@ check "room_generates_and_checks" "$status"
 python3 "$bench/make_room.py" "$tmp/room2" >/dev/null 2>&1 && diff -r "$tmp/room" "$tmp/room2" >/dev/null
 check "room_deterministic" $?
 for algorithm in pt vcm; do
-  "$vcmfarm" render "$tmp/room/room.gltf" -v -a "$algorithm" -R 64x36 -n 2 -o "$tmp/room-$algorithm.exr" >"$tmp/render.out" 2>&1
-  status=$?
-  ! grep ": note:" "$tmp/render.out" | grep -vq ": note: \(room.gltf: \)\?light units: punctual lights in W/sr = candela / 683" &&
-    grep -q " 0 non-finite sample" "$tmp/render.out" && grep -q "1 point, 1 spot" "$tmp/render.out"
-  ok=$?
-  [ "$status" -eq 0 ] && [ "$ok" -eq 0 ]
-  ok=$?
-  [ "$ok" -eq 0 ] || sed 's/^/    /' "$tmp/render.out"
-  check "room_renders_with_$algorithm" "$ok"
+  renders "room_renders_with_$algorithm" "$tmp/room/room.gltf" room.gltf "1 point, 1 spot" -a "$algorithm" -R 64x36 -n 2 \
+    -o "$tmp/room-$algorithm.exr"
 done
 
 echo "$passed passed, $failed failed"
