@@ -200,8 +200,20 @@ int vf_local_render(vf_renderer *renderer, vf_film *film, uint64_t first, const 
   vf_interrupt_saved saved;
   vf_interrupt_catch(&saved);
   double start = vf_seconds_now();
+  if (film->samples == NULL && vf_renderer_settings(renderer)->pilot > 0) {
+    /* The pilot decides the allocation of camera sub-paths before the first iteration
+     * (common/allocation.h); its time is the film's. */
+    double seconds = film->render_seconds;
+    vf_render_status pilot;
+    err = vf_render_pilot(renderer, film, &control, &pilot);
+    if (err == VF_OK && o->progress != VF_PROGRESS_NONE)
+      fprintf(stderr, "pilot: %d iterations in %.2f s, %llu non-finite %s\n", vf_renderer_settings(renderer)->pilot,
+              film->render_seconds - seconds, (unsigned long long)pilot.stats.nonfinite,
+              vf_cli_plural(pilot.stats.nonfinite, "sample", "samples"));
+    lr.seconds_before += film->render_seconds - seconds;
+  }
   /* One call per gap of the iteration set: the loop over iterations stays in vf_render_range. */
-  while (remaining > 0 && !vf_interrupted && !lr.target_reached) {
+  while (err == VF_OK && remaining > 0 && !vf_interrupted && !lr.target_reached) {
     uint64_t begin = vf_iterset_next_free(&film->iterations, first), end = gap_end(&film->iterations, begin);
     if (begin >= end) break; /* no free index left below 2^64 - 1 */
     if (end - begin > remaining) end = begin + remaining;

@@ -57,7 +57,7 @@ int vf_cli_resolution(const char *option, const char *text, int *width, int *hei
 }
 
 void vf_cli_settings_init(vf_cli_settings *o) {
-  *o = (vf_cli_settings){NULL, NULL, NULL, NULL, 0, 0, 0, 0, 0, -1, -1.0, -1.0, -1.0, 0, 0};
+  *o = (vf_cli_settings){NULL, NULL, NULL, NULL, 0, 0, 0, 0, 0, -1, -1.0, -1.0, -1.0, 0, 0, -1};
 }
 
 int vf_cli_settings_option(vf_cli_settings *o, int c, const char *arg, int *err) {
@@ -72,6 +72,11 @@ int vf_cli_settings_option(vf_cli_settings *o, int c, const char *arg, int *err)
     if (*err == VF_OK && (o->light_path_pixels & (o->light_path_pixels - 1)) != 0)
       *err = vf_error_set(VF_EUSAGE, "--light-path-pixels: '%s' is not a power of two (1, 2, 4, ... %d)", arg,
                           VF_MAX_LIGHT_PATH_PIXELS);
+    return 1;
+  case VF_CLI_OPT_PILOT:
+    *err = vf_cli_int("--pilot", arg, 0, VF_MAX_PILOT, &o->pilot);
+    if (*err == VF_OK && o->pilot == 1)
+      *err = vf_error_set(VF_EUSAGE, "--pilot: a pilot needs at least 2 iterations (0: no pilot)");
     return 1;
   case 's': o->have_seed = 1; *err = vf_cli_u64("--seed", arg, &o->seed); return 1;
   case 'l': *err = vf_cli_int("--max-path-length", arg, 1, VF_MAX_PATH_LENGTH, &o->max_path_length); return 1;
@@ -99,6 +104,7 @@ int vf_cli_settings_apply(const vf_cli_settings *o, vf_settings *settings) {
   if (o->mis_beta > 0.0) settings->mis_beta = o->mis_beta;
   if (o->vcm_stages > 0) settings->vcm_stages = (int)o->vcm_stages;
   if (o->light_path_pixels > 0) settings->light_path_pixels = (int)o->light_path_pixels;
+  if (o->pilot >= 0) settings->pilot = (int)o->pilot;
   if (o->have_resolution) {
     settings->width = o->width;
     settings->height = o->height;

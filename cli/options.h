@@ -59,6 +59,7 @@ enum {
   VF_CLI_OPT_RADIUS,             /* --radius global|per-pixel: the settings options */
   VF_CLI_OPT_VCM_STAGES,         /* --vcm-stages 1|2: the settings options */
   VF_CLI_OPT_LIGHT_PATH_PIXELS,  /* --light-path-pixels N: the settings options */
+  VF_CLI_OPT_PILOT,              /* --pilot N: the settings options */
 };
 
 #define VF_CLI_SETTINGS_OPTIONS                                                                              \
@@ -68,7 +69,8 @@ enum {
       {"sampler", required_argument, 0, 'Q'}, {"mis-beta", required_argument, 0, 'B'},                     \
       {"gather-from", required_argument, 0, 'G'}, {"radius", required_argument, 0, VF_CLI_OPT_RADIUS},                                                \
       {"vcm-stages", required_argument, 0, VF_CLI_OPT_VCM_STAGES},                                         \
-      {"light-path-pixels", required_argument, 0, VF_CLI_OPT_LIGHT_PATH_PIXELS}
+      {"light-path-pixels", required_argument, 0, VF_CLI_OPT_LIGHT_PATH_PIXELS},                           \
+      {"pilot", required_argument, 0, VF_CLI_OPT_PILOT}
 #define VF_CLI_SETTINGS_SHORT "a:s:l:r:R:"
 #define VF_CLI_SETTINGS_HELP                                                                 \
   "  -a, --algorithm A        vcm (default), upg (vcm without merging's bias: unbiased\n"   \
@@ -95,7 +97,10 @@ enum {
   "      --light-path-pixels N  pixels that share one light sub-path an iteration: 1\n"   \
   "                           (default) or a power of two up to 1024, the image in\n"    \
   "                           blocks of N (8: 4x2) each tracing one; less memory for\n"  \
-  "                           large images (films of different N never merge)\n"
+  "                           large images (films of different N never merge)\n"         \
+  "      --pilot N            pt, bpt, vcm: a pilot render of N iterations first gives\n" \
+  "                           each pixel 1 to 16 camera sub-paths an iteration, by its\n" \
+  "                           error there (films of different pilots never merge)\n"
 
 typedef struct {
   const char *algorithm; /* borrowed from argv, or NULL */
@@ -108,6 +113,7 @@ typedef struct {
   double radius_factor, alpha, mis_beta; /* <= 0: unset */
   long long vcm_stages; /* 0: unset */
   long long light_path_pixels; /* 0: unset */
+  long long pilot; /* -1: unset */
 } vf_cli_settings;
 
 void vf_cli_settings_init(vf_cli_settings *o);

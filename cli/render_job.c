@@ -1,5 +1,7 @@
 #include "render_job.h"
 
+#include "../common/allocation.h"
+
 #include "../common/error.h"
 #include "../common/image.h"
 
@@ -41,6 +43,13 @@ void vf_render_job_print_summary(const vf_film *film, double seconds, const vf_v
           (unsigned long long)(rendered ? stats->light_vertices / rendered : 0), stats->light_seconds * per,
           stats->grid_seconds * per, stats->camera_seconds * per, (unsigned long long)stats->nonfinite,
           vf_cli_plural(stats->nonfinite, "sample", "samples"), interrupted ? " (interrupted)" : "");
+  if (film->samples != NULL) {
+    vf_allocation_report a;
+    vf_allocation_describe(film->samples, (size_t)film->width * (size_t)film->height, &a);
+    fprintf(stderr, "camera sub-paths per pixel after the pilot: %.2f on average; pixels of 1, 2, 4, 8, 16: %llu, %llu, "
+            "%llu, %llu, %llu\n", a.mean, (unsigned long long)a.pixels[0], (unsigned long long)a.pixels[1],
+            (unsigned long long)a.pixels[2], (unsigned long long)a.pixels[3], (unsigned long long)a.pixels[4]);
+  }
   if (stats->upg_gatherings + stats->upg_fallbacks > 0) {
     double g = stats->upg_gatherings ? (double)stats->upg_gatherings : 1.0;
     fprintf(stderr,

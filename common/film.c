@@ -7,6 +7,8 @@
  * farm's parts, a continued film and one render of the same iterations disagreed there. */
 #include "film.h"
 
+#include "allocation.h"
+
 #include "settings.h"
 
 #include "error.h"
@@ -76,6 +78,7 @@ fail_film:
 
 void vf_film_destroy(vf_film *film) {
   if (film == NULL) return;
+  free(film->samples);
   vf_iterset_destroy(&film->iterations);
   vf_convergence_destroy(&film->convergence);
   sums_free(film->square_sum, sums_bytes(film));
@@ -104,7 +107,21 @@ int vf_film_clone_metadata(const vf_film *film, vf_film **out) {
   copy->nonfinite_samples = film->nonfinite_samples;
   copy->biased_merges = film->biased_merges;
   memcpy(copy->scene_name, film->scene_name, sizeof copy->scene_name);
+  if (film->samples != NULL && (err = vf_film_set_samples(copy, film->samples)) != VF_OK) {
+    vf_film_destroy(copy);
+    return err;
+  }
   *out = copy;
+  return VF_OK;
+}
+
+int vf_film_set_samples(vf_film *film, const uint8_t *samples) {
+  size_t n = (size_t)film->width * (size_t)film->height;
+  uint8_t *copy = malloc(n);
+  if (copy == NULL) return vf_error_set(VF_ENOMEM, "out of memory for a %dx%d film's allocation", film->width, film->height);
+  memcpy(copy, samples, n);
+  free(film->samples);
+  film->samples = copy;
   return VF_OK;
 }
 
@@ -275,6 +292,15 @@ int vf_film_merge_metadata(vf_film *dst, const vf_film *src) {
                         dst->settings_text, src->settings_text);
   if (vf_iterset_intersects(&dst->iterations, &src->iterations))
     return vf_error_set(VF_EOVERLAP, "films share iterations: merging would count samples twice");
+  size_t pixels = (size_t)dst->width * (size_t)dst->height;
+  if (dst->samples != NULL && src->samples != NULL && memcmp(dst->samples, src->samples, pixels) != 0)
+    return vf_error_set(VF_EMISMATCH, "films were rendered with different allocations of camera sub-paths to pixels "
+                        "(pilots of other films)");
+  uint8_t *samples = NULL;
+  if (dst->samples == NULL && src->samples != NULL) {
+    if ((samples = malloc(pixels)) == NULL) return vf_error_set(VF_ENOMEM, "out of memory for a film's allocation");
+    memcpy(samples, src->samples, pixels);
+  }
   /* No render comes near 2^64 merges; a sum that wraps would make a biased film look
    * unbiased, so it is refused rather than taken. (nonfinite_samples cannot overflow: the
    * films' iterations bound it, vf_film_validate.) */
@@ -285,7 +311,11 @@ int vf_film_merge_metadata(vf_film *dst, const vf_film *src) {
    * first; spare log capacity leaves dst unchanged in every way that matters. */
   int err = vf_convergence_reserve(&dst->convergence, src->convergence.count);
   if (err == VF_OK) err = vf_iterset_union(&dst->iterations, &src->iterations);
-  if (err != VF_OK) return err;
+  if (err != VF_OK) {
+    free(samples);
+    return err;
+  }
+  if (samples != NULL) dst->samples = samples;
   vf_convergence_append_runs(&dst->convergence, &src->convergence);
   if (dst->scene_name[0] == '\0') memcpy(dst->scene_name, src->scene_name, sizeof dst->scene_name);
   dst->render_seconds += src->render_seconds;
@@ -365,12 +395,16 @@ int vf_film_validate(const vf_film *film, const char *name) {
                         film->cpu_seconds);
   int err = vf_convergence_validate(&film->convergence, name);
   if (err != VF_OK) return err;
-  double n = (double)film->width * (double)film->height;
-  /* each iteration refuses at most one camera and one light sample per pixel */
-  if ((double)film->nonfinite_samples > 2.0 * n * (double)iterations)
-    return vf_error_set(VF_EFILM, "%s: %" PRIu64 " non-finite samples is more than %" PRIu64 " iterations allow",
-                        name, film->nonfinite_samples, iterations);
   size_t pixels = (size_t)film->width * (size_t)film->height;
+  if (film->samples != NULL && (err = vf_allocation_validate(film->samples, pixels, name)) != VF_OK) return err;
+  vf_settings settings;
+  if (vf_settings_parse(&settings, film->settings_text) == VF_OK) {
+    if (film->samples != NULL && settings.pilot == 0)
+      return vf_error_set(VF_EFILM, "%s: the film has an allocation of camera sub-paths but its settings no pilot", name);
+    if (film->samples == NULL && settings.pilot > 0 && iterations > 0)
+      return vf_error_set(VF_EFILM, "%s: the film's settings have a pilot of %d iterations but the film no allocation "
+                          "of camera sub-paths", name, settings.pilot);
+  }
   for (size_t p = 0; p < pixels; p++) {
     for (int c = 0; c < 3; c++) {
       vf_fixed s = film->sum[3 * p + c], ss = film->square_sum[3 * p + c];

@@ -79,10 +79,18 @@ typedef struct {
                                * algorithm that is otherwise unbiased (upg's fall-backs,
                                * worker/render/photon_gathering.h): 0 when its estimated
                                * RMSE covers the whole error */
+  uint8_t *samples;           /* with a pilot (vf_settings.pilot): each pixel's camera
+                               * sub-paths per iteration (common/allocation.h), owned; NULL
+                               * on a film of no pilot, and on one of no iteration until its
+                               * pilot decided them. Films of different ones never merge */
   char scene_name[512];       /* what to load to continue: a built-in name or a scene file's
                                * absolute path; "" when unknown. Informative: the hash decides */
   vf_convergence_log convergence; /* owned */
 } vf_film;
+
+/* Gives the film its allocation (a copy of width x height counts, common/allocation.h),
+ * replacing any it had. VF_ENOMEM. */
+int vf_film_set_samples(vf_film *film, const uint8_t *samples);
 
 /* Allocates a zeroed film; *out is written only on success. */
 int vf_film_create(int width, int height, vf_film **out);
@@ -139,7 +147,8 @@ void vf_film_pixel_mean(const vf_film *film, size_t p, float rgb[3]);
  * with dst unchanged, when they cannot be merged. Times add up; dst keeps its scene name
  * (src's if dst has none); src's convergence log is appended to dst's as further runs
  * (common/convergence.h); the counts add up (VF_EFILM, dst unchanged, should biased_merges
- * overflow 64 bits: only a forged film can get there). */
+ * overflow 64 bits: only a forged film can get there). Allocations (samples) must be the
+ * same where both have one (VF_EMISMATCH); dst takes src's where it has none. */
 int vf_film_merge(vf_film *dst, const vf_film *src);
 
 /* vf_film_merge in two steps, for a caller that adds the pixels on another thread: the
@@ -176,7 +185,9 @@ double vf_film_estimate_rmse(const vf_film *film);
 int vf_film_sobol(const vf_film *film);
 
 /* Checks the invariants every film built by this module keeps: no sums without
- * iterations (a film of N = 0 holds zeros), square sums >= 0, times finite and >= 0,
+ * iterations (a film of N = 0 holds zeros), square sums >= 0, times finite and >= 0, an
+ * allocation of valid counts where the settings have a pilot and the film an iteration
+ * (and none where they have no pilot),
  * non-finite samples at most two per pixel and iteration, texts terminated, the convergence log valid (vf_convergence_validate). VF_EFILM with a
  * detail "NAME: problem" (name is e.g. the file path) when one does not hold. */
 int vf_film_validate(const vf_film *film, const char *name);

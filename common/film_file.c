@@ -7,6 +7,8 @@
  * written, bit for bit. Versions 1 to 3 (doubles as float pairs, about 48 significant
  * bits) are read, their sums rounded to the grids once, and written on request. */
 #include "film.h"
+
+#include "allocation.h"
 #include "settings.h"
 
 #include "error.h"
@@ -38,6 +40,8 @@
  * count; a film without it (written before it existed, when upg counted its merges on
  * stderr alone) reads as 0 and merges with films that have it. */
 #define ATTR_BIASED_MERGES "vcmfarm:biased_merges"
+/* Only on a film with an allocation of camera sub-paths (common/allocation.h). */
+#define ATTR_ALLOCATION "vcmfarm:allocation"
 
 /* ---- writing ---- */
 
@@ -72,7 +76,7 @@ static void settings_hash_hex(const char *settings_text, char hex[65]) {
 }
 
 static int set_attributes(exr_context_t ctx, const vf_film *film, int version, const char *iterations,
-                          const char *convergence) {
+                          const char *convergence, const char *allocation) {
   char hex[65], settings_hex[65], number[32];
   for (int i = 0; i < 32; i++) snprintf(hex + 2 * i, 3, "%02x", film->scene_hash[i]);
   settings_hash_hex(film->settings_text, settings_hex);
@@ -92,6 +96,7 @@ static int set_attributes(exr_context_t ctx, const vf_film *film, int version, c
   if (rv == EXR_ERR_SUCCESS) rv = exr_attr_set_double(ctx, 0, ATTR_CPU_SECONDS, film->cpu_seconds);
   if (rv == EXR_ERR_SUCCESS) rv = exr_attr_set_string(ctx, 0, ATTR_SCENE_NAME, film->scene_name);
   if (rv == EXR_ERR_SUCCESS) rv = exr_attr_set_string(ctx, 0, ATTR_CONVERGENCE, convergence);
+  if (rv == EXR_ERR_SUCCESS && allocation != NULL) rv = exr_attr_set_string(ctx, 0, ATTR_ALLOCATION, allocation);
   return rv;
 }
 
@@ -107,10 +112,17 @@ int vf_film_write_version(const vf_film *film, const char *path, int version) {
   if (err != VF_OK) return err;
   /* "[b,e)" with two 20-digit numbers and a separator is at most 45 bytes per range. */
   size_t text_size = film->iterations.count * 46 + 1;
-  char *iterations = malloc(text_size), *convergence = NULL;
+  char *iterations = malloc(text_size), *convergence = NULL, *allocation = NULL;
   if (iterations == NULL) return VF_ENOMEM;
   if ((err = vf_iterset_format(&film->iterations, iterations, text_size)) != VF_OK) goto free_text;
   if ((err = vf_convergence_format(&film->convergence, &convergence)) != VF_OK) goto free_text;
+  if (film->samples != NULL && version < 4) {
+    err = vf_error_set(VF_EINVAL, "%s: a film with an allocation of camera sub-paths is written in format 4 only", path);
+    goto free_text;
+  }
+  if (film->samples != NULL &&
+      (err = vf_allocation_encode(film->samples, (size_t)film->width * (size_t)film->height, &allocation)) != VF_OK)
+    goto free_text;
 
   /* Version 1 stays as it was written: uncompressed. */
   int n = version == 1 ? VF_FILM_V1_CHANNELS : version < 4 ? VF_FILM_V2_CHANNELS : VF_FILM_V4_CHANNELS;
@@ -120,7 +132,7 @@ int vf_film_write_version(const vf_film *film, const char *path, int version) {
   if ((err = vf_exr_create_typed(path, film->width, film->height, VF_FILM_TILE, version == 1 ? VF_EXR_NONE : VF_EXR_ZIP,
                                  n, names, version == 4 ? VF_FILM_V4_UINT_MASK : 0, &out)) != VF_OK)
     goto free_text;
-  exr_result_t rv = set_attributes(out.ctx, film, version, iterations, convergence);
+  exr_result_t rv = set_attributes(out.ctx, film, version, iterations, convergence, allocation);
   if (rv != EXR_ERR_SUCCESS) {
     err = vf_exr_error(path, rv, "cannot set the film attributes");
     goto abort;
@@ -131,12 +143,14 @@ int vf_film_write_version(const vf_film *film, const char *path, int version) {
     goto abort;
   if (atomic_load(&source.overflow) && (err = vf_film_planes_check_range(film, version, path)) != VF_OK) goto abort;
   err = vf_exr_commit(&out);
+  free(allocation);
   free(convergence);
   free(iterations);
   return err;
 abort:
   vf_exr_abort(&out);
 free_text:
+  free(allocation);
   free(convergence);
   free(iterations);
   return err;
@@ -370,6 +384,15 @@ int vf_film_read(const char *path, vf_film **out) {
   memcpy(film->scene_name, header.scene_name, sizeof film->scene_name);
   film->convergence = header.convergence; /* moved, like the iterations */
   vf_convergence_init(&header.convergence);
+  if (find_attr(&in, ATTR_ALLOCATION)) {
+    size_t pixels = (size_t)film->width * (size_t)film->height;
+    char *text = NULL;
+    if ((err = get_string(&in, ATTR_ALLOCATION, &text)) != VF_OK) goto fail;
+    if ((film->samples = malloc(pixels)) == NULL) err = VF_ENOMEM;
+    else err = vf_allocation_decode(text, pixels, film->samples, path);
+    free(text);
+    if (err != VF_OK) goto fail;
+  }
 
   store_target target = {vf_film_sums_of(film), path};
   if ((err = vf_exr_read_channels_typed(&in, n, names, version == 4 ? VF_FILM_V4_UINT_MASK : 0, store, &target)) !=

@@ -25,6 +25,7 @@ void vf_settings_default(vf_settings *s) {
   s->radius = VF_RADIUS_GLOBAL;
   s->vcm_stages = 2;
   s->light_path_pixels = 1;
+  s->pilot = 0;
 }
 
 const char *vf_sampler_name(vf_sampler_kind k) {
@@ -139,6 +140,15 @@ int vf_settings_validate(const vf_settings *s) {
     return vf_error_set(VF_EINVAL, "pixels sharing a light sub-path (light path pixels %d) is an option of the "
                         "algorithms with light sub-paths but upg (vcm, bpt, lt, ppm, bpm, auto), not of %s",
                         s->light_path_pixels, vf_algorithm_name(s->algorithm));
+  if (s->pilot < 0 || s->pilot == 1 || s->pilot > VF_MAX_PILOT)
+    return vf_error_set(VF_EINVAL, "pilot of %d iterations: 0 (none) or 2 to %d", s->pilot, VF_MAX_PILOT);
+  if (s->pilot != 0 && s->algorithm != VF_ALGO_PT && s->algorithm != VF_ALGO_BPT && s->algorithm != VF_ALGO_VCM &&
+      s->algorithm != VF_ALGO_AUTO)
+    return vf_error_set(VF_EINVAL, "a pilot (camera sub-paths allocated per pixel) is an option of pt, bpt, vcm and "
+                        "auto, not of %s", vf_algorithm_name(s->algorithm));
+  if (s->pilot != 0 && s->vcm_stages != 2)
+    return vf_error_set(VF_EINVAL, "a pilot (camera sub-paths allocated per pixel) is an option of the two-stage "
+                        "iteration, not of the single-stage one (vcm stages 1)");
   if (s->width < 1 || s->height < 1 || s->width > VF_MAX_IMAGE_SIDE || s->height > VF_MAX_IMAGE_SIDE ||
       (int64_t)s->width * s->height > (int64_t)1 << 28)
     return vf_error_set(VF_EINVAL, "resolution %dx%d is outside 1x1 .. 65536x65536 (at most 2^28 pixels)",
@@ -175,6 +185,7 @@ int vf_settings_format(const vf_settings *s, char *buf, size_t n) {
   if (w >= 0 && (size_t)w < n && s->vcm_stages != 2) w += snprintf(buf + w, n - (size_t)w, " vcm_stages=%d", s->vcm_stages);
   if (w >= 0 && (size_t)w < n && s->light_path_pixels != 1)
     w += snprintf(buf + w, n - (size_t)w, " light_path_pixels=%d", s->light_path_pixels);
+  if (w >= 0 && (size_t)w < n && s->pilot != 0) w += snprintf(buf + w, n - (size_t)w, " pilot=%d", s->pilot);
   if (w < 0 || (size_t)w >= n) return vf_error_set(VF_EINVAL, "settings text too long");
   return VF_OK;
 }
@@ -229,6 +240,11 @@ int vf_settings_parse(vf_settings *s, const char *text) {
       long pixels = strtol(value, &end, 10);
       out.light_path_pixels = pixels >= 1 && pixels <= VF_MAX_LIGHT_PATH_PIXELS ? (int)pixels : 0;
       seen |= 2048;
+    } else if (strcmp(key, "pilot") == 0) {
+      if (seen & 4096) goto bad;
+      long pilot = strtol(value, &end, 10);
+      out.pilot = pilot >= 1 && pilot <= VF_MAX_PILOT ? (int)pilot : -1;
+      seen |= 4096;
     } else {
       return vf_error_set(VF_EINVAL, "settings: unknown key '%s'", key);
     }

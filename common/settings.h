@@ -75,7 +75,19 @@ typedef struct {
                           * vertices per iteration: the memory of large images. Algorithms
                           * with light sub-paths but upg; films of different values never
                           * merge. */
+  int pilot;             /* 0 (the default): one camera sub-path a pixel in every iteration.
+                          * Else the iterations of a pilot render (common/allocation.h):
+                          * its film, of random numbers of their own and one camera
+                          * sub-path a pixel, decides each pixel's number of camera
+                          * sub-paths per iteration once; every iteration of the job then
+                          * traces those, weighed in the MIS (worker/render/camera_pass.c),
+                          * and the film keeps them. pt, bpt and vcm (and auto when it
+                          * chooses one of them), the two-stage iteration; films of
+                          * different pilots or allocations never merge. */
 } vf_settings;
+
+/* The longest pilot; the shortest is 2 (one iteration of each of the sampler's replicates). */
+#define VF_MAX_PILOT (1 << 20)
 
 /* The most pixels one light sub-path may serve: a block of 32x32, one camera tile. */
 #define VF_MAX_LIGHT_PATH_PIXELS 1024
@@ -132,7 +144,8 @@ int vf_sampler_parse(const char *name, vf_sampler_kind *out);
 
 /* Checks ranges (path length, radius factor > 0, 0 < alpha <= 1, resolution, 1 <= mis_beta
  * <= VF_MAX_MIS_BETA, vcm_stages 1 or 2 and 1 only for vcm or auto, light_path_pixels a
- * power of two up to VF_MAX_LIGHT_PATH_PIXELS and above 1 only with light sub-paths and not upg). */
+ * power of two up to VF_MAX_LIGHT_PATH_PIXELS and above 1 only with light sub-paths and not upg,
+ * pilot 0 or from 2 to VF_MAX_PILOT, only for pt, bpt, vcm and auto with two stages). */
 int vf_settings_validate(const vf_settings *s);
 
 /* Canonical text, e.g. "algorithm=vcm max_path_length=10 radius_factor=0.003 alpha=0.75
@@ -143,7 +156,8 @@ int vf_settings_validate(const vf_settings *s);
  * written (" mis_beta=2") only when it is not 1, for the same reason: every text before it
  * existed was rendered with the balance heuristic. upg's side (" gather=camera") likewise
  * only when it is not the light's, the radius (" radius=per-pixel") only when not global,
- * the stages (" vcm_stages=1") only when not 2, and " light_path_pixels=N" only when N is not 1. Numbers in their shortest text that reads back exactly
+ * the stages (" vcm_stages=1") only when not 2, " light_path_pixels=N" only when N is not 1,
+ * and " pilot=N" only when N is not 0. Numbers in their shortest text that reads back exactly
  * (vf_double_format), so parse(format(s)) == s. VF_EINVAL if it does not fit in n bytes.
  * Before protocol version 6 the numbers had 17 digits ("0.0030000000000000001"): films and
  * state files of then are brought to this form when read (vf_settings_canonicalize). */

@@ -1,6 +1,7 @@
 /* Phase 3 of an iteration, the camera sub-paths: camera_pass.h. */
 #include "camera_pass.h"
 
+#include "../../common/allocation.h"
 #include "../../common/sampler.h"
 #include "vcm_internal.h"
 #include "gathering_pass.h"
@@ -260,8 +261,13 @@ typedef struct {
   merge_params merge;     /* its pixel's merge radius (path_state.merge points here) */
 } camera_lane;
 
-/* Starts the camera sub-path of pixel (px, py), the tile's pixel tile_pixel (tile width tw). */
-static void camera_start(vf_vcm *v, camera_lane *lane, uint32_t px, uint32_t py, uint32_t tile_pixel, uint32_t tw) {
+/* Starts camera sub-path `sample` of pixel (px, py), the tile's pixel tile_pixel (tile
+ * width tw), which traces k = vf_pixel_samples of them in this iteration. With an
+ * allocation (common/allocation.h) the sub-path takes its point of the pixel's sequence
+ * and a stream of its own, and carries 1 / k of the pixel's estimate; with k = 1 it is the
+ * sub-path of a render without one. */
+static void camera_start(vf_vcm *v, camera_lane *lane, uint32_t px, uint32_t py, uint32_t tile_pixel, uint32_t tw,
+                         uint32_t sample) {
   uint32_t pixel = py * (uint32_t)v->camera.width + px;
   lane->pixel = pixel;
   lane->tile_pixel = tile_pixel;
@@ -274,6 +280,12 @@ static void camera_start(vf_vcm *v, camera_lane *lane, uint32_t px, uint32_t py,
   vf_merge_params_at(v, pixel, &lane->merge);
   lane->s.merge = &lane->merge;
   vf_sampler_start(&lane->sampler, v->settings.sampler, v->settings.seed, v->iteration, pixel, VF_STREAM_CAMERA);
+  uint32_t k = vf_pixel_samples(v, pixel);
+  if (v->allocated) {
+    lane->sampler.index = vf_allocation_sobol_index(v->iteration, k, sample);
+    lane->sampler.index_reversed = vf_reverse_bits32(lane->sampler.index);
+    lane->sampler.path = pixel + (uint64_t)sample * v->num_pixels;
+  }
   float jitter[2];
   vf_sampler_2d(&lane->sampler, VF_DIM_PIXEL, jitter);
   float jx = jitter[0], jy = jitter[1];
@@ -293,14 +305,14 @@ static void camera_start(vf_vcm *v, camera_lane *lane, uint32_t px, uint32_t py,
     s->origin = v->camera.position;
     s->direction = vf_camera_direction(&v->camera, (float)px + jx, (float)py + jy);
   }
-  s->throughput = vf_vec3_splat(1.0f); /* W_e cos / (p(z0) pdf_w) = 1: camera.h */
+  s->throughput = vf_vec3_splat(1.0f / (float)k); /* W_e cos / (p(z0) pdf_w) = 1 (camera.h), over k */
   s->medium = v->camera_medium;
   s->from_medium = 0;
   s->path_length = 1;
   s->specular_path = 1;
   /* z1's quantities, tech. rep. eq. (31)-(33): p_connect / p_trace of the lens point is 1;
    * an orthographic start is an area density (sec. 5.1-5.2). */
-  vf_mis_camera_start(&s->mis, &v->merge.mis, vf_camera_start_density(&v->camera, s->direction));
+  vf_mis_camera_start(&s->mis, &s->merge->mis, vf_camera_start_density(&v->camera, s->direction));
 }
 
 /* s > 1, t > 1: every connection of camera vertex (hit, b) to its pixel's light sub-path. */
@@ -458,22 +470,28 @@ static int camera_bounce(vf_vcm *v, int thread, camera_lane *lane, const vf_hit 
   return 1;
 }
 
-/* Traces the camera sub-paths of the tile's pixels (tile_pixel = row * tw + column). */
+/* Traces the camera sub-paths of the tile's pixels (tile_pixel = row * tw + column), each
+ * pixel's vf_pixel_samples of them one after another. */
 static void trace_camera_sub_paths(vf_vcm *v, int thread, uint32_t x0, uint32_t y0, uint32_t tw, uint32_t pixels) {
   camera_lane lanes[VF_ACCEL_PACKET];
   path_state *states[VF_ACCEL_PACKET];
-  /* The next pixel to start: tile_pixel next, at column tx and row ty of the tile (kept
-   * apart so that no pixel costs a division). */
-  uint32_t next = 0, tx = 0, ty = 0, active = 0;
-#define START_NEXT_PIXEL(lane)                                \
-  do {                                                        \
-    camera_start(v, (lane), x0 + tx, y0 + ty, next++, tw);    \
-    if (++tx == tw) tx = 0, ty++;                             \
+  /* The next sub-path to start: number `sample` of `count` of tile_pixel next, at column tx
+   * and row ty of the tile (kept apart so that no pixel costs a division). */
+  uint32_t width = (uint32_t)v->camera.width;
+  uint32_t next = 0, tx = 0, ty = 0, active = 0, sample = 0, count = vf_pixel_samples(v, y0 * width + x0);
+#define START_NEXT_SUB_PATH(lane)                                       \
+  do {                                                                  \
+    camera_start(v, (lane), x0 + tx, y0 + ty, next, tw, sample);        \
+    if (++sample == count) {                                            \
+      sample = 0;                                                       \
+      if (++tx == tw) tx = 0, ty++;                                     \
+      if (++next < pixels) count = vf_pixel_samples(v, (y0 + ty) * width + x0 + tx); \
+    }                                                                   \
   } while (0)
   for (int i = 0; i < VF_ACCEL_PACKET; i++) {
     states[i] = &lanes[i].s;
     if (next < pixels) {
-      START_NEXT_PIXEL(&lanes[i]);
+      START_NEXT_SUB_PATH(&lanes[i]);
       active |= 1u << i;
     }
   }
@@ -486,12 +504,12 @@ static void trace_camera_sub_paths(vf_vcm *v, int thread, uint32_t x0, uint32_t 
       int i = lane_of[k];
       if (camera_bounce(v, thread, &lanes[i], (found >> k & 1u) ? &hits[k] : NULL)) continue;
       if (next < pixels)
-        START_NEXT_PIXEL(&lanes[i]);
+        START_NEXT_SUB_PATH(&lanes[i]);
       else
         active &= ~(1u << i);
     }
   }
-#undef START_NEXT_PIXEL
+#undef START_NEXT_SUB_PATH
 }
 
 void vf_camera_pass_run_tile(vf_vcm *v, int thread, const camera_tile *tile) {

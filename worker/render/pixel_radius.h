@@ -37,9 +37,15 @@
 int vf_pixel_radius_create(vf_vcm *v);
 
 /* The merge parameters of pixel `pixel` in the current iteration: the global ones, or with
- * a radius per pixel that pixel's radius and its eta_VCM. */
+ * a radius per pixel that pixel's radius and its eta_VCM. Past a pilot, a pixel of k
+ * camera sub-paths weighs light tracing's n_light light sub-paths against k camera
+ * sub-paths (common/allocation.h): its light_paths is n_light / k (exact: k is a power of
+ * two), which the weights read where light tracing meets the camera (mis.h, eq. 31-33 and
+ * 46-47), while the merges' eta_VCM keeps n_light (each camera sub-path merges with all of
+ * them). */
 static inline void vf_merge_params_at(const vf_vcm *v, uint32_t pixel, merge_params *out) {
   *out = v->merge;
+  if (v->allocated) out->mis.light_paths = v->merge.mis.light_paths / (float)v->samples[pixel];
   if (v->pixel_scale == NULL) return;
   double r = v->radius_exact * (double)v->pixel_scale[pixel];
   double eta = M_PI * r * r * (double)v->num_light_paths; /* eq. (20) with this pixel's radius */

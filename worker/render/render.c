@@ -1,5 +1,6 @@
 #include "render.h"
 
+#include "../../common/allocation.h"
 #include "../../common/clock.h"
 #include "../../common/error.h"
 #include "../../common/parse.h"
@@ -19,6 +20,8 @@ struct vf_renderer {
   vf_pool *pool;
   vf_vcm *vcm;
   float *camera_rgb, *light_rgb; /* one iteration's output */
+  uint8_t *samples; /* with a pilot: the allocation the renderer has (samples_set), owned */
+  int samples_set;
 };
 
 int vf_renderer_create(const vf_scene *scene, const vf_settings *settings, int threads, vf_renderer **out) {
@@ -33,6 +36,7 @@ int vf_renderer_create(const vf_scene *scene, const vf_settings *settings, int t
   r->camera_rgb = malloc(n * sizeof(float));
   r->light_rgb = malloc(n * sizeof(float));
   if (r->camera_rgb == NULL || r->light_rgb == NULL) goto fail;
+  if (settings->pilot > 0 && (r->samples = malloc(n / 3)) == NULL) goto fail;
   if ((err = vf_accel_create(scene, &r->accel)) != VF_OK) goto fail;
   if ((err = vf_pool_create(threads, &r->pool)) != VF_OK) goto fail;
   if ((err = vf_vcm_create(scene, r->accel, settings, r->pool, &r->vcm)) != VF_OK) goto fail;
@@ -50,10 +54,13 @@ void vf_renderer_destroy(vf_renderer *r) {
   vf_accel_destroy(r->accel);
   free(r->camera_rgb);
   free(r->light_rgb);
+  free(r->samples);
   free(r);
 }
 
 const vf_vcm *vf_renderer_vcm(const vf_renderer *r) { return r->vcm; }
+
+const vf_settings *vf_renderer_settings(const vf_renderer *r) { return &r->settings; }
 
 /* Process CPU time of all threads: with the wall time it shows how well threads were used. */
 static double cpu_seconds_now(void) {
@@ -92,6 +99,67 @@ int vf_renderer_stamp(const vf_renderer *r, vf_film *film) {
   return vf_settings_format(&r->settings, film->settings_text, sizeof film->settings_text);
 }
 
+/* The film's allocation of camera sub-paths to the renderer, unless it has it. */
+static int set_allocation(vf_renderer *r, const vf_film *film) {
+  size_t n = (size_t)film->width * (size_t)film->height;
+  if (r->samples_set && memcmp(r->samples, film->samples, n) == 0) return VF_OK;
+  int err = vf_vcm_set_allocation(r->vcm, film->samples);
+  if (err != VF_OK) return err;
+  memcpy(r->samples, film->samples, n);
+  r->samples_set = 1;
+  return VF_OK;
+}
+
+int vf_render_pilot_range(vf_renderer *r, vf_film *pilot, uint64_t begin, uint64_t end, const vf_render_control *control,
+                          vf_render_status *status) {
+  if (r->settings.pilot == 0) return vf_error_set(VF_EINVAL, "the render has no pilot");
+  if (end > (uint64_t)r->settings.pilot)
+    return vf_error_set(VF_EINVAL, "iterations up to %llu are not all the pilot's [0, %d)", (unsigned long long)end,
+                        r->settings.pilot);
+  vf_vcm_set_pilot_phase(r->vcm, 1);
+  int err = vf_render_range(r, pilot, begin, end, control, status);
+  vf_vcm_set_pilot_phase(r->vcm, 0);
+  return err;
+}
+
+int vf_render_pilot(vf_renderer *r, vf_film *film, const vf_render_control *control, vf_render_status *status) {
+  if (status) memset(status, 0, sizeof *status);
+  if (r->settings.pilot == 0 || film->samples != NULL) return r->settings.pilot == 0 ? VF_OK : set_allocation(r, film);
+  vf_film *pilot = NULL;
+  int err = vf_film_create(film->width, film->height, &pilot);
+  if (err != VF_OK) return err;
+  if ((err = vf_renderer_stamp(r, pilot)) != VF_OK) goto done;
+  /* Only the interrupt reaches the pilot: nothing of it is delivered or shown. */
+  vf_render_control pc = {0};
+  if (control) pc.interrupt = control->interrupt;
+  vf_render_status st;
+  err = vf_render_pilot_range(r, pilot, 0, (uint64_t)r->settings.pilot, &pc, &st);
+  if (status) *status = st;
+  if (err != VF_OK) goto done;
+  if (st.iterations_done < (uint64_t)r->settings.pilot) {
+    err = vf_error_set(VF_EINVAL, "the pilot was interrupted after %llu of its %d iterations; nothing written",
+                       (unsigned long long)st.iterations_done, r->settings.pilot);
+    goto done;
+  }
+  uint8_t *samples = malloc((size_t)film->width * (size_t)film->height);
+  if (samples == NULL) {
+    err = VF_ENOMEM;
+    goto done;
+  }
+  err = vf_allocation_compute(pilot, samples, NULL);
+  if (err == VF_OK) err = vf_film_set_samples(film, samples);
+  free(samples);
+  if (err != VF_OK) goto done;
+  /* The job's film carries what its pilot cost (its non-finite samples, in no image of
+   * the job, are the caller's to report). */
+  film->render_seconds += pilot->render_seconds;
+  film->cpu_seconds += pilot->cpu_seconds;
+  err = set_allocation(r, film);
+done:
+  vf_film_destroy(pilot);
+  return err;
+}
+
 int vf_render_range(vf_renderer *r, vf_film *film, uint64_t begin, uint64_t end, const vf_render_control *control,
                     vf_render_status *status) {
   if (film->width != r->settings.width || film->height != r->settings.height)
@@ -100,6 +168,13 @@ int vf_render_range(vf_renderer *r, vf_film *film, uint64_t begin, uint64_t end,
   vf_render_status st;
   memset(&st, 0, sizeof st);
   st.iterations_total = end - begin;
+  if (r->settings.pilot > 0 && !vf_vcm_pilot_phase(r->vcm)) {
+    if (film->samples == NULL)
+      return vf_error_set(VF_EINVAL, "the film has no allocation of camera sub-paths: its pilot has not run "
+                          "(vf_render_pilot)");
+    int e = set_allocation(r, film);
+    if (e != VF_OK) return e;
+  }
   double start = vf_seconds_now(), last_delivery = start;
   int err = VF_OK, stop = 0, since_delivery = 0;
   for (uint64_t k = begin; k < end && !stop; k++) {

@@ -61,10 +61,26 @@ typedef struct {
   vf_film_accum *accum;
 } vf_render_control;
 
+/* With a pilot (vf_settings.pilot, common/allocation.h), before the job's first iteration:
+ * unless the film has its allocation of camera sub-paths, renders the pilot's iterations
+ * into a film of their own (control's interrupt only), computes the allocation from it
+ * into film, adds the pilot's times to film's, and drops it; *status (may be NULL) gets
+ * the pilot's (its non-finite samples, which are in no image of the job, to report). VF_OK
+ * at once without a pilot or with an allocation; VF_EINVAL, film unchanged, if interrupted.
+ * vf_render_range refuses a film of a job with a pilot that has no allocation. */
+int vf_render_pilot(vf_renderer *r, vf_film *film, const vf_render_control *control, vf_render_status *status);
+/* Iterations [begin, end) of the pilot render (end <= pilot), into a film of the pilot's:
+ * vf_render_range with the pilot's numbers and one camera sub-path a pixel. Parts of it
+ * merge like any films' into the film of [0, pilot) that vf_allocation_compute reads. */
+int vf_render_pilot_range(vf_renderer *r, vf_film *pilot, uint64_t begin, uint64_t end, const vf_render_control *control,
+                          vf_render_status *status);
+
 /* The scene is borrowed and must outlive the renderer. threads <= 0: one per CPU. */
 int vf_renderer_create(const vf_scene *scene, const vf_settings *settings, int threads, vf_renderer **out);
 void vf_renderer_destroy(vf_renderer *r);
 const vf_vcm *vf_renderer_vcm(const vf_renderer *r);
+/* The settings it renders with. */
+const vf_settings *vf_renderer_settings(const vf_renderer *r);
 
 /* Renders iterations begin, begin + 1, ... < end into film (its size must match the
  * settings), stopping early as `control` says (NULL: never). The film's scene hash and

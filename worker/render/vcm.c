@@ -4,6 +4,7 @@
  * that weights their techniques is mis.h. */
 #include "vcm.h"
 
+#include "../../common/allocation.h"
 #include "../../common/clock.h"
 #include "../../common/error.h"
 #include "camera_pass.h"
@@ -72,7 +73,27 @@ static void add_counts(const vf_vcm *v, vf_vcm_stats *stats) {
   stats->light_vertices += v->num_vertices;
 }
 
+int vf_vcm_set_allocation(vf_vcm *v, const uint8_t *samples) {
+  if (v->settings.pilot == 0) return vf_error_set(VF_EINVAL, "an allocation of camera sub-paths needs a pilot");
+  int err = vf_allocation_validate(samples, v->num_pixels, "allocation");
+  if (err != VF_OK) return vf_error_set(VF_EINVAL, "%s", vf_error_detail(err));
+  if (v->samples == NULL && (v->samples = malloc(v->num_pixels)) == NULL) return VF_ENOMEM;
+  memcpy(v->samples, samples, v->num_pixels);
+  return VF_OK;
+}
+
+void vf_vcm_set_pilot_phase(vf_vcm *v, int on) {
+  v->pilot_phase = on && v->settings.pilot > 0;
+  v->settings.seed = v->pilot_phase ? vf_allocation_seed(v->job_seed) : v->job_seed;
+}
+
+int vf_vcm_pilot_phase(const vf_vcm *v) { return v->pilot_phase; }
+
 int vf_vcm_iteration(vf_vcm *v, uint64_t iteration, float *camera_rgb, float *light_rgb, vf_vcm_stats *stats) {
+  v->allocated = v->settings.pilot > 0 && !v->pilot_phase;
+  if (v->allocated && v->samples == NULL)
+    return vf_error_set(VF_EINVAL, "iteration %llu needs the allocation of camera sub-paths that the pilot of %d "
+                        "iterations decides, and none is set", (unsigned long long)iteration, v->settings.pilot);
   setup_iteration(v, iteration);
   v->camera_rgb = camera_rgb;
   v->light_rgb = light_rgb;
@@ -472,6 +493,7 @@ int vf_vcm_create(const vf_scene *scene, const vf_accel *accel, const vf_setting
   v->scene = scene;
   v->accel = accel;
   v->settings = *settings;
+  v->job_seed = settings->seed;
   v->pool = pool;
   vf_camera_init(&v->camera, &scene->camera, settings->width, settings->height);
   vf_scene_bounding_sphere(scene, &v->scene_center, &v->scene_radius);
@@ -604,6 +626,7 @@ void vf_vcm_destroy(vf_vcm *v) {
   free(v->photons);
   free(v->photon_c_vc);
   free(v->pixel_scale);
+  free(v->samples);
   free(v->photon_source);
   free(v->origins);
   free(v->path_begin);

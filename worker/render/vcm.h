@@ -67,6 +67,16 @@ void vf_vcm_trim(vf_vcm *vcm);
  * first, overwritten). Adds to *stats. */
 int vf_vcm_iteration(vf_vcm *vcm, uint64_t iteration, float *camera_rgb, float *light_rgb, vf_vcm_stats *stats);
 
+/* With a pilot (vf_settings.pilot, common/allocation.h): each pixel's camera sub-paths per
+ * iteration, width x height counts, copied. An iteration fails with VF_EINVAL until they
+ * are set, but in the pilot phase. VF_ENOMEM, or VF_EINVAL on a renderer without a pilot
+ * or for counts that are not powers of two from 1 to VF_ALLOCATION_MAX. */
+int vf_vcm_set_allocation(vf_vcm *vcm, const uint8_t *samples);
+/* In the pilot phase (on), iterations are the pilot render's: one camera sub-path a pixel,
+ * numbers from the pilot seed (vf_allocation_seed). */
+void vf_vcm_set_pilot_phase(vf_vcm *vcm, int on);
+int vf_vcm_pilot_phase(const vf_vcm *vcm);
+
 /* The algorithm this renderer runs: the settings' one, or for auto and auto-unbiased the
  * one chosen from the scene at vf_vcm_create (never an auto). */
 vf_algorithm vf_vcm_algorithm(const vf_vcm *vcm);

@@ -322,6 +322,14 @@ struct vf_vcm {
   float pixel_scale_max;
   int vc_in_weights, vm_in_weights; /* the algorithm combines connections, merges */
 
+  /* --pilot (common/allocation.h): each pixel's camera sub-paths per iteration, owned
+   * (NULL until vf_vcm_set_allocation); allocated: the current iteration traces them
+   * (vf_pixel_samples), which the pilot render's (pilot_phase) do not; job_seed: the
+   * settings' seed, which the pilot phase replaces by its own. */
+  uint8_t *samples;
+  int allocated, pilot_phase;
+  uint64_t job_seed;
+
   /* Per iteration. */
   uint64_t iteration;
   double radius_exact;  /* the global merge radius r_i, of which merge.radius is the float */
@@ -371,6 +379,12 @@ static inline uint32_t vf_light_path_pixel(const vf_vcm *v, uint32_t pixel) {
   if ((v->light_block_w | v->light_block_h) == 0) return pixel;
   uint32_t width = (uint32_t)v->settings.width, x = pixel % width, y = pixel / width;
   return (y >> v->light_block_h << v->light_block_h) * width + (x >> v->light_block_w << v->light_block_w);
+}
+
+/* The camera sub-paths pixel `pixel` traces in the current iteration: its allocation's
+ * count past a pilot, else 1. */
+static inline uint32_t vf_pixel_samples(const vf_vcm *v, uint32_t pixel) {
+  return v->allocated ? v->samples[pixel] : 1u;
 }
 
 _Static_assert(VF_MAX_LIGHT_PATH_PIXELS <= CAMERA_TILE * CAMERA_TILE, "a block of pixels sharing a light sub-path fits a tile");

@@ -18,6 +18,11 @@
 #include <stdlib.h>
 #include <string.h>
 
+/* The allocation of camera sub-paths (common/allocation.h) that render_iterations gives a
+ * renderer whose settings have a pilot: width x height counts, or NULL for none (whose
+ * iterations then fail). */
+static const uint8_t *render_allocation;
+
 /* Renders iterations [first, first + n) of scene with settings on `threads` threads and
  * calls each(ctx, i, cam, light) with iteration first + i's camera and light images (RGB
  * floats, width x height). Returns 0 on success. */
@@ -34,6 +39,8 @@ static int render_iterations(const vf_scene *scene, const vf_settings *settings,
   if ((err = vf_accel_create(scene, &accel)) != VF_OK) goto done;
   if ((err = vf_pool_create(threads, &pool)) != VF_OK) goto done;
   if ((err = vf_vcm_create(scene, accel, settings, pool, &vcm)) != VF_OK) goto done;
+  if (settings->pilot > 0 && render_allocation != NULL && (err = vf_vcm_set_allocation(vcm, render_allocation)) != VF_OK)
+    goto done;
   for (int i = 0; i < n; i++) {
     if ((err = vf_vcm_iteration(vcm, first + (uint64_t)i, cam, light, stats)) != VF_OK) goto done;
     each(ctx, i, cam, light);
@@ -173,13 +180,15 @@ static inline vf_film *render_film(const vf_scene *scene, const vf_settings *set
 }
 
 /* Whether two films are the same bit for bit: size, exact sums, iterations, settings,
- * scene and refused samples. */
+ * scene, refused samples and allocation of camera sub-paths. */
 static inline int films_bitwise_equal(const vf_film *a, const vf_film *b) {
   size_t n = 3 * (size_t)a->width * a->height;
   return a->width == b->width && a->height == b->height && memcmp(a->sum, b->sum, n * sizeof *a->sum) == 0 &&
          memcmp(a->square_sum, b->square_sum, n * sizeof *a->square_sum) == 0 &&
          vf_iterset_equal(&a->iterations, &b->iterations) && strcmp(a->settings_text, b->settings_text) == 0 &&
-         memcmp(a->scene_hash, b->scene_hash, sizeof a->scene_hash) == 0 && a->nonfinite_samples == b->nonfinite_samples;
+         memcmp(a->scene_hash, b->scene_hash, sizeof a->scene_hash) == 0 && a->nonfinite_samples == b->nonfinite_samples &&
+         (a->samples == NULL) == (b->samples == NULL) &&
+         (a->samples == NULL || memcmp(a->samples, b->samples, (size_t)a->width * a->height) == 0);
 }
 
 #endif

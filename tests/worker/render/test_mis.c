@@ -743,6 +743,16 @@ static double light_eta(double eta) {
   return eta * (g_pixel_radii ? 37.0 : 1.0) * (g_single_stage ? pow(2.0, 0.25) : 1.0);
 }
 
+/* Camera sub-paths allocated per pixel (common/allocation.h, --pilot): when set, the pixel
+ * path p ends in traces 2^(p mod 5) camera sub-paths an iteration, 1 to 16, so that its
+ * camera techniques count that many times against light tracing's n_light: in eq. 12,
+ * every count over the camera's is n_light / k for light tracing and unchanged for the
+ * rest (merging's eta counts the light sub-paths each camera sub-path merges with). The
+ * recursion takes it as the pixel's config does (worker/render/pixel_radius.h,
+ * vf_merge_params_at), in the camera's d_vcm and light tracing's weight. */
+static int g_pixel_samples;
+static double path_light_paths(int p) { return g_scene.n_light / (g_pixel_samples ? pow(2.0, (double)(p % 5)) : 1.0); }
+
 /* Checks every path of a set under one algorithm and eta; prints `examples` paths. */
 static deviation check_set(const path_set *set, vf_algorithm a, double eta, int examples) {
   deviation dev = {0};
@@ -753,11 +763,11 @@ static deviation check_set(const path_set *set, vf_algorithm a, double eta, int 
     technique_set t;
     double rec_vc[MAX_VERTICES + 1], rec_vm[MAX_VERTICES + 1], dir_vc[MAX_VERTICES + 1], dir_vm[MAX_VERTICES + 1];
     double path_eta = eta * path_eta_scale(p);
-    vf_mis_config c = config_for(a, path_eta, g_scene.n_light);
+    vf_mis_config c = config_for(a, path_eta, path_light_paths(p));
     if (!prepare_path(&g_scene, x, &pd)) continue;
     implemented_techniques(x, a, g_scene.spot != NULL, &t);
     recursive_weights(&g_scene, x, &pd, &c_light, &c, &t, rec_vc, rec_vm);
-    direct_weights(x, &pd, &t, path_eta, g_scene.n_light, dir_vc, dir_vm);
+    direct_weights(x, &pd, &t, path_eta, path_light_paths(p), dir_vc, dir_vm);
     double sum = 0.0, vm = 0.0;
     int used = 0;
     for (int s = 0; s <= x->k; s++)
@@ -804,11 +814,11 @@ static void check_algorithm(const path_set *set, const char *family, vf_algorith
       double rv[MAX_VERTICES + 1], rm[MAX_VERTICES + 1], dv[MAX_VERTICES + 1], dm[MAX_VERTICES + 1];
       double path_eta = etas[e] * path_eta_scale(dev.worst_path);
       vf_mis_config c_light = config_for(a, light_eta(etas[e]), g_scene.n_light);
-      vf_mis_config c = config_for(a, path_eta, g_scene.n_light);
+      vf_mis_config c = config_for(a, path_eta, path_light_paths(dev.worst_path));
       prepare_path(&g_scene, x, &pd);
       implemented_techniques(x, a, g_scene.spot != NULL, &t);
       recursive_weights(&g_scene, x, &pd, &c_light, &c, &t, rv, rm);
-      direct_weights(x, &pd, &t, path_eta, g_scene.n_light, dv, dm);
+      direct_weights(x, &pd, &t, path_eta, path_light_paths(dev.worst_path), dv, dm);
       print_path(x, &t, rv, rm, dv, dm);
     }
     CHECK_NEAR(dev.max_rel_dev, 0.0, weight_tolerance);
@@ -964,6 +974,26 @@ static void test_weights_match_eq12_with_fewer_light_paths_than_pixels(void) {
   g_scene.n_light = pixels;
 }
 
+/* --pilot: pixels of 1 to 16 camera sub-paths an iteration; vcm and bpt (pt has no light
+ * tracing to weigh against), with and without a specular vertex, with radii per pixel,
+ * under the power heuristic. */
+static void test_weights_match_eq12_with_camera_sub_paths_allocated_per_pixel(void) {
+  g_pixel_samples = 1;
+  for (g_pixel_radii = 0; g_pixel_radii <= 1; g_pixel_radii++) {
+    check_algorithm(&g_diffuse, "diffuse", VF_ALGO_VCM, etas, NUM_ETAS, 0);
+    check_algorithm(&g_specular, "specular", VF_ALGO_VCM, etas, NUM_ETAS, 0);
+  }
+  g_pixel_radii = 0;
+  check_algorithm(&g_diffuse, "diffuse", VF_ALGO_BPT, etas, 1, 0);
+  check_algorithm(&g_specular, "specular", VF_ALGO_BPT, etas, 1, 0);
+  check_algorithm(&g_diffuse, "diffuse", VF_ALGO_PT, etas, 1, 0);
+  g_beta = 2.0;
+  check_algorithm(&g_diffuse, "diffuse", VF_ALGO_VCM, etas, 1, 0);
+  check_algorithm(&g_diffuse, "diffuse", VF_ALGO_BPT, etas, 1, 0);
+  g_beta = 1.0;
+  g_pixel_samples = 0;
+}
+
 static void test_power_heuristic_weights_match_eq12_through_rough_lobes(void) { check_power_heuristic("rough", 0); }
 
 /* The rough family's vertices by lobe: on the gold ball, reflecting off and refracting
@@ -1082,6 +1112,7 @@ int main(void) {
       RUN(test_weights_match_eq12_with_a_radius_per_pixel);
       RUN(test_weights_match_eq12_single_stage);
       RUN(test_weights_match_eq12_with_fewer_light_paths_than_pixels);
+      RUN(test_weights_match_eq12_with_camera_sub_paths_allocated_per_pixel);
       destroy_test_scene(&g_scene);
     }
     if (!walk_scene("cornell-rough", VF_LIGHT_AREA_MESH)) return 1;

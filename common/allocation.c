@@ -1,0 +1,207 @@
+/* Camera sub-paths allocated per pixel from a pilot: allocation.h. */
+#include "allocation.h"
+
+#include "error.h"
+#include "rng.h"
+#include "settings.h"
+
+#include <math.h>
+#include <sodium.h>
+#include <stdlib.h>
+#include <string.h>
+#include <zlib.h>
+
+/* Iterations of the set in replicate 0 (even indices). */
+static uint64_t even_iterations(const vf_iterset *set) {
+  uint64_t n = 0;
+  for (size_t i = 0; i < set->count; i++) n += (set->ranges[i].end + 1) / 2 - (set->ranges[i].begin + 1) / 2;
+  return n;
+}
+
+/* Each pixel's variance of one iteration's estimate, summed over its channels: the
+ * film's error estimate of the pixel (common/film.c, vf_film_estimate_rmse) times n. */
+static void pixel_variances(const vf_film *film, double *out) {
+  size_t pixels = (size_t)film->width * (size_t)film->height;
+  double n = (double)vf_iterset_count(&film->iterations);
+  if (vf_film_sobol(film)) {
+    double n0 = (double)even_iterations(&film->iterations), n1 = n - n0;
+    for (size_t p = 0; p < pixels; p++) {
+      double v = 0.0;
+      for (size_t c = 3 * p; c < 3 * p + 3; c++) {
+        double m = vf_film_sum_at(film, c) / n, m0 = vf_fixed_to_double(film->square_sum[c], VF_FILM_SUM_BITS) / n0;
+        double m1 = vf_fixed_to_double(film->sum[c] - film->square_sum[c], VF_FILM_SUM_BITS) / n1;
+        v += n0 * (m0 - m) * (m0 - m) + n1 * (m1 - m) * (m1 - m);
+      }
+      out[p] = v;
+    }
+    return;
+  }
+  for (size_t p = 0; p < pixels; p++) {
+    double v = 0.0;
+    for (size_t c = 3 * p; c < 3 * p + 3; c++) {
+      double m = vf_film_sum_at(film, c) / n;
+      double variance = (vf_fixed_to_double(film->square_sum[c], VF_FILM_SQUARE_BITS) - n * m * m) / (n - 1.0);
+      if (variance > 0.0) v += variance; /* < 0 only through rounding */
+    }
+    out[p] = v;
+  }
+}
+
+/* The 3x3 binomial filter (1 2 1 / 2 4 2 / 1 2 1, over 16), the image's edge repeated. */
+static void smooth(const double *in, double *out, int width, int height) {
+  for (int y = 0; y < height; y++)
+    for (int x = 0; x < width; x++) {
+      double s = 0.0;
+      for (int dy = -1; dy <= 1; dy++) {
+        int yy = y + dy < 0 ? 0 : y + dy >= height ? height - 1 : y + dy;
+        for (int dx = -1; dx <= 1; dx++) {
+          int xx = x + dx < 0 ? 0 : x + dx >= width ? width - 1 : x + dx;
+          s += (double)((2 - abs(dx)) * (2 - abs(dy))) * in[(size_t)yy * (size_t)width + (size_t)xx];
+        }
+      }
+      out[(size_t)y * (size_t)width + (size_t)x] = s / 16.0;
+    }
+}
+
+/* The power of two from 1 to VF_ALLOCATION_MAX nearest to x on a log scale: the bounds
+ * between successive levels are 2^(i + 1/2), compared without a logarithm so that every
+ * machine rounds alike. */
+static uint8_t level_of(double x) {
+  static const double bounds[VF_ALLOCATION_LEVELS - 1] = {1.4142135623730951, 2.8284271247461903, 5.6568542494923806,
+                                                          11.313708498984761};
+  uint8_t k = 1;
+  for (int i = 0; i < VF_ALLOCATION_LEVELS - 1 && x >= bounds[i]; i++) k = (uint8_t)(k * 2);
+  return k;
+}
+
+/* The counts for scale `scale` (k_p = level_of(scale * sigma_p)) and their efficiency
+ * against one a pixel: (n sum v) / (sum k * sum v / k). */
+static double counts_for(const double *sigma, const double *variance, size_t n, double scale, uint8_t *samples) {
+  double cost = 0.0, error = 0.0, total = 0.0;
+  for (size_t p = 0; p < n; p++) {
+    uint8_t k = level_of(scale * sigma[p]);
+    if (samples) samples[p] = k;
+    cost += k;
+    error += variance[p] / k;
+    total += variance[p];
+  }
+  return error > 0.0 ? (double)n * total / (cost * error) : 1.0;
+}
+
+int vf_allocation_compute(const vf_film *film, uint8_t *samples, vf_allocation_report *report) {
+  vf_settings s;
+  int err = vf_settings_parse(&s, film->settings_text);
+  if (err != VF_OK) return err;
+  uint64_t n_iterations = vf_iterset_count(&film->iterations);
+  if (s.pilot <= 0) return vf_error_set(VF_EINVAL, "the film's settings have no pilot");
+  if (film->iterations.count != 1 || film->iterations.ranges[0].begin != 0 ||
+      film->iterations.ranges[0].end != (uint64_t)s.pilot || n_iterations < 2)
+    return vf_error_set(VF_EINVAL, "an allocation is computed from the film of exactly the pilot's iterations [0, %d), "
+                        "and this film holds %llu others", s.pilot, (unsigned long long)n_iterations);
+  size_t n = (size_t)film->width * (size_t)film->height;
+  double *raw = malloc(n * sizeof *raw), *variance = malloc(n * sizeof *variance), *sigma = malloc(n * sizeof *sigma);
+  if (raw == NULL || variance == NULL || sigma == NULL) {
+    free(raw);
+    free(variance);
+    free(sigma);
+    return VF_ENOMEM;
+  }
+  pixel_variances(film, raw);
+  smooth(raw, variance, film->width, film->height);
+  double mean_sigma = 0.0;
+  for (size_t p = 0; p < n; p++) {
+    sigma[p] = sqrt(variance[p]);
+    mean_sigma += sigma[p];
+  }
+  mean_sigma /= (double)n;
+  /* The ladder of scales: 2^(i/4) / mean sigma for i from 0 to 16, so that the unrounded
+   * count of a pixel of the mean sigma runs from 1 to 16 in steps of 2^(1/4): a fixed set,
+   * the same for every film. */
+  double best_scale = 0.0, best = 1.0;
+  if (mean_sigma > 0.0 && isfinite(mean_sigma)) {
+    for (int i = 0; i <= 16; i++) {
+      double scale = pow(2.0, 0.25 * i) / mean_sigma;
+      double e = counts_for(sigma, variance, n, scale, NULL);
+      if (e > best) best = e, best_scale = scale;
+    }
+  }
+  counts_for(sigma, variance, n, best_scale, samples);
+  if (report) {
+    vf_allocation_describe(samples, n, report);
+    report->predicted_gain = best;
+  }
+  free(raw);
+  free(variance);
+  free(sigma);
+  return VF_OK;
+}
+
+void vf_allocation_describe(const uint8_t *samples, size_t n, vf_allocation_report *report) {
+  memset(report, 0, sizeof *report);
+  double total = 0.0;
+  for (size_t p = 0; p < n; p++) {
+    int level = 0;
+    while (level < VF_ALLOCATION_LEVELS - 1 && (1u << level) < samples[p]) level++;
+    report->pixels[level]++;
+    total += samples[p];
+  }
+  report->mean = n ? total / (double)n : 0.0;
+  report->predicted_gain = NAN;
+}
+
+uint64_t vf_allocation_seed(uint64_t seed) { return vf_splitmix64(seed ^ 0x9e6c63d0876a9a99ULL); }
+
+int vf_allocation_validate(const uint8_t *samples, size_t n, const char *name) {
+  for (size_t p = 0; p < n; p++) {
+    unsigned k = samples[p];
+    if (k == 0 || k > VF_ALLOCATION_MAX || (k & (k - 1)) != 0)
+      return vf_error_set(VF_EFILM, "%s: allocation of pixel %zu is %u camera sub-paths: a power of two from 1 to %d",
+                          name, p, k, VF_ALLOCATION_MAX);
+  }
+  return VF_OK;
+}
+
+#define ENCODING_PREFIX "1:"
+
+int vf_allocation_encode(const uint8_t *samples, size_t n, char **text) {
+  uLongf packed_len = compressBound((uLong)n);
+  unsigned char *packed = malloc(packed_len);
+  if (packed == NULL) return VF_ENOMEM;
+  if (compress2(packed, &packed_len, samples, (uLong)n, 9) != Z_OK) {
+    free(packed);
+    return VF_ENOMEM; /* compress2 fails only for want of memory with these arguments */
+  }
+  size_t b64 = sodium_base64_encoded_len(packed_len, sodium_base64_VARIANT_ORIGINAL);
+  char *out = malloc(sizeof ENCODING_PREFIX - 1 + b64);
+  if (out == NULL) {
+    free(packed);
+    return VF_ENOMEM;
+  }
+  memcpy(out, ENCODING_PREFIX, sizeof ENCODING_PREFIX - 1);
+  sodium_bin2base64(out + sizeof ENCODING_PREFIX - 1, b64, packed, packed_len, sodium_base64_VARIANT_ORIGINAL);
+  free(packed);
+  *text = out;
+  return VF_OK;
+}
+
+int vf_allocation_decode(const char *text, size_t n, uint8_t *samples, const char *name) {
+  size_t prefix = sizeof ENCODING_PREFIX - 1;
+  if (strncmp(text, ENCODING_PREFIX, prefix) != 0)
+    return vf_error_set(VF_EFILM, "%s: attribute vcmfarm:allocation does not start with \"" ENCODING_PREFIX "\"", name);
+  size_t len = strlen(text + prefix);
+  unsigned char *packed = malloc(len + 1);
+  if (packed == NULL) return VF_ENOMEM;
+  size_t packed_len = 0;
+  if (sodium_base642bin(packed, len + 1, text + prefix, len, NULL, &packed_len, NULL, sodium_base64_VARIANT_ORIGINAL) !=
+      0) {
+    free(packed);
+    return vf_error_set(VF_EFILM, "%s: attribute vcmfarm:allocation is not base64", name);
+  }
+  uLongf out_len = (uLongf)n;
+  int rc = uncompress(samples, &out_len, packed, (uLong)packed_len);
+  free(packed);
+  if (rc != Z_OK || out_len != (uLongf)n)
+    return vf_error_set(VF_EFILM, "%s: attribute vcmfarm:allocation does not hold %zu pixels' counts (zlib: %s)", name,
+                        n, rc == Z_OK ? "another length" : zError(rc));
+  return vf_allocation_validate(samples, n, name);
+}

@@ -1,0 +1,90 @@
+/* Camera sub-paths allocated per pixel from a pilot (vf_settings.pilot).
+ *
+ * Where an image's error sits varies by orders of magnitude from pixel to pixel, and one
+ * camera sub-path per pixel and iteration spends the same on a pixel that is done as on
+ * one that is not (docs/BENCHMARKS.md, "Camera sub-paths per pixel"). With a pilot of P
+ * iterations, a pilot render comes first: iterations [0, P) with one camera sub-path a
+ * pixel and random numbers of their own (the job seed's pilot seed, vf_allocation_seed),
+ * whose film decides each pixel p's count k_p, a power of two from 1 to
+ * VF_ALLOCATION_MAX, of camera sub-paths per iteration. Every iteration of the job, from
+ * 0, then traces them, and the job's film keeps the counts. The pilot's film is not part of
+ * the image: its iterations' estimates chose the counts, and a pixel's later samples must
+ * not be the ones that chose how many it gets (its own numbers keep them independent, so
+ * the image stays unbiased), nor should its single-sample iterations weigh as much as the
+ * job's (the film adds every iteration alike). It costs P iterations of one camera
+ * sub-path a pixel, which the job's film counts in its times. The film of [0, P) is a pure
+ * function of (seed, P) whatever machines and threads rendered its parts (its sums are
+ * exact), so the counts are too: any machine computes the same, and every iteration stays
+ * a pure function of (seed, iteration, path, allocation).
+ *
+ * The counts. A pixel's estimate of an iteration has variance v_p, the mean of k_p camera
+ * sub-paths about v_p / k_p (the light-tracing frame's share does not fall with k_p, which
+ * this leaves out), and an iteration costs about sum k_p camera sub-paths. The efficiency
+ * of the image, the inverse of (cost x squared error) = 1 / (sum k_p * sum v_p / k_p), is
+ * largest with k_p proportional to sqrt(v_p) (Cauchy-Schwarz); bounded to [1,
+ * VF_ALLOCATION_MAX] and rounded to powers of two, the proportion's scale is the one of a
+ * fixed ladder of candidates that makes the efficiency largest on the pilot's own
+ * estimates (ties to the smaller). v_p: the film's error estimate of the pixel
+ * (vf_film_estimate_rmse's per-pixel terms, times the number of iterations), smoothed by
+ * a 3x3 binomial filter, since one pixel's estimate of a sobol film has a single degree of
+ * freedom.
+ *
+ * The estimator. An iteration's estimate of pixel p is the mean of its k_p camera
+ * sub-paths plus the light-tracing frame. In the MIS weights the camera sub-paths of p
+ * count k_p times: light tracing's share at p weighs n_light / k_p light sub-paths against
+ * one camera sub-path (tech. rep. eq. 31-33 and 46-47 with the camera side's count k_p),
+ * so that the weights of every technique sampling a path through p still sum to one
+ * (tests/worker/render/test_mis.c). The j-th camera sub-path of pixel p in iteration k
+ * takes point (k / 2) k_p + j of the pixel's sequence of replicate k mod 2
+ * (common/sampler.h): an aligned block of k_p points, a (0, log2 k_p, 2)-net in every
+ * pair of dimensions. */
+#ifndef VF_ALLOCATION_H
+#define VF_ALLOCATION_H
+
+#include "film.h"
+
+#include <stddef.h>
+#include <stdint.h>
+
+/* The most camera sub-paths of a pixel per iteration: a power of two. */
+#define VF_ALLOCATION_MAX 16
+/* log2 of it, plus one: the counts 1, 2, 4, 8, 16. */
+#define VF_ALLOCATION_LEVELS 5
+
+typedef struct {
+  uint64_t pixels[VF_ALLOCATION_LEVELS]; /* pixels of 1, 2, 4, 8, 16 camera sub-paths */
+  double mean;           /* camera sub-paths per pixel and iteration */
+  double predicted_gain; /* the efficiency over one a pixel, on the pilot's estimates */
+} vf_allocation_report;
+
+/* Each pixel's count (width x height bytes into samples) from the pilot's film, which must
+ * hold exactly the iterations [0, pilot) of the settings its text names (VF_EINVAL naming
+ * what it holds otherwise). report may be NULL. */
+int vf_allocation_compute(const vf_film *film, uint8_t *samples, vf_allocation_report *report);
+
+/* The report of an allocation of n pixels. */
+void vf_allocation_describe(const uint8_t *samples, size_t n, vf_allocation_report *report);
+
+/* VF_EFILM with a detail naming `name` and the pixel unless every count is a power of two
+ * from 1 to VF_ALLOCATION_MAX. */
+int vf_allocation_validate(const uint8_t *samples, size_t n, const char *name);
+
+/* The text a film keeps its allocation in (docs/FILM.md, attribute vcmfarm:allocation):
+ * "1:" and the counts, zlib-compressed, in base64. *text is malloc'ed; VF_ENOMEM. */
+int vf_allocation_encode(const uint8_t *samples, size_t n, char **text);
+/* Reads it back into n counts, validated. VF_EFILM naming `name` for text that is not an
+ * allocation of n pixels. */
+int vf_allocation_decode(const char *text, size_t n, uint8_t *samples, const char *name);
+
+/* The sobol sampler's point for camera sub-path j of a pixel of k camera sub-paths per
+ * iteration in iteration `iteration`, in the pixel's sequence of replicate iteration mod 2
+ * (see above). */
+static inline uint32_t vf_allocation_sobol_index(uint64_t iteration, uint32_t k, uint32_t j) {
+  return (uint32_t)(iteration / 2u * k + j);
+}
+
+/* The seed of a job's pilot render: the job seed's, hashed, so that its numbers are
+ * independent of every iteration's of the job. */
+uint64_t vf_allocation_seed(uint64_t seed);
+
+#endif

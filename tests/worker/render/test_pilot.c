@@ -1,0 +1,405 @@
+/* Camera sub-paths allocated per pixel from a pilot (--pilot, common/allocation.h).
+ *
+ * Physics: with any allocation (here a fixed pattern of 1 to 16 camera sub-paths a pixel,
+ * and the one a pilot computes) pt, bpt and vcm keep the furnace's analytic value and
+ * agree block by block with bpt of one camera sub-path a pixel, on the box with a mirror
+ * and a glass ball (light tracing's share weighed against k camera sub-paths) and on the
+ * glossy box; the film's own error estimate stays within 1.5 times the error two
+ * independent films show. The render loop's promises: the allocation a pilot computes is
+ * the same on 1 and 2 threads and from the pilot's film merged from parts; a film with an
+ * allocation continues (through its file) and merges bit for bit as one rendered in one
+ * go; films of other allocations refuse to merge; a damaged allocation in a file is
+ * refused. The MIS identity with k camera sub-paths a pixel is test_mis's
+ * test_weights_match_eq12_with_camera_sub_paths_allocated_per_pixel. */
+#include "check.h"
+#include "common/allocation.h"
+#include "common/error.h"
+#include "common/film.h"
+#include "render_util.h"
+#include "worker/render/render.h"
+#include "worker/scene/load.h"
+
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+static vf_sampler_kind sampler_under_test = VF_SAMPLER_SOBOL;
+
+/* A fixed allocation of every count: pixel (x, y) traces 2^((x / 3 + y) mod 5). */
+static uint8_t *pattern(int width, int height) {
+  uint8_t *samples = malloc((size_t)width * height);
+  if (samples == NULL) return NULL;
+  for (int y = 0; y < height; y++)
+    for (int x = 0; x < width; x++) samples[(size_t)y * width + x] = (uint8_t)(1u << ((x / 3 + y) % 5));
+  return samples;
+}
+
+/* The furnace: every path of up to L segments sees 1 - 0.5^L, however many camera
+ * sub-paths a pixel traces. */
+static void test_furnace_gives_the_analytic_value(void) {
+  vf_scene *scene;
+  CHECK_INT_EQ(vf_scene_load("furnace", &scene), VF_OK);
+  if (check_failed_in_case) return;
+  uint8_t *samples = pattern(scene->settings.width, scene->settings.height);
+  render_allocation = samples;
+  const vf_algorithm algorithms[] = {VF_ALGO_PT, VF_ALGO_BPT, VF_ALGO_VCM};
+  for (int a = 0; a < 3; a++) {
+    vf_settings s = scene->settings;
+    s.algorithm = algorithms[a];
+    s.pilot = 8;
+    s.sampler = sampler_under_test;
+    vf_vcm_stats stats = {0};
+    double mean = NAN, se = NAN;
+    CHECK_INT_EQ(render_block_estimates(scene, &s, 2, 32, 1, &mean, &se, &stats), VF_OK);
+    double exact = 1.0 - pow(0.5, s.max_path_length);
+    printf("  furnace %-3s %-11s mean %.5f +- %.5f (exact %.5f)\n", vf_algorithm_name(s.algorithm),
+           vf_sampler_name(s.sampler), mean, se, exact);
+    CHECK_NEAR(mean, exact, 3.0 * se);
+    CHECK(se < 0.005);
+    CHECK_INT_EQ(stats.nonfinite, 0);
+  }
+  render_allocation = NULL;
+  free(samples);
+  vf_scene_destroy(scene);
+}
+
+#ifdef __SANITIZE_ADDRESS__
+enum { RES = 32, ITERATIONS = 32 }; /* memory errors, not statistics: agreement printed only */
+#define AGREE(x) ((void)(x))
+#else
+enum { RES = 64, ITERATIONS = 128 };
+#define AGREE(x) CHECK(x)
+#endif
+enum { BLOCKS = 8, NB = BLOCKS * BLOCKS };
+
+static void block_estimates(const vf_scene *scene, vf_algorithm algorithm, const uint8_t *samples, double mean[NB],
+                            double se[NB]) {
+  vf_settings s = scene->settings;
+  s.algorithm = algorithm;
+  s.pilot = samples ? 8 : 0;
+  s.width = s.height = RES;
+  s.seed = 7000 + 10 * (uint64_t)algorithm + (samples != NULL);
+  s.sampler = sampler_under_test;
+  vf_vcm_stats stats = {0};
+  render_allocation = samples;
+  CHECK_INT_EQ(render_block_estimates(scene, &s, 2, ITERATIONS, BLOCKS, mean, se, &stats), VF_OK);
+  render_allocation = NULL;
+  CHECK_INT_EQ(stats.nonfinite, 0);
+}
+
+/* The allocation a pilot of `pilot` iterations computes for `settings` on `threads`
+ * threads (NULL on failure), from the film vf_render_pilot gives. */
+static uint8_t *pilot_allocation(const vf_scene *scene, const vf_settings *settings, int threads) {
+  vf_renderer *r = NULL;
+  vf_film *film = NULL;
+  uint8_t *samples = NULL;
+  CHECK_INT_EQ(vf_renderer_create(scene, settings, threads, &r), VF_OK);
+  CHECK_INT_EQ(vf_film_create(settings->width, settings->height, &film), VF_OK);
+  if (r && film) {
+    CHECK_INT_EQ(vf_renderer_stamp(r, film), VF_OK);
+    CHECK_INT_EQ(vf_render_pilot(r, film, NULL, NULL), VF_OK);
+    CHECK(film->samples != NULL);
+    if (film->samples) {
+      samples = film->samples;
+      film->samples = NULL;
+    }
+  }
+  vf_film_destroy(film);
+  vf_renderer_destroy(r);
+  return samples;
+}
+
+/* pt, bpt and vcm with the pattern's 1 to 16 camera sub-paths a pixel against bpt of one:
+ * on cornell (a mirror and a glass ball: light tracing carries the caustics, and its
+ * weight against k camera sub-paths decides their share) and, with the allocation its
+ * pilot computes, on the glossy box. */
+static void test_allocations_agree_with_one_camera_sub_path(void) {
+  vf_scene *scene;
+  CHECK_INT_EQ(vf_scene_load("cornell", &scene), VF_OK);
+  if (check_failed_in_case) return;
+  uint8_t *samples = pattern(RES, RES);
+  double ref[NB], ref_se[NB], x[NB], x_se[NB];
+  block_estimates(scene, VF_ALGO_BPT, NULL, ref, ref_se);
+  const vf_algorithm algorithms[] = {VF_ALGO_PT, VF_ALGO_BPT, VF_ALGO_VCM};
+  for (int a = 0; a < 3; a++) {
+    block_estimates(scene, algorithms[a], samples, x, x_se);
+    AGREE(blocks_agree("cornell k", "bpt", vf_algorithm_name(algorithms[a]), ref, ref_se, x, x_se, NB));
+  }
+  free(samples);
+  vf_scene_destroy(scene);
+
+  CHECK_INT_EQ(vf_scene_load("cornell-glossy", &scene), VF_OK);
+  if (check_failed_in_case) return;
+  block_estimates(scene, VF_ALGO_BPT, NULL, ref, ref_se);
+  vf_settings s = scene->settings;
+  s.algorithm = VF_ALGO_VCM;
+  s.pilot = 16;
+  s.width = s.height = RES;
+  s.sampler = sampler_under_test;
+  samples = pilot_allocation(scene, &s, 2);
+  if (samples) {
+    vf_allocation_report report;
+    vf_allocation_describe(samples, (size_t)RES * RES, &report);
+    printf("  glossy pilot: %.2f camera sub-paths a pixel; of 1, 2, 4, 8, 16: %llu %llu %llu %llu %llu\n", report.mean,
+           (unsigned long long)report.pixels[0], (unsigned long long)report.pixels[1],
+           (unsigned long long)report.pixels[2], (unsigned long long)report.pixels[3],
+           (unsigned long long)report.pixels[4]);
+    CHECK(report.pixels[0] < (uint64_t)RES * RES); /* the pilot allocated something */
+    block_estimates(scene, VF_ALGO_VCM, samples, x, x_se);
+    AGREE(blocks_agree("glossy pilot", "bpt", "vcm", ref, ref_se, x, x_se, NB));
+    block_estimates(scene, VF_ALGO_BPT, samples, x, x_se);
+    AGREE(blocks_agree("glossy pilot", "bpt", "bpt", ref, ref_se, x, x_se, NB));
+  }
+  free(samples);
+  vf_scene_destroy(scene);
+}
+
+/* A job of `algorithm` on cornell at 40x30 with a pilot of 8. */
+static vf_settings job(const vf_scene *scene, vf_algorithm algorithm) {
+  vf_settings s = scene->settings;
+  s.algorithm = algorithm;
+  s.pilot = 8;
+  s.width = 40;
+  s.height = 30;
+  s.seed = 21;
+  s.sampler = sampler_under_test;
+  return s;
+}
+
+/* Iterations [begin, end) of the job into film (which gets its allocation from the pilot
+ * first if it has none), on `threads` threads. */
+static void render_into(const vf_scene *scene, const vf_settings *s, vf_film *film, int threads, uint64_t begin,
+                        uint64_t end) {
+  vf_renderer *r = NULL;
+  CHECK_INT_EQ(vf_renderer_create(scene, s, threads, &r), VF_OK);
+  if (r == NULL) return;
+  if (film->settings_text[0] == '\0') CHECK_INT_EQ(vf_renderer_stamp(r, film), VF_OK);
+  CHECK_INT_EQ(vf_render_pilot(r, film, NULL, NULL), VF_OK);
+  CHECK_INT_EQ(vf_render_range(r, film, begin, end, NULL, NULL), VF_OK);
+  vf_renderer_destroy(r);
+}
+
+static vf_film *new_film(const vf_settings *s) {
+  vf_film *film = NULL;
+  CHECK_INT_EQ(vf_film_create(s->width, s->height, &film), VF_OK);
+  return film;
+}
+
+/* The allocation is a pure function of the pilot's film: 1 and 2 threads, and the pilot's
+ * parts [0,3) and [3,8) merged, give the same counts. */
+static void test_the_allocation_is_the_same_however_the_pilot_ran(void) {
+  vf_scene *scene;
+  CHECK_INT_EQ(vf_scene_load("cornell", &scene), VF_OK);
+  if (check_failed_in_case) return;
+  vf_settings s = job(scene, VF_ALGO_VCM);
+  size_t n = (size_t)s.width * s.height;
+  uint8_t *one = pilot_allocation(scene, &s, 1), *two = pilot_allocation(scene, &s, 2);
+  vf_renderer *r = NULL;
+  vf_film *a = new_film(&s), *b = new_film(&s);
+  uint8_t *split = malloc(n);
+  CHECK_INT_EQ(vf_renderer_create(scene, &s, 2, &r), VF_OK);
+  if (one && two && r && a && b && split) {
+    CHECK_INT_EQ(vf_renderer_stamp(r, a), VF_OK);
+    CHECK_INT_EQ(vf_renderer_stamp(r, b), VF_OK);
+    CHECK_INT_EQ(vf_render_pilot_range(r, a, 3, 8, NULL, NULL), VF_OK);
+    CHECK_INT_EQ(vf_render_pilot_range(r, b, 0, 3, NULL, NULL), VF_OK);
+    /* The pilot is the pilot's: its iterations are not the job's. */
+    CHECK_INT_EQ(vf_render_pilot_range(r, b, 8, 9, NULL, NULL), VF_EINVAL);
+    CHECK_INT_EQ(vf_film_merge(a, b), VF_OK);
+    CHECK_INT_EQ(vf_allocation_compute(a, split, NULL), VF_OK);
+    vf_allocation_report report;
+    vf_allocation_describe(one, n, &report);
+    int threads = memcmp(one, two, n) == 0, parts = memcmp(one, split, n) == 0;
+    printf("  %-11s %.2f camera sub-paths a pixel; 1 vs 2 threads %s, [0,3) + [3,8) vs [0,8) %s\n",
+           vf_sampler_name(sampler_under_test), report.mean, threads ? "equal" : "DIFFER", parts ? "equal" : "DIFFER");
+    CHECK(threads);
+    CHECK(parts);
+    CHECK(report.mean > 1.0);
+    /* Only the pilot's whole film decides: a part of it is refused. */
+    CHECK_INT_EQ(vf_allocation_compute(b, split, NULL), VF_EINVAL);
+  }
+  vf_renderer_destroy(r);
+  vf_film_destroy(a);
+  vf_film_destroy(b);
+  free(one);
+  free(two);
+  free(split);
+  vf_scene_destroy(scene);
+}
+
+/* A film with an allocation: [0,6) in one go against [0,2) written, read back and continued
+ * to 6, and against [0,3) and [3,6) rendered apart (each running the pilot) and merged, bit
+ * for bit, for pt, bpt and vcm. A film of another allocation does not merge with it, nor
+ * one without a pilot. */
+static void test_continues_and_merges_exactly(void) {
+  vf_scene *scene;
+  CHECK_INT_EQ(vf_scene_load("cornell", &scene), VF_OK);
+  if (check_failed_in_case) return;
+  const vf_algorithm algorithms[] = {VF_ALGO_PT, VF_ALGO_BPT, VF_ALGO_VCM};
+  char path[] = "/tmp/vf_test_pilot_XXXXXX";
+  int fd = mkstemp(path);
+  CHECK(fd >= 0);
+  if (fd >= 0) close(fd);
+  for (int i = 0; i < 3 && !check_failed_in_case; i++) {
+    vf_settings s = job(scene, algorithms[i]);
+    vf_film *whole = new_film(&s), *first = new_film(&s), *a = new_film(&s), *b = new_film(&s), *read = NULL;
+    if (!whole || !first || !a || !b) break;
+    render_into(scene, &s, whole, 2, 0, 6);
+    render_into(scene, &s, first, 1, 0, 2);
+    CHECK_INT_EQ(vf_film_write(first, path), VF_OK);
+    CHECK_INT_EQ(vf_film_read(path, &read), VF_OK);
+    if (read) render_into(scene, &s, read, 2, 2, 6);
+    render_into(scene, &s, a, 2, 0, 3);
+    render_into(scene, &s, b, 1, 3, 6);
+    CHECK_INT_EQ(vf_film_merge(b, a), VF_OK);
+    int continued = read && films_bitwise_equal(read, whole), merged = films_bitwise_equal(b, whole);
+    printf("  %-3s %-11s [0,2) written, read, continued to 6: %s; [0,3) + [3,6): %s\n", vf_algorithm_name(s.algorithm),
+           vf_sampler_name(s.sampler), continued ? "equal" : "DIFFER", merged ? "equal" : "DIFFER");
+    CHECK(continued);
+    CHECK(merged);
+    CHECK(strstr(whole->settings_text, " pilot=8") != NULL);
+    /* Another allocation (one pixel's count changed): refused, dst unchanged. */
+    vf_film *other = NULL;
+    CHECK_INT_EQ(vf_film_clone(first, &other), VF_OK);
+    if (other) {
+      vf_iterset_destroy(&other->iterations);
+      vf_iterset_init(&other->iterations);
+      CHECK_INT_EQ(vf_iterset_add(&other->iterations, 6, 7), VF_OK);
+      other->samples[0] = other->samples[0] == 1 ? 2 : 1;
+      CHECK_INT_EQ(vf_film_merge(whole, other), VF_EMISMATCH);
+      CHECK(films_bitwise_equal(b, whole));
+      vf_film_destroy(other);
+    }
+    /* Without a pilot: other settings. */
+    vf_settings plain = s;
+    plain.pilot = 0;
+    vf_film *none = new_film(&plain);
+    if (none) {
+      render_into(scene, &plain, none, 2, 6, 7);
+      CHECK(none->samples == NULL);
+      CHECK_INT_EQ(vf_film_merge(whole, none), VF_EMISMATCH);
+      vf_film_destroy(none);
+    }
+    vf_film_destroy(whole);
+    vf_film_destroy(first);
+    vf_film_destroy(a);
+    vf_film_destroy(b);
+    vf_film_destroy(read);
+  }
+  unlink(path);
+  vf_scene_destroy(scene);
+}
+
+/* vcmfarm:allocation as a file keeps it (allocation.h): bad text is refused by name. */
+static void test_a_damaged_allocation_is_refused(void) {
+  enum { N = 1000 };
+  uint8_t samples[N], back[N];
+  for (int i = 0; i < N; i++) samples[i] = (uint8_t)(1u << (i * 7 % 5));
+  char *text = NULL;
+  CHECK_INT_EQ(vf_allocation_encode(samples, N, &text), VF_OK);
+  if (text == NULL) return;
+  CHECK_INT_EQ(vf_allocation_decode(text, N, back, "f.exr"), VF_OK);
+  CHECK(memcmp(samples, back, N) == 0);
+  CHECK_INT_EQ(vf_allocation_decode(text, N - 1, back, "f.exr"), VF_EFILM); /* another size */
+  CHECK(strstr(vf_error_detail(VF_EFILM), "f.exr") != NULL);
+  CHECK_INT_EQ(vf_allocation_decode(text + 2, N, back, "f.exr"), VF_EFILM); /* no version */
+  char *bad = strdup(text);
+  if (bad) {
+    bad[5] = '*'; /* not base64 */
+    CHECK_INT_EQ(vf_allocation_decode(bad, N, back, "f.exr"), VF_EFILM);
+    free(bad);
+  }
+  free(text);
+  samples[17] = 3; /* not a power of two */
+  CHECK_INT_EQ(vf_allocation_encode(samples, N, &text), VF_OK);
+  if (text) CHECK_INT_EQ(vf_allocation_decode(text, N, back, "f.exr"), VF_EFILM);
+  free(text);
+}
+
+/* The film's error estimate with the allocation a pilot computes: two films of other
+ * seeds differ by sqrt(2) times the true RMSE (bpt is unbiased); each one's estimate must
+ * be within 1.5 times that. */
+static void test_the_estimate_covers_the_error(void) {
+  vf_scene *scene;
+  CHECK_INT_EQ(vf_scene_load("cornell-glossy", &scene), VF_OK);
+  if (check_failed_in_case) return;
+  vf_settings s = scene->settings;
+  s.algorithm = VF_ALGO_BPT;
+  s.pilot = 16;
+  s.width = s.height = RES;
+  s.sampler = sampler_under_test;
+  vf_film *f[2] = {NULL, NULL};
+  for (int i = 0; i < 2; i++) {
+    s.seed = 31 + (uint64_t)i;
+    f[i] = new_film(&s);
+    if (f[i]) render_into(scene, &s, f[i], 2, 0, ITERATIONS);
+  }
+  if (f[0] && f[1]) {
+    size_t n = (size_t)RES * RES;
+    float *m0 = malloc(3 * n * sizeof *m0), *m1 = malloc(3 * n * sizeof *m1);
+    if (m0 && m1) {
+      vf_film_mean(f[0], m0);
+      vf_film_mean(f[1], m1);
+      double d2 = 0.0;
+      for (size_t i = 0; i < 3 * n; i++) d2 += ((double)m0[i] - m1[i]) * ((double)m0[i] - m1[i]);
+      double rmse = sqrt(d2 / (3.0 * (double)n) / 2.0);
+      for (int i = 0; i < 2; i++) {
+        double est = vf_film_estimate_rmse(f[i]);
+        printf("  %-11s estimate %.5f, true RMSE (from the pair) %.5f: ratio %.2f\n", vf_sampler_name(s.sampler), est,
+               rmse, est / rmse);
+        AGREE(est / rmse < 1.5 && rmse / est < 1.5);
+      }
+    }
+    free(m0);
+    free(m1);
+  }
+  vf_film_destroy(f[0]);
+  vf_film_destroy(f[1]);
+  vf_scene_destroy(scene);
+}
+
+/* No pilot is the default and writes no key; a pilot of 1, one of lt, ppm, bpm, upg or of
+ * single-stage vcm is refused with the reason. */
+static void test_settings(void) {
+  vf_settings s;
+  vf_settings_default(&s);
+  CHECK_INT_EQ(s.pilot, 0);
+  char text[512];
+  CHECK_INT_EQ(vf_settings_format(&s, text, sizeof text), VF_OK);
+  CHECK(strstr(text, "pilot") == NULL);
+  s.pilot = 16;
+  CHECK_INT_EQ(vf_settings_format(&s, text, sizeof text), VF_OK);
+  vf_settings back;
+  CHECK_INT_EQ(vf_settings_parse(&back, text), VF_OK);
+  CHECK_INT_EQ(back.pilot, 16);
+  s.pilot = 1;
+  CHECK_INT_EQ(vf_settings_validate(&s), VF_EINVAL);
+  s.pilot = 8;
+  const vf_algorithm refused[] = {VF_ALGO_LT, VF_ALGO_PPM, VF_ALGO_BPM, VF_ALGO_UPG, VF_ALGO_AUTO_UNBIASED};
+  for (int i = 0; i < 5; i++) {
+    s.algorithm = refused[i];
+    CHECK_INT_EQ(vf_settings_validate(&s), VF_EINVAL);
+    CHECK(strstr(vf_error_detail(VF_EINVAL), "pilot") != NULL);
+  }
+  s.algorithm = VF_ALGO_VCM;
+  s.vcm_stages = 1;
+  CHECK_INT_EQ(vf_settings_validate(&s), VF_EINVAL);
+}
+
+int main(void) {
+  RUN(test_settings);
+  RUN(test_a_damaged_allocation_is_refused);
+  for (int k = 0; k < VF_SAMPLER_COUNT_; k++) {
+    sampler_under_test = (vf_sampler_kind)k;
+    printf("sampler %s\n", vf_sampler_name(sampler_under_test));
+    RUN(test_furnace_gives_the_analytic_value);
+    RUN(test_the_allocation_is_the_same_however_the_pilot_ran);
+    RUN(test_continues_and_merges_exactly);
+#ifdef __SANITIZE_ADDRESS__
+    if (sampler_under_test != VF_SAMPLER_SOBOL) continue; /* memory errors, not statistics */
+#endif
+    RUN(test_allocations_agree_with_one_camera_sub_path);
+    RUN(test_the_estimate_covers_the_error);
+  }
+  return check_finish();
+}
