@@ -2,6 +2,8 @@
  * convergence log, as aligned text or as JSON (cJSON; NaN becomes null). */
 #include "info_cmd.h"
 
+#include "../common/allocation.h"
+
 #include "options.h"
 #include "../common/error.h"
 #include "../common/film.h"
@@ -102,6 +104,17 @@ static int print_json(const char *path, const vf_film *film, const summary *s) {
   cJSON_AddNumberToObject(root, "cpu_seconds", film->cpu_seconds);
   cJSON_AddNumberToObject(root, "nonfinite_samples", (double)film->nonfinite_samples);
   cJSON_AddNumberToObject(root, "biased_merges", (double)film->biased_merges);
+  if (film->samples != NULL) {
+    vf_allocation_report a;
+    vf_allocation_describe(film->samples, (size_t)film->width * (size_t)film->height, &a);
+    cJSON *o = cJSON_AddObjectToObject(root, "allocation");
+    if (o != NULL) {
+      cJSON_AddNumberToObject(o, "mean_camera_sub_paths", a.mean);
+      cJSON *levels = cJSON_AddArrayToObject(o, "pixels_of_1_2_4_8_16");
+      for (int i = 0; levels != NULL && i < VF_ALLOCATION_LEVELS; i++)
+        cJSON_AddItemToArray(levels, cJSON_CreateNumber((double)a.pixels[i]));
+    }
+  }
   cJSON_AddItemToObject(root, "image_mean", json_number(s->image_mean));
   cJSON_AddItemToObject(root, "estimated_rmse", json_number(s->estimated_rmse));
   if (s->have_settings)
@@ -147,6 +160,13 @@ static void print_text(const char *path, const vf_film *film, const summary *s) 
   printf("cpu_seconds        %.3f\n", film->cpu_seconds);
   printf("nonfinite_samples  %" PRIu64 "\n", film->nonfinite_samples);
   printf("biased_merges      %" PRIu64 "\n", film->biased_merges);
+  if (film->samples != NULL) {
+    vf_allocation_report a;
+    vf_allocation_describe(film->samples, (size_t)film->width * (size_t)film->height, &a);
+    printf("allocation         %.2f camera sub-paths a pixel on average; pixels of 1, 2, 4, 8, 16: %" PRIu64 ", %" PRIu64
+           ", %" PRIu64 ", %" PRIu64 ", %" PRIu64 "\n",
+           a.mean, a.pixels[0], a.pixels[1], a.pixels[2], a.pixels[3], a.pixels[4]);
+  }
   printf("image_mean         %.6g\n", s->image_mean);
   printf("estimated_rmse     %.6g\n", s->estimated_rmse);
   if (s->have_settings) {

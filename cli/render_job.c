@@ -46,7 +46,7 @@ void vf_render_job_print_summary(const vf_film *film, double seconds, const vf_v
   if (film->samples != NULL) {
     vf_allocation_report a;
     vf_allocation_describe(film->samples, (size_t)film->width * (size_t)film->height, &a);
-    fprintf(stderr, "camera sub-paths per pixel after the pilot: %.2f on average; pixels of 1, 2, 4, 8, 16: %llu, %llu, "
+    fprintf(stderr, "camera sub-paths per pixel, from the pilot: %.2f on average; pixels of 1, 2, 4, 8, 16: %llu, %llu, "
             "%llu, %llu, %llu\n", a.mean, (unsigned long long)a.pixels[0], (unsigned long long)a.pixels[1],
             (unsigned long long)a.pixels[2], (unsigned long long)a.pixels[3], (unsigned long long)a.pixels[4]);
   }

@@ -155,6 +155,7 @@ int vf_submit(vf_farm_client *client, int timeout_ms, const vf_submit_job *job, 
   if ((err = vf_settings_validate(&settings)) != VF_OK ||
       (err = vf_settings_format(&settings, settings_text, sizeof settings_text)) != VF_OK)
     goto done;
+
   /* The reference is read here too, so a wrong one is refused before anything is sent. */
   if (reference) {
     if ((err = vf_image_read_exr(reference, &reference_image)) != VF_OK) goto done;

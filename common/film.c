@@ -405,6 +405,11 @@ int vf_film_validate(const vf_film *film, const char *name) {
       return vf_error_set(VF_EFILM, "%s: the film's settings have a pilot of %d iterations but the film no allocation "
                           "of camera sub-paths", name, settings.pilot);
   }
+  double n = (double)film->width * (double)film->height;
+  /* each iteration refuses at most one camera and one light sample per pixel */
+  if ((double)film->nonfinite_samples > 2.0 * n * (double)iterations)
+    return vf_error_set(VF_EFILM, "%s: %" PRIu64 " non-finite samples is more than %" PRIu64 " iterations allow",
+                        name, film->nonfinite_samples, iterations);
   for (size_t p = 0; p < pixels; p++) {
     for (int c = 0; c < 3; c++) {
       vf_fixed s = film->sum[3 * p + c], ss = film->square_sum[3 * p + c];

@@ -59,6 +59,9 @@ int vf_job_create(uint64_t id, const char *name, int priority, int scene_builtin
     return vf_error_set(VF_EINVAL, "settings: %s", vf_error_detail(err));
   if (vf_settings_format(&settings, canonical, sizeof canonical) != VF_OK || strcmp(canonical, settings_text) != 0)
     return vf_error_set(VF_EINVAL, "settings: '%s' is not in canonical form ('%s')", settings_text, canonical);
+  if (settings.pilot != 0)
+    return vf_error_set(VF_EINVAL, "settings: a pilot (pilot=%d) is an option of the local render; farm jobs do not "
+                        "run one", settings.pilot);
 
   vf_job *job = calloc(1, sizeof *job);
   if (job == NULL) return vf_error_set(VF_ENOMEM, "out of memory");

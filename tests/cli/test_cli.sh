@@ -74,6 +74,21 @@ check "light path pixels renders" $?
 check "light path pixels described" "$(grep -q "^light sub-paths (--light-path-pixels 8): one per block of 4x2 pixels, 8 an iteration" "$tmp/stderr"; echo $?)"
 check "light path pixels in the film's settings" "$("$vcmfarm" info "$tmp/lpp.exr" | grep -q "light_path_pixels=8"; echo $?)"
 expect_refusal "films of different light path pixels do not merge" "light_path_pixels=8" "$vcmfarm" merge -o "$tmp/out.exr" "$tmp/beta1.exr" "$tmp/lpp.exr"
+# A pilot (common/allocation.h): at least 2 iterations, pt, bpt, vcm and auto only, named
+# when wrong (exit 2); the render says what it allocated, the film keeps it (info shows
+# it); films of other pilots do not merge; farm jobs refuse it (below, with the key).
+# test_exact.sh continues such a film.
+expect_refusal "pilot of one iteration" "--pilot: a pilot needs at least 2 iterations" "$vcmfarm" render furnace --pilot 1 -o "$tmp/out.exr"
+expect_refusal "pilot not a number" "--pilot" "$vcmfarm" render furnace --pilot ten -o "$tmp/out.exr"
+expect_refusal "pilot with lt" "not of lt" "$vcmfarm" render furnace -a lt --pilot 8 -o "$tmp/out.exr"
+expect_refusal "pilot with single-stage vcm" "not of the single-stage one" "$vcmfarm" render furnace --vcm-stages 1 --pilot 8 -o "$tmp/out.exr"
+"$vcmfarm" render cornell -R 24x16 -n 6 --pilot 4 -o "$tmp/pilot6.exr" 2>"$tmp/stderr"
+check "pilot renders" $?
+check "pilot reported" "$(grep -q "^pilot: 4 iterations in" "$tmp/stderr" && grep -q "^camera sub-paths per pixel, from the pilot: " "$tmp/stderr"; echo $?)"
+check "pilot in the film's settings" "$("$vcmfarm" info "$tmp/pilot6.exr" | grep -q " pilot=4"; echo $?)"
+check "allocation in info" "$("$vcmfarm" info --json "$tmp/pilot6.exr" | jq -e '.allocation.mean_camera_sub_paths >= 1 and (.allocation.pixels_of_1_2_4_8_16 | add) == 384' >/dev/null; echo $?)"
+"$vcmfarm" render cornell -R 24x16 -n 2 --pilot 8 -q -o "$tmp/pilot8.exr"
+expect_refusal "films of different pilots do not merge" "pilot=8" "$vcmfarm" merge -o "$tmp/out.exr" "$tmp/pilot6.exr" "$tmp/pilot8.exr"
 # upg: its side is an option of upg alone, named when wrong; its render counts its
 # gatherings; a film says what its estimated RMSE covers.
 expect_refusal "unknown gathering side" "unknown side 'eye'" "$vcmfarm" render furnace -a upg --gather-from eye -o "$tmp/out.exr"
@@ -204,6 +219,8 @@ expect_quick "worker with another key stops" 2 "vcmfarm worker: the coordinator 
 expect_quick "status of a coordinator that is down" 1 \
   "vcmfarm status: no coordinator answered at ipc://$tmp/down.sock (nothing accepts connections there)" \
   "$vcmfarm" status --coordinator "ipc://$tmp/down.sock" --secret "$tmp/farm.key"
+expect_quick "a farm job refuses a pilot" 2 "farm jobs do not run one" \
+  "$vcmfarm" submit furnace --pilot 8 --coordinator tcp://127.0.0.1:1 --secret "$tmp/farm.key"
 expect_quick "submit to a coordinator that is down, over tcp://" 1 "no coordinator answered at tcp://127.0.0.1:1 " \
   "$vcmfarm" submit furnace --coordinator tcp://127.0.0.1:1 --secret "$tmp/farm.key"
 kill -TERM "$live" && wait "$live"

@@ -34,6 +34,14 @@ r=(cornell -R 16x16 --seed 7 -j 1 -q)
 check "continue 3000 + 3000 equals --direct 6000 bit for bit" \
   "$compare" --exact "$tmp/continued.exr" "$tmp/direct6000.exr" "[0,6000)"
 
+# A film with an allocation of camera sub-paths from its pilot (common/allocation.h): the
+# continued film keeps it and is the one-go film.
+"$vcmfarm" render "${r[@]}" --pilot 4 --direct -n 40 -o "$tmp/pilot40.exr" || exit 1
+"$vcmfarm" render "${r[@]}" --pilot 4 -n 15 -o "$tmp/pilot15.exr" || exit 1
+"$vcmfarm" continue "$tmp/pilot15.exr" -n 25 -j 1 -q || exit 1
+check "a pilot's film: continue 15 + 25 equals --direct 40 bit for bit" \
+  "$compare" --exact "$tmp/pilot15.exr" "$tmp/pilot40.exr" "[0,40)"
+
 # Many checkpoints, each a write of the whole film, and a continue in four steps.
 "$vcmfarm" render "${r[@]}" -a bpt --direct -n 2000 -o "$tmp/direct2000.exr" || exit 1
 "$vcmfarm" render "${r[@]}" -a bpt -n 500 --checkpoint-interval 0.001 -o "$tmp/steps.exr" || exit 1
