@@ -47,19 +47,40 @@ static void pixel_variances(const vf_film *film, double *out) {
   }
 }
 
-/* The 3x3 binomial filter (1 2 1 / 2 4 2 / 1 2 1, over 16), the image's edge repeated. */
-static void smooth(const double *in, double *out, int width, int height) {
+/* The variances are smoothed over 7x7 pixels (binomial weights 1 6 15 20 15 6 1 on each
+ * axis): one pixel's estimate from a short pilot is too noisy (one degree of freedom on a
+ * sobol film, rare bright paths on any) to allocate by alone, and counts from narrower
+ * filters (3x3, 5x5) overspent on pixels whose estimate was high by chance: pt on the
+ * boxes with a glass ball lost 5-15% more efficiency with them (docs/BENCHMARKS.md,
+ * "Camera sub-paths per pixel"). */
+#define SMOOTHING 3
+
+/* The binomial filter of (2 radius + 1)^2 taps (radius 1: 1 2 1 by 1 2 1, over 16), the
+ * image's edge repeated; separable, in two passes through tmp. */
+static void smooth(const double *in, double *tmp, double *out, int width, int height, int radius) {
+  double w[9];
+  int taps = 2 * radius + 1;
+  w[0] = 1.0;
+  for (int i = 1; i < taps; i++) w[i] = w[i - 1] * (double)(taps - i) / (double)i; /* C(2r, i) */
+  double total = 0.0;
+  for (int i = 0; i < taps; i++) total += w[i];
   for (int y = 0; y < height; y++)
     for (int x = 0; x < width; x++) {
       double s = 0.0;
-      for (int dy = -1; dy <= 1; dy++) {
-        int yy = y + dy < 0 ? 0 : y + dy >= height ? height - 1 : y + dy;
-        for (int dx = -1; dx <= 1; dx++) {
-          int xx = x + dx < 0 ? 0 : x + dx >= width ? width - 1 : x + dx;
-          s += (double)((2 - abs(dx)) * (2 - abs(dy))) * in[(size_t)yy * (size_t)width + (size_t)xx];
-        }
+      for (int d = -radius; d <= radius; d++) {
+        int xx = x + d < 0 ? 0 : x + d >= width ? width - 1 : x + d;
+        s += w[d + radius] * in[(size_t)y * (size_t)width + (size_t)xx];
       }
-      out[(size_t)y * (size_t)width + (size_t)x] = s / 16.0;
+      tmp[(size_t)y * (size_t)width + (size_t)x] = s / total;
+    }
+  for (int y = 0; y < height; y++)
+    for (int x = 0; x < width; x++) {
+      double s = 0.0;
+      for (int d = -radius; d <= radius; d++) {
+        int yy = y + d < 0 ? 0 : y + d >= height ? height - 1 : y + d;
+        s += w[d + radius] * tmp[(size_t)yy * (size_t)width + (size_t)x];
+      }
+      out[(size_t)y * (size_t)width + (size_t)x] = s / total;
     }
 }
 
@@ -107,7 +128,7 @@ int vf_allocation_compute(const vf_film *film, uint8_t *samples, vf_allocation_r
     return VF_ENOMEM;
   }
   pixel_variances(film, raw);
-  smooth(raw, variance, film->width, film->height);
+  smooth(raw, sigma, variance, film->width, film->height, SMOOTHING);
   double mean_sigma = 0.0;
   for (size_t p = 0; p < n; p++) {
     sigma[p] = sqrt(variance[p]);

@@ -26,8 +26,8 @@
  * fixed ladder of candidates that makes the efficiency largest on the pilot's own
  * estimates (ties to the smaller). v_p: the film's error estimate of the pixel
  * (vf_film_estimate_rmse's per-pixel terms, times the number of iterations), smoothed by
- * a 3x3 binomial filter, since one pixel's estimate of a sobol film has a single degree of
- * freedom.
+ * a 7x7 binomial filter, since one pixel's estimate of a short pilot is too noisy to
+ * allocate by alone.
  *
  * The estimator. An iteration's estimate of pixel p is the mean of its k_p camera
  * sub-paths plus the light-tracing frame. In the MIS weights the camera sub-paths of p
