@@ -55,33 +55,34 @@ static void pixel_variances(const vf_film *film, double *out) {
  * "Camera sub-paths per pixel"). */
 #define SMOOTHING 3
 
-/* The binomial filter of (2 radius + 1)^2 taps (radius 1: 1 2 1 by 1 2 1, over 16), the
- * image's edge repeated; separable, in two passes through tmp. */
-static void smooth(const double *in, double *tmp, double *out, int width, int height, int radius) {
-  double w[9];
+/* One pass of the binomial filter of 2 radius + 1 taps along lines of `length` values
+ * `step` apart, lines starting `stride` apart (rows: 1, width; columns: width, 1); the
+ * line's end values repeated past its ends. */
+static void smooth_pass(const double *in, double *out, int lines, int length, size_t stride, size_t step, int radius) {
+  double w[2 * SMOOTHING + 1], total = 0.0;
   int taps = 2 * radius + 1;
   w[0] = 1.0;
   for (int i = 1; i < taps; i++) w[i] = w[i - 1] * (double)(taps - i) / (double)i; /* C(2r, i) */
-  double total = 0.0;
   for (int i = 0; i < taps; i++) total += w[i];
-  for (int y = 0; y < height; y++)
-    for (int x = 0; x < width; x++) {
+  for (int line = 0; line < lines; line++) {
+    const double *a = in + (size_t)line * stride;
+    double *b = out + (size_t)line * stride;
+    for (int x = 0; x < length; x++) {
       double s = 0.0;
       for (int d = -radius; d <= radius; d++) {
-        int xx = x + d < 0 ? 0 : x + d >= width ? width - 1 : x + d;
-        s += w[d + radius] * in[(size_t)y * (size_t)width + (size_t)xx];
+        int xx = x + d < 0 ? 0 : x + d >= length ? length - 1 : x + d;
+        s += w[d + radius] * a[(size_t)xx * step];
       }
-      tmp[(size_t)y * (size_t)width + (size_t)x] = s / total;
+      b[(size_t)x * step] = s / total;
     }
-  for (int y = 0; y < height; y++)
-    for (int x = 0; x < width; x++) {
-      double s = 0.0;
-      for (int d = -radius; d <= radius; d++) {
-        int yy = y + d < 0 ? 0 : y + d >= height ? height - 1 : y + d;
-        s += w[d + radius] * tmp[(size_t)yy * (size_t)width + (size_t)x];
-      }
-      out[(size_t)y * (size_t)width + (size_t)x] = s / total;
-    }
+  }
+}
+
+/* The binomial filter of (2 radius + 1)^2 taps, separable: rows into tmp, its columns into
+ * out. */
+static void smooth(const double *in, double *tmp, double *out, int width, int height, int radius) {
+  smooth_pass(in, tmp, height, width, (size_t)width, 1, radius);
+  smooth_pass(tmp, out, width, height, 1, (size_t)width, radius);
 }
 
 /* The power of two from 1 to VF_ALLOCATION_MAX nearest to x on a log scale: the bounds
