@@ -15,16 +15,19 @@
  * triangles its sphere structure cost as much as the triangles' (a packet of 8 closest-hit
  * rays: 3,400 Embree instructions without the spheres, 6,250 with two; occlusion: 510 and
  * 1,980). So the meshes are one Embree scene and the spheres another, traced one after the
- * other as Embree traced the one scene, but the spheres only for the rays that may reach
- * one before their mesh hit (`reaches`: a test with a margin thousands of times wider than
- * Embree's rounding, so that a ray it leaves out is one Embree's sphere kernel misses).
- * Hits, of packets and single rays, are those of the one scene bit for bit; only the rays
- * Embree's sphere kernel sees are fewer. */
+ * other as Embree traced the one scene. The spheres' scene sees only the rays that may
+ * reach a sphere before their mesh hit (`reaches`, four lanes at a time) and whose answer
+ * is not certain without it (sphere_answer: a ray that clearly misses every sphere, or
+ * clearly hits one, away from its silhouette and from the ray's ends, is answered in
+ * double). Both tests keep margins a hundred times wider than Embree's float rounding, so
+ * that a ray answered here is one Embree's sphere kernel answers the same way; hits, of
+ * packets and single rays, are those of the one scene bit for bit. */
 #define SPHERES_APART 8
 
 /* A sphere as `reaches` tests it. */
 struct sphere_bound {
   float cx, cy, cz, r2; /* centre; squared radius with the margin */
+  unsigned shape;       /* its shape, and Embree geometry ID */
 };
 
 struct vf_accel {
@@ -166,7 +169,7 @@ int vf_accel_create(const vf_scene *scene, vf_accel **out) {
        * those of the test (reaches). The margin, 1% of r^2 plus 1e-5 c^2 (added there),
        * is thousands of times wider. */
       float r = s->radius;
-      a->bounds[a->num_bounds++] = (struct sphere_bound){s->center.x, s->center.y, s->center.z, 1.01f * r * r};
+      a->bounds[a->num_bounds++] = (struct sphere_bound){s->center.x, s->center.y, s->center.z, 1.01f * r * r, (unsigned)i};
     }
   }
   rtcCommitScene(a->scene);
@@ -233,6 +236,60 @@ static float sphere_root(const vf_shape *s, vf_vec3 org, vf_vec3 dir, float t_em
   return t > 0.0 ? (float)t : t_embree; /* a root behind the origin: keep Embree's */
 }
 
+/* Where a root t of a sphere lies for Embree, for t in [0, tfar] (tfar INFINITY: no end):
+ * ROOT_IN or ROOT_OUT when it is farther from the ends than tol (distance in units of the
+ * direction's length) plus tfar's own rounding, else ROOT_UNSURE. */
+enum { ROOT_UNSURE, ROOT_OUT, ROOT_IN };
+static inline int root_place(double t, double tol, float tfar) {
+  if (t < -tol) return ROOT_OUT;
+  if (!(t > tol)) return ROOT_UNSURE;
+  if (isinf(tfar)) return ROOT_IN;
+  double end_tol = tol + 1e-5 * tfar;
+  return t < tfar - end_tol ? ROOT_IN : t > tfar + end_tol ? ROOT_OUT : ROOT_UNSURE;
+}
+
+/* What Embree's sphere kernel answers for the ray org + t dir, t in [0, tfar], against the
+ * spheres of a, where the answer is certain: SPHERES_MISS, or SPHERES_HIT with the sphere
+ * hit first in *shape and in *t its root (Embree's t differs from it in the last bits
+ * only, so that sphere_root chooses the same root from either); SPHERES_UNSURE for a ray
+ * that grazes a sphere, has a root near 0 or tfar (rays leaving or ending on a sphere), or
+ * two hits close together. In double, with margins a hundred times Embree's float rounding
+ * (a few parts in a million of the distances: the line's distance to the centre against
+ * the radius within 1% of r^2 plus 1e-5 of the centre's squared distance, roots within
+ * 1e-4 of the centre's distance plus r): the rays that are certain need no Embree call. */
+enum { SPHERES_UNSURE, SPHERES_MISS, SPHERES_HIT };
+static int sphere_answer(const vf_accel *a, vf_vec3 org, vf_vec3 dir, float tfar, unsigned *shape, double *t) {
+  double dx = dir.x, dy = dir.y, dz = dir.z;
+  double dd = dx * dx + dy * dy + dz * dz;
+  if (!(dd > 0.0) || !(tfar >= 0.0f)) return SPHERES_UNSURE;
+  double inv_len = 1.0 / sqrt(dd), best = INFINITY, best_tol = 0.0;
+  unsigned best_shape = 0;
+  for (int k = 0; k < a->num_bounds; k++) {
+    const vf_shape *s = &a->source->shapes[a->bounds[k].shape];
+    double ox = (double)org.x - s->center.x, oy = (double)org.y - s->center.y, oz = (double)org.z - s->center.z;
+    double oo = ox * ox + oy * oy + oz * oz, r2 = (double)s->radius * s->radius;
+    double cx = oy * dz - oz * dy, cy = oz * dx - ox * dz, cz = ox * dy - oy * dx;
+    double perp2 = (cx * cx + cy * cy + cz * cz) / dd, slack = 0.01 * r2 + 1e-5 * oo;
+    if (perp2 > r2 + slack) continue;
+    if (!(perp2 < r2 - slack)) return SPHERES_UNSURE; /* grazing */
+    double mid = -(ox * dx + oy * dy + oz * dz) / dd, half = sqrt((r2 - perp2) / dd);
+    double tol = 1e-4 * (sqrt(oo) + s->radius) * inv_len, root = mid - half;
+    int place = root_place(root, tol, tfar);
+    if (place == ROOT_OUT) { /* Embree's first hit is the far root when the near one is out */
+      root = mid + half;
+      place = root_place(root, tol, tfar);
+    }
+    if (place == ROOT_UNSURE) return SPHERES_UNSURE;
+    if (place == ROOT_OUT) continue;
+    if (fabs(root - best) <= tol + best_tol) return SPHERES_UNSURE;
+    if (root < best) best = root, best_tol = tol, best_shape = a->bounds[k].shape;
+  }
+  if (isinf(best)) return SPHERES_MISS;
+  *shape = best_shape;
+  *t = best;
+  return SPHERES_HIT;
+}
+
 #define VF_UNLIKELY_HIT(x) __builtin_expect(!!(x), 0)
 
 /* Fills *hit from what Embree reported for the ray org + t dir; 0 for a degenerate hit. */
@@ -292,7 +349,18 @@ int vf_accel_intersect(const vf_accel *a, vf_vec3 org, vf_vec3 dir, float tfar, 
   rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
   rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
   rtcIntersect1(a->scene, &ctx, &rh);
-  if (a->spheres && may_reach_sphere(a, org, dir, rh.ray.tfar)) rtcIntersect1(a->spheres, &ctx, &rh);
+  if (a->spheres && may_reach_sphere(a, org, dir, rh.ray.tfar)) {
+    unsigned shape;
+    double t;
+    int answer = sphere_answer(a, org, dir, rh.ray.tfar, &shape, &t);
+    if (answer == SPHERES_HIT) {
+      rh.ray.tfar = (float)t;
+      rh.hit.geomID = shape;
+      rh.hit.primID = 0;
+    } else if (answer == SPHERES_UNSURE) {
+      rtcIntersect1(a->spheres, &ctx, &rh);
+    }
+  }
   if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return 0;
   /* org and dir as Embree holds them (it writes only tfar and the hit): reading them back
    * keeps the arguments from living across the call in stack slots, whose reloads GCC
@@ -322,7 +390,13 @@ int vf_accel_occluded(const vf_accel *a, vf_vec3 org, vf_vec3 dir, float tfar) {
   r.flags = 0;
   rtcOccluded1(a->scene, &ctx, &r);
   if (r.tfar < 0.0f) return 1;
-  if (a->spheres && may_reach_sphere(a, org, dir, tfar)) rtcOccluded1(a->spheres, &ctx, &r);
+  if (a->spheres && may_reach_sphere(a, org, dir, tfar)) {
+    unsigned shape;
+    double t;
+    int answer = sphere_answer(a, org, dir, tfar, &shape, &t);
+    if (answer == SPHERES_HIT) return 1;
+    if (answer == SPHERES_UNSURE) rtcOccluded1(a->spheres, &ctx, &r);
+  }
   return r.tfar < 0.0f;
 }
 
@@ -420,7 +494,20 @@ static uint32_t occluded8(const vf_accel *a, const vf_vec3 *org, const vf_vec3 *
     /* The rays the meshes left unblocked and a sphere may block, as one packet. */
     RTC_ALIGN(4 * WIDTH) int open[WIDTH], reach[WIDTH];
     for (int i = 0; i < WIDTH; i++) open[i] = valid[i] & -(r.tfar[i] >= 0.0f);
-    if (packet_reach(a, &r, open, reach)) rtcOccluded8(reach, a->spheres, &ctx, &r);
+    if (packet_reach(a, &r, open, reach)) {
+      /* Embree's sphere kernel for the lanes whose answer is not certain. */
+      int unsure = 0;
+      for (int i = 0; i < n; i++) {
+        if (!reach[i]) continue;
+        unsigned shape;
+        double t;
+        int answer = sphere_answer(a, org[i], dir[i], tfar[i], &shape, &t);
+        if (answer == SPHERES_HIT) r.tfar[i] = -INFINITY; /* blocked, as Embree marks it */
+        if (answer != SPHERES_UNSURE) reach[i] = 0;
+        unsure |= reach[i];
+      }
+      if (unsure) rtcOccluded8(reach, a->spheres, &ctx, &r);
+    }
   }
   uint32_t blocked = 0;
   for (int i = 0; i < n; i++) blocked |= (uint32_t)(r.tfar[i] < 0.0f) << i;
@@ -439,7 +526,24 @@ static uint32_t intersect8(const vf_accel *a, const vf_vec3 *org, const vf_vec3 
   if (a->spheres) {
     /* The rays that may reach a sphere before their mesh hit, as one packet. */
     RTC_ALIGN(4 * WIDTH) int reach[WIDTH];
-    if (packet_reach(a, &rh.ray, valid, reach)) rtcIntersect8(reach, a->spheres, &ctx, &rh);
+    if (packet_reach(a, &rh.ray, valid, reach)) {
+      /* Embree's sphere kernel for the lanes whose answer is not certain. */
+      int unsure = 0;
+      for (int i = 0; i < n; i++) {
+        if (!reach[i]) continue;
+        unsigned shape;
+        double t;
+        int answer = sphere_answer(a, org[i], dir[i], rh.ray.tfar[i], &shape, &t);
+        if (answer == SPHERES_HIT) {
+          rh.ray.tfar[i] = (float)t;
+          rh.hit.geomID[i] = shape;
+          rh.hit.primID[i] = 0;
+        }
+        if (answer != SPHERES_UNSURE) reach[i] = 0;
+        unsure |= reach[i];
+      }
+      if (unsure) rtcIntersect8(reach, a->spheres, &ctx, &rh);
+    }
   }
   uint32_t found = 0;
   for (int i = 0; i < n; i++)
