@@ -26,7 +26,8 @@
 
 /* A sphere as `reaches` tests it. */
 struct sphere_bound {
-  float cx, cy, cz, r2; /* centre; squared radius with the margin */
+  float cx, cy, cz, r2; /* centre; squared radius with reaches' margin */
+  float r, inv_2r;      /* radius, 1 / (2 radius) (sphere_answer) */
   unsigned shape;       /* its shape, and Embree geometry ID */
 };
 
@@ -169,7 +170,8 @@ int vf_accel_create(const vf_scene *scene, vf_accel **out) {
        * those of the test (reaches). The margin, 1% of r^2 plus 1e-5 c^2 (added there),
        * is thousands of times wider. */
       float r = s->radius;
-      a->bounds[a->num_bounds++] = (struct sphere_bound){s->center.x, s->center.y, s->center.z, 1.01f * r * r, (unsigned)i};
+      a->bounds[a->num_bounds++] = (struct sphere_bound){s->center.x, s->center.y, s->center.z, 1.01f * r * r, r,
+                                                           0.5f / r, (unsigned)i};
     }
   }
   rtcCommitScene(a->scene);
@@ -236,16 +238,16 @@ static float sphere_root(const vf_shape *s, vf_vec3 org, vf_vec3 dir, float t_em
   return t > 0.0 ? (float)t : t_embree; /* a root behind the origin: keep Embree's */
 }
 
-/* Where a root t of a sphere lies for Embree, for t in [0, tfar] (tfar INFINITY: no end):
- * ROOT_IN or ROOT_OUT when it is farther from the ends than tol (distance in units of the
- * direction's length) plus tfar's own rounding, else ROOT_UNSURE. */
+/* Where a root lies for Embree, for t in [0, tfar] (tfar INFINITY: no end), all three
+ * scaled by |dir|^2 (root_dd = t |dir|^2, tfar_dd = tfar |dir|^2): ROOT_IN or ROOT_OUT when
+ * it is farther from the ends than tol_dd plus tfar's own rounding, else ROOT_UNSURE. */
 enum { ROOT_UNSURE, ROOT_OUT, ROOT_IN };
-static inline int root_place(double t, double tol, float tfar) {
-  if (t < -tol) return ROOT_OUT;
-  if (!(t > tol)) return ROOT_UNSURE;
-  if (isinf(tfar)) return ROOT_IN;
-  double end_tol = tol + 1e-5 * tfar;
-  return t < tfar - end_tol ? ROOT_IN : t > tfar + end_tol ? ROOT_OUT : ROOT_UNSURE;
+static inline int root_place(float root_dd, float tol_dd, float tfar_dd) {
+  if (root_dd < -tol_dd) return ROOT_OUT;
+  if (!(root_dd > tol_dd)) return ROOT_UNSURE;
+  if (isinf(tfar_dd)) return ROOT_IN;
+  float end_tol = tol_dd + 1e-5f * tfar_dd;
+  return root_dd < tfar_dd - end_tol ? ROOT_IN : root_dd > tfar_dd + end_tol ? ROOT_OUT : ROOT_UNSURE;
 }
 
 /* What Embree's sphere kernel answers for the ray org + t dir, t in [0, tfar], against the
@@ -253,40 +255,40 @@ static inline int root_place(double t, double tol, float tfar) {
  * hit first in *shape and in *t its root (Embree's t differs from it in the last bits
  * only, so that sphere_root chooses the same root from either); SPHERES_UNSURE for a ray
  * that grazes a sphere, has a root near 0 or tfar (rays leaving or ending on a sphere), or
- * two hits close together. In double, with margins a hundred times Embree's float rounding
- * (a few parts in a million of the distances: the line's distance to the centre against
- * the radius within 1% of r^2 plus 1e-5 of the centre's squared distance, roots within
- * 1e-4 of the centre's distance plus r): the rays that are certain need no Embree call. */
+ * two hits close together. The margins are a hundred times the rounding of this float
+ * arithmetic and of Embree's (a few parts in a million of the distances): the line's
+ * squared distance to the centre against r^2 within 1% of r^2 plus 1e-5 of the centre's
+ * squared distance c^2, roots within 1e-4 (c^2 + r^2) / 2r >= 1e-4 c of the ends. Without
+ * a division per sphere: distances along the ray are kept times |dir|^2. */
 enum { SPHERES_UNSURE, SPHERES_MISS, SPHERES_HIT };
-static int sphere_answer(const vf_accel *a, vf_vec3 org, vf_vec3 dir, float tfar, unsigned *shape, double *t) {
-  double dx = dir.x, dy = dir.y, dz = dir.z;
-  double dd = dx * dx + dy * dy + dz * dz;
-  if (!(dd > 0.0) || !(tfar >= 0.0f)) return SPHERES_UNSURE;
-  double inv_len = 1.0 / sqrt(dd), best = INFINITY, best_tol = 0.0;
+static int sphere_answer(const vf_accel *a, vf_vec3 org, vf_vec3 dir, float tfar, unsigned *shape, float *t) {
+  float dd = vf_dot(dir, dir);
+  if (!(dd > 0.0f) || !(tfar >= 0.0f)) return SPHERES_UNSURE;
+  float len = sqrtf(dd), tfar_dd = tfar * dd, best = INFINITY, best_tol = 0.0f;
   unsigned best_shape = 0;
   for (int k = 0; k < a->num_bounds; k++) {
-    const vf_shape *s = &a->source->shapes[a->bounds[k].shape];
-    double ox = (double)org.x - s->center.x, oy = (double)org.y - s->center.y, oz = (double)org.z - s->center.z;
-    double oo = ox * ox + oy * oy + oz * oz, r2 = (double)s->radius * s->radius;
-    double cx = oy * dz - oz * dy, cy = oz * dx - ox * dz, cz = ox * dy - oy * dx;
-    double perp2 = (cx * cx + cy * cy + cz * cz) / dd, slack = 0.01 * r2 + 1e-5 * oo;
-    if (perp2 > r2 + slack) continue;
-    if (!(perp2 < r2 - slack)) return SPHERES_UNSURE; /* grazing */
-    double mid = -(ox * dx + oy * dy + oz * dz) / dd, half = sqrt((r2 - perp2) / dd);
-    double tol = 1e-4 * (sqrt(oo) + s->radius) * inv_len, root = mid - half;
-    int place = root_place(root, tol, tfar);
+    const struct sphere_bound *b = &a->bounds[k];
+    vf_vec3 o = vf_vec3_make(org.x - b->cx, org.y - b->cy, org.z - b->cz);
+    float oo = vf_dot(o, o), slack = 0.01f * b->r * b->r + 1e-5f * oo;
+    float perp_dd = vf_length_sq(vf_cross(o, dir)); /* the line's squared distance to the centre, times dd */
+    if (perp_dd > (b->r * b->r + slack) * dd) continue;
+    if (!(perp_dd < (b->r * b->r - slack) * dd)) return SPHERES_UNSURE; /* grazing */
+    float mid = -vf_dot(o, dir), half = sqrtf(b->r * b->r * dd - perp_dd);
+    float tol = 1e-4f * ((oo + b->r * b->r) * b->inv_2r + b->r) * len;
+    float root = mid - half;
+    int place = root_place(root, tol, tfar_dd);
     if (place == ROOT_OUT) { /* Embree's first hit is the far root when the near one is out */
       root = mid + half;
-      place = root_place(root, tol, tfar);
+      place = root_place(root, tol, tfar_dd);
     }
     if (place == ROOT_UNSURE) return SPHERES_UNSURE;
     if (place == ROOT_OUT) continue;
-    if (fabs(root - best) <= tol + best_tol) return SPHERES_UNSURE;
-    if (root < best) best = root, best_tol = tol, best_shape = a->bounds[k].shape;
+    if (fabsf(root - best) <= tol + best_tol) return SPHERES_UNSURE;
+    if (root < best) best = root, best_tol = tol, best_shape = b->shape;
   }
   if (isinf(best)) return SPHERES_MISS;
   *shape = best_shape;
-  *t = best;
+  *t = best / dd;
   return SPHERES_HIT;
 }
 
@@ -351,10 +353,10 @@ int vf_accel_intersect(const vf_accel *a, vf_vec3 org, vf_vec3 dir, float tfar, 
   rtcIntersect1(a->scene, &ctx, &rh);
   if (a->spheres && may_reach_sphere(a, org, dir, rh.ray.tfar)) {
     unsigned shape;
-    double t;
+    float t;
     int answer = sphere_answer(a, org, dir, rh.ray.tfar, &shape, &t);
     if (answer == SPHERES_HIT) {
-      rh.ray.tfar = (float)t;
+      rh.ray.tfar = t;
       rh.hit.geomID = shape;
       rh.hit.primID = 0;
     } else if (answer == SPHERES_UNSURE) {
@@ -392,7 +394,7 @@ int vf_accel_occluded(const vf_accel *a, vf_vec3 org, vf_vec3 dir, float tfar) {
   if (r.tfar < 0.0f) return 1;
   if (a->spheres && may_reach_sphere(a, org, dir, tfar)) {
     unsigned shape;
-    double t;
+    float t;
     int answer = sphere_answer(a, org, dir, tfar, &shape, &t);
     if (answer == SPHERES_HIT) return 1;
     if (answer == SPHERES_UNSURE) rtcOccluded1(a->spheres, &ctx, &r);
@@ -500,7 +502,7 @@ static uint32_t occluded8(const vf_accel *a, const vf_vec3 *org, const vf_vec3 *
       for (int i = 0; i < n; i++) {
         if (!reach[i]) continue;
         unsigned shape;
-        double t;
+        float t;
         int answer = sphere_answer(a, org[i], dir[i], tfar[i], &shape, &t);
         if (answer == SPHERES_HIT) r.tfar[i] = -INFINITY; /* blocked, as Embree marks it */
         if (answer != SPHERES_UNSURE) reach[i] = 0;
@@ -532,10 +534,10 @@ static uint32_t intersect8(const vf_accel *a, const vf_vec3 *org, const vf_vec3 
       for (int i = 0; i < n; i++) {
         if (!reach[i]) continue;
         unsigned shape;
-        double t;
+        float t;
         int answer = sphere_answer(a, org[i], dir[i], rh.ray.tfar[i], &shape, &t);
         if (answer == SPHERES_HIT) {
-          rh.ray.tfar[i] = (float)t;
+          rh.ray.tfar[i] = t;
           rh.hit.geomID[i] = shape;
           rh.hit.primID[i] = 0;
         }
