@@ -18,10 +18,10 @@
  * other as Embree traced the one scene. The spheres' scene sees only the rays that may
  * reach a sphere before their mesh hit (`reaches`, four lanes at a time) and whose answer
  * is not certain without it (sphere_answer: a ray that clearly misses every sphere, or
- * clearly hits one, away from its silhouette and from the ray's ends, is answered in
- * double). Both tests keep margins a hundred times wider than Embree's float rounding, so
- * that a ray answered here is one Embree's sphere kernel answers the same way; hits, of
- * packets and single rays, are those of the one scene bit for bit. */
+ * clearly hits one, away from its silhouette and from the ray's ends, is answered here).
+ * Both tests keep margins a hundred times wider than their own and Embree's float
+ * rounding, so that a ray answered here is one Embree's sphere kernel answers the same way;
+ * hits, of packets and single rays, are those of the one scene bit for bit. */
 #define SPHERES_APART 8
 
 /* A sphere as `reaches` tests it. */
@@ -196,8 +196,8 @@ void vf_accel_destroy(vf_accel *a) {
 
 /* Whether the ray from (ox, oy, oz) along (dx, dy, dz), t in [0, tfar], can come within
  * sphere b (with its margin): 0 only where Embree's sphere kernel finds no hit. A sphere
- * wholly behind the origin or beyond tfar is out of reach. Branch-free, so that the loop
- * over a packet's lanes becomes vector code. */
+ * wholly behind the origin or beyond tfar is out of reach. For single rays; packet_reach
+ * does the same four lanes at a time. */
 static inline int reaches(const struct sphere_bound *b, float ox, float oy, float oz, float dx, float dy, float dz,
                           float tfar) {
   float cx = b->cx - ox, cy = b->cy - oy, cz = b->cz - oz;
