@@ -2,7 +2,8 @@
  * secondary rays from re-hitting the surface they leave.
  *
  * Geometry IDs equal shape indices in the vf_scene. Triangle meshes are Embree triangle
- * geometry; spheres are Embree's own sphere-point geometry. A mesh whose material has an
+ * geometry; spheres are Embree's own sphere-point geometry (a scene's few spheres in an
+ * Embree scene of their own, which only the rays that may reach one see: accel.c). A mesh whose material has an
  * alpha cut-out gets Embree filter functions that pass through its holes
  * (vf_surface_covered), for closest hits and occlusion alike, single rays and packets. */
 #ifndef VF_ACCEL_H

@@ -82,6 +82,8 @@ enum {
 enum { VF_BSDF_SPECULAR = 1u, VF_BSDF_REFRACTION = 2u /* a dielectric transmitted */ };
 
 typedef struct {
+  /* What every BSDF reads, first: vf_bsdf_setup writes these, and a BSDF that is not
+   * extended reads nothing after them (vf_bsdf_copy). */
   const vf_material *material; /* borrowed from the scene */
   vf_frame frame;              /* shading frame; z faces the side the path arrives from */
   vf_vec3 local_fix;           /* unit, towards the previous vertex, local (z > 0) */
@@ -94,19 +96,20 @@ typedef struct {
                                 * evaluates and samples */
   int radiance;                /* a camera sub-path's vertex: see the top (0 after set-up; read
                                 * only when extended) */
-  int rough, fresnel_model;    /* when extended: a rough or base lobe; the conductors' VF_FRESNEL_* */
-  float alpha, lambda_fix;     /* when rough: GGX alpha and Smith's Lambda(local_fix) */
+  int shading;                 /* shading normals (below; extended is then set) */
+  int phase;                   /* a point in a medium (below; extended is then set) */
   vf_vec3 diffuse;             /* the diffuse lobe's albedo here (a texture may vary it) */
-  vf_vec3 f0, base;            /* glTF model, when extended: Schlick's F0 and the base's weight */
+  /* Read only when extended. */
+  int rough, fresnel_model;    /* a rough or base lobe; the conductors' VF_FRESNEL_* */
+  float alpha, lambda_fix;     /* when rough: GGX alpha and Smith's Lambda(local_fix) */
+  vf_vec3 f0, base;            /* glTF model: Schlick's F0 and the base's weight */
   float f90;                   /* glTF model: Schlick's F90 of the specular layer */
   float dielectric_f0_max, dielectric_f90; /* glTF model: the dielectric's, for the base's 1 - max_rgb F_d */
-  /* Shading normals (vf_bsdf_setup_shading; extended is then set): the frame is the shading
-   * normal's, `geometric` the unit geometric normal on the side of fix, fix_ratio
-   * |fix.n_shading| / |fix.n_geometric|. */
-  int shading;
+  /* Shading normals (vf_bsdf_setup_shading): the frame is the shading normal's, `geometric`
+   * the unit geometric normal on the side of fix, fix_ratio |fix.n_shading| / |fix.n_geometric|. */
   vf_vec3 geometric;
   float fix_ratio;
-  /* The glTF model's layers (see the top; extended is then set): the coat's weight (0: none),
+  /* The glTF model's layers (see the top): the coat's weight (0: none),
    * alpha, frame (the shading frame unless vf_bsdf_set_coat_normal), fix in it and Smith's
    * Lambda there, its fold |fix.n_c| / |fix.n_g|, 1 - clearcoat F_c(|fix.n_c|); the sheen's
    * colour, roughness, alpha, max_rgb colour (0: none) and 1 - max_rgb E(fix.n). */
@@ -116,12 +119,20 @@ typedef struct {
   vf_vec3 coat_fix;
   vf_vec3 sheen_color;
   float sheen_roughness, sheen_alpha, sheen_max, sheen_fix_albedo, sheen_fix_scale;
-  /* A point in a medium (vf_bsdf_setup_phase; extended is then set): f = sigma_s p_HG, the
-   * cosine 1, `geometric` the unit world fix. */
-  int phase;
+  /* A point in a medium (vf_bsdf_setup_phase): f = sigma_s p_HG, the cosine 1, `geometric`
+   * the unit world fix. */
   float phase_g;
   vf_vec3 sigma_s;
 } vf_bsdf;
+
+/* *dst = *src, the fields after `diffuse` only for an extended BSDF: the others never read
+ * them, and the whole struct is three times the part they read (the glTF model's layers,
+ * shading normals and the phase function came after it). For the renderer's queues of
+ * BSDFs (merging queries, the fused pass's light vertices). */
+static inline void vf_bsdf_copy(vf_bsdf *dst, const vf_bsdf *src) {
+  if (src->extended) *dst = *src;
+  else memcpy(dst, src, offsetof(vf_bsdf, diffuse) + sizeof src->diffuse);
+}
 
 /* What of a BSDF depends on its material only: the lobe selection probabilities (in
  * proportion to the lobes' albedos), the Russian-roulette continuation probability and

@@ -443,8 +443,16 @@ static int camera_bounce(vf_vcm *v, int thread, camera_lane *lane, const vf_hit 
     if (v->t.vertex_merging && v->num_vertices > 0) {
       vertex_merging_query *q = queue_vertex_merging(v, thread);
       if (q != NULL) {
-        *q = (vertex_merging_query){b, hit->position, s->throughput, s->mis, s->path_length, tile_pixel, lane->pixel,
-                                    lane->merge};
+        /* Field by field, the BSDF by the part it uses (vf_bsdf_copy): a whole vf_bsdf is
+         * three times that, and the queue of a tile's queries outgrew the cache. */
+        vf_bsdf_copy(&q->bsdf, &b);
+        q->position = hit->position;
+        q->throughput = s->throughput;
+        q->mis = s->mis;
+        q->path_length = s->path_length;
+        q->tile_pixel = tile_pixel;
+        q->pixel = lane->pixel;
+        q->merge = lane->merge;
         if (v->upg) {
           gathering_prev *p = &v->scratch[thread].query_prev[q - v->scratch[thread].queries];
           *p = lane->prev;

@@ -159,13 +159,26 @@ static inline int vf_cdf_guided(const float *cdf, int n, const uint32_t *guide, 
   return vf_cdf_walk(cdf, n, u, (int)guide[k]);
 }
 
+/* vf_cdf_search's answer for u in [0, 1] over a short cdf (n of a few entries), without a
+ * branch on the data: the number of entries cdf[1..n-1] at most u, which for a
+ * non-decreasing cdf is the last index i with cdf[i] <= u, the first with cdf[i + 1] > u.
+ * A walk or a search there mispredicts a branch on every other sample: the quad light of
+ * the Cornell box is two triangles. */
+#define VF_CDF_SHORT 8
+static inline int vf_cdf_count(const float *cdf, int n, float u) {
+  int i = 0;
+  for (int k = 1; k < n; k++) i += cdf[k] <= u;
+  return i;
+}
+
 /* Picks a triangle of area mesh l in proportion to area with uniform number *u, and
  * replaces *u by its rescaling to [0, 1) within the chosen triangle's interval, a fresh
- * uniform number. The triangle is vf_cdf_search's over triangle_cdf, found through a guide
- * of one bucket per triangle. */
+ * uniform number. The triangle is vf_cdf_search's over triangle_cdf, counted for a mesh of
+ * a few triangles, else found through a guide of one bucket per triangle. */
 static inline uint32_t vf_light_pick_triangle(const vf_light *l, float *u) {
   int n = (int)l->shape->num_triangles;
-  int t = vf_cdf_guided(l->triangle_cdf, n, l->triangle_guide, n, *u);
+  int t = n <= VF_CDF_SHORT ? vf_cdf_count(l->triangle_cdf, n, *u)
+                            : vf_cdf_guided(l->triangle_cdf, n, l->triangle_guide, n, *u);
   float lo = l->triangle_cdf[t], hi = l->triangle_cdf[t + 1];
   float rescaled = (*u - lo) / (hi - lo);
   /* fminf(rescaled, 0.99999994f) without its libm call (see vf_fmaxf_zero): the same value,

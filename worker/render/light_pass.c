@@ -48,7 +48,8 @@ static int append_vertices(light_chunk *c, const light_vertex *lv, const vf_bsdf
     c->vertex_capacity = cap;
   }
   memcpy(&c->vertices[c->num_vertices], lv, (size_t)n * sizeof *lv);
-  if (keep_bsdfs) memcpy(&c->bsdfs[c->num_vertices], b, (size_t)n * sizeof *b);
+  if (keep_bsdfs)
+    for (uint32_t i = 0; i < n; i++) vf_bsdf_copy(&c->bsdfs[c->num_vertices + i], &b[i]); /* the part they use */
   c->num_vertices += n;
   return 1;
 }
@@ -362,7 +363,7 @@ static int light_bounce(vf_vcm *v, int thread, light_chunk *c, light_lane *lane,
   uint32_t vertex_dims = vf_dim_vertex(VF_DIM_LIGHT_VERTEX, s->path_length);
   if (!b.is_delta) {
     if (v->t.store_vertices) {
-      if (v->fused) lane->bsdfs[lane->num_vertices] = b;
+      if (v->fused) vf_bsdf_copy(&lane->bsdfs[lane->num_vertices], &b);
       light_vertex *lv = &lane->vertices[lane->num_vertices++];
       lv->position = hit->position;
       lv->throughput = s->throughput;

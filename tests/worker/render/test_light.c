@@ -254,9 +254,11 @@ static void test_triangle_pick_is_the_cdf_search_and_follows_area(void) {
       float u = i == 0 ? 0.0f : i == 1 ? 1.0f : vf_rng_float(&rng);
       int expect = vf_cdf_search(l->triangle_cdf, N, u);
       for (int start = 0; start < N; start++) walks_wrong += vf_cdf_walk(l->triangle_cdf, N, u, start) != expect;
+      /* The count that short meshes take, degenerate triangles included, over every prefix. */
+      for (int n = 1; n <= N; n++) walks_wrong += vf_cdf_count(l->triangle_cdf, n, u) != vf_cdf_search(l->triangle_cdf, n, u);
     }
     printf("  %d triangles, %d picks: %d differ from the binary search, %d degenerate triangles picked;"
-           " walks from every start: %d wrong\n", N, GRID + 3 * N + 3, mismatches, picked_degenerate, walks_wrong);
+           " walks from every start and counts: %d wrong\n", N, GRID + 3 * N + 3, mismatches, picked_degenerate, walks_wrong);
     CHECK_INT_EQ(walks_wrong, 0);
     CHECK_INT_EQ(mismatches, 0);
     CHECK_INT_EQ(picked_degenerate, 0);
