@@ -11,20 +11,13 @@
 #include <string.h>
 #include <zlib.h>
 
-/* Iterations of the set in replicate 0 (even indices). */
-static uint64_t even_iterations(const vf_iterset *set) {
-  uint64_t n = 0;
-  for (size_t i = 0; i < set->count; i++) n += (set->ranges[i].end + 1) / 2 - (set->ranges[i].begin + 1) / 2;
-  return n;
-}
-
 /* Each pixel's variance of one iteration's estimate, summed over its channels: the
  * film's error estimate of the pixel (common/film.c, vf_film_estimate_rmse) times n. */
 static void pixel_variances(const vf_film *film, double *out) {
   size_t pixels = (size_t)film->width * (size_t)film->height;
   double n = (double)vf_iterset_count(&film->iterations);
   if (vf_film_sobol(film)) {
-    double n0 = (double)even_iterations(&film->iterations), n1 = n - n0;
+    double n0 = (double)vf_iterset_even_count(&film->iterations), n1 = n - n0;
     for (size_t p = 0; p < pixels; p++) {
       double v = 0.0;
       for (size_t c = 3 * p; c < 3 * p + 3; c++) {

@@ -330,8 +330,7 @@ int vf_film_sobol(const vf_film *film) {
   return vf_settings_parse(&s, film->settings_text) == VF_OK && s.sampler == VF_SAMPLER_SOBOL;
 }
 
-/* Iterations of the set in replicate 0 (even indices). */
-static uint64_t replicate_zero_count(const vf_iterset *set) {
+uint64_t vf_iterset_even_count(const vf_iterset *set) {
   uint64_t n = 0;
   for (size_t i = 0; i < set->count; i++) n += (set->ranges[i].end + 1) / 2 - (set->ranges[i].begin + 1) / 2;
   return n;
@@ -360,7 +359,7 @@ double vf_film_estimate_rmse(const vf_film *film) {
   double n = (double)iterations, total = 0.0;
   size_t values = 3 * (size_t)film->width * (size_t)film->height;
   if (vf_film_sobol(film)) {
-    double n0 = (double)replicate_zero_count(&film->iterations), n1 = n - n0;
+    double n0 = (double)vf_iterset_even_count(&film->iterations), n1 = n - n0;
     if (!(n0 > 0) || !(n1 > 0)) return NAN;
     for (size_t i = 0; i < values; i++) {
       double m = vf_film_sum_at(film, i) / n, m0 = vf_fixed_to_double(film->square_sum[i], VF_FILM_SUM_BITS) / n0;

@@ -183,6 +183,8 @@ double vf_film_estimate_rmse(const vf_film *film);
  * 0 (even global indices), which is what its error estimate needs (above) and, like the
  * squares, adds up exactly under merging. */
 int vf_film_sobol(const vf_film *film);
+/* The iterations of the set in a sobol film's replicate 0 (even indices). */
+uint64_t vf_iterset_even_count(const vf_iterset *set);
 
 /* Checks the invariants every film built by this module keeps: no sums without
  * iterations (a film of N = 0 holds zeros), square sums >= 0, times finite and >= 0, an
