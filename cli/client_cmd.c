@@ -241,9 +241,6 @@ int vf_cmd_submit(int argc, char **argv) {
     if (err != VF_OK) return vf_cli_fail(cmd, err);
   }
   if (optind != argc - 1) return vf_cli_usage_error("submit", "expected exactly one SCENE");
-  if (overrides.pilot > 0)
-    return vf_cli_fail(cmd, vf_error_set(VF_EUSAGE, "--pilot %lld: a pilot is an option of render and continue; farm "
-                                         "jobs do not run one", overrides.pilot));
   /* A farm job stops at the first of its conditions to hold: iterations and time together too. */
   if ((err = vf_cli_stop_check(&stop, 0)) != VF_OK) return vf_cli_fail(cmd, err);
   if ((output || preview) && !wait)

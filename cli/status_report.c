@@ -122,6 +122,16 @@ static void add_job(cJSON *jobs, const Vcmfarm__JobStatus *j) {
    * error but theirs). */
   cJSON_AddNumberToObject(o, "nonfinite_samples", (double)j->nonfinite_samples);
   cJSON_AddNumberToObject(o, "biased_merges", (double)j->biased_merges);
+  /* A job with a pilot (docs/PROTOCOL.md, "Pilots"): its iterations, those merged, and the
+   * allocation's summary once computed; null without one. */
+  if (j->pilot > 0) {
+    cJSON *pilot = cJSON_AddObjectToObject(o, "pilot");
+    cJSON_AddNumberToObject(pilot, "iterations", j->pilot);
+    cJSON_AddNumberToObject(pilot, "iterations_done", (double)j->pilot_done);
+    add_string_or_null(pilot, "allocation", j->allocation);
+  } else {
+    cJSON_AddNullToObject(o, "pilot");
+  }
   cJSON *stop = cJSON_AddObjectToObject(o, "stop");
   add_number_or_null(stop, "iterations", iterations_is_condition(j) ? (double)j->iterations_total : NAN);
   add_number_or_null(stop, "time", j->time_limit > 0.0 ? j->time_limit : NAN);
@@ -256,6 +266,8 @@ void vf_status_job_line(const Vcmfarm__JobStatus *j, char *buf, size_t n) {
   buf[0] = '\0';
   append(&p, &left, "%s, %llu %s done", j->state, (unsigned long long)j->iterations_done,
          vf_cli_plural(j->iterations_done, "iteration", "iterations"));
+  if (j->pilot > 0 && j->allocation[0] == '\0')
+    append(&p, &left, ", pilot: %llu/%u iterations", (unsigned long long)j->pilot_done, j->pilot);
   if (j->progress_by[0] &&
       (strcmp(j->state, "running") == 0 || strcmp(j->state, "queued") == 0 || strcmp(j->state, "paused") == 0))
     append(&p, &left, ", %.0f%% (%s), ETA %s", 100.0 * j->progress, j->progress_by, eta);
@@ -327,6 +339,8 @@ void vf_status_print_text(const Vcmfarm__Status *st, FILE *out) {
       for (size_t k = 0; k < j->n_requires; k++) fprintf(out, "%s%s", k ? "," : " ", j->requires[k]);
       fprintf(out, " (leased only to workers satisfying all)\n");
     }
+    if (j->pilot > 0 && j->allocation[0] != '\0')
+      fprintf(out, "  pilot of %u iterations done; allocation: %s\n", j->pilot, j->allocation);
     fprintf(out, "  ran %s, %.2f it/s on %u %s", ran, j->iterations_per_second, j->workers,
             vf_cli_plural(j->workers, "worker", "workers"));
     if (j->results_refused)

@@ -106,6 +106,7 @@ int vf_film_clone_metadata(const vf_film *film, vf_film **out) {
   copy->cpu_seconds = film->cpu_seconds;
   copy->nonfinite_samples = film->nonfinite_samples;
   copy->biased_merges = film->biased_merges;
+  copy->pilot = film->pilot;
   memcpy(copy->scene_name, film->scene_name, sizeof copy->scene_name);
   if (film->samples != NULL && (err = vf_film_set_samples(copy, film->samples)) != VF_OK) {
     vf_film_destroy(copy);
@@ -290,6 +291,9 @@ int vf_film_merge_metadata(vf_film *dst, const vf_film *src) {
   if (strncmp(dst->settings_text, src->settings_text, sizeof dst->settings_text) != 0)
     return vf_error_set(VF_EMISMATCH, "films were rendered with different settings: \"%.200s\" and \"%.200s\"",
                         dst->settings_text, src->settings_text);
+  if (dst->pilot != src->pilot)
+    return vf_error_set(VF_EMISMATCH, "a pilot's film never merges into an image: the pilot's iterations chose the "
+                        "allocation of camera sub-paths and are no samples of the image");
   if (vf_iterset_intersects(&dst->iterations, &src->iterations))
     return vf_error_set(VF_EOVERLAP, "films share iterations: merging would count samples twice");
   size_t pixels = (size_t)dst->width * (size_t)dst->height;
@@ -400,7 +404,13 @@ int vf_film_validate(const vf_film *film, const char *name) {
   if (vf_settings_parse(&settings, film->settings_text) == VF_OK) {
     if (film->samples != NULL && settings.pilot == 0)
       return vf_error_set(VF_EFILM, "%s: the film has an allocation of camera sub-paths but its settings no pilot", name);
-    if (film->samples == NULL && settings.pilot > 0 && iterations > 0)
+    if (film->pilot && (settings.pilot == 0 || film->samples != NULL))
+      return vf_error_set(VF_EFILM, "%s: a pilot's film needs a pilot in its settings and no allocation", name);
+    uint64_t last = film->iterations.count > 0 ? film->iterations.ranges[film->iterations.count - 1].end : 0;
+    if (film->pilot && last > (uint64_t)settings.pilot)
+      return vf_error_set(VF_EFILM, "%s: a pilot's film holds iteration %" PRIu64 ", beyond its pilot of %d", name,
+                          last - 1, settings.pilot);
+    if (!film->pilot && film->samples == NULL && settings.pilot > 0 && iterations > 0)
       return vf_error_set(VF_EFILM, "%s: the film's settings have a pilot of %d iterations but the film no allocation "
                           "of camera sub-paths", name, settings.pilot);
   }

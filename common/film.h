@@ -83,6 +83,10 @@ typedef struct {
                                * sub-paths per iteration (common/allocation.h), owned; NULL
                                * on a film of no pilot, and on one of no iteration until its
                                * pilot decided them. Films of different ones never merge */
+  int pilot;                  /* 1: a film of a pilot render's iterations (of [0, pilot),
+                               * common/allocation.h), which decides an allocation and is no
+                               * image of its job: it has none, and merges only with pilot
+                               * films (a farm job's pilot parts, coordinator/job.h) */
   char scene_name[512];       /* what to load to continue: a built-in name or a scene file's
                                * absolute path; "" when unknown. Informative: the hash decides */
   vf_convergence_log convergence; /* owned */
@@ -148,7 +152,8 @@ void vf_film_pixel_mean(const vf_film *film, size_t p, float rgb[3]);
  * (src's if dst has none); src's convergence log is appended to dst's as further runs
  * (common/convergence.h); the counts add up (VF_EFILM, dst unchanged, should biased_merges
  * overflow 64 bits: only a forged film can get there). Allocations (samples) must be the
- * same where both have one (VF_EMISMATCH); dst takes src's where it has none. */
+ * same where both have one (VF_EMISMATCH); dst takes src's where it has none. A pilot film
+ * and a film of the job's image never merge (VF_EMISMATCH). */
 int vf_film_merge(vf_film *dst, const vf_film *src);
 
 /* vf_film_merge in two steps, for a caller that adds the pixels on another thread: the
@@ -189,7 +194,8 @@ uint64_t vf_iterset_even_count(const vf_iterset *set);
 /* Checks the invariants every film built by this module keeps: no sums without
  * iterations (a film of N = 0 holds zeros), square sums >= 0, times finite and >= 0, an
  * allocation of valid counts where the settings have a pilot and the film an iteration
- * (and none where they have no pilot),
+ * (and none where they have no pilot; a pilot film has none, a pilot in its settings and
+ * only iterations of [0, pilot)),
  * non-finite samples at most two per pixel and iteration, texts terminated, the convergence log valid (vf_convergence_validate). VF_EFILM with a
  * detail "NAME: problem" (name is e.g. the file path) when one does not hold. */
 int vf_film_validate(const vf_film *film, const char *name);

@@ -42,6 +42,8 @@
 #define ATTR_BIASED_MERGES "vcmfarm:biased_merges"
 /* Only on a film with an allocation of camera sub-paths (common/allocation.h). */
 #define ATTR_ALLOCATION "vcmfarm:allocation"
+/* Only on a pilot's film (vf_film.pilot): "1". */
+#define ATTR_PILOT "vcmfarm:pilot"
 
 /* ---- writing ---- */
 
@@ -97,6 +99,7 @@ static int set_attributes(exr_context_t ctx, const vf_film *film, int version, c
   if (rv == EXR_ERR_SUCCESS) rv = exr_attr_set_string(ctx, 0, ATTR_SCENE_NAME, film->scene_name);
   if (rv == EXR_ERR_SUCCESS) rv = exr_attr_set_string(ctx, 0, ATTR_CONVERGENCE, convergence);
   if (rv == EXR_ERR_SUCCESS && allocation != NULL) rv = exr_attr_set_string(ctx, 0, ATTR_ALLOCATION, allocation);
+  if (rv == EXR_ERR_SUCCESS && film->pilot) rv = exr_attr_set_string(ctx, 0, ATTR_PILOT, "1");
   return rv;
 }
 
@@ -116,7 +119,7 @@ int vf_film_write_version(const vf_film *film, const char *path, int version) {
   if (iterations == NULL) return VF_ENOMEM;
   if ((err = vf_iterset_format(&film->iterations, iterations, text_size)) != VF_OK) goto free_text;
   if ((err = vf_convergence_format(&film->convergence, &convergence)) != VF_OK) goto free_text;
-  if (film->samples != NULL && version < 4) {
+  if ((film->samples != NULL || film->pilot) && version < 4) {
     err = vf_error_set(VF_EINVAL, "%s: a film with an allocation of camera sub-paths is written in format 4 only", path);
     goto free_text;
   }
@@ -392,6 +395,14 @@ int vf_film_read(const char *path, vf_film **out) {
     else err = vf_allocation_decode(text, pixels, film->samples, path);
     free(text);
     if (err != VF_OK) goto fail;
+  }
+  if (find_attr(&in, ATTR_PILOT)) {
+    char *text = NULL;
+    if ((err = get_string(&in, ATTR_PILOT, &text)) != VF_OK) goto fail;
+    if (strcmp(text, "1") != 0) err = vf_error_set(VF_EFILM, "%s: attribute " ATTR_PILOT " is not \"1\"", path);
+    free(text);
+    if (err != VF_OK) goto fail;
+    film->pilot = 1;
   }
 
   store_target target = {vf_film_sums_of(film), path};

@@ -71,6 +71,7 @@ int vf_blobs_named(const vf_farm *farm, const uint8_t hash[32], const vf_job *ex
     if (j == except) continue;
     for (size_t k = 0; k < j->files.count; k++)
       if (memcmp(j->files.refs[k].hash, hash, 32) == 0) return 1;
+    if (j->film->samples != NULL && memcmp(j->allocation_hash, hash, 32) == 0) return 1;
   }
   return 0;
 }
@@ -177,6 +178,17 @@ int vf_blobs_lease(const vf_job *job, vf_farm_reply *r) {
   if (err != VF_OK) return err;
   r->scene.n_files = job->files.count;
   r->scene.files = r->file_ref_ptrs;
+  return VF_OK;
+}
+
+int vf_blobs_put_allocation(vf_farm *farm, const vf_job *job) {
+  if (job->film->samples == NULL) return VF_OK;
+  if (check_blob(farm, job->allocation_hash, NULL) == VF_OK) return VF_OK;
+  size_t pixels = (size_t)job->film->width * (size_t)job->film->height;
+  int err = vf_blob_store_put(farm->config.state_dir, job->allocation_hash, job->film->samples, pixels);
+  if (err != VF_OK)
+    return vf_error_set(err, "job %llu: storing its allocation of camera sub-paths: %s", (unsigned long long)job->id,
+                        vf_error_detail(err));
   return VF_OK;
 }
 

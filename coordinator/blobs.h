@@ -36,6 +36,12 @@ int vf_blobs_scene_text(vf_farm *farm, const Vcmfarm__BlobRef *ref, char **text,
 /* Puts the job's file table into the lease being built (r->scene.files). VF_ENOMEM. */
 int vf_blobs_lease(const vf_job *job, vf_farm_reply *r);
 
+/* A job with a pilot whose allocation is computed (job->film->samples): its counts, one byte
+ * a pixel, kept in the blob store under job->allocation_hash (written unless there and
+ * intact), which leases name (Lease.allocation) and workers fetch like a scene's file.
+ * VF_OK at once for a job without one; errors of the store (VF_EIO) naming the job. */
+int vf_blobs_put_allocation(vf_farm *farm, const vf_job *job);
+
 /* 1 when a job of the farm other than `except` (may be NULL) names the blob among its
  * scene's files. */
 int vf_blobs_named(const vf_farm *farm, const uint8_t hash[32], const vf_job *except);

@@ -339,6 +339,15 @@ int vf_checkpoint_write(vf_farm *farm, int all) {
     int err = vf_job_log(j);
     if (err != VF_OK) vf_log("job %llu: convergence entry: %s", (unsigned long long)j->id, vf_error_detail(err));
     if (j->seconds != j->seconds_saved) farm->state_dirty = 1;
+    /* A pilot film is written on the loop: a pilot is a few iterations, its checkpoints few. */
+    if (j->pilot_dirty && (err = vf_state_save_pilot(farm->config.state_dir, j)) != VF_OK) {
+      vf_log("job %llu: writing its pilot film failed: %s", (unsigned long long)j->id, vf_error_detail(err));
+      if (first == VF_OK) {
+        first = err;
+        snprintf(first_detail, sizeof first_detail, "job %llu's pilot film: %s", (unsigned long long)j->id,
+                 vf_error_detail(err));
+      }
+    }
     if (!j->film_dirty) continue; /* on disk as it is: also when stopping */
     err = save_film(farm, j, 0);
     if (err != VF_OK) {

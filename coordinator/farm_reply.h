@@ -37,6 +37,7 @@ typedef struct vf_farm_reply {
   ProtobufCBinaryData *missing;                 /* owned array; data borrowed from the request */
   uint8_t *blob_bytes;                          /* owned */
   Vcmfarm__BlobRef *file_refs, **file_ref_ptrs; /* owned; the lease's Scene.files */
+  Vcmfarm__BlobRef allocation;                  /* the lease's allocation (version 11); hash borrowed from the job */
 } vf_farm_reply;
 
 /* An empty reply (no body yet), holding nothing. */

@@ -1,5 +1,7 @@
 #include "job.h"
 
+#include "../common/allocation.h"
+#include "../common/blob.h"
 #include "../common/clock.h"
 #include "../common/error.h"
 #include "../common/metrics.h"
@@ -59,10 +61,6 @@ int vf_job_create(uint64_t id, const char *name, int priority, int scene_builtin
     return vf_error_set(VF_EINVAL, "settings: %s", vf_error_detail(err));
   if (vf_settings_format(&settings, canonical, sizeof canonical) != VF_OK || strcmp(canonical, settings_text) != 0)
     return vf_error_set(VF_EINVAL, "settings: '%s' is not in canonical form ('%s')", settings_text, canonical);
-  if (settings.pilot != 0)
-    return vf_error_set(VF_EINVAL, "settings: a pilot (pilot=%d) is an option of the local render; farm jobs do not "
-                        "run one", settings.pilot);
-
   vf_job *job = calloc(1, sizeof *job);
   if (job == NULL) return vf_error_set(VF_ENOMEM, "out of memory");
   if ((job->scene_text = malloc(scene_len + 1)) == NULL) {
@@ -75,6 +73,10 @@ int vf_job_create(uint64_t id, const char *name, int priority, int scene_builtin
   memcpy(job->film->scene_hash, scene_hash, 32);
   snprintf(job->film->settings_text, sizeof job->film->settings_text, "%s", canonical);
   if (scene_builtin) snprintf(job->film->scene_name, sizeof job->film->scene_name, "%s", job->scene_text);
+  if (settings.pilot > 0) {
+    if ((err = vf_film_clone(job->film, &job->pilot_film)) != VF_OK) goto free_film;
+    job->pilot_film->pilot = 1;
+  }
   job->id = id;
   snprintf(job->name, sizeof job->name, "%s", name);
   job->priority = priority;
@@ -88,6 +90,8 @@ int vf_job_create(uint64_t id, const char *name, int priority, int scene_builtin
   vf_events_init(&job->events, job->events_storage, VF_JOB_EVENTS);
   *out = job;
   return VF_OK;
+free_film:
+  vf_film_destroy(job->film);
 free_text:
   free(job->scene_text);
 free_job:
@@ -112,6 +116,7 @@ int vf_job_set_scene_path(vf_job *job, const char *path) {
 void vf_job_destroy(vf_job *job) {
   if (job == NULL) return;
   vf_film_destroy(job->film);
+  vf_film_destroy(job->pilot_film);
   vf_image_destroy(&job->reference);
   free(job->scene_text);
   vf_blob_table_clear(&job->files);
@@ -163,6 +168,14 @@ int vf_job_check_film(const vf_job *job, const vf_film *film) {
     return vf_error_set(VF_EMISMATCH, "film's settings '%s' differ from job %llu's '%s'", film->settings_text,
                         (unsigned long long)job->id, job->settings_text);
   const vf_iterset *set = &film->iterations;
+  if (film->pilot) {
+    if (job->settings.pilot == 0)
+      return vf_error_set(VF_EMISMATCH, "a pilot's film, but job %llu has no pilot", (unsigned long long)job->id);
+    if (set->count > 0 && set->ranges[set->count - 1].end > (uint64_t)job->settings.pilot)
+      return vf_error_set(VF_EMISMATCH, "pilot film holds iterations outside job %llu's pilot [0,%d)",
+                          (unsigned long long)job->id, job->settings.pilot);
+    return VF_OK;
+  }
   if (set->count > 0 && (set->ranges[0].begin < job->first || set->ranges[set->count - 1].end > job->first + job->iterations))
     return vf_error_set(VF_EMISMATCH, "film holds iterations outside job %llu's [%llu,%llu)", (unsigned long long)job->id,
                         (unsigned long long)job->first, (unsigned long long)(job->first + job->iterations));
@@ -183,6 +196,72 @@ int vf_job_check_result(const vf_job *job, const vf_film *film, uint64_t begin, 
 }
 
 static void merged(vf_job *job, const vf_film *film, double now);
+
+int vf_job_in_pilot(const vf_job *job) { return job->settings.pilot > 0 && job->film->samples == NULL; }
+
+uint64_t vf_job_pilot_done(const vf_job *job) {
+  if (job->settings.pilot == 0) return 0;
+  return job->film->samples != NULL || job->pilot_film == NULL ? (uint64_t)job->settings.pilot
+                                                              : vf_iterset_count(&job->pilot_film->iterations);
+}
+
+int vf_job_merge_pilot(vf_job *job, const vf_film *film) {
+  if (!vf_job_in_pilot(job) || job->pilot_film == NULL)
+    return vf_error_set(VF_EINVAL, "job %llu's pilot is done: its allocation is computed", (unsigned long long)job->id);
+  int err = vf_film_merge(job->pilot_film, film);
+  if (err == VF_OK) job->pilot_dirty = 1;
+  return err;
+}
+
+int vf_job_finish_pilot(vf_job *job) {
+  if (!vf_job_in_pilot(job) || job->pilot_film == NULL ||
+      vf_iterset_count(&job->pilot_film->iterations) < (uint64_t)job->settings.pilot)
+    return 0;
+  size_t pixels = (size_t)job->film->width * (size_t)job->film->height;
+  uint8_t *samples = malloc(pixels);
+  if (samples == NULL) return vf_error_set(VF_ENOMEM, "out of memory for job %llu's allocation", (unsigned long long)job->id);
+  /* The pilot's film is no image (film->pilot): vf_allocation_compute reads it as the local
+   * render's pilot, a film of [0, pilot) of the job's settings. */
+  int err = vf_allocation_compute(job->pilot_film, samples, NULL);
+  if (err == VF_OK) err = vf_film_set_samples(job->film, samples);
+  if (err != VF_OK) {
+    free(samples);
+    return err;
+  }
+  free(samples);
+  vf_job_allocation_loaded(job);
+  /* The job's film carries what its pilot cost, as vf_render_pilot's does. */
+  job->film->render_seconds += job->pilot_film->render_seconds;
+  job->film->cpu_seconds += job->pilot_film->cpu_seconds;
+  vf_film_destroy(job->pilot_film);
+  job->pilot_film = NULL;
+  job->pilot_dirty = 0;
+  job->film_dirty = 1;
+  job->film_generation++;
+  return 1;
+}
+
+void vf_job_allocation_loaded(vf_job *job) {
+  if (job->film->samples == NULL) return;
+  size_t pixels = (size_t)job->film->width * (size_t)job->film->height;
+  vf_blob_hash(job->film->samples, pixels, job->allocation_hash);
+  vf_allocation_report a;
+  vf_allocation_describe(job->film->samples, pixels, &a);
+  snprintf(job->allocation_summary, sizeof job->allocation_summary,
+           "%.2f camera sub-paths a pixel on average; pixels of 1, 2, 4, 8, 16: %llu, %llu, %llu, %llu, %llu", a.mean,
+           (unsigned long long)a.pixels[0], (unsigned long long)a.pixels[1], (unsigned long long)a.pixels[2],
+           (unsigned long long)a.pixels[3], (unsigned long long)a.pixels[4]);
+}
+
+int vf_job_restore_pilot(vf_job *job, vf_film *pilot) {
+  if (!pilot->pilot) return vf_error_set(VF_EMISMATCH, "not a pilot's film");
+  if (!vf_job_in_pilot(job)) return vf_error_set(VF_EMISMATCH, "job %llu is not in its pilot", (unsigned long long)job->id);
+  int err = vf_job_check_film(job, pilot);
+  if (err != VF_OK) return err;
+  vf_film_destroy(job->pilot_film);
+  job->pilot_film = pilot;
+  return VF_OK;
+}
 
 int vf_job_merge(vf_job *job, const vf_film *film, double now) {
   int err = vf_film_merge(job->film, film);

@@ -64,6 +64,17 @@ typedef struct {
   vf_events events;     /* what happened to it, over events_storage */
   vf_event events_storage[VF_JOB_EVENTS];
   vf_film *film;        /* owned; every accepted result merged */
+  /* A job with a pilot (settings.pilot > 0, common/allocation.h) runs it first: until its
+   * film has its allocation of camera sub-paths (film->samples) it is in its pilot phase
+   * (vf_job_in_pilot), its leases are of the pilot's iterations [0, pilot) and their parts
+   * merge into pilot_film, never into film. Once pilot_film holds [0, pilot), the
+   * allocation is computed from it, once (vf_job_finish_pilot): a pure function of the
+   * pilot's exact sums, so a coordinator that restarts during or after the pilot comes to
+   * the same (coordinator/state.h keeps pilot_film and, in film's file, the allocation). */
+  vf_film *pilot_film;  /* owned; NULL without a pilot and once the allocation is computed */
+  int pilot_dirty;      /* pilot_film merged into since it was last written */
+  uint8_t allocation_hash[32]; /* BLAKE2b-256 of film->samples (the blob leases name), when set */
+  char allocation_summary[160]; /* vf_allocation_describe's, for status; "" before */
   int film_dirty;       /* merged into since the last checkpoint */
   int film_unreadable;  /* its file could not be read back (coordinator/state.h): never written over */
   /* Checkpoints run off the event loop (coordinator/checkpoint.h) on a snapshot of the film:
@@ -188,12 +199,39 @@ int vf_job_complete(const vf_job *job);
 int vf_job_runnable(const vf_job *job);
 
 /* Checks that a film belongs to the job: size, scene hash, settings, and iterations
- * within [first, first + iterations). VF_EMISMATCH with a detail. */
+ * within [first, first + iterations), or for a pilot's film (film->pilot) within [0,
+ * pilot) of a job with a pilot. VF_EMISMATCH with a detail. */
 int vf_job_check_film(const vf_job *job, const vf_film *film);
 
 /* Checks a result film against the job and the range [begin, end) it claims: size, scene
  * hash, settings and an iteration set of exactly that range. VF_EMISMATCH with a detail. */
 int vf_job_check_result(const vf_job *job, const vf_film *film, uint64_t begin, uint64_t end);
+
+/* In its pilot phase: a pilot and no allocation yet (see pilot_film above). */
+int vf_job_in_pilot(const vf_job *job);
+/* Iterations of the pilot merged: those of pilot_film, or all once the allocation is set;
+ * 0 without a pilot. */
+uint64_t vf_job_pilot_done(const vf_job *job);
+
+/* Merges a checked pilot part (film->pilot) into pilot_film, pixels and all. VF_EINVAL
+ * when the job is not in its pilot phase (the pilot is done: the part is late), VF_EOVERLAP
+ * (nothing merged) if any of its iterations is already there. */
+int vf_job_merge_pilot(vf_job *job, const vf_film *film);
+
+/* When pilot_film holds all of [0, pilot): computes the allocation from it
+ * (vf_allocation_compute), gives it to the job's film with the pilot's times (as the local
+ * render's film has them), records its hash and drops pilot_film; returns 1. 0 while the
+ * pilot is not complete or the job has no pilot phase; VF_ENOMEM or the computation's error,
+ * the job unchanged. */
+int vf_job_finish_pilot(vf_job *job);
+
+/* Records the hash and summary of the allocation the job's film has (a film read back
+ * with one); nothing when it has none. */
+void vf_job_allocation_loaded(vf_job *job);
+
+/* Takes a pilot film read back from the state directory (checked: vf_job_check_film,
+ * and a pilot's) as the job's pilot_film; VF_EMISMATCH with a detail, the film not taken. */
+int vf_job_restore_pilot(vf_job *job, vf_film *pilot);
 
 /* Merges a checked result. VF_EOVERLAP (film unchanged) if any of its iterations is
  * already counted. */

@@ -270,6 +270,9 @@ void vf_jobs_status(vf_farm *farm, const Vcmfarm__StatusRequest *m, double now, 
     s->paused = j->paused != 0;
     s->nonfinite_samples = j->film->nonfinite_samples;
     s->biased_merges = j->film->biased_merges;
+    s->pilot = (uint32_t)j->settings.pilot;
+    s->pilot_done = vf_job_pilot_done(j);
+    s->allocation = j->allocation_summary;
     s->n_events = attach_events(r, &next_event, &j->events, &s->events);
     s->events_dropped = j->events.dropped;
     for (size_t w = 0; w < farm->num_workers; w++) {
@@ -466,4 +469,26 @@ void vf_jobs_finish(vf_farm *farm, vf_job *job, double now) {
                   vf_job_done(job) == 1 ? "" : "s", job->end == VF_JOB_STOPPED ? job->message : "all its iterations");
   vf_leases_end_job(farm, job->id, now);
   vf_checkpoint_final(farm, job);
+}
+
+void vf_jobs_pilot_merged(vf_farm *farm, vf_job *job, double now) {
+  unsigned long long jid = (unsigned long long)job->id;
+  int err = vf_job_finish_pilot(job);
+  if (err == 0) return;
+  if (err == 1) err = vf_blobs_put_allocation(farm, job);
+  if (err != VF_OK) {
+    char why[256];
+    snprintf(why, sizeof why, "its allocation of camera sub-paths: %s", vf_error_detail(err));
+    vf_log("job %llu failed: %s", jid, why);
+    vf_job_finish(job, VF_STOP_FAILED, vf_unix_now(), why);
+    vf_events_add(&job->events, job->ended_at, "job_failed", job->id, "", "%s", job->message);
+    vf_leases_end_job(farm, job->id, now);
+    farm->state_dirty = 1;
+    return;
+  }
+  vf_leases_end_pilot(farm, job->id, now);
+  vf_log("job %llu: pilot of %d iterations done; %s", jid, job->settings.pilot, job->allocation_summary);
+  vf_events_add(&job->events, vf_unix_now(), "pilot_done", job->id, "", "pilot of %d iterations done; %s",
+                job->settings.pilot, job->allocation_summary);
+  farm->state_dirty = 1;
 }

@@ -21,6 +21,7 @@ typedef struct {
   uint64_t job_id, worker_id;
   uint64_t begin, end; /* what is not merged yet: begin moves up as parts are merged */
   uint64_t first;      /* begin when granted */
+  int pilot;           /* of the job's pilot iterations (coordinator/job.h): its parts are pilot parts */
   uint64_t reported;   /* iterations from first rendered, as the worker's last heartbeat said */
   vf_lease_state state;
   double granted;     /* vf_seconds_now() */

@@ -59,6 +59,29 @@ void vf_leases_revoke(vf_farm *farm, uint64_t job_id, uint64_t begin, uint64_t e
   end_active(farm, job_id, begin, end, except, "a late result covered it", now);
 }
 
+void vf_leases_end_pilot(vf_farm *farm, uint64_t job_id, double now) {
+  /* Granted before the allocation existed, every active lease of the job is a pilot's. */
+  end_active(farm, job_id, 0, UINT64_MAX, 0, "the job's pilot is complete", now);
+}
+
+/* What a lease of the job is cut from now: in its pilot phase the pilot's iterations [0,
+ * pilot) less those its pilot film holds, else its own (coordinator/job.h). */
+typedef struct {
+  const vf_iterset *done;
+  uint64_t first, total;
+  int pilot;
+} phase;
+
+static int phase_of(const vf_job *j, phase *p) {
+  if (vf_job_in_pilot(j)) {
+    if (j->pilot_film == NULL) return 0;
+    *p = (phase){&j->pilot_film->iterations, 0, (uint64_t)j->settings.pilot, 1};
+  } else {
+    *p = (phase){&j->film->iterations, j->first, j->iterations, 0};
+  }
+  return 1;
+}
+
 typedef struct {
   vf_farm *farm;
   const vf_farm_worker *worker;
@@ -73,16 +96,18 @@ static int has_free_range(void *ctx, const vf_job *j) {
   pick_ctx *p = ctx;
   vf_farm *farm = p->farm;
   uint64_t b, e, free_count;
-  if (!vf_job_runnable(j) || j->paused || vf_deadline_reached(j) ||
-      vf_lease_free_range(&farm->leases, j->id, &j->film->iterations, j->first, j->iterations, 1, &b, &e,
-                          &free_count) != 1)
+  phase ph = {0};
+  if (!vf_job_runnable(j) || j->paused || vf_deadline_reached(j) || !phase_of(j, &ph) ||
+      vf_lease_free_range(&farm->leases, j->id, ph.done, ph.first, ph.total, 1, &b, &e, &free_count) != 1)
     return 0;
   if (!vf_tags_satisfied(&j->requires, &p->worker->tags, p->worker->memory_bytes, NULL)) return -1;
   return vf_poison_blocked(farm, p->worker->name, j->id, p->now) ? -1 : 1;
 }
 
-/* The lease's body: the job's scene (and its file table), hash, settings and range. */
-static void fill_lease(const vf_farm *farm, vf_job *job, uint64_t lease_id, uint64_t b, uint64_t e, vf_farm_reply *r) {
+/* The lease's body: the job's scene (and its file table), hash, settings and range; for a
+ * job with a pilot, whether it is a pilot lease, or the allocation it renders with. */
+static void fill_lease(const vf_farm *farm, vf_job *job, uint64_t lease_id, uint64_t b, uint64_t e, int pilot,
+                       vf_farm_reply *r) {
   vcmfarm__lease__init(&r->lease);
   vcmfarm__scene__init(&r->scene);
   if (job->scene_builtin) {
@@ -104,6 +129,15 @@ static void fill_lease(const vf_farm *farm, vf_job *job, uint64_t lease_id, uint
   r->lease.end = e;
   r->lease.ship_interval_ms = vf_ship_interval_ms(farm);
   r->lease.deadline_ms = vf_deadline_lease_ms(job);
+  r->lease.pilot = pilot;
+  if (!pilot && job->film->samples != NULL) {
+    vcmfarm__blob_ref__init(&r->allocation);
+    r->allocation.name = "allocation";
+    r->allocation.hash.data = job->allocation_hash;
+    r->allocation.hash.len = 32;
+    r->allocation.size = (uint64_t)job->film->width * (uint64_t)job->film->height;
+    r->lease.allocation = &r->allocation;
+  }
   r->env.body_case = VCMFARM__ENVELOPE__BODY_LEASE;
   r->env.lease = &r->lease;
 }
@@ -135,17 +169,20 @@ void vf_leases_grant(vf_farm *farm, vf_farm_worker *w, double now, vf_farm_reply
   double rate = w->rate > 0.0 ? w->rate : job->rate;
   vf_ship_workers_changed(farm); /* the interval for this many workers, before the lease says it */
   uint64_t b, e, free_count;
-  const vf_iterset *done = &job->film->iterations;
-  vf_lease_free_range(&farm->leases, job->id, done, job->first, job->iterations, UINT64_MAX, &b, &e, &free_count);
+  phase ph = {0};
+  if (!phase_of(job, &ph)) /* has_free_range found one: cannot happen */
+    return vf_farm_reply_fail(r, vf_error_set(VF_EINVAL, "job %llu has no pilot film", (unsigned long long)job->id));
+  vf_lease_free_range(&farm->leases, job->id, ph.done, ph.first, ph.total, UINT64_MAX, &b, &e, &free_count);
   /* Rate unknown: a fair share of the range, for the lease's time (the worker stops then:
    * Lease.seconds_ms), so that a thousand workers starting a job neither wait nor all ship
    * one iteration at once. */
   uint64_t size = rate > 0.0 ? vf_lease_size(rate, vf_ship_lease_seconds(farm), free_count, farm->num_workers)
                              : vf_lease_size(VF_LEASE_UNKNOWN_RATE, 1.0, free_count, farm->num_workers);
-  if (vf_lease_free_range(&farm->leases, job->id, done, job->first, job->iterations, size, &b, &e, &free_count) != 1 ||
+  if (vf_lease_free_range(&farm->leases, job->id, ph.done, ph.first, ph.total, size, &b, &e, &free_count) != 1 ||
       vf_lease_add(&farm->leases, job->id, w->id, b, e, now, &w->lease_id) != VF_OK)
     return vf_farm_reply_fail(r, vf_error_set(VF_ENOMEM, "out of memory for leases"));
   vf_lease *granted = vf_lease_find(&farm->leases, w->lease_id);
+  granted->pilot = ph.pilot;
   granted->charged = vf_schedule_estimate(e - b, w->rate, job->rate, vf_ship_lease_seconds(farm));
   vf_schedule_charge(job, granted->charged);
   w->leases++;
@@ -153,9 +190,9 @@ void vf_leases_grant(vf_farm *farm, vf_farm_worker *w, double now, vf_farm_reply
     job->started_at = vf_unix_now();
     farm->state_dirty = 1;
   }
-  vf_log("lease %016llx: job %llu iterations [%llu,%llu) to worker %s", (unsigned long long)w->lease_id,
-         (unsigned long long)job->id, (unsigned long long)b, (unsigned long long)e, w->name);
-  fill_lease(farm, job, w->lease_id, b, e, r);
+  vf_log("lease %016llx: job %llu %siterations [%llu,%llu) to worker %s", (unsigned long long)w->lease_id,
+         (unsigned long long)job->id, ph.pilot ? "pilot " : "", (unsigned long long)b, (unsigned long long)e, w->name);
+  fill_lease(farm, job, w->lease_id, b, e, ph.pilot, r);
   if (rate <= 0.0) r->lease.seconds_ms = (uint32_t)(1000.0 * vf_ship_lease_seconds(farm));
 }
 

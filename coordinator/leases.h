@@ -41,4 +41,9 @@ void vf_leases_end_job(vf_farm *farm, uint64_t job_id, double now);
  * overlap [begin, end): a late result covered them. Each is logged. */
 void vf_leases_revoke(vf_farm *farm, uint64_t job_id, uint64_t begin, uint64_t end, uint64_t except, double now);
 
+/* Revokes, as vf_leases_revoke, the job's pilot leases still active when its pilot
+ * completed (their iterations are merged, by another's late result): its own leases start
+ * from nothing. Each is logged. */
+void vf_leases_end_pilot(vf_farm *farm, uint64_t job_id, double now);
+
 #endif

@@ -1,5 +1,6 @@
 #include "partial.h"
 
+#include "../common/blob.h"
 #include "../common/error.h"
 #include "../common/film_wire.h"
 
@@ -16,6 +17,9 @@ struct vf_partial {
   /* the header every message of the part repeats */
   double render_seconds, cpu_seconds;
   uint64_t nonfinite, biased_merges;
+  int pilot;       /* a pilot part (LeaseResult.pilot) */
+  uint8_t allocation[32]; /* LeaseResult.allocation, allocation_len bytes of it (0 or 32) */
+  size_t allocation_len;
   double updated;  /* vf_seconds_now() of its last message */
   /* The loop's, never the merge thread's (coordinator/results.c): */
   unsigned refs;      /* the lease's and each message on the merge thread */
@@ -36,6 +40,27 @@ static int check_header(const vf_job *job, const Vcmfarm__LeaseResult *m) {
   if (strcmp(m->settings, job->settings_text) != 0)
     return vf_error_set(VF_EMISMATCH, "settings '%.200s' differ from job %llu's '%s'", m->settings,
                         (unsigned long long)job->id, job->settings_text);
+  /* A pilot part and a part of the image never pass for each other, and a part of the image
+   * is of the job's allocation of camera sub-paths (docs/PROTOCOL.md, "Pilots"). */
+  if (m->pilot && job->settings.pilot == 0)
+    return vf_error_set(VF_EMISMATCH, "a pilot part, but job %llu has no pilot", (unsigned long long)job->id);
+  if (m->pilot && m->allocation.len != 0)
+    return vf_error_set(VF_EMISMATCH, "a pilot part names an allocation of camera sub-paths: a pilot has none");
+  if (!m->pilot && job->settings.pilot == 0 && m->allocation.len != 0)
+    return vf_error_set(VF_EMISMATCH, "the part names an allocation of camera sub-paths, but job %llu has no pilot",
+                        (unsigned long long)job->id);
+  if (!m->pilot && job->settings.pilot > 0) {
+    if (f->samples == NULL)
+      return vf_error_set(VF_EMISMATCH, "a part of job %llu's image before its pilot decided the allocation",
+                          (unsigned long long)job->id);
+    if (m->allocation.len != 32 || memcmp(m->allocation.data, job->allocation_hash, 32) != 0) {
+      char theirs[65] = "none", ours[65];
+      if (m->allocation.len == 32) vf_blob_hex(m->allocation.data, theirs);
+      vf_blob_hex(job->allocation_hash, ours);
+      return vf_error_set(VF_EMISMATCH, "the part was rendered with allocation %.16s, job %llu's is %.16s: its "
+                          "camera sub-paths per pixel differ", theirs, (unsigned long long)job->id, ours);
+    }
+  }
   uint32_t total = vf_film_tile_count(f->width, f->height);
   if (m->tiles_total != total)
     return vf_error_set(VF_EINVAL, "tiles_total %u, a %dx%d film has %u tiles", m->tiles_total, f->width, f->height,
@@ -75,6 +100,11 @@ int vf_partial_create(const vf_job *job, const Vcmfarm__LeaseResult *m, vf_parti
   }
   if ((err = vf_film_create(job->film->width, job->film->height, &p->film)) != VF_OK) goto free_seen;
   if ((err = vf_iterset_add(&p->film->iterations, m->begin, m->end)) != VF_OK) goto free_film;
+  p->film->pilot = p->pilot = m->pilot != 0;
+  p->allocation_len = m->allocation.len; /* 0 or 32: check_header */
+  if (p->allocation_len) memcpy(p->allocation, m->allocation.data, 32);
+  if (!p->pilot && job->film->samples != NULL && (err = vf_film_set_samples(p->film, job->film->samples)) != VF_OK)
+    goto free_film;
   memcpy(p->film->scene_hash, job->scene_hash, 32);
   snprintf(p->film->settings_text, sizeof p->film->settings_text, "%s", job->settings_text);
   /* What `continue` loads: the built-in name, or the JSON scene's path on the submitting
@@ -127,7 +157,8 @@ void vf_partial_fail(vf_partial *p, const char *why) {
 const char *vf_partial_failure(const vf_partial *p) { return p->failure[0] ? p->failure : NULL; }
 
 int vf_partial_same(const vf_partial *p, const Vcmfarm__LeaseResult *m) {
-  return m->begin == p->begin && m->end == p->end && m->tiles_total == p->total &&
+  return m->begin == p->begin && m->end == p->end && m->tiles_total == p->total && (m->pilot != 0) == p->pilot &&
+         m->allocation.len == p->allocation_len && (p->allocation_len == 0 || memcmp(m->allocation.data, p->allocation, 32) == 0) &&
          m->render_seconds == p->render_seconds && m->cpu_seconds == p->cpu_seconds &&
          m->nonfinite_samples == p->nonfinite && m->biased_merges == p->biased_merges &&
          m->width == (uint32_t)p->width && m->height == (uint32_t)p->height &&

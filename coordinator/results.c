@@ -82,7 +82,7 @@ static void merged(vf_farm *farm, vf_job *job, vf_lease *l, const vf_film *film,
     w->iterations_merged += m->end - m->begin;
     w->parts_merged++;
   }
-  if (w && film->render_seconds > 0.0) {
+  if (w && film->render_seconds > 0.0 && !film->pilot) { /* a pilot's iteration costs less */
     double rate = (double)(m->end - m->begin) / film->render_seconds;
     w->rate = w->rate > 0.0 ? 0.5 * w->rate + 0.5 * rate : rate;
   }
@@ -94,8 +94,12 @@ static void merged(vf_farm *farm, vf_job *job, vf_lease *l, const vf_film *film,
            (unsigned long long)l->end);
   /* A late result may cover iterations reassigned since: those leases are moot now. */
   vf_leases_revoke(farm, m->job_id, m->begin, m->end, m->lease_id, now);
-  vf_log("merged job %llu [%llu,%llu)%s: %llu/%llu iterations", (unsigned long long)job->id, b, e,
-         late ? " (late result)" : "", (unsigned long long)vf_job_done(job), (unsigned long long)job->iterations);
+  if (film->pilot)
+    vf_log("merged job %llu pilot [%llu,%llu)%s: %llu/%d pilot iterations", (unsigned long long)job->id, b, e,
+           late ? " (late result)" : "", (unsigned long long)vf_job_pilot_done(job), job->settings.pilot);
+  else
+    vf_log("merged job %llu [%llu,%llu)%s: %llu/%llu iterations", (unsigned long long)job->id, b, e,
+           late ? " (late result)" : "", (unsigned long long)vf_job_done(job), (unsigned long long)job->iterations);
 }
 
 /* The checks every message of a result passes on the loop before its tiles are looked at:
@@ -138,6 +142,15 @@ static vf_lease *admit(vf_farm *farm, const Vcmfarm__LeaseResult *m, vf_farm_rep
            VF_WIRE_MAX_RESULT);
     return NULL;
   }
+  /* A pilot part chose the allocation; it is never a sample of the image, nor the other
+   * way round (docs/PROTOCOL.md, "Pilots"). */
+  if ((m->pilot != 0) != l->pilot) {
+    refuse(w, job, r, l->pilot ? "lease %016llx is of job %llu's pilot, the result claims to be a part of its image: "
+                                 "a pilot's iterations are never merged into the image; nothing merged"
+                               : "lease %016llx is of job %llu's image, the result claims to be a pilot part: "
+                                 "nothing merged", lid, jid);
+    return NULL;
+  }
   /* Sent again because the acknowledgement of its last tiles was lost: nothing to do. */
   if (m->begin >= l->first && m->begin < m->end && m->end <= l->begin) {
     vf_farm_reply_ack(r, 1, "already merged");
@@ -173,8 +186,33 @@ void vf_results_receive(vf_farm *farm, const Vcmfarm__LeaseResult *m, double now
   merge_part(farm, job, l, film, m, now, 0, r);
 }
 
+/* A whole pilot part: merged into the job's pilot film on the loop, pixels and all (a
+ * pilot is a few iterations of one camera sub-path a pixel), and once the pilot is
+ * complete the allocation follows (vf_jobs_pilot_merged). */
+static void merge_pilot_part(vf_farm *farm, vf_job *job, vf_lease *l, vf_film *film, const Vcmfarm__LeaseResult *m,
+                             double now, vf_farm_reply *r) {
+  unsigned long long lid = (unsigned long long)m->lease_id, jid = (unsigned long long)m->job_id;
+  unsigned long long b = (unsigned long long)m->begin, e = (unsigned long long)m->end;
+  vf_farm_worker *w = vf_workers_find_any(farm, m->worker_id);
+  int err = vf_job_check_result(job, film, m->begin, m->end);
+  if (err == VF_OK) err = vf_job_merge_pilot(job, film);
+  if (err != VF_OK) {
+    vf_film_destroy(film);
+    if (err == VF_EOVERLAP)
+      return refuse(w, job, r, "job %llu pilot [%llu,%llu): %s lease %016llx: some of these iterations are already "
+                    "counted, nothing merged", jid, b, e,
+                    l->state == VF_LEASE_EXPIRED ? "late result of expired" : "duplicate result of", lid);
+    return refuse(w, job, r, "job %llu pilot [%llu,%llu): %s", jid, b, e, vf_error_detail(err));
+  }
+  merged(farm, job, l, film, m, now);
+  vf_film_destroy(film);
+  vf_jobs_pilot_merged(farm, job, now);
+  vf_farm_reply_ack(r, 1, "merged");
+}
+
 static void merge_part(vf_farm *farm, vf_job *job, vf_lease *l, vf_film *film, const Vcmfarm__LeaseResult *m,
                        double now, int deferred, vf_farm_reply *r) {
+  if (film->pilot) return merge_pilot_part(farm, job, l, film, m, now, r);
   unsigned long long lid = (unsigned long long)m->lease_id, jid = (unsigned long long)m->job_id;
   unsigned long long b = (unsigned long long)m->begin, e = (unsigned long long)m->end;
   vf_farm_worker *w = vf_workers_find_any(farm, m->worker_id);

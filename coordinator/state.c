@@ -6,6 +6,8 @@
 #include "../common/file.h"
 #include "../common/image.h"
 #include "../common/parse.h"
+#include "blobs.h"
+#include "jobs.h"
 #include "log.h"
 #include "poison.h"
 
@@ -81,6 +83,47 @@ int vf_state_save_film(const char *dir, vf_job *job) {
   return err;
 }
 
+int vf_state_save_pilot(const char *dir, vf_job *job) {
+  char path[4096];
+  int err = path_of(path, sizeof path, dir, "job-", job->id, ".pilot.exr");
+  if (err != VF_OK || job->pilot_film == NULL || job->film_unreadable) return err;
+  if ((err = vf_film_write(job->pilot_film, path)) == VF_OK) job->pilot_dirty = 0;
+  return err;
+}
+
+/* A job with a pilot resumes where it was: with the allocation its film has, or else from
+ * its pilot film as written (absent: none merged; unreadable: the pilot starts again, which
+ * renders the same iterations and so computes the same allocation), and computes the
+ * allocation at once if that film is complete. */
+static void load_pilot(vf_farm *farm, vf_job *job) {
+  const char *dir = farm->config.state_dir;
+  unsigned long long jid = (unsigned long long)job->id;
+  char path[4096];
+  if (job->settings.pilot == 0 || job->film_unreadable ||
+      path_of(path, sizeof path, dir, "job-", job->id, ".pilot.exr") != VF_OK)
+    return;
+  if (job->film->samples != NULL) {
+    vf_job_allocation_loaded(job);
+    vf_film_destroy(job->pilot_film);
+    job->pilot_film = NULL;
+    unlink(path);
+    int err = vf_blobs_put_allocation(farm, job);
+    if (err != VF_OK) vf_log("job %llu: %s", jid, vf_error_detail(err)); /* its workers report it as failed leases */
+    return;
+  }
+  vf_film *pilot = NULL;
+  int err = vf_film_read(path, &pilot);
+  if (err == VF_ENOENT) return;
+  if (err == VF_OK && (err = vf_job_restore_pilot(job, pilot)) != VF_OK) vf_film_destroy(pilot);
+  if (err != VF_OK) {
+    vf_log("job %llu: its pilot film %s is not used, the pilot starts again: %s", jid, path, vf_error_detail(err));
+    return;
+  }
+  vf_log("job %llu: pilot resumed with %llu/%d iterations", jid,
+         (unsigned long long)vf_iterset_count(&job->pilot_film->iterations), job->settings.pilot);
+  vf_jobs_pilot_merged(farm, job, vf_seconds_now());
+}
+
 int vf_state_save_reference(const char *dir, vf_job *job, const uint8_t hash[32]) {
   char path[4096], blob[4200];
   int err = path_of(path, sizeof path, dir, "job-", job->id, ".reference.exr");
@@ -99,7 +142,7 @@ int vf_state_save_reference(const char *dir, vf_job *job, const uint8_t hash[32]
 }
 
 void vf_state_remove_job_files(const char *dir, uint64_t id) {
-  const char *ext[] = {".scene", ".files", ".exr", ".reference.exr"};
+  const char *ext[] = {".scene", ".files", ".exr", ".reference.exr", ".pilot.exr"};
   char path[4096];
   for (size_t i = 0; i < sizeof ext / sizeof *ext; i++)
     if (path_of(path, sizeof path, dir, "job-", id, ext[i]) == VF_OK) unlink(path);
@@ -466,6 +509,7 @@ static int load_job(vf_farm *farm, const cJSON *o, const char *state_path, uint6
   vf_job_restore_measure(job);
   if ((err = vf_farm_add_job(farm, job)) != VF_OK) goto destroy_job;
   restore_blocks(farm, id, o);
+  load_pilot(farm, job);
   vf_log("resumed job %llu '%s': %llu/%llu iterations done%s%s", (unsigned long long)id, job->name,
          (unsigned long long)vf_job_done(job), (unsigned long long)iterations, job->end != VF_JOB_ACTIVE ? ", " : "",
          job->end != VF_JOB_ACTIVE ? end_name(job->end) : "");

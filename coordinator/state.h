@@ -10,6 +10,10 @@
  *                      when received (coordinator/blobs.h, common/blob.h)
  *   DIR/job-ID.exr     the job's film, checkpointed (docs/FILM.md), with its convergence log
  *   DIR/job-ID.reference.exr  the job's reference image, if it has one, written at submit
+ *   DIR/job-ID.pilot.exr  a job with a pilot, during its pilot: the pilot film (a film
+ *                      marked a pilot's, docs/FILM.md), checkpointed as the job's film is;
+ *                      once the job's film holds the allocation (which is also kept as a
+ *                      blob, coordinator/blobs.h) it is removed at the next start
  *   DIR/lock           held (flock) by the running coordinator
  *
  * Every file is replaced atomically (temporary, fsync, rename), so a SIGKILL at any moment
@@ -51,6 +55,11 @@ int vf_state_save_scene(const char *dir, const vf_job *job); /* job-ID.files, th
 /* Writes the job's film on the calling thread; clears job->film_dirty, final_pending and
  * checkpoint_error. Nothing for a film that could not be read back (job->film_unreadable). */
 int vf_state_save_film(const char *dir, vf_job *job);
+/* Writes the pilot film of a job in its pilot phase (job->pilot_film, coordinator/job.h) to
+ * DIR/job-ID.pilot.exr on the calling thread and clears job->pilot_dirty; nothing for a job
+ * without one. Read back at start (a job whose film has its allocation needs it no more:
+ * the file is removed then). */
+int vf_state_save_pilot(const char *dir, vf_job *job);
 /* DIR/job-ID.exr into buf (n bytes); VF_EINVAL when it does not fit. */
 int vf_state_film_path(const char *dir, uint64_t id, char *buf, size_t n);
 /* Makes DIR/job-ID.reference.exr the blob of hash (a hard link: no copy, and it outlives

@@ -1,5 +1,6 @@
 #include "worker.h"
 
+#include "../common/allocation.h"
 #include "../common/error.h"
 #include "../common/farm_client.h"
 #include "../common/film_wire.h"
@@ -48,6 +49,11 @@ typedef struct {
   char job_settings[512];
   vf_scene *scene;
   vf_renderer *renderer;
+  /* the allocation of camera sub-paths of the last lease that had one (Lease.allocation),
+   * kept for the job's next lease: owned, width x height counts; NULL none */
+  uint8_t *allocation;
+  uint8_t allocation_hash[32];
+  size_t allocation_pixels;
   double ship_interval;
   /* the lease being rendered */
   const Vcmfarm__Lease *lease;
@@ -278,6 +284,13 @@ static int ship(worker *w, const vf_film *film) {
   m.lease_id = w->lease->lease_id;
   m.job_id = w->lease->job_id;
   m.begin = w->shipped;
+  /* A pilot part is marked so, and a part of the image names its allocation: neither can
+   * be merged as the other (docs/PROTOCOL.md, "Pilots"). */
+  m.pilot = w->lease->pilot;
+  if (!w->lease->pilot && w->lease->allocation != NULL) {
+    m.allocation.data = w->allocation_hash;
+    m.allocation.len = 32;
+  }
   w->part_merged = 0;
   int rc = vf_film_send_tiles_pending(film, w->accum, &m, VF_FILM_TILES_PER_MESSAGE, send_tiles_cb, w);
   /* Every tile taken, yet not merged: the coordinator lost tiles of it (it dropped the
@@ -336,6 +349,39 @@ static int ship_part(void *ctx, vf_film *film, const vf_render_status *st) {
   return VF_OK;
 }
 
+/* The lease's allocation of camera sub-paths (a job with a pilot, Lease.allocation) into
+ * w->allocation: kept from the last lease when its hash is the same, else fetched into the
+ * cache like a scene's file (checked against its hash there) and checked as counts of the
+ * film's pixels. Errors of vf_blob_cache_fill, or VF_EMISMATCH naming what is wrong. */
+static int load_allocation(worker *w, const Vcmfarm__Lease *l, size_t pixels) {
+  const Vcmfarm__BlobRef *ref = l->allocation;
+  if (ref == NULL || ref->hash.len != 32 || ref->size != pixels)
+    return vf_error_set(VF_EMISMATCH, "job %llu: the lease's allocation of camera sub-paths is missing or not one "
+                        "count per pixel", (unsigned long long)l->job_id);
+  if (w->allocation != NULL && w->allocation_pixels == pixels && memcmp(w->allocation_hash, ref->hash.data, 32) == 0)
+    return VF_OK;
+  vf_blob_table table = {0};
+  int err = vf_blob_table_add(&table, "allocation", ref->hash.data, ref->size);
+  if (err == VF_OK) err = vf_blob_cache_fill(w->client, w->worker_id, w->cache_dir, &table, w->quiet, NULL);
+  vf_blob_table_clear(&table);
+  uint8_t *counts = NULL;
+  size_t n = 0;
+  if (err == VF_OK) err = vf_blob_store_get(w->cache_dir, ref->hash.data, &counts, &n);
+  if (err == VF_OK && n != pixels)
+    err = vf_error_set(VF_EMISMATCH, "job %llu: an allocation of %zu counts for %zu pixels", (unsigned long long)l->job_id,
+                       n, pixels);
+  if (err == VF_OK) err = vf_allocation_validate(counts, pixels, "the lease's allocation");
+  if (err != VF_OK) {
+    free(counts);
+    return err;
+  }
+  free(w->allocation);
+  w->allocation = counts;
+  w->allocation_pixels = pixels;
+  memcpy(w->allocation_hash, ref->hash.data, 32);
+  return VF_OK;
+}
+
 static void run_lease(worker *w, const Vcmfarm__Lease *l) {
   /* On our clock from now: the lease left the coordinator moments ago. */
   w->deadline = l->deadline_ms > 0 ? vf_seconds_now() + l->deadline_ms / 1000.0 : 0.0;
@@ -348,6 +394,8 @@ static void run_lease(worker *w, const Vcmfarm__Lease *l) {
   else if (l->begin >= l->end || l->end - l->begin > 1000000000ull) bad = "empty or huge iteration range";
   else if (vf_settings_parse(&settings, l->settings) != VF_OK || vf_settings_validate(&settings) != VF_OK)
     bad = "invalid settings";
+  else if (l->pilot && (settings.pilot == 0 || l->end > (uint64_t)settings.pilot))
+    bad = "a pilot lease beyond the job's pilot";
   if (bad) return release_lease(w, l->lease_id, bad);
   int err = prepare(w, l, &settings);
   /* A scene file that could not be fetched in time, or kept in the cache, is no fault of
@@ -359,9 +407,20 @@ static void run_lease(worker *w, const Vcmfarm__Lease *l) {
     return;
   }
   if (err != VF_OK) return release_lease(w, l->lease_id, vf_error_detail(err));
+  size_t pixels = (size_t)settings.width * (size_t)settings.height;
+  if (settings.pilot > 0 && !l->pilot && (err = load_allocation(w, l, pixels)) != VF_OK) {
+    log_line("%s", vf_error_detail(err));
+    if (err == VF_ETIMEDOUT || err == VF_ENET || err == VF_EIO) {
+      release_lease(w, l->lease_id, "");
+      back_off(w);
+      return;
+    }
+    return release_lease(w, l->lease_id, vf_error_detail(err));
+  }
   vf_film *film = NULL;
   if ((err = vf_film_create(settings.width, settings.height, &film)) != VF_OK ||
       (err = vf_renderer_stamp(w->renderer, film)) != VF_OK ||
+      (settings.pilot > 0 && !l->pilot && (err = vf_film_set_samples(film, w->allocation)) != VF_OK) ||
       (err = vf_film_accum_create(settings.width, settings.height, &w->accum)) != VF_OK) {
     vf_film_destroy(film);
     return release_lease(w, l->lease_id, vf_error_detail(err));
@@ -376,7 +435,8 @@ static void run_lease(worker *w, const Vcmfarm__Lease *l) {
                                .deliver = ship_part, .accum = w->accum};
   vf_render_status st;
   memset(&st, 0, sizeof st);
-  err = vf_render_range(w->renderer, film, l->begin, l->end, &control, &st);
+  err = l->pilot ? vf_render_pilot_range(w->renderer, film, l->begin, l->end, &control, &st)
+                 : vf_render_range(w->renderer, film, l->begin, l->end, &control, &st);
   int revoked = vf_heartbeat_revoked(w->heartbeat);
   uint64_t rendered = l->begin + st.iterations_done;
   note(w, "lease %016llx: rendered %llu iteration%s of job %llu [%llu,%llu)%s", (unsigned long long)l->lease_id,
@@ -492,6 +552,7 @@ int vf_worker_run(const vf_worker_config *config, volatile sig_atomic_t *stop) {
   }
   vf_farm_client_close(w->client);
   vf_renderer_destroy(w->renderer);
+  free(w->allocation);
   vf_scene_destroy(w->scene);
   free(w);
   return err;

@@ -116,6 +116,8 @@ int vf_render_pilot_range(vf_renderer *r, vf_film *pilot, uint64_t begin, uint64
   if (end > (uint64_t)r->settings.pilot)
     return vf_error_set(VF_EINVAL, "iterations up to %llu are not all the pilot's [0, %d)", (unsigned long long)end,
                         r->settings.pilot);
+  if (pilot->samples != NULL) return vf_error_set(VF_EINVAL, "a pilot renders into a film without an allocation");
+  pilot->pilot = 1; /* never an image of the job (common/film.h) */
   vf_vcm_set_pilot_phase(r->vcm, 1);
   int err = vf_render_range(r, pilot, begin, end, control, status);
   vf_vcm_set_pilot_phase(r->vcm, 0);
@@ -168,6 +170,8 @@ int vf_render_range(vf_renderer *r, vf_film *film, uint64_t begin, uint64_t end,
   vf_render_status st;
   memset(&st, 0, sizeof st);
   st.iterations_total = end - begin;
+  if (film->pilot && !vf_vcm_pilot_phase(r->vcm))
+    return vf_error_set(VF_EINVAL, "a pilot's film takes only the pilot's iterations (vf_render_pilot_range)");
   if (r->settings.pilot > 0 && !vf_vcm_pilot_phase(r->vcm)) {
     if (film->samples == NULL)
       return vf_error_set(VF_EINVAL, "the film has no allocation of camera sub-paths: its pilot has not run "

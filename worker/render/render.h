@@ -69,7 +69,8 @@ typedef struct {
  * at once without a pilot or with an allocation; VF_EINVAL, film unchanged, if interrupted.
  * vf_render_range refuses a film of a job with a pilot that has no allocation. */
 int vf_render_pilot(vf_renderer *r, vf_film *film, const vf_render_control *control, vf_render_status *status);
-/* Iterations [begin, end) of the pilot render (end <= pilot), into a film of the pilot's:
+/* Iterations [begin, end) of the pilot render (end <= pilot), into a film of the pilot's
+ * (no allocation; marked a pilot's, vf_film.pilot, so that it never merges into an image):
  * vf_render_range with the pilot's numbers and one camera sub-path a pixel. Parts of it
  * merge like any films' into the film of [0, pilot) that vf_allocation_compute reads. */
 int vf_render_pilot_range(vf_renderer *r, vf_film *pilot, uint64_t begin, uint64_t end, const vf_render_control *control,
