@@ -8,8 +8,9 @@
  * radiance over all pixels and channels is at most 1e-5 times the reference's image mean,
  * and their counts (non-finite samples, biased merges), which every iteration adds to
  * exactly, are equal; with --exact, only when they are moreover the same film bit for
- * bit: the same scene hash and settings, and every sum and sum of squares the same
- * value in every bit. Prints what it found either way. */
+ * bit: the same scene hash and settings, the same allocation of camera sub-paths (a pilot's,
+ * or none on either), and every sum and sum of squares the same value in every bit. Prints
+ * what it found either way. */
 #include "common/film.h"
 #include "common/error.h"
 
@@ -78,9 +79,14 @@ int main(int argc, char **argv) {
     size_t differing = bits_differing(farm, ref);
     int same_texts = memcmp(farm->scene_hash, ref->scene_hash, sizeof farm->scene_hash) == 0 &&
                      strcmp(farm->settings_text, ref->settings_text) == 0;
-    printf("exact: %zu of %zu sums differ in some bit; scene hash and settings %s\n", differing, n,
-           same_texts ? "equal" : "DIFFER");
-    close = close && differing == 0 && same_texts;
+    size_t pixels = (size_t)farm->width * (size_t)farm->height;
+    int same_allocation = (farm->samples == NULL) == (ref->samples == NULL) &&
+                          (farm->samples == NULL || memcmp(farm->samples, ref->samples, pixels) == 0);
+    printf("exact: %zu of %zu sums differ in some bit; scene hash and settings %s; allocation %s\n", differing, n,
+           same_texts ? "equal" : "DIFFER", farm->samples == NULL && ref->samples == NULL ? "none on either"
+                                            : same_allocation                            ? "equal"
+                                                                                         : "DIFFERS");
+    close = close && differing == 0 && same_texts && same_allocation;
   }
   printf("farm %s, reference %s: max |difference| %.3g, image mean %.6g, limit %.3g: %s\n", farm_set, ref_set,
          max_diff, mean, 1e-5 * mean, close && ok ? "equal" : "DIFFERENT");

@@ -1,0 +1,327 @@
+/* Farm jobs with a pilot (coordinator/job.h, leases.c, results.c, partial.c), in process: a
+ * job of a 128x64 film with a pilot of 4 iterations and one registered worker. Checks that
+ * its first leases are of the pilot, whose parts merge into the job's pilot film and never
+ * into its image, that the allocation is computed once the pilot is complete, exactly as
+ * from the whole pilot's film, kept as a blob and handed to the leases that follow, that a
+ * part of the image rendered with another allocation (or none) is refused, and that a
+ * pilot film written to the state directory and read back resumes the pilot. */
+#include "check.h"
+#include "common/allocation.h"
+#include "common/blob.h"
+#include "common/error.h"
+#include "common/film_wire.h"
+#include "common/settings.h"
+#include "coordinator/farm.h"
+#include "coordinator/state.h"
+
+#include <stdlib.h>
+#include <unistd.h>
+
+#define TIMEOUT 15.0
+#define PILOT 4
+#define W 128
+#define H 64
+
+static char dir[64];
+static const uint8_t scene_hash[32] = {7, 7, 7};
+static char settings[512];
+
+typedef struct {
+  vf_farm farm;
+  uint64_t worker, lease, job, begin, end;
+  int pilot;                  /* the lease is a pilot's */
+  int has_allocation;         /* it names an allocation */
+  uint8_t allocation_hash[32]; /* that allocation's hash */
+  double now;
+} fixture;
+
+static void request(fixture *f, Vcmfarm__Envelope *q, vf_farm_reply *r) { vf_farm_handle(&f->farm, q, f->now, r); }
+
+static void lease(fixture *f) {
+  vf_farm_reply r;
+  Vcmfarm__LeaseRequest lr = VCMFARM__LEASE_REQUEST__INIT;
+  lr.worker_id = f->worker;
+  Vcmfarm__Envelope q = VCMFARM__ENVELOPE__INIT;
+  q.body_case = VCMFARM__ENVELOPE__BODY_LEASE_REQUEST;
+  q.lease_request = &lr;
+  request(f, &q, &r);
+  CHECK_INT_EQ(r.env.body_case, VCMFARM__ENVELOPE__BODY_LEASE);
+  f->lease = r.lease.lease_id;
+  f->begin = r.lease.begin;
+  f->end = r.lease.end;
+  f->pilot = r.lease.pilot;
+  f->has_allocation = r.lease.allocation != NULL && r.lease.allocation->hash.len == 32;
+  if (f->has_allocation) {
+    memcpy(f->allocation_hash, r.lease.allocation->hash.data, 32);
+    CHECK_INT_EQ(r.lease.allocation->size, W * H);
+  }
+  vf_farm_reply_release(&r);
+}
+
+static void setup(fixture *f, uint64_t iterations) {
+  memset(f, 0, sizeof *f);
+  vf_farm_config config = {dir, TIMEOUT, 1000.0, 0.0};
+  vf_farm_init(&f->farm, &config);
+  f->now = 1000.0;
+  vf_farm_reply r;
+  Vcmfarm__Scene scene = VCMFARM__SCENE__INIT;
+  scene.source_case = VCMFARM__SCENE__SOURCE_BUILTIN;
+  scene.builtin = "cornell";
+  Vcmfarm__SubmitJob sm = VCMFARM__SUBMIT_JOB__INIT;
+  sm.name = "pilot";
+  sm.scene = &scene;
+  sm.scene_hash.data = (uint8_t *)scene_hash;
+  sm.scene_hash.len = 32;
+  sm.settings = settings;
+  sm.iterations = iterations;
+  sm.priority = 1;
+  Vcmfarm__Envelope q = VCMFARM__ENVELOPE__INIT;
+  q.body_case = VCMFARM__ENVELOPE__BODY_SUBMIT;
+  q.submit = &sm;
+  request(f, &q, &r);
+  CHECK_INT_EQ(r.env.body_case, VCMFARM__ENVELOPE__BODY_SUBMITTED);
+  f->job = r.submitted.job_id;
+  vf_farm_reply_release(&r);
+  Vcmfarm__Register reg = VCMFARM__REGISTER__INIT;
+  reg.name = "w";
+  q = (Vcmfarm__Envelope)VCMFARM__ENVELOPE__INIT;
+  q.body_case = VCMFARM__ENVELOPE__BODY_REGISTER;
+  q.register_ = &reg;
+  request(f, &q, &r);
+  f->worker = r.registered.worker_id;
+  vf_farm_reply_release(&r);
+  /* A fast worker, so that its lease covers the whole free range. */
+  f->farm.workers[0].rate = 1e6;
+  lease(f);
+}
+
+/* The film of iterations [begin, end) with made-up but valid sums: a pilot's (pilot set),
+ * or one of the image with the allocation `samples`. */
+static vf_film *part_film(uint64_t begin, uint64_t end, int pilot, const uint8_t *samples) {
+  vf_film *film;
+  if (vf_film_create(W, H, &film) != VF_OK) return NULL;
+  memcpy(film->scene_hash, scene_hash, 32);
+  snprintf(film->settings_text, sizeof film->settings_text, "%s", settings);
+  film->pilot = pilot;
+  if (samples) vf_film_set_samples(film, samples);
+  float *rgb = malloc(3 * W * H * sizeof *rgb);
+  for (uint64_t k = begin; k < end; k++) {
+    /* a noisy left half and a quiet right half: the allocation differs between them */
+    for (int i = 0; i < 3 * W * H; i++)
+      rgb[i] = (i / 3) % W < W / 2 ? (float)((i * 7 + k * 13) % 17) / 17.0f : 0.5f + 0.01f * (float)(k % 2);
+    vf_film_add_iteration(film, k, rgb, rgb, NULL);
+  }
+  free(rgb);
+  film->render_seconds = 0.5;
+  return film;
+}
+
+typedef struct {
+  fixture *f;
+  char message[1024];
+} sender;
+
+static int send_one(void *ctx, Vcmfarm__LeaseResult *m) {
+  sender *s = ctx;
+  Vcmfarm__Envelope q = VCMFARM__ENVELOPE__INIT;
+  q.body_case = VCMFARM__ENVELOPE__BODY_RESULT;
+  q.result = m;
+  vf_farm_reply r;
+  request(s->f, &q, &r);
+  int accepted = r.env.body_case == VCMFARM__ENVELOPE__BODY_RESULT_ACK && r.result_ack.accepted;
+  snprintf(s->message, sizeof s->message, "%s",
+           r.env.body_case == VCMFARM__ENVELOPE__BODY_RESULT_ACK ? r.result_ack.message : "not an ack");
+  vf_farm_reply_release(&r);
+  return accepted;
+}
+
+/* Sends [begin, end) as a part of the fixture's lease, marked a pilot's or not, naming
+ * `allocation` (32 bytes, or NULL for none); its pixels from `film`. */
+static int send_part(fixture *f, const vf_film *film, uint64_t begin, int pilot, const uint8_t *allocation,
+                     sender *s) {
+  Vcmfarm__LeaseResult m = VCMFARM__LEASE_RESULT__INIT;
+  m.worker_id = f->worker;
+  m.lease_id = f->lease;
+  m.job_id = f->job;
+  m.begin = begin;
+  m.pilot = pilot;
+  if (allocation) m.allocation = (ProtobufCBinaryData){32, (uint8_t *)allocation};
+  s->f = f;
+  return vf_film_send_tiles(film, &m, VF_FILM_TILES_PER_MESSAGE, send_one, s);
+}
+
+static vf_job *job_of(fixture *f) { return vf_farm_job(&f->farm, f->job); }
+
+/* The allocation the whole pilot's film decides, computed here as the local render does. */
+static void expected_allocation(uint8_t *samples) {
+  vf_film *pilot = part_film(0, PILOT, 1, NULL);
+  CHECK_INT_EQ(vf_allocation_compute(pilot, samples, NULL), VF_OK);
+  vf_film_destroy(pilot);
+}
+
+static void test_pilot_parts_decide_the_allocation_once(void) {
+  fixture f;
+  setup(&f, 8);
+  CHECK(f.pilot);
+  CHECK(!f.has_allocation);
+  CHECK_INT_EQ(f.begin, 0);
+  CHECK_INT_EQ(f.end, PILOT); /* the pilot first, however fast the worker */
+  vf_film *first = part_film(0, 2, 1, NULL), *second = part_film(2, PILOT, 1, NULL);
+  sender s = {0};
+  CHECK_INT_EQ(send_part(&f, first, 0, 1, NULL, &s), 1);
+  CHECK_STR_CONTAINS(s.message, "merged");
+  CHECK_INT_EQ(vf_job_pilot_done(job_of(&f)), 2);
+  CHECK_INT_EQ(vf_iterset_count(&job_of(&f)->film->iterations), 0); /* nothing of the image */
+  CHECK(job_of(&f)->film->samples == NULL);
+  CHECK_INT_EQ(send_part(&f, first, 0, 1, NULL, &s), 1); /* sent again: acknowledged, not counted */
+  CHECK_STR_CONTAINS(s.message, "already merged");
+  CHECK_INT_EQ(send_part(&f, second, 2, 1, NULL, &s), 1);
+  CHECK_STR_CONTAINS(s.message, "merged");
+  vf_job *job = job_of(&f);
+  CHECK(job->film->samples != NULL);
+  CHECK(job->pilot_film == NULL);
+  CHECK_INT_EQ(vf_job_pilot_done(job), PILOT);
+  CHECK_INT_EQ(vf_iterset_count(&job->film->iterations), 0);
+  uint8_t expected[W * H];
+  expected_allocation(expected);
+  CHECK(memcmp(job->film->samples, expected, sizeof expected) == 0);
+  size_t differ = 0;
+  for (size_t i = 1; i < sizeof expected; i++) differ += expected[i] != expected[0];
+  CHECK(differ > 0); /* not all one count: the test can tell allocations apart */
+  uint8_t hash[32];
+  vf_blob_hash(expected, sizeof expected, hash);
+  CHECK(memcmp(job->allocation_hash, hash, 32) == 0);
+  uint64_t size = 0;
+  CHECK_INT_EQ(vf_blob_store_has(dir, hash, &size), 1); /* where workers fetch it */
+  CHECK_INT_EQ(size, W * H);
+  CHECK(job->allocation_summary[0] != '\0');
+  /* The job's own iterations now, from 0, with the allocation. */
+  lease(&f);
+  CHECK(!f.pilot);
+  CHECK(f.has_allocation);
+  CHECK(memcmp(f.allocation_hash, hash, 32) == 0);
+  CHECK_INT_EQ(f.begin, 0);
+  CHECK_INT_EQ(f.end, 8);
+  vf_film_destroy(first);
+  vf_film_destroy(second);
+  vf_farm_destroy(&f.farm);
+}
+
+/* The allocation computed, and the image's lease out: the fixture after the pilot. */
+static void past_the_pilot(fixture *f, uint8_t *samples) {
+  setup(f, 8);
+  vf_film *pilot = part_film(0, PILOT, 1, NULL);
+  sender s = {0};
+  CHECK_INT_EQ(send_part(f, pilot, 0, 1, NULL, &s), 1);
+  vf_film_destroy(pilot);
+  expected_allocation(samples);
+  lease(f);
+  CHECK(!f->pilot && f->has_allocation);
+}
+
+static void test_a_part_of_another_allocation_is_refused(void) {
+  fixture f;
+  uint8_t samples[W * H], other[W * H];
+  past_the_pilot(&f, samples);
+  memcpy(other, samples, sizeof other);
+  other[0] = other[0] == 1 ? 2 : 1;
+  uint8_t other_hash[32];
+  vf_blob_hash(other, sizeof other, other_hash);
+  vf_film *wrong = part_film(0, 3, 0, other), *right = part_film(0, 3, 0, samples);
+  sender s = {0};
+  CHECK_INT_EQ(send_part(&f, wrong, 0, 0, other_hash, &s), 0);
+  CHECK_STR_CONTAINS(s.message, "rendered with allocation");
+  CHECK_INT_EQ(send_part(&f, right, 0, 0, NULL, &s), 0); /* naming none */
+  CHECK_STR_CONTAINS(s.message, "allocation");
+  CHECK_INT_EQ(vf_iterset_count(&job_of(&f)->film->iterations), 0);
+  CHECK_INT_EQ(job_of(&f)->results_refused, 2);
+  CHECK_INT_EQ(send_part(&f, right, 0, 0, f.allocation_hash, &s), 1);
+  CHECK_STR_CONTAINS(s.message, "merged");
+  CHECK_INT_EQ(vf_iterset_count(&job_of(&f)->film->iterations), 3);
+  CHECK(memcmp(job_of(&f)->film->samples, samples, sizeof samples) == 0);
+  vf_film_destroy(wrong);
+  vf_film_destroy(right);
+  vf_farm_destroy(&f.farm);
+}
+
+static void test_a_pilot_part_is_never_merged_into_the_image(void) {
+  fixture f;
+  setup(&f, 8);
+  /* A part of the pilot's lease that claims to be of the image: refused. */
+  uint8_t samples[W * H];
+  expected_allocation(samples);
+  uint8_t hash[32];
+  vf_blob_hash(samples, sizeof samples, hash);
+  vf_film *image = part_film(0, 2, 0, samples), *pilot = part_film(0, 2, 1, NULL);
+  sender s = {0};
+  CHECK_INT_EQ(send_part(&f, image, 0, 0, hash, &s), 0);
+  CHECK_STR_CONTAINS(s.message, "never merged into the image");
+  CHECK_INT_EQ(vf_iterset_count(&job_of(&f)->film->iterations), 0);
+  CHECK_INT_EQ(vf_job_pilot_done(job_of(&f)), 0);
+  /* Films themselves: a pilot's never merges into one of the image, nor the other way. */
+  vf_film *image_film = part_film(4, 6, 0, samples);
+  CHECK_INT_EQ(vf_film_merge(image_film, pilot), VF_EMISMATCH);
+  CHECK_INT_EQ(vf_film_merge(pilot, image_film), VF_EMISMATCH);
+  vf_film_destroy(image_film);
+  /* After the pilot, a pilot part sent for the image's lease: refused too. */
+  vf_film *whole = part_film(0, PILOT, 1, NULL);
+  CHECK_INT_EQ(send_part(&f, whole, 0, 1, NULL, &s), 1);
+  vf_film_destroy(whole);
+  lease(&f);
+  CHECK(!f.pilot);
+  CHECK_INT_EQ(send_part(&f, pilot, 0, 1, NULL, &s), 0);
+  CHECK_STR_CONTAINS(s.message, "claims to be a pilot part");
+  CHECK_INT_EQ(vf_iterset_count(&job_of(&f)->film->iterations), 0);
+  vf_film_destroy(image);
+  vf_film_destroy(pilot);
+  vf_farm_destroy(&f.farm);
+}
+
+static void test_a_pilot_film_written_and_read_back_resumes_the_pilot(void) {
+  fixture f;
+  setup(&f, 8);
+  vf_film *first = part_film(0, 3, 1, NULL);
+  sender s = {0};
+  CHECK_INT_EQ(send_part(&f, first, 0, 1, NULL, &s), 1);
+  vf_film_destroy(first);
+  vf_job *job = job_of(&f);
+  CHECK(job->pilot_dirty);
+  CHECK_INT_EQ(vf_state_save_pilot(dir, job), VF_OK);
+  CHECK(!job->pilot_dirty);
+  char path[256];
+  snprintf(path, sizeof path, "%s/job-%llu.pilot.exr", dir, (unsigned long long)f.job);
+  vf_film *back = NULL;
+  CHECK_INT_EQ(vf_film_read(path, &back), VF_OK);
+  CHECK(back != NULL && back->pilot);
+  CHECK_INT_EQ(back ? vf_iterset_count(&back->iterations) : 0, 3);
+  /* A second job of the same pilot, as a restarted coordinator makes it: it takes the film
+   * and leases only what is missing of the pilot. */
+  vf_film *second = part_film(3, PILOT, 1, NULL);
+  CHECK_INT_EQ(vf_film_merge(back, second), VF_OK);
+  uint8_t samples[W * H], expected[W * H];
+  CHECK_INT_EQ(vf_allocation_compute(back, samples, NULL), VF_OK);
+  expected_allocation(expected);
+  CHECK(memcmp(samples, expected, sizeof samples) == 0); /* parts in any grouping: one allocation */
+  vf_film_destroy(back);
+  vf_film_destroy(second);
+  vf_farm_destroy(&f.farm);
+}
+
+int main(void) {
+  snprintf(dir, sizeof dir, "/tmp/vf_test_farm_pilot_XXXXXX");
+  if (mkdtemp(dir) == NULL) return 1;
+  vf_settings s;
+  vf_settings_default(&s);
+  s.width = W;
+  s.height = H;
+  s.pilot = PILOT;
+  vf_settings_format(&s, settings, sizeof settings);
+  RUN(test_pilot_parts_decide_the_allocation_once);
+  RUN(test_a_part_of_another_allocation_is_refused);
+  RUN(test_a_pilot_part_is_never_merged_into_the_image);
+  RUN(test_a_pilot_film_written_and_read_back_resumes_the_pilot);
+  char cmd[128];
+  snprintf(cmd, sizeof cmd, "rm -rf '%s'", dir);
+  if (system(cmd) != 0) return 1;
+  return check_finish();
+}
