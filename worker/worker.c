@@ -439,8 +439,9 @@ static void run_lease(worker *w, const Vcmfarm__Lease *l) {
                  : vf_render_range(w->renderer, film, l->begin, l->end, &control, &st);
   int revoked = vf_heartbeat_revoked(w->heartbeat);
   uint64_t rendered = l->begin + st.iterations_done;
-  note(w, "lease %016llx: rendered %llu iteration%s of job %llu [%llu,%llu)%s", (unsigned long long)l->lease_id,
-       (unsigned long long)st.iterations_done, st.iterations_done == 1 ? "" : "s", (unsigned long long)l->job_id,
+  note(w, "lease %016llx: rendered %llu %siteration%s of job %llu [%llu,%llu)%s", (unsigned long long)l->lease_id,
+       (unsigned long long)st.iterations_done, l->pilot ? "pilot " : "", st.iterations_done == 1 ? "" : "s",
+       (unsigned long long)l->job_id,
        (unsigned long long)l->begin, (unsigned long long)rendered, w->at_deadline ? " (the job's time limit)" : "");
   /* The heartbeat goes on until the last part is shipped and the rest handed back: a part
    * waiting at a congested gate or a busy coordinator must not make us look lost. */

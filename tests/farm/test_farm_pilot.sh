@@ -1,0 +1,127 @@
+#!/usr/bin/env bash
+# Farm jobs with a pilot (docs/PROTOCOL.md, "Pilots"): a coordinator and two one-thread
+# workers over ipc://. One case per ctest:
+#   exact_pt, exact_vcm      the pilot split across both workers, and the job's film equal
+#                            bit for bit (sums, allocation, iterations) to `vcmfarm render`
+#                            of the same settings and seed; status shows the pilot's
+#                            progress, then the allocation
+#   killed_in_pilot          the coordinator killed (SIGKILL) once its pilot film is
+#                            checkpointed with part of the pilot: it resumes the pilot from
+#                            that film and ends with the same film
+#   killed_after_pilot       killed once the job's film holds the allocation and some of
+#                            its iterations: no pilot again, the same film
+# Every wait is bounded (wait_until); the case's ctest timeout bounds the rest.
+set -u
+case_name="$1"
+vcmfarm="$2"
+compare="$3"
+fail_label="$case_name"
+source "$(dirname "$0")/farm_test_lib.sh"
+farm_test_tmp farm-pilot
+farm_test_key
+
+client() { # command, arguments...
+  "$vcmfarm" "$@" --coordinator "$url" --secret "$key" --timeout 3
+}
+status_json() { client status "$job" --json 2>/dev/null | tr -d ' \t\n'; }
+job_number() { status_json | sed -n "s/.*\"$1\":\([0-9]*\).*/\1/p"; }
+job_done() { status_json | grep -q '"state":"done"'; }
+registered() { [ "$(grep -c "worker w[12] registered" "$tmp/coordinator.log")" -ge 2 ]; }
+
+iterations=12
+pilot=8
+algorithm=pt
+settings() { echo "-n $iterations -R 64x64 --seed 7 -a $algorithm --pilot $pilot"; }
+
+start_farm() { # worker iteration delay in ms
+  start_coordinator --worker-timeout 3
+  start_worker w1 --test-iteration-delay "$1" --cache "$tmp/cache-w1"
+  start_worker w2 --test-iteration-delay "$1" --cache "$tmp/cache-w2"
+  wait_until 30 "both workers registered" registered
+}
+
+submit() {
+  job=$(client submit cornell $(settings) | tail -n 1)
+  [ -n "$job" ] || fail "submit printed no job id"
+}
+
+# The farm's film against the local render's, bit for bit; the pilot's leases on both
+# workers and none after the allocation.
+check_film() {
+  client fetch "$job" -o "$tmp/farm.exr" || fail "fetch failed"
+  "$vcmfarm" render cornell $(settings) -j 1 -q -o "$tmp/reference.exr" || fail "reference render failed"
+  "$compare" --exact "$tmp/farm.exr" "$tmp/reference.exr" "[0,$iterations)" ||
+    fail "the farm's film differs from the local render's"
+  "$vcmfarm" info "$tmp/farm.exr" | grep -q "^allocation " || fail "the farm's film has no allocation: $("$vcmfarm" info "$tmp/farm.exr")"
+  status_json | grep -q "\"pilot\":{\"iterations\":$pilot,\"iterations_done\":$pilot,\"allocation\":\"[0-9.]*camerasub-paths" ||
+    fail "status does not show the pilot done and its allocation: $(status_json)"
+  client status "$job" | grep -q "pilot of $pilot iterations done; allocation: " || fail "status text: $(client status "$job")"
+}
+
+pilot_leases_of() { grep -c "job $job pilot iterations \[[0-9]*,[0-9]*) to worker $1" "$tmp/coordinator.log"; }
+
+case "$case_name" in
+exact_pt | exact_vcm)
+  algorithm=${case_name#exact_}
+  start_farm 150
+  submit
+  # The pilot's progress while it runs.
+  in_pilot() { status_json | grep -q "\"pilot\":{\"iterations\":$pilot,\"iterations_done\":[0-9]*,\"allocation\":null"; }
+  wait_until 30 "status to show the pilot" in_pilot
+  client status "$job" | grep -q "pilot: [0-9]*/$pilot iterations" || fail "status text during the pilot: $(client status "$job")"
+  wait_until 120 "job $job done" job_done
+  [ "$(pilot_leases_of w1)" -ge 1 ] && [ "$(pilot_leases_of w2)" -ge 1 ] ||
+    fail "the pilot was not split across both workers: $(grep "pilot iterations" "$tmp/coordinator.log")"
+  grep -q "merged job $job pilot" "$tmp/coordinator.log" || fail "no pilot part merged"
+  done_line=$(grep -n "job $job: pilot of $pilot iterations done" "$tmp/coordinator.log" | head -n 1 | cut -d: -f1)
+  [ -n "$done_line" ] || fail "the coordinator did not log the allocation"
+  [ "$(grep -c "job $job: pilot of $pilot iterations done" "$tmp/coordinator.log")" = 1 ] || fail "the allocation was computed more than once"
+  # No image lease before the allocation, no pilot lease after it.
+  first_image=$(grep -n "job $job iterations \[" "$tmp/coordinator.log" | head -n 1 | cut -d: -f1)
+  last_pilot=$(grep -n "job $job pilot iterations \[" "$tmp/coordinator.log" | tail -n 1 | cut -d: -f1)
+  [ "$first_image" -gt "$done_line" ] && [ "$last_pilot" -lt "$done_line" ] ||
+    fail "leases of the image and the pilot overlap in time: $(grep "lease .*job $job\|pilot of" "$tmp/coordinator.log")"
+  check_film
+  ;;
+killed_in_pilot)
+  pilot=16
+  start_farm 250
+  submit
+  pilot_checkpointed() {
+    [ -s "$state/job-$job.pilot.exr" ] && [ "$(grep -c "merged job $job pilot" "$tmp/coordinator.log")" -ge 1 ]
+  }
+  wait_until 60 "a pilot part merged and the pilot film checkpointed" pilot_checkpointed
+  kill -9 "$coordinator"
+  wait_until 10 "the coordinator to die" exited "$coordinator"
+  grep -q "job $job: pilot of $pilot iterations done" "$tmp/coordinator.log" && fail "the pilot ended before the kill: make it longer"
+  start_coordinator --worker-timeout 3
+  wait_until 120 "job $job done after the restart" job_done
+  resumed=$(sed -n "s/.*job $job: pilot resumed with \([0-9]*\)\/$pilot iterations.*/\1/p" "$tmp/coordinator.log")
+  [ -n "$resumed" ] && [ "$resumed" -gt 0 ] || fail "the restarted coordinator did not resume the pilot film"
+  echo "resumed the pilot with $resumed of $pilot iterations"
+  check_film
+  ;;
+killed_after_pilot)
+  start_farm 150
+  submit
+  image_checkpointed() {
+    [ "$(job_number iterations_done)" -ge 2 ] 2>/dev/null && [ -s "$state/job-$job.exr" ] &&
+      "$vcmfarm" info "$state/job-$job.exr" 2>/dev/null | grep -q "^allocation " &&
+      "$vcmfarm" info "$state/job-$job.exr" 2>/dev/null | grep -q "^iterations *\[0,"
+  }
+  wait_until 90 "the job's film checkpointed with its allocation and iterations" image_checkpointed
+  kill -9 "$coordinator"
+  wait_until 10 "the coordinator to die" exited "$coordinator"
+  restart_line=$(($(wc -l <"$tmp/coordinator.log") + 1))
+  start_coordinator --worker-timeout 3
+  wait_until 120 "job $job done after the restart" job_done
+  tail -n +"$restart_line" "$tmp/coordinator.log" | grep -q "pilot iterations\|pilot resumed\|pilot of $pilot iterations done" &&
+    fail "the pilot ran again after the restart: $(tail -n +"$restart_line" "$tmp/coordinator.log" | grep pilot)"
+  [ -e "$state/job-$job.pilot.exr" ] && fail "the pilot film outlived the allocation's checkpoint and a restart"
+  check_film
+  ;;
+*)
+  fail "unknown case $case_name"
+  ;;
+esac
+echo "PASS $case_name"
