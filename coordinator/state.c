@@ -483,7 +483,8 @@ static int load_job(vf_farm *farm, const cJSON *o, const char *state_path, uint6
   }
   if ((err = path_of(path, sizeof path, dir, "job-", id, ".exr")) != VF_OK) goto destroy_job;
   err = vf_film_read(path, &film);
-  if (err == VF_OK && (err = vf_job_check_film(job, film)) != VF_OK) {
+  if (err == VF_OK && (err = film->pilot ? vf_error_set(VF_EMISMATCH, "it is a pilot's film, not an image")
+                                         : vf_job_check_film(job, film)) != VF_OK) {
     err = vf_error_set(VF_EFILM, "%s: does not belong to job %llu: %s", path, (unsigned long long)id,
                        vf_error_detail(err));
     vf_film_destroy(film);
@@ -596,6 +597,9 @@ int vf_state_recreate(vf_farm *farm) {
       vf_log("job %llu: the blobs of its scene's %zu files went with the directory: workers render it from their "
              "caches; submit the scene again if one cannot", (unsigned long long)job->id, job->files.count);
     if (!job->film_unreadable) job->film_dirty = 1;
+    job->pilot_dirty = job->pilot_film != NULL;
+    /* The allocation is in memory: its blob is made again for the workers that lack it. */
+    if ((err = vf_blobs_put_allocation(farm, job)) != VF_OK) vf_log("%s", vf_error_detail(err));
   }
   farm->state_dirty = 1;
   return 1;

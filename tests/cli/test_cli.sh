@@ -76,7 +76,8 @@ check "light path pixels in the film's settings" "$("$vcmfarm" info "$tmp/lpp.ex
 expect_refusal "films of different light path pixels do not merge" "light_path_pixels=8" "$vcmfarm" merge -o "$tmp/out.exr" "$tmp/beta1.exr" "$tmp/lpp.exr"
 # A pilot (common/allocation.h): at least 2 iterations, pt, bpt, vcm and auto only, named
 # when wrong (exit 2); the render says what it allocated, the film keeps it (info shows
-# it); films of other pilots do not merge; farm jobs refuse it (below, with the key).
+# it); films of other pilots do not merge; a farm job refuses what render refuses (below,
+# with the key; tests/farm/test_farm_pilot.sh runs farm jobs with a pilot).
 # test_exact.sh continues such a film.
 expect_refusal "pilot of one iteration" "--pilot: a pilot needs at least 2 iterations" "$vcmfarm" render furnace --pilot 1 -o "$tmp/out.exr"
 expect_refusal "pilot not a number" "--pilot" "$vcmfarm" render furnace --pilot ten -o "$tmp/out.exr"
@@ -219,8 +220,10 @@ expect_quick "worker with another key stops" 2 "vcmfarm worker: the coordinator 
 expect_quick "status of a coordinator that is down" 1 \
   "vcmfarm status: no coordinator answered at ipc://$tmp/down.sock (nothing accepts connections there)" \
   "$vcmfarm" status --coordinator "ipc://$tmp/down.sock" --secret "$tmp/farm.key"
-expect_quick "a farm job refuses a pilot" 2 "farm jobs do not run one" \
-  "$vcmfarm" submit furnace --pilot 8 --coordinator tcp://127.0.0.1:1 --secret "$tmp/farm.key"
+expect_quick "a farm job's pilot refuses what render's does" 2 "a pilot (camera sub-paths allocated per pixel) is an option of pt, bpt, vcm and auto, not of lt" \
+  "$vcmfarm" submit furnace -a lt --pilot 8 --coordinator "ipc://$tmp/live.sock" --secret "$tmp/farm.key"
+expect_quick "a farm job's pilot refuses single-stage vcm" 2 "not of the single-stage one" \
+  "$vcmfarm" submit furnace --vcm-stages 1 --pilot 8 --coordinator "ipc://$tmp/live.sock" --secret "$tmp/farm.key"
 expect_quick "submit to a coordinator that is down, over tcp://" 1 "no coordinator answered at tcp://127.0.0.1:1 " \
   "$vcmfarm" submit furnace --coordinator tcp://127.0.0.1:1 --secret "$tmp/farm.key"
 kill -TERM "$live" && wait "$live"

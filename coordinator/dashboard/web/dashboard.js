@@ -97,9 +97,9 @@ function renderWorkers(st) {
   if (rows.length === 0) $('worker-rows').append(el('tr', {}, el('td', { colspan: 9, class: 'dim' }, 'no workers: vcmfarm worker …')));
 }
 
-// What happened to jobs (submitted, done, failed, cancelled, paused, resumed, priority
-// changed) apart from what happened to workers and leases; the latest first in each.
-const JOB_EVENTS = new Set(['job_submitted', 'job_done', 'job_failed', 'job_cancelled', 'job_paused', 'job_resumed',
+// What happened to jobs (submitted, pilot done, done, failed, cancelled, paused, resumed,
+// priority changed) apart from what happened to workers and leases; the latest first in each.
+const JOB_EVENTS = new Set(['job_submitted', 'pilot_done', 'job_done', 'job_failed', 'job_cancelled', 'job_paused', 'job_resumed',
   'priority_changed']);
 function eventItem(e) {
   return el('li', { class: 'event', 'data-kind': e.kind },
