@@ -219,16 +219,14 @@ int vf_job_finish_pilot(vf_job *job) {
     return 0;
   size_t pixels = (size_t)job->film->width * (size_t)job->film->height;
   uint8_t *samples = malloc(pixels);
-  if (samples == NULL) return vf_error_set(VF_ENOMEM, "out of memory for job %llu's allocation", (unsigned long long)job->id);
+  if (samples == NULL)
+    return vf_error_set(VF_ENOMEM, "out of memory for job %llu's allocation", (unsigned long long)job->id);
   /* The pilot's film is no image (film->pilot): vf_allocation_compute reads it as the local
    * render's pilot, a film of [0, pilot) of the job's settings. */
   int err = vf_allocation_compute(job->pilot_film, samples, NULL);
   if (err == VF_OK) err = vf_film_set_samples(job->film, samples);
-  if (err != VF_OK) {
-    free(samples);
-    return err;
-  }
   free(samples);
+  if (err != VF_OK) return err;
   vf_job_allocation_loaded(job);
   /* The job's film carries what its pilot cost, as vf_render_pilot's does. */
   job->film->render_seconds += job->pilot_film->render_seconds;
@@ -255,7 +253,8 @@ void vf_job_allocation_loaded(vf_job *job) {
 
 int vf_job_restore_pilot(vf_job *job, vf_film *pilot) {
   if (!pilot->pilot) return vf_error_set(VF_EMISMATCH, "not a pilot's film");
-  if (!vf_job_in_pilot(job)) return vf_error_set(VF_EMISMATCH, "job %llu is not in its pilot", (unsigned long long)job->id);
+  if (!vf_job_in_pilot(job))
+    return vf_error_set(VF_EMISMATCH, "job %llu is not in its pilot", (unsigned long long)job->id);
   int err = vf_job_check_film(job, pilot);
   if (err != VF_OK) return err;
   vf_film_destroy(job->pilot_film);

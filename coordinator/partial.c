@@ -158,7 +158,8 @@ const char *vf_partial_failure(const vf_partial *p) { return p->failure[0] ? p->
 
 int vf_partial_same(const vf_partial *p, const Vcmfarm__LeaseResult *m) {
   return m->begin == p->begin && m->end == p->end && m->tiles_total == p->total && (m->pilot != 0) == p->pilot &&
-         m->allocation.len == p->allocation_len && (p->allocation_len == 0 || memcmp(m->allocation.data, p->allocation, 32) == 0) &&
+         m->allocation.len == p->allocation_len &&
+         (p->allocation_len == 0 || memcmp(m->allocation.data, p->allocation, 32) == 0) &&
          m->render_seconds == p->render_seconds && m->cpu_seconds == p->cpu_seconds &&
          m->nonfinite_samples == p->nonfinite && m->biased_merges == p->biased_merges &&
          m->width == (uint32_t)p->width && m->height == (uint32_t)p->height &&

@@ -368,8 +368,8 @@ static int load_allocation(worker *w, const Vcmfarm__Lease *l, size_t pixels) {
   size_t n = 0;
   if (err == VF_OK) err = vf_blob_store_get(w->cache_dir, ref->hash.data, &counts, &n);
   if (err == VF_OK && n != pixels)
-    err = vf_error_set(VF_EMISMATCH, "job %llu: an allocation of %zu counts for %zu pixels", (unsigned long long)l->job_id,
-                       n, pixels);
+    err = vf_error_set(VF_EMISMATCH, "job %llu: an allocation of %zu counts for %zu pixels",
+                       (unsigned long long)l->job_id, n, pixels);
   if (err == VF_OK) err = vf_allocation_validate(counts, pixels, "the lease's allocation");
   if (err != VF_OK) {
     free(counts);
