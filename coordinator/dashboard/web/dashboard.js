@@ -143,7 +143,11 @@ function renderJob(j) {
   $('job-title').textContent = `Job ${j.id}: ${j.name} (${j.state})`;
   const facts = [['scene', j.scene.name], ['algorithm', j.resolved ? j.resolved.algorithm : ''],
     ['size', j.resolved ? `${j.resolved.width}×${j.resolved.height}` : ''],
-    ['iterations', `${j.iterations_done} done, ${j.iterations_leased} leased`], ['running', duration(j.seconds)],
+    ['iterations', `${j.iterations_done} done, ${j.iterations_leased} leased`],
+    // a job with a pilot (docs/PROTOCOL.md, "Pilots"): its progress, then the allocation
+    ['pilot', !j.pilot ? 'none' : j.pilot.allocation ? `${j.pilot.iterations} iterations done; ${j.pilot.allocation}`
+      : `${j.pilot.iterations_done}/${j.pilot.iterations} iterations`],
+    ['running', duration(j.seconds)],
     ['stops at', stopText(j)], ['stop reason', j.stop_message || j.stop_reason || '–'],
     ['refused results', j.results_refused], ['non-finite samples', j.nonfinite_samples ?? '–'],
     ['merged with bias', j.biased_merges ? `${j.biased_merges} light vertices (upg's policy: the estimate omits their bias)` : '0'],
