@@ -204,8 +204,10 @@ void vf_leases_heartbeat(vf_farm *farm, vf_farm_worker *w, const Vcmfarm__Heartb
                                  w->lease_id == l->id && job != NULL && vf_job_runnable(job);
   if (r->heartbeat_ack.lease_valid) {
     l->reported = m->iterations_done; /* clamped where it is used */
-    /* A first rate before any part is merged: leases of the ship interval's length at once. */
-    if (m->iterations_done > 0 && m->seconds > 0.0 && isfinite(m->seconds) && m->iterations_done <= l->end - l->first) {
+    /* A first rate before any part is merged: leases of the ship interval's length at once.
+     * Not from a pilot's iterations, which trace one camera sub-path a pixel. */
+    if (!l->pilot && m->iterations_done > 0 && m->seconds > 0.0 && isfinite(m->seconds) &&
+        m->iterations_done <= l->end - l->first) {
       double rate = (double)m->iterations_done / m->seconds;
       if (w->rate <= 0.0) w->rate = rate;
       if (job->rate <= 0.0) job->rate = rate;
