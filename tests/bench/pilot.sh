@@ -12,6 +12,8 @@
 # relative MSE): where the error falls as N^-1/2 the CPU seconds to reach any error are
 # inversely proportional to it. Prints medians over the seeds and each pilot's gain over
 # the same algorithm without one, and the allocations' mean camera sub-paths a pixel.
+# REFERENCE=FILM (one scene in SCENES) measures against that film instead: for a scene
+# whose 150 s reference is too noisy for the errors measured (cornell-fog's).
 set -euo pipefail
 build=${1:-build}
 iterations=${2:-128}
@@ -34,7 +36,7 @@ echo "pilot.sh: ${res}x${res}, $iterations iterations, seeds $seeds, pilot $pilo
 rows=$out/rows.txt
 : >"$rows"
 for scene in $scenes; do
-  ref=$(cached_reference "$vcmfarm" "$cache" "$scene" bpt 150 "$res" "${common[@]}") # convergence.sh's too
+  ref=${REFERENCE:-$(cached_reference "$vcmfarm" "$cache" "$scene" bpt 150 "$res" "${common[@]}")} # convergence.sh's too
   for a in $algorithms; do
     for p in 0 "$pilot"; do
       for seed in $seeds; do
