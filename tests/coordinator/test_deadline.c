@@ -12,6 +12,7 @@
 #include "coordinator/deadline.h"
 #include "coordinator/farm.h"
 #include "coordinator/log.h"
+#include "farm_calls.h"
 
 #include <stdlib.h>
 
@@ -37,37 +38,11 @@ static void setup(fixture *f, uint64_t iterations, double time_limit, int worker
   vf_farm_init(&f->farm, &config);
   f->now = 1000.0;
   f->farm.last_tick = f->now;
-  vf_farm_reply r;
-  Vcmfarm__Scene scene = VCMFARM__SCENE__INIT;
-  scene.source_case = VCMFARM__SCENE__SOURCE_BUILTIN;
-  scene.builtin = "cornell";
-  Vcmfarm__SubmitJob sm = VCMFARM__SUBMIT_JOB__INIT;
-  sm.name = "deadline";
-  sm.scene = &scene;
-  sm.scene_hash.data = (uint8_t *)scene_hash;
-  sm.scene_hash.len = 32;
-  sm.settings = settings;
-  sm.iterations = iterations;
-  sm.priority = 1;
-  sm.time_limit = time_limit;
-  Vcmfarm__Envelope q = VCMFARM__ENVELOPE__INIT;
-  q.body_case = VCMFARM__ENVELOPE__BODY_SUBMIT;
-  q.submit = &sm;
-  request(f, &q, &r);
-  CHECK_INT_EQ(r.env.body_case, VCMFARM__ENVELOPE__BODY_SUBMITTED);
-  f->job = r.submitted.job_id;
-  vf_farm_reply_release(&r);
+  f->job = farm_submit_builtin(&f->farm, f->now, "deadline", "cornell", scene_hash, settings, iterations, time_limit);
   for (int i = 0; i < workers; i++) {
     char name[8];
     snprintf(name, sizeof name, "w%d", i);
-    Vcmfarm__Register reg = VCMFARM__REGISTER__INIT;
-    reg.name = name;
-    q = (Vcmfarm__Envelope)VCMFARM__ENVELOPE__INIT;
-    q.body_case = VCMFARM__ENVELOPE__BODY_REGISTER;
-    q.register_ = &reg;
-    request(f, &q, &r);
-    f->worker[i] = r.registered.worker_id;
-    vf_farm_reply_release(&r);
+    f->worker[i] = farm_register(&f->farm, f->now, name);
     f->farm.workers[i].rate = 10.0; /* known: leases sized by rate, not bounded by time */
   }
 }
@@ -76,14 +51,8 @@ static vf_job *job_of(fixture *f) { return vf_farm_job(&f->farm, f->job); }
 
 /* Worker i asks for work: 1 and the lease (*out) when granted, 0 when told to wait. */
 static int lease_request(fixture *f, int i, Vcmfarm__Lease *out) {
-  Vcmfarm__LeaseRequest lr = VCMFARM__LEASE_REQUEST__INIT;
-  lr.worker_id = f->worker[i];
-  Vcmfarm__Envelope q = VCMFARM__ENVELOPE__INIT;
-  q.body_case = VCMFARM__ENVELOPE__BODY_LEASE_REQUEST;
-  q.lease_request = &lr;
   vf_farm_reply r;
-  request(f, &q, &r);
-  int leased = r.env.body_case == VCMFARM__ENVELOPE__BODY_LEASE;
+  int leased = farm_request_lease(&f->farm, f->now, f->worker[i], &r);
   if (leased) {
     *out = r.lease;
     out->scene = NULL; /* the reply's, released below */
@@ -129,16 +98,7 @@ typedef struct {
 
 static int send_one(void *ctx, Vcmfarm__LeaseResult *m) {
   sender *s = ctx;
-  Vcmfarm__Envelope q = VCMFARM__ENVELOPE__INIT;
-  q.body_case = VCMFARM__ENVELOPE__BODY_RESULT;
-  q.result = m;
-  vf_farm_reply r;
-  request(s->f, &q, &r);
-  int accepted = r.env.body_case == VCMFARM__ENVELOPE__BODY_RESULT_ACK && r.result_ack.accepted;
-  snprintf(s->message, sizeof s->message, "%s",
-           r.env.body_case == VCMFARM__ENVELOPE__BODY_RESULT_ACK ? r.result_ack.message : "not an ack");
-  vf_farm_reply_release(&r);
-  return accepted;
+  return farm_send_result(&s->f->farm, s->f->now, m, s->message, sizeof s->message);
 }
 
 /* Worker i ships the part [begin, end) of its lease (made-up, valid sums); the last

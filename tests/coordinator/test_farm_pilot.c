@@ -13,6 +13,7 @@
 #include "common/settings.h"
 #include "coordinator/farm.h"
 #include "coordinator/state.h"
+#include "farm_calls.h"
 
 #include <stdlib.h>
 #include <unistd.h>
@@ -35,17 +36,9 @@ typedef struct {
   double now;
 } fixture;
 
-static void request(fixture *f, Vcmfarm__Envelope *q, vf_farm_reply *r) { vf_farm_handle(&f->farm, q, f->now, r); }
-
 static void lease(fixture *f) {
   vf_farm_reply r;
-  Vcmfarm__LeaseRequest lr = VCMFARM__LEASE_REQUEST__INIT;
-  lr.worker_id = f->worker;
-  Vcmfarm__Envelope q = VCMFARM__ENVELOPE__INIT;
-  q.body_case = VCMFARM__ENVELOPE__BODY_LEASE_REQUEST;
-  q.lease_request = &lr;
-  request(f, &q, &r);
-  CHECK_INT_EQ(r.env.body_case, VCMFARM__ENVELOPE__BODY_LEASE);
+  CHECK(farm_request_lease(&f->farm, f->now, f->worker, &r));
   f->lease = r.lease.lease_id;
   f->begin = r.lease.begin;
   f->end = r.lease.end;
@@ -63,33 +56,8 @@ static void setup(fixture *f, uint64_t iterations) {
   vf_farm_config config = {dir, TIMEOUT, 1000.0, 0.0};
   vf_farm_init(&f->farm, &config);
   f->now = 1000.0;
-  vf_farm_reply r;
-  Vcmfarm__Scene scene = VCMFARM__SCENE__INIT;
-  scene.source_case = VCMFARM__SCENE__SOURCE_BUILTIN;
-  scene.builtin = "cornell";
-  Vcmfarm__SubmitJob sm = VCMFARM__SUBMIT_JOB__INIT;
-  sm.name = "pilot";
-  sm.scene = &scene;
-  sm.scene_hash.data = (uint8_t *)scene_hash;
-  sm.scene_hash.len = 32;
-  sm.settings = settings;
-  sm.iterations = iterations;
-  sm.priority = 1;
-  Vcmfarm__Envelope q = VCMFARM__ENVELOPE__INIT;
-  q.body_case = VCMFARM__ENVELOPE__BODY_SUBMIT;
-  q.submit = &sm;
-  request(f, &q, &r);
-  CHECK_INT_EQ(r.env.body_case, VCMFARM__ENVELOPE__BODY_SUBMITTED);
-  f->job = r.submitted.job_id;
-  vf_farm_reply_release(&r);
-  Vcmfarm__Register reg = VCMFARM__REGISTER__INIT;
-  reg.name = "w";
-  q = (Vcmfarm__Envelope)VCMFARM__ENVELOPE__INIT;
-  q.body_case = VCMFARM__ENVELOPE__BODY_REGISTER;
-  q.register_ = &reg;
-  request(f, &q, &r);
-  f->worker = r.registered.worker_id;
-  vf_farm_reply_release(&r);
+  f->job = farm_submit_builtin(&f->farm, f->now, "pilot", "cornell", scene_hash, settings, iterations, 0.0);
+  f->worker = farm_register(&f->farm, f->now, "w");
   /* A fast worker, so that its lease covers the whole free range. */
   f->farm.workers[0].rate = 1e6;
   lease(f);
@@ -123,16 +91,7 @@ typedef struct {
 
 static int send_one(void *ctx, Vcmfarm__LeaseResult *m) {
   sender *s = ctx;
-  Vcmfarm__Envelope q = VCMFARM__ENVELOPE__INIT;
-  q.body_case = VCMFARM__ENVELOPE__BODY_RESULT;
-  q.result = m;
-  vf_farm_reply r;
-  request(s->f, &q, &r);
-  int accepted = r.env.body_case == VCMFARM__ENVELOPE__BODY_RESULT_ACK && r.result_ack.accepted;
-  snprintf(s->message, sizeof s->message, "%s",
-           r.env.body_case == VCMFARM__ENVELOPE__BODY_RESULT_ACK ? r.result_ack.message : "not an ack");
-  vf_farm_reply_release(&r);
-  return accepted;
+  return farm_send_result(&s->f->farm, s->f->now, m, s->message, sizeof s->message);
 }
 
 /* Sends [begin, end) as a part of the fixture's lease, marked a pilot's or not, naming
