@@ -15,27 +15,11 @@
  * film's error estimate of the pixel (common/film.c, vf_film_estimate_rmse) times n. */
 static void pixel_variances(const vf_film *film, double *out) {
   size_t pixels = (size_t)film->width * (size_t)film->height;
-  double n = (double)vf_iterset_count(&film->iterations);
-  if (vf_film_sobol(film)) {
-    double n0 = (double)vf_iterset_even_count(&film->iterations), n1 = n - n0;
-    for (size_t p = 0; p < pixels; p++) {
-      double v = 0.0;
-      for (size_t c = 3 * p; c < 3 * p + 3; c++) {
-        double m = vf_film_sum_at(film, c) / n, m0 = vf_fixed_to_double(film->square_sum[c], VF_FILM_SUM_BITS) / n0;
-        double m1 = vf_fixed_to_double(film->sum[c] - film->square_sum[c], VF_FILM_SUM_BITS) / n1;
-        v += n0 * (m0 - m) * (m0 - m) + n1 * (m1 - m) * (m1 - m);
-      }
-      out[p] = v;
-    }
-    return;
-  }
+  double n = (double)vf_iterset_count(&film->iterations), n0 = (double)vf_iterset_even_count(&film->iterations);
+  int sobol = vf_film_sobol(film);
   for (size_t p = 0; p < pixels; p++) {
     double v = 0.0;
-    for (size_t c = 3 * p; c < 3 * p + 3; c++) {
-      double m = vf_film_sum_at(film, c) / n;
-      double variance = (vf_fixed_to_double(film->square_sum[c], VF_FILM_SQUARE_BITS) - n * m * m) / (n - 1.0);
-      if (variance > 0.0) v += variance; /* < 0 only through rounding */
-    }
+    for (size_t c = 3 * p; c < 3 * p + 3; c++) v += vf_film_value_spread(film, c, sobol, n, n0);
     out[p] = v;
   }
 }

@@ -360,23 +360,11 @@ uint64_t vf_iterset_even_count(const vf_iterset *set) {
 double vf_film_estimate_rmse(const vf_film *film) {
   uint64_t iterations = vf_iterset_count(&film->iterations);
   if (iterations < 2) return NAN;
-  double n = (double)iterations, total = 0.0;
+  double n = (double)iterations, n0 = (double)vf_iterset_even_count(&film->iterations), total = 0.0;
+  int sobol = vf_film_sobol(film);
+  if (sobol && (!(n0 > 0) || !(n - n0 > 0))) return NAN;
   size_t values = 3 * (size_t)film->width * (size_t)film->height;
-  if (vf_film_sobol(film)) {
-    double n0 = (double)vf_iterset_even_count(&film->iterations), n1 = n - n0;
-    if (!(n0 > 0) || !(n1 > 0)) return NAN;
-    for (size_t i = 0; i < values; i++) {
-      double m = vf_film_sum_at(film, i) / n, m0 = vf_fixed_to_double(film->square_sum[i], VF_FILM_SUM_BITS) / n0;
-      double m1 = vf_fixed_to_double(film->sum[i] - film->square_sum[i], VF_FILM_SUM_BITS) / n1;
-      total += (n0 * (m0 - m) * (m0 - m) + n1 * (m1 - m) * (m1 - m)) / n;
-    }
-    return sqrt(total / (double)values);
-  }
-  for (size_t i = 0; i < values; i++) {
-    double m = vf_film_sum_at(film, i) / n;
-    double variance = (vf_fixed_to_double(film->square_sum[i], VF_FILM_SQUARE_BITS) - n * m * m) / (n - 1.0);
-    if (variance > 0) total += variance / n; /* < 0 only through rounding */
-  }
+  for (size_t i = 0; i < values; i++) total += vf_film_value_spread(film, i, sobol, n, n0) / n;
   return sqrt(total / (double)values);
 }
 

@@ -191,6 +191,23 @@ int vf_film_sobol(const vf_film *film);
 /* The iterations of the set in a sobol film's replicate 0 (even indices). */
 uint64_t vf_iterset_even_count(const vf_iterset *set);
 
+/* The spread of one iteration's estimate of value i (a pixel's channel) of a film of n
+ * iterations (n >= 2), n0 of them even (sobol: the two replicates' counts, both > 0):
+ * with the sobol sampler n0 (m0 - m)^2 + n1 (m1 - m)^2 over the replicates' means m0, m1
+ * and the film's m; else the sample variance of the estimates (0 where rounding makes it
+ * negative). vf_film_estimate_rmse averages it over n; the allocation of camera sub-paths
+ * (common/allocation.c) sums it per pixel. */
+static inline double vf_film_value_spread(const vf_film *film, size_t i, int sobol, double n, double n0) {
+  double m = vf_film_sum_at(film, i) / n;
+  if (sobol) {
+    double n1 = n - n0, m0 = vf_fixed_to_double(film->square_sum[i], VF_FILM_SUM_BITS) / n0;
+    double m1 = vf_fixed_to_double(film->sum[i] - film->square_sum[i], VF_FILM_SUM_BITS) / n1;
+    return n0 * (m0 - m) * (m0 - m) + n1 * (m1 - m) * (m1 - m);
+  }
+  double variance = (vf_fixed_to_double(film->square_sum[i], VF_FILM_SQUARE_BITS) - n * m * m) / (n - 1.0);
+  return variance > 0.0 ? variance : 0.0; /* < 0 only through rounding */
+}
+
 /* Checks the invariants every film built by this module keeps: no sums without
  * iterations (a film of N = 0 holds zeros), square sums >= 0, times finite and >= 0, an
  * allocation of valid counts where the settings have a pilot and the film an iteration
