@@ -1,7 +1,7 @@
 /* Requests to a vf_farm in process, as clients and workers send them, for the
  * coordinator's tests (test_farm_partial, test_deadline, test_farm_pilot): a job of a
- * built-in scene submitted, a worker registered, a lease asked for, a message of a result
- * sent. Each answers
+ * built-in scene submitted, a worker registered, a lease asked for, the messages of a
+ * result sent. Each answers
  * with what the test needs next and fails a check (check.h) where the farm's answer is
  * not the kind asked for. */
 #ifndef VF_TEST_FARM_CALLS_H
@@ -82,6 +82,19 @@ static inline int farm_send_result(vf_farm *farm, double now, Vcmfarm__LeaseResu
   snprintf(message, size, "%s", ack ? r.result_ack.message : "not an ack");
   vf_farm_reply_release(&r);
   return accepted;
+}
+
+/* vf_film_send_tiles's callback over farm_send_result: the farm, its clock and the last
+ * answer's message. */
+typedef struct {
+  vf_farm *farm;
+  double now;
+  char message[1024];
+} farm_sender;
+
+static inline int farm_send_one(void *ctx, Vcmfarm__LeaseResult *m) {
+  farm_sender *s = ctx;
+  return farm_send_result(s->farm, s->now, m, s->message, sizeof s->message);
 }
 
 #endif

@@ -91,19 +91,9 @@ static void release(fixture *f, int i, uint64_t lease_id) {
   vf_farm_reply_release(&r);
 }
 
-typedef struct {
-  fixture *f;
-  char message[1024];
-} sender;
-
-static int send_one(void *ctx, Vcmfarm__LeaseResult *m) {
-  sender *s = ctx;
-  return farm_send_result(&s->f->farm, s->f->now, m, s->message, sizeof s->message);
-}
-
 /* Worker i ships the part [begin, end) of its lease (made-up, valid sums); the last
  * answer's message in *s. 1 when every message was accepted. */
-static int send_part(fixture *f, int i, uint64_t lease_id, uint64_t begin, uint64_t end, sender *s) {
+static int send_part(fixture *f, int i, uint64_t lease_id, uint64_t begin, uint64_t end, farm_sender *s) {
   vf_film *film;
   if (vf_film_create(64, 32, &film) != VF_OK) return 0;
   memcpy(film->scene_hash, scene_hash, 32);
@@ -119,8 +109,9 @@ static int send_part(fixture *f, int i, uint64_t lease_id, uint64_t begin, uint6
   m.lease_id = lease_id;
   m.job_id = f->job;
   m.begin = begin;
-  s->f = f;
-  int rc = vf_film_send_tiles(film, &m, VF_FILM_TILES_PER_MESSAGE, send_one, s);
+  s->farm = &f->farm;
+  s->now = f->now;
+  int rc = vf_film_send_tiles(film, &m, VF_FILM_TILES_PER_MESSAGE, farm_send_one, s);
   vf_film_destroy(film);
   return rc == 1;
 }
@@ -164,7 +155,7 @@ static void test_the_final_part_after_the_time_limit_is_merged(void) {
   Vcmfarm__Lease other;
   CHECK(!lease_request(&f, 1, &other)); /* a closing job is handed to no one */
   tick(&f, 2.0);
-  sender s;
+  farm_sender s;
   CHECK(send_part(&f, 0, l.lease_id, l.begin, l.begin + 7, &s));
   CHECK_STR_CONTAINS(s.message, "merged");
   CHECK_INT_EQ(job->end, VF_JOB_ACTIVE); /* its worker still holds the rest */
@@ -213,7 +204,7 @@ static void test_a_stall_extends_the_grace_period(void) {
   CHECK(job->closed_at > 0.0);
   f.now += 20.0; /* > the grace period of 15 s */
   vf_farm_stalled(&f.farm, 19.8, f.now);
-  sender s;
+  farm_sender s;
   CHECK(send_part(&f, 0, l.lease_id, l.begin, l.begin + 4, &s));
   CHECK_STR_CONTAINS(s.message, "merged");
   vf_farm_tick(&f.farm, f.now);
@@ -230,7 +221,7 @@ static void test_a_job_at_its_limit_with_no_lease_stops_at_once(void) {
   setup(&f, 1000, 60.0, 1);
   Vcmfarm__Lease l;
   CHECK(lease_request(&f, 0, &l));
-  sender s;
+  farm_sender s;
   CHECK(send_part(&f, 0, l.lease_id, l.begin, l.begin + 3, &s));
   release(&f, 0, l.lease_id);
   job_of(&f)->seconds = 60.5;

@@ -84,20 +84,10 @@ static vf_film *part_film(uint64_t begin, uint64_t end, int pilot, const uint8_t
   return film;
 }
 
-typedef struct {
-  fixture *f;
-  char message[1024];
-} sender;
-
-static int send_one(void *ctx, Vcmfarm__LeaseResult *m) {
-  sender *s = ctx;
-  return farm_send_result(&s->f->farm, s->f->now, m, s->message, sizeof s->message);
-}
-
 /* Sends [begin, end) as a part of the fixture's lease, marked a pilot's or not, naming
  * `allocation` (32 bytes, or NULL for none); its pixels from `film`. */
 static int send_part(fixture *f, const vf_film *film, uint64_t begin, int pilot, const uint8_t *allocation,
-                     sender *s) {
+                     farm_sender *s) {
   Vcmfarm__LeaseResult m = VCMFARM__LEASE_RESULT__INIT;
   m.worker_id = f->worker;
   m.lease_id = f->lease;
@@ -105,8 +95,9 @@ static int send_part(fixture *f, const vf_film *film, uint64_t begin, int pilot,
   m.begin = begin;
   m.pilot = pilot;
   if (allocation) m.allocation = (ProtobufCBinaryData){32, (uint8_t *)allocation};
-  s->f = f;
-  return vf_film_send_tiles(film, &m, VF_FILM_TILES_PER_MESSAGE, send_one, s);
+  s->farm = &f->farm;
+  s->now = f->now;
+  return vf_film_send_tiles(film, &m, VF_FILM_TILES_PER_MESSAGE, farm_send_one, s);
 }
 
 static vf_job *job_of(fixture *f) { return vf_farm_job(&f->farm, f->job); }
@@ -126,7 +117,7 @@ static void test_pilot_parts_decide_the_allocation_once(void) {
   CHECK_INT_EQ(f.begin, 0);
   CHECK_INT_EQ(f.end, PILOT); /* the pilot first, however fast the worker */
   vf_film *first = part_film(0, 2, 1, NULL), *second = part_film(2, PILOT, 1, NULL);
-  sender s = {0};
+  farm_sender s = {0};
   CHECK_INT_EQ(send_part(&f, first, 0, 1, NULL, &s), 1);
   CHECK_STR_CONTAINS(s.message, "merged");
   CHECK_INT_EQ(vf_job_pilot_done(job_of(&f)), 2);
@@ -170,7 +161,7 @@ static void test_pilot_parts_decide_the_allocation_once(void) {
 static void past_the_pilot(fixture *f, uint8_t *samples) {
   setup(f, 8);
   vf_film *pilot = part_film(0, PILOT, 1, NULL);
-  sender s = {0};
+  farm_sender s = {0};
   CHECK_INT_EQ(send_part(f, pilot, 0, 1, NULL, &s), 1);
   vf_film_destroy(pilot);
   expected_allocation(samples);
@@ -187,7 +178,7 @@ static void test_a_part_of_another_allocation_is_refused(void) {
   uint8_t other_hash[32];
   vf_blob_hash(other, sizeof other, other_hash);
   vf_film *wrong = part_film(0, 3, 0, other), *right = part_film(0, 3, 0, samples);
-  sender s = {0};
+  farm_sender s = {0};
   CHECK_INT_EQ(send_part(&f, wrong, 0, 0, other_hash, &s), 0);
   CHECK_STR_CONTAINS(s.message, "rendered with allocation");
   CHECK_INT_EQ(send_part(&f, right, 0, 0, NULL, &s), 0); /* naming none */
@@ -212,7 +203,7 @@ static void test_a_pilot_part_is_never_merged_into_the_image(void) {
   uint8_t hash[32];
   vf_blob_hash(samples, sizeof samples, hash);
   vf_film *image = part_film(0, 2, 0, samples), *pilot = part_film(0, 2, 1, NULL);
-  sender s = {0};
+  farm_sender s = {0};
   CHECK_INT_EQ(send_part(&f, image, 0, 0, hash, &s), 0);
   CHECK_STR_CONTAINS(s.message, "never merged into the image");
   CHECK_INT_EQ(vf_iterset_count(&job_of(&f)->film->iterations), 0);
@@ -240,7 +231,7 @@ static void test_a_pilot_film_written_and_read_back_resumes_the_pilot(void) {
   fixture f;
   setup(&f, 8);
   vf_film *first = part_film(0, 3, 1, NULL);
-  sender s = {0};
+  farm_sender s = {0};
   CHECK_INT_EQ(send_part(&f, first, 0, 1, NULL, &s), 1);
   vf_film_destroy(first);
   vf_job *job = job_of(&f);
