@@ -186,48 +186,34 @@ void vf_results_receive(vf_farm *farm, const Vcmfarm__LeaseResult *m, double now
   merge_part(farm, job, l, film, m, now, 0, r);
 }
 
-/* A whole pilot part: merged into the job's pilot film on the loop, pixels and all (a
- * pilot is a few iterations of one camera sub-path a pixel), and once the pilot is
- * complete the allocation follows (vf_jobs_pilot_merged). */
-static void merge_pilot_part(vf_farm *farm, vf_job *job, vf_lease *l, vf_film *film, const Vcmfarm__LeaseResult *m,
-                             double now, vf_farm_reply *r) {
-  unsigned long long lid = (unsigned long long)m->lease_id, jid = (unsigned long long)m->job_id;
-  unsigned long long b = (unsigned long long)m->begin, e = (unsigned long long)m->end;
-  vf_farm_worker *w = vf_workers_find_any(farm, m->worker_id);
-  int err = vf_job_check_result(job, film, m->begin, m->end);
-  if (err == VF_OK) err = vf_job_merge_pilot(job, film);
-  if (err != VF_OK) {
-    vf_film_destroy(film);
-    if (err == VF_EOVERLAP)
-      return refuse(w, job, r, "job %llu pilot [%llu,%llu): %s lease %016llx: some of these iterations are already "
-                    "counted, nothing merged", jid, b, e,
-                    l->state == VF_LEASE_EXPIRED ? "late result of expired" : "duplicate result of", lid);
-    return refuse(w, job, r, "job %llu pilot [%llu,%llu): %s", jid, b, e, vf_error_detail(err));
-  }
-  merged(farm, job, l, film, m, now);
-  vf_film_destroy(film);
-  vf_jobs_pilot_merged(farm, job, now);
-  vf_farm_reply_ack(r, 1, "merged");
-}
-
+/* A whole part merged, or refused saying why. A pilot part (film->pilot) goes into the
+ * job's pilot film on the loop, pixels and all (a pilot is a few iterations of one camera
+ * sub-path a pixel), and once the pilot is complete the allocation follows
+ * (vf_jobs_pilot_merged). */
 static void merge_part(vf_farm *farm, vf_job *job, vf_lease *l, vf_film *film, const Vcmfarm__LeaseResult *m,
                        double now, int deferred, vf_farm_reply *r) {
-  if (film->pilot) return merge_pilot_part(farm, job, l, film, m, now, r);
   unsigned long long lid = (unsigned long long)m->lease_id, jid = (unsigned long long)m->job_id;
   unsigned long long b = (unsigned long long)m->begin, e = (unsigned long long)m->end;
+  const char *pilot = film->pilot ? " pilot" : "";
   vf_farm_worker *w = vf_workers_find_any(farm, m->worker_id);
   int err = vf_job_check_result(job, film, m->begin, m->end);
-  if (err == VF_OK) err = deferred ? vf_job_merge_deferred(job, film, now) : vf_job_merge(job, film, now);
+  if (err == VF_OK)
+    err = film->pilot ? vf_job_merge_pilot(job, film)
+          : deferred  ? vf_job_merge_deferred(job, film, now)
+                      : vf_job_merge(job, film, now);
   if (err != VF_OK) {
     vf_film_destroy(film);
     if (err == VF_EOVERLAP)
-      return refuse(w, job, r, "job %llu [%llu,%llu): %s lease %016llx: some of these iterations are already counted, "
-                    "nothing merged", jid, b, e,
+      return refuse(w, job, r, "job %llu%s [%llu,%llu): %s lease %016llx: some of these iterations are already "
+                    "counted, nothing merged", jid, pilot, b, e,
                     l->state == VF_LEASE_EXPIRED ? "late result of expired" : "duplicate result of", lid);
-    return refuse(w, job, r, "job %llu [%llu,%llu): %s", jid, b, e, vf_error_detail(err));
+    return refuse(w, job, r, "job %llu%s [%llu,%llu): %s", jid, pilot, b, e, vf_error_detail(err));
   }
   merged(farm, job, l, film, m, now);
-  if (deferred) {
+  if (film->pilot) {
+    vf_film_destroy(film);
+    vf_jobs_pilot_merged(farm, job, now);
+  } else if (deferred) {
     vf_results_add_pixels(farm, job, film); /* owns film now; the targets are tested when it lands */
     if (vf_job_complete(job)) vf_jobs_finish(farm, job, now); /* its final film waits for the addition */
   } else {
