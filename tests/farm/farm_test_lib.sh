@@ -115,7 +115,17 @@ wait_until() { # seconds, what, command...
 
 exited() { ! kill -0 "$1" 2>/dev/null; }
 
-status_of() { client status "$1" --json 2>/dev/null; } # through the calling script's `client`
+# The farm's command line for the test's coordinator ($url, $key); a script whose
+# coordinator is reached another way (test_farm_netns.sh) defines its own after sourcing.
+client() { # command, arguments...
+  "$vcmfarm" "$@" --coordinator "$url" --secret "$key" --timeout 3
+}
+# The compact JSON of `status JOB --json` for the script's $job, for matching with grep.
+status_json() { client status "$job" --json 2>/dev/null | tr -d ' \t\n'; }
+job_number() { status_json | sed -n "s/.*\"$1\":\([0-9]*\).*/\1/p"; }
+job_done() { status_json | grep -q '"state":"done"'; }
+
+status_of() { client status "$1" --json 2>/dev/null; } # through `client`
 # A field of the job in `status JOB --json`; "" when the coordinator does not answer.
 job_field() { # job, field
   status_of "$1" | python3 -c '

@@ -26,14 +26,6 @@ source "$(dirname "$0")/farm_test_lib.sh"
 farm_test_tmp farm
 farm_test_key
 
-client() { # command, arguments...
-  "$vcmfarm" "$@" --coordinator "$url" --secret "$key" --timeout 3
-}
-
-# The compact JSON of `status JOB --json`, for matching with grep.
-status_json() { client status "$job" --json 2>/dev/null | tr -d ' \t\n'; }
-job_number() { status_json | sed -n "s/.*\"$1\":\([0-9]*\).*/\1/p"; }
-job_done() { status_json | grep -q '"state":"done"'; }
 job_value() { status_json | sed -n "s/.*\"$1\":\([-0-9.eE+]*\).*/\1/p"; }
 at_most() { awk -v a="$1" -v b="$2" 'BEGIN { exit !(a != "" && a + 0 <= b + 0) }'; }
 

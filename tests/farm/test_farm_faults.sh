@@ -72,10 +72,6 @@ start_supervised_worker() { # name, extra options...
   last_supervisor=$!
 }
 
-client() { # command, arguments...
-  "$vcmfarm" "$@" --coordinator "$url" --secret "$key" --timeout 3
-}
-
 number_of() { job_field "$1" "$2"; }
 message_of() { job_field "$1" message; }
 event_count() { # job, kind

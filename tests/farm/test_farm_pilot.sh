@@ -20,12 +20,6 @@ source "$(dirname "$0")/farm_test_lib.sh"
 farm_test_tmp farm-pilot
 farm_test_key
 
-client() { # command, arguments...
-  "$vcmfarm" "$@" --coordinator "$url" --secret "$key" --timeout 3
-}
-status_json() { client status "$job" --json 2>/dev/null | tr -d ' \t\n'; }
-job_number() { status_json | sed -n "s/.*\"$1\":\([0-9]*\).*/\1/p"; }
-job_done() { status_json | grep -q '"state":"done"'; }
 registered() { [ "$(grep -c "worker w[12] registered" "$tmp/coordinator.log")" -ge 2 ]; }
 
 iterations=12
