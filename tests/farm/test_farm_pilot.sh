@@ -10,6 +10,10 @@
 #                            that film and ends with the same film
 #   killed_after_pilot       killed once the job's film holds the allocation and some of
 #                            its iterations: no pilot again, the same film
+#   continued                a film of [0, K) rendered locally with the pilot, continued by
+#                            a farm job from iteration K (`submit --start-iteration K`): the
+#                            farm reruns the pilot, and the two films merge into the local
+#                            render of [0, N) bit for bit
 # Every wait is bounded (wait_until); the case's ctest timeout bounds the rest.
 set -u
 case_name="$1"
@@ -113,6 +117,27 @@ killed_after_pilot)
     fail "the pilot ran again after the restart: $(tail -n +"$restart_line" "$tmp/coordinator.log" | grep pilot)"
   [ -e "$state/job-$job.pilot.exr" ] && fail "the pilot film outlived the allocation's checkpoint and a restart"
   check_film
+  ;;
+continued)
+  first=5
+  start_farm 50
+  "$vcmfarm" render cornell $(settings | sed "s/-n $iterations/-n $first/") -j 1 -q -o "$tmp/first.exr" ||
+    fail "the local render of [0,$first) failed"
+  job=$(client submit cornell $(settings | sed "s/-n $iterations/-n $((iterations - first))/") --start-iteration "$first" |
+    tail -n 1)
+  [ -n "$job" ] || fail "submit printed no job id"
+  wait_until 120 "job $job done" job_done
+  [ "$(pilot_leases_of w1)" -ge 1 ] || [ "$(pilot_leases_of w2)" -ge 1 ] ||
+    fail "the continuing job ran no pilot: $(grep "job $job" "$tmp/coordinator.log")"
+  client fetch "$job" -o "$tmp/farm.exr" || fail "fetch failed"
+  "$vcmfarm" info "$tmp/farm.exr" | grep -q "^iterations *\[$first,$iterations)" ||
+    fail "the farm's film does not hold [$first,$iterations): $("$vcmfarm" info "$tmp/farm.exr")"
+  # The farm's allocation is the local pilot's: otherwise merge refuses the pair.
+  "$vcmfarm" merge -q -o "$tmp/merged.exr" "$tmp/first.exr" "$tmp/farm.exr" ||
+    fail "the local film and the farm's continuation do not merge"
+  "$vcmfarm" render cornell $(settings) -j 1 -q -o "$tmp/reference.exr" || fail "reference render failed"
+  "$compare" --exact "$tmp/merged.exr" "$tmp/reference.exr" "[0,$iterations)" ||
+    fail "the merged film differs from the local render of [0,$iterations)"
   ;;
 *)
   fail "unknown case $case_name"
