@@ -2,6 +2,7 @@
 
 #include "../common/clock.h"
 #include "../common/error.h"
+#include "jobs.h"
 #include "log.h"
 #include "merger.h"
 #include "ship.h"
@@ -319,6 +320,71 @@ static int save_film(vf_farm *farm, vf_job *job, uint64_t snapshot_id) {
   return err;
 }
 
+/* A pilot film's write, on the merge thread behind the additions queued before it: its
+ * pixels borrowed from the job's pilot_film (not dropped while pilot_writing), its
+ * metadata a copy taken when it was queued, which describes exactly those additions. */
+typedef struct {
+  vf_merge_item item;
+  vf_farm *farm;
+  uint64_t job_id;
+  vf_film *shell;        /* owned: pilot_film's metadata, without pixels */
+  const vf_film *pixels; /* the job's pilot_film */
+  char path[4096];
+  int err;
+  char detail[1024];
+} pilot_write_item;
+
+static void pilot_write_work(vf_merge_item *item) {
+  pilot_write_item *w = (pilot_write_item *)item;
+  vf_error_clear();
+  w->shell->sum = w->pixels->sum;
+  w->shell->square_sum = w->pixels->square_sum;
+  w->err = vf_film_write(w->shell, w->path);
+  w->shell->sum = w->shell->square_sum = NULL;
+  if (w->err != VF_OK) snprintf(w->detail, sizeof w->detail, "%s", vf_error_detail(w->err));
+}
+
+static void pilot_write_done(vf_merge_item *item) {
+  pilot_write_item *w = (pilot_write_item *)item;
+  vf_job *job = vf_farm_job(w->farm, w->job_id);
+  vf_ship_part_work(w->farm, item->seconds, 0);
+  if (job != NULL) {
+    job->pilot_writing = 0;
+    if (w->err != VF_OK) {
+      job->pilot_dirty = 1; /* the next checkpoint tries again */
+      vf_log("job %llu: writing its pilot film failed: %s", (unsigned long long)job->id, w->detail);
+    }
+    vf_jobs_pilot_merged(w->farm, job, vf_seconds_now()); /* the pilot may have completed meanwhile */
+  }
+  vf_film_destroy(w->shell);
+  free(w);
+}
+
+/* The pilot film's checkpoint: on the merge thread when there is one (a 4K pilot film takes
+ * about a second to write), else here. Nothing while a write of it is in flight or its
+ * allocation is being computed (pilot_dirty stays: the next checkpoint takes it). */
+static int save_pilot(vf_farm *farm, vf_job *job) {
+  if (job->pilot_writing || job->pilot_finishing || job->pilot_film == NULL || job->film_unreadable) return VF_OK;
+  if (farm->merger == NULL) return vf_state_save_pilot(farm->config.state_dir, job);
+  pilot_write_item *w = calloc(1, sizeof *w);
+  if (w == NULL) return vf_error_set(VF_ENOMEM, "out of memory starting a checkpoint of job %llu's pilot film",
+                                     (unsigned long long)job->id);
+  int err = vf_state_pilot_path(farm->config.state_dir, job->id, w->path, sizeof w->path);
+  if (err == VF_OK) err = vf_film_clone_metadata(job->pilot_film, &w->shell);
+  if (err != VF_OK) {
+    free(w);
+    return err;
+  }
+  w->item = (vf_merge_item){.work = pilot_write_work, .done = pilot_write_done};
+  w->farm = farm;
+  w->job_id = job->id;
+  w->pixels = job->pilot_film;
+  job->pilot_writing = 1;
+  job->pilot_dirty = 0; /* what merges after this sets it again */
+  vf_merger_queue(farm->merger, &w->item);
+  return VF_OK;
+}
+
 void vf_checkpoint_final(vf_farm *farm, vf_job *job) {
   job->final_pending = 1;
   vf_state_recreate(farm);
@@ -339,8 +405,7 @@ int vf_checkpoint_write(vf_farm *farm, int all) {
     int err = vf_job_log(j);
     if (err != VF_OK) vf_log("job %llu: convergence entry: %s", (unsigned long long)j->id, vf_error_detail(err));
     if (j->seconds != j->seconds_saved) farm->state_dirty = 1;
-    /* A pilot film is written on the loop: a pilot is a few iterations, its checkpoints few. */
-    if (j->pilot_dirty && (err = vf_state_save_pilot(farm->config.state_dir, j)) != VF_OK) {
+    if (j->pilot_dirty && (err = save_pilot(farm, j)) != VF_OK) {
       vf_log("job %llu: writing its pilot film failed: %s", (unsigned long long)j->id, vf_error_detail(err));
       if (first == VF_OK) {
         first = err;

@@ -213,10 +213,23 @@ int vf_job_merge_pilot(vf_job *job, const vf_film *film) {
   return err;
 }
 
+int vf_job_merge_pilot_deferred(vf_job *job, const vf_film *film) {
+  if (!vf_job_in_pilot(job) || job->pilot_film == NULL)
+    return vf_error_set(VF_EINVAL, "job %llu's pilot is done: its allocation is computed", (unsigned long long)job->id);
+  int err = vf_film_merge_metadata(job->pilot_film, film);
+  if (err != VF_OK) return err;
+  job->pilot_merging++;
+  job->pilot_dirty = 1;
+  return VF_OK;
+}
+
+int vf_job_pilot_complete(const vf_job *job) {
+  return vf_job_in_pilot(job) && job->pilot_film != NULL &&
+         vf_iterset_count(&job->pilot_film->iterations) >= (uint64_t)job->settings.pilot;
+}
+
 int vf_job_finish_pilot(vf_job *job) {
-  if (!vf_job_in_pilot(job) || job->pilot_film == NULL ||
-      vf_iterset_count(&job->pilot_film->iterations) < (uint64_t)job->settings.pilot)
-    return 0;
+  if (!vf_job_pilot_complete(job)) return 0;
   size_t pixels = (size_t)job->film->width * (size_t)job->film->height;
   uint8_t *samples = malloc(pixels);
   if (samples == NULL)
@@ -224,8 +237,13 @@ int vf_job_finish_pilot(vf_job *job) {
   /* The pilot's film is no image (film->pilot): vf_allocation_compute reads it as the local
    * render's pilot, a film of [0, pilot) of the job's settings. */
   int err = vf_allocation_compute(job->pilot_film, samples, NULL);
-  if (err == VF_OK) err = vf_film_set_samples(job->film, samples);
+  if (err == VF_OK) err = vf_job_set_allocation(job, samples);
   free(samples);
+  return err;
+}
+
+int vf_job_set_allocation(vf_job *job, const uint8_t *samples) {
+  int err = vf_film_set_samples(job->film, samples);
   if (err != VF_OK) return err;
   vf_job_allocation_loaded(job);
   /* The job's film carries what its pilot cost, as vf_render_pilot's does. */

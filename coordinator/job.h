@@ -73,6 +73,14 @@ typedef struct {
    * the same (coordinator/state.h keeps pilot_film and, in film's file, the allocation). */
   vf_film *pilot_film;  /* owned; NULL without a pilot and once the allocation is computed */
   int pilot_dirty;      /* pilot_film merged into since it was last written */
+  /* With a merge thread, pilot parts and pilot_film's writes go through it as the film's
+   * do: pilot_merging counts additions to pilot_film's pixels not landed yet, pilot_writing
+   * a write in flight (its pixels borrowed), pilot_finishing the allocation being computed
+   * from the complete pilot_film there. pilot_film is neither read on the loop nor dropped
+   * while any is set; the allocation is computed once all have landed. */
+  unsigned pilot_merging;
+  int pilot_writing;
+  int pilot_finishing;
   uint8_t allocation_hash[32]; /* BLAKE2b-256 of film->samples (the blob leases name), when set */
   char allocation_summary[160]; /* vf_allocation_describe's, for status; "" before */
   int film_dirty;       /* merged into since the last checkpoint */
@@ -218,12 +226,23 @@ uint64_t vf_job_pilot_done(const vf_job *job);
  * (nothing merged) if any of its iterations is already there. */
 int vf_job_merge_pilot(vf_job *job, const vf_film *film);
 
+/* vf_job_merge_pilot but for the pixels, which the caller adds (the merge thread:
+ * vf_film_add_pixels into pilot_film) and then lowers pilot_merging, raised here. */
+int vf_job_merge_pilot_deferred(vf_job *job, const vf_film *film);
+
+/* In its pilot phase with pilot_film holding all of [0, pilot). */
+int vf_job_pilot_complete(const vf_job *job);
+
 /* When pilot_film holds all of [0, pilot): computes the allocation from it
- * (vf_allocation_compute), gives it to the job's film with the pilot's times (as the local
- * render's film has them), records its hash and drops pilot_film; returns 1. 0 while the
- * pilot is not complete or the job has no pilot phase; VF_ENOMEM or the computation's error,
- * the job unchanged. */
+ * (vf_allocation_compute) and gives it to the job (vf_job_set_allocation); returns 1. 0
+ * while the pilot is not complete or the job has no pilot phase; VF_ENOMEM or the
+ * computation's error, the job unchanged. */
 int vf_job_finish_pilot(vf_job *job);
+
+/* Gives the job's film the allocation computed from its complete pilot_film (width x
+ * height counts, copied), with the pilot's times (as the local render's film has them),
+ * records its hash and drops pilot_film; returns 1, or VF_ENOMEM with the job unchanged. */
+int vf_job_set_allocation(vf_job *job, const uint8_t *samples);
 
 /* Records the hash and summary of the allocation the job's film has (a film read back
  * with one); nothing when it has none. */

@@ -1,5 +1,6 @@
 #include "jobs.h"
 
+#include "../common/allocation.h"
 #include "../common/clock.h"
 #include "../common/error.h"
 #include "../common/wire.h"
@@ -7,6 +8,7 @@
 #include "checkpoint.h"
 #include "leases.h"
 #include "log.h"
+#include "merger.h"
 #include "poison.h"
 #include "state.h"
 #include "workers.h"
@@ -418,7 +420,7 @@ void vf_jobs_remove(vf_farm *farm, const Vcmfarm__RemoveRequest *m, vf_farm_repl
              vf_job_state(job, vf_lease_active_iterations(&farm->leases, job->id)));
     return vf_farm_reply_ack(r, 0, r->text);
   }
-  if (job->film_writing) {
+  if (job->film_writing || job->pilot_writing || job->pilot_finishing || job->pilot_merging > 0) {
     snprintf(r->text, sizeof r->text, "job %llu's film is being written: try again", (unsigned long long)job->id);
     return vf_farm_reply_ack(r, 0, r->text);
   }
@@ -471,10 +473,9 @@ void vf_jobs_finish(vf_farm *farm, vf_job *job, double now) {
   vf_checkpoint_final(farm, job);
 }
 
-void vf_jobs_pilot_merged(vf_farm *farm, vf_job *job, double now) {
+/* The allocation computed (err 1) or not (err < 0): what follows, on the loop. */
+static void pilot_finished(vf_farm *farm, vf_job *job, int err, double now) {
   unsigned long long jid = (unsigned long long)job->id;
-  int err = vf_job_finish_pilot(job);
-  if (err == 0) return;
   if (err == 1) err = vf_blobs_put_allocation(farm, job);
   if (err != VF_OK) {
     char why[256];
@@ -491,4 +492,55 @@ void vf_jobs_pilot_merged(vf_farm *farm, vf_job *job, double now) {
   vf_events_add(&job->events, vf_unix_now(), "pilot_done", job->id, "", "pilot of %d iterations done; %s",
                 job->settings.pilot, job->allocation_summary);
   farm->state_dirty = 1;
+}
+
+/* The allocation computed on the merge thread from the complete pilot film, which nothing
+ * changes or drops meanwhile (pilot_finishing): a 4K pilot's costs a good part of a
+ * second, which the loop's replies need not wait for. */
+typedef struct {
+  vf_merge_item item;
+  vf_farm *farm;
+  uint64_t job_id;
+  const vf_film *pilot; /* the job's pilot_film, borrowed */
+  uint8_t *samples;     /* owned */
+  int err;
+  char detail[1024];
+} allocation_item;
+
+static void allocation_work(vf_merge_item *item) {
+  allocation_item *a = (allocation_item *)item;
+  vf_error_clear();
+  a->err = vf_allocation_compute(a->pilot, a->samples, NULL);
+  if (a->err != VF_OK) snprintf(a->detail, sizeof a->detail, "%s", vf_error_detail(a->err));
+}
+
+static void allocation_done(vf_merge_item *item) {
+  allocation_item *a = (allocation_item *)item;
+  vf_job *job = vf_farm_job(a->farm, a->job_id);
+  if (job != NULL) {
+    job->pilot_finishing = 0;
+    int err = a->err == VF_OK ? vf_job_set_allocation(job, a->samples) : vf_error_set(a->err, "%s", a->detail);
+    pilot_finished(a->farm, job, err, vf_seconds_now());
+  }
+  free(a->samples);
+  free(a);
+}
+
+void vf_jobs_pilot_merged(vf_farm *farm, vf_job *job, double now) {
+  if (!vf_job_pilot_complete(job)) return;
+  if (farm->merger == NULL) return pilot_finished(farm, job, vf_job_finish_pilot(job), now);
+  if (job->pilot_merging > 0 || job->pilot_writing || job->pilot_finishing) return; /* called again as they land */
+  size_t pixels = (size_t)job->film->width * (size_t)job->film->height;
+  allocation_item *a = calloc(1, sizeof *a);
+  uint8_t *samples = malloc(pixels);
+  if (a == NULL || samples == NULL) {
+    free(a);
+    free(samples);
+    return pilot_finished(farm, job, vf_error_set(VF_ENOMEM, "out of memory for job %llu's allocation",
+                                                  (unsigned long long)job->id), now);
+  }
+  *a = (allocation_item){.item = {.work = allocation_work, .done = allocation_done}, .farm = farm, .job_id = job->id,
+                         .pilot = job->pilot_film, .samples = samples};
+  job->pilot_finishing = 1;
+  vf_merger_queue(farm->merger, &a->item);
 }

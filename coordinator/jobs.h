@@ -32,11 +32,14 @@ void vf_jobs_remove(vf_farm *farm, const Vcmfarm__RemoveRequest *m, vf_farm_repl
  * revoked), and its final checkpoint started (vf_checkpoint_final). */
 void vf_jobs_finish(vf_farm *farm, vf_job *job, double now);
 
-/* After a pilot part of the job merged (or its pilot film was read back): once the pilot
- * film holds [0, pilot), the allocation is computed (vf_job_finish_pilot), stored as the
- * blob leases name (vf_blobs_put_allocation), the pilot leases still out revoked, and an
- * event "pilot_done" with its summary added; the job's film, which holds it, is written at
- * the next checkpoint. A failure to compute or store it fails the job, saying why. */
+/* After a pilot part of the job merged (or its pilot film was read back, or a pilot
+ * film's addition or write landed): once the pilot film holds [0, pilot), the allocation
+ * is computed (vf_job_finish_pilot; with a merge thread, there, once the pilot film's
+ * additions and write in flight have landed: this is called again when they do), stored
+ * as the blob leases name (vf_blobs_put_allocation), the pilot leases still out revoked,
+ * and an event "pilot_done" with its summary added; the job's film, which holds it, is
+ * written at the next checkpoint. A failure to compute or store it fails the job, saying
+ * why. */
 void vf_jobs_pilot_merged(vf_farm *farm, vf_job *job, double now);
 
 #endif

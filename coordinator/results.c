@@ -187,8 +187,8 @@ void vf_results_receive(vf_farm *farm, const Vcmfarm__LeaseResult *m, double now
 }
 
 /* A whole part merged, or refused saying why. A pilot part (film->pilot) goes into the
- * job's pilot film on the loop, pixels and all (a pilot is a few iterations of one camera
- * sub-path a pixel), and once the pilot is complete the allocation follows
+ * job's pilot film as a part of the image goes into its film (deferred: its pixels added on
+ * the merge thread), and once the pilot is complete the allocation follows
  * (vf_jobs_pilot_merged). */
 static void merge_part(vf_farm *farm, vf_job *job, vf_lease *l, vf_film *film, const Vcmfarm__LeaseResult *m,
                        double now, int deferred, vf_farm_reply *r) {
@@ -198,7 +198,7 @@ static void merge_part(vf_farm *farm, vf_job *job, vf_lease *l, vf_film *film, c
   vf_farm_worker *w = vf_workers_find_any(farm, m->worker_id);
   int err = vf_job_check_result(job, film, m->begin, m->end);
   if (err == VF_OK)
-    err = film->pilot ? vf_job_merge_pilot(job, film)
+    err = film->pilot ? (deferred ? vf_job_merge_pilot_deferred(job, film) : vf_job_merge_pilot(job, film))
           : deferred  ? vf_job_merge_deferred(job, film, now)
                       : vf_job_merge(job, film, now);
   if (err != VF_OK) {
@@ -210,7 +210,9 @@ static void merge_part(vf_farm *farm, vf_job *job, vf_lease *l, vf_film *film, c
     return refuse(w, job, r, "job %llu%s [%llu,%llu): %s", jid, pilot, b, e, vf_error_detail(err));
   }
   merged(farm, job, l, film, m, now);
-  if (film->pilot) {
+  if (film->pilot && deferred) {
+    vf_results_add_pixels(farm, job, film); /* owns film now; the pilot is tested when it lands */
+  } else if (film->pilot) {
     vf_film_destroy(film);
     vf_jobs_pilot_merged(farm, job, now);
   } else if (deferred) {
@@ -358,14 +360,21 @@ void vf_results_receive_later(vf_farm *farm, vf_lease *l, const Vcmfarm__LeaseRe
   vf_farm_reply_ack(r, 1, r->text);
 }
 
-/* ADD: the pixels of a merged part into its job's film. */
+/* ADD: the pixels of a merged part into its job's film, or of a pilot part into its
+ * pilot film. */
 typedef struct {
   vf_merge_item item;
   vf_farm *farm;
   uint64_t job_id;
-  vf_film *dst;  /* the job's film: its pixels are the thread's while job->merging */
+  vf_film *dst;  /* the job's (pilot) film: its pixels are the thread's while job->(pilot_)merging */
   vf_film *film; /* owned */
 } add_item;
+
+/* A pilot part's pixels landed: the last of the pilot's may complete it. */
+static void pilot_added(vf_farm *farm, vf_job *job) {
+  if (job->pilot_merging > 0) job->pilot_merging--;
+  if (job->pilot_merging == 0) vf_jobs_pilot_merged(farm, job, vf_seconds_now());
+}
 
 static void add_work(vf_merge_item *item) {
   add_item *a = (add_item *)item;
@@ -377,9 +386,11 @@ static void add_done(vf_merge_item *item) {
   vf_farm *farm = a->farm;
   vf_ship_part_work(farm, item->seconds, 1);
   vf_job *job = vf_farm_job(farm, a->job_id);
+  int pilot = a->film->pilot;
   vf_film_destroy(a->film);
   free(a);
   if (job == NULL) return;
+  if (pilot) return pilot_added(farm, job);
   if (job->merging > 0) job->merging--;
   if (job->merging > 0) return;
   int err = vf_job_check_stop(job);
@@ -389,14 +400,17 @@ static void add_done(vf_merge_item *item) {
 }
 
 void vf_results_add_pixels(vf_farm *farm, vf_job *job, vf_film *film) {
+  vf_film *dst = film->pilot ? job->pilot_film : job->film;
   add_item *a = calloc(1, sizeof *a);
   if (a == NULL) { /* the addition cannot be refused now: do it here */
-    vf_film_add_pixels(job->film, film);
+    int pilot = film->pilot;
+    vf_film_add_pixels(dst, film);
     vf_film_destroy(film);
+    if (pilot) return pilot_added(farm, job);
     job->merging--;
     return;
   }
-  *a = (add_item){.item = {.work = add_work, .done = add_done}, .farm = farm, .job_id = job->id, .dst = job->film,
+  *a = (add_item){.item = {.work = add_work, .done = add_done}, .farm = farm, .job_id = job->id, .dst = dst,
                   .film = film};
   vf_merger_queue(farm->merger, &a->item);
 }

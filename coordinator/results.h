@@ -27,7 +27,9 @@ void vf_results_receive_later(vf_farm *farm, vf_lease *l, const Vcmfarm__LeaseRe
                               vf_farm_reply *r);
 
 /* Adds a merged part's pixels (`film`, taken) to the job's film on the merge thread;
- * job->merging, raised by vf_job_merge_deferred, falls when they are in. */
+ * job->merging, raised by vf_job_merge_deferred, falls when they are in. A pilot part's
+ * (film->pilot) go to the job's pilot film, and job->pilot_merging, raised by
+ * vf_job_merge_pilot_deferred, falls (vf_jobs_pilot_merged follows). */
 void vf_results_add_pixels(vf_farm *farm, vf_job *job, vf_film *film);
 
 /* Parts being received at once, each a film as large as its job's staged in memory: the

@@ -72,6 +72,10 @@ int vf_state_film_path(const char *dir, uint64_t id, char *buf, size_t n) {
   return path_of(buf, n, dir, "job-", id, ".exr");
 }
 
+int vf_state_pilot_path(const char *dir, uint64_t id, char *buf, size_t n) {
+  return path_of(buf, n, dir, "job-", id, ".pilot.exr");
+}
+
 int vf_state_save_film(const char *dir, vf_job *job) {
   char path[4096];
   int err = path_of(path, sizeof path, dir, "job-", job->id, ".exr");
@@ -85,7 +89,7 @@ int vf_state_save_film(const char *dir, vf_job *job) {
 
 int vf_state_save_pilot(const char *dir, vf_job *job) {
   char path[4096];
-  int err = path_of(path, sizeof path, dir, "job-", job->id, ".pilot.exr");
+  int err = vf_state_pilot_path(dir, job->id, path, sizeof path);
   if (err != VF_OK || job->pilot_film == NULL || job->film_unreadable) return err;
   if ((err = vf_film_write(job->pilot_film, path)) == VF_OK) job->pilot_dirty = 0;
   return err;

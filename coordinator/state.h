@@ -62,6 +62,8 @@ int vf_state_save_film(const char *dir, vf_job *job);
 int vf_state_save_pilot(const char *dir, vf_job *job);
 /* DIR/job-ID.exr into buf (n bytes); VF_EINVAL when it does not fit. */
 int vf_state_film_path(const char *dir, uint64_t id, char *buf, size_t n);
+/* DIR/job-ID.pilot.exr, the same way. */
+int vf_state_pilot_path(const char *dir, uint64_t id, char *buf, size_t n);
 /* Makes DIR/job-ID.reference.exr the blob of hash (a hard link: no copy, and it outlives
  * the blob) and loads it into the job (vf_job_load_reference); on failure removes it
  * again: VF_EIO, or the reading error of a bad image. */

@@ -4,7 +4,9 @@
  * back, while another worker sends heartbeats and a third asks for leases, one after the
  * other. Heartbeats and leases must be answered within a bound whatever the flood (each
  * part costs the merge thread a decode of 510 tiles and an addition of 100 MB), parts must
- * be merged meanwhile, and an answer "busy" must come with a time to retry. */
+ * be merged meanwhile, and an answer "busy" must come with a time to retry. The same for a
+ * job in its pilot phase, whose parts go to its pilot film (and its pilot film's
+ * checkpoints, every second here, to the merge thread too). */
 #include "check.h"
 
 #include <stdio.h>
@@ -34,7 +36,8 @@
 
 static char dir[64], url[128], state[128];
 static vf_wire_key key;
-static char settings[512];
+static char settings[512], pilot_settings[512];
+static int pilot_case; /* the job has a pilot longer than the test: every part is a pilot part */
 static const uint8_t scene_hash[32] = {9, 9, 9};
 static Vcmfarm__Tile *tiles;
 static uint32_t n_tiles;
@@ -118,9 +121,10 @@ static void *flood(void *arg) {
     m.height = H;
     m.scene_hash.data = (uint8_t *)scene_hash;
     m.scene_hash.len = 32;
-    m.settings = settings;
+    m.settings = pilot_case ? pilot_settings : settings;
     m.tiles_total = n_tiles;
     m.render_seconds = 1.0;
+    m.pilot = pilot_case;
     Vcmfarm__Tile *ptrs[VF_FILM_TILES_PER_MESSAGE];
     int merged = 0;
     for (uint32_t at = 0; at < n_tiles && atomic_load(&flooding);) {
@@ -164,7 +168,8 @@ static int cmp(const void *a, const void *b) {
 
 static void *run_coordinator(void *arg) {
   vf_coordinator_config cc = {.listen_url = url, .state_dir = state, .key = &key, .worker_timeout = 60.0,
-                              .lease_seconds = 20.0, .checkpoint_interval = 1000.0, .stop = arg, .quiet = 1};
+                              .lease_seconds = 20.0, .checkpoint_interval = pilot_case ? 1.0 : 1000.0, .stop = arg,
+                              .quiet = 1};
   intptr_t err = vf_coordinator_run(&cc);
   return (void *)err;
 }
@@ -207,8 +212,13 @@ done:
   return best;
 }
 
-static void test_heartbeats_and_leases_answered_under_a_flood_of_parts(void) {
+static void flood_case(void) {
   double merge = one_merge_seconds();
+  atomic_store(&parts_merged, 0);
+  atomic_store(&busy_answers, 0);
+  atomic_store(&refused, 0);
+  snprintf(url, sizeof url, "ipc://%s/c%d.sock", dir, pilot_case);
+  snprintf(state, sizeof state, "%s/state%d", dir, pilot_case);
   volatile sig_atomic_t stop = 0;
   pthread_t coordinator;
   pthread_create(&coordinator, NULL, run_coordinator, (void *)&stop);
@@ -222,7 +232,7 @@ static void test_heartbeats_and_leases_answered_under_a_flood_of_parts(void) {
   sm.scene = &scene;
   sm.scene_hash.data = (uint8_t *)scene_hash;
   sm.scene_hash.len = 32;
-  sm.settings = settings;
+  sm.settings = pilot_case ? pilot_settings : settings;
   sm.iterations = 1000000000;
   sm.priority = 1;
   Vcmfarm__Envelope q = VCMFARM__ENVELOPE__INIT, *reply;
@@ -278,21 +288,36 @@ static void test_heartbeats_and_leases_answered_under_a_flood_of_parts(void) {
   void *err;
   pthread_join(coordinator, &err);
   CHECK_INT_EQ((intptr_t)err, VF_OK);
+  if (pilot_case) { /* its checkpoints wrote the pilot film (and the last one, on stopping) */
+    char pilot_file[256];
+    snprintf(pilot_file, sizeof pilot_file, "%s/job-1.pilot.exr", state);
+    CHECK(access(pilot_file, R_OK) == 0);
+  }
   vf_farm_client_close(asker_client);
   vf_farm_client_close(c);
+}
+
+static void test_heartbeats_and_leases_answered_under_a_flood_of_parts(void) {
+  pilot_case = 0;
+  flood_case();
+}
+
+static void test_heartbeats_and_leases_answered_under_a_flood_of_pilot_parts(void) {
+  pilot_case = 1;
+  flood_case();
 }
 
 int main(void) {
   snprintf(dir, sizeof dir, "/tmp/vf-test-merger-XXXXXX");
   if (mkdtemp(dir) == NULL || sodium_init() < 0) return 1;
-  snprintf(url, sizeof url, "ipc://%s/c.sock", dir);
-  snprintf(state, sizeof state, "%s/state", dir);
   randombytes_buf(key.bytes, sizeof key.bytes);
   vf_settings s;
   vf_settings_default(&s);
   s.width = W;
   s.height = H;
   vf_settings_format(&s, settings, sizeof settings);
+  s.pilot = VF_MAX_PILOT;
+  vf_settings_format(&s, pilot_settings, sizeof pilot_settings);
   /* A noisy one-iteration film: its tiles do not compress. */
   vf_film *film;
   if (vf_film_create(W, H, &film) != VF_OK) return 1;
@@ -315,6 +340,7 @@ int main(void) {
   }
   vf_film_destroy(film);
   RUN(test_heartbeats_and_leases_answered_under_a_flood_of_parts);
+  RUN(test_heartbeats_and_leases_answered_under_a_flood_of_pilot_parts);
   char cmd[128];
   snprintf(cmd, sizeof cmd, "rm -rf '%s'", dir);
   if (system(cmd) != 0) return 1;
