@@ -66,6 +66,7 @@ static int render(const vf_render_job *o) {
   vf_renderer *renderer = NULL;
   vf_film *film = NULL;
   vf_image reference = {0};
+  uint8_t *auto_samples = NULL;
   if ((err = vf_cli_scene_path(o->scene)) != VF_OK || (err = vf_scene_load_camera(o->scene, o->camera, &scene)) != VF_OK)
     return vf_cli_fail("render", err);
   vf_cli_print_notes(scene->source, scene->notes);
@@ -83,9 +84,25 @@ static int render(const vf_render_job *o) {
     goto done;
   }
 
+  /* auto with a pilot: each candidate's pilot decides, and the chosen one's is the job's. */
+  vf_auto_choice choice;
+  int chose = settings.algorithm == VF_ALGO_AUTO && settings.pilot > 0;
+  if (chose) {
+    if ((auto_samples = malloc((size_t)settings.width * (size_t)settings.height)) == NULL) {
+      err = VF_ENOMEM;
+      goto done;
+    }
+    if ((err = vf_render_choose_algorithm(scene, &settings, o->threads, NULL, auto_samples, &choice)) != VF_OK) goto done;
+    if (!o->quiet) vf_render_job_print_choice(&choice, settings.pilot);
+  }
   if ((err = vf_renderer_create(scene, &settings, o->threads, &renderer)) != VF_OK) goto done;
   if ((err = vf_film_create(settings.width, settings.height, &film)) != VF_OK) goto done;
   if ((err = vf_renderer_stamp(renderer, film)) != VF_OK) goto done;
+  if (chose) { /* the chosen pilot's allocation, and the film's times include every pilot */
+    if ((err = vf_film_set_samples(film, auto_samples)) != VF_OK) goto done;
+    film->render_seconds += choice.render_seconds;
+    film->cpu_seconds += choice.cpu_seconds;
+  }
   if (!o->quiet) {
     char what[512], until[512];
     vf_render_job_format_what(scene->source, &settings, vf_vcm_algorithm(vf_renderer_vcm(renderer)), what,
@@ -113,6 +130,7 @@ static int render(const vf_render_job *o) {
     vf_render_job_print_result(o, r.last.estimated_rmse, r.last.rmse, r.target_reached ? "target reached" : NULL);
   }
 done:
+  free(auto_samples);
   vf_image_destroy(&reference);
   vf_film_destroy(film);
   vf_renderer_destroy(renderer);

@@ -123,6 +123,16 @@ void vf_render_job_format_stop(const vf_cli_stop *stop, uint64_t start, char *ou
     append(out, n, "%s%sestimated RMSE <= %g", sep, conditions > 1 ? "" : "until ", stop->target_error);
 }
 
+void vf_render_job_print_choice(const vf_auto_choice *choice, int pilot) {
+  fprintf(stderr, "auto: pilots of %d iterations (%.2f s); efficiency, 1 / (s an iteration x variance):", pilot,
+          choice->render_seconds);
+  for (int i = 0; i < choice->count; i++)
+    fprintf(stderr, "%s %s %.4g (%.2f camera sub-paths a pixel)", i ? "," : "",
+            vf_algorithm_name(choice->candidates[i].algorithm), choice->candidates[i].efficiency,
+            choice->candidates[i].camera_subpaths);
+  fprintf(stderr, "; chose %s\n", vf_algorithm_name(choice->algorithm));
+}
+
 void vf_render_job_print_details(const vf_settings *settings, const vf_renderer *renderer) {
   char text[512];
   if (vf_settings_format(settings, text, sizeof text) == VF_OK) fprintf(stderr, "settings: %s\n", text);

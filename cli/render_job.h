@@ -39,6 +39,10 @@ void vf_render_job_format_stop(const vf_cli_stop *stop, uint64_t start, char *ou
  * skipped (vf_vcm_describe). */
 void vf_render_job_print_details(const vf_settings *settings, const vf_renderer *renderer);
 
+/* What `--algorithm auto` with a pilot measured and chose (vf_render_choose_algorithm), on
+ * stderr: one line. */
+void vf_render_job_print_choice(const vf_auto_choice *choice, int pilot);
+
 /* Writes the film's mean, tone-mapped (exposure in stops) to sRGB, as the PNG `path`:
  * the preview of render, continue, fetch and submit --wait. */
 int vf_preview_write(const vf_film *film, const char *path, double exposure);

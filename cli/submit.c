@@ -9,7 +9,9 @@
 #include "../common/wire.h"
 #include "../worker/scene/job_scene.h"
 #include "../worker/scene/load.h"
+#include "../worker/render/render.h"
 #include "../worker/render/vcm.h"
+#include "render_job.h"
 #include "../worker/scene/builtin.h"
 
 #include <sodium.h>
@@ -152,9 +154,15 @@ int vf_submit(vf_farm_client *client, int timeout_ms, const vf_submit_job *job, 
   vf_settings settings = scene->settings;
   if (job->overrides && (err = vf_cli_settings_apply(job->overrides, &settings)) != VF_OK) goto done;
   char settings_text[512];
-  if ((err = vf_settings_validate(&settings)) != VF_OK ||
-      (err = vf_settings_format(&settings, settings_text, sizeof settings_text)) != VF_OK)
-    goto done;
+  if ((err = vf_settings_validate(&settings)) != VF_OK) goto done;
+  if (settings.algorithm == VF_ALGO_AUTO && settings.pilot > 0) {
+    /* auto with a pilot is decided here, once, by the candidates' pilots on this machine
+     * (vf_render_choose_algorithm), and the job names the algorithm it chose. */
+    vf_auto_choice choice;
+    if ((err = vf_render_choose_algorithm(scene, &settings, 0, NULL, NULL, &choice)) != VF_OK) goto done;
+    if (job->log_prefix) vf_render_job_print_choice(&choice, settings.pilot);
+  }
+  if ((err = vf_settings_format(&settings, settings_text, sizeof settings_text)) != VF_OK) goto done;
 
   /* The reference is read here too, so a wrong one is refused before anything is sent. */
   if (reference) {

@@ -128,6 +128,9 @@ int vf_allocation_compute(const vf_film *film, uint8_t *samples, vf_allocation_r
   if (report) {
     vf_allocation_describe(samples, n, report);
     report->predicted_gain = best;
+    double v = 0.0;
+    for (size_t p = 0; p < n; p++) v += variance[p] / samples[p];
+    report->variance = v / (double)n;
   }
   free(raw);
   free(variance);
@@ -146,6 +149,7 @@ void vf_allocation_describe(const uint8_t *samples, size_t n, vf_allocation_repo
   }
   report->mean = n ? total / (double)n : 0.0;
   report->predicted_gain = NAN;
+  report->variance = NAN;
 }
 
 uint64_t vf_allocation_seed(uint64_t seed) { return vf_splitmix64(seed ^ 0x9e6c63d0876a9a99ULL); }

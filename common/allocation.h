@@ -55,6 +55,8 @@ typedef struct {
   uint64_t pixels[VF_ALLOCATION_LEVELS]; /* pixels of 1, 2, 4, 8, 16 camera sub-paths */
   double mean;           /* camera sub-paths per pixel and iteration */
   double predicted_gain; /* the efficiency over one a pixel, on the pilot's estimates */
+  double variance;       /* of an iteration's estimate with these counts, on the pilot's
+                          * (smoothed) estimates: the mean over pixels of sum_c v_p / k_p */
 } vf_allocation_report;
 
 /* Each pixel's count (width x height bytes into samples) from the pilot's film, which must

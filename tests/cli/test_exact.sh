@@ -41,6 +41,15 @@ check "continue 3000 + 3000 equals --direct 6000 bit for bit" \
 "$vcmfarm" continue "$tmp/pilot15.exr" -n 25 -j 1 -q || exit 1
 check "a pilot's film: continue 15 + 25 equals --direct 40 bit for bit" \
   "$compare" --exact "$tmp/pilot15.exr" "$tmp/pilot40.exr" "[0,40)"
+# auto with a pilot chooses by the candidates' pilots (vf_render_choose_algorithm), and the
+# film is the chosen algorithm's with its own pilot, bit for bit.
+"$vcmfarm" render cornell-glossy -R 16x16 --seed 7 -j 1 -a auto --pilot 4 -n 6 -o "$tmp/auto.exr" 2>"$tmp/auto.err" || exit 1
+chosen=$("$vcmfarm" info --json "$tmp/auto.exr" | jq -r .algorithm)
+check "auto with a pilot reports its choice and the film names it" \
+  grep -q "^auto: pilots of 4 iterations .*; chose $chosen$" "$tmp/auto.err"
+"$vcmfarm" render cornell-glossy -R 16x16 --seed 7 -j 1 -a "$chosen" --pilot 4 -n 6 -q -o "$tmp/chosen.exr" || exit 1
+check "auto with a pilot: the film of the algorithm it chose ($chosen), bit for bit" \
+  "$compare" --exact "$tmp/auto.exr" "$tmp/chosen.exr" "[0,6)"
 
 # Many checkpoints, each a write of the whole film, and a continue in four steps.
 "$vcmfarm" render "${r[@]}" -a bpt --direct -n 2000 -o "$tmp/direct2000.exr" || exit 1

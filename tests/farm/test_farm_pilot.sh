@@ -10,6 +10,9 @@
 #                            that film and ends with the same film
 #   killed_after_pilot       killed once the job's film holds the allocation and some of
 #                            its iterations: no pilot again, the same film
+#   exact_auto               `submit -a auto --pilot N`: the client chooses the algorithm by
+#                            the candidates' pilots, the job names it, and its film is the
+#                            local render's of that algorithm, bit for bit
 #   continued                a film of [0, K) rendered locally with the pilot, continued by
 #                            a farm job from iteration K (`submit --start-iteration K`): the
 #                            farm reruns the pilot, and the two films merge into the local
@@ -79,6 +82,17 @@ exact_pt | exact_vcm)
   last_pilot=$(grep -n "job $job pilot iterations \[" "$tmp/coordinator.log" | tail -n 1 | cut -d: -f1)
   [ "$first_image" -gt "$done_line" ] && [ "$last_pilot" -lt "$done_line" ] ||
     fail "leases of the image and the pilot overlap in time: $(grep "lease .*job $job\|pilot of" "$tmp/coordinator.log")"
+  check_film
+  ;;
+exact_auto)
+  algorithm=auto
+  start_farm 50
+  submit
+  wait_until 120 "job $job done" job_done
+  client fetch "$job" -o "$tmp/farm.exr" || fail "fetch failed"
+  algorithm=$("$vcmfarm" info --json "$tmp/farm.exr" | jq -r .algorithm)
+  case "$algorithm" in pt | bpt | vcm) ;; *) fail "the job's film names algorithm '$algorithm', not what auto chose" ;; esac
+  grep -q "submitted: built-in cornell" "$tmp/coordinator.log" || fail "no job submitted"
   check_film
   ;;
 killed_in_pilot)

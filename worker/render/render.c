@@ -162,6 +162,87 @@ done:
   return err;
 }
 
+/* One candidate of auto: its pilot rendered by r (set up for it) into a film of its own,
+ * its allocation into counts and its figures into *c. */
+static int measure_candidate(vf_renderer *r, volatile sig_atomic_t *interrupt, uint8_t *counts, vf_auto_choice *choice,
+                             int i) {
+  vf_film *pilot = NULL;
+  int err = vf_film_create(r->settings.width, r->settings.height, &pilot);
+  if (err != VF_OK) return err;
+  vf_render_control pc = {.interrupt = interrupt};
+  vf_render_status st;
+  uint64_t n = (uint64_t)r->settings.pilot;
+  if ((err = vf_renderer_stamp(r, pilot)) != VF_OK || (err = vf_render_pilot_range(r, pilot, 0, n, &pc, &st)) != VF_OK)
+    goto done;
+  if (st.iterations_done < n) {
+    err = vf_error_set(VF_EINVAL, "auto's pilot of %s was interrupted after %llu of its %d iterations",
+                       vf_algorithm_name(r->settings.algorithm), (unsigned long long)st.iterations_done, r->settings.pilot);
+    goto done;
+  }
+  vf_allocation_report report;
+  if ((err = vf_allocation_compute(pilot, counts, &report)) != VF_OK) goto done;
+  double light = (st.stats.light_seconds + st.stats.grid_seconds) / (double)n, camera = st.stats.camera_seconds / (double)n;
+  double cost = light + camera * report.mean;
+  choice->candidates[i].algorithm = r->settings.algorithm;
+  choice->candidates[i].light_seconds = light;
+  choice->candidates[i].camera_seconds = camera;
+  choice->candidates[i].camera_subpaths = report.mean;
+  choice->candidates[i].variance = report.variance;
+  /* A pilot that saw no variance at all (an image of constant pixels) is as efficient as
+   * it gets: the cheapest such candidate wins. */
+  choice->candidates[i].efficiency = report.variance > 0.0 ? 1.0 / (cost * report.variance) : 1e300 / (cost + 1e-300);
+  choice->render_seconds += pilot->render_seconds;
+  choice->cpu_seconds += pilot->cpu_seconds;
+done:
+  vf_film_destroy(pilot);
+  return err;
+}
+
+int vf_render_choose_algorithm(const vf_scene *scene, vf_settings *settings, int threads,
+                               volatile sig_atomic_t *interrupt, uint8_t *samples, vf_auto_choice *choice) {
+  static const vf_algorithm candidates[VF_AUTO_CANDIDATES] = {VF_ALGO_PT, VF_ALGO_BPT, VF_ALGO_VCM};
+  if (settings->algorithm != VF_ALGO_AUTO || settings->pilot <= 0)
+    return vf_error_set(VF_EINVAL, "an algorithm is chosen by pilots only for --algorithm auto with --pilot");
+  memset(choice, 0, sizeof *choice);
+  size_t n = (size_t)settings->width * (size_t)settings->height;
+  uint8_t *counts = malloc(n), *best_counts = malloc(n);
+  vf_renderer *r = NULL;
+  int err = counts && best_counts ? VF_OK : VF_ENOMEM, best = -1;
+  for (int i = 0; err == VF_OK && i < VF_AUTO_CANDIDATES; i++) {
+    vf_settings s = *settings;
+    s.algorithm = candidates[i];
+    if (vf_settings_validate(&s) != VF_OK) { /* e.g. pt with light sub-paths per block */
+      vf_error_clear();
+      continue;
+    }
+    /* One scene structure and pool for all: only the algorithm's renderer changes. */
+    if (r == NULL) {
+      err = vf_renderer_create(scene, &s, threads, &r);
+    } else {
+      vf_vcm_destroy(r->vcm);
+      r->vcm = NULL;
+      r->settings = s;
+      err = vf_vcm_create(scene, r->accel, &s, r->pool, &r->vcm);
+    }
+    if (err != VF_OK || (err = measure_candidate(r, interrupt, counts, choice, choice->count)) != VF_OK) break;
+    if (best < 0 || choice->candidates[choice->count].efficiency > choice->candidates[best].efficiency) {
+      best = choice->count;
+      memcpy(best_counts, counts, n);
+    }
+    choice->count++;
+  }
+  if (err == VF_OK && best < 0) err = vf_error_set(VF_EINVAL, "none of pt, bpt and vcm takes these settings");
+  if (err == VF_OK) {
+    choice->algorithm = choice->candidates[best].algorithm;
+    settings->algorithm = choice->algorithm;
+    if (samples) memcpy(samples, best_counts, n);
+  }
+  vf_renderer_destroy(r);
+  free(counts);
+  free(best_counts);
+  return err;
+}
+
 int vf_render_range(vf_renderer *r, vf_film *film, uint64_t begin, uint64_t end, const vf_render_control *control,
                     vf_render_status *status) {
   if (film->width != r->settings.width || film->height != r->settings.height)

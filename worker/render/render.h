@@ -76,6 +76,39 @@ int vf_render_pilot(vf_renderer *r, vf_film *film, const vf_render_control *cont
 int vf_render_pilot_range(vf_renderer *r, vf_film *pilot, uint64_t begin, uint64_t end, const vf_render_control *control,
                           vf_render_status *status);
 
+/* `--algorithm auto` with a pilot: the algorithm chosen by measuring each candidate's pilot
+ * (vf_render_choose_algorithm). */
+#define VF_AUTO_CANDIDATES 3
+typedef struct {
+  vf_algorithm algorithm; /* the one chosen */
+  int count;              /* candidates measured (those the settings allow) */
+  struct {
+    vf_algorithm algorithm;
+    double light_seconds;   /* per pilot iteration: the light sub-paths' pass and the grid, */
+    double camera_seconds;  /* the camera sub-paths' (one a pixel) */
+    double camera_subpaths; /* per pixel and iteration, by its pilot's allocation */
+    double variance;        /* predicted of an iteration with it (vf_allocation_report) */
+    double efficiency;      /* 1 / (seconds an iteration x variance) */
+  } candidates[VF_AUTO_CANDIDATES];
+  double render_seconds, cpu_seconds; /* of every candidate's pilot */
+} vf_auto_choice;
+
+/* `--algorithm auto` with a pilot (settings->algorithm VF_ALGO_AUTO, settings->pilot > 0):
+ * renders the pilot (vf_render_pilot_range, iterations [0, pilot)) of each of pt, bpt and
+ * vcm that the settings allow, computes each one's allocation of camera sub-paths from it,
+ * predicts the efficiency of an iteration with that allocation, 1 / ((t_light + t_camera
+ * k) v), t_light and t_camera the measured seconds of the pilot's light and camera passes
+ * per iteration, k the allocation's mean camera sub-paths a pixel and v its predicted
+ * variance (vf_allocation_report), and sets settings->algorithm to the most efficient.
+ * The choice rests on measured times, so it is made once, by whoever starts the job, and
+ * kept in the settings (a film or a farm job then names the algorithm, not auto); what is
+ * rendered after it is a pure function of those settings as always. samples (width x
+ * height, may be NULL) receive the chosen one's allocation: the one vf_render_pilot
+ * computes for the chosen settings, bit for bit. interrupt may be NULL. VF_EINVAL without
+ * auto and a pilot, or when interrupted; the renderer's errors. */
+int vf_render_choose_algorithm(const vf_scene *scene, vf_settings *settings, int threads,
+                               volatile sig_atomic_t *interrupt, uint8_t *samples, vf_auto_choice *choice);
+
 /* The scene is borrowed and must outlive the renderer. threads <= 0: one per CPU. */
 int vf_renderer_create(const vf_scene *scene, const vf_settings *settings, int threads, vf_renderer **out);
 void vf_renderer_destroy(vf_renderer *r);

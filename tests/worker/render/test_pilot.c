@@ -9,8 +9,9 @@
  * the same on 1 and 2 threads and from the pilot's film merged from parts; a film with an
  * allocation continues (through its file) and merges bit for bit as one rendered in one
  * go; films of other allocations refuse to merge; a damaged allocation in a file is
- * refused. The MIS identity with k camera sub-paths a pixel is test_mis's
- * test_weights_match_eq12_with_camera_sub_paths_allocated_per_pixel. */
+ * refused; auto with a pilot chooses by the candidates' pilots, and the allocation it
+ * hands on is the chosen one's own. The MIS identity with k camera sub-paths a pixel is
+ * test_mis's test_weights_match_eq12_with_camera_sub_paths_allocated_per_pixel. */
 #include "check.h"
 #include "common/allocation.h"
 #include "common/error.h"
@@ -358,6 +359,49 @@ static void test_the_estimate_covers_the_error(void) {
   vf_scene_destroy(scene);
 }
 
+/* auto with a pilot: the pilots of pt, bpt and vcm measured, the most efficient chosen;
+ * on the lamp in a glass ball, whose light pt reaches only through emission hits along
+ * specular chains, not pt. The chosen one's allocation is the one its own pilot gives
+ * (here on one thread, there on two), so the job's film is that algorithm's, bit for bit. */
+static void test_auto_chooses_by_its_pilots(void) {
+  vf_scene *scene;
+  CHECK_INT_EQ(vf_scene_load("cornell-bulb", &scene), VF_OK);
+  if (check_failed_in_case) return;
+  vf_settings s = job(scene, VF_ALGO_AUTO);
+  uint8_t *samples = malloc((size_t)s.width * s.height);
+  vf_auto_choice choice;
+  CHECK_INT_EQ(vf_render_choose_algorithm(scene, &s, 2, NULL, samples, &choice), VF_OK);
+  CHECK_INT_EQ(choice.count, 3);
+  int best = 0;
+  for (int i = 0; i < choice.count; i++) {
+    printf("  %s: efficiency %.4g, %.2f camera sub-paths a pixel, variance %.4g, %.2f + %.2f ms an iteration\n",
+           vf_algorithm_name(choice.candidates[i].algorithm), choice.candidates[i].efficiency,
+           choice.candidates[i].camera_subpaths, choice.candidates[i].variance,
+           1e3 * choice.candidates[i].light_seconds, 1e3 * choice.candidates[i].camera_seconds);
+    CHECK(choice.candidates[i].efficiency > 0.0 && choice.candidates[i].efficiency < 1e300);
+    CHECK(choice.candidates[i].camera_subpaths >= 1.0 && choice.candidates[i].camera_subpaths <= VF_ALLOCATION_MAX);
+    if (choice.candidates[i].efficiency > choice.candidates[best].efficiency) best = i;
+  }
+  CHECK_INT_EQ(choice.candidates[0].algorithm, VF_ALGO_PT);
+  CHECK_INT_EQ(choice.candidates[1].algorithm, VF_ALGO_BPT);
+  CHECK_INT_EQ(choice.candidates[2].algorithm, VF_ALGO_VCM);
+  CHECK_INT_EQ(choice.algorithm, choice.candidates[best].algorithm);
+  CHECK_INT_EQ(s.algorithm, choice.algorithm);
+  CHECK(s.algorithm != VF_ALGO_PT);
+  CHECK(choice.render_seconds > 0.0);
+  uint8_t *own = pilot_allocation(scene, &s, 1);
+  CHECK(own != NULL && samples != NULL && memcmp(own, samples, (size_t)s.width * s.height) == 0);
+  free(own);
+  free(samples);
+  /* Only auto with a pilot is chosen so. */
+  vf_settings plain = job(scene, VF_ALGO_AUTO);
+  plain.pilot = 0;
+  CHECK_INT_EQ(vf_render_choose_algorithm(scene, &plain, 1, NULL, NULL, &choice), VF_EINVAL);
+  vf_settings fixed = job(scene, VF_ALGO_BPT);
+  CHECK_INT_EQ(vf_render_choose_algorithm(scene, &fixed, 1, NULL, NULL, &choice), VF_EINVAL);
+  vf_scene_destroy(scene);
+}
+
 /* No pilot is the default and writes no key; a pilot of 1, one of lt, ppm, bpm, upg or of
  * single-stage vcm is refused with the reason. */
 static void test_settings(void) {
@@ -401,5 +445,6 @@ int main(void) {
   sampler_under_test = VF_SAMPLER_SOBOL;
   RUN(test_allocations_agree_with_one_camera_sub_path);
   RUN(test_the_estimate_covers_the_error);
+  RUN(test_auto_chooses_by_its_pilots);
   return check_finish();
 }
