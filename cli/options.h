@@ -75,7 +75,9 @@ enum {
 #define VF_CLI_SETTINGS_HELP                                                                 \
   "  -a, --algorithm A        vcm (default), upg (vcm without merging's bias: unbiased\n"   \
   "                           photon gathering), bpt, pt, lt, ppm, bpm or auto (the\n"      \
-  "                           cheapest set of techniques for the scene's light transport)\n" \
+  "                           cheapest set of techniques for the scene's light transport;\n" \
+  "                           with --pilot, the most efficient of pt, bpt and vcm on\n"      \
+  "                           their pilots, and the film names it)\n"                        \
   "      --gather-from SIDE   upg: light (default), camera or auto (per path, the side\n"  \
   "                           that scatters less sharply): the side it gathers from where\n" \
   "                           both can (films of different sides never merge)\n"          \

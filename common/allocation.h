@@ -37,7 +37,16 @@
  * (tests/worker/render/test_mis.c). The j-th camera sub-path of pixel p in iteration k
  * takes point (k / 2) k_p + j of the pixel's sequence of replicate k mod 2
  * (common/sampler.h): an aligned block of k_p points, a (0, log2 k_p, 2)-net in every
- * pair of dimensions. */
+ * pair of dimensions.
+ *
+ * The algorithm. A pilot also tells how much an iteration of each algorithm would gain:
+ * `--algorithm auto` with a pilot renders the pilots of pt, bpt and vcm, and for each the
+ * counts above and their predicted variance v = mean_p sum_c v_p / k_p (the report's) and
+ * the cost of an iteration t_light + t_camera mean(k), its light and camera passes' measured
+ * seconds per pilot iteration (the light sub-paths, light tracing and the grid do not grow
+ * with k); it takes the largest 1 / (cost x v) (worker/render/render.h,
+ * vf_render_choose_algorithm). Times are measurements, so the choice is made once and kept
+ * in the settings; the counts it hands on are the chosen algorithm's own. */
 #ifndef VF_ALLOCATION_H
 #define VF_ALLOCATION_H
 

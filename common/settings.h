@@ -21,7 +21,9 @@ typedef enum {
   VF_ALGO_AUTO, /* the cheapest of the above that covers the scene's light transport, chosen
                  * by the renderer from the scene (worker/render/vcm.c, vf_vcm_algorithm). The
                  * settings text keeps "auto": the choice is a pure function of scene and
-                 * settings, so every worker and every continue makes the same one. */
+                 * settings, so every worker and every continue makes the same one. With a
+                 * pilot it is chosen by measurement instead, once, before the render
+                 * (vf_render_choose_algorithm), and the settings name the one chosen. */
   VF_ALGO_UPG,  /* vcm with unbiased photon gathering in place of vertex merging
                  * (worker/render/photon_gathering.h) */
   VF_ALGO_AUTO_UNBIASED, /* auto among the unbiased ones, pt, bpt and upg (vcm.c); kept as
