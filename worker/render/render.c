@@ -198,6 +198,16 @@ done:
   return err;
 }
 
+/* What a candidate's predicted efficiency counts for in the choice: vcm's over the margin.
+ * Its error is variance and merging's bias, and the pilot's estimate sees only the variance
+ * (of its first iterations, at the largest radii); where bpt and vcm come out close, bpt's
+ * error is what the estimate says. On the glossy box vcm's predicted 1.0x bpt's efficiency
+ * measured 0.59x over 128 iterations; on the lamp in glass its 2.4x measured 4x
+ * (docs/BENCHMARKS.md, "Camera sub-paths per pixel"). */
+static double choice_score(const vf_auto_choice *choice, int i) {
+  return choice->candidates[i].efficiency / (choice->candidates[i].algorithm == VF_ALGO_VCM ? VF_AUTO_VCM_MARGIN : 1.0);
+}
+
 int vf_render_choose_algorithm(const vf_scene *scene, vf_settings *settings, int threads,
                                volatile sig_atomic_t *interrupt, uint8_t *samples, vf_auto_choice *choice) {
   static const vf_algorithm candidates[VF_AUTO_CANDIDATES] = {VF_ALGO_PT, VF_ALGO_BPT, VF_ALGO_VCM};
@@ -225,7 +235,7 @@ int vf_render_choose_algorithm(const vf_scene *scene, vf_settings *settings, int
       err = vf_vcm_create(scene, r->accel, &s, r->pool, &r->vcm);
     }
     if (err != VF_OK || (err = measure_candidate(r, interrupt, counts, choice, choice->count)) != VF_OK) break;
-    if (best < 0 || choice->candidates[choice->count].efficiency > choice->candidates[best].efficiency) {
+    if (best < 0 || choice_score(choice, choice->count) > choice_score(choice, best)) {
       best = choice->count;
       memcpy(best_counts, counts, n);
     }
