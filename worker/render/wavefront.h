@@ -102,6 +102,8 @@ static inline vf_vec3 normal_of_vertex(const vf_vcm *v, const light_vertex *lv, 
  * connections and scattering, too far from the next lane's for the processor to overlap
  * them on its own. */
 static inline void prefetch_shading(const vf_vcm *v, const vf_hit *hits, uint32_t found, int m) {
+  /* Without such a shape the loops would only read every hit's shape to find nothing. */
+  if (!v->any_interpolated) return;
   for (int k = 0; k < m; k++)
     if ((found >> k & 1u) && v->interpolated[hits[k].shape])
       vf_surface_prefetch_vertices(&v->scene->shapes[hits[k].shape], hits[k].primitive);
