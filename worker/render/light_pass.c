@@ -269,7 +269,7 @@ static void light_sampler_start(const vf_vcm *v, vf_sampler *sampler, uint32_t p
     return;
   }
   if (VF_LIGHT_STRATIFICATION == 2) kind = VF_SAMPLER_INDEPENDENT;
-  vf_sampler_start(sampler, kind, v->settings.seed, v->iteration, path, VF_STREAM_LIGHT);
+  path_sampler_start(sampler, kind, v->settings.seed, v->iteration, path, VF_STREAM_LIGHT);
 }
 
 /* Emits light sub-path `path`, the chunk's path `local`, into the lane; returns 1 when it

@@ -56,6 +56,21 @@ static inline void queue_direction(vf_vcm *v, shadow_packet *pk, int owner, vf_v
   pk->owner[pk->n++] = owner;
 }
 
+/* vf_sampler_start for a sub-path: the independent sampler draws every number from the
+ * path's stream and never reads the sobol state (index and scramble: three splitmix64
+ * rounds and a bit reversal for every sub-path), which is then left at zero; the stream is
+ * the one vf_sampler_start would seed. */
+static inline void path_sampler_start(vf_sampler *s, vf_sampler_kind kind, uint64_t seed, uint64_t iteration,
+                                      uint64_t path, uint32_t stream) {
+  if (kind == VF_SAMPLER_SOBOL) {
+    vf_sampler_start(s, kind, seed, iteration, path, stream);
+    return;
+  }
+  s->sobol = 0;
+  vf_sampler_defer_rng(s, seed, iteration, path, stream);
+  s->index = s->index_reversed = s->scramble = 0;
+}
+
 /* The BSDF at a hit for a path arriving from world_fix; 0 when nothing scatters there. */
 static inline int bsdf_at(const vf_vcm *v, vf_bsdf *b, const vf_hit *hit, vf_vec3 world_fix) {
   if (__builtin_expect(v->interpolated[hit->shape], 0))
