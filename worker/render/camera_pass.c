@@ -279,7 +279,7 @@ static void camera_start(vf_vcm *v, camera_lane *lane, uint32_t px, uint32_t py,
   lane->prev.valid = 0;
   vf_merge_params_at(v, pixel, &lane->merge);
   lane->s.merge = &lane->merge;
-  vf_sampler_start(&lane->sampler, v->settings.sampler, v->settings.seed, v->iteration, pixel, VF_STREAM_CAMERA);
+  path_sampler_start(&lane->sampler, v->settings.sampler, v->settings.seed, v->iteration, pixel, VF_STREAM_CAMERA);
   uint32_t k = vf_pixel_samples(v, pixel);
   if (v->allocated) {
     lane->sampler.index = vf_allocation_sobol_index(v->iteration, k, sample);

@@ -269,7 +269,7 @@ static void light_sampler_start(const vf_vcm *v, vf_sampler *sampler, uint32_t p
     return;
   }
   if (VF_LIGHT_STRATIFICATION == 2) kind = VF_SAMPLER_INDEPENDENT;
-  vf_sampler_start(sampler, kind, v->settings.seed, v->iteration, path, VF_STREAM_LIGHT);
+  path_sampler_start(sampler, kind, v->settings.seed, v->iteration, path, VF_STREAM_LIGHT);
 }
 
 /* Emits light sub-path `path`, the chunk's path `local`, into the lane; returns 1 when it
@@ -502,6 +502,13 @@ static void splat_band_task(void *ctx, size_t band, int thread) {
 static void trace_chunk(vf_vcm *v, int thread, uint32_t chunk, light_chunk *c, const chunk_paths *cp) {
   c->num_vertices = c->num_splats = 0;
   c->out_of_memory = 0;
+  if (!v->t.light_paths) {
+    /* No light sub-paths (pt): what retiring every path without a vertex and sorting no
+     * splats would leave, without walking the chunk's paths through the ring. */
+    for (uint32_t p = 0; p < cp->count; p++) cp->begin[p] = cp->end[p] = 0;
+    memset(&v->band_start[(size_t)chunk * (v->num_bands + 1)], 0, (v->num_bands + 1) * sizeof *v->band_start);
+    return;
+  }
   light_lane lanes[VF_ACCEL_PACKET];
   path_state *states[VF_ACCEL_PACKET];
   uint32_t next = 0, oldest = 0, active = 0;

@@ -545,6 +545,7 @@ int vf_vcm_create(const vf_scene *scene, const vf_accel *accel, const vf_setting
   for (int m = 0; m < scene->num_materials; m++) vf_bsdf_lobes_of(&scene->materials[m], &v->lobes[m]);
   for (int i = 0; i < scene->num_shapes; i++) {
     v->interpolated[i] = (unsigned char)vf_surface_interpolated(scene, &scene->shapes[i]);
+    v->any_interpolated |= v->interpolated[i];
     int m = scene->shapes[i].material;
     v->shape_continuation[i] = m >= 0 ? v->lobes[m].continuation : 1.0f; /* an index-matched boundary */
   }

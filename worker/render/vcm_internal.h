@@ -270,6 +270,7 @@ struct vf_vcm {
   techniques t;
   vf_bsdf_lobes *lobes; /* per material, owned */
   unsigned char *interpolated; /* per shape: vf_surface_interpolated, owned */
+  int any_interpolated;        /* some shape is: hits may need their vertices and texels prefetched */
   float *shape_continuation;   /* per shape: its material's Russian-roulette probability, owned */
   vf_vec3 scene_center;
   float scene_radius;

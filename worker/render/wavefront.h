@@ -56,6 +56,21 @@ static inline void queue_direction(vf_vcm *v, shadow_packet *pk, int owner, vf_v
   pk->owner[pk->n++] = owner;
 }
 
+/* vf_sampler_start for a sub-path: the independent sampler draws every number from the
+ * path's stream and never reads the sobol state (index and scramble: three splitmix64
+ * rounds and a bit reversal for every sub-path), which is then left at zero; the stream is
+ * the one vf_sampler_start would seed. */
+static inline void path_sampler_start(vf_sampler *s, vf_sampler_kind kind, uint64_t seed, uint64_t iteration,
+                                      uint64_t path, uint32_t stream) {
+  if (kind == VF_SAMPLER_SOBOL) {
+    vf_sampler_start(s, kind, seed, iteration, path, stream);
+    return;
+  }
+  s->sobol = 0;
+  vf_sampler_defer_rng(s, seed, iteration, path, stream);
+  s->index = s->index_reversed = s->scramble = 0;
+}
+
 /* The BSDF at a hit for a path arriving from world_fix; 0 when nothing scatters there. */
 static inline int bsdf_at(const vf_vcm *v, vf_bsdf *b, const vf_hit *hit, vf_vec3 world_fix) {
   if (__builtin_expect(v->interpolated[hit->shape], 0))
@@ -102,6 +117,8 @@ static inline vf_vec3 normal_of_vertex(const vf_vcm *v, const light_vertex *lv, 
  * connections and scattering, too far from the next lane's for the processor to overlap
  * them on its own. */
 static inline void prefetch_shading(const vf_vcm *v, const vf_hit *hits, uint32_t found, int m) {
+  /* Without such a shape the loops would only read every hit's shape to find nothing. */
+  if (!v->any_interpolated) return;
   for (int k = 0; k < m; k++)
     if ((found >> k & 1u) && v->interpolated[hits[k].shape])
       vf_surface_prefetch_vertices(&v->scene->shapes[hits[k].shape], hits[k].primitive);
