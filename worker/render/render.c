@@ -198,14 +198,16 @@ done:
   return err;
 }
 
-/* What a candidate's predicted efficiency counts for in the choice: vcm's over the margin.
- * Its error is variance and merging's bias, and the pilot's estimate sees only the variance
- * (of its first iterations, at the largest radii); where bpt and vcm come out close, bpt's
- * error is what the estimate says. On the glossy box vcm's predicted 1.0x bpt's efficiency
- * measured 0.59x over 128 iterations; on the lamp in glass its 2.4x measured 4x
- * (docs/BENCHMARKS.md, "Camera sub-paths per pixel"). */
+/* What a candidate's predicted efficiency counts for in the choice: pt's and vcm's over the
+ * margin, bpt's as it is, since bpt's pilot estimate is the one to trust. vcm's error is
+ * variance and merging's bias, and the pilot's estimate sees only the variance (of its first
+ * iterations, at the largest radii): on the glossy box vcm's predicted 1.0x bpt's
+ * efficiency measured 0.59x over 128 iterations, on the lamp in glass its 2.4x measured 4x.
+ * pt's estimate misses what pt samples rarely (caustics through glass, the fog's volumetric
+ * caustic): on cornell-fog its pilot predicted 1.01x bpt's, and bpt with a pilot reached 0.1
+ * four times sooner (docs/BENCHMARKS.md, "auto with a pilot", "cornell-fog with a pilot"). */
 static double choice_score(const vf_auto_choice *choice, int i) {
-  return choice->candidates[i].efficiency / (choice->candidates[i].algorithm == VF_ALGO_VCM ? VF_AUTO_VCM_MARGIN : 1.0);
+  return choice->candidates[i].efficiency / (choice->candidates[i].algorithm == VF_ALGO_BPT ? 1.0 : VF_AUTO_MARGIN);
 }
 
 int vf_render_choose_algorithm(const vf_scene *scene, vf_settings *settings, int threads,

@@ -79,9 +79,10 @@ int vf_render_pilot_range(vf_renderer *r, vf_film *pilot, uint64_t begin, uint64
 /* `--algorithm auto` with a pilot: the algorithm chosen by measuring each candidate's pilot
  * (vf_render_choose_algorithm). */
 #define VF_AUTO_CANDIDATES 3
-/* vcm is chosen over the others only when its predicted efficiency is at least this many
- * times theirs (render.c, choice_score: its merging bias is in no estimate). */
-#define VF_AUTO_VCM_MARGIN 1.25
+/* pt and vcm are chosen over bpt only when their predicted efficiency is at least this many
+ * times bpt's (render.c, choice_score: vcm's merging bias and what pt samples rarely are in
+ * no pilot's estimate). */
+#define VF_AUTO_MARGIN 1.25
 typedef struct {
   vf_algorithm algorithm; /* the one chosen */
   int count;              /* candidates measured (those the settings allow) */
@@ -103,7 +104,7 @@ typedef struct {
  * k) v), t_light and t_camera the measured seconds of the pilot's light and camera passes
  * per iteration, k the allocation's mean camera sub-paths a pixel and v its predicted
  * variance (vf_allocation_report), and sets settings->algorithm to the most efficient,
- * vcm's efficiency counted over VF_AUTO_VCM_MARGIN.
+ * pt's and vcm's efficiency counted over VF_AUTO_MARGIN.
  * The choice rests on measured times, so it is made once, by whoever starts the job, and
  * kept in the settings (a film or a farm job then names the algorithm, not auto); what is
  * rendered after it is a pure function of those settings as always. samples (width x
