@@ -9,12 +9,12 @@
 
 #include "options.h"
 #include "../common/error.h"
+#include "cairo_api.h"
 #include "../common/exr_util.h"
 #include "film_cmd.h"
 #include "../common/image.h"
 #include "../common/metrics.h"
 
-#include <cairo.h>
 #include <cjson/cJSON.h>
 #include <getopt.h>
 #include <math.h>
@@ -251,45 +251,47 @@ static int relative_difference(const vf_image *a, const vf_image *b, float *d, d
 /* Sets the font size so that text fits in max_width (at most `size`) and shows it at x, y;
  * centre: x is the middle of the text. */
 static void show_text(cairo_t *cr, const char *text, double x, double y, double size, double max_width, int centre) {
+  const vf_cairo_api *cairo = vf_cairo();
   cairo_text_extents_t ext;
-  cairo_set_font_size(cr, size);
-  cairo_text_extents(cr, text, &ext);
+  cairo->cairo_set_font_size(cr, size);
+  cairo->cairo_text_extents(cr, text, &ext);
   if (ext.x_advance > max_width && ext.x_advance > 0) {
-    cairo_set_font_size(cr, size * max_width / ext.x_advance);
-    cairo_text_extents(cr, text, &ext);
+    cairo->cairo_set_font_size(cr, size * max_width / ext.x_advance);
+    cairo->cairo_text_extents(cr, text, &ext);
   }
-  cairo_move_to(cr, centre ? x - ext.x_advance / 2 : x, y);
-  cairo_show_text(cr, text);
+  cairo->cairo_move_to(cr, centre ? x - ext.x_advance / 2 : x, y);
+  cairo->cairo_show_text(cr, text);
 }
 
 static void draw_legend(cairo_t *cr, int canvas_width, int y0, double scale, const char *scale_source,
                         uint64_t nonfinite) {
+  const vf_cairo_api *cairo = vf_cairo();
   const double margin = 12, bar_top = y0 + 20, bar_height = 14, width = canvas_width - 2 * margin;
   char text[256];
-  cairo_select_font_face(cr, "sans-serif", CAIRO_FONT_SLANT_NORMAL, CAIRO_FONT_WEIGHT_NORMAL);
-  cairo_set_source_rgb(cr, 0.95, 0.95, 0.95);
+  cairo->cairo_select_font_face(cr, "sans-serif", CAIRO_FONT_SLANT_NORMAL, CAIRO_FONT_WEIGHT_NORMAL);
+  cairo->cairo_set_source_rgb(cr, 0.95, 0.95, 0.95);
   show_text(cr, "relative difference of luminance (A - B) / (|B| + 0.01): blue A < B, red A > B", margin, y0 + 14,
             11, width, 0);
 
-  cairo_pattern_t *bar = cairo_pattern_create_linear(margin, 0, margin + width, 0);
+  cairo_pattern_t *bar = cairo->cairo_pattern_create_linear(margin, 0, margin + width, 0);
   for (int k = 0; k <= 20; k++) {
     uint32_t rgb = diverging(-1.0 + k / 10.0);
-    cairo_pattern_add_color_stop_rgb(bar, k / 20.0, (rgb >> 16) / 255.0, (rgb >> 8 & 255) / 255.0,
+    cairo->cairo_pattern_add_color_stop_rgb(bar, k / 20.0, (rgb >> 16) / 255.0, (rgb >> 8 & 255) / 255.0,
                                      (rgb & 255) / 255.0);
   }
-  cairo_rectangle(cr, margin, bar_top, width, bar_height);
-  cairo_set_source(cr, bar);
-  cairo_fill(cr);
-  cairo_pattern_destroy(bar);
+  cairo->cairo_rectangle(cr, margin, bar_top, width, bar_height);
+  cairo->cairo_set_source(cr, bar);
+  cairo->cairo_fill(cr);
+  cairo->cairo_pattern_destroy(bar);
 
-  cairo_set_source_rgb(cr, 0.95, 0.95, 0.95);
-  cairo_set_line_width(cr, 1.0);
+  cairo->cairo_set_source_rgb(cr, 0.95, 0.95, 0.95);
+  cairo->cairo_set_line_width(cr, 1.0);
   for (int k = -2; k <= 2; k++) {
     double x = margin + width * (k + 2) / 4.0, value = scale * k / 2.0;
     x = k == -2 ? x + 0.5 : k == 2 ? x - 0.5 : x;
-    cairo_move_to(cr, x, bar_top + bar_height);
-    cairo_line_to(cr, x, bar_top + bar_height + 4);
-    cairo_stroke(cr);
+    cairo->cairo_move_to(cr, x, bar_top + bar_height);
+    cairo->cairo_line_to(cr, x, bar_top + bar_height + 4);
+    cairo->cairo_stroke(cr);
     if (k == 0) snprintf(text, sizeof text, "0");
     else snprintf(text, sizeof text, "%+.3g", value);
     double tx = k == -2 ? fmax(x, margin + 16) : k == 2 ? fmin(x, margin + width - 16) : x;
@@ -314,23 +316,25 @@ static cairo_status_t sink_write(void *closure, const unsigned char *data, unsig
 
 static int write_diff_png(const char *path, const vf_image *a, const float *d, double scale,
                           const char *scale_source, uint64_t nonfinite) {
+  const vf_cairo_api *cairo = vf_cairo_load(path);
+  if (cairo == NULL) return VF_EMODULE;
   int width = a->width > VF_DIFF_MIN_WIDTH ? a->width : VF_DIFF_MIN_WIDTH, height = a->height + VF_DIFF_LEGEND_HEIGHT;
   if (width > CAIRO_MAX_SIDE || height > CAIRO_MAX_SIDE)
     return vf_error_set(VF_EINVAL, "%s: a %dx%d difference image is beyond cairo's %d-pixel limit", path, a->width,
                         a->height, CAIRO_MAX_SIDE);
   int err = VF_OK;
-  cairo_surface_t *surface = cairo_image_surface_create(CAIRO_FORMAT_RGB24, width, height);
-  cairo_t *cr = cairo_create(surface);
-  if (cairo_status(cr) != CAIRO_STATUS_SUCCESS) {
+  cairo_surface_t *surface = cairo->cairo_image_surface_create(CAIRO_FORMAT_RGB24, width, height);
+  cairo_t *cr = cairo->cairo_create(surface);
+  if (cairo->cairo_status(cr) != CAIRO_STATUS_SUCCESS) {
     err = vf_error_set(VF_ENOMEM, "%s: cannot create a %dx%d drawing: %s", path, width, height,
-                       cairo_status_to_string(cairo_status(cr)));
+                       cairo->cairo_status_to_string(cairo->cairo_status(cr)));
     goto destroy;
   }
-  cairo_set_source_rgb(cr, 0.15, 0.15, 0.15);
-  cairo_paint(cr);
-  cairo_surface_flush(surface);
-  unsigned char *data = cairo_image_surface_get_data(surface);
-  int stride = cairo_image_surface_get_stride(surface), x0 = (width - a->width) / 2;
+  cairo->cairo_set_source_rgb(cr, 0.15, 0.15, 0.15);
+  cairo->cairo_paint(cr);
+  cairo->cairo_surface_flush(surface);
+  unsigned char *data = cairo->cairo_image_surface_get_data(surface);
+  int stride = cairo->cairo_image_surface_get_stride(surface), x0 = (width - a->width) / 2;
   for (int y = 0; y < a->height; y++) {
     uint32_t *row = (uint32_t *)(data + (size_t)y * (size_t)stride) + x0;
     for (int x = 0; x < a->width; x++) {
@@ -338,28 +342,28 @@ static int write_diff_png(const char *path, const vf_image *a, const float *d, d
       row[x] = isfinite(v) ? diverging(v / scale) : 0;
     }
   }
-  cairo_surface_mark_dirty(surface);
+  cairo->cairo_surface_mark_dirty(surface);
   draw_legend(cr, width, a->height, scale, scale_source, nonfinite);
-  if (cairo_status(cr) != CAIRO_STATUS_SUCCESS) {
-    err = vf_error_set(VF_EIO, "%s: drawing failed: %s", path, cairo_status_to_string(cairo_status(cr)));
+  if (cairo->cairo_status(cr) != CAIRO_STATUS_SUCCESS) {
+    err = vf_error_set(VF_EIO, "%s: drawing failed: %s", path, cairo->cairo_status_to_string(cairo->cairo_status(cr)));
     goto destroy;
   }
 
   png_sink sink = {.offset = 0};
   if ((err = vf_atomic_open(&sink.file, path)) != VF_OK) goto destroy;
-  cairo_status_t status = cairo_surface_write_to_png_stream(surface, sink_write, &sink);
+  cairo_status_t status = cairo->cairo_surface_write_to_png_stream(surface, sink_write, &sink);
   if (status != CAIRO_STATUS_SUCCESS) {
     /* the sink's own detail (vf_atomic_pwrite) is more precise when it failed */
     err = status == CAIRO_STATUS_WRITE_ERROR ? VF_EIO
                                               : vf_error_set(VF_EIO, "%s: cannot encode the PNG: %s", path,
-                                                             cairo_status_to_string(status));
+                                                             cairo->cairo_status_to_string(status));
     vf_atomic_abort(&sink.file);
     goto destroy;
   }
   err = vf_atomic_commit(&sink.file);
 destroy:
-  cairo_destroy(cr);
-  cairo_surface_destroy(surface);
+  cairo->cairo_destroy(cr);
+  cairo->cairo_surface_destroy(surface);
   return err;
 }
 

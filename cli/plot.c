@@ -2,10 +2,10 @@
 
 #include "options.h"
 #include "../common/error.h"
+#include "cairo_api.h"
 #include "../common/exr_util.h"
 #include "../common/settings.h"
 
-#include <cairo.h>
 #include <getopt.h>
 #include <math.h>
 #include <stdio.h>
@@ -73,14 +73,16 @@ static void decade_label(int k, char *buf, size_t n) {
 }
 
 static void text_at(cairo_t *cr, double x, double y, const char *s, double align_x, double align_y) {
+  const vf_cairo_api *cairo = vf_cairo();
   cairo_text_extents_t ext;
-  cairo_text_extents(cr, s, &ext);
-  cairo_move_to(cr, x - ext.width * align_x - ext.x_bearing, y - ext.height * align_y - ext.y_bearing);
-  cairo_show_text(cr, s);
+  cairo->cairo_text_extents(cr, s, &ext);
+  cairo->cairo_move_to(cr, x - ext.width * align_x - ext.x_bearing, y - ext.height * align_y - ext.y_bearing);
+  cairo->cairo_show_text(cr, s);
 }
 
 static void draw_axes(cairo_t *cr, const frame *f, const char *title, const char *xlabel, const char *ylabel) {
-  cairo_set_line_width(cr, 1.0);
+  const vf_cairo_api *cairo = vf_cairo();
+  cairo->cairo_set_line_width(cr, 1.0);
   for (int axis = 0; axis < 2; axis++) {
     double lo = axis ? f->ly0 : f->lx0, hi = axis ? f->ly1 : f->lx1;
     for (int k = (int)lo; k <= (int)hi; k++)
@@ -88,15 +90,15 @@ static void draw_axes(cairo_t *cr, const frame *f, const char *title, const char
         double v = m * pow(10.0, k);
         double pos = axis ? py(f, v) : px(f, v), tick = m == 1 ? 6.0 : 3.0;
         if (m == 1) { /* grid line at each decade */
-          cairo_set_source_rgb(cr, 0.88, 0.88, 0.88);
-          if (axis) cairo_move_to(cr, f->x0, pos), cairo_line_to(cr, f->x0 + f->w, pos);
-          else cairo_move_to(cr, pos, f->y0), cairo_line_to(cr, pos, f->y0 + f->h);
-          cairo_stroke(cr);
+          cairo->cairo_set_source_rgb(cr, 0.88, 0.88, 0.88);
+          if (axis) cairo->cairo_move_to(cr, f->x0, pos), cairo->cairo_line_to(cr, f->x0 + f->w, pos);
+          else cairo->cairo_move_to(cr, pos, f->y0), cairo->cairo_line_to(cr, pos, f->y0 + f->h);
+          cairo->cairo_stroke(cr);
         }
-        cairo_set_source_rgb(cr, 0, 0, 0);
-        if (axis) cairo_move_to(cr, f->x0, pos), cairo_line_to(cr, f->x0 + tick, pos);
-        else cairo_move_to(cr, pos, f->y0 + f->h), cairo_line_to(cr, pos, f->y0 + f->h - tick);
-        cairo_stroke(cr);
+        cairo->cairo_set_source_rgb(cr, 0, 0, 0);
+        if (axis) cairo->cairo_move_to(cr, f->x0, pos), cairo->cairo_line_to(cr, f->x0 + tick, pos);
+        else cairo->cairo_move_to(cr, pos, f->y0 + f->h), cairo->cairo_line_to(cr, pos, f->y0 + f->h - tick);
+        cairo->cairo_stroke(cr);
         if (m == 1) {
           char label[32];
           decade_label(k, label, sizeof label);
@@ -105,25 +107,26 @@ static void draw_axes(cairo_t *cr, const frame *f, const char *title, const char
         }
       }
   }
-  cairo_set_source_rgb(cr, 0, 0, 0);
-  cairo_rectangle(cr, f->x0, f->y0, f->w, f->h);
-  cairo_stroke(cr);
+  cairo->cairo_set_source_rgb(cr, 0, 0, 0);
+  cairo->cairo_rectangle(cr, f->x0, f->y0, f->w, f->h);
+  cairo->cairo_stroke(cr);
   text_at(cr, f->x0 + f->w / 2, f->y0 + f->h + 36, xlabel, 0.5, 0.0);
   text_at(cr, f->x0 + f->w / 2, f->y0 - 14, title, 0.5, 1.0);
-  cairo_save(cr);
-  cairo_translate(cr, f->x0 - 58, f->y0 + f->h / 2);
-  cairo_rotate(cr, -M_PI / 2);
+  cairo->cairo_save(cr);
+  cairo->cairo_translate(cr, f->x0 - 58, f->y0 + f->h / 2);
+  cairo->cairo_rotate(cr, -M_PI / 2);
   text_at(cr, 0, 0, ylabel, 0.5, 0.5);
-  cairo_restore(cr);
+  cairo->cairo_restore(cr);
 }
 
 static void draw_curve(cairo_t *cr, const frame *f, const curve *c, int index, int by_iterations, int dashed) {
+  const vf_cairo_api *cairo = vf_cairo();
   unsigned char rgb[3];
   vf_plot_color(index, rgb);
-  cairo_set_source_rgb(cr, rgb[0] / 255.0, rgb[1] / 255.0, rgb[2] / 255.0);
-  cairo_set_line_width(cr, 2.0);
+  cairo->cairo_set_source_rgb(cr, rgb[0] / 255.0, rgb[1] / 255.0, rgb[2] / 255.0);
+  cairo->cairo_set_line_width(cr, 2.0);
   static const double dash[] = {6.0, 4.0};
-  cairo_set_dash(cr, dash, dashed ? 2 : 0, 0);
+  cairo->cairo_set_dash(cr, dash, dashed ? 2 : 0, 0);
   int pen_down = 0;
   uint32_t run = 0;
   for (size_t i = 0; i < c->count; i++) {
@@ -134,43 +137,44 @@ static void draw_curve(cairo_t *cr, const frame *f, const curve *c, int index, i
       continue;
     }
     double x = px(f, xv), y = py(f, p->error);
-    if (pen_down && p->run == run) cairo_line_to(cr, x, y);
-    else cairo_move_to(cr, x, y);
+    if (pen_down && p->run == run) cairo->cairo_line_to(cr, x, y);
+    else cairo->cairo_move_to(cr, x, y);
     pen_down = 1;
     run = p->run;
   }
-  cairo_stroke(cr);
-  cairo_set_dash(cr, NULL, 0, 0);
+  cairo->cairo_stroke(cr);
+  cairo->cairo_set_dash(cr, NULL, 0, 0);
   for (size_t i = 0; i < c->count; i++) { /* markers, so that single points show */
     const point *p = &c->points[i];
     double xv = by_iterations ? p->iterations : p->time;
     if (!drawable(xv) || !drawable(p->error)) continue;
-    cairo_arc(cr, px(f, xv), py(f, p->error), 2.5, 0, 2 * M_PI);
-    cairo_fill(cr);
+    cairo->cairo_arc(cr, px(f, xv), py(f, p->error), 2.5, 0, 2 * M_PI);
+    cairo->cairo_fill(cr);
   }
 }
 
 static void draw_legend(cairo_t *cr, const frame *f, const curve *curves, int n) {
+  const vf_cairo_api *cairo = vf_cairo();
   double width = 0, line = 16;
   for (int i = 0; i < n; i++) {
     cairo_text_extents_t ext;
-    cairo_text_extents(cr, curves[i].label, &ext);
+    cairo->cairo_text_extents(cr, curves[i].label, &ext);
     width = fmax(width, ext.x_advance);
   }
   double bx = f->x0 + f->w - width - 48, by = f->y0 + 8;
-  cairo_set_source_rgb(cr, 1, 1, 1);
-  cairo_rectangle(cr, bx, by, width + 40, n * line + 8);
-  cairo_fill_preserve(cr);
-  cairo_set_source_rgb(cr, 0.6, 0.6, 0.6);
-  cairo_set_line_width(cr, 1.0);
-  cairo_stroke(cr);
+  cairo->cairo_set_source_rgb(cr, 1, 1, 1);
+  cairo->cairo_rectangle(cr, bx, by, width + 40, n * line + 8);
+  cairo->cairo_fill_preserve(cr);
+  cairo->cairo_set_source_rgb(cr, 0.6, 0.6, 0.6);
+  cairo->cairo_set_line_width(cr, 1.0);
+  cairo->cairo_stroke(cr);
   for (int i = 0; i < n; i++) {
     unsigned char rgb[3];
     vf_plot_color(i, rgb);
-    cairo_set_source_rgb(cr, rgb[0] / 255.0, rgb[1] / 255.0, rgb[2] / 255.0);
-    cairo_rectangle(cr, bx + 6, by + 6 + i * line + 4, 22, 6); /* whole pixels: exact colour */
-    cairo_fill(cr);
-    cairo_set_source_rgb(cr, 0, 0, 0);
+    cairo->cairo_set_source_rgb(cr, rgb[0] / 255.0, rgb[1] / 255.0, rgb[2] / 255.0);
+    cairo->cairo_rectangle(cr, bx + 6, by + 6 + i * line + 4, 22, 6); /* whole pixels: exact colour */
+    cairo->cairo_fill(cr);
+    cairo->cairo_set_source_rgb(cr, 0, 0, 0);
     text_at(cr, bx + 34, by + 4 + i * line + line / 2, curves[i].label, 0.0, 0.5);
   }
 }
@@ -214,6 +218,8 @@ static void make_labels(const vf_film *const *films, const char *const *names, i
 
 int vf_plot_write(const char *path, const vf_film *const *films, const char *const *names, int n, vf_plot_x x) {
   if (path == NULL || films == NULL || n < 1) return vf_error_set(VF_EINVAL, "vf_plot_write: nothing to plot");
+  const vf_cairo_api *cairo = vf_cairo_load(path);
+  if (cairo == NULL) return VF_EMODULE;
   int err = VF_OK, panels = x == VF_PLOT_BOTH ? 2 : 1, any_reference = 0, any_estimate = 0;
   curve *curves = calloc((size_t)n, sizeof *curves);
   cairo_surface_t *surface = NULL;
@@ -245,16 +251,16 @@ int vf_plot_write(const char *path, const vf_film *const *films, const char *con
                        : any_reference             ? "RMSE vs reference"
                                                    : "estimated RMSE (no reference)";
 
-  surface = cairo_image_surface_create(CAIRO_FORMAT_RGB24, VF_PLOT_PANEL_WIDTH * panels, VF_PLOT_HEIGHT);
-  cr = cairo_create(surface);
-  if (cairo_status(cr) != CAIRO_STATUS_SUCCESS) {
-    err = vf_error_set(VF_ENOMEM, "cairo: %s", cairo_status_to_string(cairo_status(cr)));
+  surface = cairo->cairo_image_surface_create(CAIRO_FORMAT_RGB24, VF_PLOT_PANEL_WIDTH * panels, VF_PLOT_HEIGHT);
+  cr = cairo->cairo_create(surface);
+  if (cairo->cairo_status(cr) != CAIRO_STATUS_SUCCESS) {
+    err = vf_error_set(VF_ENOMEM, "cairo: %s", cairo->cairo_status_to_string(cairo->cairo_status(cr)));
     goto cleanup;
   }
-  cairo_set_source_rgb(cr, 1, 1, 1);
-  cairo_paint(cr);
-  cairo_select_font_face(cr, "sans-serif", CAIRO_FONT_SLANT_NORMAL, CAIRO_FONT_WEIGHT_NORMAL);
-  cairo_set_font_size(cr, 12.0);
+  cairo->cairo_set_source_rgb(cr, 1, 1, 1);
+  cairo->cairo_paint(cr);
+  cairo->cairo_select_font_face(cr, "sans-serif", CAIRO_FONT_SLANT_NORMAL, CAIRO_FONT_WEIGHT_NORMAL);
+  cairo->cairo_set_font_size(cr, 12.0);
   frame last = {0};
   for (int panel = 0; panel < panels; panel++) {
     int by_iterations = x == VF_PLOT_ITERATIONS || (x == VF_PLOT_BOTH && panel == 1);
@@ -264,28 +270,28 @@ int vf_plot_write(const char *path, const vf_film *const *films, const char *con
     decades(lo[2], hi[2], &f.ly0, &f.ly1);
     draw_axes(cr, &f, by_iterations ? "error against iterations" : "error against render time",
               by_iterations ? "iterations" : "wall-clock render time [s]", ylabel);
-    cairo_save(cr);
-    cairo_rectangle(cr, f.x0, f.y0, f.w, f.h);
-    cairo_clip(cr);
+    cairo->cairo_save(cr);
+    cairo->cairo_rectangle(cr, f.x0, f.y0, f.w, f.h);
+    cairo->cairo_clip(cr);
     for (int i = 0; i < n; i++)
       draw_curve(cr, &f, &curves[i], i, by_iterations, any_reference && !curves[i].uses_reference);
-    cairo_restore(cr);
+    cairo->cairo_restore(cr);
     last = f;
   }
   draw_legend(cr, &last, curves, n);
-  cairo_surface_flush(surface);
+  cairo->cairo_surface_flush(surface);
 
   if ((err = vf_atomic_open(&sink.file, path)) != VF_OK) goto cleanup;
-  cairo_status_t st = cairo_surface_write_to_png_stream(surface, write_png_bytes, &sink);
+  cairo_status_t st = cairo->cairo_surface_write_to_png_stream(surface, write_png_bytes, &sink);
   if (st != CAIRO_STATUS_SUCCESS) {
-    err = sink.err != VF_OK ? sink.err : vf_error_set(VF_EIO, "%s: cairo: %s", path, cairo_status_to_string(st));
+    err = sink.err != VF_OK ? sink.err : vf_error_set(VF_EIO, "%s: cairo: %s", path, cairo->cairo_status_to_string(st));
     vf_atomic_abort(&sink.file);
     goto cleanup;
   }
   err = vf_atomic_commit(&sink.file);
 cleanup:
-  if (cr) cairo_destroy(cr);
-  if (surface) cairo_surface_destroy(surface);
+  if (cr) cairo->cairo_destroy(cr);
+  if (surface) cairo->cairo_surface_destroy(surface);
   for (int i = 0; i < n; i++) free(curves[i].points);
   free(curves);
   return err;

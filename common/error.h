@@ -38,7 +38,8 @@
   XX(EREFUSED, "refused by the peer", INPUT)            \
   XX(EBUSY, "in use by another process", SYSTEM)        \
   XX(EREPLAY, "replayed or stale message", INPUT)       \
-  XX(ENOJOB, "no such job", INPUT)
+  XX(ENOJOB, "no such job", INPUT)                      \
+  XX(EMODULE, "a part of vcmfarm is not installed", SYSTEM)
 
 enum {
   VF_OK = 0,

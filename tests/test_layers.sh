@@ -11,7 +11,8 @@
 # image decoders in the scene library; libuv and libmicrohttpd in the coordinator; cairo in the
 # command line. The built libraries keep the same rule by their undefined symbols: the
 # renderer references no cJSON, Assimp, PNG, JPEG or nanomsg symbol, the scene library no
-# Embree symbol, the coordinator no worker code; and no two files of the scene library
+# Embree symbol, the coordinator no worker code; the program links none of the libraries
+# its modules wrap (common/module.h); and no two files of the scene library
 # call each other, directly or round a cycle. Every folder opens its CMakeLists.txt with a
 # comment naming its role.
 #
@@ -137,6 +138,15 @@ if [ -n "$build" ]; then
   check_symbols worker/scene/libvf_scene.a "Embree or nanomsg" '^(rtc[A-Z]|nn_)'
   check_symbols coordinator/libvf_coordinator.a "Embree, Assimp or worker" '^(rtc[A-Z]|ai[A-Z]|vf_(vcm|accel|bsdf|scene|worker|render)_)'
   check_symbols common/libvf_common.a "Embree, Assimp, libuv or worker" '^(rtc[A-Z]|ai[A-Z]|uv_|vf_(vcm|accel|bsdf|scene|worker|render)_)'
+
+  # The program links none of the libraries its modules wrap (common/module.h): a command
+  # loads Embree, Assimp, cairo, libmicrohttpd or OpenVDB only when it uses them.
+  if [ -f "$build/vcmfarm" ]; then
+    needed=$(objdump -p "$build/vcmfarm" | awk '/NEEDED/ {print $2}' | grep -E '^lib(embree|assimp|cairo|microhttpd|openvdb|tbb)' | tr '\n' ' ')
+    [ -z "$needed" ] || fail "vcmfarm links $needed(modules' libraries, common/module.h)"
+  else
+    fail "$build/vcmfarm not built"
+  fi
 
   # No call cycle among the scene library's files: an edge a -> b when an object of a
   # leaves undefined a symbol that b defines.

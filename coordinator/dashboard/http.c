@@ -2,6 +2,7 @@
 
 #include "../../common/error.h"
 #include "dashboard.h"
+#include "http_api.h"
 #include "../log.h"
 #include "preview.h"
 #include "sessions.h"
@@ -12,7 +13,6 @@
 #include <errno.h>
 #include <fcntl.h>
 #include <math.h>
-#include <microhttpd.h>
 #include <netinet/in.h>
 #include <stdarg.h>
 #include <stdio.h>
@@ -20,6 +20,12 @@
 #include <string.h>
 #include <sys/stat.h>
 #include <unistd.h>
+
+static vf_module http_module = VF_MODULE_INIT(VF_HTTP_MODULE_FILE, "the dashboard's web server (libmicrohttpd)",
+                                              VF_HTTP_API_VERSION, sizeof(vf_http_api));
+/* libmicrohttpd's functions: set by vf_http_start before it starts a server, and read on
+ * the server's threads, which exist only after that. */
+static const vf_http_api *mhd;
 
 #define BODY_MAX 4096          /* the largest request body: a session's proof, a priority */
 #define EVENTS_MAX 200         /* events per answer, the latest */
@@ -44,25 +50,25 @@ typedef struct {
 /* ---- answers ---- */
 
 static void common_headers(struct MHD_Response *r, const char *content_type) {
-  MHD_add_response_header(r, "Content-Type", content_type);
-  MHD_add_response_header(r, "Cache-Control", "no-store");
-  MHD_add_response_header(r, "X-Content-Type-Options", "nosniff");
-  MHD_add_response_header(r, "X-Frame-Options", "DENY");
-  MHD_add_response_header(r, "Referrer-Policy", "no-referrer");
+  mhd->MHD_add_response_header(r, "Content-Type", content_type);
+  mhd->MHD_add_response_header(r, "Cache-Control", "no-store");
+  mhd->MHD_add_response_header(r, "X-Content-Type-Options", "nosniff");
+  mhd->MHD_add_response_header(r, "X-Frame-Options", "DENY");
+  mhd->MHD_add_response_header(r, "Referrer-Policy", "no-referrer");
 }
 
 /* Sends bytes (malloc'ed: taken, freed by libmicrohttpd) with this status and type. */
 static enum MHD_Result send_owned(struct MHD_Connection *c, unsigned status, const char *type, void *bytes,
                                   size_t size, const char *disposition) {
-  struct MHD_Response *r = MHD_create_response_from_buffer(size, bytes, MHD_RESPMEM_MUST_FREE);
+  struct MHD_Response *r = mhd->MHD_create_response_from_buffer(size, bytes, MHD_RESPMEM_MUST_FREE);
   if (r == NULL) {
     free(bytes);
     return MHD_NO;
   }
   common_headers(r, type);
-  if (disposition) MHD_add_response_header(r, "Content-Disposition", disposition);
-  enum MHD_Result ok = MHD_queue_response(c, status, r);
-  MHD_destroy_response(r);
+  if (disposition) mhd->MHD_add_response_header(r, "Content-Disposition", disposition);
+  enum MHD_Result ok = mhd->MHD_queue_response(c, status, r);
+  mhd->MHD_destroy_response(r);
   return ok;
 }
 
@@ -89,12 +95,12 @@ static enum MHD_Result send_error(struct MHD_Connection *c, unsigned status, con
 
 static enum MHD_Result not_allowed(struct MHD_Connection *c, const char *allow) {
   char message[] = "{\"error\": \"method not allowed\"}";
-  struct MHD_Response *r = MHD_create_response_from_buffer(strlen(message), message, MHD_RESPMEM_MUST_COPY);
+  struct MHD_Response *r = mhd->MHD_create_response_from_buffer(strlen(message), message, MHD_RESPMEM_MUST_COPY);
   if (r == NULL) return MHD_NO;
   common_headers(r, "application/json");
-  MHD_add_response_header(r, "Allow", allow);
-  enum MHD_Result ok = MHD_queue_response(c, MHD_HTTP_METHOD_NOT_ALLOWED, r);
-  MHD_destroy_response(r);
+  mhd->MHD_add_response_header(r, "Allow", allow);
+  enum MHD_Result ok = mhd->MHD_queue_response(c, MHD_HTTP_METHOD_NOT_ALLOWED, r);
+  mhd->MHD_destroy_response(r);
   return ok;
 }
 
@@ -102,14 +108,14 @@ static enum MHD_Result not_allowed(struct MHD_Connection *c, const char *allow) 
 
 static enum MHD_Result send_asset(struct MHD_Connection *c, const vf_web_asset *a) {
   struct MHD_Response *r =
-      MHD_create_response_from_buffer(a->size, (void *)a->bytes, MHD_RESPMEM_PERSISTENT);
+      mhd->MHD_create_response_from_buffer(a->size, (void *)a->bytes, MHD_RESPMEM_PERSISTENT);
   if (r == NULL) return MHD_NO;
   common_headers(r, a->content_type);
-  MHD_add_response_header(r, "Content-Security-Policy",
+  mhd->MHD_add_response_header(r, "Content-Security-Policy",
                           "default-src 'self'; img-src 'self' blob:; style-src 'self'; script-src 'self'; "
                           "connect-src 'self'; frame-ancestors 'none'; base-uri 'none'; form-action 'none'");
-  enum MHD_Result ok = MHD_queue_response(c, MHD_HTTP_OK, r);
-  MHD_destroy_response(r);
+  enum MHD_Result ok = mhd->MHD_queue_response(c, MHD_HTTP_OK, r);
+  mhd->MHD_destroy_response(r);
   return ok;
 }
 
@@ -130,7 +136,7 @@ static int newer_first(const void *a, const void *b) {
 
 /* The farm's events and every job's, the latest first, those after ?since= only. */
 static enum MHD_Result send_events(vf_http *h, struct MHD_Connection *c) {
-  const char *since_text = MHD_lookup_connection_value(c, MHD_GET_ARGUMENT_KIND, "since");
+  const char *since_text = mhd->MHD_lookup_connection_value(c, MHD_GET_ARGUMENT_KIND, "since");
   double since = since_text ? strtod(since_text, NULL) : 0.0;
   char *json = NULL;
   size_t len = 0;
@@ -170,7 +176,7 @@ static enum MHD_Result send_events(vf_http *h, struct MHD_Connection *c) {
 
 /* A number argument within [lo, hi], else def; *bad when given but not such a number. */
 static double number_arg(struct MHD_Connection *c, const char *name, double lo, double hi, double def, int *bad) {
-  const char *text = MHD_lookup_connection_value(c, MHD_GET_ARGUMENT_KIND, name);
+  const char *text = mhd->MHD_lookup_connection_value(c, MHD_GET_ARGUMENT_KIND, name);
   if (text == NULL || text[0] == '\0') return def;
   char *end;
   double v = strtod(text, &end);
@@ -211,7 +217,7 @@ static enum MHD_Result send_film(vf_http *h, struct MHD_Connection *c, uint64_t 
     if (fd >= 0) close(fd);
     return send_error(c, MHD_HTTP_INTERNAL_SERVER_ERROR, "%s: %s", path, strerror(errno));
   }
-  struct MHD_Response *r = MHD_create_response_from_fd64((uint64_t)st.st_size, fd); /* takes fd */
+  struct MHD_Response *r = mhd->MHD_create_response_from_fd64((uint64_t)st.st_size, fd); /* takes fd */
   if (r == NULL) {
     close(fd);
     return MHD_NO;
@@ -219,16 +225,16 @@ static enum MHD_Result send_film(vf_http *h, struct MHD_Connection *c, uint64_t 
   char disposition[96];
   snprintf(disposition, sizeof disposition, "attachment; filename=\"job-%llu.exr\"", (unsigned long long)job_id);
   common_headers(r, "image/x-exr");
-  MHD_add_response_header(r, "Content-Disposition", disposition);
-  enum MHD_Result ok = MHD_queue_response(c, MHD_HTTP_OK, r);
-  MHD_destroy_response(r);
+  mhd->MHD_add_response_header(r, "Content-Disposition", disposition);
+  enum MHD_Result ok = mhd->MHD_queue_response(c, MHD_HTTP_OK, r);
+  mhd->MHD_destroy_response(r);
   return ok;
 }
 
 /* ---- sessions and actions ---- */
 
 static const char *client_address(struct MHD_Connection *c, char *buf, size_t n) {
-  const union MHD_ConnectionInfo *info = MHD_get_connection_info(c, MHD_CONNECTION_INFO_CLIENT_ADDRESS);
+  const union MHD_ConnectionInfo *info = mhd->MHD_get_connection_info(c, MHD_CONNECTION_INFO_CLIENT_ADDRESS);
   snprintf(buf, n, "?");
   if (info == NULL || info->client_addr == NULL) return buf;
   const struct sockaddr *sa = info->client_addr;
@@ -266,7 +272,7 @@ static enum MHD_Result open_session(vf_http *h, struct MHD_Connection *c, const 
 /* 0 when the request carries a live session; else the answer (401 or 403) was queued and
  * *answer holds libmicrohttpd's result. */
 static int refuse_without_session(vf_http *h, struct MHD_Connection *c, enum MHD_Result *answer) {
-  const char *token = MHD_lookup_connection_value(c, MHD_HEADER_KIND, VF_HTTP_SESSION_HEADER);
+  const char *token = mhd->MHD_lookup_connection_value(c, MHD_HEADER_KIND, VF_HTTP_SESSION_HEADER);
   if (token == NULL || token[0] == '\0') {
     *answer = send_error(c, MHD_HTTP_UNAUTHORIZED, "this action needs a session: sign in with the farm key "
                                                    "(POST /api/session), then send its token in %s",
@@ -325,7 +331,7 @@ static uint64_t job_path(const char *url, const char **rest) {
 
 static int host_allowed(vf_http *h, struct MHD_Connection *c) {
   if (!h->loopback) return 1;
-  const char *host = MHD_lookup_connection_value(c, MHD_HEADER_KIND, "Host");
+  const char *host = mhd->MHD_lookup_connection_value(c, MHD_HEADER_KIND, "Host");
   if (host == NULL) return 0;
   static const char *const names[] = {"127.0.0.1", "localhost", "[::1]"};
   for (size_t i = 0; i < sizeof names / sizeof *names; i++) {
@@ -361,7 +367,7 @@ static enum MHD_Result route(vf_http *h, struct MHD_Connection *c, const char *u
   if (strcmp(url, "/api/session") == 0) return post ? open_session(h, c, q) : not_allowed(c, "POST");
   if (strcmp(url, "/api/session/close") == 0) {
     if (!post) return not_allowed(c, "POST");
-    const char *token = MHD_lookup_connection_value(c, MHD_HEADER_KIND, VF_HTTP_SESSION_HEADER);
+    const char *token = mhd->MHD_lookup_connection_value(c, MHD_HEADER_KIND, VF_HTTP_SESSION_HEADER);
     if (token) vf_sessions_close(h->sessions, token);
     cJSON *doc = cJSON_CreateObject();
     cJSON_AddBoolToObject(doc, "ok", 1);
@@ -462,6 +468,9 @@ int vf_http_start(vf_dashboard *dashboard, const vf_wire_key *key, const char *a
   int v6 = 0, loopback = 0;
   int err = parse_address(address, &addr, &v6, &loopback);
   if (err != VF_OK) return err;
+  const vf_http_api *api = vf_module_get(&http_module, "--http");
+  if (api == NULL) return VF_EMODULE;
+  mhd = api;
   vf_http *h = calloc(1, sizeof *h);
   if (h == NULL) return vf_error_set(VF_ENOMEM, "out of memory");
   h->dashboard = dashboard;
@@ -471,7 +480,7 @@ int vf_http_start(vf_dashboard *dashboard, const vf_wire_key *key, const char *a
     goto fail;
   unsigned flags = MHD_USE_THREAD_PER_CONNECTION | MHD_USE_INTERNAL_POLLING_THREAD | MHD_USE_POLL | MHD_USE_ERROR_LOG;
   if (v6) flags |= MHD_USE_IPv6;
-  h->daemon = MHD_start_daemon(flags, 0, NULL, NULL, on_request, h, MHD_OPTION_EXTERNAL_LOGGER, on_log, NULL,
+  h->daemon = mhd->MHD_start_daemon(flags, 0, NULL, NULL, on_request, h, MHD_OPTION_EXTERNAL_LOGGER, on_log, NULL,
                                MHD_OPTION_SOCK_ADDR, (struct sockaddr *)&addr, MHD_OPTION_CONNECTION_LIMIT,
                                (unsigned)VF_HTTP_CONNECTIONS, MHD_OPTION_CONNECTION_TIMEOUT,
                                (unsigned)CONNECTION_SECONDS, MHD_OPTION_NOTIFY_COMPLETED, on_completed, NULL,
@@ -480,7 +489,7 @@ int vf_http_start(vf_dashboard *dashboard, const vf_wire_key *key, const char *a
     err = vf_error_set(VF_ENET, "--http %s: cannot listen there (%s)", address, strerror(errno));
     goto fail;
   }
-  const union MHD_DaemonInfo *info = MHD_get_daemon_info(h->daemon, MHD_DAEMON_INFO_BIND_PORT);
+  const union MHD_DaemonInfo *info = mhd->MHD_get_daemon_info(h->daemon, MHD_DAEMON_INFO_BIND_PORT);
   h->port = info ? info->port : 0;
   char host[64];
   if (v6) inet_ntop(AF_INET6, &((struct sockaddr_in6 *)&addr)->sin6_addr, host, sizeof host);
@@ -498,7 +507,7 @@ fail:
 
 void vf_http_stop(vf_http *h) {
   if (h == NULL) return;
-  MHD_stop_daemon(h->daemon);
+  mhd->MHD_stop_daemon(h->daemon);
   vf_previews_destroy(h->previews);
   vf_sessions_destroy(h->sessions);
   free(h);

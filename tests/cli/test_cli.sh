@@ -238,15 +238,24 @@ cmake --install "$(dirname "$vcmfarm")" --prefix "$tmp/prefix" >"$tmp/install.lo
 installed=$?
 check "cmake --install puts vcmfarm in PREFIX/bin" "$([ "$installed" -eq 0 ] && cmp -s "$vcmfarm" "$tmp/prefix/bin/vcmfarm" &&
   "$tmp/prefix/bin/vcmfarm" --version | grep -q '^vcmfarm [0-9]'; echo $?)"
-# ... and the OpenVDB module in PREFIX/lib/vcmfarm, where the installed vcmfarm loads it from
-# (worker/scene/vdb.c; LD_DEBUG=files names every object the loader maps), only when a
-# scene has a density grid: a command that reads none does not load OpenVDB at all.
-check "cmake --install puts the OpenVDB module where the installed vcmfarm loads it" "$(cmp -s \
-  "$(dirname "$vcmfarm")/libvf_vdb.so" "$tmp/prefix/lib/vcmfarm/libvf_vdb.so" &&
-  LD_DEBUG=files "$tmp/prefix/bin/vcmfarm" render cornell-smoke -R 8x8 -n 1 -q -o "$tmp/smoke.exr" 2>&1 |
-  grep -q "file=$tmp/prefix/bin/../lib/vcmfarm/libvf_vdb.so "; echo $?)"
-check "a command that reads no grid does not load OpenVDB" "$(LD_DEBUG=files "$vcmfarm" render cornell -R 8x8 -n 1 -q \
-  -o "$tmp/plain.exr" 2>&1 | grep -q "libopenvdb"; [ $? -eq 1 ]; echo $?)"
+# ... and the modules (common/module.h) in PREFIX/lib/vcmfarm, where the installed vcmfarm
+# loads them from (LD_DEBUG=files names every object the loader maps), each only when a
+# command needs it: OpenVDB for a density grid, Embree to trace rays, cairo to draw.
+modules_installed=0
+for m in "$(dirname "$vcmfarm")"/libvf_*.so; do
+  cmp -s "$m" "$tmp/prefix/lib/vcmfarm/$(basename "$m")" && modules_installed=$((modules_installed + 1))
+done
+check "cmake --install puts the modules in PREFIX/lib/vcmfarm ($modules_installed of 5)" "$([ "$modules_installed" -eq 5 ]; echo $?)"
+LD_DEBUG=files "$tmp/prefix/bin/vcmfarm" render cornell-smoke -R 8x8 -n 1 -q -o "$tmp/smoke.exr" >"$tmp/smoke.files" 2>&1
+check "the installed vcmfarm loads its OpenVDB and Embree modules from PREFIX/lib/vcmfarm" "$(
+  grep -q "file=$tmp/prefix/bin/../lib/vcmfarm/libvf_vdb.so " "$tmp/smoke.files" &&
+  grep -q "file=$tmp/prefix/bin/../lib/vcmfarm/libvf_embree.so " "$tmp/smoke.files"; echo $?)"
+LD_DEBUG=files "$vcmfarm" render cornell -R 8x8 -n 1 -q -o "$tmp/plain.exr" >"$tmp/plain.files" 2>&1
+check "a render without grids, meshes or drawings loads Embree and nothing else optional" "$(
+  grep -q "libembree3" "$tmp/plain.files" && ! grep -q -E "libopenvdb|libassimp|libcairo|libmicrohttpd" "$tmp/plain.files"
+  echo $?)"
+LD_DEBUG=files "$vcmfarm" info "$tmp/plain.exr" >"$tmp/info.files" 2>&1
+check "info loads no module" "$(! grep -q -E "libvf_|libembree3|libopenvdb|libassimp|libcairo|libmicrohttpd" "$tmp/info.files"; echo $?)"
 "$vcmfarm" render --help | grep -q 'usage: vcmfarm render'
 check "render --help" $?
 # submit takes every kind of scene render takes, and its --help says so.

@@ -16,10 +16,11 @@
 
 static char dir[64];
 
-/* Failures of this machine or its link: the only codes a client may retry. */
+/* Failures of this machine or its link: the only codes a client may retry (a module not
+ * installed is this machine's: common/module.h). */
 static int is_system(int err) {
   return err == VF_ENOMEM || err == VF_EIO || err == VF_EEMBREE || err == VF_ETIMEDOUT || err == VF_ENET ||
-         err == VF_EBUSY;
+         err == VF_EBUSY || err == VF_EMODULE;
 }
 
 static void test_every_code_has_one_wire_code(void) {

@@ -1,12 +1,12 @@
 #!/usr/bin/env bash
 # deploy/docker/Dockerfile cannot be built here (no container engine), so its package
 # lists are checked against this machine, which builds from the same Debian 12 packages:
-#  - runtime stage: the packages that own the libraries the built vcmfarm and its OpenVDB
-#    module (libvf_vdb.so, beside it in the build tree) need directly (their NEEDED
+#  - runtime stage: the packages that own the libraries the built vcmfarm and its modules
+#    (libvf_*.so beside it in the build tree: common/module.h) need directly (their NEEDED
 #    entries, through ldd and dpkg -S), exactly, with libc6 implied; and every library of
 #    ldd's full closures belongs to a package those pull in through their Depends
-#    (apt-cache depends --recurse), so the image has all it loads and nothing more; and the
-#    module is built and copied where vcmfarm looks for it (../lib/vcmfarm/);
+#    (apt-cache depends --recurse), so the image has all it loads and nothing more; and
+#    every module is built and copied where vcmfarm looks for it (../lib/vcmfarm/);
 #  - build stage: every package of deploy/install-deps.sh that a build needs (the ones
 #    only tests need are named below), and a COPY of every source directory the build adds.
 #
@@ -45,9 +45,9 @@ build=$(stage_packages build)
 echo "runtime stage: $(echo $runtime)"
 
 # Direct needs: NEEDED sonames of the program and the module, resolved by ldd.
-module="$(dirname "$vcmfarm")/libvf_vdb.so"
-[ -f "$module" ] || fail "no OpenVDB module beside $vcmfarm"
-objects=("$vcmfarm" "$module")
+modules=("$(dirname "$vcmfarm")"/libvf_*.so)
+[ -f "${modules[0]}" ] || fail "no module (libvf_*.so) beside $vcmfarm"
+objects=("$vcmfarm" "${modules[@]}")
 direct=""
 for object in "${objects[@]}"; do
   declare -A path=()
@@ -65,7 +65,7 @@ echo "needed:        $(echo $direct)"
 missing=$(comm -23 <(echo "$direct") <(echo "$runtime"))
 extra=$(comm -13 <(echo "$direct") <(echo "$runtime"))
 [ -z "$missing" ] || fail "the runtime stage lacks $(echo $missing) (ldd ${objects[*]})"
-[ -z "$extra" ] || fail "the runtime stage installs $(echo $extra), which neither vcmfarm nor its module links"
+[ -z "$extra" ] || fail "the runtime stage installs $(echo $extra), which neither vcmfarm nor its modules link"
 
 # Transitive needs: every library ldd loads comes with the runtime packages' dependencies.
 closure=$(apt-cache depends --recurse --no-recommends --no-suggests --no-conflicts --no-breaks \
@@ -78,9 +78,14 @@ for lib in $loaded; do
     fail "$lib ($pkg) is loaded but not pulled in by the runtime stage's packages"
 done
 echo "all $(echo "$loaded" | wc -l) libraries that ldd loads come from the runtime stage's packages"
-grep -q -- '--target vcmfarm vf_vdb' "$dockerfile" &&
-  grep -q -x 'COPY --from=build /src/build/libvf_vdb.so /usr/local/lib/vcmfarm/libvf_vdb.so' "$dockerfile" ||
-  fail "the image does not build the OpenVDB module and copy it to /usr/local/lib/vcmfarm/"
+targets=$(grep -o -- '--target vcmfarm[a-z_ ]*' "$dockerfile")
+for m in "${modules[@]}"; do
+  name=$(basename "$m" .so) # libvf_NAME: target vf_NAME
+  grep -q -w -- "${name#lib}" <<<"$targets" || fail "the image does not build the module ${name#lib} ($m)"
+done
+grep -q -x 'COPY --from=build /src/build/libvf_\*.so /usr/local/lib/vcmfarm/' "$dockerfile" ||
+  fail "the image does not copy the modules to /usr/local/lib/vcmfarm/"
+echo "the image builds and copies all ${#modules[@]} modules"
 
 # The build stage installs what deploy/install-deps.sh installs to build.
 test_only="slurm-wlm munge systemd python3 jq curl chromium assimp-testmodels clang libclang-rt-14-dev iproute2"  # used by tests and benchmarks only (nodejs and npm too: outside the list)

@@ -1,9 +1,9 @@
 #include "accel.h"
 
 #include "../../common/error.h"
+#include "embree_api.h"
 #include "surface.h"
 
-#include <embree3/rtcore.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -32,6 +32,7 @@ struct sphere_bound {
 };
 
 struct vf_accel {
+  const vf_embree_api *rtc; /* Embree's functions (embree_api.h) */
   RTCDevice device;
   RTCScene scene;   /* every shape; the meshes alone when `spheres` is set */
   RTCScene spheres; /* the spheres apart (see SPHERES_APART), or NULL */
@@ -71,52 +72,58 @@ static void device_error(void *user, enum RTCError code, const char *msg) {
 }
 
 static int add_mesh(vf_accel *a, const vf_shape *s, unsigned id) {
-  RTCGeometry g = rtcNewGeometry(a->device, RTC_GEOMETRY_TYPE_TRIANGLE);
+  RTCGeometry g = a->rtc->rtcNewGeometry(a->device, RTC_GEOMETRY_TYPE_TRIANGLE);
   if (g == NULL) return VF_EEMBREE;
   /* Embree reads vertex buffers with 16-byte loads: the new buffer it allocates is padded. */
-  float *v = rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float),
+  float *v = a->rtc->rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float),
                                      s->num_vertices);
-  uint32_t *idx = rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(uint32_t),
+  uint32_t *idx = a->rtc->rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(uint32_t),
                                           s->num_triangles);
   if (v == NULL || idx == NULL) {
-    rtcReleaseGeometry(g);
+    a->rtc->rtcReleaseGeometry(g);
     return VF_EEMBREE;
   }
   memcpy(v, s->positions, (size_t)s->num_vertices * 3 * sizeof(float));
   memcpy(idx, s->indices, (size_t)s->num_triangles * 3 * sizeof(uint32_t));
   if (s->material >= 0 && a->source->materials[s->material].alpha_cutoff > 0.0f) {
     a->cutouts[id] = (struct cutout){a->source, s};
-    rtcSetGeometryUserData(g, &a->cutouts[id]);
-    rtcSetGeometryIntersectFilterFunction(g, cutout_filter);
-    rtcSetGeometryOccludedFilterFunction(g, cutout_filter);
+    a->rtc->rtcSetGeometryUserData(g, &a->cutouts[id]);
+    a->rtc->rtcSetGeometryIntersectFilterFunction(g, cutout_filter);
+    a->rtc->rtcSetGeometryOccludedFilterFunction(g, cutout_filter);
   }
-  rtcCommitGeometry(g);
-  rtcAttachGeometryByID(a->scene, g, id);
-  rtcReleaseGeometry(g);
+  a->rtc->rtcCommitGeometry(g);
+  a->rtc->rtcAttachGeometryByID(a->scene, g, id);
+  a->rtc->rtcReleaseGeometry(g);
   return VF_OK;
 }
 
 static int add_sphere(vf_accel *a, RTCScene scene, const vf_shape *s, unsigned id) {
-  RTCGeometry g = rtcNewGeometry(a->device, RTC_GEOMETRY_TYPE_SPHERE_POINT);
+  RTCGeometry g = a->rtc->rtcNewGeometry(a->device, RTC_GEOMETRY_TYPE_SPHERE_POINT);
   if (g == NULL) return VF_EEMBREE;
-  float *v = rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT4, 4 * sizeof(float), 1);
+  float *v = a->rtc->rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT4, 4 * sizeof(float), 1);
   if (v == NULL) {
-    rtcReleaseGeometry(g);
+    a->rtc->rtcReleaseGeometry(g);
     return VF_EEMBREE;
   }
   v[0] = s->center.x;
   v[1] = s->center.y;
   v[2] = s->center.z;
   v[3] = s->radius;
-  rtcCommitGeometry(g);
-  rtcAttachGeometryByID(scene, g, id);
-  rtcReleaseGeometry(g);
+  a->rtc->rtcCommitGeometry(g);
+  a->rtc->rtcAttachGeometryByID(scene, g, id);
+  a->rtc->rtcReleaseGeometry(g);
   return VF_OK;
 }
 
+static vf_module embree = VF_MODULE_INIT(VF_EMBREE_MODULE_FILE, "Embree ray tracing", VF_EMBREE_API_VERSION,
+                                         sizeof(vf_embree_api));
+
 int vf_accel_create(const vf_scene *scene, vf_accel **out) {
+  const vf_embree_api *rtc = vf_module_get(&embree, "ray tracing");
+  if (rtc == NULL) return VF_EMODULE;
   vf_accel *a = calloc(1, sizeof *a);
   if (a == NULL) return VF_ENOMEM;
+  a->rtc = rtc;
   a->source = scene;
   a->interpolated = calloc((size_t)scene->num_shapes + 1, 1);
   a->cutouts = calloc((size_t)scene->num_shapes + 1, sizeof *a->cutouts);
@@ -135,28 +142,28 @@ int vf_accel_create(const vf_scene *scene, vf_accel **out) {
    * faster choice on Intel's server cores, where 512-bit code lowers the clock of
    * everything around it while Embree's own rate stays the same (docs/BENCHMARKS.md,
    * "Embree's kernels capped at AVX2"). */
-  a->device = rtcNewDevice("threads=1,set_affinity=0,max_isa=avx2");
+  a->device = a->rtc->rtcNewDevice("threads=1,set_affinity=0,max_isa=avx2");
   if (a->device == NULL) {
     vf_accel_destroy(a);
-    return vf_error_set(VF_EEMBREE, "cannot create the Embree device (error %d)", (int)rtcGetDeviceError(NULL));
+    return vf_error_set(VF_EEMBREE, "cannot create the Embree device (error %d)", (int)a->rtc->rtcGetDeviceError(NULL));
   }
-  rtcSetDeviceErrorFunction(a->device, device_error, NULL);
-  a->scene = rtcNewScene(a->device);
+  a->rtc->rtcSetDeviceErrorFunction(a->device, device_error, NULL);
+  a->scene = a->rtc->rtcNewScene(a->device);
   if (a->scene == NULL) goto fail;
   /* Robust mode: watertight edges, or some of the rays leaving the inside of a closed mesh
    * escape between its triangles (tests/worker/render/test_accel.c fails without it). Low build quality
    * (the Morton builder): with robust mode, faster to trace than medium or high on our
    * scenes and as fast as medium on large meshes, and the build is cheaper too
    * (docs/BENCHMARKS.md, "Raw Embree rate"). */
-  rtcSetSceneBuildQuality(a->scene, RTC_BUILD_QUALITY_LOW);
-  rtcSetSceneFlags(a->scene, RTC_SCENE_FLAG_ROBUST);
+  a->rtc->rtcSetSceneBuildQuality(a->scene, RTC_BUILD_QUALITY_LOW);
+  a->rtc->rtcSetSceneFlags(a->scene, RTC_SCENE_FLAG_ROBUST);
   int num_spheres = 0;
   for (int i = 0; i < scene->num_shapes; i++) num_spheres += scene->shapes[i].kind == VF_SHAPE_SPHERE;
   if (num_spheres > 0 && num_spheres <= SPHERES_APART) {
-    a->spheres = rtcNewScene(a->device);
+    a->spheres = a->rtc->rtcNewScene(a->device);
     if (a->spheres == NULL) goto fail;
-    rtcSetSceneBuildQuality(a->spheres, RTC_BUILD_QUALITY_LOW);
-    rtcSetSceneFlags(a->spheres, RTC_SCENE_FLAG_ROBUST);
+    a->rtc->rtcSetSceneBuildQuality(a->spheres, RTC_BUILD_QUALITY_LOW);
+    a->rtc->rtcSetSceneFlags(a->spheres, RTC_SCENE_FLAG_ROBUST);
   }
   for (int i = 0; i < scene->num_shapes; i++) {
     const vf_shape *s = &scene->shapes[i];
@@ -174,9 +181,9 @@ int vf_accel_create(const vf_scene *scene, vf_accel **out) {
                                                            0.5f / r, (unsigned)i};
     }
   }
-  rtcCommitScene(a->scene);
-  if (a->spheres) rtcCommitScene(a->spheres);
-  if (rtcGetDeviceError(a->device) != RTC_ERROR_NONE) goto fail;
+  a->rtc->rtcCommitScene(a->scene);
+  if (a->spheres) a->rtc->rtcCommitScene(a->spheres);
+  if (a->rtc->rtcGetDeviceError(a->device) != RTC_ERROR_NONE) goto fail;
   *out = a;
   return VF_OK;
 fail:
@@ -186,9 +193,9 @@ fail:
 
 void vf_accel_destroy(vf_accel *a) {
   if (a == NULL) return;
-  if (a->scene) rtcReleaseScene(a->scene);
-  if (a->spheres) rtcReleaseScene(a->spheres);
-  if (a->device) rtcReleaseDevice(a->device);
+  if (a->scene) a->rtc->rtcReleaseScene(a->scene);
+  if (a->spheres) a->rtc->rtcReleaseScene(a->spheres);
+  if (a->device) a->rtc->rtcReleaseDevice(a->device);
   free(a->interpolated);
   free(a->cutouts);
   free(a);
@@ -350,7 +357,7 @@ int vf_accel_intersect(const vf_accel *a, vf_vec3 org, vf_vec3 dir, float tfar, 
   rh.ray.flags = 0;
   rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
   rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
-  rtcIntersect1(a->scene, &ctx, &rh);
+  a->rtc->rtcIntersect1(a->scene, &ctx, &rh);
   if (a->spheres && may_reach_sphere(a, org, dir, rh.ray.tfar)) {
     unsigned shape;
     float t;
@@ -360,7 +367,7 @@ int vf_accel_intersect(const vf_accel *a, vf_vec3 org, vf_vec3 dir, float tfar, 
       rh.hit.geomID = shape;
       rh.hit.primID = 0;
     } else if (answer == SPHERES_UNSURE) {
-      rtcIntersect1(a->spheres, &ctx, &rh);
+      a->rtc->rtcIntersect1(a->spheres, &ctx, &rh);
     }
   }
   if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return 0;
@@ -390,14 +397,14 @@ int vf_accel_occluded(const vf_accel *a, vf_vec3 org, vf_vec3 dir, float tfar) {
   r.mask = 0xFFFFFFFFu;
   r.id = 0;
   r.flags = 0;
-  rtcOccluded1(a->scene, &ctx, &r);
+  a->rtc->rtcOccluded1(a->scene, &ctx, &r);
   if (r.tfar < 0.0f) return 1;
   if (a->spheres && may_reach_sphere(a, org, dir, tfar)) {
     unsigned shape;
     float t;
     int answer = sphere_answer(a, org, dir, tfar, &shape, &t);
     if (answer == SPHERES_HIT) return 1;
-    if (answer == SPHERES_UNSURE) rtcOccluded1(a->spheres, &ctx, &r);
+    if (answer == SPHERES_UNSURE) a->rtc->rtcOccluded1(a->spheres, &ctx, &r);
   }
   return r.tfar < 0.0f;
 }
@@ -491,7 +498,7 @@ static uint32_t occluded8(const vf_accel *a, const vf_vec3 *org, const vf_vec3 *
   struct RTCRay8 r; /* aligned as Embree declares it */
   RTC_ALIGN(4 * WIDTH) int valid[WIDTH];
   packet_rays(&r, valid, org, dir, tfar, n);
-  rtcOccluded8(valid, a->scene, &ctx, &r);
+  a->rtc->rtcOccluded8(valid, a->scene, &ctx, &r);
   if (a->spheres) {
     /* The rays the meshes left unblocked and a sphere may block, as one packet. */
     RTC_ALIGN(4 * WIDTH) int open[WIDTH], reach[WIDTH];
@@ -508,7 +515,7 @@ static uint32_t occluded8(const vf_accel *a, const vf_vec3 *org, const vf_vec3 *
         if (answer != SPHERES_UNSURE) reach[i] = 0;
         unsure |= reach[i];
       }
-      if (unsure) rtcOccluded8(reach, a->spheres, &ctx, &r);
+      if (unsure) a->rtc->rtcOccluded8(reach, a->spheres, &ctx, &r);
     }
   }
   uint32_t blocked = 0;
@@ -524,7 +531,7 @@ static uint32_t intersect8(const vf_accel *a, const vf_vec3 *org, const vf_vec3 
   RTC_ALIGN(4 * WIDTH) int valid[WIDTH];
   packet_rays(&rh.ray, valid, org, dir, NULL, n);
   for (int i = 0; i < WIDTH; i++) rh.hit.geomID[i] = rh.hit.instID[0][i] = RTC_INVALID_GEOMETRY_ID;
-  rtcIntersect8(valid, a->scene, &ctx, &rh);
+  a->rtc->rtcIntersect8(valid, a->scene, &ctx, &rh);
   if (a->spheres) {
     /* The rays that may reach a sphere before their mesh hit, as one packet. */
     RTC_ALIGN(4 * WIDTH) int reach[WIDTH];
@@ -544,7 +551,7 @@ static uint32_t intersect8(const vf_accel *a, const vf_vec3 *org, const vf_vec3 
         if (answer != SPHERES_UNSURE) reach[i] = 0;
         unsure |= reach[i];
       }
-      if (unsure) rtcIntersect8(reach, a->spheres, &ctx, &rh);
+      if (unsure) a->rtc->rtcIntersect8(reach, a->spheres, &ctx, &rh);
     }
   }
   uint32_t found = 0;

@@ -3,6 +3,7 @@
 #include "files.h"
 
 #include "../../common/error.h"
+#include "assimp_api.h"
 
 #include <assimp/cfileio.h>
 #include <assimp/cimport.h>
@@ -157,5 +158,5 @@ static void io_close(struct aiFileIO *io, struct aiFile *file) {
 
 const struct aiScene *vf_scene_files_import(vf_scene_files *f, const char *name, unsigned flags) {
   f->io = (struct aiFileIO){io_open, io_close, (aiUserData)f};
-  return aiImportFileEx(name, flags, &f->io);
+  return vf_assimp()->aiImportFileEx(name, flags, &f->io);
 }

@@ -12,6 +12,7 @@
 #include "import.h"
 
 #include "../../common/error.h"
+#include "assimp_api.h"
 #include "fields.h"
 #include "gltf.h"
 #include "mesh.h"
@@ -65,7 +66,7 @@ static int material_for(const parse_ctx *c, import_state *st, unsigned k, int *o
    * read, so its textures need not exist. */
   struct aiString name;
   int j = -1;
-  if (aiGetMaterialString(st->f.ai->mMaterials[k], AI_MATKEY_NAME, &name) == aiReturn_SUCCESS && name.length > 0)
+  if (vf_assimp()->aiGetMaterialString(st->f.ai->mMaterials[k], AI_MATKEY_NAME, &name) == aiReturn_SUCCESS && name.length > 0)
     j = vf_name_index_find(&st->json_names, name.data);
   if (j < 0) {
     vf_material m;
@@ -428,7 +429,7 @@ static int import_entry(const parse_ctx *c, const cJSON *j, int index, int json_
   free(st.emission_of);
   free(st.interior_of);
   vf_gltf_info_release(&st.f.gltf);
-  aiReleaseImport(st.f.ai);
+  vf_assimp()->aiReleaseImport(st.f.ai);
   return err;
 }
 

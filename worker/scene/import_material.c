@@ -7,6 +7,7 @@
 #include "import.h"
 
 #include "../../common/error.h"
+#include "assimp_api.h"
 #include "textures.h"
 
 #include <assimp/GltfMaterial.h>
@@ -25,12 +26,12 @@
 static float get_float(const struct aiMaterial *m, const char *key, unsigned type, unsigned index, float fallback) {
   ai_real v;
   unsigned n = 1;
-  return aiGetMaterialFloatArray(m, key, type, index, &v, &n) == aiReturn_SUCCESS && n == 1 && isfinite(v)
+  return vf_assimp()->aiGetMaterialFloatArray(m, key, type, index, &v, &n) == aiReturn_SUCCESS && n == 1 && isfinite(v)
              ? (float)v : fallback;
 }
 
 static int get_color(const struct aiMaterial *m, const char *key, unsigned type, unsigned index, struct aiColor4D *out) {
-  return aiGetMaterialColor(m, key, type, index, out) == aiReturn_SUCCESS && isfinite(out->r) && isfinite(out->g) &&
+  return vf_assimp()->aiGetMaterialColor(m, key, type, index, out) == aiReturn_SUCCESS && isfinite(out->r) && isfinite(out->g) &&
          isfinite(out->b) && isfinite(out->a);
 }
 
@@ -79,7 +80,7 @@ static int load_texture(const parse_ctx *c, const vf_import_file *f, const char 
                         enum aiTextureType type, vf_texture_slot *slot) {
   struct aiString path;
   unsigned uv = 0;
-  if (aiGetMaterialTexture(am, type, 0, &path, NULL, &uv, NULL, NULL, NULL, NULL) != aiReturn_SUCCESS ||
+  if (vf_assimp()->aiGetMaterialTexture(am, type, 0, &path, NULL, &uv, NULL, NULL, NULL, NULL) != aiReturn_SUCCESS ||
       path.length == 0)
     return 0;
   int err, index = 0;
@@ -89,7 +90,7 @@ static int load_texture(const parse_ctx *c, const vf_import_file *f, const char 
     return err;
   struct aiUVTransform tr;
   unsigned n = sizeof tr / sizeof(ai_real);
-  if (!f->gltf_file && aiGetMaterialFloatArray(am, _AI_MATKEY_UVTRANSFORM_BASE, type, 0, (ai_real *)&tr, &n) == aiReturn_SUCCESS &&
+  if (!f->gltf_file && vf_assimp()->aiGetMaterialFloatArray(am, _AI_MATKEY_UVTRANSFORM_BASE, type, 0, (ai_real *)&tr, &n) == aiReturn_SUCCESS &&
       (err = vf_scene_note(c, "%s: texture transforms are ignored: textures are read at the mesh's own coordinates",
                            f->file)) < 0)
     return err;
@@ -114,9 +115,9 @@ static int load_texture(const parse_ctx *c, const vf_import_file *f, const char 
   }
   int u = aiTextureMapMode_Wrap, v = aiTextureMapMode_Wrap;
   unsigned one = 1;
-  aiGetMaterialIntegerArray(am, _AI_MATKEY_MAPPINGMODE_U_BASE, type, 0, &u, &one);
+  vf_assimp()->aiGetMaterialIntegerArray(am, _AI_MATKEY_MAPPINGMODE_U_BASE, type, 0, &u, &one);
   one = 1;
-  aiGetMaterialIntegerArray(am, _AI_MATKEY_MAPPINGMODE_V_BASE, type, 0, &v, &one);
+  vf_assimp()->aiGetMaterialIntegerArray(am, _AI_MATKEY_MAPPINGMODE_V_BASE, type, 0, &v, &one);
   slot->texture = index;
   slot->wrap_s = wrap_of(u);
   slot->wrap_t = wrap_of(v);
@@ -127,7 +128,7 @@ static int load_texture(const parse_ctx *c, const vf_import_file *f, const char 
 static int note_unused_textures(const parse_ctx *c, const vf_import_file *f, const struct aiMaterial *am,
                                 const enum aiTextureType *types, const char *const *names, int count) {
   for (int i = 0; i < count; i++)
-    if (aiGetMaterialTextureCount(am, types[i]) > 0) {
+    if (vf_assimp()->aiGetMaterialTextureCount(am, types[i]) > 0) {
       int err = vf_scene_note(c, "%s: %s textures are not supported: ignored", f->file, names[i]);
       if (err < 0) return err;
     }
@@ -138,7 +139,7 @@ static int note_unused_textures(const parse_ctx *c, const vf_import_file *f, con
 
 static int gltf_alpha(const parse_ctx *c, const vf_import_file *f, const struct aiMaterial *am, vf_material *m) {
   struct aiString mode;
-  if (aiGetMaterialString(am, AI_MATKEY_GLTF_ALPHAMODE, &mode) != aiReturn_SUCCESS || strcmp(mode.data, "OPAQUE") == 0)
+  if (vf_assimp()->aiGetMaterialString(am, AI_MATKEY_GLTF_ALPHAMODE, &mode) != aiReturn_SUCCESS || strcmp(mode.data, "OPAQUE") == 0)
     return VF_OK;
   if (strcmp(mode.data, "BLEND") == 0) {
     int err = vf_scene_note(c, "%s: alpha mode BLEND is rendered as MASK with cutoff 0.5 (no partial coverage)", f->file);
@@ -314,14 +315,14 @@ static int gltf_material(const parse_ctx *c, const vf_import_file *f, unsigned i
     if (transmission < 1.0f &&
         (err = vf_scene_note(c, "%s: transmission factors below 1 are rendered as 1 (a rough dielectric)", f->file)) < 0)
       return err;
-    if (aiGetMaterialTextureCount(am, aiTextureType_TRANSMISSION) > 0 &&
+    if (vf_assimp()->aiGetMaterialTextureCount(am, aiTextureType_TRANSMISSION) > 0 &&
         (err = vf_scene_note(c, "%s: transmission textures are not supported: ignored", f->file)) < 0)
       return err;
   } else {
     m->gltf = 1;
   }
   struct aiString name;
-  if (aiGetMaterialString(am, AI_MATKEY_NAME, &name) != aiReturn_SUCCESS) name.data[0] = '\0';
+  if (vf_assimp()->aiGetMaterialString(am, AI_MATKEY_NAME, &name) != aiReturn_SUCCESS) name.data[0] = '\0';
   const vf_gltf_material *g = f->gltf.materials ? vf_gltf_material_of(&f->gltf, index, name.data) : NULL;
   if (g != NULL && m->gltf && (err = gltf_specular(c, f, where, g, m)) < 0) return err;
   if (g != NULL && m->gltf && (err = gltf_layers(c, f, where, g, m)) < 0) return err;
@@ -393,7 +394,7 @@ static int classic_material(const parse_ctx *c, const vf_import_file *f, const c
   get_color(am, AI_MATKEY_COLOR_SPECULAR, &ks);
   get_color(am, AI_MATKEY_COLOR_EMISSIVE, &ke);
   get_color(am, AI_MATKEY_COLOR_TRANSPARENT, &tf);
-  aiGetMaterialIntegerArray(am, AI_MATKEY_OBJ_ILLUM, &illum, &one);
+  vf_assimp()->aiGetMaterialIntegerArray(am, AI_MATKEY_OBJ_ILLUM, &illum, &one);
   float ns = get_float(am, AI_MATKEY_SHININESS, 0.0f), ni = get_float(am, AI_MATKEY_REFRACTI, 1.0f);
   float d = get_float(am, AI_MATKEY_OPACITY, 1.0f);
   *emission = vf_vec3_make(fmaxf(ke.r, 0.0f), fmaxf(ke.g, 0.0f), fmaxf(ke.b, 0.0f));
@@ -431,7 +432,7 @@ int vf_scene_import_material(const parse_ctx *c, const vf_import_file *f, unsign
   struct aiString name;
   char where[PATH_LEN];
   memset(m, 0, sizeof *m);
-  if (aiGetMaterialString(am, AI_MATKEY_NAME, &name) != aiReturn_SUCCESS || name.length == 0)
+  if (vf_assimp()->aiGetMaterialString(am, AI_MATKEY_NAME, &name) != aiReturn_SUCCESS || name.length == 0)
     snprintf(name.data, sizeof name.data, "material %u", index);
   snprintf(m->name, sizeof m->name, "%.63s", name.data); /* longer names are cut: they only name */
   if (f->what) snprintf(where, sizeof where, "%.160s: material '%.63s'", f->what, name.data);

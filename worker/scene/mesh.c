@@ -11,6 +11,7 @@
 #include "mesh.h"
 
 #include "../../common/error.h"
+#include "assimp_api.h"
 #include "gltf.h"
 #include "files.h"
 #include "mesh_repair.h"
@@ -31,7 +32,7 @@
 /* Assimp's last error, trailing whitespace trimmed. The text is process-global: concurrent
  * imports on several threads may report each other's message (the codes stay right). */
 static const char *assimp_error(char *buf, size_t n) {
-  snprintf(buf, n, "%s", aiGetErrorString());
+  snprintf(buf, n, "%s", vf_assimp()->aiGetErrorString());
   for (size_t len = strlen(buf); len > 0 && (buf[len - 1] == ' ' || buf[len - 1] == '\n'); len--) buf[len - 1] = '\0';
   return buf;
 }
@@ -148,7 +149,7 @@ static int triangulate(const parse_ctx *c, const char *what, const struct aiScen
   char why[256];
   if (largest <= 3) return VF_OK;
   if (largest <= VF_MAX_POLYGON_VERTICES) {
-    if ((*ai = aiApplyPostProcessing(*ai, aiProcess_Triangulate)) == NULL) /* released on failure */
+    if ((*ai = vf_assimp()->aiApplyPostProcessing(*ai, aiProcess_Triangulate)) == NULL) /* released on failure */
       return vf_scene_fail(c, VF_EMESH, what, "triangulation failed: %s", assimp_error(why, sizeof why));
     return VF_OK;
   }
@@ -177,11 +178,13 @@ int vf_scene_import_file(const parse_ctx *c, const char *file, const char *fpath
   const struct aiScene *ai = NULL;
   int err;
   const unsigned flags = 0; /* triangulate() below */
+  if (vf_assimp_load(file) == NULL)
+    return vf_scene_fail(c, VF_EMODULE, fpath, "%s", vf_error_detail(VF_EMODULE));
   const vf_scene_memfile *mf = find_memfile(c, file);
   if (mf != NULL) {
     const char *dot = strrchr(mf->name, '.');
     if (mf->size > UINT32_MAX) return vf_scene_fail(c, VF_EMESH, fpath, "'%s' is too large", file);
-    ai = aiImportFileFromMemory(mf->data, (unsigned)mf->size, flags, dot ? dot + 1 : "");
+    ai = vf_assimp()->aiImportFileFromMemory(mf->data, (unsigned)mf->size, flags, dot ? dot + 1 : "");
   } else {
     if ((err = vf_scene_resolve(c, file, fpath, full, sizeof full)) < 0) return err;
     FILE *f = fopen(full, "rb"); /* Assimp's own message does not say why */
@@ -189,21 +192,21 @@ int vf_scene_import_file(const parse_ctx *c, const char *file, const char *fpath
     fclose(f);
     /* A farm job's mesh is imported under its name, so that the files it names in turn
      * (glTF buffers, OBJ material libraries) resolve by name as well. */
-    ai = c->files ? vf_scene_files_import(c->files, file, flags) : aiImportFile(full, flags);
+    ai = c->files ? vf_scene_files_import(c->files, file, flags) : vf_assimp()->aiImportFile(full, flags);
   }
   if (ai == NULL) return vf_scene_fail(c, VF_EMESH, fpath, "cannot read '%s': %s", file, assimp_error(why, sizeof why));
   if ((ai->mFlags & AI_SCENE_FLAGS_INCOMPLETE) || ai->mNumMeshes == 0) {
-    aiReleaseImport(ai);
+    vf_assimp()->aiReleaseImport(ai);
     return vf_scene_fail(c, VF_EMESH, what, "the file contains no mesh");
   }
   if ((err = check_values(c, what, ai)) < 0 || (err = vf_scene_mesh_repair(c, file, ai)) < 0 ||
       (err = triangulate(c, what, &ai)) < 0) {
-    if (ai != NULL) aiReleaseImport(ai);
+    if (ai != NULL) vf_assimp()->aiReleaseImport(ai);
     return err;
   }
   /* On failure Assimp has released the scene. */
   if (join_vertices(mf != NULL ? mf->name : file, ai) &&
-      (ai = aiApplyPostProcessing(ai, aiProcess_JoinIdenticalVertices)) == NULL)
+      (ai = vf_assimp()->aiApplyPostProcessing(ai, aiProcess_JoinIdenticalVertices)) == NULL)
     return vf_scene_fail(c, VF_EMESH, what, "post-processing failed: %s", assimp_error(why, sizeof why));
   *out = ai;
   return VF_OK;
@@ -511,6 +514,6 @@ int vf_scene_load_mesh_file(const parse_ctx *c, const char *file, const char *pa
     s->colors = NULL;
     err = vf_scene_note(c, "%s: vertex colours of a shape's mesh file are ignored (an \"import\" applies them)", file);
   }
-  aiReleaseImport(ai);
+  vf_assimp()->aiReleaseImport(ai);
   return err;
 }

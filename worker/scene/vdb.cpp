@@ -28,8 +28,8 @@ extern "C" {
 
 namespace {
 
-// The program's vf_error_set (vf_vdb_module_open sets it before handing out the table).
-vf_vdb_error_fn report_error = nullptr;
+// The program's vf_error_set (vf_module_open sets it before handing out the table).
+vf_module_error_fn report_error = nullptr;
 
 // Debian's OpenVDB links log4cplus 2.0, whose library starts a pool of four logging
 // threads as it loads: in every process that links the scene library, whether it reads a
@@ -256,12 +256,11 @@ int write_grid(const vf_density_grid *grid, const char *grid_name, const char *p
   }
 }
 
-const vf_vdb_module module = {VF_VDB_MODULE_VERSION, read_grid, read_grid_memory, write_grid_memory, write_grid};
+const vf_vdb_module module = {{VF_VDB_MODULE_VERSION, sizeof(vf_vdb_module)}, read_grid, read_grid_memory, write_grid_memory, write_grid};
 
 }  // namespace
 
-extern "C" __attribute__((visibility("default"))) const vf_vdb_module *vf_vdb_module_open(int version,
-                                                                                         vf_vdb_error_fn error_set) {
+extern "C" __attribute__((visibility("default"))) const void *vf_module_open(int version, vf_module_error_fn error_set) {
   if (version != VF_VDB_MODULE_VERSION || error_set == nullptr) return nullptr;
   report_error = error_set;
   return &module;

@@ -12,7 +12,8 @@
  * finite and >= 0, there must be at least one active voxel, and at most
  * VF_GRID_MAX_SAMPLES samples; the size is checked before anything is allocated.
  *
- * Errors: VF_ENOENT (the file cannot be opened), VF_ESCENE (not a VDB file, damaged, no
+ * Errors: VF_EMODULE (OpenVDB support is not installed: common/module.h), VF_ENOENT (the
+ * file cannot be opened), VF_ESCENE (not a VDB file, damaged, no
  * such grid, not float, a transform or values it refuses, too large), VF_ENOMEM. Details
  * begin with `label` (the file as the scene names it). Out-parameters on success only;
  * the grid's density array is then the caller's (vf_medium_release frees it inside a
