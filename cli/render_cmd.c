@@ -86,7 +86,7 @@ static int render(const vf_render_job *o) {
 
   /* auto with a pilot: each candidate's pilot decides, and the chosen one's is the job's. */
   vf_auto_choice choice;
-  int chose = settings.algorithm == VF_ALGO_AUTO && settings.pilot > 0;
+  int chose = vf_settings_choose_by_pilots(&settings);
   if (chose) {
     if ((auto_samples = malloc((size_t)settings.width * (size_t)settings.height)) == NULL) {
       err = VF_ENOMEM;

@@ -155,7 +155,7 @@ int vf_submit(vf_farm_client *client, int timeout_ms, const vf_submit_job *job, 
   if (job->overrides && (err = vf_cli_settings_apply(job->overrides, &settings)) != VF_OK) goto done;
   char settings_text[512];
   if ((err = vf_settings_validate(&settings)) != VF_OK) goto done;
-  if (settings.algorithm == VF_ALGO_AUTO && settings.pilot > 0) {
+  if (vf_settings_choose_by_pilots(&settings)) {
     /* auto with a pilot is decided here, once, by the candidates' pilots on this machine
      * (vf_render_choose_algorithm), and the job names the algorithm it chose. */
     vf_auto_choice choice;

@@ -73,9 +73,11 @@ static uint8_t level_of(double x) {
   return k;
 }
 
-/* The counts for scale `scale` (k_p = level_of(scale * sigma_p)) and their efficiency
- * against one a pixel: (n sum v) / (sum k * sum v / k). */
-static double counts_for(const double *sigma, const double *variance, size_t n, double scale, uint8_t *samples) {
+/* The counts for scale `scale` (k_p = level_of(scale * sigma_p)) into samples (when not
+ * NULL) and their efficiency against one a pixel: (n sum v) / (sum k * sum v / k); the
+ * mean over pixels of v / k into *mean_variance (when not NULL). */
+static double counts_for(const double *sigma, const double *variance, size_t n, double scale, uint8_t *samples,
+                         double *mean_variance) {
   double cost = 0.0, error = 0.0, total = 0.0;
   for (size_t p = 0; p < n; p++) {
     uint8_t k = level_of(scale * sigma[p]);
@@ -84,6 +86,7 @@ static double counts_for(const double *sigma, const double *variance, size_t n, 
     error += variance[p] / k;
     total += variance[p];
   }
+  if (mean_variance) *mean_variance = error / (double)n;
   return error > 0.0 ? (double)n * total / (cost * error) : 1.0;
 }
 
@@ -120,17 +123,16 @@ int vf_allocation_compute(const vf_film *film, uint8_t *samples, vf_allocation_r
   if (mean_sigma > 0.0 && isfinite(mean_sigma)) {
     for (int i = 0; i <= 16; i++) {
       double scale = pow(2.0, 0.25 * i) / mean_sigma;
-      double e = counts_for(sigma, variance, n, scale, NULL);
+      double e = counts_for(sigma, variance, n, scale, NULL, NULL);
       if (e > best) best = e, best_scale = scale;
     }
   }
-  counts_for(sigma, variance, n, best_scale, samples);
+  double mean_variance;
+  counts_for(sigma, variance, n, best_scale, samples, &mean_variance);
   if (report) {
     vf_allocation_describe(samples, n, report);
     report->predicted_gain = best;
-    double v = 0.0;
-    for (size_t p = 0; p < n; p++) v += variance[p] / samples[p];
-    report->variance = v / (double)n;
+    report->variance = mean_variance;
   }
   free(raw);
   free(variance);

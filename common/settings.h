@@ -116,6 +116,11 @@ void vf_settings_default(vf_settings *s);
 const char *vf_algorithm_name(vf_algorithm a);
 /* auto or auto-unbiased: the renderer resolves it from the scene. */
 static inline int vf_algorithm_is_auto(vf_algorithm a) { return a == VF_ALGO_AUTO || a == VF_ALGO_AUTO_UNBIASED; }
+/* Whether the settings ask for the algorithm to be chosen by pilots (auto with a pilot:
+ * vf_render_choose_algorithm), once, by whoever starts the render or the job. */
+static inline int vf_settings_choose_by_pilots(const vf_settings *s) {
+  return s->algorithm == VF_ALGO_AUTO && s->pilot > 0;
+}
 /* VF_EUSAGE with a detail listing the valid names when `name` is not one. */
 int vf_algorithm_parse(const char *name, vf_algorithm *out);
 

@@ -255,12 +255,20 @@ typedef struct {
   const vf_film *pixels; /* the job's film: alive while film_writing (a job is not removed then) */
 } write_item;
 
+/* A film's metadata without pixels (`shell`) lent the pixels of the job's film for one
+ * write on the merge thread, and without them again after: no copy of the pixels. */
+static void lend_pixels(vf_film *shell, const vf_film *pixels) {
+  shell->sum = pixels->sum;
+  shell->square_sum = pixels->square_sum;
+}
+
+static void return_pixels(vf_film *shell) { shell->sum = shell->square_sum = NULL; }
+
 static void write_work(vf_merge_item *item) {
   write_item *w = (write_item *)item;
-  w->fw->film->sum = w->pixels->sum;
-  w->fw->film->square_sum = w->pixels->square_sum;
+  lend_pixels(w->fw->film, w->pixels);
   do_work(&w->fw->work);
-  w->fw->film->sum = w->fw->film->square_sum = NULL;
+  return_pixels(w->fw->film);
 }
 
 static void write_done(vf_merge_item *item) {
@@ -337,10 +345,9 @@ typedef struct {
 static void pilot_write_work(vf_merge_item *item) {
   pilot_write_item *w = (pilot_write_item *)item;
   vf_error_clear();
-  w->shell->sum = w->pixels->sum;
-  w->shell->square_sum = w->pixels->square_sum;
+  lend_pixels(w->shell, w->pixels);
   w->err = vf_film_write(w->shell, w->path);
-  w->shell->sum = w->shell->square_sum = NULL;
+  return_pixels(w->shell);
   if (w->err != VF_OK) snprintf(w->detail, sizeof w->detail, "%s", vf_error_detail(w->err));
 }
 

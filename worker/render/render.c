@@ -190,7 +190,7 @@ static int measure_candidate(vf_renderer *r, volatile sig_atomic_t *interrupt, u
   choice->candidates[i].variance = report.variance;
   /* A pilot that saw no variance at all (an image of constant pixels) is as efficient as
    * it gets: the cheapest such candidate wins. */
-  choice->candidates[i].efficiency = report.variance > 0.0 ? 1.0 / (cost * report.variance) : 1e300 / (cost + 1e-300);
+  choice->candidates[i].efficiency = report.variance > 0.0 ? 1.0 / (cost * report.variance) : 1e300 / (1.0 + cost);
   choice->render_seconds += pilot->render_seconds;
   choice->cpu_seconds += pilot->cpu_seconds;
 done:
@@ -213,7 +213,7 @@ static double choice_score(const vf_auto_choice *choice, int i) {
 int vf_render_choose_algorithm(const vf_scene *scene, vf_settings *settings, int threads,
                                volatile sig_atomic_t *interrupt, uint8_t *samples, vf_auto_choice *choice) {
   static const vf_algorithm candidates[VF_AUTO_CANDIDATES] = {VF_ALGO_PT, VF_ALGO_BPT, VF_ALGO_VCM};
-  if (settings->algorithm != VF_ALGO_AUTO || settings->pilot <= 0)
+  if (!vf_settings_choose_by_pilots(settings))
     return vf_error_set(VF_EINVAL, "an algorithm is chosen by pilots only for --algorithm auto with --pilot");
   memset(choice, 0, sizeof *choice);
   size_t n = (size_t)settings->width * (size_t)settings->height;
