@@ -19,12 +19,15 @@
 # tests/lsan.supp names the leaks not ours (fontconfig's caches, through cairo; OpenVDB on a
 # damaged file); the summary of suppressions used stays off, so that commands whose stderr
 # a test reads line by line (test_cli) print only their own lines.
+#
+#   bash tests/sanitize.sh [--build-only]   # --build-only: configure and build, run nothing
 set -euo pipefail
 cd "$(dirname "$0")/.."
 flags="-fsanitize=address,undefined -fno-sanitize-recover=undefined -fno-omit-frame-pointer"
 cmake -S . -B build-sanitize -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_C_FLAGS="$flags" \
   -DCMAKE_EXE_LINKER_FLAGS="-fsanitize=address,undefined"
 cmake --build build-sanitize -j2
+[ "${1:-}" = --build-only ] && exit 0
 LSAN_OPTIONS="suppressions=$PWD/tests/lsan.supp:print_suppressions=0" ASAN_OPTIONS="detect_leaks=1" \
   UBSAN_OPTIONS="print_stacktrace=1" VF_CORPUS_STRIDE=3 \
   ctest --test-dir build-sanitize -j2 --output-on-failure \

@@ -256,6 +256,25 @@ check "a render without grids, meshes or drawings loads Embree and nothing else 
   echo $?)"
 LD_DEBUG=files "$vcmfarm" info "$tmp/plain.exr" >"$tmp/info.files" 2>&1
 check "info loads no module" "$(! grep -q -E "libvf_|libembree3|libopenvdb|libassimp|libcairo|libmicrohttpd" "$tmp/info.files"; echo $?)"
+# A module missing from every place it is looked for (the installed program without its
+# Embree module, the build tree hidden by a mount namespace of the check's own): the command
+# that needs it fails with exit 1, naming the module and the places; one that does not,
+# works.
+if [ "$(id -u)" -eq 0 ] && command -v unshare >/dev/null; then
+  rm -f "$tmp/prefix/lib/vcmfarm/libvf_embree.so"
+  without_build_tree() { # command...: run with the build tree hidden
+    unshare --mount bash -c 'mount -t tmpfs none "$0" && exec "$@"' "$(dirname "$vcmfarm")" "$@"
+  }
+  without_build_tree "$tmp/prefix/bin/vcmfarm" render cornell -R 8x8 -n 1 -q -o "$tmp/nomodule.exr" 2>"$tmp/nomodule.err"
+  status=$?
+  check "a render without its Embree module: exit 1 naming it and where it was looked for" "$([ "$status" -eq 1 ] &&
+    grep -q "cannot trace rays: Embree ray tracing (libvf_embree.so) is not installed: looked in .*/prefix/bin/../lib/vcmfarm/libvf_embree.so" \
+      "$tmp/nomodule.err" && [ ! -e "$tmp/nomodule.exr" ]; echo $?)"
+  without_build_tree "$tmp/prefix/bin/vcmfarm" info "$tmp/plain.exr" >/dev/null
+  check "info without the Embree module" $?
+else
+  echo "note: not root or no unshare: the missing-module case is left out"
+fi
 "$vcmfarm" render --help | grep -q 'usage: vcmfarm render'
 check "render --help" $?
 # submit takes every kind of scene render takes, and its --help says so.

@@ -119,7 +119,7 @@ static vf_module embree = VF_MODULE_INIT(VF_EMBREE_MODULE_FILE, "Embree ray trac
                                          sizeof(vf_embree_api));
 
 int vf_accel_create(const vf_scene *scene, vf_accel **out) {
-  const vf_embree_api *rtc = vf_module_get(&embree, "ray tracing");
+  const vf_embree_api *rtc = vf_module_get(&embree, "cannot trace rays");
   if (rtc == NULL) return VF_EMODULE;
   vf_accel *a = calloc(1, sizeof *a);
   if (a == NULL) return VF_ENOMEM;
