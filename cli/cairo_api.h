@@ -25,12 +25,10 @@
   X(cairo_surface_flush) X(cairo_surface_mark_dirty) X(cairo_surface_write_to_png_stream) \
   X(cairo_text_extents) X(cairo_translate)
 
-#define VF_CAIRO_MEMBER(f) __typeof__(&f) f;
 typedef struct {
   vf_module_head head; /* VF_CAIRO_API_VERSION, sizeof(vf_cairo_api) */
-  VF_CAIRO_FUNCTIONS(VF_CAIRO_MEMBER)
+  VF_CAIRO_FUNCTIONS(VF_MODULE_MEMBER)
 } vf_cairo_api;
-#undef VF_CAIRO_MEMBER
 
 /* cairo's functions, the module loaded on the first call (thread-safe); NULL when it
  * cannot be, with VF_EMODULE set, its detail "LABEL: why" (the file to draw). */

@@ -45,6 +45,23 @@ typedef int (*vf_module_error_fn)(int code, const char *fmt, ...);
  * it. The table lives as long as the process. */
 typedef const void *(*vf_module_open_fn)(int version, vf_module_error_fn error_set);
 
+/* A table of a library's functions, declared from an X-macro list of their names:
+ *   #define VF_FOO_FUNCTIONS(X) X(foo_open) X(foo_close)
+ *   typedef struct { vf_module_head head; VF_FOO_FUNCTIONS(VF_MODULE_MEMBER) } vf_foo_api;
+ * gives each member the name and the type of the library's function, so that
+ * `api->foo_open(...)` is the library's call; and in the module's one source file,
+ *   VF_MODULE_FUNCTIONS(vf_foo_api, VF_FOO_API_VERSION, VF_FOO_FUNCTIONS)
+ * defines the table and VF_MODULE_ENTRY, which hands it out for that version only. */
+#define VF_MODULE_MEMBER(f) __typeof__(&f) f;
+#define VF_MODULE_ADDRESS_(f) &f,
+#define VF_MODULE_FUNCTIONS(type, version_number, LIST)                                                  \
+  static const type vf_module_table_ = {{(version_number), sizeof(type)}, LIST(VF_MODULE_ADDRESS_)};     \
+  __attribute__((visibility("default"))) const void *vf_module_open(int version, vf_module_error_fn error_set); \
+  const void *vf_module_open(int version, vf_module_error_fn error_set) {                                \
+    (void)error_set;                                                                                     \
+    return version == (version_number) ? &vf_module_table_ : NULL;                                       \
+  }
+
 /* One module as the program sees it; a file-scope static, VF_MODULE_INIT'ed. */
 typedef struct {
   const char *file;  /* "libvf_embree.so" */

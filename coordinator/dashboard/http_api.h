@@ -19,11 +19,9 @@
   X(MHD_lookup_connection_value) X(MHD_create_response_from_buffer) X(MHD_add_response_header) \
   X(MHD_create_response_from_fd64) X(MHD_queue_response) X(MHD_destroy_response)
 
-#define VF_HTTP_MEMBER(f) __typeof__(&f) f;
 typedef struct {
   vf_module_head head; /* VF_HTTP_API_VERSION, sizeof(vf_http_api) */
-  VF_HTTP_FUNCTIONS(VF_HTTP_MEMBER)
+  VF_HTTP_FUNCTIONS(VF_MODULE_MEMBER)
 } vf_http_api;
-#undef VF_HTTP_MEMBER
 
 #endif

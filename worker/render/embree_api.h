@@ -23,11 +23,9 @@
   X(rtcCommitGeometry) X(rtcAttachGeometryByID)                                                      \
   X(rtcIntersect1) X(rtcOccluded1) X(rtcIntersect8) X(rtcOccluded8)
 
-#define VF_EMBREE_MEMBER(f) __typeof__(&f) f;
 typedef struct {
   vf_module_head head; /* VF_EMBREE_API_VERSION, sizeof(vf_embree_api) */
-  VF_EMBREE_FUNCTIONS(VF_EMBREE_MEMBER)
+  VF_EMBREE_FUNCTIONS(VF_MODULE_MEMBER)
 } vf_embree_api;
-#undef VF_EMBREE_MEMBER
 
 #endif

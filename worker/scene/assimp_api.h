@@ -21,12 +21,10 @@
   X(aiReleaseImport) X(aiGetErrorString) X(aiGetMaterialString) X(aiGetMaterialIntegerArray)        \
   X(aiGetMaterialFloatArray) X(aiGetMaterialColor) X(aiGetMaterialTexture) X(aiGetMaterialTextureCount)
 
-#define VF_ASSIMP_MEMBER(f) __typeof__(&f) f;
 typedef struct {
   vf_module_head head; /* VF_ASSIMP_API_VERSION, sizeof(vf_assimp_api) */
-  VF_ASSIMP_FUNCTIONS(VF_ASSIMP_MEMBER)
+  VF_ASSIMP_FUNCTIONS(VF_MODULE_MEMBER)
 } vf_assimp_api;
-#undef VF_ASSIMP_MEMBER
 
 /* Assimp's functions, the module loaded on the first call (thread-safe); NULL when it
  * cannot be, with VF_EMODULE set, its detail "LABEL: why" (the file to import). */
