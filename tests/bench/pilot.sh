@@ -23,7 +23,7 @@ build=$(cd "$build" && pwd)
 here=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
 vcmfarm=$build/vcmfarm
 source "$here/reference_lib.sh"
-out=$build/bench/pilot
+out=${OUT:-$build/bench/pilot} # films and rows; OUT for runs side by side
 cache=$build/bench/cache
 mkdir -p "$out" "$cache"
 scenes=${SCENES:-"cornell cornell-diffuse cornell-glossy cornell-rough cornell-bulb"}

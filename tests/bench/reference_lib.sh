@@ -17,7 +17,7 @@ cached_reference() {
   "$vcmfarm" render "$scene" --direct -a pt -n 1 "$@" -q -o "$probe"
   hash=$("$vcmfarm" info --json "$probe" | jq -r .scene_hash | cut -c1-16)
   rm -f "$probe"
-  ref=$cache/ref-$scene-$hash-$algorithm-$res-${seconds}s.exr
+  ref=$cache/ref-$(basename "$scene")-$hash-$algorithm-$res-${seconds}s.exr # a file's scene by its name
   if [ ! -f "$ref" ]; then
     echo "  $scene: reference, $algorithm for $seconds s" >&2
     "$vcmfarm" render "$scene" --direct -a "$algorithm" -s 1000 -t "$seconds" --checkpoint-interval 0 "$@" -q \
