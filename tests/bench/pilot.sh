@@ -40,7 +40,7 @@ for scene in $scenes; do
   for a in $algorithms; do
     for p in 0 "$pilot"; do
       for seed in $seeds; do
-        film=$out/$scene-$a-$p-$seed.exr
+        film=$out/$(basename "$scene")-$a-$p-$seed.exr
         extra=()
         [ "$p" != 0 ] && extra=(--pilot "$p")
         "$vcmfarm" render "$scene" --direct -a "$a" -n "$iterations" -j 1 -s "$seed" -q "${common[@]}" "${extra[@]}" \
