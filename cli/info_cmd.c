@@ -113,6 +113,7 @@ static int print_json(const char *path, const vf_film *film, const summary *s) {
       cJSON *levels = cJSON_AddArrayToObject(o, "pixels_of_1_2_4_8_16");
       for (int i = 0; levels != NULL && i < VF_ALLOCATION_LEVELS; i++)
         cJSON_AddItemToArray(levels, cJSON_CreateNumber((double)a.pixels[i]));
+      cJSON_AddNumberToObject(o, "pixels_without_merging", (double)a.no_merging);
     }
   }
   cJSON_AddItemToObject(root, "image_mean", json_number(s->image_mean));
@@ -163,9 +164,9 @@ static void print_text(const char *path, const vf_film *film, const summary *s) 
   if (film->samples != NULL) {
     vf_allocation_report a;
     vf_allocation_describe(film->samples, (size_t)film->width * (size_t)film->height, &a);
-    printf("allocation         %.2f camera sub-paths a pixel on average; pixels of 1, 2, 4, 8, 16: %" PRIu64 ", %" PRIu64
-           ", %" PRIu64 ", %" PRIu64 ", %" PRIu64 "\n",
-           a.mean, a.pixels[0], a.pixels[1], a.pixels[2], a.pixels[3], a.pixels[4]);
+    char text[256];
+    vf_allocation_summary(&a, text, sizeof text);
+    printf("allocation         %s\n", text);
   }
   printf("image_mean         %.6g\n", s->image_mean);
   printf("estimated_rmse     %.6g\n", s->estimated_rmse);

@@ -46,9 +46,9 @@ void vf_render_job_print_summary(const vf_film *film, double seconds, const vf_v
   if (film->samples != NULL) {
     vf_allocation_report a;
     vf_allocation_describe(film->samples, (size_t)film->width * (size_t)film->height, &a);
-    fprintf(stderr, "camera sub-paths per pixel, from the pilot: %.2f on average; pixels of 1, 2, 4, 8, 16: %llu, %llu, "
-            "%llu, %llu, %llu\n", a.mean, (unsigned long long)a.pixels[0], (unsigned long long)a.pixels[1],
-            (unsigned long long)a.pixels[2], (unsigned long long)a.pixels[3], (unsigned long long)a.pixels[4]);
+    char text[256];
+    vf_allocation_summary(&a, text, sizeof text);
+    fprintf(stderr, "allocation from the pilot: %s\n", text);
   }
   if (stats->upg_gatherings + stats->upg_fallbacks > 0) {
     double g = stats->upg_gatherings ? (double)stats->upg_gatherings : 1.0;
@@ -126,11 +126,17 @@ void vf_render_job_format_stop(const vf_cli_stop *stop, uint64_t start, char *ou
 void vf_render_job_print_choice(const vf_auto_choice *choice, int pilot) {
   fprintf(stderr, "auto: pilots of %d iterations (%.2f s); efficiency, 1 / (s an iteration x variance):", pilot,
           choice->render_seconds);
-  for (int i = 0; i < choice->count; i++)
-    fprintf(stderr, "%s %s %.4g (%.2f camera sub-paths a pixel)", i ? "," : "",
-            vf_algorithm_name(choice->candidates[i].algorithm), choice->candidates[i].efficiency,
+  for (int i = 0; i < choice->count; i++) {
+    double merging = choice->candidates[i].merging;
+    fprintf(stderr, "%s %s", i ? "," : "", vf_algorithm_name(choice->candidates[i].algorithm));
+    if (merging > 0.0 && merging < 1.0) fprintf(stderr, " merging in %.1f%% of pixels", 100.0 * merging);
+    fprintf(stderr, " %.4g (%.2f camera sub-paths a pixel)", choice->candidates[i].efficiency,
             choice->candidates[i].camera_subpaths);
-  fprintf(stderr, "; chose %s\n", vf_algorithm_name(choice->algorithm));
+  }
+  double merging = choice->candidates[choice->chosen].merging;
+  fprintf(stderr, "; chose %s", vf_algorithm_name(choice->algorithm));
+  if (merging > 0.0 && merging < 1.0) fprintf(stderr, " merging in %.1f%% of pixels", 100.0 * merging);
+  fprintf(stderr, "\n");
 }
 
 void vf_render_job_print_details(const vf_settings *settings, const vf_renderer *renderer) {

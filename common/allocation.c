@@ -7,6 +7,7 @@
 
 #include <math.h>
 #include <sodium.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <zlib.h>
@@ -74,23 +75,53 @@ static uint8_t level_of(double x) {
 }
 
 /* The counts for scale `scale` (k_p = level_of(scale * sigma_p)) into samples (when not
- * NULL) and their efficiency against one a pixel: (n sum v) / (sum k * sum v / k); the
- * mean over pixels of v / k into *mean_variance (when not NULL). */
-static double counts_for(const double *sigma, const double *variance, size_t n, double scale, uint8_t *samples,
-                         double *mean_variance) {
-  double cost = 0.0, error = 0.0, total = 0.0;
+ * NULL; each byte's flags, as vf_allocation_choose set them, are kept) and their efficiency
+ * against one a pixel: (sum c_p sum v_p) / (sum k_p c_p * sum v_p / k_p), with c_p = 1 when
+ * cost is NULL; the mean over pixels of v / k into *mean_variance (when not NULL). */
+static double counts_for(const double *sigma, const double *variance, const double *cost, size_t n, double scale,
+                         uint8_t *samples, double *mean_variance) {
+  double spent = 0.0, error = 0.0, total = 0.0, base = 0.0;
   for (size_t p = 0; p < n; p++) {
     uint8_t k = level_of(scale * sigma[p]);
-    if (samples) samples[p] = k;
-    cost += k;
+    if (samples) samples[p] = (uint8_t)((samples[p] & VF_ALLOCATION_NO_MERGING) | k);
+    spent += cost ? k * cost[p] : k;
+    base += cost ? cost[p] : 1.0;
     error += variance[p] / k;
     total += variance[p];
   }
   if (mean_variance) *mean_variance = error / (double)n;
-  return error > 0.0 ? (double)n * total / (cost * error) : 1.0;
+  if (!cost) base = (double)n; /* as it always was: the sum of n ones, exactly */
+  return error > 0.0 ? base * total / (spent * error) : 1.0;
 }
 
-int vf_allocation_compute(const vf_film *film, uint8_t *samples, vf_allocation_report *report) {
+/* The counts of the ladder's best scale (k_p proportional to sigma_p) into samples, and
+ * report (may be NULL) filled. */
+static void allocate(const double *sigma, const double *variance, const double *cost, size_t n, uint8_t *samples,
+                     vf_allocation_report *report) {
+  double mean_sigma = 0.0;
+  for (size_t p = 0; p < n; p++) mean_sigma += sigma[p];
+  mean_sigma /= (double)n;
+  /* The ladder of scales: 2^(i/4) / mean sigma for i from 0 to 16, so that the unrounded
+   * count of a pixel of the mean sigma runs from 1 to 16 in steps of 2^(1/4): a fixed set,
+   * the same for every film. */
+  double best_scale = 0.0, best = 1.0;
+  if (mean_sigma > 0.0 && isfinite(mean_sigma)) {
+    for (int i = 0; i <= 16; i++) {
+      double scale = pow(2.0, 0.25 * i) / mean_sigma;
+      double e = counts_for(sigma, variance, cost, n, scale, NULL, NULL);
+      if (e > best) best = e, best_scale = scale;
+    }
+  }
+  double mean_variance;
+  counts_for(sigma, variance, cost, n, best_scale, samples, &mean_variance);
+  if (report) {
+    vf_allocation_describe(samples, n, report);
+    report->predicted_gain = best;
+    report->variance = mean_variance;
+  }
+}
+
+int vf_allocation_variances(const vf_film *film, double *variance) {
   vf_settings s;
   int err = vf_settings_parse(&s, film->settings_text);
   if (err != VF_OK) return err;
@@ -101,42 +132,58 @@ int vf_allocation_compute(const vf_film *film, uint8_t *samples, vf_allocation_r
     return vf_error_set(VF_EINVAL, "an allocation is computed from the film of exactly the pilot's iterations [0, %d), "
                         "and this film holds %llu others", s.pilot, (unsigned long long)n_iterations);
   size_t n = (size_t)film->width * (size_t)film->height;
-  double *raw = malloc(n * sizeof *raw), *variance = malloc(n * sizeof *variance), *sigma = malloc(n * sizeof *sigma);
-  if (raw == NULL || variance == NULL || sigma == NULL) {
+  double *raw = malloc(n * sizeof *raw), *tmp = malloc(n * sizeof *tmp);
+  if (raw == NULL || tmp == NULL) {
     free(raw);
-    free(variance);
-    free(sigma);
+    free(tmp);
     return VF_ENOMEM;
   }
   pixel_variances(film, raw);
-  smooth(raw, sigma, variance, film->width, film->height, SMOOTHING);
-  double mean_sigma = 0.0;
-  for (size_t p = 0; p < n; p++) {
-    sigma[p] = sqrt(variance[p]);
-    mean_sigma += sigma[p];
-  }
-  mean_sigma /= (double)n;
-  /* The ladder of scales: 2^(i/4) / mean sigma for i from 0 to 16, so that the unrounded
-   * count of a pixel of the mean sigma runs from 1 to 16 in steps of 2^(1/4): a fixed set,
-   * the same for every film. */
-  double best_scale = 0.0, best = 1.0;
-  if (mean_sigma > 0.0 && isfinite(mean_sigma)) {
-    for (int i = 0; i <= 16; i++) {
-      double scale = pow(2.0, 0.25 * i) / mean_sigma;
-      double e = counts_for(sigma, variance, n, scale, NULL, NULL);
-      if (e > best) best = e, best_scale = scale;
-    }
-  }
-  double mean_variance;
-  counts_for(sigma, variance, n, best_scale, samples, &mean_variance);
-  if (report) {
-    vf_allocation_describe(samples, n, report);
-    report->predicted_gain = best;
-    report->variance = mean_variance;
-  }
+  smooth(raw, tmp, variance, film->width, film->height, SMOOTHING);
   free(raw);
+  free(tmp);
+  return VF_OK;
+}
+
+int vf_allocation_compute(const vf_film *film, uint8_t *samples, vf_allocation_report *report) {
+  size_t n = (size_t)film->width * (size_t)film->height;
+  double *variance = malloc(n * sizeof *variance), *sigma = malloc(n * sizeof *sigma);
+  int err = variance && sigma ? vf_allocation_variances(film, variance) : VF_ENOMEM;
+  if (err == VF_OK) {
+    for (size_t p = 0; p < n; p++) {
+      sigma[p] = sqrt(variance[p]);
+      samples[p] = 0;
+    }
+    allocate(sigma, variance, NULL, n, samples, report);
+  }
   free(variance);
   free(sigma);
+  return err;
+}
+
+int vf_allocation_choose(const double *bpt_variance, const double *vcm_variance, double bpt_cost, double vcm_cost,
+                         double margin, size_t n, uint8_t *samples, vf_allocation_report *report) {
+  if (!(bpt_cost > 0.0 && vcm_cost > 0.0 && isfinite(bpt_cost) && isfinite(vcm_cost)))
+    return vf_error_set(VF_EINVAL, "the costs of a camera sub-path, %g (bpt) and %g (vcm), must be positive", bpt_cost,
+                        vcm_cost);
+  double *variance = malloc(n * sizeof *variance), *sigma = malloc(n * sizeof *sigma), *cost = malloc(n * sizeof *cost);
+  if (variance == NULL || sigma == NULL || cost == NULL) {
+    free(variance);
+    free(sigma);
+    free(cost);
+    return VF_ENOMEM;
+  }
+  for (size_t p = 0; p < n; p++) {
+    int merges = vcm_variance[p] * vcm_cost * margin < bpt_variance[p] * bpt_cost;
+    samples[p] = merges ? 0 : (uint8_t)VF_ALLOCATION_NO_MERGING;
+    variance[p] = merges ? vcm_variance[p] : bpt_variance[p];
+    cost[p] = merges ? vcm_cost : bpt_cost;
+    sigma[p] = sqrt(variance[p] / cost[p]);
+  }
+  allocate(sigma, variance, cost, n, samples, report);
+  free(variance);
+  free(sigma);
+  free(cost);
   return VF_OK;
 }
 
@@ -144,21 +191,34 @@ void vf_allocation_describe(const uint8_t *samples, size_t n, vf_allocation_repo
   memset(report, 0, sizeof *report);
   double total = 0.0;
   for (size_t p = 0; p < n; p++) {
+    uint32_t k = vf_allocation_count(samples[p]);
     int level = 0;
-    while (level < VF_ALLOCATION_LEVELS - 1 && (1u << level) < samples[p]) level++;
+    while (level < VF_ALLOCATION_LEVELS - 1 && (1u << level) < k) level++;
     report->pixels[level]++;
-    total += samples[p];
+    report->no_merging += !vf_allocation_merges(samples[p]);
+    total += k;
   }
   report->mean = n ? total / (double)n : 0.0;
   report->predicted_gain = NAN;
   report->variance = NAN;
 }
 
+void vf_allocation_summary(const vf_allocation_report *a, char *out, size_t size) {
+  int w = snprintf(out, size, "%.2f camera sub-paths a pixel on average; pixels of 1, 2, 4, 8, 16: %llu, %llu, %llu, "
+                   "%llu, %llu", a->mean, (unsigned long long)a->pixels[0], (unsigned long long)a->pixels[1],
+                   (unsigned long long)a->pixels[2], (unsigned long long)a->pixels[3], (unsigned long long)a->pixels[4]);
+  if (a->no_merging > 0 && w >= 0 && (size_t)w < size)
+    snprintf(out + w, size - (size_t)w, "; no merging in %llu pixels", (unsigned long long)a->no_merging);
+}
+
 uint64_t vf_allocation_seed(uint64_t seed) { return vf_splitmix64(seed ^ 0x9e6c63d0876a9a99ULL); }
 
 int vf_allocation_validate(const uint8_t *samples, size_t n, const char *name) {
   for (size_t p = 0; p < n; p++) {
-    unsigned k = samples[p];
+    unsigned k = vf_allocation_count(samples[p]);
+    if (samples[p] & ~(VF_ALLOCATION_COUNT_BITS | VF_ALLOCATION_NO_MERGING))
+      return vf_error_set(VF_EFILM, "%s: allocation of pixel %zu is byte 0x%02x: bits 5 and 6 are not used", name, p,
+                          samples[p]);
     if (k == 0 || k > VF_ALLOCATION_MAX || (k & (k - 1)) != 0)
       return vf_error_set(VF_EFILM, "%s: allocation of pixel %zu is %u camera sub-paths: a power of two from 1 to %d",
                           name, p, k, VF_ALLOCATION_MAX);

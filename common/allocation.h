@@ -47,7 +47,22 @@
  * with k); it takes the largest 1 / (cost x v), pt's and vcm's counted over a margin of
  * 1.25, since what pt samples rarely and vcm's merging bias are in no estimate
  * (worker/render/render.h, vf_render_choose_algorithm). Times are measurements, so the choice is made once and kept
- * in the settings; the counts it hands on are the chosen algorithm's own. */
+ * in the settings; the counts it hands on are the chosen algorithm's own.
+ *
+ * Merging per pixel. bpt and vcm trace the same sub-paths; vcm adds vertex merging, whose
+ * worth varies across an image as the error does (caustics seen in a diffuse floor against
+ * plain diffuse walls; Grittmann et al. 2022, efficiency-aware MIS). A pixel's byte may
+ * therefore also carry VF_ALLOCATION_NO_MERGING: in a vcm render, that pixel's camera
+ * sub-paths do not merge and every technique sampling a path through the pixel weighs it
+ * without merging (eta_VCM = 0 in the pixel's weights, worker/render/pixel_radius.h), so
+ * that the pixel's estimator is bpt's and the image's stays unbiased where merging is off
+ * and consistent where it is on. Every technique of a full path belongs to the path's
+ * pixel (the camera sub-path's, or the one light tracing projects to), so the weights of
+ * each path still sum to one. The choice per pixel (vf_allocation_choose) compares the
+ * pilots of bpt and vcm: a pixel merges where vcm's predicted efficiency, its variance
+ * times the cost of a camera sub-path, beats bpt's by the margin auto asks of vcm; the
+ * counts then follow each pixel's own algorithm, k_p proportional to sqrt(v_p / c_p)
+ * (Cauchy-Schwarz with the pixels' costs c_p). */
 #ifndef VF_ALLOCATION_H
 #define VF_ALLOCATION_H
 
@@ -58,11 +73,21 @@
 
 /* The most camera sub-paths of a pixel per iteration: a power of two. */
 #define VF_ALLOCATION_MAX 16
+/* A pixel's byte: its count in the bits below VF_ALLOCATION_COUNT_BITS, and this flag for a
+ * pixel of a vcm render that does not merge (see above). */
+#define VF_ALLOCATION_COUNT_BITS 0x1fu
+#define VF_ALLOCATION_NO_MERGING 0x80u
 /* log2 of it, plus one: the counts 1, 2, 4, 8, 16. */
 #define VF_ALLOCATION_LEVELS 5
 
+/* The camera sub-paths of a pixel whose byte is b. */
+static inline uint32_t vf_allocation_count(uint8_t b) { return b & VF_ALLOCATION_COUNT_BITS; }
+/* Whether a pixel whose byte is b merges (in a render that merges at all). */
+static inline int vf_allocation_merges(uint8_t b) { return !(b & VF_ALLOCATION_NO_MERGING); }
+
 typedef struct {
   uint64_t pixels[VF_ALLOCATION_LEVELS]; /* pixels of 1, 2, 4, 8, 16 camera sub-paths */
+  uint64_t no_merging;   /* pixels flagged VF_ALLOCATION_NO_MERGING */
   double mean;           /* camera sub-paths per pixel and iteration */
   double predicted_gain; /* the efficiency over one a pixel, on the pilot's estimates */
   double variance;       /* of an iteration's estimate with these counts, on the pilot's
@@ -74,11 +99,29 @@ typedef struct {
  * what it holds otherwise). report may be NULL. */
 int vf_allocation_compute(const vf_film *film, uint8_t *samples, vf_allocation_report *report);
 
+/* The smoothed per-pixel variances vf_allocation_compute allocates by (width x height
+ * doubles into variance), from a film as it asks (the same errors). */
+int vf_allocation_variances(const vf_film *film, double *variance);
+
+/* Merging per pixel from the pilots of bpt and vcm (see above): pixel p merges where
+ * vcm_variance[p] vcm_cost margin < bpt_variance[p] bpt_cost, with the variances of
+ * vf_allocation_variances and the costs of one camera sub-path a pixel in an iteration of
+ * each; the counts are then allocated as vf_allocation_compute's over the pixels' own
+ * variances and costs. n bytes into samples; report (may be NULL) as vf_allocation_compute's,
+ * with its variance the predicted of an iteration. VF_EINVAL for a cost that is not
+ * positive and finite. */
+int vf_allocation_choose(const double *bpt_variance, const double *vcm_variance, double bpt_cost, double vcm_cost,
+                         double margin, size_t n, uint8_t *samples, vf_allocation_report *report);
+
 /* The report of an allocation of n pixels. */
 void vf_allocation_describe(const uint8_t *samples, size_t n, vf_allocation_report *report);
 
+/* The report in words: "1.53 camera sub-paths a pixel on average; pixels of 1, 2, 4, 8, 16:
+ * a, b, c, d, e", and "; no merging in N pixels" when some are flagged so. */
+void vf_allocation_summary(const vf_allocation_report *report, char *out, size_t size);
+
 /* VF_EFILM with a detail naming `name` and the pixel unless every count is a power of two
- * from 1 to VF_ALLOCATION_MAX. */
+ * from 1 to VF_ALLOCATION_MAX and no bit but VF_ALLOCATION_NO_MERGING is set besides. */
 int vf_allocation_validate(const uint8_t *samples, size_t n, const char *name);
 
 /* The text a film keeps its allocation in (docs/FILM.md, attribute vcmfarm:allocation):

@@ -85,7 +85,7 @@ expect_refusal "pilot with lt" "not of lt" "$vcmfarm" render furnace -a lt --pil
 expect_refusal "pilot with single-stage vcm" "not of the single-stage one" "$vcmfarm" render furnace --vcm-stages 1 --pilot 8 -o "$tmp/out.exr"
 "$vcmfarm" render cornell -R 24x16 -n 6 --pilot 4 -o "$tmp/pilot6.exr" 2>"$tmp/stderr"
 check "pilot renders" $?
-check "pilot reported" "$(grep -q "^pilot: 4 iterations in" "$tmp/stderr" && grep -q "^camera sub-paths per pixel, from the pilot: " "$tmp/stderr"; echo $?)"
+check "pilot reported" "$(grep -q "^pilot: 4 iterations in" "$tmp/stderr" && grep -q "^allocation from the pilot: [0-9.]* camera sub-paths a pixel on average" "$tmp/stderr"; echo $?)"
 check "pilot in the film's settings" "$("$vcmfarm" info "$tmp/pilot6.exr" | grep -q " pilot=4"; echo $?)"
 check "allocation in info" "$("$vcmfarm" info --json "$tmp/pilot6.exr" | jq -e '.allocation.mean_camera_sub_paths >= 1 and (.allocation.pixels_of_1_2_4_8_16 | add) == 384' >/dev/null; echo $?)"
 "$vcmfarm" render cornell -R 24x16 -n 2 --pilot 8 -q -o "$tmp/pilot8.exr"

@@ -365,7 +365,7 @@ static int camera_medium_vertex(vf_vcm *v, int thread, camera_lane *lane, const 
     lane->prev.here = here;
     defer_unshadowed(v, thread, vf_gathering_estimate_medium(v, thread, &q, &lane->prev), lane->tile_pixel);
     lane->prev = (gathering_prev){b, hit->position, s->throughput, s->mis, 1, here, here};
-  } else if (v->t.vertex_merging) {
+  } else if (v->t.vertex_merging && lane->merge.merges) {
     defer_unshadowed(v, thread, vf_mul(s->throughput, vf_volume_merging_estimate(v, &b, hit->position, &s->mis,
                                                                                   s->path_length)),
                      lane->tile_pixel);
@@ -440,7 +440,7 @@ static int camera_bounce(vf_vcm *v, int thread, camera_lane *lane, const vf_hit 
   if (!b.is_delta) {
     if (v->t.light_sample) light_sample(v, thread, hit, &b, s, &lane->sampler, vertex_dims, tile_pixel);
     if (v->t.connection) connect_to_light_path(v, thread, lane, hit, &b);
-    if (v->t.vertex_merging && v->num_vertices > 0) {
+    if (v->t.vertex_merging && lane->merge.merges && v->num_vertices > 0) {
       vertex_merging_query *q = queue_vertex_merging(v, thread);
       if (q != NULL) {
         /* Field by field, the BSDF by the part it uses (vf_bsdf_copy): a whole vf_bsdf is

@@ -42,18 +42,28 @@ int vf_pixel_radius_create(vf_vcm *v);
  * sub-paths (common/allocation.h): its light_paths is n_light / k (exact: k is a power of
  * two), which the weights read where light tracing meets the camera (mis.h, eq. 31-33 and
  * 46-47), while the merges' eta_VCM keeps n_light (each camera sub-path merges with all of
- * them). */
+ * them). A pixel whose allocation turns merging off (VF_ALLOCATION_NO_MERGING) gets bpt's
+ * weights: eta_VCM = 0, and its camera sub-paths do not merge. */
 static inline void vf_merge_params_at(const vf_vcm *v, uint32_t pixel, merge_params *out) {
   *out = v->merge;
-  if (v->allocated) out->mis.light_paths = v->merge.mis.light_paths / (float)v->samples[pixel];
-  if (v->pixel_scale == NULL) return;
-  double r = v->radius_exact * (double)v->pixel_scale[pixel];
-  double eta = M_PI * r * r * (double)v->num_light_paths; /* eq. (20) with this pixel's radius */
-  out->radius = (float)r;
-  out->radius_sq = (float)(r * r);
-  out->vm_normalization = (float)(1.0 / eta);
-  out->mis.vm_weight = v->vm_in_weights ? vf_mis_h(&out->mis, (float)eta) : 0.0f;
-  out->mis.vc_weight = v->vc_in_weights ? vf_mis_h(&out->mis, (float)(1.0 / eta)) : 0.0f;
+  if (v->pixel_scale != NULL) {
+    double r = v->radius_exact * (double)v->pixel_scale[pixel];
+    double eta = M_PI * r * r * (double)v->num_light_paths; /* eq. (20) with this pixel's radius */
+    out->radius = (float)r;
+    out->radius_sq = (float)(r * r);
+    out->vm_normalization = (float)(1.0 / eta);
+    out->mis.vm_weight = v->vm_in_weights ? vf_mis_h(&out->mis, (float)eta) : 0.0f;
+    out->mis.vc_weight = v->vc_in_weights ? vf_mis_h(&out->mis, (float)(1.0 / eta)) : 0.0f;
+  }
+  if (!v->allocated) return;
+  uint8_t b = v->samples[pixel];
+  out->mis.light_paths = v->merge.mis.light_paths / (float)vf_allocation_count(b);
+  if (!vf_allocation_merges(b)) {
+    /* bpt's weights in this pixel: no technique merges here (sec. 5.5: eta_VCM = 0). */
+    out->merges = 0;
+    out->mis.vm_weight = 0.0f;
+    out->mis.vc_weight = 0.0f;
+  }
 }
 
 #endif

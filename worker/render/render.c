@@ -164,8 +164,8 @@ done:
 
 /* One candidate of auto: its pilot rendered by r (set up for it) into a film of its own,
  * its allocation into counts and its figures into *c. */
-static int measure_candidate(vf_renderer *r, volatile sig_atomic_t *interrupt, uint8_t *counts, vf_auto_choice *choice,
-                             int i) {
+static int measure_candidate(vf_renderer *r, volatile sig_atomic_t *interrupt, uint8_t *counts, double *variances,
+                             vf_auto_choice *choice, int i) {
   vf_film *pilot = NULL;
   int err = vf_film_create(r->settings.width, r->settings.height, &pilot);
   if (err != VF_OK) return err;
@@ -181,9 +181,11 @@ static int measure_candidate(vf_renderer *r, volatile sig_atomic_t *interrupt, u
   }
   vf_allocation_report report;
   if ((err = vf_allocation_compute(pilot, counts, &report)) != VF_OK) goto done;
+  if (variances && (err = vf_allocation_variances(pilot, variances)) != VF_OK) goto done;
   double light = (st.stats.light_seconds + st.stats.grid_seconds) / (double)n, camera = st.stats.camera_seconds / (double)n;
   double cost = light + camera * report.mean;
   choice->candidates[i].algorithm = r->settings.algorithm;
+  choice->candidates[i].merging = r->settings.algorithm == VF_ALGO_VCM;
   choice->candidates[i].light_seconds = light;
   choice->candidates[i].camera_seconds = camera;
   choice->candidates[i].camera_subpaths = report.mean;
@@ -207,20 +209,48 @@ done:
  * caustic): on cornell-fog its pilot predicted 1.01x bpt's, and bpt with a pilot reached 0.1
  * four times sooner (docs/BENCHMARKS.md, "auto with a pilot", "cornell-fog with a pilot"). */
 static double choice_score(const vf_auto_choice *choice, int i) {
-  return choice->candidates[i].efficiency / (choice->candidates[i].algorithm == VF_ALGO_BPT ? 1.0 : VF_AUTO_MARGIN);
+  double merging = choice->candidates[i].merging;
+  int margin = choice->candidates[i].algorithm == VF_ALGO_PT || merging == 1.0; /* vcm per pixel: its pixels' */
+  return choice->candidates[i].efficiency / (margin ? VF_AUTO_MARGIN : 1.0);
+}
+
+/* The candidate of vcm merging per pixel (render.h), from bpt's and vcm's measured ones
+ * (b and m) and their pilots' variances: its allocation into counts and its figures into
+ * choice's next candidate, unless every pixel or none merges (then it is vcm or bpt). */
+static int mix_candidate(vf_auto_choice *choice, int b, int m, const double *bpt_variances,
+                         const double *vcm_variances, size_t n, uint8_t *counts) {
+  const double pixels = (double)n;
+  double bpt_cost = choice->candidates[b].camera_seconds / pixels, vcm_cost = choice->candidates[m].camera_seconds / pixels;
+  if (!(bpt_cost > 0.0 && vcm_cost > 0.0)) return VF_OK; /* a clock too coarse to tell: no prediction */
+  vf_allocation_report report;
+  int err = vf_allocation_choose(bpt_variances, vcm_variances, bpt_cost, vcm_cost, VF_AUTO_MARGIN, n, counts, &report);
+  if (err != VF_OK || report.no_merging == 0 || report.no_merging == n) return err;
+  double camera = 0.0;
+  for (size_t p = 0; p < n; p++)
+    camera += vf_allocation_count(counts[p]) * (vf_allocation_merges(counts[p]) ? vcm_cost : bpt_cost);
+  double cost = choice->candidates[m].light_seconds + camera;
+  int i = choice->count++;
+  choice->candidates[i] = choice->candidates[m];
+  choice->candidates[i].merging = 1.0 - (double)report.no_merging / pixels;
+  choice->candidates[i].camera_seconds = camera / report.mean; /* per camera sub-path a pixel, as the others' */
+  choice->candidates[i].camera_subpaths = report.mean;
+  choice->candidates[i].variance = report.variance;
+  choice->candidates[i].efficiency = report.variance > 0.0 ? 1.0 / (cost * report.variance) : 1e300 / (1.0 + cost);
+  return VF_OK;
 }
 
 int vf_render_choose_algorithm(const vf_scene *scene, vf_settings *settings, int threads,
                                volatile sig_atomic_t *interrupt, uint8_t *samples, vf_auto_choice *choice) {
-  static const vf_algorithm candidates[VF_AUTO_CANDIDATES] = {VF_ALGO_PT, VF_ALGO_BPT, VF_ALGO_VCM};
+  static const vf_algorithm candidates[3] = {VF_ALGO_PT, VF_ALGO_BPT, VF_ALGO_VCM};
   if (!vf_settings_choose_by_pilots(settings))
     return vf_error_set(VF_EINVAL, "an algorithm is chosen by pilots only for --algorithm auto with --pilot");
   memset(choice, 0, sizeof *choice);
   size_t n = (size_t)settings->width * (size_t)settings->height;
   uint8_t *counts = malloc(n), *best_counts = malloc(n);
+  double *variances[2] = {malloc(n * sizeof(double)), malloc(n * sizeof(double))}; /* bpt's, vcm's */
   vf_renderer *r = NULL;
-  int err = counts && best_counts ? VF_OK : VF_ENOMEM, best = -1;
-  for (int i = 0; err == VF_OK && i < VF_AUTO_CANDIDATES; i++) {
+  int err = counts && best_counts && variances[0] && variances[1] ? VF_OK : VF_ENOMEM, best = -1, measured[2] = {-1, -1};
+  for (int i = 0; err == VF_OK && i < 3; i++) {
     vf_settings s = *settings;
     s.algorithm = candidates[i];
     if (vf_settings_validate(&s) != VF_OK) { /* e.g. pt with light sub-paths per block */
@@ -236,22 +266,37 @@ int vf_render_choose_algorithm(const vf_scene *scene, vf_settings *settings, int
       r->settings = s;
       err = vf_vcm_create(scene, r->accel, &s, r->pool, &r->vcm);
     }
-    if (err != VF_OK || (err = measure_candidate(r, interrupt, counts, choice, choice->count)) != VF_OK) break;
+    int side = candidates[i] == VF_ALGO_BPT ? 0 : candidates[i] == VF_ALGO_VCM ? 1 : -1;
+    if (err != VF_OK ||
+        (err = measure_candidate(r, interrupt, counts, side >= 0 ? variances[side] : NULL, choice, choice->count)) != VF_OK)
+      break;
+    if (side >= 0) measured[side] = choice->count;
     if (best < 0 || choice_score(choice, choice->count) > choice_score(choice, best)) {
       best = choice->count;
       memcpy(best_counts, counts, n);
     }
     choice->count++;
   }
+  if (err == VF_OK && measured[0] >= 0 && measured[1] >= 0) {
+    int before = choice->count;
+    err = mix_candidate(choice, measured[0], measured[1], variances[0], variances[1], n, counts);
+    if (err == VF_OK && choice->count > before && choice_score(choice, before) > choice_score(choice, best)) {
+      best = before;
+      memcpy(best_counts, counts, n);
+    }
+  }
   if (err == VF_OK && best < 0) err = vf_error_set(VF_EINVAL, "none of pt, bpt and vcm takes these settings");
   if (err == VF_OK) {
     choice->algorithm = choice->candidates[best].algorithm;
+    choice->chosen = best;
     settings->algorithm = choice->algorithm;
     if (samples) memcpy(samples, best_counts, n);
   }
   vf_renderer_destroy(r);
   free(counts);
   free(best_counts);
+  free(variances[0]);
+  free(variances[1]);
   return err;
 }
 

@@ -77,17 +77,21 @@ int vf_render_pilot_range(vf_renderer *r, vf_film *pilot, uint64_t begin, uint64
                           vf_render_status *status);
 
 /* `--algorithm auto` with a pilot: the algorithm chosen by measuring each candidate's pilot
- * (vf_render_choose_algorithm). */
-#define VF_AUTO_CANDIDATES 3
+ * (vf_render_choose_algorithm): pt, bpt, vcm, and vcm merging in some pixels only. */
+#define VF_AUTO_CANDIDATES 4
 /* pt and vcm are chosen over bpt only when their predicted efficiency is at least this many
  * times bpt's (render.c, choice_score: vcm's merging bias and what pt samples rarely are in
  * no pilot's estimate). */
 #define VF_AUTO_MARGIN 1.25
 typedef struct {
   vf_algorithm algorithm; /* the one chosen */
-  int count;              /* candidates measured (those the settings allow) */
+  int chosen;             /* its index in candidates */
+  int count;              /* candidates measured (those the settings allow) and predicted */
   struct {
     vf_algorithm algorithm;
+    double merging;         /* the share of pixels that merge: 0 (pt, bpt), 1 (vcm), or
+                             * between for vcm merging per pixel, whose figures are predicted
+                             * from bpt's and vcm's pilots (common/allocation.h) */
     double light_seconds;   /* per pilot iteration: the light sub-paths' pass and the grid, */
     double camera_seconds;  /* the camera sub-paths' (one a pixel) */
     double camera_subpaths; /* per pixel and iteration, by its pilot's allocation */
@@ -104,12 +108,19 @@ typedef struct {
  * k) v), t_light and t_camera the measured seconds of the pilot's light and camera passes
  * per iteration, k the allocation's mean camera sub-paths a pixel and v its predicted
  * variance (vf_allocation_report), and sets settings->algorithm to the most efficient,
- * pt's and vcm's efficiency counted over VF_AUTO_MARGIN.
+ * pt's and vcm's efficiency counted over VF_AUTO_MARGIN. With both bpt's and vcm's pilots,
+ * a fourth candidate: vcm merging only in the pixels where vcm's pilot predicts
+ * VF_AUTO_MARGIN times bpt's efficiency (vf_allocation_choose), its counts from each
+ * pixel's own algorithm, its cost vcm's light pass and each pixel's camera sub-paths at its
+ * algorithm's cost; it counts as it is (its margin is the pixels'), and is a candidate only
+ * when some pixels merge and some do not.
  * The choice rests on measured times, so it is made once, by whoever starts the job, and
  * kept in the settings (a film or a farm job then names the algorithm, not auto); what is
- * rendered after it is a pure function of those settings as always. samples (width x
- * height, may be NULL) receive the chosen one's allocation: the one vf_render_pilot
- * computes for the chosen settings, bit for bit. interrupt may be NULL. VF_EINVAL without
+ * rendered after it is a pure function of those settings and the allocation as always.
+ * samples (width x height, may be NULL) receive the chosen one's allocation: for pt, bpt
+ * and vcm the one vf_render_pilot computes for the chosen settings, bit for bit; for vcm
+ * merging per pixel the mixed one, which only the pilots of two algorithms give (a film or
+ * a job carries it). interrupt may be NULL. VF_EINVAL without
  * auto and a pilot, or when interrupted; the renderer's errors. */
 int vf_render_choose_algorithm(const vf_scene *scene, vf_settings *settings, int threads,
                                volatile sig_atomic_t *interrupt, uint8_t *samples, vf_auto_choice *choice);

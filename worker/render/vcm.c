@@ -44,6 +44,7 @@ static void setup_iteration(vf_vcm *v, uint64_t iteration) {
   v->merge.radius = (float)r;
   v->merge.radius_sq = (float)(r * r);
   v->merge.vm_normalization = (float)(1.0 / eta);
+  v->merge.merges = v->t.vertex_merging;
   vf_algorithm a = v->settings.algorithm;
   v->vc_in_weights = a == VF_ALGO_VCM || a == VF_ALGO_UPG || a == VF_ALGO_BPT;
   v->vm_in_weights = a == VF_ALGO_VCM || a == VF_ALGO_UPG || a == VF_ALGO_BPM;
@@ -77,6 +78,11 @@ int vf_vcm_set_allocation(vf_vcm *v, const uint8_t *samples) {
   if (v->settings.pilot == 0) return vf_error_set(VF_EINVAL, "an allocation of camera sub-paths needs a pilot");
   int err = vf_allocation_validate(samples, v->num_pixels, "allocation");
   if (err != VF_OK) return vf_error_set(VF_EINVAL, "%s", vf_error_detail(err));
+  if (v->settings.algorithm != VF_ALGO_VCM)
+    for (size_t p = 0; p < v->num_pixels; p++)
+      if (!vf_allocation_merges(samples[p]))
+        return vf_error_set(VF_EINVAL, "allocation: pixel %zu turns vertex merging off, which only a vcm render "
+                            "does (this one is %s)", p, vf_algorithm_name(v->settings.algorithm));
   if (v->samples == NULL && (v->samples = malloc(v->num_pixels)) == NULL) return VF_ENOMEM;
   memcpy(v->samples, samples, v->num_pixels);
   return VF_OK;

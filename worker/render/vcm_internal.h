@@ -15,6 +15,7 @@
 #ifndef VF_VCM_INTERNAL_H
 #define VF_VCM_INTERNAL_H
 
+#include "../../common/allocation.h"
 #include "../../common/pool.h"
 #include "../../common/settings.h"
 #include "../../common/vec3.h"
@@ -126,6 +127,8 @@ typedef struct {
 typedef struct {
   vf_mis_config mis;
   float radius, radius_sq, vm_normalization;
+  int merges; /* its camera sub-paths merge: the render's vertex merging, unless the pixel's
+               * allocation turns it off (common/allocation.h, VF_ALLOCATION_NO_MERGING) */
 } merge_params;
 
 /* A sub-path's state between vertices. */
@@ -385,7 +388,7 @@ static inline uint32_t vf_light_path_pixel(const vf_vcm *v, uint32_t pixel) {
 /* The camera sub-paths pixel `pixel` traces in the current iteration: its allocation's
  * count past a pilot, else 1. */
 static inline uint32_t vf_pixel_samples(const vf_vcm *v, uint32_t pixel) {
-  return v->allocated ? v->samples[pixel] : 1u;
+  return v->allocated ? vf_allocation_count(v->samples[pixel]) : 1u;
 }
 
 _Static_assert(VF_MAX_LIGHT_PATH_PIXELS <= CAMERA_TILE * CAMERA_TILE, "a block of pixels sharing a light sub-path fits a tile");

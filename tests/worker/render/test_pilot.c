@@ -10,7 +10,8 @@
  * allocation continues (through its file) and merges bit for bit as one rendered in one
  * go; films of other allocations refuse to merge; a damaged allocation in a file is
  * refused; auto with a pilot chooses by the candidates' pilots, and the allocation it
- * hands on is the chosen one's own. The MIS identity with k camera sub-paths a pixel is
+ * hands on is the chosen one's own, or the pixels' choice between bpt and vcm, each pixel of
+ * which renders as its own algorithm does. The MIS identity with k camera sub-paths a pixel is
  * test_mis's test_weights_match_eq12_with_camera_sub_paths_allocated_per_pixel. */
 #include "check.h"
 #include "common/allocation.h"
@@ -291,6 +292,138 @@ static void test_continues_and_merges_exactly(void) {
   vf_scene_destroy(scene);
 }
 
+/* Sums of camera and light images per pixel over the iterations render_iterations gives. */
+typedef struct {
+  size_t pixels;
+  double *sum;
+} pixel_sums;
+
+static void add_pixel_sums(void *ctx, int i, const float *cam, const float *light) {
+  (void)i;
+  pixel_sums *p = ctx;
+  for (size_t k = 0; k < 3 * p->pixels; k++) p->sum[k] += (double)cam[k] + (double)light[k];
+}
+
+/* Iterations [0, 3) of s with allocation `samples` into 3 x pixels sums (calloc'ed). */
+static double *sums_with(const vf_scene *scene, const vf_settings *s, const uint8_t *samples) {
+  pixel_sums p = {(size_t)s->width * s->height, calloc(3 * (size_t)s->width * s->height, sizeof(double))};
+  if (p.sum == NULL) return NULL;
+  render_allocation = samples;
+  vf_vcm_stats stats = {0};
+  CHECK_INT_EQ(render_iterations(scene, s, 2, 0, 3, add_pixel_sums, &p, &stats), VF_OK);
+  CHECK_INT_EQ(stats.nonfinite, 0);
+  render_allocation = NULL;
+  return p.sum;
+}
+
+/* Merging per pixel (allocation.h, VF_ALLOCATION_NO_MERGING): a vcm render whose
+ * allocation turns merging off in some pixels renders each of those pixels exactly as bpt
+ * does and every other pixel exactly as vcm does, from the same sub-paths (every technique
+ * of a path weighs it by its pixel's merge parameters, pixel_radius.h), so that each
+ * pixel's estimator is one of two the other tests prove; and the two differ, or the test
+ * would show nothing. On the box with a mirror and a glass ball (caustics, which merging
+ * carries), counts of 1 to 16 and merging off on a checkerboard of 5 x 5 pixels. Only vcm
+ * takes such an allocation. */
+static void test_merging_per_pixel_is_bpt_or_vcm_pixel_by_pixel(void) {
+  vf_scene *scene;
+  CHECK_INT_EQ(vf_scene_load("cornell", &scene), VF_OK);
+  if (check_failed_in_case) return;
+  vf_settings vcm = job(scene, VF_ALGO_VCM), bpt = job(scene, VF_ALGO_BPT);
+  size_t n = (size_t)vcm.width * vcm.height;
+  uint8_t *counts = pattern(vcm.width, vcm.height), *mixed = malloc(n);
+  if (counts == NULL || mixed == NULL) goto done;
+  size_t off = 0;
+  for (int y = 0; y < vcm.height; y++)
+    for (int x = 0; x < vcm.width; x++) {
+      size_t p = (size_t)y * vcm.width + x;
+      int flagged = (x / 5 + y / 5) % 2;
+      mixed[p] = (uint8_t)(counts[p] | (flagged ? VF_ALLOCATION_NO_MERGING : 0u));
+      off += (size_t)flagged;
+    }
+  double *m = sums_with(scene, &vcm, mixed), *v = sums_with(scene, &vcm, counts), *b = sums_with(scene, &bpt, counts);
+  if (m && v && b) {
+    size_t unequal = 0, differ = 0;
+    double worst = 0.0;
+    for (size_t p = 0; p < n; p++) {
+      const double *own = vf_allocation_merges(mixed[p]) ? v : b;
+      for (size_t c = 3 * p; c < 3 * p + 3; c++) {
+        double d = fabs(m[c] - own[c]) / fmax(fabs(own[c]), 1e-3);
+        worst = fmax(worst, d);
+        unequal += d > 1e-5;
+      }
+      differ += fabs(v[3 * p] - b[3 * p]) > 1e-3 * fmax(fabs(b[3 * p]), 1e-3);
+    }
+    printf("  %-11s %zu of %zu pixels without merging: each pixel as its own algorithm's, largest relative difference "
+           "%.2g (%zu channels above 1e-5); vcm and bpt differ in %zu pixels\n",
+           vf_sampler_name(vcm.sampler), off, n, worst, unequal, differ);
+    CHECK_INT_EQ(unequal, 0);
+    CHECK(differ > n / 4);
+  }
+  free(m);
+  free(v);
+  free(b);
+  /* bpt (or any but vcm) refuses an allocation that turns merging off. */
+  vf_accel *accel = NULL;
+  vf_pool *pool = NULL;
+  vf_vcm *r = NULL;
+  bpt.pilot = 8;
+  CHECK_INT_EQ(vf_accel_create(scene, &accel), VF_OK);
+  CHECK_INT_EQ(vf_pool_create(1, &pool), VF_OK);
+  CHECK_INT_EQ(vf_vcm_create(scene, accel, &bpt, pool, &r), VF_OK);
+  if (r) {
+    CHECK_INT_EQ(vf_vcm_set_allocation(r, mixed), VF_EINVAL);
+    CHECK(strstr(vf_error_detail(VF_EINVAL), "only a vcm render") != NULL);
+    CHECK_INT_EQ(vf_vcm_set_allocation(r, counts), VF_OK);
+  }
+  vf_vcm_destroy(r);
+  vf_pool_destroy(pool);
+  vf_accel_destroy(accel);
+done:
+  free(counts);
+  free(mixed);
+  vf_scene_destroy(scene);
+}
+
+/* vf_allocation_choose: a pixel merges where vcm's variance times its cost, over the
+ * margin, is below bpt's; the counts follow each pixel's own variance over its cost. */
+static void test_merging_is_chosen_where_it_pays(void) {
+  enum { N = 64 };
+  double vb[N], vv[N];
+  uint8_t samples[N];
+  for (int p = 0; p < N; p++) {
+    vb[p] = 1.0;
+    vv[p] = p < 16 ? 0.1 : p < 32 ? 0.9 : 2.0; /* 10x better, within the margin, worse */
+  }
+  vf_allocation_report report;
+  CHECK_INT_EQ(vf_allocation_choose(vb, vv, 1e-6, 1e-6, 1.25, N, samples, &report), VF_OK);
+  int right = 1;
+  for (int p = 0; p < N; p++) right &= vf_allocation_merges(samples[p]) == (p < 16);
+  CHECK(right);
+  CHECK_INT_EQ(report.no_merging, 48);
+  /* sqrt(v / c): a merging pixel (v 0.1) gets fewer camera sub-paths than a bpt one (v 1). */
+  CHECK(vf_allocation_count(samples[0]) < vf_allocation_count(samples[40]));
+  CHECK_INT_EQ(vf_allocation_validate(samples, N, "chosen"), VF_OK);
+  /* At 20 times the cost merging pays nowhere, at a twentieth everywhere it is better. */
+  CHECK_INT_EQ(vf_allocation_choose(vb, vv, 1e-6, 2e-5, 1.25, N, samples, &report), VF_OK);
+  CHECK_INT_EQ(report.no_merging, N);
+  CHECK_INT_EQ(vf_allocation_choose(vb, vv, 1e-6, 5e-8, 1.25, N, samples, &report), VF_OK);
+  CHECK_INT_EQ(report.no_merging, 0);
+  CHECK_INT_EQ(vf_allocation_choose(vb, vv, 0.0, 1e-6, 1.25, N, samples, &report), VF_EINVAL);
+  /* The flag survives a film's text; the unused bits are refused. */
+  for (int p = 0; p < N; p++) samples[p] = (uint8_t)((1u << (p % 5)) | (p % 2 ? VF_ALLOCATION_NO_MERGING : 0u));
+  char *text = NULL;
+  uint8_t back[N];
+  CHECK_INT_EQ(vf_allocation_encode(samples, N, &text), VF_OK);
+  if (text) CHECK_INT_EQ(vf_allocation_decode(text, N, back, "f.exr"), VF_OK);
+  CHECK(memcmp(samples, back, N) == 0);
+  free(text);
+  samples[9] = 0x40 | 2;
+  CHECK_INT_EQ(vf_allocation_validate(samples, N, "f.exr"), VF_EFILM);
+  CHECK(strstr(vf_error_detail(VF_EFILM), "pixel 9") != NULL);
+  samples[9] = VF_ALLOCATION_NO_MERGING; /* no count */
+  CHECK_INT_EQ(vf_allocation_validate(samples, N, "f.exr"), VF_EFILM);
+}
+
 /* vcmfarm:allocation as a file keeps it (allocation.h): bad text is refused by name. */
 static void test_a_damaged_allocation_is_refused(void) {
   enum { N = 1000 };
@@ -372,29 +505,47 @@ static void test_auto_chooses_by_its_pilots(void) {
   uint8_t *samples = malloc((size_t)s.width * s.height);
   vf_auto_choice choice;
   CHECK_INT_EQ(vf_render_choose_algorithm(scene, &s, 2, NULL, samples, &choice), VF_OK);
-  CHECK_INT_EQ(choice.count, 3);
+  CHECK(choice.count == 3 || choice.count == 4);
   int best = 0;
   for (int i = 0; i < choice.count; i++) {
-    printf("  %s: efficiency %.4g, %.2f camera sub-paths a pixel, variance %.4g, %.2f + %.2f ms an iteration\n",
-           vf_algorithm_name(choice.candidates[i].algorithm), choice.candidates[i].efficiency,
+    double merging = choice.candidates[i].merging;
+    printf("  %s (merging in %.1f%% of pixels): efficiency %.4g, %.2f camera sub-paths a pixel, variance %.4g, "
+           "%.2f + %.2f ms an iteration\n",
+           vf_algorithm_name(choice.candidates[i].algorithm), 100.0 * merging, choice.candidates[i].efficiency,
            choice.candidates[i].camera_subpaths, choice.candidates[i].variance,
            1e3 * choice.candidates[i].light_seconds, 1e3 * choice.candidates[i].camera_seconds);
     CHECK(choice.candidates[i].efficiency > 0.0 && choice.candidates[i].efficiency < 1e300);
     CHECK(choice.candidates[i].camera_subpaths >= 1.0 && choice.candidates[i].camera_subpaths <= VF_ALLOCATION_MAX);
-    double margin = choice.candidates[i].algorithm == VF_ALGO_BPT ? 1.0 : VF_AUTO_MARGIN;
-    double best_margin = choice.candidates[best].algorithm == VF_ALGO_BPT ? 1.0 : VF_AUTO_MARGIN;
+    /* pt and vcm over the margin; bpt, and vcm merging per pixel (its margin is the pixels'), as they are */
+    double margin = choice.candidates[i].algorithm == VF_ALGO_PT || merging == 1.0 ? VF_AUTO_MARGIN : 1.0;
+    double best_margin =
+        choice.candidates[best].algorithm == VF_ALGO_PT || choice.candidates[best].merging == 1.0 ? VF_AUTO_MARGIN : 1.0;
     if (choice.candidates[i].efficiency / margin > choice.candidates[best].efficiency / best_margin) best = i;
   }
   CHECK_INT_EQ(choice.candidates[0].algorithm, VF_ALGO_PT);
   CHECK_INT_EQ(choice.candidates[1].algorithm, VF_ALGO_BPT);
   CHECK_INT_EQ(choice.candidates[2].algorithm, VF_ALGO_VCM);
+  if (choice.count == 4) {
+    CHECK_INT_EQ(choice.candidates[3].algorithm, VF_ALGO_VCM);
+    CHECK(choice.candidates[3].merging > 0.0 && choice.candidates[3].merging < 1.0);
+  }
+  CHECK_INT_EQ(choice.chosen, best);
   CHECK_INT_EQ(choice.algorithm, choice.candidates[best].algorithm);
   CHECK_INT_EQ(s.algorithm, choice.algorithm);
   CHECK(s.algorithm != VF_ALGO_PT);
   CHECK(choice.render_seconds > 0.0);
-  uint8_t *own = pilot_allocation(scene, &s, 1);
-  CHECK(own != NULL && samples != NULL && memcmp(own, samples, (size_t)s.width * s.height) == 0);
-  free(own);
+  size_t n = (size_t)s.width * s.height, off = 0;
+  for (size_t p = 0; samples && p < n; p++) off += !vf_allocation_merges(samples[p]);
+  if (best < 3) {
+    /* One algorithm: its own pilot's allocation. */
+    uint8_t *own = pilot_allocation(scene, &s, 1);
+    CHECK(own != NULL && samples != NULL && memcmp(own, samples, n) == 0);
+    free(own);
+  } else {
+    /* Merging per pixel: the flags say where, as the candidate's share. */
+    CHECK(samples != NULL && off > 0 && off < n);
+    CHECK_NEAR(1.0 - (double)off / (double)n, choice.candidates[3].merging, 1e-12);
+  }
   free(samples);
   /* Only auto with a pilot is chosen so. */
   vf_settings plain = job(scene, VF_ALGO_AUTO);
@@ -436,12 +587,14 @@ static void test_settings(void) {
 int main(void) {
   RUN(test_settings);
   RUN(test_a_damaged_allocation_is_refused);
+  RUN(test_merging_is_chosen_where_it_pays);
   for (int k = 0; k < VF_SAMPLER_COUNT_; k++) {
     sampler_under_test = (vf_sampler_kind)k;
     printf("sampler %s\n", vf_sampler_name(sampler_under_test));
     RUN(test_furnace_gives_the_analytic_value);
     RUN(test_the_allocation_is_the_same_however_the_pilot_ran);
     RUN(test_continues_and_merges_exactly);
+    RUN(test_merging_per_pixel_is_bpt_or_vcm_pixel_by_pixel);
   }
   /* The statistics once, with the default sampler: the other's numbers have been through
    * the furnace and the promises above. */
