@@ -257,6 +257,25 @@ int vf_job_set_allocation(vf_job *job, const uint8_t *samples) {
   return 1;
 }
 
+int vf_job_allocation_allowed(const vf_job *job) {
+  if (job->settings.pilot == 0)
+    return vf_error_set(VF_EINVAL, "allocation: the job's settings have no pilot (pilot=N): an allocation of camera "
+                        "sub-paths is what a pilot decides, and only a job with one renders with it");
+  if (vf_settings_choose_by_pilots(&job->settings))
+    return vf_error_set(VF_EINVAL, "allocation: the job's algorithm is auto with a pilot, which chooses the algorithm "
+                        "by rendering pilots: name the algorithm the allocation is for");
+  return VF_OK;
+}
+
+int vf_job_submit_allocation(vf_job *job, const uint8_t *samples) {
+  int err = vf_job_allocation_allowed(job);
+  if (err != VF_OK) return err;
+  if (!vf_job_in_pilot(job) || job->pilot_film == NULL)
+    return vf_error_set(VF_EINVAL, "allocation: job %llu has one already", (unsigned long long)job->id);
+  err = vf_job_set_allocation(job, samples); /* an empty pilot film: no times to add */
+  return err < 0 ? err : VF_OK;
+}
+
 void vf_job_allocation_loaded(vf_job *job) {
   if (job->film->samples == NULL) return;
   size_t pixels = (size_t)job->film->width * (size_t)job->film->height;

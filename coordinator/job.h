@@ -244,6 +244,16 @@ int vf_job_finish_pilot(vf_job *job);
  * records its hash and drops pilot_film; returns 1, or VF_ENOMEM with the job unchanged. */
 int vf_job_set_allocation(vf_job *job, const uint8_t *samples);
 
+/* A job submitted with its allocation (SubmitJob.allocation, version 12: width x height
+ * counts, validated by the caller, copied): the job's film takes it at once and its pilot
+ * counts as done, so it runs no pilot (vf_job_in_pilot is 0). VF_EINVAL naming what is
+ * wrong when the job's settings cannot take one (no pilot, or auto choosing the algorithm
+ * by its pilots, which would not know which algorithm the counts were decided for);
+ * VF_ENOMEM; the job unchanged then. */
+int vf_job_submit_allocation(vf_job *job, const uint8_t *samples);
+/* Those checks alone: VF_OK when the job's settings can take an allocation. */
+int vf_job_allocation_allowed(const vf_job *job);
+
 /* Records the hash and summary of the allocation the job's film has (a film read back
  * with one); nothing when it has none. */
 void vf_job_allocation_loaded(vf_job *job);

@@ -49,6 +49,23 @@ void vf_jobs_submit(vf_farm *farm, const Vcmfarm__SubmitJob *m, vf_farm_reply *r
     vf_job_destroy(job);
     return vf_farm_reply_fail(r, err);
   }
+  /* Submitted with its allocation (version 12), the job runs no pilot: the counts, a blob
+   * sent first, are checked (never read: allocation.h validates them) and given to its
+   * film, which is written below before the job is acknowledged, so that a restart finds
+   * them where it finds a farm pilot's. */
+  if (m->allocation && (err = vf_job_allocation_allowed(job)) == VF_OK) {
+    uint8_t *samples = NULL;
+    size_t pixels = (size_t)job->film->width * (size_t)job->film->height;
+    if ((err = vf_blobs_allocation(farm, m->allocation, pixels, &samples)) == VF_OK) {
+      err = vf_job_submit_allocation(job, samples);
+      free(samples);
+    }
+  }
+  if (err != VF_OK) {
+    vf_state_remove_job_files(farm->config.state_dir, job->id);
+    vf_job_destroy(job);
+    return vf_farm_reply_fail(r, err);
+  }
   vf_algorithm resolved;
   if (m->algorithm_resolved[0] != '\0' &&
       (vf_algorithm_parse(m->algorithm_resolved, &resolved) != VF_OK || vf_algorithm_is_auto(resolved))) {
@@ -65,8 +82,11 @@ void vf_jobs_submit(vf_farm *farm, const Vcmfarm__SubmitJob *m, vf_farm_reply *r
     vf_job_destroy(job);
     return vf_farm_reply_fail(r, err);
   }
-  /* Durable before acknowledged: scene text first, then the job list naming it. */
-  if ((err = vf_state_save_scene(farm->config.state_dir, job)) != VF_OK || (err = vf_farm_add_job(farm, job)) != VF_OK) {
+  /* Durable before acknowledged: scene text first (and the film holding a submitted
+   * allocation), then the job list naming it. */
+  if ((err = vf_state_save_scene(farm->config.state_dir, job)) != VF_OK ||
+      (job->film->samples != NULL && (err = vf_state_save_film(farm->config.state_dir, job)) != VF_OK) ||
+      (err = vf_farm_add_job(farm, job)) != VF_OK) {
     vf_state_remove_job_files(farm->config.state_dir, job->id);
     vf_job_destroy(job);
     return vf_farm_reply_fail(r, err);
@@ -100,6 +120,13 @@ void vf_jobs_submit(vf_farm *farm, const Vcmfarm__SubmitJob *m, vf_farm_reply *r
          requires);
   vf_events_add(&job->events, job->submitted_at, "job_submitted", job->id, "", "job '%s' submitted: %s, priority %d%s%s",
                 job->name, limits, job->priority, requires[0] ? ", requires " : "", requires);
+  if (job->film->samples != NULL) {
+    vf_log("job %llu: submitted with its allocation, no pilot to run: pilot of %d iterations counted as done; %s",
+           (unsigned long long)job->id, job->settings.pilot, job->allocation_summary);
+    vf_events_add(&job->events, job->submitted_at, "pilot_done", job->id, "",
+                  "submitted with its allocation (pilot of %d iterations counted as done); %s", job->settings.pilot,
+                  job->allocation_summary);
+  }
   farm->state_dirty = 1; /* the event, with the next write of the job list */
   vcmfarm__submitted__init(&r->submitted);
   r->submitted.job_id = job->id;
@@ -405,6 +432,13 @@ void vf_jobs_pause(vf_farm *farm, uint64_t job_id, int pause, vf_farm_reply *r) 
   }
   vf_log("job %llu %s", (unsigned long long)job->id, pause ? "paused" : "resumed");
   vf_events_add(&job->events, vf_unix_now(), pause ? "job_paused" : "job_resumed", job->id, "", "%s", r->text);
+  if (job->film->samples != NULL) {
+    vf_log("job %llu: submitted with its allocation, no pilot to run: pilot of %d iterations counted as done; %s",
+           (unsigned long long)job->id, job->settings.pilot, job->allocation_summary);
+    vf_events_add(&job->events, job->submitted_at, "pilot_done", job->id, "",
+                  "submitted with its allocation (pilot of %d iterations counted as done); %s", job->settings.pilot,
+                  job->allocation_summary);
+  }
   farm->state_dirty = 1; /* the event, with the next write of the job list */
   vf_farm_reply_ack(r, 1, r->text);
 }
