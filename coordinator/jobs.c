@@ -42,6 +42,9 @@ void vf_jobs_submit(vf_farm *farm, const Vcmfarm__SubmitJob *m, vf_farm_reply *r
                        (err = vf_blobs_attach(farm, job, m->scene)) != VF_OK))
     vf_job_destroy(job);
   if (err != VF_OK) return vf_farm_reply_fail(r, err);
+  /* Files of this id can only be a submission's that a crash cut short before the job list
+   * named it: a film left by one would be taken for this job's at the next start. */
+  vf_state_remove_job_files(farm->config.state_dir, job->id);
   /* The reference is a blob sent first, checked against its hash, then read as an image. */
   if (m->reference && (err = vf_blobs_reference(farm, m->reference)) == VF_OK)
     err = vf_state_save_reference(farm->config.state_dir, job, m->reference->hash.data);
@@ -50,9 +53,9 @@ void vf_jobs_submit(vf_farm *farm, const Vcmfarm__SubmitJob *m, vf_farm_reply *r
     return vf_farm_reply_fail(r, err);
   }
   /* Submitted with its allocation (version 12), the job runs no pilot: the counts, a blob
-   * sent first, are checked (never read: allocation.h validates them) and given to its
-   * film, which is written below before the job is acknowledged, so that a restart finds
-   * them where it finds a farm pilot's. */
+   * sent first, are opaque bytes here, checked only by allocation.h, and given to its film,
+   * which is written below before the job is acknowledged, so that a restart finds them
+   * where it finds a farm pilot's. */
   if (m->allocation && (err = vf_job_allocation_allowed(job)) == VF_OK) {
     uint8_t *samples = NULL;
     size_t pixels = (size_t)job->film->width * (size_t)job->film->height;
