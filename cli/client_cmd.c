@@ -128,7 +128,9 @@ static const char submit_usage[] =
     "                           its film to -o; SIGINT stops waiting, not the job. Exit\n"
     "                           status 0 when it is done, 1 when it failed or was cancelled\n"
     "  -o, --output FILM.exr    with --wait: where the film goes (required with it)\n" VF_CLI_PREVIEW_HELP
-    VF_CLI_SETTINGS_HELP CONNECTION_HELP;
+    VF_CLI_SETTINGS_HELP VF_CLI_ALLOCATION_FROM_HELP
+    "                           (sent with the job, as -a auto --pilot N sends the one it\n"
+    "                           chose: the farm runs no pilot)\n" CONNECTION_HELP;
 
 /* Status of one job until it ends, then its film to `output`: submit --wait. The job keeps
  * running on the farm whatever happens here (SIGINT only stops the waiting). *done says
@@ -204,11 +206,12 @@ int vf_cmd_submit(int argc, char **argv) {
       {"camera", required_argument, 0, 'M'},          {"wait", no_argument, 0, 'w'},
       {"output", required_argument, 0, 'o'},          {"preview", required_argument, 0, 'p'},
       {"exposure", required_argument, 0, 'e'},        {"help", no_argument, 0, 'h'},
-      {"require", required_argument, 0, OPT_REQUIRE},         {0, 0, 0, 0}};
+      {"require", required_argument, 0, OPT_REQUIRE},
+      {"allocation-from", required_argument, 0, VF_CLI_OPT_ALLOCATION_FROM}, {0, 0, 0, 0}};
   uint64_t first = 0;
   vf_tags requires;
   vf_tags_init(&requires);
-  const char *cmd = "submit", *name = NULL, *camera = NULL, *output = NULL, *preview = NULL;
+  const char *cmd = "submit", *name = NULL, *camera = NULL, *output = NULL, *preview = NULL, *allocation_from = NULL;
   double exposure = 0.0;
   int wait = 0;
   vf_cli_settings overrides;
@@ -231,6 +234,7 @@ int vf_cmd_submit(int argc, char **argv) {
     case 'M': camera = optarg; break;
     case 'K': err = vf_cli_u64("--start-iteration", optarg, &first); break;
     case OPT_REQUIRE: err = vf_tags_parse("--require", optarg, &requires, 1); break;
+    case VF_CLI_OPT_ALLOCATION_FROM: allocation_from = optarg; break;
     case 'w': wait = 1; break;
     case 'o': output = optarg; break;
     case 'p': preview = optarg; break;
@@ -253,7 +257,7 @@ int vf_cmd_submit(int argc, char **argv) {
   uint64_t iterations = vf_cli_stop_iterations(&stop);
   vf_submit_job job = {argv[optind], camera, name, &overrides, first, iterations, (int)priority,
                        stop.time_limit, stop.target_rmse, stop.target_error, stop.reference, "vcmfarm submit",
-                       &requires};
+                       &requires, allocation_from};
   vf_farm_client *client;
   if ((err = vf_submit_check_texts(&job)) != VF_OK) return vf_cli_fail(cmd, err);
   if ((err = connect_to(&conn, &client)) != VF_OK) return vf_cli_fail(cmd, err);

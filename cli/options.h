@@ -60,6 +60,7 @@ enum {
   VF_CLI_OPT_VCM_STAGES,         /* --vcm-stages 1|2: the settings options */
   VF_CLI_OPT_LIGHT_PATH_PIXELS,  /* --light-path-pixels N: the settings options */
   VF_CLI_OPT_PILOT,              /* --pilot N: the settings options */
+  VF_CLI_OPT_ALLOCATION_FROM,    /* --allocation-from FILM: render, submit */
 };
 
 #define VF_CLI_SETTINGS_OPTIONS                                                                              \

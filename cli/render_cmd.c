@@ -40,6 +40,7 @@ static const char usage[] =
     "      --background COLOR|FILE.exr  replaces the scene's background: a radiance R,G,B or\n"
     "                           a grey V, or a latitude-longitude EXR map (docs/SCENES.md);\n"
     "                           `continue` needs the same option\n"
+    VF_CLI_ALLOCATION_FROM_HELP
     "  -o, --output FILM.exr    the film to write (required)\n"
     VF_CLI_PREVIEW_HELP
     "      --direct             accepted for compatibility: what render always does now\n"
@@ -66,7 +67,7 @@ static int render(const vf_render_job *o) {
   vf_renderer *renderer = NULL;
   vf_film *film = NULL;
   vf_image reference = {0};
-  uint8_t *auto_samples = NULL;
+  uint8_t *samples = NULL; /* the allocation auto chose, or --allocation-from's; owned */
   if ((err = vf_cli_scene_path(o->scene)) != VF_OK || (err = vf_scene_load_camera(o->scene, o->camera, &scene)) != VF_OK)
     return vf_cli_fail("render", err);
   vf_cli_print_notes(scene->source, scene->notes);
@@ -75,6 +76,11 @@ static int render(const vf_render_job *o) {
   /* Settings: defaults, then the scene's "render" object, then the command line. */
   vf_settings settings = scene->settings;
   if ((err = vf_cli_settings_apply(&o->overrides, &settings)) != VF_OK) goto done;
+  /* --allocation-from: FILM's allocation, and no pilot rendered (vf_render_pilot skips a
+   * film that has one). */
+  if (o->allocation_from &&
+      (err = vf_render_job_allocation_from(o->allocation_from, o->overrides.pilot, &settings, &samples)) != VF_OK)
+    goto done;
   if ((err = vf_settings_validate(&settings)) != VF_OK) goto done;
   if (o->stop.reference &&
       (err = vf_reference_load(o->stop.reference, settings.width, settings.height, &reference)) != VF_OK)
@@ -86,20 +92,21 @@ static int render(const vf_render_job *o) {
 
   /* auto with a pilot: each candidate's pilot decides, and the chosen one's is the job's. */
   vf_auto_choice choice;
-  int chose = vf_settings_choose_by_pilots(&settings);
+  int chose = samples == NULL && vf_settings_choose_by_pilots(&settings);
   if (chose) {
-    if ((auto_samples = malloc((size_t)settings.width * (size_t)settings.height)) == NULL) {
+    if ((samples = malloc((size_t)settings.width * (size_t)settings.height)) == NULL) {
       err = VF_ENOMEM;
       goto done;
     }
-    if ((err = vf_render_choose_algorithm(scene, &settings, o->threads, NULL, auto_samples, &choice)) != VF_OK) goto done;
+    if ((err = vf_render_choose_algorithm(scene, &settings, o->threads, NULL, samples, &choice)) != VF_OK) goto done;
     if (!o->quiet) vf_render_job_print_choice(&choice, settings.pilot);
   }
   if ((err = vf_renderer_create(scene, &settings, o->threads, &renderer)) != VF_OK) goto done;
   if ((err = vf_film_create(settings.width, settings.height, &film)) != VF_OK) goto done;
   if ((err = vf_renderer_stamp(renderer, film)) != VF_OK) goto done;
-  if (chose) { /* the chosen pilot's allocation, and the film's times include every pilot */
-    if ((err = vf_film_set_samples(film, auto_samples)) != VF_OK) goto done;
+  /* The chosen pilot's allocation (the film's times include every pilot), or FILM's. */
+  if (samples != NULL && (err = vf_film_set_samples(film, samples)) != VF_OK) goto done;
+  if (chose) {
     film->render_seconds += choice.render_seconds;
     film->cpu_seconds += choice.cpu_seconds;
   }
@@ -130,7 +137,7 @@ static int render(const vf_render_job *o) {
     vf_render_job_print_result(o, r.last.estimated_rmse, r.last.rmse, r.target_reached ? "target reached" : NULL);
   }
 done:
-  free(auto_samples);
+  free(samples);
   vf_image_destroy(&reference);
   vf_film_destroy(film);
   vf_renderer_destroy(renderer);
@@ -148,7 +155,7 @@ int vf_cmd_render(int argc, char **argv) {
       {"help", no_argument, 0, 'h'},                  {"checkpoint-interval", required_argument, 0, 'C'},
       {"direct", no_argument, 0, 'D'},                {"camera", required_argument, 0, 'M'},
       {"verbose", no_argument, 0, 'v'},               {"background", required_argument, 0, VF_CLI_OPT_BACKGROUND},
-      {0, 0, 0, 0}};
+      {"allocation-from", required_argument, 0, VF_CLI_OPT_ALLOCATION_FROM}, {0, 0, 0, 0}};
   const char *cmd = "render";
   vf_render_job o = {.checkpoint = VF_CLI_CHECKPOINT_DEFAULT};
   long long threads = 0;
@@ -171,6 +178,7 @@ int vf_cmd_render(int argc, char **argv) {
     case 'D': break; /* --direct: the default, kept for the scripts that say it */
     case 'M': o.camera = optarg; break;
     case VF_CLI_OPT_BACKGROUND: o.background = optarg; break;
+    case VF_CLI_OPT_ALLOCATION_FROM: o.allocation_from = optarg; break;
     case 'C': err = vf_cli_checkpoint_option(&o.checkpoint, optarg); break;
     case 'h': fputs(usage, stdout); return VF_EXIT_OK;
     default:

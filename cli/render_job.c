@@ -7,6 +7,7 @@
 
 #include <math.h>
 #include <stdarg.h>
+#include <stdlib.h>
 #include <stdio.h>
 #include <string.h>
 
@@ -143,4 +144,40 @@ void vf_render_job_print_details(const vf_settings *settings, const vf_renderer 
   char text[512];
   if (vf_settings_format(settings, text, sizeof text) == VF_OK) fprintf(stderr, "settings: %s\n", text);
   vf_vcm_describe(vf_renderer_vcm(renderer), stderr);
+}
+
+int vf_render_job_allocation_from(const char *path, long long pilot_option, vf_settings *settings, uint8_t **samples) {
+  vf_film *film = NULL;
+  vf_settings recorded;
+  int err = vf_film_read(path, &film);
+  if (err != VF_OK) return vf_error_set(err, "--allocation-from %s: %s", path, vf_error_detail(err));
+  if (film->samples == NULL) {
+    err = vf_error_set(VF_EUSAGE, "--allocation-from %s: the film has no allocation of camera sub-paths (%s)", path,
+                       film->pilot ? "it is a pilot's film" : "it was rendered without a pilot, or before its pilot ended");
+    goto done;
+  }
+  if ((err = vf_settings_parse(&recorded, film->settings_text)) != VF_OK) {
+    err = vf_error_set(VF_EUSAGE, "--allocation-from %s: its settings do not read: %s", path, vf_error_detail(err));
+    goto done;
+  }
+  if (pilot_option < 0 && settings->pilot == 0) settings->pilot = recorded.pilot;
+  if (vf_settings_choose_by_pilots(settings) && !vf_algorithm_is_auto(recorded.algorithm))
+    settings->algorithm = recorded.algorithm;
+  if (vf_settings_choose_by_pilots(settings)) {
+    err = vf_error_set(VF_EUSAGE, "--allocation-from %s: the film names no algorithm auto could have chosen: name "
+                       "one (-a pt, bpt or vcm)", path);
+  } else if (film->width != settings->width || film->height != settings->height) {
+    err = vf_error_set(VF_EUSAGE, "--allocation-from %s: the film is %dx%d, this render %dx%d (one count a pixel)",
+                       path, film->width, film->height, settings->width, settings->height);
+  } else if (recorded.pilot != settings->pilot) {
+    err = vf_error_set(VF_EUSAGE, "--allocation-from %s: its allocation comes from a pilot of %d iterations, this "
+                       "render's pilot is %d (--pilot; films of different pilots never merge)",
+                       path, recorded.pilot, settings->pilot);
+  } else {
+    *samples = film->samples;
+    film->samples = NULL;
+  }
+done:
+  vf_film_destroy(film);
+  return err;
 }

@@ -120,7 +120,8 @@ int vf_submit(vf_farm_client *client, int timeout_ms, const vf_submit_job *job, 
   int builtin = vf_job_scene_is_builtin(source);
   uint8_t *text = NULL;
   size_t len = 0;
-  vf_blob_table reference_file = {0}, text_file = {0};
+  vf_blob_table reference_file = {0}, text_file = {0}, allocation_file = {0};
+  uint8_t *samples = NULL; /* the job's allocation, when it ships one; owned */
   vf_scene *scene = NULL;
   vf_image reference_image = {0};
   Vcmfarm__Envelope *reply = NULL;
@@ -153,14 +154,34 @@ int vf_submit(vf_farm_client *client, int timeout_ms, const vf_submit_job *job, 
   vf_cli_print_notes(scene->source, scene->notes);
   vf_settings settings = scene->settings;
   if (job->overrides && (err = vf_cli_settings_apply(job->overrides, &settings)) != VF_OK) goto done;
+  if (job->allocation_from &&
+      (err = vf_render_job_allocation_from(job->allocation_from, job->overrides ? job->overrides->pilot : -1, &settings,
+                                           &samples)) != VF_OK)
+    goto done;
   char settings_text[512];
   if ((err = vf_settings_validate(&settings)) != VF_OK) goto done;
-  if (vf_settings_choose_by_pilots(&settings)) {
+  if (samples == NULL && vf_settings_choose_by_pilots(&settings)) {
     /* auto with a pilot is decided here, once, by the candidates' pilots on this machine
-     * (vf_render_choose_algorithm), and the job names the algorithm it chose. */
+     * (vf_render_choose_algorithm): the job names the algorithm it chose and carries the
+     * allocation it chose, which the farm could not compute again (it may combine several
+     * candidates' pilots). */
     vf_auto_choice choice;
-    if ((err = vf_render_choose_algorithm(scene, &settings, 0, NULL, NULL, &choice)) != VF_OK) goto done;
+    if ((samples = malloc((size_t)settings.width * (size_t)settings.height)) == NULL) {
+      err = vf_error_set(VF_ENOMEM, "out of memory for an allocation of %dx%d", settings.width, settings.height);
+      goto done;
+    }
+    if ((err = vf_render_choose_algorithm(scene, &settings, 0, NULL, samples, &choice)) != VF_OK) goto done;
     if (job->log_prefix) vf_render_job_print_choice(&choice, settings.pilot);
+  }
+  if (samples != NULL) {
+    /* The allocation travels as a blob, as the reference does: one opaque byte a pixel. */
+    size_t n = (size_t)settings.width * (size_t)settings.height;
+    uint8_t hash[32];
+    vf_blob_hash(samples, n, hash);
+    if ((!stage[0] && (err = vf_file_temp_dir("vcmfarm-submit", stage, sizeof stage)) != VF_OK) ||
+        (err = vf_blob_store_put(stage, hash, samples, n)) != VF_OK ||
+        (err = vf_blob_table_add(&allocation_file, "allocation", hash, n)) != VF_OK)
+      goto done;
   }
   if ((err = vf_settings_format(&settings, settings_text, sizeof settings_text)) != VF_OK) goto done;
 
@@ -221,6 +242,13 @@ int vf_submit(vf_farm_client *client, int timeout_ms, const vf_submit_job *job, 
     reference_ref.hash = (ProtobufCBinaryData){32, reference_file.refs[0].hash};
     reference_ref.size = reference_file.refs[0].size;
   }
+  Vcmfarm__BlobRef allocation_ref = VCMFARM__BLOB_REF__INIT;
+  if (allocation_file.count > 0) {
+    if ((err = send_files(client, timeout_ms, NULL, stage, &allocation_file)) != VF_OK) goto done;
+    allocation_ref.name = allocation_file.refs[0].name;
+    allocation_ref.hash = (ProtobufCBinaryData){32, allocation_file.refs[0].hash};
+    allocation_ref.size = allocation_file.refs[0].size;
+  }
   Vcmfarm__SubmitJob m = VCMFARM__SUBMIT_JOB__INIT;
   m.name = (char *)(job->name ? job->name : source);
   m.scene = &s;
@@ -241,6 +269,7 @@ int vf_submit(vf_farm_client *client, int timeout_ms, const vf_submit_job *job, 
   m.target_rmse = job->target_rmse;
   m.target_error = job->target_error;
   if (reference_file.count > 0) m.reference = &reference_ref;
+  if (allocation_file.count > 0) m.allocation = &allocation_ref;
   /* The renderer's own rule, so that status shows what every worker will render. */
   if (vf_algorithm_is_auto(settings.algorithm))
     m.algorithm_resolved = (char *)vf_algorithm_name(vf_vcm_auto_algorithm(scene, settings.algorithm, NULL));
@@ -259,6 +288,8 @@ done:
   vf_blob_table_clear(&files);
   vf_blob_table_clear(&reference_file);
   vf_blob_table_clear(&text_file);
+  vf_blob_table_clear(&allocation_file);
+  free(samples);
   vf_message_free(reply);
   vf_scene_destroy(scene);
   vf_image_destroy(&reference_image);

@@ -1,7 +1,11 @@
 /* Submitting a job to a coordinator (`vcmfarm submit`): the scene is loaded here as the
  * workers will load it, so that a broken scene, bad settings or a wrong reference are refused
  * before anything is sent; a JSON scene's files then go to the coordinator by content
- * hash (those it lacks), and the job last. */
+ * hash (those it lacks), and the job last. A job with a pilot whose allocation of camera
+ * sub-paths is known here (the one `--algorithm auto` chose by the candidates' pilots, or
+ * FILM's with --allocation-from) sends it as a blob too (protocol 12): the farm then renders
+ * with those counts from the start, runs no pilot, and its film is the local render's with
+ * the same allocation, whatever made it. */
 #ifndef VF_SUBMIT_H
 #define VF_SUBMIT_H
 
@@ -23,6 +27,8 @@ typedef struct {
   const char *reference;            /* a reference EXR, or NULL */
   const char *log_prefix;           /* "vcmfarm submit": the line saying what was sent; NULL: none */
   const vf_tags *requires;          /* tags a worker must satisfy (--require), or NULL: none */
+  const char *allocation_from;      /* --allocation-from FILM: its allocation ships with the job;
+                                     * NULL: none (auto with a pilot ships the one it chose) */
 } vf_submit_job;
 
 typedef struct {

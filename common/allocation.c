@@ -226,6 +226,15 @@ int vf_allocation_validate(const uint8_t *samples, size_t n, const char *name) {
   return VF_OK;
 }
 
+int vf_allocation_check_algorithm(const uint8_t *samples, size_t n, vf_algorithm algorithm, const char *name) {
+  if (algorithm == VF_ALGO_VCM) return VF_OK;
+  for (size_t p = 0; p < n; p++)
+    if (!vf_allocation_merges(samples[p]))
+      return vf_error_set(VF_EINVAL, "%s: pixel %zu turns vertex merging off, which only a vcm render does (this one is "
+                          "%s)", name, p, vf_algorithm_name(algorithm));
+  return VF_OK;
+}
+
 #define ENCODING_PREFIX "1:"
 
 int vf_allocation_encode(const uint8_t *samples, size_t n, char **text) {

@@ -47,7 +47,8 @@
  * with k); it takes the largest 1 / (cost x v), pt's and vcm's counted over a margin of
  * 1.25, since what pt samples rarely and vcm's merging bias are in no estimate
  * (worker/render/render.h, vf_render_choose_algorithm). Times are measurements, so the choice is made once and kept
- * in the settings; the counts it hands on are the chosen algorithm's own.
+ * in the settings (a farm job gets the allocation with it, docs/PROTOCOL.md "Pilots"); the
+ * counts it hands on are the chosen algorithm's own, or those of merging per pixel below.
  *
  * Merging per pixel. bpt and vcm trace the same sub-paths; vcm adds vertex merging, whose
  * worth varies across an image as the error does (caustics seen in a diffuse floor against
@@ -67,6 +68,7 @@
 #define VF_ALLOCATION_H
 
 #include "film.h"
+#include "settings.h"
 
 #include <stddef.h>
 #include <stdint.h>
@@ -123,6 +125,10 @@ void vf_allocation_summary(const vf_allocation_report *report, char *out, size_t
 /* VF_EFILM with a detail naming `name` and the pixel unless every count is a power of two
  * from 1 to VF_ALLOCATION_MAX and no bit but VF_ALLOCATION_NO_MERGING is set besides. */
 int vf_allocation_validate(const uint8_t *samples, size_t n, const char *name);
+
+/* VF_EINVAL naming `name` and the pixel when a pixel turns merging off
+ * (VF_ALLOCATION_NO_MERGING) and `algorithm` is not vcm, the one algorithm that takes it. */
+int vf_allocation_check_algorithm(const uint8_t *samples, size_t n, vf_algorithm algorithm, const char *name);
 
 /* The text a film keeps its allocation in (docs/FILM.md, attribute vcmfarm:allocation):
  * "1:" and the counts, zlib-compressed, in base64. *text is malloc'ed; VF_ENOMEM. */

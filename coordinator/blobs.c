@@ -1,5 +1,6 @@
 #include "blobs.h"
 
+#include "../common/allocation.h"
 #include "../common/error.h"
 #include "log.h"
 
@@ -178,6 +179,30 @@ int vf_blobs_lease(const vf_job *job, vf_farm_reply *r) {
   if (err != VF_OK) return err;
   r->scene.n_files = job->files.count;
   r->scene.files = r->file_ref_ptrs;
+  return VF_OK;
+}
+
+int vf_blobs_allocation(vf_farm *farm, const Vcmfarm__BlobRef *ref, size_t pixels, uint8_t **samples) {
+  if (ref->size != (uint64_t)pixels)
+    return vf_error_set(VF_EINVAL, "allocation: %llu counts, the job's film has %zu pixels (one count a pixel)",
+                        (unsigned long long)ref->size, pixels);
+  int err = check_ref(farm, ref, "allocation");
+  if (err != VF_OK) return err;
+  uint8_t *bytes;
+  size_t n;
+  uint64_t total;
+  if ((err = vf_blob_store_read(farm->config.state_dir, ref->hash.data, 0, pixels, &bytes, &n, &total)) != VF_OK)
+    return err;
+  /* The counts are opaque here: their validity is allocation.h's to say. */
+  if (n != pixels || total != (uint64_t)pixels)
+    err = vf_error_set(VF_EIO, "allocation: read %zu of %zu counts from the blob store", n, pixels);
+  else
+    err = vf_allocation_validate(bytes, pixels, "allocation");
+  if (err != VF_OK) {
+    free(bytes);
+    return err;
+  }
+  *samples = bytes;
   return VF_OK;
 }
 

@@ -36,6 +36,13 @@ int vf_blobs_scene_text(vf_farm *farm, const Vcmfarm__BlobRef *ref, char **text,
 /* Puts the job's file table into the lease being built (r->scene.files). VF_ENOMEM. */
 int vf_blobs_lease(const vf_job *job, vf_farm_reply *r);
 
+/* The allocation a job was submitted with (SubmitJob.allocation, version 12): a blob the
+ * store holds, intact, of `pixels` bytes, whose counts vf_allocation_validate accepts.
+ * *samples (malloc'ed, the caller frees) on success; VF_EINVAL naming the problem ("send
+ * it first", a size that is not the film's), VF_EFILM for counts that are not an
+ * allocation, VF_EIO, VF_ENOMEM. */
+int vf_blobs_allocation(vf_farm *farm, const Vcmfarm__BlobRef *ref, size_t pixels, uint8_t **samples);
+
 /* A job with a pilot whose allocation is computed (job->film->samples): its counts, one byte
  * a pixel, kept in the blob store under job->allocation_hash (written unless there and
  * intact), which leases name (Lease.allocation) and workers fetch like a scene's file.

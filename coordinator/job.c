@@ -257,16 +257,34 @@ int vf_job_set_allocation(vf_job *job, const uint8_t *samples) {
   return 1;
 }
 
+int vf_job_allocation_allowed(const vf_job *job) {
+  if (job->settings.pilot == 0)
+    return vf_error_set(VF_EINVAL, "allocation: the job's settings have no pilot (pilot=N): an allocation of camera "
+                        "sub-paths is what a pilot decides, and only a job with one renders with it");
+  if (vf_settings_choose_by_pilots(&job->settings))
+    return vf_error_set(VF_EINVAL, "allocation: the job's algorithm is auto with a pilot, which chooses the algorithm "
+                        "by rendering pilots: name the algorithm the allocation is for");
+  return VF_OK;
+}
+
+int vf_job_submit_allocation(vf_job *job, const uint8_t *samples) {
+  int err = vf_job_allocation_allowed(job);
+  if (err != VF_OK) return err;
+  if (!vf_job_in_pilot(job) || job->pilot_film == NULL)
+    return vf_error_set(VF_EINVAL, "allocation: job %llu has one already", (unsigned long long)job->id);
+  size_t pixels = (size_t)job->film->width * (size_t)job->film->height;
+  if ((err = vf_allocation_check_algorithm(samples, pixels, job->settings.algorithm, "allocation")) != VF_OK) return err;
+  err = vf_job_set_allocation(job, samples); /* an empty pilot film: no times to add */
+  return err < 0 ? err : VF_OK;
+}
+
 void vf_job_allocation_loaded(vf_job *job) {
   if (job->film->samples == NULL) return;
   size_t pixels = (size_t)job->film->width * (size_t)job->film->height;
   vf_blob_hash(job->film->samples, pixels, job->allocation_hash);
   vf_allocation_report a;
   vf_allocation_describe(job->film->samples, pixels, &a);
-  snprintf(job->allocation_summary, sizeof job->allocation_summary,
-           "%.2f camera sub-paths a pixel on average; pixels of 1, 2, 4, 8, 16: %llu, %llu, %llu, %llu, %llu", a.mean,
-           (unsigned long long)a.pixels[0], (unsigned long long)a.pixels[1], (unsigned long long)a.pixels[2],
-           (unsigned long long)a.pixels[3], (unsigned long long)a.pixels[4]);
+  vf_allocation_summary(&a, job->allocation_summary, sizeof job->allocation_summary);
 }
 
 int vf_job_restore_pilot(vf_job *job, vf_film *pilot) {

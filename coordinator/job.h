@@ -82,7 +82,7 @@ typedef struct {
   int pilot_writing;
   int pilot_finishing;
   uint8_t allocation_hash[32]; /* BLAKE2b-256 of film->samples (the blob leases name), when set */
-  char allocation_summary[160]; /* vf_allocation_describe's, for status; "" before */
+  char allocation_summary[192]; /* vf_allocation_summary's, for status; "" before */
   int film_dirty;       /* merged into since the last checkpoint */
   int film_unreadable;  /* its file could not be read back (coordinator/state.h): never written over */
   /* Checkpoints run off the event loop (coordinator/checkpoint.h) on a snapshot of the film:
@@ -243,6 +243,16 @@ int vf_job_finish_pilot(vf_job *job);
  * height counts, copied), with the pilot's times (as the local render's film has them),
  * records its hash and drops pilot_film; returns 1, or VF_ENOMEM with the job unchanged. */
 int vf_job_set_allocation(vf_job *job, const uint8_t *samples);
+
+/* A job submitted with its allocation (SubmitJob.allocation, version 12: width x height
+ * counts, validated by the caller, copied): the job's film takes it at once and its pilot
+ * counts as done, so it runs no pilot (vf_job_in_pilot is 0). VF_EINVAL naming what is
+ * wrong when the job's settings cannot take one (no pilot, or auto choosing the algorithm
+ * by its pilots, which would not know which algorithm the counts were decided for);
+ * VF_ENOMEM; the job unchanged then. */
+int vf_job_submit_allocation(vf_job *job, const uint8_t *samples);
+/* Those checks alone: VF_OK when the job's settings can take an allocation. */
+int vf_job_allocation_allowed(const vf_job *job);
 
 /* Records the hash and summary of the allocation the job's film has (a film read back
  * with one); nothing when it has none. */

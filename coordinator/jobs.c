@@ -42,10 +42,30 @@ void vf_jobs_submit(vf_farm *farm, const Vcmfarm__SubmitJob *m, vf_farm_reply *r
                        (err = vf_blobs_attach(farm, job, m->scene)) != VF_OK))
     vf_job_destroy(job);
   if (err != VF_OK) return vf_farm_reply_fail(r, err);
+  /* Files of this id can only be a submission's that a crash cut short before the job list
+   * named it: a film left by one would be taken for this job's at the next start. */
+  vf_state_remove_job_files(farm->config.state_dir, job->id);
   /* The reference is a blob sent first, checked against its hash, then read as an image. */
   if (m->reference && (err = vf_blobs_reference(farm, m->reference)) == VF_OK)
     err = vf_state_save_reference(farm->config.state_dir, job, m->reference->hash.data);
   if (err != VF_OK) {
+    vf_job_destroy(job);
+    return vf_farm_reply_fail(r, err);
+  }
+  /* Submitted with its allocation (version 12), the job runs no pilot: the counts, a blob
+   * sent first, are opaque bytes here, checked only by allocation.h, and given to its film,
+   * which is written below before the job is acknowledged, so that a restart finds them
+   * where it finds a farm pilot's. */
+  if (m->allocation && (err = vf_job_allocation_allowed(job)) == VF_OK) {
+    uint8_t *samples = NULL;
+    size_t pixels = (size_t)job->film->width * (size_t)job->film->height;
+    if ((err = vf_blobs_allocation(farm, m->allocation, pixels, &samples)) == VF_OK) {
+      err = vf_job_submit_allocation(job, samples);
+      free(samples);
+    }
+  }
+  if (err != VF_OK) {
+    vf_state_remove_job_files(farm->config.state_dir, job->id);
     vf_job_destroy(job);
     return vf_farm_reply_fail(r, err);
   }
@@ -65,8 +85,11 @@ void vf_jobs_submit(vf_farm *farm, const Vcmfarm__SubmitJob *m, vf_farm_reply *r
     vf_job_destroy(job);
     return vf_farm_reply_fail(r, err);
   }
-  /* Durable before acknowledged: scene text first, then the job list naming it. */
-  if ((err = vf_state_save_scene(farm->config.state_dir, job)) != VF_OK || (err = vf_farm_add_job(farm, job)) != VF_OK) {
+  /* Durable before acknowledged: scene text first (and the film holding a submitted
+   * allocation), then the job list naming it. */
+  if ((err = vf_state_save_scene(farm->config.state_dir, job)) != VF_OK ||
+      (job->film->samples != NULL && (err = vf_state_save_film(farm->config.state_dir, job)) != VF_OK) ||
+      (err = vf_farm_add_job(farm, job)) != VF_OK) {
     vf_state_remove_job_files(farm->config.state_dir, job->id);
     vf_job_destroy(job);
     return vf_farm_reply_fail(r, err);
@@ -100,6 +123,13 @@ void vf_jobs_submit(vf_farm *farm, const Vcmfarm__SubmitJob *m, vf_farm_reply *r
          requires);
   vf_events_add(&job->events, job->submitted_at, "job_submitted", job->id, "", "job '%s' submitted: %s, priority %d%s%s",
                 job->name, limits, job->priority, requires[0] ? ", requires " : "", requires);
+  if (job->film->samples != NULL) {
+    vf_log("job %llu: submitted with its allocation, no pilot to run: pilot of %d iterations counted as done; %s",
+           (unsigned long long)job->id, job->settings.pilot, job->allocation_summary);
+    vf_events_add(&job->events, job->submitted_at, "pilot_done", job->id, "",
+                  "submitted with its allocation (pilot of %d iterations counted as done); %s", job->settings.pilot,
+                  job->allocation_summary);
+  }
   farm->state_dirty = 1; /* the event, with the next write of the job list */
   vcmfarm__submitted__init(&r->submitted);
   r->submitted.job_id = job->id;
@@ -405,6 +435,13 @@ void vf_jobs_pause(vf_farm *farm, uint64_t job_id, int pause, vf_farm_reply *r) 
   }
   vf_log("job %llu %s", (unsigned long long)job->id, pause ? "paused" : "resumed");
   vf_events_add(&job->events, vf_unix_now(), pause ? "job_paused" : "job_resumed", job->id, "", "%s", r->text);
+  if (job->film->samples != NULL) {
+    vf_log("job %llu: submitted with its allocation, no pilot to run: pilot of %d iterations counted as done; %s",
+           (unsigned long long)job->id, job->settings.pilot, job->allocation_summary);
+    vf_events_add(&job->events, job->submitted_at, "pilot_done", job->id, "",
+                  "submitted with its allocation (pilot of %d iterations counted as done); %s", job->settings.pilot,
+                  job->allocation_summary);
+  }
   farm->state_dirty = 1; /* the event, with the next write of the job list */
   vf_farm_reply_ack(r, 1, r->text);
 }

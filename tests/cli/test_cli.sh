@@ -90,6 +90,25 @@ check "pilot in the film's settings" "$("$vcmfarm" info "$tmp/pilot6.exr" | grep
 check "allocation in info" "$("$vcmfarm" info --json "$tmp/pilot6.exr" | jq -e '.allocation.mean_camera_sub_paths >= 1 and (.allocation.pixels_of_1_2_4_8_16 | add) == 384' >/dev/null; echo $?)"
 "$vcmfarm" render cornell -R 24x16 -n 2 --pilot 8 -q -o "$tmp/pilot8.exr"
 expect_refusal "films of different pilots do not merge" "pilot=8" "$vcmfarm" merge -o "$tmp/out.exr" "$tmp/pilot6.exr" "$tmp/pilot8.exr"
+# --allocation-from FILM: FILM's allocation instead of a pilot, for a render of FILM's size
+# and pilot (its pilot by default), so the film is the one the pilot would have given; a film
+# without one, of another size or pilot is refused naming it, for render and for submit
+# (below, with the key: before anything is sent).
+"$vcmfarm" render cornell -R 24x16 -n 6 --allocation-from "$tmp/pilot6.exr" -o "$tmp/from6.exr" 2>"$tmp/stderr"
+check "--allocation-from renders" $?
+check "--allocation-from renders no pilot" "$(! grep -q "^pilot: " "$tmp/stderr"; echo $?)"
+check "--allocation-from takes FILM's pilot and allocation" "$("$vcmfarm" info "$tmp/from6.exr" | grep -q " pilot=4" &&
+  [ "$("$vcmfarm" info "$tmp/from6.exr" | grep '^allocation ')" = "$("$vcmfarm" info "$tmp/pilot6.exr" | grep '^allocation ')" ]; echo $?)"
+same_image() { "$vcmfarm" info "$1" | grep '^image_mean\|^estimated_rmse\|^iterations '; }
+check "--allocation-from gives the film of the pilot's allocation" "$([ "$(same_image "$tmp/pilot6.exr")" = "$(same_image "$tmp/from6.exr")" ]; echo $?)"
+expect_refusal "--allocation-from a film without an allocation" "--allocation-from $tmp/beta1.exr: the film has no allocation of camera sub-paths" \
+  "$vcmfarm" render cornell -R 24x16 --allocation-from "$tmp/beta1.exr" -o "$tmp/out.exr"
+expect_refusal "--allocation-from a film of another size" "--allocation-from $tmp/pilot6.exr: the film is 24x16, this render 32x16" \
+  "$vcmfarm" render cornell -R 32x16 --allocation-from "$tmp/pilot6.exr" -o "$tmp/out.exr"
+expect_refusal "--allocation-from a film of another pilot" "--allocation-from $tmp/pilot6.exr: its allocation comes from a pilot of 4 iterations, this render's pilot is 8" \
+  "$vcmfarm" render cornell -R 24x16 --pilot 8 --allocation-from "$tmp/pilot6.exr" -o "$tmp/out.exr"
+expect_refusal "--allocation-from a missing film" "--allocation-from $tmp/absent.exr" \
+  "$vcmfarm" render cornell -R 24x16 --allocation-from "$tmp/absent.exr" -o "$tmp/out.exr"
 # upg: its side is an option of upg alone, named when wrong; its render counts its
 # gatherings; a film says what its estimated RMSE covers.
 expect_refusal "unknown gathering side" "unknown side 'eye'" "$vcmfarm" render furnace -a upg --gather-from eye -o "$tmp/out.exr"
@@ -224,6 +243,12 @@ expect_quick "a farm job's pilot refuses what render's does" 2 "a pilot (camera 
   "$vcmfarm" submit furnace -a lt --pilot 8 --coordinator "ipc://$tmp/live.sock" --secret "$tmp/farm.key"
 expect_quick "a farm job's pilot refuses single-stage vcm" 2 "not of the single-stage one" \
   "$vcmfarm" submit furnace --vcm-stages 1 --pilot 8 --coordinator "ipc://$tmp/live.sock" --secret "$tmp/farm.key"
+expect_quick "submit --allocation-from a film of another pilot" 2 "--allocation-from $tmp/pilot6.exr: its allocation comes from a pilot of 4 iterations, this render's pilot is 8" \
+  "$vcmfarm" submit cornell -R 24x16 --pilot 8 --allocation-from "$tmp/pilot6.exr" --coordinator "ipc://$tmp/live.sock" --secret "$tmp/farm.key"
+expect_quick "submit --allocation-from a film of another size" 2 "--allocation-from $tmp/pilot6.exr: the film is 24x16, this render 16x16" \
+  "$vcmfarm" submit cornell -R 16x16 --allocation-from "$tmp/pilot6.exr" --coordinator "ipc://$tmp/live.sock" --secret "$tmp/farm.key"
+expect_quick "submit --allocation-from a film without an allocation" 2 "--allocation-from $tmp/beta1.exr: the film has no allocation of camera sub-paths" \
+  "$vcmfarm" submit cornell -R 24x16 --allocation-from "$tmp/beta1.exr" --coordinator "ipc://$tmp/live.sock" --secret "$tmp/farm.key"
 expect_quick "submit to a coordinator that is down, over tcp://" 1 "no coordinator answered at tcp://127.0.0.1:1 " \
   "$vcmfarm" submit furnace --coordinator tcp://127.0.0.1:1 --secret "$tmp/farm.key"
 kill -TERM "$live" && wait "$live"

@@ -42,12 +42,14 @@ check "continue 3000 + 3000 equals --direct 6000 bit for bit" \
 check "a pilot's film: continue 15 + 25 equals --direct 40 bit for bit" \
   "$compare" --exact "$tmp/pilot15.exr" "$tmp/pilot40.exr" "[0,40)"
 # auto with a pilot chooses by the candidates' pilots (vf_render_choose_algorithm), and the
-# film is the chosen algorithm's with its own pilot, bit for bit.
+# film is the chosen algorithm's with the allocation the choice made (its own pilot's, or
+# merging per pixel), bit for bit.
 "$vcmfarm" render cornell-glossy -R 16x16 --seed 7 -j 1 -a auto --pilot 4 -n 6 -o "$tmp/auto.exr" 2>"$tmp/auto.err" || exit 1
 chosen=$("$vcmfarm" info --json "$tmp/auto.exr" | jq -r .algorithm)
 check "auto with a pilot reports its choice and the film names it" \
-  grep -q "^auto: pilots of 4 iterations .*; chose $chosen$" "$tmp/auto.err"
-"$vcmfarm" render cornell-glossy -R 16x16 --seed 7 -j 1 -a "$chosen" --pilot 4 -n 6 -q -o "$tmp/chosen.exr" || exit 1
+  grep -Eq "^auto: pilots of 4 iterations .*; chose $chosen( merging in [0-9.]+% of pixels)?$" "$tmp/auto.err"
+"$vcmfarm" render cornell-glossy -R 16x16 --seed 7 -j 1 -a "$chosen" --allocation-from "$tmp/auto.exr" -n 6 -q \
+  -o "$tmp/chosen.exr" || exit 1
 check "auto with a pilot: the film of the algorithm it chose ($chosen), bit for bit" \
   "$compare" --exact "$tmp/auto.exr" "$tmp/chosen.exr" "[0,6)"
 

@@ -4,7 +4,11 @@
  * into its image, that the allocation is computed once the pilot is complete, exactly as
  * from the whole pilot's film, kept as a blob and handed to the leases that follow, that a
  * part of the image rendered with another allocation (or none) is refused, and that a
- * pilot film written to the state directory and read back resumes the pilot. */
+ * pilot film written to the state directory and read back resumes the pilot. A job
+ * submitted with its allocation (protocol 12) runs no pilot, has it in its film (durable
+ * before the answer: a farm loaded from the state directory after it resumes with it), and
+ * an allocation of the wrong size, of invalid counts, or on a job without a pilot or with
+ * auto choosing by pilots is refused, and merging turned off in a pixel only for vcm. */
 #include "check.h"
 #include "common/allocation.h"
 #include "common/blob.h"
@@ -16,6 +20,7 @@
 #include "farm_calls.h"
 
 #include <stdlib.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #define TIMEOUT 15.0
@@ -257,6 +262,130 @@ static void test_a_pilot_film_written_and_read_back_resumes_the_pilot(void) {
   vf_farm_destroy(&f.farm);
 }
 
+/* Submits the job of the fixture's settings (or `settings_text`) with the allocation
+ * `samples` of n bytes, put in the state directory's blob store first as a client sends
+ * it. The reply's kind and, for an error, its message into message. Its id, 0 if refused. */
+static uint64_t submit_with_allocation(vf_farm *farm, const char *settings_text, const uint8_t *samples, size_t n,
+                                       char *message, size_t size) {
+  uint8_t hash[32];
+  vf_blob_hash(samples, n, hash);
+  CHECK_INT_EQ(vf_blob_store_put(farm->config.state_dir, hash, samples, n), VF_OK);
+  Vcmfarm__Scene scene = VCMFARM__SCENE__INIT;
+  scene.source_case = VCMFARM__SCENE__SOURCE_BUILTIN;
+  scene.builtin = "cornell";
+  Vcmfarm__BlobRef ref = VCMFARM__BLOB_REF__INIT;
+  ref.name = "allocation";
+  ref.hash = (ProtobufCBinaryData){32, hash};
+  ref.size = n;
+  Vcmfarm__SubmitJob sm = VCMFARM__SUBMIT_JOB__INIT;
+  sm.name = "given";
+  sm.scene = &scene;
+  sm.scene_hash = (ProtobufCBinaryData){32, (uint8_t *)scene_hash};
+  sm.settings = (char *)settings_text;
+  sm.iterations = 8;
+  sm.priority = 1;
+  sm.allocation = &ref;
+  Vcmfarm__Envelope q = VCMFARM__ENVELOPE__INIT;
+  q.body_case = VCMFARM__ENVELOPE__BODY_SUBMIT;
+  q.submit = &sm;
+  vf_farm_reply r;
+  vf_farm_handle(farm, &q, 1000.0, &r);
+  uint64_t id = r.env.body_case == VCMFARM__ENVELOPE__BODY_SUBMITTED ? r.submitted.job_id : 0;
+  snprintf(message, size, "%s", r.env.body_case == VCMFARM__ENVELOPE__BODY_ERROR ? r.env.error->message : "");
+  vf_farm_reply_release(&r);
+  return id;
+}
+
+static void test_a_job_submitted_with_its_allocation_runs_no_pilot(void) {
+  char state[128], message[512];
+  snprintf(state, sizeof state, "%s/given", dir);
+  CHECK(mkdir(state, 0700) == 0);
+  fixture f;
+  memset(&f, 0, sizeof f);
+  vf_farm_config config = {state, TIMEOUT, 1000.0, 0.0};
+  vf_farm_init(&f.farm, &config);
+  f.now = 1000.0;
+  uint8_t samples[W * H], hash[32];
+  expected_allocation(samples);
+  vf_blob_hash(samples, sizeof samples, hash);
+  f.job = submit_with_allocation(&f.farm, settings, samples, sizeof samples, message, sizeof message);
+  CHECK(f.job != 0);
+  vf_job *job = job_of(&f);
+  CHECK(job != NULL && job->film->samples != NULL && !vf_job_in_pilot(job));
+  if (job == NULL || job->film->samples == NULL) return;
+  CHECK(memcmp(job->film->samples, samples, sizeof samples) == 0);
+  CHECK(memcmp(job->allocation_hash, hash, 32) == 0);
+  CHECK_INT_EQ(vf_job_pilot_done(job), PILOT);
+  CHECK(job->allocation_summary[0] != '\0');
+  /* Its first lease is of its own iterations, from 0, naming the allocation. */
+  f.worker = farm_register(&f.farm, f.now, "w");
+  f.farm.workers[0].rate = 1e6;
+  lease(&f);
+  CHECK(!f.pilot);
+  CHECK(f.has_allocation);
+  CHECK(memcmp(f.allocation_hash, hash, 32) == 0);
+  CHECK_INT_EQ(f.begin, 0);
+  CHECK_INT_EQ(f.end, 8);
+  /* Its film was written before the answer: a coordinator started on the state directory
+   * now (no checkpoint since) resumes the job with it. */
+  vf_farm_destroy(&f.farm);
+  vf_farm after;
+  vf_farm_init(&after, &config);
+  CHECK_INT_EQ(vf_state_load(&after), VF_OK);
+  const vf_job *back = vf_farm_job(&after, f.job);
+  CHECK(back != NULL && back->film->samples != NULL && !vf_job_in_pilot(back));
+  if (back != NULL && back->film->samples != NULL) {
+    CHECK(memcmp(back->film->samples, samples, sizeof samples) == 0);
+    CHECK(memcmp(back->allocation_hash, hash, 32) == 0);
+  }
+  vf_farm_destroy(&after);
+}
+
+static void test_allocations_that_are_refused(void) {
+  fixture f;
+  setup(&f, 8);
+  char message[512];
+  uint8_t samples[W * H];
+  expected_allocation(samples);
+  /* One count short of the film's pixels. */
+  CHECK_INT_EQ(submit_with_allocation(&f.farm, settings, samples, sizeof samples - 1, message, sizeof message), 0);
+  CHECK_STR_CONTAINS(message, "allocation: 8191 counts, the job's film has 8192 pixels");
+  /* A count that is no allocation's. */
+  uint8_t bad[W * H];
+  memcpy(bad, samples, sizeof bad);
+  bad[W * 3 + 5] = 3;
+  CHECK_INT_EQ(submit_with_allocation(&f.farm, settings, bad, sizeof bad, message, sizeof message), 0);
+  CHECK_STR_CONTAINS(message, "allocation");
+  CHECK_STR_CONTAINS(message, "pixel 389");
+  /* A job without a pilot, and auto choosing by pilots. */
+  vf_settings s;
+  vf_settings_default(&s);
+  s.width = W;
+  s.height = H;
+  char text[512];
+  vf_settings_format(&s, text, sizeof text);
+  CHECK_INT_EQ(submit_with_allocation(&f.farm, text, samples, sizeof samples, message, sizeof message), 0);
+  CHECK_STR_CONTAINS(message, "the job's settings have no pilot");
+  s.pilot = PILOT;
+  s.algorithm = VF_ALGO_AUTO;
+  vf_settings_format(&s, text, sizeof text);
+  CHECK_INT_EQ(submit_with_allocation(&f.farm, text, samples, sizeof samples, message, sizeof message), 0);
+  CHECK_STR_CONTAINS(message, "auto with a pilot");
+  /* Merging turned off in a pixel (allocation.h): a vcm job's, not a bpt job's. */
+  memcpy(bad, samples, sizeof bad);
+  bad[W * 2 + 1] |= VF_ALLOCATION_NO_MERGING;
+  s.algorithm = VF_ALGO_BPT;
+  vf_settings_format(&s, text, sizeof text);
+  CHECK_INT_EQ(submit_with_allocation(&f.farm, text, bad, sizeof bad, message, sizeof message), 0);
+  CHECK_STR_CONTAINS(message, "pixel 257 turns vertex merging off, which only a vcm render does");
+  CHECK_INT_EQ(f.farm.num_jobs, 1); /* the fixture's own */
+  s.algorithm = VF_ALGO_VCM;
+  vf_settings_format(&s, text, sizeof text);
+  CHECK(submit_with_allocation(&f.farm, text, bad, sizeof bad, message, sizeof message) != 0);
+  CHECK_INT_EQ(f.farm.num_jobs, 2);
+  vf_farm_destroy(&f.farm);
+}
+
 int main(void) {
   snprintf(dir, sizeof dir, "/tmp/vf_test_farm_pilot_XXXXXX");
   if (mkdtemp(dir) == NULL) return 1;
@@ -270,6 +399,8 @@ int main(void) {
   RUN(test_a_part_of_another_allocation_is_refused);
   RUN(test_a_pilot_part_is_never_merged_into_the_image);
   RUN(test_a_pilot_film_written_and_read_back_resumes_the_pilot);
+  RUN(test_a_job_submitted_with_its_allocation_runs_no_pilot);
+  RUN(test_allocations_that_are_refused);
   char cmd[128];
   snprintf(cmd, sizeof cmd, "rm -rf '%s'", dir);
   if (system(cmd) != 0) return 1;

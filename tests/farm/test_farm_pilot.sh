@@ -11,8 +11,16 @@
 #   killed_after_pilot       killed once the job's film holds the allocation and some of
 #                            its iterations: no pilot again, the same film
 #   exact_auto               `submit -a auto --pilot N`: the client chooses the algorithm by
-#                            the candidates' pilots, the job names it, and its film is the
-#                            local render's of that algorithm, bit for bit
+#                            the candidates' pilots and ships the allocation it chose
+#                            (protocol 12): the farm runs no pilot, the job names the
+#                            algorithm, and its film is bit for bit `render --allocation-from
+#                            FARM_FILM` of that algorithm (auto's choice rests on measured
+#                            seconds, so no second choice is compared)
+#   given_killed             `submit --allocation-from FILM` of a film of another seed (an
+#                            allocation the farm's own pilot would not give): no pilot lease,
+#                            status shows the pilot done; the coordinator killed (SIGKILL)
+#                            right after the submission resumes the job with that allocation,
+#                            and the film is `render --allocation-from FILM`'s bit for bit
 #   continued                a film of [0, K) rendered locally with the pilot, continued by
 #                            a farm job from iteration K (`submit --start-iteration K`): the
 #                            farm reruns the pilot, and the two films merge into the local
@@ -46,11 +54,13 @@ submit() {
   [ -n "$job" ] || fail "submit printed no job id"
 }
 
-# The farm's film against the local render's, bit for bit; the pilot's leases on both
-# workers and none after the allocation.
+# The farm's film against the local render's (with --allocation-from $allocation_from
+# when set), bit for bit; the pilot's leases on both workers and none after the allocation.
+allocation_from=
 check_film() {
   client fetch "$job" -o "$tmp/farm.exr" || fail "fetch failed"
-  "$vcmfarm" render cornell $(settings) -j 1 -q -o "$tmp/reference.exr" || fail "reference render failed"
+  "$vcmfarm" render cornell $(settings) ${allocation_from:+--allocation-from "$allocation_from"} -j 1 -q \
+    -o "$tmp/reference.exr" || fail "reference render failed"
   "$compare" --exact "$tmp/farm.exr" "$tmp/reference.exr" "[0,$iterations)" ||
     fail "the farm's film differs from the local render's"
   "$vcmfarm" info "$tmp/farm.exr" | grep -q "^allocation " || fail "the farm's film has no allocation: $("$vcmfarm" info "$tmp/farm.exr")"
@@ -60,6 +70,12 @@ check_film() {
 }
 
 pilot_leases_of() { grep -c "job $job pilot iterations \[[0-9]*,[0-9]*) to worker $1" "$tmp/coordinator.log"; }
+no_pilot_ran() {
+  ! grep -q "job $job pilot iterations\|merged job $job pilot\|job $job: pilot of $pilot iterations done" "$tmp/coordinator.log" ||
+    fail "a job submitted with its allocation ran a pilot: $(grep "job $job.*pilot" "$tmp/coordinator.log")"
+  grep -q "job $job: submitted with its allocation, no pilot to run" "$tmp/coordinator.log" ||
+    fail "the coordinator did not log the submitted allocation"
+}
 
 case "$case_name" in
 exact_pt | exact_vcm)
@@ -93,7 +109,37 @@ exact_auto)
   algorithm=$("$vcmfarm" info --json "$tmp/farm.exr" | jq -r .algorithm)
   case "$algorithm" in pt | bpt | vcm) ;; *) fail "the job's film names algorithm '$algorithm', not what auto chose" ;; esac
   grep -q "submitted: built-in cornell" "$tmp/coordinator.log" || fail "no job submitted"
+  no_pilot_ran
+  # The reference takes the farm film's allocation and algorithm: what auto would choose
+  # again on this machine does not enter.
+  cp "$tmp/farm.exr" "$tmp/chosen.exr"
+  allocation_from="$tmp/chosen.exr"
   check_film
+  ;;
+given_killed)
+  algorithm=vcm
+  start_farm 250
+  # An allocation of another seed's pilot: the farm's pilot (seed 7) would decide others.
+  "$vcmfarm" render cornell -n 2 -R 64x64 --seed 3 -a vcm --pilot $pilot -j 1 -q -o "$tmp/given.exr" ||
+    fail "the local render giving the allocation failed"
+  allocation_from="$tmp/given.exr"
+  job=$(client submit cornell $(settings) --allocation-from "$allocation_from" | tail -n 1)
+  [ -n "$job" ] || fail "submit printed no job id"
+  kill -9 "$coordinator"
+  wait_until 10 "the coordinator to die" exited "$coordinator"
+  [ -s "$state/job-$job.exr" ] || fail "the job's film with its allocation was not written before the answer"
+  "$vcmfarm" info "$state/job-$job.exr" | grep "^allocation " >"$tmp/state-allocation.txt"
+  "$vcmfarm" info "$tmp/given.exr" | grep "^allocation " | cmp -s - "$tmp/state-allocation.txt" ||
+    fail "the film written at submission lacks the allocation: $("$vcmfarm" info "$state/job-$job.exr")"
+  start_coordinator --worker-timeout 3
+  wait_until 120 "job $job done after the restart" job_done
+  grep -q "resumed job $job " "$tmp/coordinator.log" || fail "the restarted coordinator did not resume job $job"
+  no_pilot_ran
+  check_film
+  # check_film compared allocations too: the farm's film has FILM's, not its own pilot's.
+  "$vcmfarm" render cornell $(settings) -n 1 -j 1 -q -o "$tmp/own-pilot.exr" || fail "the render with a pilot failed"
+  [ "$("$vcmfarm" info "$tmp/own-pilot.exr" | grep "^allocation ")" != "$(cat "$tmp/state-allocation.txt")" ] ||
+    fail "seeds 3 and 7 give the same allocation: the case cannot tell them apart"
   ;;
 killed_in_pilot)
   pilot=16

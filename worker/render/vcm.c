@@ -78,11 +78,8 @@ int vf_vcm_set_allocation(vf_vcm *v, const uint8_t *samples) {
   if (v->settings.pilot == 0) return vf_error_set(VF_EINVAL, "an allocation of camera sub-paths needs a pilot");
   int err = vf_allocation_validate(samples, v->num_pixels, "allocation");
   if (err != VF_OK) return vf_error_set(VF_EINVAL, "%s", vf_error_detail(err));
-  if (v->settings.algorithm != VF_ALGO_VCM)
-    for (size_t p = 0; p < v->num_pixels; p++)
-      if (!vf_allocation_merges(samples[p]))
-        return vf_error_set(VF_EINVAL, "allocation: pixel %zu turns vertex merging off, which only a vcm render "
-                            "does (this one is %s)", p, vf_algorithm_name(v->settings.algorithm));
+  if ((err = vf_allocation_check_algorithm(samples, v->num_pixels, v->settings.algorithm, "allocation")) != VF_OK)
+    return err;
   if (v->samples == NULL && (v->samples = malloc(v->num_pixels)) == NULL) return VF_ENOMEM;
   memcpy(v->samples, samples, v->num_pixels);
   return VF_OK;
