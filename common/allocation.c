@@ -162,7 +162,8 @@ int vf_allocation_compute(const vf_film *film, uint8_t *samples, vf_allocation_r
 }
 
 int vf_allocation_choose(const double *bpt_variance, const double *vcm_variance, double bpt_cost, double vcm_cost,
-                         double margin, size_t n, uint8_t *samples, vf_allocation_report *report) {
+                         double margin, int width, int height, uint8_t *samples, vf_allocation_report *report) {
+  size_t n = (size_t)width * (size_t)height;
   if (!(bpt_cost > 0.0 && vcm_cost > 0.0 && isfinite(bpt_cost) && isfinite(vcm_cost)))
     return vf_error_set(VF_EINVAL, "the costs of a camera sub-path, %g (bpt) and %g (vcm), must be positive", bpt_cost,
                         vcm_cost);
@@ -173,9 +174,23 @@ int vf_allocation_choose(const double *bpt_variance, const double *vcm_variance,
     free(cost);
     return VF_ENOMEM;
   }
+  /* Tile by tile: the sums of a tile's variances decide for all its pixels. */
+  const int tile = VF_ALLOCATION_MERGE_TILE;
+  for (int ty = 0; ty < height; ty += tile)
+    for (int tx = 0; tx < width; tx += tile) {
+      double b = 0.0, v = 0.0;
+      for (int y = ty; y < height && y < ty + tile; y++)
+        for (int x = tx; x < width && x < tx + tile; x++) {
+          b += bpt_variance[(size_t)y * width + x];
+          v += vcm_variance[(size_t)y * width + x];
+        }
+      int merges = !(margin * b * bpt_cost <= v * vcm_cost);
+      for (int y = ty; y < height && y < ty + tile; y++)
+        for (int x = tx; x < width && x < tx + tile; x++)
+          samples[(size_t)y * width + x] = merges ? 0 : (uint8_t)VF_ALLOCATION_NO_MERGING;
+    }
   for (size_t p = 0; p < n; p++) {
-    int merges = vcm_variance[p] * vcm_cost * margin < bpt_variance[p] * bpt_cost;
-    samples[p] = merges ? 0 : (uint8_t)VF_ALLOCATION_NO_MERGING;
+    int merges = vf_allocation_merges(samples[p]);
     variance[p] = merges ? vcm_variance[p] : bpt_variance[p];
     cost[p] = merges ? vcm_cost : bpt_cost;
     sigma[p] = sqrt(variance[p] / cost[p]);

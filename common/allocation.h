@@ -60,9 +60,15 @@
  * and consistent where it is on. Every technique of a full path belongs to the path's
  * pixel (the camera sub-path's, or the one light tracing projects to), so the weights of
  * each path still sum to one. The choice per pixel (vf_allocation_choose) compares the
- * pilots of bpt and vcm: a pixel merges where vcm's predicted efficiency, its variance
- * times the cost of a camera sub-path, beats bpt's by the margin auto asks of vcm; the
- * counts then follow each pixel's own algorithm, k_p proportional to sqrt(v_p / c_p)
+ * pilots of bpt and vcm: the pixels of a tile of 16 x 16 do without merging only where
+ * bpt's predicted efficiency over the tile (the inverse of its variance times the cost of
+ * a camera sub-path) is the margin times vcm's. Tiles, not pixels, and merging the
+ * default, because a short pilot of bpt misses what bpt samples rarely: on the showcase, a
+ * region whose bpt pilot predicted 0.8-1.6 times vcm's efficiency had 6-30 times vcm's
+ * squared error after 256 iterations, and pixel by pixel half of its pixels lost merging
+ * (the smoothed estimates' noise against the margin), which tripled the image's error
+ * (docs/BENCHMARKS.md, "Merging per pixel").
+ * The counts then follow each pixel's own algorithm, k_p proportional to sqrt(v_p / c_p)
  * (Cauchy-Schwarz with the pixels' costs c_p). */
 #ifndef VF_ALLOCATION_H
 #define VF_ALLOCATION_H
@@ -105,15 +111,19 @@ int vf_allocation_compute(const vf_film *film, uint8_t *samples, vf_allocation_r
  * doubles into variance), from a film as it asks (the same errors). */
 int vf_allocation_variances(const vf_film *film, double *variance);
 
-/* Merging per pixel from the pilots of bpt and vcm (see above): pixel p merges where
- * vcm_variance[p] vcm_cost margin < bpt_variance[p] bpt_cost, with the variances of
- * vf_allocation_variances and the costs of one camera sub-path a pixel in an iteration of
- * each; the counts are then allocated as vf_allocation_compute's over the pixels' own
- * variances and costs. n bytes into samples; report (may be NULL) as vf_allocation_compute's,
+/* The side in pixels of the square tiles that merge or not as one (see above). */
+#define VF_ALLOCATION_MERGE_TILE 16
+
+/* Merging per pixel from the pilots of bpt and vcm (see above): the pixels of a tile of
+ * VF_ALLOCATION_MERGE_TILE^2 merge unless margin B bpt_cost <= V vcm_cost, B and V the
+ * sums of the tile's bpt_variance and vcm_variance as vf_allocation_variances gives them,
+ * the costs those of one camera sub-path a pixel in an iteration of each; the counts are
+ * then allocated as vf_allocation_compute's over the pixels' own variances and costs.
+ * width x height bytes into samples; report (may be NULL) as vf_allocation_compute's,
  * with its variance the predicted of an iteration. VF_EINVAL for a cost that is not
  * positive and finite. */
 int vf_allocation_choose(const double *bpt_variance, const double *vcm_variance, double bpt_cost, double vcm_cost,
-                         double margin, size_t n, uint8_t *samples, vf_allocation_report *report);
+                         double margin, int width, int height, uint8_t *samples, vf_allocation_report *report);
 
 /* The report of an allocation of n pixels. */
 void vf_allocation_describe(const uint8_t *samples, size_t n, vf_allocation_report *report);

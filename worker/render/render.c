@@ -209,21 +209,21 @@ done:
  * caustic): on cornell-fog its pilot predicted 1.01x bpt's, and bpt with a pilot reached 0.1
  * four times sooner (docs/BENCHMARKS.md, "auto with a pilot", "cornell-fog with a pilot"). */
 static double choice_score(const vf_auto_choice *choice, int i) {
-  double merging = choice->candidates[i].merging;
-  int margin = choice->candidates[i].algorithm == VF_ALGO_PT || merging == 1.0; /* vcm per pixel: its pixels' */
-  return choice->candidates[i].efficiency / (margin ? VF_AUTO_MARGIN : 1.0);
+  return choice->candidates[i].efficiency / (choice->candidates[i].algorithm == VF_ALGO_BPT ? 1.0 : VF_AUTO_MARGIN);
 }
 
 /* The candidate of vcm merging per pixel (render.h), from bpt's and vcm's measured ones
  * (b and m) and their pilots' variances: its allocation into counts and its figures into
  * choice's next candidate, unless every pixel or none merges (then it is vcm or bpt). */
 static int mix_candidate(vf_auto_choice *choice, int b, int m, const double *bpt_variances,
-                         const double *vcm_variances, size_t n, uint8_t *counts) {
+                         const double *vcm_variances, int width, int height, uint8_t *counts) {
+  size_t n = (size_t)width * (size_t)height;
   const double pixels = (double)n;
   double bpt_cost = choice->candidates[b].camera_seconds / pixels, vcm_cost = choice->candidates[m].camera_seconds / pixels;
   if (!(bpt_cost > 0.0 && vcm_cost > 0.0)) return VF_OK; /* a clock too coarse to tell: no prediction */
   vf_allocation_report report;
-  int err = vf_allocation_choose(bpt_variances, vcm_variances, bpt_cost, vcm_cost, VF_AUTO_MARGIN, n, counts, &report);
+  int err = vf_allocation_choose(bpt_variances, vcm_variances, bpt_cost, vcm_cost, VF_AUTO_MARGIN, width, height, counts,
+                                 &report);
   if (err != VF_OK || report.no_merging == 0 || report.no_merging == n) return err;
   double camera = 0.0;
   for (size_t p = 0; p < n; p++)
@@ -279,7 +279,8 @@ int vf_render_choose_algorithm(const vf_scene *scene, vf_settings *settings, int
   }
   if (err == VF_OK && measured[0] >= 0 && measured[1] >= 0) {
     int before = choice->count;
-    err = mix_candidate(choice, measured[0], measured[1], variances[0], variances[1], n, counts);
+    err = mix_candidate(choice, measured[0], measured[1], variances[0], variances[1], settings->width, settings->height,
+                        counts);
     if (err == VF_OK && choice->count > before && choice_score(choice, before) > choice_score(choice, best)) {
       best = before;
       memcpy(best_counts, counts, n);

@@ -109,11 +109,11 @@ typedef struct {
  * per iteration, k the allocation's mean camera sub-paths a pixel and v its predicted
  * variance (vf_allocation_report), and sets settings->algorithm to the most efficient,
  * pt's and vcm's efficiency counted over VF_AUTO_MARGIN. With both bpt's and vcm's pilots,
- * a fourth candidate: vcm merging only in the pixels where vcm's pilot predicts
- * VF_AUTO_MARGIN times bpt's efficiency (vf_allocation_choose), its counts from each
+ * a fourth candidate: vcm without merging in the pixels where bpt's pilot predicts
+ * VF_AUTO_MARGIN times vcm's efficiency (vf_allocation_choose), its counts from each
  * pixel's own algorithm, its cost vcm's light pass and each pixel's camera sub-paths at its
- * algorithm's cost; it counts as it is (its margin is the pixels'), and is a candidate only
- * when some pixels merge and some do not.
+ * algorithm's cost; it counts over the margin as vcm does, and is a candidate only when
+ * some pixels merge and some do not.
  * The choice rests on measured times, so it is made once, by whoever starts the job, and
  * kept in the settings (a film or a farm job then names the algorithm, not auto); what is
  * rendered after it is a pure function of those settings and the allocation as always.

@@ -322,8 +322,8 @@ static double *sums_with(const vf_scene *scene, const vf_settings *s, const uint
  * of a path weighs it by its pixel's merge parameters, pixel_radius.h), so that each
  * pixel's estimator is one of two the other tests prove; and the two differ, or the test
  * would show nothing. On the box with a mirror and a glass ball (caustics, which merging
- * carries), counts of 1 to 16 and merging off on a checkerboard of 5 x 5 pixels. Only vcm
- * takes such an allocation. */
+ * carries), counts of 1 to 16 and merging off on a checkerboard of 5 x 5 pixels. Its film
+ * continues through its file bit for bit. Only vcm takes such an allocation. */
 static void test_merging_per_pixel_is_bpt_or_vcm_pixel_by_pixel(void) {
   vf_scene *scene;
   CHECK_INT_EQ(vf_scene_load("cornell", &scene), VF_OK);
@@ -362,6 +362,30 @@ static void test_merging_per_pixel_is_bpt_or_vcm_pixel_by_pixel(void) {
   free(m);
   free(v);
   free(b);
+  /* Its film keeps the flags: [0,2) written, read back and continued to 4 is [0,4) in one
+   * go, bit for bit. */
+  char path[] = "/tmp/vf_test_pilot_mixed_XXXXXX";
+  int fd = mkstemp(path);
+  CHECK(fd >= 0);
+  if (fd >= 0) close(fd);
+  vf_film *whole = new_film(&vcm), *first = new_film(&vcm), *read = NULL;
+  if (whole && first) {
+    CHECK_INT_EQ(vf_film_set_samples(whole, mixed), VF_OK);
+    CHECK_INT_EQ(vf_film_set_samples(first, mixed), VF_OK);
+    render_into(scene, &vcm, whole, 2, 0, 4);
+    render_into(scene, &vcm, first, 1, 0, 2);
+    CHECK_INT_EQ(vf_film_write(first, path), VF_OK);
+    CHECK_INT_EQ(vf_film_read(path, &read), VF_OK);
+    if (read) {
+      CHECK(memcmp(read->samples, mixed, n) == 0);
+      render_into(scene, &vcm, read, 2, 2, 4);
+      CHECK(films_bitwise_equal(read, whole));
+    }
+  }
+  unlink(path);
+  vf_film_destroy(whole);
+  vf_film_destroy(first);
+  vf_film_destroy(read);
   /* bpt (or any but vcm) refuses an allocation that turns merging off. */
   vf_accel *accel = NULL;
   vf_pool *pool = NULL;
@@ -384,31 +408,46 @@ done:
   vf_scene_destroy(scene);
 }
 
-/* vf_allocation_choose: a pixel merges where vcm's variance times its cost, over the
- * margin, is below bpt's; the counts follow each pixel's own variance over its cost. */
+/* vf_allocation_choose: a tile's pixels merge unless bpt's variance times its cost, times
+ * the margin, is at most vcm's over the tile; the counts follow each pixel's own variance
+ * over its cost. (A row of 64 pixels: four tiles.) */
 static void test_merging_is_chosen_where_it_pays(void) {
   enum { N = 64 };
   double vb[N], vv[N];
   uint8_t samples[N];
   for (int p = 0; p < N; p++) {
     vb[p] = 1.0;
-    vv[p] = p < 16 ? 0.1 : p < 32 ? 0.9 : 2.0; /* 10x better, within the margin, worse */
+    vv[p] = p < 16 ? 0.1 : p < 32 ? 1.2 : 2.0; /* 10x better, within the margin, worse */
   }
   vf_allocation_report report;
-  CHECK_INT_EQ(vf_allocation_choose(vb, vv, 1e-6, 1e-6, 1.25, N, samples, &report), VF_OK);
+  CHECK_INT_EQ(vf_allocation_choose(vb, vv, 1e-6, 1e-6, 1.25, N, 1, samples, &report), VF_OK);
   int right = 1;
-  for (int p = 0; p < N; p++) right &= vf_allocation_merges(samples[p]) == (p < 16);
+  for (int p = 0; p < N; p++) right &= vf_allocation_merges(samples[p]) == (p < 32);
   CHECK(right);
-  CHECK_INT_EQ(report.no_merging, 48);
+  CHECK_INT_EQ(report.no_merging, 32);
   /* sqrt(v / c): a merging pixel (v 0.1) gets fewer camera sub-paths than a bpt one (v 1). */
   CHECK(vf_allocation_count(samples[0]) < vf_allocation_count(samples[40]));
   CHECK_INT_EQ(vf_allocation_validate(samples, N, "chosen"), VF_OK);
-  /* At 20 times the cost merging pays nowhere, at a twentieth everywhere it is better. */
-  CHECK_INT_EQ(vf_allocation_choose(vb, vv, 1e-6, 2e-5, 1.25, N, samples, &report), VF_OK);
+  /* At 20 times the cost merging pays nowhere, at a twentieth everywhere. */
+  CHECK_INT_EQ(vf_allocation_choose(vb, vv, 1e-6, 2e-5, 1.25, N, 1, samples, &report), VF_OK);
   CHECK_INT_EQ(report.no_merging, N);
-  CHECK_INT_EQ(vf_allocation_choose(vb, vv, 1e-6, 5e-8, 1.25, N, samples, &report), VF_OK);
+  CHECK_INT_EQ(vf_allocation_choose(vb, vv, 1e-6, 5e-8, 1.25, N, 1, samples, &report), VF_OK);
   CHECK_INT_EQ(report.no_merging, 0);
-  CHECK_INT_EQ(vf_allocation_choose(vb, vv, 0.0, 1e-6, 1.25, N, samples, &report), VF_EINVAL);
+  CHECK_INT_EQ(vf_allocation_choose(vb, vv, 0.0, 1e-6, 1.25, N, 1, samples, &report), VF_EINVAL);
+  /* 32 x 32 pixels, four tiles: the left two merge (vcm 10 times better), the right two do
+   * not (2 times worse); one pixel of the left ones, 3 times worse, does not decide alone. */
+  enum { S = 32 };
+  double b2[S * S], v2[S * S];
+  uint8_t tiles[S * S];
+  for (int p = 0; p < S * S; p++) {
+    b2[p] = 1.0;
+    v2[p] = p % S < 16 ? 0.1 : 2.0;
+  }
+  v2[3 * S + 3] = 3.0;
+  CHECK_INT_EQ(vf_allocation_choose(b2, v2, 1e-6, 1e-6, 1.25, S, S, tiles, &report), VF_OK);
+  int by_tile = 1;
+  for (int p = 0; p < S * S; p++) by_tile &= vf_allocation_merges(tiles[p]) == (p % S < 16);
+  CHECK(by_tile);
   /* The flag survives a film's text; the unused bits are refused. */
   for (int p = 0; p < N; p++) samples[p] = (uint8_t)((1u << (p % 5)) | (p % 2 ? VF_ALLOCATION_NO_MERGING : 0u));
   char *text = NULL;
@@ -516,10 +555,9 @@ static void test_auto_chooses_by_its_pilots(void) {
            1e3 * choice.candidates[i].light_seconds, 1e3 * choice.candidates[i].camera_seconds);
     CHECK(choice.candidates[i].efficiency > 0.0 && choice.candidates[i].efficiency < 1e300);
     CHECK(choice.candidates[i].camera_subpaths >= 1.0 && choice.candidates[i].camera_subpaths <= VF_ALLOCATION_MAX);
-    /* pt and vcm over the margin; bpt, and vcm merging per pixel (its margin is the pixels'), as they are */
-    double margin = choice.candidates[i].algorithm == VF_ALGO_PT || merging == 1.0 ? VF_AUTO_MARGIN : 1.0;
-    double best_margin =
-        choice.candidates[best].algorithm == VF_ALGO_PT || choice.candidates[best].merging == 1.0 ? VF_AUTO_MARGIN : 1.0;
+    /* pt and vcm (merging everywhere or per pixel) over the margin, bpt as it is */
+    double margin = choice.candidates[i].algorithm == VF_ALGO_BPT ? 1.0 : VF_AUTO_MARGIN;
+    double best_margin = choice.candidates[best].algorithm == VF_ALGO_BPT ? 1.0 : VF_AUTO_MARGIN;
     if (choice.candidates[i].efficiency / margin > choice.candidates[best].efficiency / best_margin) best = i;
   }
   CHECK_INT_EQ(choice.candidates[0].algorithm, VF_ALGO_PT);
