@@ -64,9 +64,10 @@
  * bpt's predicted efficiency over the tile (the inverse of its variance times the cost of
  * a camera sub-path) is the margin times vcm's. Tiles, not pixels, and merging the
  * default, because a short pilot of bpt misses what bpt samples rarely: on the showcase, a
- * region whose bpt pilot predicted 0.8-1.6 times vcm's efficiency had 6-30 times vcm's
- * squared error after 256 iterations, and pixel by pixel half of its pixels lost merging
- * (the smoothed estimates' noise against the margin), which tripled the image's error
+ * region of 32 x 32 pixels whose bpt pilot predicted 0.65-1.0 times vcm's efficiency had
+ * 6-34 times vcm's squared error after 256 iterations; decided pixel by pixel, half or
+ * more of its pixels lost merging (the smoothed estimates' noise against the margin), and
+ * the image's relative RMSE rose 1.2-2.9 times
  * (docs/BENCHMARKS.md, "Merging per pixel").
  * The counts then follow each pixel's own algorithm, k_p proportional to sqrt(v_p / c_p)
  * (Cauchy-Schwarz with the pixels' costs c_p). */
