@@ -435,13 +435,6 @@ void vf_jobs_pause(vf_farm *farm, uint64_t job_id, int pause, vf_farm_reply *r) 
   }
   vf_log("job %llu %s", (unsigned long long)job->id, pause ? "paused" : "resumed");
   vf_events_add(&job->events, vf_unix_now(), pause ? "job_paused" : "job_resumed", job->id, "", "%s", r->text);
-  if (job->film->samples != NULL) {
-    vf_log("job %llu: submitted with its allocation, no pilot to run: pilot of %d iterations counted as done; %s",
-           (unsigned long long)job->id, job->settings.pilot, job->allocation_summary);
-    vf_events_add(&job->events, job->submitted_at, "pilot_done", job->id, "",
-                  "submitted with its allocation (pilot of %d iterations counted as done); %s", job->settings.pilot,
-                  job->allocation_summary);
-  }
   farm->state_dirty = 1; /* the event, with the next write of the job list */
   vf_farm_reply_ack(r, 1, r->text);
 }

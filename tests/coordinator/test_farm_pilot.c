@@ -15,11 +15,14 @@
 #include "common/error.h"
 #include "common/film_wire.h"
 #include "common/settings.h"
+#include "coordinator/events.h"
 #include "coordinator/farm.h"
+#include "coordinator/jobs.h"
 #include "coordinator/state.h"
 #include "farm_calls.h"
 
 #include <stdlib.h>
+#include <string.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -326,6 +329,17 @@ static void test_a_job_submitted_with_its_allocation_runs_no_pilot(void) {
   CHECK(memcmp(f.allocation_hash, hash, 32) == 0);
   CHECK_INT_EQ(f.begin, 0);
   CHECK_INT_EQ(f.end, 8);
+  /* One pilot_done event, the submission's: pausing and resuming the job adds none. */
+  for (int pause = 1; pause >= 0; pause--) {
+    vf_farm_reply r;
+    vf_farm_reply_init(&r);
+    vf_jobs_pause(&f.farm, f.job, pause, &r);
+    vf_farm_reply_release(&r);
+  }
+  int pilot_events = 0;
+  for (unsigned i = 0; i < job->events.count; i++)
+    pilot_events += strcmp(vf_events_at(&job->events, i)->kind, "pilot_done") == 0;
+  CHECK_INT_EQ(pilot_events, 1);
   /* Its film was written before the answer: a coordinator started on the state directory
    * now (no checkpoint since) resumes the job with it. */
   vf_farm_destroy(&f.farm);
