@@ -124,20 +124,26 @@ void vf_render_job_format_stop(const vf_cli_stop *stop, uint64_t start, char *ou
     append(out, n, "%s%sestimated RMSE <= %g", sep, conditions > 1 ? "" : "until ", stop->target_error);
 }
 
+/* A candidate's name: its algorithm, and the share of pixels that merge for vcm merging
+ * per pixel. */
+static void print_candidate(const vf_auto_choice *choice, int i) {
+  double merging = choice->candidates[i].merging;
+  fputs(vf_algorithm_name(choice->candidates[i].algorithm), stderr);
+  if (merging > 0.0 && merging < 1.0) fprintf(stderr, " merging in %.1f%% of pixels", 100.0 * merging);
+}
+
 void vf_render_job_print_choice(const vf_auto_choice *choice, int pilot) {
   fprintf(stderr, "auto: pilots of %d iterations (%.2f s); efficiency, 1 / (s an iteration x variance):", pilot,
           choice->render_seconds);
   for (int i = 0; i < choice->count; i++) {
-    double merging = choice->candidates[i].merging;
-    fprintf(stderr, "%s %s", i ? "," : "", vf_algorithm_name(choice->candidates[i].algorithm));
-    if (merging > 0.0 && merging < 1.0) fprintf(stderr, " merging in %.1f%% of pixels", 100.0 * merging);
+    fputs(i ? ", " : " ", stderr);
+    print_candidate(choice, i);
     fprintf(stderr, " %.4g (%.2f camera sub-paths a pixel)", choice->candidates[i].efficiency,
             choice->candidates[i].camera_subpaths);
   }
-  double merging = choice->candidates[choice->chosen].merging;
-  fprintf(stderr, "; chose %s", vf_algorithm_name(choice->algorithm));
-  if (merging > 0.0 && merging < 1.0) fprintf(stderr, " merging in %.1f%% of pixels", 100.0 * merging);
-  fprintf(stderr, "\n");
+  fputs("; chose ", stderr);
+  print_candidate(choice, choice->chosen);
+  fputs("\n", stderr);
 }
 
 void vf_render_job_print_details(const vf_settings *settings, const vf_renderer *renderer) {

@@ -85,12 +85,12 @@ static double counts_for(const double *sigma, const double *variance, const doub
     uint8_t k = level_of(scale * sigma[p]);
     if (samples) samples[p] = (uint8_t)((samples[p] & VF_ALLOCATION_NO_MERGING) | k);
     spent += cost ? k * cost[p] : k;
-    base += cost ? cost[p] : 1.0;
+    if (cost) base += cost[p];
     error += variance[p] / k;
     total += variance[p];
   }
   if (mean_variance) *mean_variance = error / (double)n;
-  if (!cost) base = (double)n; /* as it always was: the sum of n ones, exactly */
+  if (!cost) base = (double)n;
   return error > 0.0 ? base * total / (spent * error) : 1.0;
 }
 
