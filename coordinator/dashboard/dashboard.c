@@ -86,7 +86,7 @@ static void publish(vf_dashboard *d, int force) {
   int watched = force || d->refresh || now - d->wanted_at < WATCHED_SECONDS;
   for (int i = 0; i < WATCHED_JOBS; i++) {
     watched_job *w = &d->watched[i];
-    wanted[i] = w->job_id && (now - w->wanted < WATCHED_SECONDS || w->published < w->wanted) ? w->job_id : 0;
+    wanted[i] = w->job_id && (force || now - w->wanted < WATCHED_SECONDS || w->published < w->wanted) ? w->job_id : 0;
   }
   pthread_mutex_unlock(&d->lock);
   if (!watched) return;
@@ -194,23 +194,19 @@ static void on_wake(uv_async_t *handle) {
   pending *queue = d->queue;
   d->queue = NULL;
   pthread_mutex_unlock(&d->lock);
-  int acted = queue != NULL;
+  for (pending *p = queue; p; p = p->next) /* the loop's thread owns p's result until done is set */
+    p->status = run_action(d, &p->action, p->message, sizeof p->message);
+  /* Published before any action is answered: a page that reads after its answer sees its effect. */
+  publish(d, queue != NULL);
+  pthread_mutex_lock(&d->lock);
   while (queue) {
     pending *p = queue;
     queue = p->next;
-    char message[sizeof p->message];
-    int status = run_action(d, &p->action, message, sizeof message);
-    pthread_mutex_lock(&d->lock);
-    if (p->abandoned) {
-      free(p);
-    } else {
-      p->status = status;
-      memcpy(p->message, message, sizeof message);
-      p->done = 1;
-    }
-    pthread_mutex_unlock(&d->lock);
+    if (p->abandoned) free(p);
+    else p->done = 1;
   }
-  publish(d, acted); /* after an action, the page sees its effect at once */
+  pthread_cond_broadcast(&d->changed);
+  pthread_mutex_unlock(&d->lock);
 }
 
 static void on_publish(uv_timer_t *timer) { publish(timer->data, 0); }
