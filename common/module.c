@@ -46,14 +46,14 @@ static void load(vf_module *m) {
     void *handle = dlopen(candidates[i], RTLD_NOW | RTLD_LOCAL);
     if (handle == NULL) {
       const char *why = dlerror();
-      snprintf(m->failure, sizeof m->failure, "%s (%s) cannot be loaded: %.1024s", m->what, candidates[i],
+      snprintf(m->failure, sizeof m->failure, "%s (%.900s) cannot be loaded: %.900s", m->what, candidates[i],
                why ? why : "?");
       return;
     }
     vf_module_open_fn entry = (vf_module_open_fn)dlsym(handle, VF_MODULE_ENTRY);
     const vf_module_head *head = entry ? entry(m->version, vf_error_set) : NULL;
     if (head == NULL || head->version != m->version || head->size != m->size) {
-      snprintf(m->failure, sizeof m->failure, "%s (%s) is of another vcmfarm version (module version %d wanted)",
+      snprintf(m->failure, sizeof m->failure, "%s (%.1024s) is of another vcmfarm version (module version %d wanted)",
                m->what, candidates[i], m->version);
       dlclose(handle);
       return;
