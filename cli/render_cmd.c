@@ -79,7 +79,7 @@ static int render(const vf_render_job *o) {
   /* --allocation-from: FILM's allocation, and no pilot rendered (vf_render_pilot skips a
    * film that has one). */
   if (o->allocation_from &&
-      (err = vf_render_job_allocation_from(o->allocation_from, o->overrides.pilot, &settings, &samples)) != VF_OK)
+      (err = vf_render_job_allocation_from(o->allocation_from, scene->hash, o->overrides.pilot, &settings, &samples)) != VF_OK)
     goto done;
   if ((err = vf_settings_validate(&settings)) != VF_OK) goto done;
   if (o->stop.reference &&

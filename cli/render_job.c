@@ -152,7 +152,8 @@ void vf_render_job_print_details(const vf_settings *settings, const vf_renderer 
   vf_vcm_describe(vf_renderer_vcm(renderer), stderr);
 }
 
-int vf_render_job_allocation_from(const char *path, long long pilot_option, vf_settings *settings, uint8_t **samples) {
+int vf_render_job_allocation_from(const char *path, const uint8_t scene_hash[32], long long pilot_option,
+                                  vf_settings *settings, uint8_t **samples) {
   vf_film *film = NULL;
   vf_settings recorded;
   int err = vf_film_read(path, &film);
@@ -160,6 +161,14 @@ int vf_render_job_allocation_from(const char *path, long long pilot_option, vf_s
   if (film->samples == NULL) {
     err = vf_error_set(VF_EUSAGE, "--allocation-from %s: the film has no allocation of camera sub-paths (%s)", path,
                        film->pilot ? "it is a pilot's film" : "it was rendered without a pilot, or before its pilot ended");
+    goto done;
+  }
+  if (memcmp(film->scene_hash, scene_hash, sizeof film->scene_hash) != 0) {
+    /* An allocation is a pilot's picture of one scene through one camera. */
+    err = vf_error_set(VF_EUSAGE, "--allocation-from %s: the film was rendered from another scene (its content hash "
+                       "%02x%02x%02x%02x..., this scene's %02x%02x%02x%02x...; another --camera or --background?)",
+                       path, film->scene_hash[0], film->scene_hash[1], film->scene_hash[2], film->scene_hash[3],
+                       scene_hash[0], scene_hash[1], scene_hash[2], scene_hash[3]);
     goto done;
   }
   if ((err = vf_settings_parse(&recorded, film->settings_text)) != VF_OK) {

@@ -34,16 +34,19 @@ typedef struct {
  * `auto` as the algorithm (which would choose by rendering pilots) the algorithm is FILM's.
  * FILM's pilot must then be the settings', its size theirs. *samples (malloc'ed, width x
  * height opaque counts, the caller frees) on success; VF_EUSAGE naming the file and the
- * mismatch (a film without an allocation, of another size or pilot), or FILM's reading
+ * mismatch (a film without an allocation, of another scene -- scene_hash, the content hash
+ * of the scene being rendered -- size or pilot), or FILM's reading
  * error with its name. The counts are moved, never interpreted (common/allocation.h). */
-int vf_render_job_allocation_from(const char *path, long long pilot_option, vf_settings *settings, uint8_t **samples);
+int vf_render_job_allocation_from(const char *path, const uint8_t scene_hash[32], long long pilot_option,
+                                  vf_settings *settings, uint8_t **samples);
 
 /* The --help lines of --allocation-from, shared by render and submit. */
 #define VF_CLI_ALLOCATION_FROM_HELP                                                          \
   "      --allocation-from FILM  with a pilot: the allocation of camera sub-paths FILM\n"   \
   "                           records (a film rendered with --pilot), instead of\n"        \
   "                           rendering the pilot; --pilot N must be FILM's (default:\n"   \
-  "                           FILM's), the size FILM's, and -a auto takes FILM's algorithm\n"
+  "                           FILM's), the scene and size FILM's, and -a auto takes\n"      \
+  "                           FILM's algorithm\n"
 
 /* The header of render and continue, what a user needs to know of the render before it
  * starts: "SCENE, WxH, ALGORITHM" (" (auto)" after what --algorithm auto chose), into

@@ -155,7 +155,7 @@ int vf_submit(vf_farm_client *client, int timeout_ms, const vf_submit_job *job, 
   vf_settings settings = scene->settings;
   if (job->overrides && (err = vf_cli_settings_apply(job->overrides, &settings)) != VF_OK) goto done;
   if (job->allocation_from &&
-      (err = vf_render_job_allocation_from(job->allocation_from, job->overrides ? job->overrides->pilot : -1, &settings,
+      (err = vf_render_job_allocation_from(job->allocation_from, scene->hash, job->overrides ? job->overrides->pilot : -1, &settings,
                                            &samples)) != VF_OK)
     goto done;
   char settings_text[512];

@@ -92,7 +92,7 @@ check "allocation in info" "$("$vcmfarm" info --json "$tmp/pilot6.exr" | jq -e '
 expect_refusal "films of different pilots do not merge" "pilot=8" "$vcmfarm" merge -o "$tmp/out.exr" "$tmp/pilot6.exr" "$tmp/pilot8.exr"
 # --allocation-from FILM: FILM's allocation instead of a pilot, for a render of FILM's size
 # and pilot (its pilot by default), so the film is the one the pilot would have given; a film
-# without one, of another size or pilot is refused naming it, for render and for submit
+# without one, of another scene, size or pilot is refused naming it, for render and for submit
 # (below, with the key: before anything is sent).
 "$vcmfarm" render cornell -R 24x16 -n 6 --allocation-from "$tmp/pilot6.exr" -o "$tmp/from6.exr" 2>"$tmp/stderr"
 check "--allocation-from renders" $?
@@ -107,6 +107,8 @@ expect_refusal "--allocation-from a film of another size" "--allocation-from $tm
   "$vcmfarm" render cornell -R 32x16 --allocation-from "$tmp/pilot6.exr" -o "$tmp/out.exr"
 expect_refusal "--allocation-from a film of another pilot" "--allocation-from $tmp/pilot6.exr: its allocation comes from a pilot of 4 iterations, this render's pilot is 8" \
   "$vcmfarm" render cornell -R 24x16 --pilot 8 --allocation-from "$tmp/pilot6.exr" -o "$tmp/out.exr"
+expect_refusal "--allocation-from a film of another scene" "--allocation-from $tmp/pilot6.exr: the film was rendered from another scene" \
+  "$vcmfarm" render cornell-glossy -R 24x16 --allocation-from "$tmp/pilot6.exr" -o "$tmp/out.exr"
 expect_refusal "--allocation-from a missing film" "--allocation-from $tmp/absent.exr" \
   "$vcmfarm" render cornell -R 24x16 --allocation-from "$tmp/absent.exr" -o "$tmp/out.exr"
 # upg: its side is an option of upg alone, named when wrong; its render counts its
@@ -247,6 +249,8 @@ expect_quick "submit --allocation-from a film of another pilot" 2 "--allocation-
   "$vcmfarm" submit cornell -R 24x16 --pilot 8 --allocation-from "$tmp/pilot6.exr" --coordinator "ipc://$tmp/live.sock" --secret "$tmp/farm.key"
 expect_quick "submit --allocation-from a film of another size" 2 "--allocation-from $tmp/pilot6.exr: the film is 24x16, this render 16x16" \
   "$vcmfarm" submit cornell -R 16x16 --allocation-from "$tmp/pilot6.exr" --coordinator "ipc://$tmp/live.sock" --secret "$tmp/farm.key"
+expect_quick "submit --allocation-from a film of another scene" 2 "--allocation-from $tmp/pilot6.exr: the film was rendered from another scene" \
+  "$vcmfarm" submit cornell-glossy -R 24x16 --allocation-from "$tmp/pilot6.exr" --coordinator "ipc://$tmp/live.sock" --secret "$tmp/farm.key"
 expect_quick "submit --allocation-from a film without an allocation" 2 "--allocation-from $tmp/beta1.exr: the film has no allocation of camera sub-paths" \
   "$vcmfarm" submit cornell -R 24x16 --allocation-from "$tmp/beta1.exr" --coordinator "ipc://$tmp/live.sock" --secret "$tmp/farm.key"
 expect_quick "submit to a coordinator that is down, over tcp://" 1 "no coordinator answered at tcp://127.0.0.1:1 " \
