@@ -122,6 +122,7 @@ int vf_submit(vf_farm_client *client, int timeout_ms, const vf_submit_job *job, 
   size_t len = 0;
   vf_blob_table reference_file = {0}, text_file = {0}, allocation_file = {0};
   uint8_t *samples = NULL; /* the job's allocation, when it ships one; owned */
+  double pilot_render_seconds = 0.0, pilot_cpu_seconds = 0.0; /* auto's pilots, rendered here */
   vf_scene *scene = NULL;
   vf_image reference_image = {0};
   Vcmfarm__Envelope *reply = NULL;
@@ -171,6 +172,8 @@ int vf_submit(vf_farm_client *client, int timeout_ms, const vf_submit_job *job, 
       goto done;
     }
     if ((err = vf_render_choose_algorithm(scene, &settings, 0, NULL, samples, &choice)) != VF_OK) goto done;
+    pilot_render_seconds = choice.render_seconds;
+    pilot_cpu_seconds = choice.cpu_seconds;
     if (job->log_prefix) vf_render_job_print_choice(&choice, settings.pilot);
   }
   if (samples != NULL) {
@@ -269,7 +272,11 @@ int vf_submit(vf_farm_client *client, int timeout_ms, const vf_submit_job *job, 
   m.target_rmse = job->target_rmse;
   m.target_error = job->target_error;
   if (reference_file.count > 0) m.reference = &reference_ref;
-  if (allocation_file.count > 0) m.allocation = &allocation_ref;
+  if (allocation_file.count > 0) {
+    m.allocation = &allocation_ref;
+    m.pilot_render_seconds = pilot_render_seconds; /* the film counts them, as render's does */
+    m.pilot_cpu_seconds = pilot_cpu_seconds;
+  }
   /* The renderer's own rule, so that status shows what every worker will render. */
   if (vf_algorithm_is_auto(settings.algorithm))
     m.algorithm_resolved = (char *)vf_algorithm_name(vf_vcm_auto_algorithm(scene, settings.algorithm, NULL));

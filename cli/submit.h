@@ -5,7 +5,8 @@
  * sub-paths is known here (the one `--algorithm auto` chose by the candidates' pilots, or
  * FILM's with --allocation-from) sends it as a blob too (protocol 12): the farm then renders
  * with those counts from the start, runs no pilot, and its film is the local render's with
- * the same allocation, whatever made it. */
+ * the same allocation, whatever made it; auto's pilots' seconds go with it (protocol 13)
+ * and count in the film's times. */
 #ifndef VF_SUBMIT_H
 #define VF_SUBMIT_H
 

@@ -31,7 +31,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
-#define VF_PROTOCOL_VERSION 12u
+#define VF_PROTOCOL_VERSION 13u
 #define VF_WIRE_MAGIC "VCMF"
 #define VF_WIRE_NONCE_SIZE 24u
 #define VF_WIRE_HEADER_SIZE (20u + VF_WIRE_NONCE_SIZE)

@@ -64,6 +64,19 @@ void vf_jobs_submit(vf_farm *farm, const Vcmfarm__SubmitJob *m, vf_farm_reply *r
       free(samples);
     }
   }
+  /* The client's pilots (version 13) count in the film's times as a farm pilot's do. */
+  if (err == VF_OK && (m->pilot_render_seconds != 0.0 || m->pilot_cpu_seconds != 0.0)) {
+    if (!m->allocation)
+      err = vf_error_set(VF_EINVAL, "pilot_render_seconds, pilot_cpu_seconds: pilot seconds without an allocation");
+    else if (!(m->pilot_render_seconds >= 0.0 && m->pilot_render_seconds <= 1e9) ||
+             !(m->pilot_cpu_seconds >= 0.0 && m->pilot_cpu_seconds <= 1e9))
+      err = vf_error_set(VF_EINVAL, "pilot_render_seconds %g, pilot_cpu_seconds %g: seconds from 0 to 1e9",
+                         m->pilot_render_seconds, m->pilot_cpu_seconds);
+    else {
+      job->film->render_seconds += m->pilot_render_seconds;
+      job->film->cpu_seconds += m->pilot_cpu_seconds;
+    }
+  }
   if (err != VF_OK) {
     vf_state_remove_job_files(farm->config.state_dir, job->id);
     vf_job_destroy(job);

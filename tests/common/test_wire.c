@@ -202,26 +202,26 @@ static void test_refusal_of_a_wrong_key(void) {
   free(reply);
 }
 
-/* Frames of versions 11 and 13 (this layout) and of version 7 (HMAC in clear) under the
+/* Frames of versions 12 and 14 (this layout) and of version 7 (HMAC in clear) under the
  * farm key are authentic and refused as another version, and answered so that their
  * sender can tell. */
 static void test_other_versions_are_told_apart(void) {
   uint8_t payload[3] = {1, 2, 3}, *p = NULL;
   size_t plen, len;
   vf_wire_stamp stamp = {0};
-  uint8_t *f13 = hand_sealed(&key_a, 13, vf_wire_now_ms(), NULL, payload, sizeof payload, &len);
-  CHECK_INT_EQ(vf_wire_open(&key_a, NULL, f13, len, &p, &plen, &stamp), VF_EVERSION);
-  CHECK_STR_CONTAINS(vf_error_detail(VF_EVERSION), "version 13");
-  CHECK_INT_EQ(stamp.version, 13);
-  CHECK(memcmp(stamp.nonce, f13 + 20, 24) == 0);
-  CHECK_INT_EQ(vf_wire_open(&key_b, NULL, f13, len, &p, &plen, &stamp), VF_EAUTH);
-  free(f13);
-  /* Version 11, the layout of this one before a job could be submitted with its allocation:
-   * a peer of that build is told which versions differ. */
-  uint8_t *f11 = hand_sealed(&key_a, 11, vf_wire_now_ms(), NULL, payload, sizeof payload, &len);
-  CHECK_INT_EQ(vf_wire_open(&key_a, NULL, f11, len, &p, &plen, &stamp), VF_EVERSION);
-  CHECK_STR_CONTAINS(vf_error_detail(VF_EVERSION), "peer speaks protocol version 11, this vcmfarm speaks version 12");
-  free(f11);
+  uint8_t *f14 = hand_sealed(&key_a, 14, vf_wire_now_ms(), NULL, payload, sizeof payload, &len);
+  CHECK_INT_EQ(vf_wire_open(&key_a, NULL, f14, len, &p, &plen, &stamp), VF_EVERSION);
+  CHECK_STR_CONTAINS(vf_error_detail(VF_EVERSION), "version 14");
+  CHECK_INT_EQ(stamp.version, 14);
+  CHECK(memcmp(stamp.nonce, f14 + 20, 24) == 0);
+  CHECK_INT_EQ(vf_wire_open(&key_b, NULL, f14, len, &p, &plen, &stamp), VF_EAUTH);
+  free(f14);
+  /* Version 12, the layout of this one before a submission carried its pilots' seconds: a
+   * peer of that build is told which versions differ. */
+  uint8_t *f12 = hand_sealed(&key_a, 12, vf_wire_now_ms(), NULL, payload, sizeof payload, &len);
+  CHECK_INT_EQ(vf_wire_open(&key_a, NULL, f12, len, &p, &plen, &stamp), VF_EVERSION);
+  CHECK_STR_CONTAINS(vf_error_detail(VF_EVERSION), "peer speaks protocol version 12, this vcmfarm speaks version 13");
+  free(f12);
 
   uint8_t f7[12 + 3 + 32];
   memcpy(f7, "VCMF", 4);

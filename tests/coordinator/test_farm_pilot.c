@@ -6,9 +6,11 @@
  * part of the image rendered with another allocation (or none) is refused, and that a
  * pilot film written to the state directory and read back resumes the pilot. A job
  * submitted with its allocation (protocol 12) runs no pilot, has it in its film (durable
- * before the answer: a farm loaded from the state directory after it resumes with it), and
- * an allocation of the wrong size, of invalid counts, or on a job without a pilot or with
- * auto choosing by pilots is refused, and merging turned off in a pixel only for vcm. */
+ * before the answer: a farm loaded from the state directory after it resumes with it) with
+ * the seconds the client's pilots took in its times (protocol 13), and an allocation of the
+ * wrong size, of invalid counts, or on a job without a pilot or with auto choosing by
+ * pilots is refused, as are pilot seconds out of range or without an allocation, and
+ * merging turned off in a pixel only for vcm. */
 #include "check.h"
 #include "common/allocation.h"
 #include "common/blob.h"
@@ -21,6 +23,7 @@
 #include "coordinator/state.h"
 #include "farm_calls.h"
 
+#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
@@ -266,13 +269,16 @@ static void test_a_pilot_film_written_and_read_back_resumes_the_pilot(void) {
 }
 
 /* Submits the job of the fixture's settings (or `settings_text`) with the allocation
- * `samples` of n bytes, put in the state directory's blob store first as a client sends
- * it. The reply's kind and, for an error, its message into message. Its id, 0 if refused. */
-static uint64_t submit_with_allocation(vf_farm *farm, const char *settings_text, const uint8_t *samples, size_t n,
-                                       char *message, size_t size) {
+ * `samples` of n bytes (NULL: none), put in the state directory's blob store first as a
+ * client sends it, and the seconds the client's pilots took (version 13). The reply's kind
+ * and, for an error, its message into message. Its id, 0 if refused. */
+static uint64_t submit_given(vf_farm *farm, const char *settings_text, const uint8_t *samples, size_t n,
+                             double pilot_render_seconds, double pilot_cpu_seconds, char *message, size_t size) {
   uint8_t hash[32];
-  vf_blob_hash(samples, n, hash);
-  CHECK_INT_EQ(vf_blob_store_put(farm->config.state_dir, hash, samples, n), VF_OK);
+  if (samples) {
+    vf_blob_hash(samples, n, hash);
+    CHECK_INT_EQ(vf_blob_store_put(farm->config.state_dir, hash, samples, n), VF_OK);
+  }
   Vcmfarm__Scene scene = VCMFARM__SCENE__INIT;
   scene.source_case = VCMFARM__SCENE__SOURCE_BUILTIN;
   scene.builtin = "cornell";
@@ -287,7 +293,9 @@ static uint64_t submit_with_allocation(vf_farm *farm, const char *settings_text,
   sm.settings = (char *)settings_text;
   sm.iterations = 8;
   sm.priority = 1;
-  sm.allocation = &ref;
+  sm.allocation = samples ? &ref : NULL;
+  sm.pilot_render_seconds = pilot_render_seconds;
+  sm.pilot_cpu_seconds = pilot_cpu_seconds;
   Vcmfarm__Envelope q = VCMFARM__ENVELOPE__INIT;
   q.body_case = VCMFARM__ENVELOPE__BODY_SUBMIT;
   q.submit = &sm;
@@ -297,6 +305,11 @@ static uint64_t submit_with_allocation(vf_farm *farm, const char *settings_text,
   snprintf(message, size, "%s", r.env.body_case == VCMFARM__ENVELOPE__BODY_ERROR ? r.env.error->message : "");
   vf_farm_reply_release(&r);
   return id;
+}
+
+static uint64_t submit_with_allocation(vf_farm *farm, const char *settings_text, const uint8_t *samples, size_t n,
+                                       char *message, size_t size) {
+  return submit_given(farm, settings_text, samples, n, 0.0, 0.0, message, size);
 }
 
 static void test_a_job_submitted_with_its_allocation_runs_no_pilot(void) {
@@ -311,11 +324,13 @@ static void test_a_job_submitted_with_its_allocation_runs_no_pilot(void) {
   uint8_t samples[W * H], hash[32];
   expected_allocation(samples);
   vf_blob_hash(samples, sizeof samples, hash);
-  f.job = submit_with_allocation(&f.farm, settings, samples, sizeof samples, message, sizeof message);
+  /* The client's pilots took 2.5 s of wall time and 4 of CPU: the film counts them. */
+  f.job = submit_given(&f.farm, settings, samples, sizeof samples, 2.5, 4.0, message, sizeof message);
   CHECK(f.job != 0);
   vf_job *job = job_of(&f);
   CHECK(job != NULL && job->film->samples != NULL && !vf_job_in_pilot(job));
   if (job == NULL || job->film->samples == NULL) return;
+  CHECK(job->film->render_seconds == 2.5 && job->film->cpu_seconds == 4.0);
   CHECK(memcmp(job->film->samples, samples, sizeof samples) == 0);
   CHECK(memcmp(job->allocation_hash, hash, 32) == 0);
   CHECK_INT_EQ(vf_job_pilot_done(job), PILOT);
@@ -351,6 +366,7 @@ static void test_a_job_submitted_with_its_allocation_runs_no_pilot(void) {
   if (back != NULL && back->film->samples != NULL) {
     CHECK(memcmp(back->film->samples, samples, sizeof samples) == 0);
     CHECK(memcmp(back->allocation_hash, hash, 32) == 0);
+    CHECK(back->film->render_seconds == 2.5 && back->film->cpu_seconds == 4.0);
   }
   vf_farm_destroy(&after);
 }
@@ -371,6 +387,15 @@ static void test_allocations_that_are_refused(void) {
   CHECK_INT_EQ(submit_with_allocation(&f.farm, settings, bad, sizeof bad, message, sizeof message), 0);
   CHECK_STR_CONTAINS(message, "allocation");
   CHECK_STR_CONTAINS(message, "pixel 389");
+  /* Pilot seconds out of range, or without an allocation. */
+  CHECK_INT_EQ(submit_given(&f.farm, settings, samples, sizeof samples, -1.0, 1.0, message, sizeof message), 0);
+  CHECK_STR_CONTAINS(message, "pilot_render_seconds -1, pilot_cpu_seconds 1: seconds from 0 to 1e9");
+  CHECK_INT_EQ(submit_given(&f.farm, settings, samples, sizeof samples, 1.0, NAN, message, sizeof message), 0);
+  CHECK_STR_CONTAINS(message, "seconds from 0 to 1e9");
+  CHECK_INT_EQ(submit_given(&f.farm, settings, samples, sizeof samples, 1.0, 2e9, message, sizeof message), 0);
+  CHECK_STR_CONTAINS(message, "seconds from 0 to 1e9");
+  CHECK_INT_EQ(submit_given(&f.farm, settings, NULL, 0, 1.0, 1.0, message, sizeof message), 0);
+  CHECK_STR_CONTAINS(message, "pilot seconds without an allocation");
   /* A job without a pilot, and auto choosing by pilots. */
   vf_settings s;
   vf_settings_default(&s);

@@ -146,16 +146,16 @@ static void test_frames(const char *url, const vf_wire_key *key) {
   vf_message_free(answer);
   if (n >= 0) nn_freemsg(reply);
 
-  /* Version 11: a peer from before a job could be submitted with its allocation. */
-  f = hand_sealed(key->bytes, 11, now, payload, plen, plen, &len, &stamp);
+  /* Version 12: a peer from before a submission carried its pilots' seconds. */
+  f = hand_sealed(key->bytes, 12, now, payload, plen, plen, &len, &stamp);
   n = raw_exchange(url, f, len, 5000, &reply);
   free(f);
   answer = NULL;
   ok = n >= 0 && vf_message_unpack(key, &stamp, reply, (size_t)n, &answer, NULL) == VF_OK &&
        answer->body_case == VCMFARM__ENVELOPE__BODY_ERROR && answer->error->code == VCMFARM__ERROR_CODE__ERROR_VERSION &&
-       strstr(answer->error->message, "peer speaks protocol version 11, this vcmfarm speaks version 12");
+       strstr(answer->error->message, "peer speaks protocol version 12, this vcmfarm speaks version 13");
   if (ok) printf("     coordinator says: %s\n", answer->error->message);
-  expect(ok, "a version-11 frame is refused, naming both versions");
+  expect(ok, "a version-12 frame is refused, naming both versions");
   vf_message_free(answer);
   if (n >= 0) nn_freemsg(reply);
 
