@@ -1,6 +1,7 @@
 #include "render_job.h"
 
 #include "../common/allocation.h"
+#include "../common/blob.h"
 
 #include "../common/error.h"
 #include "../common/image.h"
@@ -165,10 +166,11 @@ int vf_render_job_allocation_from(const char *path, const uint8_t scene_hash[32]
   }
   if (memcmp(film->scene_hash, scene_hash, sizeof film->scene_hash) != 0) {
     /* An allocation is a pilot's picture of one scene through one camera. */
+    char have[65], want[65];
+    vf_blob_hex(film->scene_hash, have);
+    vf_blob_hex(scene_hash, want);
     err = vf_error_set(VF_EUSAGE, "--allocation-from %s: the film was rendered from another scene (its content hash "
-                       "%02x%02x%02x%02x..., this scene's %02x%02x%02x%02x...; another --camera or --background?)",
-                       path, film->scene_hash[0], film->scene_hash[1], film->scene_hash[2], film->scene_hash[3],
-                       scene_hash[0], scene_hash[1], scene_hash[2], scene_hash[3]);
+                       "%.8s..., this scene's %.8s...; another --camera or --background?)", path, have, want);
     goto done;
   }
   if ((err = vf_settings_parse(&recorded, film->settings_text)) != VF_OK) {
