@@ -451,7 +451,7 @@ int vf_coordinator_run(const vf_coordinator_config *config) {
   c->unauthenticated_logged = c->refusal_time - UNAUTHENTICATED_LOG_SECONDS;
   c->stop = config->stop;
   vf_log_set_quiet(config->quiet);
-  int err = VF_OK, lock_fd = -1, recv_fd, send_fd;
+  int err = VF_OK, recv_fd, send_fd;
   signal(SIGPIPE, SIG_IGN);
   if (config->key) c->key = *config->key;
   else if ((err = vf_wire_key_load(config->secret_path, &c->key)) != VF_OK) goto free_farm;
@@ -459,7 +459,7 @@ int vf_coordinator_run(const vf_coordinator_config *config) {
     goto free_farm;
   if ((err = vf_replay_create(VF_REPLAY_CAPACITY, &c->replay)) != VF_OK) goto free_farm;
   vf_replay_start(c->replay, vf_wire_now_ms());
-  if ((err = vf_state_lock(config->state_dir, &lock_fd)) != VF_OK) goto free_farm;
+  if ((err = vf_state_lock(config->state_dir, &c->farm.state_lock_fd)) != VF_OK) goto free_farm;
   if ((err = vf_state_load(&c->farm)) != VF_OK) goto unlock;
   vf_blobs_collect(&c->farm, 86400.0); /* before serving anyone, then every hour */
   c->last_collect = vf_seconds_now();
@@ -562,7 +562,7 @@ close_socket:
   remove_gate_dir(c);
   while (c->pending != NULL) drop_pending(c);
 unlock:
-  close(lock_fd);
+  close(c->farm.state_lock_fd);
 free_farm:
   vf_replay_destroy(c->replay);
   vf_farm_destroy(&c->farm);

@@ -10,6 +10,7 @@ void vf_farm_init(vf_farm *farm, const vf_farm_config *config) {
   memset(farm, 0, sizeof *farm);
   farm->config = *config;
   farm->next_job_id = 1;
+  farm->state_lock_fd = -1;
   farm->started_at = vf_unix_now();
   vf_lease_table_init(&farm->leases);
   vf_events_init(&farm->events, farm->events_storage, VF_FARM_EVENTS);

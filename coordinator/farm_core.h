@@ -72,6 +72,9 @@ typedef struct vf_farm {
   double started_at;       /* Unix seconds, vf_farm_init */
   vf_lease_table leases;   /* coordinator/leases.h */
   int state_dirty;         /* the job list changed since state.json was written */
+  /* The open, flocked lock file of the state directory (vf_state_lock), owned; -1 when the
+   * farm holds none (tests of the farm alone). vf_state_recreate replaces it. */
+  int state_lock_fd;
   /* A change that should not wait for the next checkpoint (a failed lease counted, a
    * worker blocked: coordinator/poison.h): state.json is written at the next tick. */
   int state_urgent;

@@ -578,17 +578,23 @@ static int make_dirs(const char *dir) {
 int vf_state_recreate(vf_farm *farm) {
   const char *dir = farm->config.state_dir;
   struct stat st;
-  if (stat(dir, &st) == 0 || errno != ENOENT) return 0;
+  /* Deleted: the path is gone. Emptied (its files deleted, or the directory deleted and made
+   * again by someone else, or a deletion that lost a race with a file being written and left
+   * the directory behind): the held lock file has no name any more. */
+  int deleted = stat(dir, &st) != 0 && errno == ENOENT;
+  int emptied = !deleted && farm->state_lock_fd >= 0 && fstat(farm->state_lock_fd, &st) == 0 && st.st_nlink == 0;
+  if (!deleted && !emptied) return 0;
   int err = make_dirs(dir), lock_fd = -1;
   if (err == VF_OK) err = vf_state_lock(dir, &lock_fd);
   if (err != VF_OK) {
-    vf_log("the state directory %s is gone and cannot be made again: %s; the jobs' films stay in memory, retried at "
-           "the next checkpoint", dir, vf_error_detail(err));
+    vf_log("the state directory %s is %s and cannot be made again: %s; the jobs' films stay in memory, retried at "
+           "the next checkpoint", dir, deleted ? "gone" : "emptied", vf_error_detail(err));
     return err;
   }
-  /* lock_fd stays open until the coordinator exits: the lock of the new directory */
-  vf_log("the state directory %s was deleted: made again; every job's scene, reference, film and the job list are "
-         "written again", dir);
+  if (farm->state_lock_fd >= 0) close(farm->state_lock_fd);
+  farm->state_lock_fd = lock_fd;
+  vf_log("the state directory %s was %s: made again; every job's scene, reference, film and the job list are "
+         "written again", dir, deleted ? "deleted" : "emptied");
   for (size_t i = 0; i < farm->num_jobs; i++) {
     vf_job *job = farm->jobs[i];
     char path[4096];

@@ -44,6 +44,7 @@ int vf_state_load(vf_farm *farm);
 int vf_state_save_index(vf_farm *farm);          /* state.json; clears farm->state_dirty */
 
 /* A state directory deleted while the coordinator runs is made again (with its parents),
+ * and one emptied (its lock file, farm->state_lock_fd, has lost its name) is filled again:
  * locked again, and every job's scene text, file table and reference written again; every
  * film and the job list are marked to be written by the checkpoint that follows, so that no
  * finished job waits for a final film that cannot land and a restart finds its jobs. 0 when

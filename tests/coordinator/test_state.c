@@ -826,6 +826,56 @@ static void test_a_refused_jobs_files_are_removed(void) {
   vf_farm_destroy(&farm);
 }
 
+/* A state directory deleted under a running coordinator, or emptied with the directory left
+ * (a deletion that lost a race with a file being written), is made again and filled: scene
+ * and job list at once or at the next checkpoint, the film by it; neither when nothing is
+ * wrong. */
+static void test_a_deleted_or_emptied_directory_is_made_again(void) {
+  char dir[4200], path[8192];
+  const char *files[] = {"state.json", "job-1.scene", "job-1.exr", "lock"};
+  for (int emptied = 0; emptied < 2; emptied++) {
+    vf_farm farm;
+    snprintf(dir, sizeof dir, "%s/recreate", root);
+    vf_file_remove_tree(dir);
+    open_farm(&farm, dir);
+    CHECK_INT_EQ(vf_state_lock(dir, &farm.state_lock_fd), VF_OK);
+    vf_job *j = add_job(&farm, 1, "cornell", 0, 10);
+    if (j == NULL) return;
+    float rgb[3 * W * H] = {0};
+    CHECK_INT_EQ(vf_film_add_iteration(j->film, 0, rgb, rgb, NULL), VF_OK);
+    CHECK_INT_EQ(vf_state_save_scene(dir, j), VF_OK);
+    j->film_dirty = farm.state_dirty = 1;
+    CHECK_INT_EQ(vf_checkpoint_write(&farm, 0), VF_OK);
+    CHECK_INT_EQ(vf_state_recreate(&farm), 0); /* all there */
+    if (emptied) {
+      for (int i = 0; i < 4; i++) {
+        snprintf(path, sizeof path, "%s/%s", dir, files[i]);
+        CHECK_INT_EQ(unlink(path), 0);
+      }
+    } else {
+      vf_file_remove_tree(dir);
+      CHECK(access(dir, F_OK) != 0);
+    }
+    CHECK_INT_EQ(vf_checkpoint_write(&farm, 0), VF_OK); /* makes it again, then writes */
+    struct stat st;
+    CHECK_INT_EQ(fstat(farm.state_lock_fd, &st), 0);
+    CHECK_INT_EQ(st.st_nlink, 1); /* the new lock has its name */
+    for (int i = 0; i < 4; i++) {
+      snprintf(path, sizeof path, "%s/%s", dir, files[i]);
+      if (access(path, F_OK) != 0) CHECK_FAIL_("%s (%s) was not made again", path, emptied ? "emptied" : "deleted");
+    }
+    int other = -1; /* and it is locked */
+    CHECK_INT_EQ(vf_state_lock(dir, &other), VF_EIO);
+    close(farm.state_lock_fd);
+    vf_farm_destroy(&farm);
+    vf_farm back;
+    open_loaded(&back, dir);
+    CHECK_INT_EQ(back.num_jobs, 1);
+    if (back.num_jobs == 1) CHECK_INT_EQ(vf_job_done(back.jobs[0]), 1);
+    vf_farm_destroy(&back);
+  }
+}
+
 int main(void) {
   vf_log_set_quiet(1);
   /* Any order parses; the job's text is the canonical one (W x H). */
@@ -850,6 +900,7 @@ int main(void) {
   RUN(test_a_broken_film_fails_its_job_alone);
   RUN(test_format_1_is_read);
   RUN(test_one_coordinator_per_directory);
+  RUN(test_a_deleted_or_emptied_directory_is_made_again);
   RUN(test_a_refused_jobs_files_are_removed);
   RUN(test_a_saved_name_that_is_not_utf8_loads_sanitized);
   vf_file_remove_tree(root);

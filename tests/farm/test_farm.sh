@@ -648,7 +648,7 @@ state_deleted)
   wait_until 60 "job $job done with its state directory deleted" job_done
   recreated() { [ -s "$state/state.json" ] && [ -s "$state/job-$job.exr" ] && [ -s "$state/job-$job.scene" ]; }
   wait_until 10 "the state directory made again" recreated
-  grep -q "state directory .* was deleted: made again" "$tmp/coordinator.log" || fail "the coordinator did not say so"
+  grep -Eq "state directory .* was (deleted|emptied): made again" "$tmp/coordinator.log" || fail "the coordinator did not say so"
   "$vcmfarm" render cornell --direct -n "$iterations" -R 16x16 --seed 5 -j 1 -q -o "$tmp/reference.exr" ||
     fail "reference render failed"
   client fetch "$job" -o "$tmp/farm.exr" || fail "fetch failed"
