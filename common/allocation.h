@@ -34,7 +34,10 @@
  * count k_p times: light tracing's share at p weighs n_light / k_p light sub-paths against
  * one camera sub-path (tech. rep. eq. 31-33 and 46-47 with the camera side's count k_p),
  * so that the weights of every technique sampling a path through p still sum to one
- * (tests/worker/render/test_mis.c). The j-th camera sub-path of pixel p in iteration k
+ * (tests/worker/render/test_mis.c). In a vcm render of a scene without media, p's camera
+ * sub-paths merge with radius r / sqrt(k_p), so that merging's count falls by k_p as light
+ * tracing's does and the allocation does not move light from light tracing to merging
+ * (worker/render/pixel_radius.h, vf_merge_params_at). The j-th camera sub-path of pixel p in iteration k
  * takes point (k / 2) k_p + j of the pixel's sequence of replicate k mod 2
  * (common/sampler.h): an aligned block of k_p points, a (0, log2 k_p, 2)-net in every
  * pair of dimensions.

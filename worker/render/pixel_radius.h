@@ -36,34 +36,54 @@
  * up). VF_OK, or VF_ENOMEM with nothing allocated. */
 int vf_pixel_radius_create(vf_vcm *v);
 
+/* params with merge radius r: its eta_VCM = pi r^2 n_light (eq. 20), the weights' constants
+ * and the merges' normalisation. */
+static inline void vf_merge_params_radius(const vf_vcm *v, double r, merge_params *out) {
+  double eta = M_PI * r * r * (double)v->num_light_paths;
+  out->radius = (float)r;
+  out->radius_sq = (float)(r * r);
+  out->vm_normalization = (float)(1.0 / eta);
+  out->mis.vm_weight = v->vm_in_weights ? vf_mis_h(&out->mis, (float)eta) : 0.0f;
+  out->mis.vc_weight = v->vc_in_weights ? vf_mis_h(&out->mis, (float)(1.0 / eta)) : 0.0f;
+}
+
 /* The merge parameters of pixel `pixel` in the current iteration: the global ones, or with
- * a radius per pixel that pixel's radius and its eta_VCM. Past a pilot, a pixel of k
- * camera sub-paths weighs light tracing's n_light light sub-paths against k camera
- * sub-paths (common/allocation.h): its light_paths is n_light / k (exact: k is a power of
- * two), which the weights read where light tracing meets the camera (mis.h, eq. 31-33 and
- * 46-47), while the merges' eta_VCM keeps n_light (each camera sub-path merges with all of
- * them). A pixel whose allocation turns merging off (VF_ALLOCATION_NO_MERGING) gets bpt's
+ * a radius per pixel that pixel's radius and its eta_VCM.
+ *
+ * Past a pilot, a pixel of k camera sub-paths weighs light tracing's n_light light
+ * sub-paths against k camera sub-paths (common/allocation.h): its light_paths is n_light /
+ * k (exact: k is a power of two), which the weights read where light tracing meets the
+ * camera (mis.h, eq. 31-33 and 46-47). Its camera sub-paths merge with radius r / sqrt(k):
+ * eta_VCM, the merges' count against one connection, falls by k as light tracing's does,
+ * so that merging and light tracing keep the shares they have in a pixel of one camera
+ * sub-path while the camera's own techniques gain the k-fold count they sample. With the
+ * radius kept, merging's share against light tracing would grow k-fold, and with it the
+ * kernel's bias where the two carry the same light (a caustic through rough glass); with
+ * r / sqrt(k) each merge's bias falls by k and the k merges' variance is one merge's of
+ * radius r. Not in a scene with participating media: a light vertex after a medium vertex
+ * carries the iteration's radius (the merge in a medium weighs against a surface one by
+ * 4r / 3), so merging there keeps one radius for every pixel.
+ *
+ * A pixel whose allocation turns merging off (VF_ALLOCATION_NO_MERGING) gets bpt's
  * weights: eta_VCM = 0, and its camera sub-paths do not merge. */
 static inline void vf_merge_params_at(const vf_vcm *v, uint32_t pixel, merge_params *out) {
   *out = v->merge;
-  if (v->pixel_scale != NULL) {
-    double r = v->radius_exact * (double)v->pixel_scale[pixel];
-    double eta = M_PI * r * r * (double)v->num_light_paths; /* eq. (20) with this pixel's radius */
-    out->radius = (float)r;
-    out->radius_sq = (float)(r * r);
-    out->vm_normalization = (float)(1.0 / eta);
-    out->mis.vm_weight = v->vm_in_weights ? vf_mis_h(&out->mis, (float)eta) : 0.0f;
-    out->mis.vc_weight = v->vc_in_weights ? vf_mis_h(&out->mis, (float)(1.0 / eta)) : 0.0f;
+  double r = v->radius_exact * (v->pixel_scale != NULL ? (double)v->pixel_scale[pixel] : 1.0);
+  uint32_t k = 1;
+  if (v->allocated) {
+    uint8_t b = v->samples[pixel];
+    k = vf_allocation_count(b);
+    out->mis.light_paths = v->merge.mis.light_paths / (float)k;
+    if (!vf_allocation_merges(b)) {
+      /* bpt's weights in this pixel: no technique merges here (sec. 5.5: eta_VCM = 0). */
+      out->merges = 0;
+      out->mis.vm_weight = 0.0f;
+      out->mis.vc_weight = 0.0f;
+      return;
+    }
+    if (!v->vm_in_weights || v->has_media) k = 1;
   }
-  if (!v->allocated) return;
-  uint8_t b = v->samples[pixel];
-  out->mis.light_paths = v->merge.mis.light_paths / (float)vf_allocation_count(b);
-  if (!vf_allocation_merges(b)) {
-    /* bpt's weights in this pixel: no technique merges here (sec. 5.5: eta_VCM = 0). */
-    out->merges = 0;
-    out->mis.vm_weight = 0.0f;
-    out->mis.vc_weight = 0.0f;
-  }
+  if (v->pixel_scale != NULL || k > 1) vf_merge_params_radius(v, r / sqrt((double)k), out);
 }
 
 #endif

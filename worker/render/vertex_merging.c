@@ -74,7 +74,8 @@ int vf_vertex_merging_build_grid(vf_vcm *v, const light_chunk *chunks, unsigned 
                                        v->pool);
   if (err != VF_OK) return err;
   uint32_t n = vf_hashgrid_count(v->grid);
-  if (n > v->photon_capacity) {
+  int radius_free = vf_vcm_radii_vary(v); /* from the iteration a pilot's allocation arrives */
+  if (n > v->photon_capacity || (radius_free && v->photon_c_vc == NULL && n > 0)) {
     /* Photons aligned to the line, so that each lies in one; old contents are not kept.
      * Slack as for the vertices. */
     size_t capacity = n + n / 8 < UINT32_MAX ? (size_t)(n + n / 8) : UINT32_MAX;
@@ -86,7 +87,7 @@ int vf_vertex_merging_build_grid(vf_vcm *v, const light_chunk *chunks, unsigned 
       v->photon_source = malloc(capacity * sizeof *v->photon_source);
       if (v->photon_source == NULL) v->photon_capacity = 0;
     }
-    if (v->pixel_scale) {
+    if (radius_free) {
       free(v->photon_c_vc);
       v->photon_c_vc = malloc(capacity * sizeof *v->photon_c_vc);
       if (v->photon_c_vc == NULL) v->photon_capacity = 0;

@@ -734,7 +734,10 @@ static void print_path(const full_path *x, const technique_set *t, const double 
  * with a config of yet another radius, as the light pass traces them before any pixel is
  * known: the stored quantities must not depend on the radius. */
 static int g_pixel_radii;
-static double path_eta_scale(int p) { return g_pixel_radii ? pow(4.0, (double)(p % 5) - 2.0) : 1.0; }
+static int g_pixel_samples; /* below */
+static double path_eta_scale(int p) {
+  return (g_pixel_radii ? pow(4.0, (double)(p % 5) - 2.0) : 1.0) / (g_pixel_samples ? pow(2.0, (double)(p % 5)) : 1.0);
+}
 /* Single-stage vcm (worker/render/single_stage.h): the light sub-paths were traced in the
  * iteration before the weights', under its radius, eta_{k-1} / eta_k = (k / (k + 1))^(alpha
  * - 1), 2^0.25 for k = 1 at alpha 0.75. */
@@ -744,13 +747,12 @@ static double light_eta(double eta) {
 }
 
 /* Camera sub-paths allocated per pixel (common/allocation.h, --pilot): when set, the pixel
- * path p ends in traces 2^(p mod 5) camera sub-paths an iteration, 1 to 16, so that its
+ * path p ends in traces k = 2^(p mod 5) camera sub-paths an iteration, 1 to 16, so that its
  * camera techniques count that many times against light tracing's n_light: in eq. 12,
- * every count over the camera's is n_light / k for light tracing and unchanged for the
- * rest (merging's eta counts the light sub-paths each camera sub-path merges with). The
- * recursion takes it as the pixel's config does (worker/render/pixel_radius.h,
- * vf_merge_params_at), in the camera's d_vcm and light tracing's weight. */
-static int g_pixel_samples;
+ * every count over the camera's is n_light / k for light tracing, and eta / k for merging
+ * (its camera sub-paths merge with radius r / sqrt(k), path_eta_scale). The recursion takes
+ * it as the pixel's config does (worker/render/pixel_radius.h, vf_merge_params_at), in the
+ * camera's d_vcm, light tracing's weight and eta. */
 static double path_light_paths(int p) { return g_scene.n_light / (g_pixel_samples ? pow(2.0, (double)(p % 5)) : 1.0); }
 
 /* Checks every path of a set under one algorithm and eta; prints `examples` paths. */
