@@ -47,9 +47,9 @@
  * counts above and their predicted variance v = mean_p sum_c v_p / k_p (the report's) and
  * the cost of an iteration t_light + t_camera mean(k), its light and camera passes' measured
  * seconds per pilot iteration (the light sub-paths, light tracing and the grid do not grow
- * with k); it takes the largest 1 / (cost x v), pt's and vcm's counted over a margin of
- * 1.25, since what pt samples rarely and vcm's merging bias are in no estimate
- * (worker/render/render.h, vf_render_choose_algorithm). Times are measurements, so the choice is made once and kept
+ * with k); it takes the largest 1 / (cost x v), pt's counted over a margin of 1.25, since
+ * what pt samples rarely is in no estimate (worker/render/render.h,
+ * vf_render_choose_algorithm). Times are measurements, so the choice is made once and kept
  * in the settings (a farm job gets the allocation with it, docs/PROTOCOL.md "Pilots"); the
  * counts it hands on are the chosen algorithm's own, or those of merging per pixel below.
  *

@@ -200,16 +200,17 @@ done:
   return err;
 }
 
-/* What a candidate's predicted efficiency counts for in the choice: pt's and vcm's over the
- * margin, bpt's as it is, since bpt's pilot estimate is the one to trust. vcm's error is
- * variance and merging's bias, and the pilot's estimate sees only the variance (of its first
- * iterations, at the largest radii): on the glossy box vcm's predicted 1.0x bpt's
- * efficiency measured 0.59x over 128 iterations, on the lamp in glass its 2.4x measured 4x.
- * pt's estimate misses what pt samples rarely (caustics through glass, the fog's volumetric
- * caustic): on cornell-fog its pilot predicted 1.01x bpt's, and bpt with a pilot reached 0.1
- * four times sooner (docs/BENCHMARKS.md, "auto with a pilot", "cornell-fog with a pilot"). */
+/* What a candidate's predicted efficiency counts for in the choice: pt's over the margin,
+ * bpt's and vcm's (merging everywhere or per tile) as they are. pt's estimate misses what
+ * pt samples rarely (caustics through glass, the fog's volumetric caustic): on cornell-fog
+ * its pilot predicted 1.01x bpt's efficiency, and bpt with a pilot reached 0.1 four times
+ * sooner. vcm's error is variance and merging's bias, and the pilot's estimate sees only the
+ * variance; but at the default radius, since a pixel's radius shrinks with its camera
+ * sub-paths (pixel_radius.h), vcm with a pilot reaches 0.01 relative RMSE as soon as bpt
+ * with one or sooner on the boxes, where its pilot predicted 0.77-1.05x bpt's efficiency
+ * (docs/BENCHMARKS.md, "auto with a pilot", "auto to 0.01 relative RMSE"). */
 static double choice_score(const vf_auto_choice *choice, int i) {
-  return choice->candidates[i].efficiency / (choice->candidates[i].algorithm == VF_ALGO_BPT ? 1.0 : VF_AUTO_MARGIN);
+  return choice->candidates[i].efficiency / (choice->candidates[i].algorithm == VF_ALGO_PT ? VF_AUTO_MARGIN : 1.0);
 }
 
 /* The candidate of vcm merging per pixel (render.h), from bpt's and vcm's measured ones

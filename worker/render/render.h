@@ -79,9 +79,10 @@ int vf_render_pilot_range(vf_renderer *r, vf_film *pilot, uint64_t begin, uint64
 /* `--algorithm auto` with a pilot: the algorithm chosen by measuring each candidate's pilot
  * (vf_render_choose_algorithm): pt, bpt, vcm, and vcm merging in some pixels only. */
 #define VF_AUTO_CANDIDATES 4
-/* pt and vcm are chosen over bpt only when their predicted efficiency is at least this many
- * times bpt's (render.c, choice_score: vcm's merging bias and what pt samples rarely are in
- * no pilot's estimate). */
+/* pt is chosen over bpt and vcm only when its predicted efficiency is at least this many
+ * times theirs (render.c, choice_score: what pt samples rarely is in no pilot's estimate),
+ * and a tile keeps vcm's merging unless bpt's pilot predicts this many times vcm's
+ * efficiency over it (vf_allocation_choose: what bpt samples rarely, merging samples). */
 #define VF_AUTO_MARGIN 1.25
 typedef struct {
   vf_algorithm algorithm; /* the one chosen */
@@ -108,11 +109,11 @@ typedef struct {
  * k) v), t_light and t_camera the measured seconds of the pilot's light and camera passes
  * per iteration, k the allocation's mean camera sub-paths a pixel and v its predicted
  * variance (vf_allocation_report), and sets settings->algorithm to the most efficient,
- * pt's and vcm's efficiency counted over VF_AUTO_MARGIN. With both bpt's and vcm's pilots,
+ * pt's efficiency counted over VF_AUTO_MARGIN. With both bpt's and vcm's pilots,
  * a fourth candidate: vcm without merging in the pixels where bpt's pilot predicts
  * VF_AUTO_MARGIN times vcm's efficiency (vf_allocation_choose), its counts from each
  * pixel's own algorithm, its cost vcm's light pass and each pixel's camera sub-paths at its
- * algorithm's cost; it counts over the margin as vcm does, and is a candidate only when
+ * algorithm's cost; it is a candidate only when
  * some pixels merge and some do not.
  * The choice rests on measured times, so it is made once, by whoever starts the job, and
  * kept in the settings (a film or a farm job then names the algorithm, not auto); what is

@@ -585,7 +585,7 @@ static void test_the_estimate_covers_the_error(void) {
 }
 
 /* auto with a pilot: the pilots of pt, bpt and vcm measured, the most efficient chosen (pt
- * and vcm over a margin);
+ * over a margin);
  * on the lamp in a glass ball, whose light pt reaches only through emission hits along
  * specular chains, not pt. The chosen one's allocation is the one its own pilot gives
  * (here on one thread, there on two), so the job's film is that algorithm's, bit for bit. */
@@ -608,9 +608,9 @@ static void test_auto_chooses_by_its_pilots(void) {
            1e3 * choice.candidates[i].light_seconds, 1e3 * choice.candidates[i].camera_seconds);
     CHECK(choice.candidates[i].efficiency > 0.0 && choice.candidates[i].efficiency < 1e300);
     CHECK(choice.candidates[i].camera_subpaths >= 1.0 && choice.candidates[i].camera_subpaths <= VF_ALLOCATION_MAX);
-    /* pt and vcm (merging everywhere or per pixel) over the margin, bpt as it is */
-    double margin = choice.candidates[i].algorithm == VF_ALGO_BPT ? 1.0 : VF_AUTO_MARGIN;
-    double best_margin = choice.candidates[best].algorithm == VF_ALGO_BPT ? 1.0 : VF_AUTO_MARGIN;
+    /* pt over the margin, bpt and vcm (merging everywhere or per tile) as they are */
+    double margin = choice.candidates[i].algorithm == VF_ALGO_PT ? VF_AUTO_MARGIN : 1.0;
+    double best_margin = choice.candidates[best].algorithm == VF_ALGO_PT ? VF_AUTO_MARGIN : 1.0;
     if (choice.candidates[i].efficiency / margin > choice.candidates[best].efficiency / best_margin) best = i;
   }
   CHECK_INT_EQ(choice.candidates[0].algorithm, VF_ALGO_PT);
