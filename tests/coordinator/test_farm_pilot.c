@@ -7,7 +7,9 @@
  * pilot film written to the state directory and read back resumes the pilot. A job
  * submitted with its allocation (protocol 12) runs no pilot, has it in its film (durable
  * before the answer: a farm loaded from the state directory after it resumes with it) with
- * the seconds the client's pilots took in its times (protocol 13), and an allocation of the
+ * the seconds the client's pilots took in its times (protocol 13); one continuing a film
+ * from iteration K (`submit --allocation-from --start-iteration K`) leases from K with it;
+ * and an allocation of the
  * wrong size, of invalid counts, or on a job without a pilot or with auto choosing by
  * pilots is refused, as are pilot seconds out of range or without an allocation, and
  * merging turned off in a pixel only for vcm. */
@@ -268,12 +270,14 @@ static void test_a_pilot_film_written_and_read_back_resumes_the_pilot(void) {
   vf_farm_destroy(&f.farm);
 }
 
-/* Submits the job of the fixture's settings (or `settings_text`) with the allocation
- * `samples` of n bytes (NULL: none), put in the state directory's blob store first as a
- * client sends it, and the seconds the client's pilots took (version 13). The reply's kind
+/* Submits the job of the fixture's settings (or `settings_text`) from global iteration
+ * `first` with the allocation `samples` of n bytes (NULL: none), put in the state
+ * directory's blob store first as a client sends it, and the seconds the client's pilots
+ * took (version 13). The reply's kind
  * and, for an error, its message into message. Its id, 0 if refused. */
-static uint64_t submit_given(vf_farm *farm, const char *settings_text, const uint8_t *samples, size_t n,
-                             double pilot_render_seconds, double pilot_cpu_seconds, char *message, size_t size) {
+static uint64_t submit_given(vf_farm *farm, const char *settings_text, uint64_t first, const uint8_t *samples,
+                             size_t n, double pilot_render_seconds, double pilot_cpu_seconds, char *message,
+                             size_t size) {
   uint8_t hash[32];
   if (samples) {
     vf_blob_hash(samples, n, hash);
@@ -292,6 +296,7 @@ static uint64_t submit_given(vf_farm *farm, const char *settings_text, const uin
   sm.scene_hash = (ProtobufCBinaryData){32, (uint8_t *)scene_hash};
   sm.settings = (char *)settings_text;
   sm.iterations = 8;
+  sm.first_iteration = first;
   sm.priority = 1;
   sm.allocation = samples ? &ref : NULL;
   sm.pilot_render_seconds = pilot_render_seconds;
@@ -309,7 +314,7 @@ static uint64_t submit_given(vf_farm *farm, const char *settings_text, const uin
 
 static uint64_t submit_with_allocation(vf_farm *farm, const char *settings_text, const uint8_t *samples, size_t n,
                                        char *message, size_t size) {
-  return submit_given(farm, settings_text, samples, n, 0.0, 0.0, message, size);
+  return submit_given(farm, settings_text, 0, samples, n, 0.0, 0.0, message, size);
 }
 
 static void test_a_job_submitted_with_its_allocation_runs_no_pilot(void) {
@@ -325,7 +330,7 @@ static void test_a_job_submitted_with_its_allocation_runs_no_pilot(void) {
   expected_allocation(samples);
   vf_blob_hash(samples, sizeof samples, hash);
   /* The client's pilots took 2.5 s of wall time and 4 of CPU: the film counts them. */
-  f.job = submit_given(&f.farm, settings, samples, sizeof samples, 2.5, 4.0, message, sizeof message);
+  f.job = submit_given(&f.farm, settings, 0, samples, sizeof samples, 2.5, 4.0, message, sizeof message);
   CHECK(f.job != 0);
   vf_job *job = job_of(&f);
   CHECK(job != NULL && job->film->samples != NULL && !vf_job_in_pilot(job));
@@ -371,6 +376,49 @@ static void test_a_job_submitted_with_its_allocation_runs_no_pilot(void) {
   vf_farm_destroy(&after);
 }
 
+/* `submit --allocation-from FILM --start-iteration K`, continuing a film elsewhere: the job
+ * from iteration 1000 with the film's allocation runs no pilot, its first lease is
+ * [1000, 1008) naming the allocation, and a restart keeps both. */
+static void test_a_job_continued_with_its_allocation_starts_where_asked(void) {
+  char state[128], message[512];
+  snprintf(state, sizeof state, "%s/continued", dir);
+  CHECK(mkdir(state, 0700) == 0);
+  fixture f;
+  memset(&f, 0, sizeof f);
+  vf_farm_config config = {state, TIMEOUT, 1000.0, 0.0};
+  vf_farm_init(&f.farm, &config);
+  f.now = 1000.0;
+  uint8_t samples[W * H], hash[32];
+  expected_allocation(samples);
+  vf_blob_hash(samples, sizeof samples, hash);
+  f.job = submit_given(&f.farm, settings, 1000, samples, sizeof samples, 0.0, 0.0, message, sizeof message);
+  CHECK(f.job != 0);
+  vf_job *job = job_of(&f);
+  CHECK(job != NULL && job->film->samples != NULL && !vf_job_in_pilot(job));
+  if (job == NULL || job->film->samples == NULL) return;
+  CHECK_INT_EQ(job->first, 1000);
+  f.worker = farm_register(&f.farm, f.now, "w");
+  f.farm.workers[0].rate = 1e6;
+  lease(&f);
+  CHECK(!f.pilot);
+  CHECK(f.has_allocation);
+  CHECK(memcmp(f.allocation_hash, hash, 32) == 0);
+  CHECK_INT_EQ(f.begin, 1000);
+  CHECK_INT_EQ(f.end, 1008);
+  vf_farm_destroy(&f.farm);
+  vf_farm after;
+  vf_farm_init(&after, &config);
+  CHECK_INT_EQ(vf_state_load(&after), VF_OK);
+  const vf_job *back = vf_farm_job(&after, f.job);
+  CHECK(back != NULL && back->film->samples != NULL && !vf_job_in_pilot(back));
+  if (back != NULL && back->film->samples != NULL) {
+    CHECK_INT_EQ(back->first, 1000);
+    CHECK(memcmp(back->film->samples, samples, sizeof samples) == 0);
+    CHECK(memcmp(back->allocation_hash, hash, 32) == 0);
+  }
+  vf_farm_destroy(&after);
+}
+
 static void test_allocations_that_are_refused(void) {
   fixture f;
   setup(&f, 8);
@@ -388,13 +436,13 @@ static void test_allocations_that_are_refused(void) {
   CHECK_STR_CONTAINS(message, "allocation");
   CHECK_STR_CONTAINS(message, "pixel 389");
   /* Pilot seconds out of range, or without an allocation. */
-  CHECK_INT_EQ(submit_given(&f.farm, settings, samples, sizeof samples, -1.0, 1.0, message, sizeof message), 0);
+  CHECK_INT_EQ(submit_given(&f.farm, settings, 0, samples, sizeof samples, -1.0, 1.0, message, sizeof message), 0);
   CHECK_STR_CONTAINS(message, "pilot_render_seconds -1, pilot_cpu_seconds 1: seconds from 0 to 1e9");
-  CHECK_INT_EQ(submit_given(&f.farm, settings, samples, sizeof samples, 1.0, NAN, message, sizeof message), 0);
+  CHECK_INT_EQ(submit_given(&f.farm, settings, 0, samples, sizeof samples, 1.0, NAN, message, sizeof message), 0);
   CHECK_STR_CONTAINS(message, "seconds from 0 to 1e9");
-  CHECK_INT_EQ(submit_given(&f.farm, settings, samples, sizeof samples, 1.0, 2e9, message, sizeof message), 0);
+  CHECK_INT_EQ(submit_given(&f.farm, settings, 0, samples, sizeof samples, 1.0, 2e9, message, sizeof message), 0);
   CHECK_STR_CONTAINS(message, "seconds from 0 to 1e9");
-  CHECK_INT_EQ(submit_given(&f.farm, settings, NULL, 0, 1.0, 1.0, message, sizeof message), 0);
+  CHECK_INT_EQ(submit_given(&f.farm, settings, 0, NULL, 0, 1.0, 1.0, message, sizeof message), 0);
   CHECK_STR_CONTAINS(message, "pilot seconds without an allocation");
   /* A job without a pilot, and auto choosing by pilots. */
   vf_settings s;
@@ -439,6 +487,7 @@ int main(void) {
   RUN(test_a_pilot_part_is_never_merged_into_the_image);
   RUN(test_a_pilot_film_written_and_read_back_resumes_the_pilot);
   RUN(test_a_job_submitted_with_its_allocation_runs_no_pilot);
+  RUN(test_a_job_continued_with_its_allocation_starts_where_asked);
   RUN(test_allocations_that_are_refused);
   char cmd[128];
   snprintf(cmd, sizeof cmd, "rm -rf '%s'", dir);
