@@ -317,38 +317,72 @@ static uint64_t submit_with_allocation(vf_farm *farm, const char *settings_text,
   return submit_given(farm, settings_text, 0, samples, n, 0.0, 0.0, message, size);
 }
 
-static void test_a_job_submitted_with_its_allocation_runs_no_pilot(void) {
-  char state[128], message[512];
-  snprintf(state, sizeof state, "%s/given", dir);
+/* A farm on the state directory `name` (in config) with the fixture's job submitted from
+ * iteration `first` with the expected allocation (samples, its hash into hash) and the
+ * client's pilot seconds: it runs no pilot, and its first lease, to a registered worker,
+ * is [first, first + 8) naming the allocation. The job, or NULL (the case failed). */
+static vf_job *given_job(fixture *f, vf_farm_config *config, char *state, size_t size, const char *name,
+                         uint64_t first, double render_seconds, double cpu_seconds, uint8_t samples[W * H],
+                         uint8_t hash[32]) {
+  char message[512];
+  snprintf(state, size, "%s/%s", dir, name);
   CHECK(mkdir(state, 0700) == 0);
-  fixture f;
-  memset(&f, 0, sizeof f);
-  vf_farm_config config = {state, TIMEOUT, 1000.0, 0.0};
-  vf_farm_init(&f.farm, &config);
-  f.now = 1000.0;
-  uint8_t samples[W * H], hash[32];
+  memset(f, 0, sizeof *f);
+  *config = (vf_farm_config){state, TIMEOUT, 1000.0, 0.0};
+  vf_farm_init(&f->farm, config);
+  f->now = 1000.0;
   expected_allocation(samples);
-  vf_blob_hash(samples, sizeof samples, hash);
-  /* The client's pilots took 2.5 s of wall time and 4 of CPU: the film counts them. */
-  f.job = submit_given(&f.farm, settings, 0, samples, sizeof samples, 2.5, 4.0, message, sizeof message);
-  CHECK(f.job != 0);
-  vf_job *job = job_of(&f);
+  vf_blob_hash(samples, W * H, hash);
+  f->job = submit_given(&f->farm, settings, first, samples, W * H, render_seconds, cpu_seconds, message,
+                        sizeof message);
+  CHECK(f->job != 0);
+  vf_job *job = job_of(f);
   CHECK(job != NULL && job->film->samples != NULL && !vf_job_in_pilot(job));
-  if (job == NULL || job->film->samples == NULL) return;
-  CHECK(job->film->render_seconds == 2.5 && job->film->cpu_seconds == 4.0);
-  CHECK(memcmp(job->film->samples, samples, sizeof samples) == 0);
+  if (job == NULL || job->film->samples == NULL) return NULL;
+  CHECK_INT_EQ(job->first, first);
+  CHECK(job->film->render_seconds == render_seconds && job->film->cpu_seconds == cpu_seconds);
+  CHECK(memcmp(job->film->samples, samples, W * H) == 0);
   CHECK(memcmp(job->allocation_hash, hash, 32) == 0);
   CHECK_INT_EQ(vf_job_pilot_done(job), PILOT);
   CHECK(job->allocation_summary[0] != '\0');
-  /* Its first lease is of its own iterations, from 0, naming the allocation. */
-  f.worker = farm_register(&f.farm, f.now, "w");
-  f.farm.workers[0].rate = 1e6;
-  lease(&f);
-  CHECK(!f.pilot);
-  CHECK(f.has_allocation);
-  CHECK(memcmp(f.allocation_hash, hash, 32) == 0);
-  CHECK_INT_EQ(f.begin, 0);
-  CHECK_INT_EQ(f.end, 8);
+  f->worker = farm_register(&f->farm, f->now, "w");
+  f->farm.workers[0].rate = 1e6;
+  lease(f);
+  CHECK(!f->pilot);
+  CHECK(f->has_allocation);
+  CHECK(memcmp(f->allocation_hash, hash, 32) == 0);
+  CHECK_INT_EQ(f->begin, first);
+  CHECK_INT_EQ(f->end, first + 8);
+  return job;
+}
+
+/* A coordinator started on the state directory of config now (no checkpoint since the
+ * submission) resumes job `id` from `first` with its allocation and seconds. */
+static void check_given_job_resumes(const vf_farm_config *config, uint64_t id, uint64_t first,
+                                    const uint8_t samples[W * H], const uint8_t hash[32], double render_seconds,
+                                    double cpu_seconds) {
+  vf_farm after;
+  vf_farm_init(&after, config);
+  CHECK_INT_EQ(vf_state_load(&after), VF_OK);
+  const vf_job *back = vf_farm_job(&after, id);
+  CHECK(back != NULL && back->film->samples != NULL && !vf_job_in_pilot(back));
+  if (back != NULL && back->film->samples != NULL) {
+    CHECK_INT_EQ(back->first, first);
+    CHECK(memcmp(back->film->samples, samples, W * H) == 0);
+    CHECK(memcmp(back->allocation_hash, hash, 32) == 0);
+    CHECK(back->film->render_seconds == render_seconds && back->film->cpu_seconds == cpu_seconds);
+  }
+  vf_farm_destroy(&after);
+}
+
+/* The client's pilots took 2.5 s of wall time and 4 of CPU: the film counts them. */
+static void test_a_job_submitted_with_its_allocation_runs_no_pilot(void) {
+  char state[128];
+  fixture f;
+  vf_farm_config config;
+  uint8_t samples[W * H], hash[32];
+  vf_job *job = given_job(&f, &config, state, sizeof state, "given", 0, 2.5, 4.0, samples, hash);
+  if (job == NULL) return;
   /* One pilot_done event, the submission's: pausing and resuming the job adds none. */
   for (int pause = 1; pause >= 0; pause--) {
     vf_farm_reply r;
@@ -360,63 +394,22 @@ static void test_a_job_submitted_with_its_allocation_runs_no_pilot(void) {
   for (unsigned i = 0; i < job->events.count; i++)
     pilot_events += strcmp(vf_events_at(&job->events, i)->kind, "pilot_done") == 0;
   CHECK_INT_EQ(pilot_events, 1);
-  /* Its film was written before the answer: a coordinator started on the state directory
-   * now (no checkpoint since) resumes the job with it. */
+  /* Its film was written before the answer. */
   vf_farm_destroy(&f.farm);
-  vf_farm after;
-  vf_farm_init(&after, &config);
-  CHECK_INT_EQ(vf_state_load(&after), VF_OK);
-  const vf_job *back = vf_farm_job(&after, f.job);
-  CHECK(back != NULL && back->film->samples != NULL && !vf_job_in_pilot(back));
-  if (back != NULL && back->film->samples != NULL) {
-    CHECK(memcmp(back->film->samples, samples, sizeof samples) == 0);
-    CHECK(memcmp(back->allocation_hash, hash, 32) == 0);
-    CHECK(back->film->render_seconds == 2.5 && back->film->cpu_seconds == 4.0);
-  }
-  vf_farm_destroy(&after);
+  check_given_job_resumes(&config, f.job, 0, samples, hash, 2.5, 4.0);
 }
 
 /* `submit --allocation-from FILM --start-iteration K`, continuing a film elsewhere: the job
- * from iteration 1000 with the film's allocation runs no pilot, its first lease is
- * [1000, 1008) naming the allocation, and a restart keeps both. */
+ * from iteration 1000 with the film's allocation leases from 1000 with it, across a
+ * restart too. */
 static void test_a_job_continued_with_its_allocation_starts_where_asked(void) {
-  char state[128], message[512];
-  snprintf(state, sizeof state, "%s/continued", dir);
-  CHECK(mkdir(state, 0700) == 0);
+  char state[128];
   fixture f;
-  memset(&f, 0, sizeof f);
-  vf_farm_config config = {state, TIMEOUT, 1000.0, 0.0};
-  vf_farm_init(&f.farm, &config);
-  f.now = 1000.0;
+  vf_farm_config config;
   uint8_t samples[W * H], hash[32];
-  expected_allocation(samples);
-  vf_blob_hash(samples, sizeof samples, hash);
-  f.job = submit_given(&f.farm, settings, 1000, samples, sizeof samples, 0.0, 0.0, message, sizeof message);
-  CHECK(f.job != 0);
-  vf_job *job = job_of(&f);
-  CHECK(job != NULL && job->film->samples != NULL && !vf_job_in_pilot(job));
-  if (job == NULL || job->film->samples == NULL) return;
-  CHECK_INT_EQ(job->first, 1000);
-  f.worker = farm_register(&f.farm, f.now, "w");
-  f.farm.workers[0].rate = 1e6;
-  lease(&f);
-  CHECK(!f.pilot);
-  CHECK(f.has_allocation);
-  CHECK(memcmp(f.allocation_hash, hash, 32) == 0);
-  CHECK_INT_EQ(f.begin, 1000);
-  CHECK_INT_EQ(f.end, 1008);
+  if (given_job(&f, &config, state, sizeof state, "continued", 1000, 0.0, 0.0, samples, hash) == NULL) return;
   vf_farm_destroy(&f.farm);
-  vf_farm after;
-  vf_farm_init(&after, &config);
-  CHECK_INT_EQ(vf_state_load(&after), VF_OK);
-  const vf_job *back = vf_farm_job(&after, f.job);
-  CHECK(back != NULL && back->film->samples != NULL && !vf_job_in_pilot(back));
-  if (back != NULL && back->film->samples != NULL) {
-    CHECK_INT_EQ(back->first, 1000);
-    CHECK(memcmp(back->film->samples, samples, sizeof samples) == 0);
-    CHECK(memcmp(back->allocation_hash, hash, 32) == 0);
-  }
-  vf_farm_destroy(&after);
+  check_given_job_resumes(&config, f.job, 1000, samples, hash, 0.0, 0.0);
 }
 
 static void test_allocations_that_are_refused(void) {
