@@ -68,22 +68,20 @@ static inline void vf_merge_params_radius(const vf_vcm *v, double r, merge_param
  * weights: eta_VCM = 0, and its camera sub-paths do not merge. */
 static inline void vf_merge_params_at(const vf_vcm *v, uint32_t pixel, merge_params *out) {
   *out = v->merge;
-  double r = v->radius_exact * (v->pixel_scale != NULL ? (double)v->pixel_scale[pixel] : 1.0);
-  uint32_t k = 1;
+  uint32_t k = vf_pixel_samples(v, pixel);
   if (v->allocated) {
-    uint8_t b = v->samples[pixel];
-    k = vf_allocation_count(b);
     out->mis.light_paths = v->merge.mis.light_paths / (float)k;
-    if (!vf_allocation_merges(b)) {
+    if (!vf_allocation_merges(v->samples[pixel])) {
       /* bpt's weights in this pixel: no technique merges here (sec. 5.5: eta_VCM = 0). */
       out->merges = 0;
       out->mis.vm_weight = 0.0f;
       out->mis.vc_weight = 0.0f;
       return;
     }
-    if (!v->vm_in_weights || v->has_media) k = 1;
   }
-  if (v->pixel_scale != NULL || k > 1) vf_merge_params_radius(v, r / sqrt((double)k), out);
+  if (!vf_vcm_radii_vary(v)) return;
+  double r = v->radius_exact * (v->pixel_scale != NULL ? (double)v->pixel_scale[pixel] : 1.0);
+  vf_merge_params_radius(v, vf_vcm_allocation_shrinks_radius(v) ? r / sqrt((double)k) : r, out);
 }
 
 #endif

@@ -391,12 +391,18 @@ static inline uint32_t vf_pixel_samples(const vf_vcm *v, uint32_t pixel) {
   return v->allocated ? vf_allocation_count(v->samples[pixel]) : 1u;
 }
 
-/* Whether merge radii differ between the pixels of this iteration (pixel_radius.h): a
- * radius per pixel, or an allocation of camera sub-paths that shrinks them. Then the
- * photons keep the radius-free c_vc beside c_vm (vf_photon_mis), for weights formed with
- * each query's radius. */
+/* Whether a pixel of k camera sub-paths merges with radius r / sqrt(k) (pixel_radius.h,
+ * vf_merge_params_at): past a pilot, in a render whose weights count merging, without
+ * participating media. */
+static inline int vf_vcm_allocation_shrinks_radius(const vf_vcm *v) {
+  return v->allocated && v->vm_in_weights && !v->has_media;
+}
+
+/* Whether merge radii differ between the pixels of this iteration: a radius per pixel, or
+ * an allocation that shrinks them. Then the photons keep the radius-free c_vc beside c_vm
+ * (vf_photon_mis), for weights formed with each query's radius. */
 static inline int vf_vcm_radii_vary(const vf_vcm *v) {
-  return v->pixel_scale != NULL || (v->allocated && v->vm_in_weights && !v->has_media);
+  return v->pixel_scale != NULL || vf_vcm_allocation_shrinks_radius(v);
 }
 
 _Static_assert(VF_MAX_LIGHT_PATH_PIXELS <= CAMERA_TILE * CAMERA_TILE, "a block of pixels sharing a light sub-path fits a tile");

@@ -4,9 +4,9 @@
  * and the one a pilot computes) pt, bpt and vcm keep the furnace's analytic value and
  * agree block by block with bpt of one camera sub-path a pixel, on the box with a mirror
  * and a glass ball (light tracing's share weighed against k camera sub-paths) and on the
- * glossy box; merging's bias at a large fixed radius falls, not grows, when the pixels trace
- * more camera sub-paths (their radius shrinks with their count); the film's own error estimate stays within 1.5 times the error two
- * independent films show. The render loop's promises: the allocation a pilot computes is
+ * glossy box; merging's bias at a large fixed radius falls, not grows, when the pixels
+ * trace more camera sub-paths (their radius shrinks with their count); the film's own
+ * error estimate stays within 1.5 times the error two independent films show. The render loop's promises: the allocation a pilot computes is
  * the same on 1 and 2 threads and from the pilot's film merged from parts; a film with an
  * allocation continues (through its file) and merges bit for bit as one rendered in one
  * go; films of other allocations refuse to merge; a damaged allocation in a file is
@@ -75,14 +75,8 @@ enum { RES = 64, ITERATIONS = 128 };
 #endif
 enum { BLOCKS = 8, NB = BLOCKS * BLOCKS };
 
-static void block_estimates_n(const vf_scene *scene, vf_algorithm algorithm, const uint8_t *samples, int iterations,
-                              double mean[NB], double se[NB]);
-static void block_estimates(const vf_scene *scene, vf_algorithm algorithm, const uint8_t *samples, double mean[NB],
-                            double se[NB]) {
-  block_estimates_n(scene, algorithm, samples, ITERATIONS, mean, se);
-}
-
-/* The same, of `iterations` iterations. */
+/* Block means and standard errors of `iterations` iterations of `algorithm` with the
+ * allocation `samples` (NULL: none), at RES x RES. */
 static void block_estimates_n(const vf_scene *scene, vf_algorithm algorithm, const uint8_t *samples, int iterations,
                               double mean[NB], double se[NB]) {
   vf_settings s = scene->settings;
@@ -96,6 +90,11 @@ static void block_estimates_n(const vf_scene *scene, vf_algorithm algorithm, con
   CHECK_INT_EQ(render_block_estimates(scene, &s, 2, iterations, BLOCKS, mean, se, &stats), VF_OK);
   render_allocation = NULL;
   CHECK_INT_EQ(stats.nonfinite, 0);
+}
+
+static void block_estimates(const vf_scene *scene, vf_algorithm algorithm, const uint8_t *samples, double mean[NB],
+                            double se[NB]) {
+  block_estimates_n(scene, algorithm, samples, ITERATIONS, mean, se);
 }
 
 /* The allocation a pilot of `pilot` iterations computes for `settings` on `threads`
@@ -165,6 +164,19 @@ static void test_allocations_agree_with_one_camera_sub_path(void) {
   vf_scene_destroy(scene);
 }
 
+/* The mean over the blocks of a's squared bias against b, (a - b)^2 less both
+ * variances, and its standard error into se (of d^2 for a Gaussian difference d). */
+static double squared_bias(const double *a, const double *se_a, const double *b, const double *se_b, double *se) {
+  double sum = 0.0, var = 0.0;
+  for (int k = 0; k < NB; k++) {
+    double d = a[k] - b[k], s2 = se_a[k] * se_a[k] + se_b[k] * se_b[k];
+    sum += d * d - s2;
+    var += 4.0 * d * d * s2 + 2.0 * s2 * s2;
+  }
+  *se = sqrt(var) / NB;
+  return sum / NB;
+}
+
 /* Merging's bias does not grow with the allocation (worker/render/pixel_radius.h): a pixel
  * of k camera sub-paths merges with radius r / sqrt(k), so that merging's count falls by k
  * as light tracing's does. At a large fixed radius (0.05 of the scene's, alpha 1) on the
@@ -174,17 +186,6 @@ static void test_allocations_agree_with_one_camera_sub_path(void) {
  * wide and merging's share no larger. With the radius kept, merging took the caustic over
  * from light tracing and the squared bias grew (measured: 1.25 times k = 1's; with r / 2,
  * 0.35 times). The case at k = 1 must show a bias, or the test would have no power. */
-static double squared_bias(const double *a, const double *se_a, const double *b, const double *se_b, double *se) {
-  double sum = 0.0, var = 0.0;
-  for (int k = 0; k < NB; k++) {
-    double d = a[k] - b[k], s2 = se_a[k] * se_a[k] + se_b[k] * se_b[k];
-    sum += d * d - s2;
-    var += 4.0 * d * d * s2 + 2.0 * s2 * s2; /* of d^2 for Gaussian d */
-  }
-  *se = sqrt(var) / NB;
-  return sum / NB;
-}
-
 static void test_merging_bias_does_not_grow_with_the_allocation(void) {
   vf_scene *scene;
   CHECK_INT_EQ(vf_scene_load("cornell-rough", &scene), VF_OK);
